@@ -1,0 +1,50 @@
+//! # articula-model
+//!
+//! URDF → articulated model → binary assembly tree.
+//!
+//! - Loading ([`Model::from_urdf_file`], [`Model::from_urdf_str`]) validates everything dynamics
+//!   needs and fails with one typed [`ModelError`] that names the offending link or joint — never
+//!   a panic. Visual and collision geometry, materials, limits, `<gazebo>` and `<transmission>`
+//!   tags are ignored, so sloppy geometry never stops a load.
+//! - Links welded by `fixed` joints are merged into one [`Body`] (spatial inertias summed).
+//! - Runs of moving joints joined by massless links (a 3-DOF hip made of three revolute joints)
+//!   become one multi-DOF joint: a [`Body`] whose `joint` has several [`JointPart`]s.
+//! - The [`AssemblyTree`] joins bodies pairwise at balanced cuts, nodes in post-order.
+//!
+//! ```
+//! use articula_model::{LoadOptions, Model};
+//! let urdf = r#"<robot name="pendulum">
+//!   <link name="base"/>
+//!   <link name="bob">
+//!     <inertial><origin xyz="0 0 -1"/><mass value="1"/>
+//!       <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+//!   </link>
+//!   <joint name="swing" type="continuous">
+//!     <parent link="base"/><child link="bob"/><axis xyz="0 1 0"/>
+//!   </joint>
+//! </robot>"#;
+//! let model = Model::from_urdf_str(urdf, &LoadOptions::default()).unwrap();
+//! assert_eq!(model.nv, 1);
+//! assert_eq!(model.bodies[0].joint[0].name, "swing");
+//! // Ground and bob, joined at "swing".
+//! assert_eq!(model.assembly.nodes.len(), 3);
+//! ```
+
+mod assembly;
+mod error;
+mod model;
+mod urdf;
+
+pub use assembly::{AssemblyNode, AssemblyTree, NodeKind};
+pub use error::ModelError;
+pub use model::{Body, JointPart, LoadOptions, Model, FLOATING_BASE_JOINT};
+pub use urdf::{rpy_to_matrix, JointKind};
+
+impl Body {
+    /// The joint's name: its URDF joint name, or the names of its parts joined by `+` when
+    /// it is composed of several.
+    pub fn joint_name(&self) -> String {
+        let names: Vec<&str> = self.joint.iter().map(|p| p.name.as_str()).collect();
+        names.join("+")
+    }
+}

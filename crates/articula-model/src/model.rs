@@ -1,0 +1,375 @@
+//! The articulated model: rigid bodies (URDF links merged across fixed joints), each moved by
+//! one joint that may be composed of several single-axis URDF joints.
+
+use crate::assembly::AssemblyTree;
+use crate::urdf::{self, JointKind, RawRobot};
+use crate::ModelError;
+use articula_spatial::{SpatialInertia, SpatialMotion, SpatialTransform};
+use glam::{DMat3, DQuat, DVec3};
+use std::path::Path;
+
+/// Name given to the 6-DOF joint of a floating base.
+pub const FLOATING_BASE_JOINT: &str = "floating_base";
+
+/// How to turn a URDF into a model.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Give the root link six degrees of freedom (joint [`FLOATING_BASE_JOINT`]) instead of
+    /// welding it to the world.
+    pub floating_base: bool,
+}
+
+/// One URDF joint inside a body's (possibly composed) joint.
+#[derive(Clone, Debug, PartialEq)]
+pub struct JointPart {
+    /// The URDF joint name (or [`FLOATING_BASE_JOINT`]).
+    pub name: String,
+    /// Its motion.
+    pub kind: JointKind,
+    /// Joint frame → preceding frame: the parent body's frame for the first part, the previous
+    /// part's moving frame otherwise (the URDF joint origin, with any fixed joints folded in).
+    pub origin: SpatialTransform,
+    /// Unit axis in the joint frame (revolute, continuous, prismatic).
+    pub axis: DVec3,
+    /// Offset of this part's coordinates in the model's `q`.
+    pub q_offset: usize,
+    /// Offset of this part's velocity coordinates in the model's `qd`.
+    pub v_offset: usize,
+}
+
+impl JointPart {
+    /// Number of position coordinates (1, or 7 for floating).
+    pub fn nq(&self) -> usize {
+        self.kind.nq()
+    }
+
+    /// Number of velocity coordinates (1, or 6 for floating).
+    pub fn nv(&self) -> usize {
+        self.kind.nv()
+    }
+
+    /// The joint's own motion: the map from the moving frame (after the motion) to the joint
+    /// frame, for this part's coordinates `q` (length [`JointPart::nq`]).
+    ///
+    /// Revolute/continuous: rotation by `q[0]` about the axis. Prismatic: translation by
+    /// `q[0]` along the axis. Floating: `q = [x, y, z, qw, qx, qy, qz]`, the moving frame's
+    /// position and orientation (unit quaternion) in the joint frame.
+    pub fn motion_transform(&self, q: &[f64]) -> SpatialTransform {
+        match self.kind {
+            JointKind::Revolute | JointKind::Continuous => {
+                SpatialTransform::from_pose(DMat3::from_axis_angle(self.axis, q[0]), DVec3::ZERO)
+            }
+            JointKind::Prismatic => SpatialTransform::from_pose(DMat3::IDENTITY, self.axis * q[0]),
+            JointKind::Floating => {
+                let rot = DQuat::from_xyzw(q[4], q[5], q[6], q[3]).normalize();
+                SpatialTransform::from_pose(DMat3::from_quat(rot), DVec3::new(q[0], q[1], q[2]))
+            }
+            JointKind::Fixed => SpatialTransform::IDENTITY,
+        }
+    }
+
+    /// Column `k` of the motion subspace in the moving frame. Revolute: `[axis; 0]`; prismatic:
+    /// `[0; axis]`; floating: the unit vectors (its `qd` is the moving frame's spatial velocity
+    /// `[w; v]` relative to the joint frame, in moving-frame coordinates).
+    pub fn subspace_column(&self, k: usize) -> SpatialMotion {
+        match self.kind {
+            JointKind::Revolute | JointKind::Continuous => {
+                SpatialMotion::new(self.axis, DVec3::ZERO)
+            }
+            JointKind::Prismatic => SpatialMotion::new(DVec3::ZERO, self.axis),
+            JointKind::Floating => {
+                let mut a = [0.0; 6];
+                a[k] = 1.0;
+                SpatialMotion::from_array(a)
+            }
+            JointKind::Fixed => SpatialMotion::ZERO,
+        }
+    }
+
+    /// The neutral coordinates (zero angle; identity orientation for floating).
+    pub fn neutral_q(&self) -> &'static [f64] {
+        match self.kind {
+            JointKind::Floating => &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0],
+            JointKind::Fixed => &[],
+            _ => &[0.0],
+        }
+    }
+}
+
+/// A rigid body of the model: one massive URDF link plus the links welded to it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Body {
+    /// The URDF link that gives the body its frame.
+    pub name: String,
+    /// Parent body, `None` for the ground (the world, or the welded root of a fixed base).
+    pub parent: Option<usize>,
+    /// Child bodies, in index order.
+    pub children: Vec<usize>,
+    /// The joint from the parent to this body: one part per URDF joint, parent side first.
+    /// Several parts when massless links sat between moving joints (DESIGN §4.3).
+    pub joint: Vec<JointPart>,
+    /// Spatial inertia in the body frame, including every link merged into it.
+    pub inertia: SpatialInertia,
+    /// URDF links rigidly part of this body, with the map from each link's frame to the body
+    /// frame. The body's own link comes first with the identity.
+    pub links: Vec<(String, SpatialTransform)>,
+    /// Massless URDF links inside the composed joint (between its parts).
+    pub massless_links: Vec<String>,
+    /// Offset of the joint's coordinates in `q`.
+    pub q_offset: usize,
+    /// Number of position coordinates of the joint.
+    pub nq: usize,
+    /// Offset of the joint's velocity coordinates in `qd`.
+    pub v_offset: usize,
+    /// Degrees of freedom of the joint (columns of its motion subspace).
+    pub nv: usize,
+}
+
+/// An articulated model: immutable description, built once from a URDF.
+///
+/// Bodies are stored parents before children (depth-first pre-order from the root); the
+/// coordinates `q` and `qd` are the bodies' joint coordinates concatenated in that order, each
+/// body's parts in order parent side first. See `docs/conventions.md`.
+#[derive(Clone, Debug)]
+pub struct Model {
+    /// The robot name.
+    pub name: String,
+    /// The bodies, parents before children.
+    pub bodies: Vec<Body>,
+    /// URDF links welded to the world (empty with a floating base), with the map from each
+    /// link's frame to the world frame.
+    pub ground_links: Vec<(String, SpatialTransform)>,
+    /// Whether the root link has a floating joint.
+    pub floating_base: bool,
+    /// Length of `q`.
+    pub nq: usize,
+    /// Length of `qd` (degrees of freedom).
+    pub nv: usize,
+    /// The binary assembly tree.
+    pub assembly: AssemblyTree,
+    /// Number of links in the URDF.
+    pub urdf_links: usize,
+    /// Number of joints in the URDF.
+    pub urdf_joints: usize,
+    /// Things worth knowing that did not stop loading (mimic joints, normalised axes, ...).
+    pub warnings: Vec<String>,
+}
+
+impl Model {
+    /// Loads a URDF file.
+    pub fn from_urdf_file(
+        path: impl AsRef<Path>,
+        options: &LoadOptions,
+    ) -> Result<Model, ModelError> {
+        Self::build(urdf::read_file(path.as_ref())?, options)
+    }
+
+    /// Loads a URDF from text.
+    pub fn from_urdf_str(text: &str, options: &LoadOptions) -> Result<Model, ModelError> {
+        Self::build(urdf::read_str(text)?, options)
+    }
+
+    /// Total mass of the moving bodies (kg). The welded root of a fixed base is not counted.
+    pub fn moving_mass(&self) -> f64 {
+        self.bodies.iter().map(|b| b.inertia.mass).sum()
+    }
+
+    /// Every movable URDF joint (plus [`FLOATING_BASE_JOINT`]) in coordinate order, with the
+    /// body it moves and its part index.
+    pub fn joint_parts(&self) -> impl Iterator<Item = (usize, &JointPart)> {
+        self.bodies
+            .iter()
+            .enumerate()
+            .flat_map(|(i, b)| b.joint.iter().map(move |p| (i, p)))
+    }
+
+    /// Finds a movable joint by its URDF name.
+    pub fn find_joint(&self, name: &str) -> Option<(usize, &JointPart)> {
+        self.joint_parts().find(|(_, p)| p.name == name)
+    }
+
+    /// The neutral configuration (all angles zero, identity orientations).
+    pub fn neutral_q(&self) -> Vec<f64> {
+        let mut q = Vec::with_capacity(self.nq);
+        for (_, p) in self.joint_parts() {
+            q.extend_from_slice(p.neutral_q());
+        }
+        q
+    }
+
+    fn build(raw: RawRobot, options: &LoadOptions) -> Result<Model, ModelError> {
+        let n = raw.links.len();
+        let mut children_joints: Vec<Vec<usize>> = vec![Vec::new(); n];
+        for (j, joint) in raw.joints.iter().enumerate() {
+            children_joints[joint.parent].push(j);
+        }
+        // 1. Fixed joints: each link's owner (the nearest link up the tree reached by a moving
+        //    joint, or the root) and the map from the link's frame to its owner's frame.
+        let mut owner = vec![usize::MAX; n];
+        let mut to_owner = vec![SpatialTransform::IDENTITY; n];
+        let mut order = vec![raw.root];
+        owner[raw.root] = raw.root;
+        let mut at = 0;
+        while at < order.len() {
+            let l = order[at];
+            at += 1;
+            for &j in &children_joints[l] {
+                let joint = &raw.joints[j];
+                let c = joint.child;
+                if joint.kind == JointKind::Fixed {
+                    owner[c] = owner[l];
+                    to_owner[c] = to_owner[l] * joint.origin;
+                } else {
+                    owner[c] = c;
+                }
+                order.push(c);
+            }
+        }
+        let mut merged = vec![SpatialInertia::ZERO; n];
+        let mut members: Vec<Vec<(String, SpatialTransform)>> = vec![Vec::new(); n];
+        for &l in &order {
+            merged[owner[l]] += to_owner[l].apply_inertia(&raw.links[l].inertia);
+            members[owner[l]].push((raw.links[l].name.clone(), to_owner[l]));
+        }
+        // Moving joints leaving each owner, with origins re-expressed in the owner's frame.
+        let mut moving_out: Vec<Vec<(usize, SpatialTransform)>> = vec![Vec::new(); n];
+        for &l in &order {
+            for &j in &children_joints[l] {
+                let joint = &raw.joints[j];
+                if joint.kind != JointKind::Fixed {
+                    moving_out[owner[l]].push((j, to_owner[l] * joint.origin));
+                }
+            }
+        }
+        let massless = |l: usize| merged[l].mass == 0.0 && merged[l].ibar == DMat3::ZERO;
+        for &l in &order {
+            if owner[l] == l && !massless(l) && merged[l].inverse().is_none() {
+                let is_ground = l == raw.root && !options.floating_base;
+                if !is_ground {
+                    return Err(ModelError::DegenerateInertia {
+                        link: raw.links[l].name.clone(),
+                    });
+                }
+            }
+        }
+
+        // 2. Bodies, depth first from the root; runs through massless links become one joint.
+        let mut model = Model {
+            name: raw.name.clone(),
+            bodies: Vec::new(),
+            ground_links: Vec::new(),
+            floating_base: options.floating_base,
+            nq: 0,
+            nv: 0,
+            assembly: AssemblyTree::default(),
+            urdf_links: raw.links.len(),
+            urdf_joints: raw.joints.len(),
+            warnings: raw.warnings.clone(),
+        };
+        // A pending moving joint: (parent body, first part, link it moves).
+        let mut stack: Vec<(Option<usize>, JointPart, usize)> = Vec::new();
+        let part = |name: &str, kind: JointKind, origin: SpatialTransform, axis: DVec3| JointPart {
+            name: name.to_string(),
+            kind,
+            origin,
+            axis,
+            q_offset: 0,
+            v_offset: 0,
+        };
+        if options.floating_base {
+            let name = if raw.joints.iter().any(|j| j.name == FLOATING_BASE_JOINT) {
+                format!("{FLOATING_BASE_JOINT}#")
+            } else {
+                FLOATING_BASE_JOINT.to_string()
+            };
+            stack.push((
+                None,
+                part(
+                    &name,
+                    JointKind::Floating,
+                    SpatialTransform::IDENTITY,
+                    DVec3::ZERO,
+                ),
+                raw.root,
+            ));
+        } else {
+            model.ground_links = members[raw.root].clone();
+            for &(j, origin) in moving_out[raw.root].iter().rev() {
+                let joint = &raw.joints[j];
+                stack.push((
+                    None,
+                    part(&joint.name, joint.kind, origin, joint.axis),
+                    joint.child,
+                ));
+            }
+        }
+        while let Some((parent, first, mut link)) = stack.pop() {
+            let mut parts = vec![first];
+            let mut massless_links = Vec::new();
+            while massless(link) {
+                let out = &moving_out[link];
+                let last = parts.last().map(|p| p.name.clone()).unwrap_or_default();
+                match out.len() {
+                    0 => {
+                        return Err(ModelError::SingularMassless {
+                            link: raw.links[link].name.clone(),
+                            joint: last,
+                        })
+                    }
+                    1 => {
+                        let (j, origin) = out[0];
+                        let joint = &raw.joints[j];
+                        massless_links.extend(members[link].iter().map(|m| m.0.clone()));
+                        parts.push(part(&joint.name, joint.kind, origin, joint.axis));
+                        link = joint.child;
+                    }
+                    _ => {
+                        return Err(ModelError::MasslessBranch {
+                            link: raw.links[link].name.clone(),
+                            joints: out
+                                .iter()
+                                .map(|&(j, _)| raw.joints[j].name.clone())
+                                .collect(),
+                        })
+                    }
+                }
+            }
+            let index = model.bodies.len();
+            let (mut nq, mut nv) = (0, 0);
+            for p in &mut parts {
+                p.q_offset = model.nq + nq;
+                p.v_offset = model.nv + nv;
+                nq += p.nq();
+                nv += p.nv();
+            }
+            model.bodies.push(Body {
+                name: raw.links[link].name.clone(),
+                parent,
+                children: Vec::new(),
+                joint: parts,
+                inertia: merged[link],
+                links: members[link].clone(),
+                massless_links,
+                q_offset: model.nq,
+                nq,
+                v_offset: model.nv,
+                nv,
+            });
+            model.nq += nq;
+            model.nv += nv;
+            if let Some(p) = parent {
+                model.bodies[p].children.push(index);
+            }
+            for &(j, origin) in moving_out[link].iter().rev() {
+                let joint = &raw.joints[j];
+                stack.push((
+                    Some(index),
+                    part(&joint.name, joint.kind, origin, joint.axis),
+                    joint.child,
+                ));
+            }
+        }
+        model.assembly = AssemblyTree::build(&model);
+        Ok(model)
+    }
+}
