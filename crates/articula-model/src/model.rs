@@ -139,6 +139,9 @@ pub struct Model {
     /// URDF links welded to the world (empty with a floating base), with the map from each
     /// link's frame to the world frame.
     pub ground_links: Vec<(String, SpatialTransform)>,
+    /// Mass welded to the world (the fixed base's root and its fixed children; 0 with a
+    /// floating base).
+    pub ground_mass: f64,
     /// Whether the root link has a floating joint.
     pub floating_base: bool,
     /// Length of `q`.
@@ -258,6 +261,7 @@ impl Model {
             name: raw.name.clone(),
             bodies: Vec::new(),
             ground_links: Vec::new(),
+            ground_mass: 0.0,
             floating_base: options.floating_base,
             nq: 0,
             nv: 0,
@@ -294,6 +298,7 @@ impl Model {
             ));
         } else {
             model.ground_links = members[raw.root].clone();
+            model.ground_mass = merged[raw.root].mass;
             for &(j, origin) in moving_out[raw.root].iter().rev() {
                 let joint = &raw.joints[j];
                 stack.push((
