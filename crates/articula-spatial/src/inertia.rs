@@ -113,8 +113,37 @@ impl SpatialInertia {
 
     /// The inverse `I⁻¹` (a force→motion map), or `None` when the inertia is singular
     /// (massless, or a point/rod mass with a singular rotational inertia).
+    ///
+    /// Computed about the centre of mass, where `I` is block diagonal, then shifted:
+    /// with `J = I_c⁻¹` and `c` the centre of mass,
+    /// `I⁻¹ = [J, −J c×; c× J, −c× J c× + 1/m]` — better conditioned than inverting the 6×6
+    /// matrix about a distant origin.
     pub fn inverse(&self) -> Option<SymMat6> {
-        self.to_mat6().inverse_spd()
+        if self.mass.is_nan() || self.mass <= 0.0 {
+            return None;
+        }
+        let c = self.com();
+        let ic = self.inertia_about_com();
+        if ic.determinant() <= 0.0 {
+            return None;
+        }
+        let j = ic.inverse();
+        let cx = skew(c);
+        let tl = j;
+        let tr = -(j * cx);
+        let bl = cx * j;
+        let br = -(cx * j * cx) + DMat3::from_diagonal(DVec3::splat(1.0 / self.mass));
+        let mut m = [[0.0; 6]; 6];
+        for i in 0..3 {
+            for k in 0..3 {
+                m[i][k] = tl.col(k)[i];
+                m[i][k + 3] = tr.col(k)[i];
+                m[i + 3][k] = bl.col(k)[i];
+                m[i + 3][k + 3] = br.col(k)[i];
+            }
+        }
+        let inv = SymMat6::from_mat6(&Mat6(m));
+        inv.is_finite().then_some(inv)
     }
 
     /// True when all entries are finite.

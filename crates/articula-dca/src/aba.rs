@@ -1,0 +1,95 @@
+//! Reference 1: the articulated-body algorithm (Featherstone, RBDA ch. 7, Table 7.1), run in
+//! world coordinates, so no coordinate transforms appear between bodies.
+
+use crate::{Data, DynamicsError};
+use articula_model::Model;
+use articula_spatial::{SpatialForce, SpatialMotion, SymMat6};
+
+/// Runs ABA on the kinematics in `data`; writes `data.qdd`.
+pub(crate) fn aba(
+    model: &Model,
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+    data: &mut Data,
+) -> Result<(), DynamicsError> {
+    let n = model.bodies.len();
+    // Pass 2 init: Iᴬᵢ = Iᵢ, pᴬᵢ = vᵢ ×* Iᵢ vᵢ − f_ext,i (gravity enters as a_0 = −a_g).
+    for i in 0..n {
+        let inertia = &data.inertia[i];
+        let v = data.v[i];
+        data.aba.ia[i] = inertia.to_mat6();
+        data.aba.pa[i] = v.cross_force(inertia.mul_motion(v)) - crate::f_ext_of(f_ext, i);
+    }
+    // Pass 2, leaves to root: U = Iᴬ S, D = Sᵀ U, u = τ − Sᵀ pᴬ,
+    // Iᵃ = Iᴬ − U D⁻¹ Uᵀ, pᵃ = pᴬ + Iᵃ c + U D⁻¹ u; added to the parent (same frame).
+    for i in (0..n).rev() {
+        let body = &model.bodies[i];
+        let (vo, k) = (body.v_offset, body.nv);
+        let ia = data.aba.ia[i];
+        let mut dm = crate::small::SmallSpd {
+            k,
+            a: [[0.0; 6]; 6],
+        };
+        for p in 0..k {
+            let u = ia.motion_to_force(data.s[vo + p]);
+            data.aba.u[vo + p] = u;
+            for q in 0..=p {
+                let x = data.s[vo + q].dot(u);
+                dm.a[p][q] = x;
+                dm.a[q][p] = x;
+            }
+            data.aba.uu[vo + p] = tau[vo + p] - data.s[vo + p].dot(data.aba.pa[i]);
+        }
+        if !dm.invert() {
+            return Err(DynamicsError::Singular {
+                joint: body.joint_name(),
+                detail: "Sᵀ Iᴬ S is not positive definite",
+            });
+        }
+        data.aba.dinv[i] = dm;
+        let Some(parent) = body.parent else { continue };
+        let mut ia_a = ia;
+        let mut du = [0.0; 6];
+        dm.mul(&data.aba.uu[vo..vo + k], &mut du);
+        let mut pa = data.aba.pa[i];
+        for p in 0..k {
+            let up = data.aba.u[vo + p].to_array();
+            for q in 0..k {
+                let x = dm.a[p][q];
+                if p == q {
+                    ia_a = ia_a.sub_outer(&up, x);
+                } else if x != 0.0 {
+                    let uq = data.aba.u[vo + q].to_array();
+                    ia_a = SymMat6::from_mat6(
+                        &(*ia_a.as_mat6() - articula_spatial::Mat6::outer(&up, &uq) * x),
+                    );
+                }
+            }
+            pa += data.aba.u[vo + p] * du[p];
+        }
+        pa += ia_a.motion_to_force(data.c[i]);
+        data.aba.ia[parent] = data.aba.ia[parent] + ia_a;
+        data.aba.pa[parent] += pa;
+    }
+    // Pass 3, root to leaves: a' = a_parent + c, q̈ = D⁻¹ (u − Uᵀ a'), a = a' + S q̈.
+    let a0 = SpatialMotion::new(glam::DVec3::ZERO, -data.gravity);
+    for i in 0..n {
+        let body = &model.bodies[i];
+        let (vo, k) = (body.v_offset, body.nv);
+        let ap = match body.parent {
+            Some(p) => data.aba.a[p],
+            None => a0,
+        } + data.c[i];
+        let mut r = [0.0; 6];
+        for p in 0..k {
+            r[p] = data.aba.uu[vo + p] - ap.dot(data.aba.u[vo + p]);
+        }
+        data.aba.dinv[i].mul(&r[..k], &mut data.qdd[vo..vo + k]);
+        let mut a = ap;
+        for p in 0..k {
+            a += data.s[vo + p] * data.qdd[vo + p];
+        }
+        data.aba.a[i] = a;
+    }
+    Ok(())
+}

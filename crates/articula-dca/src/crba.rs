@@ -1,0 +1,85 @@
+//! Reference 2: the composite-rigid-body algorithm (RBDA ch. 6) for the joint-space inertia
+//! matrix H, the recursive Newton–Euler algorithm for the bias forces C, and faer's Cholesky
+//! factorisation for `H q̈ = τ − C`. World coordinates. Allocates (it is a reference).
+
+use crate::{Data, DynamicsError};
+use articula_model::Model;
+use articula_spatial::{SpatialForce, SpatialMotion};
+use faer::prelude::*;
+
+/// Runs CRBA + RNEA + Cholesky on the kinematics in `data`; writes `data.qdd`.
+pub(crate) fn crba(
+    model: &Model,
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+    data: &mut Data,
+) -> Result<(), DynamicsError> {
+    let n = model.bodies.len();
+    let nv = model.nv;
+    // RNEA with q̈ = 0: aᵢ = a_parent + cᵢ (a_0 = −a_g), fᵢ = Iᵢ aᵢ + vᵢ ×* Iᵢ vᵢ − f_ext,i,
+    // accumulated leaves to root; Cᵢ = Sᵢᵀ fᵢ.
+    let a0 = SpatialMotion::new(glam::DVec3::ZERO, -data.gravity);
+    let mut a = vec![SpatialMotion::ZERO; n];
+    let mut f = vec![SpatialForce::ZERO; n];
+    for i in 0..n {
+        let body = &model.bodies[i];
+        a[i] = body.parent.map_or(a0, |p| a[p]) + data.c[i];
+        let inertia = &data.inertia[i];
+        f[i] = inertia.mul_motion(a[i]) + data.v[i].cross_force(inertia.mul_motion(data.v[i]))
+            - crate::f_ext_of(f_ext, i);
+    }
+    let mut rhs = Mat::<f64>::zeros(nv, 1);
+    for i in (0..n).rev() {
+        let body = &model.bodies[i];
+        for p in 0..body.nv {
+            let j = body.v_offset + p;
+            rhs[(j, 0)] = tau[j] - data.s[j].dot(f[i]);
+        }
+        if let Some(par) = body.parent {
+            let fi = f[i];
+            f[par] += fi;
+        }
+    }
+    // Composite inertias Iᶜᵢ = Iᵢ + Σ Iᶜ_children; H_ij = Sᵢᵀ Iᶜᵢ Sⱼ for j = i and its ancestors.
+    let mut ic = data.inertia.clone();
+    for i in (0..n).rev() {
+        if let Some(p) = model.bodies[i].parent {
+            let c = ic[i];
+            ic[p] += c;
+        }
+    }
+    let mut h = Mat::<f64>::zeros(nv, nv);
+    for i in 0..n {
+        let body = &model.bodies[i];
+        for p in 0..body.nv {
+            let row = body.v_offset + p;
+            let fcol = ic[i].mul_motion(data.s[row]);
+            let mut j = Some(i);
+            while let Some(jj) = j {
+                let bj = &model.bodies[jj];
+                for q in 0..bj.nv {
+                    let col = bj.v_offset + q;
+                    let x = data.s[col].dot(fcol);
+                    h[(row, col)] = x;
+                    h[(col, row)] = x;
+                }
+                j = bj.parent;
+            }
+        }
+    }
+    let llt = h
+        .llt(faer::Side::Lower)
+        .map_err(|_| DynamicsError::Singular {
+            joint: model
+                .bodies
+                .first()
+                .map(|b| b.joint_name())
+                .unwrap_or_default(),
+            detail: "the joint-space inertia matrix is not positive definite",
+        })?;
+    llt.solve_in_place(&mut rhs);
+    for j in 0..nv {
+        data.qdd[j] = rhs[(j, 0)];
+    }
+    Ok(())
+}

@@ -1,0 +1,246 @@
+//! The workspace beside the immutable model: every per-step buffer, allocated once.
+
+use crate::small::SmallSpd;
+use articula_model::{Model, NodeKind};
+use articula_spatial::{
+    Mat6, SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform, SymMat6,
+};
+use glam::DVec3;
+
+/// Which side of a join a handle of the joined node comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Side {
+    /// The principal joint's parent side ("A").
+    A,
+    /// The child side ("B").
+    B,
+}
+
+/// Per-step buffers of every algorithm. Build once with [`Data::new`]; a dynamics call or a
+/// step allocates nothing.
+#[derive(Clone, Debug)]
+pub struct Data {
+    /// Gravity acceleration in world coordinates (default `(0, 0, -9.81)`).
+    pub gravity: DVec3,
+    /// Origin of the computation frame in world coordinates (world axes). The world origin for a
+    /// fixed base; the floating base's position otherwise (for accuracy). Every spatial quantity
+    /// below is expressed in this frame.
+    pub origin: DVec3,
+    /// Per body: the map from body coordinates to computation-frame coordinates.
+    pub x: Vec<SpatialTransform>,
+    /// Per body: spatial velocity, world coordinates.
+    pub v: Vec<SpatialMotion>,
+    /// Per body: velocity-product term of its joint, `c = Σ_k v_{k-1} × s_k q̇_k` (world).
+    pub c: Vec<SpatialMotion>,
+    /// Per body: spatial inertia in world coordinates.
+    pub inertia: Vec<SpatialInertia>,
+    /// Per degree of freedom: the motion-subspace column in world coordinates.
+    pub s: Vec<SpatialMotion>,
+    /// The joint accelerations of the last solve (length `nv`).
+    pub qdd: Vec<f64>,
+    /// External wrenches in the computation frame (empty when none were given).
+    pub(crate) f_ext_c: Vec<SpatialForce>,
+    pub(crate) dca: DcaData,
+    pub(crate) aba: AbaData,
+    pub(crate) rk: RkData,
+}
+
+/// DCA buffers (DESIGN §5), laid out over the assembly tree.
+#[derive(Clone, Debug)]
+pub(crate) struct DcaData {
+    /// Per node: offset of its handles in the flat per-handle arrays.
+    pub hoff: Vec<usize>,
+    /// Per node: offset of its Φ blocks (nh × nh, row-major) in `phi`.
+    pub boff: Vec<usize>,
+    /// Per join node: index of the principal joint among A's and among B's handles.
+    pub ja: Vec<usize>,
+    pub jb: Vec<usize>,
+    /// Per handle of a join node (flat, `hoff`): the side it comes from and its index there.
+    pub from: Vec<(Side, usize)>,
+    /// Φ blocks.
+    pub phi: Vec<Mat6>,
+    /// Bias accelerations per handle.
+    pub b: Vec<SpatialMotion>,
+    /// Handle forces per handle (back-substitution).
+    pub f: Vec<SpatialForce>,
+    /// Per join node: W, β, γ.
+    pub w: Vec<SymMat6>,
+    pub beta: Vec<SpatialMotion>,
+    pub gamma: Vec<SpatialForce>,
+    /// Per degree of freedom: the column of `V S` (a force).
+    pub vs: Vec<SpatialForce>,
+    /// Per joint (= body): `D⁻¹ = (Sᵀ V S)⁻¹`.
+    pub dinv: Vec<SmallSpd>,
+    /// Scratch: `Φ_hj W` for each handle h of the node being joined.
+    pub t: Vec<Mat6>,
+}
+
+/// ABA buffers.
+#[derive(Clone, Debug)]
+pub(crate) struct AbaData {
+    pub ia: Vec<SymMat6>,
+    pub pa: Vec<SpatialForce>,
+    pub u: Vec<SpatialForce>,
+    pub dinv: Vec<SmallSpd>,
+    pub uu: Vec<f64>,
+    pub a: Vec<SpatialMotion>,
+}
+
+/// Integrator buffers.
+#[derive(Clone, Debug)]
+pub(crate) struct RkData {
+    pub q0: Vec<f64>,
+    pub qd0: Vec<f64>,
+    pub kv: Vec<f64>,
+    pub ka: Vec<f64>,
+}
+
+impl Data {
+    /// Allocates every buffer for `model`.
+    pub fn new(model: &Model) -> Data {
+        let n = model.bodies.len();
+        let nv = model.nv;
+        let tree = &model.assembly;
+        let nn = tree.nodes.len();
+        let mut hoff = Vec::with_capacity(nn);
+        let mut boff = Vec::with_capacity(nn);
+        let (mut h, mut blk) = (0, 0);
+        for node in &tree.nodes {
+            hoff.push(h);
+            boff.push(blk);
+            h += node.handles.len();
+            blk += node.handles.len() * node.handles.len();
+        }
+        let mut ja = vec![0; nn];
+        let mut jb = vec![0; nn];
+        let mut from = vec![(Side::A, 0); h];
+        for (i, node) in tree.nodes.iter().enumerate() {
+            if let NodeKind::Join {
+                joint,
+                parent_side,
+                child_side,
+            } = node.kind
+            {
+                let (ha, hb) = (
+                    &tree.nodes[parent_side].handles,
+                    &tree.nodes[child_side].handles,
+                );
+                ja[i] = ha
+                    .iter()
+                    .position(|&x| x == joint)
+                    .expect("principal joint is a handle of A");
+                jb[i] = hb
+                    .iter()
+                    .position(|&x| x == joint)
+                    .expect("principal joint is a handle of B");
+                for (k, hc) in node.handles.iter().enumerate() {
+                    from[hoff[i] + k] = match ha.iter().position(|x| x == hc) {
+                        Some(p) => (Side::A, p),
+                        None => (
+                            Side::B,
+                            hb.iter()
+                                .position(|x| x == hc)
+                                .expect("handle of C is a handle of A or B"),
+                        ),
+                    };
+                }
+            }
+        }
+        let max_h = tree.max_handles().max(1);
+        Data {
+            gravity: DVec3::new(0.0, 0.0, -9.81),
+            origin: DVec3::ZERO,
+            f_ext_c: Vec::with_capacity(n),
+            x: vec![SpatialTransform::IDENTITY; n],
+            v: vec![SpatialMotion::ZERO; n],
+            c: vec![SpatialMotion::ZERO; n],
+            inertia: vec![SpatialInertia::ZERO; n],
+            s: vec![SpatialMotion::ZERO; nv],
+            qdd: vec![0.0; nv],
+            dca: DcaData {
+                hoff,
+                boff,
+                ja,
+                jb,
+                from,
+                phi: vec![Mat6::ZERO; blk],
+                b: vec![SpatialMotion::ZERO; h],
+                f: vec![SpatialForce::ZERO; h],
+                w: vec![SymMat6::ZERO; nn],
+                beta: vec![SpatialMotion::ZERO; nn],
+                gamma: vec![SpatialForce::ZERO; nn],
+                vs: vec![SpatialForce::ZERO; nv],
+                dinv: vec![SmallSpd::default(); n],
+                t: vec![Mat6::ZERO; max_h],
+            },
+            aba: AbaData {
+                ia: vec![SymMat6::ZERO; n],
+                pa: vec![SpatialForce::ZERO; n],
+                u: vec![SpatialForce::ZERO; nv],
+                dinv: vec![SmallSpd::default(); n],
+                uu: vec![0.0; nv],
+                a: vec![SpatialMotion::ZERO; n],
+            },
+            rk: RkData {
+                q0: vec![0.0; model.nq],
+                qd0: vec![0.0; nv],
+                kv: vec![0.0; nv],
+                ka: vec![0.0; nv],
+            },
+        }
+    }
+
+    /// The world wrench (about the world origin) of a force `force` (world coordinates) applied
+    /// at the point `point` given in body `body`'s coordinates. Needs the kinematics of the
+    /// current state (any dynamics call, or [`crate::forward_kinematics`]).
+    pub fn point_force(&self, body: usize, point: DVec3, force: DVec3) -> SpatialForce {
+        let p = self.x[body].apply_point(point) + self.origin;
+        SpatialForce::new(p.cross(force), force)
+    }
+
+    /// Kinetic energy `Σ ½ vᵢ·Iᵢvᵢ` of the current kinematics.
+    pub fn kinetic_energy(&self) -> f64 {
+        self.v
+            .iter()
+            .zip(&self.inertia)
+            .map(|(v, i)| i.kinetic_energy(*v))
+            .sum()
+    }
+
+    /// Gravitational potential energy `-Σ mᵢ g·cᵢ` (world centres of mass) of the current
+    /// kinematics.
+    pub fn potential_energy(&self) -> f64 {
+        self.inertia
+            .iter()
+            .map(|i| -self.gravity.dot(i.h + self.origin * i.mass))
+            .sum()
+    }
+
+    /// Total spatial momentum `Σ Iᵢvᵢ`, in world coordinates about the world origin.
+    pub fn momentum(&self) -> SpatialForce {
+        let h = self
+            .v
+            .iter()
+            .zip(&self.inertia)
+            .fold(SpatialForce::ZERO, |acc, (v, i)| acc + i.mul_motion(*v));
+        // X*_{W←C} = xlt(−origin)*
+        SpatialTransform::xlt(-self.origin).apply_force(h)
+    }
+
+    /// World-frame pose of body `i`: its rotation and the position of its origin.
+    pub fn body_pose(&self, i: usize) -> (glam::DMat3, DVec3) {
+        let (r, p) = self.x[i].to_pose();
+        (r, p + self.origin)
+    }
+}
+
+impl RkData {
+    pub(crate) fn empty() -> RkData {
+        RkData {
+            q0: Vec::new(),
+            qd0: Vec::new(),
+            kv: Vec::new(),
+            ka: Vec::new(),
+        }
+    }
+}

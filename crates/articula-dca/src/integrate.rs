@@ -1,0 +1,128 @@
+//! Time stepping: semi-implicit Euler (default) and RK4, on the configuration manifold
+//! (quaternions of floating joints are advanced by the exponential map and renormalised).
+
+use crate::{forward_dynamics, Data, DynamicsError, Method, State};
+use articula_model::{JointKind, Model};
+use glam::{DQuat, DVec3};
+
+/// A time integrator.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Integrator {
+    /// `q̇ ← q̇ + h q̈(q, q̇)`, then `q ← q ⊕ h q̇` (symplectic for separable systems).
+    #[default]
+    SemiImplicitEuler,
+    /// Classic fourth-order Runge–Kutta on `(q, q̇)`, with `q ⊕ Δ` for the position update.
+    Rk4,
+}
+
+/// `q ← q ⊕ h·qd`: angles and displacements add; a floating joint's position moves by
+/// `R v h` and its orientation by `exp(ω h)` in body coordinates (then renormalised).
+pub fn integrate_q(model: &Model, q: &mut [f64], qd: &[f64], h: f64) {
+    for (_, part) in model.joint_parts() {
+        let (qo, vo) = (part.q_offset, part.v_offset);
+        match part.kind {
+            JointKind::Floating => {
+                let rot = DQuat::from_xyzw(q[qo + 4], q[qo + 5], q[qo + 6], q[qo + 3]).normalize();
+                let w = DVec3::new(qd[vo], qd[vo + 1], qd[vo + 2]);
+                let v = DVec3::new(qd[vo + 3], qd[vo + 4], qd[vo + 5]);
+                let p = DVec3::new(q[qo], q[qo + 1], q[qo + 2]) + rot * v * h;
+                let angle = w.length() * h;
+                let dr = if angle > 0.0 {
+                    DQuat::from_axis_angle(w.normalize(), angle)
+                } else {
+                    DQuat::IDENTITY
+                };
+                let r = (rot * dr).normalize();
+                q[qo..qo + 7].copy_from_slice(&[p.x, p.y, p.z, r.w, r.x, r.y, r.z]);
+            }
+            JointKind::Fixed => {}
+            _ => q[qo] += qd[vo] * h,
+        }
+    }
+}
+
+/// Advances `state` by `dt` with `method` and `integrator`. Allocates nothing for DCA and ABA.
+pub fn step(
+    model: &Model,
+    data: &mut Data,
+    state: &mut State,
+    method: Method,
+    integrator: Integrator,
+    dt: f64,
+) -> Result<(), DynamicsError> {
+    match integrator {
+        Integrator::SemiImplicitEuler => {
+            forward_dynamics(
+                model,
+                data,
+                &state.q,
+                &state.qd,
+                &state.tau,
+                &state.f_ext,
+                method,
+            )?;
+            for (v, a) in state.qd.iter_mut().zip(&data.qdd) {
+                *v += dt * a;
+            }
+            integrate_q(model, &mut state.q, &state.qd, dt);
+        }
+        Integrator::Rk4 => {
+            // k_i = (q̇_i, q̈_i); stage states q0 ⊕ (c h) k_{i-1}.
+            let mut rk = std::mem::replace(&mut data.rk, crate::data::RkData::empty());
+            rk.q0.copy_from_slice(&state.q);
+            rk.qd0.copy_from_slice(&state.qd);
+            rk.kv.iter_mut().for_each(|x| *x = 0.0);
+            rk.ka.iter_mut().for_each(|x| *x = 0.0);
+            let weights = [1.0, 2.0, 2.0, 1.0];
+            let next = [0.5, 0.5, 1.0];
+            let mut result = Ok(());
+            for stage in 0..4 {
+                if let Err(e) = forward_dynamics(
+                    model,
+                    data,
+                    &state.q,
+                    &state.qd,
+                    &state.tau,
+                    &state.f_ext,
+                    method,
+                ) {
+                    result = Err(e);
+                    break;
+                }
+                for j in 0..model.nv {
+                    rk.kv[j] += weights[stage] * state.qd[j];
+                    rk.ka[j] += weights[stage] * data.qdd[j];
+                }
+                if stage < 3 {
+                    let h = next[stage] * dt;
+                    // stage velocity (used both as k_v of the next stage and for its position)
+                    for j in 0..model.nv {
+                        state.qd[j] = rk.qd0[j] + h * data.qdd[j];
+                    }
+                    state.q.copy_from_slice(&rk.q0);
+                    integrate_q(model, &mut state.q, &state.qd, h);
+                }
+            }
+            if result.is_ok() {
+                state.q.copy_from_slice(&rk.q0);
+                for j in 0..model.nv {
+                    rk.kv[j] /= 6.0;
+                    state.qd[j] = rk.qd0[j] + dt * rk.ka[j] / 6.0;
+                }
+                integrate_q(model, &mut state.q, &rk.kv, dt);
+            }
+            data.rk = rk;
+            result?;
+        }
+    }
+    for (_, part) in model.joint_parts() {
+        let q = &state.q[part.q_offset..part.q_offset + part.nq()];
+        if q.iter().any(|x| !x.is_finite()) {
+            return Err(DynamicsError::NonFinite {
+                what: "q after the step",
+                name: part.name.clone(),
+            });
+        }
+    }
+    Ok(())
+}
