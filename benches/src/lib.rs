@@ -1,0 +1,33 @@
+//! Shared fixtures of the benchmarks: procedural models of any size.
+
+use articula_model::{LoadOptions, Model};
+
+/// A planar revolute pendulum chain of `n` links (0.1 m, 0.1 kg rods hanging along −z), the
+/// same bodies as the bundled `models/chainN.urdf`, for sizes that are not bundled.
+pub fn chain_urdf(n: usize) -> String {
+    let mut s = String::from("<robot name=\"chain\"><link name=\"base\"><inertial><mass value=\"1\"/><inertia ixx=\"0.01\" iyy=\"0.01\" izz=\"0.01\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>\n");
+    for i in 1..=n {
+        let parent = if i == 1 {
+            "base".to_string()
+        } else {
+            format!("link{}", i - 1)
+        };
+        let z = if i == 1 { -0.05 } else { -0.1 };
+        s += &format!(
+            "<link name=\"link{i}\"><inertial><origin xyz=\"0 0 -0.05\"/><mass value=\"0.1\"/><inertia ixx=\"8.5833e-5\" iyy=\"8.5833e-5\" izz=\"5e-6\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>\n<joint name=\"joint{i}\" type=\"revolute\"><parent link=\"{parent}\"/><child link=\"link{i}\"/><origin xyz=\"0 0 {z}\"/><axis xyz=\"0 1 0\"/><limit lower=\"-3.14\" upper=\"3.14\" effort=\"100\" velocity=\"10\"/></joint>\n"
+        );
+    }
+    s + "</robot>"
+}
+
+/// Loads a bundled model by file stem (`humanoid`, `chain300`, ...).
+pub fn bundled(name: &str) -> Model {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../models/{name}.urdf"));
+    Model::from_urdf_file(path, &LoadOptions::default()).expect("bundled model loads")
+}
+
+/// A chain of `n` links.
+pub fn chain(n: usize) -> Model {
+    Model::from_urdf_str(&chain_urdf(n), &LoadOptions::default()).expect("chain loads")
+}
