@@ -8,6 +8,10 @@ use articula_spatial::{SpatialInertia, SpatialMotion, SpatialTransform};
 use glam::{DMat3, DQuat, DVec3};
 use std::path::Path;
 
+fn is_finite(x: &SpatialTransform) -> bool {
+    x.e.is_finite() && x.r.is_finite()
+}
+
 /// Name given to the 6-DOF joint of a floating base.
 pub const FLOATING_BASE_JOINT: &str = "floating_base";
 
@@ -222,6 +226,12 @@ impl Model {
                 if joint.kind == JointKind::Fixed {
                     owner[c] = owner[l];
                     to_owner[c] = to_owner[l] * joint.origin;
+                    // Finite origins can add up to infinity along a run of fixed joints.
+                    if !is_finite(&to_owner[c]) {
+                        return Err(ModelError::InvalidOrigin {
+                            joint: joint.name.clone(),
+                        });
+                    }
                 } else {
                     owner[c] = c;
                 }
@@ -232,6 +242,11 @@ impl Model {
         let mut members: Vec<Vec<(String, SpatialTransform)>> = vec![Vec::new(); n];
         for &l in &order {
             merged[owner[l]] += to_owner[l].apply_inertia(&raw.links[l].inertia);
+            if !merged[owner[l]].is_finite() {
+                return Err(ModelError::NonFiniteInertia {
+                    link: raw.links[l].name.clone(),
+                });
+            }
             members[owner[l]].push((raw.links[l].name.clone(), to_owner[l]));
         }
         // Moving joints leaving each owner, with origins re-expressed in the owner's frame.
@@ -240,7 +255,13 @@ impl Model {
             for &j in &children_joints[l] {
                 let joint = &raw.joints[j];
                 if joint.kind != JointKind::Fixed {
-                    moving_out[owner[l]].push((j, to_owner[l] * joint.origin));
+                    let origin = to_owner[l] * joint.origin;
+                    if !is_finite(&origin) {
+                        return Err(ModelError::InvalidOrigin {
+                            joint: joint.name.clone(),
+                        });
+                    }
+                    moving_out[owner[l]].push((j, origin));
                 }
             }
         }

@@ -165,14 +165,101 @@ fn check_numbers(
     }
 }
 
+/// Whether urdf-rs reads `quat_xyzw` (URDF 1.1 and later; the same test as urdf-rs: a missing
+/// or malformed `version` means 1.0).
+fn supports_quat(robot: roxmltree::Node) -> bool {
+    robot
+        .attribute("version")
+        .and_then(|v| {
+            let (major, minor) = v.trim().split_once('.')?;
+            Some((major.parse::<u32>().ok()?, minor.parse::<u32>().ok()?))
+        })
+        .is_some_and(|version| version >= (1, 1))
+}
+
 fn check_origin(
     node: roxmltree::Node,
     element: &'static str,
     name: &str,
+    supports_quat: bool,
 ) -> Result<(), ModelError> {
     check_numbers(node, "xyz", 3, element, name, false)?;
     check_numbers(node, "rpy", 3, element, name, false)?;
-    check_numbers(node, "quat_xyzw", 4, element, name, false)
+    check_numbers(node, "quat_xyzw", 4, element, name, false)?;
+    if !supports_quat {
+        return Ok(());
+    }
+    let Some(quat) = node.attribute("quat_xyzw").and_then(|s| numbers(s, 4)) else {
+        return Ok(());
+    };
+    // urdf-rs rejects both orientations without naming the link or joint, and silently reads
+    // a zero or NaN quaternion as the identity.
+    if node.attribute("rpy").is_some() {
+        return Err(malformed(
+            element,
+            name,
+            "<origin> has both 'rpy' and 'quat_xyzw'",
+        ));
+    }
+    if quat.iter().any(|x| !x.is_finite()) {
+        return Err(if element == "joint" {
+            ModelError::InvalidOrigin { joint: name.into() }
+        } else {
+            ModelError::NonFiniteInertia { link: name.into() }
+        });
+    }
+    if quat.iter().all(|&x| x == 0.0) {
+        return Err(malformed(
+            element,
+            name,
+            "<origin> 'quat_xyzw' is the zero quaternion",
+        ));
+    }
+    Ok(())
+}
+
+/// Records `tag` as seen inside a link or joint, failing on a second occurrence: urdf-rs would
+/// reject the duplicate without naming the link or joint.
+fn once<'a>(
+    seen: &mut Vec<&'a str>,
+    tag: &'a str,
+    element: &'static str,
+    name: &str,
+) -> Result<(), ModelError> {
+    if seen.contains(&tag) {
+        return Err(malformed(element, name, format!("duplicate <{tag}>")));
+    }
+    seen.push(tag);
+    Ok(())
+}
+
+/// roxmltree reads a name written `:x` as `x` with an empty namespace prefix, which urdf-rs's
+/// XML parser rejects without saying where: reject it here, with its position, for the elements
+/// that are handed on to urdf-rs.
+fn check_prefixes(doc: &roxmltree::Document, node: roxmltree::Node) -> Result<(), ModelError> {
+    let text = doc.input_text();
+    let range = node.range();
+    let raw = &text[range.clone()];
+    // The end tag, if any, must match the start tag, so `</:x>` goes with `<:x>`; check it too.
+    let end_tag = (!raw.ends_with("/>"))
+        .then(|| raw.rfind("</").map(|i| range.start + i + 1))
+        .flatten();
+    let bad = std::iter::once(range.start)
+        .chain(end_tag)
+        .map(|lt| lt + 1)
+        .chain(node.attributes().map(|a| a.range_qname().start))
+        .find(|&at| text[at..].starts_with(':'));
+    match bad {
+        Some(at) => {
+            let pos = doc.text_pos_at(at);
+            Err(ModelError::Xml {
+                line: pos.row,
+                column: pos.col,
+                message: "name with an empty namespace prefix".into(),
+            })
+        }
+        None => Ok(()),
+    }
 }
 
 /// The strict pre-pass: validates what dynamics needs and returns the text with everything
@@ -192,46 +279,54 @@ fn prepass(text: &str) -> Result<(String, Vec<String>), ModelError> {
             found: robot.tag_name().name().to_string(),
         });
     }
+    check_prefixes(&doc, robot)?;
+    let quat = supports_quat(robot);
     let mut cut: Vec<std::ops::Range<usize>> = Vec::new();
     let mut warnings = Vec::new();
     for el in robot.children().filter(|n| n.is_element()) {
         match el.tag_name().name() {
             "link" => {
+                check_prefixes(&doc, el)?;
                 let name = el
                     .attribute("name")
                     .ok_or_else(|| malformed("link", "", "missing 'name' attribute"))?;
+                let mut seen_inertial = Vec::new();
                 for c in el.children().filter(|n| n.is_element()) {
                     if c.tag_name().name() != "inertial" {
                         cut.push(c.range());
                         continue;
                     }
-                    let mut has_mass = false;
-                    let mut has_inertia = false;
+                    once(&mut seen_inertial, "inertial", "link", name)?;
+                    check_prefixes(&doc, c)?;
+                    let mut seen = Vec::new();
                     for p in c.children().filter(|n| n.is_element()) {
-                        match p.tag_name().name() {
-                            "origin" => check_origin(p, "link", name)?,
-                            "mass" => {
-                                has_mass = true;
-                                check_numbers(p, "value", 1, "link", name, true)?;
-                            }
-                            "inertia" => {
-                                has_inertia = true;
+                        let tag = p.tag_name().name();
+                        if !matches!(tag, "origin" | "mass" | "inertia") {
+                            cut.push(p.range());
+                            continue;
+                        }
+                        once(&mut seen, tag, "link", name)?;
+                        check_prefixes(&doc, p)?;
+                        match tag {
+                            "origin" => check_origin(p, "link", name, quat)?,
+                            "mass" => check_numbers(p, "value", 1, "link", name, true)?,
+                            _ => {
                                 for a in ["ixx", "ixy", "ixz", "iyy", "iyz", "izz"] {
                                     check_numbers(p, a, 1, "link", name, true)?;
                                 }
                             }
-                            _ => cut.push(p.range()),
                         }
                     }
-                    if !has_mass {
+                    if !seen.contains(&"mass") {
                         return Err(malformed("link", name, "<inertial> lacks <mass>"));
                     }
-                    if !has_inertia {
+                    if !seen.contains(&"inertia") {
                         return Err(malformed("link", name, "<inertial> lacks <inertia>"));
                     }
                 }
             }
             "joint" => {
+                check_prefixes(&doc, el)?;
                 let name = el
                     .attribute("name")
                     .ok_or_else(|| malformed("joint", "", "missing 'name' attribute"))?;
@@ -244,10 +339,15 @@ fn prepass(text: &str) -> Result<(String, Vec<String>), ModelError> {
                         kind: kind.into(),
                     });
                 }
-                let mut has = (false, false);
+                let mut seen = Vec::new();
                 for c in el.children().filter(|n| n.is_element()) {
-                    match c.tag_name().name() {
-                        "origin" => check_origin(c, "joint", name)?,
+                    let tag = c.tag_name().name();
+                    if matches!(tag, "origin" | "axis" | "parent" | "child") {
+                        once(&mut seen, tag, "joint", name)?;
+                        check_prefixes(&doc, c)?;
+                    }
+                    match tag {
+                        "origin" => check_origin(c, "joint", name, quat)?,
                         "axis" => {
                             check_numbers(c, "xyz", 3, "joint", name, true).map_err(|_| {
                                 ModelError::InvalidAxis {
@@ -264,13 +364,8 @@ fn prepass(text: &str) -> Result<(String, Vec<String>), ModelError> {
                                 return Err(malformed(
                                     "joint",
                                     name,
-                                    format!("<{}> lacks attribute 'link'", c.tag_name().name()),
+                                    format!("<{tag}> lacks attribute 'link'"),
                                 ));
-                            }
-                            if c.tag_name().name() == "parent" {
-                                has.0 = true;
-                            } else {
-                                has.1 = true;
                             }
                         }
                         "mimic" => {
@@ -283,10 +378,10 @@ fn prepass(text: &str) -> Result<(String, Vec<String>), ModelError> {
                         _ => cut.push(c.range()),
                     }
                 }
-                if !has.0 {
+                if !seen.contains(&"parent") {
                     return Err(malformed("joint", name, "missing <parent>"));
                 }
-                if !has.1 {
+                if !seen.contains(&"child") {
                     return Err(malformed("joint", name, "missing <child>"));
                 }
             }
@@ -388,6 +483,12 @@ fn validate(robot: urdf_rs::Robot, warnings: Vec<String>) -> Result<RawRobot, Mo
         // The inertial frame (origin, rpy) in link coordinates: com = xyz, I_com rotated.
         let (rot, com) = origin.to_pose();
         let inertia = SpatialInertia::new(m, com, rot * ic * rot.transpose());
+        // Finite inputs can still overflow (a huge mass far from the link origin).
+        if !inertia.is_finite() {
+            return Err(ModelError::NonFiniteInertia {
+                link: l.name.clone(),
+            });
+        }
         links.push(RawLink {
             name: l.name.clone(),
             inertia,
@@ -448,7 +549,14 @@ fn validate(robot: urdf_rs::Robot, warnings: Vec<String>) -> Result<RawRobot, Mo
                     reason: "non-finite component".into(),
                 });
             }
-            let len = axis.length();
+            // Scaled first, so huge components do not overflow the length to infinity (and
+            // the axis to zero).
+            let max = axis.abs().max_element();
+            let len = if max > 0.0 {
+                max * (axis / max).length()
+            } else {
+                0.0
+            };
             if len < 1e-9 {
                 return Err(ModelError::InvalidAxis {
                     joint: j.name.clone(),
@@ -461,7 +569,7 @@ fn validate(robot: urdf_rs::Robot, warnings: Vec<String>) -> Result<RawRobot, Mo
                     j.name
                 ));
             }
-            axis /= len;
+            axis = (axis / max).normalize();
         }
         if let Some(first) = parent_joint[child] {
             let first: &RawJoint = &joints[first];
