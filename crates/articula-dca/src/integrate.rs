@@ -94,13 +94,13 @@ pub fn step(
                     rk.ka[j] += weights[stage] * data.qdd[j];
                 }
                 if stage < 3 {
+                    // Next stage: q = q0 ⊕ h k_v, q̇ = q̇0 + h k_a, with this stage's k.
                     let h = next[stage] * dt;
-                    // stage velocity (used both as k_v of the next stage and for its position)
+                    state.q.copy_from_slice(&rk.q0);
+                    integrate_q(model, &mut state.q, &state.qd, h);
                     for j in 0..model.nv {
                         state.qd[j] = rk.qd0[j] + h * data.qdd[j];
                     }
-                    state.q.copy_from_slice(&rk.q0);
-                    integrate_q(model, &mut state.q, &state.qd, h);
                 }
             }
             if result.is_ok() {

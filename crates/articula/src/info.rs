@@ -3,6 +3,7 @@
 use crate::CliError;
 use articula_model::{LoadOptions, Model};
 use serde::Serialize;
+use std::fmt::Write;
 use std::path::Path;
 
 /// The JSON printed by `articula info --json`.
@@ -128,18 +129,20 @@ pub fn run(path: &Path, floating_base: bool, json: bool, tree: bool) -> Result<(
     let model = Model::from_urdf_file(path, &LoadOptions { floating_base })?;
     let info = Info::of(&model);
     if json {
-        println!("{}", serde_json::to_string_pretty(&info)?);
-        return Ok(());
+        return crate::print_out(&format!("{}\n", serde_json::to_string_pretty(&info)?));
     }
+    let mut out = String::new();
     for w in &info.warnings {
         eprintln!("warning: {w}");
     }
-    println!("robot        {}", info.name);
-    println!(
+    writeln!(out, "robot        {}", info.name)?;
+    writeln!(
+        out,
         "URDF         {} links, {} joints",
         info.urdf_links, info.urdf_joints
-    );
-    println!(
+    )?;
+    writeln!(
+        out,
         "bodies       {} moving (after merging fixed joints){}",
         info.bodies,
         if info.floating_base {
@@ -147,40 +150,44 @@ pub fn run(path: &Path, floating_base: bool, json: bool, tree: bool) -> Result<(
         } else {
             ", fixed base"
         }
-    );
-    println!(
+    )?;
+    writeln!(
+        out,
         "joints       {} movable, {} DOF (nq = {})",
         info.movable_joints, info.dof, info.nq
-    );
-    println!(
+    )?;
+    writeln!(
+        out,
         "mass         {:.3} kg total, {:.3} kg moving",
         info.total_mass, info.moving_mass
-    );
-    println!(
+    )?;
+    writeln!(
+        out,
         "assembly     {} nodes, depth {}, at most {} handles per node",
         info.assembly.nodes, info.assembly.depth, info.assembly.max_handles
-    );
+    )?;
     if !info.composed_joints.is_empty() {
-        println!("composed joints (through massless links):");
+        writeln!(out, "composed joints (through massless links):")?;
         for c in &info.composed_joints {
-            println!(
+            writeln!(
+                out,
                 "  {:<14} {} DOF = {}  (massless: {})",
                 c.body,
                 c.dof,
                 c.joints.join(" + "),
                 c.massless_links.join(", ")
-            );
+            )?;
         }
     }
     if !info.merged_bodies.is_empty() {
-        println!("merged by fixed joints:");
+        writeln!(out, "merged by fixed joints:")?;
         for m in &info.merged_bodies {
-            println!("  {:<14} {}", m.body, m.links.join(", "));
+            writeln!(out, "  {:<14} {}", m.body, m.links.join(", "))?;
         }
     }
     if tree {
-        println!("assembly tree:");
-        print!("{}", model.assembly.outline(&model));
+        writeln!(out, "assembly tree:")?;
+        write!(out, "{}", model.assembly.outline(&model))?;
     }
-    Ok(())
+    crate::print_out(&out)
 }

@@ -3,10 +3,17 @@
 //! Exit codes: 0 success, 2 bad input (a model, state or argument that cannot be used; the
 //! error is printed on stderr), never a panic's 101.
 
+mod bench;
+mod fd;
 mod info;
+mod simulate;
+mod state_json;
 
-use clap::{Parser, Subcommand};
-use std::path::PathBuf;
+use articula_dca::{Data, Method, State};
+use articula_model::{LoadOptions, Model};
+use articula_spatial::DVec3;
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 #[derive(Parser)]
@@ -37,6 +44,114 @@ enum Command {
         #[arg(long)]
         tree: bool,
     },
+    /// Forward dynamics of one state: the joint accelerations, as JSON keyed by URDF joint name.
+    Fd(fd::FdArgs),
+    /// Integrate the motion from a state for a number of steps; print a summary (time per step,
+    /// energy drift) and optionally write the trajectory as CSV.
+    Simulate(simulate::SimulateArgs),
+    /// Time forward-dynamics calls on a seeded random state.
+    Bench(bench::BenchArgs),
+}
+
+/// Options shared by the dynamics commands.
+#[derive(Args, Clone, Debug)]
+pub struct DynamicsArgs {
+    /// The URDF file.
+    pub model: PathBuf,
+    /// Forward-dynamics algorithm.
+    #[arg(long, value_enum, default_value_t = MethodArg::Dca)]
+    pub method: MethodArg,
+    /// Gravity acceleration in world coordinates (m/s²), as `gx,gy,gz`.
+    #[arg(long, value_name = "GX,GY,GZ", default_value = "0,0,-9.81",
+          value_parser = parse_gravity, allow_hyphen_values = true)]
+    pub gravity: DVec3,
+    /// Give the root link six degrees of freedom (joint `floating_base`) instead of welding it
+    /// to the world.
+    #[arg(long)]
+    pub floating_base: bool,
+}
+
+/// `--method`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum MethodArg {
+    /// Featherstone's divide-and-conquer algorithm (the main solver).
+    Dca,
+    /// The articulated-body algorithm (reference).
+    Aba,
+    /// Composite-rigid-body algorithm + Cholesky (reference).
+    Crba,
+}
+
+impl From<MethodArg> for Method {
+    fn from(m: MethodArg) -> Method {
+        match m {
+            MethodArg::Dca => Method::Dca,
+            MethodArg::Aba => Method::Aba,
+            MethodArg::Crba => Method::Crba,
+        }
+    }
+}
+
+/// Parses `gx,gy,gz`: three finite numbers.
+fn parse_gravity(s: &str) -> Result<DVec3, String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != 3 {
+        return Err(format!(
+            "expected three numbers gx,gy,gz separated by commas, got {}",
+            parts.len()
+        ));
+    }
+    let mut g = [0.0; 3];
+    for (x, p) in g.iter_mut().zip(&parts) {
+        *x = p
+            .parse::<f64>()
+            .map_err(|_| format!("'{p}' is not a number"))?;
+        if !x.is_finite() {
+            return Err(format!("'{p}' is not a finite number"));
+        }
+    }
+    Ok(DVec3::from_array(g))
+}
+
+impl DynamicsArgs {
+    /// Loads the model (printing its warnings on stderr) and a workspace with the gravity set.
+    pub fn load(&self) -> Result<(Model, Data), CliError> {
+        let model = Model::from_urdf_file(
+            &self.model,
+            &LoadOptions {
+                floating_base: self.floating_base,
+            },
+        )?;
+        for w in &model.warnings {
+            eprintln!("warning: {w}");
+        }
+        let mut data = Data::new(&model);
+        data.gravity = self.gravity;
+        Ok((model, data))
+    }
+}
+
+/// Prints `text` on stdout as is. A closed pipe (`articula ... | head`) is not an error: the
+/// reader has what it wanted.
+pub fn print_out(text: &str) -> Result<(), CliError> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        Err(e) => Err(CliError(format!("cannot write to stdout: {e}"))),
+    }
+}
+
+/// The state in a STATE.json file, or the neutral state at rest without one.
+pub fn load_state(path: Option<&Path>, model: &Model) -> Result<State, CliError> {
+    let Some(path) = path else {
+        return Ok(State::neutral(model));
+    };
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| CliError(format!("cannot read state file {}: {e}", path.display())))?;
+    state_json::parse_state(&text, model)
+        .map_err(|e| CliError(format!("state file {}: {e}", path.display())))
 }
 
 /// An error for the user: printed on stderr, exit code 2.
@@ -57,6 +172,9 @@ fn main() -> ExitCode {
             json,
             tree,
         } => info::run(&model, floating_base, json, tree),
+        Command::Fd(args) => fd::run(&args),
+        Command::Simulate(args) => simulate::run(&args),
+        Command::Bench(args) => bench::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,125 @@
+//! `articula bench`: time forward-dynamics calls on a seeded random state.
+//!
+//! A warm-up (at least 10 calls and 0.2 s) estimates the cost of a call; then `reps` calls
+//! (default: about one second's worth, at least 100) run in up to 30 near-equal batches, each timed
+//! with [`Instant`]. The reported figure is the median over batches of the time per call.
+
+use crate::{print_out, CliError, DynamicsArgs};
+use articula_dca::{forward_dynamics, Method, State};
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+/// Arguments of `articula bench`.
+#[derive(clap::Args, Debug)]
+pub struct BenchArgs {
+    #[command(flatten)]
+    pub dynamics: DynamicsArgs,
+    /// Number of timed calls (default: about one second's worth, at least 100).
+    #[arg(long, value_name = "N", value_parser = parse_reps, allow_hyphen_values = true)]
+    pub reps: Option<u64>,
+}
+
+/// The seed of the benchmarked state (`State::random(model, SEED, 1.0)`).
+pub const SEED: u64 = 42;
+/// Most batches the timed calls are split into.
+const BATCHES: u64 = 30;
+
+fn parse_reps(s: &str) -> Result<u64, String> {
+    crate::simulate::parse_count(s).map_err(|e| format!("the number of repetitions {e}"))
+}
+
+/// Median of a non-empty slice.
+fn median(xs: &mut [f64]) -> f64 {
+    xs.sort_by(f64::total_cmp);
+    let n = xs.len();
+    if n % 2 == 1 {
+        xs[n / 2]
+    } else {
+        0.5 * (xs[n / 2 - 1] + xs[n / 2])
+    }
+}
+
+/// The sizes of the batches `reps` calls are split into: at most [`BATCHES`], as equal as can be.
+fn batching(reps: u64) -> Vec<u64> {
+    let batches = reps.clamp(1, BATCHES);
+    (0..batches)
+        .map(|i| reps / batches + u64::from(i < reps % batches))
+        .collect()
+}
+
+/// Runs `articula bench`.
+pub fn run(args: &BenchArgs) -> Result<(), CliError> {
+    let (model, mut data) = args.dynamics.load()?;
+    let method = Method::from(args.dynamics.method);
+    let state = State::random(&model, SEED, 1.0);
+    let mut call = || {
+        forward_dynamics(
+            &model,
+            &mut data,
+            black_box(&state.q),
+            black_box(&state.qd),
+            black_box(&state.tau),
+            &state.f_ext,
+            method,
+        )
+        .map(|qdd| {
+            black_box(qdd);
+        })
+    };
+
+    // Warm-up, which also checks that the state can be solved at all.
+    let warm = Instant::now();
+    let mut n_warm = 0u64;
+    while n_warm < 10 || warm.elapsed() < Duration::from_millis(200) {
+        call()?;
+        n_warm += 1;
+    }
+    let estimate = warm.elapsed().as_secs_f64() / n_warm as f64;
+    let reps = args
+        .reps
+        .unwrap_or_else(|| ((1.0 / estimate).ceil() as u64).max(100));
+    let sizes = batching(reps);
+
+    let mut us = Vec::with_capacity(sizes.len());
+    for &n in &sizes {
+        let t0 = Instant::now();
+        for _ in 0..n {
+            call()?;
+        }
+        us.push(t0.elapsed().as_secs_f64() * 1e6 / n as f64);
+    }
+    let min = us.iter().copied().fold(f64::INFINITY, f64::min);
+    let max = us.iter().copied().fold(0.0, f64::max);
+    let med = median(&mut us);
+    print_out(&format!(
+        "model={} method={} dof={} reps={reps} batches={} us_per_call={med:.3} min_us={min:.3} max_us={max:.3}\n",
+        model.name,
+        method.name(),
+        model.nv,
+        sizes.len(),
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn median_of_odd_and_even() {
+        assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&mut [4.0, 1.0, 3.0, 2.0]), 2.5);
+        assert_eq!(median(&mut [7.0]), 7.0);
+    }
+
+    #[test]
+    fn batching_covers_reps() {
+        assert_eq!(batching(1), vec![1]);
+        assert_eq!(batching(29), vec![1; 29]);
+        assert_eq!(batching(30), vec![1; 30]);
+        assert_eq!(batching(3000), vec![100; 30]);
+        let b = batching(100);
+        assert_eq!(b.len(), 30);
+        assert_eq!(b.iter().sum::<u64>(), 100);
+        assert_eq!((b[0], b[29]), (4, 3));
+    }
+}

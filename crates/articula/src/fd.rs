@@ -1,0 +1,123 @@
+//! `articula fd`: the joint accelerations of one state, keyed by URDF joint name.
+
+use crate::{load_state, print_out, CliError, DynamicsArgs};
+use articula_dca::{forward_dynamics, Method};
+use articula_model::Model;
+use serde::ser::{SerializeMap, Serializer};
+use serde::Serialize;
+use std::path::PathBuf;
+
+/// Arguments of `articula fd`.
+#[derive(clap::Args, Debug)]
+pub struct FdArgs {
+    #[command(flatten)]
+    pub dynamics: DynamicsArgs,
+    /// The state (docs/state-format.md); without it, the neutral configuration at rest.
+    #[arg(long, value_name = "STATE.json")]
+    pub state: Option<PathBuf>,
+}
+
+/// The JSON printed by `articula fd`.
+#[derive(Serialize)]
+pub struct FdOutput<'a> {
+    /// The algorithm's name.
+    pub method: &'static str,
+    /// `q̈` per movable URDF joint, in model coordinate order.
+    pub qdd: ByJoint<'a>,
+}
+
+/// Per-joint slices of a coordinate vector, serialised as a JSON object in model order.
+pub struct ByJoint<'a>(pub Vec<(&'a str, &'a [f64])>);
+
+impl<'a> ByJoint<'a> {
+    /// Splits a velocity-sized vector (`qd`, `qdd`, `tau`) by joint.
+    pub fn velocities(model: &'a Model, v: &'a [f64]) -> ByJoint<'a> {
+        ByJoint(
+            model
+                .joint_parts()
+                .map(|(_, p)| (p.name.as_str(), &v[p.v_offset..p.v_offset + p.nv()]))
+                .collect(),
+        )
+    }
+}
+
+impl Serialize for ByJoint<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut map = s.serialize_map(Some(self.0.len()))?;
+        for (name, values) in &self.0 {
+            map.serialize_entry(name, values)?;
+        }
+        map.end()
+    }
+}
+
+/// Runs `articula fd`.
+pub fn run(args: &FdArgs) -> Result<(), CliError> {
+    let (model, mut data) = args.dynamics.load()?;
+    let state = load_state(args.state.as_deref(), &model)?;
+    let method = Method::from(args.dynamics.method);
+    let qdd = forward_dynamics(
+        &model,
+        &mut data,
+        &state.q,
+        &state.qd,
+        &state.tau,
+        &state.f_ext,
+        method,
+    )?;
+    let out = FdOutput {
+        method: method.name(),
+        qdd: ByJoint::velocities(&model, qdd),
+    };
+    print_out(&out.to_json()?)
+}
+
+impl FdOutput<'_> {
+    /// Pretty JSON with each joint's vector on one line.
+    pub fn to_json(&self) -> Result<String, serde_json::Error> {
+        let mut s = format!(
+            "{{\n  \"method\": {},\n  \"qdd\": {{",
+            serde_json::to_string(self.method)?
+        );
+        for (i, (name, values)) in self.qdd.0.iter().enumerate() {
+            s.push_str(if i == 0 { "\n    " } else { ",\n    " });
+            s.push_str(&serde_json::to_string(name)?);
+            s.push_str(": ");
+            s.push_str(&serde_json::to_string(values)?.replace(',', ", "));
+        }
+        s.push_str(if self.qdd.0.is_empty() {
+            "}\n}\n"
+        } else {
+            "\n  }\n}\n"
+        });
+        Ok(s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn json_is_valid_and_in_order() {
+        let v = [1.5, -0.25, 1e-300, 2.0];
+        let out = FdOutput {
+            method: "dca",
+            qdd: ByJoint(vec![("z\"q", &v[0..1]), ("a", &v[1..4])]),
+        };
+        let text = out.to_json().unwrap();
+        assert_eq!(
+            text,
+            "{\n  \"method\": \"dca\",\n  \"qdd\": {\n    \"z\\\"q\": [1.5],\n    \"a\": [-0.25, 1e-300, 2.0]\n  }\n}\n"
+        );
+        let parsed: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert_eq!(parsed["qdd"]["a"][1], 1e-300);
+        assert_eq!(parsed, serde_json::to_value(&out).unwrap());
+        let empty = FdOutput {
+            method: "aba",
+            qdd: ByJoint(vec![]),
+        };
+        let parsed: serde_json::Value = serde_json::from_str(&empty.to_json().unwrap()).unwrap();
+        assert_eq!(parsed, serde_json::json!({"method": "aba", "qdd": {}}));
+    }
+}

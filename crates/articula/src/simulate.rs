@@ -1,0 +1,314 @@
+//! `articula simulate`: integrate the motion for a number of steps, report time per step and
+//! energy drift, and optionally write the trajectory as CSV (`docs/state-format.md`).
+
+use crate::{load_state, print_out, CliError, DynamicsArgs};
+use articula_dca::{forward_kinematics, step, Data, Integrator, Method, State};
+use articula_model::Model;
+use clap::ValueEnum;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::fs::File;
+use std::io::{BufWriter, IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// Arguments of `articula simulate`.
+#[derive(clap::Args, Debug)]
+pub struct SimulateArgs {
+    #[command(flatten)]
+    pub dynamics: DynamicsArgs,
+    /// Number of time steps (at least 1).
+    #[arg(long, value_parser = parse_steps, allow_hyphen_values = true)]
+    pub steps: u64,
+    /// Time step in seconds (positive, finite).
+    #[arg(long, value_parser = parse_dt, allow_hyphen_values = true)]
+    pub dt: f64,
+    /// Time integrator.
+    #[arg(long, value_enum, default_value_t = IntegratorArg::Euler)]
+    pub integrator: IntegratorArg,
+    /// Initial state (docs/state-format.md); without it, the neutral configuration at rest.
+    /// Its `tau` is held constant during the run.
+    #[arg(long, value_name = "STATE.json")]
+    pub state: Option<PathBuf>,
+    /// Write the trajectory as CSV: a header, then the initial state (t = 0) and one row after
+    /// every step (steps + 1 rows).
+    #[arg(long, value_name = "traj.csv")]
+    pub out: Option<PathBuf>,
+}
+
+/// `--integrator`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum IntegratorArg {
+    /// Semi-implicit (symplectic) Euler.
+    Euler,
+    /// Classic fourth-order Runge–Kutta.
+    Rk4,
+}
+
+impl IntegratorArg {
+    fn integrator(self) -> Integrator {
+        match self {
+            IntegratorArg::Euler => Integrator::SemiImplicitEuler,
+            IntegratorArg::Rk4 => Integrator::Rk4,
+        }
+    }
+    fn name(self) -> &'static str {
+        match self {
+            IntegratorArg::Euler => "euler (semi-implicit)",
+            IntegratorArg::Rk4 => "rk4",
+        }
+    }
+}
+
+/// Parses a count that must be at least 1 (`--steps`, `--reps`).
+pub fn parse_count(s: &str) -> Result<u64, String> {
+    match s.trim().parse::<i128>() {
+        Ok(n) if n >= 1 && n <= u64::MAX as i128 => Ok(n as u64),
+        Ok(_) => Err(format!("must be at least 1, got {s}")),
+        Err(_) => Err(format!("'{s}' is not a whole number")),
+    }
+}
+
+fn parse_steps(s: &str) -> Result<u64, String> {
+    parse_count(s).map_err(|e| format!("the number of steps {e}"))
+}
+
+fn parse_dt(s: &str) -> Result<f64, String> {
+    let dt: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a number"))?;
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(format!(
+            "the time step must be a positive finite number of seconds, got {s}"
+        ));
+    }
+    Ok(dt)
+}
+
+/// Kinetic and gravitational potential energy of `state` (the potential is zero at the world
+/// origin).
+fn energy(model: &Model, data: &mut Data, state: &State) -> (f64, f64) {
+    forward_kinematics(model, &state.q, &state.qd, data);
+    (data.kinetic_energy(), data.potential_energy())
+}
+
+/// The CSV header: `t`, then one column per position coordinate (`joint`, or `joint[i]` for a
+/// joint with several), then the same for velocities prefixed `qd:`.
+pub fn csv_header(model: &Model) -> String {
+    let mut cols = vec!["t".to_string()];
+    for (_, p) in model.joint_parts() {
+        push_columns(&mut cols, "", &p.name, p.nq());
+    }
+    for (_, p) in model.joint_parts() {
+        push_columns(&mut cols, "qd:", &p.name, p.nv());
+    }
+    cols.iter()
+        .map(|c| csv_field(c))
+        .collect::<Vec<_>>()
+        .join(",")
+}
+
+fn push_columns(cols: &mut Vec<String>, prefix: &str, name: &str, n: usize) {
+    if n == 1 {
+        cols.push(format!("{prefix}{name}"));
+    } else {
+        cols.extend((0..n).map(|i| format!("{prefix}{name}[{i}]")));
+    }
+}
+
+/// Quotes a CSV field when it holds a comma, a quote or a line break (RFC 4180).
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+fn write_row(w: &mut impl Write, t: f64, state: &State) -> std::io::Result<()> {
+    write!(w, "{t:?}")?;
+    for x in state.q.iter().chain(&state.qd) {
+        write!(w, ",{x:?}")?;
+    }
+    writeln!(w)
+}
+
+struct Csv {
+    path: PathBuf,
+    w: BufWriter<File>,
+}
+
+impl Csv {
+    fn create(path: &Path, model: &Model) -> Result<Csv, CliError> {
+        let file = File::create(path)
+            .map_err(|e| CliError(format!("cannot create {}: {e}", path.display())))?;
+        let mut csv = Csv {
+            path: path.to_path_buf(),
+            w: BufWriter::new(file),
+        };
+        let header = csv_header(model);
+        csv.io(|w| writeln!(w, "{header}"))?;
+        Ok(csv)
+    }
+
+    fn io(
+        &mut self,
+        f: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
+    ) -> Result<(), CliError> {
+        f(&mut self.w).map_err(|e| CliError(format!("cannot write {}: {e}", self.path.display())))
+    }
+
+    fn row(&mut self, t: f64, state: &State) -> Result<(), CliError> {
+        self.io(|w| write_row(w, t, state))
+    }
+
+    fn finish(mut self) -> Result<(), CliError> {
+        self.io(|w| w.flush())
+    }
+}
+
+/// Runs `articula simulate`.
+pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
+    let (model, mut data) = args.dynamics.load()?;
+    let mut state = load_state(args.state.as_deref(), &model)?;
+    let method = Method::from(args.dynamics.method);
+    let integrator = args.integrator.integrator();
+    let (steps, dt) = (args.steps, args.dt);
+
+    let mut csv = match &args.out {
+        Some(path) => Some(Csv::create(path, &model)?),
+        None => None,
+    };
+    if let Some(csv) = &mut csv {
+        csv.row(0.0, &state)?;
+    }
+    let (k0, p0) = energy(&model, &mut data, &state);
+    let e0 = k0 + p0;
+
+    // The bar appears only on a terminal, and only once the run has lasted long enough to be
+    // worth watching.
+    let bar = ProgressBar::with_draw_target(Some(steps), ProgressDrawTarget::hidden());
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} step {pos}/{len} [{bar:40}] {percent}% {elapsed_precise} (eta {eta})",
+        )
+        .expect("valid progress template")
+        .progress_chars("=> "),
+    );
+    let show_bar = std::io::stderr().is_terminal() && steps >= 100;
+    let mut bar_visible = false;
+    let tick = (steps / 1000).max(1);
+
+    let start = Instant::now();
+    let mut in_steps = Duration::ZERO;
+    for k in 1..=steps {
+        let t0 = Instant::now();
+        let result = step(&model, &mut data, &mut state, method, integrator, dt);
+        in_steps += t0.elapsed();
+        let t = k as f64 * dt;
+        if let Err(e) = result {
+            bar.finish_and_clear();
+            if let Some(csv) = csv {
+                csv.finish()?;
+            }
+            return Err(CliError(format!(
+                "step {k} of {steps} (from t = {:?} s): {e}",
+                (k - 1) as f64 * dt
+            )));
+        }
+        if let Some(csv) = &mut csv {
+            csv.row(t, &state)?;
+        }
+        if k % tick == 0 {
+            if show_bar && !bar_visible && start.elapsed() > Duration::from_millis(500) {
+                bar.set_draw_target(ProgressDrawTarget::stderr());
+                bar_visible = true;
+            }
+            bar.set_position(k);
+        }
+    }
+    bar.finish_and_clear();
+    if let Some(csv) = csv {
+        csv.finish()?;
+    }
+    let (k1, p1) = energy(&model, &mut data, &state);
+    let e1 = k1 + p1;
+
+    let per_step_us = in_steps.as_secs_f64() * 1e6 / steps as f64;
+    let base = if model.floating_base {
+        "floating"
+    } else {
+        "fixed"
+    };
+    let mut lines = vec![
+        format!(
+            "model        {} ({} DOF, nq = {}, {base} base)",
+            model.name, model.nv, model.nq
+        ),
+        format!("method       {}", method.name()),
+        format!("integrator   {}", args.integrator.name()),
+        format!("steps        {steps}"),
+        format!("dt           {dt:?} s (t_end = {:?} s)", steps as f64 * dt),
+        format!(
+            "wall time    {per_step_us:.3} µs per step ({:.3} ms in steps, {:.3} ms in all)",
+            in_steps.as_secs_f64() * 1e3,
+            start.elapsed().as_secs_f64() * 1e3
+        ),
+        format!("energy start {e0:.9e} J (kinetic {k0:.6e}, potential {p0:.6e})"),
+        format!("energy end   {e1:.9e} J (kinetic {k1:.6e}, potential {p1:.6e})"),
+    ];
+    let drift = e1 - e0;
+    lines.push(if e0 != 0.0 {
+        format!(
+            "energy drift {:.3e} relative ((end - start) / |start|), {drift:.3e} J absolute",
+            drift / e0.abs()
+        )
+    } else {
+        format!("energy drift n/a relative (start energy is 0), {drift:.3e} J absolute")
+    });
+    if state.tau.iter().any(|&x| x != 0.0) {
+        lines.push(
+            "note         tau is not zero: the joint forces do work, energy need not be conserved"
+                .to_string(),
+        );
+    }
+    if let Some(path) = &args.out {
+        lines.push(format!(
+            "trajectory   {} ({} rows after the header: t = 0 and one per step)",
+            path.display(),
+            steps + 1
+        ));
+    }
+    let mut out = lines.join("\n");
+    out.push('\n');
+    print_out(&out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dt_must_be_positive_and_finite() {
+        assert_eq!(parse_dt("1e-3"), Ok(1e-3));
+        for bad in ["0", "-1e-3", "inf", "NaN", "x", ""] {
+            assert!(parse_dt(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn counts_are_positive_whole_numbers() {
+        assert_eq!(parse_count("1"), Ok(1));
+        assert_eq!(parse_count("1000000"), Ok(1_000_000));
+        for bad in ["0", "-3", "1.5", "x", "", "1e3"] {
+            assert!(parse_count(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn csv_fields_are_quoted_when_needed() {
+        assert_eq!(csv_field("joint1"), "joint1");
+        assert_eq!(csv_field("a,b"), "\"a,b\"");
+        assert_eq!(csv_field("a\"b"), "\"a\"\"b\"");
+    }
+}

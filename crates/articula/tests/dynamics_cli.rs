@@ -1,0 +1,506 @@
+//! End-to-end tests of `articula fd`, `simulate` and `bench`: the real binary on bundled models,
+//! state files written into a scratch directory.
+
+use articula_model::{LoadOptions, Model};
+use serde_json::Value;
+use std::ffi::OsStr;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn models_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../models")
+}
+
+fn model_path(name: &str) -> PathBuf {
+    models_dir().join(name)
+}
+
+fn articula<S: AsRef<OsStr>>(args: &[S]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_articula"))
+        .args(args)
+        .output()
+        .expect("cannot run the articula binary")
+}
+
+/// A scratch directory under the system temp dir, removed on drop.
+struct Scratch(PathBuf);
+
+impl Scratch {
+    fn new(test: &str) -> Scratch {
+        let dir = std::env::temp_dir().join(format!(
+            "articula-dynamics-cli-{}-{test}",
+            std::process::id()
+        ));
+        std::fs::create_dir_all(&dir).expect("cannot create a temp dir");
+        Scratch(dir)
+    }
+
+    fn file(&self, name: &str, contents: &str) -> PathBuf {
+        let path = self.0.join(name);
+        std::fs::write(&path, contents).expect("cannot write a temp file");
+        path
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn stdout(out: &Output) -> String {
+    assert!(
+        out.status.success(),
+        "articula failed with {}:\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout.clone()).expect("non-UTF-8 output")
+}
+
+/// The run failed as bad input: exit code 2 (not a panic's 101), `error:` on stderr.
+fn assert_bad_input(out: &Output, what: &str) -> String {
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "{what}: expected exit code 2, got {}; stderr:\n{stderr}",
+        out.status
+    );
+    assert!(
+        stderr.contains("error:"),
+        "{what}: no `error:` on stderr:\n{stderr}"
+    );
+    assert!(
+        !stderr.contains("panicked"),
+        "{what}: the binary panicked:\n{stderr}"
+    );
+    stderr
+}
+
+/// `articula fd MODEL [--state STATE] --method METHOD EXTRA...`: the parsed JSON and the joint
+/// names in the order printed.
+fn fd(model: &Path, state: Option<&Path>, method: &str, extra: &[&str]) -> (Value, Vec<String>) {
+    let mut args: Vec<&OsStr> = vec!["fd".as_ref(), model.as_os_str()];
+    if let Some(state) = state {
+        args.extend([OsStr::new("--state"), state.as_os_str()]);
+    }
+    args.extend([OsStr::new("--method"), OsStr::new(method)]);
+    args.extend(extra.iter().map(OsStr::new));
+    let text = stdout(&articula(&args));
+    let json: Value = serde_json::from_str(&text).expect("fd prints JSON");
+    assert_eq!(json["method"], method);
+    // Key order as printed (serde_json's Value sorts keys): one joint per line.
+    let order = text
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix('"'))
+        .filter_map(|l| l.split_once("\": ["))
+        .map(|(name, _)| name.to_string())
+        .collect();
+    (json, order)
+}
+
+/// `qdd` as (joint, values) in the order printed.
+fn qdd(json: &Value, order: &[String]) -> Vec<(String, Vec<f64>)> {
+    let map = json["qdd"].as_object().expect("qdd is an object");
+    assert_eq!(map.len(), order.len(), "every qdd entry on its own line");
+    order
+        .iter()
+        .map(|name| {
+            let values = map[name]
+                .as_array()
+                .expect("an array per joint")
+                .iter()
+                .map(|x| x.as_f64().expect("a number"))
+                .collect();
+            (name.clone(), values)
+        })
+        .collect()
+}
+
+/// Movable joints of a URDF, read from its text (independently of the model loader).
+fn urdf_movable_joints(path: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(path).unwrap();
+    text.split("<joint ")
+        .skip(1)
+        .filter(|j| !j.contains("type=\"fixed\""))
+        .map(|j| {
+            let start = j.find("name=\"").unwrap() + 6;
+            j[start..start + j[start..].find('"').unwrap()].to_string()
+        })
+        .collect()
+}
+
+fn load(path: &Path, floating_base: bool) -> Model {
+    Model::from_urdf_file(path, &LoadOptions { floating_base }).unwrap()
+}
+
+fn assert_close(a: &[(String, Vec<f64>)], b: &[(String, Vec<f64>)], tol: f64, what: &str) {
+    assert_eq!(a.len(), b.len(), "{what}");
+    for ((na, va), (nb, vb)) in a.iter().zip(b) {
+        assert_eq!(na, nb, "{what}");
+        assert_eq!(va.len(), vb.len(), "{what}: {na}");
+        for (x, y) in va.iter().zip(vb) {
+            assert!(
+                (x - y).abs() <= tol * x.abs().max(1.0),
+                "{what}: joint {na}: {x} vs {y}"
+            );
+        }
+    }
+}
+
+const HUMANOID_STATE: &str = r#"{
+  "q": {"l_hip_z": [0.1], "l_hip_x": [-0.2], "l_hip_y": [-0.6], "l_knee": [1.1],
+        "r_hip_y": [0.3], "r_knee": [0.4], "l_ankle_y": [0.2], "lumbar_x": [0.15],
+        "neck_z": [-0.3], "l_shoulder_x": [0.5], "l_elbow": [-0.8], "head_lidar_spin": [2.0]},
+  "qd": {"l_knee": [1.5], "l_hip_y": [-0.7], "r_shoulder_z": [0.9], "lumbar_z": [0.3],
+         "r_wrist_x": [-1.2]},
+  "tau": {"l_knee": [5.0], "r_hip_x": [-3.0], "l_toe": [0.2]}
+}"#;
+
+#[test]
+fn fd_humanoid_one_key_per_movable_joint_and_methods_agree() {
+    let scratch = Scratch::new("humanoid");
+    let state = scratch.file("state.json", HUMANOID_STATE);
+    let path = model_path("humanoid.urdf");
+    let model = load(&path, false);
+    let model_order: Vec<String> = model.joint_parts().map(|(_, p)| p.name.clone()).collect();
+    let mut urdf = urdf_movable_joints(&path);
+    assert_eq!(urdf.len(), 34);
+
+    let results: Vec<_> = ["dca", "aba", "crba"]
+        .iter()
+        .map(|m| {
+            let (json, order) = fd(&path, Some(&state), m, &[]);
+            assert_eq!(order, model_order, "{m}: joints in model coordinate order");
+            let mut keys = order.clone();
+            keys.sort();
+            urdf.sort();
+            assert_eq!(keys, urdf, "{m}: exactly the movable URDF joints");
+            let q = qdd(&json, &order);
+            assert!(q.iter().all(|(_, v)| v.len() == 1));
+            q
+        })
+        .collect();
+    assert_close(&results[0], &results[1], 1e-9, "dca vs aba");
+    assert_close(&results[0], &results[2], 1e-9, "dca vs crba");
+    // the state made a difference
+    assert!(results[0].iter().any(|(_, v)| v[0].abs() > 1.0));
+}
+
+#[test]
+fn fd_humanoid_floating_base() {
+    let scratch = Scratch::new("floating");
+    let state = scratch.file(
+        "state.json",
+        r#"{"q": {"floating_base": [0.1, -0.2, 1.0, 0.9, 0.1, -0.3, 0.2], "l_knee": [0.7]},
+            "qd": {"floating_base": [0.1, 0.2, -0.3, 0.5, 0.0, -0.1]}}"#,
+    );
+    let path = model_path("humanoid.urdf");
+    let (dca, order) = fd(&path, Some(&state), "dca", &["--floating-base"]);
+    assert_eq!(order.len(), 35);
+    assert_eq!(order[0], "floating_base");
+    let dca = qdd(&dca, &order);
+    assert_eq!(dca[0].1.len(), 6);
+    let (aba, order) = fd(&path, Some(&state), "aba", &["--floating-base"]);
+    assert_close(&dca, &qdd(&aba, &order), 1e-9, "floating dca vs aba");
+
+    // At rest in the neutral pose, nothing holds the body: it falls freely.
+    let (rest, order) = fd(&path, None, "dca", &["--floating-base"]);
+    let rest = qdd(&rest, &order);
+    let expected = [0.0, 0.0, 0.0, 0.0, 0.0, -9.81];
+    for (x, e) in rest[0].1.iter().zip(expected) {
+        assert!((x - e).abs() < 1e-9, "{:?}", rest[0]);
+    }
+    assert!(rest[1..].iter().all(|(_, v)| v[0].abs() < 1e-9), "{rest:?}");
+}
+
+#[test]
+fn fd_chain10_hangs_at_rest_and_swings_back() {
+    let scratch = Scratch::new("chain10");
+    let path = model_path("chain10.urdf");
+    let zero = scratch.file(
+        "zero.json",
+        r#"{"q": {"joint1": [0], "joint5": [0.0]}, "qd": {}, "tau": {}}"#,
+    );
+    for state in [None, Some(zero.as_path())] {
+        for method in ["dca", "aba", "crba"] {
+            let (json, order) = fd(&path, state, method, &[]);
+            let q = qdd(&json, &order);
+            assert_eq!(q.len(), 10);
+            assert!(
+                q.iter().all(|(_, v)| v.len() == 1 && v[0].abs() < 1e-12),
+                "{method}: hanging straight down at rest does not move: {q:?}"
+            );
+        }
+    }
+
+    // Joint 1 (axis y) turned by +0.5 rad: gravity turns it back, q̈₁ < 0.
+    let swung = scratch.file("swung.json", r#"{"q": {"joint1": [0.5]}}"#);
+    let (dca, order) = fd(&path, Some(&swung), "dca", &[]);
+    let dca = qdd(&dca, &order);
+    let (aba, order) = fd(&path, Some(&swung), "aba", &[]);
+    let aba = qdd(&aba, &order);
+    assert_eq!(dca[0].0, "joint1");
+    assert!(dca[0].1[0] < -1.0, "{dca:?}");
+    assert!(aba[0].1[0] < -1.0, "{aba:?}");
+    assert_close(&dca, &aba, 1e-8, "dca vs aba");
+
+    // At rest q̈ is linear in gravity: upside down it falls the other way, without it nothing.
+    let (up, order) = fd(&path, Some(&swung), "dca", &["--gravity", "0,0,9.81"]);
+    let up = qdd(&up, &order);
+    for ((_, a), (_, b)) in dca.iter().zip(&up) {
+        assert!(
+            (a[0] + b[0]).abs() <= 1e-9 * a[0].abs().max(1.0),
+            "{a:?} {b:?}"
+        );
+    }
+    let (none, order) = fd(&path, Some(&swung), "aba", &["--gravity", "0, 0, 0"]);
+    assert!(qdd(&none, &order).iter().all(|(_, v)| v[0] == 0.0));
+}
+
+/// `fd chain10 --state FILE` with the given state text.
+fn fd_with_state(scratch: &Scratch, text: &str) -> Output {
+    let state = scratch.file("bad.json", text);
+    articula(&[
+        "fd".as_ref(),
+        model_path("chain10.urdf").as_os_str(),
+        "--state".as_ref(),
+        state.as_os_str(),
+    ])
+}
+
+#[test]
+fn bad_state_files_are_bad_input() {
+    let scratch = Scratch::new("bad-state");
+    let cases: &[(&str, &[&str])] = &[
+        (r#"{"q": {"elbow": [0.5]}}"#, &["unknown joint 'elbow'"]),
+        (
+            r#"{"tau": {"joint3": [1, 2]}}"#,
+            &["joint3", "2 entries", "needs 1"],
+        ),
+        (r#"{"qd": {"joint2": []}}"#, &["joint2", "0 entries"]),
+        (r#"{"q": {"joint1": [0.5]"#, &["bad.json"]),
+        ("not json", &["bad.json"]),
+        ("", &["bad.json"]),
+        ("[]", &["expected a JSON object"]),
+        (r#"{"q": {"joint1": [NaN]}}"#, &["bad.json"]),
+        (
+            r#"{"q": {"joint1": ["0.5"]}}"#,
+            &["joint1", "expected a finite number"],
+        ),
+        (r#"{"q": {"joint1": [1e999]}}"#, &["joint1", "out of range"]),
+        (r#"{"q": {"joint1": 0.5}}"#, &["joint1", "array of numbers"]),
+        (r#"{"q": {}, "qdd": {}}"#, &["unknown field `qdd`"]),
+        (
+            r#"{"q": {"joint1": [1], "joint1": [2]}}"#,
+            &["joint1", "twice"],
+        ),
+        (
+            r#"{"q": {"floating_base": [0, 0, 0, 1, 0, 0, 0]}}"#,
+            &["unknown joint 'floating_base'"],
+        ),
+    ];
+    for (text, needles) in cases {
+        let stderr = assert_bad_input(&fd_with_state(&scratch, text), text);
+        for needle in *needles {
+            assert!(
+                stderr.contains(needle),
+                "{text}: stderr should contain {needle:?}:\n{stderr}"
+            );
+        }
+    }
+    let missing = scratch.0.join("missing.json");
+    let stderr = assert_bad_input(
+        &articula(&[
+            "fd".as_ref(),
+            model_path("chain10.urdf").as_os_str(),
+            "--state".as_ref(),
+            missing.as_os_str(),
+        ]),
+        "missing state file",
+    );
+    assert!(stderr.contains("missing.json"), "{stderr}");
+}
+
+#[test]
+fn floating_base_state_lengths_are_checked() {
+    let scratch = Scratch::new("floating-lengths");
+    let path = model_path("chain10.urdf");
+    for (text, needle) in [
+        (r#"{"q": {"floating_base": [0, 0, 0, 1, 0, 0]}}"#, "needs 7"),
+        (
+            r#"{"qd": {"floating_base": [0, 0, 0, 1, 0, 0, 0]}}"#,
+            "needs 6",
+        ),
+        (r#"{"tau": {"floating_base": [0]}}"#, "needs 6"),
+        (
+            r#"{"q": {"floating_base": [0, 0, 0, 0, 0, 0, 0]}}"#,
+            "quaternion",
+        ),
+    ] {
+        let state = scratch.file("fb.json", text);
+        let out = articula(&[
+            "fd".as_ref(),
+            path.as_os_str(),
+            "--floating-base".as_ref(),
+            "--state".as_ref(),
+            state.as_os_str(),
+        ]);
+        let stderr = assert_bad_input(&out, text);
+        assert!(stderr.contains("floating_base"), "{text}: {stderr}");
+        assert!(stderr.contains(needle), "{text}: {stderr}");
+    }
+}
+
+#[test]
+fn bad_arguments_are_bad_input() {
+    let chain = model_path("chain10.urdf");
+    let chain = chain.to_str().unwrap();
+    for args in [
+        &["fd", chain, "--gravity", "0,0"][..],
+        &["fd", chain, "--gravity", "0,0,x"],
+        &["fd", chain, "--gravity", "0,0,inf"],
+        &["fd", chain, "--method", "rnea"],
+        &["simulate", chain, "--steps", "0", "--dt", "1e-3"],
+        &["simulate", chain, "--steps", "-5", "--dt", "1e-3"],
+        &["simulate", chain, "--steps", "10", "--dt", "0"],
+        &["simulate", chain, "--steps", "10", "--dt", "-1e-3"],
+        &["simulate", chain, "--steps", "10", "--dt", "NaN"],
+        &["simulate", chain, "--steps", "10", "--dt", "inf"],
+        &["simulate", chain, "--steps", "10"],
+        &[
+            "simulate",
+            chain,
+            "--steps",
+            "10",
+            "--dt",
+            "1e-3",
+            "--integrator",
+            "verlet",
+        ],
+        &["bench", chain, "--reps", "0"],
+    ] {
+        assert_bad_input(&articula(args), &args.join(" "));
+    }
+}
+
+#[test]
+fn simulate_chain10_rk4_reports_drift_and_writes_csv() {
+    let scratch = Scratch::new("simulate");
+    let state = scratch.file(
+        "state.json",
+        r#"{"q": {"joint1": [0.5], "joint4": [-0.2]}}"#,
+    );
+    let csv = scratch.0.join("traj.csv");
+    let out = articula(&[
+        "simulate".as_ref(),
+        model_path("chain10.urdf").as_os_str(),
+        "--steps".as_ref(),
+        "100".as_ref(),
+        "--dt".as_ref(),
+        "1e-3".as_ref(),
+        "--integrator".as_ref(),
+        "rk4".as_ref(),
+        "--state".as_ref(),
+        state.as_os_str(),
+        "--out".as_ref(),
+        csv.as_os_str(),
+    ]);
+    let summary = stdout(&out);
+    for needle in [
+        "chain10",
+        "method       dca",
+        "rk4",
+        "steps        100",
+        "µs per step",
+        "energy start",
+        "energy end",
+    ] {
+        assert!(summary.contains(needle), "{needle:?} missing:\n{summary}");
+    }
+    let drift_line = summary
+        .lines()
+        .find(|l| l.starts_with("energy drift"))
+        .unwrap_or_else(|| panic!("no drift line:\n{summary}"));
+    let drift: f64 = drift_line
+        .split_whitespace()
+        .nth(2)
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(drift.abs() < 1e-4, "{drift_line}");
+
+    // Header, then t = 0 and one row per step: 101 rows.
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 1 + 101);
+    let header: Vec<&str> = lines[0].split(',').collect();
+    assert_eq!(header.len(), 1 + 10 + 10);
+    assert_eq!(header[0], "t");
+    assert_eq!(header[1], "joint1");
+    assert_eq!(header[11], "qd:joint1");
+    let row = |i: usize| -> Vec<f64> {
+        lines[i]
+            .split(',')
+            .map(|x| x.parse().expect("a number"))
+            .collect()
+    };
+    let first = row(1);
+    assert_eq!(first.len(), 21);
+    assert_eq!(
+        (first[0], first[1], first[4], first[11]),
+        (0.0, 0.5, -0.2, 0.0)
+    );
+    let last = row(101);
+    assert!((last[0] - 0.1).abs() < 1e-12);
+    assert!(last[1] < 0.5, "joint1 swings back: {}", last[1]);
+    assert!(last[11] < 0.0, "joint1 moves back: {}", last[11]);
+}
+
+#[test]
+fn simulate_failure_names_the_step() {
+    let scratch = Scratch::new("simulate-fail");
+    let state = scratch.file("state.json", r#"{"tau": {"joint1": [1e300]}}"#);
+    let out = articula(&[
+        "simulate".as_ref(),
+        model_path("chain10.urdf").as_os_str(),
+        "--steps".as_ref(),
+        "10".as_ref(),
+        "--dt".as_ref(),
+        "1e-3".as_ref(),
+        "--state".as_ref(),
+        state.as_os_str(),
+    ]);
+    let stderr = assert_bad_input(&out, "diverging simulation");
+    assert!(
+        stderr.contains("step ") && stderr.contains(" of 10"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("non-finite"), "{stderr}");
+}
+
+#[test]
+fn bench_prints_time_per_call() {
+    let chain = model_path("chain10.urdf");
+    for method in ["dca", "aba"] {
+        let out = stdout(&articula(&[
+            "bench",
+            chain.to_str().unwrap(),
+            "--method",
+            method,
+            "--reps",
+            "200",
+        ]));
+        assert!(out.contains(&format!("method={method}")), "{out}");
+        assert!(out.contains("dof=10"), "{out}");
+        assert!(out.contains("reps=200"), "{out}");
+        let us: f64 = out
+            .split_whitespace()
+            .find_map(|w| w.strip_prefix("us_per_call="))
+            .unwrap_or_else(|| panic!("no us_per_call= in {out}"))
+            .parse()
+            .unwrap();
+        assert!(us > 0.0 && us.is_finite(), "{out}");
+    }
+}
