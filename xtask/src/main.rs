@@ -1,6 +1,7 @@
 //! Project automation tasks, run via `cargo xtask <subcommand>`.
 
 mod models;
+mod snapshots;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -9,13 +10,17 @@ const USAGE: &str = "\
 usage: cargo xtask <subcommand>
 
 subcommands:
-    models    regenerate the URDF test/benchmark models in models/
+    models                  regenerate the URDF test/benchmark models in models/
+    snapshots [--accept]    run the snapshot tests of `articula info` (INSTA_UPDATE=no);
+                            with --accept, rewrite the changed .snap files
+                            (INSTA_UPDATE=always) and list them with git status
 ";
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
         Some("models") => run(models::run(&workspace_root().join("models"))),
+        Some("snapshots") => run(snapshots::run(&workspace_root(), &args[1..])),
         Some("-h" | "--help" | "help") => {
             print!("{USAGE}");
             ExitCode::SUCCESS
