@@ -71,6 +71,9 @@ pub(crate) struct DcaData {
     pub vs: Vec<SpatialForce>,
     /// Per joint (= body): `D⁻¹ = (Sᵀ V S)⁻¹`.
     pub dinv: Vec<SmallSpd>,
+    /// Per joint h: the point P_h (origin of body h, computation frame) about which every
+    /// handle-h vector is taken.
+    pub point: Vec<DVec3>,
     /// Scratch: `Φ_hj W` for each handle h of the node being joined.
     pub t: Vec<Mat6>,
 }
@@ -171,6 +174,7 @@ impl Data {
                 gamma: vec![SpatialForce::ZERO; nn],
                 vs: vec![SpatialForce::ZERO; nv],
                 dinv: vec![SmallSpd::default(); n],
+                point: vec![DVec3::ZERO; n],
                 t: vec![Mat6::ZERO; max_h],
             },
             aba: AbaData {

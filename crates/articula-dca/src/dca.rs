@@ -9,7 +9,22 @@
 use crate::data::Side;
 use crate::{Data, DynamicsError};
 use articula_model::{Model, NodeKind};
-use articula_spatial::{Mat6, SpatialForce, SpatialMotion, SymMat6};
+use articula_spatial::{skew, Mat6, SpatialForce, SpatialMotion, SymMat6};
+use glam::{DMat3, DVec3};
+
+/// The 6×6 matrix `[tl tr; bl br]`.
+fn block6(tl: DMat3, tr: DMat3, bl: DMat3, br: DMat3) -> Mat6 {
+    let mut m = [[0.0; 6]; 6];
+    for i in 0..3 {
+        for k in 0..3 {
+            m[i][k] = tl.col(k)[i];
+            m[i][k + 3] = tr.col(k)[i];
+            m[i + 3][k] = bl.col(k)[i];
+            m[i + 3][k + 3] = br.col(k)[i];
+        }
+    }
+    Mat6(m)
+}
 
 /// Runs DCA on the kinematics already in `data` (see [`crate::forward_kinematics`]); writes
 /// `data.qdd`.
@@ -37,7 +52,13 @@ fn main_pass(
     data: &mut Data,
 ) -> Result<(), DynamicsError> {
     let tree = &model.assembly;
-    let a_g = SpatialMotion::new(glam::DVec3::ZERO, data.gravity);
+    let a_g = SpatialMotion::new(DVec3::ZERO, data.gravity);
+    // Each handle (joint h) keeps its vectors about its own point P_h, the origin of body h:
+    // far from the computation origin the blocks would otherwise lose digits (a 100,000-link
+    // chain reaches 10 km).
+    for (h, x) in data.x.iter().enumerate() {
+        data.dca.point[h] = x.apply_point(DVec3::ZERO);
+    }
     for (n, node) in tree.nodes.iter().enumerate() {
         let nh = node.handles.len();
         let (ho, bo) = (data.dca.hoff[n], data.dca.boff[n]);
@@ -52,23 +73,46 @@ fn main_pass(
                 }
             }
             // Leaf: Φ_hk = I⁻¹ for every handle pair, b = a_g + I⁻¹ (f_ext − v ×* I v).
+            // Leaf (DESIGN §5): Φ_hk = I⁻¹, b_h = a_g + I⁻¹ (f_ext − v ×* I v), each handle's
+            // rows and columns taken at its own point P_h. About the centre of mass c, where
+            // I = diag(I_c, m 1): with a = c − P_h, e = c − P_k, J = I_c⁻¹,
+            // Φ_hk = [J, −J e×; a× J, −a× J e× + 1/m].
             NodeKind::Body(i) => {
-                let inertia = &data.inertia[i];
-                let inv = inertia.inverse().ok_or_else(|| DynamicsError::Singular {
-                    joint: model.bodies[i].joint_name(),
-                    detail: "the body's spatial inertia is not positive definite",
-                })?;
-                let v = data.v[i];
-                let bias = a_g
-                    + inv.force_to_motion(
-                        crate::f_ext_of(f_ext, i) - v.cross_force(inertia.mul_motion(v)),
-                    );
-                let m: Mat6 = inv.into();
-                for k in 0..nh * nh {
-                    data.dca.phi[bo + k] = m;
+                let body = &model.bodies[i];
+                let (rot, _) = data.x[i].to_pose();
+                let c = data.x[i].apply_point(body.inertia.com());
+                let ic_body = body.inertia.inertia_about_com();
+                let m = body.inertia.mass;
+                if m.is_nan() || m <= 0.0 || ic_body.determinant() <= 0.0 {
+                    return Err(DynamicsError::Singular {
+                        joint: body.joint_name(),
+                        detail: "the body's spatial inertia is not positive definite",
+                    });
                 }
-                for k in 0..nh {
-                    data.dca.b[ho + k] = bias;
+                let j = rot * ic_body.inverse() * rot.transpose();
+                let ic = rot * ic_body * rot.transpose();
+                // Net force about c: f_ext − v ×* I v, with v_c the velocity of the point at c.
+                let v = data.v[i];
+                let v_c = v.v + v.w.cross(c);
+                let fe = crate::f_ext_of(f_ext, i);
+                let n_c = fe.n - c.cross(fe.f) - v.w.cross(ic * v.w);
+                let f_c = fe.f - v.w.cross(v_c) * m;
+                let acc_w = j * n_c;
+                let acc_c = f_c / m;
+                let node_handles = &tree.nodes[n].handles;
+                for (h, &jh) in node_handles.iter().enumerate() {
+                    let ah = c - data.dca.point[jh];
+                    let axj = skew(ah) * j;
+                    for (k, &jk) in node_handles.iter().enumerate() {
+                        let ek = skew(c - data.dca.point[jk]);
+                        let tl = j;
+                        let tr = -(j * ek);
+                        let bl = axj;
+                        let br = -(axj * ek) + DMat3::from_diagonal(DVec3::splat(1.0 / m));
+                        data.dca.phi[bo + h * nh + k] = block6(tl, tr, bl, br);
+                    }
+                    // b at P_h: [α; a_c + α × (P_h − c)] + a_g
+                    data.dca.b[ho + h] = a_g + SpatialMotion::new(acc_w, acc_c + acc_w.cross(-ah));
                 }
             }
             NodeKind::Join {
@@ -104,17 +148,24 @@ fn join(
         detail: "Φ_jj^A + Φ_jj^B is not positive definite",
     })?;
     let v = refine(&sum, &v);
-    // V S, D = Sᵀ V S, D⁻¹
+    // S and c at the joint's point P_j.
+    let pj = d.point[joint];
+    let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj));
     let (vo, k) = (body.v_offset, body.nv);
+    let mut sj = [SpatialMotion::ZERO; 6];
+    for p in 0..k {
+        sj[p] = shift(data.s[vo + p]);
+    }
+    // V S, D = Sᵀ V S, D⁻¹
     let mut dm = crate::small::SmallSpd {
         k,
         a: [[0.0; 6]; 6],
     };
     for p in 0..k {
-        let vs = v.motion_to_force(data.s[vo + p]);
+        let vs = v.motion_to_force(sj[p]);
         d.vs[vo + p] = vs;
         for q in 0..=p {
-            let x = data.s[vo + q].dot(vs);
+            let x = sj[q].dot(vs);
             dm.a[p][q] = x;
             dm.a[q][p] = x;
         }
@@ -142,7 +193,7 @@ fn join(
         }
     }
     // β = b_j^A − b_j^B + c,  γ = W β + V S D⁻¹ Q
-    let beta = d.b[d.hoff[a] + ja] - d.b[d.hoff[b] + jb] + data.c[joint];
+    let beta = d.b[d.hoff[a] + ja] - d.b[d.hoff[b] + jb] + shift(data.c[joint]);
     let mut gamma = w.motion_to_force(beta);
     let mut dq = [0.0; 6];
     dm.mul(&tau[vo..vo + k], &mut dq);

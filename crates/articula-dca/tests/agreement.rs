@@ -4,15 +4,14 @@
 use articula_dca::{forward_dynamics, Data, Method, State};
 use articula_model::{LoadOptions, Model};
 
-// Relative agreement (max |difference| / max |q̈|) demanded of DCA, ABA and CRBA. DESIGN asks
-// for ~1e-10; short chains and the humanoid meet it. Long chains and the plant are
-// ill-conditioned (the largest q̈ dwarfs the rest; measured worst cases: chain100 floating
-// 1.2e-7, plant 1.6e-7, chain300 2.7e-8, rope 2.6e-9): their bounds sit a little above the
-// measured figures so that a regression still fails. Which method carries the error is for the
-// high-precision study of the stability issue.
-const TOL: f64 = 1e-10;
-const TOL_LONG: f64 = 1e-6;
-const TOL_ROPE: f64 = 1e-8;
+// Relative agreement (max |difference| / max |q̈|) demanded between DCA and ABA, and between
+// DCA and CRBA. DESIGN asks for ~1e-10. DCA and ABA meet it on every model (worst measured:
+// chain300 1.6e-10). CRBA solves H q̈ = τ − C, whose error grows with the condition number of
+// H: on long chains it is the one that drifts (measured: chain100 2.9e-10, chain300 2.7e-8),
+// so its bound there is looser; the bounds sit just above the measured figures so that a
+// regression still fails.
+const TOL: f64 = 2e-10;
+const TOL_CRBA_LONG: f64 = 1e-7;
 
 fn models_dir() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models")
@@ -26,7 +25,8 @@ fn max_rel_diff(a: &[f64], b: &[f64]) -> f64 {
         / scale
 }
 
-fn check(name: &str, floating_base: bool, states: u64, tol: f64) {
+fn check(name: &str, floating_base: bool, states: u64, tol_crba: f64) {
+    let tol = TOL;
     let model = Model::from_urdf_file(
         models_dir().join(format!("{name}.urdf")),
         &LoadOptions { floating_base },
@@ -34,6 +34,7 @@ fn check(name: &str, floating_base: bool, states: u64, tol: f64) {
     .unwrap();
     let mut data = Data::new(&model);
     let mut worst = 0.0f64;
+    let (mut w_aba, mut w_crba) = (0.0f64, 0.0f64);
     for seed in 0..states {
         let mut s = State::random(&model, seed, 1.0);
         if seed % 2 == 1 {
@@ -74,12 +75,14 @@ fn check(name: &str, floating_base: bool, states: u64, tol: f64) {
         .to_vec();
         let (e1, e2) = (max_rel_diff(&dca, &aba), max_rel_diff(&dca, &crba));
         worst = worst.max(e1).max(e2);
+        w_aba = w_aba.max(e1);
+        w_crba = w_crba.max(e2);
         assert!(
-            e1 < tol && e2 < tol,
+            e1 < tol && e2 < tol_crba,
             "{name} floating={floating_base} seed {seed}: dca-aba {e1:e}, dca-crba {e2:e}"
         );
     }
-    eprintln!("{name} floating={floating_base}: worst relative difference {worst:e} over {states} states (tolerance {tol:e})");
+    eprintln!("{name} floating={floating_base}: worst relative difference {worst:e} (dca-aba {w_aba:e}, dca-crba {w_crba:e}) over {states} states (tolerances {tol:e}, crba {tol_crba:e})");
 }
 
 #[test]
@@ -87,14 +90,14 @@ fn chains_agree() {
     check("chain10", false, 20, TOL);
     check("chain10", true, 20, TOL);
     check("chain30", false, 20, TOL);
-    check("chain30", true, 20, TOL_ROPE);
-    check("chain100", false, 20, TOL_ROPE);
-    check("chain100", true, 20, TOL_LONG);
+    check("chain30", true, 20, TOL);
+    check("chain100", false, 20, TOL_CRBA_LONG);
+    check("chain100", true, 20, TOL_CRBA_LONG);
 }
 
 #[test]
 fn chain300_agrees() {
-    check("chain300", false, 20, TOL_LONG);
+    check("chain300", false, 20, TOL_CRBA_LONG);
 }
 
 #[test]
@@ -105,12 +108,12 @@ fn humanoid_agrees() {
 
 #[test]
 fn plant_agrees() {
-    check("plant", false, 20, TOL_LONG);
-    check("plant", true, 20, TOL_LONG);
+    check("plant", false, 20, TOL);
+    check("plant", true, 20, TOL);
 }
 
 #[test]
 fn rope_agrees() {
-    check("rope", false, 20, TOL_ROPE);
-    check("rope", true, 20, TOL_ROPE);
+    check("rope", false, 20, TOL);
+    check("rope", true, 20, TOL);
 }
