@@ -25,6 +25,33 @@ pub(crate) fn aba(
     for i in (0..n).rev() {
         let body = &model.bodies[i];
         let (vo, k) = (body.v_offset, body.nv);
+        if k == 1 {
+            // One DOF (the common case): U = Iᴬ s, D = sᵀU scalar.
+            let s = data.s[vo];
+            let u = data.aba.ia[i].motion_to_force(s);
+            let d = s.dot(u);
+            if d.is_nan() || d <= 0.0 {
+                return Err(DynamicsError::Singular {
+                    joint: body.joint_name(),
+                    detail: "Sᵀ Iᴬ S is not positive definite",
+                });
+            }
+            let dinv = 1.0 / d;
+            let uu = tau[vo] - s.dot(data.aba.pa[i]);
+            data.aba.u[vo] = u;
+            data.aba.uu[vo] = uu;
+            data.aba.dinv[i].k = 1;
+            data.aba.dinv[i].a[0][0] = dinv;
+            let Some(parent) = body.parent else { continue };
+            // pᵃ = pᴬ + Iᵃ c + U D⁻¹ u with Iᵃ c = Iᴬ c − U (Uᵀc) / D
+            let c = data.c[i];
+            let pa =
+                data.aba.pa[i] + data.aba.ia[i].motion_to_force(c) + u * (dinv * (uu - c.dot(u)));
+            data.aba.pa[parent] += pa;
+            let (lo, hi) = data.aba.ia.split_at_mut(i);
+            lo[parent].add_sub_outer(&hi[0], &u.to_array(), dinv);
+            continue;
+        }
         let ia = data.aba.ia[i];
         let mut dm = crate::small::SmallSpd {
             k,
@@ -68,7 +95,7 @@ pub(crate) fn aba(
             pa += data.aba.u[vo + p] * du[p];
         }
         pa += ia_a.motion_to_force(data.c[i]);
-        data.aba.ia[parent] = data.aba.ia[parent] + ia_a;
+        data.aba.ia[parent].add_assign(&ia_a);
         data.aba.pa[parent] += pa;
     }
     // Pass 3, root to leaves: a' = a_parent + c, q̈ = D⁻¹ (u − Uᵀ a'), a = a' + S q̈.

@@ -63,19 +63,21 @@ pub(crate) struct DcaData {
     pub b: Vec<SpatialMotion>,
     /// Handle forces per handle (back-substitution).
     pub f: Vec<SpatialForce>,
-    /// Per join node: W, β, γ.
-    pub w: Vec<SymMat6>,
+    /// Per join node: the Cholesky factor L of `Φ^A_jj + Φ^B_jj = V⁻¹`, and β.
+    pub l: Vec<[[f64; 6]; 6]>,
     pub beta: Vec<SpatialMotion>,
-    pub gamma: Vec<SpatialForce>,
-    /// Per degree of freedom: the column of `V S` (a force).
-    pub vs: Vec<SpatialForce>,
+    /// Per degree of freedom: the column of `Z = L⁻¹ S`.
+    pub z: Vec<[f64; 6]>,
     /// Per joint (= body): `D⁻¹ = (Sᵀ V S)⁻¹`.
     pub dinv: Vec<SmallSpd>,
     /// Per joint h: the point P_h (origin of body h, computation frame) about which every
     /// handle-h vector is taken.
     pub point: Vec<DVec3>,
-    /// Scratch: `Φ_hj W` for each handle h of the node being joined.
-    pub t: Vec<Mat6>,
+    /// Scratch per handle of the node being joined: `Y_h = Φ_hj L⁻ᵀ`, `P_h = Y_h Z`,
+    /// `R_h = P_h D⁻¹` (first k columns).
+    pub y: Vec<Mat6>,
+    pub pz: Vec<Mat6>,
+    pub rz: Vec<Mat6>,
 }
 
 /// ABA buffers.
@@ -169,13 +171,14 @@ impl Data {
                 phi: vec![Mat6::ZERO; blk],
                 b: vec![SpatialMotion::ZERO; h],
                 f: vec![SpatialForce::ZERO; h],
-                w: vec![SymMat6::ZERO; nn],
+                l: vec![[[0.0; 6]; 6]; nn],
                 beta: vec![SpatialMotion::ZERO; nn],
-                gamma: vec![SpatialForce::ZERO; nn],
-                vs: vec![SpatialForce::ZERO; nv],
+                z: vec![[0.0; 6]; nv],
                 dinv: vec![SmallSpd::default(); n],
                 point: vec![DVec3::ZERO; n],
-                t: vec![Mat6::ZERO; max_h],
+                y: vec![Mat6::ZERO; max_h],
+                pz: vec![Mat6::ZERO; max_h],
+                rz: vec![Mat6::ZERO; max_h],
             },
             aba: AbaData {
                 ia: vec![SymMat6::ZERO; n],

@@ -125,7 +125,71 @@ fn main_pass(
     Ok(())
 }
 
-/// Joins A and B at `joint` into node `n` (DESIGN §5, general handle count).
+/// Cholesky factor `L` (lower) of a symmetric positive definite 6×6 matrix, `None` when a
+/// pivot is not positive.
+#[inline]
+fn cholesky(m: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
+    let mut l = [[0.0f64; 6]; 6];
+    for j in 0..6 {
+        let mut d = m[j][j];
+        for p in 0..j {
+            d -= l[j][p] * l[j][p];
+        }
+        if d.is_nan() || d <= 0.0 {
+            return None;
+        }
+        let ljj = d.sqrt();
+        l[j][j] = ljj;
+        let inv = 1.0 / ljj;
+        for i in (j + 1)..6 {
+            let mut x = m[i][j];
+            for p in 0..j {
+                x -= l[i][p] * l[j][p];
+            }
+            l[i][j] = x * inv;
+        }
+    }
+    Some(l)
+}
+
+/// `L⁻¹ b` (forward substitution).
+#[inline]
+fn solve_l(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
+    let mut x = [0.0; 6];
+    for i in 0..6 {
+        let mut v = b[i];
+        for p in 0..i {
+            v -= l[i][p] * x[p];
+        }
+        x[i] = v / l[i][i];
+    }
+    x
+}
+
+/// `L⁻ᵀ b` (back substitution).
+#[inline]
+fn solve_lt(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
+    let mut x = [0.0; 6];
+    for i in (0..6).rev() {
+        let mut v = b[i];
+        for p in (i + 1)..6 {
+            v -= l[p][i] * x[p];
+        }
+        x[i] = v / l[i][i];
+    }
+    x
+}
+
+#[inline]
+fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
+}
+
+/// Joins A and B at `joint` into node `n` (DESIGN §5, any handle count), through the
+/// Cholesky factor of `Φ^A_jj + Φ^B_jj = L Lᵀ` so that V and W never appear explicitly:
+/// with `Z = L⁻¹ S`, `D = ZᵀZ`, `Y_h = Φ_hj L⁻ᵀ` and `P_h = Y_h Z`,
+/// `Φ_hj W Φ_jk = Y_h Y_kᵀ − P_h D⁻¹ P_kᵀ`, and `γ = W β + V S D⁻¹ Q
+/// = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − Q))` with `w = L⁻¹ β`.
 fn join(
     model: &Model,
     tau: &[f64],
@@ -141,31 +205,25 @@ fn join(
     let nhc = tree.nodes[n].handles.len();
     let d = &mut data.dca;
     let (ja, jb) = (d.ja[n], d.jb[n]);
-    // V = (Φ_jj^A + Φ_jj^B)⁻¹
-    let sum = SymMat6::from_mat6(&(*phi(d, a, nha, ja, ja) + *phi(d, b, nhb, jb, jb)));
-    let v = sum.inverse_spd().ok_or_else(|| DynamicsError::Singular {
+    // L Lᵀ = Φ^A_jj + Φ^B_jj
+    let sum = (*phi(d, a, nha, ja, ja) + *phi(d, b, nhb, jb, jb)).0;
+    let l = cholesky(&sum).ok_or_else(|| DynamicsError::Singular {
         joint: body.joint_name(),
         detail: "Φ_jj^A + Φ_jj^B is not positive definite",
     })?;
-    let v = refine(&sum, &v);
-    // S and c at the joint's point P_j.
+    // S and c at the joint's point P_j; Z = L⁻¹ S, D = Zᵀ Z.
     let pj = d.point[joint];
     let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj));
     let (vo, k) = (body.v_offset, body.nv);
-    let mut sj = [SpatialMotion::ZERO; 6];
-    for p in 0..k {
-        sj[p] = shift(data.s[vo + p]);
-    }
-    // V S, D = Sᵀ V S, D⁻¹
     let mut dm = crate::small::SmallSpd {
         k,
         a: [[0.0; 6]; 6],
     };
     for p in 0..k {
-        let vs = v.motion_to_force(sj[p]);
-        d.vs[vo + p] = vs;
+        let z = solve_l(&l, &shift(data.s[vo + p]).to_array());
+        d.z[vo + p] = z;
         for q in 0..=p {
-            let x = sj[q].dot(vs);
+            let x = dot6(&d.z[vo + q], &z);
             dm.a[p][q] = x;
             dm.a[q][p] = x;
         }
@@ -177,56 +235,78 @@ fn join(
         });
     }
     d.dinv[joint] = dm;
-    // W = V − V S D⁻¹ Sᵀ V
-    let mut w = v;
+    d.l[n] = l;
+    // β = b_j^A − b_j^B + c;  γ = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − Q)),  w = L⁻¹ β
+    let beta = d.b[d.hoff[a] + ja] - d.b[d.hoff[b] + jb] + shift(data.c[joint]);
+    d.beta[n] = beta;
+    let mut w = solve_l(&l, &beta.to_array());
+    let mut t = [0.0; 6];
     for p in 0..k {
-        for q in 0..k {
-            let x = dm.a[p][q];
-            if x != 0.0 {
-                let (u, z) = (d.vs[vo + p].to_array(), d.vs[vo + q].to_array());
-                w = if p == q {
-                    w.sub_outer(&u, x)
-                } else {
-                    SymMat6::from_mat6(&(*w.as_mat6() - Mat6::outer(&u, &z) * x))
-                };
-            }
+        t[p] = dot6(&d.z[vo + p], &w) - tau[vo + p];
+    }
+    let mut r = [0.0; 6];
+    dm.mul(&t[..k], &mut r[..k]);
+    for p in 0..k {
+        let z = d.z[vo + p];
+        for i in 0..6 {
+            w[i] -= z[i] * r[p];
         }
     }
-    // β = b_j^A − b_j^B + c,  γ = W β + V S D⁻¹ Q
-    let beta = d.b[d.hoff[a] + ja] - d.b[d.hoff[b] + jb] + shift(data.c[joint]);
-    let mut gamma = w.motion_to_force(beta);
-    let mut dq = [0.0; 6];
-    dm.mul(&tau[vo..vo + k], &mut dq);
-    for p in 0..k {
-        gamma += d.vs[vo + p] * dq[p];
-    }
-    d.w[n] = w;
-    d.beta[n] = beta;
-    d.gamma[n] = gamma;
-    // T_h = Φ_hj W for each handle h of C (from A or B).
+    let gamma = SpatialForce::from_array(solve_lt(&l, &w));
+    // Y_h = Φ_hj L⁻ᵀ (row by row), P_h = Y_h Z, R_h = P_h D⁻¹.
     let (hc, bc) = (d.hoff[n], d.boff[n]);
     for h in 0..nhc {
         let (side, i) = d.from[hc + h];
-        let p = match side {
+        let g = match side {
             Side::A => phi(d, a, nha, i, ja),
             Side::B => phi(d, b, nhb, i, jb),
         };
-        d.t[h] = p.mul_mat(w.as_mat6());
+        let mut y = [[0.0; 6]; 6];
+        for row in 0..6 {
+            y[row] = solve_l(&l, &g.0[row]);
+        }
+        let mut pm = [[0.0; 6]; 6];
+        let mut rm = [[0.0; 6]; 6];
+        if k == 1 {
+            let (z, dinv) = (&d.z[vo], dm.a[0][0]);
+            for row in 0..6 {
+                let p = dot6(&y[row], z);
+                pm[row][0] = p;
+                rm[row][0] = p * dinv;
+            }
+        } else {
+            for row in 0..6 {
+                for p in 0..k {
+                    pm[row][p] = dot6(&y[row], &d.z[vo + p]);
+                }
+                dm.mul(&pm[row][..k], &mut rm[row][..k]);
+            }
+        }
+        d.y[h] = Mat6(y);
+        d.pz[h] = Mat6(pm);
+        d.rz[h] = Mat6(rm);
     }
-    // Φ^C blocks: same side  Φ_hk − T_h Φ_jk ; across  T_h Φ_jk (of the other side).
+    // Φ^C blocks: same side Φ_hk − (Y_h Y_kᵀ − R_h P_kᵀ); across +(Y_h Y_kᵀ − R_h P_kᵀ).
     for h in 0..nhc {
         let (sh, ih) = d.from[hc + h];
         for kk in h..nhc {
             let (sk, ik) = d.from[hc + kk];
+            // m = Y_h Y_kᵀ − R_h P_kᵀ
+            let mut m = Mat6::ZERO;
+            let (yh, yk, rh, pk) = (&d.y[h].0, &d.y[kk].0, &d.rz[h].0, &d.pz[kk].0);
+            for row in 0..6 {
+                for col in 0..6 {
+                    let mut x = dot6(&yh[row], &yk[col]);
+                    for p in 0..k {
+                        x -= rh[row][p] * pk[col][p];
+                    }
+                    m.0[row][col] = x;
+                }
+            }
             let blk = match (sh, sk) {
-                (Side::A, Side::A) => {
-                    *phi(d, a, nha, ih, ik) - d.t[h].mul_mat(phi(d, a, nha, ja, ik))
-                }
-                (Side::B, Side::B) => {
-                    *phi(d, b, nhb, ih, ik) - d.t[h].mul_mat(phi(d, b, nhb, jb, ik))
-                }
-                (Side::A, Side::B) => d.t[h].mul_mat(phi(d, b, nhb, jb, ik)),
-                (Side::B, Side::A) => d.t[h].mul_mat(phi(d, a, nha, ja, ik)),
+                (Side::A, Side::A) => *phi(d, a, nha, ih, ik) - m,
+                (Side::B, Side::B) => *phi(d, b, nhb, ih, ik) - m,
+                _ => m,
             };
             if h == kk {
                 d.phi[bc + h * nhc + h] = *SymMat6::from_mat6(&blk).as_mat6();
@@ -244,8 +324,9 @@ fn join(
     Ok(())
 }
 
-/// Top-down: `q̈ = D⁻¹ (Q − Sᵀ V y)`, `f = W (y − β) + γ` with
-/// `y = β + Σ_{k∈A} Φ^A_jk f_k − Σ_{k∈B} Φ^B_jk f_k` over C's handle forces.
+/// Top-down: with `y = β + Σ_{k∈A} Φ^A_jk f_k − Σ_{k∈B} Φ^B_jk f_k` over C's handle forces
+/// and `w = L⁻¹ y`: `q̈ = D⁻¹ (Q − Zᵀ w)` (= `D⁻¹ (Q − Sᵀ V y)`) and the joint force
+/// `f = L⁻ᵀ (w + Z q̈)` (= `W y + V S D⁻¹ Q`).
 fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
     let tree = &model.assembly;
     for n in (0..tree.nodes.len()).rev() {
@@ -274,12 +355,20 @@ fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
         }
         let body = &model.bodies[joint];
         let (vo, k) = (body.v_offset, body.nv);
+        let l = &d.l[n];
+        let mut w = solve_l(l, &y.to_array());
         let mut r = [0.0; 6];
         for p in 0..k {
-            r[p] = tau[vo + p] - y.dot(d.vs[vo + p]);
+            r[p] = tau[vo + p] - dot6(&d.z[vo + p], &w);
         }
         d.dinv[joint].mul(&r[..k], &mut data.qdd[vo..vo + k]);
-        let f = d.w[n].motion_to_force(y - d.beta[n]) + d.gamma[n];
+        for p in 0..k {
+            let (z, qdd) = (d.z[vo + p], data.qdd[vo + p]);
+            for i in 0..6 {
+                w[i] += z[i] * qdd;
+            }
+        }
+        let f = SpatialForce::from_array(solve_lt(l, &w));
         let (hoa, hob) = (d.hoff[a], d.hoff[b]);
         for h in 0..nhc {
             let fh = d.f[hc + h];
@@ -291,10 +380,4 @@ fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
         d.f[hoa + ja] = -f;
         d.f[hob + jb] = f;
     }
-}
-
-/// One step of iterative refinement of an inverse: `X ← X + X (1 − M X)`.
-fn refine(m: &SymMat6, x: &SymMat6) -> SymMat6 {
-    let r = Mat6::IDENTITY - m.as_mat6().mul_mat(x.as_mat6());
-    SymMat6::from_mat6(&(*x.as_mat6() + x.as_mat6().mul_mat(&r)))
 }

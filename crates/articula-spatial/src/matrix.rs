@@ -322,6 +322,26 @@ impl SymMat6 {
         SymMat6(Mat6(m))
     }
 
+    /// `self += a − alpha · u uᵀ` in place (the articulated-inertia update of a 1-DOF joint).
+    #[inline]
+    pub fn add_sub_outer(&mut self, a: &SymMat6, u: &[f64; 6], alpha: f64) {
+        let (s, a) = (&mut self.0 .0, &a.0 .0);
+        for i in 0..6 {
+            let aui = alpha * u[i];
+            for j in i..6 {
+                let x = s[i][j] + a[i][j] - aui * u[j];
+                s[i][j] = x;
+                s[j][i] = x;
+            }
+        }
+    }
+
+    /// `self += a` in place.
+    #[inline]
+    pub fn add_assign(&mut self, a: &SymMat6) {
+        self.0 += a.0;
+    }
+
     /// Inverse of a symmetric positive definite matrix by Cholesky factorisation.
     /// Returns `None` when a pivot is not positive (the matrix is not SPD to working precision).
     pub fn inverse_spd(&self) -> Option<SymMat6> {

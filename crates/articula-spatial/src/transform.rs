@@ -1,6 +1,6 @@
 //! Plücker coordinate transforms.
 
-use crate::inertia::skew;
+use crate::inertia::{outer3, skew};
 use crate::{Mat6, SpatialForce, SpatialInertia, SpatialMotion};
 use glam::{DMat3, DVec3};
 use std::ops::Mul;
@@ -119,16 +119,20 @@ impl SpatialTransform {
     }
 
     /// The inertia expressed in B coordinates: `X* I X⁻¹` (RBDA eq. 2.66, in the
-    /// `rot(E) xlt(r)` form).
+    /// `rot(E) xlt(r)` form): `h' = E (h − m r)`,
+    /// `Ī' = E (Ī + r× h× + (h − m r)× r×) E ᵀ`, the middle term expanded with
+    /// `a× b× = b aᵀ − (a·b) 1` into `h rᵀ + r hᵀ − m r rᵀ − (2 r·h − m r·r) 1`.
     #[inline]
     pub fn apply_inertia(&self, i: &SpatialInertia) -> SpatialInertia {
-        let hr = i.h - self.r * i.mass;
-        let rx = skew(self.r);
-        let ibar = i.ibar + rx * skew(i.h) + skew(hr) * rx;
+        let (r, h, m) = (self.r, i.h, i.mass);
+        let hr = h - r * m;
+        let mid = i.ibar + outer3(h, r) + outer3(r, h)
+            - outer3(r, r) * m
+            - DMat3::from_diagonal(DVec3::splat(2.0 * r.dot(h) - m * r.dot(r)));
         SpatialInertia {
-            mass: i.mass,
+            mass: m,
             h: self.e * hr,
-            ibar: self.e * ibar * self.e.transpose(),
+            ibar: self.e * mid * self.e.transpose(),
         }
     }
 

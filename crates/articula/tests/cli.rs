@@ -179,3 +179,37 @@ fn humanoid_floating_base_adds_six_dof() {
         "nothing is welded to the world with a floating base"
     );
 }
+
+#[test]
+fn closed_stdout_is_not_a_panic() {
+    use std::io::Read;
+    // chain1000's tree (~120 kB) is larger than a pipe's buffer: the binary is still writing
+    // when the reader goes away (`articula info ... --tree | head`).
+    let mut child = Command::new(env!("CARGO_BIN_EXE_articula"))
+        .arg("info")
+        .arg(models_dir().join("chain1000.urdf"))
+        .arg("--tree")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("cannot run the articula binary");
+    let mut head = [0u8; 64];
+    child
+        .stdout
+        .take()
+        .expect("piped stdout")
+        .read_exact(&mut head)
+        .expect("some output");
+    // The read end is dropped here.
+    let out = child.wait_with_output().expect("articula runs to its end");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !stderr.contains("panicked"),
+        "panic on a closed pipe:\n{stderr}"
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "a closed pipe is not an error; stderr:\n{stderr}"
+    );
+}

@@ -1,0 +1,172 @@
+//! "A step allocates nothing" (DESIGN §2): a counting global allocator around DCA and ABA
+//! calls and steps on several models, fixed and floating base.
+//!
+//! The allocator counts only on threads that switched counting on (a thread-local flag), so
+//! the test harness's other threads (and other tests of this binary running in parallel) cannot
+//! add to a test's count. This file is its own test binary, so the allocator touches no other
+//! test.
+
+use articula_dca::{forward_dynamics, step, Data, Integrator, Method, State};
+use articula_model::{LoadOptions, Model};
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+struct Counting;
+
+thread_local! {
+    static ENABLED: Cell<bool> = const { Cell::new(false) };
+    static COUNT: Cell<usize> = const { Cell::new(0) };
+}
+
+fn note() {
+    // `try_with`: the allocator may run while a thread's locals are being torn down.
+    if ENABLED.try_with(Cell::get).unwrap_or(false) {
+        let _ = COUNT.try_with(|c| c.set(c.get() + 1));
+    }
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        note();
+        System.alloc(layout)
+    }
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        note();
+        System.alloc_zeroed(layout)
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        note();
+        System.realloc(ptr, layout, new_size)
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        System.dealloc(ptr, layout)
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+/// Runs `f` with counting on (this thread only) and returns the number of allocations
+/// (`alloc`, `alloc_zeroed` and `realloc` calls) it made.
+fn count_allocations(f: impl FnOnce()) -> usize {
+    COUNT.with(|c| c.set(0));
+    ENABLED.with(|e| e.set(true));
+    f();
+    ENABLED.with(|e| e.set(false));
+    COUNT.with(Cell::get)
+}
+
+fn load(name: &str, floating_base: bool) -> Model {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../models")
+        .join(format!("{name}.urdf"));
+    Model::from_urdf_file(path, &LoadOptions { floating_base }).unwrap()
+}
+
+#[test]
+fn the_counter_counts() {
+    let n = count_allocations(|| {
+        let v: Vec<u64> = Vec::with_capacity(10);
+        std::hint::black_box(v);
+    });
+    assert_eq!(n, 1);
+    assert_eq!(count_allocations(|| ()), 0);
+}
+
+#[test]
+fn dca_and_aba_allocate_nothing() {
+    for name in ["chain30", "humanoid", "rope"] {
+        for floating_base in [false, true] {
+            let model = load(name, floating_base);
+            let mut data = Data::new(&model);
+            // Torques and forces scaled to the model (the rope's segments weigh 2 g), and a
+            // short step, so that the trajectory stays tame: the point is the allocations.
+            let scale = 0.01 * model.moving_mass();
+            let mut start = State::random(&model, 3, scale);
+            start.randomize_forces(3, scale);
+            let mut state = start.clone();
+            let label = format!("{name} floating={floating_base}");
+            // Warm up once (every path that could lazily allocate runs before counting).
+            for method in [Method::Dca, Method::Aba, Method::Crba] {
+                forward_dynamics(
+                    &model,
+                    &mut data,
+                    &state.q,
+                    &state.qd,
+                    &state.tau,
+                    &state.f_ext,
+                    method,
+                )
+                .unwrap();
+            }
+            for integrator in [Integrator::SemiImplicitEuler, Integrator::Rk4] {
+                step(&model, &mut data, &mut state, Method::Dca, integrator, 1e-5).unwrap();
+                state.clone_from(&start);
+            }
+
+            for method in [Method::Dca, Method::Aba] {
+                let n = count_allocations(|| {
+                    for _ in 0..100 {
+                        forward_dynamics(
+                            &model,
+                            &mut data,
+                            &state.q,
+                            &state.qd,
+                            &state.tau,
+                            &state.f_ext,
+                            method,
+                        )
+                        .unwrap();
+                    }
+                });
+                eprintln!("{label}: 100 x forward_dynamics {method:?}: {n} allocations");
+                assert_eq!(n, 0, "{label}: forward_dynamics {method:?} allocated");
+                // Without external forces too (an empty slice).
+                let n = count_allocations(|| {
+                    for _ in 0..100 {
+                        forward_dynamics(
+                            &model,
+                            &mut data,
+                            &state.q,
+                            &state.qd,
+                            &state.tau,
+                            &[],
+                            method,
+                        )
+                        .unwrap();
+                    }
+                });
+                assert_eq!(
+                    n, 0,
+                    "{label}: forward_dynamics {method:?} (no f_ext) allocated"
+                );
+                for integrator in [Integrator::SemiImplicitEuler, Integrator::Rk4] {
+                    state.clone_from(&start);
+                    let n = count_allocations(|| {
+                        for _ in 0..10 {
+                            step(&model, &mut data, &mut state, method, integrator, 1e-5).unwrap();
+                        }
+                    });
+                    eprintln!("{label}: 10 x step {method:?} {integrator:?}: {n} allocations");
+                    assert_eq!(n, 0, "{label}: step {method:?} {integrator:?} allocated");
+                }
+            }
+
+            // CRBA is a reference and allocates: the counter sees it.
+            let n = count_allocations(|| {
+                forward_dynamics(
+                    &model,
+                    &mut data,
+                    &state.q,
+                    &state.qd,
+                    &state.tau,
+                    &state.f_ext,
+                    Method::Crba,
+                )
+                .unwrap();
+            });
+            eprintln!("{label}: 1 x forward_dynamics Crba: {n} allocations");
+            assert!(n > 0, "{label}: CRBA should allocate (is the counter on?)");
+        }
+    }
+}
