@@ -152,6 +152,33 @@ fn cholesky(m: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
     Some(l)
 }
 
+/// Cholesky factor of `M` computed on the Jacobi-scaled `E M E` (`E = diag(M_ii^-½)`), then
+/// unscaled (`L = E⁻¹ L'`): rotational and translational entries differ by the square of the
+/// lever arms (a 100,000-link chain is 10 km long), and the scaled pivots do not.
+#[inline]
+fn scaled_cholesky(m: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
+    let mut e = [0.0; 6];
+    for i in 0..6 {
+        if m[i][i].is_nan() || m[i][i] <= 0.0 {
+            return None;
+        }
+        e[i] = 1.0 / m[i][i].sqrt();
+    }
+    let mut ms = [[0.0; 6]; 6];
+    for i in 0..6 {
+        for j in 0..6 {
+            ms[i][j] = m[i][j] * e[i] * e[j];
+        }
+    }
+    let mut l = cholesky(&ms)?;
+    for i in 0..6 {
+        for j in 0..=i {
+            l[i][j] /= e[i];
+        }
+    }
+    Some(l)
+}
+
 /// `L⁻¹ b` (forward substitution).
 #[inline]
 fn solve_l(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
@@ -207,7 +234,7 @@ fn join(
     let (ja, jb) = (d.ja[n], d.jb[n]);
     // L Lᵀ = Φ^A_jj + Φ^B_jj
     let sum = (*phi(d, a, nha, ja, ja) + *phi(d, b, nhb, jb, jb)).0;
-    let l = cholesky(&sum).ok_or_else(|| DynamicsError::Singular {
+    let l = scaled_cholesky(&sum).ok_or_else(|| DynamicsError::Singular {
         joint: body.joint_name(),
         detail: "Φ_jj^A + Φ_jj^B is not positive definite",
     })?;
