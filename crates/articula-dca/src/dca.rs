@@ -12,20 +12,6 @@ use articula_model::{Model, NodeKind};
 use articula_spatial::{skew, Mat6, SpatialForce, SpatialMotion, SymMat6};
 use glam::{DMat3, DVec3};
 
-/// The 6×6 matrix `[tl tr; bl br]`.
-fn block6(tl: DMat3, tr: DMat3, bl: DMat3, br: DMat3) -> Mat6 {
-    let mut m = [[0.0; 6]; 6];
-    for i in 0..3 {
-        for k in 0..3 {
-            m[i][k] = tl.col(k)[i];
-            m[i][k + 3] = tr.col(k)[i];
-            m[i + 3][k] = bl.col(k)[i];
-            m[i + 3][k + 3] = br.col(k)[i];
-        }
-    }
-    Mat6(m)
-}
-
 /// Runs DCA on the kinematics already in `data` (see [`crate::forward_kinematics`]); writes
 /// `data.qdd`.
 pub(crate) fn dca(
@@ -109,7 +95,7 @@ fn main_pass(
                         let tr = -(j * ek);
                         let bl = axj;
                         let br = -(axj * ek) + DMat3::from_diagonal(DVec3::splat(1.0 / m));
-                        data.dca.phi[bo + h * nh + k] = block6(tl, tr, bl, br);
+                        data.dca.phi[bo + h * nh + k] = Mat6::from_blocks(tl, tr, bl, br);
                     }
                     // b at P_h: [α; a_c + α × (P_h − c)] + a_g
                     data.dca.b[ho + h] = a_g + SpatialMotion::new(acc_w, acc_c + acc_w.cross(-ah));

@@ -99,16 +99,8 @@ impl SpatialInertia {
     /// The explicit 6×6 matrix.
     pub fn to_mat6(&self) -> SymMat6 {
         let hx = skew(self.h);
-        let mut m = [[0.0; 6]; 6];
-        for i in 0..3 {
-            for j in 0..3 {
-                m[i][j] = self.ibar.col(j)[i];
-                m[i][j + 3] = hx.col(j)[i];
-                m[i + 3][j] = -hx.col(j)[i];
-            }
-            m[i + 3][i + 3] = self.mass;
-        }
-        SymMat6::from_mat6(&Mat6(m))
+        let m1 = DMat3::from_diagonal(DVec3::splat(self.mass));
+        SymMat6::from_mat6(&Mat6::from_blocks(self.ibar, hx, hx.transpose(), m1))
     }
 
     /// The inverse `I⁻¹` (a force→motion map), or `None` when the inertia is singular
@@ -133,16 +125,7 @@ impl SpatialInertia {
         let tr = -(j * cx);
         let bl = cx * j;
         let br = -(cx * j * cx) + DMat3::from_diagonal(DVec3::splat(1.0 / self.mass));
-        let mut m = [[0.0; 6]; 6];
-        for i in 0..3 {
-            for k in 0..3 {
-                m[i][k] = tl.col(k)[i];
-                m[i][k + 3] = tr.col(k)[i];
-                m[i + 3][k] = bl.col(k)[i];
-                m[i + 3][k + 3] = br.col(k)[i];
-            }
-        }
-        let inv = SymMat6::from_mat6(&Mat6(m));
+        let inv = SymMat6::from_mat6(&Mat6::from_blocks(tl, tr, bl, br));
         inv.is_finite().then_some(inv)
     }
 

@@ -9,6 +9,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::{SpatialForce, SpatialMotion};
+use glam::DMat3;
 use std::ops::{Add, AddAssign, Mul, Neg, Sub, SubAssign};
 
 /// A general 6×6 matrix, row-major.
@@ -57,6 +58,20 @@ impl Mat6 {
     #[inline]
     pub fn get(&self, i: usize, j: usize) -> f64 {
         self.0[i][j]
+    }
+
+    /// The matrix `[tl tr; bl br]` from four 3×3 blocks.
+    pub fn from_blocks(tl: DMat3, tr: DMat3, bl: DMat3, br: DMat3) -> Mat6 {
+        let mut m = [[0.0; 6]; 6];
+        for i in 0..3 {
+            for j in 0..3 {
+                m[i][j] = tl.col(j)[i];
+                m[i][j + 3] = tr.col(j)[i];
+                m[i + 3][j] = bl.col(j)[i];
+                m[i + 3][j + 3] = br.col(j)[i];
+            }
+        }
+        Mat6(m)
     }
 
     /// The transpose.

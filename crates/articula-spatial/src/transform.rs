@@ -151,27 +151,14 @@ impl SpatialTransform {
     /// The 6×6 motion transform matrix `[E 0; -E r× E]`.
     pub fn to_motion_mat6(&self) -> Mat6 {
         let er = -(self.e * skew(self.r));
-        block(self.e, DMat3::ZERO, er, self.e)
+        Mat6::from_blocks(self.e, DMat3::ZERO, er, self.e)
     }
 
     /// The 6×6 force transform matrix `[E -E r×; 0 E]`.
     pub fn to_force_mat6(&self) -> Mat6 {
         let er = -(self.e * skew(self.r));
-        block(self.e, er, DMat3::ZERO, self.e)
+        Mat6::from_blocks(self.e, er, DMat3::ZERO, self.e)
     }
-}
-
-fn block(a: DMat3, b: DMat3, c: DMat3, d: DMat3) -> Mat6 {
-    let mut m = [[0.0; 6]; 6];
-    for i in 0..3 {
-        for j in 0..3 {
-            m[i][j] = a.col(j)[i];
-            m[i][j + 3] = b.col(j)[i];
-            m[i + 3][j] = c.col(j)[i];
-            m[i + 3][j + 3] = d.col(j)[i];
-        }
-    }
-    Mat6(m)
 }
 
 /// Composition: `(a * b) m = a (b m)`.
@@ -190,12 +177,12 @@ impl SpatialMotion {
     /// The 6×6 matrix `crm(v)` of `v ×` (RBDA eq. 2.31).
     pub fn crm(self) -> Mat6 {
         let (wx, vx) = (skew(self.w), skew(self.v));
-        block(wx, DMat3::ZERO, vx, wx)
+        Mat6::from_blocks(wx, DMat3::ZERO, vx, wx)
     }
 
     /// The 6×6 matrix `crf(v)` of `v ×*` = `-crm(v)ᵀ` (RBDA eq. 2.32).
     pub fn crf(self) -> Mat6 {
         let (wx, vx) = (skew(self.w), skew(self.v));
-        block(wx, vx, DMat3::ZERO, wx)
+        Mat6::from_blocks(wx, vx, DMat3::ZERO, wx)
     }
 }
