@@ -51,9 +51,6 @@ pub enum ModelError {
         /// What is wrong.
         message: String,
     },
-    /// urdf-rs rejected the (already validated) document.
-    #[error("URDF parse error: {0}")]
-    Urdf(String),
     /// The robot has no links.
     #[error("the robot has no links")]
     NoLinks,

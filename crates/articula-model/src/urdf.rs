@@ -1,16 +1,16 @@
 //! URDF text → validated links and joints.
 //!
-//! Two passes. A strict pre-pass with `roxmltree` checks everything dynamics needs (names,
-//! joint types, numbers in origins, axes and inertials) so that errors name the offending link
-//! or joint, and strips everything dynamics does not need (visual and collision geometry,
-//! materials, limits, `<gazebo>`, `<transmission>`, unknown tags), so sloppy geometry never makes
-//! loading fail. `urdf-rs` then parses the stripped text into its typed `Robot`, and the values
-//! are validated (finite, positive semidefinite inertia, triangle inequality, unit axes, one
-//! root, no cycles).
+//! One `roxmltree` pass reads what dynamics needs — link names and inertials, joint names,
+//! types, origins, parents, children and axes — strictly, so that errors name the offending
+//! link or joint, and skips everything else (visual and collision geometry, materials, limits,
+//! `<gazebo>`, `<transmission>`, unknown tags), so sloppy geometry never makes loading fail.
+//! The values read are then validated (finite, positive semidefinite inertia, triangle
+//! inequality, unit axes, one root, no cycles).
 
 use crate::ModelError;
 use articula_spatial::{SpatialInertia, SpatialTransform};
 use glam::{DMat3, DVec3};
+use std::borrow::Cow;
 use std::collections::HashMap;
 
 /// The motion a URDF joint allows.
@@ -79,16 +79,6 @@ pub(crate) struct RawRobot {
     pub warnings: Vec<String>,
 }
 
-const KNOWN_TYPES: [&str; 7] = [
-    "revolute",
-    "continuous",
-    "prismatic",
-    "fixed",
-    "floating",
-    "planar",
-    "spherical",
-];
-
 /// Reads a URDF file (bytes are checked for being text first).
 pub(crate) fn read_file(path: &std::path::Path) -> Result<RawRobot, ModelError> {
     let bytes = std::fs::read(path).map_err(|e| ModelError::Io {
@@ -113,10 +103,18 @@ pub(crate) fn read_str(text: &str) -> Result<RawRobot, ModelError> {
             offset,
         });
     }
-    let (stripped, warnings) = prepass(text)?;
-    let robot =
-        urdf_rs::read_from_string(&stripped).map_err(|e| ModelError::Urdf(e.to_string()))?;
-    validate(robot, warnings)
+    let doc = roxmltree::Document::parse(text).map_err(|e| {
+        let pos = e.pos();
+        ModelError::Xml {
+            line: pos.row,
+            column: pos.col,
+            message: e.to_string(),
+        }
+    })?;
+    let robot = extract(&doc)?;
+    // What was read borrows only the text: free the document before validating.
+    drop(doc);
+    validate(robot)
 }
 
 fn malformed(element: &'static str, name: &str, message: impl Into<String>) -> ModelError {
@@ -127,31 +125,32 @@ fn malformed(element: &'static str, name: &str, message: impl Into<String>) -> M
     }
 }
 
-/// Strictly parses `n` whitespace-separated numbers.
-fn numbers(s: &str, n: usize) -> Option<Vec<f64>> {
-    let v: Vec<f64> = s
-        .split_whitespace()
-        .map(|t| t.parse::<f64>())
-        .collect::<Result<_, _>>()
-        .ok()?;
-    (v.len() == n).then_some(v)
+/// Strictly parses exactly `N` whitespace-separated numbers.
+fn numbers<const N: usize>(s: &str) -> Option<[f64; N]> {
+    let mut tokens = s.split_whitespace();
+    let mut out = [0.0; N];
+    for x in &mut out {
+        *x = tokens.next()?.parse().ok()?;
+    }
+    tokens.next().is_none().then_some(out)
 }
 
-fn check_numbers(
+/// The `N` numbers of attribute `attr` of `node`, `None` when it is absent (an error when it is
+/// `required`).
+fn attr_numbers<const N: usize>(
     node: roxmltree::Node,
     attr: &str,
-    n: usize,
     element: &'static str,
     name: &str,
     required: bool,
-) -> Result<(), ModelError> {
+) -> Result<Option<[f64; N]>, ModelError> {
     match node.attribute(attr) {
-        Some(s) => numbers(s, n).map(|_| ()).ok_or_else(|| {
+        Some(s) => numbers(s).map(Some).ok_or_else(|| {
             malformed(
                 element,
                 name,
                 format!(
-                    "<{}> attribute '{attr}' must hold {n} number(s), found \"{s}\"",
+                    "<{}> attribute '{attr}' must hold {N} number(s), found \"{s}\"",
                     node.tag_name().name()
                 ),
             )
@@ -161,12 +160,24 @@ fn check_numbers(
             name,
             format!("<{}> lacks attribute '{attr}'", node.tag_name().name()),
         )),
-        None => Ok(()),
+        None => Ok(None),
     }
 }
 
-/// Whether urdf-rs reads `quat_xyzw` (URDF 1.1 and later; the same test as urdf-rs: a missing
-/// or malformed `version` means 1.0).
+/// The one number of the required attribute `attr` of `node`.
+fn attr_number(
+    node: roxmltree::Node,
+    attr: &str,
+    element: &'static str,
+    name: &str,
+) -> Result<f64, ModelError> {
+    let [x] = attr_numbers::<1>(node, attr, element, name, true)?
+        .expect("a required attribute is present");
+    Ok(x)
+}
+
+/// Whether `quat_xyzw` is read (URDF 1.1 and later; like urdfdom, a missing or malformed
+/// `version` means 1.0, and older versions ignore `quat_xyzw`).
 fn supports_quat(robot: roxmltree::Node) -> bool {
     robot
         .attribute("version")
@@ -177,24 +188,58 @@ fn supports_quat(robot: roxmltree::Node) -> bool {
         .is_some_and(|version| version >= (1, 1))
 }
 
-fn check_origin(
+/// Converts a quaternion `(x, y, z, w)` to roll, pitch, yaw like urdfdom's
+/// `urdf::Rotation::getRPY` (the conversion urdf-rs made, kept so that quaternion origins give
+/// the same rotations as before). Near pitch ±π/2 it snaps the pitch to ±π/2 (so the rotation
+/// differs slightly from the quaternion's), and a quaternion whose norm overflows or
+/// underflows reads as the identity.
+fn quaternion_to_rpy([x, y, z, w]: [f64; 4]) -> DVec3 {
+    let norm = (x * x + y * y + z * z + w * w).sqrt();
+    let [x, y, z, w] = if norm > 0.0 {
+        [x / norm, y / norm, z / norm, w / norm]
+    } else {
+        [0.0, 0.0, 0.0, 1.0]
+    };
+    let sin_pitch = -2.0 * (x * z - w * y);
+    if sin_pitch <= -0.99999 {
+        DVec3::new(0.0, -std::f64::consts::FRAC_PI_2, 2.0 * x.atan2(-y))
+    } else if sin_pitch >= 0.99999 {
+        DVec3::new(0.0, std::f64::consts::FRAC_PI_2, 2.0 * (-x).atan2(y))
+    } else {
+        let (sqx, sqy, sqz, sqw) = (x * x, y * y, z * z, w * w);
+        DVec3::new(
+            (2.0 * (y * z + w * x)).atan2(sqw - sqx - sqy + sqz),
+            sin_pitch.asin(),
+            (2.0 * (x * y + w * z)).atan2(sqw + sqx - sqy - sqz),
+        )
+    }
+}
+
+/// An `<origin>` as read (not yet checked for being finite); a URDF 1.1 `quat_xyzw` is already
+/// converted to `rpy`. Absent attributes are zero.
+#[derive(Clone, Copy, Debug, Default)]
+struct Origin {
+    xyz: DVec3,
+    rpy: DVec3,
+}
+
+fn read_origin(
     node: roxmltree::Node,
     element: &'static str,
     name: &str,
     supports_quat: bool,
-) -> Result<(), ModelError> {
-    check_numbers(node, "xyz", 3, element, name, false)?;
-    check_numbers(node, "rpy", 3, element, name, false)?;
-    check_numbers(node, "quat_xyzw", 4, element, name, false)?;
-    if !supports_quat {
-        return Ok(());
-    }
-    let Some(quat) = node.attribute("quat_xyzw").and_then(|s| numbers(s, 4)) else {
-        return Ok(());
+) -> Result<Origin, ModelError> {
+    let xyz = attr_numbers::<3>(node, "xyz", element, name, false)?;
+    let rpy = attr_numbers::<3>(node, "rpy", element, name, false)?;
+    let quat = attr_numbers::<4>(node, "quat_xyzw", element, name, false)?;
+    let mut origin = Origin {
+        xyz: xyz.map_or(DVec3::ZERO, DVec3::from_array),
+        rpy: rpy.map_or(DVec3::ZERO, DVec3::from_array),
     };
-    // urdf-rs rejects both orientations without naming the link or joint, and silently reads
-    // a zero or NaN quaternion as the identity.
-    if node.attribute("rpy").is_some() {
+    let Some(quat) = quat.filter(|_| supports_quat) else {
+        return Ok(origin);
+    };
+    if rpy.is_some() {
         return Err(malformed(
             element,
             name,
@@ -208,6 +253,7 @@ fn check_origin(
             ModelError::NonFiniteInertia { link: name.into() }
         });
     }
+    // The conversion would read the zero quaternion as the identity.
     if quat.iter().all(|&x| x == 0.0) {
         return Err(malformed(
             element,
@@ -215,27 +261,31 @@ fn check_origin(
             "<origin> 'quat_xyzw' is the zero quaternion",
         ));
     }
-    Ok(())
+    origin.rpy = quaternion_to_rpy(quat);
+    Ok(origin)
 }
 
-/// Records `tag` as seen inside a link or joint, failing on a second occurrence: urdf-rs would
-/// reject the duplicate without naming the link or joint.
-fn once<'a>(
-    seen: &mut Vec<&'a str>,
-    tag: &'a str,
+/// Stores `node` as the one `<tag>` inside a link or joint, failing on a second occurrence.
+fn once<'a, 'input>(
+    slot: &mut Option<roxmltree::Node<'a, 'input>>,
+    node: roxmltree::Node<'a, 'input>,
     element: &'static str,
     name: &str,
 ) -> Result<(), ModelError> {
-    if seen.contains(&tag) {
-        return Err(malformed(element, name, format!("duplicate <{tag}>")));
+    if slot.is_some() {
+        return Err(malformed(
+            element,
+            name,
+            format!("duplicate <{}>", node.tag_name().name()),
+        ));
     }
-    seen.push(tag);
+    *slot = Some(node);
     Ok(())
 }
 
-/// roxmltree reads a name written `:x` as `x` with an empty namespace prefix, which urdf-rs's
-/// XML parser rejects without saying where: reject it here, with its position, for the elements
-/// that are handed on to urdf-rs.
+/// Rejects a name written `:x` (which roxmltree reads as `x` with an empty namespace prefix)
+/// in the start tag, end tag or attributes of `node`, with its position. Only the elements
+/// read are checked: such names in ignored geometry are harmless.
 fn check_prefixes(doc: &roxmltree::Document, node: roxmltree::Node) -> Result<(), ModelError> {
     let text = doc.input_text();
     let range = node.range();
@@ -262,147 +312,253 @@ fn check_prefixes(doc: &roxmltree::Document, node: roxmltree::Node) -> Result<()
     }
 }
 
-/// The strict pre-pass: validates what dynamics needs and returns the text with everything
-/// else cut out, plus warnings.
-fn prepass(text: &str) -> Result<(String, Vec<String>), ModelError> {
-    let doc = roxmltree::Document::parse(text).map_err(|e| {
-        let pos = e.pos();
-        ModelError::Xml {
-            line: pos.row,
-            column: pos.col,
-            message: e.to_string(),
+/// The value of attribute `attr` of `node` as written, references decoded but white space kept.
+/// Names (of the robot, links, joints, and the links joints connect) are read this way — as
+/// urdf-rs read them — while roxmltree, following XML, turns tabs and line breaks in attribute
+/// values into spaces (and error messages of the reading pass name links and joints that way).
+fn verbatim<'a>(
+    doc: &roxmltree::Document<'a>,
+    node: roxmltree::Node,
+    attr: &str,
+) -> Option<Cow<'a, str>> {
+    let a = node
+        .attributes()
+        .find(|a| a.namespace().is_none() && a.name() == attr)?;
+    let raw = &doc.input_text()[a.range_value()];
+    if !raw.contains('&') {
+        return Some(Cow::Borrowed(raw));
+    }
+    // roxmltree has checked the references (only the predefined entities and character
+    // references: a document type declaration, which could declare others, is rejected).
+    let mut out = String::with_capacity(raw.len());
+    let mut parts = raw.split('&');
+    out.push_str(parts.next().unwrap_or_default());
+    for part in parts {
+        let (reference, rest) = part.split_once(';')?;
+        let c = match reference {
+            "quot" => '"',
+            "apos" => '\'',
+            "gt" => '>',
+            "lt" => '<',
+            "amp" => '&',
+            r => {
+                let code = match r.strip_prefix("#x") {
+                    Some(hex) => u32::from_str_radix(hex, 16).ok()?,
+                    None => r.strip_prefix('#')?.parse().ok()?,
+                };
+                char::from_u32(code)?
+            }
+        };
+        out.push(c);
+        out.push_str(rest);
+    }
+    Some(Cow::Owned(out))
+}
+
+/// A link as read, before validation.
+struct LinkData<'a> {
+    name: Cow<'a, str>,
+    origin: Origin,
+    mass: f64,
+    /// `ixx ixy ixz iyy iyz izz`.
+    inertia: [f64; 6],
+}
+
+/// A joint as read, before validation.
+struct JointData<'a> {
+    name: Cow<'a, str>,
+    /// The kind, or the name of a known type articula does not support.
+    kind: Result<JointKind, &'static str>,
+    origin: Origin,
+    parent: Cow<'a, str>,
+    child: Cow<'a, str>,
+    axis: DVec3,
+}
+
+/// The robot as read, before validation.
+struct RobotData<'a> {
+    name: Cow<'a, str>,
+    links: Vec<LinkData<'a>>,
+    joints: Vec<JointData<'a>>,
+    warnings: Vec<String>,
+}
+
+fn read_link<'input>(
+    doc: &roxmltree::Document<'input>,
+    el: roxmltree::Node,
+    quat: bool,
+) -> Result<LinkData<'input>, ModelError> {
+    check_prefixes(doc, el)?;
+    let name = el
+        .attribute("name")
+        .ok_or_else(|| malformed("link", "", "missing 'name' attribute"))?;
+    // Without <inertial>, a link is massless with its inertial frame at its origin.
+    let mut link = LinkData {
+        name: verbatim(doc, el, "name").unwrap_or_else(|| name.to_string().into()),
+        origin: Origin::default(),
+        mass: 0.0,
+        inertia: [0.0; 6],
+    };
+    let mut inertial = None;
+    for c in el.children().filter(|n| n.is_element()) {
+        if c.tag_name().name() != "inertial" {
+            continue;
         }
-    })?;
+        once(&mut inertial, c, "link", name)?;
+        check_prefixes(doc, c)?;
+        let (mut origin, mut mass, mut inertia) = (None, None, None);
+        for p in c.children().filter(|n| n.is_element()) {
+            let slot = match p.tag_name().name() {
+                "origin" => &mut origin,
+                "mass" => &mut mass,
+                "inertia" => &mut inertia,
+                _ => continue,
+            };
+            once(slot, p, "link", name)?;
+            check_prefixes(doc, p)?;
+            match p.tag_name().name() {
+                "origin" => link.origin = read_origin(p, "link", name, quat)?,
+                "mass" => link.mass = attr_number(p, "value", "link", name)?,
+                _ => {
+                    for (i, a) in ["ixx", "ixy", "ixz", "iyy", "iyz", "izz"]
+                        .into_iter()
+                        .enumerate()
+                    {
+                        link.inertia[i] = attr_number(p, a, "link", name)?;
+                    }
+                }
+            }
+        }
+        if mass.is_none() {
+            return Err(malformed("link", name, "<inertial> lacks <mass>"));
+        }
+        if inertia.is_none() {
+            return Err(malformed("link", name, "<inertial> lacks <inertia>"));
+        }
+    }
+    Ok(link)
+}
+
+fn read_joint<'input>(
+    doc: &roxmltree::Document<'input>,
+    el: roxmltree::Node,
+    quat: bool,
+    warnings: &mut Vec<String>,
+) -> Result<JointData<'input>, ModelError> {
+    check_prefixes(doc, el)?;
+    let name = el
+        .attribute("name")
+        .ok_or_else(|| malformed("joint", "", "missing 'name' attribute"))?;
+    let kind = el
+        .attribute("type")
+        .ok_or_else(|| malformed("joint", name, "missing 'type' attribute"))?;
+    let kind = match kind {
+        "revolute" => Ok(JointKind::Revolute),
+        "continuous" => Ok(JointKind::Continuous),
+        "prismatic" => Ok(JointKind::Prismatic),
+        "fixed" => Ok(JointKind::Fixed),
+        "floating" => Ok(JointKind::Floating),
+        "planar" => Err("planar"),
+        "spherical" => Err("spherical"),
+        _ => {
+            return Err(ModelError::UnknownJointType {
+                joint: name.into(),
+                kind: kind.into(),
+            })
+        }
+    };
+    let mut joint = JointData {
+        name: verbatim(doc, el, "name").unwrap_or_else(|| name.to_string().into()),
+        kind,
+        origin: Origin::default(),
+        parent: Cow::Borrowed(""),
+        child: Cow::Borrowed(""),
+        // URDF's default axis.
+        axis: DVec3::X,
+    };
+    let (mut origin, mut axis, mut parent, mut child) = (None, None, None, None);
+    for c in el.children().filter(|n| n.is_element()) {
+        let tag = c.tag_name().name();
+        let slot = match tag {
+            "origin" => &mut origin,
+            "axis" => &mut axis,
+            "parent" => &mut parent,
+            "child" => &mut child,
+            "mimic" => {
+                warnings.push(format!(
+                    "joint '{name}' mimics '{}': loaded as an independent joint (the mimic constraint is not enforced)",
+                    c.attribute("joint").unwrap_or("?")
+                ));
+                continue;
+            }
+            _ => continue,
+        };
+        once(slot, c, "joint", name)?;
+        check_prefixes(doc, c)?;
+        match tag {
+            "origin" => joint.origin = read_origin(c, "joint", name, quat)?,
+            "axis" => {
+                let xyz = attr_numbers::<3>(c, "xyz", "joint", name, true)
+                    .ok()
+                    .flatten()
+                    .ok_or_else(|| ModelError::InvalidAxis {
+                        joint: name.into(),
+                        reason: format!(
+                            "'xyz' must hold 3 numbers, found {:?}",
+                            c.attribute("xyz").unwrap_or("")
+                        ),
+                    })?;
+                joint.axis = DVec3::from_array(xyz);
+            }
+            _ => {
+                let link = c.attribute("link").ok_or_else(|| {
+                    malformed("joint", name, format!("<{tag}> lacks attribute 'link'"))
+                })?;
+                let link = verbatim(doc, c, "link").unwrap_or_else(|| link.to_string().into());
+                if tag == "parent" {
+                    joint.parent = link;
+                } else {
+                    joint.child = link;
+                }
+            }
+        }
+    }
+    if parent.is_none() {
+        return Err(malformed("joint", name, "missing <parent>"));
+    }
+    if child.is_none() {
+        return Err(malformed("joint", name, "missing <child>"));
+    }
+    Ok(joint)
+}
+
+/// Reads the links and joints of the document strictly, failing on the first malformed or
+/// missing thing dynamics needs, in document order.
+fn extract<'input>(doc: &roxmltree::Document<'input>) -> Result<RobotData<'input>, ModelError> {
     let robot = doc.root_element();
     if robot.tag_name().name() != "robot" {
         return Err(ModelError::NotARobot {
             found: robot.tag_name().name().to_string(),
         });
     }
-    check_prefixes(&doc, robot)?;
+    check_prefixes(doc, robot)?;
     let quat = supports_quat(robot);
-    let mut cut: Vec<std::ops::Range<usize>> = Vec::new();
-    let mut warnings = Vec::new();
+    let mut data = RobotData {
+        name: verbatim(doc, robot, "name").unwrap_or_default(),
+        links: Vec::new(),
+        joints: Vec::new(),
+        warnings: Vec::new(),
+    };
     for el in robot.children().filter(|n| n.is_element()) {
         match el.tag_name().name() {
-            "link" => {
-                check_prefixes(&doc, el)?;
-                let name = el
-                    .attribute("name")
-                    .ok_or_else(|| malformed("link", "", "missing 'name' attribute"))?;
-                let mut seen_inertial = Vec::new();
-                for c in el.children().filter(|n| n.is_element()) {
-                    if c.tag_name().name() != "inertial" {
-                        cut.push(c.range());
-                        continue;
-                    }
-                    once(&mut seen_inertial, "inertial", "link", name)?;
-                    check_prefixes(&doc, c)?;
-                    let mut seen = Vec::new();
-                    for p in c.children().filter(|n| n.is_element()) {
-                        let tag = p.tag_name().name();
-                        if !matches!(tag, "origin" | "mass" | "inertia") {
-                            cut.push(p.range());
-                            continue;
-                        }
-                        once(&mut seen, tag, "link", name)?;
-                        check_prefixes(&doc, p)?;
-                        match tag {
-                            "origin" => check_origin(p, "link", name, quat)?,
-                            "mass" => check_numbers(p, "value", 1, "link", name, true)?,
-                            _ => {
-                                for a in ["ixx", "ixy", "ixz", "iyy", "iyz", "izz"] {
-                                    check_numbers(p, a, 1, "link", name, true)?;
-                                }
-                            }
-                        }
-                    }
-                    if !seen.contains(&"mass") {
-                        return Err(malformed("link", name, "<inertial> lacks <mass>"));
-                    }
-                    if !seen.contains(&"inertia") {
-                        return Err(malformed("link", name, "<inertial> lacks <inertia>"));
-                    }
-                }
-            }
-            "joint" => {
-                check_prefixes(&doc, el)?;
-                let name = el
-                    .attribute("name")
-                    .ok_or_else(|| malformed("joint", "", "missing 'name' attribute"))?;
-                let kind = el
-                    .attribute("type")
-                    .ok_or_else(|| malformed("joint", name, "missing 'type' attribute"))?;
-                if !KNOWN_TYPES.contains(&kind) {
-                    return Err(ModelError::UnknownJointType {
-                        joint: name.into(),
-                        kind: kind.into(),
-                    });
-                }
-                let mut seen = Vec::new();
-                for c in el.children().filter(|n| n.is_element()) {
-                    let tag = c.tag_name().name();
-                    if matches!(tag, "origin" | "axis" | "parent" | "child") {
-                        once(&mut seen, tag, "joint", name)?;
-                        check_prefixes(&doc, c)?;
-                    }
-                    match tag {
-                        "origin" => check_origin(c, "joint", name, quat)?,
-                        "axis" => {
-                            check_numbers(c, "xyz", 3, "joint", name, true).map_err(|_| {
-                                ModelError::InvalidAxis {
-                                    joint: name.into(),
-                                    reason: format!(
-                                        "'xyz' must hold 3 numbers, found {:?}",
-                                        c.attribute("xyz").unwrap_or("")
-                                    ),
-                                }
-                            })?
-                        }
-                        "parent" | "child" => {
-                            if c.attribute("link").is_none() {
-                                return Err(malformed(
-                                    "joint",
-                                    name,
-                                    format!("<{tag}> lacks attribute 'link'"),
-                                ));
-                            }
-                        }
-                        "mimic" => {
-                            warnings.push(format!(
-                                "joint '{name}' mimics '{}': loaded as an independent joint (the mimic constraint is not enforced)",
-                                c.attribute("joint").unwrap_or("?")
-                            ));
-                            cut.push(c.range());
-                        }
-                        _ => cut.push(c.range()),
-                    }
-                }
-                if !seen.contains(&"parent") {
-                    return Err(malformed("joint", name, "missing <parent>"));
-                }
-                if !seen.contains(&"child") {
-                    return Err(malformed("joint", name, "missing <child>"));
-                }
-            }
-            _ => cut.push(el.range()),
+            "link" => data.links.push(read_link(doc, el, quat)?),
+            "joint" => data
+                .joints
+                .push(read_joint(doc, el, quat, &mut data.warnings)?),
+            _ => {}
         }
     }
-    cut.sort_by_key(|r| r.start);
-    let mut out = String::with_capacity(text.len());
-    let mut at = 0;
-    for r in cut {
-        if r.start >= at {
-            out.push_str(&text[at..r.start]);
-            at = r.end;
-        }
-    }
-    out.push_str(&text[at..]);
-    Ok((out, warnings))
-}
-
-fn vec3(v: &urdf_rs::Vec3) -> DVec3 {
-    DVec3::new(v[0], v[1], v[2])
+    Ok(data)
 }
 
 /// URDF `rpy` (fixed-axis roll about x, then pitch about y, then yaw about z) as a rotation
@@ -411,10 +567,9 @@ pub fn rpy_to_matrix(rpy: DVec3) -> DMat3 {
     DMat3::from_rotation_z(rpy.z) * DMat3::from_rotation_y(rpy.y) * DMat3::from_rotation_x(rpy.x)
 }
 
-fn pose(p: &urdf_rs::Pose) -> Option<SpatialTransform> {
-    let (xyz, rpy) = (vec3(&p.xyz), vec3(&p.rpy));
-    (xyz.is_finite() && rpy.is_finite())
-        .then(|| SpatialTransform::from_pose(rpy_to_matrix(rpy), xyz))
+fn pose(o: &Origin) -> Option<SpatialTransform> {
+    (o.xyz.is_finite() && o.rpy.is_finite())
+        .then(|| SpatialTransform::from_pose(rpy_to_matrix(o.rpy), o.xyz))
 }
 
 /// Positive semidefinite test of a symmetric 3×3 matrix through all principal minors, with a
@@ -434,50 +589,49 @@ fn is_psd3(m: DMat3, scale: f64) -> bool {
     m.determinant() >= -tol * tol * tol
 }
 
-fn validate(robot: urdf_rs::Robot, warnings: Vec<String>) -> Result<RawRobot, ModelError> {
-    let mut warnings = warnings;
+fn validate(robot: RobotData) -> Result<RawRobot, ModelError> {
+    let mut warnings = robot.warnings;
     if robot.links.is_empty() {
         return Err(ModelError::NoLinks);
     }
     let mut link_index = HashMap::new();
     let mut links = Vec::with_capacity(robot.links.len());
     for l in &robot.links {
-        if link_index.insert(l.name.clone(), links.len()).is_some() {
+        if link_index.insert(&*l.name, links.len()).is_some() {
             return Err(ModelError::DuplicateLink {
-                link: l.name.clone(),
+                link: l.name.to_string(),
             });
         }
-        let m = l.inertial.mass.value;
+        let m = l.mass;
         if !m.is_finite() || m < 0.0 {
             return Err(ModelError::InvalidMass {
-                link: l.name.clone(),
+                link: l.name.to_string(),
                 mass: m,
             });
         }
-        let i = &l.inertial.inertia;
+        let [ixx, ixy, ixz, iyy, iyz, izz] = l.inertia;
         let ic = DMat3::from_cols(
-            DVec3::new(i.ixx, i.ixy, i.ixz),
-            DVec3::new(i.ixy, i.iyy, i.iyz),
-            DVec3::new(i.ixz, i.iyz, i.izz),
+            DVec3::new(ixx, ixy, ixz),
+            DVec3::new(ixy, iyy, iyz),
+            DVec3::new(ixz, iyz, izz),
         );
-        let origin = pose(&l.inertial.origin);
+        let origin = pose(&l.origin);
         let (Some(origin), true) = (origin, ic.is_finite()) else {
             return Err(ModelError::NonFiniteInertia {
-                link: l.name.clone(),
+                link: l.name.to_string(),
             });
         };
-        let scale =
-            i.ixx.abs() + i.iyy.abs() + i.izz.abs() + i.ixy.abs() + i.ixz.abs() + i.iyz.abs();
+        let scale = ixx.abs() + iyy.abs() + izz.abs() + ixy.abs() + ixz.abs() + iyz.abs();
         if !is_psd3(ic, scale) {
             return Err(ModelError::InertiaNotPositive {
-                link: l.name.clone(),
+                link: l.name.to_string(),
             });
         }
         // Triangle inequality λi ≤ λj + λk  ⇔  tr(I)/2 · 1 − I ⪰ 0 (the second moment of mass).
-        let second_moment = DMat3::from_diagonal(DVec3::splat(0.5 * (i.ixx + i.iyy + i.izz))) - ic;
+        let second_moment = DMat3::from_diagonal(DVec3::splat(0.5 * (ixx + iyy + izz))) - ic;
         if !is_psd3(second_moment, scale) {
             return Err(ModelError::TriangleInequality {
-                link: l.name.clone(),
+                link: l.name.to_string(),
             });
         }
         // The inertial frame (origin, rpy) in link coordinates: com = xyz, I_com rotated.
@@ -486,11 +640,11 @@ fn validate(robot: urdf_rs::Robot, warnings: Vec<String>) -> Result<RawRobot, Mo
         // Finite inputs can still overflow (a huge mass far from the link origin).
         if !inertia.is_finite() {
             return Err(ModelError::NonFiniteInertia {
-                link: l.name.clone(),
+                link: l.name.to_string(),
             });
         }
         links.push(RawLink {
-            name: l.name.clone(),
+            name: l.name.to_string(),
             inertia,
         });
     }
@@ -499,9 +653,9 @@ fn validate(robot: urdf_rs::Robot, warnings: Vec<String>) -> Result<RawRobot, Mo
     let mut joints = Vec::with_capacity(robot.joints.len());
     let mut parent_joint: Vec<Option<usize>> = vec![None; links.len()];
     for j in &robot.joints {
-        if joint_names.insert(j.name.clone(), joints.len()).is_some() {
+        if joint_names.insert(&*j.name, joints.len()).is_some() {
             return Err(ModelError::DuplicateJoint {
-                joint: j.name.clone(),
+                joint: j.name.to_string(),
             });
         }
         let find = |role: &'static str, link: &str| {
@@ -509,43 +663,28 @@ fn validate(robot: urdf_rs::Robot, warnings: Vec<String>) -> Result<RawRobot, Mo
                 .get(link)
                 .copied()
                 .ok_or_else(|| ModelError::MissingLink {
-                    joint: j.name.clone(),
+                    joint: j.name.to_string(),
                     role,
                     link: link.to_string(),
                 })
         };
-        let parent = find("parent", &j.parent.link)?;
-        let child = find("child", &j.child.link)?;
-        let kind = match j.joint_type {
-            urdf_rs::JointType::Revolute => JointKind::Revolute,
-            urdf_rs::JointType::Continuous => JointKind::Continuous,
-            urdf_rs::JointType::Prismatic => JointKind::Prismatic,
-            urdf_rs::JointType::Fixed => JointKind::Fixed,
-            urdf_rs::JointType::Floating => JointKind::Floating,
-            urdf_rs::JointType::Planar => {
-                return Err(ModelError::UnsupportedJointType {
-                    joint: j.name.clone(),
-                    kind: "planar".into(),
-                })
-            }
-            urdf_rs::JointType::Spherical => {
-                return Err(ModelError::UnsupportedJointType {
-                    joint: j.name.clone(),
-                    kind: "spherical".into(),
-                })
-            }
-        };
-        let origin = pose(&j.origin).ok_or_else(|| ModelError::InvalidOrigin {
-            joint: j.name.clone(),
+        let parent = find("parent", &j.parent)?;
+        let child = find("child", &j.child)?;
+        let kind = j.kind.map_err(|kind| ModelError::UnsupportedJointType {
+            joint: j.name.to_string(),
+            kind: kind.into(),
         })?;
-        let mut axis = vec3(&j.axis.xyz);
+        let origin = pose(&j.origin).ok_or_else(|| ModelError::InvalidOrigin {
+            joint: j.name.to_string(),
+        })?;
+        let mut axis = j.axis;
         if matches!(
             kind,
             JointKind::Revolute | JointKind::Continuous | JointKind::Prismatic
         ) {
             if !axis.is_finite() {
                 return Err(ModelError::InvalidAxis {
-                    joint: j.name.clone(),
+                    joint: j.name.to_string(),
                     reason: "non-finite component".into(),
                 });
             }
@@ -559,7 +698,7 @@ fn validate(robot: urdf_rs::Robot, warnings: Vec<String>) -> Result<RawRobot, Mo
             };
             if len < 1e-9 {
                 return Err(ModelError::InvalidAxis {
-                    joint: j.name.clone(),
+                    joint: j.name.to_string(),
                     reason: "zero length".into(),
                 });
             }
@@ -575,12 +714,12 @@ fn validate(robot: urdf_rs::Robot, warnings: Vec<String>) -> Result<RawRobot, Mo
             let first: &RawJoint = &joints[first];
             return Err(ModelError::MultipleParents {
                 link: links[child].name.clone(),
-                joints: vec![first.name.clone(), j.name.clone()],
+                joints: vec![first.name.clone(), j.name.to_string()],
             });
         }
         parent_joint[child] = Some(joints.len());
         joints.push(RawJoint {
-            name: j.name.clone(),
+            name: j.name.to_string(),
             kind,
             origin,
             axis,
@@ -619,10 +758,145 @@ fn validate(robot: urdf_rs::Robot, warnings: Vec<String>) -> Result<RawRobot, Mo
         });
     }
     Ok(RawRobot {
-        name: robot.name,
+        name: robot.name.into_owned(),
         links,
         joints,
         root,
         warnings,
     })
+}
+
+#[cfg(test)]
+// The recorded values and test quaternions are near π/2 and 1/√2 on purpose.
+#[allow(clippy::approx_constant)]
+mod tests {
+    use super::*;
+    use glam::DQuat;
+
+    /// Quaternions and the roll, pitch, yaw urdf-rs 0.9 (urdfdom's `getRPY`) made of them,
+    /// recorded from urdf-rs itself.
+    const URDF_RS_RPY: [([f64; 4], [f64; 3]); 10] = [
+        ([0.0, 0.0, 0.7071, 0.7071], [0.0, -0.0, 1.5707963267948966]),
+        ([0.1, 0.0, 0.0, 1.0], [0.19933730498232408, -0.0, 0.0]),
+        (
+            [0.3, -0.2, 0.5, 0.8],
+            [0.3529903878269105, -0.6533415013784495, 0.9964914966201948],
+        ),
+        (
+            [-0.5, 0.5, -0.5, 0.5],
+            [-1.5707963267948966, -0.0, -1.5707963267948966],
+        ),
+        (
+            [1.0, 2.0, 3.0, -4.0],
+            [0.19739555984988083, -0.8232119771258756, -1.373400766945016],
+        ),
+        (
+            [0.0, 0.7071067811865476, 0.0, 0.7071067811865476],
+            [0.0, 1.5707963267948966, -0.0],
+        ),
+        (
+            [0.2, 0.7, -0.1, 0.68],
+            [1.9822525702085971, 1.426622195886408, 1.5541312030809544],
+        ),
+        (
+            [0.001, 0.7071, 0.0, 0.70711],
+            [0.0, 1.5707963267948966, -0.0028284523640824395],
+        ),
+        ([1e-200, 0.0, 0.0, 1e-200], [0.0, -0.0, 0.0]),
+        ([1e300, 0.0, 1e300, 0.0], [0.0, -0.0, 0.0]),
+    ];
+
+    fn max_diff(a: DMat3, b: DMat3) -> f64 {
+        (a - b)
+            .to_cols_array()
+            .iter()
+            .fold(0.0, |m, x| m.max(x.abs()))
+    }
+
+    fn direct(q: [f64; 4]) -> DMat3 {
+        DMat3::from_quat(DQuat::from_array(q).normalize())
+    }
+
+    #[test]
+    fn quaternion_to_rpy_is_bit_identical_to_urdf_rs() {
+        for (q, rpy) in URDF_RS_RPY {
+            let got = quaternion_to_rpy(q).to_array();
+            assert_eq!(
+                got.map(f64::to_bits),
+                rpy.map(f64::to_bits),
+                "{q:?}: {got:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn quaternion_rotation_matches_the_normalised_quaternion() {
+        // Away from pitch ±π/2 (and exactly at it), the rpy path and the direct path give the
+        // same rotation.
+        let mut quats: Vec<[f64; 4]> = URDF_RS_RPY[..7].iter().map(|(q, _)| *q).collect();
+        quats.extend([
+            [0.0, 0.0, 0.0, 1.0],
+            [0.0, 0.0, 0.0, -3.0],
+            [0.6, 0.0, 0.0, 0.8],
+            [-0.1, 0.9, 0.3, -0.2],
+            [0.5, -0.5, 0.5, 0.5],
+            [
+                0.0,
+                -std::f64::consts::FRAC_1_SQRT_2,
+                0.0,
+                std::f64::consts::FRAC_1_SQRT_2,
+            ],
+        ]);
+        for q in quats {
+            let via_rpy = rpy_to_matrix(quaternion_to_rpy(q));
+            let d = max_diff(via_rpy, direct(q));
+            assert!(d < 1e-12, "{q:?}: differs by {d}");
+        }
+    }
+
+    #[test]
+    fn quaternion_conversion_keeps_the_getrpy_quirks() {
+        // Within 1e-5 of pitch ±π/2, getRPY snaps the pitch: the rotation differs from the
+        // quaternion's by a few milliradians. That is how urdf-rs read it, and is kept.
+        let q = [0.001, 0.7071, 0.0, 0.70711];
+        let d = max_diff(rpy_to_matrix(quaternion_to_rpy(q)), direct(q));
+        assert!(d > 1e-3 && d < 1e-2, "{d}");
+        // A quaternion whose squared norm underflows or overflows reads as the identity.
+        for q in [[1e-200, 0.0, 0.0, 1e-200], [1e300, 0.0, 1e300, 0.0]] {
+            assert_eq!(rpy_to_matrix(quaternion_to_rpy(q)), DMat3::IDENTITY);
+        }
+    }
+
+    #[test]
+    fn names_keep_their_white_space_and_decode_references() {
+        // As urdf-rs read them: roxmltree alone would turn the tab and line breaks into spaces.
+        let text = "<robot name=\"r\tx\"><link name=\"a\tb&amp;c&#10;\"/><link name=\"d\"/>\
+                    <joint name=\"j\r\n1\" type=\"fixed\"><parent link=\"a\tb&amp;c&#10;\"/>\
+                    <child link=\"d\"/></joint></robot>";
+        let robot = read_str(text).unwrap();
+        assert_eq!(robot.name, "r\tx");
+        assert_eq!(robot.links[0].name, "a\tb&c\n");
+        assert_eq!(robot.joints[0].name, "j\r\n1");
+        assert_eq!(robot.joints[0].parent, 0);
+        // A tab is not a space.
+        let text = text.replace("<parent link=\"a\tb", "<parent link=\"a b");
+        assert_eq!(
+            read_str(&text).unwrap_err(),
+            ModelError::MissingLink {
+                joint: "j\r\n1".into(),
+                role: "parent",
+                link: "a b&c\n".into()
+            }
+        );
+    }
+
+    #[test]
+    fn numbers_are_strict() {
+        assert_eq!(numbers::<3>(" 1\t2\n3 "), Some([1.0, 2.0, 3.0]));
+        assert_eq!(numbers::<3>("1 2"), None);
+        assert_eq!(numbers::<3>("1 2 3 4"), None);
+        assert_eq!(numbers::<3>("1 2 x"), None);
+        assert_eq!(numbers::<1>(""), None);
+        assert_eq!(numbers::<1>("1e"), None);
+    }
 }

@@ -119,18 +119,18 @@ impl SpatialTransform {
     }
 
     /// The inertia expressed in B coordinates: `X* I X⁻¹` (RBDA eq. 2.66, in the
-    /// `rot(E) xlt(r)` form): `h' = E (h − m r)`,
-    /// `Ī' = E (Ī + r× h× + (h − m r)× r×) E ᵀ`, the middle term expanded with
-    /// `a× b× = b aᵀ − (a·b) 1` into `h rᵀ + r hᵀ − m r rᵀ − (2 r·h − m r·r) 1`.
+    /// `rot(E) xlt(r)` form): with `hr = h − m r`, `h' = E hr` and
+    /// `Ī' = E (Ī + r× h× + hr× r×) Eᵀ`, the middle term expanded with
+    /// `a× b× = b aᵀ − (a·b) 1` into `h rᵀ + r hrᵀ − (r·h + hr·r) 1` (no `m r·r` product, so a
+    /// massless inertia stays zero however far it is moved).
     #[inline]
     pub fn apply_inertia(&self, i: &SpatialInertia) -> SpatialInertia {
-        let (r, h, m) = (self.r, i.h, i.mass);
-        let hr = h - r * m;
-        let mid = i.ibar + outer3(h, r) + outer3(r, h)
-            - outer3(r, r) * m
-            - DMat3::from_diagonal(DVec3::splat(2.0 * r.dot(h) - m * r.dot(r)));
+        let (r, h) = (self.r, i.h);
+        let hr = h - r * i.mass;
+        let mid = i.ibar + outer3(h, r) + outer3(r, hr)
+            - DMat3::from_diagonal(DVec3::splat(r.dot(h) + hr.dot(r)));
         SpatialInertia {
-            mass: m,
+            mass: i.mass,
             h: self.e * hr,
             ibar: self.e * mid * self.e.transpose(),
         }
