@@ -63,6 +63,7 @@ impl SpatialInertia {
     }
 
     /// Centre of mass (the origin for a massless body).
+    #[inline]
     pub fn com(&self) -> DVec3 {
         if self.mass > 0.0 {
             self.h / self.mass
@@ -72,6 +73,7 @@ impl SpatialInertia {
     }
 
     /// Rotational inertia about the centre of mass.
+    #[inline]
     pub fn inertia_about_com(&self) -> DMat3 {
         if self.mass > 0.0 {
             let c = self.com();
@@ -97,6 +99,7 @@ impl SpatialInertia {
     }
 
     /// The explicit 6×6 matrix.
+    #[inline]
     pub fn to_mat6(&self) -> SymMat6 {
         let hx = skew(self.h);
         let m1 = DMat3::from_diagonal(DVec3::splat(self.mass));

@@ -61,6 +61,7 @@ impl Mat6 {
     }
 
     /// The matrix `[tl tr; bl br]` from four 3×3 blocks.
+    #[inline]
     pub fn from_blocks(tl: DMat3, tr: DMat3, bl: DMat3, br: DMat3) -> Mat6 {
         let mut m = [[0.0; 6]; 6];
         for i in 0..3 {
@@ -182,6 +183,7 @@ impl Mat6 {
     }
 
     /// The symmetric part `(self + selfᵀ) / 2`.
+    #[inline]
     pub fn symmetric_part(&self) -> SymMat6 {
         let mut m = self.0;
         for i in 0..6 {
