@@ -266,36 +266,47 @@ fn join(
         }
     }
     let gamma = SpatialForce::from_array(solve_lt(&l, &w));
-    // Y_h = Φ_hj L⁻ᵀ (row by row), P_h = Y_h Z, R_h = P_h D⁻¹.
+    // Yᵀ_h = L⁻¹ Φ_jh (Φ_jh = Φ_hjᵀ is stored; forward substitution on whole rows, which
+    // vectorises), P_h = Y_h Z, R_h = P_h D⁻¹. Row i of `d.y[h]` is column i of Y_h.
     let (hc, bc) = (d.hoff[n], d.boff[n]);
     for h in 0..nhc {
         let (side, i) = d.from[hc + h];
-        let g = match side {
-            Side::A => phi(d, a, nha, i, ja),
-            Side::B => phi(d, b, nhb, i, jb),
+        let gt = match side {
+            Side::A => phi(d, a, nha, ja, i),
+            Side::B => phi(d, b, nhb, jb, i),
         };
-        let mut y = [[0.0; 6]; 6];
-        for row in 0..6 {
-            y[row] = solve_l(&l, &g.0[row]);
+        let mut yt = [[0.0; 6]; 6];
+        for r in 0..6 {
+            let mut v = gt.0[r];
+            for q in 0..r {
+                let lrq = l[r][q];
+                for c in 0..6 {
+                    v[c] -= lrq * yt[q][c];
+                }
+            }
+            let inv = 1.0 / l[r][r];
+            for c in 0..6 {
+                yt[r][c] = v[c] * inv;
+            }
         }
         let mut pm = [[0.0; 6]; 6];
         let mut rm = [[0.0; 6]; 6];
-        if k == 1 {
-            let (z, dinv) = (&d.z[vo], dm.a[0][0]);
-            for row in 0..6 {
-                let p = dot6(&y[row], z);
-                pm[row][0] = p;
-                rm[row][0] = p * dinv;
-            }
-        } else {
-            for row in 0..6 {
-                for p in 0..k {
-                    pm[row][p] = dot6(&y[row], &d.z[vo + p]);
+        for p in 0..k {
+            let z = d.z[vo + p];
+            let mut col = [0.0; 6];
+            for r in 0..6 {
+                for c in 0..6 {
+                    col[c] += yt[r][c] * z[r];
                 }
-                dm.mul(&pm[row][..k], &mut rm[row][..k]);
+            }
+            for row in 0..6 {
+                pm[row][p] = col[row];
             }
         }
-        d.y[h] = Mat6(y);
+        for row in 0..6 {
+            dm.mul(&pm[row][..k], &mut rm[row][..k]);
+        }
+        d.y[h] = Mat6(yt);
         d.pz[h] = Mat6(pm);
         d.rz[h] = Mat6(rm);
     }
@@ -304,16 +315,23 @@ fn join(
         let (sh, ih) = d.from[hc + h];
         for kk in h..nhc {
             let (sk, ik) = d.from[hc + kk];
-            // m = Y_h Y_kᵀ − R_h P_kᵀ
+            // m = Y_h Y_kᵀ − R_h P_kᵀ = Σ_i (column i of Y_h)(column i of Y_k)ᵀ − R_h P_kᵀ
             let mut m = Mat6::ZERO;
             let (yh, yk, rh, pk) = (&d.y[h].0, &d.y[kk].0, &d.rz[h].0, &d.pz[kk].0);
-            for row in 0..6 {
-                for col in 0..6 {
-                    let mut x = dot6(&yh[row], &yk[col]);
-                    for p in 0..k {
-                        x -= rh[row][p] * pk[col][p];
+            for i in 0..6 {
+                for row in 0..6 {
+                    let x = yh[i][row];
+                    for col in 0..6 {
+                        m.0[row][col] += x * yk[i][col];
                     }
-                    m.0[row][col] = x;
+                }
+            }
+            for p in 0..k {
+                for row in 0..6 {
+                    let x = rh[row][p];
+                    for col in 0..6 {
+                        m.0[row][col] -= x * pk[col][p];
+                    }
                 }
             }
             let blk = match (sh, sk) {
