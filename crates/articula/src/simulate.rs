@@ -140,6 +140,11 @@ struct Csv {
 
 impl Csv {
     fn create(path: &Path, model: &Model) -> Result<Csv, CliError> {
+        // The folder is created if needed (the README writes into target/).
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| CliError(format!("cannot create {}: {e}", dir.display())))?;
+        }
         let file = File::create(path)
             .map_err(|e| CliError(format!("cannot create {}: {e}", path.display())))?;
         let mut csv = Csv {
