@@ -2,8 +2,9 @@
 //!
 //! Exact forward dynamics of articulated bodies: Featherstone's divide-and-conquer algorithm
 //! ([`Method::Dca`], the main solver), with the articulated-body algorithm ([`Method::Aba`]) and
-//! CRBA + Cholesky ([`Method::Crba`]) as references, all in world coordinates on the assembly
-//! tree of [`articula_model`]. A [`Data`] workspace holds every buffer; DCA and ABA calls and
+//! CRBA + Cholesky ([`Method::Crba`]) as references, all with world axes (about the floating
+//! base for a floating model; see `docs/conventions.md`) on the assembly tree of
+//! [`articula_model`]. A [`Data`] workspace holds every buffer; DCA and ABA calls and
 //! [`step`]s allocate nothing.
 //!
 //! ```
