@@ -4,7 +4,7 @@
 use crate::Data;
 use articula_model::{JointKind, Model};
 use articula_spatial::{SpatialMotion, SpatialTransform};
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 
 /// Computes, for every body in order (parents first): `X_{W←i}`, the world-frame inertia, the
 /// spatial velocity `vᵢ`, the world-frame subspace columns `S`, and
@@ -33,10 +33,16 @@ pub fn forward_kinematics(model: &Model, q: &[f64], qd: &[f64], data: &mut Data)
         };
         let mut c = SpatialMotion::ZERO;
         for part in &body.joint {
-            // X_{W←k} = X_{W←k-1} · origin · motion(q)
-            x = x
-                * part.origin
-                * part.motion_transform(&q[part.q_offset..part.q_offset + part.nq()]);
+            // X_{W←k} = X_{W←k-1} · origin · motion(q); for a rotation rot(R_q) the second
+            // product is just e = e R_q, r = R_qᵀ r.
+            x = x * part.origin;
+            match part.kind {
+                JointKind::Revolute | JointKind::Continuous => {
+                    let rq = DMat3::from_axis_angle(part.axis, q[part.q_offset]);
+                    x = SpatialTransform::new(x.e * rq, rq.transpose() * x.r);
+                }
+                _ => x = x * part.motion_transform(&q[part.q_offset..part.q_offset + part.nq()]),
+            }
             let mut vj = SpatialMotion::ZERO;
             for k in 0..part.nv() {
                 let s = x.apply_motion(part.subspace_column(k));

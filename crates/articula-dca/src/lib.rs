@@ -107,7 +107,9 @@ pub fn forward_dynamics<'d>(
     };
     data.f_ext_c = f_ext;
     result?;
-    for (_, part) in model.joint_parts() {
+    // A plain scan first; the per-joint search (for the name) only when something is wrong.
+    let all_finite = data.qdd.iter().all(|x| x.is_finite());
+    for (_, part) in model.joint_parts().filter(|_| !all_finite) {
         if data.qdd[part.v_offset..part.v_offset + part.nv()]
             .iter()
             .any(|x| !x.is_finite())
@@ -154,7 +156,8 @@ fn check_inputs(
             found: f_ext.len(),
         });
     }
-    for (_, part) in model.joint_parts() {
+    let all_finite = q.iter().chain(qd).chain(tau).all(|x| x.is_finite());
+    for (_, part) in model.joint_parts().filter(|_| !all_finite) {
         let (qo, vo) = (part.q_offset, part.v_offset);
         for (what, xs) in [
             ("q", &q[qo..qo + part.nq()]),
