@@ -111,33 +111,6 @@ fn main_pass(
     Ok(())
 }
 
-/// Cholesky factor `L` (lower) of a symmetric positive definite 6×6 matrix, `None` when a
-/// pivot is not positive.
-#[inline]
-fn cholesky(m: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
-    let mut l = [[0.0f64; 6]; 6];
-    for j in 0..6 {
-        let mut d = m[j][j];
-        for p in 0..j {
-            d -= l[j][p] * l[j][p];
-        }
-        if d.is_nan() || d <= 0.0 {
-            return None;
-        }
-        let ljj = d.sqrt();
-        l[j][j] = ljj;
-        let inv = 1.0 / ljj;
-        for i in (j + 1)..6 {
-            let mut x = m[i][j];
-            for p in 0..j {
-                x -= l[i][p] * l[j][p];
-            }
-            l[i][j] = x * inv;
-        }
-    }
-    Some(l)
-}
-
 /// Cholesky factor of `M` computed on the Jacobi-scaled `E M E` (`E = diag(M_ii^-½)`), then
 /// unscaled (`L = E⁻¹ L'`): rotational and translational entries differ by the square of the
 /// lever arms (a 100,000-link chain is 10 km long), and the scaled pivots do not.
@@ -156,7 +129,7 @@ fn scaled_cholesky(m: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
             ms[i][j] = m[i][j] * e[i] * e[j];
         }
     }
-    let mut l = cholesky(&ms)?;
+    let mut l = crate::small::cholesky(&ms, 6)?;
     for i in 0..6 {
         for j in 0..=i {
             l[i][j] /= e[i];

@@ -1,5 +1,33 @@
-//! Small dense SPD solves (k ≤ 6) on the stack, for the joint-space matrices `D = Sᵀ V S` and
-//! `D = Sᵀ Iᴬ S` of multi-DOF joints.
+//! Small dense Cholesky factorisations and SPD solves (k ≤ 6) on the stack: the joint-space
+//! matrices `D = Sᵀ V S` and `D = Sᵀ Iᴬ S` of multi-DOF joints, and DCA's 6×6
+//! `Φ^A_jj + Φ^B_jj`.
+
+/// Cholesky factor `L` (lower) of the leading k×k block of a symmetric positive definite
+/// matrix, `None` when a pivot is not positive.
+#[inline]
+pub fn cholesky(a: &[[f64; 6]; 6], k: usize) -> Option<[[f64; 6]; 6]> {
+    let mut l = [[0.0f64; 6]; 6];
+    for j in 0..k {
+        let mut d = a[j][j];
+        for p in 0..j {
+            d -= l[j][p] * l[j][p];
+        }
+        if d.is_nan() || d <= 0.0 {
+            return None;
+        }
+        let ljj = d.sqrt();
+        l[j][j] = ljj;
+        let inv = 1.0 / ljj;
+        for i in (j + 1)..k {
+            let mut x = a[i][j];
+            for p in 0..j {
+                x -= l[i][p] * l[j][p];
+            }
+            l[i][j] = x * inv;
+        }
+    }
+    Some(l)
+}
 
 /// A k×k symmetric positive definite matrix, k ≤ 6, row-major in a fixed array.
 #[derive(Clone, Copy, Debug, Default)]
@@ -22,25 +50,9 @@ impl SmallSpd {
             self.a[0][0] = 1.0 / d;
             return true;
         }
-        let a = &self.a;
-        let mut l = [[0.0f64; 6]; 6];
-        for j in 0..k {
-            let mut d = a[j][j];
-            for p in 0..j {
-                d -= l[j][p] * l[j][p];
-            }
-            if d.is_nan() || d <= 0.0 {
-                return false;
-            }
-            l[j][j] = d.sqrt();
-            for i in (j + 1)..k {
-                let mut s = a[i][j];
-                for p in 0..j {
-                    s -= l[i][p] * l[j][p];
-                }
-                l[i][j] = s / l[j][j];
-            }
-        }
+        let Some(l) = cholesky(&self.a, k) else {
+            return false;
+        };
         let mut li = [[0.0f64; 6]; 6];
         for i in 0..k {
             li[i][i] = 1.0 / l[i][i];
