@@ -127,6 +127,71 @@ pub(crate) fn spd_inverse(a: &[[f64; 6]; 6], k: usize) -> Option<[[f64; 6]; 6]> 
     Some(inv)
 }
 
+/// Cholesky factor `L` of a 6×6 symmetric positive definite matrix, computed on its
+/// Jacobi-scaled form and unscaled (`L = E⁻¹ L'`). `None` when not positive definite.
+pub(crate) fn spd_cholesky(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
+    let mut e = [0.0; 6];
+    for i in 0..6 {
+        if a[i][i].is_nan() || a[i][i] <= 0.0 {
+            return None;
+        }
+        e[i] = 1.0 / a[i][i].sqrt();
+    }
+    let mut l = [[0.0f64; 6]; 6];
+    for j in 0..6 {
+        let mut d = a[j][j] * e[j] * e[j];
+        for p in 0..j {
+            d -= l[j][p] * l[j][p];
+        }
+        if d.is_nan() || d <= 0.0 {
+            return None;
+        }
+        let ljj = d.sqrt();
+        l[j][j] = ljj;
+        for i in (j + 1)..6 {
+            let mut x = a[i][j] * e[i] * e[j];
+            for p in 0..j {
+                x -= l[i][p] * l[j][p];
+            }
+            l[i][j] = x / ljj;
+        }
+    }
+    for i in 0..6 {
+        for j in 0..=i {
+            l[i][j] /= e[i];
+        }
+    }
+    Some(l)
+}
+
+/// `L⁻¹ b` (forward substitution).
+#[inline]
+pub(crate) fn solve_l(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
+    let mut x = [0.0; 6];
+    for i in 0..6 {
+        let mut v = b[i];
+        for p in 0..i {
+            v -= l[i][p] * x[p];
+        }
+        x[i] = v / l[i][i];
+    }
+    x
+}
+
+/// `L⁻ᵀ b` (back substitution).
+#[inline]
+pub(crate) fn solve_lt(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
+    let mut x = [0.0; 6];
+    for i in (0..6).rev() {
+        let mut v = b[i];
+        for p in (i + 1)..6 {
+            v -= l[p][i] * x[p];
+        }
+        x[i] = v / l[i][i];
+    }
+    x
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

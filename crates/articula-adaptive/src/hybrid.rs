@@ -10,9 +10,14 @@ use crate::dense;
 use crate::Settings;
 use articula_dca::{Data, DynamicsError};
 use articula_model::{HandleLayout, Model, NodeKind};
-use articula_spatial::{skew, Mat6, SpatialForce, SpatialInertia, SpatialMotion};
+use articula_spatial::{skew, Mat6, SpatialForce, SpatialMotion};
 use glam::{DMat3, DVec3};
 use std::collections::BinaryHeap;
+
+#[inline]
+fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
+}
 
 /// Which terms the main pass includes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -21,6 +26,40 @@ pub(crate) enum Level {
     Acceleration,
     /// Velocities after an impulse: no bias terms; the "joint forces" are generalized momenta.
     Impulse,
+}
+
+/// A rigid body's mass properties: mass, centre of mass and rotational inertia about it
+/// (computation frame).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct Rigid {
+    pub m: f64,
+    pub c: DVec3,
+    pub ic: DMat3,
+}
+
+impl Rigid {
+    /// The composite of two rigid bodies welded together (parallel-axis theorem about the
+    /// common centre of mass).
+    pub fn combine(&self, o: &Rigid) -> Rigid {
+        let m = self.m + o.m;
+        if m <= 0.0 {
+            return Rigid::default();
+        }
+        let c = (self.c * self.m + o.c * o.m) / m;
+        let shift = |r: &Rigid| {
+            let d = r.c - c;
+            (DMat3::from_diagonal(DVec3::splat(d.length_squared())) - outer(d, d)) * r.m
+        };
+        Rigid {
+            m,
+            c,
+            ic: self.ic + o.ic + shift(self) + shift(o),
+        }
+    }
+}
+
+fn outer(a: DVec3, b: DVec3) -> DMat3 {
+    DMat3::from_cols(a * b.x, a * b.y, a * b.z)
 }
 
 /// A node waiting in the selection queue, ordered by its acceleration metric.
@@ -94,7 +133,7 @@ pub struct Adaptive {
     pub(crate) woff: Vec<usize>,
     /// Per node: composite inertia, whether it holds the ground, its top body, the sum of the
     /// external wrenches on its bodies.
-    pub(crate) comp: Vec<SpatialInertia>,
+    pub(crate) comp: Vec<Rigid>,
     pub(crate) grounded: Vec<bool>,
     pub(crate) top: Vec<usize>,
     pub(crate) fsum: Vec<SpatialForce>,
@@ -113,6 +152,9 @@ pub struct Adaptive {
     pub(crate) s2: Vec<f64>,
     pub(crate) s3: Vec<f64>,
     pub(crate) fx: Vec<f64>,
+    /// Scratch of the join being computed, per handle: the columns of `Y_h` and `U_h`.
+    pub(crate) yc: Vec<[[f64; 6]; 6]>,
+    pub(crate) uc: Vec<[[f64; 6]; 6]>,
     pub(crate) steps: u64,
     pub(crate) last: Selection,
     /// Nodes visited by the passes of the last call (the cost measure of adaptive updates).
@@ -174,7 +216,7 @@ impl Adaptive {
             vw: aw.clone(),
             aw,
             woff,
-            comp: vec![SpatialInertia::ZERO; nn],
+            comp: vec![Rigid::default(); nn],
             grounded: vec![false; nn],
             top: vec![usize::MAX; nn],
             fsum: vec![SpatialForce::ZERO; nn],
@@ -190,6 +232,8 @@ impl Adaptive {
             s2: vec![0.0; scratch],
             s3: vec![0.0; scratch],
             fx: vec![0.0; maxh],
+            yc: vec![[[0.0; 6]; 6]; tree.max_handles().max(1)],
+            uc: vec![[[0.0; 6]; 6]; tree.max_handles().max(1)],
             lay,
             steps: 0,
             last: Selection::default(),
@@ -209,13 +253,20 @@ impl Adaptive {
         for (n, node) in tree.nodes.iter().enumerate() {
             match node.kind {
                 NodeKind::Ground => {
-                    self.comp[n] = SpatialInertia::ZERO;
+                    self.comp[n] = Rigid::default();
                     self.grounded[n] = true;
                     self.top[n] = usize::MAX;
                     self.fsum[n] = SpatialForce::ZERO;
                 }
                 NodeKind::Body(i) => {
-                    self.comp[n] = self.data.inertia[i];
+                    // From the body-frame inertia: about a far origin, I_c would lose digits.
+                    let (rot, _) = self.data.x[i].to_pose();
+                    let bi = &model.bodies[i].inertia;
+                    self.comp[n] = Rigid {
+                        m: bi.mass,
+                        c: self.data.x[i].apply_point(bi.com()),
+                        ic: rot * bi.inertia_about_com() * rot.transpose(),
+                    };
                     self.grounded[n] = false;
                     self.top[n] = i;
                     self.fsum[n] = self.fext_c.get(i).copied().unwrap_or(SpatialForce::ZERO);
@@ -225,7 +276,7 @@ impl Adaptive {
                     child_side: b,
                     ..
                 } => {
-                    self.comp[n] = self.comp[a] + self.comp[b];
+                    self.comp[n] = self.comp[a].combine(&self.comp[b]);
                     self.grounded[n] = self.grounded[a] || self.grounded[b];
                     self.top[n] = self.top[a].min(self.top[b]);
                     self.fsum[n] = self.fsum[a] + self.fsum[b];
@@ -244,15 +295,14 @@ impl Adaptive {
         &mut self,
         model: &Model,
         n: usize,
-        inertia: SpatialInertia,
+        inertia: &Rigid,
         v: SpatialMotion,
         fe: SpatialForce,
         level: Level,
     ) -> Result<(), DynamicsError> {
         let node = &model.assembly.nodes[n];
         let (ho, bo, nh) = (self.lay.hoff[n], self.lay.boff[n], self.nh[n]);
-        let m = inertia.mass;
-        let ic = inertia.inertia_about_com();
+        let (m, ic, c) = (inertia.m, inertia.ic, inertia.c);
         if m.is_nan() || m <= 0.0 || ic.determinant() <= 0.0 {
             let body = self.top[n].min(model.bodies.len() - 1);
             return Err(DynamicsError::Singular {
@@ -260,7 +310,6 @@ impl Adaptive {
                 detail: "a rigid subassembly's spatial inertia is not positive definite",
             });
         }
-        let c = inertia.com();
         let j = ic.inverse();
         let (acc_w, acc_c) = match level {
             Level::Acceleration => {
@@ -298,10 +347,12 @@ impl Adaptive {
 
     /// Joins A and B at the principal joint of node `n` (DESIGN §5) and records the affine maps
     /// `q̈ = K F + k` and `f = N F + n` of the back-substitution. With `G_F` the 6 × 6nh map
-    /// `y = β + G_F F` (`+Φ^A_jh` for handles from A, `−Φ^B_jh` from B) and `V = (Φ^A_jj +
-    /// Φ^B_jj)⁻¹`, `D = Sᵀ V S`: `K = −D⁻¹ SᵀV G_F`, `k = D⁻¹ (Q − SᵀV β)`, `N = V (G_F + S K)`,
-    /// `n = V (β + S k)` (= γ). Then `Φ^C_hk = Φ^X_hk [same side] ∓ Φ^X_hj N_k` and
-    /// `b^C_h = b^X_h ∓ Φ^X_hj γ` (− for A, + for B).
+    /// `y = β + G_F F` (`+Φ^A_jh` for handles from A, `−Φ^B_jh` from B), `V = (Φ^A_jj +
+    /// Φ^B_jj)⁻¹ = L⁻ᵀ L⁻¹`, `D = Sᵀ V S`: `K = −D⁻¹ SᵀV G_F`, `k = D⁻¹ (Q − SᵀV β)`,
+    /// `N = V (G_F + S K)`, `n = V (β + S k)` (= γ), all through the Cholesky factor:
+    /// `Z = L⁻¹ S`, `Y = L⁻¹ G_F`, `U = Y + Z K`, `N = L⁻ᵀ U`. Then
+    /// `Φ^C_hk = Φ^X_hk [same side] ∓ Φ^X_hj N_k = Φ^X_hk [same side] − Y_hᵀ U_k` and
+    /// `b^C_h = b^X_h ∓ Φ^X_hj γ = b^X_h − Y_hᵀ (w + Z k)`, `w = L⁻¹ β`.
     pub(crate) fn join(
         &mut self,
         model: &Model,
@@ -322,54 +373,56 @@ impl Adaptive {
         let (ja, jb) = (self.lay.ja[n], self.lay.jb[n]);
         let (nhc, hc) = (self.nh[n], self.lay.hoff[n]);
         let g = (*self.phi_at(a, ja, ja) + *self.phi_at(b, jb, jb)).0;
-        let v = dense::spd_inverse(&g, 6).ok_or_else(|| DynamicsError::Singular {
+        // L Lᵀ = Φ^A_jj + Φ^B_jj = V⁻¹
+        let l = dense::spd_cholesky(&g).ok_or_else(|| DynamicsError::Singular {
             joint: body.joint_name(),
             detail: "Φ_jj^A + Φ_jj^B is not positive definite",
         })?;
         let pj = self.point[joint];
         let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj)).to_array();
         let (vo, k) = (body.v_offset, body.nv);
-        let mut s = [[0.0; 6]; 6];
-        let mut vs = [[0.0; 6]; 6];
+        // Z = L⁻¹ S, D = Zᵀ Z
+        let mut z = [[0.0; 6]; 6];
         for p in 0..k {
-            s[p] = shift(self.data.s[vo + p]);
-            vs[p] = Mat6(v).mul_vec(&s[p]);
+            z[p] = dense::solve_l(&l, &shift(self.data.s[vo + p]));
         }
         let mut d = [[0.0; 6]; 6];
         for p in 0..k {
             for q in 0..k {
-                d[p][q] = s[p].iter().zip(&vs[q]).map(|(x, y)| x * y).sum();
+                d[p][q] = dot6(&z[p], &z[q]);
             }
         }
         let dinv = dense::spd_inverse(&d, k).ok_or_else(|| DynamicsError::Singular {
             joint: body.joint_name(),
             detail: "Sᵀ V S is not positive definite",
         })?;
-        // β = b^A_j − b^B_j + c (no velocity product at impulse level).
+        // β = b^A_j − b^B_j + c (no velocity product at impulse level); w = L⁻¹ β.
         let mut beta = self.b[self.lay.hoff[a] + ja] - self.b[self.lay.hoff[b] + jb];
         if level == Level::Acceleration {
             beta += SpatialMotion::from_array(shift(self.data.c[joint]));
         }
-        let beta = beta.to_array();
-        // k = D⁻¹ (Q − (VS)ᵀ β)
+        let mut w = dense::solve_l(&l, &beta.to_array());
+        // k = D⁻¹ (Q − Zᵀ w);  w ← w + Z k;  n = γ = L⁻ᵀ w
         let mut t = [0.0; 6];
         for p in 0..k {
-            t[p] = tau[vo + p] - vs[p].iter().zip(&beta).map(|(x, y)| x * y).sum::<f64>();
+            t[p] = tau[vo + p] - dot6(&z[p], &w);
         }
         for p in 0..k {
             self.kvec[vo + p] = (0..k).map(|q| dinv[p][q] * t[q]).sum();
         }
-        // n = V β + VS k
-        let mut nv = Mat6(v).mul_vec(&beta);
         for p in 0..k {
+            let kp = self.kvec[vo + p];
             for r in 0..6 {
-                nv[r] += vs[p][r] * self.kvec[vo + p];
+                w[r] += z[p][r] * kp;
             }
         }
+        let wk = w;
+        let nv = dense::solve_lt(&l, &w);
         self.nvec[n] = nv;
-        // Per handle h of C: G_F block, K block, N block.
+        // Per handle h of C: Y_h = L⁻¹ G_F,h (G_F,h = +Φ^A_jh from A, −Φ^B_jh from B),
+        // K_h = −D⁻¹ Zᵀ Y_h, U_h = Y_h + Z K_h, N_h = L⁻ᵀ U_h. Stored column-wise in `y`/`u`.
         let ko = self.koff[n];
-        let w = 6 * nhc;
+        let wd = 6 * nhc;
         for h in 0..nhc {
             let (from_a, i) = self.lay.from[hc + h];
             let gf = if from_a {
@@ -377,49 +430,48 @@ impl Adaptive {
             } else {
                 -*self.phi_at(b, jb, i)
             };
-            // (VS)ᵀ G_F block: k × 6
-            let mut vg = [[0.0; 6]; 6];
+            let gt = gf.transpose(); // row c = column c of G_F,h
+            let mut yc = [[0.0; 6]; 6];
+            let mut uc = [[0.0; 6]; 6];
+            for c in 0..6 {
+                yc[c] = dense::solve_l(&l, &gt.0[c]);
+            }
             for p in 0..k {
+                for c in 0..6 {
+                    let zy: f64 = (0..k).map(|q| dinv[p][q] * dot6(&z[q], &yc[c])).sum();
+                    self.kmat[ko + p * wd + 6 * h + c] = -zy;
+                }
+            }
+            for c in 0..6 {
+                let mut col = yc[c];
+                for p in 0..k {
+                    let kp = self.kmat[ko + p * wd + 6 * h + c];
+                    for r in 0..6 {
+                        col[r] += z[p][r] * kp;
+                    }
+                }
+                uc[c] = col;
+                let ncol = dense::solve_lt(&l, &col);
                 for r in 0..6 {
-                    let x = vs[p][r];
-                    for c in 0..6 {
-                        vg[p][c] += x * gf.0[r][c];
-                    }
+                    self.nmat[36 * hc + r * wd + 6 * h + c] = ncol[r];
                 }
             }
-            for p in 0..k {
-                for c in 0..6 {
-                    self.kmat[ko + p * w + 6 * h + c] =
-                        -(0..k).map(|q| dinv[p][q] * vg[q][c]).sum::<f64>();
-                }
-            }
-            // N block = V G_F + VS K
-            let vgf = Mat6(v).mul_mat(&gf);
-            for r in 0..6 {
-                for c in 0..6 {
-                    let mut x = vgf.0[r][c];
-                    for p in 0..k {
-                        x += vs[p][r] * self.kmat[ko + p * w + 6 * h + c];
-                    }
-                    self.nmat[36 * hc + r * w + 6 * h + c] = x;
-                }
-            }
+            self.yc[h] = yc;
+            self.uc[h] = uc;
         }
-        // Φ^C and b^C.
+        // Φ^C_hk = Φ^X_hk [same side] − Y_hᵀ U_k;  b^C_h = b^X_h − Y_hᵀ (w + Z k).
         let bc = self.lay.boff[n];
         for h in 0..nhc {
             let (ah, ih) = self.lay.from[hc + h];
-            let (x, jx, sign) = if ah { (a, ja, -1.0) } else { (b, jb, 1.0) };
-            let pxj = *self.phi_at(x, ih, jx);
+            let x = if ah { a } else { b };
             for kk in h..nhc {
                 let (ak, ik) = self.lay.from[hc + kk];
-                let mut nk = Mat6::ZERO;
+                let mut blk = Mat6::ZERO;
                 for r in 0..6 {
                     for c in 0..6 {
-                        nk.0[r][c] = self.nmat[36 * hc + r * w + 6 * kk + c];
+                        blk.0[r][c] = -dot6(&self.yc[h][r], &self.uc[kk][c]);
                     }
                 }
-                let mut blk = pxj.mul_mat(&nk) * sign;
                 if ah == ak {
                     blk += *self.phi_at(x, ih, ik);
                 }
@@ -431,8 +483,11 @@ impl Adaptive {
                     self.phi[bc + kk * nhc + h] = blk.transpose();
                 }
             }
-            let bx = self.b[self.lay.hoff[x] + ih];
-            self.b[hc + h] = bx + SpatialMotion::from_array(pxj.mul_vec(&nv)) * sign;
+            let mut db = [0.0; 6];
+            for r in 0..6 {
+                db[r] = -dot6(&self.yc[h][r], &wk);
+            }
+            self.b[hc + h] = self.b[self.lay.hoff[x] + ih] + SpatialMotion::from_array(db);
         }
         Ok(())
     }
@@ -513,7 +568,8 @@ impl Adaptive {
                     Level::Acceleration => self.data.v[self.top[n]],
                     Level::Impulse => SpatialMotion::ZERO,
                 };
-                self.rigid_coefficients(model, n, self.comp[n], v, self.fsum[n], level)?;
+                let r = self.comp[n];
+                self.rigid_coefficients(model, n, &r, v, self.fsum[n], level)?;
             }
         }
         Ok(())
