@@ -156,6 +156,8 @@ pub struct Adaptive {
     pub(crate) yc: Vec<[[f64; 6]; 6]>,
     pub(crate) uc: Vec<[[f64; 6]; 6]>,
     pub(crate) steps: u64,
+    pub(crate) full_passes: bool,
+    pub(crate) hier: crate::hierarchy::Hierarchy,
     pub(crate) last: Selection,
     /// Nodes visited by the passes of the last call (the cost measure of adaptive updates).
     pub(crate) touched: usize,
@@ -236,6 +238,8 @@ impl Adaptive {
             uc: vec![[[0.0; 6]; 6]; tree.max_handles().max(1)],
             lay,
             steps: 0,
+            full_passes: false,
+            hier: Default::default(),
             last: Selection::default(),
             touched: 0,
         }

@@ -28,38 +28,43 @@ pub fn integrate_q(model: &Model, q: &mut [f64], qd: &[f64], h: f64) {
         let (qo, vo) = (part.q_offset, part.v_offset);
         match part.kind {
             JointKind::Floating => {
-                let rot = DQuat::from_xyzw(q[qo + 4], q[qo + 5], q[qo + 6], q[qo + 3]).normalize();
-                let w = DVec3::new(qd[vo], qd[vo + 1], qd[vo + 2]);
-                let v = DVec3::new(qd[vo + 3], qd[vo + 4], qd[vo + 5]);
-                let phi = w * h;
-                let th = phi.length();
-                let (a, b) = if th < 1e-2 {
-                    // Taylor series (the closed forms cancel); the next terms are < 1e-16.
-                    let t2 = th * th;
-                    (
-                        0.5 - t2 / 24.0 + t2 * t2 / 720.0,
-                        1.0 / 6.0 - t2 / 120.0 + t2 * t2 / 5040.0,
-                    )
-                } else {
-                    let s = (0.5 * th).sin();
-                    (2.0 * s * s / (th * th), (th - th.sin()) / (th * th * th))
-                };
-                let pv = phi.cross(v);
-                let p = DVec3::new(q[qo], q[qo + 1], q[qo + 2])
-                    + rot * ((v + a * pv + b * phi.cross(pv)) * h);
-                let angle = w.length() * h;
-                let dr = if angle > 0.0 {
-                    DQuat::from_axis_angle(w.normalize(), angle)
-                } else {
-                    DQuat::IDENTITY
-                };
-                let r = (rot * dr).normalize();
-                q[qo..qo + 7].copy_from_slice(&[p.x, p.y, p.z, r.w, r.x, r.y, r.z]);
+                integrate_floating(&mut q[qo..qo + 7], &qd[vo..vo + 6], h);
             }
             JointKind::Fixed => {}
             _ => q[qo] += qd[vo] * h,
         }
     }
+}
+
+/// `q ← q ⊕ h·v` for one floating joint: `q = [x, y, z, qw, qx, qy, qz]`, `v = [ω; v]` its
+/// body twist (see [`integrate_q`]).
+pub fn integrate_floating(q: &mut [f64], v: &[f64], h: f64) {
+    let rot = DQuat::from_xyzw(q[4], q[5], q[6], q[3]).normalize();
+    let w = DVec3::new(v[0], v[1], v[2]);
+    let v = DVec3::new(v[3], v[4], v[5]);
+    let phi = w * h;
+    let th = phi.length();
+    let (a, b) = if th < 1e-2 {
+        // Taylor series (the closed forms cancel); the next terms are < 1e-16.
+        let t2 = th * th;
+        (
+            0.5 - t2 / 24.0 + t2 * t2 / 720.0,
+            1.0 / 6.0 - t2 / 120.0 + t2 * t2 / 5040.0,
+        )
+    } else {
+        let s = (0.5 * th).sin();
+        (2.0 * s * s / (th * th), (th - th.sin()) / (th * th * th))
+    };
+    let pv = phi.cross(v);
+    let p = DVec3::new(q[0], q[1], q[2]) + rot * ((v + a * pv + b * phi.cross(pv)) * h);
+    let angle = w.length() * h;
+    let dr = if angle > 0.0 {
+        DQuat::from_axis_angle(w.normalize(), angle)
+    } else {
+        DQuat::IDENTITY
+    };
+    let r = (rot * dr).normalize();
+    q[..7].copy_from_slice(&[p.x, p.y, p.z, r.w, r.x, r.y, r.z]);
 }
 
 /// Advances `state` by `dt` with `method` and `integrator`. Allocates nothing for DCA and ABA.
