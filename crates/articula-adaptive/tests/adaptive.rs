@@ -401,3 +401,44 @@ fn hierarchical_steps_match_whole_body_passes() {
         }
     }
 }
+
+#[test]
+fn velocity_tolerance_keeps_fast_subassemblies_moving() {
+    // Budget 0 selects nothing; with a velocity tolerance every active subassembly whose
+    // velocity metric V(C) = Σ q̇ᵀq̇ exceeds it stays in the hybrid body, the others lock.
+    let model = load("chain30", false);
+    let mut s = State::random(&model, 9, 0.0);
+    s.qd.fill(0.0);
+    for j in 20..30 {
+        s.qd[j] = 3.0; // joints 21..30 move fast, the rest are at rest
+    }
+    let mut ad = Adaptive::new(
+        &model,
+        Settings {
+            budget: Some(0),
+            velocity_tolerance: Some(1.0),
+            ..Settings::default()
+        },
+    );
+    let before = s.qd.clone();
+    let locked = ad.reselect(&model, &mut s).unwrap();
+    assert!(
+        !locked,
+        "every moving joint sits in a subassembly above the tolerance"
+    );
+    assert_eq!(s.qd, before);
+    for (i, b) in model.bodies.iter().enumerate() {
+        if before[b.v_offset] != 0.0 {
+            assert!(ad.is_active(&model, i), "{}", b.joint_name());
+        }
+    }
+    // A tolerance above the whole body's velocity metric (10 × 9 = 90) locks everything.
+    ad.set_settings(Settings {
+        budget: Some(0),
+        velocity_tolerance: Some(100.0),
+        ..Settings::default()
+    })
+    .unwrap();
+    assert!(ad.reselect(&model, &mut s).unwrap());
+    assert!(s.qd.iter().all(|x| *x == 0.0));
+}
