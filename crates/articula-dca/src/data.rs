@@ -1,10 +1,9 @@
 //! The workspace beside the immutable model: every per-step buffer, allocated once.
 
-use crate::small::SmallSpd;
+use crate::kinematics::FkPlan;
+use crate::small::{SmallSpd, Sym6};
 use articula_model::{Model, NodeKind};
-use articula_spatial::{
-    Mat6, SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform, SymMat6,
-};
+use articula_spatial::{Mat6, SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
 use glam::DVec3;
 
 /// Which side of a join a handle of the joined node comes from.
@@ -40,6 +39,8 @@ pub struct Data {
     pub qdd: Vec<f64>,
     /// External wrenches in the computation frame (empty when none were given).
     pub(crate) f_ext_c: Vec<SpatialForce>,
+    /// Per body: the forward-kinematics path of its joint.
+    pub(crate) fk_plan: Vec<FkPlan>,
     pub(crate) dca: DcaData,
     pub(crate) aba: AbaData,
     pub(crate) rk: RkData,
@@ -83,11 +84,16 @@ pub(crate) struct DcaData {
 /// ABA buffers.
 #[derive(Clone, Debug)]
 pub(crate) struct AbaData {
-    pub ia: Vec<SymMat6>,
+    /// Per body: articulated inertia (packed) and bias force.
+    pub ia: Vec<Sym6>,
     pub pa: Vec<SpatialForce>,
-    pub u: Vec<SpatialForce>,
-    pub dinv: Vec<SmallSpd>,
+    /// Per degree of freedom: `U = Iᴬ s` and `u = τ − sᵀ pᴬ`.
+    pub u: Vec<[f64; 6]>,
     pub uu: Vec<f64>,
+    /// `D⁻¹` of every joint (k×k row-major), body i's at `doff[i]`.
+    pub dinv: Vec<f64>,
+    pub doff: Vec<usize>,
+    /// Per body: spatial acceleration.
     pub a: Vec<SpatialMotion>,
 }
 
@@ -180,12 +186,22 @@ impl Data {
                 pz: vec![Mat6::ZERO; max_h],
                 rz: vec![Mat6::ZERO; max_h],
             },
+            fk_plan: model.bodies.iter().map(FkPlan::of).collect(),
             aba: AbaData {
-                ia: vec![SymMat6::ZERO; n],
+                ia: vec![Sym6::ZERO; n],
                 pa: vec![SpatialForce::ZERO; n],
-                u: vec![SpatialForce::ZERO; nv],
-                dinv: vec![SmallSpd::default(); n],
+                u: vec![[0.0; 6]; nv],
                 uu: vec![0.0; nv],
+                dinv: vec![0.0; model.bodies.iter().map(|b| b.nv * b.nv).sum()],
+                doff: model
+                    .bodies
+                    .iter()
+                    .scan(0, |o, b| {
+                        let here = *o;
+                        *o += b.nv * b.nv;
+                        Some(here)
+                    })
+                    .collect(),
                 a: vec![SpatialMotion::ZERO; n],
             },
             rk: RkData {
