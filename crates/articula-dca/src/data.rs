@@ -74,11 +74,8 @@ pub(crate) struct DcaData {
     /// Per joint h: the point P_h (origin of body h, computation frame) about which every
     /// handle-h vector is taken.
     pub point: Vec<DVec3>,
-    /// Scratch per handle of the node being joined: `Y_h = Φ_hj L⁻ᵀ`, `P_h = Y_h Z`,
-    /// `R_h = P_h D⁻¹` (first k columns).
-    pub y: Vec<Mat6>,
-    pub pz: Vec<Mat6>,
-    pub rz: Vec<Mat6>,
+    /// Scratch per handle of the node being joined: `Ỹ_h = Q L⁻¹ Φ_jh`.
+    pub y: Vec<[[f64; 6]; 6]>,
 }
 
 /// ABA buffers.
@@ -182,9 +179,7 @@ impl Data {
                 z: vec![[0.0; 6]; nv],
                 dinv: vec![SmallSpd::default(); n],
                 point: vec![DVec3::ZERO; n],
-                y: vec![Mat6::ZERO; max_h],
-                pz: vec![Mat6::ZERO; max_h],
-                rz: vec![Mat6::ZERO; max_h],
+                y: vec![[[0.0; 6]; 6]; max_h],
             },
             fk_plan: model.bodies.iter().map(FkPlan::of).collect(),
             aba: AbaData {

@@ -29,6 +29,42 @@ pub fn cholesky(a: &[[f64; 6]; 6], k: usize) -> Option<[[f64; 6]; 6]> {
     Some(l)
 }
 
+/// Cholesky factor `L` (lower, `L Lᵀ = A`) of a 6×6 symmetric positive definite matrix
+/// (its lower triangle is read), `None` when a pivot is not positive. Fully unrolled.
+#[inline(always)]
+pub fn cholesky6(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
+    let mut l = [[0.0f64; 6]; 6];
+    let mut ok = true;
+    col::<0>(a, &mut l, &mut ok);
+    col::<1>(a, &mut l, &mut ok);
+    col::<2>(a, &mut l, &mut ok);
+    col::<3>(a, &mut l, &mut ok);
+    col::<4>(a, &mut l, &mut ok);
+    col::<5>(a, &mut l, &mut ok);
+    ok.then_some(l)
+}
+
+/// Column `J` of the Cholesky factor (rows J..6), from the columns before it.
+#[inline(always)]
+fn col<const J: usize>(a: &[[f64; 6]; 6], l: &mut [[f64; 6]; 6], ok: &mut bool) {
+    let mut d = a[J][J];
+    for p in 0..J {
+        d -= l[J][p] * l[J][p];
+    }
+    // `!(d > 0)` also catches NaN.
+    *ok &= d > 0.0;
+    let ljj = d.sqrt();
+    l[J][J] = ljj;
+    let inv = 1.0 / ljj;
+    for i in (J + 1)..6 {
+        let mut x = a[i][J];
+        for p in 0..J {
+            x -= l[i][p] * l[J][p];
+        }
+        l[i][J] = x * inv;
+    }
+}
+
 /// A k×k symmetric positive definite matrix, k ≤ 6, row-major in a fixed array.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct SmallSpd {
