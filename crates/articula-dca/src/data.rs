@@ -37,6 +37,12 @@ pub struct Data {
     pub s: Vec<SpatialMotion>,
     /// The joint accelerations of the last solve (length `nv`).
     pub qdd: Vec<f64>,
+    /// Momentum projection in [`crate::step`] (default `true`; it acts only on a free-floating
+    /// model, see [`crate::step`]): after each step the floating base's velocity is corrected so
+    /// that the total spatial momentum equals its exact value — the momentum at the start of
+    /// the step plus the exact impulse of gravity and of the (constant, world-frame) external
+    /// wrenches. Set to `false` for the integrator's raw result.
+    pub momentum_projection: bool,
     /// External wrenches in the computation frame (empty when none were given).
     pub(crate) f_ext_c: Vec<SpatialForce>,
     /// Per body: the forward-kinematics path of its joint.
@@ -101,6 +107,8 @@ pub(crate) struct RkData {
     pub qd0: Vec<f64>,
     pub kv: Vec<f64>,
     pub ka: Vec<f64>,
+    /// RKMK: the Lie-algebra increment of the current stage (floating joints' entries).
+    pub theta: Vec<f64>,
 }
 
 impl Data {
@@ -165,6 +173,7 @@ impl Data {
             inertia: vec![SpatialInertia::ZERO; n],
             s: vec![SpatialMotion::ZERO; nv],
             qdd: vec![0.0; nv],
+            momentum_projection: true,
             dca: DcaData {
                 hoff,
                 boff,
@@ -204,6 +213,7 @@ impl Data {
                 qd0: vec![0.0; nv],
                 kv: vec![0.0; nv],
                 ka: vec![0.0; nv],
+                theta: vec![0.0; nv],
             },
         }
     }
@@ -259,6 +269,7 @@ impl RkData {
             qd0: Vec::new(),
             kv: Vec::new(),
             ka: Vec::new(),
+            theta: Vec::new(),
         }
     }
 }
