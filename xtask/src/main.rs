@@ -1,7 +1,13 @@
 //! Project automation tasks, run via `cargo xtask <subcommand>`.
 
+mod bench;
+mod chart;
+mod dd;
+mod hp;
 mod models;
 mod snapshots;
+mod solver;
+mod timing;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -10,6 +16,12 @@ const USAGE: &str = "\
 usage: cargo xtask <subcommand>
 
 subcommands:
+    bench [--quick] [--peers]
+                            time DCA, ABA, CRBA (and with --peers Pinocchio and MuJoCo) on
+                            chains of 10..10,000 links and the humanoid, measure their error
+                            against a double-double reference, write
+                            target/articula-bench/report.md and charts (SVG, PNG);
+                            --quick samples in-process (minutes), otherwise criterion
     models                  regenerate the URDF test/benchmark models in models/
     snapshots [--accept]    run the snapshot tests of `articula info` (INSTA_UPDATE=no);
                             with --accept, rewrite the changed .snap files
@@ -20,6 +32,7 @@ fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
         Some("models") => run(models::run(&workspace_root().join("models"))),
+        Some("bench") => run(bench::run(&workspace_root(), &args[1..])),
         Some("snapshots") => run(snapshots::run(&workspace_root(), &args[1..])),
         Some("-h" | "--help" | "help") => {
             print!("{USAGE}");
