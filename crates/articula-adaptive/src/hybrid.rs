@@ -152,6 +152,8 @@ pub struct Adaptive {
     pub(crate) s2: Vec<f64>,
     pub(crate) s3: Vec<f64>,
     pub(crate) fx: Vec<f64>,
+    /// Scratch: a child's handle → the joined node's handle.
+    pub(crate) map: Vec<usize>,
     /// Scratch of the join being computed, per handle: the columns of `Y_h` and `U_h`.
     pub(crate) yc: Vec<[[f64; 6]; 6]>,
     pub(crate) uc: Vec<[[f64; 6]; 6]>,
@@ -234,6 +236,7 @@ impl Adaptive {
             s2: vec![0.0; scratch],
             s3: vec![0.0; scratch],
             fx: vec![0.0; maxh],
+            map: vec![usize::MAX; tree.max_handles().max(1)],
             yc: vec![[[0.0; 6]; 6]; tree.max_handles().max(1)],
             uc: vec![[[0.0; 6]; 6]; tree.max_handles().max(1)],
             lay,
