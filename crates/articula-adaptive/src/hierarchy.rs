@@ -184,14 +184,14 @@ impl Adaptive {
 
     /// One hybrid-body step between re-selections: kinematics of the active joints, the rigid
     /// frontier's composites from the hierarchical state, the main pass and back-substitution
-    /// over the active region. Writes `qdd` (zero outside the active region).
+    /// over the active region, with the external wrenches of `fsparse`. Writes `qdd` (zero
+    /// outside the active region).
     pub(crate) fn hybrid_step(
         &mut self,
         model: &Model,
         q: &[f64],
         qd: &[f64],
         tau: &[f64],
-        f_ext: &[SpatialForce],
     ) -> Result<(), DynamicsError> {
         let tree = &model.assembly;
         self.data.origin = match model.bodies.first() {
@@ -218,17 +218,16 @@ impl Adaptive {
                 ic: r * rl.ic * r.transpose(),
             };
         }
-        if !f_ext.is_empty() {
+        // An external force on a rigid part goes to its cluster: a walk up the tree.
+        if !self.fsparse.is_empty() {
             let x_cw = SpatialTransform::xlt(self.data.origin);
-            for (i, fe) in f_ext.iter().enumerate() {
-                if *fe == SpatialForce::ZERO {
-                    continue;
-                }
+            for k in 0..self.fsparse.len() {
+                let (i, fe) = self.fsparse[k];
                 let mut n = tree.body_leaf[i];
                 while let Some(p) = tree.nodes[n].parent.filter(|&p| !self.active[p]) {
                     n = p;
                 }
-                self.fsum[n] += x_cw.apply_force(*fe);
+                self.fsum[n] += x_cw.apply_force(fe);
             }
         }
         self.touched = 0;

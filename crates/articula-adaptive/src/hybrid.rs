@@ -138,6 +138,9 @@ pub struct Adaptive {
     pub(crate) top: Vec<usize>,
     pub(crate) fsum: Vec<SpatialForce>,
     pub(crate) fext_c: Vec<SpatialForce>,
+    /// External wrenches of the current step, sparse `(body, world wrench)` and dense.
+    pub(crate) fsparse: Vec<(usize, SpatialForce)>,
+    pub(crate) fdense: Vec<SpatialForce>,
     /// Per node: in the hybrid body's active region (its principal joint moves).
     pub(crate) active: Vec<bool>,
     /// Per node: selected by the last acceleration-metric selection.
@@ -225,6 +228,8 @@ impl Adaptive {
             top: vec![usize::MAX; nn],
             fsum: vec![SpatialForce::ZERO; nn],
             fext_c: Vec::with_capacity(model.bodies.len()),
+            fsparse: Vec::new(),
+            fdense: vec![SpatialForce::ZERO; model.bodies.len()],
             active,
             selected: vec![false; nn],
             vmetric: vec![0.0; nn],

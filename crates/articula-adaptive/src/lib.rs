@@ -319,14 +319,78 @@ impl Adaptive {
         state: &mut State,
         dt: f64,
     ) -> Result<StepReport, AdaptiveError> {
+        self.fsparse.clear();
+        for (i, f) in state.f_ext.iter().enumerate() {
+            if *f != SpatialForce::ZERO {
+                self.fsparse.push((i, *f));
+            }
+        }
+        self.step_inner(model, state, dt)
+    }
+
+    /// [`Adaptive::step`] with the external wrenches given as a list `(body, world wrench about
+    /// the world origin)` instead of `state.f_ext` (which must then be empty): between
+    /// re-selections each force costs a walk from its body to its rigid cluster, and nothing
+    /// scans the whole body.
+    pub fn step_with_forces(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+        dt: f64,
+        forces: &[(usize, SpatialForce)],
+    ) -> Result<StepReport, AdaptiveError> {
+        if !state.f_ext.is_empty() {
+            return Err(AdaptiveError::Setting(
+                "give the external forces either in state.f_ext or as a list, not both".into(),
+            ));
+        }
+        self.fsparse.clear();
+        for &(i, f) in forces {
+            let Some(body) = model.bodies.get(i) else {
+                return Err(DynamicsError::Dimension {
+                    what: "external force body index",
+                    expected: model.bodies.len(),
+                    found: i,
+                }
+                .into());
+            };
+            if !f.is_finite() {
+                return Err(DynamicsError::NonFinite {
+                    what: "external force",
+                    name: body.name.clone(),
+                }
+                .into());
+            }
+            self.fsparse.push((i, f));
+        }
+        self.step_inner(model, state, dt)
+    }
+
+    fn step_inner(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+        dt: f64,
+    ) -> Result<StepReport, AdaptiveError> {
         self.settings.validate()?;
         let mut report = StepReport {
             reselected: !self.hier.valid || self.steps.is_multiple_of(self.settings.reselect_every),
             ..StepReport::default()
         };
+        let full = report.reselected || self.full_passes;
+        if full {
+            // Whole-body passes read the forces as one wrench per body.
+            let mut fdense = std::mem::take(&mut self.fdense);
+            fdense.fill(SpatialForce::ZERO);
+            for &(i, f) in &self.fsparse {
+                fdense[i] += f;
+            }
+            let r = self.load(model, &state.q, &state.qd, &state.tau, &fdense);
+            self.fdense = fdense;
+            r?;
+        }
         if report.reselected {
             self.hier.valid = false;
-            self.load(model, &state.q, &state.qd, &state.tau, &state.f_ext)?;
             report.rigidified = self.reselect_loaded(model, state)?;
             let mut touched = self.touched;
             self.build_hierarchy(model);
@@ -336,12 +400,11 @@ impl Adaptive {
             self.touched = touched;
         } else if self.full_passes {
             // Reference path: whole-body kinematics and composites, same hybrid body.
-            self.load(model, &state.q, &state.qd, &state.tau, &state.f_ext)?;
             self.main_pass(model, &state.tau, Level::Acceleration, false)?;
             self.back_substitution(model, false);
         } else {
             self.check_active_inputs(model, state)?;
-            self.hybrid_step(model, &state.q, &state.qd, &state.tau, &state.f_ext)?;
+            self.hybrid_step(model, &state.q, &state.qd, &state.tau)?;
         }
         let mut dofs = 0;
         for idx in 0..self.hier.ajoints.len() {
@@ -403,8 +466,11 @@ impl Adaptive {
                 return check_inputs(model, &state.q, &state.qd, &state.tau, &state.f_ext);
             }
         }
-        if state.f_ext.iter().any(|f| !f.is_finite()) {
-            return check_inputs(model, &state.q, &state.qd, &state.tau, &state.f_ext);
+        if let Some(&(i, _)) = self.fsparse.iter().find(|(_, f)| !f.is_finite()) {
+            return Err(DynamicsError::NonFinite {
+                what: "external force",
+                name: model.bodies[i].name.clone(),
+            });
         }
         Ok(())
     }

@@ -442,3 +442,51 @@ fn velocity_tolerance_keeps_fast_subassemblies_moving() {
     assert!(ad.reselect(&model, &mut s).unwrap());
     assert!(s.qd.iter().all(|x| *x == 0.0));
 }
+
+#[test]
+fn a_force_list_steps_like_dense_forces() {
+    let model = load("chain300", false);
+    let mut dense = State::random(&model, 21, 0.0);
+    let forces: Vec<(usize, SpatialForce)> = [(17usize, 1.0), (150, -2.0), (299, 0.5)]
+        .iter()
+        .map(|&(b, s)| {
+            (
+                b,
+                SpatialForce::new(glam::DVec3::new(0.0, s, 0.0), glam::DVec3::new(s, 0.0, 0.3)),
+            )
+        })
+        .collect();
+    for &(b, f) in &forces {
+        dense.f_ext[b] = f;
+    }
+    let mut sparse = dense.clone();
+    sparse.f_ext.clear();
+    let settings = Settings {
+        budget: Some(25),
+        reselect_every: 5,
+        ..Settings::default()
+    };
+    let (mut a, mut b) = (
+        Adaptive::new(&model, settings.clone()),
+        Adaptive::new(&model, settings),
+    );
+    for _ in 0..12 {
+        a.step(&model, &mut dense, 1e-3).unwrap();
+        b.step_with_forces(&model, &mut sparse, 1e-3, &forces)
+            .unwrap();
+        assert_eq!(dense.q, sparse.q);
+        assert_eq!(dense.qd, sparse.qd);
+    }
+    // Both ways at once, a bad index and a non-finite force are errors.
+    let mut both = dense.clone();
+    assert!(b
+        .step_with_forces(&model, &mut both, 1e-3, &forces)
+        .is_err());
+    assert!(b
+        .step_with_forces(&model, &mut sparse, 1e-3, &[(300, SpatialForce::ZERO)])
+        .is_err());
+    let nan = SpatialForce::new(glam::DVec3::ZERO, glam::DVec3::new(f64::NAN, 0.0, 0.0));
+    assert!(b
+        .step_with_forces(&model, &mut sparse, 1e-3, &[(3, nan)])
+        .is_err());
+}
