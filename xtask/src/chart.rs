@@ -112,6 +112,11 @@ fn log_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     (lo, hi)
 }
 
+/// Whole decades between `lo` and `hi`.
+fn decades(lo: f64, hi: f64) -> usize {
+    (hi / lo).log10().round().max(1.0) as usize
+}
+
 fn err<E: std::fmt::Debug>(e: E) -> Box<dyn std::error::Error> {
     format!("chart: {e:?}").into()
 }
@@ -157,8 +162,8 @@ where
         .configure_mesh()
         .x_desc(&plot.x_desc)
         .y_desc(&plot.y_desc)
-        .x_labels(40)
-        .y_labels(40)
+        .x_labels(decades(x0, x1) + 1)
+        .y_labels(decades(y0, y1) + 1)
         .x_label_formatter(&sci)
         .y_label_formatter(&sci)
         .axis_desc_style((FONT_NAME, 17))
@@ -350,6 +355,11 @@ mod tests {
             lines: true,
         };
         let files = write_loglog(&dir, "x", &plot).unwrap();
+        if let Some(keep) = std::env::var_os("XTASK_KEEP_CHARTS") {
+            for f in &files {
+                std::fs::copy(f, std::path::Path::new(&keep).join(f.file_name().unwrap())).unwrap();
+            }
+        }
         assert_eq!(files.len(), 2);
         let svg = std::fs::read_to_string(&files[0]).unwrap();
         assert!(svg.starts_with("<svg") && svg.contains("time per step"));
