@@ -78,10 +78,10 @@ pub fn ratio_chain_urdf(n: usize, ratio: f64) -> String {
 /// not run).
 fn errors(model: &Model) -> Result<Errors> {
     let reference = ReferenceModel::new(model)?;
-    let mut worst: Errors = Solver::EXACT
-        .iter()
+    let mut worst: Errors = Solver::all()
+        .into_iter()
         .filter(|s| s.runs_at(model.nv))
-        .map(|&s| (s, Some(0.0)))
+        .map(|s| (s, Some(0.0)))
         .collect();
     for seed in SEEDS {
         let state = State::random(model, seed, 1.0);
