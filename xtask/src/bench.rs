@@ -16,7 +16,7 @@
 use crate::chart::{self, HeatMap, LogLogPlot, Series};
 use crate::dd::Dd;
 use crate::hp::ReferenceModel;
-use crate::solver::{Runner, Solver};
+use crate::solver::{Runner, Solver, ADAPTIVE_BUDGETS};
 use crate::timing::{self, Timing};
 use articula_dca::{Integrator, SplitMix64, State};
 use articula_model::{LoadOptions, Model};
@@ -31,9 +31,8 @@ type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
 /// Chain sizes of the scaling chart (the criterion benches' sizes).
 pub const CHAIN_SIZES: [usize; 7] = [10, 30, 100, 300, 1000, 3000, 10_000];
-/// Rows and columns of the seeds' table (Redon, Galoppo, Lin 2005): active-joint budgets and
-/// numbers of external forces, on the 300-link chain.
-pub const SEED_BUDGETS: [usize; 7] = [1, 50, 100, 150, 200, 250, 300];
+/// Columns of the seeds' table (Redon, Galoppo, Lin 2005): numbers of external forces on the
+/// 300-link chain; its rows are the adaptive budgets [`ADAPTIVE_BUDGETS`] and full DCA.
 pub const SEED_FORCES: [usize; 6] = [1, 5, 10, 20, 50, 250];
 /// The seed of the benchmarked state (as in the criterion benches and `articula bench`).
 pub const SEED: u64 = 42;
@@ -45,7 +44,8 @@ crate lands and is added as a `Solver` variant in `xtask/src/solver.rs`.";
 struct Options {
     quick: bool,
     peers: bool,
-    /// Also copy the charts into `docs/img/` (for docs/performance.md and the README).
+    /// Also copy the charts into `docs/img/` and the report to `docs/bench-report.md` (for
+    /// docs/performance.md and the README).
     publish: bool,
 }
 
@@ -126,7 +126,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     for (name, _, model) in &models {
         let state = State::random(model, SEED, 1.0);
         let mut times = BTreeMap::new();
-        for solver in Solver::EXACT {
+        for solver in Solver::all() {
             if !solver.runs_at(model.nv) {
                 continue;
             }
@@ -168,7 +168,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
         .map(|x| x.to_f64())
         .collect();
     let mut accel: Vec<(String, f64, f64)> = Vec::new(); // label, µs, Σ(Δq̈)²
-    for solver in Solver::EXACT {
+    for solver in Solver::all() {
         let mut r = Runner::new(&chain300, solver);
         let qdd = r.forward(&acc_state)?.to_vec();
         let t = speed_of(&rows, "chain300", &solver.label());
@@ -181,15 +181,32 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
         traj.reference_check
     );
 
-    // 3. The seeds' table: full DCA row measured, adaptive rows pending.
-    let mut seeds_dca = Vec::new();
-    for &k in &SEED_FORCES {
-        let t = time_seeds_step(&chain300, k, budget / 2)?;
-        println!(
-            "  seeds' table: DCA step with {k} forces {:.1} µs",
-            t.median_us
-        );
-        seeds_dca.push(t.median_us);
+    // 3. The seeds' table: a row per adaptive budget (pending while the solver does not
+    // exist), then full DCA.
+    let mut seeds: SeedsTable = Vec::new();
+    let rows_solvers = ADAPTIVE_BUDGETS
+        .iter()
+        .map(|&b| (format!("adaptive {b}"), Solver::adaptive(b)))
+        .chain(std::iter::once((
+            "full DCA (300)".to_string(),
+            Some(Solver::Exact(articula_dca::Method::Dca)),
+        )));
+    for (label, solver) in rows_solvers {
+        let mut cells = Vec::new();
+        for &k in &SEED_FORCES {
+            cells.push(match solver {
+                Some(solver) => {
+                    let t = time_seeds_step(&chain300, solver, k, budget / 2)?;
+                    println!(
+                        "  seeds' table: {label} with {k} forces {:.1} µs",
+                        t.median_us
+                    );
+                    Some(t.median_us)
+                }
+                None => None,
+            });
+        }
+        seeds.push((label, cells));
     }
 
     // 4. Peers.
@@ -223,13 +240,13 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     files.extend(chart_speed(&out, &rows)?);
     files.extend(chart_accel(&out, &accel)?);
     files.extend(chart_traj(&out, &traj)?);
-    files.extend(chart_seeds(&out, &seeds_dca)?);
+    files.extend(chart_seeds(&out, &seeds)?);
     let report = report(
         &opts,
         &rows,
         &accel,
         &traj,
-        &seeds_dca,
+        &seeds,
         &peers,
         &files,
         started.elapsed(),
@@ -248,6 +265,17 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
             std::fs::copy(f, &to)?;
             println!("copied to {}", to.display());
         }
+    }
+    if opts.publish {
+        // The report beside the charts, for docs/performance.md to link.
+        let mut text = std::fs::read_to_string(&path)?;
+        for f in &files {
+            let name = f.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+            text = text.replace(&format!("]({name})"), &format!("](img/{name})"));
+        }
+        let to = root.join("docs/bench-report.md");
+        std::fs::write(&to, text)?;
+        println!("copied the report to {}", to.display());
     }
     println!("bench took {:.1} s", started.elapsed().as_secs_f64());
     Ok(())
@@ -274,9 +302,12 @@ fn time_forward(model: &Model, solver: Solver, state: &State, budget: Duration) 
     })?)
 }
 
-/// One semi-implicit Euler step of full DCA (dt = 1 ms) on `model` with `k` external forces
+/// The seeds' table: per row (label), per number of forces, µs per step (`None`: pending).
+type SeedsTable = Vec<(String, Vec<Option<f64>>)>;
+
+/// One semi-implicit Euler step of `solver` (dt = 1 ms) on `model` with `k` external forces
 /// (1 N, random directions, at the origins of `k` bodies spread along the chain).
-fn time_seeds_step(model: &Model, k: usize, budget: Duration) -> Result<Timing> {
+fn time_seeds_step(model: &Model, solver: Solver, k: usize, budget: Duration) -> Result<Timing> {
     let mut state = State::random(model, SEED, 1.0);
     let n = model.bodies.len();
     let mut rng = SplitMix64(7);
@@ -294,7 +325,7 @@ fn time_seeds_step(model: &Model, k: usize, budget: Duration) -> Result<Timing> 
         state.f_ext[body.min(n - 1)] = data.point_force(body.min(n - 1), glam::DVec3::ZERO, d);
     }
     let start = state.clone();
-    let mut r = Runner::new(model, Solver::Exact(articula_dca::Method::Dca));
+    let mut r = Runner::new(model, solver);
     Ok(timing::time(budget, || {
         // Every timed step starts from the same state (the copy costs ~1 µs of ~500).
         state.clone_from(&start);
@@ -353,7 +384,7 @@ fn trajectories(model: &Model) -> Result<Traj> {
     let (q_ref2, _) = run_traj(model, aba, Integrator::Rk4, 2e-4)?;
     let dt = 1e-3;
     let mut points = Vec::new();
-    for solver in Solver::EXACT {
+    for solver in Solver::all() {
         for integ in [Integrator::SemiImplicitEuler, Integrator::Rk4] {
             let (q, us) = run_traj(model, solver, integ, dt)?;
             let p = TrajPoint {
@@ -388,7 +419,11 @@ fn run_criterion(root: &Path) -> Result<BTreeMap<(String, String), f64>> {
     if !status.success() {
         return Err(format!("cargo bench failed ({status})").into());
     }
-    let dir = root.join("target/criterion");
+    read_criterion(&root.join("target/criterion"))
+}
+
+/// Reads criterion's median estimates (ns) under `dir` as µs, keyed by (model, METHOD).
+fn read_criterion(dir: &Path) -> Result<BTreeMap<(String, String), f64>> {
     let mut out = BTreeMap::new();
     for (group, label) in CHAIN_SIZES
         .iter()
@@ -659,14 +694,7 @@ fn chart_traj(out: &Path, traj: &Traj) -> Result<Vec<PathBuf>> {
     )
 }
 
-fn chart_seeds(out: &Path, dca: &[f64]) -> Result<Vec<PathBuf>> {
-    let mut rows: Vec<String> = SEED_BUDGETS
-        .iter()
-        .map(|b| format!("adaptive {b}"))
-        .collect();
-    rows.push("full DCA".into());
-    let mut values: Vec<Vec<Option<f64>>> = vec![vec![None; SEED_FORCES.len()]; SEED_BUDGETS.len()];
-    values.push(dca.iter().map(|t| Some(t / 1000.0)).collect());
+fn chart_seeds(out: &Path, seeds: &SeedsTable) -> Result<Vec<PathBuf>> {
     chart::write_heat_map(
         out,
         SEEDS_CHART,
@@ -675,8 +703,11 @@ fn chart_seeds(out: &Path, dca: &[f64]) -> Result<Vec<PathBuf>> {
             x_desc: "external forces".into(),
             y_desc: "active joints".into(),
             cols: SEED_FORCES.iter().map(|f| f.to_string()).collect(),
-            rows,
-            values,
+            rows: seeds.iter().map(|(l, _)| l.clone()).collect(),
+            values: seeds
+                .iter()
+                .map(|(_, c)| c.iter().map(|t| t.map(|t| t / 1000.0)).collect())
+                .collect(),
             unit: "ms".into(),
             // The seeds' figures span 0.02 … 5.89 ms.
             range: Some((0.01, 10.0)),
@@ -697,6 +728,14 @@ fn cpu_name() -> String {
                 .map(|s| s.trim().to_string())
         })
         .unwrap_or_else(|| "unknown CPU".into())
+}
+
+/// The 1-minute load average (other work on the machine while the benchmarks ran).
+fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .and_then(|s| s.split_whitespace().next().map(str::to_string))
+        .unwrap_or_else(|| "unknown".into())
 }
 
 fn git_head(root: &Path) -> String {
@@ -729,7 +768,7 @@ fn report(
     rows: &[SpeedRow],
     accel: &[(String, f64, f64)],
     traj: &Traj,
-    seeds_dca: &[f64],
+    seeds: &SeedsTable,
     peers: &Peers,
     files: &[PathBuf],
     took: Duration,
@@ -749,8 +788,9 @@ fn report(
     let _ = writeln!(
         s,
         "Generated by `cargo xtask bench{}{}{}` at commit `{}`, mode: {mode}; took {:.0} s.\n\
-         Machine: {}, {} logical CPUs (shared with other work while it ran: treat differences \
-         under ~10% as noise).\n",
+         Machine: {}, {} logical CPUs; 1-minute load average {} when the report was written \
+         (above the CPU count, other work shared the machine: compare figures of one run with \
+         each other, and treat differences under ~20% as noise).\n",
         if opts.quick { " --quick" } else { "" },
         if opts.peers { " --peers" } else { "" },
         if opts.publish { " --publish" } else { "" },
@@ -760,8 +800,11 @@ fn report(
         std::thread::available_parallelism()
             .map(|n| n.get())
             .unwrap_or(1),
+        load_average(),
     );
-    let _ = writeln!(s, "> {ADAPTIVE_PENDING}\n");
+    if !Solver::adaptive_available() {
+        let _ = writeln!(s, "> {ADAPTIVE_PENDING}\n");
+    }
 
     // Speed table.
     let mut labels: Vec<String> = Vec::new();
@@ -878,7 +921,7 @@ fn report(
         s,
         "One semi-implicit Euler step (dt = 1 ms) with k external forces (1 N at the origins of \
          k bodies spread along the chain). The 2005 paper measured full DCA at 5.89 ms, 50 active \
-         joints at 0.51 ms and 1 joint at 0.02 ms. Adaptive rows: pending (see above).\n"
+         joints at 0.51 ms and 1 joint at 0.02 ms.\n"
     );
     let _ = writeln!(
         s,
@@ -890,22 +933,13 @@ fn report(
             .join(" | ")
     );
     let _ = writeln!(s, "|---|{}", "---:|".repeat(SEED_FORCES.len()));
-    for b in SEED_BUDGETS {
-        let _ = writeln!(
-            s,
-            "| adaptive {b} | {} |",
-            vec!["pending"; SEED_FORCES.len()].join(" | ")
-        );
-    }
-    let _ = writeln!(
-        s,
-        "| full DCA (300) | {} |",
-        seeds_dca
+    for (label, cells) in seeds {
+        let cells: Vec<String> = cells
             .iter()
-            .map(|t| format!("{:.3}", t / 1000.0))
-            .collect::<Vec<_>>()
-            .join(" | ")
-    );
+            .map(|t| t.map_or("pending".into(), |t| format!("{:.3}", t / 1000.0)))
+            .collect();
+        let _ = writeln!(s, "| {label} | {} |", cells.join(" | "));
+    }
     let _ = writeln!(s, "\n![seeds' table]({SEEDS_CHART}.png)\n");
 
     // Peers.
@@ -979,6 +1013,27 @@ mod tests {
     use super::*;
 
     #[test]
+    fn criterion_medians_are_read_as_microseconds() {
+        let dir = std::env::temp_dir().join(format!("xtask-criterion-{}", std::process::id()));
+        for (group, m, label, ns) in [
+            ("chain", "dca", "300", 450_000.0),
+            ("humanoid", "aba", "34dof", 5_500.0),
+        ] {
+            let d = dir.join(group).join(m).join(label).join("new");
+            std::fs::create_dir_all(&d).unwrap();
+            let json = format!(
+                r#"{{"mean":{{"point_estimate":1.0}},"median":{{"point_estimate":{ns}}}}}"#
+            );
+            std::fs::write(d.join("estimates.json"), json).unwrap();
+        }
+        let got = read_criterion(&dir).unwrap();
+        assert_eq!(got.len(), 2);
+        assert_eq!(got[&("chain300".to_string(), "DCA".to_string())], 450.0);
+        assert_eq!(got[&("humanoid".to_string(), "ABA".to_string())], 5.5);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
     fn metric_error_is_the_sum_of_squares() {
         assert_eq!(metric_error(&[1.0, 2.0], &[0.0, 4.0]), 5.0);
     }
@@ -992,12 +1047,18 @@ mod tests {
     #[test]
     fn seeds_table_marks_adaptive_rows_pending() {
         let dir = std::env::temp_dir().join(format!("xtask-seeds-{}", std::process::id()));
-        let files = chart_seeds(&dir, &[400.0; 6]).unwrap();
+        let mut seeds: SeedsTable = ADAPTIVE_BUDGETS
+            .iter()
+            .map(|b| (format!("adaptive {b}"), vec![None; SEED_FORCES.len()]))
+            .collect();
+        seeds.push(("full DCA".into(), vec![Some(400.0); SEED_FORCES.len()]));
+        let files = chart_seeds(&dir, &seeds).unwrap();
         let svg = std::fs::read_to_string(&files[0]).unwrap();
         assert_eq!(
             svg.matches("pending").count(),
-            SEED_BUDGETS.len() * SEED_FORCES.len()
+            ADAPTIVE_BUDGETS.len() * SEED_FORCES.len()
         );
+        assert_eq!(svg.matches("0.400 ms").count(), SEED_FORCES.len());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -97,28 +97,30 @@ pub fn write_heat_map(dir: &Path, stem: &str, map: &HeatMap) -> Result<Vec<PathB
     Ok(vec![svg, png])
 }
 
-/// A range covering `values` (positive ones) with a margin, in whole decades.
-fn log_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+/// The decades `(lo, hi)` (exponents of ten) covering `values` (positive ones) with a margin
+/// of at least a third of a decade on each side.
+fn log_range(values: impl Iterator<Item = f64>) -> (i32, i32) {
     let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
     for v in values.filter(|v| v.is_finite() && *v > 0.0) {
         lo = lo.min(v);
         hi = hi.max(v);
     }
     if !lo.is_finite() {
-        return (0.1, 10.0);
+        return (-1, 1);
     }
-    let lo = 10f64.powf((lo.log10() - 0.05).floor());
-    let hi = 10f64.powf((hi.log10() + 0.05).ceil());
-    (lo, hi)
+    (
+        (lo.log10() - 0.3).floor() as i32,
+        (hi.log10() + 0.3).ceil() as i32,
+    )
 }
 
 fn err<E: std::fmt::Debug>(e: E) -> Box<dyn std::error::Error> {
     format!("chart: {e:?}").into()
 }
 
-/// `1e-3`-style tick labels for log axes, at whole decades only.
-fn sci(v: &f64) -> String {
-    let e = v.log10();
+/// Tick labels of a log axis drawn in exponent coordinates: `10^e` as `1e-3`-style text at
+/// whole decades, nothing between them.
+fn sci(e: &f64) -> String {
     if (e - e.round()).abs() < 1e-9 {
         let e = e.round() as i32;
         if (-2..=3).contains(&e) {
@@ -129,6 +131,11 @@ fn sci(v: &f64) -> String {
     } else {
         String::new()
     }
+}
+
+/// A point in exponent coordinates.
+fn log_point((x, y): (f64, f64)) -> (f64, f64) {
+    (x.log10(), y.log10())
 }
 
 fn draw_loglog<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, plot: &LogLogPlot) -> Result<()>
@@ -151,14 +158,16 @@ where
         .margin(20)
         .x_label_area_size(55)
         .y_label_area_size(85)
-        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+        // Exponent coordinates (log10 of the values), labelled at whole decades: plotters' own
+        // log axes drop labels across many decades.
+        .build_cartesian_2d(x0 as f64..x1 as f64, y0 as f64..y1 as f64)
         .map_err(err)?;
     chart
         .configure_mesh()
         .x_desc(&plot.x_desc)
         .y_desc(&plot.y_desc)
-        .x_labels(40)
-        .y_labels(40)
+        .x_labels((x1 - x0) as usize + 1)
+        .y_labels((y1 - y0) as usize + 1)
         .x_label_formatter(&sci)
         .y_label_formatter(&sci)
         .axis_desc_style((FONT_NAME, 17))
@@ -173,6 +182,7 @@ where
             .iter()
             .copied()
             .filter(|(x, y)| x.is_finite() && y.is_finite() && *x > 0.0 && *y > 0.0)
+            .map(log_point)
             .collect();
         if plot.lines {
             chart
@@ -198,7 +208,7 @@ where
                         .zip(&s.labels)
                         .filter(|(p, _)| p.0 > 0.0 && p.1 > 0.0)
                         .map(|(&p, l)| {
-                            EmptyElement::at(p)
+                            EmptyElement::at(log_point(p))
                                 + Text::new(l.clone(), (7, -14), (FONT_NAME, 13).into_font())
                         }),
                 )
@@ -350,6 +360,11 @@ mod tests {
             lines: true,
         };
         let files = write_loglog(&dir, "x", &plot).unwrap();
+        if let Some(keep) = std::env::var_os("XTASK_KEEP_CHARTS") {
+            for f in &files {
+                std::fs::copy(f, std::path::Path::new(&keep).join(f.file_name().unwrap())).unwrap();
+            }
+        }
         assert_eq!(files.len(), 2);
         let svg = std::fs::read_to_string(&files[0]).unwrap();
         assert!(svg.starts_with("<svg") && svg.contains("time per step"));
@@ -381,7 +396,8 @@ mod tests {
 
     #[test]
     fn log_range_spans_whole_decades() {
-        assert_eq!(log_range([3.0, 250.0].into_iter()), (1.0, 1000.0));
-        assert_eq!(log_range([0.0, -1.0].into_iter()), (0.1, 10.0));
+        assert_eq!(log_range([3.0, 250.0].into_iter()), (0, 3));
+        assert_eq!(log_range([1.2e-19, 8.8e-8].into_iter()), (-20, -6));
+        assert_eq!(log_range([0.0, -1.0].into_iter()), (-1, 1));
     }
 }

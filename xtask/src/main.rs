@@ -23,7 +23,8 @@ subcommands:
                             against a double-double reference, write
                             target/articula-bench/report.md and charts (SVG, PNG);
                             --quick samples in-process (minutes), otherwise criterion;
-                            --publish also copies the charts into docs/img/
+                            --publish also copies the charts into docs/img/ and the
+                            report to docs/bench-report.md
     models                  regenerate the URDF test/benchmark models in models/
     stability               accuracy of DCA, ABA, CRBA against a double-double reference
                             (chain length, mass ratio) and integrators' energy drift;

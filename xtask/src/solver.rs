@@ -1,6 +1,12 @@
-//! The methods the benchmarks compare, as one small enum. A new method (the adaptive solver at
-//! a budget, once `articula-adaptive` exists) is a new variant plus one arm in each `match`:
-//! its label, and how its [`Runner`] computes `q̈` and takes a step.
+//! The methods the benchmarks compare, as one small enum. A new method is a new variant plus
+//! one arm in each `match`: its label, and how its [`Runner`] computes `q̈` and takes a step.
+//!
+//! **Adding the adaptive solver** (once `articula-adaptive` exists): add the variant
+//! `Adaptive { budget: usize }`, make [`Solver::adaptive`] return `Some(Solver::Adaptive {
+//! budget })`, give it a label (`"adaptive b=K"`), keep its workspace in [`Runner`] and call
+//! it in `forward` and `step`. `cargo xtask bench` then times it at every budget of
+//! [`ADAPTIVE_BUDGETS`] beside the exact solvers, puts one error point per budget in the error
+//! charts, and fills the seeds' table rows; nothing else changes.
 
 use articula_dca::{forward_dynamics, step, Data, Integrator, Method, State};
 use articula_model::Model;
@@ -14,7 +20,32 @@ pub enum Solver {
     // "adaptive b=K", `Runner::new` builds its workspace, `forward`/`step` call it.
 }
 
+/// The budgets (active joints) the benchmarks run the adaptive solver at: the seeds' table
+/// rows.
+pub const ADAPTIVE_BUDGETS: [usize; 7] = [1, 50, 100, 150, 200, 250, 300];
+
 impl Solver {
+    /// The adaptive solver at `budget` active joints; `None` while `articula-adaptive` does not
+    /// exist (its rows and points are then reported as pending).
+    pub fn adaptive(_budget: usize) -> Option<Solver> {
+        None
+    }
+
+    /// Every solver the benchmarks run: the exact ones, then the adaptive budgets that exist.
+    pub fn all() -> Vec<Solver> {
+        Solver::EXACT
+            .into_iter()
+            .chain(ADAPTIVE_BUDGETS.into_iter().filter_map(Solver::adaptive))
+            .collect()
+    }
+
+    /// Whether any adaptive solver exists yet.
+    pub fn adaptive_available() -> bool {
+        ADAPTIVE_BUDGETS
+            .iter()
+            .any(|&b| Solver::adaptive(b).is_some())
+    }
+
     /// The exact solvers, in table order.
     pub const EXACT: [Solver; 3] = [
         Solver::Exact(Method::Dca),
