@@ -438,6 +438,13 @@ impl Adaptive {
         Ok(report)
     }
 
+    /// Makes the next step re-select the hybrid body. Call it after changing the state of
+    /// locked joints (their `q` or `q̇`) from outside: between re-selections a step reads only
+    /// the active joints.
+    pub fn invalidate(&mut self) {
+        self.hier.valid = false;
+    }
+
     /// Between re-selections, run whole-body kinematics and composites instead of the
     /// hierarchical state (a reference for tests; same results, cost O(n)).
     #[doc(hidden)]
