@@ -32,7 +32,7 @@ fn seeded_state(model: &Model, forces: usize) -> State {
 /// chain diverge, even exact ones.
 fn restart(calls: &mut u64, s: &mut State, s0: &State, ad: &mut Adaptive) {
     *calls += 1;
-    if *calls % 1000 == 0 {
+    if calls.is_multiple_of(1000) {
         s.q.copy_from_slice(&s0.q);
         s.qd.copy_from_slice(&s0.qd);
         ad.invalidate();
@@ -53,7 +53,7 @@ fn seeds_table(c: &mut Criterion) {
             |b, _| {
                 b.iter(|| {
                     calls += 1;
-                    if calls % 1000 == 0 {
+                    if calls.is_multiple_of(1000) {
                         s.clone_from(&s0);
                     }
                     step(

@@ -92,7 +92,7 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
                 // Back to the start every ADAPTIVE_RUN steps: long semi-implicit Euler runs of
                 // a whipping chain diverge, even exact ones.
                 *calls += 1;
-                if *calls % ADAPTIVE_RUN == 0 {
+                if calls.is_multiple_of(ADAPTIVE_RUN) {
                     sim.q.copy_from_slice(&start.q);
                     sim.qd.copy_from_slice(&start.qd);
                     ad.invalidate();
