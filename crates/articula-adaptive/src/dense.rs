@@ -127,18 +127,23 @@ pub(crate) fn spd_inverse(a: &[[f64; 6]; 6], k: usize) -> Option<[[f64; 6]; 6]> 
     Some(inv)
 }
 
-/// Cholesky factor `L` of a 6×6 symmetric positive definite matrix, computed on its
-/// Jacobi-scaled form and unscaled (`L = E⁻¹ L'`). `None` when not positive definite.
+/// Cholesky factor `L` of a 6×6 symmetric positive definite matrix (see [`cholesky_k`]).
 pub(crate) fn spd_cholesky(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
+    cholesky_k(a, 6)
+}
+
+/// Cholesky factor (lower) of the leading k×k block of a symmetric positive definite matrix
+/// (k ≤ 6), on its Jacobi-scaled form and unscaled. `None` when not positive definite.
+pub(crate) fn cholesky_k(a: &[[f64; 6]; 6], k: usize) -> Option<[[f64; 6]; 6]> {
     let mut e = [0.0; 6];
-    for i in 0..6 {
+    for i in 0..k {
         if a[i][i].is_nan() || a[i][i] <= 0.0 {
             return None;
         }
         e[i] = 1.0 / a[i][i].sqrt();
     }
     let mut l = [[0.0f64; 6]; 6];
-    for j in 0..6 {
+    for j in 0..k {
         let mut d = a[j][j] * e[j] * e[j];
         for p in 0..j {
             d -= l[j][p] * l[j][p];
@@ -148,7 +153,7 @@ pub(crate) fn spd_cholesky(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
         }
         let ljj = d.sqrt();
         l[j][j] = ljj;
-        for i in (j + 1)..6 {
+        for i in (j + 1)..k {
             let mut x = a[i][j] * e[i] * e[j];
             for p in 0..j {
                 x -= l[i][p] * l[j][p];
@@ -156,12 +161,43 @@ pub(crate) fn spd_cholesky(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
             l[i][j] = x / ljj;
         }
     }
-    for i in 0..6 {
+    for i in 0..k {
         for j in 0..=i {
             l[i][j] /= e[i];
         }
     }
     Some(l)
+}
+
+/// `(L Lᵀ)⁻¹ u` for the leading k×k factor `L`.
+pub(crate) fn solve_llt_k(l: &[[f64; 6]; 6], u: &[f64; 5], k: usize) -> [f64; 5] {
+    solve_lt_k(l, &solve_l_k(l, u, k), k)
+}
+
+/// `L⁻¹ u` for the leading k×k factor `L`.
+pub(crate) fn solve_l_k(l: &[[f64; 6]; 6], u: &[f64; 5], k: usize) -> [f64; 5] {
+    let mut x = [0.0; 5];
+    for i in 0..k {
+        let mut v = u[i];
+        for p in 0..i {
+            v -= l[i][p] * x[p];
+        }
+        x[i] = v / l[i][i];
+    }
+    x
+}
+
+/// `L⁻ᵀ u` for the leading k×k factor `L`.
+pub(crate) fn solve_lt_k(l: &[[f64; 6]; 6], u: &[f64; 5], k: usize) -> [f64; 5] {
+    let mut x = *u;
+    for i in (0..k).rev() {
+        let mut v = x[i];
+        for p in (i + 1)..k {
+            v -= l[p][i] * x[p];
+        }
+        x[i] = v / l[i][i];
+    }
+    x
 }
 
 /// `L⁻¹ b` (forward substitution).
