@@ -70,7 +70,8 @@ pub(crate) struct DcaData {
     pub b: Vec<SpatialMotion>,
     /// Handle forces per handle (back-substitution).
     pub f: Vec<SpatialForce>,
-    /// Per join node: the Cholesky factor L of `Φ^A_jj + Φ^B_jj = V⁻¹`, and β.
+    /// Per join node: the Cholesky factor L of `Φ^A_jj + Φ^B_jj = V⁻¹` (its diagonal stored
+    /// inverted, see [`crate::small::cholesky6`]), and β.
     pub l: Vec<[[f64; 6]; 6]>,
     pub beta: Vec<SpatialMotion>,
     /// Per degree of freedom: the column of `Z = L⁻¹ S`.

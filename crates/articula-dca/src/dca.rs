@@ -137,7 +137,7 @@ fn main_pass(
     Ok(())
 }
 
-/// `L⁻¹ b` (forward substitution).
+/// `L⁻¹ b` (forward substitution; `l` from [`crate::small::cholesky6`], inverse diagonal).
 #[inline]
 fn solve_l(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
     let mut x = [0.0; 6];
@@ -146,12 +146,12 @@ fn solve_l(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
         for p in 0..i {
             v -= l[i][p] * x[p];
         }
-        x[i] = v / l[i][i];
+        x[i] = v * l[i][i];
     }
     x
 }
 
-/// `L⁻ᵀ b` (back substitution).
+/// `L⁻ᵀ b` (back substitution; inverse diagonal).
 #[inline]
 fn solve_lt(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
     let mut x = [0.0; 6];
@@ -160,7 +160,7 @@ fn solve_lt(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
         for p in (i + 1)..6 {
             v -= l[p][i] * x[p];
         }
-        x[i] = v / l[i][i];
+        x[i] = v * l[i][i];
     }
     x
 }
@@ -321,7 +321,7 @@ fn y_tilde(
                 v[c] -= lrq * yt[q][c];
             }
         }
-        let inv = 1.0 / l[r][r];
+        let inv = l[r][r];
         for c in 0..6 {
             yt[r][c] = v[c] * inv;
         }

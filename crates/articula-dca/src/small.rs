@@ -31,6 +31,8 @@ pub fn cholesky(a: &[[f64; 6]; 6], k: usize) -> Option<[[f64; 6]; 6]> {
 
 /// Cholesky factor `L` (lower, `L Lᵀ = A`) of a 6×6 symmetric positive definite matrix
 /// (its lower triangle is read), `None` when a pivot is not positive. Fully unrolled.
+/// **The diagonal holds `1 / L_jj`**, so that the triangular solves multiply instead of
+/// dividing (a division's latency is on their critical path).
 #[inline(always)]
 pub fn cholesky6(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
     let mut l = [[0.0f64; 6]; 6];
@@ -53,9 +55,8 @@ fn col<const J: usize>(a: &[[f64; 6]; 6], l: &mut [[f64; 6]; 6], ok: &mut bool) 
     }
     // `!(d > 0)` also catches NaN.
     *ok &= d > 0.0;
-    let ljj = d.sqrt();
-    l[J][J] = ljj;
-    let inv = 1.0 / ljj;
+    let inv = 1.0 / d.sqrt();
+    l[J][J] = inv;
     for i in (J + 1)..6 {
         let mut x = a[i][J];
         for p in 0..J {
