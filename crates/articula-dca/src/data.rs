@@ -2,7 +2,7 @@
 
 use crate::kinematics::FkPlan;
 use crate::small::{SmallSpd, Sym6};
-use articula_model::{Model, NodeKind};
+use articula_model::{JointKind, Model, NodeKind};
 use articula_spatial::{Mat6, SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
 use glam::DVec3;
 
@@ -81,8 +81,32 @@ pub(crate) struct DcaData {
     /// Per joint h: the point P_h (origin of body h, computation frame) about which every
     /// handle-h vector is taken.
     pub point: Vec<DVec3>,
-    /// Scratch per handle of the node being joined: `Ỹ_h = Q L⁻¹ Φ_jh`.
+    /// Per node: the constraint basis of its joint (1-DOF joins).
+    pub basis: Vec<Basis>,
+    /// Scratch per handle of the node being joined: `Ỹ_h = Q L⁻¹ Φ_jh` (or `M⁻¹ Tᵀ Φ_jh`).
     pub y: Vec<[[f64; 6]; 6]>,
+}
+
+/// The constraint basis of a 1-DOF join (see `dca::join`): with `s` the joint's subspace
+/// column at its point (`[ω; 0]` revolute, `[0; u]` prismatic), `m` the index of its largest
+/// entry and `a`, `b` the other two of that half, `T = [e_a − r_a e_m, e_b − r_b e_m,
+/// e_keep…]` (`r = s/s_m`) spans the forces that do no work along `s`.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Basis {
+    /// This join is a single revolute/prismatic joint (the 5×5 path).
+    pub one_dof: bool,
+    pub m: usize,
+    pub a: usize,
+    pub b: usize,
+    pub keep: [usize; 3],
+    pub ra: f64,
+    pub rb: f64,
+    pub s: [f64; 6],
+    /// The joint force and `q̈` per unit joint torque (see `dca::unit_torque`).
+    pub ft: [f64; 6],
+    pub qt: f64,
+    /// `(W K s − s) / sᵀs`: `q̈ = gᵀ y + q̈_τ τ` in the back-substitution.
+    pub g: [f64; 6],
 }
 
 /// ABA buffers.
@@ -189,6 +213,26 @@ impl Data {
                 z: vec![[0.0; 6]; nv],
                 dinv: vec![SmallSpd::default(); n],
                 point: vec![DVec3::ZERO; n],
+                basis: tree
+                    .nodes
+                    .iter()
+                    .map(|node| Basis {
+                        one_dof: match node.kind {
+                            NodeKind::Join { joint, .. } => {
+                                let body = &model.bodies[joint];
+                                matches!(
+                                    body.joint.as_slice(),
+                                    [p] if matches!(
+                                        p.kind,
+                                        JointKind::Revolute | JointKind::Continuous | JointKind::Prismatic
+                                    )
+                                )
+                            }
+                            _ => false,
+                        },
+                        ..Basis::default()
+                    })
+                    .collect(),
                 y: vec![[[0.0; 6]; 6]; max_h],
             },
             fk_plan: model.bodies.iter().map(FkPlan::of).collect(),
