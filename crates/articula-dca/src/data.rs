@@ -16,7 +16,8 @@ pub(crate) enum Side {
 }
 
 /// Per-step buffers of every algorithm. Build once with [`Data::new`]; a dynamics call or a
-/// step allocates nothing.
+/// step allocates nothing. `Data` also caches a few constants of the model's joints (their
+/// kinematic fast paths and offsets): build a new one for a changed model.
 #[derive(Clone, Debug)]
 pub struct Data {
     /// Gravity acceleration in world coordinates (default `(0, 0, -9.81)`).
@@ -47,9 +48,21 @@ pub struct Data {
     pub(crate) f_ext_c: Vec<SpatialForce>,
     /// Per body: the forward-kinematics path of its joint.
     pub(crate) fk_plan: Vec<FkPlan>,
+    /// Per body: parent, velocity offset and DOF count, compact (the recursions read these
+    /// for every body; `Body` itself spans several cache lines).
+    pub(crate) topo: Vec<Topo>,
     pub(crate) dca: DcaData,
     pub(crate) aba: AbaData,
     pub(crate) rk: RkData,
+}
+
+/// A body's place in the recursions.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Topo {
+    /// The parent body, `usize::MAX` for a root.
+    pub parent: usize,
+    pub vo: usize,
+    pub nv: usize,
 }
 
 /// DCA buffers (DESIGN §5), laid out over the assembly tree.
@@ -236,6 +249,15 @@ impl Data {
                 y: vec![[[0.0; 6]; 6]; max_h],
             },
             fk_plan: model.bodies.iter().map(FkPlan::of).collect(),
+            topo: model
+                .bodies
+                .iter()
+                .map(|b| Topo {
+                    parent: b.parent.unwrap_or(usize::MAX),
+                    vo: b.v_offset,
+                    nv: b.nv,
+                })
+                .collect(),
             aba: AbaData {
                 ia: vec![Sym6::ZERO; n],
                 pa: vec![SpatialForce::ZERO; n],
