@@ -68,8 +68,11 @@ pub(crate) struct Topo {
 /// DCA buffers (DESIGN §5), laid out over the assembly tree.
 #[derive(Clone, Debug)]
 pub(crate) struct DcaData {
-    /// Per node: offset of its handles in the flat per-handle arrays.
+    /// Per node: offset of its handles in the flat per-handle arrays (plus a final sentinel,
+    /// so that node n has `hoff[n + 1] − hoff[n]` handles).
     pub hoff: Vec<usize>,
+    /// Per node: its kind (a compact copy of the assembly tree's).
+    pub kind: Vec<NodeKind>,
     /// Per node: offset of its Φ blocks (nh × nh, row-major) in `phi`.
     pub boff: Vec<usize>,
     /// Per join node: index of the principal joint among A's and among B's handles.
@@ -108,6 +111,8 @@ pub(crate) struct DcaData {
 pub(crate) struct Basis {
     /// This join is a single revolute/prismatic joint (the 5×5 path).
     pub one_dof: bool,
+    /// ... and that joint is prismatic.
+    pub prismatic: bool,
     pub m: usize,
     pub a: usize,
     pub b: usize,
@@ -165,6 +170,7 @@ impl Data {
             h += node.handles.len();
             blk += node.handles.len() * node.handles.len();
         }
+        hoff.push(h); // sentinel: node n has hoff[n + 1] − hoff[n] handles
         let mut ja = vec![0; nn];
         let mut jb = vec![0; nn];
         let mut from = vec![(Side::A, 0); h];
@@ -213,6 +219,7 @@ impl Data {
             qdd: vec![0.0; nv],
             momentum_projection: true,
             dca: DcaData {
+                kind: tree.nodes.iter().map(|node| node.kind).collect(),
                 hoff,
                 boff,
                 ja,
@@ -240,6 +247,12 @@ impl Data {
                                         JointKind::Revolute | JointKind::Continuous | JointKind::Prismatic
                                     )
                                 )
+                            }
+                            _ => false,
+                        },
+                        prismatic: match node.kind {
+                            NodeKind::Join { joint, .. } => {
+                                model.bodies[joint].joint[0].kind == JointKind::Prismatic
                             }
                             _ => false,
                         },

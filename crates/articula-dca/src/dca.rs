@@ -8,7 +8,7 @@
 
 use crate::data::{Basis, Side};
 use crate::{Data, DynamicsError};
-use articula_model::{JointKind, Model, NodeKind};
+use articula_model::{Model, NodeKind};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::DVec3;
 
@@ -192,18 +192,17 @@ fn join(
     a: usize,
     b: usize,
 ) -> Result<(), DynamicsError> {
-    let tree = &model.assembly;
-    let body = &model.bodies[joint];
-    let (nha, nhb) = (tree.nodes[a].handles.len(), tree.nodes[b].handles.len());
-    let nhc = tree.nodes[n].handles.len();
+    let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
     let d = &mut data.dca;
+    let nh = |x: usize| d.hoff[x + 1] - d.hoff[x];
+    let (nha, nhb, nhc) = (nh(a), nh(b), nh(n));
     let (ja, jb) = (d.ja[n], d.jb[n]);
     let sum = (*phi(d, a, nha, ja, ja) + *phi(d, b, nhb, jb, jb)).0;
     // S and c at the joint's point P_j.
     let pj = d.point[joint];
     let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj));
-    let (vo, k) = (body.v_offset, body.nv);
-    // β = b_j^A − b_j^B + c
+    let body = &model.bodies[joint]; // for error messages only
+                                     // β = b_j^A − b_j^B + c
     let beta = d.b[d.hoff[a] + ja] - d.b[d.hoff[b] + jb] + shift(data.c[joint]);
     d.beta[n] = beta;
     let (hc, bc) = (d.hoff[n], d.boff[n]);
@@ -212,8 +211,7 @@ fn join(
     let gamma;
     if d.basis[n].one_dof {
         // One revolute/prismatic axis: the 5×5 constraint system (see `Basis`).
-        let prismatic = body.joint[0].kind == JointKind::Prismatic;
-        let bs = basis(shift(data.s[vo]).to_array(), prismatic);
+        let bs = basis(shift(data.s[vo]).to_array(), d.basis[n].prismatic);
         let m =
             crate::small::cholesky5(&reduce(&sum, &bs)).ok_or_else(|| DynamicsError::Singular {
                 joint: body.joint_name(),
@@ -402,6 +400,7 @@ fn basis(mut s: [f64; 6], prismatic: bool) -> Basis {
     let (a, b) = ((m + 1) % 3, (m + 2) % 3);
     Basis {
         one_dof: true,
+        prismatic,
         m: off + m,
         a: off + a,
         b: off + b,
@@ -599,16 +598,13 @@ fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
             joint,
             parent_side: a,
             child_side: b,
-        } = tree.nodes[n].kind
+        } = data.dca.kind[n]
         else {
             continue;
         };
         let d = &mut data.dca;
-        let (nha, nhb, nhc) = (
-            tree.nodes[a].handles.len(),
-            tree.nodes[b].handles.len(),
-            tree.nodes[n].handles.len(),
-        );
+        let nh = |x: usize| d.hoff[x + 1] - d.hoff[x];
+        let (nha, nhb, nhc) = (nh(a), nh(b), nh(n));
         let (ja, jb, hc) = (d.ja[n], d.jb[n], d.hoff[n]);
         let mut y = d.beta[n];
         for h in 0..nhc {
@@ -618,8 +614,7 @@ fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
                 (Side::B, i) => y -= phi(d, b, nhb, jb, i).force_to_motion(f),
             }
         }
-        let body = &model.bodies[joint];
-        let (vo, k) = (body.v_offset, body.nv);
+        let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
         let l = &d.l[n];
         let f = if d.basis[n].one_dof {
             // f = W y + f_τ τ (so K f = y + s q̈); q̈ = gᵀ y / sᵀs + q̈_τ τ (`joint_terms`).
