@@ -176,12 +176,18 @@ fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
 }
 
-/// Joins A and B at `joint` into node `n` (DESIGN §5, any handle count), through the
-/// Cholesky factor of `Φ^A_jj + Φ^B_jj = L Lᵀ` so that V and W never appear explicitly:
-/// with `Z = L⁻¹ S`, `D = ZᵀZ` and the orthogonal projector `Q = 1 − Z D⁻¹ Zᵀ`,
-/// `W = L⁻ᵀ Q L⁻¹`, so `Φ_hj W Φ_jk = Ỹ_hᵀ Ỹ_k` with `Ỹ_h = Q L⁻¹ Φ_jh` (one Gram product per
-/// block; `Q = QᵀQ`), and `γ = W β + V S D⁻¹ Q_τ = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − τ))` with
-/// `w = L⁻¹ β`.
+/// Joins A and B at `joint` into node `n` (DESIGN §5, any handle count); V and W never
+/// appear explicitly. With `K = Φ^A_jj + Φ^B_jj = V⁻¹`, W is the same for every basis `T` of
+/// the forces that do no work along S: `W = V − V S (SᵀVS)⁻¹ SᵀV = T (TᵀKT)⁻¹ Tᵀ`.
+/// - One revolute or prismatic axis (the common case): the sparse basis of [`Basis`], the
+///   Cholesky factor `M` of the 5×5 `TᵀKT`, `Ỹ_h = M⁻¹ Tᵀ Φ_jh` (5 rows), and the joint terms
+///   of [`joint_terms`].
+/// - Otherwise: the Cholesky factor of `K = L Lᵀ`, `Z = L⁻¹ S`, `D = ZᵀZ` and the orthogonal
+///   projector `Q = 1 − Z D⁻¹ Zᵀ`: `W = L⁻ᵀ Q L⁻¹`, `Ỹ_h = Q L⁻¹ Φ_jh` (`Q = QᵀQ`), and
+///   `γ = W β + V S D⁻¹ Q_τ = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − τ))` with `w = L⁻¹ β`.
+///
+/// Either way `Φ_hj W Φ_jk = Ỹ_hᵀ Ỹ_k`: one Gram product per block of C (the diagonal ones on
+/// their upper triangle).
 #[inline(never)]
 fn join(
     model: &Model,
