@@ -505,7 +505,6 @@ impl Adaptive {
                 w[r] += z[p][r] * kp;
             }
         }
-        let wk = w;
         let nv = dense::solve_lt(&l, &w);
         self.nvec[n] = nv;
         // Per handle h of C: Y_h = L⁻¹ G_F,h (G_F,h = +Φ^A_jh from A, −Φ^B_jh from B),
@@ -519,6 +518,7 @@ impl Adaptive {
             } else {
                 -*self.phi_at(b, jb, i)
             };
+            self.gf[h] = gf;
             let gt = gf.transpose(); // row c = column c of G_F,h
             let mut yc = [[0.0; 6]; 6];
             let mut uc = [[0.0; 6]; 6];
@@ -548,8 +548,14 @@ impl Adaptive {
             self.yc[h] = yc;
             self.uc[h] = uc;
         }
-        // Φ^C_hk = Φ^X_hk [same side] − Y_hᵀ U_k;  b^C_h = b^X_h − Y_hᵀ (w + Z k).
-        let bc = self.lay.boff[n];
+        self.assemble(n, a, b);
+        Ok(())
+    }
+
+    /// `Φ^C_hk = Φ^X_hk [same side] − Y_hᵀ U_k` (columns of Y_h and U_k in `yc`, `uc`) and
+    /// `b^C_h = b^X_h − G_F,hᵀ γ` (`G_F,h` in `gf`, γ = `nvec[n]`) for the joined node `n`.
+    fn assemble(&mut self, n: usize, a: usize, b: usize) {
+        let (nhc, hc, bc) = (self.nh[n], self.lay.hoff[n], self.lay.boff[n]);
         for h in 0..nhc {
             let (ah, ih) = self.lay.from[hc + h];
             let x = if ah { a } else { b };
@@ -572,13 +578,9 @@ impl Adaptive {
                     self.phi[bc + kk * nhc + h] = blk.transpose();
                 }
             }
-            let mut db = [0.0; 6];
-            for r in 0..6 {
-                db[r] = -dot6(&self.yc[h][r], &wk);
-            }
-            self.b[hc + h] = self.b[self.lay.hoff[x] + ih] + SpatialMotion::from_array(db);
+            let db = self.gf[h].tr_mul_vec(&self.nvec[n]);
+            self.b[hc + h] = self.b[self.lay.hoff[x] + ih] - SpatialMotion::from_array(db);
         }
-        Ok(())
     }
 
     /// The join of a single revolute or prismatic axis s, through the forces that do no work
@@ -683,35 +685,11 @@ impl Adaptive {
                 }
             }
         }
-        let bc = self.lay.boff[n];
+        // Ỹ_hᵀ Ỹ_k is a Gram product: the subtracted part stays positive semidefinite.
         for h in 0..nhc {
-            let (ah, ih) = self.lay.from[hc + h];
-            let x = if ah { a } else { b };
-            let gfh = self.gf[h];
-            for kk in h..nhc {
-                let (ak, ik) = self.lay.from[hc + kk];
-                // G_F,hᵀ W G_F,k = Ỹ_hᵀ Ỹ_k (a Gram product: the subtracted part stays
-                // positive semidefinite).
-                let mut blk = Mat6::ZERO;
-                for r in 0..6 {
-                    for c in 0..6 {
-                        blk.0[r][c] = -dot6(&self.yc[h][r], &self.yc[kk][c]);
-                    }
-                }
-                if ah == ak {
-                    blk += *self.phi_at(x, ih, ik);
-                }
-                if h == kk {
-                    blk = *blk.symmetric_part().as_mat6();
-                    self.phi[bc + h * nhc + h] = blk;
-                } else {
-                    self.phi[bc + h * nhc + kk] = blk;
-                    self.phi[bc + kk * nhc + h] = blk.transpose();
-                }
-            }
-            let db = gfh.tr_mul_vec(&nv);
-            self.b[hc + h] = self.b[self.lay.hoff[x] + ih] - SpatialMotion::from_array(db);
+            self.uc[h] = self.yc[h];
         }
+        self.assemble(n, a, b);
         Ok(())
     }
 
