@@ -643,7 +643,14 @@ fn order(label: &str) -> usize {
     ["DCA", "ABA", "CRBA", "Pinocchio ABA", "MuJoCo mj_forward"]
         .iter()
         .position(|l| *l == label)
-        .unwrap_or(99)
+        // Adaptive budgets after the exact methods and peers, in budget order.
+        .or_else(|| {
+            label
+                .strip_prefix("adaptive b=")
+                .and_then(|b| b.parse::<usize>().ok())
+                .map(|b| 100 + b)
+        })
+        .unwrap_or(usize::MAX)
 }
 
 fn chart_accel(out: &Path, accel: &[(String, f64, f64)]) -> Result<Vec<PathBuf>> {
