@@ -1,0 +1,23 @@
+//! # articula-view
+//!
+//! View-dependent adaptive dynamics (DESIGN §7): a [`Camera`] and its frustum, per-body
+//! bounding [`volumes`], [`visibility`] classes (visible, occluded, invisible) turned into joint
+//! weights, and scenes of many articulated bodies.
+
+pub mod camera;
+pub mod visibility;
+pub mod volumes;
+
+pub use camera::{Camera, CameraPath, Frustum, Keyframe, Plane};
+pub use visibility::{
+    body_poses, BodyView, Classifier, DepthBuffer, Placed, Visibility, VisibilitySettings,
+};
+pub use volumes::{body_volumes, inertia_box, symmetric_eigen, BodyVolumes, Volume};
+
+/// Errors of the view layer.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ViewError {
+    /// An unusable camera.
+    #[error("camera: {0}")]
+    Camera(String),
+}
