@@ -5,10 +5,14 @@
 //! weights, and scenes of many articulated bodies.
 
 pub mod camera;
+pub mod scene_file;
 pub mod visibility;
 pub mod volumes;
 
 pub use camera::{Camera, CameraPath, Frustum, Keyframe, Plane};
+pub use scene_file::{
+    load_scene, parse_scene, CameraRig, LoadedScene, Placement, Push, SceneError, SceneSpec,
+};
 pub use visibility::{
     body_poses, BodyView, Classifier, DepthBuffer, Placed, Visibility, VisibilitySettings,
 };
