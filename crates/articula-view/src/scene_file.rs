@@ -564,7 +564,7 @@ fn resolve(spec: SceneSpec, path: &Path, base: &Path) -> Result<LoadedScene, Sce
             path: file.clone(),
             name: name.clone(),
             model_path: p.display().to_string(),
-            error,
+            error: Box::new(error),
         })?;
         model_index.insert(name.clone(), models.len());
         models.push(SceneModel {
