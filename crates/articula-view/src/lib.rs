@@ -5,6 +5,7 @@
 //! weights, and scenes of many articulated bodies.
 
 pub mod camera;
+pub mod render;
 pub mod scene_file;
 pub mod visibility;
 pub mod volumes;
