@@ -177,8 +177,14 @@ impl AssemblyTree {
                     best = Some((score, v));
                 }
             }
-            let (_, cut) =
+            let (_, mut cut) =
                 best.expect("a connected component of two or more vertices has an inner joint");
+            // A floating base's 6-DOF joint is the root cut: the free body is then one subtree
+            // of the root, so an adaptive hybrid body can keep it moving as one rigid body
+            // (articula-adaptive) while every internal joint is frozen.
+            if id == 0 && model.floating_base && n > 0 {
+                cut = 0;
+            }
             // Split: the child side is the subtree of `cut` inside the component.
             let mut in_child = Vec::with_capacity(sub[cut]);
             let mut parent_side = Vec::with_capacity(m - sub[cut]);
@@ -315,5 +321,73 @@ impl AssemblyTree {
             out.push('\n');
         }
         out
+    }
+}
+
+/// Where each node's per-handle data lives in flat arrays, and how a join's handles come from
+/// its two children — the bookkeeping every pass over the tree shares.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct HandleLayout {
+    /// Per node: offset of its handles in flat per-handle arrays.
+    pub hoff: Vec<usize>,
+    /// Per node: offset of its `nh × nh` handle-pair blocks (row-major) in flat arrays.
+    pub boff: Vec<usize>,
+    /// Total number of handles (all nodes).
+    pub handles: usize,
+    /// Total number of handle-pair blocks (all nodes).
+    pub blocks: usize,
+    /// Per join node: index of the principal joint among the parent side's handles (0 otherwise).
+    pub ja: Vec<usize>,
+    /// Per join node: index of the principal joint among the child side's handles (0 otherwise).
+    pub jb: Vec<usize>,
+    /// Per handle of a join node (flat, `hoff`): `(true, i)` when it is handle `i` of the parent
+    /// side, `(false, i)` when it is handle `i` of the child side.
+    pub from: Vec<(bool, usize)>,
+}
+
+impl AssemblyTree {
+    /// The flat-array layout of the tree's handles.
+    pub fn handle_layout(&self) -> HandleLayout {
+        let nn = self.nodes.len();
+        let mut l = HandleLayout {
+            hoff: Vec::with_capacity(nn),
+            boff: Vec::with_capacity(nn),
+            ja: vec![0; nn],
+            jb: vec![0; nn],
+            ..HandleLayout::default()
+        };
+        for node in &self.nodes {
+            l.hoff.push(l.handles);
+            l.boff.push(l.blocks);
+            l.handles += node.handles.len();
+            l.blocks += node.handles.len() * node.handles.len();
+        }
+        l.from = vec![(true, 0); l.handles];
+        for (i, node) in self.nodes.iter().enumerate() {
+            if let NodeKind::Join {
+                joint,
+                parent_side,
+                child_side,
+            } = node.kind
+            {
+                let (ha, hb) = (
+                    &self.nodes[parent_side].handles,
+                    &self.nodes[child_side].handles,
+                );
+                let pos = |hs: &[usize], j: usize| hs.iter().position(|&x| x == j);
+                l.ja[i] = pos(ha, joint).expect("principal joint is a handle of A");
+                l.jb[i] = pos(hb, joint).expect("principal joint is a handle of B");
+                for (k, &hc) in node.handles.iter().enumerate() {
+                    l.from[l.hoff[i] + k] = match pos(ha, hc) {
+                        Some(p) => (true, p),
+                        None => (
+                            false,
+                            pos(hb, hc).expect("handle of C is a handle of A or B"),
+                        ),
+                    };
+                }
+            }
+        }
+        l
     }
 }

@@ -37,7 +37,7 @@ mod error;
 mod model;
 mod urdf;
 
-pub use assembly::{AssemblyNode, AssemblyTree, NodeKind};
+pub use assembly::{AssemblyNode, AssemblyTree, HandleLayout, NodeKind};
 pub use error::ModelError;
 pub use model::{Body, JointPart, LoadOptions, Model, FLOATING_BASE_JOINT};
 pub use urdf::{rpy_to_matrix, Geometry, GeometryRole, JointKind, Shape};

@@ -1,0 +1,256 @@
+//! Small dense kernels on flat row-major slices (dimensions ≤ 6 × handles): the handle-space
+//! matrices of the acceleration metric (Ψ, K, N, M) are a few tens of rows at most.
+
+/// `c = aᵀ b` with `a` (r × m), `b` (r × n), `c` (m × n), all row-major; `c` is overwritten.
+pub(crate) fn at_b(a: &[f64], b: &[f64], r: usize, m: usize, n: usize, c: &mut [f64]) {
+    c[..m * n].iter_mut().for_each(|x| *x = 0.0);
+    for k in 0..r {
+        let (ar, br) = (&a[k * m..k * m + m], &b[k * n..k * n + n]);
+        for (i, &x) in ar.iter().enumerate() {
+            if x == 0.0 {
+                continue;
+            }
+            let ci = &mut c[i * n..i * n + n];
+            for (cij, &y) in ci.iter_mut().zip(br) {
+                *cij += x * y;
+            }
+        }
+    }
+}
+
+/// `c = a b` with `a` (m × r), `b` (r × n), `c` (m × n); `c` is overwritten.
+pub(crate) fn a_b(a: &[f64], b: &[f64], m: usize, r: usize, n: usize, c: &mut [f64]) {
+    c[..m * n].iter_mut().for_each(|x| *x = 0.0);
+    for i in 0..m {
+        let ci = &mut c[i * n..i * n + n];
+        for k in 0..r {
+            let x = a[i * r + k];
+            if x == 0.0 {
+                continue;
+            }
+            for (cij, &y) in ci.iter_mut().zip(&b[k * n..k * n + n]) {
+                *cij += x * y;
+            }
+        }
+    }
+}
+
+/// `y = a x` with `a` (m × n).
+pub(crate) fn a_x(a: &[f64], x: &[f64], m: usize, n: usize, y: &mut [f64]) {
+    for i in 0..m {
+        y[i] = a[i * n..i * n + n].iter().zip(x).map(|(p, q)| p * q).sum();
+    }
+}
+
+/// `y = aᵀ x` with `a` (m × n), `x` (m), `y` (n).
+pub(crate) fn at_x(a: &[f64], x: &[f64], m: usize, n: usize, y: &mut [f64]) {
+    y[..n].iter_mut().for_each(|v| *v = 0.0);
+    for i in 0..m {
+        let xi = x[i];
+        if xi == 0.0 {
+            continue;
+        }
+        for (yj, &aij) in y.iter_mut().zip(&a[i * n..i * n + n]) {
+            *yj += aij * xi;
+        }
+    }
+}
+
+/// `xᵀ a x` for a square `a` (n × n).
+pub(crate) fn quad(a: &[f64], x: &[f64], n: usize) -> f64 {
+    let mut s = 0.0;
+    for i in 0..n {
+        if x[i] == 0.0 {
+            continue;
+        }
+        let row: f64 = a[i * n..i * n + n].iter().zip(x).map(|(p, q)| p * q).sum();
+        s += x[i] * row;
+    }
+    s
+}
+
+/// Inverse of the leading k×k block of a symmetric positive definite matrix (k ≤ 6), by a
+/// Cholesky factorisation of its Jacobi-scaled form `E A E`, `E = diag(A_ii^-½)` (rotational
+/// and translational entries differ by the square of lever arms). `None` when not positive
+/// definite.
+pub(crate) fn spd_inverse(a: &[[f64; 6]; 6], k: usize) -> Option<[[f64; 6]; 6]> {
+    let mut e = [0.0; 6];
+    for i in 0..k {
+        if a[i][i].is_nan() || a[i][i] <= 0.0 {
+            return None;
+        }
+        e[i] = 1.0 / a[i][i].sqrt();
+    }
+    // L Lᵀ = E A E
+    let mut l = [[0.0f64; 6]; 6];
+    for j in 0..k {
+        let mut d = a[j][j] * e[j] * e[j];
+        for p in 0..j {
+            d -= l[j][p] * l[j][p];
+        }
+        if d.is_nan() || d <= 0.0 {
+            return None;
+        }
+        let ljj = d.sqrt();
+        l[j][j] = ljj;
+        for i in (j + 1)..k {
+            let mut x = a[i][j] * e[i] * e[j];
+            for p in 0..j {
+                x -= l[i][p] * l[j][p];
+            }
+            l[i][j] = x / ljj;
+        }
+    }
+    // M = L⁻¹ (lower), then (E A E)⁻¹ = Mᵀ M and A⁻¹ = E Mᵀ M E.
+    let mut m = [[0.0f64; 6]; 6];
+    for c in 0..k {
+        for i in c..k {
+            let mut x = if i == c { 1.0 } else { 0.0 };
+            for p in c..i {
+                x -= l[i][p] * m[p][c];
+            }
+            m[i][c] = x / l[i][i];
+        }
+    }
+    let mut inv = [[0.0f64; 6]; 6];
+    for i in 0..k {
+        for j in 0..=i {
+            let mut s = 0.0;
+            for p in i..k {
+                s += m[p][i] * m[p][j];
+            }
+            let v = s * e[i] * e[j];
+            inv[i][j] = v;
+            inv[j][i] = v;
+        }
+    }
+    Some(inv)
+}
+
+/// Cholesky factor `L` of a 6×6 symmetric positive definite matrix, computed on its
+/// Jacobi-scaled form and unscaled (`L = E⁻¹ L'`). `None` when not positive definite.
+pub(crate) fn spd_cholesky(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
+    let mut e = [0.0; 6];
+    for i in 0..6 {
+        if a[i][i].is_nan() || a[i][i] <= 0.0 {
+            return None;
+        }
+        e[i] = 1.0 / a[i][i].sqrt();
+    }
+    let mut l = [[0.0f64; 6]; 6];
+    for j in 0..6 {
+        let mut d = a[j][j] * e[j] * e[j];
+        for p in 0..j {
+            d -= l[j][p] * l[j][p];
+        }
+        if d.is_nan() || d <= 0.0 {
+            return None;
+        }
+        let ljj = d.sqrt();
+        l[j][j] = ljj;
+        for i in (j + 1)..6 {
+            let mut x = a[i][j] * e[i] * e[j];
+            for p in 0..j {
+                x -= l[i][p] * l[j][p];
+            }
+            l[i][j] = x / ljj;
+        }
+    }
+    for i in 0..6 {
+        for j in 0..=i {
+            l[i][j] /= e[i];
+        }
+    }
+    Some(l)
+}
+
+/// `L⁻¹ b` (forward substitution).
+#[inline]
+pub(crate) fn solve_l(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
+    let mut x = [0.0; 6];
+    for i in 0..6 {
+        let mut v = b[i];
+        for p in 0..i {
+            v -= l[i][p] * x[p];
+        }
+        x[i] = v / l[i][i];
+    }
+    x
+}
+
+/// `L⁻ᵀ b` (back substitution).
+#[inline]
+pub(crate) fn solve_lt(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
+    let mut x = [0.0; 6];
+    for i in (0..6).rev() {
+        let mut v = b[i];
+        for p in (i + 1)..6 {
+            v -= l[p][i] * x[p];
+        }
+        x[i] = v / l[i][i];
+    }
+    x
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spd_inverse_times_matrix_is_identity() {
+        // A badly scaled SPD matrix: B Bᵀ + diag, rows scaled by 1e-4 … 1e4.
+        let mut a = [[0.0; 6]; 6];
+        let s = [1e-4, 1e-2, 1.0, 1e2, 1e3, 1e4];
+        for i in 0..6 {
+            for j in 0..6 {
+                let b = |r: usize, c: usize| ((r * 7 + c * 3) % 5) as f64 - 2.0;
+                let mut x: f64 = (0..6).map(|p| b(i, p) * b(j, p)).sum();
+                if i == j {
+                    x += 1.0;
+                }
+                a[i][j] = x * s[i] * s[j];
+            }
+        }
+        let inv = spd_inverse(&a, 6).unwrap();
+        for i in 0..6 {
+            for j in 0..6 {
+                let x: f64 = (0..6).map(|p| a[i][p] * inv[p][j]).sum();
+                let expect = if i == j { 1.0 } else { 0.0 };
+                // Entry (i, j) carries the scale s_i / s_j.
+                assert!((x - expect).abs() * s[j] / s[i] < 1e-12, "{i} {j} {x}");
+            }
+        }
+        assert!(spd_inverse(&[[0.0; 6]; 6], 3).is_none());
+    }
+
+    #[test]
+    fn products_match_index_formulas() {
+        let a: Vec<f64> = (0..6).map(|x| x as f64 + 1.0).collect(); // 2 × 3
+        let b: Vec<f64> = (0..6).map(|x| (x as f64) * 0.5 - 1.0).collect(); // 2 × 3 / 3 × 2
+        let mut c = vec![0.0; 9];
+        at_b(&a, &b, 2, 3, 3, &mut c); // aᵀ b: 3 × 3
+        for i in 0..3 {
+            for j in 0..3 {
+                let x = a[i] * b[j] + a[3 + i] * b[3 + j];
+                assert_eq!(c[i * 3 + j], x);
+            }
+        }
+        let mut d = vec![0.0; 4];
+        a_b(&a, &b, 2, 3, 2, &mut d); // a (2×3) b (3×2)
+        for i in 0..2 {
+            for j in 0..2 {
+                let x: f64 = (0..3).map(|k| a[i * 3 + k] * b[k * 2 + j]).sum();
+                assert_eq!(d[i * 2 + j], x);
+            }
+        }
+        let x = [1.0, -2.0, 0.5];
+        let mut y = [0.0; 2];
+        a_x(&a, &x, 2, 3, &mut y);
+        assert_eq!(y, [1.0 - 4.0 + 1.5, 4.0 - 10.0 + 3.0]);
+        let mut z = [0.0; 3];
+        at_x(&a, &[1.0, 2.0], 2, 3, &mut z);
+        assert_eq!(z, [9.0, 12.0, 15.0]);
+        let sq = [2.0, 1.0, 1.0, 3.0];
+        assert_eq!(quad(&sq, &[1.0, 2.0], 2), 2.0 + 4.0 + 12.0);
+    }
+}

@@ -1,0 +1,592 @@
+//! The hybrid body (DESIGN §6): the workspace, the articulated-body coefficients of active
+//! nodes, the rigid coefficients of rigidified ones, and the back-substitution.
+//!
+//! Conventions follow `articula-dca`: every spatial quantity is in the computation frame (world
+//! axes, origin at the floating base for a floating model), and each handle's vectors are taken
+//! about the origin of the handle joint's child body (`point`), so that long bodies keep their
+//! digits. A force array is `[n; f]`, a motion array `[ω; v]`.
+
+use crate::dense;
+use crate::Settings;
+use articula_dca::{Data, DynamicsError};
+use articula_model::{HandleLayout, Model, NodeKind};
+use articula_spatial::{skew, Mat6, SpatialForce, SpatialMotion};
+use glam::{DMat3, DVec3};
+use std::collections::BinaryHeap;
+
+#[inline]
+fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
+}
+
+/// Which terms the main pass includes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Level {
+    /// Accelerations: gravity, velocity products, external forces, joint forces.
+    Acceleration,
+    /// Velocities after an impulse: no bias terms; the "joint forces" are generalized momenta.
+    Impulse,
+}
+
+/// A rigid body's mass properties: mass, centre of mass and rotational inertia about it
+/// (computation frame).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct Rigid {
+    pub m: f64,
+    pub c: DVec3,
+    pub ic: DMat3,
+}
+
+impl Rigid {
+    /// The composite of two rigid bodies welded together (parallel-axis theorem about the
+    /// common centre of mass).
+    pub fn combine(&self, o: &Rigid) -> Rigid {
+        let m = self.m + o.m;
+        if m <= 0.0 {
+            return Rigid::default();
+        }
+        let c = (self.c * self.m + o.c * o.m) / m;
+        let shift = |r: &Rigid| {
+            let d = r.c - c;
+            (DMat3::from_diagonal(DVec3::splat(d.length_squared())) - outer(d, d)) * r.m
+        };
+        Rigid {
+            m,
+            c,
+            ic: self.ic + o.ic + shift(self) + shift(o),
+        }
+    }
+}
+
+fn outer(a: DVec3, b: DVec3) -> DMat3 {
+    DMat3::from_cols(a * b.x, a * b.y, a * b.z)
+}
+
+/// A node waiting in the selection queue, ordered by its acceleration metric.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Entry {
+    pub metric: f64,
+    pub node: usize,
+}
+
+impl PartialEq for Entry {
+    fn eq(&self, o: &Self) -> bool {
+        self.metric.total_cmp(&o.metric).is_eq() && self.node == o.node
+    }
+}
+impl Eq for Entry {}
+impl PartialOrd for Entry {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Entry {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        self.metric
+            .total_cmp(&o.metric)
+            .then_with(|| o.node.cmp(&self.node))
+    }
+}
+
+/// What the last joint selection chose.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Selection {
+    /// Degrees of freedom whose accelerations were computed (the floating base's six included).
+    pub active_dofs: usize,
+    /// Internal degrees of freedom selected (what the budget counts; the floating base is free).
+    pub budget_used: usize,
+    /// The acceleration-metric mass left in the queue: `Σ q̈ᵀ A q̈` over every joint whose
+    /// acceleration was set to zero — the error of this selection against exact DCA.
+    pub predicted_error: f64,
+    /// The acceleration metric of the whole body, `A(root)`.
+    pub total_metric: f64,
+}
+
+/// The adaptive-dynamics workspace of one articulated body: the hybrid-body state (which
+/// joints are active) and every buffer, beside the immutable [`Model`].
+#[derive(Clone, Debug)]
+pub struct Adaptive {
+    pub(crate) settings: Settings,
+    /// Kinematics of the last call (poses, velocities, subspaces, world inertias).
+    pub data: Data,
+    pub(crate) lay: HandleLayout,
+    pub(crate) nh: Vec<usize>,
+    pub(crate) point: Vec<DVec3>,
+    pub(crate) phi: Vec<Mat6>,
+    pub(crate) b: Vec<SpatialMotion>,
+    pub(crate) f: Vec<SpatialForce>,
+    /// Per join node: `q̈ = K F + k` and the joint force on B `f = N F + n` in terms of the
+    /// node's handle forces F (`K`: nv × 6nh at `koff`, `k` per DOF; `N`: 6 × 6nh at `36 hoff`).
+    pub(crate) kmat: Vec<f64>,
+    pub(crate) koff: Vec<usize>,
+    pub(crate) kvec: Vec<f64>,
+    pub(crate) nmat: Vec<f64>,
+    pub(crate) nvec: Vec<[f64; 6]>,
+    /// Acceleration-metric coefficients `A(C) = Fᵀ Ψ F + Fᵀ p + η` (Ψ at `poff`, p at `6 hoff`).
+    pub(crate) psi: Vec<f64>,
+    pub(crate) poff: Vec<usize>,
+    pub(crate) pvec: Vec<f64>,
+    pub(crate) eta: Vec<f64>,
+    /// Per body joint: the metric weights `A_i` and `V_i` (k × k, row-major, at `woff`).
+    pub(crate) aw: Vec<f64>,
+    pub(crate) vw: Vec<f64>,
+    pub(crate) woff: Vec<usize>,
+    /// Per node: composite inertia, whether it holds the ground, its top body, the sum of the
+    /// external wrenches on its bodies.
+    pub(crate) comp: Vec<Rigid>,
+    pub(crate) grounded: Vec<bool>,
+    pub(crate) top: Vec<usize>,
+    pub(crate) fsum: Vec<SpatialForce>,
+    pub(crate) fext_c: Vec<SpatialForce>,
+    /// Per node: in the hybrid body's active region (its principal joint moves).
+    pub(crate) active: Vec<bool>,
+    /// Per node: selected by the last acceleration-metric selection.
+    pub(crate) selected: Vec<bool>,
+    /// Per node: velocity metric of its subassembly.
+    pub(crate) vmetric: Vec<f64>,
+    pub(crate) qdd: Vec<f64>,
+    pub(crate) gmom: Vec<f64>,
+    pub(crate) hsub: Vec<SpatialForce>,
+    pub(crate) heap: BinaryHeap<Entry>,
+    pub(crate) s1: Vec<f64>,
+    pub(crate) s2: Vec<f64>,
+    pub(crate) s3: Vec<f64>,
+    pub(crate) fx: Vec<f64>,
+    /// Scratch of the join being computed, per handle: the columns of `Y_h` and `U_h`.
+    pub(crate) yc: Vec<[[f64; 6]; 6]>,
+    pub(crate) uc: Vec<[[f64; 6]; 6]>,
+    pub(crate) steps: u64,
+    pub(crate) last: Selection,
+    /// Nodes visited by the passes of the last call (the cost measure of adaptive updates).
+    pub(crate) touched: usize,
+}
+
+impl Adaptive {
+    /// Allocates the workspace for `model`. Every joint starts active.
+    pub fn new(model: &Model, settings: Settings) -> Adaptive {
+        let tree = &model.assembly;
+        let lay = tree.handle_layout();
+        let nn = tree.nodes.len();
+        let nh: Vec<usize> = tree.nodes.iter().map(|n| n.handles.len()).collect();
+        let (mut koff, mut poff) = (Vec::with_capacity(nn), Vec::with_capacity(nn));
+        let (mut ko, mut po) = (0, 0);
+        for (i, node) in tree.nodes.iter().enumerate() {
+            koff.push(ko);
+            poff.push(po);
+            if let NodeKind::Join { joint, .. } = node.kind {
+                ko += model.bodies[joint].nv * 6 * nh[i];
+            }
+            po += 36 * nh[i] * nh[i];
+        }
+        let mut woff = Vec::with_capacity(model.bodies.len());
+        let mut wo = 0;
+        for body in &model.bodies {
+            woff.push(wo);
+            wo += body.nv * body.nv;
+        }
+        let mut aw = vec![0.0; wo];
+        for (i, body) in model.bodies.iter().enumerate() {
+            for p in 0..body.nv {
+                aw[woff[i] + p * body.nv + p] = 1.0;
+            }
+        }
+        let maxh = 6 * tree.max_handles().max(1);
+        let scratch = 4 * maxh * maxh;
+        let mut active = vec![false; nn];
+        for (i, node) in tree.nodes.iter().enumerate() {
+            active[i] = matches!(node.kind, NodeKind::Join { .. });
+        }
+        Adaptive {
+            settings,
+            data: Data::new(model),
+            nh,
+            point: vec![DVec3::ZERO; model.bodies.len()],
+            phi: vec![Mat6::ZERO; lay.blocks],
+            b: vec![SpatialMotion::ZERO; lay.handles],
+            f: vec![SpatialForce::ZERO; lay.handles],
+            kmat: vec![0.0; ko],
+            koff,
+            kvec: vec![0.0; model.nv],
+            nmat: vec![0.0; 36 * lay.handles],
+            nvec: vec![[0.0; 6]; nn],
+            psi: vec![0.0; po],
+            poff,
+            pvec: vec![0.0; 6 * lay.handles],
+            eta: vec![0.0; nn],
+            vw: aw.clone(),
+            aw,
+            woff,
+            comp: vec![Rigid::default(); nn],
+            grounded: vec![false; nn],
+            top: vec![usize::MAX; nn],
+            fsum: vec![SpatialForce::ZERO; nn],
+            fext_c: Vec::with_capacity(model.bodies.len()),
+            active,
+            selected: vec![false; nn],
+            vmetric: vec![0.0; nn],
+            qdd: vec![0.0; model.nv],
+            gmom: vec![0.0; model.nv],
+            hsub: vec![SpatialForce::ZERO; model.bodies.len()],
+            heap: BinaryHeap::with_capacity(nn),
+            s1: vec![0.0; scratch],
+            s2: vec![0.0; scratch],
+            s3: vec![0.0; scratch],
+            fx: vec![0.0; maxh],
+            yc: vec![[[0.0; 6]; 6]; tree.max_handles().max(1)],
+            uc: vec![[[0.0; 6]; 6]; tree.max_handles().max(1)],
+            lay,
+            steps: 0,
+            last: Selection::default(),
+            touched: 0,
+        }
+    }
+
+    /// Φ_hk of node `n`.
+    #[inline]
+    pub(crate) fn phi_at(&self, n: usize, h: usize, k: usize) -> &Mat6 {
+        &self.phi[self.lay.boff[n] + h * self.nh[n] + k]
+    }
+
+    /// Composite inertia, ground flag, top body and external-force sum of every node, bottom-up.
+    pub(crate) fn composites(&mut self, model: &Model) {
+        let tree = &model.assembly;
+        for (n, node) in tree.nodes.iter().enumerate() {
+            match node.kind {
+                NodeKind::Ground => {
+                    self.comp[n] = Rigid::default();
+                    self.grounded[n] = true;
+                    self.top[n] = usize::MAX;
+                    self.fsum[n] = SpatialForce::ZERO;
+                }
+                NodeKind::Body(i) => {
+                    // From the body-frame inertia: about a far origin, I_c would lose digits.
+                    let (rot, _) = self.data.x[i].to_pose();
+                    let bi = &model.bodies[i].inertia;
+                    self.comp[n] = Rigid {
+                        m: bi.mass,
+                        c: self.data.x[i].apply_point(bi.com()),
+                        ic: rot * bi.inertia_about_com() * rot.transpose(),
+                    };
+                    self.grounded[n] = false;
+                    self.top[n] = i;
+                    self.fsum[n] = self.fext_c.get(i).copied().unwrap_or(SpatialForce::ZERO);
+                }
+                NodeKind::Join {
+                    parent_side: a,
+                    child_side: b,
+                    ..
+                } => {
+                    self.comp[n] = self.comp[a].combine(&self.comp[b]);
+                    self.grounded[n] = self.grounded[a] || self.grounded[b];
+                    self.top[n] = self.top[a].min(self.top[b]);
+                    self.fsum[n] = self.fsum[a] + self.fsum[b];
+                }
+            }
+        }
+    }
+
+    /// Φ and b of node `n` moving as one rigid body with composite inertia `inertia` (about the
+    /// computation origin), common spatial velocity `v` and net external wrench `fe`
+    /// (DESIGN §5 leaf, §6 rigid node): `Φ_hk = I⁻¹` and `b_h = a_g + I⁻¹ (f_ext − v ×* I v)`,
+    /// each handle's rows and columns about its own point. About the centre of mass c, where
+    /// `I = diag(I_c, m 1)`: with `a = c − P_h`, `e = c − P_k`, `J = I_c⁻¹`,
+    /// `Φ_hk = [J, −J e×; a× J, −a× J e× + 1/m]`.
+    pub(crate) fn rigid_coefficients(
+        &mut self,
+        model: &Model,
+        n: usize,
+        inertia: &Rigid,
+        v: SpatialMotion,
+        fe: SpatialForce,
+        level: Level,
+    ) -> Result<(), DynamicsError> {
+        let node = &model.assembly.nodes[n];
+        let (ho, bo, nh) = (self.lay.hoff[n], self.lay.boff[n], self.nh[n]);
+        let (m, ic, c) = (inertia.m, inertia.ic, inertia.c);
+        if m.is_nan() || m <= 0.0 || ic.determinant() <= 0.0 {
+            let body = self.top[n].min(model.bodies.len() - 1);
+            return Err(DynamicsError::Singular {
+                joint: model.bodies[body].joint_name(),
+                detail: "a rigid subassembly's spatial inertia is not positive definite",
+            });
+        }
+        let j = ic.inverse();
+        let (acc_w, acc_c) = match level {
+            Level::Acceleration => {
+                let v_c = v.v + v.w.cross(c);
+                let n_c = fe.n - c.cross(fe.f) - v.w.cross(ic * v.w);
+                let f_c = fe.f - v.w.cross(v_c) * m;
+                (j * n_c, f_c / m)
+            }
+            Level::Impulse => (DVec3::ZERO, DVec3::ZERO),
+        };
+        let a_g = match level {
+            Level::Acceleration => SpatialMotion::new(DVec3::ZERO, self.data.gravity),
+            Level::Impulse => SpatialMotion::ZERO,
+        };
+        for (h, &jh) in node.handles.iter().enumerate() {
+            let ah = c - self.point[jh];
+            let axj = skew(ah) * j;
+            for (k, &jk) in node.handles.iter().enumerate() {
+                let ek = skew(c - self.point[jk]);
+                let br = -(axj * ek) + DMat3::from_diagonal(DVec3::splat(1.0 / m));
+                self.phi[bo + h * nh + k] = Mat6::from_blocks(j, -(j * ek), axj, br);
+            }
+            // b at P_h: [α; a_c + α × (P_h − c)] + a_g
+            self.b[ho + h] = a_g + SpatialMotion::new(acc_w, acc_c + acc_w.cross(-ah));
+        }
+        Ok(())
+    }
+
+    /// Coefficients of the ground or of a subassembly welded to it: Φ = 0, b = 0.
+    pub(crate) fn ground_coefficients(&mut self, n: usize) {
+        let (ho, bo, nh) = (self.lay.hoff[n], self.lay.boff[n], self.nh[n]);
+        self.phi[bo..bo + nh * nh].fill(Mat6::ZERO);
+        self.b[ho..ho + nh].fill(SpatialMotion::ZERO);
+    }
+
+    /// Joins A and B at the principal joint of node `n` (DESIGN §5) and records the affine maps
+    /// `q̈ = K F + k` and `f = N F + n` of the back-substitution. With `G_F` the 6 × 6nh map
+    /// `y = β + G_F F` (`+Φ^A_jh` for handles from A, `−Φ^B_jh` from B), `V = (Φ^A_jj +
+    /// Φ^B_jj)⁻¹ = L⁻ᵀ L⁻¹`, `D = Sᵀ V S`: `K = −D⁻¹ SᵀV G_F`, `k = D⁻¹ (Q − SᵀV β)`,
+    /// `N = V (G_F + S K)`, `n = V (β + S k)` (= γ), all through the Cholesky factor:
+    /// `Z = L⁻¹ S`, `Y = L⁻¹ G_F`, `U = Y + Z K`, `N = L⁻ᵀ U`. Then
+    /// `Φ^C_hk = Φ^X_hk [same side] ∓ Φ^X_hj N_k = Φ^X_hk [same side] − Y_hᵀ U_k` and
+    /// `b^C_h = b^X_h ∓ Φ^X_hj γ = b^X_h − Y_hᵀ (w + Z k)`, `w = L⁻¹ β`.
+    pub(crate) fn join(
+        &mut self,
+        model: &Model,
+        n: usize,
+        tau: &[f64],
+        level: Level,
+    ) -> Result<(), DynamicsError> {
+        let tree = &model.assembly;
+        let NodeKind::Join {
+            joint,
+            parent_side: a,
+            child_side: b,
+        } = tree.nodes[n].kind
+        else {
+            unreachable!("join() on a leaf")
+        };
+        let body = &model.bodies[joint];
+        let (ja, jb) = (self.lay.ja[n], self.lay.jb[n]);
+        let (nhc, hc) = (self.nh[n], self.lay.hoff[n]);
+        let g = (*self.phi_at(a, ja, ja) + *self.phi_at(b, jb, jb)).0;
+        // L Lᵀ = Φ^A_jj + Φ^B_jj = V⁻¹
+        let l = dense::spd_cholesky(&g).ok_or_else(|| DynamicsError::Singular {
+            joint: body.joint_name(),
+            detail: "Φ_jj^A + Φ_jj^B is not positive definite",
+        })?;
+        let pj = self.point[joint];
+        let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj)).to_array();
+        let (vo, k) = (body.v_offset, body.nv);
+        // Z = L⁻¹ S, D = Zᵀ Z
+        let mut z = [[0.0; 6]; 6];
+        for p in 0..k {
+            z[p] = dense::solve_l(&l, &shift(self.data.s[vo + p]));
+        }
+        let mut d = [[0.0; 6]; 6];
+        for p in 0..k {
+            for q in 0..k {
+                d[p][q] = dot6(&z[p], &z[q]);
+            }
+        }
+        let dinv = dense::spd_inverse(&d, k).ok_or_else(|| DynamicsError::Singular {
+            joint: body.joint_name(),
+            detail: "Sᵀ V S is not positive definite",
+        })?;
+        // β = b^A_j − b^B_j + c (no velocity product at impulse level); w = L⁻¹ β.
+        let mut beta = self.b[self.lay.hoff[a] + ja] - self.b[self.lay.hoff[b] + jb];
+        if level == Level::Acceleration {
+            beta += SpatialMotion::from_array(shift(self.data.c[joint]));
+        }
+        let mut w = dense::solve_l(&l, &beta.to_array());
+        // k = D⁻¹ (Q − Zᵀ w);  w ← w + Z k;  n = γ = L⁻ᵀ w
+        let mut t = [0.0; 6];
+        for p in 0..k {
+            t[p] = tau[vo + p] - dot6(&z[p], &w);
+        }
+        for p in 0..k {
+            self.kvec[vo + p] = (0..k).map(|q| dinv[p][q] * t[q]).sum();
+        }
+        for p in 0..k {
+            let kp = self.kvec[vo + p];
+            for r in 0..6 {
+                w[r] += z[p][r] * kp;
+            }
+        }
+        let wk = w;
+        let nv = dense::solve_lt(&l, &w);
+        self.nvec[n] = nv;
+        // Per handle h of C: Y_h = L⁻¹ G_F,h (G_F,h = +Φ^A_jh from A, −Φ^B_jh from B),
+        // K_h = −D⁻¹ Zᵀ Y_h, U_h = Y_h + Z K_h, N_h = L⁻ᵀ U_h. Stored column-wise in `y`/`u`.
+        let ko = self.koff[n];
+        let wd = 6 * nhc;
+        for h in 0..nhc {
+            let (from_a, i) = self.lay.from[hc + h];
+            let gf = if from_a {
+                *self.phi_at(a, ja, i)
+            } else {
+                -*self.phi_at(b, jb, i)
+            };
+            let gt = gf.transpose(); // row c = column c of G_F,h
+            let mut yc = [[0.0; 6]; 6];
+            let mut uc = [[0.0; 6]; 6];
+            for c in 0..6 {
+                yc[c] = dense::solve_l(&l, &gt.0[c]);
+            }
+            for p in 0..k {
+                for c in 0..6 {
+                    let zy: f64 = (0..k).map(|q| dinv[p][q] * dot6(&z[q], &yc[c])).sum();
+                    self.kmat[ko + p * wd + 6 * h + c] = -zy;
+                }
+            }
+            for c in 0..6 {
+                let mut col = yc[c];
+                for p in 0..k {
+                    let kp = self.kmat[ko + p * wd + 6 * h + c];
+                    for r in 0..6 {
+                        col[r] += z[p][r] * kp;
+                    }
+                }
+                uc[c] = col;
+                let ncol = dense::solve_lt(&l, &col);
+                for r in 0..6 {
+                    self.nmat[36 * hc + r * wd + 6 * h + c] = ncol[r];
+                }
+            }
+            self.yc[h] = yc;
+            self.uc[h] = uc;
+        }
+        // Φ^C_hk = Φ^X_hk [same side] − Y_hᵀ U_k;  b^C_h = b^X_h − Y_hᵀ (w + Z k).
+        let bc = self.lay.boff[n];
+        for h in 0..nhc {
+            let (ah, ih) = self.lay.from[hc + h];
+            let x = if ah { a } else { b };
+            for kk in h..nhc {
+                let (ak, ik) = self.lay.from[hc + kk];
+                let mut blk = Mat6::ZERO;
+                for r in 0..6 {
+                    for c in 0..6 {
+                        blk.0[r][c] = -dot6(&self.yc[h][r], &self.uc[kk][c]);
+                    }
+                }
+                if ah == ak {
+                    blk += *self.phi_at(x, ih, ik);
+                }
+                if h == kk {
+                    blk = *blk.symmetric_part().as_mat6();
+                    self.phi[bc + h * nhc + h] = blk;
+                } else {
+                    self.phi[bc + h * nhc + kk] = blk;
+                    self.phi[bc + kk * nhc + h] = blk.transpose();
+                }
+            }
+            let mut db = [0.0; 6];
+            for r in 0..6 {
+                db[r] = -dot6(&self.yc[h][r], &wk);
+            }
+            self.b[hc + h] = self.b[self.lay.hoff[x] + ih] + SpatialMotion::from_array(db);
+        }
+        Ok(())
+    }
+
+    /// Back-substitution at join node `n` with its handle forces in `f`: writes its joint's
+    /// `q̈ = K F + k` into `qdd` and its children's handle forces.
+    pub(crate) fn expand(&mut self, model: &Model, n: usize) {
+        let tree = &model.assembly;
+        let NodeKind::Join {
+            joint,
+            parent_side: a,
+            child_side: b,
+        } = tree.nodes[n].kind
+        else {
+            return;
+        };
+        let body = &model.bodies[joint];
+        let (vo, k) = (body.v_offset, body.nv);
+        let (nhc, hc) = (self.nh[n], self.lay.hoff[n]);
+        let w = 6 * nhc;
+        for h in 0..nhc {
+            self.fx[6 * h..6 * h + 6].copy_from_slice(&self.f[hc + h].to_array());
+        }
+        let ko = self.koff[n];
+        for p in 0..k {
+            let row = &self.kmat[ko + p * w..ko + p * w + w];
+            self.qdd[vo + p] =
+                self.kvec[vo + p] + row.iter().zip(&self.fx).map(|(x, y)| x * y).sum::<f64>();
+        }
+        let mut fj = self.nvec[n];
+        for (r, x) in fj.iter_mut().enumerate() {
+            let row = &self.nmat[36 * hc + r * w..36 * hc + r * w + w];
+            *x += row.iter().zip(&self.fx).map(|(x, y)| x * y).sum::<f64>();
+        }
+        let fj = SpatialForce::from_array(fj);
+        let (hoa, hob) = (self.lay.hoff[a], self.lay.hoff[b]);
+        for h in 0..nhc {
+            let fh = self.f[hc + h];
+            match self.lay.from[hc + h] {
+                (true, i) => self.f[hoa + i] = fh,
+                (false, i) => self.f[hob + i] = fh,
+            }
+        }
+        self.f[hoa + self.lay.ja[n]] = -fj;
+        self.f[hob + self.lay.jb[n]] = fj;
+    }
+
+    /// Main pass over the hybrid body: active joins are joined, the frontier (children of
+    /// active nodes that are not active, or the root when nothing is) moves rigidly, nodes below
+    /// the frontier are not visited. With `all_active`, every node is articulated.
+    pub(crate) fn main_pass(
+        &mut self,
+        model: &Model,
+        tau: &[f64],
+        level: Level,
+        all_active: bool,
+    ) -> Result<(), DynamicsError> {
+        let tree = &model.assembly;
+        for (h, x) in self.data.x.iter().enumerate() {
+            self.point[h] = x.apply_point(DVec3::ZERO);
+        }
+        self.touched = 0;
+        for n in 0..tree.nodes.len() {
+            let node = &tree.nodes[n];
+            let is_join = matches!(node.kind, NodeKind::Join { .. });
+            let active = is_join && (all_active || self.active[n]);
+            let frontier = !active && node.parent.is_none_or(|p| all_active || self.active[p]);
+            if !active && !frontier {
+                continue;
+            }
+            self.touched += 1;
+            if active {
+                self.join(model, n, tau, level)?;
+            } else if self.grounded[n] {
+                self.ground_coefficients(n);
+            } else {
+                let v = match level {
+                    Level::Acceleration => self.data.v[self.top[n]],
+                    Level::Impulse => SpatialMotion::ZERO,
+                };
+                let r = self.comp[n];
+                self.rigid_coefficients(model, n, &r, v, self.fsum[n], level)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Top-down back-substitution through the active region (all joins with `all_active`);
+    /// every other joint gets `q̈ = 0`.
+    pub(crate) fn back_substitution(&mut self, model: &Model, all_active: bool) {
+        let tree = &model.assembly;
+        self.qdd.fill(0.0);
+        let root = tree.root();
+        let (ho, nh) = (self.lay.hoff[root], self.nh[root]);
+        self.f[ho..ho + nh].fill(SpatialForce::ZERO);
+        for n in (0..tree.nodes.len()).rev() {
+            if all_active || self.active[n] {
+                self.expand(model, n);
+            }
+        }
+    }
+}

@@ -1,0 +1,423 @@
+//! # articula-adaptive
+//!
+//! Adaptive forward dynamics of articulated bodies (Redon, Galoppo, Lin 2005; DESIGN §6) on
+//! top of [`articula_dca`]: simulate only the joints that matter and say how wrong that is.
+//!
+//! - **Hybrid body**: the active joints form a subtree of the assembly tree that contains the
+//!   root; every other subassembly is rigid (its joints are locked) and enters the main pass as
+//!   one rigid body (composite inertia).
+//! - **Acceleration metric** `A(C) = Σ q̈ᵢᵀ Aᵢ q̈ᵢ` (weights [`Adaptive::set_weight`], identity by
+//!   default) is a quadratic function of C's handle forces, so a top-down max-priority queue
+//!   chooses the joints to simulate before computing the others ([`Settings::budget`],
+//!   [`Settings::tolerance`]). The metric mass left in the queue is the error of the selection
+//!   against exact DCA ([`Selection::predicted_error`]).
+//! - **Rigidification**: joints leaving the hybrid body are locked by internal impulses that
+//!   keep the body's spatial momentum and never add kinetic energy; the hybrid body is
+//!   re-selected every [`Settings::reselect_every`] steps.
+//!
+//! ```
+//! use articula_adaptive::{Adaptive, Settings};
+//! use articula_dca::{forward_dynamics, Data, Method, State};
+//! use articula_model::{LoadOptions, Model};
+//!
+//! let model = Model::from_urdf_file("../../models/chain30.urdf", &LoadOptions::default()).unwrap();
+//! let state = State::random(&model, 7, 1.0);
+//! // Exact DCA for reference.
+//! let mut data = Data::new(&model);
+//! let exact = forward_dynamics(&model, &mut data, &state.q, &state.qd, &state.tau, &state.f_ext, Method::Dca)
+//!     .unwrap().to_vec();
+//! // Ten joints, chosen by the acceleration metric.
+//! let mut adaptive = Adaptive::new(&model, Settings { budget: Some(10), ..Settings::default() });
+//! let qdd = adaptive.forward_dynamics(&model, &state.q, &state.qd, &state.tau, &state.f_ext).unwrap().to_vec();
+//! let sel = adaptive.selection().clone();
+//! assert_eq!(sel.active_dofs, 10);
+//! // The predicted error is the metric of the difference to exact DCA.
+//! let actual: f64 = qdd.iter().zip(&exact).map(|(a, e)| (a - e) * (a - e)).sum();
+//! assert!((sel.predicted_error - actual).abs() <= 1e-8 * sel.total_metric);
+//! ```
+
+// Index loops over joint columns and handles mirror the equations (S columns p, q; handles h, k).
+#![allow(clippy::needless_range_loop)]
+
+mod dense;
+mod hybrid;
+mod metric;
+mod rigidify;
+
+pub use hybrid::{Adaptive, Selection};
+
+use articula_dca::{forward_kinematics, integrate_q, DynamicsError, State};
+use articula_model::{Model, NodeKind};
+use articula_spatial::{SpatialForce, SpatialTransform};
+use hybrid::Level;
+
+/// How the adaptive solver chooses its joints.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    /// Maximum number of internal degrees of freedom simulated (a floating base's six are free);
+    /// `Some(0)` moves the body as one rigid body. `None`: no limit.
+    pub budget: Option<usize>,
+    /// Stop selecting when the acceleration-metric mass left in the queue is at most this.
+    /// `None` or `Some(0.0)`: no tolerance stop.
+    pub tolerance: Option<f64>,
+    /// Re-select the hybrid body every this many steps (at least 1).
+    pub reselect_every: u64,
+    /// At re-selection, a joint not selected is locked unless this is set and the velocity
+    /// metric `V(C)` of its subassembly exceeds it (it then stays in the hybrid body, counted
+    /// as active). `None`: every joint not selected is locked.
+    pub velocity_tolerance: Option<f64>,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            budget: None,
+            tolerance: None,
+            reselect_every: 1,
+            velocity_tolerance: None,
+        }
+    }
+}
+
+impl Settings {
+    /// Checks the values: a finite non-negative tolerance and velocity tolerance, a re-selection
+    /// period of at least one step.
+    pub fn validate(&self) -> Result<(), AdaptiveError> {
+        if let Some(t) = self.tolerance {
+            if !(t >= 0.0 && t.is_finite()) {
+                return Err(AdaptiveError::Setting(format!(
+                    "tolerance must be a finite number ≥ 0, got {t}"
+                )));
+            }
+        }
+        if let Some(t) = self.velocity_tolerance {
+            if !(t >= 0.0 && t.is_finite()) {
+                return Err(AdaptiveError::Setting(format!(
+                    "velocity tolerance must be a finite number ≥ 0, got {t}"
+                )));
+            }
+        }
+        if self.reselect_every == 0 {
+            return Err(AdaptiveError::Setting(
+                "reselect_every must be at least 1".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// What can go wrong in an adaptive call.
+#[derive(Debug, thiserror::Error)]
+pub enum AdaptiveError {
+    /// An invalid setting.
+    #[error("invalid adaptive setting: {0}")]
+    Setting(String),
+    /// A dynamics error (dimension, non-finite value naming its joint, singular inertia).
+    #[error(transparent)]
+    Dynamics(#[from] DynamicsError),
+}
+
+/// What one adaptive step did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StepReport {
+    /// Whether the hybrid body was re-selected this step.
+    pub reselected: bool,
+    /// Whether joints were locked (rigidified) this step.
+    pub rigidified: bool,
+    /// Degrees of freedom in the hybrid body's active region (simulated this step).
+    pub active_dofs: usize,
+    /// The last selection's predicted acceleration-metric error.
+    pub predicted_error: f64,
+    /// Assembly-tree nodes the step's passes visited (the cost of adaptive updates).
+    pub nodes_touched: usize,
+}
+
+impl Adaptive {
+    /// The settings.
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+
+    /// Replaces the settings (checked).
+    pub fn set_settings(&mut self, settings: Settings) -> Result<(), AdaptiveError> {
+        settings.validate()?;
+        self.settings = settings;
+        Ok(())
+    }
+
+    /// Acceleration-metric weight of body `body`'s joint: `A = scale · 1` (scale ≥ 0).
+    pub fn set_weight(&mut self, model: &Model, body: usize, scale: f64) {
+        let k = model.bodies[body].nv;
+        let w = &mut self.aw[self.woff[body]..self.woff[body] + k * k];
+        for p in 0..k {
+            for q in 0..k {
+                w[p * k + q] = if p == q { scale } else { 0.0 };
+            }
+        }
+    }
+
+    /// Velocity-metric weight of body `body`'s joint: `V = scale · 1` (scale ≥ 0).
+    pub fn set_velocity_weight(&mut self, model: &Model, body: usize, scale: f64) {
+        let k = model.bodies[body].nv;
+        let w = &mut self.vw[self.woff[body]..self.woff[body] + k * k];
+        for p in 0..k {
+            for q in 0..k {
+                w[p * k + q] = if p == q { scale } else { 0.0 };
+            }
+        }
+    }
+
+    /// The acceleration-metric weight matrix `A_i` (k × k, row-major) of body `body`'s joint.
+    pub fn weight(&self, model: &Model, body: usize) -> &[f64] {
+        let k = model.bodies[body].nv;
+        &self.aw[self.woff[body]..self.woff[body] + k * k]
+    }
+
+    /// The last selection.
+    pub fn selection(&self) -> &Selection {
+        &self.last
+    }
+
+    /// Whether body `body`'s joint was selected by the last selection.
+    pub fn is_selected(&self, model: &Model, body: usize) -> bool {
+        self.selected[model.assembly.joint_node[body]]
+    }
+
+    /// Whether body `body`'s joint is in the hybrid body's active region (it moves).
+    pub fn is_active(&self, model: &Model, body: usize) -> bool {
+        self.active[model.assembly.joint_node[body]]
+    }
+
+    /// Degrees of freedom in the hybrid body's active region.
+    pub fn active_dofs(&self, model: &Model) -> usize {
+        model
+            .assembly
+            .nodes
+            .iter()
+            .enumerate()
+            .filter(|(n, _)| self.active[*n])
+            .map(|(_, node)| match node.kind {
+                NodeKind::Join { joint, .. } => model.bodies[joint].nv,
+                _ => 0,
+            })
+            .sum()
+    }
+
+    /// Kinematics and external forces of a state into the workspace (checked).
+    fn load(
+        &mut self,
+        model: &Model,
+        q: &[f64],
+        qd: &[f64],
+        tau: &[f64],
+        f_ext: &[SpatialForce],
+    ) -> Result<(), AdaptiveError> {
+        check_inputs(model, q, qd, tau, f_ext)?;
+        forward_kinematics(model, q, qd, &mut self.data);
+        let x_cw = SpatialTransform::xlt(self.data.origin);
+        self.fext_c.clear();
+        self.fext_c
+            .extend(f_ext.iter().map(|f| x_cw.apply_force(*f)));
+        self.composites(model);
+        Ok(())
+    }
+
+    /// Adaptive forward dynamics of one state: the articulated coefficients and the metric
+    /// bottom-up, then the joint selection (budget / tolerance of the settings). Selected joints
+    /// get their exact accelerations, the others zero; [`Adaptive::selection`] tells how many
+    /// were selected and the predicted error (`Σ q̈ᵀAq̈` of the difference to exact DCA).
+    pub fn forward_dynamics(
+        &mut self,
+        model: &Model,
+        q: &[f64],
+        qd: &[f64],
+        tau: &[f64],
+        f_ext: &[SpatialForce],
+    ) -> Result<&[f64], AdaptiveError> {
+        self.settings.validate()?;
+        self.load(model, q, qd, tau, f_ext)?;
+        self.main_pass(model, tau, Level::Acceleration, true)?;
+        self.metric_pass(model);
+        self.last = self.select(model);
+        check_qdd(model, &self.qdd)?;
+        Ok(&self.qdd)
+    }
+
+    /// The metric `A(C) = Fᵀ Ψ F + Fᵀ p + η` predicted at every node of the assembly tree from
+    /// its handle forces in the exact (fully articulated) solution, written into `out` (one per
+    /// node; 0 at leaves). The exact accelerations are left in [`Adaptive::qdd`].
+    pub fn node_metrics(
+        &mut self,
+        model: &Model,
+        q: &[f64],
+        qd: &[f64],
+        tau: &[f64],
+        f_ext: &[SpatialForce],
+        out: &mut [f64],
+    ) -> Result<(), AdaptiveError> {
+        self.load(model, q, qd, tau, f_ext)?;
+        self.main_pass(model, tau, Level::Acceleration, true)?;
+        self.metric_pass(model);
+        let tree = &model.assembly;
+        self.qdd.fill(0.0);
+        let root = tree.root();
+        let (ho, nh) = (self.lay.hoff[root], self.nh[root]);
+        self.f[ho..ho + nh].fill(SpatialForce::ZERO);
+        for n in (0..tree.nodes.len()).rev() {
+            out[n] = self.metric_at(n);
+            self.expand(model, n);
+        }
+        Ok(())
+    }
+
+    /// The joint accelerations of the last call.
+    pub fn qdd(&self) -> &[f64] {
+        &self.qdd
+    }
+
+    /// Re-selects the hybrid body of `state` now: the joints chosen by the acceleration metric
+    /// (settings' budget / tolerance) stay free, every other moving joint is locked by internal
+    /// impulses (`state.qd` changes; spatial momentum is kept, kinetic energy cannot grow).
+    /// Returns whether joints were locked.
+    pub fn reselect(&mut self, model: &Model, state: &mut State) -> Result<bool, AdaptiveError> {
+        self.settings.validate()?;
+        self.load(model, &state.q, &state.qd, &state.tau, &state.f_ext)?;
+        self.reselect_loaded(model, state)
+    }
+
+    fn reselect_loaded(&mut self, model: &Model, state: &mut State) -> Result<bool, AdaptiveError> {
+        self.main_pass(model, &state.tau, Level::Acceleration, true)?;
+        let mut touched = self.touched;
+        self.metric_pass(model);
+        self.last = self.select(model);
+        let locked = self.rebuild_hybrid(model, state)?;
+        if locked {
+            touched += self.touched;
+            self.composites(model);
+        }
+        self.touched = touched;
+        Ok(locked)
+    }
+
+    /// One semi-implicit Euler step of the hybrid body. Every `reselect_every` steps (the first
+    /// included) the joints are re-selected on the fully articulated coefficients and the
+    /// joints leaving the hybrid body are locked by impulses; then the hybrid body's
+    /// accelerations are computed (rigid subassemblies move as rigid bodies) and
+    /// `q̇ ← q̇ + h q̈`, `q ← q ⊕ h q̇`.
+    pub fn step(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+        dt: f64,
+    ) -> Result<StepReport, AdaptiveError> {
+        self.settings.validate()?;
+        self.load(model, &state.q, &state.qd, &state.tau, &state.f_ext)?;
+        let mut report = StepReport {
+            reselected: self.steps % self.settings.reselect_every == 0,
+            ..StepReport::default()
+        };
+        let mut touched = 0;
+        if report.reselected {
+            report.rigidified = self.reselect_loaded(model, state)?;
+            touched += self.touched;
+        }
+        self.main_pass(model, &state.tau, Level::Acceleration, false)?;
+        touched += self.touched;
+        self.back_substitution(model, false);
+        check_qdd(model, &self.qdd)?;
+        for (v, a) in state.qd.iter_mut().zip(&self.qdd) {
+            *v += dt * a;
+        }
+        integrate_q(model, &mut state.q, &state.qd, dt);
+        for (_, part) in model.joint_parts() {
+            let q = &state.q[part.q_offset..part.q_offset + part.nq()];
+            let qd = &state.qd[part.v_offset..part.v_offset + part.nv()];
+            for (what, xs) in [("q after the step", q), ("qd after the step", qd)] {
+                if xs.iter().any(|x| !x.is_finite()) {
+                    return Err(DynamicsError::NonFinite {
+                        what,
+                        name: part.name.clone(),
+                    }
+                    .into());
+                }
+            }
+        }
+        self.steps += 1;
+        report.active_dofs = self.active_dofs(model);
+        report.predicted_error = self.last.predicted_error;
+        report.nodes_touched = touched;
+        Ok(report)
+    }
+}
+
+fn check_qdd(model: &Model, qdd: &[f64]) -> Result<(), DynamicsError> {
+    if qdd.iter().all(|x| x.is_finite()) {
+        return Ok(());
+    }
+    for (_, part) in model.joint_parts() {
+        if qdd[part.v_offset..part.v_offset + part.nv()]
+            .iter()
+            .any(|x| !x.is_finite())
+        {
+            return Err(DynamicsError::NonFinite {
+                what: "qdd",
+                name: part.name.clone(),
+            });
+        }
+    }
+    Ok(())
+}
+
+fn check_inputs(
+    model: &Model,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+) -> Result<(), DynamicsError> {
+    for (what, len, expected) in [
+        ("q", q.len(), model.nq),
+        ("qd", qd.len(), model.nv),
+        ("tau", tau.len(), model.nv),
+    ] {
+        if len != expected {
+            return Err(DynamicsError::Dimension {
+                what,
+                expected,
+                found: len,
+            });
+        }
+    }
+    if !f_ext.is_empty() && f_ext.len() != model.bodies.len() {
+        return Err(DynamicsError::Dimension {
+            what: "f_ext",
+            expected: model.bodies.len(),
+            found: f_ext.len(),
+        });
+    }
+    let all_finite = q.iter().chain(qd).chain(tau).all(|x| x.is_finite());
+    for (_, part) in model.joint_parts().filter(|_| !all_finite) {
+        let (qo, vo) = (part.q_offset, part.v_offset);
+        for (what, xs) in [
+            ("q", &q[qo..qo + part.nq()]),
+            ("qd", &qd[vo..vo + part.nv()]),
+            ("tau", &tau[vo..vo + part.nv()]),
+        ] {
+            if xs.iter().any(|x| !x.is_finite()) {
+                return Err(DynamicsError::NonFinite {
+                    what,
+                    name: part.name.clone(),
+                });
+            }
+        }
+    }
+    for (i, f) in f_ext.iter().enumerate() {
+        if !f.is_finite() {
+            return Err(DynamicsError::NonFinite {
+                what: "external force",
+                name: model.bodies[i].name.clone(),
+            });
+        }
+    }
+    Ok(())
+}

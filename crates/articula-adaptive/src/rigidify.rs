@@ -1,0 +1,89 @@
+//! Rigidification (DESIGN §6): the joints leaving the hybrid body are locked by internal
+//! impulses — an inelastic locking that keeps the generalized momentum of every joint that
+//! stays free, hence the whole body's spatial momentum, and never increases kinetic energy.
+//!
+//! With `N` the basis of the joints that stay free, the new velocities are `q̇' = N u` with
+//! `Nᵀ M N u = Nᵀ M q̇`: the hybrid body's forward dynamics at velocity level, with no bias
+//! terms and the generalized momenta `pⱼ = Sⱼᵀ Σ_{i ⪰ j} Iᵢ vᵢ` as joint forces. It runs
+//! through the same main pass and back-substitution as the accelerations ([`Level::Impulse`]).
+//! This is the `M⁻¹` projection `q̇' = q̇ − M⁻¹Jᵀ(J M⁻¹ Jᵀ)⁻¹ J q̇` of the locked rows `J`.
+
+use crate::hybrid::{Adaptive, Level};
+use articula_dca::{forward_kinematics, DynamicsError, State};
+use articula_model::{Model, NodeKind};
+
+impl Adaptive {
+    /// Makes the hybrid body the selected joints (plus, with a velocity tolerance, the active
+    /// subassemblies still moving faster than it, and their ancestors), then locks every joint
+    /// outside it that still moves. Returns whether an impulse was applied (the kinematics in
+    /// `data` are then recomputed).
+    pub(crate) fn rebuild_hybrid(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+    ) -> Result<bool, DynamicsError> {
+        let tree = &model.assembly;
+        if let Some(vtol) = self.settings.velocity_tolerance {
+            self.velocity_metric(model, &state.qd);
+            for n in 0..tree.nodes.len() {
+                self.active[n] = self.selected[n] || (self.active[n] && self.vmetric[n] > vtol);
+            }
+        } else {
+            self.active.copy_from_slice(&self.selected);
+        }
+        // Close upward (post-order: a child comes before its parent).
+        for n in 0..tree.nodes.len() {
+            if self.active[n] {
+                if let Some(p) = tree.nodes[n].parent {
+                    self.active[p] = true;
+                }
+            }
+        }
+        let mut moving = false;
+        for (n, node) in tree.nodes.iter().enumerate() {
+            if let NodeKind::Join { joint, .. } = node.kind {
+                let body = &model.bodies[joint];
+                if !self.active[n]
+                    && state.qd[body.v_offset..body.v_offset + body.nv]
+                        .iter()
+                        .any(|x| *x != 0.0)
+                {
+                    moving = true;
+                }
+            }
+        }
+        if !moving {
+            return Ok(false);
+        }
+        self.lock(model, state)?;
+        Ok(true)
+    }
+
+    /// The impulse: generalized momenta of the free joints, velocity-level hybrid solve,
+    /// locked joints set to exactly zero.
+    fn lock(&mut self, model: &Model, state: &mut State) -> Result<(), DynamicsError> {
+        // h_i = Σ over the kinematic subtree of body i of I v (children after parents).
+        for i in 0..model.bodies.len() {
+            self.hsub[i] = self.data.inertia[i].mul_motion(self.data.v[i]);
+        }
+        for i in (0..model.bodies.len()).rev() {
+            if let Some(p) = model.bodies[i].parent {
+                let h = self.hsub[i];
+                self.hsub[p] += h;
+            }
+        }
+        for (i, body) in model.bodies.iter().enumerate() {
+            for p in 0..body.nv {
+                self.gmom[body.v_offset + p] = self.data.s[body.v_offset + p].dot(self.hsub[i]);
+            }
+        }
+        let gmom = std::mem::take(&mut self.gmom);
+        let r = self.main_pass(model, &gmom, Level::Impulse, false);
+        self.gmom = gmom;
+        r?;
+        self.back_substitution(model, false);
+        state.qd.copy_from_slice(&self.qdd);
+        forward_kinematics(model, &state.q, &state.qd, &mut self.data);
+        Ok(())
+    }
+}

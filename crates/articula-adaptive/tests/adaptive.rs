@@ -1,0 +1,359 @@
+//! Adaptive dynamics against exact DCA (articula-dca), direct metric sums and conservation laws.
+
+use articula_adaptive::{Adaptive, Settings};
+use articula_dca::{forward_dynamics, forward_kinematics, Data, Method, State};
+use articula_model::{LoadOptions, Model, NodeKind};
+use articula_spatial::SpatialForce;
+
+const MODELS: [&str; 8] = [
+    "chain10",
+    "chain30",
+    "chain100",
+    "chain300",
+    "chain1000",
+    "humanoid",
+    "plant",
+    "rope",
+];
+
+fn load(name: &str, floating: bool) -> Model {
+    let path = format!("{}/../../models/{name}.urdf", env!("CARGO_MANIFEST_DIR"));
+    Model::from_urdf_file(
+        &path,
+        &LoadOptions {
+            floating_base: floating,
+        },
+    )
+    .unwrap()
+}
+
+/// Every bundled model, fixed base, plus the floating humanoid and floating chain30.
+fn models() -> Vec<(String, Model)> {
+    let mut v: Vec<(String, Model)> = MODELS
+        .iter()
+        .map(|n| (n.to_string(), load(n, false)))
+        .collect();
+    v.push(("humanoid floating".into(), load("humanoid", true)));
+    v.push(("chain30 floating".into(), load("chain30", true)));
+    v
+}
+
+fn state(model: &Model, seed: u64) -> State {
+    let mut s = State::random(model, seed, 2.0);
+    s.randomize_forces(seed ^ 0x5a5a, 3.0);
+    s
+}
+
+fn solve(model: &Model, s: &State, method: Method) -> Vec<f64> {
+    let mut data = Data::new(model);
+    forward_dynamics(model, &mut data, &s.q, &s.qd, &s.tau, &s.f_ext, method)
+        .unwrap()
+        .to_vec()
+}
+
+fn exact(model: &Model, s: &State) -> Vec<f64> {
+    solve(model, s, Method::Dca)
+}
+
+fn max_diff(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+}
+
+fn max_abs(x: &[f64]) -> f64 {
+    x.iter().fold(0.0f64, |m, v| m.max(v.abs()))
+}
+
+#[test]
+fn unlimited_budget_and_zero_tolerance_give_exact_dca() {
+    for (name, model) in models() {
+        let seeds = if model.nv > 300 { 2 } else { 5 };
+        for seed in 0..seeds {
+            let s = state(&model, seed);
+            let e = exact(&model, &s);
+            let aba = solve(&model, &s, Method::Aba);
+            let scale = max_abs(&e).max(1.0);
+            // The independent reference ABA differs from DCA by ≈2e-10 relative on chain1000.
+            let dca_gap = max_diff(&e, &aba);
+            for settings in [
+                Settings::default(),
+                Settings {
+                    tolerance: Some(0.0),
+                    ..Settings::default()
+                },
+                Settings {
+                    budget: Some(model.nv),
+                    ..Settings::default()
+                },
+            ] {
+                let mut ad = Adaptive::new(&model, settings);
+                let qdd = ad
+                    .forward_dynamics(&model, &s.q, &s.qd, &s.tau, &s.f_ext)
+                    .unwrap();
+                let (err, err_aba) = (max_diff(qdd, &e), max_diff(qdd, &aba));
+                assert!(
+                    err <= 1e-10 * scale && err_aba <= 1e-9 * scale,
+                    "{name} seed {seed}: {err:e} from DCA, {err_aba:e} from ABA, DCA–ABA {dca_gap:e} (scale {scale:e})"
+                );
+                assert!(
+                    ad.selection().predicted_error <= 1e-12 * ad.selection().total_metric.max(1.0)
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn predicted_metric_at_every_node_equals_the_direct_sum() {
+    for (name, model) in models() {
+        let tree = &model.assembly;
+        let seeds = if model.nv > 300 { 2 } else { 4 };
+        for seed in 0..seeds {
+            let s = state(&model, 100 + seed);
+            // The exact solve: articula-dca's DCA.
+            let e = exact(&model, &s);
+            let mut ad = Adaptive::new(&model, Settings::default());
+            let mut predicted = vec![0.0; tree.nodes.len()];
+            ad.node_metrics(&model, &s.q, &s.qd, &s.tau, &s.f_ext, &mut predicted)
+                .unwrap();
+            // Direct: Σ q̈ᵀq̈ over the principal joints of the node's subtree (bottom-up).
+            let mut direct = vec![0.0; tree.nodes.len()];
+            for (n, node) in tree.nodes.iter().enumerate() {
+                if let NodeKind::Join {
+                    joint,
+                    parent_side,
+                    child_side,
+                } = node.kind
+                {
+                    let b = &model.bodies[joint];
+                    let own: f64 = e[b.v_offset..b.v_offset + b.nv].iter().map(|x| x * x).sum();
+                    direct[n] = own + direct[parent_side] + direct[child_side];
+                }
+            }
+            let total = direct[tree.root()];
+            for n in 0..tree.nodes.len() {
+                let err = (predicted[n] - direct[n]).abs();
+                assert!(
+                    err <= 1e-8 * direct[n].max(1e-6 * total),
+                    "{name} seed {seed} node {n}: predicted {} direct {} ",
+                    predicted[n],
+                    direct[n]
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn error_falls_as_the_budget_grows_and_matches_the_prediction() {
+    for name in ["chain30", "humanoid", "plant", "rope"] {
+        for floating in [false, true] {
+            let model = load(name, floating);
+            for seed in 0..3 {
+                let s = state(&model, 200 + seed);
+                let e = exact(&model, &s);
+                let mut last = f64::INFINITY;
+                let free = if floating { 6 } else { 0 };
+                for budget in 0..=(model.nv - free) {
+                    let mut ad = Adaptive::new(
+                        &model,
+                        Settings {
+                            budget: Some(budget),
+                            ..Settings::default()
+                        },
+                    );
+                    let qdd = ad
+                        .forward_dynamics(&model, &s.q, &s.qd, &s.tau, &s.f_ext)
+                        .unwrap()
+                        .to_vec();
+                    let sel = ad.selection().clone();
+                    assert!(sel.budget_used <= budget);
+                    let actual: f64 = qdd.iter().zip(&e).map(|(a, b)| (a - b) * (a - b)).sum();
+                    let tol = 1e-9 * sel.total_metric;
+                    assert!(
+                        (sel.predicted_error - actual).abs() <= tol,
+                        "{name} budget {budget}: predicted {} actual {actual}",
+                        sel.predicted_error
+                    );
+                    assert!(
+                        actual <= last + tol,
+                        "{name} budget {budget}: {actual} > {last}"
+                    );
+                    last = actual;
+                    // Selected joints carry their exact accelerations, the others zero.
+                    for (i, b) in model.bodies.iter().enumerate() {
+                        let r = b.v_offset..b.v_offset + b.nv;
+                        if ad.is_selected(&model, i) {
+                            for (a, x) in qdd[r.clone()].iter().zip(&e[r]) {
+                                assert!((a - x).abs() <= 1e-9 * max_abs(&e).max(1.0));
+                            }
+                        } else {
+                            assert!(qdd[r].iter().all(|x| *x == 0.0));
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn tolerance_stops_when_the_metric_mass_left_is_small_enough() {
+    let model = load("chain100", false);
+    let s = state(&model, 7);
+    let mut ad = Adaptive::new(&model, Settings::default());
+    ad.forward_dynamics(&model, &s.q, &s.qd, &s.tau, &s.f_ext)
+        .unwrap();
+    let total = ad.selection().total_metric;
+    for frac in [0.5, 0.1, 1e-2, 1e-4] {
+        let tol = frac * total;
+        let mut ad = Adaptive::new(
+            &model,
+            Settings {
+                tolerance: Some(tol),
+                ..Settings::default()
+            },
+        );
+        ad.forward_dynamics(&model, &s.q, &s.qd, &s.tau, &s.f_ext)
+            .unwrap();
+        let sel = ad.selection();
+        assert!(
+            sel.predicted_error <= tol,
+            "{frac}: {} > {tol}",
+            sel.predicted_error
+        );
+        assert!(sel.active_dofs < model.nv);
+    }
+}
+
+fn momentum(model: &Model, s: &State) -> SpatialForce {
+    let mut data = Data::new(model);
+    forward_kinematics(model, &s.q, &s.qd, &mut data);
+    data.momentum()
+}
+
+fn kinetic(model: &Model, s: &State) -> f64 {
+    let mut data = Data::new(model);
+    forward_kinematics(model, &s.q, &s.qd, &mut data);
+    data.kinetic_energy()
+}
+
+#[test]
+fn rigidification_locks_joints_keeps_momentum_and_never_adds_energy() {
+    for name in ["humanoid", "chain30", "plant", "rope"] {
+        let model = load(name, true);
+        for budget in [0, 1, 3, 8] {
+            let mut s = State::random(&model, 300 + budget as u64, 0.0);
+            let h0 = momentum(&model, &s);
+            let k0 = kinetic(&model, &s);
+            let mut ad = Adaptive::new(
+                &model,
+                Settings {
+                    budget: Some(budget),
+                    ..Settings::default()
+                },
+            );
+            assert!(ad.reselect(&model, &mut s).unwrap());
+            // Locked joints: exactly zero.
+            for (i, b) in model.bodies.iter().enumerate() {
+                if !ad.is_active(&model, i) {
+                    assert!(s.qd[b.v_offset..b.v_offset + b.nv]
+                        .iter()
+                        .all(|x| *x == 0.0));
+                }
+            }
+            assert!(ad.active_dofs(&model) <= budget + 6);
+            let h1 = momentum(&model, &s);
+            let k1 = kinetic(&model, &s);
+            let dh = (h1 - h0).to_array();
+            let rel = dh.iter().map(|x| x * x).sum::<f64>().sqrt()
+                / h0.to_array().iter().map(|x| x * x).sum::<f64>().sqrt();
+            assert!(
+                rel <= 1e-12,
+                "{name} budget {budget}: momentum change {rel:e}"
+            );
+            assert!(
+                k1 <= k0 * (1.0 + 1e-12),
+                "{name} budget {budget}: {k1} > {k0}"
+            );
+            assert!(k1 < k0, "locking moving joints must dissipate energy");
+        }
+    }
+}
+
+#[test]
+fn budget_zero_moves_a_floating_body_as_one_rigid_body() {
+    let model = load("humanoid", true);
+    let mut s = State::random(&model, 11, 0.0);
+    let mut ad = Adaptive::new(
+        &model,
+        Settings {
+            budget: Some(0),
+            ..Settings::default()
+        },
+    );
+    let mut data = Data::new(&model);
+    data.gravity = glam::DVec3::ZERO;
+    ad.data.gravity = glam::DVec3::ZERO;
+    let q_joints = s.q[7..].to_vec();
+    for _ in 0..50 {
+        let r = ad.step(&model, &mut s, 1e-3).unwrap();
+        assert_eq!(r.active_dofs, 6);
+    }
+    // Internal joints frozen at their initial angles, velocities zero.
+    assert_eq!(&s.q[7..], &q_joints[..]);
+    assert!(s.qd[6..].iter().all(|x| *x == 0.0));
+}
+
+#[test]
+fn invalid_settings_are_errors() {
+    let model = load("chain10", false);
+    let s = State::neutral(&model);
+    for settings in [
+        Settings {
+            tolerance: Some(-1.0),
+            ..Settings::default()
+        },
+        Settings {
+            tolerance: Some(f64::NAN),
+            ..Settings::default()
+        },
+        Settings {
+            reselect_every: 0,
+            ..Settings::default()
+        },
+    ] {
+        let mut ad = Adaptive::new(&model, settings);
+        assert!(ad
+            .forward_dynamics(&model, &s.q, &s.qd, &s.tau, &s.f_ext)
+            .is_err());
+    }
+}
+
+#[test]
+fn a_hybrid_step_visits_the_active_region_and_its_frontier_only() {
+    // Between re-selections the main pass visits the active joins and the rigid frontier:
+    // 2·(active joins) + 1 nodes, whatever the chain's length.
+    for n in ["chain100", "chain1000"] {
+        let model = load(n, false);
+        let mut s = State::random(&model, 5, 0.0);
+        let mut ad = Adaptive::new(
+            &model,
+            Settings {
+                budget: Some(20),
+                reselect_every: 1000,
+                ..Settings::default()
+            },
+        );
+        let first = ad.step(&model, &mut s, 1e-3).unwrap();
+        assert!(first.reselected);
+        let joins = first.active_dofs;
+        assert_eq!(joins, 20);
+        for _ in 0..5 {
+            let r = ad.step(&model, &mut s, 1e-3).unwrap();
+            assert!(!r.reselected);
+            assert_eq!(r.nodes_touched, 2 * joins + 1, "{n}");
+        }
+    }
+}
