@@ -7,6 +7,7 @@
 pub mod camera;
 pub mod render;
 pub mod scene_file;
+pub mod sim;
 pub mod visibility;
 pub mod volumes;
 
@@ -17,6 +18,7 @@ pub use scene_file::{
 pub use visibility::{
     body_poses, BodyView, Classifier, DepthBuffer, Placed, Visibility, VisibilitySettings,
 };
+pub use sim::{global_selection, GlobalSelection, SceneSim, SceneSimError, SceneStep, SimBody};
 pub use volumes::{body_volumes, inertia_box, symmetric_eigen, BodyVolumes, Volume};
 
 /// Errors of the view layer.
