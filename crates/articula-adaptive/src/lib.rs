@@ -313,7 +313,7 @@ impl Adaptive {
         self.settings.validate()?;
         self.load(model, &state.q, &state.qd, &state.tau, &state.f_ext)?;
         let mut report = StepReport {
-            reselected: self.steps % self.settings.reselect_every == 0,
+            reselected: self.steps.is_multiple_of(self.settings.reselect_every),
             ..StepReport::default()
         };
         let mut touched = 0;

@@ -5,7 +5,7 @@
 //! with [`Instant`]. The reported figure is the median over batches of the time per call.
 
 use crate::{print_out, CliError, DynamicsArgs};
-use articula_dca::{forward_dynamics, Method, State};
+use articula_dca::{forward_dynamics, State};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
@@ -27,6 +27,9 @@ const BATCHES: u64 = 30;
 fn parse_reps(s: &str) -> Result<u64, String> {
     crate::simulate::parse_count(s).map_err(|e| format!("the number of repetitions {e}"))
 }
+
+/// Time step of the adaptive simulation timed by `--method adaptive`.
+const ADAPTIVE_DT: f64 = 1e-4;
 
 /// Median of a non-empty slice.
 fn median(xs: &mut [f64]) -> f64 {
@@ -50,21 +53,35 @@ fn batching(reps: u64) -> Vec<u64> {
 /// Runs `articula bench`.
 pub fn run(args: &BenchArgs) -> Result<(), CliError> {
     let (model, mut data) = args.dynamics.load()?;
-    let method = Method::from(args.dynamics.method);
+    let method = args.dynamics.method;
     let state = State::random(&model, SEED, 1.0);
-    let mut call = || {
-        forward_dynamics(
-            &model,
-            &mut data,
-            black_box(&state.q),
-            black_box(&state.qd),
-            black_box(&state.tau),
-            &state.f_ext,
-            method,
-        )
-        .map(|qdd| {
-            black_box(qdd);
-        })
+    // Adaptive: one full step (re-selection every step, so selection is included), continuing
+    // the same simulation call after call.
+    let mut adaptive = method
+        .exact()
+        .is_none()
+        .then(|| (args.dynamics.adaptive(&model, 1), state.clone()));
+    let mut call = || -> Result<(), CliError> {
+        match (method.exact(), adaptive.as_mut()) {
+            (Some(m), _) => {
+                let qdd = forward_dynamics(
+                    &model,
+                    &mut data,
+                    black_box(&state.q),
+                    black_box(&state.qd),
+                    black_box(&state.tau),
+                    &state.f_ext,
+                    m,
+                )?;
+                black_box(qdd);
+            }
+            (None, Some((ad, sim))) => {
+                ad.step(&model, sim, ADAPTIVE_DT)?;
+                black_box(&sim.qd);
+            }
+            (None, None) => unreachable!("adaptive workspace built for --method adaptive"),
+        }
+        Ok(())
     };
 
     // Warm-up, which also checks that the state can be solved at all.

@@ -15,6 +15,20 @@ pub struct FdArgs {
     /// The state (docs/state-format.md); without it, the neutral configuration at rest.
     #[arg(long, value_name = "STATE.json")]
     pub state: Option<PathBuf>,
+    /// `--method adaptive`: also solve exactly (DCA) and print `actual_error`, the acceleration
+    /// metric of the difference.
+    #[arg(long)]
+    pub compare: bool,
+}
+
+/// What `--method adaptive` adds to the JSON.
+pub struct AdaptiveOutput {
+    /// URDF names of the joints whose accelerations were computed.
+    pub active_joints: Vec<String>,
+    /// `Σ q̈ᵀ A q̈` over the joints set to zero (the metric mass left in the queue).
+    pub predicted_error: f64,
+    /// The metric of the difference to exact DCA (`--compare`).
+    pub actual_error: Option<f64>,
 }
 
 /// The JSON printed by `articula fd`.
@@ -24,6 +38,9 @@ pub struct FdOutput<'a> {
     pub method: &'static str,
     /// `q̈` per movable URDF joint, in model coordinate order.
     pub qdd: ByJoint<'a>,
+    /// The adaptive selection (`--method adaptive`).
+    #[serde(skip)]
+    pub adaptive: Option<AdaptiveOutput>,
 }
 
 /// Per-joint slices of a coordinate vector, serialised as a JSON object in model order.
@@ -55,7 +72,63 @@ impl Serialize for ByJoint<'_> {
 pub fn run(args: &FdArgs) -> Result<(), CliError> {
     let (model, mut data) = args.dynamics.load()?;
     let state = load_state(args.state.as_deref(), &model)?;
-    let method = Method::from(args.dynamics.method);
+    let method = args.dynamics.method;
+    if args.compare && method != crate::MethodArg::Adaptive {
+        return Err(CliError("--compare needs --method adaptive".to_string()));
+    }
+    let Some(exact) = method.exact() else {
+        let mut ad = args.dynamics.adaptive(&model, 1);
+        let qdd = ad
+            .forward_dynamics(&model, &state.q, &state.qd, &state.tau, &state.f_ext)?
+            .to_vec();
+        let sel = ad.selection().clone();
+        let active_joints = model
+            .bodies
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| ad.is_selected(&model, *i))
+            .flat_map(|(_, b)| b.joint.iter().map(|p| p.name.clone()))
+            .collect();
+        let actual_error = if args.compare {
+            let e = forward_dynamics(
+                &model,
+                &mut data,
+                &state.q,
+                &state.qd,
+                &state.tau,
+                &state.f_ext,
+                Method::Dca,
+            )?;
+            let mut err = 0.0;
+            for (i, b) in model.bodies.iter().enumerate() {
+                let r = b.v_offset..b.v_offset + b.nv;
+                let d: Vec<f64> = qdd[r.clone()]
+                    .iter()
+                    .zip(&e[r])
+                    .map(|(x, y)| x - y)
+                    .collect();
+                let w = ad.weight(&model, i);
+                for p in 0..b.nv {
+                    for q in 0..b.nv {
+                        err += d[p] * w[p * b.nv + q] * d[q];
+                    }
+                }
+            }
+            Some(err)
+        } else {
+            None
+        };
+        let out = FdOutput {
+            method: method.name(),
+            qdd: ByJoint::velocities(&model, &qdd),
+            adaptive: Some(AdaptiveOutput {
+                active_joints,
+                predicted_error: sel.predicted_error,
+                actual_error,
+            }),
+        };
+        return print_out(&out.to_json()?);
+    };
     let qdd = forward_dynamics(
         &model,
         &mut data,
@@ -63,11 +136,12 @@ pub fn run(args: &FdArgs) -> Result<(), CliError> {
         &state.qd,
         &state.tau,
         &state.f_ext,
-        method,
+        exact,
     )?;
     let out = FdOutput {
-        method: method.name(),
+        method: exact.name(),
         qdd: ByJoint::velocities(&model, qdd),
+        adaptive: None,
     };
     print_out(&out.to_json()?)
 }
@@ -85,11 +159,18 @@ impl FdOutput<'_> {
             s.push_str(": ");
             s.push_str(&serde_json::to_string(values)?.replace(',', ", "));
         }
-        s.push_str(if self.qdd.0.is_empty() {
-            "}\n}\n"
-        } else {
-            "\n  }\n}\n"
-        });
+        s.push_str(if self.qdd.0.is_empty() { "}" } else { "\n  }" });
+        if let Some(a) = &self.adaptive {
+            s.push_str(",\n  \"active_joints\": ");
+            s.push_str(&serde_json::to_string(&a.active_joints)?.replace(',', ", "));
+            s.push_str(",\n  \"predicted_error\": ");
+            s.push_str(&serde_json::to_string(&a.predicted_error)?);
+            if let Some(e) = a.actual_error {
+                s.push_str(",\n  \"actual_error\": ");
+                s.push_str(&serde_json::to_string(&e)?);
+            }
+        }
+        s.push_str("\n}\n");
         Ok(s)
     }
 }
@@ -104,6 +185,7 @@ mod tests {
         let out = FdOutput {
             method: "dca",
             qdd: ByJoint(vec![("z\"q", &v[0..1]), ("a", &v[1..4])]),
+            adaptive: None,
         };
         let text = out.to_json().unwrap();
         assert_eq!(
@@ -116,6 +198,7 @@ mod tests {
         let empty = FdOutput {
             method: "aba",
             qdd: ByJoint(vec![]),
+            adaptive: None,
         };
         let parsed: serde_json::Value = serde_json::from_str(&empty.to_json().unwrap()).unwrap();
         assert_eq!(parsed, serde_json::json!({"method": "aba", "qdd": {}}));

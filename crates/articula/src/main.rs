@@ -69,6 +69,13 @@ pub struct DynamicsArgs {
     /// to the world.
     #[arg(long)]
     pub floating_base: bool,
+    /// `--method adaptive`: the most internal degrees of freedom simulated (0 = one rigid body).
+    #[arg(long, value_name = "K", value_parser = parse_budget, allow_hyphen_values = true)]
+    pub budget: Option<usize>,
+    /// `--method adaptive`: stop selecting joints once the acceleration-metric error left is at
+    /// most E (0 = exact).
+    #[arg(long, value_name = "E", value_parser = parse_tolerance, allow_hyphen_values = true)]
+    pub tolerance: Option<f64>,
 }
 
 /// `--method`.
@@ -80,16 +87,47 @@ pub enum MethodArg {
     Aba,
     /// Composite-rigid-body algorithm + Cholesky (reference).
     Crba,
+    /// Adaptive dynamics (articula-adaptive): the joints chosen by the acceleration metric
+    /// within `--budget` / `--tolerance`.
+    Adaptive,
 }
 
-impl From<MethodArg> for Method {
-    fn from(m: MethodArg) -> Method {
-        match m {
-            MethodArg::Dca => Method::Dca,
-            MethodArg::Aba => Method::Aba,
-            MethodArg::Crba => Method::Crba,
+impl MethodArg {
+    /// The exact algorithm, `None` for adaptive.
+    pub fn exact(self) -> Option<Method> {
+        match self {
+            MethodArg::Dca => Some(Method::Dca),
+            MethodArg::Aba => Some(Method::Aba),
+            MethodArg::Crba => Some(Method::Crba),
+            MethodArg::Adaptive => None,
         }
     }
+
+    /// The lowercase name.
+    pub fn name(self) -> &'static str {
+        self.exact().map_or("adaptive", Method::name)
+    }
+}
+
+/// Parses `--budget`: a whole number ≥ 0.
+fn parse_budget(s: &str) -> Result<usize, String> {
+    s.trim()
+        .parse()
+        .map_err(|_| format!("the budget must be a whole number ≥ 0, got '{s}'"))
+}
+
+/// Parses `--tolerance`: a finite number ≥ 0.
+fn parse_tolerance(s: &str) -> Result<f64, String> {
+    let x: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a number"))?;
+    if !(x.is_finite() && x >= 0.0) {
+        return Err(format!(
+            "the tolerance must be a finite number ≥ 0, got '{s}'"
+        ));
+    }
+    Ok(x)
 }
 
 /// Parses `gx,gy,gz`: three finite numbers.
@@ -114,6 +152,19 @@ fn parse_gravity(s: &str) -> Result<DVec3, String> {
 }
 
 impl DynamicsArgs {
+    /// The adaptive workspace of `--method adaptive` (budget, tolerance, gravity).
+    pub fn adaptive(&self, model: &Model, reselect_every: u64) -> articula_adaptive::Adaptive {
+        let settings = articula_adaptive::Settings {
+            budget: self.budget,
+            tolerance: self.tolerance,
+            reselect_every,
+            velocity_tolerance: None,
+        };
+        let mut ad = articula_adaptive::Adaptive::new(model, settings);
+        ad.data.gravity = self.gravity;
+        ad
+    }
+
     /// Loads the model (printing its warnings on stderr) and a workspace with the gravity set.
     pub fn load(&self) -> Result<(Model, Data), CliError> {
         let model = Model::from_urdf_file(
@@ -124,6 +175,12 @@ impl DynamicsArgs {
         )?;
         for w in &model.warnings {
             eprintln!("warning: {w}");
+        }
+        if self.method != MethodArg::Adaptive && (self.budget.is_some() || self.tolerance.is_some())
+        {
+            return Err(CliError(
+                "--budget and --tolerance need --method adaptive".to_string(),
+            ));
         }
         let mut data = Data::new(&model);
         data.gravity = self.gravity;

@@ -33,6 +33,9 @@ pub struct SimulateArgs {
     /// every step (steps + 1 rows).
     #[arg(long, value_name = "traj.csv")]
     pub out: Option<PathBuf>,
+    /// `--method adaptive`: re-select the hybrid body every this many steps.
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = parse_steps)]
+    pub reselect_every: u64,
 }
 
 /// `--integrator`.
@@ -176,8 +179,21 @@ impl Csv {
 pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     let (model, mut data) = args.dynamics.load()?;
     let mut state = load_state(args.state.as_deref(), &model)?;
-    let method = Method::from(args.dynamics.method);
+    let method = args.dynamics.method;
     let integrator = args.integrator.integrator();
+    if method.exact().is_none() && integrator != Integrator::SemiImplicitEuler {
+        return Err(CliError(
+            "--method adaptive steps with semi-implicit Euler (--integrator euler)".to_string(),
+        ));
+    }
+    // Adaptive: the hybrid body, and an exact DCA run beside it for the trajectory error.
+    let mut adaptive = method.exact().is_none().then(|| {
+        (
+            args.dynamics.adaptive(&model, args.reselect_every),
+            state.clone(),
+        )
+    });
+    let mut active = ActiveStats::default();
     let (steps, dt) = (args.steps, args.dt);
 
     let mut csv = match &args.out {
@@ -208,8 +224,31 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     let mut in_steps = Duration::ZERO;
     for k in 1..=steps {
         let t0 = Instant::now();
-        let result = step(&model, &mut data, &mut state, method, integrator, dt);
+        let result = match adaptive.as_mut() {
+            None => step(
+                &model,
+                &mut data,
+                &mut state,
+                method.exact().unwrap_or_default(),
+                integrator,
+                dt,
+            )
+            .map_err(|e| e.to_string()),
+            Some((ad, _)) => ad
+                .step(&model, &mut state, dt)
+                .map(|r| active.add(k, r.active_dofs, steps))
+                .map_err(|e| e.to_string()),
+        };
         in_steps += t0.elapsed();
+        let result = result.and_then(|()| match adaptive.as_mut() {
+            Some((_, exact)) => {
+                let r = step(&model, &mut data, exact, Method::Dca, integrator, dt)
+                    .map_err(|e| format!("exact reference: {e}"));
+                active.track(&state, exact);
+                r
+            }
+            None => Ok(()),
+        });
         let t = k as f64 * dt;
         if let Err(e) = result {
             bar.finish_and_clear();
@@ -271,6 +310,13 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     } else {
         format!("energy drift n/a relative (start energy is 0), {drift:.3e} J absolute")
     });
+    if adaptive.is_some() {
+        lines.extend(active.lines(
+            args.dynamics.budget,
+            args.dynamics.tolerance,
+            args.reselect_every,
+        ));
+    }
     if state.tau.iter().any(|&x| x != 0.0) {
         lines.push(
             "note         tau is not zero: the joint forces do work, energy need not be conserved"
@@ -287,6 +333,74 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     let mut out = lines.join("\n");
     out.push('\n');
     print_out(&out)
+}
+
+/// Active joints over time and the distance to the exact run (`--method adaptive`).
+#[derive(Default)]
+struct ActiveStats {
+    sum: u64,
+    n: u64,
+    min: Option<usize>,
+    max: usize,
+    /// (step, active DOFs) at ten evenly spaced steps.
+    samples: Vec<(u64, usize)>,
+    next_sample: u64,
+    every: u64,
+    err_max: f64,
+    err_end: f64,
+}
+
+impl ActiveStats {
+    fn add(&mut self, k: u64, active: usize, steps: u64) {
+        self.every = (steps / 10).max(1);
+        self.sum += active as u64;
+        self.n += 1;
+        self.min = Some(self.min.map_or(active, |m| m.min(active)));
+        self.max = self.max.max(active);
+        if k >= self.next_sample {
+            self.samples.push((k, active));
+            self.next_sample = k + self.every.max(1);
+        }
+    }
+
+    /// Trajectory error: the largest coordinate difference `max |q − q_exact|`.
+    fn track(&mut self, state: &State, exact: &State) {
+        let e = state
+            .q
+            .iter()
+            .zip(&exact.q)
+            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        self.err_max = self.err_max.max(e);
+        self.err_end = e;
+    }
+
+    fn lines(&self, budget: Option<usize>, tolerance: Option<f64>, every: u64) -> Vec<String> {
+        let mean = self.sum as f64 / self.n.max(1) as f64;
+        let limit = match (budget, tolerance) {
+            (Some(b), Some(t)) => format!("budget {b} DOF, tolerance {t:e}"),
+            (Some(b), None) => format!("budget {b} DOF"),
+            (None, Some(t)) => format!("tolerance {t:e}"),
+            (None, None) => "no limit (exact)".to_string(),
+        };
+        let samples: Vec<String> = self
+            .samples
+            .iter()
+            .map(|(k, a)| format!("{k}:{a}"))
+            .collect();
+        vec![
+            format!("adaptive     {limit}, re-selection every {every} step(s)"),
+            format!(
+                "active DOFs  mean {mean:.2}, min {}, max {} (step:active {})",
+                self.min.unwrap_or(0),
+                self.max,
+                samples.join(" ")
+            ),
+            format!(
+                "traj error   max |q - q_exact| = {:.3e} over the run, {:.3e} at the end (exact: DCA, same integrator and dt)",
+                self.err_max, self.err_end
+            ),
+        ]
+    }
 }
 
 #[cfg(test)]

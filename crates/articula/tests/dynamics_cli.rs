@@ -3,7 +3,7 @@
 
 use articula_model::{LoadOptions, Model};
 use serde_json::Value;
-use std::ffi::OsStr;
+use std::ffi::{OsStr, OsString};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -502,5 +502,75 @@ fn bench_prints_time_per_call() {
             .parse()
             .unwrap();
         assert!(us > 0.0 && us.is_finite(), "{out}");
+    }
+}
+
+#[test]
+fn adaptive_fd_reports_its_selection_and_error() {
+    let model = model_path("chain30.urdf");
+    let scratch = Scratch::new("adaptive_fd");
+    let state = scratch.file(
+        "state.json",
+        r#"{"q": {"joint1": [0.7], "joint12": [-0.4]}, "qd": {"joint20": [2.0]}, "tau": {"joint3": [1.5]}}"#,
+    );
+    let (exact, _) = fd(&model, Some(&state), "dca", &[]);
+    let mut last = f64::INFINITY;
+    for budget in ["0", "1", "5", "30"] {
+        let (out, _) = fd(
+            &model,
+            Some(&state),
+            "adaptive",
+            &["--budget", budget, "--compare"],
+        );
+        let active = out["active_joints"].as_array().unwrap();
+        assert_eq!(active.len(), budget.parse::<usize>().unwrap());
+        let predicted = out["predicted_error"].as_f64().unwrap();
+        let actual = out["actual_error"].as_f64().unwrap();
+        assert!(
+            (predicted - actual).abs() <= 1e-9 * (1.0 + actual),
+            "{predicted} {actual}"
+        );
+        assert!(actual <= last * (1.0 + 1e-12));
+        last = actual;
+        // Active joints carry the exact accelerations, the others 0.
+        for (name, v) in out["qdd"].as_object().unwrap() {
+            let x = v[0].as_f64().unwrap();
+            if active.iter().any(|a| a == name) {
+                let e = exact["qdd"][name][0].as_f64().unwrap();
+                assert!((x - e).abs() <= 1e-9 * (1.0 + e.abs()), "{name}");
+            } else {
+                assert_eq!(x, 0.0, "{name}");
+            }
+        }
+    }
+    assert!(last <= 1e-12);
+}
+
+#[test]
+fn adaptive_settings_are_checked() {
+    let model = model_path("chain10.urdf");
+    for args in [
+        vec!["fd", "--method", "adaptive", "--budget", "-1"],
+        vec!["fd", "--method", "adaptive", "--tolerance", "-0.5"],
+        vec!["fd", "--method", "adaptive", "--tolerance", "nan"],
+        vec!["fd", "--method", "dca", "--budget", "3"],
+        vec!["fd", "--method", "dca", "--compare"],
+        vec![
+            "simulate",
+            "--method",
+            "adaptive",
+            "--steps",
+            "2",
+            "--dt",
+            "1e-3",
+            "--integrator",
+            "rk4",
+        ],
+    ] {
+        let mut all: Vec<OsString> = args.iter().map(OsString::from).collect();
+        all.push(model.clone().into_os_string());
+        let out = articula(&all);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"));
     }
 }
