@@ -15,10 +15,10 @@ pub use camera::{Camera, CameraPath, Frustum, Keyframe, Plane};
 pub use scene_file::{
     load_scene, parse_scene, CameraRig, LoadedScene, Placement, Push, SceneError, SceneSpec,
 };
+pub use sim::{global_selection, GlobalSelection, SceneSim, SceneSimError, SceneStep, SimBody};
 pub use visibility::{
     body_poses, BodyView, Classifier, DepthBuffer, Placed, Visibility, VisibilitySettings,
 };
-pub use sim::{global_selection, GlobalSelection, SceneSim, SceneSimError, SceneStep, SimBody};
 pub use volumes::{body_volumes, inertia_box, symmetric_eigen, BodyVolumes, Volume};
 
 /// Errors of the view layer.

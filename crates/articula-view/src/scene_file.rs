@@ -113,6 +113,24 @@ pub struct SceneSpec {
     /// Rendered image size (pixels).
     #[serde(default)]
     pub image: ImageSpec,
+    /// Springs and dampers holding every internal joint near its neutral angle (none by
+    /// default).
+    #[serde(default)]
+    pub joint_springs: Option<SpringSpec>,
+}
+
+/// Pose springs: each internal degree of freedom `i` gets `τᵢ = −kᵢ qᵢ − cᵢ q̇ᵢ` with
+/// `kᵢ = ω² Mᵢᵢ`, `cᵢ = 2 ζ ω Mᵢᵢ`, `ω = 2π frequency_hz`, `Mᵢᵢ` the joint-space inertia of the
+/// degree of freedom in the neutral pose: every joint oscillates near the same frequency, so
+/// light links are no stiffer for the integrator than heavy ones. Ragdolls without joint
+/// limits otherwise swing their composed 3-axis joints through gimbal lock.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpringSpec {
+    /// Natural frequency (Hz).
+    pub frequency_hz: f64,
+    /// Damping ratio (1: critical).
+    pub damping_ratio: f64,
 }
 
 fn default_dt() -> f64 {
@@ -412,6 +430,8 @@ pub struct LoadedScene {
     pub visibility: VisibilitySettings,
     /// Image size.
     pub image: ImageSpec,
+    /// Pose springs.
+    pub joint_springs: Option<SpringSpec>,
 }
 
 /// Reads and checks a scene file.
@@ -504,6 +524,19 @@ fn resolve(spec: SceneSpec, path: &Path, base: &Path) -> Result<LoadedScene, Sce
             "image".into(),
             "width and height must lie in 1..=8192".into(),
         ));
+    }
+    if let Some(j) = spec.joint_springs {
+        for (f, x) in [
+            ("frequency_hz", j.frequency_hz),
+            ("damping_ratio", j.damping_ratio),
+        ] {
+            if !(x.is_finite() && x >= 0.0) {
+                return Err(invalid(
+                    format!("joint_springs.{f}"),
+                    "must be a non-negative number".into(),
+                ));
+            }
+        }
     }
     // Camera.
     let c = &spec.camera;
@@ -787,5 +820,6 @@ fn resolve(spec: SceneSpec, path: &Path, base: &Path) -> Result<LoadedScene, Sce
             depth_height: v.depth_buffer[1],
         },
         image: img,
+        joint_springs: spec.joint_springs,
     })
 }

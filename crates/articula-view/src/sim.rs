@@ -202,6 +202,8 @@ pub struct SceneSim<'s> {
     /// Steps done.
     pub steps: u64,
     parents: Vec<Vec<Option<usize>>>,
+    /// Per model: the pose springs, `(q index, v index, k, c)` per internal degree of freedom.
+    springs: Vec<Vec<(usize, usize, f64, f64)>>,
     classifier: Classifier,
     metrics: Vec<Vec<f64>>,
     last: SceneStep,
@@ -239,7 +241,16 @@ impl<'s> SceneSim<'s> {
             .iter()
             .map(|m| m.model.bodies.iter().map(|b| b.parent).collect())
             .collect();
+        let springs = scene
+            .models
+            .iter()
+            .map(|m| match scene.joint_springs {
+                Some(sp) => pose_springs(&m.model, sp.frequency_hz, sp.damping_ratio),
+                None => Vec::new(),
+            })
+            .collect();
         SceneSim {
+            springs,
             metrics: vec![Vec::new(); bodies.len()],
             views: Vec::new(),
             classifier: Classifier::new(&scene.visibility),
@@ -286,7 +297,11 @@ impl<'s> SceneSim<'s> {
                 let (w, v) = (b.state.qd[..3].iter(), b.state.qd[3..6].iter());
                 let wn = w.map(|x| x * x).sum::<f64>().sqrt();
                 let vn = v.map(|x| x * x).sum::<f64>().sqrt();
-                let reach = m.volumes.iter().map(|v| v.bound.0.length() + v.bound.1).fold(0.0, f64::max);
+                let reach = m
+                    .volumes
+                    .iter()
+                    .map(|v| v.bound.0.length() + v.bound.1)
+                    .fold(0.0, f64::max);
                 Placed {
                     volumes: &m.volumes,
                     poses: &b.poses,
@@ -303,10 +318,18 @@ impl<'s> SceneSim<'s> {
     pub fn step(&mut self) -> Result<SceneStep, SceneSimError> {
         let scene = self.scene;
         let t = self.time();
+        // (`is_multiple_of` needs Rust 1.87; the workspace supports 1.80.)
+        #[allow(clippy::manual_is_multiple_of)]
         let reselect = self.steps % scene.reselect_every as u64 == 0;
         // Pushes acting now: world wrenches about the world origin.
         for b in &mut self.bodies {
-            b.state.f_ext.iter_mut().for_each(|f| *f = SpatialForce::ZERO);
+            b.state
+                .f_ext
+                .iter_mut()
+                .for_each(|f| *f = SpatialForce::ZERO);
+            for &(qi, vi, k, c) in &self.springs[b.model] {
+                b.state.tau[vi] = -k * b.state.q[qi] - c * b.state.qd[vi];
+            }
         }
         for p in scene.pushes.iter().filter(|p| p.t0 <= t && t < p.t1) {
             let b = &mut self.bodies[p.body];
@@ -393,7 +416,10 @@ impl<'s> SceneSim<'s> {
             b.adaptive
                 .step(model, &mut b.state, scene.dt)
                 .map_err(|e| SceneSimError::body(scene, i, &e))?;
-            b.active = b.adaptive.active_dofs(model).saturating_sub(if model.floating_base { 6 } else { 0 });
+            b.active = b
+                .adaptive
+                .active_dofs(model)
+                .saturating_sub(if model.floating_base { 6 } else { 0 });
             total += b.active;
         }
         self.steps += 1;
@@ -431,6 +457,57 @@ impl<'s> SceneSim<'s> {
             })
             .collect()
     }
+}
+
+/// Pose springs of every internal one-coordinate degree of freedom of `model`:
+/// `(q index, v index, k, c)` with `k = ω² mᵢ`, `c = 2ζω mᵢ`, `ω = 2π f`, and
+/// `mᵢ = 1 / (M⁻¹)ᵢᵢ` the effective inertia of the degree of freedom in the neutral pose (the
+/// response `q̈ᵢ` to a unit `τᵢ` with everything else free, from exact DCA without gravity or
+/// velocity): `τ = −k q − c q̇` alone would make it oscillate at ω with damping ratio ζ.
+/// (The subtree inertia `Mᵢᵢ` overestimates `mᵢ` tenfold on a floating body, and the
+/// explicit integrator then overshoots.)
+pub fn pose_springs(
+    model: &Model,
+    frequency_hz: f64,
+    damping_ratio: f64,
+) -> Vec<(usize, usize, f64, f64)> {
+    let q = model.neutral_q();
+    let mut data = articula_dca::Data::new(model);
+    data.gravity = DVec3::ZERO;
+    let qd = vec![0.0; model.nv];
+    let mut tau = vec![0.0; model.nv];
+    let w = 2.0 * std::f64::consts::PI * frequency_hz;
+    let mut out = Vec::new();
+    for (b, part) in model.joint_parts() {
+        if part.nq() != 1
+            || part.nv() != 1
+            || model.bodies[b].parent.is_none()
+                && model.floating_base
+                && part.kind == articula_model::JointKind::Floating
+        {
+            continue;
+        }
+        let v = part.v_offset;
+        tau[v] = 1.0;
+        let r = articula_dca::forward_dynamics(
+            model,
+            &mut data,
+            &q,
+            &qd,
+            &tau,
+            &[],
+            articula_dca::Method::Dca,
+        )
+        .map(|qdd| qdd[v]);
+        tau[v] = 0.0;
+        if let Ok(minv) = r {
+            if minv > 0.0 && minv.is_finite() {
+                let m = 1.0 / minv;
+                out.push((part.q_offset, v, w * w * m, 2.0 * damping_ratio * w * m));
+            }
+        }
+    }
+    out
 }
 
 /// A dynamics failure in a scene, naming the body.
