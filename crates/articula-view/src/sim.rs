@@ -331,11 +331,14 @@ impl<'s> SceneSim<'s> {
                 b.state.tau[vi] = -k * b.state.q[qi] - c * b.state.qd[vi];
             }
         }
+        let mut posed = usize::MAX;
         for p in scene.pushes.iter().filter(|p| p.t0 <= t && t < p.t1) {
             let b = &mut self.bodies[p.body];
             let model = &scene.models[b.model].model;
-            if !reselect {
+            // Pushes come grouped by body: pose each body once.
+            if posed != p.body {
                 body_poses(model, &b.state.q, &mut b.poses);
+                posed = p.body;
             }
             let (r, pos) = b.poses[p.link_body];
             let at = r * p.point + pos;
