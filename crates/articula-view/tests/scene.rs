@@ -2,6 +2,9 @@
 //! split, bodies entering the view regain joints, occluded bodies get fewer joints, and a
 //! snapshot of the bundled crowd.
 
+// Bodies are indexed alike in several parallel vectors.
+#![allow(clippy::needless_range_loop)]
+
 use articula_adaptive::{Adaptive, Settings};
 use articula_dca::State;
 use articula_model::Model;
@@ -130,7 +133,7 @@ fn invisible_case(gz: f64, fz: f64, wz: f64) -> f64 {
         );
         if s.pushes[0].t0 <= t && t < s.pushes[0].t1 {
             let fb = r.transpose() * s.pushes[0].force;
-            f = f + SpatialForce::new(push_point.cross(fb), fb);
+            f += SpatialForce::new(push_point.cross(fb), fb);
         }
         let h = inertia.mul_motion(tw);
         // v ×* h = [w × n + v × f; w × f]
