@@ -22,6 +22,52 @@ fn main() {
         tr / nr as f64,
         tn / nn.max(1) as f64
     );
+    // Classification alone.
+    let mut cl = articula_view::Classifier::new(&scene.visibility);
+    let mut views = Vec::new();
+    let parents: Vec<Option<usize>> = scene.models[0]
+        .model
+        .bodies
+        .iter()
+        .map(|b| b.parent)
+        .collect();
+    let placed: Vec<articula_view::Placed> = sim
+        .bodies
+        .iter()
+        .map(|b| articula_view::Placed {
+            volumes: &scene.models[0].volumes,
+            poses: &b.poses,
+            parents: &parents,
+            margin: 0.1,
+        })
+        .collect();
+    let t = Instant::now();
+    for _ in 0..10 {
+        cl.classify(
+            &scene.camera.at(0.0),
+            &scene.visibility,
+            &placed,
+            &mut views,
+        );
+    }
+    println!(
+        "classification: {:.3} ms",
+        t.elapsed().as_secs_f64() * 1e3 / 10.0
+    );
+    // node_metrics alone for every body.
+    let model = &scene.models[0].model;
+    let mut m = vec![0.0; model.assembly.nodes.len()];
+    let mut ad = articula_adaptive::Adaptive::new(model, Default::default());
+    let t = Instant::now();
+    for b in &sim.bodies {
+        let s = &b.state;
+        ad.node_metrics(model, &s.q, &s.qd, &s.tau, &s.f_ext, &mut m)
+            .unwrap();
+    }
+    println!(
+        "node_metrics all bodies: {:.3} ms",
+        t.elapsed().as_secs_f64() * 1e3
+    );
     // Exact DCA on every body for comparison.
     let model = &scene.models[0].model;
     let mut data = articula_dca::Data::new(model);

@@ -239,6 +239,11 @@ impl Classifier {
     ) {
         let frustum = cam.frustum();
         self.buffer.clear();
+        // Depth-buffer cells per unit length at depth 1 (the larger of the two axes' scales,
+        // so that the skip below is conservative).
+        let t = cam.tan_half_fov();
+        let cells_per_unit = (self.buffer.height as f64 / (2.0 * t))
+            .max(self.buffer.width as f64 / (2.0 * t * cam.aspect));
         out.resize_with(bodies.len(), BodyView::default);
         self.world.resize_with(bodies.len(), Vec::new);
         // 1. Frustum culling on world bounding spheres; occluders into the depth buffer.
@@ -259,8 +264,14 @@ impl Classifier {
                 view.links.push(class);
                 if class == Visibility::Visible && frustum.sphere(center, r) {
                     self.spheres.clear();
+                    // Balls whose projected disc cannot hold a whole cell write nothing: skip
+                    // volumes that thin at this distance (depth ≥ distance − r).
+                    let depth = (cam.to_camera(center).z - r).max(cam.near);
+                    let min_radius = 0.7 * depth / cells_per_unit;
                     for v in vol.primitives.iter().chain(&vol.skeleton) {
-                        v.transformed(rot, pos).inner_spheres(&mut self.spheres);
+                        if v.inner_radius() >= min_radius {
+                            v.transformed(rot, pos).inner_spheres(&mut self.spheres);
+                        }
                     }
                     for &(c, r) in &self.spheres {
                         self.buffer.rasterize_ball(cam, c, r);

@@ -66,6 +66,14 @@ impl Volume {
         }
     }
 
+    /// The radius of the balls [`Volume::inner_spheres`] makes (the volume's thickness / 2).
+    pub fn inner_radius(&self) -> f64 {
+        match *self {
+            Volume::Sphere { radius, .. } | Volume::Capsule { radius, .. } => radius,
+            Volume::Box { half, .. } => half.min_element(),
+        }
+    }
+
     /// A bounding sphere (centre, radius).
     pub fn bounding_sphere(&self) -> (DVec3, f64) {
         match *self {
