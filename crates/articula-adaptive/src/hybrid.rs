@@ -138,6 +138,9 @@ pub struct Adaptive {
     pub(crate) top: Vec<usize>,
     pub(crate) fsum: Vec<SpatialForce>,
     pub(crate) fext_c: Vec<SpatialForce>,
+    /// External wrenches of the current step, sparse `(body, world wrench)` and dense.
+    pub(crate) fsparse: Vec<(usize, SpatialForce)>,
+    pub(crate) fdense: Vec<SpatialForce>,
     /// Per node: in the hybrid body's active region (its principal joint moves).
     pub(crate) active: Vec<bool>,
     /// Per node: selected by the last acceleration-metric selection.
@@ -152,10 +155,14 @@ pub struct Adaptive {
     pub(crate) s2: Vec<f64>,
     pub(crate) s3: Vec<f64>,
     pub(crate) fx: Vec<f64>,
+    /// Scratch: a child's handle → the joined node's handle.
+    pub(crate) map: Vec<usize>,
     /// Scratch of the join being computed, per handle: the columns of `Y_h` and `U_h`.
     pub(crate) yc: Vec<[[f64; 6]; 6]>,
     pub(crate) uc: Vec<[[f64; 6]; 6]>,
     pub(crate) steps: u64,
+    pub(crate) full_passes: bool,
+    pub(crate) hier: crate::hierarchy::Hierarchy,
     pub(crate) last: Selection,
     /// Nodes visited by the passes of the last call (the cost measure of adaptive updates).
     pub(crate) touched: usize,
@@ -221,6 +228,8 @@ impl Adaptive {
             top: vec![usize::MAX; nn],
             fsum: vec![SpatialForce::ZERO; nn],
             fext_c: Vec::with_capacity(model.bodies.len()),
+            fsparse: Vec::new(),
+            fdense: vec![SpatialForce::ZERO; model.bodies.len()],
             active,
             selected: vec![false; nn],
             vmetric: vec![0.0; nn],
@@ -232,10 +241,13 @@ impl Adaptive {
             s2: vec![0.0; scratch],
             s3: vec![0.0; scratch],
             fx: vec![0.0; maxh],
+            map: vec![usize::MAX; tree.max_handles().max(1)],
             yc: vec![[[0.0; 6]; 6]; tree.max_handles().max(1)],
             uc: vec![[[0.0; 6]; 6]; tree.max_handles().max(1)],
             lay,
             steps: 0,
+            full_passes: false,
+            hier: Default::default(),
             last: Selection::default(),
             touched: 0,
         }

@@ -40,13 +40,14 @@
 #![allow(clippy::needless_range_loop)]
 
 mod dense;
+mod hierarchy;
 mod hybrid;
 mod metric;
 mod rigidify;
 
 pub use hybrid::{Adaptive, Selection};
 
-use articula_dca::{forward_kinematics, integrate_q, DynamicsError, State};
+use articula_dca::{forward_kinematics, DynamicsError, State};
 use articula_model::{Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialTransform};
 use hybrid::Level;
@@ -190,6 +191,9 @@ impl Adaptive {
 
     /// Degrees of freedom in the hybrid body's active region.
     pub fn active_dofs(&self, model: &Model) -> usize {
+        if self.hier.valid {
+            return self.hier.ajoints.iter().map(|&j| model.bodies[j].nv).sum();
+        }
         model
             .assembly
             .nodes
@@ -301,52 +305,205 @@ impl Adaptive {
 
     /// One semi-implicit Euler step of the hybrid body. Every `reselect_every` steps (the first
     /// included) the joints are re-selected on the fully articulated coefficients and the
-    /// joints leaving the hybrid body are locked by impulses; then the hybrid body's
-    /// accelerations are computed (rigid subassemblies move as rigid bodies) and
-    /// `q̇ ← q̇ + h q̈`, `q ← q ⊕ h q̇`.
+    /// joints leaving the hybrid body are locked by impulses (this visits the whole body); the
+    /// steps in between visit the active region and its rigid frontier only (hierarchical
+    /// state), so their cost does not grow with the body's size. Then `q̇ ← q̇ + h q̈`,
+    /// `q ← q ⊕ h q̇` on the active joints (locked joints keep `q̇ = 0` and their `q`).
+    ///
+    /// Between re-selections only the active joints' inputs are read and checked; `data` then
+    /// holds the kinematics of the active bodies only. A non-empty `state.f_ext` is scanned
+    /// for non-zero wrenches (pass an empty one when there are none).
     pub fn step(
         &mut self,
         model: &Model,
         state: &mut State,
         dt: f64,
     ) -> Result<StepReport, AdaptiveError> {
+        self.fsparse.clear();
+        for (i, f) in state.f_ext.iter().enumerate() {
+            if *f != SpatialForce::ZERO {
+                self.fsparse.push((i, *f));
+            }
+        }
+        self.step_inner(model, state, dt)
+    }
+
+    /// [`Adaptive::step`] with the external wrenches given as a list `(body, world wrench about
+    /// the world origin)` instead of `state.f_ext` (which must then be empty): between
+    /// re-selections each force costs a walk from its body to its rigid cluster, and nothing
+    /// scans the whole body.
+    pub fn step_with_forces(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+        dt: f64,
+        forces: &[(usize, SpatialForce)],
+    ) -> Result<StepReport, AdaptiveError> {
+        if !state.f_ext.is_empty() {
+            return Err(AdaptiveError::Setting(
+                "give the external forces either in state.f_ext or as a list, not both".into(),
+            ));
+        }
+        self.fsparse.clear();
+        for &(i, f) in forces {
+            let Some(body) = model.bodies.get(i) else {
+                return Err(DynamicsError::Dimension {
+                    what: "external force body index",
+                    expected: model.bodies.len(),
+                    found: i,
+                }
+                .into());
+            };
+            if !f.is_finite() {
+                return Err(DynamicsError::NonFinite {
+                    what: "external force",
+                    name: body.name.clone(),
+                }
+                .into());
+            }
+            self.fsparse.push((i, f));
+        }
+        self.step_inner(model, state, dt)
+    }
+
+    fn step_inner(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+        dt: f64,
+    ) -> Result<StepReport, AdaptiveError> {
         self.settings.validate()?;
-        self.load(model, &state.q, &state.qd, &state.tau, &state.f_ext)?;
         let mut report = StepReport {
-            reselected: self.steps.is_multiple_of(self.settings.reselect_every),
+            reselected: !self.hier.valid || self.steps.is_multiple_of(self.settings.reselect_every),
             ..StepReport::default()
         };
-        let mut touched = 0;
+        let full = report.reselected || self.full_passes;
+        if full {
+            // Whole-body passes read the forces as one wrench per body.
+            let mut fdense = std::mem::take(&mut self.fdense);
+            fdense.fill(SpatialForce::ZERO);
+            for &(i, f) in &self.fsparse {
+                fdense[i] += f;
+            }
+            let r = self.load(model, &state.q, &state.qd, &state.tau, &fdense);
+            self.fdense = fdense;
+            r?;
+        }
         if report.reselected {
+            self.hier.valid = false;
             report.rigidified = self.reselect_loaded(model, state)?;
+            let mut touched = self.touched;
+            self.build_hierarchy(model);
+            self.main_pass(model, &state.tau, Level::Acceleration, false)?;
             touched += self.touched;
+            self.back_substitution(model, false);
+            self.touched = touched;
+        } else if self.full_passes {
+            // Reference path: whole-body kinematics and composites, same hybrid body.
+            self.main_pass(model, &state.tau, Level::Acceleration, false)?;
+            self.back_substitution(model, false);
+        } else {
+            self.check_active_inputs(model, state)?;
+            self.hybrid_step(model, &state.q, &state.qd, &state.tau)?;
         }
-        self.main_pass(model, &state.tau, Level::Acceleration, false)?;
-        touched += self.touched;
-        self.back_substitution(model, false);
-        check_qdd(model, &self.qdd)?;
-        for (v, a) in state.qd.iter_mut().zip(&self.qdd) {
-            *v += dt * a;
-        }
-        integrate_q(model, &mut state.q, &state.qd, dt);
-        for (_, part) in model.joint_parts() {
-            let q = &state.q[part.q_offset..part.q_offset + part.nq()];
-            let qd = &state.qd[part.v_offset..part.v_offset + part.nv()];
-            for (what, xs) in [("q after the step", q), ("qd after the step", qd)] {
-                if xs.iter().any(|x| !x.is_finite()) {
-                    return Err(DynamicsError::NonFinite {
-                        what,
-                        name: part.name.clone(),
-                    }
-                    .into());
-                }
+        let mut dofs = 0;
+        for idx in 0..self.hier.ajoints.len() {
+            let body = &model.bodies[self.hier.ajoints[idx]];
+            dofs += body.nv;
+            let r = body.v_offset..body.v_offset + body.nv;
+            if self.qdd[r.clone()].iter().any(|x| !x.is_finite()) {
+                return Err(non_finite(model, self.hier.ajoints[idx], "qdd", &self.qdd).into());
+            }
+            for (v, a) in state.qd[r.clone()].iter_mut().zip(&self.qdd[r]) {
+                *v += dt * a;
+            }
+            for part in &body.joint {
+                integrate_part(part, &mut state.q, &state.qd, dt);
+            }
+            let q = &state.q[body.q_offset..body.q_offset + body.nq];
+            let qd = &state.qd[body.v_offset..body.v_offset + body.nv];
+            if q.iter().chain(qd).any(|x| !x.is_finite()) {
+                let what = if q.iter().any(|x| !x.is_finite()) {
+                    ("q after the step", &state.q)
+                } else {
+                    ("qd after the step", &state.qd)
+                };
+                return Err(non_finite(model, self.hier.ajoints[idx], what.0, what.1).into());
             }
         }
         self.steps += 1;
-        report.active_dofs = self.active_dofs(model);
+        report.active_dofs = dofs;
         report.predicted_error = self.last.predicted_error;
-        report.nodes_touched = touched;
+        report.nodes_touched = self.touched;
         Ok(report)
+    }
+
+    /// Between re-selections, run whole-body kinematics and composites instead of the
+    /// hierarchical state (a reference for tests; same results, cost O(n)).
+    #[doc(hidden)]
+    pub fn set_full_passes(&mut self, on: bool) {
+        self.full_passes = on;
+    }
+
+    /// Checks the inputs a step between re-selections reads: the active joints' `q`, `q̇`, `τ`
+    /// and the external forces.
+    fn check_active_inputs(&self, model: &Model, state: &State) -> Result<(), DynamicsError> {
+        if state.q.len() != model.nq
+            || state.qd.len() != model.nv
+            || state.tau.len() != model.nv
+            || !(state.f_ext.is_empty() || state.f_ext.len() == model.bodies.len())
+        {
+            return check_inputs(model, &state.q, &state.qd, &state.tau, &state.f_ext);
+        }
+        for &j in &self.hier.ajoints {
+            let b = &model.bodies[j];
+            let bad = state.q[b.q_offset..b.q_offset + b.nq]
+                .iter()
+                .chain(&state.qd[b.v_offset..b.v_offset + b.nv])
+                .chain(&state.tau[b.v_offset..b.v_offset + b.nv])
+                .any(|x| !x.is_finite());
+            if bad {
+                return check_inputs(model, &state.q, &state.qd, &state.tau, &state.f_ext);
+            }
+        }
+        if let Some(&(i, _)) = self.fsparse.iter().find(|(_, f)| !f.is_finite()) {
+            return Err(DynamicsError::NonFinite {
+                what: "external force",
+                name: model.bodies[i].name.clone(),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// The error naming the part of body `j`'s joint whose value in `x` is not finite.
+fn non_finite(model: &Model, j: usize, what: &'static str, x: &[f64]) -> DynamicsError {
+    let body = &model.bodies[j];
+    let name = body
+        .joint
+        .iter()
+        .find(|p| {
+            let r = if what.starts_with("q after") {
+                p.q_offset..p.q_offset + p.nq()
+            } else {
+                p.v_offset..p.v_offset + p.nv()
+            };
+            x[r].iter().any(|v| !v.is_finite())
+        })
+        .map_or_else(|| body.joint_name(), |p| p.name.clone());
+    DynamicsError::NonFinite { what, name }
+}
+
+/// `q ← q ⊕ h q̇` for one joint part (see [`articula_dca::integrate_q`]).
+fn integrate_part(part: &articula_model::JointPart, q: &mut [f64], qd: &[f64], h: f64) {
+    match part.kind {
+        articula_model::JointKind::Fixed => {}
+        articula_model::JointKind::Floating => {
+            // The SE(3) exponential of articula-dca, on this joint's coordinates alone.
+            let (qo, vo) = (part.q_offset, part.v_offset);
+            articula_dca::integrate_floating(&mut q[qo..qo + 7], &qd[vo..vo + 6], h);
+        }
+        _ => q[part.q_offset] += qd[part.v_offset] * h,
     }
 }
 

@@ -48,70 +48,122 @@ impl Adaptive {
                 *p = 2.0 * x;
             }
             let mut eta: f64 = kv.iter().zip(&ak).map(|(x, y)| x * y).sum();
-            // Children.
+            // Children. M_X copies C's handle forces onto X's shared handles and puts
+            // s·(N F + n) on X's principal-joint handle jx (s = −1 for A, +1 for B), so with
+            // Ψ_X in handle blocks: Ψ_C gets Ψ_X[i,l] at (h_i, h_l), s·Ψ_X[i,jx] N on rows
+            // h_i (and its transpose), and Nᵀ Ψ_X[jx,jx] N.
+            let hc = self.lay.hoff[n];
+            let nhc = self.nh[n];
             for (x, jx, sign) in [(a, self.lay.ja[n], -1.0), (b, self.lay.jb[n], 1.0)] {
                 let nx = 6 * self.nh[x];
                 let (pox, pvx) = (self.poff[x], 6 * self.lay.hoff[x]);
-                // M_X (nx × nc) in s1, m_X (nx) in s3.
-                let (mm, m) = (&mut self.s1, &mut self.s3);
-                mm[..nx * nc].fill(0.0);
-                m[..nx].fill(0.0);
-                let hc = self.lay.hoff[n];
-                for h in 0..self.nh[n] {
+                // X handle i → C handle (usize::MAX for jx).
+                let map = &mut self.map;
+                map.fill(usize::MAX);
+                for h in 0..nhc {
                     let (from_a, i) = self.lay.from[hc + h];
                     if from_a == (sign < 0.0) {
-                        for r in 0..6 {
-                            mm[(6 * i + r) * nc + 6 * h + r] = 1.0;
+                        map[i] = h;
+                    }
+                }
+                // Children precede their parent in post-order: X's blocks lie below C's.
+                let (psi_lo, psi_hi) = self.psi.split_at_mut(po);
+                let psix = &psi_lo[pox..pox + nx * nx];
+                let psic = &mut psi_hi[..nc * nc];
+                let (p_lo, p_hi) = self.pvec.split_at_mut(pv);
+                let px = &p_lo[pvx..pvx + nx];
+                let pc = &mut p_hi[..nc];
+                let nm = &self.nmat[36 * hc..36 * hc + 6 * nc];
+                let nvec = self.nvec[n];
+                // G = Ψ_X[jx,jx] N (6 × nc) in s2.
+                let g = &mut self.s2[..6 * nc];
+                g.fill(0.0);
+                for r in 0..6 {
+                    for t in 0..6 {
+                        let w = psix[(6 * jx + r) * nx + 6 * jx + t];
+                        if w != 0.0 {
+                            for (gv, &nv) in g[r * nc..r * nc + nc]
+                                .iter_mut()
+                                .zip(&nm[t * nc..t * nc + nc])
+                            {
+                                *gv += w * nv;
+                            }
                         }
                     }
                 }
-                for r in 0..6 {
-                    let row = &self.nmat[36 * hc + r * nc..36 * hc + r * nc + nc];
-                    for (dst, &v) in mm[(6 * jx + r) * nc..(6 * jx + r) * nc + nc]
-                        .iter_mut()
-                        .zip(row)
-                    {
-                        *dst = sign * v;
+                // Nᵀ G
+                for t in 0..6 {
+                    let grow = &g[t * nc..t * nc + nc];
+                    for (i, &ni) in nm[t * nc..t * nc + nc].iter().enumerate() {
+                        if ni != 0.0 {
+                            for (dst, &gv) in psic[i * nc..i * nc + nc].iter_mut().zip(grow) {
+                                *dst += ni * gv;
+                            }
+                        }
                     }
-                    m[6 * jx + r] = sign * self.nvec[n][r];
                 }
-                // T = Ψ_X M_X (nx × nc) in s2; u = 2 Ψ_X m_X + p_X in s3[nx..2nx].
-                dense::a_b(
-                    &self.psi[pox..pox + nx * nx],
-                    &self.s1[..nx * nc],
-                    nx,
-                    nx,
-                    nc,
-                    &mut self.s2,
-                );
-                let (m, u) = self.s3.split_at_mut(nx);
-                dense::a_x(&self.psi[pox..pox + nx * nx], m, nx, nx, u);
-                let px = &self.pvec[pvx..pvx + nx];
-                let mpm: f64 = m.iter().zip(u.iter()).map(|(x, y)| x * y).sum();
-                let mp: f64 = m.iter().zip(px).map(|(x, y)| x * y).sum();
-                eta += mpm + mp + self.eta[x];
-                for (ui, pi) in u[..nx].iter_mut().zip(px) {
-                    *ui = 2.0 * *ui + pi;
+                // u_jx = 2 Ψ_X[jx,jx] m + p_X,jx with m = s n; η terms.
+                let mut ujx = [0.0; 6];
+                let mut eta_x = self.eta[x];
+                for r in 0..6 {
+                    let mut psim = 0.0;
+                    for t in 0..6 {
+                        psim += psix[(6 * jx + r) * nx + 6 * jx + t] * sign * nvec[t];
+                    }
+                    eta_x += sign * nvec[r] * (psim + px[6 * jx + r]);
+                    ujx[r] = 2.0 * psim + px[6 * jx + r];
                 }
-                // Ψ_C += M_Xᵀ T, p_C += M_Xᵀ u.
-                let (mm, t) = (&self.s1, &self.s2);
-                let psi = &mut self.psi[po..po + nc * nc];
-                for r in 0..nx {
-                    let mrow = &mm[r * nc..r * nc + nc];
-                    let trow = &t[r * nc..r * nc + nc];
-                    for (i, &mi) in mrow.iter().enumerate() {
-                        if mi == 0.0 {
+                eta += eta_x;
+                // p_C += Nᵀ (s u_jx)
+                for t in 0..6 {
+                    let w = sign * ujx[t];
+                    for (dst, &nv) in pc.iter_mut().zip(&nm[t * nc..t * nc + nc]) {
+                        *dst += w * nv;
+                    }
+                }
+                for i in 0..self.nh[x] {
+                    let hi = map[i];
+                    if hi == usize::MAX {
+                        continue;
+                    }
+                    // Ψ_X[i,l] blocks for shared handles l.
+                    for l in 0..self.nh[x] {
+                        let hl = map[l];
+                        if hl == usize::MAX {
                             continue;
                         }
-                        for (dst, &tv) in psi[i * nc..i * nc + nc].iter_mut().zip(trow) {
-                            *dst += mi * tv;
+                        for r in 0..6 {
+                            let src = &psix[(6 * i + r) * nx + 6 * l..(6 * i + r) * nx + 6 * l + 6];
+                            let dst = &mut psic
+                                [(6 * hi + r) * nc + 6 * hl..(6 * hi + r) * nc + 6 * hl + 6];
+                            for (d, v) in dst.iter_mut().zip(src) {
+                                *d += v;
+                            }
                         }
                     }
-                    let ur = self.s3[nx + r];
-                    if ur != 0.0 {
-                        for (dst, &mi) in self.pvec[pv..pv + nc].iter_mut().zip(mrow) {
-                            *dst += mi * ur;
+                    // C = s Ψ_X[i,jx] N (6 × nc): rows 6 hi.., and columns 6 hi.. (transpose).
+                    for r in 0..6 {
+                        let crow = &mut self.s3[..nc];
+                        crow.fill(0.0);
+                        for t in 0..6 {
+                            let w = sign * psix[(6 * i + r) * nx + 6 * jx + t];
+                            if w != 0.0 {
+                                for (cv, &nv) in crow.iter_mut().zip(&nm[t * nc..t * nc + nc]) {
+                                    *cv += w * nv;
+                                }
+                            }
                         }
+                        let row = 6 * hi + r;
+                        for c in 0..nc {
+                            psic[row * nc + c] += crow[c];
+                            psic[c * nc + row] += crow[c];
+                        }
+                        // u_i = 2 s Ψ_X[i,jx] n + p_X,i
+                        let mut ui = px[6 * i + r];
+                        for t in 0..6 {
+                            ui += 2.0 * sign * psix[(6 * i + r) * nx + 6 * jx + t] * nvec[t];
+                        }
+                        pc[row] += ui;
                     }
                 }
             }

@@ -357,3 +357,136 @@ fn a_hybrid_step_visits_the_active_region_and_its_frontier_only() {
         }
     }
 }
+
+#[test]
+fn hierarchical_steps_match_whole_body_passes() {
+    for (name, floating, budget) in [
+        ("chain100", false, 12),
+        ("humanoid", true, 10),
+        ("plant", false, 20),
+        ("rope", true, 15),
+    ] {
+        let model = load(name, floating);
+        let mut s0 = State::random(&model, 77, 0.0);
+        // Light forces: the rope's 3-gram links reach 1e9 rad/s² under the usual ones.
+        s0.randomize_forces(78, 0.01);
+        let settings = Settings {
+            budget: Some(budget),
+            reselect_every: 7,
+            ..Settings::default()
+        };
+        let (mut fast, mut slow) = (
+            Adaptive::new(&model, settings.clone()),
+            Adaptive::new(&model, settings),
+        );
+        slow.set_full_passes(true);
+        let (mut a, mut b) = (s0.clone(), s0);
+        for k in 0..40 {
+            let ra = fast.step(&model, &mut a, 1e-3).unwrap();
+            let rb = slow.step(&model, &mut b, 1e-3).unwrap();
+            assert_eq!(ra.active_dofs, rb.active_dofs, "{name} step {k}");
+            let da = max_diff(fast.qdd(), slow.qdd());
+            assert!(
+                da <= 1e-10 * max_abs(slow.qdd()).max(1.0),
+                "{name} step {k}: q̈ {da:e}"
+            );
+            let (dq, dv) = (max_diff(&a.q, &b.q), max_diff(&a.qd, &b.qd));
+            // q̇ and q differ by h q̈ and h² q̈ of the difference above (h = 1e-3).
+            assert!(
+                dq <= 1e-12 + 2e-6 * da && dv <= 1e-12 * (1.0 + max_abs(&b.qd)) + 2e-3 * da,
+                "{name} step {k}: {dq:e} {dv:e}"
+            );
+            // The same inputs for the next step (a chaotic rope would amplify round-off).
+            a = b.clone();
+        }
+    }
+}
+
+#[test]
+fn velocity_tolerance_keeps_fast_subassemblies_moving() {
+    // Budget 0 selects nothing; with a velocity tolerance every active subassembly whose
+    // velocity metric V(C) = Σ q̇ᵀq̇ exceeds it stays in the hybrid body, the others lock.
+    let model = load("chain30", false);
+    let mut s = State::random(&model, 9, 0.0);
+    s.qd.fill(0.0);
+    for j in 20..30 {
+        s.qd[j] = 3.0; // joints 21..30 move fast, the rest are at rest
+    }
+    let mut ad = Adaptive::new(
+        &model,
+        Settings {
+            budget: Some(0),
+            velocity_tolerance: Some(1.0),
+            ..Settings::default()
+        },
+    );
+    let before = s.qd.clone();
+    let locked = ad.reselect(&model, &mut s).unwrap();
+    assert!(
+        !locked,
+        "every moving joint sits in a subassembly above the tolerance"
+    );
+    assert_eq!(s.qd, before);
+    for (i, b) in model.bodies.iter().enumerate() {
+        if before[b.v_offset] != 0.0 {
+            assert!(ad.is_active(&model, i), "{}", b.joint_name());
+        }
+    }
+    // A tolerance above the whole body's velocity metric (10 × 9 = 90) locks everything.
+    ad.set_settings(Settings {
+        budget: Some(0),
+        velocity_tolerance: Some(100.0),
+        ..Settings::default()
+    })
+    .unwrap();
+    assert!(ad.reselect(&model, &mut s).unwrap());
+    assert!(s.qd.iter().all(|x| *x == 0.0));
+}
+
+#[test]
+fn a_force_list_steps_like_dense_forces() {
+    let model = load("chain300", false);
+    let mut dense = State::random(&model, 21, 0.0);
+    let forces: Vec<(usize, SpatialForce)> = [(17usize, 1.0), (150, -2.0), (299, 0.5)]
+        .iter()
+        .map(|&(b, s)| {
+            (
+                b,
+                SpatialForce::new(glam::DVec3::new(0.0, s, 0.0), glam::DVec3::new(s, 0.0, 0.3)),
+            )
+        })
+        .collect();
+    for &(b, f) in &forces {
+        dense.f_ext[b] = f;
+    }
+    let mut sparse = dense.clone();
+    sparse.f_ext.clear();
+    let settings = Settings {
+        budget: Some(25),
+        reselect_every: 5,
+        ..Settings::default()
+    };
+    let (mut a, mut b) = (
+        Adaptive::new(&model, settings.clone()),
+        Adaptive::new(&model, settings),
+    );
+    for _ in 0..12 {
+        a.step(&model, &mut dense, 1e-3).unwrap();
+        b.step_with_forces(&model, &mut sparse, 1e-3, &forces)
+            .unwrap();
+        assert_eq!(dense.q, sparse.q);
+        assert_eq!(dense.qd, sparse.qd);
+    }
+    // Both ways at once, a bad index and a non-finite force are errors.
+    let mut both = dense.clone();
+    assert!(b
+        .step_with_forces(&model, &mut both, 1e-3, &forces)
+        .is_err());
+    assert!(b
+        .step_with_forces(&model, &mut sparse, 1e-3, &[(300, SpatialForce::ZERO)])
+        .is_err());
+    let nan = SpatialForce::new(glam::DVec3::ZERO, glam::DVec3::new(f64::NAN, 0.0, 0.0));
+    assert!(b
+        .step_with_forces(&model, &mut sparse, 1e-3, &[(3, nan)])
+        .is_err());
+}

@@ -1,35 +1,39 @@
 //! Reference 1: the articulated-body algorithm (Featherstone, RBDA ch. 7, Table 7.1), run in
-//! world coordinates, so no coordinate transforms appear between bodies.
+//! world coordinates, so no coordinate transforms appear between bodies. Articulated inertias
+//! are kept packed (21 entries, [`Sym6`]) and 1-DOF joints take a rank-1 fast path.
 
+use crate::small::{SmallSpd, Sym6};
 use crate::{Data, DynamicsError};
 use articula_model::Model;
-use articula_spatial::{SpatialForce, SpatialMotion, SymMat6};
+use articula_spatial::{SpatialForce, SpatialMotion};
 
-/// Runs ABA on the kinematics in `data`; writes `data.qdd`.
-pub(crate) fn aba(
-    model: &Model,
-    tau: &[f64],
-    f_ext: &[SpatialForce],
-    data: &mut Data,
-) -> Result<(), DynamicsError> {
+/// Pass 1, per body, fused into the kinematics loop (while the body's numbers are in cache):
+/// `Iᴬᵢ = Iᵢ`, `pᴬᵢ = vᵢ ×* Iᵢ vᵢ − f_ext,i` (gravity enters as `a_0 = −a_g`).
+#[inline(always)]
+pub(crate) fn init_body(i: usize, data: &mut Data, f_ext: &[SpatialForce]) {
+    let inertia = &data.inertia[i];
+    let v = data.v[i];
+    data.aba.ia[i] = Sym6::from_inertia(inertia);
+    data.aba.pa[i] = v.cross_force(inertia.mul_motion(v)) - crate::f_ext_of(f_ext, i);
+}
+
+/// Runs passes 2 and 3 of ABA on the kinematics and pass-1 values in `data`
+/// ([`init_body`]); writes `data.qdd`.
+pub(crate) fn aba(model: &Model, tau: &[f64], data: &mut Data) -> Result<(), DynamicsError> {
     let n = model.bodies.len();
-    // Pass 2 init: Iᴬᵢ = Iᵢ, pᴬᵢ = vᵢ ×* Iᵢ vᵢ − f_ext,i (gravity enters as a_0 = −a_g).
-    for i in 0..n {
-        let inertia = &data.inertia[i];
-        let v = data.v[i];
-        data.aba.ia[i] = inertia.to_mat6();
-        data.aba.pa[i] = v.cross_force(inertia.mul_motion(v)) - crate::f_ext_of(f_ext, i);
-    }
+    let aba = &mut data.aba;
     // Pass 2, leaves to root: U = Iᴬ S, D = Sᵀ U, u = τ − Sᵀ pᴬ,
     // Iᵃ = Iᴬ − U D⁻¹ Uᵀ, pᵃ = pᴬ + Iᵃ c + U D⁻¹ u; added to the parent (same frame).
     for i in (0..n).rev() {
         let body = &model.bodies[i];
-        let (vo, k) = (body.v_offset, body.nv);
+        let (vo, k, doff) = (body.v_offset, body.nv, aba.doff[i]);
+        let ia = aba.ia[i];
+        let pa_i = aba.pa[i];
         if k == 1 {
             // One DOF (the common case): U = Iᴬ s, D = sᵀU scalar.
-            let s = data.s[vo];
-            let u = data.aba.ia[i].motion_to_force(s);
-            let d = s.dot(u);
+            let s = data.s[vo].to_array();
+            let u = ia.mul_vec(&s);
+            let d = dot6(&s, &u);
             if d.is_nan() || d <= 0.0 {
                 return Err(DynamicsError::Singular {
                     joint: body.joint_name(),
@@ -37,35 +41,35 @@ pub(crate) fn aba(
                 });
             }
             let dinv = 1.0 / d;
-            let uu = tau[vo] - s.dot(data.aba.pa[i]);
-            data.aba.u[vo] = u;
-            data.aba.uu[vo] = uu;
-            data.aba.dinv[i].k = 1;
-            data.aba.dinv[i].a[0][0] = dinv;
+            let uu = tau[vo] - data.s[vo].dot(pa_i);
+            aba.u[vo] = u;
+            aba.uu[vo] = uu;
+            aba.dinv[doff] = dinv;
             let Some(parent) = body.parent else { continue };
             // pᵃ = pᴬ + Iᵃ c + U D⁻¹ u with Iᵃ c = Iᴬ c − U (Uᵀc) / D
-            let c = data.c[i];
-            let pa =
-                data.aba.pa[i] + data.aba.ia[i].motion_to_force(c) + u * (dinv * (uu - c.dot(u)));
-            data.aba.pa[parent] += pa;
-            let (lo, hi) = data.aba.ia.split_at_mut(i);
-            lo[parent].add_sub_outer(&hi[0], &u.to_array(), dinv);
+            let c = data.c[i].to_array();
+            let ic = ia.mul_vec(&c);
+            let g = dinv * (uu - dot6(&c, &u));
+            let pp = &mut aba.pa[parent];
+            let add = SpatialForce::from_array(std::array::from_fn(|r| ic[r] + u[r] * g));
+            *pp += pa_i + add;
+            let (lo, hi) = aba.ia.split_at_mut(i);
+            lo[parent].add_sub_outer(&hi[0], &u, dinv);
             continue;
         }
-        let ia = data.aba.ia[i];
-        let mut dm = crate::small::SmallSpd {
+        let mut dm = SmallSpd {
             k,
             a: [[0.0; 6]; 6],
         };
         for p in 0..k {
-            let u = ia.motion_to_force(data.s[vo + p]);
-            data.aba.u[vo + p] = u;
+            let u = ia.mul_vec(&data.s[vo + p].to_array());
+            aba.u[vo + p] = u;
             for q in 0..=p {
-                let x = data.s[vo + q].dot(u);
+                let x = dot6(&data.s[vo + q].to_array(), &u);
                 dm.a[p][q] = x;
                 dm.a[q][p] = x;
             }
-            data.aba.uu[vo + p] = tau[vo + p] - data.s[vo + p].dot(data.aba.pa[i]);
+            aba.uu[vo + p] = tau[vo + p] - data.s[vo + p].dot(pa_i);
         }
         if !dm.invert() {
             return Err(DynamicsError::Singular {
@@ -73,50 +77,68 @@ pub(crate) fn aba(
                 detail: "Sᵀ Iᴬ S is not positive definite",
             });
         }
-        data.aba.dinv[i] = dm;
+        for p in 0..k {
+            for q in 0..k {
+                aba.dinv[doff + p * k + q] = dm.a[p][q];
+            }
+        }
         let Some(parent) = body.parent else { continue };
+        // Iᵃ = Iᴬ − Σ_p U_p w_pᵀ with w_p = Σ_q D⁻¹_pq U_q;  pᵃ = pᴬ + Iᵃ c + Σ_p U_p (D⁻¹u)_p.
         let mut ia_a = ia;
         let mut du = [0.0; 6];
-        dm.mul(&data.aba.uu[vo..vo + k], &mut du);
-        let mut pa = data.aba.pa[i];
+        dm.mul(&aba.uu[vo..vo + k], &mut du);
+        let mut pa = pa_i;
         for p in 0..k {
-            let up = data.aba.u[vo + p].to_array();
+            let mut w = [0.0; 6];
             for q in 0..k {
                 let x = dm.a[p][q];
-                if p == q {
-                    ia_a = ia_a.sub_outer(&up, x);
-                } else if x != 0.0 {
-                    let uq = data.aba.u[vo + q].to_array();
-                    ia_a = SymMat6::from_mat6(
-                        &(*ia_a.as_mat6() - articula_spatial::Mat6::outer(&up, &uq) * x),
-                    );
+                let uq = &aba.u[vo + q];
+                for r in 0..6 {
+                    w[r] += x * uq[r];
                 }
             }
-            pa += data.aba.u[vo + p] * du[p];
+            ia_a.sub_upper_outer(&aba.u[vo + p], &w);
+            pa += SpatialForce::from_array(aba.u[vo + p]) * du[p];
         }
-        pa += ia_a.motion_to_force(data.c[i]);
-        data.aba.ia[parent].add_assign(&ia_a);
-        data.aba.pa[parent] += pa;
+        pa += SpatialForce::from_array(ia_a.mul_vec(&data.c[i].to_array()));
+        aba.ia[parent].add_assign(&ia_a);
+        aba.pa[parent] += pa;
     }
     // Pass 3, root to leaves: a' = a_parent + c, q̈ = D⁻¹ (u − Uᵀ a'), a = a' + S q̈.
     let a0 = SpatialMotion::new(glam::DVec3::ZERO, -data.gravity);
     for i in 0..n {
         let body = &model.bodies[i];
-        let (vo, k) = (body.v_offset, body.nv);
+        let (vo, k, doff) = (body.v_offset, body.nv, aba.doff[i]);
         let ap = match body.parent {
-            Some(p) => data.aba.a[p],
+            Some(p) => aba.a[p],
             None => a0,
         } + data.c[i];
+        let apa = ap.to_array();
+        if k == 1 {
+            let qdd = aba.dinv[doff] * (aba.uu[vo] - dot6(&apa, &aba.u[vo]));
+            data.qdd[vo] = qdd;
+            aba.a[i] = ap + data.s[vo] * qdd;
+            continue;
+        }
         let mut r = [0.0; 6];
         for p in 0..k {
-            r[p] = data.aba.uu[vo + p] - ap.dot(data.aba.u[vo + p]);
+            r[p] = aba.uu[vo + p] - dot6(&apa, &aba.u[vo + p]);
         }
-        data.aba.dinv[i].mul(&r[..k], &mut data.qdd[vo..vo + k]);
         let mut a = ap;
         for p in 0..k {
-            a += data.s[vo + p] * data.qdd[vo + p];
+            let mut x = 0.0;
+            for q in 0..k {
+                x += aba.dinv[doff + p * k + q] * r[q];
+            }
+            data.qdd[vo + p] = x;
+            a += data.s[vo + p] * x;
         }
-        data.aba.a[i] = a;
+        aba.a[i] = a;
     }
     Ok(())
+}
+
+#[inline(always)]
+fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
 }

@@ -1,10 +1,9 @@
 //! The workspace beside the immutable model: every per-step buffer, allocated once.
 
-use crate::small::SmallSpd;
+use crate::kinematics::FkPlan;
+use crate::small::{SmallSpd, Sym6};
 use articula_model::{Model, NodeKind};
-use articula_spatial::{
-    Mat6, SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform, SymMat6,
-};
+use articula_spatial::{Mat6, SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
 use glam::DVec3;
 
 /// Which side of a join a handle of the joined node comes from.
@@ -38,8 +37,16 @@ pub struct Data {
     pub s: Vec<SpatialMotion>,
     /// The joint accelerations of the last solve (length `nv`).
     pub qdd: Vec<f64>,
+    /// Momentum projection in [`crate::step`] (default `true`; it acts only on a free-floating
+    /// model, see [`crate::step`]): after each step the floating base's velocity is corrected so
+    /// that the total spatial momentum equals its exact value — the momentum at the start of
+    /// the step plus the exact impulse of gravity and of the (constant, world-frame) external
+    /// wrenches. Set to `false` for the integrator's raw result.
+    pub momentum_projection: bool,
     /// External wrenches in the computation frame (empty when none were given).
     pub(crate) f_ext_c: Vec<SpatialForce>,
+    /// Per body: the forward-kinematics path of its joint.
+    pub(crate) fk_plan: Vec<FkPlan>,
     pub(crate) dca: DcaData,
     pub(crate) aba: AbaData,
     pub(crate) rk: RkData,
@@ -73,21 +80,23 @@ pub(crate) struct DcaData {
     /// Per joint h: the point P_h (origin of body h, computation frame) about which every
     /// handle-h vector is taken.
     pub point: Vec<DVec3>,
-    /// Scratch per handle of the node being joined: `Y_h = Φ_hj L⁻ᵀ`, `P_h = Y_h Z`,
-    /// `R_h = P_h D⁻¹` (first k columns).
-    pub y: Vec<Mat6>,
-    pub pz: Vec<Mat6>,
-    pub rz: Vec<Mat6>,
+    /// Scratch per handle of the node being joined: `Ỹ_h = Q L⁻¹ Φ_jh`.
+    pub y: Vec<[[f64; 6]; 6]>,
 }
 
 /// ABA buffers.
 #[derive(Clone, Debug)]
 pub(crate) struct AbaData {
-    pub ia: Vec<SymMat6>,
+    /// Per body: articulated inertia (packed) and bias force.
+    pub ia: Vec<Sym6>,
     pub pa: Vec<SpatialForce>,
-    pub u: Vec<SpatialForce>,
-    pub dinv: Vec<SmallSpd>,
+    /// Per degree of freedom: `U = Iᴬ s` and `u = τ − sᵀ pᴬ`.
+    pub u: Vec<[f64; 6]>,
     pub uu: Vec<f64>,
+    /// `D⁻¹` of every joint (k×k row-major), body i's at `doff[i]`.
+    pub dinv: Vec<f64>,
+    pub doff: Vec<usize>,
+    /// Per body: spatial acceleration.
     pub a: Vec<SpatialMotion>,
 }
 
@@ -98,6 +107,8 @@ pub(crate) struct RkData {
     pub qd0: Vec<f64>,
     pub kv: Vec<f64>,
     pub ka: Vec<f64>,
+    /// RKMK: the Lie-algebra increment of the current stage (floating joints' entries).
+    pub theta: Vec<f64>,
 }
 
 impl Data {
@@ -162,6 +173,7 @@ impl Data {
             inertia: vec![SpatialInertia::ZERO; n],
             s: vec![SpatialMotion::ZERO; nv],
             qdd: vec![0.0; nv],
+            momentum_projection: true,
             dca: DcaData {
                 hoff,
                 boff,
@@ -176,16 +188,24 @@ impl Data {
                 z: vec![[0.0; 6]; nv],
                 dinv: vec![SmallSpd::default(); n],
                 point: vec![DVec3::ZERO; n],
-                y: vec![Mat6::ZERO; max_h],
-                pz: vec![Mat6::ZERO; max_h],
-                rz: vec![Mat6::ZERO; max_h],
+                y: vec![[[0.0; 6]; 6]; max_h],
             },
+            fk_plan: model.bodies.iter().map(FkPlan::of).collect(),
             aba: AbaData {
-                ia: vec![SymMat6::ZERO; n],
+                ia: vec![Sym6::ZERO; n],
                 pa: vec![SpatialForce::ZERO; n],
-                u: vec![SpatialForce::ZERO; nv],
-                dinv: vec![SmallSpd::default(); n],
+                u: vec![[0.0; 6]; nv],
                 uu: vec![0.0; nv],
+                dinv: vec![0.0; model.bodies.iter().map(|b| b.nv * b.nv).sum()],
+                doff: model
+                    .bodies
+                    .iter()
+                    .scan(0, |o, b| {
+                        let here = *o;
+                        *o += b.nv * b.nv;
+                        Some(here)
+                    })
+                    .collect(),
                 a: vec![SpatialMotion::ZERO; n],
             },
             rk: RkData {
@@ -193,6 +213,7 @@ impl Data {
                 qd0: vec![0.0; nv],
                 kv: vec![0.0; nv],
                 ka: vec![0.0; nv],
+                theta: vec![0.0; nv],
             },
         }
     }
@@ -248,6 +269,7 @@ impl RkData {
             qd0: Vec::new(),
             kv: Vec::new(),
             ka: Vec::new(),
+            theta: Vec::new(),
         }
     }
 }

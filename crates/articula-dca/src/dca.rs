@@ -9,8 +9,8 @@
 use crate::data::Side;
 use crate::{Data, DynamicsError};
 use articula_model::{Model, NodeKind};
-use articula_spatial::{skew, Mat6, SpatialForce, SpatialMotion, SymMat6};
-use glam::{DMat3, DVec3};
+use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
+use glam::DVec3;
 
 /// Runs DCA on the kinematics already in `data` (see [`crate::forward_kinematics`]); writes
 /// `data.qdd`.
@@ -85,20 +85,46 @@ fn main_pass(
                 let f_c = fe.f - v.w.cross(v_c) * m;
                 let acc_w = j * n_c;
                 let acc_c = f_c / m;
+                // With A_h = a_h× J: −J e_k× = A_kᵀ (J symmetric) and −a_h× J e_k× = a_h× A_kᵀ,
+                // so Φ_hk = [J, A_kᵀ; A_h, a_h× A_kᵀ + 1/m]: three cross products per block.
                 let node_handles = &tree.nodes[n].handles;
+                let jrows = j.transpose(); // rows of J (= columns: J is symmetric)
+                let im = 1.0 / m;
                 for (h, &jh) in node_handles.iter().enumerate() {
                     let ah = c - data.dca.point[jh];
-                    let axj = skew(ah) * j;
-                    for (k, &jk) in node_handles.iter().enumerate() {
-                        let ek = skew(c - data.dca.point[jk]);
-                        let tl = j;
-                        let tr = -(j * ek);
-                        let bl = axj;
-                        let br = -(axj * ek) + DMat3::from_diagonal(DVec3::splat(1.0 / m));
-                        data.dca.phi[bo + h * nh + k] = Mat6::from_blocks(tl, tr, bl, br);
-                    }
                     // b at P_h: [α; a_c + α × (P_h − c)] + a_g
                     data.dca.b[ho + h] = a_g + SpatialMotion::new(acc_w, acc_c + acc_w.cross(-ah));
+                }
+                for (h, &jh) in node_handles.iter().enumerate() {
+                    let ah = c - data.dca.point[jh];
+                    // Columns of A_h = a_h× J are a_h × (columns of J).
+                    let ah_cols = [ah.cross(j.x_axis), ah.cross(j.y_axis), ah.cross(j.z_axis)];
+                    for (k, &jk) in node_handles.iter().enumerate() {
+                        let ak = c - data.dca.point[jk];
+                        let ak_cols = [ak.cross(j.x_axis), ak.cross(j.y_axis), ak.cross(j.z_axis)];
+                        // Row r of A_kᵀ is column r of A_k; column cc of A_kᵀ is row cc of A_k.
+                        let ak_row =
+                            |cc: usize| DVec3::new(ak_cols[0][cc], ak_cols[1][cc], ak_cols[2][cc]);
+                        let br_cols = [
+                            ah.cross(ak_row(0)),
+                            ah.cross(ak_row(1)),
+                            ah.cross(ak_row(2)),
+                        ];
+                        let out = &mut data.dca.phi[bo + h * nh + k].0;
+                        for r in 0..3 {
+                            let jr = jrows.col(r);
+                            out[r] = [jr.x, jr.y, jr.z, ak_cols[r].x, ak_cols[r].y, ak_cols[r].z];
+                            out[r + 3] = [
+                                ah_cols[0][r],
+                                ah_cols[1][r],
+                                ah_cols[2][r],
+                                br_cols[0][r],
+                                br_cols[1][r],
+                                br_cols[2][r],
+                            ];
+                            out[r + 3][r + 3] += im;
+                        }
+                    }
                 }
             }
             NodeKind::Join {
@@ -109,33 +135,6 @@ fn main_pass(
         }
     }
     Ok(())
-}
-
-/// Cholesky factor of `M` computed on the Jacobi-scaled `E M E` (`E = diag(M_ii^-½)`), then
-/// unscaled (`L = E⁻¹ L'`): rotational and translational entries differ by the square of the
-/// lever arms (a 100,000-link chain is 10 km long), and the scaled pivots do not.
-#[inline]
-fn scaled_cholesky(m: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
-    let mut e = [0.0; 6];
-    for i in 0..6 {
-        if m[i][i].is_nan() || m[i][i] <= 0.0 {
-            return None;
-        }
-        e[i] = 1.0 / m[i][i].sqrt();
-    }
-    let mut ms = [[0.0; 6]; 6];
-    for i in 0..6 {
-        for j in 0..6 {
-            ms[i][j] = m[i][j] * e[i] * e[j];
-        }
-    }
-    let mut l = crate::small::cholesky(&ms, 6)?;
-    for i in 0..6 {
-        for j in 0..=i {
-            l[i][j] /= e[i];
-        }
-    }
-    Some(l)
 }
 
 /// `L⁻¹ b` (forward substitution).
@@ -173,9 +172,11 @@ fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
 
 /// Joins A and B at `joint` into node `n` (DESIGN §5, any handle count), through the
 /// Cholesky factor of `Φ^A_jj + Φ^B_jj = L Lᵀ` so that V and W never appear explicitly:
-/// with `Z = L⁻¹ S`, `D = ZᵀZ`, `Y_h = Φ_hj L⁻ᵀ` and `P_h = Y_h Z`,
-/// `Φ_hj W Φ_jk = Y_h Y_kᵀ − P_h D⁻¹ P_kᵀ`, and `γ = W β + V S D⁻¹ Q
-/// = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − Q))` with `w = L⁻¹ β`.
+/// with `Z = L⁻¹ S`, `D = ZᵀZ` and the orthogonal projector `Q = 1 − Z D⁻¹ Zᵀ`,
+/// `W = L⁻ᵀ Q L⁻¹`, so `Φ_hj W Φ_jk = Ỹ_hᵀ Ỹ_k` with `Ỹ_h = Q L⁻¹ Φ_jh` (one Gram product per
+/// block; `Q = QᵀQ`), and `γ = W β + V S D⁻¹ Q_τ = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − τ))` with
+/// `w = L⁻¹ β`.
+#[inline(never)]
 fn join(
     model: &Model,
     tau: &[f64],
@@ -193,7 +194,7 @@ fn join(
     let (ja, jb) = (d.ja[n], d.jb[n]);
     // L Lᵀ = Φ^A_jj + Φ^B_jj
     let sum = (*phi(d, a, nha, ja, ja) + *phi(d, b, nhb, jb, jb)).0;
-    let l = scaled_cholesky(&sum).ok_or_else(|| DynamicsError::Singular {
+    let l = crate::small::cholesky6(&sum).ok_or_else(|| DynamicsError::Singular {
         joint: body.joint_name(),
         detail: "Φ_jj^A + Φ_jj^B is not positive definite",
     })?;
@@ -222,115 +223,192 @@ fn join(
     }
     d.dinv[joint] = dm;
     d.l[n] = l;
+    // Z D⁻¹ (columns), for the projector Q = 1 − (Z D⁻¹) Zᵀ.
+    let mut zd = [[0.0; 6]; 6];
+    for p in 0..k {
+        for q in 0..k {
+            let x = dm.a[p][q];
+            let zq = &d.z[vo + q];
+            for i in 0..6 {
+                zd[p][i] += x * zq[i];
+            }
+        }
+    }
     // β = b_j^A − b_j^B + c;  γ = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − Q)),  w = L⁻¹ β
     let beta = d.b[d.hoff[a] + ja] - d.b[d.hoff[b] + jb] + shift(data.c[joint]);
     d.beta[n] = beta;
     let mut w = solve_l(&l, &beta.to_array());
-    let mut t = [0.0; 6];
     for p in 0..k {
-        t[p] = dot6(&d.z[vo + p], &w) - tau[vo + p];
-    }
-    let mut r = [0.0; 6];
-    dm.mul(&t[..k], &mut r[..k]);
-    for p in 0..k {
-        let z = d.z[vo + p];
+        let t = dot6(&d.z[vo + p], &w) - tau[vo + p];
         for i in 0..6 {
-            w[i] -= z[i] * r[p];
+            w[i] -= zd[p][i] * t;
         }
     }
-    let gamma = SpatialForce::from_array(solve_lt(&l, &w));
-    // Yᵀ_h = L⁻¹ Φ_jh (Φ_jh = Φ_hjᵀ is stored; forward substitution on whole rows, which
-    // vectorises), P_h = Y_h Z, R_h = P_h D⁻¹. Row i of `d.y[h]` is column i of Y_h.
+    let gamma = solve_lt(&l, &w);
+    // Ỹ_h = Q L⁻¹ Φ_jh: forward substitution on whole rows of Φ_jh (vectorises), then the
+    // projection Ỹ −= (Z D⁻¹)(Zᵀ Ỹ) (k rank-1 row updates).
     let (hc, bc) = (d.hoff[n], d.boff[n]);
+    let (boa, bob) = (d.boff[a], d.boff[b]);
     for h in 0..nhc {
         let (side, i) = d.from[hc + h];
         let gt = match side {
-            Side::A => phi(d, a, nha, ja, i),
-            Side::B => phi(d, b, nhb, jb, i),
+            Side::A => &d.phi[boa + ja * nha + i].0,
+            Side::B => &d.phi[bob + jb * nhb + i].0,
         };
-        let mut yt = [[0.0; 6]; 6];
-        for r in 0..6 {
-            let mut v = gt.0[r];
-            for q in 0..r {
-                let lrq = l[r][q];
-                for c in 0..6 {
-                    v[c] -= lrq * yt[q][c];
-                }
-            }
-            let inv = 1.0 / l[r][r];
-            for c in 0..6 {
-                yt[r][c] = v[c] * inv;
-            }
-        }
-        let mut pm = [[0.0; 6]; 6];
-        let mut rm = [[0.0; 6]; 6];
-        for p in 0..k {
-            let z = d.z[vo + p];
-            let mut col = [0.0; 6];
-            for r in 0..6 {
-                for c in 0..6 {
-                    col[c] += yt[r][c] * z[r];
-                }
-            }
-            for row in 0..6 {
-                pm[row][p] = col[row];
-            }
-        }
-        for row in 0..6 {
-            dm.mul(&pm[row][..k], &mut rm[row][..k]);
-        }
-        d.y[h] = Mat6(yt);
-        d.pz[h] = Mat6(pm);
-        d.rz[h] = Mat6(rm);
+        y_tilde(&mut d.y[h], gt, &l, &d.z[vo..vo + k], &zd);
     }
-    // Φ^C blocks: same side Φ_hk − (Y_h Y_kᵀ − R_h P_kᵀ); across +(Y_h Y_kᵀ − R_h P_kᵀ).
+    // Φ^C blocks: same side Φ_hk − Ỹ_hᵀỸ_k; across +Ỹ_hᵀỸ_k. Then b^C.
+    let (src, dst) = d.phi.split_at_mut(bc);
     for h in 0..nhc {
         let (sh, ih) = d.from[hc + h];
         for kk in h..nhc {
             let (sk, ik) = d.from[hc + kk];
-            // m = Y_h Y_kᵀ − R_h P_kᵀ = Σ_i (column i of Y_h)(column i of Y_k)ᵀ − R_h P_kᵀ
-            let mut m = Mat6::ZERO;
-            let (yh, yk, rh, pk) = (&d.y[h].0, &d.y[kk].0, &d.rz[h].0, &d.pz[kk].0);
-            for i in 0..6 {
-                for row in 0..6 {
-                    let x = yh[i][row];
-                    for col in 0..6 {
-                        m.0[row][col] += x * yk[i][col];
-                    }
-                }
-            }
-            for p in 0..k {
-                for row in 0..6 {
-                    let x = rh[row][p];
-                    for col in 0..6 {
-                        m.0[row][col] -= x * pk[col][p];
-                    }
-                }
-            }
-            let blk = match (sh, sk) {
-                (Side::A, Side::A) => *phi(d, a, nha, ih, ik) - m,
-                (Side::B, Side::B) => *phi(d, b, nhb, ih, ik) - m,
-                _ => m,
+            // Row r of Ỹ_hᵀ Ỹ_k is Σ_i Ỹ_h[i][r] · (row i of Ỹ_k): six accumulators per row.
+            let (yh, yk) = (&d.y[h], &d.y[kk]);
+            let old = match (sh, sk) {
+                (Side::A, Side::A) => Some(&src[boa + ih * nha + ik].0),
+                (Side::B, Side::B) => Some(&src[bob + ih * nhb + ik].0),
+                _ => None,
             };
+            let out = &mut dst[h * nhc + kk].0;
             if h == kk {
-                d.phi[bc + h * nhc + h] = *SymMat6::from_mat6(&blk).as_mat6();
+                gram_sym_into(out, yh, old);
             } else {
-                d.phi[bc + h * nhc + kk] = blk;
-                d.phi[bc + kk * nhc + h] = blk.transpose();
+                gram_into(out, yh, yk, old);
+            }
+            if h == kk {
+                // Symmetric: mirror the upper triangle (round-off would differ below).
+                for r in 0..6 {
+                    for c in 0..r {
+                        out[r][c] = out[c][r];
+                    }
+                }
+            } else {
+                let t = Mat6(*out).transpose();
+                dst[kk * nhc + h] = t;
             }
         }
-        // b^C_h = b^A_h − Φ^A_hj γ  or  b^B_h + Φ^B_hj γ
+        // b^C_h = b^A_h − Φ^A_hj γ  or  b^B_h + Φ^B_hj γ  (Φ_hj γ = Φ_jhᵀ γ)
         d.b[hc + h] = match sh {
-            Side::A => d.b[d.hoff[a] + ih] - phi(d, a, nha, ih, ja).force_to_motion(gamma),
-            Side::B => d.b[d.hoff[b] + ih] + phi(d, b, nhb, ih, jb).force_to_motion(gamma),
+            Side::A => {
+                d.b[d.hoff[a] + ih]
+                    - SpatialMotion::from_array(src[boa + ja * nha + ih].tr_mul_vec(&gamma))
+            }
+            Side::B => {
+                d.b[d.hoff[b] + ih]
+                    + SpatialMotion::from_array(src[bob + jb * nhb + ih].tr_mul_vec(&gamma))
+            }
         };
     }
     Ok(())
 }
 
+/// `Ỹ = Q L⁻¹ G` for `G = Φ_jh`: forward substitution on whole rows (vectorises), then the
+/// projection `Ỹ −= (Z D⁻¹)(Zᵀ Ỹ)` (one rank-1 row update per column of `Z`).
+#[inline(never)]
+fn y_tilde(
+    yt: &mut [[f64; 6]; 6],
+    gt: &[[f64; 6]; 6],
+    l: &[[f64; 6]; 6],
+    z: &[[f64; 6]],
+    zd: &[[f64; 6]; 6],
+) {
+    for r in 0..6 {
+        let mut v = gt[r];
+        for q in 0..r {
+            let lrq = l[r][q];
+            for c in 0..6 {
+                v[c] -= lrq * yt[q][c];
+            }
+        }
+        let inv = 1.0 / l[r][r];
+        for c in 0..6 {
+            yt[r][c] = v[c] * inv;
+        }
+    }
+    for (zp, zdp) in z.iter().zip(zd) {
+        let mut zy = [0.0; 6];
+        for r in 0..6 {
+            for c in 0..6 {
+                zy[c] += zp[r] * yt[r][c];
+            }
+        }
+        for r in 0..6 {
+            let x = zdp[r];
+            for c in 0..6 {
+                yt[r][c] -= x * zy[c];
+            }
+        }
+    }
+}
+
+/// `out = old − Ỹ_hᵀ Ỹ_k` (or `+Ỹ_hᵀ Ỹ_k` without `old`): row r is
+/// `Σ_i Ỹ_h[i][r] · (row i of Ỹ_k)`, six accumulators per row.
+#[inline(never)]
+fn gram_into(
+    out: &mut [[f64; 6]; 6],
+    yh: &[[f64; 6]; 6],
+    yk: &[[f64; 6]; 6],
+    old: Option<&[[f64; 6]; 6]>,
+) {
+    for r in 0..6 {
+        let mut acc = [0.0; 6];
+        for i in 0..6 {
+            let x = yh[i][r];
+            let yki = &yk[i];
+            for c in 0..6 {
+                acc[c] += x * yki[c];
+            }
+        }
+        match old {
+            Some(o) => {
+                for c in 0..6 {
+                    out[r][c] = o[r][c] - acc[c];
+                }
+            }
+            None => out[r] = acc,
+        }
+    }
+}
+
+/// [`gram_into`] for a diagonal block (`Ỹ_k = Ỹ_h`, symmetric): only the entries on and above
+/// the diagonal, in pairs of columns (rows 2p and 2p+1 start at column 2p); the caller mirrors.
+#[inline(never)]
+fn gram_sym_into(out: &mut [[f64; 6]; 6], y: &[[f64; 6]; 6], old: Option<&[[f64; 6]; 6]>) {
+    gram_rows::<0>(out, y, old);
+    gram_rows::<2>(out, y, old);
+    gram_rows::<4>(out, y, old);
+}
+
+#[inline(always)]
+fn gram_rows<const C0: usize>(
+    out: &mut [[f64; 6]; 6],
+    y: &[[f64; 6]; 6],
+    old: Option<&[[f64; 6]; 6]>,
+) {
+    for r in C0..C0 + 2 {
+        let mut acc = [0.0; 6];
+        for i in 0..6 {
+            let x = y[i][r];
+            for c in C0..6 {
+                acc[c] += x * y[i][c];
+            }
+        }
+        match old {
+            Some(o) => {
+                for c in C0..6 {
+                    out[r][c] = o[r][c] - acc[c];
+                }
+            }
+            None => out[r][C0..6].copy_from_slice(&acc[C0..6]),
+        }
+    }
+}
+
 /// Top-down: with `y = β + Σ_{k∈A} Φ^A_jk f_k − Σ_{k∈B} Φ^B_jk f_k` over C's handle forces
 /// and `w = L⁻¹ y`: `q̈ = D⁻¹ (Q − Zᵀ w)` (= `D⁻¹ (Q − Sᵀ V y)`) and the joint force
 /// `f = L⁻ᵀ (w + Z q̈)` (= `W y + V S D⁻¹ Q`).
+#[inline(never)]
 fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
     let tree = &model.assembly;
     for n in (0..tree.nodes.len()).rev() {

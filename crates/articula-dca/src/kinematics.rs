@@ -2,9 +2,49 @@
 //! velocity-product terms every algorithm shares.
 
 use crate::Data;
-use articula_model::{JointKind, Model};
+use articula_model::{Body, JointKind, Model};
 use articula_spatial::{SpatialMotion, SpatialTransform};
 use glam::{DMat3, DVec3};
+
+/// How forward kinematics handles a body's joint: the common single revolute joint about a
+/// coordinate axis of its frame, with a joint origin that only translates, takes a fast path
+/// (a rotation of two columns instead of 3×3 products).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum FkPlan {
+    /// Anything else: the general composition.
+    General,
+    /// One revolute/continuous joint about `sign · e_axis`, pure-translation origin.
+    AxisRevolute {
+        /// The axis index.
+        k: usize,
+        /// ±1: the axis direction.
+        sign: f64,
+    },
+}
+
+impl FkPlan {
+    pub(crate) fn of(body: &Body) -> FkPlan {
+        let [part] = body.joint.as_slice() else {
+            return FkPlan::General;
+        };
+        if !matches!(part.kind, JointKind::Revolute | JointKind::Continuous)
+            || part.origin.e != DMat3::IDENTITY
+        {
+            return FkPlan::General;
+        }
+        let ax = part.axis;
+        for k in 0..3 {
+            let mut unit = DVec3::ZERO;
+            unit[k] = 1.0;
+            for sign in [1.0, -1.0] {
+                if ax == unit * sign {
+                    return FkPlan::AxisRevolute { k, sign };
+                }
+            }
+        }
+        FkPlan::General
+    }
+}
 
 /// Computes, for every body in order (parents first): `X_{W←i}`, the world-frame inertia, the
 /// spatial velocity `vᵢ`, the world-frame subspace columns `S`, and
@@ -17,45 +57,160 @@ use glam::{DMat3, DVec3};
 /// a nearby point keeps DCA accurate to ~1e-12 however far the body wanders (about a point 1 m
 /// away it loses two digits).
 pub fn forward_kinematics(model: &Model, q: &[f64], qd: &[f64], data: &mut Data) {
-    data.origin = match model.bodies.first() {
+    data.origin = computation_origin(model, q);
+    kinematics(model, q, qd, data, |_, _| {});
+}
+
+/// The origin of the computation frame for configuration `q` (see [`forward_kinematics`]).
+pub(crate) fn computation_origin(model: &Model, q: &[f64]) -> DVec3 {
+    match model.bodies.first() {
         Some(b) if b.parent.is_none() && b.joint[0].kind == JointKind::Floating => {
             let qo = b.joint[0].q_offset;
             DVec3::new(q[qo], q[qo + 1], q[qo + 2])
         }
         _ => DVec3::ZERO,
-    };
+    }
+}
+
+/// The kinematics loop about `data.origin`; `per_body(i, data)` runs right after body `i` is
+/// done, while its numbers are still in cache (ABA initialises its articulated quantities
+/// there).
+#[inline(always)]
+pub(crate) fn kinematics(
+    model: &Model,
+    q: &[f64],
+    qd: &[f64],
+    data: &mut Data,
+    mut per_body: impl FnMut(usize, &mut Data),
+) {
     // X_{C←W} = xlt(origin)
     let x_cw = SpatialTransform::xlt(data.origin);
     for (i, body) in model.bodies.iter().enumerate() {
-        let (mut x, mut v) = match body.parent {
+        let (x0, v0) = match body.parent {
             Some(p) => (data.x[p], data.v[p]),
             None => (x_cw, SpatialMotion::ZERO),
         };
-        let mut c = SpatialMotion::ZERO;
-        for part in &body.joint {
-            // X_{W←k} = X_{W←k-1} · origin · motion(q); for a rotation rot(R_q) the second
-            // product is just e = e R_q, r = R_qᵀ r.
-            x = x * part.origin;
-            match part.kind {
-                JointKind::Revolute | JointKind::Continuous => {
-                    let rq = DMat3::from_axis_angle(part.axis, q[part.q_offset]);
-                    x = SpatialTransform::new(x.e * rq, rq.transpose() * x.r);
+        let (x, v, c) = match data.fk_plan[i] {
+            FkPlan::AxisRevolute { k, sign, .. } => {
+                let part = &body.joint[0];
+                let (vo, qi) = (part.v_offset, sign * q[part.q_offset]);
+                let (x, s) = match k {
+                    0 => axis_revolute::<0, 1, 2>(x0, part.origin.r, qi, sign),
+                    1 => axis_revolute::<1, 2, 0>(x0, part.origin.r, qi, sign),
+                    _ => axis_revolute::<2, 0, 1>(x0, part.origin.r, qi, sign),
+                };
+                data.s[vo] = s;
+                let vj = s * qd[vo];
+                (x, v0 + vj, v0.cross_motion(vj))
+            }
+            FkPlan::General => {
+                let (mut x, mut v) = (x0, v0);
+                let mut c = SpatialMotion::ZERO;
+                for part in &body.joint {
+                    // X_{W←k} = X_{W←k-1} · origin · motion(q); for a rotation rot(R_q) the
+                    // second product is just e = e R_q, r = R_qᵀ r.
+                    x = x * part.origin;
+                    match part.kind {
+                        JointKind::Revolute | JointKind::Continuous => {
+                            let rq = DMat3::from_axis_angle(part.axis, q[part.q_offset]);
+                            x = SpatialTransform::new(x.e * rq, rq.transpose() * x.r);
+                        }
+                        _ => {
+                            x = x * part
+                                .motion_transform(&q[part.q_offset..part.q_offset + part.nq()])
+                        }
+                    }
+                    let mut vj = SpatialMotion::ZERO;
+                    for k in 0..part.nv() {
+                        let s = x.apply_motion(part.subspace_column(k));
+                        data.s[part.v_offset + k] = s;
+                        vj += s * qd[part.v_offset + k];
+                    }
+                    c += v.cross_motion(vj);
+                    v += vj;
                 }
-                _ => x = x * part.motion_transform(&q[part.q_offset..part.q_offset + part.nq()]),
+                (x, v, c)
             }
-            let mut vj = SpatialMotion::ZERO;
-            for k in 0..part.nv() {
-                let s = x.apply_motion(part.subspace_column(k));
-                data.s[part.v_offset + k] = s;
-                vj += s * qd[part.v_offset + k];
-            }
-            c += v.cross_motion(vj);
-            v += vj;
-        }
+        };
         data.x[i] = x;
         data.v[i] = v;
         data.c[i] = c;
-        data.inertia[i] = x.apply_inertia(&body.inertia);
+        data.inertia[i] = world_inertia(&x, &body.inertia);
+        per_body(i, data);
+    }
+}
+
+/// `X_{W←i} = X_{W←parent} · xlt(origin) · rot(R_θ)` for a rotation by `θ` about `e_K`, and
+/// the joint's world subspace column `s = [ω; p × ω]` (`ω = sign · E e_K`, `p = −E r` the body
+/// origin): the pure-translation origin adds to `r`, and the rotation mixes columns `A`, `B`
+/// of `E` and entries `A`, `B` of `r` (`(K, A, B)` cyclic).
+#[inline(always)]
+fn axis_revolute<const K: usize, const A: usize, const B: usize>(
+    x0: SpatialTransform,
+    origin_r: DVec3,
+    theta: f64,
+    sign: f64,
+) -> (SpatialTransform, SpatialMotion) {
+    let mut r = (origin_r + x0.r).to_array();
+    let (sn, cs) = theta.sin_cos();
+    let mut e = x0.e.to_cols_array_2d();
+    let (ca, cb) = (e[A], e[B]);
+    for j in 0..3 {
+        e[A][j] = ca[j] * cs + cb[j] * sn;
+        e[B][j] = cb[j] * cs - ca[j] * sn;
+    }
+    let (ra, rb) = (r[A], r[B]);
+    r[A] = cs * ra + sn * rb;
+    r[B] = cs * rb - sn * ra;
+    let e = DMat3::from_cols_array_2d(&e);
+    let r = DVec3::from_array(r);
+    let w = e.col(K) * sign;
+    let p = -(e * r);
+    (
+        SpatialTransform::new(e, r),
+        SpatialMotion::new(w, p.cross(w)),
+    )
+}
+
+/// `X* I X⁻¹` for `x = X_{C←body}` (the same as [`SpatialTransform::apply_inertia`], fewer
+/// products): with `p = −E r` the body origin and `h_P = E h` the first moment about it,
+/// `Ī_O = E Ī Eᵀ − h_P pᵀ − p h_Pᵀ − m p pᵀ + (2 p·h_P + m p·p) 1` (parallel axes),
+/// `h_O = h_P + m p`; `E Ī Eᵀ` on its upper triangle only.
+#[inline(always)]
+fn world_inertia(
+    x: &SpatialTransform,
+    i: &articula_spatial::SpatialInertia,
+) -> articula_spatial::SpatialInertia {
+    let e = x.e;
+    let p = -(e * x.r);
+    let m = i.mass;
+    let hp = e * i.h;
+    // Rows of E and of T = E Ī (glam stores columns).
+    let er = [
+        DVec3::new(e.x_axis.x, e.y_axis.x, e.z_axis.x),
+        DVec3::new(e.x_axis.y, e.y_axis.y, e.z_axis.y),
+        DVec3::new(e.x_axis.z, e.y_axis.z, e.z_axis.z),
+    ];
+    let b = &i.ibar;
+    let trow = |r: DVec3| DVec3::new(r.dot(b.x_axis), r.dot(b.y_axis), r.dot(b.z_axis));
+    let tr = [trow(er[0]), trow(er[1]), trow(er[2])];
+    let d = 2.0 * p.dot(hp) + m * p.dot(p);
+    let mp = p * m;
+    let g = hp + mp * 0.5; // h_P pᵀ + p h_Pᵀ + m p pᵀ = g pᵀ + p gᵀ
+    let xx = tr[0].dot(er[0]) - 2.0 * g.x * p.x + d;
+    let yy = tr[1].dot(er[1]) - 2.0 * g.y * p.y + d;
+    let zz = tr[2].dot(er[2]) - 2.0 * g.z * p.z + d;
+    let xy = tr[0].dot(er[1]) - g.x * p.y - p.x * g.y;
+    let xz = tr[0].dot(er[2]) - g.x * p.z - p.x * g.z;
+    let yz = tr[1].dot(er[2]) - g.y * p.z - p.y * g.z;
+    articula_spatial::SpatialInertia {
+        mass: m,
+        h: hp + mp,
+        ibar: DMat3::from_cols(
+            DVec3::new(xx, xy, xz),
+            DVec3::new(xy, yy, yz),
+            DVec3::new(xz, yz, zz),
+        ),
     }
 }
 

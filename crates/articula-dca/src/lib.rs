@@ -42,7 +42,7 @@ mod state;
 
 pub use data::Data;
 pub use error::DynamicsError;
-pub use integrate::{integrate_q, step, Integrator};
+pub use integrate::{integrate_floating, integrate_q, step, Integrator};
 pub use kinematics::forward_kinematics;
 pub use state::{SplitMix64, State};
 
@@ -97,13 +97,22 @@ pub fn forward_dynamics<'d>(
     method: Method,
 ) -> Result<&'d [f64], DynamicsError> {
     check_inputs(model, q, qd, tau, f_ext)?;
-    forward_kinematics(model, q, qd, data);
+    data.origin = kinematics::computation_origin(model, q);
     kinematics::forces_to_computation_frame(f_ext, data);
     let f_ext = std::mem::take(&mut data.f_ext_c);
     let result = match method {
-        Method::Dca => dca::dca(model, tau, &f_ext, data),
-        Method::Aba => aba::aba(model, tau, &f_ext, data),
-        Method::Crba => crba::crba(model, tau, &f_ext, data),
+        Method::Dca => {
+            kinematics::kinematics(model, q, qd, data, |_, _| {});
+            dca::dca(model, tau, &f_ext, data)
+        }
+        Method::Aba => {
+            kinematics::kinematics(model, q, qd, data, |i, d| aba::init_body(i, d, &f_ext));
+            aba::aba(model, tau, data)
+        }
+        Method::Crba => {
+            kinematics::kinematics(model, q, qd, data, |_, _| {});
+            crba::crba(model, tau, &f_ext, data)
+        }
     };
     data.f_ext_c = f_ext;
     result?;

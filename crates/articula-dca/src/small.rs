@@ -29,6 +29,42 @@ pub fn cholesky(a: &[[f64; 6]; 6], k: usize) -> Option<[[f64; 6]; 6]> {
     Some(l)
 }
 
+/// Cholesky factor `L` (lower, `L Lᵀ = A`) of a 6×6 symmetric positive definite matrix
+/// (its lower triangle is read), `None` when a pivot is not positive. Fully unrolled.
+#[inline(always)]
+pub fn cholesky6(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
+    let mut l = [[0.0f64; 6]; 6];
+    let mut ok = true;
+    col::<0>(a, &mut l, &mut ok);
+    col::<1>(a, &mut l, &mut ok);
+    col::<2>(a, &mut l, &mut ok);
+    col::<3>(a, &mut l, &mut ok);
+    col::<4>(a, &mut l, &mut ok);
+    col::<5>(a, &mut l, &mut ok);
+    ok.then_some(l)
+}
+
+/// Column `J` of the Cholesky factor (rows J..6), from the columns before it.
+#[inline(always)]
+fn col<const J: usize>(a: &[[f64; 6]; 6], l: &mut [[f64; 6]; 6], ok: &mut bool) {
+    let mut d = a[J][J];
+    for p in 0..J {
+        d -= l[J][p] * l[J][p];
+    }
+    // `!(d > 0)` also catches NaN.
+    *ok &= d > 0.0;
+    let ljj = d.sqrt();
+    l[J][J] = ljj;
+    let inv = 1.0 / ljj;
+    for i in (J + 1)..6 {
+        let mut x = a[i][J];
+        for p in 0..J {
+            x -= l[i][p] * l[J][p];
+        }
+        l[i][J] = x * inv;
+    }
+}
+
 /// A k×k symmetric positive definite matrix, k ≤ 6, row-major in a fixed array.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct SmallSpd {
@@ -86,6 +122,158 @@ impl SmallSpd {
                 s += self.a[i][j] * x[j];
             }
             y[i] = s;
+        }
+    }
+}
+
+/// The packed index of every `(i, j)` (both triangles).
+#[cfg(test)]
+const PIDX: [[usize; 6]; 6] = {
+    let mut t = [[0; 6]; 6];
+    let mut k = 0;
+    let mut i = 0;
+    while i < 6 {
+        let mut j = i;
+        while j < 6 {
+            t[i][j] = k;
+            t[j][i] = k;
+            k += 1;
+            j += 1;
+        }
+        i += 1;
+    }
+    t
+};
+
+/// A symmetric 6×6 matrix stored as its 21 upper-triangle entries (row by row): the
+/// articulated inertias of ABA take 168 bytes instead of 288.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sym6(pub [f64; 21]);
+
+impl Sym6 {
+    pub const ZERO: Sym6 = Sym6([0.0; 21]);
+
+    /// Entry `(i, j)`.
+    #[cfg(test)]
+    pub fn get(&self, i: usize, j: usize) -> f64 {
+        self.0[PIDX[i][j]]
+    }
+
+    /// The spatial inertia `[Ī, h×; h×ᵀ, m 1]`.
+    #[inline]
+    pub fn from_inertia(i: &articula_spatial::SpatialInertia) -> Sym6 {
+        let (b, h, m) = (&i.ibar, i.h, i.mass);
+        // Ī is symmetric: take its upper triangle (column-major glam: b.col(j)[i] = Ī_ij).
+        Sym6([
+            b.x_axis.x, b.y_axis.x, b.z_axis.x, 0.0, -h.z, h.y, // row 0
+            b.y_axis.y, b.z_axis.y, h.z, 0.0, -h.x, // row 1
+            b.z_axis.z, -h.y, h.x, 0.0, // row 2
+            m, 0.0, 0.0, // row 3
+            m, 0.0, // row 4
+            m,   // row 5
+        ])
+    }
+
+    /// `self · x`.
+    #[inline(always)]
+    pub fn mul_vec(&self, x: &[f64; 6]) -> [f64; 6] {
+        let a = &self.0;
+        [
+            a[0] * x[0] + a[1] * x[1] + a[2] * x[2] + a[3] * x[3] + a[4] * x[4] + a[5] * x[5],
+            a[1] * x[0] + a[6] * x[1] + a[7] * x[2] + a[8] * x[3] + a[9] * x[4] + a[10] * x[5],
+            a[2] * x[0] + a[7] * x[1] + a[11] * x[2] + a[12] * x[3] + a[13] * x[4] + a[14] * x[5],
+            a[3] * x[0] + a[8] * x[1] + a[12] * x[2] + a[15] * x[3] + a[16] * x[4] + a[17] * x[5],
+            a[4] * x[0] + a[9] * x[1] + a[13] * x[2] + a[16] * x[3] + a[18] * x[4] + a[19] * x[5],
+            a[5] * x[0] + a[10] * x[1] + a[14] * x[2] + a[17] * x[3] + a[19] * x[4] + a[20] * x[5],
+        ]
+    }
+
+    /// `self += a − alpha · u uᵀ`.
+    #[inline(always)]
+    pub fn add_sub_outer(&mut self, a: &Sym6, u: &[f64; 6], alpha: f64) {
+        let (s, a) = (&mut self.0, &a.0);
+        let au = u.map(|x| alpha * x);
+        s[0] += a[0] - au[0] * u[0];
+        s[1] += a[1] - au[0] * u[1];
+        s[2] += a[2] - au[0] * u[2];
+        s[3] += a[3] - au[0] * u[3];
+        s[4] += a[4] - au[0] * u[4];
+        s[5] += a[5] - au[0] * u[5];
+        s[6] += a[6] - au[1] * u[1];
+        s[7] += a[7] - au[1] * u[2];
+        s[8] += a[8] - au[1] * u[3];
+        s[9] += a[9] - au[1] * u[4];
+        s[10] += a[10] - au[1] * u[5];
+        s[11] += a[11] - au[2] * u[2];
+        s[12] += a[12] - au[2] * u[3];
+        s[13] += a[13] - au[2] * u[4];
+        s[14] += a[14] - au[2] * u[5];
+        s[15] += a[15] - au[3] * u[3];
+        s[16] += a[16] - au[3] * u[4];
+        s[17] += a[17] - au[3] * u[5];
+        s[18] += a[18] - au[4] * u[4];
+        s[19] += a[19] - au[4] * u[5];
+        s[20] += a[20] - au[5] * u[5];
+    }
+
+    /// `self −= u wᵀ` on the upper triangle: summed over the columns of `U` with
+    /// `w_p = Σ_q D⁻¹_pq u_q`, this subtracts the symmetric `U D⁻¹ Uᵀ`.
+    #[inline]
+    pub fn sub_upper_outer(&mut self, u: &[f64; 6], w: &[f64; 6]) {
+        let mut k = 0;
+        for i in 0..6 {
+            for j in i..6 {
+                self.0[k] -= u[i] * w[j];
+                k += 1;
+            }
+        }
+    }
+
+    /// `self += a`.
+    #[inline(always)]
+    pub fn add_assign(&mut self, a: &Sym6) {
+        for k in 0..21 {
+            self.0[k] += a.0[k];
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn packed_layout_and_products_match_the_dense_matrix() {
+        let mut dense = [[0.0; 6]; 6];
+        let mut s = Sym6::ZERO;
+        for i in 0..6 {
+            for j in i..6 {
+                let x = 1.0 + (i * 7 + j * 3) as f64 * 0.37;
+                dense[i][j] = x;
+                dense[j][i] = x;
+                s.0[PIDX[i][j]] = x;
+            }
+        }
+        let x = [0.3, -1.0, 2.0, 0.5, -0.7, 1.1];
+        let y = s.mul_vec(&x);
+        for i in 0..6 {
+            let e: f64 = (0..6).map(|j| dense[i][j] * x[j]).sum();
+            assert!((y[i] - e).abs() < 1e-12);
+            for j in 0..6 {
+                assert_eq!(s.get(i, j), dense[i][j]);
+            }
+        }
+        let inertia = articula_spatial::SpatialInertia::new(
+            2.0,
+            glam::DVec3::new(0.1, -0.2, 0.3),
+            glam::DMat3::from_diagonal(glam::DVec3::new(1.0, 2.0, 3.0)),
+        );
+        let p = Sym6::from_inertia(&inertia);
+        let full = inertia.to_mat6();
+        for i in 0..6 {
+            for j in 0..6 {
+                assert_eq!(p.get(i, j), full.get(i, j), "({i}, {j})");
+            }
         }
     }
 }

@@ -17,6 +17,10 @@ pub struct BenchArgs {
     /// Number of timed calls (default: about one second's worth, at least 100).
     #[arg(long, value_name = "N", value_parser = parse_reps, allow_hyphen_values = true)]
     pub reps: Option<u64>,
+    /// `--method adaptive`: re-select the hybrid body every N steps (1: every timed step
+    /// includes the selection).
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = parse_reps)]
+    pub reselect_every: u64,
 }
 
 /// The seed of the benchmarked state (`State::random(model, SEED, 1.0)`).

@@ -1,0 +1,1064 @@
+//! `cargo xtask bench [--quick] [--peers]`: speed against model size, error against time per
+//! step, the seeds' table, peers beside us. Writes `target/articula-bench/report.md` and its
+//! charts (SVG and PNG).
+//!
+//! - Time per forward-dynamics call of DCA, ABA and CRBA on chains of 10 … 10,000 links
+//!   (`articula_benches::chain`) and the humanoid, on `State::random(model, 42, 1.0)` — the
+//!   criterion benches' state. Quick mode times in-process ([`crate::timing`]); full mode runs
+//!   `cargo bench -p articula-benches --bench dynamics` and reads criterion's medians.
+//! - Error against time per step on the 300-link chain: (a) the acceleration-metric error
+//!   `Σ (q̈ − q̈_exact)²` of one step, `q̈_exact` from the double-double reference
+//!   ([`crate::hp`]); (b) the deviation `‖q(1 s) − q_ref(1 s)‖` from an RK4 reference with a
+//!   ten times smaller step.
+//! - The seeds' table (adaptive budgets × external forces on the 300-link chain).
+//! - `--peers`: Pinocchio's ABA and MuJoCo's `mj_forward` through `peers/peers.py`.
+
+use crate::chart::{self, HeatMap, LogLogPlot, Series};
+use crate::dd::Dd;
+use crate::hp::ReferenceModel;
+use crate::solver::{Runner, Solver, ADAPTIVE_BUDGETS};
+use crate::timing::{self, Timing};
+use articula_dca::{Integrator, SplitMix64, State};
+use articula_model::{LoadOptions, Model};
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::hint::black_box;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
+
+/// Chain sizes of the scaling chart (the criterion benches' sizes).
+pub const CHAIN_SIZES: [usize; 7] = [10, 30, 100, 300, 1000, 3000, 10_000];
+/// Columns of the seeds' table (Redon, Galoppo, Lin 2005): numbers of external forces on the
+/// 300-link chain; its rows are the adaptive budgets [`ADAPTIVE_BUDGETS`] and full DCA.
+pub const SEED_FORCES: [usize; 6] = [1, 5, 10, 20, 50, 250];
+/// The seed of the benchmarked state (as in the criterion benches and `articula bench`).
+pub const SEED: u64 = 42;
+/// Why the adaptive rows are empty.
+pub const ADAPTIVE_PENDING: &str = "Adaptive dynamics (`articula-adaptive`, issue 4) does not \
+exist yet: its rows, points and cells are **pending** — nothing is shown for them until the \
+crate lands and is added as a `Solver` variant in `xtask/src/solver.rs`.";
+
+struct Options {
+    quick: bool,
+    peers: bool,
+    /// Also copy the charts into `docs/img/` and the report to `docs/bench-report.md` (for
+    /// docs/performance.md and the README).
+    publish: bool,
+}
+
+fn parse(args: &[String]) -> Result<Options> {
+    let mut o = Options {
+        quick: false,
+        peers: false,
+        publish: false,
+    };
+    for a in args {
+        match a.as_str() {
+            "--quick" => o.quick = true,
+            "--peers" => o.peers = true,
+            "--publish" => o.publish = true,
+            _ => {
+                return Err(format!(
+                    "unexpected argument {a:?}; usage: cargo xtask bench [--quick] [--peers] [--publish]"
+                )
+                .into())
+            }
+        }
+    }
+    Ok(o)
+}
+
+/// One row of the speed table: a model and the time per call of each method (µs).
+struct SpeedRow {
+    model: String,
+    links: usize,
+    times: BTreeMap<String, f64>,
+}
+
+/// A peer's µs per call, its q̈ by joint name (when comparable) and a note on how it ran.
+type PeerResult = (f64, Option<BTreeMap<String, f64>>, String);
+
+/// Result of the peers' script.
+#[derive(Default)]
+struct Peers {
+    /// Why they did not run, when they did not.
+    skipped: Option<String>,
+    versions: Vec<(String, String)>,
+    /// (model, peer) → (µs per call, q̈ by joint name, note)
+    results: BTreeMap<(String, String), PeerResult>,
+    /// (model, peer) → peak resident memory of the process that ran it (MiB).
+    rss: BTreeMap<(String, String), f64>,
+    errors: Vec<String>,
+}
+
+pub fn run(root: &Path, args: &[String]) -> Result<()> {
+    let opts = parse(args)?;
+    let started = Instant::now();
+    let out = root.join("target/articula-bench");
+    std::fs::create_dir_all(out.join("urdf"))?;
+    let budget = if opts.quick {
+        Duration::from_millis(250)
+    } else {
+        Duration::from_secs(1)
+    };
+
+    // Models: the chains (written out as URDF for the peers) and the humanoid.
+    let mut models: Vec<(String, PathBuf, Model)> = Vec::new();
+    for n in CHAIN_SIZES {
+        let path = out.join("urdf").join(format!("chain{n}.urdf"));
+        std::fs::write(&path, articula_benches::chain_urdf(n))?;
+        models.push((format!("chain{n}"), path, articula_benches::chain(n)));
+    }
+    let hpath = root.join("models/humanoid.urdf");
+    let humanoid = Model::from_urdf_file(&hpath, &LoadOptions::default())?;
+    models.push(("humanoid".into(), hpath, humanoid));
+
+    // 1. Speed.
+    let mut rows: Vec<SpeedRow> = Vec::new();
+    let criterion = if opts.quick {
+        None
+    } else {
+        Some(run_criterion(root)?)
+    };
+    for (name, _, model) in &models {
+        let state = State::random(model, SEED, 1.0);
+        let mut times = BTreeMap::new();
+        for solver in Solver::all() {
+            if !solver.runs_at(model.nv) {
+                continue;
+            }
+            let t = match &criterion {
+                Some(c) => c
+                    .get(&(name.clone(), solver.label()))
+                    .copied()
+                    .ok_or_else(|| {
+                        format!("criterion has no estimate for {} on {name}", solver.label())
+                    })?,
+                None => {
+                    let t = time_forward(model, solver, &state, budget)?;
+                    println!(
+                        "  {name:<10} {:<5} {:>12.2} µs  (median of {} batches of {})",
+                        solver.label(),
+                        t.median_us,
+                        t.samples,
+                        t.batch
+                    );
+                    t.median_us
+                }
+            };
+            times.insert(solver.label(), t);
+        }
+        rows.push(SpeedRow {
+            model: name.clone(),
+            links: model.bodies.len(),
+            times,
+        });
+    }
+
+    // 2. Accuracy on the 300-link chain.
+    let chain300 = articula_benches::chain(300);
+    let acc_state = State::random(&chain300, SEED, 1.0);
+    let reference = ReferenceModel::new(&chain300)?;
+    let exact: Vec<f64> = reference
+        .aba::<Dd>(&acc_state)
+        .iter()
+        .map(|x| x.to_f64())
+        .collect();
+    let mut accel: Vec<(String, f64, f64)> = Vec::new(); // label, µs, Σ(Δq̈)²
+    for solver in Solver::all() {
+        let mut r = Runner::new(&chain300, solver);
+        let qdd = r.forward(&acc_state)?.to_vec();
+        let t = speed_of(&rows, "chain300", &solver.label());
+        accel.push((solver.label(), t, metric_error(&qdd, &exact)));
+    }
+    println!("  one-step errors: {accel:?}");
+    let traj = trajectories(&chain300)?;
+    println!(
+        "  trajectory reference check {:.3e} rad",
+        traj.reference_check
+    );
+
+    // 3. The seeds' table: a row per adaptive budget (pending while the solver does not
+    // exist), then full DCA.
+    let mut seeds: SeedsTable = Vec::new();
+    let rows_solvers = ADAPTIVE_BUDGETS
+        .iter()
+        .map(|&b| (format!("adaptive {b}"), Solver::adaptive(b)))
+        .chain(std::iter::once((
+            "full DCA (300)".to_string(),
+            Some(Solver::Exact(articula_dca::Method::Dca)),
+        )));
+    for (label, solver) in rows_solvers {
+        let mut cells = Vec::new();
+        for &k in &SEED_FORCES {
+            cells.push(match solver {
+                Some(solver) => {
+                    let t = time_seeds_step(&chain300, solver, k, budget / 2)?;
+                    println!(
+                        "  seeds' table: {label} with {k} forces {:.1} µs",
+                        t.median_us
+                    );
+                    Some(t.median_us)
+                }
+                None => None,
+            });
+        }
+        seeds.push((label, cells));
+    }
+
+    // 4. Peers.
+    let peers = if opts.peers {
+        run_peers(root, &out, &models, &acc_state, &chain300, budget)
+    } else {
+        Peers {
+            skipped: Some("not requested (run `cargo xtask bench --peers`)".into()),
+            ..Peers::default()
+        }
+    };
+    for ((model, peer), (t, _, _)) in &peers.results {
+        println!("  {model:<10} {peer:<18} {t:>12.2} µs");
+        if let Some(row) = rows.iter_mut().find(|r| &r.model == model) {
+            row.times.insert(peer.clone(), *t);
+        }
+    }
+    for (model, peer) in peers.results.keys() {
+        if model == "chain300" {
+            if let Some((t, Some(qdd), _)) = peers.results.get(&(model.clone(), peer.clone())) {
+                let v: Vec<f64> = (1..=300)
+                    .map(|i| qdd.get(&format!("joint{i}")).copied().unwrap_or(f64::NAN))
+                    .collect();
+                accel.push((peer.clone(), *t, metric_error(&v, &exact)));
+            }
+        }
+    }
+
+    // Charts and report.
+    let mut files = Vec::new();
+    files.extend(chart_speed(&out, &rows)?);
+    files.extend(chart_accel(&out, &accel)?);
+    files.extend(chart_traj(&out, &traj)?);
+    files.extend(chart_seeds(&out, &seeds)?);
+    let report = report(
+        &opts,
+        &rows,
+        &accel,
+        &traj,
+        &seeds,
+        &peers,
+        &files,
+        started.elapsed(),
+    );
+    let path = out.join("report.md");
+    std::fs::write(&path, report)?;
+    println!("wrote {}", path.display());
+    for f in &files {
+        println!("wrote {}", f.display());
+    }
+    if opts.publish {
+        let img = root.join("docs/img");
+        std::fs::create_dir_all(&img)?;
+        for f in &files {
+            let to = img.join(f.file_name().ok_or("chart without a file name")?);
+            std::fs::copy(f, &to)?;
+            println!("copied to {}", to.display());
+        }
+    }
+    if opts.publish {
+        // The report beside the charts, for docs/performance.md to link.
+        let mut text = std::fs::read_to_string(&path)?;
+        for f in &files {
+            let name = f.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+            text = text.replace(&format!("]({name})"), &format!("](img/{name})"));
+        }
+        let to = root.join("docs/bench-report.md");
+        std::fs::write(&to, text)?;
+        println!("copied the report to {}", to.display());
+    }
+    println!("bench took {:.1} s", started.elapsed().as_secs_f64());
+    Ok(())
+}
+
+fn speed_of(rows: &[SpeedRow], model: &str, label: &str) -> f64 {
+    rows.iter()
+        .find(|r| r.model == model)
+        .and_then(|r| r.times.get(label).copied())
+        .unwrap_or(f64::NAN)
+}
+
+/// `Σ (a − b)²`: the acceleration metric (identity weights) of the difference.
+pub fn metric_error(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum()
+}
+
+fn time_forward(model: &Model, solver: Solver, state: &State, budget: Duration) -> Result<Timing> {
+    let mut r = Runner::new(model, solver);
+    Ok(timing::time(budget, || {
+        r.forward(black_box(state)).map(|q| {
+            black_box(q[0]);
+        })
+    })?)
+}
+
+/// The seeds' table: per row (label), per number of forces, µs per step (`None`: pending).
+type SeedsTable = Vec<(String, Vec<Option<f64>>)>;
+
+/// One semi-implicit Euler step of `solver` (dt = 1 ms) on `model` with `k` external forces
+/// (1 N, random directions, at the origins of `k` bodies spread along the chain).
+fn time_seeds_step(model: &Model, solver: Solver, k: usize, budget: Duration) -> Result<Timing> {
+    let mut state = State::random(model, SEED, 1.0);
+    let n = model.bodies.len();
+    let mut rng = SplitMix64(7);
+    for j in 0..k {
+        let body = (j * n) / k + n / (2 * k);
+        let d = glam::DVec3::new(
+            rng.uniform(-1.0, 1.0),
+            rng.uniform(-1.0, 1.0),
+            rng.uniform(-1.0, 1.0),
+        )
+        .normalize();
+        // A force at the body's origin, built from its pose at the start (world wrench).
+        let mut data = articula_dca::Data::new(model);
+        articula_dca::forward_kinematics(model, &state.q, &state.qd, &mut data);
+        state.f_ext[body.min(n - 1)] = data.point_force(body.min(n - 1), glam::DVec3::ZERO, d);
+    }
+    let start = state.clone();
+    let mut r = Runner::new(model, solver);
+    Ok(timing::time(budget, || {
+        // Every timed step starts from the same state (the copy costs ~1 µs of ~500).
+        state.clone_from(&start);
+        r.step(&mut state, Integrator::SemiImplicitEuler, 1e-3)
+    })?)
+}
+
+/// One trajectory run: method, integrator, time per step, deviation after 1 s.
+pub struct TrajPoint {
+    pub label: String,
+    pub integrator: Integrator,
+    pub us_per_step: f64,
+    pub deviation: f64,
+}
+
+/// Trajectory study on `model`: from a gentle start (angles up to 0.05 rad, at rest, τ = 0),
+/// 1 s at dt = 1 ms with each method and integrator, against an RK4 run with ABA at
+/// dt = 0.1 ms; the reference's own error is estimated from an RK4 run at dt = 0.2 ms.
+pub struct Traj {
+    pub points: Vec<TrajPoint>,
+    /// `‖q_ref(dt = 0.2 ms) − q_ref(dt = 0.1 ms)‖` (RK4's error at 0.1 ms is ~1/16 of it).
+    pub reference_check: f64,
+    pub dt: f64,
+}
+
+/// Largest joint angle of the trajectory study's start (rad).
+const GENTLE: f64 = 0.05;
+
+fn gentle_start(model: &Model) -> State {
+    let mut s = State::neutral(model);
+    let mut rng = SplitMix64(3);
+    for q in s.q.iter_mut() {
+        *q = rng.uniform(-GENTLE, GENTLE);
+    }
+    s
+}
+
+fn run_traj(model: &Model, solver: Solver, integ: Integrator, dt: f64) -> Result<(Vec<f64>, f64)> {
+    let mut r = Runner::new(model, solver);
+    let mut s = gentle_start(model);
+    let steps = (1.0 / dt).round() as usize;
+    let t = Instant::now();
+    for _ in 0..steps {
+        r.step(&mut s, integ, dt)?;
+    }
+    Ok((s.q, t.elapsed().as_secs_f64() * 1e6 / steps as f64))
+}
+
+fn norm_diff(a: &[f64], b: &[f64]) -> f64 {
+    metric_error(a, b).sqrt()
+}
+
+fn trajectories(model: &Model) -> Result<Traj> {
+    let aba = Solver::Exact(articula_dca::Method::Aba);
+    let (q_ref, _) = run_traj(model, aba, Integrator::Rk4, 1e-4)?;
+    let (q_ref2, _) = run_traj(model, aba, Integrator::Rk4, 2e-4)?;
+    let dt = 1e-3;
+    let mut points = Vec::new();
+    for solver in Solver::all() {
+        for integ in [Integrator::SemiImplicitEuler, Integrator::Rk4] {
+            let (q, us) = run_traj(model, solver, integ, dt)?;
+            let p = TrajPoint {
+                label: solver.label(),
+                integrator: integ,
+                us_per_step: us,
+                deviation: norm_diff(&q, &q_ref),
+            };
+            println!(
+                "  trajectory {} {:?}: {:.1} µs/step, deviation {:.3e} rad",
+                p.label, integ, us, p.deviation
+            );
+            points.push(p);
+        }
+    }
+    Ok(Traj {
+        points,
+        reference_check: norm_diff(&q_ref2, &q_ref),
+        dt,
+    })
+}
+
+/// Runs criterion and reads the median of each benchmark: group `chain` (ids
+/// `<method>/<links>`) and `humanoid` (`<method>/34dof`).
+fn run_criterion(root: &Path) -> Result<BTreeMap<(String, String), f64>> {
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    println!("running: cargo bench -p articula-benches --bench dynamics");
+    let status = Command::new(cargo)
+        .current_dir(root)
+        .args(["bench", "-p", "articula-benches", "--bench", "dynamics"])
+        .status()?;
+    if !status.success() {
+        return Err(format!("cargo bench failed ({status})").into());
+    }
+    read_criterion(&root.join("target/criterion"))
+}
+
+/// Reads criterion's median estimates (ns) under `dir` as µs, keyed by (model, METHOD).
+fn read_criterion(dir: &Path) -> Result<BTreeMap<(String, String), f64>> {
+    let mut out = BTreeMap::new();
+    for (group, label) in CHAIN_SIZES
+        .iter()
+        .map(|n| ("chain", n.to_string()))
+        .chain(std::iter::once(("humanoid", "34dof".to_string())))
+    {
+        for m in ["dca", "aba", "crba"] {
+            let f = dir
+                .join(group)
+                .join(m)
+                .join(&label)
+                .join("new/estimates.json");
+            let Ok(text) = std::fs::read_to_string(&f) else {
+                continue;
+            };
+            let v: serde_json::Value = serde_json::from_str(&text)?;
+            let ns = v["median"]["point_estimate"]
+                .as_f64()
+                .ok_or_else(|| format!("{}: no median", f.display()))?;
+            let model = if group == "chain" {
+                format!("chain{label}")
+            } else {
+                "humanoid".into()
+            };
+            out.insert((model, m.to_uppercase()), ns / 1000.0);
+        }
+    }
+    Ok(out)
+}
+
+/// MuJoCo's `mj_forward` factorises the dense mass matrix of a chain: 87 ms at 1000 links on
+/// this machine class and about n³ beyond, so larger chains are not run.
+const MUJOCO_MAX_DOF: usize = 1000;
+
+/// The Python that has the peers: `$ARTICULA_PEERS_PYTHON`, else `target/peers-venv`.
+fn peers_python(root: &Path) -> PathBuf {
+    if let Some(p) = std::env::var_os("ARTICULA_PEERS_PYTHON") {
+        return PathBuf::from(p);
+    }
+    root.join("target/peers-venv/bin/python")
+}
+
+fn run_peers(
+    root: &Path,
+    out: &Path,
+    models: &[(String, PathBuf, Model)],
+    acc_state: &State,
+    chain300: &Model,
+    budget: Duration,
+) -> Peers {
+    let python = peers_python(root);
+    if !python.exists() {
+        return Peers {
+            skipped: Some(format!(
+                "no Python at {} (create it with `python3 -m venv target/peers-venv && \
+                 target/peers-venv/bin/pip install pin mujoco`, or set ARTICULA_PEERS_PYTHON)",
+                python.display()
+            )),
+            ..Peers::default()
+        };
+    }
+    // Each model at the benchmarked state; the 300-link chain at the accuracy state (the same
+    // seed, so the same numbers).
+    let mut specs = Vec::new();
+    for (name, path, model) in models {
+        let s = if name == "chain300" {
+            debug_assert_eq!(model.nv, chain300.nv);
+            acc_state.clone()
+        } else {
+            State::random(model, SEED, 1.0)
+        };
+        let mut joints = serde_json::Map::new();
+        for (_, part) in model.joint_parts() {
+            joints.insert(
+                part.name.clone(),
+                serde_json::json!([
+                    s.q[part.q_offset],
+                    s.qd[part.v_offset],
+                    s.tau[part.v_offset]
+                ]),
+            );
+        }
+        let skip: Vec<&str> = if model.nv > MUJOCO_MAX_DOF {
+            vec!["mujoco"]
+        } else {
+            vec![]
+        };
+        specs.push(serde_json::json!({"name": name, "urdf": path, "joints": joints, "skip": skip}));
+    }
+    let config = serde_json::json!({"budget_s": budget.as_secs_f64(), "models": specs});
+    let cfg = out.join("peers-config.json");
+    if let Err(e) = std::fs::write(&cfg, config.to_string()) {
+        return Peers {
+            skipped: Some(format!("cannot write {}: {e}", cfg.display())),
+            ..Peers::default()
+        };
+    }
+    println!("running peers with {}", python.display());
+    let output = Command::new(&python)
+        .arg(root.join("peers/peers.py"))
+        .arg(&cfg)
+        .output();
+    let output = match output {
+        Ok(o) if o.status.success() => o,
+        Ok(o) => {
+            return Peers {
+                skipped: Some(format!(
+                    "peers/peers.py failed ({}): {}",
+                    o.status,
+                    String::from_utf8_lossy(&o.stderr).trim()
+                )),
+                ..Peers::default()
+            }
+        }
+        Err(e) => {
+            return Peers {
+                skipped: Some(format!("cannot run {}: {e}", python.display())),
+                ..Peers::default()
+            }
+        }
+    };
+    let v: serde_json::Value = match serde_json::from_slice(&output.stdout) {
+        Ok(v) => v,
+        Err(e) => {
+            return Peers {
+                skipped: Some(format!("peers/peers.py printed no JSON: {e}")),
+                ..Peers::default()
+            }
+        }
+    };
+    let mut p = Peers::default();
+    if let Some(vs) = v["versions"].as_object() {
+        p.versions = vs
+            .iter()
+            .map(|(k, v)| (k.clone(), v.as_str().unwrap_or("?").to_string()))
+            .collect();
+    }
+    for r in v["results"].as_array().into_iter().flatten() {
+        let model = r["model"].as_str().unwrap_or("?").to_string();
+        let peer = r["peer"].as_str().unwrap_or("?").to_string();
+        let t = r["us_per_call"].as_f64().unwrap_or(f64::NAN);
+        let qdd = r["qdd"].as_object().map(|m| {
+            m.iter()
+                .map(|(k, v)| (k.clone(), v.as_f64().unwrap_or(f64::NAN)))
+                .collect()
+        });
+        let note = r["note"].as_str().unwrap_or("").to_string();
+        if let Some(m) = r["peak_rss_mib"].as_f64() {
+            p.rss.insert((model.clone(), peer.clone()), m);
+        }
+        p.results.insert((model, peer), (t, qdd, note));
+    }
+    p.errors = v["errors"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|e| e.as_str().unwrap_or("?").to_string())
+        .collect();
+    if p.results.is_empty() {
+        p.skipped = Some(format!("no peer ran: {}", p.errors.join("; ")));
+    }
+    p
+}
+
+// ---------------------------------------------------------------------------------------------
+// Charts
+
+const SPEED_CHART: &str = "time_vs_links";
+const ACCEL_CHART: &str = "error_accel_vs_time";
+const TRAJ_CHART: &str = "error_trajectory_vs_time";
+const SEEDS_CHART: &str = "seeds_table";
+
+fn chart_speed(out: &Path, rows: &[SpeedRow]) -> Result<Vec<PathBuf>> {
+    let mut labels: Vec<String> = Vec::new();
+    for r in rows {
+        for k in r.times.keys() {
+            if !labels.contains(k) {
+                labels.push(k.clone());
+            }
+        }
+    }
+    labels.sort_by_key(|l| order(l));
+    let series = labels
+        .iter()
+        .map(|l| Series {
+            name: l.clone(),
+            points: rows
+                .iter()
+                .filter(|r| r.model.starts_with("chain"))
+                .filter_map(|r| r.times.get(l).map(|t| (r.links as f64, *t)))
+                .collect(),
+            labels: vec![],
+        })
+        .collect();
+    chart::write_loglog(
+        out,
+        SPEED_CHART,
+        &LogLogPlot {
+            title: "Forward dynamics of an n-link pendulum chain: time per step".into(),
+            x_desc: "links n".into(),
+            y_desc: "time per forward-dynamics call (µs)".into(),
+            series,
+            lines: true,
+        },
+    )
+}
+
+/// Table and legend order: ours first, then the peers.
+fn order(label: &str) -> usize {
+    ["DCA", "ABA", "CRBA", "Pinocchio ABA", "MuJoCo mj_forward"]
+        .iter()
+        .position(|l| *l == label)
+        .unwrap_or(99)
+}
+
+fn chart_accel(out: &Path, accel: &[(String, f64, f64)]) -> Result<Vec<PathBuf>> {
+    let series = accel
+        .iter()
+        .map(|(l, t, e)| Series {
+            name: l.clone(),
+            points: vec![(*t, *e)],
+            labels: vec![format!("{e:.1e}")],
+        })
+        .collect();
+    chart::write_loglog(
+        out,
+        ACCEL_CHART,
+        &LogLogPlot {
+            title: "300-link chain, one step: acceleration-metric error vs time".into(),
+            x_desc: "time per forward-dynamics call (µs)".into(),
+            y_desc: "Σ (qdd − qdd_exact)²  ((rad/s²)²)".into(),
+            series,
+            lines: false,
+        },
+    )
+}
+
+fn integ_name(i: Integrator) -> &'static str {
+    match i {
+        Integrator::SemiImplicitEuler => "semi-implicit Euler",
+        Integrator::Rk4 => "RK4",
+    }
+}
+
+fn chart_traj(out: &Path, traj: &Traj) -> Result<Vec<PathBuf>> {
+    let series = traj
+        .points
+        .iter()
+        .map(|p| Series {
+            name: format!("{} + {}", p.label, integ_name(p.integrator)),
+            points: vec![(p.us_per_step, p.deviation)],
+            labels: vec![],
+        })
+        .collect();
+    chart::write_loglog(
+        out,
+        TRAJ_CHART,
+        &LogLogPlot {
+            title: format!(
+                "300-link chain, 1 s at dt = {} ms: deviation from an RK4 reference",
+                traj.dt * 1e3
+            ),
+            x_desc: "time per integration step (µs)".into(),
+            y_desc: "‖q(1 s) − q_ref(1 s)‖ (rad)".into(),
+            series,
+            lines: false,
+        },
+    )
+}
+
+fn chart_seeds(out: &Path, seeds: &SeedsTable) -> Result<Vec<PathBuf>> {
+    chart::write_heat_map(
+        out,
+        SEEDS_CHART,
+        &HeatMap {
+            title: "Seeds' table, 300-link chain: time per step (ms; colour log 0.01…10 ms)".into(),
+            x_desc: "external forces".into(),
+            y_desc: "active joints".into(),
+            cols: SEED_FORCES.iter().map(|f| f.to_string()).collect(),
+            rows: seeds.iter().map(|(l, _)| l.clone()).collect(),
+            values: seeds
+                .iter()
+                .map(|(_, c)| c.iter().map(|t| t.map(|t| t / 1000.0)).collect())
+                .collect(),
+            unit: "ms".into(),
+            // The seeds' figures span 0.02 … 5.89 ms.
+            range: Some((0.01, 10.0)),
+        },
+    )
+}
+
+// ---------------------------------------------------------------------------------------------
+// Report
+
+fn cpu_name() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|s| s.trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown CPU".into())
+}
+
+/// The 1-minute load average (other work on the machine while the benchmarks ran).
+fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .and_then(|s| s.split_whitespace().next().map(str::to_string))
+        .unwrap_or_else(|| "unknown".into())
+}
+
+fn git_head(root: &Path) -> String {
+    Command::new("git")
+        .current_dir(root)
+        .args(["rev-parse", "--short", "HEAD"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .unwrap_or_else(|| "unknown".into())
+}
+
+fn fmt_us(t: Option<&f64>) -> String {
+    match t {
+        Some(t) if t.is_finite() => {
+            if *t >= 100.0 {
+                format!("{t:.0}")
+            } else {
+                format!("{t:.2}")
+            }
+        }
+        _ => "—".into(),
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn report(
+    opts: &Options,
+    rows: &[SpeedRow],
+    accel: &[(String, f64, f64)],
+    traj: &Traj,
+    seeds: &SeedsTable,
+    peers: &Peers,
+    files: &[PathBuf],
+    took: Duration,
+) -> String {
+    let root_target = |p: &PathBuf| {
+        p.file_name()
+            .map(|n| n.to_string_lossy().to_string())
+            .unwrap_or_default()
+    };
+    let mut s = String::new();
+    let mode = if opts.quick {
+        "quick (in-process sampling: median over batches of calls after a warm-up)"
+    } else {
+        "full (criterion: `cargo bench -p articula-benches --bench dynamics`, median estimates)"
+    };
+    let _ = writeln!(s, "# articula benchmark report\n");
+    let _ = writeln!(
+        s,
+        "Generated by `cargo xtask bench{}{}{}` at commit `{}`, mode: {mode}; took {:.0} s.\n\
+         Machine: {}, {} logical CPUs; 1-minute load average {} when the report was written \
+         (above the CPU count, other work shared the machine: compare figures of one run with \
+         each other, and treat differences under ~20% as noise).\n",
+        if opts.quick { " --quick" } else { "" },
+        if opts.peers { " --peers" } else { "" },
+        if opts.publish { " --publish" } else { "" },
+        git_head(Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap()),
+        took.as_secs_f64(),
+        cpu_name(),
+        std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1),
+        load_average(),
+    );
+    if !Solver::adaptive_available() {
+        let _ = writeln!(s, "> {ADAPTIVE_PENDING}\n");
+    }
+
+    // Speed table.
+    let mut labels: Vec<String> = Vec::new();
+    for r in rows {
+        for k in r.times.keys() {
+            if !labels.contains(k) {
+                labels.push(k.clone());
+            }
+        }
+    }
+    labels.sort_by_key(|l| order(l));
+    let _ = writeln!(s, "## Time per forward-dynamics call (µs)\n");
+    let _ = writeln!(
+        s,
+        "State `State::random(model, {SEED}, 1.0)` (angles ±1.2 rad, rates ±2 rad/s, torques ±1), \
+         no external force; chains from `articula_benches::chain(n)` (0.1 m, 0.1 kg rods), the \
+         humanoid from `models/humanoid.urdf` (fixed base, 34 DOF). CRBA (dense O(n³)) stops \
+         at 1000 links.\n"
+    );
+    let _ = writeln!(s, "| model | links | {} | DCA / ABA |", labels.join(" | "));
+    let _ = writeln!(s, "|---|---:|{}---:|", "---:|".repeat(labels.len()));
+    for r in rows {
+        let cells: Vec<String> = labels.iter().map(|l| fmt_us(r.times.get(l))).collect();
+        let ratio = r
+            .times
+            .get("DCA")
+            .zip(r.times.get("ABA"))
+            .map(|(d, a)| d / a);
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} |",
+            r.model,
+            r.links,
+            cells.join(" | "),
+            ratio.map_or("—".into(), |x| format!("{x:.2}"))
+        );
+    }
+    let growth = |l: &str| speed_of(rows, "chain10000", l) / speed_of(rows, "chain1000", l);
+    let _ = writeln!(
+        s,
+        "\nGrowth from 1,000 to 10,000 links (10× the links; linear cost gives 10): DCA {:.1}×, ABA {:.1}×.\n",
+        growth("DCA"),
+        growth("ABA")
+    );
+    let pin300 = peers
+        .results
+        .get(&("chain300".to_string(), "Pinocchio ABA".to_string()))
+        .map(|r| r.0);
+    if let Some(p) = pin300 {
+        let _ = writeln!(
+            s,
+            "300-link chain against Pinocchio's ABA ({p:.1} µs): our ABA {:.2}×, our DCA {:.2}× its time.\n",
+            speed_of(rows, "chain300", "ABA") / p,
+            speed_of(rows, "chain300", "DCA") / p
+        );
+    }
+    let _ = writeln!(s, "![time per step against links]({SPEED_CHART}.png)\n");
+
+    // Accuracy.
+    let _ = writeln!(s, "## Error against time per step (300-link chain)\n");
+    let _ = writeln!(
+        s,
+        "**(a) One step.** Acceleration-metric error `Σᵢ (q̈ᵢ − q̈ᵢ,exact)²` (identity weights) at \
+         the benchmarked state, against `q̈_exact` from the double-double ABA of \
+         `xtask/src/hp.rs` (~32 digits, independent of the library's f64 code).\n"
+    );
+    let _ = writeln!(
+        s,
+        "| method | µs per call | Σ (q̈ − q̈_exact)² | RMS error (rad/s²) |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---:|");
+    for (l, t, e) in accel {
+        let _ = writeln!(
+            s,
+            "| {l} | {} | {e:.3e} | {:.3e} |",
+            fmt_us(Some(t)),
+            (e / 300.0).sqrt()
+        );
+    }
+    let _ = writeln!(s, "\n![one-step error against time]({ACCEL_CHART}.png)\n");
+    let _ = writeln!(
+        s,
+        "**(b) Trajectory after 1 s.** From a gentle start (angles ±{GENTLE} rad, at rest, τ = 0, \
+         gravity), 1 s at dt = {} ms; deviation `‖q(1 s) − q_ref(1 s)‖` from an RK4 run with \
+         ABA at dt = 0.1 ms. Check of the reference: the same run at dt = 0.2 ms differs from \
+         it by {:.2e} rad (RK4's error at 0.1 ms is about 1/16 of that). Time per step is the \
+         whole integration step (RK4 = four dynamics calls), measured over the run.\n",
+        traj.dt * 1e3,
+        traj.reference_check
+    );
+    let _ = writeln!(
+        s,
+        "| method | integrator | µs per step | deviation after 1 s (rad) |"
+    );
+    let _ = writeln!(s, "|---|---|---:|---:|");
+    for p in &traj.points {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.3e} |",
+            p.label,
+            integ_name(p.integrator),
+            fmt_us(Some(&p.us_per_step)),
+            p.deviation
+        );
+    }
+    let _ = writeln!(s, "\n![trajectory error against time]({TRAJ_CHART}.png)\n");
+
+    // Seeds' table.
+    let _ = writeln!(
+        s,
+        "## The seeds' table (300-link chain, time per step in ms)\n"
+    );
+    let _ = writeln!(
+        s,
+        "One semi-implicit Euler step (dt = 1 ms) with k external forces (1 N at the origins of \
+         k bodies spread along the chain). The 2005 paper measured full DCA at 5.89 ms, 50 active \
+         joints at 0.51 ms and 1 joint at 0.02 ms.\n"
+    );
+    let _ = writeln!(
+        s,
+        "| active joints | {} |",
+        SEED_FORCES
+            .iter()
+            .map(|f| format!("{f} forces"))
+            .collect::<Vec<_>>()
+            .join(" | ")
+    );
+    let _ = writeln!(s, "|---|{}", "---:|".repeat(SEED_FORCES.len()));
+    for (label, cells) in seeds {
+        let cells: Vec<String> = cells
+            .iter()
+            .map(|t| t.map_or("pending".into(), |t| format!("{:.3}", t / 1000.0)))
+            .collect();
+        let _ = writeln!(s, "| {label} | {} |", cells.join(" | "));
+    }
+    let _ = writeln!(s, "\n![seeds' table]({SEEDS_CHART}.png)\n");
+
+    // Peers.
+    let _ = writeln!(s, "## Peers\n");
+    match &peers.skipped {
+        Some(why) => {
+            let _ = writeln!(s, "Pinocchio and MuJoCo were **skipped**: {why}.\n");
+        }
+        None => {
+            let v: Vec<String> = peers
+                .versions
+                .iter()
+                .map(|(k, v)| format!("{k} {v}"))
+                .collect();
+            let _ = writeln!(
+                s,
+                "Timed through their Python bindings by `peers/peers.py` ({}), with the same \
+                 harness (median over batches after a warm-up), on the same URDF files and \
+                 states (set by joint name). The bindings add roughly a microsecond per call, \
+                 which matters only for the smallest models. Notes:\n",
+                v.join(", ")
+            );
+            let mut notes: BTreeMap<String, String> = BTreeMap::new();
+            for ((model, peer), (_, _, note)) in &peers.results {
+                notes
+                    .entry(format!("{peer}: {note}"))
+                    .and_modify(|m| {
+                        m.push_str(", ");
+                        m.push_str(model)
+                    })
+                    .or_insert_with(|| model.clone());
+            }
+            for (note, models) in notes {
+                let _ = writeln!(s, "- {note} ({models})");
+            }
+            let _ = writeln!(
+                s,
+                "- MuJoCo mj_forward: not run above {MUJOCO_MAX_DOF} links (its dense \
+                 mass-matrix factorisation makes one call take seconds there)."
+            );
+            for e in &peers.errors {
+                let _ = writeln!(s, "- failed: {e}");
+            }
+            let _ = writeln!(
+                s,
+                "\nPeak resident memory of the Python process that ran each peer (MiB; \
+                 includes the interpreter and the library, ~100 MiB):\n"
+            );
+            let _ = writeln!(s, "| model | peer | peak RSS (MiB) |\n|---|---|---:|");
+            for ((model, peer), m) in &peers.rss {
+                let _ = writeln!(s, "| {model} | {peer} | {m:.0} |");
+            }
+            let _ = writeln!(s);
+        }
+    }
+    let _ = writeln!(
+        s,
+        "Install them with `python3 -m venv target/peers-venv && target/peers-venv/bin/pip \
+         install pin mujoco`, then run `cargo xtask bench --peers` (or set \
+         `ARTICULA_PEERS_PYTHON` to a Python that has both).\n"
+    );
+    let _ = writeln!(s, "## Files\n");
+    for f in files {
+        let _ = writeln!(s, "- `{}`", root_target(f));
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn criterion_medians_are_read_as_microseconds() {
+        let dir = std::env::temp_dir().join(format!("xtask-criterion-{}", std::process::id()));
+        for (group, m, label, ns) in [
+            ("chain", "dca", "300", 450_000.0),
+            ("humanoid", "aba", "34dof", 5_500.0),
+        ] {
+            let d = dir.join(group).join(m).join(label).join("new");
+            std::fs::create_dir_all(&d).unwrap();
+            let json = format!(
+                r#"{{"mean":{{"point_estimate":1.0}},"median":{{"point_estimate":{ns}}}}}"#
+            );
+            std::fs::write(d.join("estimates.json"), json).unwrap();
+        }
+        let got = read_criterion(&dir).unwrap();
+        assert_eq!(got.len(), 2);
+        assert_eq!(got[&("chain300".to_string(), "DCA".to_string())], 450.0);
+        assert_eq!(got[&("humanoid".to_string(), "ABA".to_string())], 5.5);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn metric_error_is_the_sum_of_squares() {
+        assert_eq!(metric_error(&[1.0, 2.0], &[0.0, 4.0]), 5.0);
+    }
+
+    #[test]
+    fn arguments_are_checked() {
+        assert!(parse(&["--quick".into(), "--peers".into(), "--publish".into()]).is_ok());
+        assert!(parse(&["--fast".into()]).is_err());
+    }
+
+    #[test]
+    fn seeds_table_marks_adaptive_rows_pending() {
+        let dir = std::env::temp_dir().join(format!("xtask-seeds-{}", std::process::id()));
+        let mut seeds: SeedsTable = ADAPTIVE_BUDGETS
+            .iter()
+            .map(|b| (format!("adaptive {b}"), vec![None; SEED_FORCES.len()]))
+            .collect();
+        seeds.push(("full DCA".into(), vec![Some(400.0); SEED_FORCES.len()]));
+        let files = chart_seeds(&dir, &seeds).unwrap();
+        let svg = std::fs::read_to_string(&files[0]).unwrap();
+        assert_eq!(
+            svg.matches("pending").count(),
+            ADAPTIVE_BUDGETS.len() * SEED_FORCES.len()
+        );
+        assert_eq!(svg.matches("0.400 ms").count(), SEED_FORCES.len());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
