@@ -12,10 +12,10 @@
 //!    freedom (the floating bases' six are free) or the tolerance is reached. Each body's
 //!    popped nodes are a prefix of its own pop order, so giving each body its share as its own
 //!    budget makes its adaptive step choose exactly those joints;
-//! 4. each body re-selects with that budget (joints that leave the hybrid body are locked by
-//!    momentum-keeping impulses). A body whose share is 0 and whose joints are all locked
-//!    already skips this: it moves as one rigid body (invisible bodies: the exact rigid motion of
-//!    the whole).
+//! 4. each body whose active joints are not exactly the ones the queue chose re-selects with that
+//!    budget (joints that leave the hybrid body are locked by momentum-keeping impulses); the
+//!    others keep their hybrid body as it is. A body whose joints are all locked moves as one
+//!    rigid body (invisible bodies: the exact rigid motion of the whole).
 //!
 //! Nodes of metric 0 are never selected: invisible bodies (all weights 0) keep no joint even
 //! with budget to spare.
@@ -71,6 +71,8 @@ pub struct GlobalSelection {
     pub total_error: f64,
     /// Σ of `allocation`.
     pub used: usize,
+    /// Per body: the join nodes popped (its floating base's root included), in pop order.
+    pub popped: Vec<Vec<usize>>,
 }
 
 /// The global queue over the assembly trees of `models[b]` with node metrics `metrics[b]`
@@ -88,6 +90,7 @@ pub fn global_selection(
     let mut sel = GlobalSelection {
         allocation: vec![0; n],
         error: vec![0.0; n],
+        popped: vec![Vec::new(); n],
         ..GlobalSelection::default()
     };
     let mut heap = BinaryHeap::new();
@@ -116,6 +119,7 @@ pub fn global_selection(
         }
         if m.floating_base {
             // Free: expanded at once.
+            sel.popped[b].push(root);
             push_children(&mut heap, b, root);
         } else {
             heap.push(Entry {
@@ -142,6 +146,7 @@ pub fn global_selection(
         remaining -= top.metric;
         sel.used += cost;
         sel.allocation[top.body] += cost;
+        sel.popped[top.body].push(top.node);
         let before = heap.len();
         push_children(&mut heap, top.body, top.node);
         for e in heap.iter().skip(before) {
@@ -277,6 +282,7 @@ pub struct SceneSim<'s> {
     springs: Vec<Vec<(usize, usize, f64, f64)>>,
     classifier: Classifier,
     metrics: Vec<Vec<f64>>,
+    wanted: Vec<bool>,
     last: SceneStep,
 }
 
@@ -324,6 +330,7 @@ impl<'s> SceneSim<'s> {
         SceneSim {
             springs,
             metrics: vec![Vec::new(); bodies.len()],
+            wanted: Vec::new(),
             views: Vec::new(),
             classifier: Classifier::new(&scene.visibility),
             bodies,
@@ -453,9 +460,19 @@ impl<'s> SceneSim<'s> {
             for (i, b) in self.bodies.iter_mut().enumerate() {
                 b.allocation = sel.allocation[i];
                 b.error = sel.error[i];
-                // Re-select when joints are to be gained or kept, or to lock the last ones;
-                // the first step always re-selects.
-                let needed = self.steps == 0 || b.allocation > 0 || b.active > 0;
+                // Re-select only when the hybrid body must change: the joints the queue chose
+                // are not exactly the active ones (the first step always re-selects). An
+                // unchanged hybrid body has its other joints locked at zero velocity already.
+                let model = &scene.models[b.model].model;
+                let tree = &model.assembly;
+                self.wanted.clear();
+                self.wanted.resize(tree.nodes.len(), false);
+                for &n in &sel.popped[i] {
+                    self.wanted[n] = true;
+                }
+                let same = (0..model.bodies.len())
+                    .all(|j| b.adaptive.is_active(model, j) == self.wanted[tree.joint_node[j]]);
+                let needed = self.steps == 0 || !same;
                 let settings = Settings {
                     budget: Some(b.allocation),
                     tolerance: None,

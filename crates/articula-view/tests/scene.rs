@@ -407,6 +407,11 @@ fn crowd200_active_joints_snapshot() {
         let step = sim.step().unwrap();
         if step.reselected {
             assert!(step.active_total <= s.budget.unwrap());
+            // Every body simulates exactly its share of the global queue, whether it
+            // re-selected or kept its hybrid body.
+            for b in &sim.bodies {
+                assert_eq!(b.active, b.allocation);
+            }
             out.push_str(&format!(
                 "step {k}: active {} visible {} occluded {} invisible {}\n",
                 step.active_total, step.classes[0], step.classes[1], step.classes[2]
