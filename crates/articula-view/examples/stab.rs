@@ -1,3 +1,8 @@
+//! How long a scene stays finite with other pose springs, push, time step and budget:
+//! `cargo run --release -p articula-view --example stab -- SCENE.json FREQ_HZ DAMPING_RATIO
+//! PUSH_N DT STEPS [BUDGET|none]` prints the first step that fails, or the largest internal
+//! joint speed after STEPS steps (docs/view.md quotes its figures).
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let mut v: serde_json::Value =
