@@ -130,7 +130,10 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
             if !solver.runs_at(model.nv) {
                 continue;
             }
-            let t = match &criterion {
+            let from_criterion = criterion
+                .as_ref()
+                .filter(|_| matches!(solver, Solver::Exact(_)));
+            let t = match from_criterion {
                 Some(c) => c
                     .get(&(name.clone(), solver.label()))
                     .copied()
@@ -386,6 +389,10 @@ fn trajectories(model: &Model) -> Result<Traj> {
     let mut points = Vec::new();
     for solver in Solver::all() {
         for integ in [Integrator::SemiImplicitEuler, Integrator::Rk4] {
+            // Adaptive steps are semi-implicit Euler only.
+            if matches!(solver, Solver::Adaptive { .. }) && integ == Integrator::Rk4 {
+                continue;
+            }
             let (q, us) = run_traj(model, solver, integ, dt)?;
             let p = TrajPoint {
                 label: solver.label(),

@@ -1,13 +1,12 @@
 //! The methods the benchmarks compare, as one small enum. A new method is a new variant plus
 //! one arm in each `match`: its label, and how its [`Runner`] computes `q̈` and takes a step.
 //!
-//! **Adding the adaptive solver** (once `articula-adaptive` exists): add the variant
-//! `Adaptive { budget: usize }`, make [`Solver::adaptive`] return `Some(Solver::Adaptive {
-//! budget })`, give it a label (`"adaptive b=K"`), keep its workspace in [`Runner`] and call
-//! it in `forward` and `step`. `cargo xtask bench` then times it at every budget of
-//! [`ADAPTIVE_BUDGETS`] beside the exact solvers, puts one error point per budget in the error
-//! charts, and fills the seeds' table rows; nothing else changes.
+//! The adaptive solver (`articula-adaptive`) runs at every budget of [`ADAPTIVE_BUDGETS`]:
+//! `forward` is its one-state selection (selected joints exact, the others zero) and `step` a
+//! full adaptive step with re-selection every step (selection and rigidification included),
+//! semi-implicit Euler whatever integrator the caller asks for.
 
+use articula_adaptive::{Adaptive, Settings};
 use articula_dca::{forward_dynamics, step, Data, Integrator, Method, State};
 use articula_model::Model;
 
@@ -16,8 +15,11 @@ use articula_model::Model;
 pub enum Solver {
     /// One of the exact solvers of `articula-dca`.
     Exact(Method),
-    // Adaptive { budget: usize } — added with articula-adaptive: `label` gives
-    // "adaptive b=K", `Runner::new` builds its workspace, `forward`/`step` call it.
+    /// Adaptive dynamics with at most `budget` active internal degrees of freedom.
+    Adaptive {
+        /// The budget.
+        budget: usize,
+    },
 }
 
 /// The budgets (active joints) the benchmarks run the adaptive solver at: the seeds' table
@@ -25,10 +27,9 @@ pub enum Solver {
 pub const ADAPTIVE_BUDGETS: [usize; 7] = [1, 50, 100, 150, 200, 250, 300];
 
 impl Solver {
-    /// The adaptive solver at `budget` active joints; `None` while `articula-adaptive` does not
-    /// exist (its rows and points are then reported as pending).
-    pub fn adaptive(_budget: usize) -> Option<Solver> {
-        None
+    /// The adaptive solver at `budget` active joints.
+    pub fn adaptive(budget: usize) -> Option<Solver> {
+        Some(Solver::Adaptive { budget })
     }
 
     /// Every solver the benchmarks run: the exact ones, then the adaptive budgets that exist.
@@ -57,6 +58,7 @@ impl Solver {
     pub fn label(self) -> String {
         match self {
             Solver::Exact(m) => m.name().to_uppercase(),
+            Solver::Adaptive { budget } => format!("adaptive b={budget}"),
         }
     }
 
@@ -66,6 +68,7 @@ impl Solver {
         match self {
             Solver::Exact(Method::Crba) => nv <= 1000,
             Solver::Exact(_) => true,
+            Solver::Adaptive { .. } => true,
         }
     }
 }
@@ -75,14 +78,26 @@ pub struct Runner<'m> {
     model: &'m Model,
     solver: Solver,
     data: Data,
+    adaptive: Option<Adaptive>,
 }
 
 impl<'m> Runner<'m> {
     pub fn new(model: &'m Model, solver: Solver) -> Runner<'m> {
+        let adaptive = match solver {
+            Solver::Adaptive { budget } => Some(Adaptive::new(
+                model,
+                Settings {
+                    budget: Some(budget),
+                    ..Settings::default()
+                },
+            )),
+            Solver::Exact(_) => None,
+        };
         Runner {
             model,
             solver,
             data: Data::new(model),
+            adaptive,
         }
     }
 
@@ -99,6 +114,12 @@ impl<'m> Runner<'m> {
                 m,
             )
             .map_err(|e| e.to_string()),
+            Solver::Adaptive { .. } => self
+                .adaptive
+                .as_mut()
+                .expect("adaptive workspace")
+                .forward_dynamics(self.model, &state.q, &state.qd, &state.tau, &state.f_ext)
+                .map_err(|e| e.to_string()),
         }
     }
 
@@ -111,6 +132,13 @@ impl<'m> Runner<'m> {
     ) -> Result<(), String> {
         match self.solver {
             Solver::Exact(m) => step(self.model, &mut self.data, state, m, integrator, dt)
+                .map_err(|e| e.to_string()),
+            Solver::Adaptive { .. } => self
+                .adaptive
+                .as_mut()
+                .expect("adaptive workspace")
+                .step(self.model, state, dt)
+                .map(|_| ())
                 .map_err(|e| e.to_string()),
         }
     }

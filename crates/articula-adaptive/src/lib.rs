@@ -438,6 +438,45 @@ impl Adaptive {
         Ok(report)
     }
 
+    /// Sets the hybrid body by hand: the joints of the bodies for which `active(body)` holds
+    /// (closed upward in the assembly tree, so the result may hold more) stay free, every other
+    /// moving joint is locked by the impulses of a re-selection. The next steps keep this hybrid
+    /// body until the next re-selection. Returns whether joints were locked.
+    pub fn set_active(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+        active: impl Fn(usize) -> bool,
+    ) -> Result<bool, AdaptiveError> {
+        self.load(model, &state.q, &state.qd, &state.tau, &state.f_ext)?;
+        for (n, node) in model.assembly.nodes.iter().enumerate() {
+            self.selected[n] = match node.kind {
+                NodeKind::Join { joint, .. } => {
+                    active(joint) || n == model.assembly.root() && model.floating_base
+                }
+                _ => false,
+            };
+        }
+        let vtol = self.settings.velocity_tolerance.take();
+        let locked = self.rebuild_hybrid(model, state);
+        self.settings.velocity_tolerance = vtol;
+        let locked = locked?;
+        if locked {
+            self.composites(model);
+        }
+        self.build_hierarchy(model);
+        // The steps count on from a re-selection.
+        self.steps = 1;
+        Ok(locked)
+    }
+
+    /// Makes the next step re-select the hybrid body. Call it after changing the state of
+    /// locked joints (their `q` or `q̇`) from outside: between re-selections a step reads only
+    /// the active joints.
+    pub fn invalidate(&mut self) {
+        self.hier.valid = false;
+    }
+
     /// Between re-selections, run whole-body kinematics and composites instead of the
     /// hierarchical state (a reference for tests; same results, cost O(n)).
     #[doc(hidden)]

@@ -490,3 +490,105 @@ fn a_force_list_steps_like_dense_forces() {
         .step_with_forces(&model, &mut sparse, 1e-3, &[(3, nan)])
         .is_err());
 }
+
+/// The hybrid body against an independent model: the same URDF with the locked joints turned
+/// into fixed joints (welded at q = 0), solved by exact DCA.
+#[test]
+fn hybrid_body_equals_the_model_with_its_locked_joints_welded() {
+    for (name, floating) in [
+        ("chain30", false),
+        ("plant", false),
+        ("chain30", true),
+        ("plant", true),
+    ] {
+        let model = load(name, floating);
+        let path = format!("{}/../../models/{name}.urdf", env!("CARGO_MANIFEST_DIR"));
+        let text = std::fs::read_to_string(&path).unwrap();
+        for seed in 0..3u64 {
+            let pick = |b: usize| !(b as u64 * 7 + seed).is_multiple_of(3);
+            // The final active set (closed upward) first, then a state with the locked joints
+            // at q = 0, q̇ = 0 so that welding them at zero is the same body.
+            let mut probe = State::random(&model, seed, 0.5);
+            let mut ad = Adaptive::new(
+                &model,
+                Settings {
+                    reselect_every: u64::MAX,
+                    ..Settings::default()
+                },
+            );
+            ad.set_active(&model, &mut probe, pick).unwrap();
+            let active: Vec<bool> = (0..model.bodies.len())
+                .map(|i| ad.is_active(&model, i))
+                .collect();
+            let mut s = State::random(&model, seed, 0.5);
+            s.randomize_forces(seed + 50, 1.0);
+            for (i, b) in model.bodies.iter().enumerate() {
+                if !active[i] {
+                    s.q[b.q_offset] = 0.0;
+                    s.qd[b.v_offset] = 0.0;
+                }
+            }
+            assert!(!ad.set_active(&model, &mut s, |b| active[b]).unwrap());
+            ad.step(&model, &mut s.clone(), 1e-9).unwrap();
+            let hybrid = ad.qdd().to_vec();
+            // The welded model.
+            let mut welded_text = text.clone();
+            for (i, b) in model.bodies.iter().enumerate() {
+                if !active[i] {
+                    let name = &b.joint[0].name;
+                    welded_text = welded_text.replace(
+                        &format!("<joint name=\"{name}\" type=\"revolute\">"),
+                        &format!("<joint name=\"{name}\" type=\"fixed\">"),
+                    );
+                }
+            }
+            let welded = Model::from_urdf_str(
+                &welded_text,
+                &LoadOptions {
+                    floating_base: floating,
+                },
+            )
+            .unwrap();
+            let mut ws = State::neutral(&welded);
+            for (_, part) in model.joint_parts() {
+                if let Some((_, wp)) = welded.find_joint(&part.name) {
+                    let (n, m) = (part.nq(), part.nv());
+                    ws.q[wp.q_offset..wp.q_offset + n]
+                        .copy_from_slice(&s.q[part.q_offset..part.q_offset + n]);
+                    ws.qd[wp.v_offset..wp.v_offset + m]
+                        .copy_from_slice(&s.qd[part.v_offset..part.v_offset + m]);
+                    ws.tau[wp.v_offset..wp.v_offset + m]
+                        .copy_from_slice(&s.tau[part.v_offset..part.v_offset + m]);
+                }
+            }
+            for (i, b) in model.bodies.iter().enumerate() {
+                // A body welded to the ground passes its force to the world.
+                if let Some(k) = welded
+                    .bodies
+                    .iter()
+                    .position(|wb| wb.links.iter().any(|(l, _)| *l == b.name))
+                {
+                    ws.f_ext[k] += s.f_ext[i];
+                }
+            }
+            let e = exact(&welded, &ws);
+            let scale = max_abs(&e).max(1.0);
+            for (_, part) in model.joint_parts() {
+                if let Some((_, wp)) = welded.find_joint(&part.name) {
+                    for p in 0..part.nv() {
+                        let (h, x) = (hybrid[part.v_offset + p], e[wp.v_offset + p]);
+                        assert!(
+                            (h - x).abs() <= 1e-9 * scale,
+                            "{name} floating {floating} seed {seed} {}: {h} vs {x}",
+                            part.name
+                        );
+                    }
+                } else {
+                    assert!(hybrid[part.v_offset..part.v_offset + part.nv()]
+                        .iter()
+                        .all(|x| *x == 0.0));
+                }
+            }
+        }
+    }
+}
