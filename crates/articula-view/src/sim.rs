@@ -12,9 +12,9 @@
 //!    freedom (the floating bases' six are free) or the tolerance is reached. Each body's
 //!    popped nodes are a prefix of its own pop order, so giving each body its share as its own
 //!    budget makes its adaptive step choose exactly those joints;
-//! 4. each body whose active joints are not exactly the ones the queue chose re-selects with that
-//!    budget (joints that leave the hybrid body are locked by momentum-keeping impulses); the
-//!    others keep their hybrid body as it is. A body whose joints are all locked moves as one
+//! 4. each body whose active joints are not exactly the ones the queue chose gets them
+//!    ([`Adaptive::set_active`]: the joints that leave the hybrid body are locked by
+//!    momentum-keeping impulses); the others keep their hybrid body as it is. A body whose joints are all locked moves as one
 //!    rigid body (invisible bodies: the exact rigid motion of the whole).
 //!
 //! Nodes of metric 0 are never selected: invisible bodies (all weights 0) keep no joint even
@@ -182,6 +182,8 @@ pub struct SimBody {
     /// While every internal joint is locked: the whole body's spatial inertia and its inverse
     /// in the root frame, so that it steps as one rigid body without the adaptive workspace.
     pub rigid: Option<(SpatialInertia, SymMat6)>,
+    /// Whether its hybrid body was set at this step's re-selection.
+    changed: bool,
 }
 
 impl SimBody {
@@ -297,7 +299,15 @@ impl<'s> SceneSim<'s> {
                 let mut state = State::neutral(model);
                 state.q.copy_from_slice(&p.q);
                 state.qd.copy_from_slice(&p.qd);
-                let mut adaptive = Adaptive::new(model, Settings::default());
+                // The scene drives re-selection (`set_active`); the workspace never re-selects
+                // by itself after its first hybrid body.
+                let mut adaptive = Adaptive::new(
+                    model,
+                    Settings {
+                        reselect_every: u64::MAX,
+                        ..Settings::default()
+                    },
+                );
                 adaptive.data.gravity = scene.gravity;
                 let mut poses = Vec::new();
                 body_poses(model, &state.q, &mut poses);
@@ -311,6 +321,7 @@ impl<'s> SceneSim<'s> {
                     error: 0.0,
                     unweighted: false,
                     rigid: None,
+                    changed: false,
                 }
             })
             .collect();
@@ -473,15 +484,26 @@ impl<'s> SceneSim<'s> {
                 let same = (0..model.bodies.len())
                     .all(|j| b.adaptive.is_active(model, j) == self.wanted[tree.joint_node[j]]);
                 let needed = self.steps == 0 || !same;
-                let settings = Settings {
-                    budget: Some(b.allocation),
-                    tolerance: None,
-                    reselect_every: if needed { 1 } else { u64::MAX },
-                    velocity_tolerance: None,
-                };
-                b.adaptive
-                    .set_settings(settings)
-                    .map_err(|e| SceneSimError::new(scene, b.model, &e))?;
+                if needed {
+                    // (Its own re-selection, should the workspace ever run one, keeps the share.)
+                    let settings = Settings {
+                        budget: Some(b.allocation),
+                        tolerance: None,
+                        reselect_every: u64::MAX,
+                        velocity_tolerance: None,
+                    };
+                    b.adaptive
+                        .set_settings(settings)
+                        .map_err(|e| SceneSimError::new(scene, b.model, &e))?;
+                    // Exactly the chosen joints stay free; the others are locked by
+                    // momentum-keeping impulses (no second articulated pass).
+                    let wanted = &self.wanted;
+                    b.adaptive
+                        .set_active(model, &mut b.state, |j| wanted[tree.joint_node[j]])
+                        .map_err(|e| SceneSimError::body(scene, i, &e))?;
+                    b.rigid = None;
+                }
+                b.changed = needed;
             }
             self.last = SceneStep {
                 reselected: true,
@@ -490,22 +512,11 @@ impl<'s> SceneSim<'s> {
                 link_classes,
                 total_error: sel.total_error,
             };
-        } else {
-            // Between re-selections the hybrid bodies stay as they are.
-            for b in &mut self.bodies {
-                if b.adaptive.settings().reselect_every != u64::MAX {
-                    let mut s = b.adaptive.settings().clone();
-                    s.reselect_every = u64::MAX;
-                    b.adaptive
-                        .set_settings(s)
-                        .map_err(|e| SceneSimError::new(scene, b.model, &e))?;
-                }
-            }
         }
         let mut total = 0;
         for (i, b) in self.bodies.iter_mut().enumerate() {
             let model = &scene.models[b.model].model;
-            let reselects = b.adaptive.settings().reselect_every == 1 || self.steps == 0;
+            let reselects = std::mem::take(&mut b.changed);
             if !reselects && b.rigid.is_some() {
                 b.rigid_step(model, scene.gravity, scene.dt).map_err(|e| {
                     SceneSimError(format!("body '{}': {e}", scene.placements[i].name))
