@@ -10,8 +10,8 @@
 //! 3. [`global_selection`] runs the queue over all bodies' roots: pop the node with the largest
 //!    metric in the whole scene, push its children, until the budget of internal degrees of
 //!    freedom (the floating bases' six are free) or the tolerance is reached. Each body's
-//!    popped nodes are a prefix of its own pop order, so giving each body its share as its own
-//!    budget makes its adaptive step choose exactly those joints;
+//!    popped nodes are a prefix of its own pop order (its share, as its own budget, would make
+//!    its own queue choose exactly them);
 //! 4. each body whose active joints are not exactly the ones the queue chose gets them
 //!    ([`Adaptive::set_active`]: the joints that leave the hybrid body are locked by
 //!    momentum-keeping impulses); the others keep their hybrid body as it is. A body whose joints are all locked moves as one
