@@ -1,5 +1,6 @@
 //! DCA vs ABA on an n-link chain: `cargo run --release -p articula-benches --example agree -- 20000`
-//! prints the relative difference max|Δq̈| / max|q̈| at the neutral state and at seeded random states.
+//! prints the relative difference max|Δq̈| / max|q̈| on the straight chain (q = 0, moving) and at
+//! seeded random states.
 use articula_dca::{forward_dynamics, Data, Method, State};
 fn main() {
     let n: usize = std::env::args()
@@ -8,9 +9,14 @@ fn main() {
         .unwrap_or(1000);
     let model = articula_benches::chain(n);
     let mut data = Data::new(&model);
+    // None: straight (q = 0) but moving (seeded random q̇ and τ); Some(k): seeded random state.
     for seed in [None, Some(1u64), Some(2)] {
         let s = match seed {
-            None => State::neutral(&model),
+            None => {
+                let mut s = State::random(&model, 7, 1.0);
+                s.q.iter_mut().for_each(|x| *x = 0.0);
+                s
+            }
             Some(k) => State::random(&model, k, 1.0),
         };
         let run = |m, data: &mut Data| {

@@ -69,39 +69,11 @@ pub(crate) fn quad(a: &[f64], x: &[f64], n: usize) -> f64 {
     s
 }
 
-/// Inverse of the leading k×k block of a symmetric positive definite matrix (k ≤ 6), by a
-/// Cholesky factorisation of its Jacobi-scaled form `E A E`, `E = diag(A_ii^-½)` (rotational
-/// and translational entries differ by the square of lever arms). `None` when not positive
-/// definite.
+/// Inverse of the leading k×k block of a symmetric positive definite matrix (k ≤ 6), through
+/// its Cholesky factor: `A⁻¹ = L⁻ᵀ L⁻¹`. `None` when not positive definite.
 pub(crate) fn spd_inverse(a: &[[f64; 6]; 6], k: usize) -> Option<[[f64; 6]; 6]> {
-    let mut e = [0.0; 6];
-    for i in 0..k {
-        if a[i][i].is_nan() || a[i][i] <= 0.0 {
-            return None;
-        }
-        e[i] = 1.0 / a[i][i].sqrt();
-    }
-    // L Lᵀ = E A E
-    let mut l = [[0.0f64; 6]; 6];
-    for j in 0..k {
-        let mut d = a[j][j] * e[j] * e[j];
-        for p in 0..j {
-            d -= l[j][p] * l[j][p];
-        }
-        if d.is_nan() || d <= 0.0 {
-            return None;
-        }
-        let ljj = d.sqrt();
-        l[j][j] = ljj;
-        for i in (j + 1)..k {
-            let mut x = a[i][j] * e[i] * e[j];
-            for p in 0..j {
-                x -= l[i][p] * l[j][p];
-            }
-            l[i][j] = x / ljj;
-        }
-    }
-    // M = L⁻¹ (lower), then (E A E)⁻¹ = Mᵀ M and A⁻¹ = E Mᵀ M E.
+    let l = cholesky_k(a, k)?;
+    // M = L⁻¹ (lower), then A⁻¹ = Mᵀ M.
     let mut m = [[0.0f64; 6]; 6];
     for c in 0..k {
         for i in c..k {
@@ -115,11 +87,7 @@ pub(crate) fn spd_inverse(a: &[[f64; 6]; 6], k: usize) -> Option<[[f64; 6]; 6]> 
     let mut inv = [[0.0f64; 6]; 6];
     for i in 0..k {
         for j in 0..=i {
-            let mut s = 0.0;
-            for p in i..k {
-                s += m[p][i] * m[p][j];
-            }
-            let v = s * e[i] * e[j];
+            let v: f64 = (i..k).map(|p| m[p][i] * m[p][j]).sum();
             inv[i][j] = v;
             inv[j][i] = v;
         }
@@ -127,41 +95,45 @@ pub(crate) fn spd_inverse(a: &[[f64; 6]; 6], k: usize) -> Option<[[f64; 6]; 6]> 
     Some(inv)
 }
 
-/// Cholesky factor `L` of a 6×6 symmetric positive definite matrix, computed on its
-/// Jacobi-scaled form and unscaled (`L = E⁻¹ L'`). `None` when not positive definite.
+/// Cholesky factor `L` of a 6×6 symmetric positive definite matrix (see [`cholesky_k`]).
 pub(crate) fn spd_cholesky(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
-    let mut e = [0.0; 6];
-    for i in 0..6 {
-        if a[i][i].is_nan() || a[i][i] <= 0.0 {
-            return None;
+    cholesky_k(a, 6)
+}
+
+/// Cholesky factor (lower) of the leading k×k block of a symmetric positive definite matrix
+/// (k ≤ 6); `None` when a pivot is not positive — articula-dca's. (A Jacobi-scaled variant
+/// turned the join of a 40,000-link chain's halves indefinite where this one does not.)
+pub(crate) use articula_dca::cholesky as cholesky_k;
+
+/// `(L Lᵀ)⁻¹ u` for the leading k×k factor `L`.
+pub(crate) fn solve_llt_k(l: &[[f64; 6]; 6], u: &[f64; 5], k: usize) -> [f64; 5] {
+    solve_lt_k(l, &solve_l_k(l, u, k), k)
+}
+
+/// `L⁻¹ u` for the leading k×k factor `L`.
+pub(crate) fn solve_l_k(l: &[[f64; 6]; 6], u: &[f64; 5], k: usize) -> [f64; 5] {
+    let mut x = [0.0; 5];
+    for i in 0..k {
+        let mut v = u[i];
+        for p in 0..i {
+            v -= l[i][p] * x[p];
         }
-        e[i] = 1.0 / a[i][i].sqrt();
+        x[i] = v / l[i][i];
     }
-    let mut l = [[0.0f64; 6]; 6];
-    for j in 0..6 {
-        let mut d = a[j][j] * e[j] * e[j];
-        for p in 0..j {
-            d -= l[j][p] * l[j][p];
+    x
+}
+
+/// `L⁻ᵀ u` for the leading k×k factor `L`.
+pub(crate) fn solve_lt_k(l: &[[f64; 6]; 6], u: &[f64; 5], k: usize) -> [f64; 5] {
+    let mut x = *u;
+    for i in (0..k).rev() {
+        let mut v = x[i];
+        for p in (i + 1)..k {
+            v -= l[p][i] * x[p];
         }
-        if d.is_nan() || d <= 0.0 {
-            return None;
-        }
-        let ljj = d.sqrt();
-        l[j][j] = ljj;
-        for i in (j + 1)..6 {
-            let mut x = a[i][j] * e[i] * e[j];
-            for p in 0..j {
-                x -= l[i][p] * l[j][p];
-            }
-            l[i][j] = x / ljj;
-        }
+        x[i] = v / l[i][i];
     }
-    for i in 0..6 {
-        for j in 0..=i {
-            l[i][j] /= e[i];
-        }
-    }
-    Some(l)
+    x
 }
 
 /// `L⁻¹ b` (forward substitution).

@@ -9,7 +9,7 @@
 use crate::dense;
 use crate::Settings;
 use articula_dca::{Data, DynamicsError};
-use articula_model::{HandleLayout, Model, NodeKind};
+use articula_model::{HandleLayout, JointKind, Model, NodeKind};
 use articula_spatial::{skew, Mat6, SpatialForce, SpatialMotion};
 use glam::{DMat3, DVec3};
 use std::collections::BinaryHeap;
@@ -17,6 +17,72 @@ use std::collections::BinaryHeap;
 #[inline]
 fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
+}
+
+/// The basis `T` of the forces that do no work along one axis `s` (`sᵀ T = 0`): for a
+/// revolute axis `s = [v; 0]` (a prismatic one `[0; v]`), with `m` the largest component of `v`,
+/// the columns `e_a − r_a e_m`, `e_b − r_b e_m` (`r = v / v_m`, so `|r| ≤ 1`) and the three unit
+/// vectors of the other half.
+struct AxisBasis {
+    m: usize,
+    a: usize,
+    b: usize,
+    keep: [usize; 3],
+    ra: f64,
+    rb: f64,
+}
+
+impl AxisBasis {
+    fn new(s: &[f64; 6], off: usize) -> AxisBasis {
+        let v = [s[off], s[off + 1], s[off + 2]];
+        let m = if v[0].abs() >= v[1].abs() && v[0].abs() >= v[2].abs() {
+            0
+        } else if v[1].abs() >= v[2].abs() {
+            1
+        } else {
+            2
+        };
+        let (a, b) = ((m + 1) % 3, (m + 2) % 3);
+        let o = 3 - off;
+        AxisBasis {
+            m: off + m,
+            a: off + a,
+            b: off + b,
+            keep: [o, o + 1, o + 2],
+            ra: v[a] / v[m],
+            rb: v[b] / v[m],
+        }
+    }
+
+    /// `Tᵀ x`.
+    fn tr(&self, x: &[f64; 6]) -> [f64; 5] {
+        [
+            x[self.a] - self.ra * x[self.m],
+            x[self.b] - self.rb * x[self.m],
+            x[self.keep[0]],
+            x[self.keep[1]],
+            x[self.keep[2]],
+        ]
+    }
+
+    /// `T u`.
+    fn apply(&self, u: &[f64; 5]) -> [f64; 6] {
+        let mut f = [0.0; 6];
+        f[self.a] = u[0];
+        f[self.b] = u[1];
+        f[self.m] = -self.ra * u[0] - self.rb * u[1];
+        f[self.keep[0]] = u[2];
+        f[self.keep[1]] = u[3];
+        f[self.keep[2]] = u[4];
+        f
+    }
+
+    /// Column `c` of `T`.
+    fn col(&self, c: usize) -> [f64; 6] {
+        let mut u = [0.0; 5];
+        u[c] = 1.0;
+        self.apply(&u)
+    }
 }
 
 /// Which terms the main pass includes.
@@ -160,6 +226,8 @@ pub struct Adaptive {
     /// Scratch of the join being computed, per handle: the columns of `Y_h` and `U_h`.
     pub(crate) yc: Vec<[[f64; 6]; 6]>,
     pub(crate) uc: Vec<[[f64; 6]; 6]>,
+    /// Scratch of the one-axis join, per handle: `G_F,h`.
+    pub(crate) gf: Vec<Mat6>,
     pub(crate) steps: u64,
     pub(crate) full_passes: bool,
     pub(crate) hier: crate::hierarchy::Hierarchy,
@@ -244,6 +312,7 @@ impl Adaptive {
             map: vec![usize::MAX; tree.max_handles().max(1)],
             yc: vec![[[0.0; 6]; 6]; tree.max_handles().max(1)],
             uc: vec![[[0.0; 6]; 6]; tree.max_handles().max(1)],
+            gf: vec![Mat6::ZERO; tree.max_handles().max(1)],
             lay,
             steps: 0,
             full_passes: false,
@@ -385,6 +454,14 @@ impl Adaptive {
         let (ja, jb) = (self.lay.ja[n], self.lay.jb[n]);
         let (nhc, hc) = (self.nh[n], self.lay.hoff[n]);
         let g = (*self.phi_at(a, ja, ja) + *self.phi_at(b, jb, jb)).0;
+        if let [part] = body.joint.as_slice() {
+            if matches!(
+                part.kind,
+                JointKind::Revolute | JointKind::Continuous | JointKind::Prismatic
+            ) {
+                return self.join_one_axis(model, n, tau, level, &g);
+            }
+        }
         // L Lᵀ = Φ^A_jj + Φ^B_jj = V⁻¹
         let l = dense::spd_cholesky(&g).ok_or_else(|| DynamicsError::Singular {
             joint: body.joint_name(),
@@ -428,7 +505,6 @@ impl Adaptive {
                 w[r] += z[p][r] * kp;
             }
         }
-        let wk = w;
         let nv = dense::solve_lt(&l, &w);
         self.nvec[n] = nv;
         // Per handle h of C: Y_h = L⁻¹ G_F,h (G_F,h = +Φ^A_jh from A, −Φ^B_jh from B),
@@ -442,6 +518,7 @@ impl Adaptive {
             } else {
                 -*self.phi_at(b, jb, i)
             };
+            self.gf[h] = gf;
             let gt = gf.transpose(); // row c = column c of G_F,h
             let mut yc = [[0.0; 6]; 6];
             let mut uc = [[0.0; 6]; 6];
@@ -471,8 +548,14 @@ impl Adaptive {
             self.yc[h] = yc;
             self.uc[h] = uc;
         }
-        // Φ^C_hk = Φ^X_hk [same side] − Y_hᵀ U_k;  b^C_h = b^X_h − Y_hᵀ (w + Z k).
-        let bc = self.lay.boff[n];
+        self.assemble(n, a, b);
+        Ok(())
+    }
+
+    /// `Φ^C_hk = Φ^X_hk [same side] − Y_hᵀ U_k` (columns of Y_h and U_k in `yc`, `uc`) and
+    /// `b^C_h = b^X_h − G_F,hᵀ γ` (`G_F,h` in `gf`, γ = `nvec[n]`) for the joined node `n`.
+    fn assemble(&mut self, n: usize, a: usize, b: usize) {
+        let (nhc, hc, bc) = (self.nh[n], self.lay.hoff[n], self.lay.boff[n]);
         for h in 0..nhc {
             let (ah, ih) = self.lay.from[hc + h];
             let x = if ah { a } else { b };
@@ -495,12 +578,118 @@ impl Adaptive {
                     self.phi[bc + kk * nhc + h] = blk.transpose();
                 }
             }
-            let mut db = [0.0; 6];
-            for r in 0..6 {
-                db[r] = -dot6(&self.yc[h][r], &wk);
-            }
-            self.b[hc + h] = self.b[self.lay.hoff[x] + ih] + SpatialMotion::from_array(db);
+            let db = self.gf[h].tr_mul_vec(&self.nvec[n]);
+            self.b[hc + h] = self.b[self.lay.hoff[x] + ih] - SpatialMotion::from_array(db);
         }
+    }
+
+    /// The join of a single revolute or prismatic axis s, through the forces that do no work
+    /// along it: `T` (6 × 5) spans `{f : sᵀf = 0}`, `M = Tᵀ G T` with `G = Φ^A_jj + Φ^B_jj`, and
+    /// `W = T M⁻¹ Tᵀ`. Only `M` must be positive definite — `G` itself may not be, numerically,
+    /// along the free direction (long straight chains). From `G f = y + s q̈` and `sᵀf = Q`
+    /// with `f = T λ + f₀ Q`, `f₀ = e_m / s_m`: `f = W y + f_τ Q`, `f_τ = f₀ − W G f₀`, and
+    /// `q̈ = gᵀ y / sᵀs + q̈_τ Q` with `g = W G s − s`, `q̈_τ = sᵀ G f_τ / sᵀs`. So
+    /// `K = gᵀ G_F / sᵀs`, `N = W G_F`, `n = γ = W β + f_τ Q`,
+    /// `Φ^C_hk = Φ^X_hk [same side] − G_F,hᵀ N_k`, `b^C_h = b^X_h − G_F,hᵀ γ`.
+    fn join_one_axis(
+        &mut self,
+        model: &Model,
+        n: usize,
+        tau: &[f64],
+        level: Level,
+        g: &[[f64; 6]; 6],
+    ) -> Result<(), DynamicsError> {
+        let tree = &model.assembly;
+        let NodeKind::Join {
+            joint,
+            parent_side: a,
+            child_side: b,
+        } = tree.nodes[n].kind
+        else {
+            unreachable!("join() on a leaf")
+        };
+        let body = &model.bodies[joint];
+        let prismatic = body.joint[0].kind == JointKind::Prismatic;
+        let (ja, jb) = (self.lay.ja[n], self.lay.jb[n]);
+        let (nhc, hc) = (self.nh[n], self.lay.hoff[n]);
+        let pj = self.point[joint];
+        let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj)).to_array();
+        let vo = body.v_offset;
+        let mut sv = shift(self.data.s[vo]);
+        // The axis passes through P_j: the other half is rounding.
+        let off = if prismatic { 3 } else { 0 };
+        for x in &mut sv[3 - off..6 - off] {
+            *x = 0.0;
+        }
+        let t = AxisBasis::new(&sv, off);
+        // M = Tᵀ G T (5×5) and its Cholesky factor.
+        let mut m5 = [[0.0; 6]; 6];
+        for c in 0..5 {
+            let gt = Mat6(*g).mul_vec(&t.col(c));
+            let r = t.tr(&gt);
+            for i in 0..5 {
+                m5[i][c] = r[i];
+            }
+        }
+        let l5 = dense::cholesky_k(&m5, 5).ok_or_else(|| DynamicsError::Singular {
+            joint: body.joint_name(),
+            detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
+        })?;
+        let w_apply = |y: &[f64; 6]| -> [f64; 6] {
+            let u = t.tr(y);
+            let lam = dense::solve_llt_k(&l5, &u, 5);
+            t.apply(&lam)
+        };
+        let ss: f64 = sv.iter().map(|x| x * x).sum();
+        let gs = Mat6(*g).mul_vec(&sv);
+        let wgs = w_apply(&gs);
+        let gv: [f64; 6] = std::array::from_fn(|i| wgs[i] - sv[i]);
+        let mut f0 = [0.0; 6];
+        f0[t.m] = 1.0 / sv[t.m];
+        let gf0 = Mat6(*g).mul_vec(&f0);
+        let wgf0 = w_apply(&gf0);
+        let ft: [f64; 6] = std::array::from_fn(|i| f0[i] - wgf0[i]);
+        let gft = Mat6(*g).mul_vec(&ft);
+        let qt = dot6(&sv, &gft) / ss;
+        // β = b^A_j − b^B_j + c (no velocity product at impulse level).
+        let mut beta = self.b[self.lay.hoff[a] + ja] - self.b[self.lay.hoff[b] + jb];
+        if level == Level::Acceleration {
+            beta += SpatialMotion::from_array(shift(self.data.c[joint]));
+        }
+        let beta = beta.to_array();
+        let q = tau[vo];
+        self.kvec[vo] = dot6(&gv, &beta) / ss + qt * q;
+        let wb = w_apply(&beta);
+        let nv: [f64; 6] = std::array::from_fn(|i| wb[i] + ft[i] * q);
+        self.nvec[n] = nv;
+        let ko = self.koff[n];
+        let wd = 6 * nhc;
+        for h in 0..nhc {
+            let (from_a, i) = self.lay.from[hc + h];
+            let gf = if from_a {
+                *self.phi_at(a, ja, i)
+            } else {
+                -*self.phi_at(b, jb, i)
+            };
+            self.gf[h] = gf;
+            let gtr = gf.transpose(); // row c = column c of G_F,h
+                                      // Ỹ_h = L⁻¹ Tᵀ G_F,h (5 × 6, kept column-wise in yc), N_h = T L⁻ᵀ Ỹ_h.
+            for c in 0..6 {
+                self.kmat[ko + 6 * h + c] = dot6(&gv, &gtr.0[c]) / ss;
+                let u = t.tr(&gtr.0[c]);
+                let y = dense::solve_l_k(&l5, &u, 5);
+                let col = t.apply(&dense::solve_lt_k(&l5, &y, 5));
+                self.yc[h][c] = [y[0], y[1], y[2], y[3], y[4], 0.0];
+                for r in 0..6 {
+                    self.nmat[36 * hc + r * wd + 6 * h + c] = col[r];
+                }
+            }
+        }
+        // Ỹ_hᵀ Ỹ_k is a Gram product: the subtracted part stays positive semidefinite.
+        for h in 0..nhc {
+            self.uc[h] = self.yc[h];
+        }
+        self.assemble(n, a, b);
         Ok(())
     }
 

@@ -47,7 +47,7 @@ mod rigidify;
 
 pub use hybrid::{Adaptive, Selection};
 
-use articula_dca::{forward_kinematics, DynamicsError, State};
+use articula_dca::{check_inputs, forward_kinematics, DynamicsError, State};
 use articula_model::{Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialTransform};
 use hybrid::Level;
@@ -558,60 +558,6 @@ fn check_qdd(model: &Model, qdd: &[f64]) -> Result<(), DynamicsError> {
             return Err(DynamicsError::NonFinite {
                 what: "qdd",
                 name: part.name.clone(),
-            });
-        }
-    }
-    Ok(())
-}
-
-fn check_inputs(
-    model: &Model,
-    q: &[f64],
-    qd: &[f64],
-    tau: &[f64],
-    f_ext: &[SpatialForce],
-) -> Result<(), DynamicsError> {
-    for (what, len, expected) in [
-        ("q", q.len(), model.nq),
-        ("qd", qd.len(), model.nv),
-        ("tau", tau.len(), model.nv),
-    ] {
-        if len != expected {
-            return Err(DynamicsError::Dimension {
-                what,
-                expected,
-                found: len,
-            });
-        }
-    }
-    if !f_ext.is_empty() && f_ext.len() != model.bodies.len() {
-        return Err(DynamicsError::Dimension {
-            what: "f_ext",
-            expected: model.bodies.len(),
-            found: f_ext.len(),
-        });
-    }
-    let all_finite = q.iter().chain(qd).chain(tau).all(|x| x.is_finite());
-    for (_, part) in model.joint_parts().filter(|_| !all_finite) {
-        let (qo, vo) = (part.q_offset, part.v_offset);
-        for (what, xs) in [
-            ("q", &q[qo..qo + part.nq()]),
-            ("qd", &qd[vo..vo + part.nv()]),
-            ("tau", &tau[vo..vo + part.nv()]),
-        ] {
-            if xs.iter().any(|x| !x.is_finite()) {
-                return Err(DynamicsError::NonFinite {
-                    what,
-                    name: part.name.clone(),
-                });
-            }
-        }
-    }
-    for (i, f) in f_ext.iter().enumerate() {
-        if !f.is_finite() {
-            return Err(DynamicsError::NonFinite {
-                what: "external force",
-                name: model.bodies[i].name.clone(),
             });
         }
     }

@@ -24,9 +24,10 @@ pub(crate) fn aba(model: &Model, tau: &[f64], data: &mut Data) -> Result<(), Dyn
     let aba = &mut data.aba;
     // Pass 2, leaves to root: U = Iᴬ S, D = Sᵀ U, u = τ − Sᵀ pᴬ,
     // Iᵃ = Iᴬ − U D⁻¹ Uᵀ, pᵃ = pᴬ + Iᵃ c + U D⁻¹ u; added to the parent (same frame).
+    let topo = &data.topo[..n];
     for i in (0..n).rev() {
-        let body = &model.bodies[i];
-        let (vo, k, doff) = (body.v_offset, body.nv, aba.doff[i]);
+        let t = topo[i];
+        let (vo, k, doff) = (t.vo, t.nv, aba.doff[i]);
         let ia = aba.ia[i];
         let pa_i = aba.pa[i];
         if k == 1 {
@@ -36,7 +37,7 @@ pub(crate) fn aba(model: &Model, tau: &[f64], data: &mut Data) -> Result<(), Dyn
             let d = dot6(&s, &u);
             if d.is_nan() || d <= 0.0 {
                 return Err(DynamicsError::Singular {
-                    joint: body.joint_name(),
+                    joint: model.bodies[i].joint_name(),
                     detail: "Sᵀ Iᴬ S is not positive definite",
                 });
             }
@@ -45,7 +46,10 @@ pub(crate) fn aba(model: &Model, tau: &[f64], data: &mut Data) -> Result<(), Dyn
             aba.u[vo] = u;
             aba.uu[vo] = uu;
             aba.dinv[doff] = dinv;
-            let Some(parent) = body.parent else { continue };
+            let parent = t.parent;
+            if parent == usize::MAX {
+                continue;
+            }
             // pᵃ = pᴬ + Iᵃ c + U D⁻¹ u with Iᵃ c = Iᴬ c − U (Uᵀc) / D
             let c = data.c[i].to_array();
             let ic = ia.mul_vec(&c);
@@ -73,7 +77,7 @@ pub(crate) fn aba(model: &Model, tau: &[f64], data: &mut Data) -> Result<(), Dyn
         }
         if !dm.invert() {
             return Err(DynamicsError::Singular {
-                joint: body.joint_name(),
+                joint: model.bodies[i].joint_name(),
                 detail: "Sᵀ Iᴬ S is not positive definite",
             });
         }
@@ -82,7 +86,10 @@ pub(crate) fn aba(model: &Model, tau: &[f64], data: &mut Data) -> Result<(), Dyn
                 aba.dinv[doff + p * k + q] = dm.a[p][q];
             }
         }
-        let Some(parent) = body.parent else { continue };
+        let parent = t.parent;
+        if parent == usize::MAX {
+            continue;
+        }
         // Iᵃ = Iᴬ − Σ_p U_p w_pᵀ with w_p = Σ_q D⁻¹_pq U_q;  pᵃ = pᴬ + Iᵃ c + Σ_p U_p (D⁻¹u)_p.
         let mut ia_a = ia;
         let mut du = [0.0; 6];
@@ -107,11 +114,12 @@ pub(crate) fn aba(model: &Model, tau: &[f64], data: &mut Data) -> Result<(), Dyn
     // Pass 3, root to leaves: a' = a_parent + c, q̈ = D⁻¹ (u − Uᵀ a'), a = a' + S q̈.
     let a0 = SpatialMotion::new(glam::DVec3::ZERO, -data.gravity);
     for i in 0..n {
-        let body = &model.bodies[i];
-        let (vo, k, doff) = (body.v_offset, body.nv, aba.doff[i]);
-        let ap = match body.parent {
-            Some(p) => aba.a[p],
-            None => a0,
+        let t = topo[i];
+        let (vo, k, doff) = (t.vo, t.nv, aba.doff[i]);
+        let ap = if t.parent == usize::MAX {
+            a0
+        } else {
+            aba.a[t.parent]
         } + data.c[i];
         let apa = ap.to_array();
         if k == 1 {

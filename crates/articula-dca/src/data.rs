@@ -2,7 +2,7 @@
 
 use crate::kinematics::FkPlan;
 use crate::small::{SmallSpd, Sym6};
-use articula_model::{Model, NodeKind};
+use articula_model::{JointKind, Model, NodeKind};
 use articula_spatial::{Mat6, SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
 use glam::DVec3;
 
@@ -16,7 +16,8 @@ pub(crate) enum Side {
 }
 
 /// Per-step buffers of every algorithm. Build once with [`Data::new`]; a dynamics call or a
-/// step allocates nothing.
+/// step allocates nothing. `Data` also caches a few constants of the model's joints (their
+/// kinematic fast paths and offsets): build a new one for a changed model.
 #[derive(Clone, Debug)]
 pub struct Data {
     /// Gravity acceleration in world coordinates (default `(0, 0, -9.81)`).
@@ -47,16 +48,31 @@ pub struct Data {
     pub(crate) f_ext_c: Vec<SpatialForce>,
     /// Per body: the forward-kinematics path of its joint.
     pub(crate) fk_plan: Vec<FkPlan>,
+    /// Per body: parent, velocity offset and DOF count, compact (the recursions read these
+    /// for every body; `Body` itself spans several cache lines).
+    pub(crate) topo: Vec<Topo>,
     pub(crate) dca: DcaData,
     pub(crate) aba: AbaData,
     pub(crate) rk: RkData,
 }
 
+/// A body's place in the recursions.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Topo {
+    /// The parent body, `usize::MAX` for a root.
+    pub parent: usize,
+    pub vo: usize,
+    pub nv: usize,
+}
+
 /// DCA buffers (DESIGN §5), laid out over the assembly tree.
 #[derive(Clone, Debug)]
 pub(crate) struct DcaData {
-    /// Per node: offset of its handles in the flat per-handle arrays.
+    /// Per node: offset of its handles in the flat per-handle arrays (plus a final sentinel,
+    /// so that node n has `hoff[n + 1] − hoff[n]` handles).
     pub hoff: Vec<usize>,
+    /// Per node: its kind (a compact copy of the assembly tree's).
+    pub kind: Vec<NodeKind>,
     /// Per node: offset of its Φ blocks (nh × nh, row-major) in `phi`.
     pub boff: Vec<usize>,
     /// Per join node: index of the principal joint among A's and among B's handles.
@@ -70,7 +86,8 @@ pub(crate) struct DcaData {
     pub b: Vec<SpatialMotion>,
     /// Handle forces per handle (back-substitution).
     pub f: Vec<SpatialForce>,
-    /// Per join node: the Cholesky factor L of `Φ^A_jj + Φ^B_jj = V⁻¹`, and β.
+    /// Per join node: the Cholesky factor L of `Φ^A_jj + Φ^B_jj = V⁻¹` (its diagonal stored
+    /// inverted, see [`crate::small::cholesky6`]), and β.
     pub l: Vec<[[f64; 6]; 6]>,
     pub beta: Vec<SpatialMotion>,
     /// Per degree of freedom: the column of `Z = L⁻¹ S`.
@@ -80,8 +97,34 @@ pub(crate) struct DcaData {
     /// Per joint h: the point P_h (origin of body h, computation frame) about which every
     /// handle-h vector is taken.
     pub point: Vec<DVec3>,
-    /// Scratch per handle of the node being joined: `Ỹ_h = Q L⁻¹ Φ_jh`.
+    /// Per node: the constraint basis of its joint (1-DOF joins).
+    pub basis: Vec<Basis>,
+    /// Scratch per handle of the node being joined: `Ỹ_h = Q L⁻¹ Φ_jh` (or `M⁻¹ Tᵀ Φ_jh`).
     pub y: Vec<[[f64; 6]; 6]>,
+}
+
+/// The constraint basis of a 1-DOF join (see `dca::join`): with `s` the joint's subspace
+/// column at its point (`[ω; 0]` revolute, `[0; u]` prismatic), `m` the index of its largest
+/// entry and `a`, `b` the other two of that half, `T = [e_a − r_a e_m, e_b − r_b e_m,
+/// e_keep…]` (`r = s/s_m`) spans the forces that do no work along `s`.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Basis {
+    /// This join is a single revolute/prismatic joint (the 5×5 path).
+    pub one_dof: bool,
+    /// ... and that joint is prismatic.
+    pub prismatic: bool,
+    pub m: usize,
+    pub a: usize,
+    pub b: usize,
+    pub keep: [usize; 3],
+    pub ra: f64,
+    pub rb: f64,
+    pub s: [f64; 6],
+    /// The joint force and `q̈` per unit joint torque (see `dca::unit_torque`).
+    pub ft: [f64; 6],
+    pub qt: f64,
+    /// `(W K s − s) / sᵀs`: `q̈ = gᵀ y + q̈_τ τ` in the back-substitution.
+    pub g: [f64; 6],
 }
 
 /// ABA buffers.
@@ -127,6 +170,7 @@ impl Data {
             h += node.handles.len();
             blk += node.handles.len() * node.handles.len();
         }
+        hoff.push(h); // sentinel: node n has hoff[n + 1] − hoff[n] handles
         let mut ja = vec![0; nn];
         let mut jb = vec![0; nn];
         let mut from = vec![(Side::A, 0); h];
@@ -175,6 +219,7 @@ impl Data {
             qdd: vec![0.0; nv],
             momentum_projection: true,
             dca: DcaData {
+                kind: tree.nodes.iter().map(|node| node.kind).collect(),
                 hoff,
                 boff,
                 ja,
@@ -188,9 +233,44 @@ impl Data {
                 z: vec![[0.0; 6]; nv],
                 dinv: vec![SmallSpd::default(); n],
                 point: vec![DVec3::ZERO; n],
+                basis: tree
+                    .nodes
+                    .iter()
+                    .map(|node| Basis {
+                        one_dof: match node.kind {
+                            NodeKind::Join { joint, .. } => {
+                                let body = &model.bodies[joint];
+                                matches!(
+                                    body.joint.as_slice(),
+                                    [p] if matches!(
+                                        p.kind,
+                                        JointKind::Revolute | JointKind::Continuous | JointKind::Prismatic
+                                    )
+                                )
+                            }
+                            _ => false,
+                        },
+                        prismatic: match node.kind {
+                            NodeKind::Join { joint, .. } => {
+                                model.bodies[joint].joint[0].kind == JointKind::Prismatic
+                            }
+                            _ => false,
+                        },
+                        ..Basis::default()
+                    })
+                    .collect(),
                 y: vec![[[0.0; 6]; 6]; max_h],
             },
             fk_plan: model.bodies.iter().map(FkPlan::of).collect(),
+            topo: model
+                .bodies
+                .iter()
+                .map(|b| Topo {
+                    parent: b.parent.unwrap_or(usize::MAX),
+                    vo: b.v_offset,
+                    nv: b.nv,
+                })
+                .collect(),
             aba: AbaData {
                 ia: vec![Sym6::ZERO; n],
                 pa: vec![SpatialForce::ZERO; n],

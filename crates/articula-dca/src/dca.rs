@@ -6,7 +6,7 @@
 //! bottom-up over the assembly tree; the back-substitution computes each principal joint's
 //! `q̈` and constraint force top-down.
 
-use crate::data::Side;
+use crate::data::{Basis, Side};
 use crate::{Data, DynamicsError};
 use articula_model::{Model, NodeKind};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
@@ -95,13 +95,19 @@ fn main_pass(
                     // b at P_h: [α; a_c + α × (P_h − c)] + a_g
                     data.dca.b[ho + h] = a_g + SpatialMotion::new(acc_w, acc_c + acc_w.cross(-ah));
                 }
-                for (h, &jh) in node_handles.iter().enumerate() {
+                // Columns of A_h = a_h× J are a_h × (columns of J); a body has at most a few
+                // handles, computed once each (the leaf of a multi-handle body recomputes).
+                let cols = |jh: usize| {
                     let ah = c - data.dca.point[jh];
-                    // Columns of A_h = a_h× J are a_h × (columns of J).
-                    let ah_cols = [ah.cross(j.x_axis), ah.cross(j.y_axis), ah.cross(j.z_axis)];
+                    (
+                        ah,
+                        [ah.cross(j.x_axis), ah.cross(j.y_axis), ah.cross(j.z_axis)],
+                    )
+                };
+                for (h, &jh) in node_handles.iter().enumerate() {
+                    let (ah, ah_cols) = cols(jh);
                     for (k, &jk) in node_handles.iter().enumerate() {
-                        let ak = c - data.dca.point[jk];
-                        let ak_cols = [ak.cross(j.x_axis), ak.cross(j.y_axis), ak.cross(j.z_axis)];
+                        let ak_cols = if k == h { ah_cols } else { cols(jk).1 };
                         // Row r of A_kᵀ is column r of A_k; column cc of A_kᵀ is row cc of A_k.
                         let ak_row =
                             |cc: usize| DVec3::new(ak_cols[0][cc], ak_cols[1][cc], ak_cols[2][cc]);
@@ -137,7 +143,7 @@ fn main_pass(
     Ok(())
 }
 
-/// `L⁻¹ b` (forward substitution).
+/// `L⁻¹ b` (forward substitution; `l` from [`crate::small::cholesky6`], inverse diagonal).
 #[inline]
 fn solve_l(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
     let mut x = [0.0; 6];
@@ -146,12 +152,12 @@ fn solve_l(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
         for p in 0..i {
             v -= l[i][p] * x[p];
         }
-        x[i] = v / l[i][i];
+        x[i] = v * l[i][i];
     }
     x
 }
 
-/// `L⁻ᵀ b` (back substitution).
+/// `L⁻ᵀ b` (back substitution; inverse diagonal).
 #[inline]
 fn solve_lt(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
     let mut x = [0.0; 6];
@@ -160,7 +166,7 @@ fn solve_lt(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
         for p in (i + 1)..6 {
             v -= l[p][i] * x[p];
         }
-        x[i] = v / l[i][i];
+        x[i] = v * l[i][i];
     }
     x
 }
@@ -170,12 +176,18 @@ fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
 }
 
-/// Joins A and B at `joint` into node `n` (DESIGN §5, any handle count), through the
-/// Cholesky factor of `Φ^A_jj + Φ^B_jj = L Lᵀ` so that V and W never appear explicitly:
-/// with `Z = L⁻¹ S`, `D = ZᵀZ` and the orthogonal projector `Q = 1 − Z D⁻¹ Zᵀ`,
-/// `W = L⁻ᵀ Q L⁻¹`, so `Φ_hj W Φ_jk = Ỹ_hᵀ Ỹ_k` with `Ỹ_h = Q L⁻¹ Φ_jh` (one Gram product per
-/// block; `Q = QᵀQ`), and `γ = W β + V S D⁻¹ Q_τ = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − τ))` with
-/// `w = L⁻¹ β`.
+/// Joins A and B at `joint` into node `n` (DESIGN §5, any handle count); V and W never
+/// appear explicitly. With `K = Φ^A_jj + Φ^B_jj = V⁻¹`, W is the same for every basis `T` of
+/// the forces that do no work along S: `W = V − V S (SᵀVS)⁻¹ SᵀV = T (TᵀKT)⁻¹ Tᵀ`.
+/// - One revolute or prismatic axis (the common case): the sparse basis of [`Basis`], the
+///   Cholesky factor `M` of the 5×5 `TᵀKT`, `Ỹ_h = M⁻¹ Tᵀ Φ_jh` (5 rows), and the joint terms
+///   of [`joint_terms`].
+/// - Otherwise: the Cholesky factor of `K = L Lᵀ`, `Z = L⁻¹ S`, `D = ZᵀZ` and the orthogonal
+///   projector `Q = 1 − Z D⁻¹ Zᵀ`: `W = L⁻ᵀ Q L⁻¹`, `Ỹ_h = Q L⁻¹ Φ_jh` (`Q = QᵀQ`), and
+///   `γ = W β + V S D⁻¹ Q_τ = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − τ))` with `w = L⁻¹ β`.
+///
+/// Either way `Φ_hj W Φ_jk = Ỹ_hᵀ Ỹ_k`: one Gram product per block of C (the diagonal ones on
+/// their upper triangle).
 #[inline(never)]
 fn join(
     model: &Model,
@@ -186,76 +198,106 @@ fn join(
     a: usize,
     b: usize,
 ) -> Result<(), DynamicsError> {
-    let tree = &model.assembly;
-    let body = &model.bodies[joint];
-    let (nha, nhb) = (tree.nodes[a].handles.len(), tree.nodes[b].handles.len());
-    let nhc = tree.nodes[n].handles.len();
+    let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
     let d = &mut data.dca;
+    let nh = |x: usize| d.hoff[x + 1] - d.hoff[x];
+    let (nha, nhb, nhc) = (nh(a), nh(b), nh(n));
     let (ja, jb) = (d.ja[n], d.jb[n]);
-    // L Lᵀ = Φ^A_jj + Φ^B_jj
     let sum = (*phi(d, a, nha, ja, ja) + *phi(d, b, nhb, jb, jb)).0;
-    let l = crate::small::cholesky6(&sum).ok_or_else(|| DynamicsError::Singular {
-        joint: body.joint_name(),
-        detail: "Φ_jj^A + Φ_jj^B is not positive definite",
-    })?;
-    // S and c at the joint's point P_j; Z = L⁻¹ S, D = Zᵀ Z.
+    // S and c at the joint's point P_j.
     let pj = d.point[joint];
     let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj));
-    let (vo, k) = (body.v_offset, body.nv);
-    let mut dm = crate::small::SmallSpd {
-        k,
-        a: [[0.0; 6]; 6],
-    };
-    for p in 0..k {
-        let z = solve_l(&l, &shift(data.s[vo + p]).to_array());
-        d.z[vo + p] = z;
-        for q in 0..=p {
-            let x = dot6(&d.z[vo + q], &z);
-            dm.a[p][q] = x;
-            dm.a[q][p] = x;
-        }
-    }
-    if !dm.invert() {
-        return Err(DynamicsError::Singular {
-            joint: body.joint_name(),
-            detail: "Sᵀ V S is not positive definite",
-        });
-    }
-    d.dinv[joint] = dm;
-    d.l[n] = l;
-    // Z D⁻¹ (columns), for the projector Q = 1 − (Z D⁻¹) Zᵀ.
-    let mut zd = [[0.0; 6]; 6];
-    for p in 0..k {
-        for q in 0..k {
-            let x = dm.a[p][q];
-            let zq = &d.z[vo + q];
-            for i in 0..6 {
-                zd[p][i] += x * zq[i];
-            }
-        }
-    }
-    // β = b_j^A − b_j^B + c;  γ = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − Q)),  w = L⁻¹ β
+    let body = &model.bodies[joint]; // for error messages only
+                                     // β = b_j^A − b_j^B + c
     let beta = d.b[d.hoff[a] + ja] - d.b[d.hoff[b] + jb] + shift(data.c[joint]);
     d.beta[n] = beta;
-    let mut w = solve_l(&l, &beta.to_array());
-    for p in 0..k {
-        let t = dot6(&d.z[vo + p], &w) - tau[vo + p];
-        for i in 0..6 {
-            w[i] -= zd[p][i] * t;
-        }
-    }
-    let gamma = solve_lt(&l, &w);
-    // Ỹ_h = Q L⁻¹ Φ_jh: forward substitution on whole rows of Φ_jh (vectorises), then the
-    // projection Ỹ −= (Z D⁻¹)(Zᵀ Ỹ) (k rank-1 row updates).
     let (hc, bc) = (d.hoff[n], d.boff[n]);
     let (boa, bob) = (d.boff[a], d.boff[b]);
-    for h in 0..nhc {
-        let (side, i) = d.from[hc + h];
-        let gt = match side {
-            Side::A => &d.phi[boa + ja * nha + i].0,
-            Side::B => &d.phi[bob + jb * nhb + i].0,
+    let rows;
+    let gamma;
+    if d.basis[n].one_dof {
+        // One revolute/prismatic axis: the 5×5 constraint system (see `Basis`).
+        let bs = basis(shift(data.s[vo]).to_array(), d.basis[n].prismatic);
+        let m =
+            crate::small::cholesky5(&reduce(&sum, &bs)).ok_or_else(|| DynamicsError::Singular {
+                joint: body.joint_name(),
+                detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
+            })?;
+        d.l[n] = m;
+        let mut bs = bs;
+        joint_terms(&sum, &m, &mut bs);
+        // γ = W β + f_τ τ
+        let wb = w_apply(&m, &bs, &beta.to_array());
+        gamma = std::array::from_fn(|i| wb[i] + bs.ft[i] * tau[vo]);
+        d.basis[n] = bs;
+        for h in 0..nhc {
+            let (side, i) = d.from[hc + h];
+            let gt = match side {
+                Side::A => &d.phi[boa + ja * nha + i].0,
+                Side::B => &d.phi[bob + jb * nhb + i].0,
+            };
+            y_reduced(&mut d.y[h], gt, &m, &bs);
+        }
+        rows = 5;
+    } else {
+        // L Lᵀ = Φ^A_jj + Φ^B_jj
+        let l = crate::small::cholesky6(&sum).ok_or_else(|| DynamicsError::Singular {
+            joint: body.joint_name(),
+            detail: "Φ_jj^A + Φ_jj^B is not positive definite",
+        })?;
+        // Z = L⁻¹ S, D = Zᵀ Z.
+        let mut dm = crate::small::SmallSpd {
+            k,
+            a: [[0.0; 6]; 6],
         };
-        y_tilde(&mut d.y[h], gt, &l, &d.z[vo..vo + k], &zd);
+        for p in 0..k {
+            let z = solve_l(&l, &shift(data.s[vo + p]).to_array());
+            d.z[vo + p] = z;
+            for q in 0..=p {
+                let x = dot6(&d.z[vo + q], &z);
+                dm.a[p][q] = x;
+                dm.a[q][p] = x;
+            }
+        }
+        if !dm.invert() {
+            return Err(DynamicsError::Singular {
+                joint: body.joint_name(),
+                detail: "Sᵀ V S is not positive definite",
+            });
+        }
+        d.dinv[joint] = dm;
+        d.l[n] = l;
+        // Z D⁻¹ (columns), for the projector Q = 1 − (Z D⁻¹) Zᵀ.
+        let mut zd = [[0.0; 6]; 6];
+        for p in 0..k {
+            for q in 0..k {
+                let x = dm.a[p][q];
+                let zq = &d.z[vo + q];
+                for i in 0..6 {
+                    zd[p][i] += x * zq[i];
+                }
+            }
+        }
+        // γ = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − Q)),  w = L⁻¹ β
+        let mut w = solve_l(&l, &beta.to_array());
+        for p in 0..k {
+            let t = dot6(&d.z[vo + p], &w) - tau[vo + p];
+            for i in 0..6 {
+                w[i] -= zd[p][i] * t;
+            }
+        }
+        gamma = solve_lt(&l, &w);
+        // Ỹ_h = Q L⁻¹ Φ_jh: forward substitution on whole rows of Φ_jh (vectorises), then the
+        // projection Ỹ −= (Z D⁻¹)(Zᵀ Ỹ) (k rank-1 row updates).
+        for h in 0..nhc {
+            let (side, i) = d.from[hc + h];
+            let gt = match side {
+                Side::A => &d.phi[boa + ja * nha + i].0,
+                Side::B => &d.phi[bob + jb * nhb + i].0,
+            };
+            y_tilde(&mut d.y[h], gt, &l, &d.z[vo..vo + k], &zd);
+        }
+        rows = 6;
     }
     // Φ^C blocks: same side Φ_hk − Ỹ_hᵀỸ_k; across +Ỹ_hᵀỸ_k. Then b^C.
     let (src, dst) = d.phi.split_at_mut(bc);
@@ -271,10 +313,11 @@ fn join(
                 _ => None,
             };
             let out = &mut dst[h * nhc + kk].0;
-            if h == kk {
-                gram_sym_into(out, yh, old);
-            } else {
-                gram_into(out, yh, yk, old);
+            match (h == kk, rows) {
+                (true, 5) => gram_sym_into::<5>(out, yh, old),
+                (true, _) => gram_sym_into::<6>(out, yh, old),
+                (false, 5) => gram_into::<5>(out, yh, yk, old),
+                (false, _) => gram_into::<6>(out, yh, yk, old),
             }
             if h == kk {
                 // Symmetric: mirror the upper triangle (round-off would differ below).
@@ -321,7 +364,7 @@ fn y_tilde(
                 v[c] -= lrq * yt[q][c];
             }
         }
-        let inv = 1.0 / l[r][r];
+        let inv = l[r][r];
         for c in 0..6 {
             yt[r][c] = v[c] * inv;
         }
@@ -342,10 +385,151 @@ fn y_tilde(
     }
 }
 
+/// The constraint basis of a 1-DOF joint with subspace column `s` at its point (see
+/// [`crate::data::Basis`]): `m` the largest entry of the moving half, so `|r_a|, |r_b| ≤ 1`.
+#[inline(always)]
+fn basis(mut s: [f64; 6], prismatic: bool) -> Basis {
+    let off = if prismatic { 3 } else { 0 };
+    // The other half is zero for an axis through the point (exact for a revolute axis
+    // through the body origin; rounding otherwise).
+    for x in &mut s[3 - off..6 - off] {
+        *x = 0.0;
+    }
+    let v = [s[off], s[off + 1], s[off + 2]];
+    let m = if v[0].abs() >= v[1].abs() && v[0].abs() >= v[2].abs() {
+        0
+    } else if v[1].abs() >= v[2].abs() {
+        1
+    } else {
+        2
+    };
+    let (a, b) = ((m + 1) % 3, (m + 2) % 3);
+    Basis {
+        one_dof: true,
+        prismatic,
+        m: off + m,
+        a: off + a,
+        b: off + b,
+        keep: if prismatic { [0, 1, 2] } else { [3, 4, 5] },
+        ra: v[a] / v[m],
+        rb: v[b] / v[m],
+        s,
+        ft: [0.0; 6],
+        qt: 0.0,
+        g: [0.0; 6],
+    }
+}
+
+/// `Tᵀ x`.
+#[inline(always)]
+fn t_tr(x: &[f64; 6], bs: &Basis) -> [f64; 5] {
+    [
+        x[bs.a] - bs.ra * x[bs.m],
+        x[bs.b] - bs.rb * x[bs.m],
+        x[bs.keep[0]],
+        x[bs.keep[1]],
+        x[bs.keep[2]],
+    ]
+}
+
+/// `Tᵀ K T` (5×5, in the leading block) for a symmetric `K`.
+#[inline(always)]
+fn reduce(k: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 6] {
+    let rows = t_rows(k, bs);
+    let mut out = [[0.0; 6]; 6];
+    for i in 0..5 {
+        let t = t_tr(&rows[i], bs);
+        out[i][..5].copy_from_slice(&t);
+    }
+    out
+}
+
+/// The rows of `Tᵀ G` (G's rows combined).
+#[inline(always)]
+fn t_rows(g: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 5] {
+    let (gm, ga, gb) = (&g[bs.m], &g[bs.a], &g[bs.b]);
+    [
+        std::array::from_fn(|c| ga[c] - bs.ra * gm[c]),
+        std::array::from_fn(|c| gb[c] - bs.rb * gm[c]),
+        g[bs.keep[0]],
+        g[bs.keep[1]],
+        g[bs.keep[2]],
+    ]
+}
+
+/// `T (TᵀKT)⁻¹ Tᵀ y` (`m` the Cholesky factor of `TᵀKT`, inverse diagonal), the two 5×5
+/// triangular solves written out.
+#[inline(always)]
+fn w_apply(m: &[[f64; 6]; 6], bs: &Basis, y: &[f64; 6]) -> [f64; 6] {
+    let u = t_tr(y, bs);
+    // M x = u
+    let x0 = u[0] * m[0][0];
+    let x1 = (u[1] - m[1][0] * x0) * m[1][1];
+    let x2 = (u[2] - m[2][0] * x0 - m[2][1] * x1) * m[2][2];
+    let x3 = (u[3] - m[3][0] * x0 - m[3][1] * x1 - m[3][2] * x2) * m[3][3];
+    let x4 = (u[4] - m[4][0] * x0 - m[4][1] * x1 - m[4][2] * x2 - m[4][3] * x3) * m[4][4];
+    // Mᵀ λ = x
+    let l4 = x4 * m[4][4];
+    let l3 = (x3 - m[4][3] * l4) * m[3][3];
+    let l2 = (x2 - m[3][2] * l3 - m[4][2] * l4) * m[2][2];
+    let l1 = (x1 - m[2][1] * l2 - m[3][1] * l3 - m[4][1] * l4) * m[1][1];
+    let l0 = (x0 - m[1][0] * l1 - m[2][0] * l2 - m[3][0] * l3 - m[4][0] * l4) * m[0][0];
+    let mut f = [0.0; 6];
+    f[bs.a] = l0;
+    f[bs.b] = l1;
+    f[bs.m] = -bs.ra * l0 - bs.rb * l1;
+    f[bs.keep[0]] = l2;
+    f[bs.keep[1]] = l3;
+    f[bs.keep[2]] = l4;
+    f
+}
+
+/// What the back-substitution needs besides `W`: `g = W K s − s`, which gives
+/// `q̈ = (gᵀ y) / sᵀs + q̈_τ τ` for `K f = y + s q̈` (`sᵀ (K W y − y) = gᵀ y`, `W` symmetric),
+/// and the joint force and `q̈` per unit joint torque, `f_τ = f₀ − W K f₀` with
+/// `f₀ = e_m / s_m` (`sᵀ f_τ = 1`, `Tᵀ K f_τ = 0`) and `q̈_τ = sᵀ K f_τ / sᵀs = −gᵀ K f₀ / sᵀs`.
+/// Joint torques enter linearly, so a huge τ cannot overflow an intermediate product.
+#[inline(always)]
+fn joint_terms(k: &[[f64; 6]; 6], m: &[[f64; 6]; 6], bs: &mut Basis) {
+    let ks = Mat6(*k).mul_vec(&bs.s);
+    let wks = w_apply(m, bs, &ks);
+    let g: [f64; 6] = std::array::from_fn(|i| wks[i] - bs.s[i]);
+    let f0 = 1.0 / bs.s[bs.m];
+    let kf0: [f64; 6] = std::array::from_fn(|i| k[bs.m][i] * f0); // K e_m f₀ (K symmetric)
+    let mut ft = w_apply(m, bs, &kf0);
+    for x in ft.iter_mut() {
+        *x = -*x;
+    }
+    ft[bs.m] += f0;
+    let ss = dot6(&bs.s, &bs.s);
+    bs.qt = -dot6(&g, &kf0) / ss;
+    bs.g = g.map(|x| x / ss);
+    bs.ft = ft;
+}
+
+/// `Ỹ = M⁻¹ Tᵀ G` (5 rows) for `G = Φ_jh`: forward substitution on whole rows.
+#[inline(never)]
+fn y_reduced(yt: &mut [[f64; 6]; 6], gt: &[[f64; 6]; 6], m: &[[f64; 6]; 6], bs: &Basis) {
+    let tg = t_rows(gt, bs);
+    for r in 0..5 {
+        let mut v = tg[r];
+        for q in 0..r {
+            let mrq = m[r][q];
+            for c in 0..6 {
+                v[c] -= mrq * yt[q][c];
+            }
+        }
+        let inv = m[r][r];
+        for c in 0..6 {
+            yt[r][c] = v[c] * inv;
+        }
+    }
+}
+
 /// `out = old − Ỹ_hᵀ Ỹ_k` (or `+Ỹ_hᵀ Ỹ_k` without `old`): row r is
 /// `Σ_i Ỹ_h[i][r] · (row i of Ỹ_k)`, six accumulators per row.
 #[inline(never)]
-fn gram_into(
+fn gram_into<const R: usize>(
     out: &mut [[f64; 6]; 6],
     yh: &[[f64; 6]; 6],
     yk: &[[f64; 6]; 6],
@@ -353,7 +537,7 @@ fn gram_into(
 ) {
     for r in 0..6 {
         let mut acc = [0.0; 6];
-        for i in 0..6 {
+        for i in 0..R {
             let x = yh[i][r];
             let yki = &yk[i];
             for c in 0..6 {
@@ -374,21 +558,25 @@ fn gram_into(
 /// [`gram_into`] for a diagonal block (`Ỹ_k = Ỹ_h`, symmetric): only the entries on and above
 /// the diagonal, in pairs of columns (rows 2p and 2p+1 start at column 2p); the caller mirrors.
 #[inline(never)]
-fn gram_sym_into(out: &mut [[f64; 6]; 6], y: &[[f64; 6]; 6], old: Option<&[[f64; 6]; 6]>) {
-    gram_rows::<0>(out, y, old);
-    gram_rows::<2>(out, y, old);
-    gram_rows::<4>(out, y, old);
+fn gram_sym_into<const R: usize>(
+    out: &mut [[f64; 6]; 6],
+    y: &[[f64; 6]; 6],
+    old: Option<&[[f64; 6]; 6]>,
+) {
+    gram_rows::<0, R>(out, y, old);
+    gram_rows::<2, R>(out, y, old);
+    gram_rows::<4, R>(out, y, old);
 }
 
 #[inline(always)]
-fn gram_rows<const C0: usize>(
+fn gram_rows<const C0: usize, const R: usize>(
     out: &mut [[f64; 6]; 6],
     y: &[[f64; 6]; 6],
     old: Option<&[[f64; 6]; 6]>,
 ) {
     for r in C0..C0 + 2 {
         let mut acc = [0.0; 6];
-        for i in 0..6 {
+        for i in 0..R {
             let x = y[i][r];
             for c in C0..6 {
                 acc[c] += x * y[i][c];
@@ -416,16 +604,13 @@ fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
             joint,
             parent_side: a,
             child_side: b,
-        } = tree.nodes[n].kind
+        } = data.dca.kind[n]
         else {
             continue;
         };
         let d = &mut data.dca;
-        let (nha, nhb, nhc) = (
-            tree.nodes[a].handles.len(),
-            tree.nodes[b].handles.len(),
-            tree.nodes[n].handles.len(),
-        );
+        let nh = |x: usize| d.hoff[x + 1] - d.hoff[x];
+        let (nha, nhb, nhc) = (nh(a), nh(b), nh(n));
         let (ja, jb, hc) = (d.ja[n], d.jb[n], d.hoff[n]);
         let mut y = d.beta[n];
         for h in 0..nhc {
@@ -435,22 +620,31 @@ fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
                 (Side::B, i) => y -= phi(d, b, nhb, jb, i).force_to_motion(f),
             }
         }
-        let body = &model.bodies[joint];
-        let (vo, k) = (body.v_offset, body.nv);
+        let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
         let l = &d.l[n];
-        let mut w = solve_l(l, &y.to_array());
-        let mut r = [0.0; 6];
-        for p in 0..k {
-            r[p] = tau[vo + p] - dot6(&d.z[vo + p], &w);
-        }
-        d.dinv[joint].mul(&r[..k], &mut data.qdd[vo..vo + k]);
-        for p in 0..k {
-            let (z, qdd) = (d.z[vo + p], data.qdd[vo + p]);
-            for i in 0..6 {
-                w[i] += z[i] * qdd;
+        let f = if d.basis[n].one_dof {
+            // f = W y + f_τ τ (so K f = y + s q̈); q̈ = gᵀ y / sᵀs + q̈_τ τ (`joint_terms`).
+            let bs = &d.basis[n];
+            let ya = y.to_array();
+            let fy = w_apply(l, bs, &ya);
+            let t = tau[vo];
+            data.qdd[vo] = dot6(&bs.g, &ya) + bs.qt * t;
+            SpatialForce::from_array(std::array::from_fn(|i| fy[i] + bs.ft[i] * t))
+        } else {
+            let mut w = solve_l(l, &y.to_array());
+            let mut r = [0.0; 6];
+            for p in 0..k {
+                r[p] = tau[vo + p] - dot6(&d.z[vo + p], &w);
             }
-        }
-        let f = SpatialForce::from_array(solve_lt(l, &w));
+            d.dinv[joint].mul(&r[..k], &mut data.qdd[vo..vo + k]);
+            for p in 0..k {
+                let (z, qdd) = (d.z[vo + p], data.qdd[vo + p]);
+                for i in 0..6 {
+                    w[i] += z[i] * qdd;
+                }
+            }
+            SpatialForce::from_array(solve_lt(l, &w))
+        };
         let (hoa, hob) = (d.hoff[a], d.hoff[b]);
         for h in 0..nhc {
             let fh = d.f[hc + h];

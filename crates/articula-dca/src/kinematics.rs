@@ -19,6 +19,11 @@ pub(crate) enum FkPlan {
         k: usize,
         /// ±1: the axis direction.
         sign: f64,
+        /// The joint origin's `r` and the joint's coordinate offsets (copied from the model so
+        /// that the loop reads one compact record per body).
+        origin_r: DVec3,
+        qo: usize,
+        vo: usize,
     },
 }
 
@@ -38,7 +43,13 @@ impl FkPlan {
             unit[k] = 1.0;
             for sign in [1.0, -1.0] {
                 if ax == unit * sign {
-                    return FkPlan::AxisRevolute { k, sign };
+                    return FkPlan::AxisRevolute {
+                        k,
+                        sign,
+                        origin_r: part.origin.r,
+                        qo: part.q_offset,
+                        vo: part.v_offset,
+                    };
                 }
             }
         }
@@ -86,18 +97,25 @@ pub(crate) fn kinematics(
     // X_{C←W} = xlt(origin)
     let x_cw = SpatialTransform::xlt(data.origin);
     for (i, body) in model.bodies.iter().enumerate() {
-        let (x0, v0) = match body.parent {
-            Some(p) => (data.x[p], data.v[p]),
-            None => (x_cw, SpatialMotion::ZERO),
+        let parent = data.topo[i].parent;
+        let (x0, v0) = if parent == usize::MAX {
+            (x_cw, SpatialMotion::ZERO)
+        } else {
+            (data.x[parent], data.v[parent])
         };
         let (x, v, c) = match data.fk_plan[i] {
-            FkPlan::AxisRevolute { k, sign, .. } => {
-                let part = &body.joint[0];
-                let (vo, qi) = (part.v_offset, sign * q[part.q_offset]);
+            FkPlan::AxisRevolute {
+                k,
+                sign,
+                origin_r,
+                qo,
+                vo,
+            } => {
+                let qi = sign * q[qo];
                 let (x, s) = match k {
-                    0 => axis_revolute::<0, 1, 2>(x0, part.origin.r, qi, sign),
-                    1 => axis_revolute::<1, 2, 0>(x0, part.origin.r, qi, sign),
-                    _ => axis_revolute::<2, 0, 1>(x0, part.origin.r, qi, sign),
+                    0 => axis_revolute::<0, 1, 2>(x0, origin_r, qi, sign),
+                    1 => axis_revolute::<1, 2, 0>(x0, origin_r, qi, sign),
+                    _ => axis_revolute::<2, 0, 1>(x0, origin_r, qi, sign),
                 };
                 data.s[vo] = s;
                 let vj = s * qd[vo];

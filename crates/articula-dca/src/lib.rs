@@ -44,6 +44,7 @@ pub use data::Data;
 pub use error::DynamicsError;
 pub use integrate::{integrate_floating, integrate_q, step, Integrator};
 pub use kinematics::forward_kinematics;
+pub use small::cholesky;
 pub use state::{SplitMix64, State};
 
 use articula_model::Model;
@@ -138,7 +139,9 @@ pub(crate) fn f_ext_of(f_ext: &[SpatialForce], i: usize) -> SpatialForce {
     f_ext.get(i).copied().unwrap_or(SpatialForce::ZERO)
 }
 
-fn check_inputs(
+/// Checks the inputs of a dynamics call: lengths of `q`, `qd`, `tau` (and `f_ext` when not
+/// empty), and that every number is finite — an error names the joint or body.
+pub fn check_inputs(
     model: &Model,
     q: &[f64],
     qd: &[f64],

@@ -31,32 +31,47 @@ pub fn cholesky(a: &[[f64; 6]; 6], k: usize) -> Option<[[f64; 6]; 6]> {
 
 /// Cholesky factor `L` (lower, `L Lᵀ = A`) of a 6×6 symmetric positive definite matrix
 /// (its lower triangle is read), `None` when a pivot is not positive. Fully unrolled.
+/// **The diagonal holds `1 / L_jj`**, so that the triangular solves multiply instead of
+/// dividing (a division's latency is on their critical path).
 #[inline(always)]
 pub fn cholesky6(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
     let mut l = [[0.0f64; 6]; 6];
     let mut ok = true;
-    col::<0>(a, &mut l, &mut ok);
-    col::<1>(a, &mut l, &mut ok);
-    col::<2>(a, &mut l, &mut ok);
-    col::<3>(a, &mut l, &mut ok);
-    col::<4>(a, &mut l, &mut ok);
-    col::<5>(a, &mut l, &mut ok);
+    col::<0, 6>(a, &mut l, &mut ok);
+    col::<1, 6>(a, &mut l, &mut ok);
+    col::<2, 6>(a, &mut l, &mut ok);
+    col::<3, 6>(a, &mut l, &mut ok);
+    col::<4, 6>(a, &mut l, &mut ok);
+    col::<5, 6>(a, &mut l, &mut ok);
     ok.then_some(l)
 }
 
-/// Column `J` of the Cholesky factor (rows J..6), from the columns before it.
+/// [`cholesky6`] of the leading 5×5 block (same inverse-diagonal convention).
 #[inline(always)]
-fn col<const J: usize>(a: &[[f64; 6]; 6], l: &mut [[f64; 6]; 6], ok: &mut bool) {
+pub fn cholesky5(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
+    let mut l = [[0.0f64; 6]; 6];
+    let mut ok = true;
+    col::<0, 5>(a, &mut l, &mut ok);
+    col::<1, 5>(a, &mut l, &mut ok);
+    col::<2, 5>(a, &mut l, &mut ok);
+    col::<3, 5>(a, &mut l, &mut ok);
+    col::<4, 5>(a, &mut l, &mut ok);
+    ok.then_some(l)
+}
+
+/// Column `J` of the Cholesky factor of the leading N×N block (rows J..N), from the columns
+/// before it.
+#[inline(always)]
+fn col<const J: usize, const N: usize>(a: &[[f64; 6]; 6], l: &mut [[f64; 6]; 6], ok: &mut bool) {
     let mut d = a[J][J];
     for p in 0..J {
         d -= l[J][p] * l[J][p];
     }
     // `!(d > 0)` also catches NaN.
     *ok &= d > 0.0;
-    let ljj = d.sqrt();
-    l[J][J] = ljj;
-    let inv = 1.0 / ljj;
-    for i in (J + 1)..6 {
+    let inv = 1.0 / d.sqrt();
+    l[J][J] = inv;
+    for i in (J + 1)..N {
         let mut x = a[i][J];
         for p in 0..J {
             x -= l[i][p] * l[J][p];

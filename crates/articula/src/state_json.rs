@@ -79,10 +79,15 @@ impl StateFile {
     /// Checks names and lengths; normalises the quaternion of a floating joint.
     pub fn to_state(&self, model: &Model) -> Result<State, String> {
         let mut state = State::neutral(model);
+        // One name lookup table (a 100,000-joint state would otherwise scan the joints per name).
+        let parts: std::collections::HashMap<&str, &articula_model::JointPart> = model
+            .joint_parts()
+            .map(|(_, p)| (p.name.as_str(), p))
+            .collect();
         for (what, section) in [("q", &self.q), ("qd", &self.qd), ("tau", &self.tau)] {
             let Some(section) = section else { continue };
             for (name, values) in section {
-                let Some((_, part)) = model.find_joint(name) else {
+                let Some(&part) = parts.get(name.as_str()) else {
                     return Err(unknown_joint(model, what, name));
                 };
                 let (target, expected) = match what {
@@ -207,8 +212,9 @@ impl<'de> Visitor<'de> for SectionSeed {
 
     fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Section, A::Error> {
         let mut out: Section = Vec::new();
+        let mut seen = std::collections::HashSet::new();
         while let Some(name) = map.next_key::<String>()? {
-            if out.iter().any(|(n, _)| *n == name) {
+            if !seen.insert(name.clone()) {
                 return Err(de::Error::custom(format!(
                     "{}: joint '{name}' is given twice",
                     self.0
