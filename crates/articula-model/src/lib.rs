@@ -5,7 +5,9 @@
 //! - Loading ([`Model::from_urdf_file`], [`Model::from_urdf_str`]) validates everything dynamics
 //!   needs and fails with one typed [`ModelError`] that names the offending link or joint — never
 //!   a panic. Visual and collision geometry, materials, limits, `<gazebo>` and `<transmission>`
-//!   tags are ignored, so sloppy geometry never stops a load.
+//!   tags are ignored by the strict pass, so sloppy geometry never stops a load. Collision (else
+//!   visual) primitives are read leniently on the side into [`Body::geometry`]; malformed ones
+//!   are dropped.
 //! - Links welded by `fixed` joints are merged into one [`Body`] (spatial inertias summed).
 //! - Runs of moving joints joined by massless links (a 3-DOF hip made of three revolute joints)
 //!   become one multi-DOF joint: a [`Body`] whose `joint` has several [`JointPart`]s.
@@ -38,7 +40,7 @@ mod urdf;
 pub use assembly::{AssemblyNode, AssemblyTree, HandleLayout, NodeKind};
 pub use error::ModelError;
 pub use model::{Body, JointPart, LoadOptions, Model, FLOATING_BASE_JOINT};
-pub use urdf::{rpy_to_matrix, JointKind};
+pub use urdf::{rpy_to_matrix, Geometry, GeometryRole, JointKind, Shape};
 
 impl Body {
     /// The joint's name: its URDF joint name, or the names of its parts joined by `+` when

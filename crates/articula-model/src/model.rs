@@ -2,7 +2,7 @@
 //! one joint that may be composed of several single-axis URDF joints.
 
 use crate::assembly::AssemblyTree;
-use crate::urdf::{self, JointKind, RawRobot};
+use crate::urdf::{self, Geometry, JointKind, RawRobot};
 use crate::ModelError;
 use articula_spatial::{SpatialInertia, SpatialMotion, SpatialTransform};
 use glam::{DMat3, DQuat, DVec3};
@@ -117,6 +117,10 @@ pub struct Body {
     /// URDF links rigidly part of this body, with the map from each link's frame to the body
     /// frame. The body's own link comes first with the identity.
     pub links: Vec<(String, SpatialTransform)>,
+    /// Collision primitives of the body's links (each link's `<visual>` ones where it has no
+    /// readable `<collision>`), each with the map from its frame to the body frame. Geometry of
+    /// the massless links inside a composed joint is not kept.
+    pub geometry: Vec<Geometry>,
     /// Massless URDF links inside the composed joint (between its parts).
     pub massless_links: Vec<String>,
     /// Offset of the joint's coordinates in `q`.
@@ -240,7 +244,12 @@ impl Model {
         }
         let mut merged = vec![SpatialInertia::ZERO; n];
         let mut members: Vec<Vec<(String, SpatialTransform)>> = vec![Vec::new(); n];
+        let mut geometry: Vec<Vec<Geometry>> = vec![Vec::new(); n];
         for &l in &order {
+            geometry[owner[l]].extend(raw.links[l].geometry.iter().map(|g| Geometry {
+                origin: to_owner[l] * g.origin,
+                ..*g
+            }));
             merged[owner[l]] += to_owner[l].apply_inertia(&raw.links[l].inertia);
             if !merged[owner[l]].is_finite() {
                 return Err(ModelError::NonFiniteInertia {
@@ -375,6 +384,7 @@ impl Model {
                 joint: parts,
                 inertia: merged[link],
                 links: members[link].clone(),
+                geometry: std::mem::take(&mut geometry[link]),
                 massless_links,
                 q_offset: model.nq,
                 nq,

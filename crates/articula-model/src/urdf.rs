@@ -4,6 +4,8 @@
 //! types, origins, parents, children and axes — strictly, so that errors name the offending
 //! link or joint, and skips everything else (visual and collision geometry, materials, limits,
 //! `<gazebo>`, `<transmission>`, unknown tags), so sloppy geometry never makes loading fail.
+//! Collision and visual primitives (box, cylinder, sphere, mesh) are read leniently on the side:
+//! a malformed one is dropped, never an error.
 //! The values read are then validated (finite, positive semidefinite inertia, triangle
 //! inequality, unit axes, one root, no cycles).
 
@@ -54,6 +56,9 @@ pub(crate) struct RawLink {
     pub name: String,
     /// Spatial inertia in the link frame.
     pub inertia: SpatialInertia,
+    /// Its `<collision>` primitives, or its `<visual>` ones when it has no collision geometry
+    /// (link frame).
+    pub geometry: Vec<Geometry>,
 }
 
 /// A joint as read from the URDF.
@@ -362,6 +367,101 @@ struct LinkData<'a> {
     mass: f64,
     /// `ixx ixy ixz iyy iyz izz`.
     inertia: [f64; 6],
+    /// Collision geometry if any was readable, else visual geometry.
+    geometry: Vec<Geometry>,
+}
+
+/// A geometric primitive of a link's `<collision>` or `<visual>` (dimensions in metres, in the
+/// geometry's own frame: a box centred on its origin, a cylinder along its z axis).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shape {
+    /// `<box size="x y z">`: full edge lengths.
+    Box {
+        /// Edge lengths along x, y, z.
+        size: DVec3,
+    },
+    /// `<cylinder radius length>`, its axis along z, centred on the origin.
+    Cylinder {
+        /// Radius.
+        radius: f64,
+        /// Length along z.
+        length: f64,
+    },
+    /// `<sphere radius>`.
+    Sphere {
+        /// Radius.
+        radius: f64,
+    },
+    /// `<mesh>`: its extent is unknown without reading the mesh file (users fall back to the
+    /// link's inertia).
+    Mesh,
+}
+
+/// Which element a [`Geometry`] came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GeometryRole {
+    /// `<collision>`.
+    Collision,
+    /// `<visual>`.
+    Visual,
+}
+
+/// One `<collision>` or `<visual>` primitive of a link.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Geometry {
+    /// The shape.
+    pub shape: Shape,
+    /// Geometry frame → link frame (the element's `<origin>`); in a [`crate::Body`], geometry
+    /// frame → body frame.
+    pub origin: SpatialTransform,
+    /// Where it came from.
+    pub role: GeometryRole,
+}
+
+/// Leniently reads one `<collision>` or `<visual>` element: anything malformed (a missing or
+/// unparsable size, a negative or non-finite dimension, an unknown shape, a bad origin) makes
+/// it `None` — geometry never makes loading fail.
+fn read_geometry(el: roxmltree::Node, role: GeometryRole, quat: bool) -> Option<Geometry> {
+    let mut origin = Origin::default();
+    let mut shape = None;
+    for c in el.children().filter(|n| n.is_element()) {
+        match c.tag_name().name() {
+            "origin" => origin = read_origin(c, "link", "", quat).ok()?,
+            "geometry" => {
+                let g = c.children().find(|n| n.is_element())?;
+                let num = |attr: &str| -> Option<f64> {
+                    let [x] = numbers::<1>(g.attribute(attr)?)?;
+                    (x.is_finite() && x >= 0.0).then_some(x)
+                };
+                shape = Some(match g.tag_name().name() {
+                    "box" => {
+                        let s = numbers::<3>(g.attribute("size")?)?;
+                        if s.iter().any(|x| !x.is_finite() || *x < 0.0) {
+                            return None;
+                        }
+                        Shape::Box {
+                            size: DVec3::from_array(s),
+                        }
+                    }
+                    "cylinder" => Shape::Cylinder {
+                        radius: num("radius")?,
+                        length: num("length")?,
+                    },
+                    "sphere" => Shape::Sphere {
+                        radius: num("radius")?,
+                    },
+                    "mesh" => Shape::Mesh,
+                    _ => return None,
+                });
+            }
+            _ => {}
+        }
+    }
+    Some(Geometry {
+        shape: shape?,
+        origin: pose(&origin)?,
+        role,
+    })
 }
 
 /// A joint as read, before validation.
@@ -398,11 +498,23 @@ fn read_link<'input>(
         origin: Origin::default(),
         mass: 0.0,
         inertia: [0.0; 6],
+        geometry: Vec::new(),
     };
     let mut inertial = None;
+    let mut visual = Vec::new();
     for c in el.children().filter(|n| n.is_element()) {
-        if c.tag_name().name() != "inertial" {
-            continue;
+        match c.tag_name().name() {
+            "inertial" => {}
+            "collision" => {
+                link.geometry
+                    .extend(read_geometry(c, GeometryRole::Collision, quat));
+                continue;
+            }
+            "visual" => {
+                visual.extend(read_geometry(c, GeometryRole::Visual, quat));
+                continue;
+            }
+            _ => continue,
         }
         once(&mut inertial, c, "link", name)?;
         check_prefixes(doc, c)?;
@@ -435,6 +547,9 @@ fn read_link<'input>(
         if inertia.is_none() {
             return Err(malformed("link", name, "<inertial> lacks <inertia>"));
         }
+    }
+    if link.geometry.is_empty() {
+        link.geometry = visual;
     }
     Ok(link)
 }
@@ -646,6 +761,7 @@ fn validate(robot: RobotData) -> Result<RawRobot, ModelError> {
         links.push(RawLink {
             name: l.name.to_string(),
             inertia,
+            geometry: l.geometry.clone(),
         });
     }
 

@@ -6,6 +6,7 @@
 mod bench;
 mod fd;
 mod info;
+mod scene;
 mod simulate;
 mod state_json;
 
@@ -51,6 +52,9 @@ enum Command {
     Simulate(simulate::SimulateArgs),
     /// Time forward-dynamics calls on a seeded random state.
     Bench(bench::BenchArgs),
+    /// Simulate a scene of many bodies with view-dependent adaptive dynamics (one scene-wide
+    /// joint budget); optionally write PNG frames and top-down maps.
+    Scene(scene::SceneArgs),
 }
 
 /// Options shared by the dynamics commands.
@@ -232,6 +236,7 @@ fn main() -> ExitCode {
         Command::Fd(args) => fd::run(&args),
         Command::Simulate(args) => simulate::run(&args),
         Command::Bench(args) => bench::run(&args),
+        Command::Scene(args) => scene::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

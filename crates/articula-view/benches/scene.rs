@@ -1,0 +1,112 @@
+//! Scene benchmarks (DESIGN §7, issue "view-dependent adaptive dynamics"):
+//! - `crowd200/adaptive_step`: one step of the bundled crowd200 scene (200 humanoids, budget
+//!   2,000 internal joints, re-selection every 10 steps amortised), against
+//!   `crowd200/exact_dca_step`: one exact DCA step (semi-implicit Euler) of every body, on the
+//!   same states.
+//! - `crowd2000/adaptive_step`: 2,000 humanoids (40 rows × 50 columns), budget 4,000.
+//!
+//! `cargo bench -p articula-view --bench scene` (add `-- --quick` for a short run).
+
+use articula_dca::{step, Data, Integrator, Method};
+use articula_view::{load_scene, parse_scene, SceneSim};
+use criterion::{criterion_group, criterion_main, Criterion};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+fn models() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../models")
+}
+
+/// Time of `iters` scene steps, re-selections included, on runs restarted every 500 steps (the
+/// bundled crowd is stable for about 2 s of simulated time: see docs/view.md). Restarting is
+/// not timed.
+fn timed_steps(scene: &articula_view::LoadedScene, iters: u64) -> Duration {
+    let mut total = Duration::ZERO;
+    let mut done = 0;
+    while done < iters {
+        let mut sim = SceneSim::new(scene);
+        let n = (iters - done).min(500);
+        let t = Instant::now();
+        for _ in 0..n {
+            sim.step().unwrap();
+        }
+        total += t.elapsed();
+        done += n;
+    }
+    total
+}
+
+fn crowd200(c: &mut Criterion) {
+    let scene = load_scene(models().join("scenes/crowd200.json")).unwrap();
+    let mut g = c.benchmark_group("crowd200");
+    g.sample_size(10).measurement_time(Duration::from_secs(8));
+    g.bench_function("adaptive_step", |b| {
+        b.iter_custom(|iters| timed_steps(&scene, iters))
+    });
+    let mut sim = SceneSim::new(&scene);
+    for _ in 0..20 {
+        sim.step().unwrap();
+    }
+    let model = &scene.models[0].model;
+    let mut data = Data::new(model);
+    data.gravity = scene.gravity;
+    // The scene's states after 20 steps, each body's tau (pose springs) and pushes held; runs
+    // restarted from them every 200 steps (restarting is not timed).
+    let start: Vec<_> = sim.bodies.iter().map(|b| b.state.clone()).collect();
+    g.bench_function("exact_dca_step", |b| {
+        b.iter_custom(|iters| {
+            let mut total = Duration::ZERO;
+            let mut done = 0;
+            while done < iters {
+                let mut states = start.clone();
+                let n = (iters - done).min(200);
+                let t = Instant::now();
+                for _ in 0..n {
+                    for s in &mut states {
+                        step(
+                            model,
+                            &mut data,
+                            s,
+                            Method::Dca,
+                            Integrator::SemiImplicitEuler,
+                            scene.dt,
+                        )
+                        .unwrap();
+                    }
+                }
+                total += t.elapsed();
+                done += n;
+            }
+            total
+        })
+    });
+    g.finish();
+}
+
+/// 2,000 humanoids: the crowd200 scene's settings on a 40 × 50 grid.
+pub fn crowd2000_text() -> String {
+    let mut v: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(models().join("scenes/crowd200.json")).unwrap(),
+    )
+    .unwrap();
+    v["crowds"][0]["rows"] = 40.into();
+    v["crowds"][0]["columns"] = 50.into();
+    v["crowds"][0]["origin"] = serde_json::json!([4.0, -22.05, 1.0]);
+    v["budget"] = 4000.into();
+    v["models"]["humanoid"] = models().join("humanoid.urdf").display().to_string().into();
+    v.to_string()
+}
+
+fn crowd2000(c: &mut Criterion) {
+    let scene = parse_scene(&crowd2000_text(), Path::new("crowd2000.json"), &models()).unwrap();
+    assert_eq!(scene.placements.len(), 2000);
+    let mut g = c.benchmark_group("crowd2000");
+    g.sample_size(10).measurement_time(Duration::from_secs(10));
+    g.bench_function("adaptive_step", |b| {
+        b.iter_custom(|iters| timed_steps(&scene, iters))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, crowd200, crowd2000);
+criterion_main!(benches);

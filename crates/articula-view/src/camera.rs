@@ -1,0 +1,294 @@
+//! A pinhole camera, its view frustum, and projected sizes.
+//!
+//! Camera coordinates: `x` to the right of the image, `y` up, `z` the depth along the viewing
+//! direction (positive in front of the camera). The frustum is `near ≤ z ≤ far`,
+//! `|y| ≤ z tan(fov_y/2)`, `|x| ≤ z tan(fov_y/2) · aspect`.
+
+use crate::ViewError;
+use glam::{DMat3, DVec2, DVec3};
+
+/// A pinhole camera: pose, vertical field of view, aspect ratio, near and far planes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Position of the eye (world).
+    pub position: DVec3,
+    /// Camera axes in world coordinates, as columns: right, up, forward (the viewing
+    /// direction). Orthonormal, with the image convention x right, y up, z into the scene (a
+    /// left-handed triple: `right × up = −forward`).
+    pub axes: DMat3,
+    /// Vertical field of view (radians), in `(0, π)`.
+    pub fov_y: f64,
+    /// Width / height of the image.
+    pub aspect: f64,
+    /// Near plane distance (> 0).
+    pub near: f64,
+    /// Far plane distance (> near).
+    pub far: f64,
+}
+
+/// One of the six frustum planes: inside when `normal · p + offset ≥ 0` (world `p`), with a unit
+/// `normal`, so the left side is the signed distance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Plane {
+    /// Unit normal, pointing into the frustum.
+    pub normal: DVec3,
+    /// Offset.
+    pub offset: f64,
+}
+
+impl Plane {
+    /// Signed distance of `p` (positive inside).
+    #[inline]
+    pub fn distance(&self, p: DVec3) -> f64 {
+        self.normal.dot(p) + self.offset
+    }
+}
+
+/// The view frustum as six inward planes (world coordinates): near, far, left, right, bottom,
+/// top.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frustum {
+    /// The planes.
+    pub planes: [Plane; 6],
+}
+
+impl Frustum {
+    /// Whether the sphere may touch the frustum: `false` only when it lies entirely outside one
+    /// plane (the usual conservative test: a sphere near a corner, outside two planes but not
+    /// entirely outside either, counts as inside).
+    pub fn sphere(&self, center: DVec3, radius: f64) -> bool {
+        self.planes.iter().all(|p| p.distance(center) >= -radius)
+    }
+
+    /// Whether the capsule (segment `a`–`b` swept by a sphere of `radius`) may touch the
+    /// frustum: the signed distance is affine along the segment, so the capsule is outside a
+    /// plane exactly when both end spheres are.
+    pub fn capsule(&self, a: DVec3, b: DVec3, radius: f64) -> bool {
+        self.planes
+            .iter()
+            .all(|p| p.distance(a) >= -radius || p.distance(b) >= -radius)
+    }
+
+    /// Whether the oriented box (centre, axes as columns, half extents) may touch the frustum:
+    /// outside a plane exactly when its support along the normal, `Σ eᵢ |n · axisᵢ|`, is
+    /// smaller than the centre's distance behind it.
+    pub fn oriented_box(&self, center: DVec3, axes: DMat3, half: DVec3) -> bool {
+        self.planes.iter().all(|p| {
+            let support = half.x * p.normal.dot(axes.x_axis).abs()
+                + half.y * p.normal.dot(axes.y_axis).abs()
+                + half.z * p.normal.dot(axes.z_axis).abs();
+            p.distance(center) >= -support
+        })
+    }
+}
+
+impl Camera {
+    /// A camera at `eye` looking at `target`, with `up` giving the image's vertical (it need not
+    /// be orthogonal to the viewing direction, only not parallel to it). `fov_y_deg` in degrees.
+    pub fn look_at(
+        eye: DVec3,
+        target: DVec3,
+        up: DVec3,
+        fov_y_deg: f64,
+        aspect: f64,
+        near: f64,
+        far: f64,
+    ) -> Result<Camera, ViewError> {
+        let bad = |what: &str| Err(ViewError::Camera(what.to_string()));
+        if !(eye.is_finite() && target.is_finite() && up.is_finite()) {
+            return bad("eye, target and up must be finite");
+        }
+        if !(fov_y_deg > 0.0 && fov_y_deg < 180.0) {
+            return bad("the vertical field of view must lie strictly between 0 and 180 degrees");
+        }
+        if !(aspect.is_finite() && aspect > 0.0) {
+            return bad("the aspect ratio must be a positive number");
+        }
+        if !(near.is_finite() && near > 0.0 && far.is_finite() && far > near) {
+            return bad("near and far must satisfy 0 < near < far (finite)");
+        }
+        let d = target - eye;
+        if d.length() < 1e-12 {
+            return bad("the target coincides with the eye");
+        }
+        let forward = d.normalize();
+        let right = forward.cross(up);
+        if right.length() < 1e-9 * up.length().max(1e-300) || up.length() == 0.0 {
+            return bad("the up vector is zero or parallel to the viewing direction");
+        }
+        let right = right.normalize();
+        let true_up = right.cross(forward);
+        Ok(Camera {
+            position: eye,
+            axes: DMat3::from_cols(right, true_up, forward),
+            fov_y: fov_y_deg.to_radians(),
+            aspect,
+            near,
+            far,
+        })
+    }
+
+    /// The viewing direction (world).
+    pub fn forward(&self) -> DVec3 {
+        self.axes.z_axis
+    }
+
+    /// `tan(fov_y / 2)`.
+    #[inline]
+    pub fn tan_half_fov(&self) -> f64 {
+        (0.5 * self.fov_y).tan()
+    }
+
+    /// World point → camera coordinates (x right, y up, z depth).
+    #[inline]
+    pub fn to_camera(&self, p: DVec3) -> DVec3 {
+        self.axes.transpose() * (p - self.position)
+    }
+
+    /// World point → normalised image coordinates in `[-1, 1]²` when inside the field of view
+    /// (x right, y up) and its depth; `None` behind the eye (depth ≤ 0).
+    pub fn project(&self, p: DVec3) -> Option<(DVec2, f64)> {
+        let c = self.to_camera(p);
+        if c.z <= 0.0 {
+            return None;
+        }
+        let t = self.tan_half_fov();
+        Some((
+            DVec2::new(c.x / (c.z * t * self.aspect), c.y / (c.z * t)),
+            c.z,
+        ))
+    }
+
+    /// The six frustum planes in world coordinates.
+    pub fn frustum(&self) -> Frustum {
+        let t = self.tan_half_fov();
+        let ta = t * self.aspect;
+        let (r, u, f) = (self.axes.x_axis, self.axes.y_axis, self.axes.z_axis);
+        // In camera coordinates: z ≥ near, z ≤ far, z·ta ± x ≥ 0, z·t ± y ≥ 0.
+        let plane = |n_cam: DVec3, off: f64| {
+            let len = n_cam.length();
+            let n = (r * n_cam.x + u * n_cam.y + f * n_cam.z) / len;
+            Plane {
+                normal: n,
+                offset: off / len - n.dot(self.position),
+            }
+        };
+        Frustum {
+            planes: [
+                plane(DVec3::new(0.0, 0.0, 1.0), -self.near),
+                plane(DVec3::new(0.0, 0.0, -1.0), self.far),
+                plane(DVec3::new(1.0, 0.0, ta), 0.0),
+                plane(DVec3::new(-1.0, 0.0, ta), 0.0),
+                plane(DVec3::new(0.0, 1.0, t), 0.0),
+                plane(DVec3::new(0.0, -1.0, t), 0.0),
+            ],
+        }
+    }
+
+    /// Projected size of a sphere: its apparent diameter as a fraction of the image height.
+    /// A sphere of radius `r` at distance `d > r` from the eye subtends the half angle
+    /// `asin(r/d)`; on the image plane (focal length 1, half height `tan(fov/2)`) it measures
+    /// `2 tan(asin(r/d)) = 2r / √(d² − r²)` when seen on the axis. Returns `∞` when the eye is
+    /// inside the sphere.
+    pub fn projected_size(&self, center: DVec3, radius: f64) -> f64 {
+        let d2 = (center - self.position).length_squared();
+        let r2 = radius * radius;
+        if d2 <= r2 {
+            return f64::INFINITY;
+        }
+        radius / ((d2 - r2).sqrt() * self.tan_half_fov())
+    }
+}
+
+/// One keyframe of a camera path.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Keyframe {
+    /// Time (s).
+    pub t: f64,
+    /// Eye position.
+    pub eye: DVec3,
+    /// Point looked at.
+    pub target: DVec3,
+}
+
+/// A moving camera: keyframes of eye and target, interpolated linearly in time (held before
+/// the first and after the last), with fixed up vector and lens.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraPath {
+    /// Keyframes, sorted by time (at least one).
+    pub keys: Vec<Keyframe>,
+    /// Up vector.
+    pub up: DVec3,
+    /// Vertical field of view (degrees).
+    pub fov_y_deg: f64,
+    /// Aspect ratio.
+    pub aspect: f64,
+    /// Near plane.
+    pub near: f64,
+    /// Far plane.
+    pub far: f64,
+}
+
+impl CameraPath {
+    /// Checks the path: keyframes sorted by strictly increasing time, each a valid camera.
+    pub fn new(
+        keys: Vec<Keyframe>,
+        up: DVec3,
+        fov_y_deg: f64,
+        aspect: f64,
+        near: f64,
+        far: f64,
+    ) -> Result<CameraPath, ViewError> {
+        if keys.is_empty() {
+            return Err(ViewError::Camera("a camera path needs a keyframe".into()));
+        }
+        for (i, k) in keys.iter().enumerate() {
+            if !k.t.is_finite() {
+                return Err(ViewError::Camera(format!(
+                    "keyframe {i}: time is not finite"
+                )));
+            }
+            if i > 0 && k.t <= keys[i - 1].t {
+                return Err(ViewError::Camera(format!(
+                    "keyframe {i}: times must increase strictly ({} after {})",
+                    k.t,
+                    keys[i - 1].t
+                )));
+            }
+            Camera::look_at(k.eye, k.target, up, fov_y_deg, aspect, near, far)
+                .map_err(|e| ViewError::Camera(format!("keyframe {i}: {e}")))?;
+        }
+        Ok(CameraPath {
+            keys,
+            up,
+            fov_y_deg,
+            aspect,
+            near,
+            far,
+        })
+    }
+
+    /// The camera at time `t`.
+    pub fn at(&self, t: f64) -> Result<Camera, ViewError> {
+        let k = &self.keys;
+        let (eye, target) = if t <= k[0].t {
+            (k[0].eye, k[0].target)
+        } else if t >= k[k.len() - 1].t {
+            (k[k.len() - 1].eye, k[k.len() - 1].target)
+        } else {
+            let i = k.partition_point(|x| x.t <= t);
+            let (a, b) = (&k[i - 1], &k[i]);
+            let s = (t - a.t) / (b.t - a.t);
+            (a.eye.lerp(b.eye, s), a.target.lerp(b.target, s))
+        };
+        Camera::look_at(
+            eye,
+            target,
+            self.up,
+            self.fov_y_deg,
+            self.aspect,
+            self.near,
+            self.far,
+        )
+    }
+}

@@ -1,0 +1,648 @@
+//! Scene stepping: one global priority queue over every body's assembly tree spends one
+//! scene-wide budget of joints where the view-weighted acceleration metric is largest.
+//!
+//! At every re-selection (every `reselect_every` steps, the first included):
+//! 1. the camera classifies every link ([`crate::visibility`]) and sets the acceleration-metric
+//!    weights `Aᵢ = wᵢ 1` of every joint of every body;
+//! 2. each body with a non-zero weight computes the metric `A(C)` of every node of its assembly
+//!    tree at the exact handle forces ([`Adaptive::node_metrics`]) — the values its own queue
+//!    would see, since a queued node's ancestors are all expanded exactly;
+//! 3. [`global_selection`] runs the queue over all bodies' roots: pop the node with the largest
+//!    metric in the whole scene, push its children, until the budget of internal degrees of
+//!    freedom (the floating bases' six are free) or the tolerance is reached. Each body's
+//!    popped nodes are a prefix of its own pop order (its share, as its own budget, would make
+//!    its own queue choose exactly them);
+//! 4. each body whose active joints are not exactly the ones the queue chose gets them
+//!    ([`Adaptive::set_active`]: the joints that leave the hybrid body are locked by
+//!    momentum-keeping impulses); the others keep their hybrid body as it is. A body whose joints are all locked moves as one
+//!    rigid body (invisible bodies: the exact rigid motion of the whole).
+//!
+//! Nodes of metric 0 are never selected: invisible bodies (all weights 0) keep no joint even
+//! with budget to spare.
+
+use crate::render::{rigid_groups, FrameBody};
+use crate::scene_file::LoadedScene;
+use crate::visibility::{body_poses, BodyView, Classifier, Placed, Visibility};
+use articula_adaptive::{Adaptive, AdaptiveError, Settings};
+use articula_dca::State;
+use articula_model::{Model, NodeKind};
+use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SymMat6};
+use glam::{DMat3, DQuat, DVec3};
+use std::collections::BinaryHeap;
+
+/// A node of some body in the global queue.
+#[derive(Clone, Copy, Debug)]
+struct Entry {
+    metric: f64,
+    body: usize,
+    node: usize,
+}
+
+impl PartialEq for Entry {
+    fn eq(&self, o: &Self) -> bool {
+        self.cmp(o).is_eq()
+    }
+}
+impl Eq for Entry {}
+impl PartialOrd for Entry {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Entry {
+    // Largest metric first; ties to the smaller body, then the smaller node (as a body's own
+    // queue breaks them).
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        self.metric
+            .total_cmp(&o.metric)
+            .then_with(|| o.body.cmp(&self.body))
+            .then_with(|| o.node.cmp(&self.node))
+    }
+}
+
+/// What the global queue chose.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct GlobalSelection {
+    /// Per body: internal degrees of freedom selected (its share of the budget).
+    pub allocation: Vec<usize>,
+    /// Per body: the metric mass left unselected (its error against exact dynamics).
+    pub error: Vec<f64>,
+    /// Σ of `error`: the scene's total weighted error.
+    pub total_error: f64,
+    /// Σ of `allocation`.
+    pub used: usize,
+    /// Per body: the join nodes popped (its floating base's root included), in pop order.
+    pub popped: Vec<Vec<usize>>,
+}
+
+/// The global queue over the assembly trees of `models[b]` with node metrics `metrics[b]`
+/// (one per node, from [`Adaptive::node_metrics`]; empty for a body whose weights are all 0).
+/// Floating bases' root joints are free; every other join costs its degrees of freedom.
+/// Stops when the next node does not fit in `budget`, when the metric mass left is at most
+/// `tolerance` (0 or `None`: no tolerance stop), or when only nodes of metric ≤ 0 are left.
+pub fn global_selection(
+    models: &[&Model],
+    metrics: &[&[f64]],
+    budget: Option<usize>,
+    tolerance: Option<f64>,
+) -> GlobalSelection {
+    let n = models.len();
+    let mut sel = GlobalSelection {
+        allocation: vec![0; n],
+        error: vec![0.0; n],
+        popped: vec![Vec::new(); n],
+        ..GlobalSelection::default()
+    };
+    let mut heap = BinaryHeap::new();
+    let push_children = |heap: &mut BinaryHeap<Entry>, b: usize, node: usize| {
+        if let NodeKind::Join {
+            parent_side,
+            child_side,
+            ..
+        } = models[b].assembly.nodes[node].kind
+        {
+            for c in [parent_side, child_side] {
+                if matches!(models[b].assembly.nodes[c].kind, NodeKind::Join { .. }) {
+                    heap.push(Entry {
+                        metric: metrics[b].get(c).copied().unwrap_or(0.0),
+                        body: b,
+                        node: c,
+                    });
+                }
+            }
+        }
+    };
+    for (b, m) in models.iter().enumerate() {
+        let root = m.assembly.root();
+        if !matches!(m.assembly.nodes[root].kind, NodeKind::Join { .. }) {
+            continue;
+        }
+        if m.floating_base {
+            // Free: expanded at once.
+            sel.popped[b].push(root);
+            push_children(&mut heap, b, root);
+        } else {
+            heap.push(Entry {
+                metric: metrics[b].get(root).copied().unwrap_or(0.0),
+                body: b,
+                node: root,
+            });
+        }
+    }
+    let tol = tolerance.filter(|t| *t > 0.0);
+    let mut remaining: f64 = heap.iter().map(|e| e.metric).sum();
+    while let Some(&top) = heap.peek() {
+        if top.metric <= 0.0 || tol.is_some_and(|t| remaining <= t) {
+            break;
+        }
+        let NodeKind::Join { joint, .. } = models[top.body].assembly.nodes[top.node].kind else {
+            unreachable!("only joins are queued")
+        };
+        let cost = models[top.body].bodies[joint].nv;
+        if budget.is_some_and(|k| sel.used + cost > k) {
+            break;
+        }
+        heap.pop();
+        remaining -= top.metric;
+        sel.used += cost;
+        sel.allocation[top.body] += cost;
+        sel.popped[top.body].push(top.node);
+        let before = heap.len();
+        push_children(&mut heap, top.body, top.node);
+        for e in heap.iter().skip(before) {
+            remaining += e.metric;
+        }
+    }
+    for e in heap.iter() {
+        sel.error[e.body] += e.metric.max(0.0);
+    }
+    sel.total_error = sel.error.iter().sum();
+    sel
+}
+
+/// One body of a running scene.
+#[derive(Clone, Debug)]
+pub struct SimBody {
+    /// Index into the scene's models.
+    pub model: usize,
+    /// Its state.
+    pub state: State,
+    /// Its adaptive workspace.
+    pub adaptive: Adaptive,
+    /// World pose of every model body (at the last re-selection or render).
+    pub poses: Vec<(DMat3, DVec3)>,
+    /// Internal degrees of freedom active now.
+    pub active: usize,
+    /// Its share of the budget at the last re-selection.
+    pub allocation: usize,
+    /// Its error (weighted metric left unselected) at the last re-selection.
+    pub error: f64,
+    /// Whether every joint weight was 0 at the last re-selection.
+    pub unweighted: bool,
+    /// While every internal joint is locked: the whole body's spatial inertia and its inverse
+    /// in the root frame, so that it steps as one rigid body without the adaptive workspace.
+    pub rigid: Option<(SpatialInertia, SymMat6)>,
+    /// Whether its hybrid body was set at this step's re-selection.
+    changed: bool,
+}
+
+impl SimBody {
+    /// The composite spatial inertia of the whole body in its root frame, in its current
+    /// configuration.
+    fn composite_in_root(&mut self, model: &Model) -> Option<(SpatialInertia, SymMat6)> {
+        if !model.floating_base {
+            return None;
+        }
+        body_poses(model, &self.state.q, &mut self.poses);
+        let (r0, p0) = self.poses[0];
+        let mut total = SpatialInertia::ZERO;
+        for (body, &(r, p)) in model.bodies.iter().zip(&self.poses) {
+            let rr = r0.transpose() * r;
+            let pr = r0.transpose() * (p - p0);
+            let i = &body.inertia;
+            total += SpatialInertia::new(
+                i.mass,
+                rr * i.com() + pr,
+                rr * i.inertia_about_com() * rr.transpose(),
+            );
+        }
+        total.inverse().map(|inv| (total, inv))
+    }
+
+    /// One semi-implicit Euler step of the whole body as one rigid body (every internal joint is
+    /// locked with zero velocity): `I a = f − v ×* I v` in root coordinates (gravity at the
+    /// centre of mass, the external wrenches), `v ← v + h a`, `q ← q ⊕ h v`. The same motion the
+    /// adaptive step gives a body with no active joint, in O(1) instead of O(n).
+    fn rigid_step(&mut self, model: &Model, gravity: DVec3, dt: f64) -> Result<(), String> {
+        let (inertia, inv) = self.rigid.expect("rigid_step on a rigid body");
+        let q = &self.state.q;
+        let rot = DMat3::from_quat(DQuat::from_xyzw(q[4], q[5], q[6], q[3]).normalize());
+        let p0 = DVec3::new(q[0], q[1], q[2]);
+        let gb = rot.transpose() * gravity;
+        let fw = self
+            .state
+            .f_ext
+            .iter()
+            .fold(SpatialForce::ZERO, |a, f| a + *f);
+        // World wrench about the world origin → root coordinates about the root origin.
+        let n = rot.transpose() * (fw.n - p0.cross(fw.f));
+        let f = SpatialForce::new(
+            inertia.h.cross(gb) + n,
+            gb * inertia.mass + rot.transpose() * fw.f,
+        );
+        let qd = &self.state.qd;
+        let v = SpatialMotion::new(
+            DVec3::new(qd[0], qd[1], qd[2]),
+            DVec3::new(qd[3], qd[4], qd[5]),
+        );
+        let h = inertia.mul_motion(v);
+        // v ×* h = [ω × n + v × f; ω × f]
+        let bias = SpatialForce::new(v.w.cross(h.n) + v.v.cross(h.f), v.w.cross(h.f));
+        let a = inv.force_to_motion(f - bias);
+        let v = SpatialMotion::new(v.w + a.w * dt, v.v + a.v * dt);
+        self.state.qd[..6].copy_from_slice(&v.to_array());
+        articula_dca::integrate_q(model, &mut self.state.q, &self.state.qd, dt);
+        if self.state.q[..7]
+            .iter()
+            .chain(&self.state.qd[..6])
+            .all(|x| x.is_finite())
+        {
+            Ok(())
+        } else {
+            Err("non-finite floating-base state after a rigid step".into())
+        }
+    }
+}
+
+/// What one scene step did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SceneStep {
+    /// Whether visibility and joints were re-selected.
+    pub reselected: bool,
+    /// Internal degrees of freedom active, summed over bodies.
+    pub active_total: usize,
+    /// Bodies per visibility class (visible, occluded, invisible).
+    pub classes: [usize; 3],
+    /// Links per visibility class.
+    pub link_classes: [usize; 3],
+    /// The scene's total weighted error at the last re-selection.
+    pub total_error: f64,
+}
+
+/// A scene being simulated.
+pub struct SceneSim<'s> {
+    /// The scene.
+    pub scene: &'s LoadedScene,
+    /// The bodies, as placed.
+    pub bodies: Vec<SimBody>,
+    /// What the camera saw at the last re-selection (one per body).
+    pub views: Vec<BodyView>,
+    /// Steps done.
+    pub steps: u64,
+    parents: Vec<Vec<Option<usize>>>,
+    /// Per model: the pose springs, `(q index, v index, k, c)` per internal degree of freedom.
+    springs: Vec<Vec<(usize, usize, f64, f64)>>,
+    classifier: Classifier,
+    metrics: Vec<Vec<f64>>,
+    wanted: Vec<bool>,
+    last: SceneStep,
+}
+
+impl<'s> SceneSim<'s> {
+    /// Sets every body up in its initial state.
+    pub fn new(scene: &'s LoadedScene) -> SceneSim<'s> {
+        let bodies: Vec<SimBody> = scene
+            .placements
+            .iter()
+            .map(|p| {
+                let model = &scene.models[p.model].model;
+                let mut state = State::neutral(model);
+                state.q.copy_from_slice(&p.q);
+                state.qd.copy_from_slice(&p.qd);
+                // The scene drives re-selection (`set_active`); the workspace never re-selects
+                // by itself after its first hybrid body.
+                let mut adaptive = Adaptive::new(
+                    model,
+                    Settings {
+                        reselect_every: u64::MAX,
+                        ..Settings::default()
+                    },
+                );
+                adaptive.data.gravity = scene.gravity;
+                let mut poses = Vec::new();
+                body_poses(model, &state.q, &mut poses);
+                SimBody {
+                    model: p.model,
+                    state,
+                    adaptive,
+                    poses,
+                    active: model.nv.saturating_sub(6),
+                    allocation: 0,
+                    error: 0.0,
+                    unweighted: false,
+                    rigid: None,
+                    changed: false,
+                }
+            })
+            .collect();
+        let parents = scene
+            .models
+            .iter()
+            .map(|m| m.model.bodies.iter().map(|b| b.parent).collect())
+            .collect();
+        let springs = scene
+            .models
+            .iter()
+            .map(|m| match scene.joint_springs {
+                Some(sp) => pose_springs(&m.model, sp.frequency_hz, sp.damping_ratio),
+                None => Vec::new(),
+            })
+            .collect();
+        SceneSim {
+            springs,
+            metrics: vec![Vec::new(); bodies.len()],
+            wanted: Vec::new(),
+            views: Vec::new(),
+            classifier: Classifier::new(&scene.visibility),
+            bodies,
+            parents,
+            steps: 0,
+            scene,
+            last: SceneStep::default(),
+        }
+    }
+
+    /// Simulated time (s).
+    pub fn time(&self) -> f64 {
+        self.steps as f64 * self.scene.dt
+    }
+
+    /// The model of body `b`.
+    pub fn model(&self, b: usize) -> &'s Model {
+        &self.scene.models[self.bodies[b].model].model
+    }
+
+    /// Internal degrees of freedom of every body's model (what exact dynamics simulates).
+    pub fn dof_total(&self) -> usize {
+        (0..self.bodies.len())
+            .map(|b| self.model(b).nv.saturating_sub(6))
+            .sum()
+    }
+
+    /// Classifies what the camera sees now and sets every joint's weight.
+    fn classify(&mut self) {
+        let cam = self.scene.camera.at(self.time());
+        let scene = self.scene;
+        let margin_steps = scene.reselect_every as f64 * scene.dt;
+        for b in &mut self.bodies {
+            body_poses(&scene.models[b.model].model, &b.state.q, &mut b.poses);
+        }
+        let placed: Vec<Placed> = self
+            .bodies
+            .iter()
+            .map(|b| {
+                let m = &scene.models[b.model];
+                // How far the body can get before the next re-selection: its root speed plus
+                // the rim speed of its bounding sphere, times the period (and one step more).
+                let (w, v) = (b.state.qd[..3].iter(), b.state.qd[3..6].iter());
+                let wn = w.map(|x| x * x).sum::<f64>().sqrt();
+                let vn = v.map(|x| x * x).sum::<f64>().sqrt();
+                let reach = m
+                    .volumes
+                    .iter()
+                    .map(|v| v.bound.0.length() + v.bound.1)
+                    .fold(0.0, f64::max);
+                Placed {
+                    volumes: &m.volumes,
+                    poses: &b.poses,
+                    parents: &self.parents[b.model],
+                    margin: (vn + wn * reach) * (margin_steps + scene.dt),
+                }
+            })
+            .collect();
+        self.classifier
+            .classify(&cam, &scene.visibility, &placed, &mut self.views);
+    }
+
+    /// Advances the scene by one step.
+    pub fn step(&mut self) -> Result<SceneStep, SceneSimError> {
+        let scene = self.scene;
+        let t = self.time();
+        // (`is_multiple_of` needs Rust 1.87; the workspace supports 1.80.)
+        #[allow(clippy::manual_is_multiple_of)]
+        let reselect = self.steps % scene.reselect_every as u64 == 0;
+        // Pushes acting now: world wrenches about the world origin.
+        for b in &mut self.bodies {
+            b.state
+                .f_ext
+                .iter_mut()
+                .for_each(|f| *f = SpatialForce::ZERO);
+            for &(qi, vi, k, c) in &self.springs[b.model] {
+                b.state.tau[vi] = -k * b.state.q[qi] - c * b.state.qd[vi];
+            }
+        }
+        let mut posed = usize::MAX;
+        for p in scene.pushes.iter().filter(|p| p.t0 <= t && t < p.t1) {
+            let b = &mut self.bodies[p.body];
+            let model = &scene.models[b.model].model;
+            // Pushes come grouped by body: pose each body once.
+            if posed != p.body {
+                body_poses(model, &b.state.q, &mut b.poses);
+                posed = p.body;
+            }
+            let (r, pos) = b.poses[p.link_body];
+            let at = r * p.point + pos;
+            b.state.f_ext[p.link_body] += SpatialForce::new(at.cross(p.force), p.force);
+        }
+        if reselect {
+            self.classify();
+            let mut link_classes = [0; 3];
+            let mut classes = [0; 3];
+            for (b, view) in self.bodies.iter_mut().zip(&self.views) {
+                let model = &scene.models[b.model].model;
+                for (i, w) in view.joint_weights.iter().enumerate() {
+                    b.adaptive.set_weight(model, i, *w);
+                }
+                b.unweighted = view.joint_weights.iter().all(|w| *w == 0.0);
+                for c in &view.links {
+                    link_classes[*c as usize] += 1;
+                }
+                classes[view.summary() as usize] += 1;
+            }
+            for (b, metrics) in self.bodies.iter_mut().zip(&mut self.metrics) {
+                let model = &scene.models[b.model].model;
+                metrics.clear();
+                if b.unweighted {
+                    continue;
+                }
+                metrics.resize(model.assembly.nodes.len(), 0.0);
+                let s = &b.state;
+                b.adaptive
+                    .node_metrics(model, &s.q, &s.qd, &s.tau, &s.f_ext, metrics)
+                    .map_err(|e| SceneSimError::new(scene, b.model, &e))?;
+            }
+            let models: Vec<&Model> = self
+                .bodies
+                .iter()
+                .map(|b| &scene.models[b.model].model)
+                .collect();
+            let metrics: Vec<&[f64]> = self.metrics.iter().map(|m| m.as_slice()).collect();
+            let sel = global_selection(&models, &metrics, scene.budget, scene.tolerance);
+            for (i, b) in self.bodies.iter_mut().enumerate() {
+                b.allocation = sel.allocation[i];
+                b.error = sel.error[i];
+                // Re-select only when the hybrid body must change: the joints the queue chose
+                // are not exactly the active ones (the first step always re-selects). An
+                // unchanged hybrid body has its other joints locked at zero velocity already.
+                let model = &scene.models[b.model].model;
+                let tree = &model.assembly;
+                self.wanted.clear();
+                self.wanted.resize(tree.nodes.len(), false);
+                for &n in &sel.popped[i] {
+                    self.wanted[n] = true;
+                }
+                let same = (0..model.bodies.len())
+                    .all(|j| b.adaptive.is_active(model, j) == self.wanted[tree.joint_node[j]]);
+                let needed = self.steps == 0 || !same;
+                if needed {
+                    // (Its own re-selection, should the workspace ever run one, keeps the share.)
+                    let settings = Settings {
+                        budget: Some(b.allocation),
+                        tolerance: None,
+                        reselect_every: u64::MAX,
+                        velocity_tolerance: None,
+                    };
+                    b.adaptive
+                        .set_settings(settings)
+                        .map_err(|e| SceneSimError::new(scene, b.model, &e))?;
+                    // Exactly the chosen joints stay free; the others are locked by
+                    // momentum-keeping impulses (no second articulated pass).
+                    let wanted = &self.wanted;
+                    b.adaptive
+                        .set_active(model, &mut b.state, |j| wanted[tree.joint_node[j]])
+                        .map_err(|e| SceneSimError::body(scene, i, &e))?;
+                    b.rigid = None;
+                }
+                b.changed = needed;
+            }
+            self.last = SceneStep {
+                reselected: true,
+                active_total: 0,
+                classes,
+                link_classes,
+                total_error: sel.total_error,
+            };
+        }
+        let mut total = 0;
+        for (i, b) in self.bodies.iter_mut().enumerate() {
+            let model = &scene.models[b.model].model;
+            let reselects = std::mem::take(&mut b.changed);
+            if !reselects && b.rigid.is_some() {
+                b.rigid_step(model, scene.gravity, scene.dt).map_err(|e| {
+                    SceneSimError(format!("body '{}': {e}", scene.placements[i].name))
+                })?;
+                continue;
+            }
+            b.adaptive
+                .step(model, &mut b.state, scene.dt)
+                .map_err(|e| SceneSimError::body(scene, i, &e))?;
+            b.active = b
+                .adaptive
+                .active_dofs(model)
+                .saturating_sub(if model.floating_base { 6 } else { 0 });
+            total += b.active;
+            // Every internal joint locked (at zero velocity): from now on, one rigid body.
+            b.rigid = if b.active == 0
+                && b.state.qd[6.min(b.state.qd.len())..]
+                    .iter()
+                    .all(|x| *x == 0.0)
+            {
+                match b.rigid {
+                    Some(r) if !reselects => Some(r),
+                    _ => b.composite_in_root(model),
+                }
+            } else {
+                None
+            };
+        }
+        self.steps += 1;
+        let mut out = self.last.clone();
+        out.reselected = reselect;
+        out.active_total = total;
+        Ok(out)
+    }
+
+    /// Everything the renderer needs, with the poses refreshed to the current state.
+    pub fn frame<'a>(&'a mut self, groups: &'a mut Vec<Vec<usize>>) -> Vec<FrameBody<'a>> {
+        let scene = self.scene;
+        groups.resize_with(self.bodies.len(), Vec::new);
+        for (b, g) in self.bodies.iter_mut().zip(groups.iter_mut()) {
+            let model = &scene.models[b.model].model;
+            body_poses(model, &b.state.q, &mut b.poses);
+            let active: Vec<bool> = (0..model.bodies.len())
+                .map(|i| b.adaptive.is_active(model, i))
+                .collect();
+            rigid_groups(&self.parents[b.model], &active, g);
+        }
+        self.bodies
+            .iter()
+            .enumerate()
+            .map(|(i, b)| FrameBody {
+                volumes: &scene.models[b.model].volumes,
+                poses: &b.poses,
+                groups: &groups[i],
+                seed: i as u64,
+                class: self
+                    .views
+                    .get(i)
+                    .map_or(Visibility::Invisible, BodyView::summary),
+                active_joints: b.active,
+            })
+            .collect()
+    }
+}
+
+/// Pose springs of every internal one-coordinate degree of freedom of `model`:
+/// `(q index, v index, k, c)` with `k = ω² mᵢ`, `c = 2ζω mᵢ`, `ω = 2π f`, and
+/// `mᵢ = 1 / (M⁻¹)ᵢᵢ` the effective inertia of the degree of freedom in the neutral pose (the
+/// response `q̈ᵢ` to a unit `τᵢ` with everything else free, from exact DCA without gravity or
+/// velocity): `τ = −k q − c q̇` alone would make it oscillate at ω with damping ratio ζ.
+/// (The subtree inertia `Mᵢᵢ` overestimates `mᵢ` tenfold on a floating body, and the
+/// explicit integrator then overshoots.)
+pub fn pose_springs(
+    model: &Model,
+    frequency_hz: f64,
+    damping_ratio: f64,
+) -> Vec<(usize, usize, f64, f64)> {
+    let q = model.neutral_q();
+    let mut data = articula_dca::Data::new(model);
+    data.gravity = DVec3::ZERO;
+    let qd = vec![0.0; model.nv];
+    let mut tau = vec![0.0; model.nv];
+    let w = 2.0 * std::f64::consts::PI * frequency_hz;
+    let mut out = Vec::new();
+    for (b, part) in model.joint_parts() {
+        if part.nq() != 1
+            || part.nv() != 1
+            || model.bodies[b].parent.is_none()
+                && model.floating_base
+                && part.kind == articula_model::JointKind::Floating
+        {
+            continue;
+        }
+        let v = part.v_offset;
+        tau[v] = 1.0;
+        let r = articula_dca::forward_dynamics(
+            model,
+            &mut data,
+            &q,
+            &qd,
+            &tau,
+            &[],
+            articula_dca::Method::Dca,
+        )
+        .map(|qdd| qdd[v]);
+        tau[v] = 0.0;
+        if let Ok(minv) = r {
+            if minv > 0.0 && minv.is_finite() {
+                let m = 1.0 / minv;
+                out.push((part.q_offset, v, w * w * m, 2.0 * damping_ratio * w * m));
+            }
+        }
+    }
+    out
+}
+
+/// A dynamics failure in a scene, naming the body.
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("{0}")]
+pub struct SceneSimError(pub String);
+
+impl SceneSimError {
+    fn new(scene: &LoadedScene, model: usize, e: &AdaptiveError) -> Self {
+        SceneSimError(format!("model '{}': {e}", scene.models[model].name))
+    }
+    fn body(scene: &LoadedScene, b: usize, e: &AdaptiveError) -> Self {
+        SceneSimError(format!("body '{}': {e}", scene.placements[b].name))
+    }
+}

@@ -1,0 +1,338 @@
+//! Visibility classes and joint weights from a camera.
+//!
+//! Per link (a model body: a URDF link plus those welded to it):
+//! - **invisible**: its bounding sphere, grown by a motion margin (how far it may move before
+//!   the next reselection), lies entirely outside one frustum plane;
+//! - **occluded**: inside the frustum but hidden: every cell of a coarse depth buffer under its
+//!   projected bounding sphere holds a depth nearer than the sphere's nearest point;
+//! - **visible** otherwise.
+//!
+//! The depth buffer rasterises *occluders conservatively*: every link in the frustum is
+//! approximated by balls inside its volumes ([`crate::Volume::inner_spheres`]); a ball writes its
+//! far depth (centre depth + radius) into the cells lying wholly inside its projected disc (of
+//! radius `r f / z`, smaller than the true perspective outline). A cell's depth is therefore
+//! never nearer than the geometry really covering all of it, so a link is only called occluded
+//! when it really is hidden (behind the balls' far sides, which is stricter still). The
+//! *occludee* test is conservative the other way: the projected disc of the link's bounding
+//! sphere is over-estimated (`r f / √(z² − r²)`) and compared at the sphere's nearest depth.
+//!
+//! Weights (the scalar `wᵢ` of the acceleration-metric weights `Aᵢ = wᵢ 1`): a link weighs
+//! `s` when visible, `s · occluded_factor` when occluded and 0 when invisible, with `s` the
+//! whole body's projected size relative to `full_detail_size` (capped at 1): distant bodies
+//! weigh less. A joint weighs the largest weight of the links it moves (the subtree below it),
+//! so a hidden hand does not switch off a visible elbow.
+
+use crate::camera::Camera;
+use crate::volumes::BodyVolumes;
+use glam::{DMat3, DVec3};
+
+/// How visibility turns into weights.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VisibilitySettings {
+    /// Weight factor of an occluded link (0..=1).
+    pub occluded_factor: f64,
+    /// Projected size (fraction of the image height) from which a body gets full weight; a
+    /// smaller body's weights are scaled by `size / full_detail_size`.
+    pub full_detail_size: f64,
+    /// Depth-buffer resolution (cells).
+    pub depth_width: usize,
+    /// Depth-buffer resolution (cells).
+    pub depth_height: usize,
+}
+
+impl Default for VisibilitySettings {
+    fn default() -> Self {
+        VisibilitySettings {
+            occluded_factor: 0.1,
+            full_detail_size: 0.25,
+            depth_width: 96,
+            depth_height: 54,
+        }
+    }
+}
+
+/// A visibility class.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Visibility {
+    /// In the frustum and not hidden.
+    Visible,
+    /// In the frustum, hidden behind other geometry.
+    Occluded,
+    /// Outside the frustum.
+    Invisible,
+}
+
+/// A coarse depth buffer over the image (cells in rows, `f64::INFINITY` = empty).
+#[derive(Clone, Debug)]
+pub struct DepthBuffer {
+    /// Width in cells.
+    pub width: usize,
+    /// Height in cells.
+    pub height: usize,
+    /// Depths, row-major from the top-left cell.
+    pub depth: Vec<f64>,
+}
+
+impl DepthBuffer {
+    /// An empty buffer.
+    pub fn new(width: usize, height: usize) -> DepthBuffer {
+        let (width, height) = (width.max(1), height.max(1));
+        DepthBuffer {
+            width,
+            height,
+            depth: vec![f64::INFINITY; width * height],
+        }
+    }
+
+    /// Empties the buffer.
+    pub fn clear(&mut self) {
+        self.depth.iter_mut().for_each(|d| *d = f64::INFINITY);
+    }
+
+    /// Camera point → continuous cell coordinates (x from the left, y from the top) and the
+    /// scale from camera lengths at depth 1 to cells.
+    fn to_cells(&self, cam: &Camera, c: DVec3) -> (f64, f64, f64) {
+        let t = cam.tan_half_fov();
+        // Cells per unit of the image plane at depth 1 (vertical; cells are square in image
+        // space only when width/height matches the aspect ratio: use each axis' own scale).
+        let fy = self.height as f64 / (2.0 * t);
+        let fx = self.width as f64 / (2.0 * t * cam.aspect);
+        let x = (c.x / c.z) * fx + 0.5 * self.width as f64;
+        let y = -(c.y / c.z) * fy + 0.5 * self.height as f64;
+        (x, y, fx.min(fy))
+    }
+
+    /// Writes a ball (world centre, radius) as an occluder: its far depth into every cell wholly
+    /// inside its (under-estimated) projected disc.
+    pub fn rasterize_ball(&mut self, cam: &Camera, center: DVec3, radius: f64) {
+        let c = cam.to_camera(center);
+        if c.z - radius <= cam.near || radius <= 0.0 {
+            return;
+        }
+        let t = cam.tan_half_fov();
+        let fy = self.height as f64 / (2.0 * t);
+        let fx = self.width as f64 / (2.0 * t * cam.aspect);
+        let (x, y, _) = self.to_cells(cam, c);
+        let (rx, ry) = (radius / c.z * fx, radius / c.z * fy);
+        let far = c.z + radius;
+        // Cells [i, i+1] × [j, j+1] wholly inside the ellipse ((u−x)/rx)² + ((v−y)/ry)² ≤ 1:
+        // its four corners inside (the ellipse is convex).
+        let i0 = (x - rx).floor().max(0.0) as usize;
+        let i1 = ((x + rx).ceil().max(0.0) as usize).min(self.width);
+        let j0 = (y - ry).floor().max(0.0) as usize;
+        let j1 = ((y + ry).ceil().max(0.0) as usize).min(self.height);
+        let inside = |u: f64, v: f64| {
+            let (a, b) = ((u - x) / rx, (v - y) / ry);
+            a * a + b * b <= 1.0
+        };
+        for j in j0..j1 {
+            let (v0, v1) = (j as f64, j as f64 + 1.0);
+            for i in i0..i1 {
+                let (u0, u1) = (i as f64, i as f64 + 1.0);
+                if inside(u0, v0) && inside(u1, v0) && inside(u0, v1) && inside(u1, v1) {
+                    let d = &mut self.depth[j * self.width + i];
+                    if far < *d {
+                        *d = far;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Whether a ball (world centre, radius) is hidden: every cell its (over-estimated)
+    /// projected disc's bounding rectangle touches holds a depth nearer than the ball's nearest
+    /// point. A ball reaching the near plane, or partly off the image, is never hidden by
+    /// cells outside the image (they count as empty).
+    pub fn is_hidden(&self, cam: &Camera, center: DVec3, radius: f64) -> bool {
+        let c = cam.to_camera(center);
+        let near = c.z - radius;
+        if near <= cam.near {
+            return false;
+        }
+        let t = cam.tan_half_fov();
+        let fy = self.height as f64 / (2.0 * t);
+        let fx = self.width as f64 / (2.0 * t * cam.aspect);
+        let (x, y, _) = self.to_cells(cam, c);
+        let k = radius / (c.z * c.z - radius * radius).sqrt();
+        let (rx, ry) = (k * fx, k * fy);
+        let (xa, xb, ya, yb) = (x - rx, x + rx, y - ry, y + ry);
+        if xa < 0.0 || ya < 0.0 || xb > self.width as f64 || yb > self.height as f64 {
+            return false;
+        }
+        let (i0, i1) = (xa.floor() as usize, (xb.ceil() as usize).min(self.width));
+        let (j0, j1) = (ya.floor() as usize, (yb.ceil() as usize).min(self.height));
+        for j in j0..j1 {
+            for i in i0..i1 {
+                if self.depth[j * self.width + i] >= near {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+}
+
+/// One articulated body placed in the world, as visibility sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct Placed<'a> {
+    /// Its model's volumes (per model body).
+    pub volumes: &'a [BodyVolumes],
+    /// World pose of each model body: rotation and origin.
+    pub poses: &'a [(DMat3, DVec3)],
+    /// Parent of each model body (`None` at the root), for joint weights.
+    pub parents: &'a [Option<usize>],
+    /// How far (m) any point of the body may move before the next classification: grows the
+    /// frustum test so that "invisible" means "cannot enter the view meanwhile".
+    pub margin: f64,
+}
+
+/// What the camera sees of one articulated body.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BodyView {
+    /// Summary: visible if any link is, else occluded if any link is, else invisible.
+    pub class: Option<Visibility>,
+    /// Per link (model body).
+    pub links: Vec<Visibility>,
+    /// Projected size of the whole body (fraction of the image height).
+    pub projected_size: f64,
+    /// Per link weight.
+    pub link_weights: Vec<f64>,
+    /// Per joint (= model body) weight: the largest link weight of its subtree.
+    pub joint_weights: Vec<f64>,
+}
+
+impl BodyView {
+    /// The summary class (invisible for a body without links).
+    pub fn summary(&self) -> Visibility {
+        self.class.unwrap_or(Visibility::Invisible)
+    }
+}
+
+/// Scratch of [`classify`], reused between calls.
+#[derive(Clone, Debug)]
+pub struct Classifier {
+    /// The depth buffer of the last call.
+    pub buffer: DepthBuffer,
+    spheres: Vec<(DVec3, f64)>,
+    world: Vec<Vec<(DVec3, f64)>>,
+}
+
+impl Classifier {
+    /// Scratch for the given settings.
+    pub fn new(settings: &VisibilitySettings) -> Classifier {
+        Classifier {
+            buffer: DepthBuffer::new(settings.depth_width, settings.depth_height),
+            spheres: Vec::new(),
+            world: Vec::new(),
+        }
+    }
+
+    /// Classifies every link of every body and computes the weights (into `out`, one entry a
+    /// body).
+    pub fn classify(
+        &mut self,
+        cam: &Camera,
+        settings: &VisibilitySettings,
+        bodies: &[Placed],
+        out: &mut Vec<BodyView>,
+    ) {
+        let frustum = cam.frustum();
+        self.buffer.clear();
+        // Depth-buffer cells per unit length at depth 1 (the larger of the two axes' scales,
+        // so that the skip below is conservative).
+        let t = cam.tan_half_fov();
+        let cells_per_unit = (self.buffer.height as f64 / (2.0 * t))
+            .max(self.buffer.width as f64 / (2.0 * t * cam.aspect));
+        out.resize_with(bodies.len(), BodyView::default);
+        self.world.resize_with(bodies.len(), Vec::new);
+        // 1. Frustum culling on world bounding spheres; occluders into the depth buffer.
+        for (b, placed) in bodies.iter().enumerate() {
+            let view = &mut out[b];
+            let world = &mut self.world[b];
+            world.clear();
+            view.links.clear();
+            for (vol, &(rot, pos)) in placed.volumes.iter().zip(placed.poses) {
+                let (c, r) = vol.bound;
+                let center = rot * c + pos;
+                world.push((center, r));
+                let class = if frustum.sphere(center, r + placed.margin) {
+                    Visibility::Visible
+                } else {
+                    Visibility::Invisible
+                };
+                view.links.push(class);
+                if class == Visibility::Visible && frustum.sphere(center, r) {
+                    self.spheres.clear();
+                    // Balls whose projected disc cannot hold a whole cell write nothing: skip
+                    // volumes that thin at this distance (depth ≥ distance − r).
+                    let depth = (cam.to_camera(center).z - r).max(cam.near);
+                    let min_radius = 0.7 * depth / cells_per_unit;
+                    for v in vol.primitives.iter().chain(&vol.skeleton) {
+                        if v.inner_radius() >= min_radius {
+                            v.transformed(rot, pos).inner_spheres(&mut self.spheres);
+                        }
+                    }
+                    for &(c, r) in &self.spheres {
+                        self.buffer.rasterize_ball(cam, c, r);
+                    }
+                }
+            }
+        }
+        // 2. Occlusion, projected size, weights.
+        for (b, placed) in bodies.iter().enumerate() {
+            let view = &mut out[b];
+            let world = &self.world[b];
+            for (l, &(c, r)) in world.iter().enumerate() {
+                if view.links[l] == Visibility::Visible && self.buffer.is_hidden(cam, c, r) {
+                    view.links[l] = Visibility::Occluded;
+                }
+            }
+            view.class = view.links.iter().copied().min();
+            let n = world.len().max(1) as f64;
+            let center = world.iter().map(|s| s.0).sum::<DVec3>() / n;
+            let radius = world
+                .iter()
+                .map(|(c, r)| (*c - center).length() + r)
+                .fold(0.0, f64::max);
+            view.projected_size = cam.projected_size(center, radius);
+            let s = (view.projected_size / settings.full_detail_size).min(1.0);
+            view.link_weights.clear();
+            view.link_weights.extend(view.links.iter().map(|c| match c {
+                Visibility::Visible => s,
+                Visibility::Occluded => s * settings.occluded_factor,
+                Visibility::Invisible => 0.0,
+            }));
+            view.joint_weights.clear();
+            view.joint_weights.extend_from_slice(&view.link_weights);
+            for i in (0..placed.parents.len()).rev() {
+                if let Some(p) = placed.parents[i] {
+                    view.joint_weights[p] = view.joint_weights[p].max(view.joint_weights[i]);
+                }
+            }
+        }
+    }
+}
+
+/// World poses of every body of `model` at configuration `q` (rotation, origin), parents
+/// first: the pose-only part of forward kinematics.
+pub fn body_poses(model: &articula_model::Model, q: &[f64], out: &mut Vec<(DMat3, DVec3)>) {
+    out.clear();
+    for body in &model.bodies {
+        let (mut r, mut p) = match body.parent {
+            Some(i) => out[i],
+            None => (DMat3::IDENTITY, DVec3::ZERO),
+        };
+        for part in &body.joint {
+            let (ro, po) = part.origin.to_pose();
+            p += r * po;
+            r *= ro;
+            let (rm, pm) = part
+                .motion_transform(&q[part.q_offset..part.q_offset + part.nq()])
+                .to_pose();
+            p += r * pm;
+            r *= rm;
+        }
+        out.push((r, p));
+    }
+}

@@ -1,0 +1,427 @@
+//! The view-dependent scene: invisible bodies move rigidly, the global queue beats an equal
+//! split, bodies entering the view regain joints, occluded bodies get fewer joints, and a
+//! snapshot of the bundled crowd.
+
+// Bodies are indexed alike in several parallel vectors.
+#![allow(clippy::needless_range_loop)]
+
+use articula_adaptive::{Adaptive, Settings};
+use articula_dca::State;
+use articula_model::Model;
+use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion};
+use articula_view::{
+    body_poses, global_selection, parse_scene, Classifier, LoadedScene, Placed, SceneSim,
+    Visibility,
+};
+use glam::{DMat3, DQuat, DVec3};
+use std::path::{Path, PathBuf};
+
+fn models() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../models")
+}
+
+fn scene(text: &str) -> LoadedScene {
+    parse_scene(text, Path::new("test.json"), &models()).unwrap()
+}
+
+/// A folder with a floating "wall" model (one box).
+fn wall_urdf() -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("articula-view-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("wall.urdf");
+    std::fs::write(
+        &path,
+        r#"<robot name="wall"><link name="wall"><inertial><mass value="100"/>
+        <inertia ixx="150" ixy="0" ixz="0" iyy="80" iyz="0" izz="80"/></inertial>
+        <collision><geometry><box size="0.2 4 4"/></geometry></collision></link></robot>"#,
+    )
+    .unwrap();
+    path
+}
+
+// ---------------------------------------------------------------------------------------------
+// 1. An invisible body: no joint, and the exact rigid motion of the whole.
+
+/// The composite spatial inertia of the whole model in the root frame, in the neutral pose.
+fn composite_in_root(model: &Model) -> SpatialInertia {
+    let mut poses = Vec::new();
+    body_poses(model, &model.neutral_q(), &mut poses);
+    let mut total = SpatialInertia::ZERO;
+    for (b, &(r, p)) in model.bodies.iter().zip(&poses) {
+        // The body's inertia expressed in the root frame (root at the identity here).
+        let i = &b.inertia;
+        total += SpatialInertia::new(
+            i.mass,
+            r * i.com() + p,
+            r * i.inertia_about_com() * r.transpose(),
+        );
+    }
+    total
+}
+
+/// `exp` of a rotation vector as a matrix (Rodrigues).
+fn rodrigues(phi: DVec3) -> DMat3 {
+    let th = phi.length();
+    if th < 1e-300 {
+        return DMat3::IDENTITY;
+    }
+    DMat3::from_axis_angle(phi / th, th)
+}
+
+#[test]
+fn an_invisible_body_moves_as_one_rigid_body() {
+    // Position (m) and rotation-matrix entries agree to rounding over 150 steps, with and
+    // without gravity, pushes and spin.
+    for (g, f, w) in [
+        (0.0, 0.0, 0.0),
+        (-9.81, 0.0, 0.0),
+        (0.0, 120.0, 1.5),
+        (-9.81, 120.0, 1.5),
+    ] {
+        let worst = invisible_case(g, f, w);
+        assert!(
+            worst < 1e-9,
+            "gravity {g}, push {f}, spin {w}: trajectories differ by {worst}"
+        );
+    }
+}
+
+fn invisible_case(gz: f64, fz: f64, wz: f64) -> f64 {
+    // Behind the camera, spinning and drifting, under gravity, pushed at its chest.
+    let s = scene(&format!(
+        r#"{{"models": {{"h": "humanoid.urdf"}},
+            "bodies": [{{"model": "h", "position": [-6, 0.5, 1.0], "rpy": [0.2, -0.1, 0.7],
+                        "velocity": {{"linear": [-1.0, 0.3, 2.0], "angular": [0.4, -0.3, {wz}]}}}}],
+            "camera": {{"eye": [0, 0, 1.5], "target": [10, 0, 1]}},
+            "budget": 100, "dt": 0.002, "reselect_every": 3, "gravity": [0, 0, {gz}],
+            "pushes": [{{"bodies": "all", "link": "chest", "point": [0.05, 0.1, 0.2],
+                        "force": [-80, 40, {fz}], "t0": 0.01, "t1": 0.05}}]}}"#,
+    ));
+    let model = &s.models[0].model;
+    let chest = model.bodies.iter().position(|b| b.name == "chest").unwrap();
+    let mut poses = Vec::new();
+    body_poses(model, &model.neutral_q(), &mut poses);
+    // The push point in root coordinates, in the neutral pose (the joints never move).
+    let (rc, pc) = poses[chest];
+    let push_point = rc * s.pushes[0].point + pc;
+    let inertia = composite_in_root(model);
+    let inv = inertia.inverse().unwrap();
+    // Rigid state: root orientation R, position p, body-frame twist [w; v] (v: velocity of
+    // the root origin in root coordinates).
+    let q0 = &s.placements[0].q;
+    let mut r = DMat3::from_quat(DQuat::from_xyzw(q0[4], q0[5], q0[6], q0[3]));
+    let mut p = DVec3::new(q0[0], q0[1], q0[2]);
+    let qd0 = &s.placements[0].qd;
+    let mut tw = SpatialMotion::new(
+        DVec3::new(qd0[0], qd0[1], qd0[2]),
+        DVec3::new(qd0[3], qd0[4], qd0[5]),
+    );
+
+    let mut sim = SceneSim::new(&s);
+    let g = DVec3::new(0.0, 0.0, gz);
+    let dt = s.dt;
+    let mut worst: f64 = 0.0;
+    for k in 0..150 {
+        let t = k as f64 * dt;
+        let step = sim.step().unwrap();
+        assert_eq!(step.active_total, 0, "step {k}");
+        assert_eq!(sim.views[0].summary(), Visibility::Invisible);
+        // Independent rigid body: in root coordinates, f = I a + v ×* I v.
+        let mut f = SpatialForce::new(
+            inertia.h.cross(r.transpose() * g),
+            r.transpose() * g * inertia.mass,
+        );
+        if s.pushes[0].t0 <= t && t < s.pushes[0].t1 {
+            let fb = r.transpose() * s.pushes[0].force;
+            f += SpatialForce::new(push_point.cross(fb), fb);
+        }
+        let h = inertia.mul_motion(tw);
+        // v ×* h = [w × n + v × f; w × f]
+        let bias = SpatialForce::new(tw.w.cross(h.n) + tw.v.cross(h.f), tw.w.cross(h.f));
+        let a = inv.force_to_motion(f - bias);
+        tw = SpatialMotion::new(tw.w + a.w * dt, tw.v + a.v * dt);
+        // Exact motion at constant body twist over dt: R ← R exp(ω dt),
+        // p ← p + R ∫₀^dt exp(ω s) v ds (by quadrature of the closed-form rotation).
+        let n = 64;
+        let mut disp = DVec3::ZERO;
+        for i in 0..n {
+            // Simpson-free midpoint rule with many points is accurate to ~1e-12 here.
+            let s_mid = (i as f64 + 0.5) / n as f64 * dt;
+            disp += rodrigues(tw.w * s_mid) * tw.v * (dt / n as f64);
+        }
+        p += r * disp;
+        r *= rodrigues(tw.w * dt);
+        let q = &sim.bodies[0].state.q;
+        let p_sim = DVec3::new(q[0], q[1], q[2]);
+        let r_sim = DMat3::from_quat(DQuat::from_xyzw(q[4], q[5], q[6], q[3]));
+        let dr = (r_sim - r)
+            .to_cols_array()
+            .iter()
+            .fold(0.0f64, |m, x| m.max(x.abs()));
+        worst = worst.max((p_sim - p).length()).max(dr);
+        // Joints stay where they were.
+        assert!(q[7..].iter().all(|x| *x == 0.0));
+        assert!(sim.bodies[0].state.qd[6..].iter().all(|x| *x == 0.0));
+    }
+    // And the body did move (drift, fall, spin).
+    assert!((sim.bodies[0].state.q[0] - q0[0]).abs() > 0.2);
+    worst
+}
+
+// ---------------------------------------------------------------------------------------------
+// 2. The global queue's total error is at most that of an equal split.
+
+#[test]
+fn the_global_queue_beats_an_equal_split() {
+    let s = scene(
+        r#"{"models": {"h": "humanoid.urdf"},
+            "bodies": [
+              {"model": "h", "position": [3, 0, 1], "rpy": [0, 0, 3.1]},
+              {"model": "h", "position": [7, 2, 1], "rpy": [0, 0, 2.5]},
+              {"model": "h", "position": [15, -4, 1], "rpy": [0, 0, 3.5]},
+              {"model": "h", "position": [30, 3, 1]},
+              {"model": "h", "position": [12, 40, 1]},
+              {"model": "h", "position": [-5, 0, 1]}],
+            "camera": {"eye": [0, 0, 1.5], "target": [10, 0, 1]}}"#,
+    );
+    let model = &s.models[0].model;
+    let parents: Vec<Option<usize>> = model.bodies.iter().map(|b| b.parent).collect();
+    // Random joint velocities and forces so that every body has its own metric.
+    let states: Vec<State> = s
+        .placements
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let mut st = State::random(model, 100 + i as u64, 5.0);
+            st.q[..7].copy_from_slice(&p.q[..7]);
+            st
+        })
+        .collect();
+    let poses: Vec<Vec<(DMat3, DVec3)>> = states
+        .iter()
+        .map(|st| {
+            let mut ps = Vec::new();
+            body_poses(model, &st.q, &mut ps);
+            ps
+        })
+        .collect();
+    let placed: Vec<Placed> = poses
+        .iter()
+        .map(|ps| Placed {
+            volumes: &s.models[0].volumes,
+            poses: ps,
+            parents: &parents,
+            margin: 0.0,
+        })
+        .collect();
+    let mut cl = Classifier::new(&s.visibility);
+    let mut views = Vec::new();
+    cl.classify(&s.camera.at(0.0), &s.visibility, &placed, &mut views);
+    let classes: Vec<Visibility> = views.iter().map(|v| v.summary()).collect();
+    assert!(classes.contains(&Visibility::Invisible) && classes.contains(&Visibility::Visible));
+    let workspace = |b: usize, budget: Option<usize>| {
+        let mut a = Adaptive::new(
+            model,
+            Settings {
+                budget,
+                ..Settings::default()
+            },
+        );
+        for (i, w) in views[b].joint_weights.iter().enumerate() {
+            a.set_weight(model, i, *w);
+        }
+        a
+    };
+    let metrics: Vec<Vec<f64>> = (0..states.len())
+        .map(|b| {
+            let mut m = vec![0.0; model.assembly.nodes.len()];
+            let st = &states[b];
+            workspace(b, None)
+                .node_metrics(model, &st.q, &st.qd, &st.tau, &st.f_ext, &mut m)
+                .unwrap();
+            m
+        })
+        .collect();
+    let models: Vec<&Model> = vec![model; states.len()];
+    let refs: Vec<&[f64]> = metrics.iter().map(|m| m.as_slice()).collect();
+    let n = states.len();
+    let mut strictly_better = 0;
+    for k in [6, 12, 30, 60, 120] {
+        let global = global_selection(&models, &refs, Some(k), None);
+        assert!(global.used <= k);
+        // Equal split: each body's own queue with K / n joints.
+        let mut equal = 0.0;
+        for b in 0..n {
+            let st = &states[b];
+            let mut a = workspace(b, Some(k / n));
+            a.forward_dynamics(model, &st.q, &st.qd, &st.tau, &st.f_ext)
+                .unwrap();
+            equal += a.selection().predicted_error;
+        }
+        assert!(
+            global.total_error <= equal * (1.0 + 1e-12),
+            "K = {k}: global {} > equal split {equal}",
+            global.total_error
+        );
+        if global.total_error < 0.99 * equal {
+            strictly_better += 1;
+        }
+        // Each body's share, as its own budget, reproduces the global choice and its error.
+        for b in 0..n {
+            let st = &states[b];
+            let mut a = workspace(b, Some(global.allocation[b]));
+            a.forward_dynamics(model, &st.q, &st.qd, &st.tau, &st.f_ext)
+                .unwrap();
+            let sel = a.selection();
+            assert_eq!(sel.budget_used, global.allocation[b], "K = {k}, body {b}");
+            let e = global.error[b];
+            assert!(
+                (sel.predicted_error - e).abs() <= 1e-9 * e.max(1.0),
+                "K = {k}, body {b}: {} vs {e}",
+                sel.predicted_error
+            );
+        }
+        // Invisible bodies get nothing.
+        for b in 0..n {
+            if classes[b] == Visibility::Invisible {
+                assert_eq!(global.allocation[b], 0);
+            }
+        }
+    }
+    assert!(
+        strictly_better >= 3,
+        "the global queue should usually be strictly better"
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// 3. Entering the view: joints come back within one re-selection.
+
+#[test]
+fn a_body_entering_the_view_regains_joints_within_one_reselection() {
+    // Camera along +x, 60° vertical at 16:9 (horizontal half angle ≈ 45.7°). The body starts
+    // 6 m left of the view's left edge at x = 8 and walks right at 6 m/s, spinning (so that its
+    // joints have something to do once free).
+    let s = scene(
+        r#"{"models": {"h": "humanoid.urdf"},
+            "bodies": [{"model": "h", "position": [8, 14.2, 1.0],
+                        "velocity": {"linear": [0, -6, 0], "angular": [0, 0, 3]}}],
+            "camera": {"eye": [0, 0, 1.0], "target": [10, 0, 1.0], "fov_y_deg": 60},
+            "image": {"width": 640, "height": 360},
+            "budget": 20, "dt": 0.004, "reselect_every": 10, "gravity": [0, 0, 0]}"#,
+    );
+    let cam = s.camera.at(0.0);
+    let mut sim = SceneSim::new(&s);
+    let mut entered = None;
+    let mut first_after = None;
+    for k in 0..400u64 {
+        // In the image (independently of the classifier): the root origin projects inside.
+        let q = &sim.bodies[0].state.q;
+        let root = DVec3::new(q[0], q[1], q[2]);
+        let inside = cam
+            .project(root)
+            .is_some_and(|(uv, _)| uv.x.abs() <= 1.0 && uv.y.abs() <= 1.0);
+        if k == 0 {
+            assert!(!inside);
+        }
+        if inside && entered.is_none() {
+            entered = Some(k);
+        }
+        let step = sim.step().unwrap();
+        if k < 20 {
+            assert_eq!(step.active_total, 0, "far outside at step {k}");
+        }
+        if let Some(e) = entered {
+            // The first re-selection at or after entering.
+            if step.reselected && k >= e && first_after.is_none() {
+                first_after = Some(k);
+                assert!(
+                    step.active_total > 0,
+                    "re-selection at step {k} (entered at {e}) gave no joint"
+                );
+            }
+            if first_after.is_some() && inside {
+                assert!(step.active_total > 0, "in view at step {k} without joints");
+            }
+        }
+    }
+    let (e, f) = (
+        entered.expect("the body enters the view"),
+        first_after.unwrap(),
+    );
+    assert!(f < e + 10, "re-selected at {f}, entered at {e}");
+}
+
+// ---------------------------------------------------------------------------------------------
+// 4. Occlusion: fewer joints behind a wall than in the open at the same distance.
+
+#[test]
+fn an_occluded_body_gets_fewer_joints_than_a_visible_one() {
+    let wall = wall_urdf();
+    let text = format!(
+        r#"{{"models": {{"h": "humanoid.urdf", "wall": "{}"}},
+            "bodies": [
+              {{"name": "hidden", "model": "h", "position": [9, -2.5, 1.0], "velocity": {{"angular": [0, 0, 2]}}}},
+              {{"name": "open", "model": "h", "position": [9, 2.5, 1.0], "velocity": {{"angular": [0, 0, 2]}}}},
+              {{"name": "wall", "model": "wall", "position": [4, -1.2, 1.0]}}],
+            "camera": {{"eye": [0, 0, 1.0], "target": [10, 0, 1.0]}},
+            "budget": 30, "dt": 0.002, "gravity": [0, 0, 0]}}"#,
+        wall.display()
+    );
+    let s = scene(&text);
+    let mut sim = SceneSim::new(&s);
+    sim.step().unwrap();
+    assert_eq!(
+        sim.views[0].summary(),
+        Visibility::Occluded,
+        "{:?}",
+        sim.views[0].links
+    );
+    assert_eq!(sim.views[1].summary(), Visibility::Visible);
+    assert_eq!(sim.views[2].summary(), Visibility::Visible);
+    // Same distance from the eye, mirrored: the same projected size.
+    assert!((sim.views[0].projected_size - sim.views[1].projected_size).abs() < 1e-9);
+    let (hidden, open) = (sim.bodies[0].active, sim.bodies[1].active);
+    assert!(hidden < open, "hidden {hidden}, open {open}");
+    assert!(open > 0);
+    // The hidden body's weights are the open one's times the occluded factor.
+    for (h, o) in sim.views[0]
+        .joint_weights
+        .iter()
+        .zip(&sim.views[1].joint_weights)
+    {
+        assert!((h - o * s.visibility.occluded_factor).abs() < 1e-12);
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// 5. Snapshot of the bundled crowd's first re-selections.
+
+#[test]
+fn crowd200_active_joints_snapshot() {
+    let s = articula_view::load_scene(models().join("scenes/crowd200.json")).unwrap();
+    assert_eq!(s.placements.len(), 200);
+    let mut sim = SceneSim::new(&s);
+    let mut out = String::new();
+    for k in 0..(2 * s.reselect_every as u64 + 1) {
+        let step = sim.step().unwrap();
+        if step.reselected {
+            assert!(step.active_total <= s.budget.unwrap());
+            // Every body simulates exactly its share of the global queue, whether it
+            // re-selected or kept its hybrid body.
+            for b in &sim.bodies {
+                assert_eq!(b.active, b.allocation);
+            }
+            out.push_str(&format!(
+                "step {k}: active {} visible {} occluded {} invisible {}\n",
+                step.active_total, step.classes[0], step.classes[1], step.classes[2]
+            ));
+            for row in sim.bodies.chunks(20) {
+                let line: Vec<String> = row.iter().map(|b| format!("{:2}", b.active)).collect();
+                out.push_str(&line.join(" "));
+                out.push('\n');
+            }
+        }
+    }
+    insta::assert_snapshot!(out);
+}

@@ -1,0 +1,136 @@
+//! `articula scene`: exit code 2 on bad scenes, the JSON summary, PNG frames.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn models_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../models")
+}
+
+fn articula(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_articula"))
+        .args(args)
+        .output()
+        .expect("cannot run the articula binary")
+}
+
+struct Scratch(PathBuf);
+
+impl Scratch {
+    fn new(test: &str) -> Scratch {
+        let dir =
+            std::env::temp_dir().join(format!("articula-scene-{}-{test}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        Scratch(dir)
+    }
+    fn file(&self, name: &str, text: &str) -> String {
+        let p = self.0.join(name);
+        std::fs::write(&p, text).unwrap();
+        p.display().to_string()
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn bad(out: &Output, needles: &[&str]) {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{needles:?}: stderr: {stderr}");
+    assert!(stderr.contains("error:"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    for n in needles {
+        assert!(stderr.contains(n), "stderr lacks {n}: {stderr}");
+    }
+}
+
+fn two_bodies(models: &str) -> String {
+    format!(
+        r#"{{"models": {{"h": "{models}/humanoid.urdf"}},
+            "bodies": [{{"name": "front", "model": "h", "position": [5, 0, 1], "velocity": {{"angular": [0, 0, 1]}}}},
+                       {{"name": "behind", "model": "h", "position": [-5, 0, 1]}}],
+            "camera": {{"eye": [0, 0, 1], "target": [10, 0, 1]}},
+            "budget": 12, "dt": 0.002, "gravity": [0, 0, 0],
+            "image": {{"width": 160, "height": 90}}}}"#
+    )
+}
+
+#[test]
+fn bad_scenes_exit_2_with_a_clear_message() {
+    let s = Scratch::new("bad");
+    bad(
+        &articula(&["scene", "/nonexistent/x.json", "--steps", "1"]),
+        &["/nonexistent/x.json"],
+    );
+    let f = s.file("broken.json", "{\"models\": ");
+    bad(
+        &articula(&["scene", &f, "--steps", "1"]),
+        &["broken.json", "EOF"],
+    );
+    let f = s.file("nomodel.json", &two_bodies("/nowhere"));
+    bad(
+        &articula(&["scene", &f, "--steps", "1"]),
+        &["models.h", "/nowhere/humanoid.urdf"],
+    );
+    let f = s.file(
+        "typo.json",
+        &two_bodies(&models_dir().display().to_string()).replace("\"budget\"", "\"budgte\""),
+    );
+    bad(
+        &articula(&["scene", &f, "--steps", "1"]),
+        &["unknown field `budgte`"],
+    );
+    let f = s.file("ok.json", &two_bodies(&models_dir().display().to_string()));
+    bad(&articula(&["scene", &f, "--steps", "0"]), &["steps"]);
+    bad(&articula(&["scene", &f, "--steps", "-3"]), &["steps"]);
+    bad(
+        &articula(&["scene", &f, "--steps", "1", "--frame-every", "0"]),
+        &["frame"],
+    );
+}
+
+#[test]
+fn summary_and_frames() {
+    let s = Scratch::new("ok");
+    let f = s.file("ok.json", &two_bodies(&models_dir().display().to_string()));
+    let out_dir = s.0.join("frames");
+    let out = articula(&[
+        "scene",
+        &f,
+        "--steps",
+        "4",
+        "--out",
+        out_dir.to_str().unwrap(),
+        "--frame-every",
+        "2",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let last = stdout.lines().last().unwrap();
+    let v: serde_json::Value = serde_json::from_str(last).unwrap();
+    assert_eq!(v["steps"], 4);
+    assert_eq!(v["bodies"], 2);
+    assert_eq!(v["dof_total"], 68);
+    assert_eq!(v["visible"], 1);
+    assert_eq!(v["invisible"], 1);
+    assert_eq!(v["occluded"], 0);
+    let mean = v["active_joints_mean"].as_f64().unwrap();
+    assert!(mean > 0.0 && mean <= 12.0, "{mean}");
+    assert!(v["ms_per_step"].as_f64().unwrap() > 0.0);
+    // Frames at steps 0, 2 and the last (4): each a PNG of the scene's size, with a map.
+    assert_eq!(v["frames"], 3);
+    for k in [0, 2, 4] {
+        let png = std::fs::read(out_dir.join(format!("frame_{k:05}.png"))).unwrap();
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+        let w = u32::from_be_bytes(png[16..20].try_into().unwrap());
+        let h = u32::from_be_bytes(png[20..24].try_into().unwrap());
+        assert_eq!((w, h), (160, 90));
+        assert!(out_dir.join(format!("map_{k:05}.png")).exists());
+    }
+}
