@@ -3,6 +3,21 @@
 //! View-dependent adaptive dynamics (DESIGN §7): a [`Camera`] and its frustum, per-body
 //! bounding [`volumes`], [`visibility`] classes (visible, occluded, invisible) turned into joint
 //! weights, and scenes of many articulated bodies.
+//!
+//! ```
+//! use articula_view::Camera;
+//! use glam::DVec3;
+//!
+//! // A camera 10 m back along −x, looking at the origin, 60° vertical field of view.
+//! let cam = Camera::look_at(DVec3::new(-10.0, 0.0, 1.0), DVec3::ZERO, DVec3::Z, 60.0, 16.0 / 9.0, 0.1, 100.0)
+//!     .unwrap();
+//! let frustum = cam.frustum();
+//! assert!(frustum.sphere(DVec3::ZERO, 0.5)); // in front: visible
+//! assert!(!frustum.sphere(DVec3::new(-20.0, 0.0, 0.0), 0.5)); // behind the camera
+//! // A 1 m sphere twice as far covers about half the screen height.
+//! let (near, far) = (cam.projected_size(DVec3::ZERO, 1.0), cam.projected_size(DVec3::new(10.0, 0.0, 1.0), 1.0));
+//! assert!((near / far - 2.0).abs() < 0.1);
+//! ```
 
 pub mod camera;
 pub mod render;
