@@ -1,4 +1,10 @@
 //! Shared fixtures of the benchmarks: procedural models of any size.
+//!
+//! ```
+//! let model = articula_benches::chain(1000);
+//! assert_eq!((model.bodies.len(), model.nv), (1000, 1000));
+//! assert_eq!(model.assembly.max_handles(), 2);
+//! ```
 
 use articula_model::{LoadOptions, Model};
 
