@@ -161,51 +161,18 @@ impl Data {
         let nv = model.nv;
         let tree = &model.assembly;
         let nn = tree.nodes.len();
-        let mut hoff = Vec::with_capacity(nn);
-        let mut boff = Vec::with_capacity(nn);
-        let (mut h, mut blk) = (0, 0);
-        for node in &tree.nodes {
-            hoff.push(h);
-            boff.push(blk);
-            h += node.handles.len();
-            blk += node.handles.len() * node.handles.len();
-        }
+        // The shared layout (articula-model), with DCA's sentinel and side type.
+        let layout = tree.handle_layout();
+        let (h, blk) = (layout.handles, layout.blocks);
+        let mut hoff = layout.hoff;
         hoff.push(h); // sentinel: node n has hoff[n + 1] − hoff[n] handles
-        let mut ja = vec![0; nn];
-        let mut jb = vec![0; nn];
-        let mut from = vec![(Side::A, 0); h];
-        for (i, node) in tree.nodes.iter().enumerate() {
-            if let NodeKind::Join {
-                joint,
-                parent_side,
-                child_side,
-            } = node.kind
-            {
-                let (ha, hb) = (
-                    &tree.nodes[parent_side].handles,
-                    &tree.nodes[child_side].handles,
-                );
-                ja[i] = ha
-                    .iter()
-                    .position(|&x| x == joint)
-                    .expect("principal joint is a handle of A");
-                jb[i] = hb
-                    .iter()
-                    .position(|&x| x == joint)
-                    .expect("principal joint is a handle of B");
-                for (k, hc) in node.handles.iter().enumerate() {
-                    from[hoff[i] + k] = match ha.iter().position(|x| x == hc) {
-                        Some(p) => (Side::A, p),
-                        None => (
-                            Side::B,
-                            hb.iter()
-                                .position(|x| x == hc)
-                                .expect("handle of C is a handle of A or B"),
-                        ),
-                    };
-                }
-            }
-        }
+        let boff = layout.boff;
+        let (ja, jb) = (layout.ja, layout.jb);
+        let from: Vec<(Side, usize)> = layout
+            .from
+            .iter()
+            .map(|&(a, i)| (if a { Side::A } else { Side::B }, i))
+            .collect();
         let max_h = tree.max_handles().max(1);
         Data {
             gravity: DVec3::new(0.0, 0.0, -9.81),
