@@ -11,7 +11,7 @@ use crate::hybrid::{Adaptive, Level, Rigid};
 use articula_dca::DynamicsError;
 use articula_model::{JointKind, Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialMotion, SpatialTransform};
-use glam::{DMat3, DVec3};
+use glam::DVec3;
 
 /// Lists and frames of the current hybrid body.
 #[derive(Clone, Debug, Default)]
@@ -141,7 +141,7 @@ impl Adaptive {
         for idx in 0..self.hier.ajoints.len() {
             let i = self.hier.ajoints[idx];
             let body = &model.bodies[i];
-            let (mut x, mut v) = match body.parent {
+            let (x, v) = match body.parent {
                 None => (x_cw, SpatialMotion::ZERO),
                 Some(p) if self.hier.abody[p] => (self.data.x[p], self.data.v[p]),
                 Some(_) => {
@@ -154,27 +154,7 @@ impl Adaptive {
                     }
                 }
             };
-            let mut c = SpatialMotion::ZERO;
-            for part in &body.joint {
-                x = x * part.origin;
-                match part.kind {
-                    JointKind::Revolute | JointKind::Continuous => {
-                        let rq = DMat3::from_axis_angle(part.axis, q[part.q_offset]);
-                        x = SpatialTransform::new(x.e * rq, rq.transpose() * x.r);
-                    }
-                    _ => {
-                        x = x * part.motion_transform(&q[part.q_offset..part.q_offset + part.nq()])
-                    }
-                }
-                let mut vj = SpatialMotion::ZERO;
-                for k in 0..part.nv() {
-                    let s = x.apply_motion(part.subspace_column(k));
-                    self.data.s[part.v_offset + k] = s;
-                    vj += s * qd[part.v_offset + k];
-                }
-                c += v.cross_motion(vj);
-                v += vj;
-            }
+            let (x, v, c) = articula_dca::body_kinematics(body, x, v, q, qd, &mut self.data.s);
             self.data.x[i] = x;
             self.data.v[i] = v;
             self.data.c[i] = c;

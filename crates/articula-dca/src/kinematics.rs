@@ -121,34 +121,7 @@ pub(crate) fn kinematics(
                 let vj = s * qd[vo];
                 (x, v0 + vj, v0.cross_motion(vj))
             }
-            FkPlan::General => {
-                let (mut x, mut v) = (x0, v0);
-                let mut c = SpatialMotion::ZERO;
-                for part in &body.joint {
-                    // X_{W←k} = X_{W←k-1} · origin · motion(q); for a rotation rot(R_q) the
-                    // second product is just e = e R_q, r = R_qᵀ r.
-                    x = x * part.origin;
-                    match part.kind {
-                        JointKind::Revolute | JointKind::Continuous => {
-                            let rq = DMat3::from_axis_angle(part.axis, q[part.q_offset]);
-                            x = SpatialTransform::new(x.e * rq, rq.transpose() * x.r);
-                        }
-                        _ => {
-                            x = x * part
-                                .motion_transform(&q[part.q_offset..part.q_offset + part.nq()])
-                        }
-                    }
-                    let mut vj = SpatialMotion::ZERO;
-                    for k in 0..part.nv() {
-                        let s = x.apply_motion(part.subspace_column(k));
-                        data.s[part.v_offset + k] = s;
-                        vj += s * qd[part.v_offset + k];
-                    }
-                    c += v.cross_motion(vj);
-                    v += vj;
-                }
-                (x, v, c)
-            }
+            FkPlan::General => body_kinematics(body, x0, v0, q, qd, &mut data.s),
         };
         data.x[i] = x;
         data.v[i] = v;
@@ -241,4 +214,41 @@ pub(crate) fn forces_to_computation_frame(
     data.f_ext_c.clear();
     data.f_ext_c
         .extend(f_ext.iter().map(|f| x_cw.apply_force(*f)));
+}
+
+/// One body's kinematics from its parent's pose `x0` (body → computation frame) and spatial
+/// velocity `v0`: its pose, its spatial velocity and the velocity product `c` of its joint; the
+/// joint's world subspace columns are written into `s` (indexed like `qd`). The general path of
+/// [`forward_kinematics`], for any joint (composed, prismatic, floating).
+pub fn body_kinematics(
+    body: &Body,
+    x0: SpatialTransform,
+    v0: SpatialMotion,
+    q: &[f64],
+    qd: &[f64],
+    s: &mut [SpatialMotion],
+) -> (SpatialTransform, SpatialMotion, SpatialMotion) {
+    let (mut x, mut v) = (x0, v0);
+    let mut c = SpatialMotion::ZERO;
+    for part in &body.joint {
+        // X_{W←k} = X_{W←k-1} · origin · motion(q); for a rotation rot(R_q) the second product
+        // is just e = e R_q, r = R_qᵀ r.
+        x = x * part.origin;
+        match part.kind {
+            JointKind::Revolute | JointKind::Continuous => {
+                let rq = DMat3::from_axis_angle(part.axis, q[part.q_offset]);
+                x = SpatialTransform::new(x.e * rq, rq.transpose() * x.r);
+            }
+            _ => x = x * part.motion_transform(&q[part.q_offset..part.q_offset + part.nq()]),
+        }
+        let mut vj = SpatialMotion::ZERO;
+        for k in 0..part.nv() {
+            let sk = x.apply_motion(part.subspace_column(k));
+            s[part.v_offset + k] = sk;
+            vj += sk * qd[part.v_offset + k];
+        }
+        c += v.cross_motion(vj);
+        v += vj;
+    }
+    (x, v, c)
 }
