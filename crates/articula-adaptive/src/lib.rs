@@ -149,23 +149,21 @@ impl Adaptive {
     /// Acceleration-metric weight of body `body`'s joint: `A = scale · 1` (scale ≥ 0).
     pub fn set_weight(&mut self, model: &Model, body: usize, scale: f64) {
         let k = model.bodies[body].nv;
-        let w = &mut self.aw[self.woff[body]..self.woff[body] + k * k];
-        for p in 0..k {
-            for q in 0..k {
-                w[p * k + q] = if p == q { scale } else { 0.0 };
-            }
-        }
+        scaled_identity(
+            &mut self.aw[self.woff[body]..self.woff[body] + k * k],
+            k,
+            scale,
+        );
     }
 
     /// Velocity-metric weight of body `body`'s joint: `V = scale · 1` (scale ≥ 0).
     pub fn set_velocity_weight(&mut self, model: &Model, body: usize, scale: f64) {
         let k = model.bodies[body].nv;
-        let w = &mut self.vw[self.woff[body]..self.woff[body] + k * k];
-        for p in 0..k {
-            for q in 0..k {
-                w[p * k + q] = if p == q { scale } else { 0.0 };
-            }
-        }
+        scaled_identity(
+            &mut self.vw[self.woff[body]..self.woff[body] + k * k],
+            k,
+            scale,
+        );
     }
 
     /// The acceleration-metric weight matrix `A_i` (k × k, row-major) of body `body`'s joint.
@@ -543,6 +541,15 @@ fn integrate_part(part: &articula_model::JointPart, q: &mut [f64], qd: &[f64], h
             articula_dca::integrate_floating(&mut q[qo..qo + 7], &qd[vo..vo + 6], h);
         }
         _ => q[part.q_offset] += qd[part.v_offset] * h,
+    }
+}
+
+/// `w = scale · 1` (k × k, row-major).
+fn scaled_identity(w: &mut [f64], k: usize, scale: f64) {
+    for p in 0..k {
+        for q in 0..k {
+            w[p * k + q] = if p == q { scale } else { 0.0 };
+        }
     }
 }
 
