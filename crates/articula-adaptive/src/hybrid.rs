@@ -433,7 +433,7 @@ impl Adaptive {
     /// `N = V (G_F + S K)`, `n = V (β + S k)` (= γ), all through the Cholesky factor:
     /// `Z = L⁻¹ S`, `Y = L⁻¹ G_F`, `U = Y + Z K`, `N = L⁻ᵀ U`. Then
     /// `Φ^C_hk = Φ^X_hk [same side] ∓ Φ^X_hj N_k = Φ^X_hk [same side] − Y_hᵀ U_k` and
-    /// `b^C_h = b^X_h ∓ Φ^X_hj γ = b^X_h − Y_hᵀ (w + Z k)`, `w = L⁻¹ β`.
+    /// `b^C_h = b^X_h ∓ Φ^X_hj γ = b^X_h − G_F,hᵀ γ` (`assemble`).
     pub(crate) fn join(
         &mut self,
         model: &Model,
@@ -454,12 +454,30 @@ impl Adaptive {
         let (ja, jb) = (self.lay.ja[n], self.lay.jb[n]);
         let (nhc, hc) = (self.nh[n], self.lay.hoff[n]);
         let g = (*self.phi_at(a, ja, ja) + *self.phi_at(b, jb, jb)).0;
+        // S, c at the joint's point P_j; β = b^A_j − b^B_j + c (no velocity product at impulse
+        // level); G_F,h per handle of C.
+        let pj = self.point[joint];
+        let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj)).to_array();
+        let mut beta = self.b[self.lay.hoff[a] + ja] - self.b[self.lay.hoff[b] + jb];
+        if level == Level::Acceleration {
+            beta += SpatialMotion::from_array(shift(self.data.c[joint]));
+        }
+        let beta = beta.to_array();
+        for h in 0..nhc {
+            self.gf[h] = match self.lay.from[hc + h] {
+                (true, i) => *self.phi_at(a, ja, i),
+                (false, i) => -*self.phi_at(b, jb, i),
+            };
+        }
+        let (vo, k) = (body.v_offset, body.nv);
         if let [part] = body.joint.as_slice() {
             if matches!(
                 part.kind,
                 JointKind::Revolute | JointKind::Continuous | JointKind::Prismatic
             ) {
-                return self.join_one_axis(model, n, tau, level, &g);
+                let s = shift(self.data.s[vo]);
+                let prismatic = part.kind == JointKind::Prismatic;
+                return self.join_one_axis(model, n, tau, &g, s, prismatic, &beta);
             }
         }
         // L Lᵀ = Φ^A_jj + Φ^B_jj = V⁻¹
@@ -467,9 +485,6 @@ impl Adaptive {
             joint: body.joint_name(),
             detail: "Φ_jj^A + Φ_jj^B is not positive definite",
         })?;
-        let pj = self.point[joint];
-        let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj)).to_array();
-        let (vo, k) = (body.v_offset, body.nv);
         // Z = L⁻¹ S, D = Zᵀ Z
         let mut z = [[0.0; 6]; 6];
         for p in 0..k {
@@ -485,12 +500,8 @@ impl Adaptive {
             joint: body.joint_name(),
             detail: "Sᵀ V S is not positive definite",
         })?;
-        // β = b^A_j − b^B_j + c (no velocity product at impulse level); w = L⁻¹ β.
-        let mut beta = self.b[self.lay.hoff[a] + ja] - self.b[self.lay.hoff[b] + jb];
-        if level == Level::Acceleration {
-            beta += SpatialMotion::from_array(shift(self.data.c[joint]));
-        }
-        let mut w = dense::solve_l(&l, &beta.to_array());
+        // w = L⁻¹ β
+        let mut w = dense::solve_l(&l, &beta);
         // k = D⁻¹ (Q − Zᵀ w);  w ← w + Z k;  n = γ = L⁻ᵀ w
         let mut t = [0.0; 6];
         for p in 0..k {
@@ -512,14 +523,7 @@ impl Adaptive {
         let ko = self.koff[n];
         let wd = 6 * nhc;
         for h in 0..nhc {
-            let (from_a, i) = self.lay.from[hc + h];
-            let gf = if from_a {
-                *self.phi_at(a, ja, i)
-            } else {
-                -*self.phi_at(b, jb, i)
-            };
-            self.gf[h] = gf;
-            let gt = gf.transpose(); // row c = column c of G_F,h
+            let gt = self.gf[h].transpose(); // row c = column c of G_F,h
             let mut yc = [[0.0; 6]; 6];
             let mut uc = [[0.0; 6]; 6];
             for c in 0..6 {
@@ -591,31 +595,28 @@ impl Adaptive {
     /// `q̈ = gᵀ y / sᵀs + q̈_τ Q` with `g = W G s − s`, `q̈_τ = sᵀ G f_τ / sᵀs`. So
     /// `K = gᵀ G_F / sᵀs`, `N = W G_F`, `n = γ = W β + f_τ Q`,
     /// `Φ^C_hk = Φ^X_hk [same side] − G_F,hᵀ N_k`, `b^C_h = b^X_h − G_F,hᵀ γ`.
+    #[allow(clippy::too_many_arguments)]
     fn join_one_axis(
         &mut self,
         model: &Model,
         n: usize,
         tau: &[f64],
-        level: Level,
         g: &[[f64; 6]; 6],
+        mut sv: [f64; 6],
+        prismatic: bool,
+        beta: &[f64; 6],
     ) -> Result<(), DynamicsError> {
-        let tree = &model.assembly;
         let NodeKind::Join {
             joint,
             parent_side: a,
             child_side: b,
-        } = tree.nodes[n].kind
+        } = model.assembly.nodes[n].kind
         else {
             unreachable!("join() on a leaf")
         };
         let body = &model.bodies[joint];
-        let prismatic = body.joint[0].kind == JointKind::Prismatic;
-        let (ja, jb) = (self.lay.ja[n], self.lay.jb[n]);
         let (nhc, hc) = (self.nh[n], self.lay.hoff[n]);
-        let pj = self.point[joint];
-        let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj)).to_array();
         let vo = body.v_offset;
-        let mut sv = shift(self.data.s[vo]);
         // The axis passes through P_j: the other half is rounding.
         let off = if prismatic { 3 } else { 0 };
         for x in &mut sv[3 - off..6 - off] {
@@ -651,29 +652,16 @@ impl Adaptive {
         let ft: [f64; 6] = std::array::from_fn(|i| f0[i] - wgf0[i]);
         let gft = Mat6(*g).mul_vec(&ft);
         let qt = dot6(&sv, &gft) / ss;
-        // β = b^A_j − b^B_j + c (no velocity product at impulse level).
-        let mut beta = self.b[self.lay.hoff[a] + ja] - self.b[self.lay.hoff[b] + jb];
-        if level == Level::Acceleration {
-            beta += SpatialMotion::from_array(shift(self.data.c[joint]));
-        }
-        let beta = beta.to_array();
         let q = tau[vo];
-        self.kvec[vo] = dot6(&gv, &beta) / ss + qt * q;
-        let wb = w_apply(&beta);
+        self.kvec[vo] = dot6(&gv, beta) / ss + qt * q;
+        let wb = w_apply(beta);
         let nv: [f64; 6] = std::array::from_fn(|i| wb[i] + ft[i] * q);
         self.nvec[n] = nv;
         let ko = self.koff[n];
         let wd = 6 * nhc;
+        // Ỹ_h = L⁻¹ Tᵀ G_F,h (5 × 6, kept column-wise in yc), N_h = T L⁻ᵀ Ỹ_h.
         for h in 0..nhc {
-            let (from_a, i) = self.lay.from[hc + h];
-            let gf = if from_a {
-                *self.phi_at(a, ja, i)
-            } else {
-                -*self.phi_at(b, jb, i)
-            };
-            self.gf[h] = gf;
-            let gtr = gf.transpose(); // row c = column c of G_F,h
-                                      // Ỹ_h = L⁻¹ Tᵀ G_F,h (5 × 6, kept column-wise in yc), N_h = T L⁻ᵀ Ỹ_h.
+            let gtr = self.gf[h].transpose(); // row c = column c of G_F,h
             for c in 0..6 {
                 self.kmat[ko + 6 * h + c] = dot6(&gv, &gtr.0[c]) / ss;
                 let u = t.tr(&gtr.0[c]);
