@@ -9,7 +9,7 @@
 
 use crate::hybrid::{Adaptive, Level, Rigid};
 use articula_dca::DynamicsError;
-use articula_model::{JointKind, Model, NodeKind};
+use articula_model::{Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialMotion, SpatialTransform};
 use glam::DVec3;
 
@@ -174,13 +174,7 @@ impl Adaptive {
         tau: &[f64],
     ) -> Result<(), DynamicsError> {
         let tree = &model.assembly;
-        self.data.origin = match model.bodies.first() {
-            Some(b) if b.parent.is_none() && b.joint[0].kind == JointKind::Floating => {
-                let qo = b.joint[0].q_offset;
-                DVec3::new(q[qo], q[qo + 1], q[qo + 2])
-            }
-            _ => DVec3::ZERO,
-        };
+        self.data.origin = articula_dca::computation_origin(model, q);
         self.active_kinematics(model, q, qd);
         // Frontier composites in the computation frame; forces gathered per cluster.
         for idx in 0..self.hier.fnodes.len() {

@@ -73,7 +73,7 @@ pub fn forward_kinematics(model: &Model, q: &[f64], qd: &[f64], data: &mut Data)
 }
 
 /// The origin of the computation frame for configuration `q` (see [`forward_kinematics`]).
-pub(crate) fn computation_origin(model: &Model, q: &[f64]) -> DVec3 {
+pub fn computation_origin(model: &Model, q: &[f64]) -> DVec3 {
     match model.bodies.first() {
         Some(b) if b.parent.is_none() && b.joint[0].kind == JointKind::Floating => {
             let qo = b.joint[0].q_offset;

@@ -43,7 +43,7 @@ mod state;
 pub use data::Data;
 pub use error::DynamicsError;
 pub use integrate::{integrate_floating, integrate_q, step, Integrator};
-pub use kinematics::{body_kinematics, forward_kinematics};
+pub use kinematics::{body_kinematics, computation_origin, forward_kinematics};
 pub use small::cholesky;
 pub use state::{SplitMix64, State};
 
