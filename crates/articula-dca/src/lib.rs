@@ -108,7 +108,11 @@ pub fn forward_dynamics<'d>(
         }
         Method::Aba => {
             kinematics::kinematics(model, q, qd, data, |i, d| aba::init_body(i, d, &f_ext));
-            aba::aba(model, tau, data)
+            aba::aba(model, tau, data).map(|()| {
+                if model.floating_base {
+                    aba::refine(model, tau, &f_ext, data);
+                }
+            })
         }
         Method::Crba => {
             kinematics::kinematics(model, q, qd, data, |_, _| {});

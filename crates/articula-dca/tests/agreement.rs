@@ -5,13 +5,18 @@ use articula_dca::{forward_dynamics, Data, Method, State};
 use articula_model::{LoadOptions, Model};
 
 // Relative agreement (max |difference| / max |q̈|) demanded between DCA and ABA, and between
-// DCA and CRBA. DESIGN asks for ~1e-10. DCA and ABA meet it on every model (worst measured:
-// chain300 1.6e-10). CRBA solves H q̈ = τ − C, whose error grows with the condition number of
-// H: on long chains it is the one that drifts (measured: chain100 2.9e-10, chain300 2.7e-8),
-// so its bound there is looser; the bounds sit just above the measured figures so that a
-// regression still fails.
-const TOL: f64 = 2e-10;
-const TOL_CRBA_LONG: f64 = 1e-7;
+// DCA and CRBA: 1e-10 (issue 3), on every bundled model, fixed and floating base, 20 seeded
+// states each, half of them with external forces. CRBA's Cholesky solution alone drifts with
+// cond(H) on long chains (2.7e-8 on chain300); its RNEA-residual refinement brings it back.
+// ABA about each body's own origin, with one refinement step for a floating base, agrees with
+// CRBA to ~1e-11 everywhere.
+const TOL: f64 = 1e-10;
+// The one exception, measured: DCA on the 1,000-link chain with a floating base is 3.9e-10
+// from ABA and CRBA (which agree with each other to 1.8e-11 on the same states). Its floating
+// root inverts the whole chain's compliance at the base, and out of the chain's plane the
+// crumpled chain is a rigid plate whose true compliance is tiny while the joins' rounding
+// residue is not (see tests/long_chain.rs).
+const TOL_DCA_FLOATING_1000: f64 = 5e-10;
 
 fn models_dir() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models")
@@ -25,8 +30,12 @@ fn max_rel_diff(a: &[f64], b: &[f64]) -> f64 {
         / scale
 }
 
-fn check(name: &str, floating_base: bool, states: u64, tol_crba: f64) {
-    let tol = TOL;
+fn check(name: &str, floating_base: bool, states: u64) {
+    check_with(name, floating_base, states, TOL);
+}
+
+/// `tol` bounds DCA against ABA and CRBA; ABA and CRBA must always agree to [`TOL`].
+fn check_with(name: &str, floating_base: bool, states: u64, tol: f64) {
     let model = Model::from_urdf_file(
         models_dir().join(format!("{name}.urdf")),
         &LoadOptions { floating_base },
@@ -34,7 +43,7 @@ fn check(name: &str, floating_base: bool, states: u64, tol_crba: f64) {
     .unwrap();
     let mut data = Data::new(&model);
     let mut worst = 0.0f64;
-    let (mut w_aba, mut w_crba) = (0.0f64, 0.0f64);
+    let (mut w_aba, mut w_crba, mut w_ref) = (0.0f64, 0.0f64, 0.0f64);
     for seed in 0..states {
         let mut s = State::random(&model, seed, 1.0);
         if seed % 2 == 1 {
@@ -74,46 +83,55 @@ fn check(name: &str, floating_base: bool, states: u64, tol_crba: f64) {
         .unwrap()
         .to_vec();
         let (e1, e2) = (max_rel_diff(&dca, &aba), max_rel_diff(&dca, &crba));
+        let e3 = max_rel_diff(&aba, &crba);
         worst = worst.max(e1).max(e2);
         w_aba = w_aba.max(e1);
         w_crba = w_crba.max(e2);
+        w_ref = w_ref.max(e3);
         assert!(
-            e1 < tol && e2 < tol_crba,
-            "{name} floating={floating_base} seed {seed}: dca-aba {e1:e}, dca-crba {e2:e}"
+            e1 < tol && e2 < tol && e3 < TOL,
+            "{name} floating={floating_base} seed {seed}: dca-aba {e1:e}, dca-crba {e2:e}, aba-crba {e3:e}"
         );
     }
-    eprintln!("{name} floating={floating_base}: worst relative difference {worst:e} (dca-aba {w_aba:e}, dca-crba {w_crba:e}) over {states} states (tolerances {tol:e}, crba {tol_crba:e})");
+    eprintln!("{name} floating={floating_base}: worst relative difference {worst:e} (dca-aba {w_aba:e}, dca-crba {w_crba:e}, aba-crba {w_ref:e}) over {states} states (tolerance {tol:e})");
 }
 
 #[test]
 fn chains_agree() {
-    check("chain10", false, 20, TOL);
-    check("chain10", true, 20, TOL);
-    check("chain30", false, 20, TOL);
-    check("chain30", true, 20, TOL);
-    check("chain100", false, 20, TOL_CRBA_LONG);
-    check("chain100", true, 20, TOL_CRBA_LONG);
+    check("chain10", false, 20);
+    check("chain10", true, 20);
+    check("chain30", false, 20);
+    check("chain30", true, 20);
+    check("chain100", false, 20);
+    check("chain100", true, 20);
 }
 
 #[test]
 fn chain300_agrees() {
-    check("chain300", false, 20, TOL_CRBA_LONG);
+    check("chain300", false, 20);
+    check("chain300", true, 20);
+}
+
+#[test]
+fn chain1000_agrees() {
+    check("chain1000", false, 20);
+    check_with("chain1000", true, 20, TOL_DCA_FLOATING_1000);
 }
 
 #[test]
 fn humanoid_agrees() {
-    check("humanoid", false, 20, TOL);
-    check("humanoid", true, 20, TOL);
+    check("humanoid", false, 20);
+    check("humanoid", true, 20);
 }
 
 #[test]
 fn plant_agrees() {
-    check("plant", false, 20, TOL);
-    check("plant", true, 20, TOL);
+    check("plant", false, 20);
+    check("plant", true, 20);
 }
 
 #[test]
 fn rope_agrees() {
-    check("rope", false, 20, TOL);
-    check("rope", true, 20, TOL);
+    check("rope", false, 20);
+    check("rope", true, 20);
 }
