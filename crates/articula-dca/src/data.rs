@@ -53,6 +53,7 @@ pub struct Data {
     pub(crate) topo: Vec<Topo>,
     pub(crate) dca: DcaData,
     pub(crate) aba: AbaData,
+    pub(crate) refine: crate::refine::RefineData,
     pub(crate) rk: RkData,
 }
 
@@ -238,6 +239,7 @@ impl Data {
                     nv: b.nv,
                 })
                 .collect(),
+            refine: crate::refine::RefineData::new(model),
             aba: AbaData {
                 ia: vec![Sym6::ZERO; n],
                 pa: vec![SpatialForce::ZERO; n],
@@ -271,6 +273,13 @@ impl Data {
     pub fn point_force(&self, body: usize, point: DVec3, force: DVec3) -> SpatialForce {
         let p = self.x[body].apply_point(point) + self.origin;
         SpatialForce::new(p.cross(force), force)
+    }
+
+    /// How many DCA solves on this workspace took a refinement step: with a floating base,
+    /// DCA checks its `q̈` against the Newton–Euler residual and corrects it once when the
+    /// residual is above rounding level (see `docs/algorithms.md`).
+    pub fn refinement_count(&self) -> u64 {
+        self.refine.corrections
     }
 
     /// Kinetic energy `Σ ½ vᵢ·Iᵢvᵢ` of the current kinematics.

@@ -37,6 +37,7 @@ mod dca;
 mod error;
 mod integrate;
 mod kinematics;
+mod refine;
 mod small;
 mod state;
 
@@ -104,7 +105,13 @@ pub fn forward_dynamics<'d>(
     let result = match method {
         Method::Dca => {
             kinematics::kinematics(model, q, qd, data, |_, _| {});
-            dca::dca(model, tau, &f_ext, data)
+            dca::dca(model, tau, &f_ext, data).and_then(|()| {
+                if model.floating_base {
+                    refine::refine_dca(model, tau, &f_ext, data)
+                } else {
+                    Ok(())
+                }
+            })
         }
         Method::Aba => {
             kinematics::kinematics(model, q, qd, data, |i, d| aba::init_body(i, d, &f_ext));
