@@ -25,10 +25,23 @@ pub(crate) fn dca(
     Ok(())
 }
 
-/// Φ_hk of node `n` (row-major nh × nh blocks).
+/// `Φ_jh f` (j ≠ h) of node `n` (nh × nh blocks, those with j ≤ h stored, `Φ_hj = Φ_jhᵀ`).
 #[inline]
-fn phi(d: &crate::data::DcaData, n: usize, nh: usize, h: usize, k: usize) -> &Mat6 {
-    &d.phi[d.boff[n] + h * nh + k]
+fn phi_jh_mul(
+    d: &crate::data::DcaData,
+    n: usize,
+    nh: usize,
+    j: usize,
+    h: usize,
+    f: SpatialForce,
+) -> SpatialMotion {
+    let bo = d.boff[n];
+    let f = f.to_array();
+    SpatialMotion::from_array(if j < h {
+        d.phi[bo + j * nh + h].mul_vec(&f)
+    } else {
+        d.phi[bo + h * nh + j].tr_mul_vec(&f)
+    })
 }
 
 fn main_pass(
@@ -58,86 +71,81 @@ fn main_pass(
                     data.dca.b[ho + k] = SpatialMotion::ZERO;
                 }
             }
-            // Leaf: Φ_hk = I⁻¹ for every handle pair, b = a_g + I⁻¹ (f_ext − v ×* I v).
-            // Leaf (DESIGN §5): Φ_hk = I⁻¹, b_h = a_g + I⁻¹ (f_ext − v ×* I v), each handle's
-            // rows and columns taken at its own point P_h. About the centre of mass c, where
-            // I = diag(I_c, m 1): with a = c − P_h, e = c − P_k, J = I_c⁻¹,
-            // Φ_hk = [J, −J e×; a× J, −a× J e× + 1/m].
-            NodeKind::Body(i) => {
-                let body = &model.bodies[i];
-                let (rot, _) = data.x[i].to_pose();
-                let c = data.x[i].apply_point(body.inertia.com());
-                let ic_body = body.inertia.inertia_about_com();
-                let m = body.inertia.mass;
-                if m.is_nan() || m <= 0.0 || ic_body.determinant() <= 0.0 {
-                    return Err(DynamicsError::Singular {
-                        joint: body.joint_name(),
-                        detail: "the body's spatial inertia is not positive definite",
-                    });
-                }
-                let j = rot * ic_body.inverse() * rot.transpose();
-                let ic = rot * ic_body * rot.transpose();
-                // Net force about c: f_ext − v ×* I v, with v_c the velocity of the point at c.
-                let v = data.v[i];
-                let v_c = v.v + v.w.cross(c);
-                let fe = crate::f_ext_of(f_ext, i);
-                let n_c = fe.n - c.cross(fe.f) - v.w.cross(ic * v.w);
-                let f_c = fe.f - v.w.cross(v_c) * m;
-                let acc_w = j * n_c;
-                let acc_c = f_c / m;
-                // With A_h = a_h× J: −J e_k× = A_kᵀ (J symmetric) and −a_h× J e_k× = a_h× A_kᵀ,
-                // so Φ_hk = [J, A_kᵀ; A_h, a_h× A_kᵀ + 1/m]: three cross products per block.
-                let node_handles = &tree.nodes[n].handles;
-                let jrows = j.transpose(); // rows of J (= columns: J is symmetric)
-                let im = 1.0 / m;
-                for (h, &jh) in node_handles.iter().enumerate() {
-                    let ah = c - data.dca.point[jh];
-                    // b at P_h: [α; a_c + α × (P_h − c)] + a_g
-                    data.dca.b[ho + h] = a_g + SpatialMotion::new(acc_w, acc_c + acc_w.cross(-ah));
-                }
-                // Columns of A_h = a_h× J are a_h × (columns of J); a body has at most a few
-                // handles, computed once each (the leaf of a multi-handle body recomputes).
-                let cols = |jh: usize| {
-                    let ah = c - data.dca.point[jh];
-                    (
-                        ah,
-                        [ah.cross(j.x_axis), ah.cross(j.y_axis), ah.cross(j.z_axis)],
-                    )
-                };
-                for (h, &jh) in node_handles.iter().enumerate() {
-                    let (ah, ah_cols) = cols(jh);
-                    for (k, &jk) in node_handles.iter().enumerate() {
-                        let ak_cols = if k == h { ah_cols } else { cols(jk).1 };
-                        // Row r of A_kᵀ is column r of A_k; column cc of A_kᵀ is row cc of A_k.
-                        let ak_row =
-                            |cc: usize| DVec3::new(ak_cols[0][cc], ak_cols[1][cc], ak_cols[2][cc]);
-                        let br_cols = [
-                            ah.cross(ak_row(0)),
-                            ah.cross(ak_row(1)),
-                            ah.cross(ak_row(2)),
-                        ];
-                        let out = &mut data.dca.phi[bo + h * nh + k].0;
-                        for r in 0..3 {
-                            let jr = jrows.col(r);
-                            out[r] = [jr.x, jr.y, jr.z, ak_cols[r].x, ak_cols[r].y, ak_cols[r].z];
-                            out[r + 3] = [
-                                ah_cols[0][r],
-                                ah_cols[1][r],
-                                ah_cols[2][r],
-                                br_cols[0][r],
-                                br_cols[1][r],
-                                br_cols[2][r],
-                            ];
-                            out[r + 3][r + 3] += im;
-                        }
-                    }
-                }
-            }
+            NodeKind::Body(i) => leaf(model, i, &node.handles, (ho, bo), f_ext, a_g, data)?,
             NodeKind::Join {
                 joint,
                 parent_side: a,
                 child_side: b,
             } => join(model, tau, data, n, joint, a, b)?,
+        }
+    }
+    Ok(())
+}
+
+/// Leaf (DESIGN §5): `Φ_hk = I⁻¹` for every handle pair, `b_h = a_g + I⁻¹ (f_ext − v ×* I v)`,
+/// each handle's rows and columns taken at its own point P_h. About the centre of mass c, where
+/// `I = diag(I_c, m 1)`: with `a_h = c − P_h`, `J = I_c⁻¹` and `A_h = a_h× J`,
+/// `Φ_hk = [J, A_kᵀ; A_h, a_h× A_kᵀ + 1/m]` (`−J e× = A_eᵀ` as J is symmetric). Only the blocks
+/// with `h ≤ k` are computed and stored (`Φ_kh = Φ_hkᵀ`).
+#[inline(always)]
+fn leaf(
+    model: &Model,
+    i: usize,
+    handles: &[usize],
+    (ho, bo): (usize, usize),
+    f_ext: &[SpatialForce],
+    a_g: SpatialMotion,
+    data: &mut Data,
+) -> Result<(), DynamicsError> {
+    let body = &model.bodies[i];
+    let rot = data.x[i].e; // body → computation-frame axes
+    let c = data.x[i].apply_point(body.inertia.com());
+    let ic_body = body.inertia.inertia_about_com();
+    let m = body.inertia.mass;
+    if m.is_nan() || m <= 0.0 || ic_body.determinant() <= 0.0 {
+        return Err(DynamicsError::Singular {
+            joint: body.joint_name(),
+            detail: "the body's spatial inertia is not positive definite",
+        });
+    }
+    let j = rot * ic_body.inverse() * rot.transpose();
+    // Net force about c: f_ext − v ×* I v, with v_c the velocity of the point at c;
+    // I_c ω = R I_c,body Rᵀ ω.
+    let v = data.v[i];
+    let v_c = v.v + v.w.cross(c);
+    let fe = crate::f_ext_of(f_ext, i);
+    let icw = rot * (ic_body * (rot.transpose() * v.w));
+    let n_c = fe.n - c.cross(fe.f) - v.w.cross(icw);
+    let f_c = fe.f - v.w.cross(v_c) * m;
+    let acc_w = j * n_c;
+    let acc_c = f_c / m;
+    let im = 1.0 / m;
+    let d = &mut data.dca;
+    let nh = handles.len();
+    // The columns of J (= its rows) and of A_h = a_h× J (A_h's columns are a_h × J's).
+    let jc = [j.x_axis, j.y_axis, j.z_axis];
+    let a_cols = |a: DVec3| [a.cross(jc[0]), a.cross(jc[1]), a.cross(jc[2])];
+    for (h, &ph) in handles.iter().enumerate() {
+        let ah = c - d.point[ph];
+        // b at P_h: [α; a_c + α × (P_h − c)] + a_g
+        d.b[ho + h] = a_g + SpatialMotion::new(acc_w, acc_c + ah.cross(acc_w));
+        let ahc = a_cols(ah);
+        for (k, &pk) in handles.iter().enumerate().skip(h) {
+            let akc = if k == h { ahc } else { a_cols(c - d.point[pk]) };
+            // a_h× A_kᵀ: its column q is a_h × (row q of A_k).
+            let row = |q: usize| DVec3::new(akc[0][q], akc[1][q], akc[2][q]);
+            let bc = [ah.cross(row(0)), ah.cross(row(1)), ah.cross(row(2))];
+            let mut out = [[0.0; 6]; 6];
+            for r in 0..3 {
+                // [J | A_kᵀ]: row r of A_kᵀ is column r of A_k.
+                out[r] = [jc[r].x, jc[r].y, jc[r].z, akc[r].x, akc[r].y, akc[r].z];
+                // [A_h | a_h× A_kᵀ + 1/m]
+                out[r + 3] = [
+                    ahc[0][r], ahc[1][r], ahc[2][r], bc[0][r], bc[1][r], bc[2][r],
+                ];
+                out[r + 3][r + 3] += im;
+            }
+            d.phi[bo + h * nh + k] = Mat6(out);
         }
     }
     Ok(())
@@ -203,7 +211,17 @@ fn join(
     let nh = |x: usize| d.hoff[x + 1] - d.hoff[x];
     let (nha, nhb, nhc) = (nh(a), nh(b), nh(n));
     let (ja, jb) = (d.ja[n], d.jb[n]);
-    let sum = (*phi(d, a, nha, ja, ja) + *phi(d, b, nhb, jb, jb)).0;
+    let (boa, bob) = (d.boff[a], d.boff[b]);
+    // K = Φ^A_jj + Φ^B_jj, from the upper triangles (all that is kept of a diagonal block).
+    let (pa, pb) = (&d.phi[boa + ja * nha + ja].0, &d.phi[bob + jb * nhb + jb].0);
+    let mut sum = [[0.0; 6]; 6];
+    for r in 0..6 {
+        for c in r..6 {
+            let x = pa[r][c] + pb[r][c];
+            sum[r][c] = x;
+            sum[c][r] = x;
+        }
+    }
     // S and c at the joint's point P_j.
     let pj = d.point[joint];
     let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj));
@@ -212,17 +230,20 @@ fn join(
     let beta = d.b[d.hoff[a] + ja] - d.b[d.hoff[b] + jb] + shift(data.c[joint]);
     d.beta[n] = beta;
     let (hc, bc) = (d.hoff[n], d.boff[n]);
-    let (boa, bob) = (d.boff[a], d.boff[b]);
+    // Φ_jh (rows) of C's handle h: the stored block, or the transpose of the stored Φ_hj.
+    let from = |h: usize| match d.from[hc + h] {
+        (Side::A, i) => (boa, nha, ja, i),
+        (Side::B, i) => (bob, nhb, jb, i),
+    };
     let rows;
     let gamma;
     if d.basis[n].one_dof {
         // One revolute/prismatic axis: the 5×5 constraint system (see `Basis`).
         let bs = basis(shift(data.s[vo]).to_array(), d.basis[n].prismatic);
-        let m =
-            crate::small::cholesky5(&reduce(&sum, &bs)).ok_or_else(|| DynamicsError::Singular {
-                joint: body.joint_name(),
-                detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
-            })?;
+        let m = crate::small::ldl5(&reduce(&sum, &bs)).ok_or_else(|| DynamicsError::Singular {
+            joint: body.joint_name(),
+            detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
+        })?;
         d.l[n] = m;
         let mut bs = bs;
         joint_terms(&sum, &m, &mut bs);
@@ -231,12 +252,9 @@ fn join(
         gamma = std::array::from_fn(|i| wb[i] + bs.ft[i] * tau[vo]);
         d.basis[n] = bs;
         for h in 0..nhc {
-            let (side, i) = d.from[hc + h];
-            let gt = match side {
-                Side::A => &d.phi[boa + ja * nha + i].0,
-                Side::B => &d.phi[bob + jb * nhb + i].0,
-            };
-            y_reduced(&mut d.y[h], gt, &m, &bs);
+            let (bo, nh, j, i) = from(h);
+            let g = cross_rows(&d.phi, bo, nh, j, i);
+            y_reduced(&mut d.y[h], &g, &m, &bs);
         }
         rows = 5;
     } else {
@@ -290,22 +308,20 @@ fn join(
         // Ỹ_h = Q L⁻¹ Φ_jh: forward substitution on whole rows of Φ_jh (vectorises), then the
         // projection Ỹ −= (Z D⁻¹)(Zᵀ Ỹ) (k rank-1 row updates).
         for h in 0..nhc {
-            let (side, i) = d.from[hc + h];
-            let gt = match side {
-                Side::A => &d.phi[boa + ja * nha + i].0,
-                Side::B => &d.phi[bob + jb * nhb + i].0,
-            };
-            y_tilde(&mut d.y[h], gt, &l, &d.z[vo..vo + k], &zd);
+            let (bo, nh, j, i) = from(h);
+            let g = cross_rows(&d.phi, bo, nh, j, i);
+            y_tilde(&mut d.y[h], &g, &l, &d.z[vo..vo + k], &zd);
         }
         rows = 6;
     }
-    // Φ^C blocks: same side Φ_hk − Ỹ_hᵀỸ_k; across +Ỹ_hᵀỸ_k. Then b^C.
+    // Φ^C blocks (h ≤ k only; a diagonal block's upper triangle only): same side
+    // Φ_hk − Ỹ_hᵀỸ_k; across +Ỹ_hᵀỸ_k. A side's handles keep their order in C, so a same-side
+    // pair h ≤ k is a stored block of that side too. Then b^C.
     let (src, dst) = d.phi.split_at_mut(bc);
     for h in 0..nhc {
         let (sh, ih) = d.from[hc + h];
         for kk in h..nhc {
             let (sk, ik) = d.from[hc + kk];
-            // Row r of Ỹ_hᵀ Ỹ_k is Σ_i Ỹ_h[i][r] · (row i of Ỹ_k): six accumulators per row.
             let (yh, yk) = (&d.y[h], &d.y[kk]);
             let old = match (sh, sk) {
                 (Side::A, Side::A) => Some(&src[boa + ih * nha + ik].0),
@@ -319,31 +335,31 @@ fn join(
                 (false, 5) => gram_into::<5>(out, yh, yk, old),
                 (false, _) => gram_into::<6>(out, yh, yk, old),
             }
-            if h == kk {
-                // Symmetric: mirror the upper triangle (round-off would differ below).
-                for r in 0..6 {
-                    for c in 0..r {
-                        out[r][c] = out[c][r];
-                    }
-                }
-            } else {
-                let t = Mat6(*out).transpose();
-                dst[kk * nhc + h] = t;
-            }
         }
-        // b^C_h = b^A_h − Φ^A_hj γ  or  b^B_h + Φ^B_hj γ  (Φ_hj γ = Φ_jhᵀ γ)
+        // b^C_h = b^A_h − Φ^A_hj γ  or  b^B_h + Φ^B_hj γ
+        let (bo, nh, j, i) = from(h);
+        let phj_gamma = if j < i {
+            src[bo + j * nh + i].tr_mul_vec(&gamma)
+        } else {
+            src[bo + i * nh + j].mul_vec(&gamma)
+        };
         d.b[hc + h] = match sh {
-            Side::A => {
-                d.b[d.hoff[a] + ih]
-                    - SpatialMotion::from_array(src[boa + ja * nha + ih].tr_mul_vec(&gamma))
-            }
-            Side::B => {
-                d.b[d.hoff[b] + ih]
-                    + SpatialMotion::from_array(src[bob + jb * nhb + ih].tr_mul_vec(&gamma))
-            }
+            Side::A => d.b[d.hoff[a] + ih] - SpatialMotion::from_array(phj_gamma),
+            Side::B => d.b[d.hoff[b] + ih] + SpatialMotion::from_array(phj_gamma),
         };
     }
     Ok(())
+}
+
+/// Φ_jh (j ≠ h) of a node with `nh` handles and blocks at `bo`, as rows: only the blocks on
+/// and above the diagonal are stored (`Φ_hj = Φ_jhᵀ`).
+#[inline(always)]
+fn cross_rows(phi: &[Mat6], bo: usize, nh: usize, j: usize, h: usize) -> [[f64; 6]; 6] {
+    if j < h {
+        phi[bo + j * nh + h].0
+    } else {
+        phi[bo + h * nh + j].transpose().0
+    }
 }
 
 /// `Ỹ = Q L⁻¹ G` for `G = Φ_jh`: forward substitution on whole rows (vectorises), then the
@@ -388,14 +404,15 @@ fn y_tilde(
 /// The constraint basis of a 1-DOF joint with subspace column `s` at its point (see
 /// [`crate::data::Basis`]): `m` the largest entry of the moving half, so `|r_a|, |r_b| ≤ 1`.
 #[inline(always)]
-fn basis(mut s: [f64; 6], prismatic: bool) -> Basis {
-    let off = if prismatic { 3 } else { 0 };
+fn basis(s: [f64; 6], prismatic: bool) -> Basis {
     // The other half is zero for an axis through the point (exact for a revolute axis
-    // through the body origin; rounding otherwise).
-    for x in &mut s[3 - off..6 - off] {
-        *x = 0.0;
-    }
-    let v = [s[off], s[off + 1], s[off + 2]];
+    // through the body origin; rounding otherwise). (Built whole: stores into `s` at a
+    // computed offset cannot forward to the vector loads that follow.)
+    let (off, s, v) = if prismatic {
+        (3, [0.0, 0.0, 0.0, s[3], s[4], s[5]], [s[3], s[4], s[5]])
+    } else {
+        (0, [s[0], s[1], s[2], 0.0, 0.0, 0.0], [s[0], s[1], s[2]])
+    };
     let m = if v[0].abs() >= v[1].abs() && v[0].abs() >= v[2].abs() {
         0
     } else if v[1].abs() >= v[2].abs() {
@@ -457,23 +474,23 @@ fn t_rows(g: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 5] {
     ]
 }
 
-/// `T (TᵀKT)⁻¹ Tᵀ y` (`m` the Cholesky factor of `TᵀKT`, inverse diagonal), the two 5×5
-/// triangular solves written out.
+/// `T (TᵀKT)⁻¹ Tᵀ y` (`m` the `L D Lᵀ` factors of `TᵀKT` from [`crate::small::ldl5`]), the
+/// two unit triangular solves written out.
 #[inline(always)]
 fn w_apply(m: &[[f64; 6]; 6], bs: &Basis, y: &[f64; 6]) -> [f64; 6] {
     let u = t_tr(y, bs);
-    // M x = u
-    let x0 = u[0] * m[0][0];
-    let x1 = (u[1] - m[1][0] * x0) * m[1][1];
-    let x2 = (u[2] - m[2][0] * x0 - m[2][1] * x1) * m[2][2];
-    let x3 = (u[3] - m[3][0] * x0 - m[3][1] * x1 - m[3][2] * x2) * m[3][3];
-    let x4 = (u[4] - m[4][0] * x0 - m[4][1] * x1 - m[4][2] * x2 - m[4][3] * x3) * m[4][4];
-    // Mᵀ λ = x
+    // L x = u
+    let x0 = u[0];
+    let x1 = u[1] - m[1][0] * x0;
+    let x2 = u[2] - m[2][0] * x0 - m[2][1] * x1;
+    let x3 = u[3] - m[3][0] * x0 - m[3][1] * x1 - m[3][2] * x2;
+    let x4 = u[4] - m[4][0] * x0 - m[4][1] * x1 - m[4][2] * x2 - m[4][3] * x3;
+    // Lᵀ λ = D⁻¹ x
     let l4 = x4 * m[4][4];
-    let l3 = (x3 - m[4][3] * l4) * m[3][3];
-    let l2 = (x2 - m[3][2] * l3 - m[4][2] * l4) * m[2][2];
-    let l1 = (x1 - m[2][1] * l2 - m[3][1] * l3 - m[4][1] * l4) * m[1][1];
-    let l0 = (x0 - m[1][0] * l1 - m[2][0] * l2 - m[3][0] * l3 - m[4][0] * l4) * m[0][0];
+    let l3 = x3 * m[3][3] - m[4][3] * l4;
+    let l2 = x2 * m[2][2] - m[3][2] * l3 - m[4][2] * l4;
+    let l1 = x1 * m[1][1] - m[2][1] * l2 - m[3][1] * l3 - m[4][1] * l4;
+    let l0 = x0 * m[0][0] - m[1][0] * l1 - m[2][0] * l2 - m[3][0] * l3 - m[4][0] * l4;
     let mut f = [0.0; 6];
     f[bs.a] = l0;
     f[bs.b] = l1;
@@ -507,21 +524,26 @@ fn joint_terms(k: &[[f64; 6]; 6], m: &[[f64; 6]; 6], bs: &mut Basis) {
     bs.ft = ft;
 }
 
-/// `Ỹ = M⁻¹ Tᵀ G` (5 rows) for `G = Φ_jh`: forward substitution on whole rows.
+/// `Ỹ = D^{-1/2} L⁻¹ Tᵀ G` (5 rows; `M = L D^{1/2}` the Cholesky factor of `TᵀKT`, `m` its
+/// [`crate::small::ldl5`] form) for `G = Φ_jh`: unit forward substitution on whole rows, then
+/// each row scaled.
 #[inline(never)]
 fn y_reduced(yt: &mut [[f64; 6]; 6], gt: &[[f64; 6]; 6], m: &[[f64; 6]; 6], bs: &Basis) {
-    let tg = t_rows(gt, bs);
-    for r in 0..5 {
-        let mut v = tg[r];
-        for q in 0..r {
+    let mut z = t_rows(gt, bs);
+    for r in 1..5 {
+        let (done, rest) = z.split_at_mut(r);
+        let v = &mut rest[0];
+        for (q, zq) in done.iter().enumerate() {
             let mrq = m[r][q];
             for c in 0..6 {
-                v[c] -= mrq * yt[q][c];
+                v[c] -= mrq * zq[c];
             }
         }
-        let inv = m[r][r];
+    }
+    for r in 0..5 {
+        let s = m[r][5];
         for c in 0..6 {
-            yt[r][c] = v[c] * inv;
+            yt[r][c] = z[r][c] * s;
         }
     }
 }
@@ -616,8 +638,8 @@ fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
         for h in 0..nhc {
             let f = d.f[hc + h];
             match d.from[hc + h] {
-                (Side::A, i) => y += phi(d, a, nha, ja, i).force_to_motion(f),
-                (Side::B, i) => y -= phi(d, b, nhb, jb, i).force_to_motion(f),
+                (Side::A, i) => y += phi_jh_mul(d, a, nha, ja, i, f),
+                (Side::B, i) => y -= phi_jh_mul(d, b, nhb, jb, i, f),
             }
         }
         let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
