@@ -249,12 +249,22 @@ fn join(
         joint_terms(&sum, &m, &mut bs);
         // γ = W β + f_τ τ
         let wb = w_apply(&m, &bs, &beta.to_array());
-        gamma = std::array::from_fn(|i| wb[i] + bs.ft[i] * tau[vo]);
+        let t = tau[vo];
+        let mut g = [0.0; 6];
+        for i in 0..6 {
+            g[i] = wb[i] + bs.ft[i] * t;
+        }
+        gamma = g;
         d.basis[n] = bs;
         for h in 0..nhc {
             let (bo, nh, j, i) = from(h);
-            let g = cross_rows(&d.phi, bo, nh, j, i);
-            y_reduced(&mut d.y[h], &g, &m, &bs);
+            // Tᵀ Φ_jh: from the rows of the stored Φ_jh, or the columns of the stored Φ_hj.
+            let tg = if j < i {
+                t_rows(&d.phi[bo + j * nh + i].0, &bs)
+            } else {
+                t_cols(&d.phi[bo + i * nh + j].0, &bs)
+            };
+            y_reduced(&mut d.y[h], tg, &m);
         }
         rows = 5;
     } else {
@@ -461,6 +471,19 @@ fn reduce(k: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 6] {
     out
 }
 
+/// The rows of `Tᵀ Gᵀ` (G's columns combined).
+#[inline(always)]
+fn t_cols(g: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 5] {
+    let col = |k: usize| std::array::from_fn(|c| g[c][k]);
+    [
+        std::array::from_fn(|c| g[c][bs.a] - bs.ra * g[c][bs.m]),
+        std::array::from_fn(|c| g[c][bs.b] - bs.rb * g[c][bs.m]),
+        col(bs.keep[0]),
+        col(bs.keep[1]),
+        col(bs.keep[2]),
+    ]
+}
+
 /// The rows of `Tᵀ G` (G's rows combined).
 #[inline(always)]
 fn t_rows(g: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 5] {
@@ -491,14 +514,25 @@ fn w_apply(m: &[[f64; 6]; 6], bs: &Basis, y: &[f64; 6]) -> [f64; 6] {
     let l2 = x2 * m[2][2] - m[3][2] * l3 - m[4][2] * l4;
     let l1 = x1 * m[1][1] - m[2][1] * l2 - m[3][1] * l3 - m[4][1] * l4;
     let l0 = x0 * m[0][0] - m[1][0] * l1 - m[2][0] * l2 - m[3][0] * l3 - m[4][0] * l4;
-    let mut f = [0.0; 6];
-    f[bs.a] = l0;
-    f[bs.b] = l1;
-    f[bs.m] = -bs.ra * l0 - bs.rb * l1;
-    f[bs.keep[0]] = l2;
-    f[bs.keep[1]] = l3;
-    f[bs.keep[2]] = l4;
-    f
+    t_mul(bs, [l0, l1, l2, l3, l4])
+}
+
+/// `T λ`, built whole (scalar stores at the basis' computed indices, read back as vectors,
+/// would stall store forwarding).
+#[inline(always)]
+fn t_mul(bs: &Basis, l: [f64; 5]) -> [f64; 6] {
+    // The moving half: λ_0 at a, λ_1 at b, −r_a λ_0 − r_b λ_1 at m (a = m + 1, b = m + 2 mod 3).
+    let fm = -bs.ra * l[0] - bs.rb * l[1];
+    let half = match bs.m % 3 {
+        0 => [fm, l[0], l[1]],
+        1 => [l[1], fm, l[0]],
+        _ => [l[0], l[1], fm],
+    };
+    if bs.prismatic {
+        [l[2], l[3], l[4], half[0], half[1], half[2]]
+    } else {
+        [half[0], half[1], half[2], l[2], l[3], l[4]]
+    }
 }
 
 /// What the back-substitution needs besides `W`: `g = W K s − s`, which gives
@@ -525,11 +559,10 @@ fn joint_terms(k: &[[f64; 6]; 6], m: &[[f64; 6]; 6], bs: &mut Basis) {
 }
 
 /// `Ỹ = D^{-1/2} L⁻¹ Tᵀ G` (5 rows; `M = L D^{1/2}` the Cholesky factor of `TᵀKT`, `m` its
-/// [`crate::small::ldl5`] form) for `G = Φ_jh`: unit forward substitution on whole rows, then
-/// each row scaled.
-#[inline(never)]
-fn y_reduced(yt: &mut [[f64; 6]; 6], gt: &[[f64; 6]; 6], m: &[[f64; 6]; 6], bs: &Basis) {
-    let mut z = t_rows(gt, bs);
+/// [`crate::small::ldl5`] form) for `G = Φ_jh`, from the rows `z` of `Tᵀ G`: unit forward
+/// substitution on whole rows, then each row scaled.
+#[inline(always)]
+fn y_reduced(yt: &mut [[f64; 6]; 6], mut z: [[f64; 6]; 5], m: &[[f64; 6]; 6]) {
     for r in 1..5 {
         let (done, rest) = z.split_at_mut(r);
         let v = &mut rest[0];
