@@ -17,7 +17,8 @@ pub(crate) enum Side {
 
 /// Per-step buffers of every algorithm. Build once with [`Data::new`]; a dynamics call or a
 /// step allocates nothing. `Data` also caches a few constants of the model's joints (their
-/// kinematic fast paths and offsets): build a new one for a changed model.
+/// kinematic fast paths and offsets) and bodies (inverse inertias): build a new one for a
+/// changed model.
 #[derive(Clone, Debug)]
 pub struct Data {
     /// Gravity acceleration in world coordinates (default `(0, 0, -9.81)`).
@@ -73,8 +74,11 @@ pub(crate) struct DcaData {
     pub hoff: Vec<usize>,
     /// Per node: its kind (a compact copy of the assembly tree's).
     pub kind: Vec<NodeKind>,
-    /// Per node: offset of its Φ blocks (nh × nh, row-major) in `phi`.
+    /// Per node: offset of its Φ blocks in `phi`: the nh (nh + 1) / 2 blocks `Φ_hk`, h ≤ k, row
+    /// by row (`Φ_kh = Φ_hkᵀ`; of a diagonal block only the upper triangle is kept).
     pub boff: Vec<usize>,
+    /// Per handle (flat, `hoff`): its joint.
+    pub hj: Vec<usize>,
     /// Per join node: index of the principal joint among A's and among B's handles.
     pub ja: Vec<usize>,
     pub jb: Vec<usize>,
@@ -101,6 +105,36 @@ pub(crate) struct DcaData {
     pub basis: Vec<Basis>,
     /// Scratch per handle of the node being joined: `Ỹ_h = Q L⁻¹ Φ_jh` (or `M⁻¹ Tᵀ Φ_jh`).
     pub y: Vec<[[f64; 6]; 6]>,
+    /// Per body: the constants of its leaf, `None` when its spatial inertia is not positive
+    /// definite (the dynamics call reports it).
+    pub leaf: Vec<Option<LeafConst>>,
+}
+
+/// A body's inertia as its DCA leaf uses it, in body coordinates.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LeafConst {
+    /// Centre of mass.
+    pub com: DVec3,
+    /// Rotational inertia about the centre of mass, `I_c`, and its inverse.
+    pub ic: glam::DMat3,
+    pub ic_inv: glam::DMat3,
+    pub mass: f64,
+}
+
+impl LeafConst {
+    fn of(inertia: &SpatialInertia) -> Option<LeafConst> {
+        let ic = inertia.inertia_about_com();
+        let m = inertia.mass;
+        if m.is_nan() || m <= 0.0 || ic.determinant() <= 0.0 {
+            return None;
+        }
+        Some(LeafConst {
+            com: inertia.com(),
+            ic,
+            ic_inv: ic.inverse(),
+            mass: m,
+        })
+    }
 }
 
 /// The constraint basis of a 1-DOF join (see `dca::join`): with `s` the joint's subspace
@@ -163,10 +197,16 @@ impl Data {
         let nn = tree.nodes.len();
         // The shared layout (articula-model), with DCA's sentinel and side type.
         let layout = tree.handle_layout();
-        let (h, blk) = (layout.handles, layout.blocks);
+        let h = layout.handles;
         let mut hoff = layout.hoff;
         hoff.push(h); // sentinel: node n has hoff[n + 1] − hoff[n] handles
-        let boff = layout.boff;
+                      // Φ: only the nh (nh + 1) / 2 blocks on and above the diagonal of each node.
+        let mut boff = Vec::with_capacity(nn);
+        let mut blk = 0;
+        for node in &tree.nodes {
+            boff.push(blk);
+            blk += node.handles.len() * (node.handles.len() + 1) / 2;
+        }
         let (ja, jb) = (layout.ja, layout.jb);
         let from: Vec<(Side, usize)> = layout
             .from
@@ -187,6 +227,11 @@ impl Data {
             momentum_projection: true,
             dca: DcaData {
                 kind: tree.nodes.iter().map(|node| node.kind).collect(),
+                hj: tree
+                    .nodes
+                    .iter()
+                    .flat_map(|node| node.handles.iter().copied())
+                    .collect(),
                 hoff,
                 boff,
                 ja,
@@ -227,6 +272,11 @@ impl Data {
                     })
                     .collect(),
                 y: vec![[[0.0; 6]; 6]; max_h],
+                leaf: model
+                    .bodies
+                    .iter()
+                    .map(|b| LeafConst::of(&b.inertia))
+                    .collect(),
             },
             fk_plan: model.bodies.iter().map(FkPlan::of).collect(),
             topo: model

@@ -25,6 +25,14 @@ pub(crate) fn dca(
     Ok(())
 }
 
+/// Index of the block Φ_hk (h ≤ k) among a node's: only the blocks on and above the diagonal
+/// are stored, row by row (`Φ_kh = Φ_hkᵀ`).
+#[inline(always)]
+fn ub(nh: usize, h: usize, k: usize) -> usize {
+    debug_assert!(h <= k && k < nh);
+    h * nh - h * h.saturating_sub(1) / 2 + (k - h)
+}
+
 /// `Φ_jh f` (j ≠ h) of node `n` (nh × nh blocks, those with j ≤ h stored, `Φ_hj = Φ_jhᵀ`).
 #[inline]
 fn phi_jh_mul(
@@ -38,9 +46,9 @@ fn phi_jh_mul(
     let bo = d.boff[n];
     let f = f.to_array();
     SpatialMotion::from_array(if j < h {
-        d.phi[bo + j * nh + h].mul_vec(&f)
+        d.phi[bo + ub(nh, j, h)].mul_vec(&f)
     } else {
-        d.phi[bo + h * nh + j].tr_mul_vec(&f)
+        d.phi[bo + ub(nh, h, j)].tr_mul_vec(&f)
     })
 }
 
@@ -58,20 +66,20 @@ fn main_pass(
     for (h, x) in data.x.iter().enumerate() {
         data.dca.point[h] = x.apply_point(DVec3::ZERO);
     }
-    for (n, node) in tree.nodes.iter().enumerate() {
-        let nh = node.handles.len();
+    for n in 0..tree.nodes.len() {
         let (ho, bo) = (data.dca.hoff[n], data.dca.boff[n]);
-        match node.kind {
+        let nh = data.dca.hoff[n + 1] - ho;
+        match data.dca.kind[n] {
             // Ground: Φ = 0, b = 0.
             NodeKind::Ground => {
-                for k in 0..nh * nh {
+                for k in 0..nh * (nh + 1) / 2 {
                     data.dca.phi[bo + k] = Mat6::ZERO;
                 }
                 for k in 0..nh {
                     data.dca.b[ho + k] = SpatialMotion::ZERO;
                 }
             }
-            NodeKind::Body(i) => leaf(model, i, &node.handles, (ho, bo), f_ext, a_g, data)?,
+            NodeKind::Body(i) => leaf(model, i, (ho, nh, bo), f_ext, a_g, data)?,
             NodeKind::Join {
                 joint,
                 parent_side: a,
@@ -91,37 +99,34 @@ fn main_pass(
 fn leaf(
     model: &Model,
     i: usize,
-    handles: &[usize],
-    (ho, bo): (usize, usize),
+    (ho, nh, bo): (usize, usize, usize),
     f_ext: &[SpatialForce],
     a_g: SpatialMotion,
     data: &mut Data,
 ) -> Result<(), DynamicsError> {
-    let body = &model.bodies[i];
     let rot = data.x[i].e; // body → computation-frame axes
-    let c = data.x[i].apply_point(body.inertia.com());
-    let ic_body = body.inertia.inertia_about_com();
-    let m = body.inertia.mass;
-    if m.is_nan() || m <= 0.0 || ic_body.determinant() <= 0.0 {
+    let Some(lc) = data.dca.leaf[i] else {
         return Err(DynamicsError::Singular {
-            joint: body.joint_name(),
+            joint: model.bodies[i].joint_name(),
             detail: "the body's spatial inertia is not positive definite",
         });
-    }
-    let j = rot * ic_body.inverse() * rot.transpose();
+    };
+    let c = data.x[i].apply_point(lc.com);
+    let m = lc.mass;
+    let j = rot * lc.ic_inv * rot.transpose();
     // Net force about c: f_ext − v ×* I v, with v_c the velocity of the point at c;
     // I_c ω = R I_c,body Rᵀ ω.
     let v = data.v[i];
     let v_c = v.v + v.w.cross(c);
     let fe = crate::f_ext_of(f_ext, i);
-    let icw = rot * (ic_body * (rot.transpose() * v.w));
+    let icw = rot * (lc.ic * (rot.transpose() * v.w));
     let n_c = fe.n - c.cross(fe.f) - v.w.cross(icw);
     let f_c = fe.f - v.w.cross(v_c) * m;
     let acc_w = j * n_c;
     let acc_c = f_c / m;
     let im = 1.0 / m;
     let d = &mut data.dca;
-    let nh = handles.len();
+    let handles = &d.hj[ho..ho + nh];
     // The columns of J (= its rows) and of A_h = a_h× J (A_h's columns are a_h × J's).
     let jc = [j.x_axis, j.y_axis, j.z_axis];
     let a_cols = |a: DVec3| [a.cross(jc[0]), a.cross(jc[1]), a.cross(jc[2])];
@@ -145,7 +150,7 @@ fn leaf(
                 ];
                 out[r + 3][r + 3] += im;
             }
-            d.phi[bo + h * nh + k] = Mat6(out);
+            d.phi[bo + ub(nh, h, k)] = Mat6(out);
         }
     }
     Ok(())
@@ -213,7 +218,10 @@ fn join(
     let (ja, jb) = (d.ja[n], d.jb[n]);
     let (boa, bob) = (d.boff[a], d.boff[b]);
     // K = Φ^A_jj + Φ^B_jj, from the upper triangles (all that is kept of a diagonal block).
-    let (pa, pb) = (&d.phi[boa + ja * nha + ja].0, &d.phi[bob + jb * nhb + jb].0);
+    let (pa, pb) = (
+        &d.phi[boa + ub(nha, ja, ja)].0,
+        &d.phi[bob + ub(nhb, jb, jb)].0,
+    );
     let mut sum = [[0.0; 6]; 6];
     for r in 0..6 {
         for c in r..6 {
@@ -260,9 +268,9 @@ fn join(
             let (bo, nh, j, i) = from(h);
             // Tᵀ Φ_jh: from the rows of the stored Φ_jh, or the columns of the stored Φ_hj.
             let tg = if j < i {
-                t_rows(&d.phi[bo + j * nh + i].0, &bs)
+                t_rows(&d.phi[bo + ub(nh, j, i)].0, &bs)
             } else {
-                t_cols(&d.phi[bo + i * nh + j].0, &bs)
+                t_cols(&d.phi[bo + ub(nh, i, j)].0, &bs)
             };
             y_reduced(&mut d.y[h], tg, &m);
         }
@@ -334,11 +342,11 @@ fn join(
             let (sk, ik) = d.from[hc + kk];
             let (yh, yk) = (&d.y[h], &d.y[kk]);
             let old = match (sh, sk) {
-                (Side::A, Side::A) => Some(&src[boa + ih * nha + ik].0),
-                (Side::B, Side::B) => Some(&src[bob + ih * nhb + ik].0),
+                (Side::A, Side::A) => Some(&src[boa + ub(nha, ih, ik)].0),
+                (Side::B, Side::B) => Some(&src[bob + ub(nhb, ih, ik)].0),
                 _ => None,
             };
-            let out = &mut dst[h * nhc + kk].0;
+            let out = &mut dst[ub(nhc, h, kk)].0;
             match (h == kk, rows) {
                 (true, 5) => gram_sym_into::<5>(out, yh, old),
                 (true, _) => gram_sym_into::<6>(out, yh, old),
@@ -349,9 +357,9 @@ fn join(
         // b^C_h = b^A_h − Φ^A_hj γ  or  b^B_h + Φ^B_hj γ
         let (bo, nh, j, i) = from(h);
         let phj_gamma = if j < i {
-            src[bo + j * nh + i].tr_mul_vec(&gamma)
+            src[bo + ub(nh, j, i)].tr_mul_vec(&gamma)
         } else {
-            src[bo + i * nh + j].mul_vec(&gamma)
+            src[bo + ub(nh, i, j)].mul_vec(&gamma)
         };
         d.b[hc + h] = match sh {
             Side::A => d.b[d.hoff[a] + ih] - SpatialMotion::from_array(phj_gamma),
@@ -366,9 +374,9 @@ fn join(
 #[inline(always)]
 fn cross_rows(phi: &[Mat6], bo: usize, nh: usize, j: usize, h: usize) -> [[f64; 6]; 6] {
     if j < h {
-        phi[bo + j * nh + h].0
+        phi[bo + ub(nh, j, h)].0
     } else {
-        phi[bo + h * nh + j].transpose().0
+        phi[bo + ub(nh, h, j)].transpose().0
     }
 }
 
