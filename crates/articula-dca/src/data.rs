@@ -137,27 +137,22 @@ impl LeafConst {
     }
 }
 
-/// The constraint basis of a 1-DOF join (see `dca::join`): with `s` the joint's subspace
-/// column at its point (`[ω; 0]` revolute, `[0; u]` prismatic), `m` the index of its largest
-/// entry and `a`, `b` the other two of that half, `T = [e_a − r_a e_m, e_b − r_b e_m,
-/// e_keep…]` (`r = s/s_m`) spans the forces that do no work along `s`.
+/// The constraint basis of a one-axis join (see `dca::join`): with `s = [ω; 0]` the revolute
+/// joint's subspace column at its point and `p`, `q` a unit pair perpendicular to ω,
+/// `T = [p 0; q 0; 0 1]ᵀ` (6×5: columns `[p; 0]`, `[q; 0]`, `[0; e_x]`, `[0; e_y]`, `[0; e_z]`)
+/// spans the forces that do no work along `s`. (A prismatic joint takes the general path.)
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Basis {
-    /// This join is a single revolute/prismatic joint (the 5×5 path).
+    /// This join is a single revolute joint (the 5×5 path).
     pub one_dof: bool,
-    /// ... and that joint is prismatic.
-    pub prismatic: bool,
-    pub m: usize,
-    pub a: usize,
-    pub b: usize,
-    pub keep: [usize; 3],
-    pub ra: f64,
-    pub rb: f64,
-    pub s: [f64; 6],
-    /// The joint force and `q̈` per unit joint torque (see `dca::unit_torque`).
-    pub ft: [f64; 6],
+    /// ω, and the pair p, q.
+    pub w: [f64; 3],
+    pub p: [f64; 3],
+    pub q: [f64; 3],
+    /// `q̈` per unit joint torque.
     pub qt: f64,
-    /// `(W K s − s) / sᵀs`: `q̈ = gᵀ y + q̈_τ τ` in the back-substitution.
+    /// `(W K s − s) / sᵀs`: `q̈ = gᵀ y + q̈_τ τ` in the back-substitution; `−g` is the joint
+    /// force per unit torque.
     pub g: [f64; 6],
 }
 
@@ -254,17 +249,8 @@ impl Data {
                                 let body = &model.bodies[joint];
                                 matches!(
                                     body.joint.as_slice(),
-                                    [p] if matches!(
-                                        p.kind,
-                                        JointKind::Revolute | JointKind::Continuous | JointKind::Prismatic
-                                    )
+                                    [p] if matches!(p.kind, JointKind::Revolute | JointKind::Continuous)
                                 )
-                            }
-                            _ => false,
-                        },
-                        prismatic: match node.kind {
-                            NodeKind::Join { joint, .. } => {
-                                model.bodies[joint].joint[0].kind == JointKind::Prismatic
                             }
                             _ => false,
                         },

@@ -246,21 +246,32 @@ fn join(
     let rows;
     let gamma;
     if d.basis[n].one_dof {
-        // One revolute/prismatic axis: the 5×5 constraint system (see `Basis`).
-        let bs = basis(shift(data.s[vo]).to_array(), d.basis[n].prismatic);
-        let m = crate::small::ldl5(&reduce(&sum, &bs)).ok_or_else(|| DynamicsError::Singular {
-            joint: body.joint_name(),
-            detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
-        })?;
-        d.l[n] = m;
-        let mut bs = bs;
-        joint_terms(&sum, &m, &mut bs);
-        // γ = W β + f_τ τ
-        let wb = w_apply(&m, &bs, &beta.to_array());
+        // One revolute axis: the 5×5 constraint system (see `Basis`).
+        let w = data.s[vo].w; // s = [ω; 0] at P_j
+        let (p, q) = perpendicular_pair(w);
+        let mut bs = Basis {
+            one_dof: true,
+            w: w.to_array(),
+            p,
+            q,
+            qt: 0.0,
+            g: [0.0; 6],
+        };
+        let m = &mut d.l[n];
+        if !crate::small::ldl5(&reduce(&sum, &bs), m) {
+            return Err(DynamicsError::Singular {
+                joint: body.joint_name(),
+                detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
+            });
+        }
+        let m = &d.l[n];
+        joint_terms(&sum, m, &mut bs);
+        // γ = W β + f_τ τ, f_τ = −g
+        let wb = w_apply(m, &bs, &beta.to_array());
         let t = tau[vo];
         let mut g = [0.0; 6];
         for i in 0..6 {
-            g[i] = wb[i] + bs.ft[i] * t;
+            g[i] = wb[i] - bs.g[i] * t;
         }
         gamma = g;
         d.basis[n] = bs;
@@ -272,7 +283,7 @@ fn join(
             } else {
                 t_cols(&d.phi[bo + ub(nh, i, j)].0, &bs)
             };
-            y_reduced(&mut d.y[h], tg, &m);
+            y_reduced(&mut d.y[h], tg, m);
         }
         rows = 5;
     } else {
@@ -419,62 +430,61 @@ fn y_tilde(
     }
 }
 
-/// The constraint basis of a 1-DOF joint with subspace column `s` at its point (see
-/// [`crate::data::Basis`]): `m` the largest entry of the moving half, so `|r_a|, |r_b| ≤ 1`.
+/// A unit pair `p`, `q` completing `ω / |ω|` to an orthonormal basis (Duff et al., "Building an
+/// orthonormal basis, revisited", JCGT 2017: branch-free, continuous except where the sign
+/// of `ω_z` flips).
 #[inline(always)]
-fn basis(s: [f64; 6], prismatic: bool) -> Basis {
-    // The other half is zero for an axis through the point (exact for a revolute axis
-    // through the body origin; rounding otherwise). (Built whole: stores into `s` at a
-    // computed offset cannot forward to the vector loads that follow.)
-    let (off, s, v) = if prismatic {
-        (3, [0.0, 0.0, 0.0, s[3], s[4], s[5]], [s[3], s[4], s[5]])
-    } else {
-        (0, [s[0], s[1], s[2], 0.0, 0.0, 0.0], [s[0], s[1], s[2]])
-    };
-    let m = if v[0].abs() >= v[1].abs() && v[0].abs() >= v[2].abs() {
-        0
-    } else if v[1].abs() >= v[2].abs() {
-        1
-    } else {
-        2
-    };
-    let (a, b) = ((m + 1) % 3, (m + 2) % 3);
-    Basis {
-        one_dof: true,
-        prismatic,
-        m: off + m,
-        a: off + a,
-        b: off + b,
-        keep: if prismatic { [0, 1, 2] } else { [3, 4, 5] },
-        ra: v[a] / v[m],
-        rb: v[b] / v[m],
-        s,
-        ft: [0.0; 6],
-        qt: 0.0,
-        g: [0.0; 6],
-    }
+fn perpendicular_pair(w: DVec3) -> ([f64; 3], [f64; 3]) {
+    let n = w * (1.0 / w.length());
+    let sign = 1.0f64.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (
+        [1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x],
+        [b, sign + n.y * n.y * a, -n.y],
+    )
 }
 
-/// `Tᵀ x`.
+#[inline(always)]
+fn dot3(a: &[f64; 3], x: &[f64]) -> f64 {
+    a[0] * x[0] + a[1] * x[1] + a[2] * x[2]
+}
+
+/// `Tᵀ x = [p·x_ω, q·x_ω, x_v]`.
 #[inline(always)]
 fn t_tr(x: &[f64; 6], bs: &Basis) -> [f64; 5] {
+    [dot3(&bs.p, &x[..3]), dot3(&bs.q, &x[..3]), x[3], x[4], x[5]]
+}
+
+/// `T λ = [λ_0 p + λ_1 q; λ_2, λ_3, λ_4]`.
+#[inline(always)]
+fn t_mul(bs: &Basis, l: [f64; 5]) -> [f64; 6] {
+    let (p, q) = (&bs.p, &bs.q);
     [
-        x[bs.a] - bs.ra * x[bs.m],
-        x[bs.b] - bs.rb * x[bs.m],
-        x[bs.keep[0]],
-        x[bs.keep[1]],
-        x[bs.keep[2]],
+        l[0] * p[0] + l[1] * q[0],
+        l[0] * p[1] + l[1] * q[1],
+        l[0] * p[2] + l[1] * q[2],
+        l[2],
+        l[3],
+        l[4],
     ]
 }
 
-/// `Tᵀ K T` (5×5, in the leading block) for a symmetric `K`.
+/// `Tᵀ K T` (5×5 lower triangle, in the leading block) for a symmetric `K`: with `K P` the
+/// products of K's rows with `P = [p q]`.
 #[inline(always)]
 fn reduce(k: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 6] {
-    let rows = t_rows(k, bs);
+    let kp: [[f64; 2]; 6] = std::array::from_fn(|r| [dot3(&bs.p, &k[r]), dot3(&bs.q, &k[r])]);
     let mut out = [[0.0; 6]; 6];
-    for i in 0..5 {
-        let t = t_tr(&rows[i], bs);
-        out[i][..5].copy_from_slice(&t);
+    out[0][0] = bs.p[0] * kp[0][0] + bs.p[1] * kp[1][0] + bs.p[2] * kp[2][0];
+    out[1][0] = bs.q[0] * kp[0][0] + bs.q[1] * kp[1][0] + bs.q[2] * kp[2][0];
+    out[1][1] = bs.q[0] * kp[0][1] + bs.q[1] * kp[1][1] + bs.q[2] * kp[2][1];
+    for r in 0..3 {
+        out[2 + r][0] = kp[3 + r][0];
+        out[2 + r][1] = kp[3 + r][1];
+        for c in 0..=r {
+            out[2 + r][2 + c] = k[3 + r][3 + c];
+        }
     }
     out
 }
@@ -482,26 +492,25 @@ fn reduce(k: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 6] {
 /// The rows of `Tᵀ Gᵀ` (G's columns combined).
 #[inline(always)]
 fn t_cols(g: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 5] {
-    let col = |k: usize| std::array::from_fn(|c| g[c][k]);
     [
-        std::array::from_fn(|c| g[c][bs.a] - bs.ra * g[c][bs.m]),
-        std::array::from_fn(|c| g[c][bs.b] - bs.rb * g[c][bs.m]),
-        col(bs.keep[0]),
-        col(bs.keep[1]),
-        col(bs.keep[2]),
+        std::array::from_fn(|c| dot3(&bs.p, &g[c])),
+        std::array::from_fn(|c| dot3(&bs.q, &g[c])),
+        std::array::from_fn(|c| g[c][3]),
+        std::array::from_fn(|c| g[c][4]),
+        std::array::from_fn(|c| g[c][5]),
     ]
 }
 
 /// The rows of `Tᵀ G` (G's rows combined).
 #[inline(always)]
 fn t_rows(g: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 5] {
-    let (gm, ga, gb) = (&g[bs.m], &g[bs.a], &g[bs.b]);
+    let (p, q) = (&bs.p, &bs.q);
     [
-        std::array::from_fn(|c| ga[c] - bs.ra * gm[c]),
-        std::array::from_fn(|c| gb[c] - bs.rb * gm[c]),
-        g[bs.keep[0]],
-        g[bs.keep[1]],
-        g[bs.keep[2]],
+        std::array::from_fn(|c| p[0] * g[0][c] + p[1] * g[1][c] + p[2] * g[2][c]),
+        std::array::from_fn(|c| q[0] * g[0][c] + q[1] * g[1][c] + q[2] * g[2][c]),
+        g[3],
+        g[4],
+        g[5],
     ]
 }
 
@@ -525,45 +534,29 @@ fn w_apply(m: &[[f64; 6]; 6], bs: &Basis, y: &[f64; 6]) -> [f64; 6] {
     t_mul(bs, [l0, l1, l2, l3, l4])
 }
 
-/// `T λ`, built whole (scalar stores at the basis' computed indices, read back as vectors,
-/// would stall store forwarding).
-#[inline(always)]
-fn t_mul(bs: &Basis, l: [f64; 5]) -> [f64; 6] {
-    // The moving half: λ_0 at a, λ_1 at b, −r_a λ_0 − r_b λ_1 at m (a = m + 1, b = m + 2 mod 3).
-    let fm = -bs.ra * l[0] - bs.rb * l[1];
-    let half = match bs.m % 3 {
-        0 => [fm, l[0], l[1]],
-        1 => [l[1], fm, l[0]],
-        _ => [l[0], l[1], fm],
-    };
-    if bs.prismatic {
-        [l[2], l[3], l[4], half[0], half[1], half[2]]
-    } else {
-        [half[0], half[1], half[2], l[2], l[3], l[4]]
-    }
-}
-
-/// What the back-substitution needs besides `W`: `g = W K s − s`, which gives
-/// `q̈ = (gᵀ y) / sᵀs + q̈_τ τ` for `K f = y + s q̈` (`sᵀ (K W y − y) = gᵀ y`, `W` symmetric),
-/// and the joint force and `q̈` per unit joint torque, `f_τ = f₀ − W K f₀` with
-/// `f₀ = e_m / s_m` (`sᵀ f_τ = 1`, `Tᵀ K f_τ = 0`) and `q̈_τ = sᵀ K f_τ / sᵀs = −gᵀ K f₀ / sᵀs`.
-/// Joint torques enter linearly, so a huge τ cannot overflow an intermediate product.
+/// What the back-substitution needs besides `W`: `g = (W K s − s) / sᵀs`, which gives
+/// `q̈ = gᵀ y + q̈_τ τ` for `K f = y + s q̈` (`sᵀ (K W y − y) = (W K s − s)ᵀ y`, `W`
+/// symmetric), and with the unit-torque force `f₀ = s / sᵀs` (`sᵀ f₀ = 1`) the joint force per
+/// unit torque `f_τ = f₀ − W K f₀ = −g` (`sᵀ f_τ = 1`, `Tᵀ K f_τ = 0`) and
+/// `q̈_τ = sᵀ K f_τ / sᵀs = −gᵀ K s / sᵀs`. Joint torques enter linearly, so a huge τ cannot
+/// overflow an intermediate product.
 #[inline(always)]
 fn joint_terms(k: &[[f64; 6]; 6], m: &[[f64; 6]; 6], bs: &mut Basis) {
-    let ks = Mat6(*k).mul_vec(&bs.s);
+    let w = bs.w;
+    let ks: [f64; 6] = std::array::from_fn(|r| dot3(&w, &k[r])); // K s, s = [ω; 0]
     let wks = w_apply(m, bs, &ks);
-    let g: [f64; 6] = std::array::from_fn(|i| wks[i] - bs.s[i]);
-    let f0 = 1.0 / bs.s[bs.m];
-    let kf0: [f64; 6] = std::array::from_fn(|i| k[bs.m][i] * f0); // K e_m f₀ (K symmetric)
-    let mut ft = w_apply(m, bs, &kf0);
-    for x in ft.iter_mut() {
-        *x = -*x;
-    }
-    ft[bs.m] += f0;
-    let ss = dot6(&bs.s, &bs.s);
-    bs.qt = -dot6(&g, &kf0) / ss;
-    bs.g = g.map(|x| x / ss);
-    bs.ft = ft;
+    let ss = dot3(&w, &w);
+    let iss = 1.0 / ss;
+    let g = [
+        (wks[0] - w[0]) * iss,
+        (wks[1] - w[1]) * iss,
+        (wks[2] - w[2]) * iss,
+        wks[3] * iss,
+        wks[4] * iss,
+        wks[5] * iss,
+    ];
+    bs.qt = -dot6(&g, &ks) * iss;
+    bs.g = g;
 }
 
 /// `Ỹ = D^{-1/2} L⁻¹ Tᵀ G` (5 rows; `M = L D^{1/2}` the Cholesky factor of `TᵀKT`, `m` its
@@ -686,13 +679,17 @@ fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
         let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
         let l = &d.l[n];
         let f = if d.basis[n].one_dof {
-            // f = W y + f_τ τ (so K f = y + s q̈); q̈ = gᵀ y / sᵀs + q̈_τ τ (`joint_terms`).
+            // f = W y + f_τ τ (so K f = y + s q̈); q̈ = gᵀ y + q̈_τ τ (`joint_terms`).
             let bs = &d.basis[n];
             let ya = y.to_array();
             let fy = w_apply(l, bs, &ya);
             let t = tau[vo];
             data.qdd[vo] = dot6(&bs.g, &ya) + bs.qt * t;
-            SpatialForce::from_array(std::array::from_fn(|i| fy[i] + bs.ft[i] * t))
+            let mut f = [0.0; 6];
+            for i in 0..6 {
+                f[i] = fy[i] - bs.g[i] * t;
+            }
+            SpatialForce::from_array(f)
         } else {
             let mut w = solve_l(l, &y.to_array());
             let mut r = [0.0; 6];

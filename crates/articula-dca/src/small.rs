@@ -47,25 +47,24 @@ pub fn cholesky6(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
 }
 
 /// `L D Lᵀ` of the leading 5×5 block of a symmetric positive definite matrix (its lower
-/// triangle is read), `None` when a pivot is not positive. Below the diagonal: the unit lower
+/// triangle is read) into `l`, `false` when a pivot is not positive. Below the diagonal: the unit lower
 /// factor L; on it: `1 / d_j`; in column 5: `1 / √d_j`, the inverse diagonal of the Cholesky
 /// factor `L D^{1/2}`. The recursion's critical path holds one division per column and no square
 /// root (those are taken at the end, independently of one another).
 #[inline(always)]
-pub fn ldl5(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
-    let mut l = [[0.0f64; 6]; 6];
+pub fn ldl5(a: &[[f64; 6]; 6], l: &mut [[f64; 6]; 6]) -> bool {
     // c_ij = L_ij d_j (i > j)
     let mut c = [[0.0f64; 5]; 5];
     let mut ok = true;
-    ldl_col::<0>(a, &mut l, &mut c, &mut ok);
-    ldl_col::<1>(a, &mut l, &mut c, &mut ok);
-    ldl_col::<2>(a, &mut l, &mut c, &mut ok);
-    ldl_col::<3>(a, &mut l, &mut c, &mut ok);
-    ldl_col::<4>(a, &mut l, &mut c, &mut ok);
+    ldl_col::<0>(a, l, &mut c, &mut ok);
+    ldl_col::<1>(a, l, &mut c, &mut ok);
+    ldl_col::<2>(a, l, &mut c, &mut ok);
+    ldl_col::<3>(a, l, &mut c, &mut ok);
+    ldl_col::<4>(a, l, &mut c, &mut ok);
     for (j, row) in l.iter_mut().enumerate().take(5) {
         row[5] = row[j].sqrt();
     }
-    ok.then_some(l)
+    ok
 }
 
 /// Column `J` of [`ldl5`]: `d_J = a_JJ − Σ_p L_Jp c_Jp`, `c_iJ = a_iJ − Σ_p L_ip c_Jp`,
