@@ -138,7 +138,7 @@ impl LeafConst {
 }
 
 /// The constraint basis of a one-axis join (see `dca::join`): with `s = [ω; 0]` the revolute
-/// joint's subspace column at its point and `p`, `q` a unit pair perpendicular to ω,
+/// joint's subspace column at its point and `p`, `q` an orthogonal pair perpendicular to ω,
 /// `T = [p 0; q 0; 0 1]ᵀ` (6×5: columns `[p; 0]`, `[q; 0]`, `[0; e_x]`, `[0; e_y]`, `[0; e_z]`)
 /// spans the forces that do no work along `s`. (A prismatic joint takes the general path.)
 #[derive(Clone, Copy, Debug, Default)]

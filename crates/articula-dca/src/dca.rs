@@ -34,7 +34,7 @@ fn ub(nh: usize, h: usize, k: usize) -> usize {
 }
 
 /// `Φ_jh f` (j ≠ h) of node `n` (nh × nh blocks, those with j ≤ h stored, `Φ_hj = Φ_jhᵀ`).
-#[inline]
+#[inline(always)]
 fn phi_jh_mul(
     d: &crate::data::DcaData,
     n: usize,
@@ -46,9 +46,9 @@ fn phi_jh_mul(
     let bo = d.boff[n];
     let f = f.to_array();
     SpatialMotion::from_array(if j < h {
-        d.phi[bo + ub(nh, j, h)].mul_vec(&f)
+        mat_vec(&d.phi[bo + ub(nh, j, h)].0, &f)
     } else {
-        d.phi[bo + ub(nh, h, j)].tr_mul_vec(&f)
+        mat_tr_vec(&d.phi[bo + ub(nh, h, j)].0, &f)
     })
 }
 
@@ -368,9 +368,9 @@ fn join(
         // b^C_h = b^A_h − Φ^A_hj γ  or  b^B_h + Φ^B_hj γ
         let (bo, nh, j, i) = from(h);
         let phj_gamma = if j < i {
-            src[bo + ub(nh, j, i)].tr_mul_vec(&gamma)
+            mat_tr_vec(&src[bo + ub(nh, j, i)].0, &gamma)
         } else {
-            src[bo + ub(nh, i, j)].mul_vec(&gamma)
+            mat_vec(&src[bo + ub(nh, i, j)].0, &gamma)
         };
         d.b[hc + h] = match sh {
             Side::A => d.b[d.hoff[a] + ih] - SpatialMotion::from_array(phj_gamma),
@@ -430,19 +430,41 @@ fn y_tilde(
     }
 }
 
-/// A unit pair `p`, `q` completing `ω / |ω|` to an orthonormal basis (Duff et al., "Building an
-/// orthonormal basis, revisited", JCGT 2017: branch-free, continuous except where the sign
-/// of `ω_z` flips).
+/// A pair `p`, `q` completing ω to an orthogonal basis: `p = ω × e` with `e` the coordinate
+/// axis least aligned with ω (`|p| ≥ √(2/3) |ω|`), `q = ω × p`. T need not be orthonormal (W
+/// does not depend on the basis), so no square root or division enters.
 #[inline(always)]
 fn perpendicular_pair(w: DVec3) -> ([f64; 3], [f64; 3]) {
-    let n = w * (1.0 / w.length());
-    let sign = 1.0f64.copysign(n.z);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    (
-        [1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x],
-        [b, sign + n.y * n.y * a, -n.y],
-    )
+    let a = w.abs();
+    let e = if a.x <= a.y && a.x <= a.z {
+        DVec3::X
+    } else if a.y <= a.z {
+        DVec3::Y
+    } else {
+        DVec3::Z
+    };
+    let p = w.cross(e);
+    let q = w.cross(p);
+    (p.to_array(), q.to_array())
+}
+
+/// `G x`, inlined (a result returned through memory in pieces stalls the vector loads that
+/// read it).
+#[inline(always)]
+fn mat_vec(g: &[[f64; 6]; 6], x: &[f64; 6]) -> [f64; 6] {
+    std::array::from_fn(|r| dot6(&g[r], x))
+}
+
+/// `Gᵀ x = Σ_r x_r (row r of G)`, inlined.
+#[inline(always)]
+fn mat_tr_vec(g: &[[f64; 6]; 6], x: &[f64; 6]) -> [f64; 6] {
+    let mut y = [0.0; 6];
+    for (row, &xr) in g.iter().zip(x) {
+        for c in 0..6 {
+            y[c] += row[c] * xr;
+        }
+    }
+    y
 }
 
 #[inline(always)]
