@@ -613,22 +613,26 @@ fn gram_into<const R: usize>(
     yk: &[[f64; 6]; 6],
     old: Option<&[[f64; 6]; 6]>,
 ) {
-    for r in 0..6 {
-        let mut acc = [0.0; 6];
+    // Two rows at a time: each row of Ỹ_k is loaded once for both.
+    for r in (0..6).step_by(2) {
+        let mut acc = [[0.0; 6]; 2];
         for i in 0..R {
-            let x = yh[i][r];
+            let (x0, x1) = (yh[i][r], yh[i][r + 1]);
             let yki = &yk[i];
             for c in 0..6 {
-                acc[c] += x * yki[c];
+                acc[0][c] += x0 * yki[c];
+                acc[1][c] += x1 * yki[c];
             }
         }
-        match old {
-            Some(o) => {
-                for c in 0..6 {
-                    out[r][c] = o[r][c] - acc[c];
+        for (dr, acc) in acc.iter().enumerate() {
+            match old {
+                Some(o) => {
+                    for c in 0..6 {
+                        out[r + dr][c] = o[r + dr][c] - acc[c];
+                    }
                 }
+                None => out[r + dr] = *acc,
             }
-            None => out[r] = acc,
         }
     }
 }
