@@ -91,7 +91,8 @@ pub(crate) struct DcaData {
     /// Handle forces per handle (back-substitution).
     pub f: Vec<SpatialForce>,
     /// Per join node: the Cholesky factor L of `Φ^A_jj + Φ^B_jj = V⁻¹` (its diagonal stored
-    /// inverted, see [`crate::small::cholesky6`]), and β.
+    /// inverted, see [`crate::small::cholesky6`]), or for a one-axis join the `L D Lᵀ` factors
+    /// of the 5×5 `TᵀKT` ([`crate::small::ldl5`]); and β.
     pub l: Vec<[[f64; 6]; 6]>,
     pub beta: Vec<SpatialMotion>,
     /// Per degree of freedom: the column of `Z = L⁻¹ S`.
@@ -103,7 +104,7 @@ pub(crate) struct DcaData {
     pub point: Vec<DVec3>,
     /// Per node: the constraint basis of its joint (1-DOF joins).
     pub basis: Vec<Basis>,
-    /// Scratch per handle of the node being joined: `Ỹ_h = Q L⁻¹ Φ_jh` (or `M⁻¹ Tᵀ Φ_jh`).
+    /// Scratch per handle of the node being joined: `Ỹ_h = Q L⁻¹ Φ_jh` (or `D^{-1/2} L⁻¹ Tᵀ Φ_jh`).
     pub y: Vec<[[f64; 6]; 6]>,
     /// Per body: the constants of its leaf, `None` when its spatial inertia is not positive
     /// definite (the dynamics call reports it).

@@ -192,15 +192,15 @@ fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
 /// Joins A and B at `joint` into node `n` (DESIGN §5, any handle count); V and W never
 /// appear explicitly. With `K = Φ^A_jj + Φ^B_jj = V⁻¹`, W is the same for every basis `T` of
 /// the forces that do no work along S: `W = V − V S (SᵀVS)⁻¹ SᵀV = T (TᵀKT)⁻¹ Tᵀ`.
-/// - One revolute or prismatic axis (the common case): the sparse basis of [`Basis`], the
-///   Cholesky factor `M` of the 5×5 `TᵀKT`, `Ỹ_h = M⁻¹ Tᵀ Φ_jh` (5 rows), and the joint terms
-///   of [`joint_terms`].
+/// - One revolute axis (the common case): the basis of [`Basis`] (fixed positions), the
+///   `L D Lᵀ` factors of the 5×5 `TᵀKT` ([`crate::small::ldl5`]),
+///   `Ỹ_h = D^{-1/2} L⁻¹ Tᵀ Φ_jh` (5 rows), and the joint terms of [`joint_terms`].
 /// - Otherwise: the Cholesky factor of `K = L Lᵀ`, `Z = L⁻¹ S`, `D = ZᵀZ` and the orthogonal
 ///   projector `Q = 1 − Z D⁻¹ Zᵀ`: `W = L⁻ᵀ Q L⁻¹`, `Ỹ_h = Q L⁻¹ Φ_jh` (`Q = QᵀQ`), and
 ///   `γ = W β + V S D⁻¹ Q_τ = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − τ))` with `w = L⁻¹ β`.
 ///
-/// Either way `Φ_hj W Φ_jk = Ỹ_hᵀ Ỹ_k`: one Gram product per block of C (the diagonal ones on
-/// their upper triangle).
+/// Either way `Φ_hj W Φ_jk = Ỹ_hᵀ Ỹ_k`: one Gram product per stored block of C (`h ≤ k`; the
+/// diagonal ones on their upper triangle).
 #[inline(never)]
 fn join(
     model: &Model,
