@@ -74,8 +74,8 @@ pub(crate) struct DcaData {
     pub hoff: Vec<usize>,
     /// Per node: its kind (a compact copy of the assembly tree's).
     pub kind: Vec<NodeKind>,
-    /// Per node: offset of its Φ blocks in `phi`: the nh (nh + 1) / 2 blocks `Φ_hk`, h ≤ k, row
-    /// by row (`Φ_kh = Φ_hkᵀ`; of a diagonal block only the upper triangle is kept).
+    /// Per node: offset of its cross blocks in `phi`: the nh (nh − 1) / 2 blocks `Φ_hk`, h < k,
+    /// row by row (`Φ_kh = Φ_hkᵀ`).
     pub boff: Vec<usize>,
     /// Per handle (flat, `hoff`): its joint.
     pub hj: Vec<usize>,
@@ -84,8 +84,10 @@ pub(crate) struct DcaData {
     pub jb: Vec<usize>,
     /// Per handle of a join node (flat, `hoff`): the side it comes from and its index there.
     pub from: Vec<(Side, usize)>,
-    /// Φ blocks.
+    /// Φ's cross blocks.
     pub phi: Vec<Mat6>,
+    /// Φ's diagonal blocks `Φ_hh`, per handle (flat, `hoff`), packed symmetric.
+    pub dg: Vec<Sym6>,
     /// Bias accelerations per handle.
     pub b: Vec<SpatialMotion>,
     /// Handle forces per handle (back-substitution).
@@ -196,12 +198,14 @@ impl Data {
         let h = layout.handles;
         let mut hoff = layout.hoff;
         hoff.push(h); // sentinel: node n has hoff[n + 1] − hoff[n] handles
-                      // Φ: only the nh (nh + 1) / 2 blocks on and above the diagonal of each node.
+                      // Φ: the nh (nh − 1) / 2 cross blocks above the diagonal of each node (the diagonal
+                      // ones packed per handle).
         let mut boff = Vec::with_capacity(nn);
         let mut blk = 0;
         for node in &tree.nodes {
             boff.push(blk);
-            blk += node.handles.len() * (node.handles.len() + 1) / 2;
+            let nh = node.handles.len();
+            blk += nh * nh.saturating_sub(1) / 2;
         }
         let (ja, jb) = (layout.ja, layout.jb);
         let from: Vec<(Side, usize)> = layout
@@ -234,6 +238,7 @@ impl Data {
                 jb,
                 from,
                 phi: vec![Mat6::ZERO; blk],
+                dg: vec![Sym6::ZERO; h],
                 b: vec![SpatialMotion::ZERO; h],
                 f: vec![SpatialForce::ZERO; h],
                 l: vec![[[0.0; 6]; 6]; nn],

@@ -7,6 +7,7 @@
 //! `q̈` and constraint force top-down.
 
 use crate::data::{Basis, Side};
+use crate::small::Sym6;
 use crate::{Data, DynamicsError};
 use articula_model::{Model, NodeKind};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
@@ -25,13 +26,16 @@ pub(crate) fn dca(
     Ok(())
 }
 
-/// Index of the block Φ_hk (h ≤ k) among a node's: only the blocks on and above the diagonal
-/// are stored, row by row (`Φ_kh = Φ_hkᵀ`).
+/// Index of the cross block Φ_hk (h < k) among a node's: only the blocks above the diagonal
+/// are stored, row by row (`Φ_kh = Φ_hkᵀ`); the diagonal ones are packed per handle (`dg`).
 #[inline(always)]
 fn ub(nh: usize, h: usize, k: usize) -> usize {
-    debug_assert!(h <= k && k < nh);
-    h * nh - h * h.saturating_sub(1) / 2 + (k - h)
+    debug_assert!(h < k && k < nh);
+    h * nh - h * (h + 1) / 2 + (k - h - 1)
 }
+
+/// Start of row r's upper part in a packed symmetric 6×6 ([`Sym6`]).
+const SYM_ROW: [usize; 6] = [0, 6, 11, 15, 18, 20];
 
 /// `Φ_jh f` (j ≠ h) of node `n` (nh × nh blocks, those with j ≤ h stored, `Φ_hj = Φ_jhᵀ`).
 #[inline(always)]
@@ -72,8 +76,11 @@ fn main_pass(
         match data.dca.kind[n] {
             // Ground: Φ = 0, b = 0.
             NodeKind::Ground => {
-                for k in 0..nh * (nh + 1) / 2 {
+                for k in 0..nh * nh.saturating_sub(1) / 2 {
                     data.dca.phi[bo + k] = Mat6::ZERO;
+                }
+                for h in 0..nh {
+                    data.dca.dg[ho + h] = Sym6::ZERO;
                 }
                 for k in 0..nh {
                     data.dca.b[ho + k] = SpatialMotion::ZERO;
@@ -150,7 +157,11 @@ fn leaf(
                 ];
                 out[r + 3][r + 3] += im;
             }
-            d.phi[bo + ub(nh, h, k)] = Mat6(out);
+            if k == h {
+                d.dg[ho + h] = pack(&out);
+            } else {
+                d.phi[bo + ub(nh, h, k)] = Mat6(out);
+            }
         }
     }
     Ok(())
@@ -217,15 +228,12 @@ fn join(
     let (nha, nhb, nhc) = (nh(a), nh(b), nh(n));
     let (ja, jb) = (d.ja[n], d.jb[n]);
     let (boa, bob) = (d.boff[a], d.boff[b]);
-    // K = Φ^A_jj + Φ^B_jj, from the upper triangles (all that is kept of a diagonal block).
-    let (pa, pb) = (
-        &d.phi[boa + ub(nha, ja, ja)].0,
-        &d.phi[bob + ub(nhb, jb, jb)].0,
-    );
+    // K = Φ^A_jj + Φ^B_jj, from the packed diagonal blocks.
+    let (pa, pb) = (&d.dg[d.hoff[a] + ja].0, &d.dg[d.hoff[b] + jb].0);
     let mut sum = [[0.0; 6]; 6];
     for r in 0..6 {
         for c in r..6 {
-            let x = pa[r][c] + pb[r][c];
+            let x = pa[SYM_ROW[r] + c - r] + pb[SYM_ROW[r] + c - r];
             sum[r][c] = x;
             sum[c][r] = x;
         }
@@ -347,22 +355,31 @@ fn join(
     // Φ_hk − Ỹ_hᵀỸ_k; across +Ỹ_hᵀỸ_k. A side's handles keep their order in C, so a same-side
     // pair h ≤ k is a stored block of that side too. Then b^C.
     let (src, dst) = d.phi.split_at_mut(bc);
+    let (dsrc, ddst) = d.dg.split_at_mut(hc);
+    let (hoa, hob) = (d.hoff[a], d.hoff[b]);
     for h in 0..nhc {
         let (sh, ih) = d.from[hc + h];
-        for kk in h..nhc {
+        let yh = &d.y[h];
+        let old = match sh {
+            Side::A => &dsrc[hoa + ih],
+            Side::B => &dsrc[hob + ih],
+        };
+        match rows {
+            5 => gram_sym_into::<5>(&mut ddst[h], yh, old),
+            _ => gram_sym_into::<6>(&mut ddst[h], yh, old),
+        }
+        for kk in h + 1..nhc {
             let (sk, ik) = d.from[hc + kk];
-            let (yh, yk) = (&d.y[h], &d.y[kk]);
+            let yk = &d.y[kk];
             let old = match (sh, sk) {
                 (Side::A, Side::A) => Some(&src[boa + ub(nha, ih, ik)].0),
                 (Side::B, Side::B) => Some(&src[bob + ub(nhb, ih, ik)].0),
                 _ => None,
             };
             let out = &mut dst[ub(nhc, h, kk)].0;
-            match (h == kk, rows) {
-                (true, 5) => gram_sym_into::<5>(out, yh, old),
-                (true, _) => gram_sym_into::<6>(out, yh, old),
-                (false, 5) => gram_into::<5>(out, yh, yk, old),
-                (false, _) => gram_into::<6>(out, yh, yk, old),
+            match rows {
+                5 => gram_into::<5>(out, yh, yk, old),
+                _ => gram_into::<6>(out, yh, yk, old),
             }
         }
         // b^C_h = b^A_h − Φ^A_hj γ  or  b^B_h + Φ^B_hj γ
@@ -378,6 +395,18 @@ fn join(
         };
     }
     Ok(())
+}
+
+/// The upper triangle of a symmetric 6×6, packed.
+#[inline(always)]
+fn pack(m: &[[f64; 6]; 6]) -> Sym6 {
+    let mut p = Sym6::ZERO;
+    for r in 0..6 {
+        for c in r..6 {
+            p.0[SYM_ROW[r] + c - r] = m[r][c];
+        }
+    }
+    p
 }
 
 /// Φ_jh (j ≠ h) of a node with `nh` handles and blocks at `bo`, as rows: only the blocks on
@@ -640,22 +669,14 @@ fn gram_into<const R: usize>(
 /// [`gram_into`] for a diagonal block (`Ỹ_k = Ỹ_h`, symmetric): only the entries on and above
 /// the diagonal, in pairs of columns (rows 2p and 2p+1 start at column 2p); the caller mirrors.
 #[inline(never)]
-fn gram_sym_into<const R: usize>(
-    out: &mut [[f64; 6]; 6],
-    y: &[[f64; 6]; 6],
-    old: Option<&[[f64; 6]; 6]>,
-) {
+fn gram_sym_into<const R: usize>(out: &mut Sym6, y: &[[f64; 6]; 6], old: &Sym6) {
     gram_rows::<0, R>(out, y, old);
     gram_rows::<2, R>(out, y, old);
     gram_rows::<4, R>(out, y, old);
 }
 
 #[inline(always)]
-fn gram_rows<const C0: usize, const R: usize>(
-    out: &mut [[f64; 6]; 6],
-    y: &[[f64; 6]; 6],
-    old: Option<&[[f64; 6]; 6]>,
-) {
+fn gram_rows<const C0: usize, const R: usize>(out: &mut Sym6, y: &[[f64; 6]; 6], old: &Sym6) {
     for r in C0..C0 + 2 {
         let mut acc = [0.0; 6];
         for i in 0..R {
@@ -664,13 +685,9 @@ fn gram_rows<const C0: usize, const R: usize>(
                 acc[c] += x * y[i][c];
             }
         }
-        match old {
-            Some(o) => {
-                for c in C0..6 {
-                    out[r][c] = o[r][c] - acc[c];
-                }
-            }
-            None => out[r][C0..6].copy_from_slice(&acc[C0..6]),
+        let o = SYM_ROW[r] - r;
+        for c in r..6 {
+            out.0[o + c] = old.0[o + c] - acc[c];
         }
     }
 }
