@@ -17,7 +17,8 @@ pub(crate) enum Side {
 
 /// Per-step buffers of every algorithm. Build once with [`Data::new`]; a dynamics call or a
 /// step allocates nothing. `Data` also caches a few constants of the model's joints (their
-/// kinematic fast paths and offsets): build a new one for a changed model.
+/// kinematic fast paths and offsets) and bodies (inverse inertias): build a new one for a
+/// changed model.
 #[derive(Clone, Debug)]
 pub struct Data {
     /// Gravity acceleration in world coordinates (default `(0, 0, -9.81)`).
@@ -74,21 +75,27 @@ pub(crate) struct DcaData {
     pub hoff: Vec<usize>,
     /// Per node: its kind (a compact copy of the assembly tree's).
     pub kind: Vec<NodeKind>,
-    /// Per node: offset of its Φ blocks (nh × nh, row-major) in `phi`.
+    /// Per node: offset of its cross blocks in `phi`: the nh (nh − 1) / 2 blocks `Φ_hk`, h < k,
+    /// row by row (`Φ_kh = Φ_hkᵀ`).
     pub boff: Vec<usize>,
+    /// Per handle (flat, `hoff`): its joint.
+    pub hj: Vec<usize>,
     /// Per join node: index of the principal joint among A's and among B's handles.
     pub ja: Vec<usize>,
     pub jb: Vec<usize>,
     /// Per handle of a join node (flat, `hoff`): the side it comes from and its index there.
     pub from: Vec<(Side, usize)>,
-    /// Φ blocks.
+    /// Φ's cross blocks.
     pub phi: Vec<Mat6>,
+    /// Φ's diagonal blocks `Φ_hh`, per handle (flat, `hoff`), packed symmetric.
+    pub dg: Vec<Sym6>,
     /// Bias accelerations per handle.
     pub b: Vec<SpatialMotion>,
     /// Handle forces per handle (back-substitution).
     pub f: Vec<SpatialForce>,
     /// Per join node: the Cholesky factor L of `Φ^A_jj + Φ^B_jj = V⁻¹` (its diagonal stored
-    /// inverted, see [`crate::small::cholesky6`]), and β.
+    /// inverted, see [`crate::small::cholesky6`]), or for a one-axis join the `L D Lᵀ` factors
+    /// of the 5×5 `TᵀKT` ([`crate::small::ldl5`]); and β.
     pub l: Vec<[[f64; 6]; 6]>,
     pub beta: Vec<SpatialMotion>,
     /// Per degree of freedom: the column of `Z = L⁻¹ S`.
@@ -100,31 +107,56 @@ pub(crate) struct DcaData {
     pub point: Vec<DVec3>,
     /// Per node: the constraint basis of its joint (1-DOF joins).
     pub basis: Vec<Basis>,
-    /// Scratch per handle of the node being joined: `Ỹ_h = Q L⁻¹ Φ_jh` (or `M⁻¹ Tᵀ Φ_jh`).
+    /// Scratch per handle of the node being joined: `Ỹ_h = Q L⁻¹ Φ_jh` (or `D^{-1/2} L⁻¹ Tᵀ Φ_jh`).
     pub y: Vec<[[f64; 6]; 6]>,
+    /// Per body: the constants of its leaf, `None` when its spatial inertia is not positive
+    /// definite (the dynamics call reports it).
+    pub leaf: Vec<Option<LeafConst>>,
 }
 
-/// The constraint basis of a 1-DOF join (see `dca::join`): with `s` the joint's subspace
-/// column at its point (`[ω; 0]` revolute, `[0; u]` prismatic), `m` the index of its largest
-/// entry and `a`, `b` the other two of that half, `T = [e_a − r_a e_m, e_b − r_b e_m,
-/// e_keep…]` (`r = s/s_m`) spans the forces that do no work along `s`.
+/// A body's inertia as its DCA leaf uses it, in body coordinates.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LeafConst {
+    /// Centre of mass.
+    pub com: DVec3,
+    /// Rotational inertia about the centre of mass, `I_c`, and its inverse.
+    pub ic: glam::DMat3,
+    pub ic_inv: glam::DMat3,
+    pub mass: f64,
+}
+
+impl LeafConst {
+    fn of(inertia: &SpatialInertia) -> Option<LeafConst> {
+        let ic = inertia.inertia_about_com();
+        let m = inertia.mass;
+        if m.is_nan() || m <= 0.0 || ic.determinant() <= 0.0 {
+            return None;
+        }
+        Some(LeafConst {
+            com: inertia.com(),
+            ic,
+            ic_inv: ic.inverse(),
+            mass: m,
+        })
+    }
+}
+
+/// The constraint basis of a one-axis join (see `dca::join`): with `s = [ω; 0]` the revolute
+/// joint's subspace column at its point and `p`, `q` an orthogonal pair perpendicular to ω,
+/// `T = [p 0; q 0; 0 1]ᵀ` (6×5: columns `[p; 0]`, `[q; 0]`, `[0; e_x]`, `[0; e_y]`, `[0; e_z]`)
+/// spans the forces that do no work along `s`. (A prismatic joint takes the general path.)
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Basis {
-    /// This join is a single revolute/prismatic joint (the 5×5 path).
+    /// This join is a single revolute joint (the 5×5 path).
     pub one_dof: bool,
-    /// ... and that joint is prismatic.
-    pub prismatic: bool,
-    pub m: usize,
-    pub a: usize,
-    pub b: usize,
-    pub keep: [usize; 3],
-    pub ra: f64,
-    pub rb: f64,
-    pub s: [f64; 6],
-    /// The joint force and `q̈` per unit joint torque (see `dca::unit_torque`).
-    pub ft: [f64; 6],
+    /// ω, and the pair p, q.
+    pub w: [f64; 3],
+    pub p: [f64; 3],
+    pub q: [f64; 3],
+    /// `q̈` per unit joint torque.
     pub qt: f64,
-    /// `(W K s − s) / sᵀs`: `q̈ = gᵀ y + q̈_τ τ` in the back-substitution.
+    /// `(W K s − s) / sᵀs`: `q̈ = gᵀ y + q̈_τ τ` in the back-substitution; `−g` is the joint
+    /// force per unit torque.
     pub g: [f64; 6],
 }
 
@@ -164,10 +196,18 @@ impl Data {
         let nn = tree.nodes.len();
         // The shared layout (articula-model), with DCA's sentinel and side type.
         let layout = tree.handle_layout();
-        let (h, blk) = (layout.handles, layout.blocks);
+        let h = layout.handles;
         let mut hoff = layout.hoff;
         hoff.push(h); // sentinel: node n has hoff[n + 1] − hoff[n] handles
-        let boff = layout.boff;
+                      // Φ: the nh (nh − 1) / 2 cross blocks above the diagonal of each node (the diagonal
+                      // ones packed per handle).
+        let mut boff = Vec::with_capacity(nn);
+        let mut blk = 0;
+        for node in &tree.nodes {
+            boff.push(blk);
+            let nh = node.handles.len();
+            blk += nh * nh.saturating_sub(1) / 2;
+        }
         let (ja, jb) = (layout.ja, layout.jb);
         let from: Vec<(Side, usize)> = layout
             .from
@@ -188,12 +228,18 @@ impl Data {
             momentum_projection: true,
             dca: DcaData {
                 kind: tree.nodes.iter().map(|node| node.kind).collect(),
+                hj: tree
+                    .nodes
+                    .iter()
+                    .flat_map(|node| node.handles.iter().copied())
+                    .collect(),
                 hoff,
                 boff,
                 ja,
                 jb,
                 from,
                 phi: vec![Mat6::ZERO; blk],
+                dg: vec![Sym6::ZERO; h],
                 b: vec![SpatialMotion::ZERO; h],
                 f: vec![SpatialForce::ZERO; h],
                 l: vec![[[0.0; 6]; 6]; nn],
@@ -210,17 +256,8 @@ impl Data {
                                 let body = &model.bodies[joint];
                                 matches!(
                                     body.joint.as_slice(),
-                                    [p] if matches!(
-                                        p.kind,
-                                        JointKind::Revolute | JointKind::Continuous | JointKind::Prismatic
-                                    )
+                                    [p] if matches!(p.kind, JointKind::Revolute | JointKind::Continuous)
                                 )
-                            }
-                            _ => false,
-                        },
-                        prismatic: match node.kind {
-                            NodeKind::Join { joint, .. } => {
-                                model.bodies[joint].joint[0].kind == JointKind::Prismatic
                             }
                             _ => false,
                         },
@@ -228,6 +265,11 @@ impl Data {
                     })
                     .collect(),
                 y: vec![[[0.0; 6]; 6]; max_h],
+                leaf: model
+                    .bodies
+                    .iter()
+                    .map(|b| LeafConst::of(&b.inertia))
+                    .collect(),
             },
             fk_plan: model.bodies.iter().map(FkPlan::of).collect(),
             topo: model

@@ -7,6 +7,7 @@
 //! `q̈` and constraint force top-down.
 
 use crate::data::{Basis, Side};
+use crate::small::Sym6;
 use crate::{Data, DynamicsError};
 use articula_model::{Model, NodeKind};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
@@ -25,10 +26,34 @@ pub(crate) fn dca(
     Ok(())
 }
 
-/// Φ_hk of node `n` (row-major nh × nh blocks).
-#[inline]
-fn phi(d: &crate::data::DcaData, n: usize, nh: usize, h: usize, k: usize) -> &Mat6 {
-    &d.phi[d.boff[n] + h * nh + k]
+/// Index of the cross block Φ_hk (h < k) among a node's: only the blocks above the diagonal
+/// are stored, row by row (`Φ_kh = Φ_hkᵀ`); the diagonal ones are packed per handle (`dg`).
+#[inline(always)]
+fn ub(nh: usize, h: usize, k: usize) -> usize {
+    debug_assert!(h < k && k < nh);
+    h * nh - h * (h + 1) / 2 + (k - h - 1)
+}
+
+/// Start of row r's upper part in a packed symmetric 6×6 ([`Sym6`]).
+const SYM_ROW: [usize; 6] = [0, 6, 11, 15, 18, 20];
+
+/// `Φ_jh f` (j ≠ h) of node `n` (nh × nh blocks, those with j ≤ h stored, `Φ_hj = Φ_jhᵀ`).
+#[inline(always)]
+fn phi_jh_mul(
+    d: &crate::data::DcaData,
+    n: usize,
+    nh: usize,
+    j: usize,
+    h: usize,
+    f: SpatialForce,
+) -> SpatialMotion {
+    let bo = d.boff[n];
+    let f = f.to_array();
+    SpatialMotion::from_array(if j < h {
+        mat_vec(&d.phi[bo + ub(nh, j, h)].0, &f)
+    } else {
+        mat_tr_vec(&d.phi[bo + ub(nh, h, j)].0, &f)
+    })
 }
 
 fn main_pass(
@@ -45,99 +70,98 @@ fn main_pass(
     for (h, x) in data.x.iter().enumerate() {
         data.dca.point[h] = x.apply_point(DVec3::ZERO);
     }
-    for (n, node) in tree.nodes.iter().enumerate() {
-        let nh = node.handles.len();
+    for n in 0..tree.nodes.len() {
         let (ho, bo) = (data.dca.hoff[n], data.dca.boff[n]);
-        match node.kind {
+        let nh = data.dca.hoff[n + 1] - ho;
+        match data.dca.kind[n] {
             // Ground: Φ = 0, b = 0.
             NodeKind::Ground => {
-                for k in 0..nh * nh {
+                for k in 0..nh * nh.saturating_sub(1) / 2 {
                     data.dca.phi[bo + k] = Mat6::ZERO;
+                }
+                for h in 0..nh {
+                    data.dca.dg[ho + h] = Sym6::ZERO;
                 }
                 for k in 0..nh {
                     data.dca.b[ho + k] = SpatialMotion::ZERO;
                 }
             }
-            // Leaf: Φ_hk = I⁻¹ for every handle pair, b = a_g + I⁻¹ (f_ext − v ×* I v).
-            // Leaf (DESIGN §5): Φ_hk = I⁻¹, b_h = a_g + I⁻¹ (f_ext − v ×* I v), each handle's
-            // rows and columns taken at its own point P_h. About the centre of mass c, where
-            // I = diag(I_c, m 1): with a = c − P_h, e = c − P_k, J = I_c⁻¹,
-            // Φ_hk = [J, −J e×; a× J, −a× J e× + 1/m].
-            NodeKind::Body(i) => {
-                let body = &model.bodies[i];
-                let (rot, _) = data.x[i].to_pose();
-                let c = data.x[i].apply_point(body.inertia.com());
-                let ic_body = body.inertia.inertia_about_com();
-                let m = body.inertia.mass;
-                if m.is_nan() || m <= 0.0 || ic_body.determinant() <= 0.0 {
-                    return Err(DynamicsError::Singular {
-                        joint: body.joint_name(),
-                        detail: "the body's spatial inertia is not positive definite",
-                    });
-                }
-                let j = rot * ic_body.inverse() * rot.transpose();
-                let ic = rot * ic_body * rot.transpose();
-                // Net force about c: f_ext − v ×* I v, with v_c the velocity of the point at c.
-                let v = data.v[i];
-                let v_c = v.v + v.w.cross(c);
-                let fe = crate::f_ext_of(f_ext, i);
-                let n_c = fe.n - c.cross(fe.f) - v.w.cross(ic * v.w);
-                let f_c = fe.f - v.w.cross(v_c) * m;
-                let acc_w = j * n_c;
-                let acc_c = f_c / m;
-                // With A_h = a_h× J: −J e_k× = A_kᵀ (J symmetric) and −a_h× J e_k× = a_h× A_kᵀ,
-                // so Φ_hk = [J, A_kᵀ; A_h, a_h× A_kᵀ + 1/m]: three cross products per block.
-                let node_handles = &tree.nodes[n].handles;
-                let jrows = j.transpose(); // rows of J (= columns: J is symmetric)
-                let im = 1.0 / m;
-                for (h, &jh) in node_handles.iter().enumerate() {
-                    let ah = c - data.dca.point[jh];
-                    // b at P_h: [α; a_c + α × (P_h − c)] + a_g
-                    data.dca.b[ho + h] = a_g + SpatialMotion::new(acc_w, acc_c + acc_w.cross(-ah));
-                }
-                // Columns of A_h = a_h× J are a_h × (columns of J); a body has at most a few
-                // handles, computed once each (the leaf of a multi-handle body recomputes).
-                let cols = |jh: usize| {
-                    let ah = c - data.dca.point[jh];
-                    (
-                        ah,
-                        [ah.cross(j.x_axis), ah.cross(j.y_axis), ah.cross(j.z_axis)],
-                    )
-                };
-                for (h, &jh) in node_handles.iter().enumerate() {
-                    let (ah, ah_cols) = cols(jh);
-                    for (k, &jk) in node_handles.iter().enumerate() {
-                        let ak_cols = if k == h { ah_cols } else { cols(jk).1 };
-                        // Row r of A_kᵀ is column r of A_k; column cc of A_kᵀ is row cc of A_k.
-                        let ak_row =
-                            |cc: usize| DVec3::new(ak_cols[0][cc], ak_cols[1][cc], ak_cols[2][cc]);
-                        let br_cols = [
-                            ah.cross(ak_row(0)),
-                            ah.cross(ak_row(1)),
-                            ah.cross(ak_row(2)),
-                        ];
-                        let out = &mut data.dca.phi[bo + h * nh + k].0;
-                        for r in 0..3 {
-                            let jr = jrows.col(r);
-                            out[r] = [jr.x, jr.y, jr.z, ak_cols[r].x, ak_cols[r].y, ak_cols[r].z];
-                            out[r + 3] = [
-                                ah_cols[0][r],
-                                ah_cols[1][r],
-                                ah_cols[2][r],
-                                br_cols[0][r],
-                                br_cols[1][r],
-                                br_cols[2][r],
-                            ];
-                            out[r + 3][r + 3] += im;
-                        }
-                    }
-                }
-            }
+            NodeKind::Body(i) => leaf(model, i, (ho, nh, bo), f_ext, a_g, data)?,
             NodeKind::Join {
                 joint,
                 parent_side: a,
                 child_side: b,
             } => join(model, tau, data, n, joint, a, b)?,
+        }
+    }
+    Ok(())
+}
+
+/// Leaf (DESIGN §5): `Φ_hk = I⁻¹` for every handle pair, `b_h = a_g + I⁻¹ (f_ext − v ×* I v)`,
+/// each handle's rows and columns taken at its own point P_h. About the centre of mass c, where
+/// `I = diag(I_c, m 1)`: with `a_h = c − P_h`, `J = I_c⁻¹` and `A_h = a_h× J`,
+/// `Φ_hk = [J, A_kᵀ; A_h, a_h× A_kᵀ + 1/m]` (`−J e× = A_eᵀ` as J is symmetric). Only the blocks
+/// with `h ≤ k` are computed and stored (`Φ_kh = Φ_hkᵀ`).
+#[inline(always)]
+fn leaf(
+    model: &Model,
+    i: usize,
+    (ho, nh, bo): (usize, usize, usize),
+    f_ext: &[SpatialForce],
+    a_g: SpatialMotion,
+    data: &mut Data,
+) -> Result<(), DynamicsError> {
+    let rot = data.x[i].e; // body → computation-frame axes
+    let Some(lc) = data.dca.leaf[i] else {
+        return Err(DynamicsError::Singular {
+            joint: model.bodies[i].joint_name(),
+            detail: "the body's spatial inertia is not positive definite",
+        });
+    };
+    let c = data.x[i].apply_point(lc.com);
+    let m = lc.mass;
+    let j = rot * lc.ic_inv * rot.transpose();
+    // Net force about c: f_ext − v ×* I v, with v_c the velocity of the point at c;
+    // I_c ω = R I_c,body Rᵀ ω.
+    let v = data.v[i];
+    let v_c = v.v + v.w.cross(c);
+    let fe = crate::f_ext_of(f_ext, i);
+    let icw = rot * (lc.ic * (rot.transpose() * v.w));
+    let n_c = fe.n - c.cross(fe.f) - v.w.cross(icw);
+    let f_c = fe.f - v.w.cross(v_c) * m;
+    let acc_w = j * n_c;
+    let acc_c = f_c / m;
+    let im = 1.0 / m;
+    let d = &mut data.dca;
+    let handles = &d.hj[ho..ho + nh];
+    // The columns of J (= its rows) and of A_h = a_h× J (A_h's columns are a_h × J's).
+    let jc = [j.x_axis, j.y_axis, j.z_axis];
+    let a_cols = |a: DVec3| [a.cross(jc[0]), a.cross(jc[1]), a.cross(jc[2])];
+    for (h, &ph) in handles.iter().enumerate() {
+        let ah = c - d.point[ph];
+        // b at P_h: [α; a_c + α × (P_h − c)] + a_g
+        d.b[ho + h] = a_g + SpatialMotion::new(acc_w, acc_c + ah.cross(acc_w));
+        let ahc = a_cols(ah);
+        for (k, &pk) in handles.iter().enumerate().skip(h) {
+            let akc = if k == h { ahc } else { a_cols(c - d.point[pk]) };
+            // a_h× A_kᵀ: its column q is a_h × (row q of A_k).
+            let row = |q: usize| DVec3::new(akc[0][q], akc[1][q], akc[2][q]);
+            let bc = [ah.cross(row(0)), ah.cross(row(1)), ah.cross(row(2))];
+            let mut out = [[0.0; 6]; 6];
+            for r in 0..3 {
+                // [J | A_kᵀ]: row r of A_kᵀ is column r of A_k.
+                out[r] = [jc[r].x, jc[r].y, jc[r].z, akc[r].x, akc[r].y, akc[r].z];
+                // [A_h | a_h× A_kᵀ + 1/m]
+                out[r + 3] = [
+                    ahc[0][r], ahc[1][r], ahc[2][r], bc[0][r], bc[1][r], bc[2][r],
+                ];
+                out[r + 3][r + 3] += im;
+            }
+            if k == h {
+                d.dg[ho + h] = pack(&out);
+            } else {
+                d.phi[bo + ub(nh, h, k)] = Mat6(out);
+            }
         }
     }
     Ok(())
@@ -171,23 +195,27 @@ fn solve_lt(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
     x
 }
 
-#[inline]
+/// `a · b`, summed as even + odd entries: two-lane vector products and sums instead of one
+/// serial chain of six.
+#[inline(always)]
 fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
+    let even = a[0] * b[0] + a[2] * b[2] + a[4] * b[4];
+    let odd = a[1] * b[1] + a[3] * b[3] + a[5] * b[5];
+    even + odd
 }
 
 /// Joins A and B at `joint` into node `n` (DESIGN §5, any handle count); V and W never
 /// appear explicitly. With `K = Φ^A_jj + Φ^B_jj = V⁻¹`, W is the same for every basis `T` of
 /// the forces that do no work along S: `W = V − V S (SᵀVS)⁻¹ SᵀV = T (TᵀKT)⁻¹ Tᵀ`.
-/// - One revolute or prismatic axis (the common case): the sparse basis of [`Basis`], the
-///   Cholesky factor `M` of the 5×5 `TᵀKT`, `Ỹ_h = M⁻¹ Tᵀ Φ_jh` (5 rows), and the joint terms
-///   of [`joint_terms`].
+/// - One revolute axis (the common case): the basis of [`Basis`] (fixed positions), the
+///   `L D Lᵀ` factors of the 5×5 `TᵀKT` ([`crate::small::ldl5`]),
+///   `Ỹ_h = D^{-1/2} L⁻¹ Tᵀ Φ_jh` (5 rows), and the joint terms of [`joint_terms`].
 /// - Otherwise: the Cholesky factor of `K = L Lᵀ`, `Z = L⁻¹ S`, `D = ZᵀZ` and the orthogonal
 ///   projector `Q = 1 − Z D⁻¹ Zᵀ`: `W = L⁻ᵀ Q L⁻¹`, `Ỹ_h = Q L⁻¹ Φ_jh` (`Q = QᵀQ`), and
 ///   `γ = W β + V S D⁻¹ Q_τ = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − τ))` with `w = L⁻¹ β`.
 ///
-/// Either way `Φ_hj W Φ_jk = Ỹ_hᵀ Ỹ_k`: one Gram product per block of C (the diagonal ones on
-/// their upper triangle).
+/// Either way `Φ_hj W Φ_jk = Ỹ_hᵀ Ỹ_k`: one Gram product per stored block of C (`h ≤ k`; the
+/// diagonal ones on their upper triangle).
 #[inline(never)]
 fn join(
     model: &Model,
@@ -203,7 +231,17 @@ fn join(
     let nh = |x: usize| d.hoff[x + 1] - d.hoff[x];
     let (nha, nhb, nhc) = (nh(a), nh(b), nh(n));
     let (ja, jb) = (d.ja[n], d.jb[n]);
-    let sum = (*phi(d, a, nha, ja, ja) + *phi(d, b, nhb, jb, jb)).0;
+    let (boa, bob) = (d.boff[a], d.boff[b]);
+    // K = Φ^A_jj + Φ^B_jj, from the packed diagonal blocks.
+    let (pa, pb) = (&d.dg[d.hoff[a] + ja].0, &d.dg[d.hoff[b] + jb].0);
+    let mut sum = [[0.0; 6]; 6];
+    for r in 0..6 {
+        for c in r..6 {
+            let x = pa[SYM_ROW[r] + c - r] + pb[SYM_ROW[r] + c - r];
+            sum[r][c] = x;
+            sum[c][r] = x;
+        }
+    }
     // S and c at the joint's point P_j.
     let pj = d.point[joint];
     let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj));
@@ -212,31 +250,52 @@ fn join(
     let beta = d.b[d.hoff[a] + ja] - d.b[d.hoff[b] + jb] + shift(data.c[joint]);
     d.beta[n] = beta;
     let (hc, bc) = (d.hoff[n], d.boff[n]);
-    let (boa, bob) = (d.boff[a], d.boff[b]);
+    // Φ_jh (rows) of C's handle h: the stored block, or the transpose of the stored Φ_hj.
+    let from = |h: usize| match d.from[hc + h] {
+        (Side::A, i) => (boa, nha, ja, i),
+        (Side::B, i) => (bob, nhb, jb, i),
+    };
     let rows;
     let gamma;
     if d.basis[n].one_dof {
-        // One revolute/prismatic axis: the 5×5 constraint system (see `Basis`).
-        let bs = basis(shift(data.s[vo]).to_array(), d.basis[n].prismatic);
-        let m =
-            crate::small::cholesky5(&reduce(&sum, &bs)).ok_or_else(|| DynamicsError::Singular {
+        // One revolute axis: the 5×5 constraint system (see `Basis`).
+        let w = data.s[vo].w; // s = [ω; 0] at P_j
+        let (p, q) = perpendicular_pair(w);
+        let mut bs = Basis {
+            one_dof: true,
+            w: w.to_array(),
+            p,
+            q,
+            qt: 0.0,
+            g: [0.0; 6],
+        };
+        let m = &mut d.l[n];
+        if !crate::small::ldl5(&reduce(&sum, &bs), m) {
+            return Err(DynamicsError::Singular {
                 joint: body.joint_name(),
                 detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
-            })?;
-        d.l[n] = m;
-        let mut bs = bs;
-        joint_terms(&sum, &m, &mut bs);
-        // γ = W β + f_τ τ
-        let wb = w_apply(&m, &bs, &beta.to_array());
-        gamma = std::array::from_fn(|i| wb[i] + bs.ft[i] * tau[vo]);
+            });
+        }
+        let m = &d.l[n];
+        joint_terms(&sum, m, &mut bs);
+        // γ = W β + f_τ τ, f_τ = −g
+        let wb = w_apply(m, &bs, &beta.to_array());
+        let t = tau[vo];
+        let mut g = [0.0; 6];
+        for i in 0..6 {
+            g[i] = wb[i] - bs.g[i] * t;
+        }
+        gamma = g;
         d.basis[n] = bs;
         for h in 0..nhc {
-            let (side, i) = d.from[hc + h];
-            let gt = match side {
-                Side::A => &d.phi[boa + ja * nha + i].0,
-                Side::B => &d.phi[bob + jb * nhb + i].0,
+            let (bo, nh, j, i) = from(h);
+            // Tᵀ Φ_jh: from the rows of the stored Φ_jh, or the columns of the stored Φ_hj.
+            let tg = if j < i {
+                t_rows(&d.phi[bo + ub(nh, j, i)].0, &bs)
+            } else {
+                t_cols(&d.phi[bo + ub(nh, i, j)].0, &bs)
             };
-            y_reduced(&mut d.y[h], gt, &m, &bs);
+            y_reduced(&mut d.y[h], tg, m);
         }
         rows = 5;
     } else {
@@ -290,60 +349,79 @@ fn join(
         // Ỹ_h = Q L⁻¹ Φ_jh: forward substitution on whole rows of Φ_jh (vectorises), then the
         // projection Ỹ −= (Z D⁻¹)(Zᵀ Ỹ) (k rank-1 row updates).
         for h in 0..nhc {
-            let (side, i) = d.from[hc + h];
-            let gt = match side {
-                Side::A => &d.phi[boa + ja * nha + i].0,
-                Side::B => &d.phi[bob + jb * nhb + i].0,
-            };
-            y_tilde(&mut d.y[h], gt, &l, &d.z[vo..vo + k], &zd);
+            let (bo, nh, j, i) = from(h);
+            let g = cross_rows(&d.phi, bo, nh, j, i);
+            y_tilde(&mut d.y[h], &g, &l, &d.z[vo..vo + k], &zd);
         }
         rows = 6;
     }
-    // Φ^C blocks: same side Φ_hk − Ỹ_hᵀỸ_k; across +Ỹ_hᵀỸ_k. Then b^C.
+    // Φ^C blocks (h ≤ k only; a diagonal block's upper triangle only): same side
+    // Φ_hk − Ỹ_hᵀỸ_k; across +Ỹ_hᵀỸ_k. A side's handles keep their order in C, so a same-side
+    // pair h ≤ k is a stored block of that side too. Then b^C.
     let (src, dst) = d.phi.split_at_mut(bc);
+    let (dsrc, ddst) = d.dg.split_at_mut(hc);
+    let (hoa, hob) = (d.hoff[a], d.hoff[b]);
     for h in 0..nhc {
         let (sh, ih) = d.from[hc + h];
-        for kk in h..nhc {
+        let yh = &d.y[h];
+        let old = match sh {
+            Side::A => &dsrc[hoa + ih],
+            Side::B => &dsrc[hob + ih],
+        };
+        match rows {
+            5 => gram_sym_into::<5>(&mut ddst[h], yh, old),
+            _ => gram_sym_into::<6>(&mut ddst[h], yh, old),
+        }
+        for kk in h + 1..nhc {
             let (sk, ik) = d.from[hc + kk];
-            // Row r of Ỹ_hᵀ Ỹ_k is Σ_i Ỹ_h[i][r] · (row i of Ỹ_k): six accumulators per row.
-            let (yh, yk) = (&d.y[h], &d.y[kk]);
+            let yk = &d.y[kk];
             let old = match (sh, sk) {
-                (Side::A, Side::A) => Some(&src[boa + ih * nha + ik].0),
-                (Side::B, Side::B) => Some(&src[bob + ih * nhb + ik].0),
+                (Side::A, Side::A) => Some(&src[boa + ub(nha, ih, ik)].0),
+                (Side::B, Side::B) => Some(&src[bob + ub(nhb, ih, ik)].0),
                 _ => None,
             };
-            let out = &mut dst[h * nhc + kk].0;
-            match (h == kk, rows) {
-                (true, 5) => gram_sym_into::<5>(out, yh, old),
-                (true, _) => gram_sym_into::<6>(out, yh, old),
-                (false, 5) => gram_into::<5>(out, yh, yk, old),
-                (false, _) => gram_into::<6>(out, yh, yk, old),
-            }
-            if h == kk {
-                // Symmetric: mirror the upper triangle (round-off would differ below).
-                for r in 0..6 {
-                    for c in 0..r {
-                        out[r][c] = out[c][r];
-                    }
-                }
-            } else {
-                let t = Mat6(*out).transpose();
-                dst[kk * nhc + h] = t;
+            let out = &mut dst[ub(nhc, h, kk)].0;
+            match rows {
+                5 => gram_into::<5>(out, yh, yk, old),
+                _ => gram_into::<6>(out, yh, yk, old),
             }
         }
-        // b^C_h = b^A_h − Φ^A_hj γ  or  b^B_h + Φ^B_hj γ  (Φ_hj γ = Φ_jhᵀ γ)
+        // b^C_h = b^A_h − Φ^A_hj γ  or  b^B_h + Φ^B_hj γ
+        let (bo, nh, j, i) = from(h);
+        let phj_gamma = if j < i {
+            mat_tr_vec(&src[bo + ub(nh, j, i)].0, &gamma)
+        } else {
+            mat_vec(&src[bo + ub(nh, i, j)].0, &gamma)
+        };
         d.b[hc + h] = match sh {
-            Side::A => {
-                d.b[d.hoff[a] + ih]
-                    - SpatialMotion::from_array(src[boa + ja * nha + ih].tr_mul_vec(&gamma))
-            }
-            Side::B => {
-                d.b[d.hoff[b] + ih]
-                    + SpatialMotion::from_array(src[bob + jb * nhb + ih].tr_mul_vec(&gamma))
-            }
+            Side::A => d.b[d.hoff[a] + ih] - SpatialMotion::from_array(phj_gamma),
+            Side::B => d.b[d.hoff[b] + ih] + SpatialMotion::from_array(phj_gamma),
         };
     }
     Ok(())
+}
+
+/// The upper triangle of a symmetric 6×6, packed.
+#[inline(always)]
+fn pack(m: &[[f64; 6]; 6]) -> Sym6 {
+    let mut p = Sym6::ZERO;
+    for r in 0..6 {
+        for c in r..6 {
+            p.0[SYM_ROW[r] + c - r] = m[r][c];
+        }
+    }
+    p
+}
+
+/// Φ_jh (j ≠ h) of a node with `nh` handles and blocks at `bo`, as rows: only the blocks on
+/// and above the diagonal are stored (`Φ_hj = Φ_jhᵀ`).
+#[inline(always)]
+fn cross_rows(phi: &[Mat6], bo: usize, nh: usize, j: usize, h: usize) -> [[f64; 6]; 6] {
+    if j < h {
+        phi[bo + ub(nh, j, h)].0
+    } else {
+        phi[bo + ub(nh, h, j)].transpose().0
+    }
 }
 
 /// `Ỹ = Q L⁻¹ G` for `G = Φ_jh`: forward substitution on whole rows (vectorises), then the
@@ -385,143 +463,176 @@ fn y_tilde(
     }
 }
 
-/// The constraint basis of a 1-DOF joint with subspace column `s` at its point (see
-/// [`crate::data::Basis`]): `m` the largest entry of the moving half, so `|r_a|, |r_b| ≤ 1`.
+/// A pair `p`, `q` completing ω to an orthogonal basis: `p = ω × e` with `e` the coordinate
+/// axis least aligned with ω (`|p| ≥ √(2/3) |ω|`), `q = ω × p`. T need not be orthonormal (W
+/// does not depend on the basis), so no square root or division enters.
 #[inline(always)]
-fn basis(mut s: [f64; 6], prismatic: bool) -> Basis {
-    let off = if prismatic { 3 } else { 0 };
-    // The other half is zero for an axis through the point (exact for a revolute axis
-    // through the body origin; rounding otherwise).
-    for x in &mut s[3 - off..6 - off] {
-        *x = 0.0;
-    }
-    let v = [s[off], s[off + 1], s[off + 2]];
-    let m = if v[0].abs() >= v[1].abs() && v[0].abs() >= v[2].abs() {
-        0
-    } else if v[1].abs() >= v[2].abs() {
-        1
+fn perpendicular_pair(w: DVec3) -> ([f64; 3], [f64; 3]) {
+    let a = w.abs();
+    let e = if a.x <= a.y && a.x <= a.z {
+        DVec3::X
+    } else if a.y <= a.z {
+        DVec3::Y
     } else {
-        2
+        DVec3::Z
     };
-    let (a, b) = ((m + 1) % 3, (m + 2) % 3);
-    Basis {
-        one_dof: true,
-        prismatic,
-        m: off + m,
-        a: off + a,
-        b: off + b,
-        keep: if prismatic { [0, 1, 2] } else { [3, 4, 5] },
-        ra: v[a] / v[m],
-        rb: v[b] / v[m],
-        s,
-        ft: [0.0; 6],
-        qt: 0.0,
-        g: [0.0; 6],
-    }
+    let p = w.cross(e);
+    let q = w.cross(p);
+    (p.to_array(), q.to_array())
 }
 
-/// `Tᵀ x`.
+/// `G x`, inlined (a result returned through memory in pieces stalls the vector loads that
+/// read it).
+#[inline(always)]
+fn mat_vec(g: &[[f64; 6]; 6], x: &[f64; 6]) -> [f64; 6] {
+    std::array::from_fn(|r| dot6(&g[r], x))
+}
+
+/// `Gᵀ x = Σ_r x_r (row r of G)`, inlined.
+#[inline(always)]
+fn mat_tr_vec(g: &[[f64; 6]; 6], x: &[f64; 6]) -> [f64; 6] {
+    let mut y = [0.0; 6];
+    for (row, &xr) in g.iter().zip(x) {
+        for c in 0..6 {
+            y[c] += row[c] * xr;
+        }
+    }
+    y
+}
+
+#[inline(always)]
+fn dot3(a: &[f64; 3], x: &[f64]) -> f64 {
+    a[0] * x[0] + a[1] * x[1] + a[2] * x[2]
+}
+
+/// `Tᵀ x = [p·x_ω, q·x_ω, x_v]`.
 #[inline(always)]
 fn t_tr(x: &[f64; 6], bs: &Basis) -> [f64; 5] {
+    [dot3(&bs.p, &x[..3]), dot3(&bs.q, &x[..3]), x[3], x[4], x[5]]
+}
+
+/// `T λ = [λ_0 p + λ_1 q; λ_2, λ_3, λ_4]`.
+#[inline(always)]
+fn t_mul(bs: &Basis, l: [f64; 5]) -> [f64; 6] {
+    let (p, q) = (&bs.p, &bs.q);
     [
-        x[bs.a] - bs.ra * x[bs.m],
-        x[bs.b] - bs.rb * x[bs.m],
-        x[bs.keep[0]],
-        x[bs.keep[1]],
-        x[bs.keep[2]],
+        l[0] * p[0] + l[1] * q[0],
+        l[0] * p[1] + l[1] * q[1],
+        l[0] * p[2] + l[1] * q[2],
+        l[2],
+        l[3],
+        l[4],
     ]
 }
 
-/// `Tᵀ K T` (5×5, in the leading block) for a symmetric `K`.
+/// `Tᵀ K T` (5×5 lower triangle, in the leading block) for a symmetric `K`: with `K P` the
+/// products of K's rows with `P = [p q]`.
 #[inline(always)]
 fn reduce(k: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 6] {
-    let rows = t_rows(k, bs);
+    let kp: [[f64; 2]; 6] = std::array::from_fn(|r| [dot3(&bs.p, &k[r]), dot3(&bs.q, &k[r])]);
     let mut out = [[0.0; 6]; 6];
-    for i in 0..5 {
-        let t = t_tr(&rows[i], bs);
-        out[i][..5].copy_from_slice(&t);
+    out[0][0] = bs.p[0] * kp[0][0] + bs.p[1] * kp[1][0] + bs.p[2] * kp[2][0];
+    out[1][0] = bs.q[0] * kp[0][0] + bs.q[1] * kp[1][0] + bs.q[2] * kp[2][0];
+    out[1][1] = bs.q[0] * kp[0][1] + bs.q[1] * kp[1][1] + bs.q[2] * kp[2][1];
+    for r in 0..3 {
+        out[2 + r][0] = kp[3 + r][0];
+        out[2 + r][1] = kp[3 + r][1];
+        for c in 0..=r {
+            out[2 + r][2 + c] = k[3 + r][3 + c];
+        }
     }
     out
+}
+
+/// The rows of `Tᵀ Gᵀ` (G's columns combined).
+#[inline(always)]
+fn t_cols(g: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 5] {
+    [
+        std::array::from_fn(|c| dot3(&bs.p, &g[c])),
+        std::array::from_fn(|c| dot3(&bs.q, &g[c])),
+        std::array::from_fn(|c| g[c][3]),
+        std::array::from_fn(|c| g[c][4]),
+        std::array::from_fn(|c| g[c][5]),
+    ]
 }
 
 /// The rows of `Tᵀ G` (G's rows combined).
 #[inline(always)]
 fn t_rows(g: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 5] {
-    let (gm, ga, gb) = (&g[bs.m], &g[bs.a], &g[bs.b]);
+    let (p, q) = (&bs.p, &bs.q);
     [
-        std::array::from_fn(|c| ga[c] - bs.ra * gm[c]),
-        std::array::from_fn(|c| gb[c] - bs.rb * gm[c]),
-        g[bs.keep[0]],
-        g[bs.keep[1]],
-        g[bs.keep[2]],
+        std::array::from_fn(|c| p[0] * g[0][c] + p[1] * g[1][c] + p[2] * g[2][c]),
+        std::array::from_fn(|c| q[0] * g[0][c] + q[1] * g[1][c] + q[2] * g[2][c]),
+        g[3],
+        g[4],
+        g[5],
     ]
 }
 
-/// `T (TᵀKT)⁻¹ Tᵀ y` (`m` the Cholesky factor of `TᵀKT`, inverse diagonal), the two 5×5
-/// triangular solves written out.
+/// `T (TᵀKT)⁻¹ Tᵀ y` (`m` the `L D Lᵀ` factors of `TᵀKT` from [`crate::small::ldl5`]), the
+/// two unit triangular solves written out.
 #[inline(always)]
 fn w_apply(m: &[[f64; 6]; 6], bs: &Basis, y: &[f64; 6]) -> [f64; 6] {
     let u = t_tr(y, bs);
-    // M x = u
-    let x0 = u[0] * m[0][0];
-    let x1 = (u[1] - m[1][0] * x0) * m[1][1];
-    let x2 = (u[2] - m[2][0] * x0 - m[2][1] * x1) * m[2][2];
-    let x3 = (u[3] - m[3][0] * x0 - m[3][1] * x1 - m[3][2] * x2) * m[3][3];
-    let x4 = (u[4] - m[4][0] * x0 - m[4][1] * x1 - m[4][2] * x2 - m[4][3] * x3) * m[4][4];
-    // Mᵀ λ = x
+    // L x = u
+    let x0 = u[0];
+    let x1 = u[1] - m[1][0] * x0;
+    let x2 = u[2] - m[2][0] * x0 - m[2][1] * x1;
+    let x3 = u[3] - m[3][0] * x0 - m[3][1] * x1 - m[3][2] * x2;
+    let x4 = u[4] - m[4][0] * x0 - m[4][1] * x1 - m[4][2] * x2 - m[4][3] * x3;
+    // Lᵀ λ = D⁻¹ x
     let l4 = x4 * m[4][4];
-    let l3 = (x3 - m[4][3] * l4) * m[3][3];
-    let l2 = (x2 - m[3][2] * l3 - m[4][2] * l4) * m[2][2];
-    let l1 = (x1 - m[2][1] * l2 - m[3][1] * l3 - m[4][1] * l4) * m[1][1];
-    let l0 = (x0 - m[1][0] * l1 - m[2][0] * l2 - m[3][0] * l3 - m[4][0] * l4) * m[0][0];
-    let mut f = [0.0; 6];
-    f[bs.a] = l0;
-    f[bs.b] = l1;
-    f[bs.m] = -bs.ra * l0 - bs.rb * l1;
-    f[bs.keep[0]] = l2;
-    f[bs.keep[1]] = l3;
-    f[bs.keep[2]] = l4;
-    f
+    let l3 = x3 * m[3][3] - m[4][3] * l4;
+    let l2 = x2 * m[2][2] - m[3][2] * l3 - m[4][2] * l4;
+    let l1 = x1 * m[1][1] - m[2][1] * l2 - m[3][1] * l3 - m[4][1] * l4;
+    let l0 = x0 * m[0][0] - m[1][0] * l1 - m[2][0] * l2 - m[3][0] * l3 - m[4][0] * l4;
+    t_mul(bs, [l0, l1, l2, l3, l4])
 }
 
-/// What the back-substitution needs besides `W`: `g = W K s − s`, which gives
-/// `q̈ = (gᵀ y) / sᵀs + q̈_τ τ` for `K f = y + s q̈` (`sᵀ (K W y − y) = gᵀ y`, `W` symmetric),
-/// and the joint force and `q̈` per unit joint torque, `f_τ = f₀ − W K f₀` with
-/// `f₀ = e_m / s_m` (`sᵀ f_τ = 1`, `Tᵀ K f_τ = 0`) and `q̈_τ = sᵀ K f_τ / sᵀs = −gᵀ K f₀ / sᵀs`.
-/// Joint torques enter linearly, so a huge τ cannot overflow an intermediate product.
+/// What the back-substitution needs besides `W`: `g = (W K s − s) / sᵀs`, which gives
+/// `q̈ = gᵀ y + q̈_τ τ` for `K f = y + s q̈` (`sᵀ (K W y − y) = (W K s − s)ᵀ y`, `W`
+/// symmetric), and with the unit-torque force `f₀ = s / sᵀs` (`sᵀ f₀ = 1`) the joint force per
+/// unit torque `f_τ = f₀ − W K f₀ = −g` (`sᵀ f_τ = 1`, `Tᵀ K f_τ = 0`) and
+/// `q̈_τ = sᵀ K f_τ / sᵀs = −gᵀ K s / sᵀs`. Joint torques enter linearly, so a huge τ cannot
+/// overflow an intermediate product.
 #[inline(always)]
 fn joint_terms(k: &[[f64; 6]; 6], m: &[[f64; 6]; 6], bs: &mut Basis) {
-    let ks = Mat6(*k).mul_vec(&bs.s);
+    let w = bs.w;
+    let ks: [f64; 6] = std::array::from_fn(|r| dot3(&w, &k[r])); // K s, s = [ω; 0]
     let wks = w_apply(m, bs, &ks);
-    let g: [f64; 6] = std::array::from_fn(|i| wks[i] - bs.s[i]);
-    let f0 = 1.0 / bs.s[bs.m];
-    let kf0: [f64; 6] = std::array::from_fn(|i| k[bs.m][i] * f0); // K e_m f₀ (K symmetric)
-    let mut ft = w_apply(m, bs, &kf0);
-    for x in ft.iter_mut() {
-        *x = -*x;
-    }
-    ft[bs.m] += f0;
-    let ss = dot6(&bs.s, &bs.s);
-    bs.qt = -dot6(&g, &kf0) / ss;
-    bs.g = g.map(|x| x / ss);
-    bs.ft = ft;
+    let ss = dot3(&w, &w);
+    let iss = 1.0 / ss;
+    let g = [
+        (wks[0] - w[0]) * iss,
+        (wks[1] - w[1]) * iss,
+        (wks[2] - w[2]) * iss,
+        wks[3] * iss,
+        wks[4] * iss,
+        wks[5] * iss,
+    ];
+    bs.qt = -dot6(&g, &ks) * iss;
+    bs.g = g;
 }
 
-/// `Ỹ = M⁻¹ Tᵀ G` (5 rows) for `G = Φ_jh`: forward substitution on whole rows.
-#[inline(never)]
-fn y_reduced(yt: &mut [[f64; 6]; 6], gt: &[[f64; 6]; 6], m: &[[f64; 6]; 6], bs: &Basis) {
-    let tg = t_rows(gt, bs);
-    for r in 0..5 {
-        let mut v = tg[r];
-        for q in 0..r {
+/// `Ỹ = D^{-1/2} L⁻¹ Tᵀ G` (5 rows; `M = L D^{1/2}` the Cholesky factor of `TᵀKT`, `m` its
+/// [`crate::small::ldl5`] form) for `G = Φ_jh`, from the rows `z` of `Tᵀ G`: unit forward
+/// substitution on whole rows, then each row scaled.
+#[inline(always)]
+fn y_reduced(yt: &mut [[f64; 6]; 6], mut z: [[f64; 6]; 5], m: &[[f64; 6]; 6]) {
+    for r in 1..5 {
+        let (done, rest) = z.split_at_mut(r);
+        let v = &mut rest[0];
+        for (q, zq) in done.iter().enumerate() {
             let mrq = m[r][q];
             for c in 0..6 {
-                v[c] -= mrq * yt[q][c];
+                v[c] -= mrq * zq[c];
             }
         }
-        let inv = m[r][r];
+    }
+    for r in 0..5 {
+        let s = m[r][5];
         for c in 0..6 {
-            yt[r][c] = v[c] * inv;
+            yt[r][c] = z[r][c] * s;
         }
     }
 }
@@ -535,22 +646,26 @@ fn gram_into<const R: usize>(
     yk: &[[f64; 6]; 6],
     old: Option<&[[f64; 6]; 6]>,
 ) {
-    for r in 0..6 {
-        let mut acc = [0.0; 6];
+    // Two rows at a time: each row of Ỹ_k is loaded once for both.
+    for r in (0..6).step_by(2) {
+        let mut acc = [[0.0; 6]; 2];
         for i in 0..R {
-            let x = yh[i][r];
+            let (x0, x1) = (yh[i][r], yh[i][r + 1]);
             let yki = &yk[i];
             for c in 0..6 {
-                acc[c] += x * yki[c];
+                acc[0][c] += x0 * yki[c];
+                acc[1][c] += x1 * yki[c];
             }
         }
-        match old {
-            Some(o) => {
-                for c in 0..6 {
-                    out[r][c] = o[r][c] - acc[c];
+        for (dr, acc) in acc.iter().enumerate() {
+            match old {
+                Some(o) => {
+                    for c in 0..6 {
+                        out[r + dr][c] = o[r + dr][c] - acc[c];
+                    }
                 }
+                None => out[r + dr] = *acc,
             }
-            None => out[r] = acc,
         }
     }
 }
@@ -558,22 +673,14 @@ fn gram_into<const R: usize>(
 /// [`gram_into`] for a diagonal block (`Ỹ_k = Ỹ_h`, symmetric): only the entries on and above
 /// the diagonal, in pairs of columns (rows 2p and 2p+1 start at column 2p); the caller mirrors.
 #[inline(never)]
-fn gram_sym_into<const R: usize>(
-    out: &mut [[f64; 6]; 6],
-    y: &[[f64; 6]; 6],
-    old: Option<&[[f64; 6]; 6]>,
-) {
+fn gram_sym_into<const R: usize>(out: &mut Sym6, y: &[[f64; 6]; 6], old: &Sym6) {
     gram_rows::<0, R>(out, y, old);
     gram_rows::<2, R>(out, y, old);
     gram_rows::<4, R>(out, y, old);
 }
 
 #[inline(always)]
-fn gram_rows<const C0: usize, const R: usize>(
-    out: &mut [[f64; 6]; 6],
-    y: &[[f64; 6]; 6],
-    old: Option<&[[f64; 6]; 6]>,
-) {
+fn gram_rows<const C0: usize, const R: usize>(out: &mut Sym6, y: &[[f64; 6]; 6], old: &Sym6) {
     for r in C0..C0 + 2 {
         let mut acc = [0.0; 6];
         for i in 0..R {
@@ -582,13 +689,9 @@ fn gram_rows<const C0: usize, const R: usize>(
                 acc[c] += x * y[i][c];
             }
         }
-        match old {
-            Some(o) => {
-                for c in C0..6 {
-                    out[r][c] = o[r][c] - acc[c];
-                }
-            }
-            None => out[r][C0..6].copy_from_slice(&acc[C0..6]),
+        let o = SYM_ROW[r] - r;
+        for c in r..6 {
+            out.0[o + c] = old.0[o + c] - acc[c];
         }
     }
 }
@@ -616,20 +719,24 @@ fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
         for h in 0..nhc {
             let f = d.f[hc + h];
             match d.from[hc + h] {
-                (Side::A, i) => y += phi(d, a, nha, ja, i).force_to_motion(f),
-                (Side::B, i) => y -= phi(d, b, nhb, jb, i).force_to_motion(f),
+                (Side::A, i) => y += phi_jh_mul(d, a, nha, ja, i, f),
+                (Side::B, i) => y -= phi_jh_mul(d, b, nhb, jb, i, f),
             }
         }
         let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
         let l = &d.l[n];
         let f = if d.basis[n].one_dof {
-            // f = W y + f_τ τ (so K f = y + s q̈); q̈ = gᵀ y / sᵀs + q̈_τ τ (`joint_terms`).
+            // f = W y + f_τ τ (so K f = y + s q̈); q̈ = gᵀ y + q̈_τ τ (`joint_terms`).
             let bs = &d.basis[n];
             let ya = y.to_array();
             let fy = w_apply(l, bs, &ya);
             let t = tau[vo];
             data.qdd[vo] = dot6(&bs.g, &ya) + bs.qt * t;
-            SpatialForce::from_array(std::array::from_fn(|i| fy[i] + bs.ft[i] * t))
+            let mut f = [0.0; 6];
+            for i in 0..6 {
+                f[i] = fy[i] - bs.g[i] * t;
+            }
+            SpatialForce::from_array(f)
         } else {
             let mut w = solve_l(l, &y.to_array());
             let mut r = [0.0; 6];

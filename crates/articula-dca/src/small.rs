@@ -46,17 +46,52 @@ pub fn cholesky6(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
     ok.then_some(l)
 }
 
-/// [`cholesky6`] of the leading 5×5 block (same inverse-diagonal convention).
+/// `L D Lᵀ` of the leading 5×5 block of a symmetric positive definite matrix (its lower
+/// triangle is read) into `l`, `false` when a pivot is not positive. Below the diagonal: the unit lower
+/// factor L; on it: `1 / d_j`; in column 5: `1 / √d_j`, the inverse diagonal of the Cholesky
+/// factor `L D^{1/2}`. The recursion's critical path holds one division per column and no square
+/// root (those are taken at the end, independently of one another).
 #[inline(always)]
-pub fn cholesky5(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
-    let mut l = [[0.0f64; 6]; 6];
+pub fn ldl5(a: &[[f64; 6]; 6], l: &mut [[f64; 6]; 6]) -> bool {
+    // c_ij = L_ij d_j (i > j)
+    let mut c = [[0.0f64; 5]; 5];
     let mut ok = true;
-    col::<0, 5>(a, &mut l, &mut ok);
-    col::<1, 5>(a, &mut l, &mut ok);
-    col::<2, 5>(a, &mut l, &mut ok);
-    col::<3, 5>(a, &mut l, &mut ok);
-    col::<4, 5>(a, &mut l, &mut ok);
-    ok.then_some(l)
+    ldl_col::<0>(a, l, &mut c, &mut ok);
+    ldl_col::<1>(a, l, &mut c, &mut ok);
+    ldl_col::<2>(a, l, &mut c, &mut ok);
+    ldl_col::<3>(a, l, &mut c, &mut ok);
+    ldl_col::<4>(a, l, &mut c, &mut ok);
+    for (j, row) in l.iter_mut().enumerate().take(5) {
+        row[5] = row[j].sqrt();
+    }
+    ok
+}
+
+/// Column `J` of [`ldl5`]: `d_J = a_JJ − Σ_p L_Jp c_Jp`, `c_iJ = a_iJ − Σ_p L_ip c_Jp`,
+/// `L_iJ = c_iJ / d_J`.
+#[inline(always)]
+fn ldl_col<const J: usize>(
+    a: &[[f64; 6]; 6],
+    l: &mut [[f64; 6]; 6],
+    c: &mut [[f64; 5]; 5],
+    ok: &mut bool,
+) {
+    let mut d = a[J][J];
+    for p in 0..J {
+        d -= l[J][p] * c[J][p];
+    }
+    // `!(d > 0)` also catches NaN.
+    *ok &= d > 0.0;
+    let inv = 1.0 / d;
+    l[J][J] = inv;
+    for i in (J + 1)..5 {
+        let mut x = a[i][J];
+        for p in 0..J {
+            x -= l[i][p] * c[J][p];
+        }
+        c[i][J] = x;
+        l[i][J] = x * inv;
+    }
 }
 
 /// Column `J` of the Cholesky factor of the leading N×N block (rows J..N), from the columns
