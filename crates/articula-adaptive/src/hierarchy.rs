@@ -7,10 +7,11 @@
 //! active joint sits at a constant pose in its rigid cluster (`prel`), and every body of a
 //! cluster shares the cluster's spatial velocity.
 
-use crate::hybrid::{Adaptive, Level, Rigid};
+use crate::dense;
+use crate::hybrid::{Adaptive, Rigid};
 use articula_dca::DynamicsError;
 use articula_model::{Model, NodeKind};
-use articula_spatial::{SpatialForce, SpatialMotion, SpatialTransform};
+use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform, SymMat6};
 use glam::DVec3;
 
 /// Lists and frames of the current hybrid body.
@@ -34,6 +35,20 @@ pub(crate) struct Hierarchy {
     /// cluster's top-body frame.
     pub pcl: Vec<usize>,
     pub prel: Vec<SpatialTransform>,
+    /// Per active body: its rigid cluster (the frontier node whose top body it is), and the
+    /// active body topping the cluster that holds its parent (`usize::MAX`: the world or a
+    /// cluster welded to the ground).
+    pub cl: Vec<usize>,
+    pub par: Vec<usize>,
+    /// Articulated-body workspace of the reduced tree (one rigid cluster per active body):
+    /// per active body `Iᴬ`, `pᴬ`, `D⁻¹` and the cluster's acceleration; per degree of
+    /// freedom `U = Iᴬ s` and `u = τ − sᵀ pᴬ`.
+    pub ia: Vec<SymMat6>,
+    pub pa: Vec<SpatialForce>,
+    pub dinv: Vec<[[f64; 6]; 6]>,
+    pub acc: Vec<SpatialMotion>,
+    pub u: Vec<[f64; 6]>,
+    pub uu: Vec<f64>,
 }
 
 impl Adaptive {
@@ -59,6 +74,14 @@ impl Adaptive {
         h.abody.clear();
         h.abody.resize(model.bodies.len(), false);
         h.pcl.resize(model.bodies.len(), usize::MAX);
+        h.cl.resize(model.bodies.len(), usize::MAX);
+        h.par.resize(model.bodies.len(), usize::MAX);
+        h.ia.resize(model.bodies.len(), SymMat6::default());
+        h.pa.resize(model.bodies.len(), SpatialForce::ZERO);
+        h.dinv.resize(model.bodies.len(), [[0.0; 6]; 6]);
+        h.acc.resize(model.bodies.len(), SpatialMotion::ZERO);
+        h.u.resize(model.nv, [0.0; 6]);
+        h.uu.resize(model.nv, 0.0);
         h.prel
             .resize(model.bodies.len(), SpatialTransform::IDENTITY);
         h.hnodes.clear();
@@ -117,6 +140,7 @@ impl Adaptive {
             }
             self.hier.ajoints.push(j);
             self.hier.pcl[j] = usize::MAX;
+            self.hier.par[j] = usize::MAX;
             if let Some(p) = model.bodies[j].parent {
                 if !self.hier.abody[p] {
                     // Walk up from the parent's leaf to the frontier node holding it.
@@ -128,8 +152,21 @@ impl Adaptive {
                     }
                     self.hier.pcl[j] = n;
                     self.hier.prel[j] = x;
+                    if !self.grounded[n] {
+                        // The cluster's top body: its joint is one of the cluster's handles,
+                        // all of which are active.
+                        self.hier.par[j] = self.top[n];
+                    }
+                } else {
+                    self.hier.par[j] = p;
                 }
             }
+            // The cluster j tops: the frontier node above j's leaf.
+            let mut n = tree.body_leaf[j];
+            while let Some(par) = tree.nodes[n].parent.filter(|&q| !self.active[q]) {
+                n = par;
+            }
+            self.hier.cl[j] = n;
         }
         self.hier.valid = true;
     }
@@ -162,10 +199,15 @@ impl Adaptive {
         }
     }
 
-    /// One hybrid-body step between re-selections: kinematics of the active joints, the rigid
-    /// frontier's composites from the hierarchical state, the main pass and back-substitution
-    /// over the active region, with the external wrenches of `fsparse`. Writes `qdd` (zero
-    /// outside the active region).
+    /// One hybrid-body step between re-selections: kinematics of the active joints, then the
+    /// hybrid body's forward dynamics over its reduced tree — one rigid cluster (frontier node)
+    /// per active joint, with the cluster's composite inertia from the hierarchical state — by
+    /// the articulated-body algorithm (Featherstone, RBDA Table 7.1) in the computation frame,
+    /// with the external wrenches of `fsparse` gathered per cluster. The hybrid body is the
+    /// same mechanical system the DCA main pass and back-substitution solve
+    /// ([`Adaptive::set_full_passes`] runs those; tested equal to 1e-10), at a fraction of the
+    /// cost per joint: the clusters' handle blocks are never formed. Writes `qdd` (zero outside
+    /// the active region).
     pub(crate) fn hybrid_step(
         &mut self,
         model: &Model,
@@ -176,21 +218,9 @@ impl Adaptive {
         let tree = &model.assembly;
         self.data.origin = articula_dca::computation_origin(model, q);
         self.active_kinematics(model, q, qd);
-        // Frontier composites in the computation frame; forces gathered per cluster.
         for idx in 0..self.hier.fnodes.len() {
             let f = self.hier.fnodes[idx];
             self.fsum[f] = SpatialForce::ZERO;
-            if self.grounded[f] {
-                continue;
-            }
-            let x = self.data.x[self.top[f]];
-            let (r, _) = x.to_pose();
-            let rl = self.hier.rig[f];
-            self.comp[f] = Rigid {
-                m: rl.m,
-                c: x.apply_point(rl.c),
-                ic: r * rl.ic * r.transpose(),
-            };
         }
         // An external force on a rigid part goes to its cluster: a walk up the tree.
         if !self.fsparse.is_empty() {
@@ -204,36 +234,144 @@ impl Adaptive {
                 self.fsum[n] += x_cw.apply_force(fe);
             }
         }
-        self.touched = 0;
-        let (mut hi, mut fi) = (0, 0);
-        // Merge the two ascending lists: post-order, children first.
-        while hi < self.hier.hnodes.len() || fi < self.hier.fnodes.len() {
-            let take_f = hi == self.hier.hnodes.len()
-                || (fi < self.hier.fnodes.len() && self.hier.fnodes[fi] < self.hier.hnodes[hi]);
-            self.touched += 1;
-            if take_f {
-                let f = self.hier.fnodes[fi];
-                fi += 1;
-                if self.grounded[f] {
-                    self.ground_coefficients(f);
-                } else {
-                    let (r, v) = (self.comp[f], self.data.v[self.top[f]]);
-                    self.rigid_coefficients(model, f, &r, v, self.fsum[f], Level::Acceleration)?;
-                }
-            } else {
-                let n = self.hier.hnodes[hi];
-                hi += 1;
-                self.join(model, n, tau, Level::Acceleration)?;
-            }
+        // The nodes this stands for: the active joins and the rigid frontier.
+        self.touched = self.hier.hnodes.len() + self.hier.fnodes.len();
+        let h = &mut self.hier;
+        // Pass 1: each cluster's spatial inertia (from its top-body frame) and bias force
+        // `pᴬ = v ×* I v − f_ext` (gravity enters as the world's acceleration −a_g).
+        for &j in &h.ajoints {
+            let f = h.cl[j];
+            let x = self.data.x[j];
+            let (r, _) = x.to_pose();
+            let rl = h.rig[f];
+            let inertia = SpatialInertia::new(rl.m, x.apply_point(rl.c), r * rl.ic * r.transpose());
+            let v = self.data.v[j];
+            h.ia[j] = inertia.to_mat6();
+            h.pa[j] = v.cross_force(inertia.mul_motion(v)) - self.fsum[f];
         }
-        // q̈ outside the active region stays 0 from the re-selection step.
-        let root = tree.root();
-        let (ho, nh) = (self.lay.hoff[root], self.nh[root]);
-        self.f[ho..ho + nh].fill(SpatialForce::ZERO);
-        for idx in (0..self.hier.hnodes.len()).rev() {
-            let n = self.hier.hnodes[idx];
-            self.expand(model, n);
+        // Pass 2, leaves to root: U = Iᴬ S, D = Sᵀ U, u = τ − Sᵀ pᴬ; the parent cluster gets
+        // Iᵃ = Iᴬ − U D⁻¹ Uᵀ and pᵃ = pᴬ + Iᵃ c + U D⁻¹ u.
+        for idx in (0..h.ajoints.len()).rev() {
+            let j = h.ajoints[idx];
+            let body = &model.bodies[j];
+            let (vo, k) = (body.v_offset, body.nv);
+            let ia = h.ia[j];
+            let pa = h.pa[j];
+            let parent = h.par[j];
+            if k == 1 {
+                let s = self.data.s[vo].to_array();
+                let u = ia.mul_vec(&s);
+                let d = dot6(&s, &u);
+                if d.is_nan() || d <= 0.0 {
+                    return Err(singular(model, j));
+                }
+                let dinv = 1.0 / d;
+                let uu = tau[vo] - self.data.s[vo].dot(pa);
+                h.u[vo] = u;
+                h.uu[vo] = uu;
+                h.dinv[j][0][0] = dinv;
+                if parent == usize::MAX {
+                    continue;
+                }
+                let c = self.data.c[j].to_array();
+                let ic = ia.mul_vec(&c);
+                let g = dinv * (uu - dot6(&c, &u));
+                let add = SpatialForce::from_array(std::array::from_fn(|r| ic[r] + u[r] * g));
+                h.pa[parent] += pa + add;
+                let (lo, hi) = h.ia.split_at_mut(j);
+                lo[parent].add_sub_outer(&hi[0], &u, dinv);
+                continue;
+            }
+            let mut d = [[0.0; 6]; 6];
+            for p in 0..k {
+                let u = ia.mul_vec(&self.data.s[vo + p].to_array());
+                h.u[vo + p] = u;
+                for qq in 0..=p {
+                    let x = dot6(&self.data.s[vo + qq].to_array(), &u);
+                    d[p][qq] = x;
+                    d[qq][p] = x;
+                }
+                h.uu[vo + p] = tau[vo + p] - self.data.s[vo + p].dot(pa);
+            }
+            let dinv = if k == 0 {
+                d
+            } else {
+                dense::spd_inverse(&d, k).ok_or_else(|| singular(model, j))?
+            };
+            h.dinv[j] = dinv;
+            if parent == usize::MAX {
+                continue;
+            }
+            // Iᵃ = Iᴬ − Σ_p U_p w_pᵀ (w_p = Σ_q D⁻¹_pq U_q), pᵃ = pᴬ + Iᵃ c + Σ_p U_p (D⁻¹u)_p.
+            let mut iaa = *ia.as_mat6();
+            let mut pa = pa;
+            for p in 0..k {
+                let mut w = [0.0; 6];
+                let mut du = 0.0;
+                for qq in 0..k {
+                    let x = dinv[p][qq];
+                    du += x * h.uu[vo + qq];
+                    for r in 0..6 {
+                        w[r] += x * h.u[vo + qq][r];
+                    }
+                }
+                let up = h.u[vo + p];
+                for r in 0..6 {
+                    for c in 0..6 {
+                        iaa.0[r][c] -= up[r] * w[c];
+                    }
+                }
+                pa += SpatialForce::from_array(up) * du;
+            }
+            let iaa = iaa.symmetric_part();
+            pa += iaa.motion_to_force(self.data.c[j]);
+            h.ia[parent].add_assign(&iaa);
+            h.pa[parent] += pa;
+        }
+        // Pass 3, root to leaves: a' = a_parent + c, q̈ = D⁻¹ (u − Uᵀ a'), a = a' + S q̈.
+        let a0 = SpatialMotion::new(DVec3::ZERO, -self.data.gravity);
+        for idx in 0..h.ajoints.len() {
+            let j = h.ajoints[idx];
+            let body = &model.bodies[j];
+            let (vo, k) = (body.v_offset, body.nv);
+            let parent = h.par[j];
+            let ap = if parent == usize::MAX {
+                a0
+            } else {
+                h.acc[parent]
+            } + self.data.c[j];
+            let apa = ap.to_array();
+            if k == 1 {
+                let x = h.dinv[j][0][0] * (h.uu[vo] - dot6(&apa, &h.u[vo]));
+                self.qdd[vo] = x;
+                h.acc[j] = ap + self.data.s[vo] * x;
+                continue;
+            }
+            let mut r = [0.0; 6];
+            for p in 0..k {
+                r[p] = h.uu[vo + p] - dot6(&apa, &h.u[vo + p]);
+            }
+            let mut a = ap;
+            for p in 0..k {
+                let x: f64 = (0..k).map(|qq| h.dinv[j][p][qq] * r[qq]).sum();
+                self.qdd[vo + p] = x;
+                a += self.data.s[vo + p] * x;
+            }
+            h.acc[j] = a;
         }
         Ok(())
+    }
+}
+
+#[inline(always)]
+fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
+}
+
+/// The error of a joint whose `Sᵀ Iᴬ S` is not positive definite.
+fn singular(model: &Model, j: usize) -> DynamicsError {
+    DynamicsError::Singular {
+        joint: model.bodies[j].joint_name(),
+        detail: "Sᵀ Iᴬ S of the hybrid body is not positive definite",
     }
 }

@@ -245,10 +245,62 @@ impl Adaptive {
         Ok(&self.qdd)
     }
 
-    /// The metric `A(C) = Fᵀ Ψ F + Fᵀ p + η` predicted at every node of the assembly tree from
-    /// its handle forces in the exact (fully articulated) solution, written into `out` (one per
-    /// node; 0 at leaves). The exact accelerations are left in [`Adaptive::qdd`].
+    /// The acceleration metric `A(C)` of every node of the assembly tree at its handle forces in
+    /// the exact (fully articulated) solution, written into `out` (one per node; 0 at leaves).
+    /// The exact accelerations are left in [`Adaptive::qdd`].
+    ///
+    /// At the exact handle forces the quadratic form `Fᵀ Ψ F + Fᵀ p + η` equals
+    /// `Σ_{i∈C} q̈ᵢᵀ Aᵢ q̈ᵢ` of the exact accelerations (DESIGN §6; tested against
+    /// [`Adaptive::predicted_node_metrics`] to 1e-8), so this sums that bottom-up after one exact
+    /// solve — articula-dca's articulated-body algorithm, the fastest exact solver on these
+    /// trees — instead of building Ψ, p, η: a fraction of the cost, and never negative.
     pub fn node_metrics(
+        &mut self,
+        model: &Model,
+        q: &[f64],
+        qd: &[f64],
+        tau: &[f64],
+        f_ext: &[SpatialForce],
+        out: &mut [f64],
+    ) -> Result<(), AdaptiveError> {
+        let qdd = articula_dca::forward_dynamics(
+            model,
+            &mut self.data,
+            q,
+            qd,
+            tau,
+            f_ext,
+            articula_dca::Method::Aba,
+        )?;
+        self.qdd.copy_from_slice(qdd);
+        for (n, node) in model.assembly.nodes.iter().enumerate() {
+            out[n] = match node.kind {
+                NodeKind::Join {
+                    joint,
+                    parent_side: a,
+                    child_side: b,
+                } => {
+                    let body = &model.bodies[joint];
+                    let (vo, k, wo) = (body.v_offset, body.nv, self.woff[joint]);
+                    let own = if k == 1 {
+                        self.aw[wo] * self.qdd[vo] * self.qdd[vo]
+                    } else {
+                        dense::quad(&self.aw[wo..wo + k * k], &self.qdd[vo..vo + k], k)
+                    };
+                    own + out[a] + out[b]
+                }
+                _ => 0.0,
+            };
+        }
+        Ok(())
+    }
+
+    /// The metric `A(C) = Fᵀ Ψ F + Fᵀ p + η` predicted at every node of the assembly tree from
+    /// its handle forces in the exact (fully articulated) solution — through the metric
+    /// coefficients Ψ, p, η of the whole tree, as the selection computes them — written into
+    /// `out` (one per node; 0 at leaves). The exact accelerations are left in
+    /// [`Adaptive::qdd`]. Same values as [`Adaptive::node_metrics`], at several times its cost.
+    pub fn predicted_node_metrics(
         &mut self,
         model: &Model,
         q: &[f64],
