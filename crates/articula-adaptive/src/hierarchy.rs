@@ -8,7 +8,7 @@
 //! cluster shares the cluster's spatial velocity.
 
 use crate::dense;
-use crate::hybrid::{Adaptive, Rigid};
+use crate::hybrid::{Adaptive, Level, Rigid};
 use articula_dca::DynamicsError;
 use articula_model::{Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform, SymMat6};
@@ -19,9 +19,7 @@ use glam::DVec3;
 pub(crate) struct Hierarchy {
     /// Built for the current hybrid body (cleared by a re-selection).
     pub valid: bool,
-    /// Per node: `X_{top(parent)←top(n)}` (valid while the parent is rigid).
-    pub up: Vec<SpatialTransform>,
-    /// Per node: mass properties in its top body's frame (the computation frame if grounded).
+    /// Per frontier node (rigid cluster): mass properties in its top body's frame.
     pub rig: Vec<Rigid>,
     /// Active join nodes, then frontier nodes, each ascending (post-order).
     pub hnodes: Vec<usize>,
@@ -62,79 +60,57 @@ impl Adaptive {
         }
     }
 
-    /// Builds the hierarchical state for the current hybrid body from the full kinematics in
-    /// `data` (right after a re-selection): mass properties of every rigid node in its top
-    /// frame, `up` transforms, the node and joint lists, and the parents' cluster poses.
+    /// Builds the hierarchical state for the current hybrid body (the `active` flags) from the
+    /// poses in `data` and the composites of [`Adaptive::composites`]: the node and joint lists,
+    /// the mass properties of every rigid cluster (frontier node) in its top body's frame, and
+    /// the pose of each active joint's parent body in its cluster's frame. Positions only:
+    /// velocities are not read.
     pub(crate) fn build_hierarchy(&mut self, model: &Model) {
         let tree = &model.assembly;
         let nn = tree.nodes.len();
+        let nb = model.bodies.len();
         let h = &mut self.hier;
-        h.up.resize(nn, SpatialTransform::IDENTITY);
         h.rig.resize(nn, Rigid::default());
         h.abody.clear();
-        h.abody.resize(model.bodies.len(), false);
-        h.pcl.resize(model.bodies.len(), usize::MAX);
-        h.cl.resize(model.bodies.len(), usize::MAX);
-        h.par.resize(model.bodies.len(), usize::MAX);
-        h.ia.resize(model.bodies.len(), SymMat6::default());
-        h.pa.resize(model.bodies.len(), SpatialForce::ZERO);
-        h.dinv.resize(model.bodies.len(), [[0.0; 6]; 6]);
-        h.acc.resize(model.bodies.len(), SpatialMotion::ZERO);
+        h.abody.resize(nb, false);
+        h.pcl.resize(nb, usize::MAX);
+        h.prel.resize(nb, SpatialTransform::IDENTITY);
+        h.cl.resize(nb, usize::MAX);
+        h.par.resize(nb, usize::MAX);
+        h.ia.resize(nb, SymMat6::default());
+        h.pa.resize(nb, SpatialForce::ZERO);
+        h.dinv.resize(nb, [[0.0; 6]; 6]);
+        h.acc.resize(nb, SpatialMotion::ZERO);
         h.u.resize(model.nv, [0.0; 6]);
         h.uu.resize(model.nv, 0.0);
-        h.prel
-            .resize(model.bodies.len(), SpatialTransform::IDENTITY);
         h.hnodes.clear();
         h.fnodes.clear();
         h.ajoints.clear();
         for n in 0..nn {
             let node = &tree.nodes[n];
-            let frame = self.top_frame(n);
-            let rig = match node.kind {
-                NodeKind::Ground => Rigid::default(),
-                NodeKind::Body(i) => {
-                    let bi = &model.bodies[i].inertia;
-                    Rigid {
-                        m: bi.mass,
-                        c: bi.com(),
-                        ic: bi.inertia_about_com(),
-                    }
-                }
-                NodeKind::Join {
-                    parent_side: a,
-                    child_side: b,
-                    ..
-                } => {
-                    // Children's mass properties carried into this node's top frame.
-                    let into = |c: usize, me: &Adaptive| -> Rigid {
-                        let x = frame.inverse() * me.top_frame(c);
-                        let (r, p) = x.to_pose();
-                        let rc = me.hier.rig[c];
-                        Rigid {
-                            m: rc.m,
-                            c: r * rc.c + p,
-                            ic: r * rc.ic * r.transpose(),
-                        }
-                    };
-                    let (ra, rb) = (into(a, self), into(b, self));
-                    ra.combine(&rb)
-                }
-            };
-            self.hier.rig[n] = rig;
-            if let Some(p) = node.parent {
-                self.hier.up[n] = self.top_frame(p).inverse() * frame;
-            }
-            let is_join = matches!(node.kind, NodeKind::Join { .. });
-            if is_join && self.active[n] {
-                self.hier.hnodes.push(n);
-                if let NodeKind::Join { joint, .. } = node.kind {
+            if let NodeKind::Join { joint, .. } = node.kind {
+                if self.active[n] {
+                    self.hier.hnodes.push(n);
                     self.hier.abody[joint] = true;
+                    continue;
                 }
-            } else if node.parent.is_none_or(|p| self.active[p]) {
+            }
+            if node.parent.is_none_or(|p| self.active[p]) {
                 self.hier.fnodes.push(n);
+                if !self.grounded[n] {
+                    // The composite (computation frame) carried into the top body's frame.
+                    let x = self.data.x[self.top[n]];
+                    let (r, _) = x.to_pose();
+                    let c = self.comp[n];
+                    self.hier.rig[n] = Rigid {
+                        m: c.m,
+                        c: x.inverse().apply_point(c.c),
+                        ic: r.transpose() * c.ic * r,
+                    };
+                }
             }
         }
-        for j in 0..model.bodies.len() {
+        for j in 0..nb {
             if !self.hier.abody[j] {
                 continue;
             }
@@ -145,13 +121,11 @@ impl Adaptive {
                 if !self.hier.abody[p] {
                     // Walk up from the parent's leaf to the frontier node holding it.
                     let mut n = tree.body_leaf[p];
-                    let mut x = SpatialTransform::IDENTITY;
                     while let Some(par) = tree.nodes[n].parent.filter(|&q| !self.active[q]) {
-                        x = self.hier.up[n] * x;
                         n = par;
                     }
                     self.hier.pcl[j] = n;
-                    self.hier.prel[j] = x;
+                    self.hier.prel[j] = self.top_frame(n).inverse() * self.data.x[p];
                     if !self.grounded[n] {
                         // The cluster's top body: its joint is one of the cluster's handles,
                         // all of which are active.
@@ -195,7 +169,6 @@ impl Adaptive {
             self.data.x[i] = x;
             self.data.v[i] = v;
             self.data.c[i] = c;
-            self.point[i] = x.apply_point(DVec3::ZERO);
         }
     }
 
@@ -234,6 +207,24 @@ impl Adaptive {
                 self.fsum[n] += x_cw.apply_force(fe);
             }
         }
+        self.fresh = false;
+        self.reduced_aba(model, tau, Level::Acceleration)
+    }
+
+    /// The forward dynamics of the hybrid body over its reduced tree (one rigid cluster per
+    /// active joint, the clusters' mass properties from the hierarchical state) by the
+    /// articulated-body algorithm in the computation frame, from the kinematics of the active
+    /// bodies in `data`: `q̈` of the active joints into `qdd` (other entries untouched). At
+    /// [`Level::Impulse`] there are no bias terms (no velocity products, gravity or external
+    /// forces) and `tau` holds generalized momenta: the result is the velocity after the
+    /// locking impulse.
+    pub(crate) fn reduced_aba(
+        &mut self,
+        model: &Model,
+        tau: &[f64],
+        level: Level,
+    ) -> Result<(), DynamicsError> {
+        let accel = level == Level::Acceleration;
         // The nodes this stands for: the active joins and the rigid frontier.
         self.touched = self.hier.hnodes.len() + self.hier.fnodes.len();
         let h = &mut self.hier;
@@ -245,9 +236,13 @@ impl Adaptive {
             let (r, _) = x.to_pose();
             let rl = h.rig[f];
             let inertia = SpatialInertia::new(rl.m, x.apply_point(rl.c), r * rl.ic * r.transpose());
-            let v = self.data.v[j];
             h.ia[j] = inertia.to_mat6();
-            h.pa[j] = v.cross_force(inertia.mul_motion(v)) - self.fsum[f];
+            h.pa[j] = if accel {
+                let v = self.data.v[j];
+                v.cross_force(inertia.mul_motion(v)) - self.fsum[f]
+            } else {
+                SpatialForce::ZERO
+            };
         }
         // Pass 2, leaves to root: U = Iᴬ S, D = Sᵀ U, u = τ − Sᵀ pᴬ; the parent cluster gets
         // Iᵃ = Iᴬ − U D⁻¹ Uᵀ and pᵃ = pᴬ + Iᵃ c + U D⁻¹ u.
@@ -273,7 +268,11 @@ impl Adaptive {
                 if parent == usize::MAX {
                     continue;
                 }
-                let c = self.data.c[j].to_array();
+                let c = if accel {
+                    self.data.c[j].to_array()
+                } else {
+                    [0.0; 6]
+                };
                 let ic = ia.mul_vec(&c);
                 let g = dinv * (uu - dot6(&c, &u));
                 let add = SpatialForce::from_array(std::array::from_fn(|r| ic[r] + u[r] * g));
@@ -324,22 +323,31 @@ impl Adaptive {
                 pa += SpatialForce::from_array(up) * du;
             }
             let iaa = iaa.symmetric_part();
-            pa += iaa.motion_to_force(self.data.c[j]);
+            if accel {
+                pa += iaa.motion_to_force(self.data.c[j]);
+            }
             h.ia[parent].add_assign(&iaa);
             h.pa[parent] += pa;
         }
         // Pass 3, root to leaves: a' = a_parent + c, q̈ = D⁻¹ (u − Uᵀ a'), a = a' + S q̈.
-        let a0 = SpatialMotion::new(DVec3::ZERO, -self.data.gravity);
+        let a0 = if accel {
+            SpatialMotion::new(DVec3::ZERO, -self.data.gravity)
+        } else {
+            SpatialMotion::ZERO
+        };
         for idx in 0..h.ajoints.len() {
             let j = h.ajoints[idx];
             let body = &model.bodies[j];
             let (vo, k) = (body.v_offset, body.nv);
             let parent = h.par[j];
-            let ap = if parent == usize::MAX {
+            let mut ap = if parent == usize::MAX {
                 a0
             } else {
                 h.acc[parent]
-            } + self.data.c[j];
+            };
+            if accel {
+                ap += self.data.c[j];
+            }
             let apa = ap.to_array();
             if k == 1 {
                 let x = h.dinv[j][0][0] * (h.uu[vo] - dot6(&apa, &h.u[vo]));

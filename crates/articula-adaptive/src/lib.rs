@@ -215,7 +215,11 @@ impl Adaptive {
         f_ext: &[SpatialForce],
     ) -> Result<(), AdaptiveError> {
         check_inputs(model, q, qd, tau, f_ext)?;
-        forward_kinematics(model, q, qd, &mut self.data);
+        // Kinematics left by node_metrics for this very state are reused.
+        if !(self.fresh && self.fresh_q == q && self.fresh_qd == qd) {
+            forward_kinematics(model, q, qd, &mut self.data);
+        }
+        self.fresh = false;
         let x_cw = SpatialTransform::xlt(self.data.origin);
         self.fext_c.clear();
         self.fext_c
@@ -273,6 +277,9 @@ impl Adaptive {
             articula_dca::Method::Aba,
         )?;
         self.qdd.copy_from_slice(qdd);
+        self.fresh = true;
+        self.fresh_q.copy_from_slice(q);
+        self.fresh_qd.copy_from_slice(qd);
         for (n, node) in model.assembly.nodes.iter().enumerate() {
             out[n] = match node.kind {
                 NodeKind::Join {
@@ -344,10 +351,10 @@ impl Adaptive {
         let mut touched = self.touched;
         self.metric_pass(model);
         self.last = self.select(model);
-        let locked = self.rebuild_hybrid(model, state)?;
+        // (An impulse changes velocities only: the composites stay valid.)
+        let locked = self.rebuild_hybrid(model, state, true)?;
         if locked {
             touched += self.touched;
-            self.composites(model);
         }
         self.touched = touched;
         Ok(locked)
@@ -443,7 +450,6 @@ impl Adaptive {
             self.hier.valid = false;
             report.rigidified = self.reselect_loaded(model, state)?;
             let mut touched = self.touched;
-            self.build_hierarchy(model);
             self.main_pass(model, &state.tau, Level::Acceleration, false)?;
             touched += self.touched;
             self.back_substitution(model, false);
@@ -491,7 +497,8 @@ impl Adaptive {
     /// Sets the hybrid body by hand: the joints of the bodies for which `active(body)` holds
     /// (closed upward in the assembly tree, so the result may hold more) stay free, every other
     /// moving joint is locked by the impulses of a re-selection. The next steps keep this hybrid
-    /// body until the next re-selection. Returns whether joints were locked.
+    /// body until the next re-selection. Returns whether joints were locked. (After an impulse,
+    /// `data` keeps the positions and the velocities from before it.)
     pub fn set_active(
         &mut self,
         model: &Model,
@@ -508,13 +515,11 @@ impl Adaptive {
             };
         }
         let vtol = self.settings.velocity_tolerance.take();
-        let locked = self.rebuild_hybrid(model, state);
+        let locked = self.rebuild_hybrid(model, state, false);
         self.settings.velocity_tolerance = vtol;
         let locked = locked?;
-        if locked {
-            self.composites(model);
-        }
-        self.build_hierarchy(model);
+        // Joints outside the hybrid body have q̈ = 0 until the next re-selection.
+        self.qdd.fill(0.0);
         // The steps count on from a re-selection.
         self.steps = 1;
         Ok(locked)

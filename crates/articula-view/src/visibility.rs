@@ -314,6 +314,27 @@ impl Classifier {
     }
 }
 
+/// World pose of body `i` of `model` at configuration `q` (rotation, origin): the pose-only
+/// part of forward kinematics along the path from the root to `i`.
+pub fn body_pose(model: &articula_model::Model, q: &[f64], i: usize) -> (DMat3, DVec3) {
+    let body = &model.bodies[i];
+    let (mut r, mut p) = match body.parent {
+        Some(j) => body_pose(model, q, j),
+        None => (DMat3::IDENTITY, DVec3::ZERO),
+    };
+    for part in &body.joint {
+        let (ro, po) = part.origin.to_pose();
+        p += r * po;
+        r *= ro;
+        let (rm, pm) = part
+            .motion_transform(&q[part.q_offset..part.q_offset + part.nq()])
+            .to_pose();
+        p += r * pm;
+        r *= rm;
+    }
+    (r, p)
+}
+
 /// World poses of every body of `model` at configuration `q` (rotation, origin), parents
 /// first: the pose-only part of forward kinematics.
 pub fn body_poses(model: &articula_model::Model, q: &[f64], out: &mut Vec<(DMat3, DVec3)>) {
