@@ -39,7 +39,8 @@ pub(crate) struct Hierarchy {
     pub cl: Vec<usize>,
     pub par: Vec<usize>,
     /// Articulated-body workspace of the reduced tree (one rigid cluster per active body):
-    /// per active body `Iᴬ`, `pᴬ`, `D⁻¹` and the cluster's acceleration; per degree of
+    /// per active body `Iᴬ`, `pᴬ`, `D⁻¹` (one DOF) or the Cholesky factor of `D` (several)
+    /// and the cluster's acceleration; per degree of
     /// freedom `U = Iᴬ s` and `u = τ − sᵀ pᴬ`.
     pub ia: Vec<SymMat6>,
     pub pa: Vec<SpatialForce>,
@@ -292,42 +293,59 @@ impl Adaptive {
                 }
                 h.uu[vo + p] = tau[vo + p] - self.data.s[vo + p].dot(pa);
             }
-            let dinv = if k == 0 {
+            // D = L Lᵀ. With Y = U L⁻ᵀ (columns y_p) and z = L⁻¹ u: U D⁻¹ Uᵀ = Y Yᵀ and
+            // U D⁻¹ u = Y z.
+            let l = if k == 0 {
                 d
             } else {
-                dense::spd_inverse(&d, k).ok_or_else(|| singular(model, j))?
+                dense::cholesky_k(&d, k).ok_or_else(|| singular(model, j))?
             };
-            h.dinv[j] = dinv;
+            h.dinv[j] = l;
             if parent == usize::MAX {
                 continue;
             }
-            // Iᵃ = Iᴬ − Σ_p U_p w_pᵀ (w_p = Σ_q D⁻¹_pq U_q), pᵃ = pᴬ + Iᵃ c + Σ_p U_p (D⁻¹u)_p.
-            let mut iaa = *ia.as_mat6();
-            let mut pa = pa;
+            let mut y = [[0.0; 6]; 6];
+            let mut z = [0.0; 6];
             for p in 0..k {
-                let mut w = [0.0; 6];
-                let mut du = 0.0;
-                for qq in 0..k {
-                    let x = dinv[p][qq];
-                    du += x * h.uu[vo + qq];
+                let mut yp = h.u[vo + p];
+                let mut zp = h.uu[vo + p];
+                for qq in 0..p {
+                    let lpq = l[p][qq];
+                    zp -= lpq * z[qq];
                     for r in 0..6 {
-                        w[r] += x * h.u[vo + qq][r];
+                        yp[r] -= lpq * y[qq][r];
                     }
                 }
-                let up = h.u[vo + p];
+                let inv = 1.0 / l[p][p];
+                z[p] = zp * inv;
                 for r in 0..6 {
-                    for c in 0..6 {
-                        iaa.0[r][c] -= up[r] * w[c];
-                    }
+                    yp[r] *= inv;
                 }
-                pa += SpatialForce::from_array(up) * du;
+                y[p] = yp;
             }
-            let iaa = iaa.symmetric_part();
+            // Iᵃ = Iᴬ − Y Yᵀ, pᵃ = pᴬ + Iᵃ c + Y z (Iᵃ c = Iᴬ c − Y (Yᵀ c)).
+            let mut add = [0.0; 6];
+            let c = if accel {
+                self.data.c[j].to_array()
+            } else {
+                [0.0; 6]
+            };
             if accel {
-                pa += iaa.motion_to_force(self.data.c[j]);
+                add = ia.mul_vec(&c);
             }
-            h.ia[parent].add_assign(&iaa);
-            h.pa[parent] += pa;
+            for p in 0..k {
+                let g = z[p] - dot6(&y[p], &c);
+                for r in 0..6 {
+                    add[r] += y[p][r] * g;
+                }
+            }
+            h.pa[parent] += pa + SpatialForce::from_array(add);
+            let (lo, hi) = h.ia.split_at_mut(j);
+            let target = &mut lo[parent];
+            target.add_sub_outer(&hi[0], &y[0], 1.0);
+            for p in 1..k {
+                target.add_sub_outer(&SymMat6::default(), &y[p], 1.0);
+            }
         }
         // Pass 3, root to leaves: a' = a_parent + c, q̈ = D⁻¹ (u − Uᵀ a'), a = a' + S q̈.
         let a0 = if accel {
@@ -355,15 +373,27 @@ impl Adaptive {
                 h.acc[j] = ap + self.data.s[vo] * x;
                 continue;
             }
-            let mut r = [0.0; 6];
+            // q̈ = L⁻ᵀ L⁻¹ r.
+            let l = &h.dinv[j];
+            let mut x = [0.0; 6];
             for p in 0..k {
-                r[p] = h.uu[vo + p] - dot6(&apa, &h.u[vo + p]);
+                let mut v = h.uu[vo + p] - dot6(&apa, &h.u[vo + p]);
+                for qq in 0..p {
+                    v -= l[p][qq] * x[qq];
+                }
+                x[p] = v / l[p][p];
+            }
+            for p in (0..k).rev() {
+                let mut v = x[p];
+                for qq in p + 1..k {
+                    v -= l[qq][p] * x[qq];
+                }
+                x[p] = v / l[p][p];
             }
             let mut a = ap;
             for p in 0..k {
-                let x: f64 = (0..k).map(|qq| h.dinv[j][p][qq] * r[qq]).sum();
-                self.qdd[vo + p] = x;
-                a += self.data.s[vo + p] * x;
+                self.qdd[vo + p] = x[p];
+                a += self.data.s[vo + p] * x[p];
             }
             h.acc[j] = a;
         }
