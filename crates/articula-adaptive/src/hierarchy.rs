@@ -11,7 +11,7 @@ use crate::dense;
 use crate::hybrid::{Adaptive, Level, Rigid};
 use articula_dca::DynamicsError;
 use articula_model::{Model, NodeKind};
-use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform, SymMat6};
+use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
 use glam::DVec3;
 
 /// Lists and frames of the current hybrid body.
@@ -42,7 +42,7 @@ pub(crate) struct Hierarchy {
     /// per active body `Iᴬ`, `pᴬ`, `D⁻¹` (one DOF) or the Cholesky factor of `D` (several)
     /// and the cluster's acceleration; per degree of
     /// freedom `U = Iᴬ s` and `u = τ − sᵀ pᴬ`.
-    pub ia: Vec<SymMat6>,
+    pub ia: Vec<[[f64; 6]; 6]>,
     pub pa: Vec<SpatialForce>,
     pub dinv: Vec<[[f64; 6]; 6]>,
     pub acc: Vec<SpatialMotion>,
@@ -78,7 +78,7 @@ impl Adaptive {
         h.prel.resize(nb, SpatialTransform::IDENTITY);
         h.cl.resize(nb, usize::MAX);
         h.par.resize(nb, usize::MAX);
-        h.ia.resize(nb, SymMat6::default());
+        h.ia.resize(nb, [[0.0; 6]; 6]);
         h.pa.resize(nb, SpatialForce::ZERO);
         h.dinv.resize(nb, [[0.0; 6]; 6]);
         h.acc.resize(nb, SpatialMotion::ZERO);
@@ -229,15 +229,32 @@ impl Adaptive {
         // The nodes this stands for: the active joins and the rigid frontier.
         self.touched = self.hier.hnodes.len() + self.hier.fnodes.len();
         let h = &mut self.hier;
-        // Pass 1: each cluster's spatial inertia (from its top-body frame) and bias force
-        // `pᴬ = v ×* I v − f_ext` (gravity enters as the world's acceleration −a_g).
+        // Pass 1: each cluster's spatial inertia about the computation origin (from its
+        // top-body frame), `I = [Ī, h×; h×ᵀ, m 1]`, and bias force `pᴬ = v ×* I v − f_ext`
+        // (gravity enters as the world's acceleration −a_g).
         for &j in &h.ajoints {
             let f = h.cl[j];
-            let x = self.data.x[j];
-            let (r, _) = x.to_pose();
-            let rl = h.rig[f];
-            let inertia = SpatialInertia::new(rl.m, x.apply_point(rl.c), r * rl.ic * r.transpose());
-            h.ia[j] = inertia.to_mat6();
+            let x = &self.data.x[j];
+            let rl = &h.rig[f];
+            let inertia =
+                SpatialInertia::new(rl.m, x.apply_point(rl.c), x.e * rl.ic * x.e.transpose());
+            let (ib, hv, m) = (inertia.ibar, inertia.h, inertia.mass);
+            let ia = &mut h.ia[j];
+            let ibc = [ib.x_axis, ib.y_axis, ib.z_axis];
+            for r in 0..3 {
+                for c in 0..3 {
+                    ia[r][c] = ibc[c][r];
+                    ia[r + 3][c + 3] = if r == c { m } else { 0.0 };
+                }
+            }
+            // h× and its transpose.
+            let hx = [[0.0, -hv.z, hv.y], [hv.z, 0.0, -hv.x], [-hv.y, hv.x, 0.0]];
+            for r in 0..3 {
+                for c in 0..3 {
+                    ia[r][c + 3] = hx[r][c];
+                    ia[c + 3][r] = hx[r][c];
+                }
+            }
             h.pa[j] = if accel {
                 let v = self.data.v[j];
                 v.cross_force(inertia.mul_motion(v)) - self.fsum[f]
@@ -251,12 +268,17 @@ impl Adaptive {
             let j = h.ajoints[idx];
             let body = &model.bodies[j];
             let (vo, k) = (body.v_offset, body.nv);
-            let ia = h.ia[j];
             let pa = h.pa[j];
             let parent = h.par[j];
+            let c = if accel {
+                self.data.c[j].to_array()
+            } else {
+                [0.0; 6]
+            };
             if k == 1 {
+                let ia = &h.ia[j];
                 let s = self.data.s[vo].to_array();
-                let u = ia.mul_vec(&s);
+                let u = mul6(ia, &s);
                 let d = dot6(&s, &u);
                 if d.is_nan() || d <= 0.0 {
                     return Err(singular(model, j));
@@ -269,22 +291,17 @@ impl Adaptive {
                 if parent == usize::MAX {
                     continue;
                 }
-                let c = if accel {
-                    self.data.c[j].to_array()
-                } else {
-                    [0.0; 6]
-                };
-                let ic = ia.mul_vec(&c);
+                let ic = mul6(ia, &c);
                 let g = dinv * (uu - dot6(&c, &u));
                 let add = SpatialForce::from_array(std::array::from_fn(|r| ic[r] + u[r] * g));
                 h.pa[parent] += pa + add;
                 let (lo, hi) = h.ia.split_at_mut(j);
-                lo[parent].add_sub_outer(&hi[0], &u, dinv);
+                add_sub_outer(&mut lo[parent], &hi[0], &u, dinv);
                 continue;
             }
             let mut d = [[0.0; 6]; 6];
             for p in 0..k {
-                let u = ia.mul_vec(&self.data.s[vo + p].to_array());
+                let u = mul6(&h.ia[j], &self.data.s[vo + p].to_array());
                 h.u[vo + p] = u;
                 for qq in 0..=p {
                     let x = dot6(&self.data.s[vo + qq].to_array(), &u);
@@ -295,15 +312,13 @@ impl Adaptive {
             }
             // D = L Lᵀ. With Y = U L⁻ᵀ (columns y_p) and z = L⁻¹ u: U D⁻¹ Uᵀ = Y Yᵀ and
             // U D⁻¹ u = Y z.
-            let l = if k == 0 {
-                d
-            } else {
-                dense::cholesky_k(&d, k).ok_or_else(|| singular(model, j))?
-            };
-            h.dinv[j] = l;
+            if k > 0 {
+                h.dinv[j] = dense::cholesky_k(&d, k).ok_or_else(|| singular(model, j))?;
+            }
             if parent == usize::MAX {
                 continue;
             }
+            let l = &h.dinv[j];
             let mut y = [[0.0; 6]; 6];
             let mut z = [0.0; 6];
             for p in 0..k {
@@ -324,15 +339,9 @@ impl Adaptive {
                 y[p] = yp;
             }
             // Iᵃ = Iᴬ − Y Yᵀ, pᵃ = pᴬ + Iᵃ c + Y z (Iᵃ c = Iᴬ c − Y (Yᵀ c)).
-            let mut add = [0.0; 6];
-            let c = if accel {
-                self.data.c[j].to_array()
-            } else {
-                [0.0; 6]
-            };
-            if accel {
-                add = ia.mul_vec(&c);
-            }
+            let (lo, hi) = h.ia.split_at_mut(j);
+            let (target, ia) = (&mut lo[parent], &hi[0]);
+            let mut add = mul6(ia, &c);
             for p in 0..k {
                 let g = z[p] - dot6(&y[p], &c);
                 for r in 0..6 {
@@ -340,11 +349,15 @@ impl Adaptive {
                 }
             }
             h.pa[parent] += pa + SpatialForce::from_array(add);
-            let (lo, hi) = h.ia.split_at_mut(j);
-            let target = &mut lo[parent];
-            target.add_sub_outer(&hi[0], &y[0], 1.0);
-            for p in 1..k {
-                target.add_sub_outer(&SymMat6::default(), &y[p], 1.0);
+            for r in 0..6 {
+                for cc in r..6 {
+                    let mut x = target[r][cc] + ia[r][cc];
+                    for p in 0..k {
+                        x -= y[p][r] * y[p][cc];
+                    }
+                    target[r][cc] = x;
+                    target[cc][r] = x;
+                }
             }
         }
         // Pass 3, root to leaves: a' = a_parent + c, q̈ = D⁻¹ (u − Uᵀ a'), a = a' + S q̈.
@@ -398,6 +411,25 @@ impl Adaptive {
             h.acc[j] = a;
         }
         Ok(())
+    }
+}
+
+/// `a x` for a 6 × 6 matrix.
+#[inline(always)]
+fn mul6(a: &[[f64; 6]; 6], x: &[f64; 6]) -> [f64; 6] {
+    std::array::from_fn(|r| dot6(&a[r], x))
+}
+
+/// `s += a − α u uᵀ` on symmetric 6 × 6 matrices (upper triangle computed, mirrored).
+#[inline(always)]
+fn add_sub_outer(s: &mut [[f64; 6]; 6], a: &[[f64; 6]; 6], u: &[f64; 6], alpha: f64) {
+    for i in 0..6 {
+        let aui = alpha * u[i];
+        for j in i..6 {
+            let x = s[i][j] + a[i][j] - aui * u[j];
+            s[i][j] = x;
+            s[j][i] = x;
+        }
     }
 }
 
