@@ -126,17 +126,38 @@ impl DepthBuffer {
             let (a, b) = ((u - x) / rx, (v - y) / ry);
             a * a + b * b <= 1.0
         };
+        // On one grid line v the corners inside form one run of u (the test is monotone in
+        // |u − x|): find it once per line, not four times per cell. A cell row's cells are those
+        // whose two u corners lie in the runs of both of its lines.
+        let run = |v: f64| -> (usize, usize) {
+            let mut lo = i0;
+            while lo <= i1 && !inside(lo as f64, v) {
+                lo += 1;
+            }
+            if lo > i1 {
+                return (1, 0);
+            }
+            let mut hi = i1;
+            while !inside(hi as f64, v) {
+                hi -= 1;
+            }
+            (lo, hi)
+        };
+        if j0 >= j1 {
+            return;
+        }
+        let mut below = run(j0 as f64);
         for j in j0..j1 {
-            let (v0, v1) = (j as f64, j as f64 + 1.0);
-            for i in i0..i1 {
-                let (u0, u1) = (i as f64, i as f64 + 1.0);
-                if inside(u0, v0) && inside(u1, v0) && inside(u0, v1) && inside(u1, v1) {
-                    let d = &mut self.depth[j * self.width + i];
-                    if far < *d {
-                        *d = far;
-                    }
+            let above = run(j as f64 + 1.0);
+            let (lo, hi) = (below.0.max(above.0), below.1.min(above.1));
+            // Cells i with corners i and i + 1 both in [lo, hi].
+            for i in lo..hi {
+                let d = &mut self.depth[j * self.width + i];
+                if far < *d {
+                    *d = far;
                 }
             }
+            below = above;
         }
     }
 
