@@ -166,7 +166,10 @@ impl Adaptive {
                     }
                 }
             };
-            let (x, v, c) = articula_dca::body_kinematics(body, x, v, q, qd, &mut self.data.s);
+            let (x, v, c) = revolute_kinematics(body, x, v, q, qd, &mut self.data.s)
+                .unwrap_or_else(|| {
+                    articula_dca::body_kinematics(body, x, v, q, qd, &mut self.data.s)
+                });
             self.data.x[i] = x;
             self.data.v[i] = v;
             self.data.c[i] = c;
@@ -412,6 +415,62 @@ impl Adaptive {
         }
         Ok(())
     }
+}
+
+/// [`articula_dca::body_kinematics`] for a joint made of revolute parts about coordinate axes
+/// (`±x`, `±y`, `±z`, the usual URDF case): the rotation by `q` touches two columns of the
+/// pose and an identity part origin (the massless links of a composed joint) costs nothing.
+/// `None` for any other joint.
+#[inline]
+fn revolute_kinematics(
+    body: &articula_model::Body,
+    x0: SpatialTransform,
+    v0: SpatialMotion,
+    q: &[f64],
+    qd: &[f64],
+    s: &mut [SpatialMotion],
+) -> Option<(SpatialTransform, SpatialMotion, SpatialMotion)> {
+    let mut axes = [(0usize, 0.0f64); 6];
+    for (k, part) in body.joint.iter().enumerate() {
+        if k >= 6
+            || !matches!(
+                part.kind,
+                articula_model::JointKind::Revolute | articula_model::JointKind::Continuous
+            )
+        {
+            return None;
+        }
+        let a = part.axis.to_array();
+        let i = (0..3).find(|&i| a[i] == 1.0 || a[i] == -1.0)?;
+        if a[(i + 1) % 3] != 0.0 || a[(i + 2) % 3] != 0.0 {
+            return None;
+        }
+        axes[k] = (i, a[i]);
+    }
+    let (mut x, mut v) = (x0, v0);
+    let mut c = SpatialMotion::ZERO;
+    for (k, part) in body.joint.iter().enumerate() {
+        if part.origin.e != glam::DMat3::IDENTITY || part.origin.r != DVec3::ZERO {
+            x = x * part.origin;
+        }
+        let (i, sign) = axes[k];
+        let (sn, cs) = (sign * q[part.q_offset]).sin_cos();
+        // E ← E R(q), r ← R(q)ᵀ r for the rotation about coordinate axis i: columns / components
+        // (i+1, i+2) turn by the angle.
+        let (a, b) = ((i + 1) % 3, (i + 2) % 3);
+        let (ea, eb) = (x.e.col(a), x.e.col(b));
+        *x.e.col_mut(a) = ea * cs + eb * sn;
+        *x.e.col_mut(b) = eb * cs - ea * sn;
+        let (ra, rb) = (x.r[a], x.r[b]);
+        x.r[a] = cs * ra + sn * rb;
+        x.r[b] = cs * rb - sn * ra;
+        let sk = x.apply_motion(part.subspace_column(0));
+        s[part.v_offset] = sk;
+        let vj = sk * qd[part.v_offset];
+        c += v.cross_motion(vj);
+        v += vj;
+    }
+    Some((x, v, c))
 }
 
 /// `a x` for a 6 × 6 matrix.
