@@ -63,6 +63,13 @@ pub enum Visibility {
     Invisible,
 }
 
+/// Camera lengths at depth 1 → cells, per axis.
+#[derive(Clone, Copy, Debug)]
+struct Lens {
+    fx: f64,
+    fy: f64,
+}
+
 /// A coarse depth buffer over the image (cells in rows, `f64::INFINITY` = empty).
 #[derive(Clone, Debug)]
 pub struct DepthBuffer {
@@ -92,28 +99,39 @@ impl DepthBuffer {
 
     /// Camera point → continuous cell coordinates (x from the left, y from the top) and the
     /// scale from camera lengths at depth 1 to cells.
-    fn to_cells(&self, cam: &Camera, c: DVec3) -> (f64, f64, f64) {
-        let t = cam.tan_half_fov();
-        // Cells per unit of the image plane at depth 1 (vertical; cells are square in image
-        // space only when width/height matches the aspect ratio: use each axis' own scale).
-        let fy = self.height as f64 / (2.0 * t);
-        let fx = self.width as f64 / (2.0 * t * cam.aspect);
+    fn to_cells(&self, lens: &Lens, c: DVec3) -> (f64, f64, f64) {
+        let (fx, fy) = (lens.fx, lens.fy);
         let x = (c.x / c.z) * fx + 0.5 * self.width as f64;
         let y = -(c.y / c.z) * fy + 0.5 * self.height as f64;
         (x, y, fx.min(fy))
     }
 
+    /// The camera's scales for this buffer (computed once per classification: `tan` is not
+    /// free).
+    fn lens(&self, cam: &Camera) -> Lens {
+        let t = cam.tan_half_fov();
+        // Cells per unit of the image plane at depth 1 (vertical; cells are square in image
+        // space only when width/height matches the aspect ratio: use each axis' own scale).
+        Lens {
+            fy: self.height as f64 / (2.0 * t),
+            fx: self.width as f64 / (2.0 * t * cam.aspect),
+        }
+    }
+
     /// Writes a ball (world centre, radius) as an occluder: its far depth into every cell wholly
     /// inside its (under-estimated) projected disc.
     pub fn rasterize_ball(&mut self, cam: &Camera, center: DVec3, radius: f64) {
+        let lens = self.lens(cam);
+        self.raster(cam, &lens, center, radius);
+    }
+
+    fn raster(&mut self, cam: &Camera, lens: &Lens, center: DVec3, radius: f64) {
         let c = cam.to_camera(center);
         if c.z - radius <= cam.near || radius <= 0.0 {
             return;
         }
-        let t = cam.tan_half_fov();
-        let fy = self.height as f64 / (2.0 * t);
-        let fx = self.width as f64 / (2.0 * t * cam.aspect);
-        let (x, y, _) = self.to_cells(cam, c);
+        let (fx, fy) = (lens.fx, lens.fy);
+        let (x, y, _) = self.to_cells(lens, c);
         let (rx, ry) = (radius / c.z * fx, radius / c.z * fy);
         let far = c.z + radius;
         // Cells [i, i+1] × [j, j+1] wholly inside the ellipse ((u−x)/rx)² + ((v−y)/ry)² ≤ 1:
@@ -166,15 +184,17 @@ impl DepthBuffer {
     /// point. A ball reaching the near plane, or partly off the image, is never hidden by
     /// cells outside the image (they count as empty).
     pub fn is_hidden(&self, cam: &Camera, center: DVec3, radius: f64) -> bool {
+        self.hidden(cam, &self.lens(cam), center, radius)
+    }
+
+    fn hidden(&self, cam: &Camera, lens: &Lens, center: DVec3, radius: f64) -> bool {
         let c = cam.to_camera(center);
         let near = c.z - radius;
         if near <= cam.near {
             return false;
         }
-        let t = cam.tan_half_fov();
-        let fy = self.height as f64 / (2.0 * t);
-        let fx = self.width as f64 / (2.0 * t * cam.aspect);
-        let (x, y, _) = self.to_cells(cam, c);
+        let (fx, fy) = (lens.fx, lens.fy);
+        let (x, y, _) = self.to_cells(lens, c);
         let k = radius / (c.z * c.z - radius * radius).sqrt();
         let (rx, ry) = (k * fx, k * fy);
         let (xa, xb, ya, yb) = (x - rx, x + rx, y - ry, y + ry);
@@ -260,6 +280,7 @@ impl Classifier {
     ) {
         let frustum = cam.frustum();
         self.buffer.clear();
+        let lens = self.buffer.lens(cam);
         // Depth-buffer cells per unit length at depth 1 (the larger of the two axes' scales,
         // so that the skip below is conservative).
         let t = cam.tan_half_fov();
@@ -295,7 +316,7 @@ impl Classifier {
                         }
                     }
                     for &(c, r) in &self.spheres {
-                        self.buffer.rasterize_ball(cam, c, r);
+                        self.buffer.raster(cam, &lens, c, r);
                     }
                 }
             }
@@ -305,7 +326,7 @@ impl Classifier {
             let view = &mut out[b];
             let world = &self.world[b];
             for (l, &(c, r)) in world.iter().enumerate() {
-                if view.links[l] == Visibility::Visible && self.buffer.is_hidden(cam, c, r) {
+                if view.links[l] == Visibility::Visible && self.buffer.hidden(cam, &lens, c, r) {
                     view.links[l] = Visibility::Occluded;
                 }
             }
