@@ -68,6 +68,17 @@ pub enum Visibility {
 struct Lens {
     fx: f64,
     fy: f64,
+    /// World → camera rotation (the camera axes transposed) and the eye.
+    rt: DMat3,
+    eye: DVec3,
+}
+
+impl Lens {
+    /// [`Camera::to_camera`] with the transpose done once.
+    #[inline]
+    fn camera_point(&self, p: DVec3) -> DVec3 {
+        self.rt * (p - self.eye)
+    }
 }
 
 /// A coarse depth buffer over the image (cells in rows, `f64::INFINITY` = empty).
@@ -115,6 +126,8 @@ impl DepthBuffer {
         Lens {
             fy: self.height as f64 / (2.0 * t),
             fx: self.width as f64 / (2.0 * t * cam.aspect),
+            rt: cam.axes.transpose(),
+            eye: cam.position,
         }
     }
 
@@ -126,7 +139,7 @@ impl DepthBuffer {
     }
 
     fn raster(&mut self, cam: &Camera, lens: &Lens, center: DVec3, radius: f64) {
-        let c = cam.to_camera(center);
+        let c = lens.camera_point(center);
         if c.z - radius <= cam.near || radius <= 0.0 {
             return;
         }
@@ -188,7 +201,7 @@ impl DepthBuffer {
     }
 
     fn hidden(&self, cam: &Camera, lens: &Lens, center: DVec3, radius: f64) -> bool {
-        let c = cam.to_camera(center);
+        let c = lens.camera_point(center);
         let near = c.z - radius;
         if near <= cam.near {
             return false;
