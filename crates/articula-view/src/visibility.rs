@@ -147,6 +147,13 @@ impl DepthBuffer {
         let (x, y, _) = self.to_cells(lens, c);
         let (rx, ry) = (radius / c.z * fx, radius / c.z * fy);
         let far = c.z + radius;
+        // No unit cell fits in an ellipse whose centred unit square does not: the corner value
+        // (0.5/rx)² + (0.5/ry)² is the least any cell can have (with a margin far above the
+        // rounding of the corner test, so this skips only balls that write nothing).
+        let (hx, hy) = (0.5 / rx, 0.5 / ry);
+        if hx * hx + hy * hy > 1.0 + 1e-9 {
+            return;
+        }
         // Cells [i, i+1] × [j, j+1] wholly inside the ellipse ((u−x)/rx)² + ((v−y)/ry)² ≤ 1:
         // its four corners inside (the ellipse is convex).
         let i0 = (x - rx).floor().max(0.0) as usize;
