@@ -230,6 +230,11 @@ pub struct Adaptive {
     pub(crate) gf: Vec<Mat6>,
     pub(crate) steps: u64,
     pub(crate) full_passes: bool,
+    /// `data` holds the whole-body kinematics of `(fresh_q, fresh_qd)` (set by
+    /// [`Adaptive::node_metrics`], cleared by every other writer of `data`).
+    pub(crate) fresh: bool,
+    pub(crate) fresh_q: Vec<f64>,
+    pub(crate) fresh_qd: Vec<f64>,
     pub(crate) hier: crate::hierarchy::Hierarchy,
     pub(crate) last: Selection,
     /// Nodes visited by the passes of the last call (the cost measure of adaptive updates).
@@ -316,6 +321,9 @@ impl Adaptive {
             lay,
             steps: 0,
             full_passes: false,
+            fresh: false,
+            fresh_q: vec![0.0; model.nq],
+            fresh_qd: vec![0.0; model.nv],
             hier: Default::default(),
             last: Selection::default(),
             touched: 0,

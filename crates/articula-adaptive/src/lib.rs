@@ -215,7 +215,11 @@ impl Adaptive {
         f_ext: &[SpatialForce],
     ) -> Result<(), AdaptiveError> {
         check_inputs(model, q, qd, tau, f_ext)?;
-        forward_kinematics(model, q, qd, &mut self.data);
+        // Kinematics left by node_metrics for this very state are reused.
+        if !(self.fresh && self.fresh_q == q && self.fresh_qd == qd) {
+            forward_kinematics(model, q, qd, &mut self.data);
+        }
+        self.fresh = false;
         let x_cw = SpatialTransform::xlt(self.data.origin);
         self.fext_c.clear();
         self.fext_c
@@ -245,10 +249,65 @@ impl Adaptive {
         Ok(&self.qdd)
     }
 
-    /// The metric `A(C) = Fᵀ Ψ F + Fᵀ p + η` predicted at every node of the assembly tree from
-    /// its handle forces in the exact (fully articulated) solution, written into `out` (one per
-    /// node; 0 at leaves). The exact accelerations are left in [`Adaptive::qdd`].
+    /// The acceleration metric `A(C)` of every node of the assembly tree at its handle forces in
+    /// the exact (fully articulated) solution, written into `out` (one per node; 0 at leaves).
+    /// The exact accelerations are left in [`Adaptive::qdd`].
+    ///
+    /// At the exact handle forces the quadratic form `Fᵀ Ψ F + Fᵀ p + η` equals
+    /// `Σ_{i∈C} q̈ᵢᵀ Aᵢ q̈ᵢ` of the exact accelerations (DESIGN §6; tested against
+    /// [`Adaptive::predicted_node_metrics`] to 1e-8), so this sums that bottom-up after one exact
+    /// solve — articula-dca's articulated-body algorithm, the fastest exact solver on these
+    /// trees — instead of building Ψ, p, η: a fraction of the cost, and never negative.
     pub fn node_metrics(
+        &mut self,
+        model: &Model,
+        q: &[f64],
+        qd: &[f64],
+        tau: &[f64],
+        f_ext: &[SpatialForce],
+        out: &mut [f64],
+    ) -> Result<(), AdaptiveError> {
+        let qdd = articula_dca::forward_dynamics(
+            model,
+            &mut self.data,
+            q,
+            qd,
+            tau,
+            f_ext,
+            articula_dca::Method::Aba,
+        )?;
+        self.qdd.copy_from_slice(qdd);
+        self.fresh = true;
+        self.fresh_q.copy_from_slice(q);
+        self.fresh_qd.copy_from_slice(qd);
+        for (n, node) in model.assembly.nodes.iter().enumerate() {
+            out[n] = match node.kind {
+                NodeKind::Join {
+                    joint,
+                    parent_side: a,
+                    child_side: b,
+                } => {
+                    let body = &model.bodies[joint];
+                    let (vo, k, wo) = (body.v_offset, body.nv, self.woff[joint]);
+                    let own = if k == 1 {
+                        self.aw[wo] * self.qdd[vo] * self.qdd[vo]
+                    } else {
+                        dense::quad(&self.aw[wo..wo + k * k], &self.qdd[vo..vo + k], k)
+                    };
+                    own + out[a] + out[b]
+                }
+                _ => 0.0,
+            };
+        }
+        Ok(())
+    }
+
+    /// The metric `A(C) = Fᵀ Ψ F + Fᵀ p + η` predicted at every node of the assembly tree from
+    /// its handle forces in the exact (fully articulated) solution — through the metric
+    /// coefficients Ψ, p, η of the whole tree, as the selection computes them — written into
+    /// `out` (one per node; 0 at leaves). The exact accelerations are left in
+    /// [`Adaptive::qdd`]. Same values as [`Adaptive::node_metrics`], at several times its cost.
+    pub fn predicted_node_metrics(
         &mut self,
         model: &Model,
         q: &[f64],
@@ -292,10 +351,10 @@ impl Adaptive {
         let mut touched = self.touched;
         self.metric_pass(model);
         self.last = self.select(model);
-        let locked = self.rebuild_hybrid(model, state)?;
+        // (An impulse changes velocities only: the composites stay valid.)
+        let locked = self.rebuild_hybrid(model, state, true)?;
         if locked {
             touched += self.touched;
-            self.composites(model);
         }
         self.touched = touched;
         Ok(locked)
@@ -391,7 +450,6 @@ impl Adaptive {
             self.hier.valid = false;
             report.rigidified = self.reselect_loaded(model, state)?;
             let mut touched = self.touched;
-            self.build_hierarchy(model);
             self.main_pass(model, &state.tau, Level::Acceleration, false)?;
             touched += self.touched;
             self.back_substitution(model, false);
@@ -439,7 +497,8 @@ impl Adaptive {
     /// Sets the hybrid body by hand: the joints of the bodies for which `active(body)` holds
     /// (closed upward in the assembly tree, so the result may hold more) stay free, every other
     /// moving joint is locked by the impulses of a re-selection. The next steps keep this hybrid
-    /// body until the next re-selection. Returns whether joints were locked.
+    /// body until the next re-selection. Returns whether joints were locked. (After an impulse,
+    /// `data` keeps the positions and the velocities from before it.)
     pub fn set_active(
         &mut self,
         model: &Model,
@@ -456,13 +515,11 @@ impl Adaptive {
             };
         }
         let vtol = self.settings.velocity_tolerance.take();
-        let locked = self.rebuild_hybrid(model, state);
+        let locked = self.rebuild_hybrid(model, state, false);
         self.settings.velocity_tolerance = vtol;
         let locked = locked?;
-        if locked {
-            self.composites(model);
-        }
-        self.build_hierarchy(model);
+        // Joints outside the hybrid body have q̈ = 0 until the next re-selection.
+        self.qdd.fill(0.0);
         // The steps count on from a re-selection.
         self.steps = 1;
         Ok(locked)

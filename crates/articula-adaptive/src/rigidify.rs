@@ -14,13 +14,16 @@ use articula_model::{Model, NodeKind};
 
 impl Adaptive {
     /// Makes the hybrid body the selected joints (plus, with a velocity tolerance, the active
-    /// subassemblies still moving faster than it, and their ancestors), then locks every joint
-    /// outside it that still moves. Returns whether an impulse was applied (the kinematics in
-    /// `data` are then recomputed).
+    /// subassemblies still moving faster than it, and their ancestors), builds its hierarchical
+    /// state, then locks every joint outside it that still moves. Returns whether an impulse was
+    /// applied. With `refresh`, the kinematics in `data` are then recomputed for the new
+    /// velocities (whole-body passes follow); otherwise `data` keeps the old velocities (a step
+    /// between re-selections recomputes those of the active bodies).
     pub(crate) fn rebuild_hybrid(
         &mut self,
         model: &Model,
         state: &mut State,
+        refresh: bool,
     ) -> Result<bool, DynamicsError> {
         let tree = &model.assembly;
         if let Some(vtol) = self.settings.velocity_tolerance {
@@ -39,6 +42,7 @@ impl Adaptive {
                 }
             }
         }
+        self.build_hierarchy(model);
         let mut moving = false;
         for (n, node) in tree.nodes.iter().enumerate() {
             if let NodeKind::Join { joint, .. } = node.kind {
@@ -55,13 +59,19 @@ impl Adaptive {
         if !moving {
             return Ok(false);
         }
-        self.lock(model, state)?;
+        self.lock(model, state, refresh)?;
         Ok(true)
     }
 
-    /// The impulse: generalized momenta of the free joints, velocity-level hybrid solve,
-    /// locked joints set to exactly zero.
-    fn lock(&mut self, model: &Model, state: &mut State) -> Result<(), DynamicsError> {
+    /// The impulse: generalized momenta of the free joints, the hybrid body's velocity-level
+    /// solve over its reduced tree ([`Adaptive::reduced_aba`]), locked joints set to exactly
+    /// zero.
+    fn lock(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+        refresh: bool,
+    ) -> Result<(), DynamicsError> {
         // h_i = Σ over the kinematic subtree of body i of I v (children after parents).
         for i in 0..model.bodies.len() {
             self.hsub[i] = self.data.inertia[i].mul_motion(self.data.v[i]);
@@ -72,18 +82,22 @@ impl Adaptive {
                 self.hsub[p] += h;
             }
         }
-        for (i, body) in model.bodies.iter().enumerate() {
+        for &i in &self.hier.ajoints {
+            let body = &model.bodies[i];
             for p in 0..body.nv {
                 self.gmom[body.v_offset + p] = self.data.s[body.v_offset + p].dot(self.hsub[i]);
             }
         }
+        self.qdd.fill(0.0);
         let gmom = std::mem::take(&mut self.gmom);
-        let r = self.main_pass(model, &gmom, Level::Impulse, false);
+        let r = self.reduced_aba(model, &gmom, Level::Impulse);
         self.gmom = gmom;
         r?;
-        self.back_substitution(model, false);
         state.qd.copy_from_slice(&self.qdd);
-        forward_kinematics(model, &state.q, &state.qd, &mut self.data);
+        self.fresh = false;
+        if refresh {
+            forward_kinematics(model, &state.q, &state.qd, &mut self.data);
+        }
         Ok(())
     }
 }

@@ -115,7 +115,11 @@ fn predicted_metric_at_every_node_equals_the_direct_sum() {
             let e = exact(&model, &s);
             let mut ad = Adaptive::new(&model, Settings::default());
             let mut predicted = vec![0.0; tree.nodes.len()];
-            ad.node_metrics(&model, &s.q, &s.qd, &s.tau, &s.f_ext, &mut predicted)
+            ad.predicted_node_metrics(&model, &s.q, &s.qd, &s.tau, &s.f_ext, &mut predicted)
+                .unwrap();
+            // The scene layer's fast path (one exact solve, summed bottom-up): same values.
+            let mut summed = vec![0.0; tree.nodes.len()];
+            ad.node_metrics(&model, &s.q, &s.qd, &s.tau, &s.f_ext, &mut summed)
                 .unwrap();
             // Direct: Σ q̈ᵀq̈ over the principal joints of the node's subtree (bottom-up).
             let mut direct = vec![0.0; tree.nodes.len()];
@@ -138,6 +142,13 @@ fn predicted_metric_at_every_node_equals_the_direct_sum() {
                     err <= 1e-8 * direct[n].max(1e-6 * total),
                     "{name} seed {seed} node {n}: predicted {} direct {} ",
                     predicted[n],
+                    direct[n]
+                );
+                let err = (summed[n] - direct[n]).abs();
+                assert!(
+                    err <= 1e-8 * direct[n].max(1e-6 * total),
+                    "{name} seed {seed} node {n}: summed {} direct {} ",
+                    summed[n],
                     direct[n]
                 );
             }

@@ -32,7 +32,8 @@ pub use scene_file::{
 };
 pub use sim::{global_selection, GlobalSelection, SceneSim, SceneSimError, SceneStep, SimBody};
 pub use visibility::{
-    body_poses, BodyView, Classifier, DepthBuffer, Placed, Visibility, VisibilitySettings,
+    body_pose, body_poses, BodyView, Classifier, DepthBuffer, Placed, Visibility,
+    VisibilitySettings,
 };
 pub use volumes::{body_volumes, inertia_box, symmetric_eigen, BodyVolumes, Volume};
 

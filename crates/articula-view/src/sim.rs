@@ -22,7 +22,7 @@
 
 use crate::render::{rigid_groups, FrameBody};
 use crate::scene_file::LoadedScene;
-use crate::visibility::{body_poses, BodyView, Classifier, Placed, Visibility};
+use crate::visibility::{body_pose, body_poses, BodyView, Classifier, Placed, Visibility};
 use articula_adaptive::{Adaptive, AdaptiveError, Settings};
 use articula_dca::State;
 use articula_model::{Model, NodeKind};
@@ -421,16 +421,11 @@ impl<'s> SceneSim<'s> {
                 b.state.tau[vi] = -k * b.state.q[qi] - c * b.state.qd[vi];
             }
         }
-        let mut posed = usize::MAX;
         for p in scene.pushes.iter().filter(|p| p.t0 <= t && t < p.t1) {
             let b = &mut self.bodies[p.body];
             let model = &scene.models[b.model].model;
-            // Pushes come grouped by body: pose each body once.
-            if posed != p.body {
-                body_poses(model, &b.state.q, &mut b.poses);
-                posed = p.body;
-            }
-            let (r, pos) = b.poses[p.link_body];
+            // The pushed link's pose alone (its path from the root).
+            let (r, pos) = body_pose(model, &b.state.q, p.link_body);
             let at = r * p.point + pos;
             b.state.f_ext[p.link_body] += SpatialForce::new(at.cross(p.force), p.force);
         }

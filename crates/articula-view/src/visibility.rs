@@ -63,6 +63,24 @@ pub enum Visibility {
     Invisible,
 }
 
+/// Camera lengths at depth 1 → cells, per axis.
+#[derive(Clone, Copy, Debug)]
+struct Lens {
+    fx: f64,
+    fy: f64,
+    /// World → camera rotation (the camera axes transposed) and the eye.
+    rt: DMat3,
+    eye: DVec3,
+}
+
+impl Lens {
+    /// [`Camera::to_camera`] with the transpose done once.
+    #[inline]
+    fn camera_point(&self, p: DVec3) -> DVec3 {
+        self.rt * (p - self.eye)
+    }
+}
+
 /// A coarse depth buffer over the image (cells in rows, `f64::INFINITY` = empty).
 #[derive(Clone, Debug)]
 pub struct DepthBuffer {
@@ -92,30 +110,50 @@ impl DepthBuffer {
 
     /// Camera point → continuous cell coordinates (x from the left, y from the top) and the
     /// scale from camera lengths at depth 1 to cells.
-    fn to_cells(&self, cam: &Camera, c: DVec3) -> (f64, f64, f64) {
-        let t = cam.tan_half_fov();
-        // Cells per unit of the image plane at depth 1 (vertical; cells are square in image
-        // space only when width/height matches the aspect ratio: use each axis' own scale).
-        let fy = self.height as f64 / (2.0 * t);
-        let fx = self.width as f64 / (2.0 * t * cam.aspect);
+    fn to_cells(&self, lens: &Lens, c: DVec3) -> (f64, f64, f64) {
+        let (fx, fy) = (lens.fx, lens.fy);
         let x = (c.x / c.z) * fx + 0.5 * self.width as f64;
         let y = -(c.y / c.z) * fy + 0.5 * self.height as f64;
         (x, y, fx.min(fy))
     }
 
+    /// The camera's scales for this buffer (computed once per classification: `tan` is not
+    /// free).
+    fn lens(&self, cam: &Camera) -> Lens {
+        let t = cam.tan_half_fov();
+        // Cells per unit of the image plane at depth 1 (vertical; cells are square in image
+        // space only when width/height matches the aspect ratio: use each axis' own scale).
+        Lens {
+            fy: self.height as f64 / (2.0 * t),
+            fx: self.width as f64 / (2.0 * t * cam.aspect),
+            rt: cam.axes.transpose(),
+            eye: cam.position,
+        }
+    }
+
     /// Writes a ball (world centre, radius) as an occluder: its far depth into every cell wholly
     /// inside its (under-estimated) projected disc.
     pub fn rasterize_ball(&mut self, cam: &Camera, center: DVec3, radius: f64) {
-        let c = cam.to_camera(center);
+        let lens = self.lens(cam);
+        self.raster(cam, &lens, center, radius);
+    }
+
+    fn raster(&mut self, cam: &Camera, lens: &Lens, center: DVec3, radius: f64) {
+        let c = lens.camera_point(center);
         if c.z - radius <= cam.near || radius <= 0.0 {
             return;
         }
-        let t = cam.tan_half_fov();
-        let fy = self.height as f64 / (2.0 * t);
-        let fx = self.width as f64 / (2.0 * t * cam.aspect);
-        let (x, y, _) = self.to_cells(cam, c);
+        let (fx, fy) = (lens.fx, lens.fy);
+        let (x, y, _) = self.to_cells(lens, c);
         let (rx, ry) = (radius / c.z * fx, radius / c.z * fy);
         let far = c.z + radius;
+        // No unit cell fits in an ellipse whose centred unit square does not: the corner value
+        // (0.5/rx)² + (0.5/ry)² is the least any cell can have (with a margin far above the
+        // rounding of the corner test, so this skips only balls that write nothing).
+        let (hx, hy) = (0.5 / rx, 0.5 / ry);
+        if hx * hx + hy * hy > 1.0 + 1e-9 {
+            return;
+        }
         // Cells [i, i+1] × [j, j+1] wholly inside the ellipse ((u−x)/rx)² + ((v−y)/ry)² ≤ 1:
         // its four corners inside (the ellipse is convex).
         let i0 = (x - rx).floor().max(0.0) as usize;
@@ -126,17 +164,38 @@ impl DepthBuffer {
             let (a, b) = ((u - x) / rx, (v - y) / ry);
             a * a + b * b <= 1.0
         };
+        // On one grid line v the corners inside form one run of u (the test is monotone in
+        // |u − x|): find it once per line, not four times per cell. A cell row's cells are those
+        // whose two u corners lie in the runs of both of its lines.
+        let run = |v: f64| -> (usize, usize) {
+            let mut lo = i0;
+            while lo <= i1 && !inside(lo as f64, v) {
+                lo += 1;
+            }
+            if lo > i1 {
+                return (1, 0);
+            }
+            let mut hi = i1;
+            while !inside(hi as f64, v) {
+                hi -= 1;
+            }
+            (lo, hi)
+        };
+        if j0 >= j1 {
+            return;
+        }
+        let mut below = run(j0 as f64);
         for j in j0..j1 {
-            let (v0, v1) = (j as f64, j as f64 + 1.0);
-            for i in i0..i1 {
-                let (u0, u1) = (i as f64, i as f64 + 1.0);
-                if inside(u0, v0) && inside(u1, v0) && inside(u0, v1) && inside(u1, v1) {
-                    let d = &mut self.depth[j * self.width + i];
-                    if far < *d {
-                        *d = far;
-                    }
+            let above = run(j as f64 + 1.0);
+            let (lo, hi) = (below.0.max(above.0), below.1.min(above.1));
+            // Cells i with corners i and i + 1 both in [lo, hi].
+            if lo < hi {
+                let row = j * self.width;
+                for d in &mut self.depth[row + lo..row + hi] {
+                    *d = if far < *d { far } else { *d };
                 }
             }
+            below = above;
         }
     }
 
@@ -145,15 +204,17 @@ impl DepthBuffer {
     /// point. A ball reaching the near plane, or partly off the image, is never hidden by
     /// cells outside the image (they count as empty).
     pub fn is_hidden(&self, cam: &Camera, center: DVec3, radius: f64) -> bool {
-        let c = cam.to_camera(center);
+        self.hidden(cam, &self.lens(cam), center, radius)
+    }
+
+    fn hidden(&self, cam: &Camera, lens: &Lens, center: DVec3, radius: f64) -> bool {
+        let c = lens.camera_point(center);
         let near = c.z - radius;
         if near <= cam.near {
             return false;
         }
-        let t = cam.tan_half_fov();
-        let fy = self.height as f64 / (2.0 * t);
-        let fx = self.width as f64 / (2.0 * t * cam.aspect);
-        let (x, y, _) = self.to_cells(cam, c);
+        let (fx, fy) = (lens.fx, lens.fy);
+        let (x, y, _) = self.to_cells(lens, c);
         let k = radius / (c.z * c.z - radius * radius).sqrt();
         let (rx, ry) = (k * fx, k * fy);
         let (xa, xb, ya, yb) = (x - rx, x + rx, y - ry, y + ry);
@@ -239,6 +300,7 @@ impl Classifier {
     ) {
         let frustum = cam.frustum();
         self.buffer.clear();
+        let lens = self.buffer.lens(cam);
         // Depth-buffer cells per unit length at depth 1 (the larger of the two axes' scales,
         // so that the skip below is conservative).
         let t = cam.tan_half_fov();
@@ -274,7 +336,7 @@ impl Classifier {
                         }
                     }
                     for &(c, r) in &self.spheres {
-                        self.buffer.rasterize_ball(cam, c, r);
+                        self.buffer.raster(cam, &lens, c, r);
                     }
                 }
             }
@@ -284,7 +346,7 @@ impl Classifier {
             let view = &mut out[b];
             let world = &self.world[b];
             for (l, &(c, r)) in world.iter().enumerate() {
-                if view.links[l] == Visibility::Visible && self.buffer.is_hidden(cam, c, r) {
+                if view.links[l] == Visibility::Visible && self.buffer.hidden(cam, &lens, c, r) {
                     view.links[l] = Visibility::Occluded;
                 }
             }
@@ -314,6 +376,44 @@ impl Classifier {
     }
 }
 
+/// World pose of body `i` of `model` at configuration `q` (rotation, origin): the pose-only
+/// part of forward kinematics along the path from the root to `i`.
+pub fn body_pose(model: &articula_model::Model, q: &[f64], i: usize) -> (DMat3, DVec3) {
+    let body = &model.bodies[i];
+    let (mut r, mut p) = match body.parent {
+        Some(j) => body_pose(model, q, j),
+        None => (DMat3::IDENTITY, DVec3::ZERO),
+    };
+    for part in &body.joint {
+        compose_part(part, q, &mut r, &mut p);
+    }
+    (r, p)
+}
+
+/// `(r, p) ← (r, p) · origin · motion(q)` for one joint part. An identity origin (the
+/// massless links of a composed joint) and a revolute motion's zero translation add exactly
+/// nothing, so they are skipped: the same numbers as the general product, for less work.
+#[inline]
+fn compose_part(part: &articula_model::JointPart, q: &[f64], r: &mut DMat3, p: &mut DVec3) {
+    if part.origin.e != DMat3::IDENTITY || part.origin.r != DVec3::ZERO {
+        let (ro, po) = part.origin.to_pose();
+        *p += *r * po;
+        *r *= ro;
+    }
+    match part.kind {
+        articula_model::JointKind::Revolute | articula_model::JointKind::Continuous => {
+            *r *= DMat3::from_axis_angle(part.axis, q[part.q_offset]);
+        }
+        _ => {
+            let (rm, pm) = part
+                .motion_transform(&q[part.q_offset..part.q_offset + part.nq()])
+                .to_pose();
+            *p += *r * pm;
+            *r *= rm;
+        }
+    }
+}
+
 /// World poses of every body of `model` at configuration `q` (rotation, origin), parents
 /// first: the pose-only part of forward kinematics.
 pub fn body_poses(model: &articula_model::Model, q: &[f64], out: &mut Vec<(DMat3, DVec3)>) {
@@ -324,14 +424,7 @@ pub fn body_poses(model: &articula_model::Model, q: &[f64], out: &mut Vec<(DMat3
             None => (DMat3::IDENTITY, DVec3::ZERO),
         };
         for part in &body.joint {
-            let (ro, po) = part.origin.to_pose();
-            p += r * po;
-            r *= ro;
-            let (rm, pm) = part
-                .motion_transform(&q[part.q_offset..part.q_offset + part.nq()])
-                .to_pose();
-            p += r * pm;
-            r *= rm;
+            compose_part(part, q, &mut r, &mut p);
         }
         out.push((r, p));
     }
