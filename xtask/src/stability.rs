@@ -584,10 +584,10 @@ fn document(
     if let (Some(a), Some(b)) = (crba.first(), crba.last()) {
         let _ = writeln!(
             s,
-            "- CRBA: {:.1e} at {} links, {:.1e} at {} links: it loses digits fastest, because \
-             the joint-space inertia matrix of a long chain is badly conditioned and the dense \
-             Cholesky factorisation pays for that conditioning, where the recursive methods \
-             never form the matrix.",
+            "- CRBA: {:.1e} at {} links, {:.1e} at {} links. The joint-space inertia matrix of \
+             a long chain is badly conditioned (cond(H) ~ n⁴) and the dense Cholesky solution \
+             alone pays for it (2.9e-7 at 1000 links); CRBA's refinement steps against the \
+             Newton–Euler residual, which never forms H, recover the digits.",
             a.1, a.0, b.1, b.0
         );
     }
