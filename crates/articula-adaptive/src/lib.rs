@@ -267,7 +267,10 @@ impl Adaptive {
         f_ext: &[SpatialForce],
         out: &mut [f64],
     ) -> Result<(), AdaptiveError> {
-        let qdd = articula_dca::forward_dynamics(
+        // A metric steers the selection: ~1e-9 relative is plenty, so the floating-base
+        // refinement of the exact solve (for long floating chains) is skipped here.
+        let refine = std::mem::replace(&mut self.data.refine_floating, false);
+        let solved = articula_dca::forward_dynamics(
             model,
             &mut self.data,
             q,
@@ -275,8 +278,10 @@ impl Adaptive {
             tau,
             f_ext,
             articula_dca::Method::Aba,
-        )?;
-        self.qdd.copy_from_slice(qdd);
+        )
+        .map(|qdd| self.qdd.copy_from_slice(qdd));
+        self.data.refine_floating = refine;
+        solved?;
         self.fresh = true;
         self.fresh_q.copy_from_slice(q);
         self.fresh_qd.copy_from_slice(qd);

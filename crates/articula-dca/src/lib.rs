@@ -106,7 +106,7 @@ pub fn forward_dynamics<'d>(
         Method::Dca => {
             kinematics::kinematics(model, q, qd, data, |_, _| {});
             dca::dca(model, tau, &f_ext, data).and_then(|()| {
-                if model.floating_base {
+                if model.floating_base && data.refine_floating {
                     refine::refine_dca(model, tau, &f_ext, data)
                 } else {
                     Ok(())
@@ -116,7 +116,7 @@ pub fn forward_dynamics<'d>(
         Method::Aba => {
             kinematics::kinematics(model, q, qd, data, |i, d| aba::init_body(i, d, &f_ext));
             aba::aba(model, tau, data).map(|()| {
-                if model.floating_base {
+                if model.floating_base && data.refine_floating {
                     aba::refine(model, tau, &f_ext, data);
                 }
             })
