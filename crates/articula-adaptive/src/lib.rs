@@ -285,25 +285,7 @@ impl Adaptive {
         self.fresh = true;
         self.fresh_q.copy_from_slice(q);
         self.fresh_qd.copy_from_slice(qd);
-        for (n, node) in model.assembly.nodes.iter().enumerate() {
-            out[n] = match node.kind {
-                NodeKind::Join {
-                    joint,
-                    parent_side: a,
-                    child_side: b,
-                } => {
-                    let body = &model.bodies[joint];
-                    let (vo, k, wo) = (body.v_offset, body.nv, self.woff[joint]);
-                    let own = if k == 1 {
-                        self.aw[wo] * self.qdd[vo] * self.qdd[vo]
-                    } else {
-                        dense::quad(&self.aw[wo..wo + k * k], &self.qdd[vo..vo + k], k)
-                    };
-                    own + out[a] + out[b]
-                }
-                _ => 0.0,
-            };
-        }
+        crate::metric::subtree_quadratic(model, &self.aw, &self.woff, &self.qdd, out);
         Ok(())
     }
 

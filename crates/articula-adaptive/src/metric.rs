@@ -261,21 +261,32 @@ impl Adaptive {
 
     /// `V(C)` of every node from the velocities `qd`, bottom-up.
     pub(crate) fn velocity_metric(&mut self, model: &Model, qd: &[f64]) {
-        let tree = &model.assembly;
-        for (n, node) in tree.nodes.iter().enumerate() {
-            self.vmetric[n] = match node.kind {
-                NodeKind::Join {
-                    joint,
-                    parent_side: a,
-                    child_side: b,
-                } => {
-                    let body = &model.bodies[joint];
-                    let (vo, k, wo) = (body.v_offset, body.nv, self.woff[joint]);
-                    let x = &qd[vo..vo + k];
-                    dense::quad(&self.vw[wo..wo + k * k], x, k) + self.vmetric[a] + self.vmetric[b]
-                }
-                _ => 0.0,
-            };
-        }
+        subtree_quadratic(model, &self.vw, &self.woff, qd, &mut self.vmetric);
+    }
+}
+
+/// `Σ_{i∈C} xᵢᵀ Wᵢ xᵢ` of every node `C` of the assembly tree, bottom-up (post-order: a child
+/// before its parent), with joint i's k×k weight at `w[woff[i]..]`: the velocity metric from
+/// `q̇` and `V`, or the acceleration metric from exact `q̈` and `A`.
+pub(crate) fn subtree_quadratic(
+    model: &Model,
+    w: &[f64],
+    woff: &[usize],
+    x: &[f64],
+    out: &mut [f64],
+) {
+    for (n, node) in model.assembly.nodes.iter().enumerate() {
+        out[n] = match node.kind {
+            NodeKind::Join {
+                joint,
+                parent_side: a,
+                child_side: b,
+            } => {
+                let body = &model.bodies[joint];
+                let (vo, k, wo) = (body.v_offset, body.nv, woff[joint]);
+                dense::quad(&w[wo..wo + k * k], &x[vo..vo + k], k) + out[a] + out[b]
+            }
+            _ => 0.0,
+        };
     }
 }

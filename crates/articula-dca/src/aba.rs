@@ -111,21 +111,37 @@ pub(crate) fn aba(model: &Model, tau: &[f64], data: &mut Data) -> Result<(), Dyn
         aba.ia[parent].add_assign(&ia_a);
         aba.pa[parent] += pa;
     }
-    // Pass 3, root to leaves: a' = a_parent + c, q̈ = D⁻¹ (u − Uᵀ a'), a = a' + S q̈.
     let a0 = SpatialMotion::new(glam::DVec3::ZERO, -data.gravity);
-    for i in 0..n {
-        let t = topo[i];
+    accelerations(topo, aba, &data.s, Some(&data.c), a0, &mut data.qdd);
+    Ok(())
+}
+
+/// Pass 3, root to leaves: `a' = a_parent + c`, `q̈ = D⁻¹ (u − Uᵀ a')`, `a = a' + S q̈`, on
+/// the `U`, `u`, `D⁻¹` of `aba` (`c = None`: no velocity products), writing `qdd`.
+#[inline(always)]
+fn accelerations(
+    topo: &[crate::data::Topo],
+    aba: &mut crate::data::AbaData,
+    s: &[SpatialMotion],
+    c: Option<&[SpatialMotion]>,
+    a0: SpatialMotion,
+    qdd: &mut [f64],
+) {
+    for (i, t) in topo.iter().enumerate() {
         let (vo, k, doff) = (t.vo, t.nv, aba.doff[i]);
-        let ap = if t.parent == usize::MAX {
+        let mut ap = if t.parent == usize::MAX {
             a0
         } else {
             aba.a[t.parent]
-        } + data.c[i];
+        };
+        if let Some(c) = c {
+            ap += c[i];
+        }
         let apa = ap.to_array();
         if k == 1 {
-            let qdd = aba.dinv[doff] * (aba.uu[vo] - dot6(&apa, &aba.u[vo]));
-            data.qdd[vo] = qdd;
-            aba.a[i] = ap + data.s[vo] * qdd;
+            let x = aba.dinv[doff] * (aba.uu[vo] - dot6(&apa, &aba.u[vo]));
+            qdd[vo] = x;
+            aba.a[i] = ap + s[vo] * x;
             continue;
         }
         let mut r = [0.0; 6];
@@ -138,12 +154,11 @@ pub(crate) fn aba(model: &Model, tau: &[f64], data: &mut Data) -> Result<(), Dyn
             for q in 0..k {
                 x += aba.dinv[doff + p * k + q] * r[q];
             }
-            data.qdd[vo + p] = x;
-            a += data.s[vo + p] * x;
+            qdd[vo + p] = x;
+            a += s[vo + p] * x;
         }
         aba.a[i] = a;
     }
-    Ok(())
 }
 
 #[inline(always)]
@@ -166,46 +181,27 @@ const ABA_TRIGGER: f64 = 1e-11;
 /// again) runs only when the residual is large ([`ABA_TRIGGER`]: never on the humanoid).
 pub(crate) fn refine(model: &Model, tau: &[f64], f_ext: &[SpatialForce], data: &mut Data) {
     let n = model.bodies.len();
+    let input = crate::refine::RneaInput {
+        inertia: &data.inertia,
+        v: &data.v,
+        c: &data.c,
+        s: &data.s,
+        gravity: data.gravity,
+        tau,
+        f_ext,
+        qdd: Some(&data.qdd),
+    };
+    // r = τ − ID(q̈) into uu (aba.a, aba.pa as scratch).
     let aba = &mut data.aba;
-    let topo = &data.topo[..n];
-    // RNEA forward: aᵢ = a_λ + cᵢ + Sᵢ q̈ᵢ; fᵢ = Iᵢ aᵢ + vᵢ ×* Iᵢ vᵢ − f_ext,i (kept in pa).
-    let a0 = SpatialMotion::new(glam::DVec3::ZERO, -data.gravity);
-    for i in 0..n {
-        let t = topo[i];
-        let mut ai = if t.parent == usize::MAX {
-            a0
-        } else {
-            aba.a[t.parent]
-        } + data.c[i];
-        for j in t.vo..t.vo + t.nv {
-            ai += data.s[j] * data.qdd[j];
-        }
-        aba.a[i] = ai;
-        let (inertia, v) = (&data.inertia[i], data.v[i]);
-        aba.pa[i] = inertia.mul_motion(ai) + v.cross_force(inertia.mul_motion(v))
-            - crate::f_ext_of(f_ext, i);
-    }
-    // RNEA backward: r = τ − Sᵀ f, with f added to the parent's (kept in uu).
-    let (mut scale, mut rmax) = (0.0f64, 0.0f64);
-    for i in (0..n).rev() {
-        let t = topo[i];
-        let fi = aba.pa[i];
-        for j in t.vo..t.vo + t.nv {
-            let sf = data.s[j].dot(fi);
-            aba.uu[j] = tau[j] - sf;
-            scale = scale.max(sf.abs()).max(tau[j].abs());
-            rmax = rmax.max(aba.uu[j].abs());
-        }
-        if t.parent != usize::MAX {
-            aba.pa[t.parent] += fi;
-        }
-    }
+    let (scale, rmax) =
+        crate::refine::rnea_residual(model, &input, &mut aba.a, &mut aba.pa, &mut aba.uu);
     // Small residual: q̈ kept. ABA's floating-base error shows in the residual at a lower
     // level than DCA's (1e-8 of the largest joint force would leave 2.2e-10 on chain300):
     // 1e-11, still above the humanoid's 1.6e-12.
     if rmax <= ABA_TRIGGER * scale {
         return;
     }
+    let topo = &data.topo[..n];
     // ABA pass 2's bias on the residual: u = r − Sᵀ pᴬ, pᵃ = pᴬ + U D⁻¹ u (no velocity).
     aba.pa.fill(SpatialForce::ZERO);
     for i in (0..n).rev() {
@@ -228,29 +224,10 @@ pub(crate) fn refine(model: &Model, tau: &[f64], f_ext: &[SpatialForce], data: &
         }
         aba.pa[t.parent] += pa;
     }
-    // Pass 3 on the correction: Δq̈ = D⁻¹ (u − Uᵀ a'), a = a' + S Δq̈, a_0 = 0.
-    for i in 0..n {
-        let t = topo[i];
-        let (vo, k, doff) = (t.vo, t.nv, aba.doff[i]);
-        let ap = if t.parent == usize::MAX {
-            SpatialMotion::ZERO
-        } else {
-            aba.a[t.parent]
-        };
-        let apa = ap.to_array();
-        let mut r = [0.0; 6];
-        for p in 0..k {
-            r[p] = aba.uu[vo + p] - dot6(&apa, &aba.u[vo + p]);
-        }
-        let mut a = ap;
-        for p in 0..k {
-            let mut x = 0.0;
-            for q in 0..k {
-                x += aba.dinv[doff + p * k + q] * r[q];
-            }
-            data.qdd[vo + p] += x;
-            a += data.s[vo + p] * x;
-        }
-        aba.a[i] = a;
+    // Pass 3 on the correction (a_0 = 0, no velocity products): Δq̈, then q̈ += Δq̈.
+    data.refine.qdd.copy_from_slice(&data.qdd);
+    accelerations(topo, aba, &data.s, None, SpatialMotion::ZERO, &mut data.qdd);
+    for (q, q0) in data.qdd.iter_mut().zip(&data.refine.qdd) {
+        *q += q0;
     }
 }

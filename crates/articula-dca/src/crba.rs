@@ -10,6 +10,7 @@
 //! factor (Wilkinson's iterative refinement; RBDA §6.4 notes the same use of RNEA). A few steps
 //! bring CRBA to the accuracy of the recursive algorithms.
 
+use crate::refine::{rnea_residual, RneaInput};
 use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::{SpatialForce, SpatialMotion};
@@ -24,20 +25,19 @@ pub(crate) fn crba(
 ) -> Result<(), DynamicsError> {
     let n = model.bodies.len();
     let nv = model.nv;
-    // RNEA with q̈ = 0: aᵢ = a_parent + cᵢ (a_0 = −a_g), fᵢ = Iᵢ aᵢ + vᵢ ×* Iᵢ vᵢ − f_ext,i,
-    // accumulated leaves to root; Cᵢ = Sᵢᵀ fᵢ.
-    let a0 = SpatialMotion::new(glam::DVec3::ZERO, -data.gravity);
+    // C by RNEA with q̈ = 0: the right-hand side τ − C.
     let mut a = vec![SpatialMotion::ZERO; n];
     let mut f = vec![SpatialForce::ZERO; n];
-    for i in 0..n {
-        let body = &model.bodies[i];
-        a[i] = body.parent.map_or(a0, |p| a[p]) + data.c[i];
-        let inertia = &data.inertia[i];
-        f[i] = inertia.mul_motion(a[i]) + data.v[i].cross_force(inertia.mul_motion(data.v[i]))
-            - crate::f_ext_of(f_ext, i);
-    }
-    let mut rhs = Mat::<f64>::zeros(nv, 1);
-    joint_forces(model, tau, &mut f, data, &mut rhs);
+    let mut r = vec![0.0; nv];
+
+    rnea_residual(
+        model,
+        &RneaInput::of(data, tau, f_ext, None),
+        &mut a,
+        &mut f,
+        &mut r,
+    );
+    let mut rhs = Mat::<f64>::from_fn(nv, 1, |j, _| r[j]);
     // Composite inertias Iᶜᵢ = Iᵢ + Σ Iᶜ_children; H_ij = Sᵢᵀ Iᶜᵢ Sⱼ for j = i and its ancestors.
     let mut ic = data.inertia.clone();
     for i in (0..n).rev() {
@@ -76,60 +76,32 @@ pub(crate) fn crba(
             detail: "the joint-space inertia matrix is not positive definite",
         })?;
     llt.solve_in_place(&mut rhs);
-    for j in 0..nv {
-        data.qdd[j] = rhs[(j, 0)];
-    }
-    // Iterative refinement: r = τ − ID(q̈) by RNEA (aᵢ = a_parent + Sᵢ q̈ᵢ + cᵢ), q̈ += H⁻¹ r,
-    // until the correction is at rounding level (at most a few steps).
+    let mut qdd: Vec<f64> = (0..nv).map(|j| rhs[(j, 0)]).collect();
+    // Iterative refinement: r = τ − ID(q̈) by RNEA, q̈ += H⁻¹ r, until the correction is at
+    // rounding level (at most a few steps).
     for _ in 0..REFINEMENT_STEPS {
-        for i in 0..n {
-            let body = &model.bodies[i];
-            let mut ai = body.parent.map_or(a0, |p| a[p]) + data.c[i];
-            for p in 0..body.nv {
-                let j = body.v_offset + p;
-                ai += data.s[j] * data.qdd[j];
-            }
-            a[i] = ai;
-            let inertia = &data.inertia[i];
-            f[i] = inertia.mul_motion(ai) + data.v[i].cross_force(inertia.mul_motion(data.v[i]))
-                - crate::f_ext_of(f_ext, i);
-        }
-        joint_forces(model, tau, &mut f, data, &mut rhs);
-        llt.solve_in_place(&mut rhs);
+        rnea_residual(
+            model,
+            &RneaInput::of(data, tau, f_ext, Some(&qdd)),
+            &mut a,
+            &mut f,
+            &mut r,
+        );
+        let mut dq = Mat::<f64>::from_fn(nv, 1, |j, _| r[j]);
+        llt.solve_in_place(&mut dq);
         let (mut dn, mut xn) = (0.0f64, 0.0f64);
         for j in 0..nv {
-            data.qdd[j] += rhs[(j, 0)];
-            dn = dn.max(rhs[(j, 0)].abs());
-            xn = xn.max(data.qdd[j].abs());
+            qdd[j] += dq[(j, 0)];
+            dn = dn.max(dq[(j, 0)].abs());
+            xn = xn.max(qdd[j].abs());
         }
         if dn <= 4.0 * f64::EPSILON * xn {
             break;
         }
     }
+    data.qdd.copy_from_slice(&qdd);
     Ok(())
 }
 
 /// Refinement steps at most; each costs one RNEA pass and one pair of triangular solves.
 const REFINEMENT_STEPS: usize = 4;
-
-/// `rhs_j = τ_j − S_jᵀ f_i` for every joint, with the bodies' net forces `f` accumulated from
-/// the leaves to the root in place (RNEA's backward pass).
-fn joint_forces(
-    model: &Model,
-    tau: &[f64],
-    f: &mut [SpatialForce],
-    data: &Data,
-    rhs: &mut Mat<f64>,
-) {
-    for i in (0..model.bodies.len()).rev() {
-        let body = &model.bodies[i];
-        for p in 0..body.nv {
-            let j = body.v_offset + p;
-            rhs[(j, 0)] = tau[j] - data.s[j].dot(f[i]);
-        }
-        if let Some(par) = body.parent {
-            let fi = f[i];
-            f[par] += fi;
-        }
-    }
-}

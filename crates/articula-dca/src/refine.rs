@@ -10,7 +10,7 @@
 
 use crate::{Data, DynamicsError};
 use articula_model::Model;
-use articula_spatial::{SpatialForce, SpatialMotion};
+use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion};
 use glam::DVec3;
 
 /// Buffers of the refinement (allocated once with [`Data`]).
@@ -19,7 +19,7 @@ pub(crate) struct RefineData {
     a: Vec<SpatialMotion>,
     f: Vec<SpatialForce>,
     r: Vec<f64>,
-    qdd: Vec<f64>,
+    pub(crate) qdd: Vec<f64>,
     /// Zero velocities and velocity products, swapped in for the correction solve.
     zv: Vec<SpatialMotion>,
     zc: Vec<SpatialMotion>,
@@ -50,36 +50,81 @@ impl RefineData {
 /// CRBA to ≤ 2e-11 unrefined.)
 const TRIGGER: f64 = 1e-8;
 
-/// `r = τ − ID(q̈)` (RNEA in the computation frame on the kinematics in `data`); returns the
-/// largest `|τ_j|` or `|S_jᵀ f_i|` met, the scale of the rounding in `r`.
-fn residual(model: &Model, tau: &[f64], f_ext: &[SpatialForce], data: &mut Data) -> f64 {
-    let rd = &mut data.refine;
-    let a0 = SpatialMotion::new(DVec3::ZERO, -data.gravity);
-    // Forward: aᵢ = a_parent + cᵢ + Sᵢ q̈ᵢ, fᵢ = Iᵢ aᵢ + vᵢ ×* Iᵢ vᵢ − f_ext,i.
-    for (i, body) in model.bodies.iter().enumerate() {
-        let mut ai = body.parent.map_or(a0, |p| rd.a[p]) + data.c[i];
-        for j in body.v_offset..body.v_offset + body.nv {
-            ai += data.s[j] * data.qdd[j];
+/// The inputs of [`rnea_residual`]: the kinematics of a `Data` (borrowed field by field, so
+/// that its scratch buffers can be lent at the same time) and the joint forces and accelerations.
+pub(crate) struct RneaInput<'a> {
+    pub inertia: &'a [SpatialInertia],
+    pub v: &'a [SpatialMotion],
+    pub c: &'a [SpatialMotion],
+    pub s: &'a [SpatialMotion],
+    pub gravity: DVec3,
+    pub tau: &'a [f64],
+    pub f_ext: &'a [SpatialForce],
+    /// `None`: q̈ = 0 (then `r = τ − C`, the bias forces of CRBA).
+    pub qdd: Option<&'a [f64]>,
+}
+
+impl<'a> RneaInput<'a> {
+    /// The kinematics of `data` (when none of its buffers is lent at the same time).
+    pub(crate) fn of(
+        data: &'a Data,
+        tau: &'a [f64],
+        f_ext: &'a [SpatialForce],
+        qdd: Option<&'a [f64]>,
+    ) -> RneaInput<'a> {
+        RneaInput {
+            inertia: &data.inertia,
+            v: &data.v,
+            c: &data.c,
+            s: &data.s,
+            gravity: data.gravity,
+            tau,
+            f_ext,
+            qdd,
         }
-        rd.a[i] = ai;
-        let (inertia, v) = (&data.inertia[i], data.v[i]);
-        rd.f[i] = inertia.mul_motion(ai) + v.cross_force(inertia.mul_motion(v))
-            - crate::f_ext_of(f_ext, i);
     }
-    // Backward: r_j = τ_j − S_jᵀ fᵢ, f_parent += fᵢ.
-    let mut scale = 0.0f64;
+}
+
+/// `r = τ − ID(q, q̇, q̈)` by the recursive Newton–Euler algorithm in the computation frame,
+/// with `a` and `f` per-body scratch: aᵢ = a_parent + cᵢ + Sᵢ q̈ᵢ (a_0 = −a_g),
+/// fᵢ = Iᵢ aᵢ + vᵢ ×* Iᵢ vᵢ − f_ext,i accumulated from the leaves to the root, rⱼ = τⱼ − Sⱼᵀ fᵢ.
+/// It never forms the joint-space inertia H, so it is accurate to rounding in the joint forces
+/// (the residual of CRBA's, ABA's and DCA's refinements). Returns the largest `|τⱼ|` or
+/// `|Sⱼᵀ fᵢ|` met (the scale of the joint forces) and the largest `|rⱼ|`.
+pub(crate) fn rnea_residual(
+    model: &Model,
+    k: &RneaInput,
+    a: &mut [SpatialMotion],
+    f: &mut [SpatialForce],
+    r: &mut [f64],
+) -> (f64, f64) {
+    let a0 = SpatialMotion::new(DVec3::ZERO, -k.gravity);
+    for (i, body) in model.bodies.iter().enumerate() {
+        let mut ai = body.parent.map_or(a0, |p| a[p]) + k.c[i];
+        if let Some(qdd) = k.qdd {
+            for j in body.v_offset..body.v_offset + body.nv {
+                ai += k.s[j] * qdd[j];
+            }
+        }
+        a[i] = ai;
+        let (inertia, v) = (&k.inertia[i], k.v[i]);
+        f[i] = inertia.mul_motion(ai) + v.cross_force(inertia.mul_motion(v))
+            - crate::f_ext_of(k.f_ext, i);
+    }
+    let (mut scale, mut rmax) = (0.0f64, 0.0f64);
     for (i, body) in model.bodies.iter().enumerate().rev() {
-        let fi = rd.f[i];
+        let fi = f[i];
         for j in body.v_offset..body.v_offset + body.nv {
-            let sf = data.s[j].dot(fi);
-            rd.r[j] = tau[j] - sf;
-            scale = scale.max(sf.abs()).max(tau[j].abs());
+            let sf = k.s[j].dot(fi);
+            r[j] = k.tau[j] - sf;
+            scale = scale.max(sf.abs()).max(k.tau[j].abs());
+            rmax = rmax.max(r[j].abs());
         }
         if let Some(p) = body.parent {
-            rd.f[p] += fi;
+            f[p] += fi;
         }
     }
-    scale
+    (scale, rmax)
 }
 
 /// One refinement step of DCA's `data.qdd` (floating bases), when the residual asks for it.
@@ -89,8 +134,18 @@ pub(crate) fn refine_dca(
     f_ext: &[SpatialForce],
     data: &mut Data,
 ) -> Result<(), DynamicsError> {
-    let scale = residual(model, tau, f_ext, data);
-    let rmax = data.refine.r.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let input = RneaInput {
+        inertia: &data.inertia,
+        v: &data.v,
+        c: &data.c,
+        s: &data.s,
+        gravity: data.gravity,
+        tau,
+        f_ext,
+        qdd: Some(&data.qdd),
+    };
+    let rd = &mut data.refine;
+    let (scale, rmax) = rnea_residual(model, &input, &mut rd.a, &mut rd.f, &mut rd.r);
     if rmax <= TRIGGER * scale {
         return Ok(());
     }
