@@ -156,10 +156,10 @@ impl DepthBuffer {
         }
         // Cells [i, i+1] × [j, j+1] wholly inside the ellipse ((u−x)/rx)² + ((v−y)/ry)² ≤ 1:
         // its four corners inside (the ellipse is convex).
-        let i0 = (x - rx).floor().max(0.0) as usize;
-        let i1 = ((x + rx).ceil().max(0.0) as usize).min(self.width);
-        let j0 = (y - ry).floor().max(0.0) as usize;
-        let j1 = ((y + ry).ceil().max(0.0) as usize).min(self.height);
+        let i0 = floor_index(x - rx);
+        let i1 = ceil_index(x + rx).min(self.width);
+        let j0 = floor_index(y - ry);
+        let j1 = ceil_index(y + ry).min(self.height);
         let inside = |u: f64, v: f64| {
             let (a, b) = ((u - x) / rx, (v - y) / ry);
             a * a + b * b <= 1.0
@@ -221,8 +221,8 @@ impl DepthBuffer {
         if xa < 0.0 || ya < 0.0 || xb > self.width as f64 || yb > self.height as f64 {
             return false;
         }
-        let (i0, i1) = (xa.floor() as usize, (xb.ceil() as usize).min(self.width));
-        let (j0, j1) = (ya.floor() as usize, (yb.ceil() as usize).min(self.height));
+        let (i0, i1) = (floor_index(xa), ceil_index(xb).min(self.width));
+        let (j0, j1) = (floor_index(ya), ceil_index(yb).min(self.height));
         for j in j0..j1 {
             for i in i0..i1 {
                 if self.depth[j * self.width + i] >= near {
@@ -231,6 +231,25 @@ impl DepthBuffer {
             }
         }
         true
+    }
+}
+
+/// `⌊x⌋` as a cell index, 0 below 0 (and for NaN): `x.floor().max(0.0) as usize` without the
+/// `floor` call (a library call on baseline x86-64; truncation is the floor of x ≥ 0).
+#[inline]
+fn floor_index(x: f64) -> usize {
+    x.max(0.0) as usize
+}
+
+/// `⌈x⌉` as a cell index, 0 below 0 (and for NaN): `x.ceil().max(0.0) as usize` without the
+/// `ceil` call.
+#[inline]
+fn ceil_index(x: f64) -> usize {
+    let t = x.max(0.0) as usize;
+    if (t as f64) < x {
+        t.saturating_add(1)
+    } else {
+        t
     }
 }
 
@@ -427,5 +446,33 @@ pub fn body_poses(model: &articula_model::Model, q: &[f64], out: &mut Vec<(DMat3
             compose_part(part, q, &mut r, &mut p);
         }
         out.push((r, p));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{ceil_index, floor_index};
+
+    #[test]
+    fn cell_indices_equal_floor_and_ceil() {
+        let mut xs = vec![
+            f64::NAN,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            -0.0,
+            0.0,
+            1e300,
+            -1e300,
+            4503599627370495.5,
+            f64::EPSILON,
+        ];
+        for k in -400..=400 {
+            let x = k as f64 * 0.25;
+            xs.extend([x, x + 1e-12, x - 1e-12, f64::from_bits(x.to_bits() + 1)]);
+        }
+        for x in xs {
+            assert_eq!(floor_index(x), x.floor().max(0.0) as usize, "floor of {x}");
+            assert_eq!(ceil_index(x), x.ceil().max(0.0) as usize, "ceil of {x}");
+        }
     }
 }
