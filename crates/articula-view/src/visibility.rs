@@ -181,7 +181,7 @@ impl DepthBuffer {
             }
             (lo, hi)
         };
-        if j0 >= j1 {
+        if j0 >= j1 || i0 > i1 {
             return;
         }
         let mut below = run(j0 as f64);

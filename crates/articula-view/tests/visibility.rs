@@ -314,3 +314,65 @@ fn body_poses_match_forward_kinematics() {
         }
     }
 }
+
+#[test]
+fn a_rasterised_ball_fills_exactly_the_cells_wholly_inside_its_disc() {
+    // Brute force: a cell gets the ball's far depth when its four corners lie in the projected
+    // ellipse ((u − x)/rx)² + ((v − y)/ry)² ≤ 1 (same camera → cell mapping as the buffer).
+    let c = cam();
+    let (w, h) = (64usize, 36usize);
+    let t = c.tan_half_fov();
+    let (fx, fy) = (w as f64 / (2.0 * t * c.aspect), h as f64 / (2.0 * t));
+    let mut seed = 11u64;
+    let mut rnd = |lo: f64, hi: f64| {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        lo + (hi - lo) * ((seed >> 11) as f64 / (1u64 << 53) as f64)
+    };
+    let mut filled_total = 0;
+    for k in 0..3000 {
+        let x = rnd(0.5, 40.0);
+        let p = DVec3::new(x, rnd(-1.5, 1.5) * x, rnd(-1.0, 1.0) * x);
+        // Small to huge discs, some crossing the image border.
+        let r = if k % 3 == 0 {
+            rnd(0.01, 0.3)
+        } else {
+            rnd(0.1, 0.6) * x
+        };
+        let mut buf = DepthBuffer::new(w, h);
+        buf.rasterize_ball(&c, p, r);
+        let q = c.axes.transpose() * (p - c.position);
+        let visible = q.z - r > c.near;
+        let (cx, cy) = (
+            (q.x / q.z) * fx + 0.5 * w as f64,
+            -(q.y / q.z) * fy + 0.5 * h as f64,
+        );
+        let (rx, ry) = (r / q.z * fx, r / q.z * fy);
+        let inside = |u: f64, v: f64| {
+            let (a, b) = ((u - cx) / rx, (v - cy) / ry);
+            a * a + b * b <= 1.0
+        };
+        for j in 0..h {
+            for i in 0..w {
+                let (u, v) = (i as f64, j as f64);
+                let full = visible
+                    && inside(u, v)
+                    && inside(u + 1.0, v)
+                    && inside(u, v + 1.0)
+                    && inside(u + 1.0, v + 1.0);
+                let want = if full { q.z + r } else { f64::INFINITY };
+                filled_total += usize::from(full);
+                assert_eq!(
+                    buf.depth[j * w + i],
+                    want,
+                    "ball {k} ({p}, {r}), cell ({i}, {j})"
+                );
+            }
+        }
+    }
+    assert!(
+        filled_total > 10_000,
+        "the test must fill cells: {filled_total}"
+    );
+}
