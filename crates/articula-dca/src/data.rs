@@ -98,9 +98,8 @@ pub(crate) struct DcaData {
     pub b: Vec<SpatialMotion>,
     /// Handle forces per handle (back-substitution).
     pub f: Vec<SpatialForce>,
-    /// Per join node: the Cholesky factor L of `Φ^A_jj + Φ^B_jj = V⁻¹` (its diagonal stored
-    /// inverted, see [`crate::small::cholesky6`]), or for a one-axis join the `L D Lᵀ` factors
-    /// of the 5×5 `TᵀKT` ([`crate::small::ldl5`]); and β.
+    /// Per join node off the one-axis path: the Cholesky factor L of `Φ^A_jj + Φ^B_jj = V⁻¹`
+    /// (its diagonal stored inverted, see [`crate::small::cholesky6`]); per join node: β.
     pub l: Vec<[[f64; 6]; 6]>,
     pub beta: Vec<SpatialMotion>,
     /// Per degree of freedom: the column of `Z = L⁻¹ S`.
@@ -110,8 +109,10 @@ pub(crate) struct DcaData {
     /// Per joint h: the point P_h (origin of body h, computation frame) about which every
     /// handle-h vector is taken.
     pub point: Vec<DVec3>,
-    /// Per node: the constraint basis of its joint (1-DOF joins).
-    pub basis: Vec<Basis>,
+    /// Per node: its join is a single revolute joint (the 5×5 path, [`RevJoin`]).
+    pub one_dof: Vec<bool>,
+    /// Per node: what a one-axis join keeps for the back-substitution.
+    pub rev: Vec<RevJoin>,
     /// Scratch per handle of the node being joined: `Ỹ_h = Q L⁻¹ Φ_jh` (or `D^{-1/2} L⁻¹ Tᵀ Φ_jh`).
     pub y: Vec<[[f64; 6]; 6]>,
     /// Per body: the constants of its leaf, `None` when its spatial inertia is not positive
@@ -125,8 +126,9 @@ pub(crate) struct LeafConst {
     /// Centre of mass.
     pub com: DVec3,
     /// Rotational inertia about the centre of mass, `I_c`, and its inverse.
-    pub ic: glam::DMat3,
-    pub ic_inv: glam::DMat3,
+    /// (Rows; both are symmetric.)
+    pub ic: [[f64; 3]; 3],
+    pub ic_inv: [[f64; 3]; 3],
     pub mass: f64,
 }
 
@@ -139,30 +141,30 @@ impl LeafConst {
         }
         Some(LeafConst {
             com: inertia.com(),
-            ic,
-            ic_inv: ic.inverse(),
+            ic: ic.transpose().to_cols_array_2d(),
+            ic_inv: ic.inverse().transpose().to_cols_array_2d(),
             mass: m,
         })
     }
 }
 
-/// The constraint basis of a one-axis join (see `dca::join`): with `s = [ω; 0]` the revolute
-/// joint's subspace column at its point and `p`, `q` an orthogonal pair perpendicular to ω,
+/// What a one-axis join keeps (see `dca::join`): with `s = [ω; 0]` the revolute joint's
+/// subspace column at its point and `p`, `q` an orthogonal pair perpendicular to ω,
 /// `T = [p 0; q 0; 0 1]ᵀ` (6×5: columns `[p; 0]`, `[q; 0]`, `[0; e_x]`, `[0; e_y]`, `[0; e_z]`)
 /// spans the forces that do no work along `s`. (A prismatic joint takes the general path.)
 #[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct Basis {
-    /// This join is a single revolute joint (the 5×5 path).
-    pub one_dof: bool,
-    /// ω, and the pair p, q.
-    pub w: [f64; 3],
+pub(crate) struct RevJoin {
+    /// The pair p, q.
     pub p: [f64; 3],
     pub q: [f64; 3],
-    /// `q̈` per unit joint torque.
-    pub qt: f64,
+    /// The `L D Lᵀ` factors of the 5×5 `TᵀKT`, lower triangle packed row by row
+    /// (`(i, j)` at `i (i + 1) / 2 + j`): L's entries below the diagonal, `1 / d_i` on it.
+    pub l: [f64; 15],
     /// `(W K s − s) / sᵀs`: `q̈ = gᵀ y + q̈_τ τ` in the back-substitution; `−g` is the joint
     /// force per unit torque.
     pub g: [f64; 6],
+    /// `q̈` per unit joint torque.
+    pub qt: f64,
 }
 
 /// ABA buffers.
@@ -253,23 +255,18 @@ impl Data {
                 z: vec![[0.0; 6]; nv],
                 dinv: vec![SmallSpd::default(); n],
                 point: vec![DVec3::ZERO; n],
-                basis: tree
+                one_dof: tree
                     .nodes
                     .iter()
-                    .map(|node| Basis {
-                        one_dof: match node.kind {
-                            NodeKind::Join { joint, .. } => {
-                                let body = &model.bodies[joint];
-                                matches!(
-                                    body.joint.as_slice(),
-                                    [p] if matches!(p.kind, JointKind::Revolute | JointKind::Continuous)
-                                )
-                            }
-                            _ => false,
-                        },
-                        ..Basis::default()
+                    .map(|node| match node.kind {
+                        NodeKind::Join { joint, .. } => matches!(
+                            model.bodies[joint].joint.as_slice(),
+                            [p] if matches!(p.kind, JointKind::Revolute | JointKind::Continuous)
+                        ),
+                        _ => false,
                     })
                     .collect(),
+                rev: vec![RevJoin::default(); nn],
                 y: vec![[[0.0; 6]; 6]; max_h],
                 leaf: model
                     .bodies

@@ -6,7 +6,7 @@
 //! bottom-up over the assembly tree; the back-substitution computes each principal joint's
 //! `q̈` and constraint force top-down.
 
-use crate::data::{Basis, Side};
+use crate::data::{RevJoin, Side};
 use crate::small::Sym6;
 use crate::{Data, DynamicsError};
 use articula_model::{Model, NodeKind};
@@ -111,60 +111,110 @@ fn leaf(
     a_g: SpatialMotion,
     data: &mut Data,
 ) -> Result<(), DynamicsError> {
-    let rot = data.x[i].e; // body → computation-frame axes
     let Some(lc) = data.dca.leaf[i] else {
         return Err(DynamicsError::Singular {
             joint: model.bodies[i].joint_name(),
             detail: "the body's spatial inertia is not positive definite",
         });
     };
-    let c = data.x[i].apply_point(lc.com);
+    let x = &data.x[i];
+    // R: body → computation-frame axes, by columns (e[k] = R e_k).
+    let e = x.e.to_cols_array_2d();
+    let c = x.apply_point(lc.com);
     let m = lc.mass;
-    let j = rot * lc.ic_inv * rot.transpose();
+    let im = 1.0 / m;
+    // J = R I_c⁻¹ Rᵀ (symmetric: rows = columns).
+    let jc = rotate_sym(&e, &lc.ic_inv);
     // Net force about c: f_ext − v ×* I v, with v_c the velocity of the point at c;
     // I_c ω = R I_c,body Rᵀ ω.
     let v = data.v[i];
     let v_c = v.v + v.w.cross(c);
     let fe = crate::f_ext_of(f_ext, i);
-    let icw = rot * (lc.ic * (rot.transpose() * v.w));
+    let wb = [dot3a(&e[0], v.w), dot3a(&e[1], v.w), dot3a(&e[2], v.w)];
+    let icwb: [f64; 3] = std::array::from_fn(|r| dot3(&lc.ic[r], &wb));
+    let icw = DVec3::from_array(std::array::from_fn(|r| {
+        e[0][r] * icwb[0] + e[1][r] * icwb[1] + e[2][r] * icwb[2]
+    }));
     let n_c = fe.n - c.cross(fe.f) - v.w.cross(icw);
     let f_c = fe.f - v.w.cross(v_c) * m;
-    let acc_w = j * n_c;
-    let acc_c = f_c / m;
-    let im = 1.0 / m;
+    let nc = n_c.to_array();
+    let acc_w = DVec3::from_array(std::array::from_fn(|r| dot3(&jc[r], &nc)));
+    let acc_c = f_c * im;
     let d = &mut data.dca;
     let handles = &d.hj[ho..ho + nh];
-    // The columns of J (= its rows) and of A_h = a_h× J (A_h's columns are a_h × J's).
-    let jc = [j.x_axis, j.y_axis, j.z_axis];
-    let a_cols = |a: DVec3| [a.cross(jc[0]), a.cross(jc[1]), a.cross(jc[2])];
+    // J's columns (= its rows), and the columns of A_h = a_h× J (a_h × J's columns).
+    let jv = jc.map(DVec3::from_array);
+    let a_cols = |a: DVec3| [a.cross(jv[0]), a.cross(jv[1]), a.cross(jv[2])];
+    // Row r of A (from its columns).
+    let a_row = |ac: &[DVec3; 3], r: usize| DVec3::new(ac[0][r], ac[1][r], ac[2][r]);
     for (h, &ph) in handles.iter().enumerate() {
         let ah = c - d.point[ph];
         // b at P_h: [α; a_c + α × (P_h − c)] + a_g
         d.b[ho + h] = a_g + SpatialMotion::new(acc_w, acc_c + ah.cross(acc_w));
         let ahc = a_cols(ah);
-        for (k, &pk) in handles.iter().enumerate().skip(h) {
-            let akc = if k == h { ahc } else { a_cols(c - d.point[pk]) };
-            // a_h× A_kᵀ: its column q is a_h × (row q of A_k).
-            let row = |q: usize| DVec3::new(akc[0][q], akc[1][q], akc[2][q]);
-            let bc = [ah.cross(row(0)), ah.cross(row(1)), ah.cross(row(2))];
-            let mut out = [[0.0; 6]; 6];
+        let ahr = [a_row(&ahc, 0), a_row(&ahc, 1), a_row(&ahc, 2)];
+        // Φ_hh, upper triangle: [J, A_hᵀ; ·, a_h× A_hᵀ + 1/m], the lower-right block's row r
+        // being a_h × (row r of A_h) (a_h× J a_h×ᵀ = A_h a_h×ᵀ).
+        let br = [ah.cross(ahr[0]), ah.cross(ahr[1]), ah.cross(ahr[2])];
+        d.dg[ho + h] = Sym6([
+            jc[0][0],
+            jc[0][1],
+            jc[0][2],
+            ahc[0].x,
+            ahc[0].y,
+            ahc[0].z, // row 0
+            jc[1][1],
+            jc[1][2],
+            ahc[1].x,
+            ahc[1].y,
+            ahc[1].z, // row 1
+            jc[2][2],
+            ahc[2].x,
+            ahc[2].y,
+            ahc[2].z, // row 2
+            br[0].x + im,
+            br[0].y,
+            br[0].z, // row 3
+            br[1].y + im,
+            br[1].z,      // row 4
+            br[2].z + im, // row 5
+        ]);
+        for (k, &pk) in handles.iter().enumerate().skip(h + 1) {
+            let ak = c - d.point[pk];
+            let akc = a_cols(ak);
+            // Φ_hk = [J, A_kᵀ; A_h, A_h a_k×ᵀ + 1/m]: row r of the lower right is
+            // a_k × (row r of A_h); row r of A_kᵀ is column r of A_k.
+            let out = &mut d.phi[bo + ub(nh, h, k)].0;
             for r in 0..3 {
-                // [J | A_kᵀ]: row r of A_kᵀ is column r of A_k.
-                out[r] = [jc[r].x, jc[r].y, jc[r].z, akc[r].x, akc[r].y, akc[r].z];
-                // [A_h | a_h× A_kᵀ + 1/m]
-                out[r + 3] = [
-                    ahc[0][r], ahc[1][r], ahc[2][r], bc[0][r], bc[1][r], bc[2][r],
-                ];
+                let x = ak.cross(ahr[r]);
+                out[r] = [jc[r][0], jc[r][1], jc[r][2], akc[r].x, akc[r].y, akc[r].z];
+                out[r + 3] = [ahr[r].x, ahr[r].y, ahr[r].z, x.x, x.y, x.z];
                 out[r + 3][r + 3] += im;
-            }
-            if k == h {
-                d.dg[ho + h] = pack(&out);
-            } else {
-                d.phi[bo + ub(nh, h, k)] = Mat6(out);
             }
         }
     }
     Ok(())
+}
+
+/// `R S Rᵀ` for a symmetric 3×3 `S` and a rotation given by its columns `e` (`e[k] = R e_k`);
+/// the product's rows.
+#[inline(always)]
+fn rotate_sym(e: &[[f64; 3]; 3], s: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    // T = R S: row i is Σ_k R_ik (row k of S).
+    let t: [[f64; 3]; 3] = std::array::from_fn(|i| {
+        std::array::from_fn(|q| e[0][i] * s[0][q] + e[1][i] * s[1][q] + e[2][i] * s[2][q])
+    });
+    // (T Rᵀ)_il = row i of T · row l of R, upper triangle, mirrored.
+    let row = |l: usize| [e[0][l], e[1][l], e[2][l]];
+    let (r0, r1, r2) = (row(0), row(1), row(2));
+    let (a00, a01, a02) = (dot3(&t[0], &r0), dot3(&t[0], &r1), dot3(&t[0], &r2));
+    let (a11, a12, a22) = (dot3(&t[1], &r1), dot3(&t[1], &r2), dot3(&t[2], &r2));
+    [[a00, a01, a02], [a01, a11, a12], [a02, a12, a22]]
+}
+
+#[inline(always)]
+fn dot3a(a: &[f64; 3], x: DVec3) -> f64 {
+    a[0] * x.x + a[1] * x.y + a[2] * x.z
 }
 
 /// `L⁻¹ b` (forward substitution; `l` from [`crate::small::cholesky6`], inverse diagonal).
@@ -207,7 +257,7 @@ fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
 /// Joins A and B at `joint` into node `n` (DESIGN §5, any handle count); V and W never
 /// appear explicitly. With `K = Φ^A_jj + Φ^B_jj = V⁻¹`, W is the same for every basis `T` of
 /// the forces that do no work along S: `W = V − V S (SᵀVS)⁻¹ SᵀV = T (TᵀKT)⁻¹ Tᵀ`.
-/// - One revolute axis (the common case): the basis of [`Basis`] (fixed positions), the
+/// - One revolute axis (the common case): the basis of [`RevJoin`] (fixed positions), the
 ///   `L D Lᵀ` factors of the 5×5 `TᵀKT` ([`crate::small::ldl5`]),
 ///   `Ỹ_h = D^{-1/2} L⁻¹ Tᵀ Φ_jh` (5 rows), and the joint terms of [`joint_terms`].
 /// - Otherwise: the Cholesky factor of `K = L Lᵀ`, `Z = L⁻¹ S`, `D = ZᵀZ` and the orthogonal
@@ -228,28 +278,20 @@ fn join(
 ) -> Result<(), DynamicsError> {
     let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
     let d = &mut data.dca;
-    let nh = |x: usize| d.hoff[x + 1] - d.hoff[x];
-    let (nha, nhb, nhc) = (nh(a), nh(b), nh(n));
+    let (hoa, hob, hc) = (d.hoff[a], d.hoff[b], d.hoff[n]);
+    let (nha, nhb, nhc) = (d.hoff[a + 1] - hoa, d.hoff[b + 1] - hob, d.hoff[n + 1] - hc);
     let (ja, jb) = (d.ja[n], d.jb[n]);
-    let (boa, bob) = (d.boff[a], d.boff[b]);
-    // K = Φ^A_jj + Φ^B_jj, from the packed diagonal blocks.
-    let (pa, pb) = (&d.dg[d.hoff[a] + ja].0, &d.dg[d.hoff[b] + jb].0);
-    let mut sum = [[0.0; 6]; 6];
-    for r in 0..6 {
-        for c in r..6 {
-            let x = pa[SYM_ROW[r] + c - r] + pb[SYM_ROW[r] + c - r];
-            sum[r][c] = x;
-            sum[c][r] = x;
-        }
-    }
+    let (boa, bob, bc) = (d.boff[a], d.boff[b], d.boff[n]);
+    // K = Φ^A_jj + Φ^B_jj, packed.
+    let (pa, pb) = (&d.dg[hoa + ja].0, &d.dg[hob + jb].0);
+    let kp: [f64; 21] = std::array::from_fn(|i| pa[i] + pb[i]);
     // S and c at the joint's point P_j.
     let pj = d.point[joint];
     let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj));
     let body = &model.bodies[joint]; // for error messages only
                                      // β = b_j^A − b_j^B + c
-    let beta = d.b[d.hoff[a] + ja] - d.b[d.hoff[b] + jb] + shift(data.c[joint]);
+    let beta = d.b[hoa + ja] - d.b[hob + jb] + shift(data.c[joint]);
     d.beta[n] = beta;
-    let (hc, bc) = (d.hoff[n], d.boff[n]);
     // Φ_jh (rows) of C's handle h: the stored block, or the transpose of the stored Φ_hj.
     let from = |h: usize| match d.from[hc + h] {
         (Side::A, i) => (boa, nha, ja, i),
@@ -257,48 +299,81 @@ fn join(
     };
     let rows;
     let gamma;
-    if d.basis[n].one_dof {
-        // One revolute axis: the 5×5 constraint system (see `Basis`).
-        let w = data.s[vo].w; // s = [ω; 0] at P_j
+    if d.one_dof[n] {
+        // One revolute axis: the 5×5 constraint system (see `RevJoin`).
+        let w = data.s[vo].w.to_array(); // s = [ω; 0] at P_j
         let (p, q) = perpendicular_pair(w);
-        let mut bs = Basis {
-            one_dof: true,
-            w: w.to_array(),
-            p,
-            q,
-            qt: 0.0,
-            g: [0.0; 6],
+        // K's blocks: the symmetric angular one K_ω (rows and columns 0..3) and the coupling
+        // K_c (rows 0..3, columns 3..6): K_ω x and K_cᵀ x for x = p, q, ω.
+        let kw = |x: &[f64; 3]| {
+            [
+                kp[0] * x[0] + kp[1] * x[1] + kp[2] * x[2],
+                kp[1] * x[0] + kp[6] * x[1] + kp[7] * x[2],
+                kp[2] * x[0] + kp[7] * x[1] + kp[11] * x[2],
+            ]
         };
-        let m = &mut d.l[n];
-        if !crate::small::ldl5(&reduce(&sum, &bs), m) {
+        let kc = |x: &[f64; 3]| -> [f64; 3] {
+            std::array::from_fn(|c| x[0] * kp[3 + c] + x[1] * kp[8 + c] + x[2] * kp[12 + c])
+        };
+        let (kwp, kwq, kww) = (kw(&p), kw(&q), kw(&w));
+        let (kcp, kcq, kcw) = (kc(&p), kc(&q), kc(&w));
+        // Tᵀ K T (lower triangle): [pᵀK_ω p, ·; qᵀK_ω p, qᵀK_ω q; K_cᵀp, K_cᵀq, K_v].
+        let mut mt = [[0.0; 6]; 6];
+        mt[0][0] = dot3(&p, &kwp);
+        mt[1][0] = dot3(&q, &kwp);
+        mt[1][1] = dot3(&q, &kwq);
+        for r in 0..3 {
+            mt[2 + r][0] = kcp[r];
+            mt[2 + r][1] = kcq[r];
+        }
+        mt[2][2] = kp[15];
+        mt[3][2] = kp[16];
+        mt[4][2] = kp[17];
+        mt[3][3] = kp[18];
+        mt[4][3] = kp[19];
+        mt[4][4] = kp[20];
+        let mut m = [[0.0; 6]; 6];
+        if !crate::small::ldl5(&mt, &mut m) {
             return Err(DynamicsError::Singular {
                 joint: body.joint_name(),
                 detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
             });
         }
-        let m = &d.l[n];
-        joint_terms(&sum, m, &mut bs);
+        let rj = &mut d.rev[n];
+        rj.p = p;
+        rj.q = q;
+        rj.l = [
+            m[0][0], m[1][0], m[1][1], m[2][0], m[2][1], m[2][2], m[3][0], m[3][1], m[3][2],
+            m[3][3], m[4][0], m[4][1], m[4][2], m[4][3], m[4][4],
+        ];
+        // K s = [K_ω ω; K_cᵀ ω]
+        let ks = [kww[0], kww[1], kww[2], kcw[0], kcw[1], kcw[2]];
+        joint_terms(&w, &ks, rj);
         // γ = W β + f_τ τ, f_τ = −g
-        let wb = w_apply(m, &bs, &beta.to_array());
+        let wb = w_apply(rj, &beta.to_array());
         let t = tau[vo];
-        let mut g = [0.0; 6];
-        for i in 0..6 {
-            g[i] = wb[i] - bs.g[i] * t;
-        }
-        gamma = g;
-        d.basis[n] = bs;
+        gamma = std::array::from_fn(|i| wb[i] - rj.g[i] * t);
+        let rj = &d.rev[n];
         for h in 0..nhc {
             let (bo, nh, j, i) = from(h);
             // Tᵀ Φ_jh: from the rows of the stored Φ_jh, or the columns of the stored Φ_hj.
             let tg = if j < i {
-                t_rows(&d.phi[bo + ub(nh, j, i)].0, &bs)
+                t_rows(&d.phi[bo + ub(nh, j, i)].0, rj)
             } else {
-                t_cols(&d.phi[bo + ub(nh, i, j)].0, &bs)
+                t_cols(&d.phi[bo + ub(nh, i, j)].0, rj)
             };
-            y_reduced(&mut d.y[h], tg, m);
+            y_reduced(&mut d.y[h], tg, &m);
         }
         rows = 5;
     } else {
+        let mut sum = [[0.0; 6]; 6];
+        for r in 0..6 {
+            for c in r..6 {
+                let x = kp[SYM_ROW[r] + c - r];
+                sum[r][c] = x;
+                sum[c][r] = x;
+            }
+        }
         // L Lᵀ = Φ^A_jj + Φ^B_jj
         let l = crate::small::cholesky6(&sum).ok_or_else(|| DynamicsError::Singular {
             joint: body.joint_name(),
@@ -360,7 +435,6 @@ fn join(
     // pair h ≤ k is a stored block of that side too. Then b^C.
     let (src, dst) = d.phi.split_at_mut(bc);
     let (dsrc, ddst) = d.dg.split_at_mut(hc);
-    let (hoa, hob) = (d.hoff[a], d.hoff[b]);
     for h in 0..nhc {
         let (sh, ih) = d.from[hc + h];
         let yh = &d.y[h];
@@ -388,29 +462,17 @@ fn join(
         }
         // b^C_h = b^A_h − Φ^A_hj γ  or  b^B_h + Φ^B_hj γ
         let (bo, nh, j, i) = from(h);
-        let phj_gamma = if j < i {
+        let phj_gamma = SpatialMotion::from_array(if j < i {
             mat_tr_vec(&src[bo + ub(nh, j, i)].0, &gamma)
         } else {
             mat_vec(&src[bo + ub(nh, i, j)].0, &gamma)
-        };
+        });
         d.b[hc + h] = match sh {
-            Side::A => d.b[d.hoff[a] + ih] - SpatialMotion::from_array(phj_gamma),
-            Side::B => d.b[d.hoff[b] + ih] + SpatialMotion::from_array(phj_gamma),
+            Side::A => d.b[hoa + ih] - phj_gamma,
+            Side::B => d.b[hob + ih] + phj_gamma,
         };
     }
     Ok(())
-}
-
-/// The upper triangle of a symmetric 6×6, packed.
-#[inline(always)]
-fn pack(m: &[[f64; 6]; 6]) -> Sym6 {
-    let mut p = Sym6::ZERO;
-    for r in 0..6 {
-        for c in r..6 {
-            p.0[SYM_ROW[r] + c - r] = m[r][c];
-        }
-    }
-    p
 }
 
 /// Φ_jh (j ≠ h) of a node with `nh` handles and blocks at `bo`, as rows: only the blocks on
@@ -467,7 +529,8 @@ fn y_tilde(
 /// axis least aligned with ω (`|p| ≥ √(2/3) |ω|`), `q = ω × p`. T need not be orthonormal (W
 /// does not depend on the basis), so no square root or division enters.
 #[inline(always)]
-fn perpendicular_pair(w: DVec3) -> ([f64; 3], [f64; 3]) {
+fn perpendicular_pair(w: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+    let w = DVec3::from_array(w);
     let a = w.abs();
     let e = if a.x <= a.y && a.x <= a.z {
         DVec3::X
@@ -507,14 +570,14 @@ fn dot3(a: &[f64; 3], x: &[f64]) -> f64 {
 
 /// `Tᵀ x = [p·x_ω, q·x_ω, x_v]`.
 #[inline(always)]
-fn t_tr(x: &[f64; 6], bs: &Basis) -> [f64; 5] {
-    [dot3(&bs.p, &x[..3]), dot3(&bs.q, &x[..3]), x[3], x[4], x[5]]
+fn t_tr(x: &[f64; 6], rj: &RevJoin) -> [f64; 5] {
+    [dot3(&rj.p, &x[..3]), dot3(&rj.q, &x[..3]), x[3], x[4], x[5]]
 }
 
 /// `T λ = [λ_0 p + λ_1 q; λ_2, λ_3, λ_4]`.
 #[inline(always)]
-fn t_mul(bs: &Basis, l: [f64; 5]) -> [f64; 6] {
-    let (p, q) = (&bs.p, &bs.q);
+fn t_mul(rj: &RevJoin, l: [f64; 5]) -> [f64; 6] {
+    let (p, q) = (&rj.p, &rj.q);
     [
         l[0] * p[0] + l[1] * q[0],
         l[0] * p[1] + l[1] * q[1],
@@ -525,31 +588,12 @@ fn t_mul(bs: &Basis, l: [f64; 5]) -> [f64; 6] {
     ]
 }
 
-/// `Tᵀ K T` (5×5 lower triangle, in the leading block) for a symmetric `K`: with `K P` the
-/// products of K's rows with `P = [p q]`.
-#[inline(always)]
-fn reduce(k: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 6] {
-    let kp: [[f64; 2]; 6] = std::array::from_fn(|r| [dot3(&bs.p, &k[r]), dot3(&bs.q, &k[r])]);
-    let mut out = [[0.0; 6]; 6];
-    out[0][0] = bs.p[0] * kp[0][0] + bs.p[1] * kp[1][0] + bs.p[2] * kp[2][0];
-    out[1][0] = bs.q[0] * kp[0][0] + bs.q[1] * kp[1][0] + bs.q[2] * kp[2][0];
-    out[1][1] = bs.q[0] * kp[0][1] + bs.q[1] * kp[1][1] + bs.q[2] * kp[2][1];
-    for r in 0..3 {
-        out[2 + r][0] = kp[3 + r][0];
-        out[2 + r][1] = kp[3 + r][1];
-        for c in 0..=r {
-            out[2 + r][2 + c] = k[3 + r][3 + c];
-        }
-    }
-    out
-}
-
 /// The rows of `Tᵀ Gᵀ` (G's columns combined).
 #[inline(always)]
-fn t_cols(g: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 5] {
+fn t_cols(g: &[[f64; 6]; 6], rj: &RevJoin) -> [[f64; 6]; 5] {
     [
-        std::array::from_fn(|c| dot3(&bs.p, &g[c])),
-        std::array::from_fn(|c| dot3(&bs.q, &g[c])),
+        std::array::from_fn(|c| dot3(&rj.p, &g[c])),
+        std::array::from_fn(|c| dot3(&rj.q, &g[c])),
         std::array::from_fn(|c| g[c][3]),
         std::array::from_fn(|c| g[c][4]),
         std::array::from_fn(|c| g[c][5]),
@@ -558,8 +602,8 @@ fn t_cols(g: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 5] {
 
 /// The rows of `Tᵀ G` (G's rows combined).
 #[inline(always)]
-fn t_rows(g: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 5] {
-    let (p, q) = (&bs.p, &bs.q);
+fn t_rows(g: &[[f64; 6]; 6], rj: &RevJoin) -> [[f64; 6]; 5] {
+    let (p, q) = (&rj.p, &rj.q);
     [
         std::array::from_fn(|c| p[0] * g[0][c] + p[1] * g[1][c] + p[2] * g[2][c]),
         std::array::from_fn(|c| q[0] * g[0][c] + q[1] * g[1][c] + q[2] * g[2][c]),
@@ -569,24 +613,25 @@ fn t_rows(g: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 5] {
     ]
 }
 
-/// `T (TᵀKT)⁻¹ Tᵀ y` (`m` the `L D Lᵀ` factors of `TᵀKT` from [`crate::small::ldl5`]), the
+/// `T (TᵀKT)⁻¹ Tᵀ y` (the packed `L D Lᵀ` factors of `TᵀKT` in `rj.l`, see [`RevJoin`]), the
 /// two unit triangular solves written out.
 #[inline(always)]
-fn w_apply(m: &[[f64; 6]; 6], bs: &Basis, y: &[f64; 6]) -> [f64; 6] {
-    let u = t_tr(y, bs);
+fn w_apply(rj: &RevJoin, y: &[f64; 6]) -> [f64; 6] {
+    let u = t_tr(y, rj);
+    let m = &rj.l;
     // L x = u
     let x0 = u[0];
-    let x1 = u[1] - m[1][0] * x0;
-    let x2 = u[2] - m[2][0] * x0 - m[2][1] * x1;
-    let x3 = u[3] - m[3][0] * x0 - m[3][1] * x1 - m[3][2] * x2;
-    let x4 = u[4] - m[4][0] * x0 - m[4][1] * x1 - m[4][2] * x2 - m[4][3] * x3;
+    let x1 = u[1] - m[1] * x0;
+    let x2 = u[2] - m[3] * x0 - m[4] * x1;
+    let x3 = u[3] - m[6] * x0 - m[7] * x1 - m[8] * x2;
+    let x4 = u[4] - m[10] * x0 - m[11] * x1 - m[12] * x2 - m[13] * x3;
     // Lᵀ λ = D⁻¹ x
-    let l4 = x4 * m[4][4];
-    let l3 = x3 * m[3][3] - m[4][3] * l4;
-    let l2 = x2 * m[2][2] - m[3][2] * l3 - m[4][2] * l4;
-    let l1 = x1 * m[1][1] - m[2][1] * l2 - m[3][1] * l3 - m[4][1] * l4;
-    let l0 = x0 * m[0][0] - m[1][0] * l1 - m[2][0] * l2 - m[3][0] * l3 - m[4][0] * l4;
-    t_mul(bs, [l0, l1, l2, l3, l4])
+    let l4 = x4 * m[14];
+    let l3 = x3 * m[9] - m[13] * l4;
+    let l2 = x2 * m[5] - m[8] * l3 - m[12] * l4;
+    let l1 = x1 * m[2] - m[4] * l2 - m[7] * l3 - m[11] * l4;
+    let l0 = x0 * m[0] - m[1] * l1 - m[3] * l2 - m[6] * l3 - m[10] * l4;
+    t_mul(rj, [l0, l1, l2, l3, l4])
 }
 
 /// What the back-substitution needs besides `W`: `g = (W K s − s) / sᵀs`, which gives
@@ -594,14 +639,11 @@ fn w_apply(m: &[[f64; 6]; 6], bs: &Basis, y: &[f64; 6]) -> [f64; 6] {
 /// symmetric), and with the unit-torque force `f₀ = s / sᵀs` (`sᵀ f₀ = 1`) the joint force per
 /// unit torque `f_τ = f₀ − W K f₀ = −g` (`sᵀ f_τ = 1`, `Tᵀ K f_τ = 0`) and
 /// `q̈_τ = sᵀ K f_τ / sᵀs = −gᵀ K s / sᵀs`. Joint torques enter linearly, so a huge τ cannot
-/// overflow an intermediate product.
+/// overflow an intermediate product. `ks = K s`, `s = [ω; 0]`.
 #[inline(always)]
-fn joint_terms(k: &[[f64; 6]; 6], m: &[[f64; 6]; 6], bs: &mut Basis) {
-    let w = bs.w;
-    let ks: [f64; 6] = std::array::from_fn(|r| dot3(&w, &k[r])); // K s, s = [ω; 0]
-    let wks = w_apply(m, bs, &ks);
-    let ss = dot3(&w, &w);
-    let iss = 1.0 / ss;
+fn joint_terms(w: &[f64; 3], ks: &[f64; 6], rj: &mut RevJoin) {
+    let wks = w_apply(rj, ks);
+    let iss = 1.0 / dot3(w, w);
     let g = [
         (wks[0] - w[0]) * iss,
         (wks[1] - w[1]) * iss,
@@ -610,8 +652,8 @@ fn joint_terms(k: &[[f64; 6]; 6], m: &[[f64; 6]; 6], bs: &mut Basis) {
         wks[4] * iss,
         wks[5] * iss,
     ];
-    bs.qt = -dot6(&g, &ks) * iss;
-    bs.g = g;
+    rj.qt = -dot6(&g, ks) * iss;
+    rj.g = g;
 }
 
 /// `Ỹ = D^{-1/2} L⁻¹ Tᵀ G` (5 rows; `M = L D^{1/2}` the Cholesky factor of `TᵀKT`, `m` its
@@ -724,20 +766,20 @@ fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
             }
         }
         let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
-        let l = &d.l[n];
-        let f = if d.basis[n].one_dof {
+        let f = if d.one_dof[n] {
             // f = W y + f_τ τ (so K f = y + s q̈); q̈ = gᵀ y + q̈_τ τ (`joint_terms`).
-            let bs = &d.basis[n];
+            let rj = &d.rev[n];
             let ya = y.to_array();
-            let fy = w_apply(l, bs, &ya);
+            let fy = w_apply(rj, &ya);
             let t = tau[vo];
-            data.qdd[vo] = dot6(&bs.g, &ya) + bs.qt * t;
+            data.qdd[vo] = dot6(&rj.g, &ya) + rj.qt * t;
             let mut f = [0.0; 6];
             for i in 0..6 {
-                f[i] = fy[i] - bs.g[i] * t;
+                f[i] = fy[i] - rj.g[i] * t;
             }
             SpatialForce::from_array(f)
         } else {
+            let l = &d.l[n];
             let mut w = solve_l(l, &y.to_array());
             let mut r = [0.0; 6];
             for p in 0..k {
