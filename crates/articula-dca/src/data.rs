@@ -92,10 +92,15 @@ pub(crate) struct DcaData {
     pub from: Vec<(Side, usize)>,
     /// Φ's cross blocks.
     pub phi: Vec<Mat6>,
-    /// Φ's diagonal blocks `Φ_hh`, per handle (flat, `hoff`), packed symmetric.
+    /// Φ's diagonal blocks `Φ_hh` (packed symmetric) and the bias accelerations `b_h`: only the
+    /// parent join reads them, so they live in a slot per (depth, side) instead of per node —
+    /// in post-order, the child visited first waits while its sibling's subtree (deeper
+    /// nodes, and the sibling itself on the other side) is built, so no live slot is reused.
+    /// A few kB, cache-resident however long the chain.
     pub dg: Vec<Sym6>,
-    /// Bias accelerations per handle.
     pub b: Vec<SpatialMotion>,
+    /// Per node: the offset of its handles in `dg` and `b`.
+    pub slot: Vec<usize>,
     /// Handle forces per handle (back-substitution).
     pub f: Vec<SpatialForce>,
     /// Per join node off the one-axis path: the Cholesky factor L of `Φ^A_jj + Φ^B_jj = V⁻¹`
@@ -222,6 +227,22 @@ impl Data {
             .map(|&(a, i)| (if a { Side::A } else { Side::B }, i))
             .collect();
         let max_h = tree.max_handles().max(1);
+        // Slots of the diagonal blocks and b (see `DcaData::slot`): node x at depth δ, the
+        // parent side (0) or child side (1) of its parent's join, has max_h handles at
+        // (2 δ + side) max_h.
+        let mut side = vec![0usize; nn];
+        for node in &tree.nodes {
+            if let NodeKind::Join { child_side, .. } = node.kind {
+                side[child_side] = 1;
+            }
+        }
+        let slot: Vec<usize> = tree
+            .nodes
+            .iter()
+            .zip(&side)
+            .map(|(node, s)| (2 * node.depth + s) * max_h)
+            .collect();
+        let slots = (2 * tree.depth() + 2) * max_h;
         Data {
             gravity: DVec3::new(0.0, 0.0, -9.81),
             refine_floating: true,
@@ -247,8 +268,9 @@ impl Data {
                 jb,
                 from,
                 phi: vec![Mat6::ZERO; blk],
-                dg: vec![Sym6::ZERO; h],
-                b: vec![SpatialMotion::ZERO; h],
+                dg: vec![Sym6::ZERO; slots],
+                b: vec![SpatialMotion::ZERO; slots],
+                slot,
                 f: vec![SpatialForce::ZERO; h],
                 l: vec![[[0.0; 6]; 6]; nn],
                 beta: vec![SpatialMotion::ZERO; nn],

@@ -71,7 +71,8 @@ fn main_pass(
         data.dca.point[h] = x.apply_point(DVec3::ZERO);
     }
     for n in 0..tree.nodes.len() {
-        let (ho, bo) = (data.dca.hoff[n], data.dca.boff[n]);
+        // Φ's diagonal blocks and b, read only by the parent join, go to the node's slot.
+        let (ho, bo, top) = (data.dca.hoff[n], data.dca.boff[n], data.dca.slot[n]);
         let nh = data.dca.hoff[n + 1] - ho;
         match data.dca.kind[n] {
             // Ground: Φ = 0, b = 0.
@@ -80,13 +81,11 @@ fn main_pass(
                     data.dca.phi[bo + k] = Mat6::ZERO;
                 }
                 for h in 0..nh {
-                    data.dca.dg[ho + h] = Sym6::ZERO;
-                }
-                for k in 0..nh {
-                    data.dca.b[ho + k] = SpatialMotion::ZERO;
+                    data.dca.dg[top + h] = Sym6::ZERO;
+                    data.dca.b[top + h] = SpatialMotion::ZERO;
                 }
             }
-            NodeKind::Body(i) => leaf(model, i, (ho, nh, bo), f_ext, a_g, data)?,
+            NodeKind::Body(i) => leaf(model, i, (ho, nh, bo, top), f_ext, a_g, data)?,
             NodeKind::Join {
                 joint,
                 parent_side: a,
@@ -106,7 +105,7 @@ fn main_pass(
 fn leaf(
     model: &Model,
     i: usize,
-    (ho, nh, bo): (usize, usize, usize),
+    (ho, nh, bo, top): (usize, usize, usize, usize),
     f_ext: &[SpatialForce],
     a_g: SpatialMotion,
     data: &mut Data,
@@ -150,13 +149,13 @@ fn leaf(
     for (h, &ph) in handles.iter().enumerate() {
         let ah = c - d.point[ph];
         // b at P_h: [α; a_c + α × (P_h − c)] + a_g
-        d.b[ho + h] = a_g + SpatialMotion::new(acc_w, acc_c + ah.cross(acc_w));
+        d.b[top + h] = a_g + SpatialMotion::new(acc_w, acc_c + ah.cross(acc_w));
         let ahc = a_cols(ah);
         let ahr = [a_row(&ahc, 0), a_row(&ahc, 1), a_row(&ahc, 2)];
         // Φ_hh, upper triangle: [J, A_hᵀ; ·, a_h× A_hᵀ + 1/m], the lower-right block's row r
         // being a_h × (row r of A_h) (a_h× J a_h×ᵀ = A_h a_h×ᵀ).
         let br = [ah.cross(ahr[0]), ah.cross(ahr[1]), ah.cross(ahr[2])];
-        d.dg[ho + h] = Sym6([
+        d.dg[top + h] = Sym6([
             jc[0][0],
             jc[0][1],
             jc[0][2],
@@ -266,6 +265,8 @@ fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
 ///
 /// Either way `Φ_hj W Φ_jk = Ỹ_hᵀ Ỹ_k`: one Gram product per stored block of C (`h ≤ k`; the
 /// diagonal ones on their upper triangle).
+///
+/// A's, B's and C's diagonal blocks and b are in their nodes' slots (see `DcaData::slot`).
 #[inline(never)]
 fn join(
     model: &Model,
@@ -278,8 +279,10 @@ fn join(
 ) -> Result<(), DynamicsError> {
     let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
     let d = &mut data.dca;
-    let (hoa, hob, hc) = (d.hoff[a], d.hoff[b], d.hoff[n]);
-    let (nha, nhb, nhc) = (d.hoff[a + 1] - hoa, d.hoff[b + 1] - hob, d.hoff[n + 1] - hc);
+    let hc = d.hoff[n];
+    let nh = |x: usize| d.hoff[x + 1] - d.hoff[x];
+    let (nha, nhb, nhc) = (nh(a), nh(b), nh(n));
+    let (hoa, hob, top) = (d.slot[a], d.slot[b], d.slot[n]);
     let (ja, jb) = (d.ja[n], d.jb[n]);
     let (boa, bob, bc) = (d.boff[a], d.boff[b], d.boff[n]);
     // K = Φ^A_jj + Φ^B_jj, packed.
@@ -434,17 +437,19 @@ fn join(
     // Φ_hk − Ỹ_hᵀỸ_k; across +Ỹ_hᵀỸ_k. A side's handles keep their order in C, so a same-side
     // pair h ≤ k is a stored block of that side too. Then b^C.
     let (src, dst) = d.phi.split_at_mut(bc);
-    let (dsrc, ddst) = d.dg.split_at_mut(hc);
+    // C's slot lies below its children's (one level up the tree).
+    let mid = hoa.min(hob);
+    let (ddst, dsrc) = d.dg.split_at_mut(mid);
     for h in 0..nhc {
         let (sh, ih) = d.from[hc + h];
         let yh = &d.y[h];
         let old = match sh {
-            Side::A => &dsrc[hoa + ih],
-            Side::B => &dsrc[hob + ih],
+            Side::A => &dsrc[hoa - mid + ih],
+            Side::B => &dsrc[hob - mid + ih],
         };
         match rows {
-            5 => gram_sym_into::<5>(&mut ddst[h], yh, old),
-            _ => gram_sym_into::<6>(&mut ddst[h], yh, old),
+            5 => gram_sym_into::<5>(&mut ddst[top + h], yh, old),
+            _ => gram_sym_into::<6>(&mut ddst[top + h], yh, old),
         }
         for kk in h + 1..nhc {
             let (sk, ik) = d.from[hc + kk];
@@ -467,7 +472,7 @@ fn join(
         } else {
             mat_vec(&src[bo + ub(nh, i, j)].0, &gamma)
         });
-        d.b[hc + h] = match sh {
+        d.b[top + h] = match sh {
             Side::A => d.b[hoa + ih] - phj_gamma,
             Side::B => d.b[hob + ih] + phj_gamma,
         };
