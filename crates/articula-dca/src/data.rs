@@ -101,7 +101,9 @@ pub(crate) struct DcaData {
     pub b: Vec<SpatialMotion>,
     /// Per node: the offset of its handles in `dg` and `b`.
     pub slot: Vec<usize>,
-    /// Handle forces per handle (back-substitution).
+    /// Handle forces (back-substitution): set by the parent join and read by the node itself,
+    /// so in the node's slot like `dg` and `b` (in reverse post-order the child processed last
+    /// waits while its sibling's subtree is solved).
     pub f: Vec<SpatialForce>,
     /// Per join node off the one-axis path: the Cholesky factor L of `Φ^A_jj + Φ^B_jj = V⁻¹`
     /// (its diagonal stored inverted, see [`crate::small::cholesky6`]); per join node: β.
@@ -271,7 +273,7 @@ impl Data {
                 dg: vec![Sym6::ZERO; slots],
                 b: vec![SpatialMotion::ZERO; slots],
                 slot,
-                f: vec![SpatialForce::ZERO; h],
+                f: vec![SpatialForce::ZERO; slots],
                 l: vec![[[0.0; 6]; 6]; nn],
                 beta: vec![SpatialMotion::ZERO; nn],
                 z: vec![[0.0; 6]; nv],

@@ -13,8 +13,16 @@ use articula_model::{Model, NodeKind};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::DVec3;
 
-/// Runs DCA on the kinematics already in `data` (see [`crate::forward_kinematics`]); writes
-/// `data.qdd`.
+/// Each handle (joint h) keeps its vectors about its own point P_h, the origin of body h: far
+/// from the computation origin the blocks would otherwise lose digits (a 100,000-link chain
+/// reaches 10 km). Runs in the kinematics loop, right after body h (its pose is in cache).
+#[inline(always)]
+pub(crate) fn init_body(h: usize, data: &mut Data) {
+    data.dca.point[h] = data.x[h].apply_point(DVec3::ZERO);
+}
+
+/// Runs DCA on the kinematics already in `data` (see [`crate::forward_kinematics`], with
+/// [`init_body`] run per body); writes `data.qdd`.
 pub(crate) fn dca(
     model: &Model,
     tau: &[f64],
@@ -64,12 +72,6 @@ fn main_pass(
 ) -> Result<(), DynamicsError> {
     let tree = &model.assembly;
     let a_g = SpatialMotion::new(DVec3::ZERO, data.gravity);
-    // Each handle (joint h) keeps its vectors about its own point P_h, the origin of body h:
-    // far from the computation origin the blocks would otherwise lose digits (a 100,000-link
-    // chain reaches 10 km).
-    for (h, x) in data.x.iter().enumerate() {
-        data.dca.point[h] = x.apply_point(DVec3::ZERO);
-    }
     for n in 0..tree.nodes.len() {
         // Φ's diagonal blocks and b, read only by the parent join, go to the node's slot.
         let (ho, bo, top) = (data.dca.hoff[n], data.dca.boff[n], data.dca.slot[n]);
@@ -743,6 +745,38 @@ fn gram_rows<const C0: usize, const R: usize>(out: &mut Sym6, y: &[[f64; 6]; 6],
     }
 }
 
+/// How many nodes ahead the passes prefetch.
+const PREFETCH: usize = 8;
+
+/// Asks for the cache line holding address `p` (a hint: no effect on results).
+#[inline(always)]
+fn prefetch_ptr(p: *const u8) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch only hints the cache: it never faults, whatever the address, and
+    // reads nothing into the program.
+    unsafe {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        _mm_prefetch::<_MM_HINT_T0>(p.cast());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = p;
+}
+
+/// [`prefetch_ptr`] for the line holding `x`.
+#[inline(always)]
+fn prefetch<T>(x: &T) {
+    prefetch_ptr((x as *const T).cast());
+}
+
+/// [`prefetch_ptr`] for every line of a 6×6 block (or a record as large) starting at `x`.
+#[inline(always)]
+fn prefetch_span<T: ?Sized>(x: &T) {
+    let p = (x as *const T).cast::<u8>();
+    for off in (0..std::mem::size_of::<Mat6>()).step_by(64) {
+        prefetch_ptr(p.wrapping_add(off));
+    }
+}
+
 /// Top-down: with `y = β + Σ_{k∈A} Φ^A_jk f_k − Σ_{k∈B} Φ^B_jk f_k` over C's handle forces
 /// and `w = L⁻¹ y`: `q̈ = D⁻¹ (Q − Zᵀ w)` (= `D⁻¹ (Q − Sᵀ V y)`) and the joint force
 /// `f = L⁻ᵀ (w + Z q̈)` (= `W y + V S D⁻¹ Q`).
@@ -750,6 +784,19 @@ fn gram_rows<const C0: usize, const R: usize>(out: &mut Sym6, y: &[[f64; 6]; 6],
 fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
     let tree = &model.assembly;
     for n in (0..tree.nodes.len()).rev() {
+        // What the join PREFETCH nodes ahead reads, on its way from memory meanwhile.
+        if let Some(&NodeKind::Join {
+            parent_side: a,
+            child_side: b,
+            ..
+        }) = n.checked_sub(PREFETCH).map(|m| &data.dca.kind[m])
+        {
+            let (m, d) = (n - PREFETCH, &data.dca);
+            prefetch(&d.beta[m]);
+            prefetch_span(&d.rev[m]);
+            prefetch_span(&d.phi[d.boff[a]..]);
+            prefetch_span(&d.phi[d.boff[b]..]);
+        }
         let NodeKind::Join {
             joint,
             parent_side: a,
@@ -761,10 +808,10 @@ fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
         let d = &mut data.dca;
         let nh = |x: usize| d.hoff[x + 1] - d.hoff[x];
         let (nha, nhb, nhc) = (nh(a), nh(b), nh(n));
-        let (ja, jb, hc) = (d.ja[n], d.jb[n], d.hoff[n]);
+        let (ja, jb, hc, sc) = (d.ja[n], d.jb[n], d.hoff[n], d.slot[n]);
         let mut y = d.beta[n];
         for h in 0..nhc {
-            let f = d.f[hc + h];
+            let f = d.f[sc + h];
             match d.from[hc + h] {
                 (Side::A, i) => y += phi_jh_mul(d, a, nha, ja, i, f),
                 (Side::B, i) => y -= phi_jh_mul(d, b, nhb, jb, i, f),
@@ -799,9 +846,9 @@ fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
             }
             SpatialForce::from_array(solve_lt(l, &w))
         };
-        let (hoa, hob) = (d.hoff[a], d.hoff[b]);
+        let (hoa, hob) = (d.slot[a], d.slot[b]);
         for h in 0..nhc {
-            let fh = d.f[hc + h];
+            let fh = d.f[sc + h];
             match d.from[hc + h] {
                 (Side::A, i) => d.f[hoa + i] = fh,
                 (Side::B, i) => d.f[hob + i] = fh,
