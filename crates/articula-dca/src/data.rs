@@ -81,7 +81,8 @@ pub(crate) struct DcaData {
     /// Per node: its kind (a compact copy of the assembly tree's).
     pub kind: Vec<NodeKind>,
     /// Per node: offset of its cross blocks in `phi`: the nh (nh − 1) / 2 blocks `Φ_hk`, h < k,
-    /// row by row (`Φ_kh = Φ_hkᵀ`).
+    /// row by row (`Φ_kh = Φ_hkᵀ`). A leaf's (ground's) are in a slot like `dg`, ahead of the
+    /// joins' (see `Data::new`).
     pub boff: Vec<usize>,
     /// Per handle (flat, `hoff`): its joint.
     pub hj: Vec<usize>,
@@ -101,6 +102,8 @@ pub(crate) struct DcaData {
     pub b: Vec<SpatialMotion>,
     /// Per node: the offset of its handles in `dg` and `b`.
     pub slot: Vec<usize>,
+    /// Per body: what the back-substitution needs of its leaf.
+    pub leafk: Vec<LeafK>,
     /// Handle forces (back-substitution): set by the parent join and read by the node itself,
     /// so in the node's slot like `dg` and `b` (in reverse post-order the child processed last
     /// waits while its sibling's subtree is solved).
@@ -125,6 +128,16 @@ pub(crate) struct DcaData {
     /// Per body: the constants of its leaf, `None` when its spatial inertia is not positive
     /// definite (the dynamics call reports it).
     pub leaf: Vec<Option<LeafConst>>,
+}
+
+/// A leaf's `Φ = I⁻¹` in closed form, for the back-substitution (see `dca::leaf`): the
+/// computation-frame `J = R I_c⁻¹ Rᵀ` (upper triangle, row by row), the centre of mass `c` and
+/// `1/m`.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct LeafK {
+    pub j: [f64; 6],
+    pub c: [f64; 3],
+    pub im: f64,
 }
 
 /// A body's inertia as its DCA leaf uses it, in body coordinates.
@@ -213,15 +226,6 @@ impl Data {
         let h = layout.handles;
         let mut hoff = layout.hoff;
         hoff.push(h); // sentinel: node n has hoff[n + 1] − hoff[n] handles
-                      // Φ: the nh (nh − 1) / 2 cross blocks above the diagonal of each node (the diagonal
-                      // ones packed per handle).
-        let mut boff = Vec::with_capacity(nn);
-        let mut blk = 0;
-        for node in &tree.nodes {
-            boff.push(blk);
-            let nh = node.handles.len();
-            blk += nh * nh.saturating_sub(1) / 2;
-        }
         let (ja, jb) = (layout.ja, layout.jb);
         let from: Vec<(Side, usize)> = layout
             .from
@@ -245,6 +249,23 @@ impl Data {
             .map(|(node, s)| (2 * node.depth + s) * max_h)
             .collect();
         let slots = (2 * tree.depth() + 2) * max_h;
+        // Φ: the nh (nh − 1) / 2 cross blocks above the diagonal of each node (the diagonal ones
+        // in the slots). A join's stay for the back-substitution, in post-order after the leaves'
+        // slots (a leaf's are read by its parent join only: the back-substitution multiplies by
+        // a leaf's Φ in closed form, `LeafK`).
+        let mb = max_h * (max_h - 1) / 2;
+        let mut boff = Vec::with_capacity(nn);
+        let mut blk = (2 * tree.depth() + 2) * mb;
+        for (node, s) in tree.nodes.iter().zip(&side) {
+            let nh = node.handles.len();
+            match node.kind {
+                NodeKind::Join { .. } => {
+                    boff.push(blk);
+                    blk += nh * nh.saturating_sub(1) / 2;
+                }
+                _ => boff.push((2 * node.depth + s) * mb),
+            }
+        }
         Data {
             gravity: DVec3::new(0.0, 0.0, -9.81),
             refine_floating: true,
@@ -273,6 +294,7 @@ impl Data {
                 dg: vec![Sym6::ZERO; slots],
                 b: vec![SpatialMotion::ZERO; slots],
                 slot,
+                leafk: vec![LeafK::default(); n],
                 f: vec![SpatialForce::ZERO; slots],
                 l: vec![[[0.0; 6]; 6]; nn],
                 beta: vec![SpatialMotion::ZERO; nn],

@@ -56,12 +56,42 @@ fn phi_jh_mul(
     f: SpatialForce,
 ) -> SpatialMotion {
     let bo = d.boff[n];
+    match d.kind[n] {
+        NodeKind::Join { .. } => {}
+        NodeKind::Body(i) => return leaf_mul(d, i, n, j, h, f),
+        NodeKind::Ground => return SpatialMotion::ZERO,
+    }
     let f = f.to_array();
     SpatialMotion::from_array(if j < h {
         mat_vec(&d.phi[bo + ub(nh, j, h)].0, &f)
     } else {
         mat_tr_vec(&d.phi[bo + ub(nh, h, j)].0, &f)
     })
+}
+
+/// `Φ_jh f` of leaf node `n` (body `i`), in closed form (see [`leaf`]): with `a_h = c − P_h`,
+/// the moment about c `n_c = n − a_h × f`, `α = J n_c`, and at P_j `[α; f/m + a_j × α]`.
+#[inline(always)]
+fn leaf_mul(
+    d: &crate::data::DcaData,
+    i: usize,
+    n: usize,
+    j: usize,
+    h: usize,
+    f: SpatialForce,
+) -> SpatialMotion {
+    let lk = &d.leafk[i];
+    let ho = d.hoff[n];
+    let c = DVec3::from_array(lk.c);
+    let (ph, pj) = (d.point[d.hj[ho + h]], d.point[d.hj[ho + j]]);
+    let nc = f.n - (c - ph).cross(f.f);
+    let m = &lk.j;
+    let alpha = DVec3::new(
+        m[0] * nc.x + m[1] * nc.y + m[2] * nc.z,
+        m[1] * nc.x + m[3] * nc.y + m[4] * nc.z,
+        m[2] * nc.x + m[4] * nc.y + m[5] * nc.z,
+    );
+    SpatialMotion::new(alpha, f.f * lk.im + (c - pj).cross(alpha))
 }
 
 fn main_pass(
@@ -142,6 +172,11 @@ fn leaf(
     let acc_w = DVec3::from_array(std::array::from_fn(|r| dot3(&jc[r], &nc)));
     let acc_c = f_c * im;
     let d = &mut data.dca;
+    d.leafk[i] = crate::data::LeafK {
+        j: [jc[0][0], jc[0][1], jc[0][2], jc[1][1], jc[1][2], jc[2][2]],
+        c: c.to_array(),
+        im,
+    };
     let handles = &d.hj[ho..ho + nh];
     // J's columns (= its rows), and the columns of A_h = a_h× J (a_h × J's columns).
     let jv = jc.map(DVec3::from_array);
