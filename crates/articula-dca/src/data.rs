@@ -125,9 +125,8 @@ pub(crate) struct DcaData {
     pub rev: Vec<RevJoin>,
     /// Scratch per handle of the node being joined: `Ỹ_h = Q L⁻¹ Φ_jh` (or `D^{-1/2} L⁻¹ Tᵀ Φ_jh`).
     pub y: Vec<[[f64; 6]; 6]>,
-    /// Per body: the constants of its leaf, `None` when its spatial inertia is not positive
-    /// definite (the dynamics call reports it).
-    pub leaf: Vec<Option<LeafConst>>,
+    /// Per body: the constants of its leaf.
+    pub leaf: Vec<LeafConst>,
 }
 
 /// A leaf's `Φ = I⁻¹` in closed form, for the back-substitution (see `dca::leaf`): the
@@ -140,31 +139,37 @@ pub(crate) struct LeafK {
     pub im: f64,
 }
 
-/// A body's inertia as its DCA leaf uses it, in body coordinates.
+/// A body's inertia as its DCA leaf uses it, in body coordinates: 128 bytes, two cache lines.
 #[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
 pub(crate) struct LeafConst {
     /// Centre of mass.
-    pub com: DVec3,
-    /// Rotational inertia about the centre of mass, `I_c`, and its inverse.
-    /// (Rows; both are symmetric.)
-    pub ic: [[f64; 3]; 3],
-    pub ic_inv: [[f64; 3]; 3],
-    pub mass: f64,
+    pub com: [f64; 3],
+    /// `1/m`; NaN when the spatial inertia is not positive definite (the dynamics call reports
+    /// it).
+    pub im: f64,
+    /// Rotational inertia about the centre of mass, `I_c`, and its inverse: upper triangles,
+    /// row by row (`xx, xy, xz, yy, yz, zz`).
+    pub ic: [f64; 6],
+    pub ic_inv: [f64; 6],
 }
 
 impl LeafConst {
-    fn of(inertia: &SpatialInertia) -> Option<LeafConst> {
+    fn of(inertia: &SpatialInertia) -> LeafConst {
         let ic = inertia.inertia_about_com();
         let m = inertia.mass;
-        if m.is_nan() || m <= 0.0 || ic.determinant() <= 0.0 {
-            return None;
+        let ok = !m.is_nan() && m > 0.0 && ic.determinant() > 0.0;
+        let up = |a: glam::DMat3| {
+            [
+                a.x_axis.x, a.y_axis.x, a.z_axis.x, a.y_axis.y, a.z_axis.y, a.z_axis.z,
+            ]
+        };
+        LeafConst {
+            com: inertia.com().to_array(),
+            im: if ok { 1.0 / m } else { f64::NAN },
+            ic: up(ic),
+            ic_inv: if ok { up(ic.inverse()) } else { [f64::NAN; 6] },
         }
-        Some(LeafConst {
-            com: inertia.com(),
-            ic: ic.transpose().to_cols_array_2d(),
-            ic_inv: ic.inverse().transpose().to_cols_array_2d(),
-            mass: m,
-        })
     }
 }
 

@@ -142,35 +142,37 @@ fn leaf(
     a_g: SpatialMotion,
     data: &mut Data,
 ) -> Result<(), DynamicsError> {
-    let Some(lc) = data.dca.leaf[i] else {
+    let lc = &data.dca.leaf[i];
+    let im = lc.im;
+    // NaN marks an inertia that is not positive definite.
+    if im.is_nan() {
         return Err(DynamicsError::Singular {
             joint: model.bodies[i].joint_name(),
             detail: "the body's spatial inertia is not positive definite",
         });
-    };
+    }
     let x = &data.x[i];
     // R: body → computation-frame axes, by columns (e[k] = R e_k).
     let e = x.e.to_cols_array_2d();
-    let c = x.apply_point(lc.com);
-    let m = lc.mass;
-    let im = 1.0 / m;
+    let c = x.apply_point(DVec3::from_array(lc.com));
     // J = R I_c⁻¹ Rᵀ (symmetric: rows = columns).
-    let jc = rotate_sym(&e, &lc.ic_inv);
+    let jc = rotate_sym(&e, &sym3(&lc.ic_inv));
     // Net force about c: f_ext − v ×* I v, with v_c the velocity of the point at c;
     // I_c ω = R I_c,body Rᵀ ω.
     let v = data.v[i];
     let v_c = v.v + v.w.cross(c);
     let fe = crate::f_ext_of(f_ext, i);
     let wb = [dot3a(&e[0], v.w), dot3a(&e[1], v.w), dot3a(&e[2], v.w)];
-    let icwb: [f64; 3] = std::array::from_fn(|r| dot3(&lc.ic[r], &wb));
+    let icb = sym3(&lc.ic);
+    let icwb: [f64; 3] = std::array::from_fn(|r| dot3(&icb[r], &wb));
     let icw = DVec3::from_array(std::array::from_fn(|r| {
         e[0][r] * icwb[0] + e[1][r] * icwb[1] + e[2][r] * icwb[2]
     }));
     let n_c = fe.n - c.cross(fe.f) - v.w.cross(icw);
-    let f_c = fe.f - v.w.cross(v_c) * m;
     let nc = n_c.to_array();
     let acc_w = DVec3::from_array(std::array::from_fn(|r| dot3(&jc[r], &nc)));
-    let acc_c = f_c * im;
+    // a_c = (f_ext − m ω × v_c) / m
+    let acc_c = fe.f * im - v.w.cross(v_c);
     let d = &mut data.dca;
     d.leafk[i] = crate::data::LeafK {
         j: [jc[0][0], jc[0][1], jc[0][2], jc[1][1], jc[1][2], jc[2][2]],
@@ -246,6 +248,12 @@ fn rotate_sym(e: &[[f64; 3]; 3], s: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
     let (a00, a01, a02) = (dot3(&t[0], &r0), dot3(&t[0], &r1), dot3(&t[0], &r2));
     let (a11, a12, a22) = (dot3(&t[1], &r1), dot3(&t[1], &r2), dot3(&t[2], &r2));
     [[a00, a01, a02], [a01, a11, a12], [a02, a12, a22]]
+}
+
+/// A symmetric 3×3 from its upper triangle (`xx, xy, xz, yy, yz, zz`), by rows.
+#[inline(always)]
+fn sym3(u: &[f64; 6]) -> [[f64; 3]; 3] {
+    [[u[0], u[1], u[2]], [u[1], u[3], u[4]], [u[2], u[4], u[5]]]
 }
 
 #[inline(always)]
