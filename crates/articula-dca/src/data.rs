@@ -109,7 +109,7 @@ pub(crate) struct DcaData {
     /// waits while its sibling's subtree is solved).
     pub f: Vec<SpatialForce>,
     /// Per join node off the one-axis path: the Cholesky factor L of `Φ^A_jj + Φ^B_jj = V⁻¹`
-    /// (its diagonal stored inverted, see [`crate::small::cholesky6`]); per join node: β.
+    /// (its diagonal stored inverted, see [`crate::small::cholesky6`]), and β.
     pub l: Vec<[[f64; 6]; 6]>,
     pub beta: Vec<SpatialMotion>,
     /// Per degree of freedom: the column of `Z = L⁻¹ S`.
@@ -121,8 +121,11 @@ pub(crate) struct DcaData {
     pub point: Vec<DVec3>,
     /// Per node: its join is a single revolute joint (the 5×5 path, [`RevJoin`]).
     pub one_dof: Vec<bool>,
-    /// Per node: what a one-axis join keeps for the back-substitution.
+    /// Per join (`jix`): what a one-axis join keeps for the back-substitution, dense in
+    /// post-order (a back-substitution stream without the leaves' gaps).
     pub rev: Vec<RevJoin>,
+    /// Per node: its index among the joins (post-order).
+    pub jix: Vec<usize>,
     /// Scratch per handle of the node being joined: `Ỹ_h = Q L⁻¹ Φ_jh` (or `D^{-1/2} L⁻¹ Tᵀ Φ_jh`).
     pub y: Vec<[[f64; 6]; 6]>,
     /// Per body: the constants of its leaf.
@@ -188,8 +191,9 @@ pub(crate) struct RevJoin {
     /// `(W K s − s) / sᵀs`: `q̈ = gᵀ y + q̈_τ τ` in the back-substitution; `−g` is the joint
     /// force per unit torque.
     pub g: [f64; 6],
-    /// `q̈` per unit joint torque.
-    pub qt: f64,
+    /// The joint force and `q̈` for zero handle forces: `γ = W β − g τ`, `gᵀβ + q̈_τ τ`.
+    pub gamma: [f64; 6],
+    pub qdd: f64,
 }
 
 /// ABA buffers.
@@ -254,6 +258,19 @@ impl Data {
             .map(|(node, s)| (2 * node.depth + s) * max_h)
             .collect();
         let slots = (2 * tree.depth() + 2) * max_h;
+        let jix: Vec<usize> = tree
+            .nodes
+            .iter()
+            .scan(0, |k, node| {
+                Some(match node.kind {
+                    NodeKind::Join { .. } => {
+                        *k += 1;
+                        *k - 1
+                    }
+                    _ => usize::MAX,
+                })
+            })
+            .collect();
         // Φ: the nh (nh − 1) / 2 cross blocks above the diagonal of each node (the diagonal ones
         // in the slots). A join's stay for the back-substitution, in post-order after the leaves'
         // slots (a leaf's are read by its parent join only: the back-substitution multiplies by
@@ -317,7 +334,8 @@ impl Data {
                         _ => false,
                     })
                     .collect(),
-                rev: vec![RevJoin::default(); nn],
+                rev: vec![RevJoin::default(); jix.iter().filter(|&&j| j != usize::MAX).count()],
+                jix,
                 y: vec![[[0.0; 6]; 6]; max_h],
                 leaf: model
                     .bodies

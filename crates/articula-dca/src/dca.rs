@@ -339,7 +339,6 @@ fn join(
     let body = &model.bodies[joint]; // for error messages only
                                      // β = b_j^A − b_j^B + c
     let beta = d.b[hoa + ja] - d.b[hob + jb] + shift(data.c[joint]);
-    d.beta[n] = beta;
     // Φ_jh (rows) of C's handle h: the stored block, or the transpose of the stored Φ_hj.
     let from = |h: usize| match d.from[hc + h] {
         (Side::A, i) => (boa, nha, ja, i),
@@ -387,7 +386,7 @@ fn join(
                 detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
             });
         }
-        let rj = &mut d.rev[n];
+        let rj = &mut d.rev[d.jix[n]];
         rj.p = p;
         rj.q = q;
         rj.l = [
@@ -396,12 +395,15 @@ fn join(
         ];
         // K s = [K_ω ω; K_cᵀ ω]
         let ks = [kww[0], kww[1], kww[2], kcw[0], kcw[1], kcw[2]];
-        joint_terms(&w, &ks, rj);
-        // γ = W β + f_τ τ, f_τ = −g
-        let wb = w_apply(rj, &beta.to_array());
+        let qt = joint_terms(&w, &ks, rj);
+        // γ = W β + f_τ τ, f_τ = −g: the joint force without handle forces; and q̈ then.
+        let ba = beta.to_array();
+        let wb = w_apply(rj, &ba);
         let t = tau[vo];
         gamma = std::array::from_fn(|i| wb[i] - rj.g[i] * t);
-        let rj = &d.rev[n];
+        rj.gamma = gamma;
+        rj.qdd = dot6(&rj.g, &ba) + qt * t;
+        let rj = &d.rev[d.jix[n]];
         for h in 0..nhc {
             let (bo, nh, j, i) = from(h);
             // Tᵀ Φ_jh: from the rows of the stored Φ_jh, or the columns of the stored Φ_hj.
@@ -422,6 +424,7 @@ fn join(
                 sum[c][r] = x;
             }
         }
+        d.beta[n] = beta;
         // L Lᵀ = Φ^A_jj + Φ^B_jj
         let l = crate::small::cholesky6(&sum).ok_or_else(|| DynamicsError::Singular {
             joint: body.joint_name(),
@@ -689,9 +692,9 @@ fn w_apply(rj: &RevJoin, y: &[f64; 6]) -> [f64; 6] {
 /// symmetric), and with the unit-torque force `f₀ = s / sᵀs` (`sᵀ f₀ = 1`) the joint force per
 /// unit torque `f_τ = f₀ − W K f₀ = −g` (`sᵀ f_τ = 1`, `Tᵀ K f_τ = 0`) and
 /// `q̈_τ = sᵀ K f_τ / sᵀs = −gᵀ K s / sᵀs`. Joint torques enter linearly, so a huge τ cannot
-/// overflow an intermediate product. `ks = K s`, `s = [ω; 0]`.
+/// overflow an intermediate product. `ks = K s`, `s = [ω; 0]`; sets `g`, returns `q̈_τ`.
 #[inline(always)]
-fn joint_terms(w: &[f64; 3], ks: &[f64; 6], rj: &mut RevJoin) {
+fn joint_terms(w: &[f64; 3], ks: &[f64; 6], rj: &mut RevJoin) -> f64 {
     let wks = w_apply(rj, ks);
     let iss = 1.0 / dot3(w, w);
     let g = [
@@ -702,8 +705,8 @@ fn joint_terms(w: &[f64; 3], ks: &[f64; 6], rj: &mut RevJoin) {
         wks[4] * iss,
         wks[5] * iss,
     ];
-    rj.qt = -dot6(&g, ks) * iss;
     rj.g = g;
+    -dot6(&g, ks) * iss
 }
 
 /// `Ỹ = D^{-1/2} L⁻¹ Tᵀ G` (5 rows; `M = L D^{1/2}` the Cholesky factor of `TᵀKT`, `m` its
@@ -805,12 +808,6 @@ fn prefetch_ptr(p: *const u8) {
     let _ = p;
 }
 
-/// [`prefetch_ptr`] for the line holding `x`.
-#[inline(always)]
-fn prefetch<T>(x: &T) {
-    prefetch_ptr((x as *const T).cast());
-}
-
 /// [`prefetch_ptr`] for every line of a 6×6 block (or a record as large) starting at `x`.
 #[inline(always)]
 fn prefetch_span<T: ?Sized>(x: &T) {
@@ -835,8 +832,7 @@ fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
         }) = n.checked_sub(PREFETCH).map(|m| &data.dca.kind[m])
         {
             let (m, d) = (n - PREFETCH, &data.dca);
-            prefetch(&d.beta[m]);
-            prefetch_span(&d.rev[m]);
+            prefetch_span(&d.rev[d.jix[m]]);
             prefetch_span(&d.phi[d.boff[a]..]);
             prefetch_span(&d.phi[d.boff[b]..]);
         }
@@ -852,7 +848,12 @@ fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
         let nh = |x: usize| d.hoff[x + 1] - d.hoff[x];
         let (nha, nhb, nhc) = (nh(a), nh(b), nh(n));
         let (ja, jb, hc, sc) = (d.ja[n], d.jb[n], d.hoff[n], d.slot[n]);
-        let mut y = d.beta[n];
+        // y without β (one axis: the join's γ and q̈ hold it) or with it.
+        let mut y = if d.one_dof[n] {
+            SpatialMotion::ZERO
+        } else {
+            d.beta[n]
+        };
         for h in 0..nhc {
             let f = d.f[sc + h];
             match d.from[hc + h] {
@@ -862,17 +863,13 @@ fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
         }
         let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
         let f = if d.one_dof[n] {
-            // f = W y + f_τ τ (so K f = y + s q̈); q̈ = gᵀ y + q̈_τ τ (`joint_terms`).
-            let rj = &d.rev[n];
+            // f = W (β + y) + f_τ τ = γ + W y (so K f = β + y + s q̈);
+            // q̈ = gᵀ (β + y) + q̈_τ τ (`joint_terms`).
+            let rj = &d.rev[d.jix[n]];
             let ya = y.to_array();
             let fy = w_apply(rj, &ya);
-            let t = tau[vo];
-            data.qdd[vo] = dot6(&rj.g, &ya) + rj.qt * t;
-            let mut f = [0.0; 6];
-            for i in 0..6 {
-                f[i] = fy[i] - rj.g[i] * t;
-            }
-            SpatialForce::from_array(f)
+            data.qdd[vo] = rj.qdd + dot6(&rj.g, &ya);
+            SpatialForce::from_array(std::array::from_fn(|i| rj.gamma[i] + fy[i]))
         } else {
             let l = &d.l[n];
             let mut w = solve_l(l, &y.to_array());
