@@ -75,22 +75,13 @@ pub(crate) struct Topo {
 /// DCA buffers (DESIGN §5), laid out over the assembly tree.
 #[derive(Clone, Debug)]
 pub(crate) struct DcaData {
-    /// Per node: offset of its handles in the flat per-handle arrays (plus a final sentinel,
-    /// so that node n has `hoff[n + 1] − hoff[n]` handles).
-    pub hoff: Vec<usize>,
-    /// Per node: its kind (a compact copy of the assembly tree's).
-    pub kind: Vec<NodeKind>,
-    /// Per node: offset of its cross blocks in `phi`: the nh (nh − 1) / 2 blocks `Φ_hk`, h < k,
-    /// row by row (`Φ_kh = Φ_hkᵀ`). A leaf's (ground's) are in a slot like `dg`, ahead of the
-    /// joins' (see `Data::new`).
-    pub boff: Vec<usize>,
-    /// Per handle (flat, `hoff`): its joint.
-    pub hj: Vec<usize>,
-    /// Per join node: index of the principal joint among A's and among B's handles.
-    pub ja: Vec<usize>,
-    pub jb: Vec<usize>,
-    /// Per handle of a join node (flat, `hoff`): the side it comes from and its index there.
-    pub from: Vec<(Side, usize)>,
+    /// Per node, what the passes read of it, in one compact record (see [`DNode`]).
+    pub node: Vec<DNode>,
+    /// Per handle (flat, `DNode::hoff`): its joint.
+    pub hj: Vec<u32>,
+    /// Per handle of a join node (flat, `DNode::hoff`): the side it comes from and its index
+    /// there.
+    pub from: Vec<(Side, u32)>,
     /// Φ's cross blocks.
     pub phi: Vec<Mat6>,
     /// Φ's diagonal blocks `Φ_hh` (packed symmetric) and the bias accelerations `b_h`: only the
@@ -100,8 +91,6 @@ pub(crate) struct DcaData {
     /// A few kB, cache-resident however long the chain.
     pub dg: Vec<Sym6>,
     pub b: Vec<SpatialMotion>,
-    /// Per node: the offset of its handles in `dg` and `b`.
-    pub slot: Vec<usize>,
     /// Per body: what the back-substitution needs of its leaf.
     pub leafk: Vec<LeafK>,
     /// Handle forces (back-substitution): set by the parent join and read by the node itself,
@@ -119,17 +108,49 @@ pub(crate) struct DcaData {
     /// Per joint h: the point P_h (origin of body h, computation frame) about which every
     /// handle-h vector is taken.
     pub point: Vec<DVec3>,
-    /// Per node: its join is a single revolute joint (the 5×5 path, [`RevJoin`]).
-    pub one_dof: Vec<bool>,
-    /// Per join (`jix`): what a one-axis join keeps for the back-substitution, dense in
+    /// Per join (`DNode::jix`): what a one-axis join keeps for the back-substitution, dense in
     /// post-order (a back-substitution stream without the leaves' gaps).
     pub rev: Vec<RevJoin>,
-    /// Per node: its index among the joins (post-order).
-    pub jix: Vec<usize>,
     /// Scratch per handle of the node being joined: `Ỹ_h = Q L⁻¹ Φ_jh` (or `D^{-1/2} L⁻¹ Tᵀ Φ_jh`).
     pub y: Vec<[[f64; 6]; 6]>,
     /// Per body: the constants of its leaf.
     pub leaf: Vec<LeafConst>,
+}
+
+/// A node of the assembly tree as DCA's passes read it: 40 bytes (the tree's own node and the
+/// flat offsets would be ~90), one stream.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct DNode {
+    pub kind: DKind,
+    /// Offset of its handles in the flat per-handle arrays (`hj`, `from`), and their count.
+    pub hoff: u32,
+    pub nh: u32,
+    /// Offset of its cross blocks in `phi`: the nh (nh − 1) / 2 blocks `Φ_hk`, h < k, row by
+    /// row (`Φ_kh = Φ_hkᵀ`). A leaf's (the ground's) are in a slot like `dg`, ahead of the
+    /// joins' (see `Data::new`).
+    pub boff: u32,
+    /// Offset of its handles in the slot arrays `dg`, `b` and `f`.
+    pub slot: u32,
+    /// A join: its index among the joins (post-order, for `rev`), the principal joint's index
+    /// among A's and among B's handles, and whether it is a single revolute joint (the 5×5
+    /// path, [`RevJoin`]).
+    pub jix: u32,
+    pub ja: u16,
+    pub jb: u16,
+    pub one_dof: bool,
+}
+
+/// [`articula_model::NodeKind`] with 32-bit indices.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum DKind {
+    Ground,
+    Body(u32),
+    /// Joint, parent side A, child side B.
+    Join {
+        joint: u32,
+        a: u32,
+        b: u32,
+    },
 }
 
 /// A leaf's `Φ = I⁻¹` in closed form, for the back-substitution (see `dca::leaf`): the
@@ -232,14 +253,11 @@ impl Data {
         let nn = tree.nodes.len();
         // The shared layout (articula-model), with DCA's sentinel and side type.
         let layout = tree.handle_layout();
-        let h = layout.handles;
-        let mut hoff = layout.hoff;
-        hoff.push(h); // sentinel: node n has hoff[n + 1] − hoff[n] handles
-        let (ja, jb) = (layout.ja, layout.jb);
-        let from: Vec<(Side, usize)> = layout
+        let u = |x: usize| u32::try_from(x).expect("assembly tree too large for 32-bit indices");
+        let from: Vec<(Side, u32)> = layout
             .from
             .iter()
-            .map(|&(a, i)| (if a { Side::A } else { Side::B }, i))
+            .map(|&(a, i)| (if a { Side::A } else { Side::B }, u(i)))
             .collect();
         let max_h = tree.max_handles().max(1);
         // Slots of the diagonal blocks and b (see `DcaData::slot`): node x at depth δ, the
@@ -251,42 +269,53 @@ impl Data {
                 side[child_side] = 1;
             }
         }
-        let slot: Vec<usize> = tree
-            .nodes
-            .iter()
-            .zip(&side)
-            .map(|(node, s)| (2 * node.depth + s) * max_h)
-            .collect();
         let slots = (2 * tree.depth() + 2) * max_h;
-        let jix: Vec<usize> = tree
-            .nodes
-            .iter()
-            .scan(0, |k, node| {
-                Some(match node.kind {
-                    NodeKind::Join { .. } => {
-                        *k += 1;
-                        *k - 1
-                    }
-                    _ => usize::MAX,
-                })
-            })
-            .collect();
         // Φ: the nh (nh − 1) / 2 cross blocks above the diagonal of each node (the diagonal ones
         // in the slots). A join's stay for the back-substitution, in post-order after the leaves'
         // slots (a leaf's are read by its parent join only: the back-substitution multiplies by
         // a leaf's Φ in closed form, `LeafK`).
         let mb = max_h * (max_h - 1) / 2;
-        let mut boff = Vec::with_capacity(nn);
         let mut blk = (2 * tree.depth() + 2) * mb;
-        for (node, s) in tree.nodes.iter().zip(&side) {
-            let nh = node.handles.len();
-            match node.kind {
-                NodeKind::Join { .. } => {
-                    boff.push(blk);
+        let mut joins = 0;
+        let mut node = Vec::with_capacity(nn);
+        for (i, (nd, s)) in tree.nodes.iter().zip(&side).enumerate() {
+            let nh = nd.handles.len();
+            let slot = u((2 * nd.depth + s) * max_h);
+            let u16_of = |x: usize| u16::try_from(x).expect("more than 65535 handles on a node");
+            let (kind, boff, jix, one_dof) = match nd.kind {
+                NodeKind::Join {
+                    joint,
+                    parent_side,
+                    child_side,
+                } => {
+                    let at = (blk, joins);
                     blk += nh * nh.saturating_sub(1) / 2;
+                    joins += 1;
+                    let one_dof = matches!(
+                        model.bodies[joint].joint.as_slice(),
+                        [p] if matches!(p.kind, JointKind::Revolute | JointKind::Continuous)
+                    );
+                    let kind = DKind::Join {
+                        joint: u(joint),
+                        a: u(parent_side),
+                        b: u(child_side),
+                    };
+                    (kind, at.0, at.1, one_dof)
                 }
-                _ => boff.push((2 * node.depth + s) * mb),
-            }
+                NodeKind::Body(b) => (DKind::Body(u(b)), (2 * nd.depth + s) * mb, 0, false),
+                NodeKind::Ground => (DKind::Ground, (2 * nd.depth + s) * mb, 0, false),
+            };
+            node.push(DNode {
+                kind,
+                hoff: u(layout.hoff[i]),
+                nh: u(nh),
+                boff: u(boff),
+                slot,
+                jix: u(jix),
+                ja: u16_of(layout.ja[i]),
+                jb: u16_of(layout.jb[i]),
+                one_dof,
+            });
         }
         Data {
             gravity: DVec3::new(0.0, 0.0, -9.81),
@@ -301,21 +330,16 @@ impl Data {
             qdd: vec![0.0; nv],
             momentum_projection: true,
             dca: DcaData {
-                kind: tree.nodes.iter().map(|node| node.kind).collect(),
+                node,
                 hj: tree
                     .nodes
                     .iter()
-                    .flat_map(|node| node.handles.iter().copied())
+                    .flat_map(|node| node.handles.iter().map(|&h| u(h)))
                     .collect(),
-                hoff,
-                boff,
-                ja,
-                jb,
                 from,
                 phi: vec![Mat6::ZERO; blk],
                 dg: vec![Sym6::ZERO; slots],
                 b: vec![SpatialMotion::ZERO; slots],
-                slot,
                 leafk: vec![LeafK::default(); n],
                 f: vec![SpatialForce::ZERO; slots],
                 l: vec![[[0.0; 6]; 6]; nn],
@@ -323,19 +347,7 @@ impl Data {
                 z: vec![[0.0; 6]; nv],
                 dinv: vec![SmallSpd::default(); n],
                 point: vec![DVec3::ZERO; n],
-                one_dof: tree
-                    .nodes
-                    .iter()
-                    .map(|node| match node.kind {
-                        NodeKind::Join { joint, .. } => matches!(
-                            model.bodies[joint].joint.as_slice(),
-                            [p] if matches!(p.kind, JointKind::Revolute | JointKind::Continuous)
-                        ),
-                        _ => false,
-                    })
-                    .collect(),
-                rev: vec![RevJoin::default(); jix.iter().filter(|&&j| j != usize::MAX).count()],
-                jix,
+                rev: vec![RevJoin::default(); joins],
                 y: vec![[[0.0; 6]; 6]; max_h],
                 leaf: model
                     .bodies

@@ -6,10 +6,10 @@
 //! bottom-up over the assembly tree; the back-substitution computes each principal joint's
 //! `q̈` and constraint force top-down.
 
-use crate::data::{RevJoin, Side};
+use crate::data::{DKind, RevJoin, Side};
 use crate::small::Sym6;
 use crate::{Data, DynamicsError};
-use articula_model::{Model, NodeKind};
+use articula_model::Model;
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::DVec3;
 
@@ -55,11 +55,11 @@ fn phi_jh_mul(
     h: usize,
     f: SpatialForce,
 ) -> SpatialMotion {
-    let bo = d.boff[n];
-    match d.kind[n] {
-        NodeKind::Join { .. } => {}
-        NodeKind::Body(i) => return leaf_mul(d, i, n, j, h, f),
-        NodeKind::Ground => return SpatialMotion::ZERO,
+    let bo = d.node[n].boff as usize;
+    match d.node[n].kind {
+        DKind::Join { .. } => {}
+        DKind::Body(i) => return leaf_mul(d, i as usize, n, j, h, f),
+        DKind::Ground => return SpatialMotion::ZERO,
     }
     let f = f.to_array();
     SpatialMotion::from_array(if j < h {
@@ -81,9 +81,12 @@ fn leaf_mul(
     f: SpatialForce,
 ) -> SpatialMotion {
     let lk = &d.leafk[i];
-    let ho = d.hoff[n];
+    let ho = d.node[n].hoff as usize;
     let c = DVec3::from_array(lk.c);
-    let (ph, pj) = (d.point[d.hj[ho + h]], d.point[d.hj[ho + j]]);
+    let (ph, pj) = (
+        d.point[d.hj[ho + h] as usize],
+        d.point[d.hj[ho + j] as usize],
+    );
     let nc = f.n - (c - ph).cross(f.f);
     let m = &lk.j;
     let alpha = DVec3::new(
@@ -104,11 +107,12 @@ fn main_pass(
     let a_g = SpatialMotion::new(DVec3::ZERO, data.gravity);
     for n in 0..tree.nodes.len() {
         // Φ's diagonal blocks and b, read only by the parent join, go to the node's slot.
-        let (ho, bo, top) = (data.dca.hoff[n], data.dca.boff[n], data.dca.slot[n]);
-        let nh = data.dca.hoff[n + 1] - ho;
-        match data.dca.kind[n] {
+        let nd = data.dca.node[n];
+        let (ho, nh) = (nd.hoff as usize, nd.nh as usize);
+        let (bo, top) = (nd.boff as usize, nd.slot as usize);
+        match nd.kind {
             // Ground: Φ = 0, b = 0.
-            NodeKind::Ground => {
+            DKind::Ground => {
                 for k in 0..nh * nh.saturating_sub(1) / 2 {
                     data.dca.phi[bo + k] = Mat6::ZERO;
                 }
@@ -117,12 +121,10 @@ fn main_pass(
                     data.dca.b[top + h] = SpatialMotion::ZERO;
                 }
             }
-            NodeKind::Body(i) => leaf(model, i, (ho, nh, bo, top), f_ext, a_g, data)?,
-            NodeKind::Join {
-                joint,
-                parent_side: a,
-                child_side: b,
-            } => join(model, tau, data, n, joint, a, b)?,
+            DKind::Body(i) => leaf(model, i as usize, (ho, nh, bo, top), f_ext, a_g, data)?,
+            DKind::Join { joint, a, b } => {
+                join(model, tau, data, n, joint as usize, a as usize, b as usize)?
+            }
         }
     }
     Ok(())
@@ -186,7 +188,7 @@ fn leaf(
     // Row r of A (from its columns).
     let a_row = |ac: &[DVec3; 3], r: usize| DVec3::new(ac[0][r], ac[1][r], ac[2][r]);
     for (h, &ph) in handles.iter().enumerate() {
-        let ah = c - d.point[ph];
+        let ah = c - d.point[ph as usize];
         // b at P_h: [α; a_c + α × (P_h − c)] + a_g
         d.b[top + h] = a_g + SpatialMotion::new(acc_w, acc_c + ah.cross(acc_w));
         let ahc = a_cols(ah);
@@ -218,7 +220,7 @@ fn leaf(
             br[2].z + im, // row 5
         ]);
         for (k, &pk) in handles.iter().enumerate().skip(h + 1) {
-            let ak = c - d.point[pk];
+            let ak = c - d.point[pk as usize];
             let akc = a_cols(ak);
             // Φ_hk = [J, A_kᵀ; A_h, A_h a_k×ᵀ + 1/m]: row r of the lower right is
             // a_k × (row r of A_h); row r of A_kᵀ is column r of A_k.
@@ -324,12 +326,12 @@ fn join(
 ) -> Result<(), DynamicsError> {
     let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
     let d = &mut data.dca;
-    let hc = d.hoff[n];
-    let nh = |x: usize| d.hoff[x + 1] - d.hoff[x];
-    let (nha, nhb, nhc) = (nh(a), nh(b), nh(n));
-    let (hoa, hob, top) = (d.slot[a], d.slot[b], d.slot[n]);
-    let (ja, jb) = (d.ja[n], d.jb[n]);
-    let (boa, bob, bc) = (d.boff[a], d.boff[b], d.boff[n]);
+    let (na, nb, nc) = (d.node[a], d.node[b], d.node[n]);
+    let hc = nc.hoff as usize;
+    let (nha, nhb, nhc) = (na.nh as usize, nb.nh as usize, nc.nh as usize);
+    let (hoa, hob, top) = (na.slot as usize, nb.slot as usize, nc.slot as usize);
+    let (ja, jb) = (nc.ja as usize, nc.jb as usize);
+    let (boa, bob, bc) = (na.boff as usize, nb.boff as usize, nc.boff as usize);
     // K = Φ^A_jj + Φ^B_jj, packed.
     let (pa, pb) = (&d.dg[hoa + ja].0, &d.dg[hob + jb].0);
     let kp: [f64; 21] = std::array::from_fn(|i| pa[i] + pb[i]);
@@ -341,12 +343,12 @@ fn join(
     let beta = d.b[hoa + ja] - d.b[hob + jb] + shift(data.c[joint]);
     // Φ_jh (rows) of C's handle h: the stored block, or the transpose of the stored Φ_hj.
     let from = |h: usize| match d.from[hc + h] {
-        (Side::A, i) => (boa, nha, ja, i),
-        (Side::B, i) => (bob, nhb, jb, i),
+        (Side::A, i) => (boa, nha, ja, i as usize),
+        (Side::B, i) => (bob, nhb, jb, i as usize),
     };
     let rows;
     let gamma;
-    if d.one_dof[n] {
+    if nc.one_dof {
         // One revolute axis: the 5×5 constraint system (see `RevJoin`).
         let w = data.s[vo].w.to_array(); // s = [ω; 0] at P_j
         let (p, q) = perpendicular_pair(w);
@@ -386,7 +388,7 @@ fn join(
                 detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
             });
         }
-        let rj = &mut d.rev[d.jix[n]];
+        let rj = &mut d.rev[nc.jix as usize];
         rj.p = p;
         rj.q = q;
         rj.l = [
@@ -403,7 +405,7 @@ fn join(
         gamma = std::array::from_fn(|i| wb[i] - rj.g[i] * t);
         rj.gamma = gamma;
         rj.qdd = dot6(&rj.g, &ba) + qt * t;
-        let rj = &d.rev[d.jix[n]];
+        let rj = &d.rev[nc.jix as usize];
         for h in 0..nhc {
             let (bo, nh, j, i) = from(h);
             // Tᵀ Φ_jh: from the rows of the stored Φ_jh, or the columns of the stored Φ_hj.
@@ -490,6 +492,7 @@ fn join(
     let (ddst, dsrc) = d.dg.split_at_mut(mid);
     for h in 0..nhc {
         let (sh, ih) = d.from[hc + h];
+        let ih = ih as usize;
         let yh = &d.y[h];
         let old = match sh {
             Side::A => &dsrc[hoa - mid + ih],
@@ -501,6 +504,7 @@ fn join(
         }
         for kk in h + 1..nhc {
             let (sk, ik) = d.from[hc + kk];
+            let ik = ik as usize;
             let yk = &d.y[kk];
             let old = match (sh, sk) {
                 (Side::A, Side::A) => Some(&src[boa + ub(nha, ih, ik)].0),
@@ -825,31 +829,25 @@ fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
     let tree = &model.assembly;
     for n in (0..tree.nodes.len()).rev() {
         // What the join PREFETCH nodes ahead reads, on its way from memory meanwhile.
-        if let Some(&NodeKind::Join {
-            parent_side: a,
-            child_side: b,
-            ..
-        }) = n.checked_sub(PREFETCH).map(|m| &data.dca.kind[m])
-        {
-            let (m, d) = (n - PREFETCH, &data.dca);
-            prefetch_span(&d.rev[d.jix[m]]);
-            prefetch_span(&d.phi[d.boff[a]..]);
-            prefetch_span(&d.phi[d.boff[b]..]);
+        if let Some(m) = n.checked_sub(PREFETCH) {
+            let d = &data.dca;
+            if let DKind::Join { a, b, .. } = d.node[m].kind {
+                prefetch_span(&d.rev[d.node[m].jix as usize]);
+                prefetch_span(&d.phi[d.node[a as usize].boff as usize..]);
+                prefetch_span(&d.phi[d.node[b as usize].boff as usize..]);
+            }
         }
-        let NodeKind::Join {
-            joint,
-            parent_side: a,
-            child_side: b,
-        } = data.dca.kind[n]
-        else {
+        let nc = data.dca.node[n];
+        let DKind::Join { joint, a, b } = nc.kind else {
             continue;
         };
+        let (joint, a, b) = (joint as usize, a as usize, b as usize);
         let d = &mut data.dca;
-        let nh = |x: usize| d.hoff[x + 1] - d.hoff[x];
-        let (nha, nhb, nhc) = (nh(a), nh(b), nh(n));
-        let (ja, jb, hc, sc) = (d.ja[n], d.jb[n], d.hoff[n], d.slot[n]);
+        let (nha, nhb, nhc) = (d.node[a].nh as usize, d.node[b].nh as usize, nc.nh as usize);
+        let (ja, jb) = (nc.ja as usize, nc.jb as usize);
+        let (hc, sc) = (nc.hoff as usize, nc.slot as usize);
         // y without β (one axis: the join's γ and q̈ hold it) or with it.
-        let mut y = if d.one_dof[n] {
+        let mut y = if nc.one_dof {
             SpatialMotion::ZERO
         } else {
             d.beta[n]
@@ -857,15 +855,15 @@ fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
         for h in 0..nhc {
             let f = d.f[sc + h];
             match d.from[hc + h] {
-                (Side::A, i) => y += phi_jh_mul(d, a, nha, ja, i, f),
-                (Side::B, i) => y -= phi_jh_mul(d, b, nhb, jb, i, f),
+                (Side::A, i) => y += phi_jh_mul(d, a, nha, ja, i as usize, f),
+                (Side::B, i) => y -= phi_jh_mul(d, b, nhb, jb, i as usize, f),
             }
         }
         let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
-        let f = if d.one_dof[n] {
+        let f = if nc.one_dof {
             // f = W (β + y) + f_τ τ = γ + W y (so K f = β + y + s q̈);
             // q̈ = gᵀ (β + y) + q̈_τ τ (`joint_terms`).
-            let rj = &d.rev[d.jix[n]];
+            let rj = &d.rev[nc.jix as usize];
             let ya = y.to_array();
             let fy = w_apply(rj, &ya);
             data.qdd[vo] = rj.qdd + dot6(&rj.g, &ya);
@@ -886,12 +884,12 @@ fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
             }
             SpatialForce::from_array(solve_lt(l, &w))
         };
-        let (hoa, hob) = (d.slot[a], d.slot[b]);
+        let (hoa, hob) = (d.node[a].slot as usize, d.node[b].slot as usize);
         for h in 0..nhc {
             let fh = d.f[sc + h];
             match d.from[hc + h] {
-                (Side::A, i) => d.f[hoa + i] = fh,
-                (Side::B, i) => d.f[hob + i] = fh,
+                (Side::A, i) => d.f[hoa + i as usize] = fh,
+                (Side::B, i) => d.f[hob + i as usize] = fh,
             }
         }
         d.f[hoa + ja] = -f;
