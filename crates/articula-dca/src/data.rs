@@ -260,7 +260,7 @@ impl Data {
             .map(|&(a, i)| (if a { Side::A } else { Side::B }, u(i)))
             .collect();
         let max_h = tree.max_handles().max(1);
-        // Slots of the diagonal blocks and b (see `DcaData::slot`): node x at depth δ, the
+        // Slots of the diagonal blocks and b (see `DcaData::dg`): node x at depth δ, the
         // parent side (0) or child side (1) of its parent's join, has max_h handles at
         // (2 δ + side) max_h.
         let mut side = vec![0usize; nn];

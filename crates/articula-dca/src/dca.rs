@@ -313,7 +313,7 @@ fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
 /// Either way `Φ_hj W Φ_jk = Ỹ_hᵀ Ỹ_k`: one Gram product per stored block of C (`h ≤ k`; the
 /// diagonal ones on their upper triangle).
 ///
-/// A's, B's and C's diagonal blocks and b are in their nodes' slots (see `DcaData::slot`).
+/// A's, B's and C's diagonal blocks and b are in their nodes' slots (see `DcaData::dg`).
 #[inline(never)]
 fn join(
     model: &Model,
