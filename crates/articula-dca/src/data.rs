@@ -75,32 +75,30 @@ pub(crate) struct Topo {
 /// DCA buffers (DESIGN §5), laid out over the assembly tree.
 #[derive(Clone, Debug)]
 pub(crate) struct DcaData {
-    /// Per node: offset of its handles in the flat per-handle arrays (plus a final sentinel,
-    /// so that node n has `hoff[n + 1] − hoff[n]` handles).
-    pub hoff: Vec<usize>,
-    /// Per node: its kind (a compact copy of the assembly tree's).
-    pub kind: Vec<NodeKind>,
-    /// Per node: offset of its cross blocks in `phi`: the nh (nh − 1) / 2 blocks `Φ_hk`, h < k,
-    /// row by row (`Φ_kh = Φ_hkᵀ`).
-    pub boff: Vec<usize>,
-    /// Per handle (flat, `hoff`): its joint.
-    pub hj: Vec<usize>,
-    /// Per join node: index of the principal joint among A's and among B's handles.
-    pub ja: Vec<usize>,
-    pub jb: Vec<usize>,
-    /// Per handle of a join node (flat, `hoff`): the side it comes from and its index there.
-    pub from: Vec<(Side, usize)>,
+    /// Per node, what the passes read of it, in one compact record (see [`DNode`]).
+    pub node: Vec<DNode>,
+    /// Per handle (flat, `DNode::hoff`): its joint.
+    pub hj: Vec<u32>,
+    /// Per handle of a join node (flat, `DNode::hoff`): the side it comes from and its index
+    /// there.
+    pub from: Vec<(Side, u32)>,
     /// Φ's cross blocks.
     pub phi: Vec<Mat6>,
-    /// Φ's diagonal blocks `Φ_hh`, per handle (flat, `hoff`), packed symmetric.
+    /// Φ's diagonal blocks `Φ_hh` (packed symmetric) and the bias accelerations `b_h`: only the
+    /// parent join reads them, so they live in a slot per (depth, side) instead of per node —
+    /// in post-order, the child visited first waits while its sibling's subtree (deeper
+    /// nodes, and the sibling itself on the other side) is built, so no live slot is reused.
+    /// A few kB, cache-resident however long the chain.
     pub dg: Vec<Sym6>,
-    /// Bias accelerations per handle.
     pub b: Vec<SpatialMotion>,
-    /// Handle forces per handle (back-substitution).
+    /// Per body: what the back-substitution needs of its leaf.
+    pub leafk: Vec<LeafK>,
+    /// Handle forces (back-substitution): set by the parent join and read by the node itself,
+    /// so in the node's slot like `dg` and `b` (in reverse post-order the child processed last
+    /// waits while its sibling's subtree is solved).
     pub f: Vec<SpatialForce>,
-    /// Per join node: the Cholesky factor L of `Φ^A_jj + Φ^B_jj = V⁻¹` (its diagonal stored
-    /// inverted, see [`crate::small::cholesky6`]), or for a one-axis join the `L D Lᵀ` factors
-    /// of the 5×5 `TᵀKT` ([`crate::small::ldl5`]); and β.
+    /// Per join node off the one-axis path: the Cholesky factor L of `Φ^A_jj + Φ^B_jj = V⁻¹`
+    /// (its diagonal stored inverted, see [`crate::small::cholesky6`]), and β.
     pub l: Vec<[[f64; 6]; 6]>,
     pub beta: Vec<SpatialMotion>,
     /// Per degree of freedom: the column of `Z = L⁻¹ S`.
@@ -110,59 +108,113 @@ pub(crate) struct DcaData {
     /// Per joint h: the point P_h (origin of body h, computation frame) about which every
     /// handle-h vector is taken.
     pub point: Vec<DVec3>,
-    /// Per node: the constraint basis of its joint (1-DOF joins).
-    pub basis: Vec<Basis>,
+    /// Per join (`DNode::jix`): what a one-axis join keeps for the back-substitution, dense in
+    /// post-order (a back-substitution stream without the leaves' gaps).
+    pub rev: Vec<RevJoin>,
     /// Scratch per handle of the node being joined: `Ỹ_h = Q L⁻¹ Φ_jh` (or `D^{-1/2} L⁻¹ Tᵀ Φ_jh`).
     pub y: Vec<[[f64; 6]; 6]>,
-    /// Per body: the constants of its leaf, `None` when its spatial inertia is not positive
-    /// definite (the dynamics call reports it).
-    pub leaf: Vec<Option<LeafConst>>,
+    /// Per body: the constants of its leaf.
+    pub leaf: Vec<LeafConst>,
 }
 
-/// A body's inertia as its DCA leaf uses it, in body coordinates.
+/// A node of the assembly tree as DCA's passes read it: 40 bytes (the tree's own node and the
+/// flat offsets would be ~90), one stream.
 #[derive(Clone, Copy, Debug)]
+pub(crate) struct DNode {
+    pub kind: DKind,
+    /// Offset of its handles in the flat per-handle arrays (`hj`, `from`), and their count.
+    pub hoff: u32,
+    pub nh: u32,
+    /// Offset of its cross blocks in `phi`: the nh (nh − 1) / 2 blocks `Φ_hk`, h < k, row by
+    /// row (`Φ_kh = Φ_hkᵀ`). A leaf's (the ground's) are in a slot like `dg`, ahead of the
+    /// joins' (see `Data::new`).
+    pub boff: u32,
+    /// Offset of its handles in the slot arrays `dg`, `b` and `f`.
+    pub slot: u32,
+    /// A join: its index among the joins (post-order, for `rev`), the principal joint's index
+    /// among A's and among B's handles, and whether it is a single revolute joint (the 5×5
+    /// path, [`RevJoin`]).
+    pub jix: u32,
+    pub ja: u16,
+    pub jb: u16,
+    pub one_dof: bool,
+}
+
+/// [`articula_model::NodeKind`] with 32-bit indices.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum DKind {
+    Ground,
+    Body(u32),
+    /// Joint, parent side A, child side B.
+    Join {
+        joint: u32,
+        a: u32,
+        b: u32,
+    },
+}
+
+/// A leaf's `Φ = I⁻¹` in closed form, for the back-substitution (see `dca::leaf`): the
+/// computation-frame `J = R I_c⁻¹ Rᵀ` (upper triangle, row by row), the centre of mass `c` and
+/// `1/m`.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct LeafK {
+    pub j: [f64; 6],
+    pub c: [f64; 3],
+    pub im: f64,
+}
+
+/// A body's inertia as its DCA leaf uses it, in body coordinates: 128 bytes, two cache lines.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
 pub(crate) struct LeafConst {
     /// Centre of mass.
-    pub com: DVec3,
-    /// Rotational inertia about the centre of mass, `I_c`, and its inverse.
-    pub ic: glam::DMat3,
-    pub ic_inv: glam::DMat3,
-    pub mass: f64,
+    pub com: [f64; 3],
+    /// `1/m`; NaN when the spatial inertia is not positive definite (the dynamics call reports
+    /// it).
+    pub im: f64,
+    /// Rotational inertia about the centre of mass, `I_c`, and its inverse: upper triangles,
+    /// row by row (`xx, xy, xz, yy, yz, zz`).
+    pub ic: [f64; 6],
+    pub ic_inv: [f64; 6],
 }
 
 impl LeafConst {
-    fn of(inertia: &SpatialInertia) -> Option<LeafConst> {
+    fn of(inertia: &SpatialInertia) -> LeafConst {
         let ic = inertia.inertia_about_com();
         let m = inertia.mass;
-        if m.is_nan() || m <= 0.0 || ic.determinant() <= 0.0 {
-            return None;
+        let ok = !m.is_nan() && m > 0.0 && ic.determinant() > 0.0;
+        let up = |a: glam::DMat3| {
+            [
+                a.x_axis.x, a.y_axis.x, a.z_axis.x, a.y_axis.y, a.z_axis.y, a.z_axis.z,
+            ]
+        };
+        LeafConst {
+            com: inertia.com().to_array(),
+            im: if ok { 1.0 / m } else { f64::NAN },
+            ic: up(ic),
+            ic_inv: if ok { up(ic.inverse()) } else { [f64::NAN; 6] },
         }
-        Some(LeafConst {
-            com: inertia.com(),
-            ic,
-            ic_inv: ic.inverse(),
-            mass: m,
-        })
     }
 }
 
-/// The constraint basis of a one-axis join (see `dca::join`): with `s = [ω; 0]` the revolute
-/// joint's subspace column at its point and `p`, `q` an orthogonal pair perpendicular to ω,
+/// What a one-axis join keeps (see `dca::join`): with `s = [ω; 0]` the revolute joint's
+/// subspace column at its point and `p`, `q` an orthogonal pair perpendicular to ω,
 /// `T = [p 0; q 0; 0 1]ᵀ` (6×5: columns `[p; 0]`, `[q; 0]`, `[0; e_x]`, `[0; e_y]`, `[0; e_z]`)
 /// spans the forces that do no work along `s`. (A prismatic joint takes the general path.)
 #[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct Basis {
-    /// This join is a single revolute joint (the 5×5 path).
-    pub one_dof: bool,
-    /// ω, and the pair p, q.
-    pub w: [f64; 3],
+pub(crate) struct RevJoin {
+    /// The pair p, q.
     pub p: [f64; 3],
     pub q: [f64; 3],
-    /// `q̈` per unit joint torque.
-    pub qt: f64,
+    /// The `L D Lᵀ` factors of the 5×5 `TᵀKT`, lower triangle packed row by row
+    /// (`(i, j)` at `i (i + 1) / 2 + j`): L's entries below the diagonal, `1 / d_i` on it.
+    pub l: [f64; 15],
     /// `(W K s − s) / sᵀs`: `q̈ = gᵀ y + q̈_τ τ` in the back-substitution; `−g` is the joint
     /// force per unit torque.
     pub g: [f64; 6],
+    /// The joint force and `q̈` for zero handle forces: `γ = W β − g τ`, `gᵀβ + q̈_τ τ`.
+    pub gamma: [f64; 6],
+    pub qdd: f64,
 }
 
 /// ABA buffers.
@@ -201,25 +253,70 @@ impl Data {
         let nn = tree.nodes.len();
         // The shared layout (articula-model), with DCA's sentinel and side type.
         let layout = tree.handle_layout();
-        let h = layout.handles;
-        let mut hoff = layout.hoff;
-        hoff.push(h); // sentinel: node n has hoff[n + 1] − hoff[n] handles
-                      // Φ: the nh (nh − 1) / 2 cross blocks above the diagonal of each node (the diagonal
-                      // ones packed per handle).
-        let mut boff = Vec::with_capacity(nn);
-        let mut blk = 0;
-        for node in &tree.nodes {
-            boff.push(blk);
-            let nh = node.handles.len();
-            blk += nh * nh.saturating_sub(1) / 2;
-        }
-        let (ja, jb) = (layout.ja, layout.jb);
-        let from: Vec<(Side, usize)> = layout
+        let u = |x: usize| u32::try_from(x).expect("assembly tree too large for 32-bit indices");
+        let from: Vec<(Side, u32)> = layout
             .from
             .iter()
-            .map(|&(a, i)| (if a { Side::A } else { Side::B }, i))
+            .map(|&(a, i)| (if a { Side::A } else { Side::B }, u(i)))
             .collect();
         let max_h = tree.max_handles().max(1);
+        // Slots of the diagonal blocks and b (see `DcaData::dg`): node x at depth δ, the
+        // parent side (0) or child side (1) of its parent's join, has max_h handles at
+        // (2 δ + side) max_h.
+        let mut side = vec![0usize; nn];
+        for node in &tree.nodes {
+            if let NodeKind::Join { child_side, .. } = node.kind {
+                side[child_side] = 1;
+            }
+        }
+        let slots = (2 * tree.depth() + 2) * max_h;
+        // Φ: the nh (nh − 1) / 2 cross blocks above the diagonal of each node (the diagonal ones
+        // in the slots). A join's stay for the back-substitution, in post-order after the leaves'
+        // slots (a leaf's are read by its parent join only: the back-substitution multiplies by
+        // a leaf's Φ in closed form, `LeafK`).
+        let mb = max_h * (max_h - 1) / 2;
+        let mut blk = (2 * tree.depth() + 2) * mb;
+        let mut joins = 0;
+        let mut node = Vec::with_capacity(nn);
+        for (i, (nd, s)) in tree.nodes.iter().zip(&side).enumerate() {
+            let nh = nd.handles.len();
+            let slot = u((2 * nd.depth + s) * max_h);
+            let u16_of = |x: usize| u16::try_from(x).expect("more than 65535 handles on a node");
+            let (kind, boff, jix, one_dof) = match nd.kind {
+                NodeKind::Join {
+                    joint,
+                    parent_side,
+                    child_side,
+                } => {
+                    let at = (blk, joins);
+                    blk += nh * nh.saturating_sub(1) / 2;
+                    joins += 1;
+                    let one_dof = matches!(
+                        model.bodies[joint].joint.as_slice(),
+                        [p] if matches!(p.kind, JointKind::Revolute | JointKind::Continuous)
+                    );
+                    let kind = DKind::Join {
+                        joint: u(joint),
+                        a: u(parent_side),
+                        b: u(child_side),
+                    };
+                    (kind, at.0, at.1, one_dof)
+                }
+                NodeKind::Body(b) => (DKind::Body(u(b)), (2 * nd.depth + s) * mb, 0, false),
+                NodeKind::Ground => (DKind::Ground, (2 * nd.depth + s) * mb, 0, false),
+            };
+            node.push(DNode {
+                kind,
+                hoff: u(layout.hoff[i]),
+                nh: u(nh),
+                boff: u(boff),
+                slot,
+                jix: u(jix),
+                ja: u16_of(layout.ja[i]),
+                jb: u16_of(layout.jb[i]),
+                one_dof,
+            });
+        }
         Data {
             gravity: DVec3::new(0.0, 0.0, -9.81),
             refine_floating: true,
@@ -233,43 +330,24 @@ impl Data {
             qdd: vec![0.0; nv],
             momentum_projection: true,
             dca: DcaData {
-                kind: tree.nodes.iter().map(|node| node.kind).collect(),
+                node,
                 hj: tree
                     .nodes
                     .iter()
-                    .flat_map(|node| node.handles.iter().copied())
+                    .flat_map(|node| node.handles.iter().map(|&h| u(h)))
                     .collect(),
-                hoff,
-                boff,
-                ja,
-                jb,
                 from,
                 phi: vec![Mat6::ZERO; blk],
-                dg: vec![Sym6::ZERO; h],
-                b: vec![SpatialMotion::ZERO; h],
-                f: vec![SpatialForce::ZERO; h],
+                dg: vec![Sym6::ZERO; slots],
+                b: vec![SpatialMotion::ZERO; slots],
+                leafk: vec![LeafK::default(); n],
+                f: vec![SpatialForce::ZERO; slots],
                 l: vec![[[0.0; 6]; 6]; nn],
                 beta: vec![SpatialMotion::ZERO; nn],
                 z: vec![[0.0; 6]; nv],
                 dinv: vec![SmallSpd::default(); n],
                 point: vec![DVec3::ZERO; n],
-                basis: tree
-                    .nodes
-                    .iter()
-                    .map(|node| Basis {
-                        one_dof: match node.kind {
-                            NodeKind::Join { joint, .. } => {
-                                let body = &model.bodies[joint];
-                                matches!(
-                                    body.joint.as_slice(),
-                                    [p] if matches!(p.kind, JointKind::Revolute | JointKind::Continuous)
-                                )
-                            }
-                            _ => false,
-                        },
-                        ..Basis::default()
-                    })
-                    .collect(),
+                rev: vec![RevJoin::default(); joins],
                 y: vec![[[0.0; 6]; 6]; max_h],
                 leaf: model
                     .bodies

@@ -6,15 +6,23 @@
 //! bottom-up over the assembly tree; the back-substitution computes each principal joint's
 //! `q̈` and constraint force top-down.
 
-use crate::data::{Basis, Side};
+use crate::data::{DKind, RevJoin, Side};
 use crate::small::Sym6;
 use crate::{Data, DynamicsError};
-use articula_model::{Model, NodeKind};
+use articula_model::Model;
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::DVec3;
 
-/// Runs DCA on the kinematics already in `data` (see [`crate::forward_kinematics`]); writes
-/// `data.qdd`.
+/// Each handle (joint h) keeps its vectors about its own point P_h, the origin of body h: far
+/// from the computation origin the blocks would otherwise lose digits (a 100,000-link chain
+/// reaches 10 km). Runs in the kinematics loop, right after body h (its pose is in cache).
+#[inline(always)]
+pub(crate) fn init_body(h: usize, data: &mut Data) {
+    data.dca.point[h] = data.x[h].apply_point(DVec3::ZERO);
+}
+
+/// Runs DCA on the kinematics already in `data` (see [`crate::forward_kinematics`], with
+/// [`init_body`] run per body); writes `data.qdd`.
 pub(crate) fn dca(
     model: &Model,
     tau: &[f64],
@@ -47,13 +55,46 @@ fn phi_jh_mul(
     h: usize,
     f: SpatialForce,
 ) -> SpatialMotion {
-    let bo = d.boff[n];
+    let bo = d.node[n].boff as usize;
+    match d.node[n].kind {
+        DKind::Join { .. } => {}
+        DKind::Body(i) => return leaf_mul(d, i as usize, n, j, h, f),
+        DKind::Ground => return SpatialMotion::ZERO,
+    }
     let f = f.to_array();
     SpatialMotion::from_array(if j < h {
         mat_vec(&d.phi[bo + ub(nh, j, h)].0, &f)
     } else {
         mat_tr_vec(&d.phi[bo + ub(nh, h, j)].0, &f)
     })
+}
+
+/// `Φ_jh f` of leaf node `n` (body `i`), in closed form (see [`leaf`]): with `a_h = c − P_h`,
+/// the moment about c `n_c = n − a_h × f`, `α = J n_c`, and at P_j `[α; f/m + a_j × α]`.
+#[inline(always)]
+fn leaf_mul(
+    d: &crate::data::DcaData,
+    i: usize,
+    n: usize,
+    j: usize,
+    h: usize,
+    f: SpatialForce,
+) -> SpatialMotion {
+    let lk = &d.leafk[i];
+    let ho = d.node[n].hoff as usize;
+    let c = DVec3::from_array(lk.c);
+    let (ph, pj) = (
+        d.point[d.hj[ho + h] as usize],
+        d.point[d.hj[ho + j] as usize],
+    );
+    let nc = f.n - (c - ph).cross(f.f);
+    let m = &lk.j;
+    let alpha = DVec3::new(
+        m[0] * nc.x + m[1] * nc.y + m[2] * nc.z,
+        m[1] * nc.x + m[3] * nc.y + m[4] * nc.z,
+        m[2] * nc.x + m[4] * nc.y + m[5] * nc.z,
+    );
+    SpatialMotion::new(alpha, f.f * lk.im + (c - pj).cross(alpha))
 }
 
 fn main_pass(
@@ -64,34 +105,26 @@ fn main_pass(
 ) -> Result<(), DynamicsError> {
     let tree = &model.assembly;
     let a_g = SpatialMotion::new(DVec3::ZERO, data.gravity);
-    // Each handle (joint h) keeps its vectors about its own point P_h, the origin of body h:
-    // far from the computation origin the blocks would otherwise lose digits (a 100,000-link
-    // chain reaches 10 km).
-    for (h, x) in data.x.iter().enumerate() {
-        data.dca.point[h] = x.apply_point(DVec3::ZERO);
-    }
     for n in 0..tree.nodes.len() {
-        let (ho, bo) = (data.dca.hoff[n], data.dca.boff[n]);
-        let nh = data.dca.hoff[n + 1] - ho;
-        match data.dca.kind[n] {
+        // Φ's diagonal blocks and b, read only by the parent join, go to the node's slot.
+        let nd = data.dca.node[n];
+        let (ho, nh) = (nd.hoff as usize, nd.nh as usize);
+        let (bo, top) = (nd.boff as usize, nd.slot as usize);
+        match nd.kind {
             // Ground: Φ = 0, b = 0.
-            NodeKind::Ground => {
+            DKind::Ground => {
                 for k in 0..nh * nh.saturating_sub(1) / 2 {
                     data.dca.phi[bo + k] = Mat6::ZERO;
                 }
                 for h in 0..nh {
-                    data.dca.dg[ho + h] = Sym6::ZERO;
-                }
-                for k in 0..nh {
-                    data.dca.b[ho + k] = SpatialMotion::ZERO;
+                    data.dca.dg[top + h] = Sym6::ZERO;
+                    data.dca.b[top + h] = SpatialMotion::ZERO;
                 }
             }
-            NodeKind::Body(i) => leaf(model, i, (ho, nh, bo), f_ext, a_g, data)?,
-            NodeKind::Join {
-                joint,
-                parent_side: a,
-                child_side: b,
-            } => join(model, tau, data, n, joint, a, b)?,
+            DKind::Body(i) => leaf(model, i as usize, (ho, nh, bo, top), f_ext, a_g, data)?,
+            DKind::Join { joint, a, b } => {
+                join(model, tau, data, n, joint as usize, a as usize, b as usize)?
+            }
         }
     }
     Ok(())
@@ -106,65 +139,128 @@ fn main_pass(
 fn leaf(
     model: &Model,
     i: usize,
-    (ho, nh, bo): (usize, usize, usize),
+    (ho, nh, bo, top): (usize, usize, usize, usize),
     f_ext: &[SpatialForce],
     a_g: SpatialMotion,
     data: &mut Data,
 ) -> Result<(), DynamicsError> {
-    let rot = data.x[i].e; // body → computation-frame axes
-    let Some(lc) = data.dca.leaf[i] else {
+    let lc = &data.dca.leaf[i];
+    let im = lc.im;
+    // NaN marks an inertia that is not positive definite.
+    if im.is_nan() {
         return Err(DynamicsError::Singular {
             joint: model.bodies[i].joint_name(),
             detail: "the body's spatial inertia is not positive definite",
         });
-    };
-    let c = data.x[i].apply_point(lc.com);
-    let m = lc.mass;
-    let j = rot * lc.ic_inv * rot.transpose();
+    }
+    let x = &data.x[i];
+    // R: body → computation-frame axes, by columns (e[k] = R e_k).
+    let e = x.e.to_cols_array_2d();
+    let c = x.apply_point(DVec3::from_array(lc.com));
+    // J = R I_c⁻¹ Rᵀ (symmetric: rows = columns).
+    let jc = rotate_sym(&e, &sym3(&lc.ic_inv));
     // Net force about c: f_ext − v ×* I v, with v_c the velocity of the point at c;
     // I_c ω = R I_c,body Rᵀ ω.
     let v = data.v[i];
     let v_c = v.v + v.w.cross(c);
     let fe = crate::f_ext_of(f_ext, i);
-    let icw = rot * (lc.ic * (rot.transpose() * v.w));
+    let wb = [dot3a(&e[0], v.w), dot3a(&e[1], v.w), dot3a(&e[2], v.w)];
+    let icb = sym3(&lc.ic);
+    let icwb: [f64; 3] = std::array::from_fn(|r| dot3(&icb[r], &wb));
+    let icw = DVec3::from_array(std::array::from_fn(|r| {
+        e[0][r] * icwb[0] + e[1][r] * icwb[1] + e[2][r] * icwb[2]
+    }));
     let n_c = fe.n - c.cross(fe.f) - v.w.cross(icw);
-    let f_c = fe.f - v.w.cross(v_c) * m;
-    let acc_w = j * n_c;
-    let acc_c = f_c / m;
-    let im = 1.0 / m;
+    let nc = n_c.to_array();
+    let acc_w = DVec3::from_array(std::array::from_fn(|r| dot3(&jc[r], &nc)));
+    // a_c = (f_ext − m ω × v_c) / m
+    let acc_c = fe.f * im - v.w.cross(v_c);
     let d = &mut data.dca;
+    d.leafk[i] = crate::data::LeafK {
+        j: [jc[0][0], jc[0][1], jc[0][2], jc[1][1], jc[1][2], jc[2][2]],
+        c: c.to_array(),
+        im,
+    };
     let handles = &d.hj[ho..ho + nh];
-    // The columns of J (= its rows) and of A_h = a_h× J (A_h's columns are a_h × J's).
-    let jc = [j.x_axis, j.y_axis, j.z_axis];
-    let a_cols = |a: DVec3| [a.cross(jc[0]), a.cross(jc[1]), a.cross(jc[2])];
+    // J's columns (= its rows), and the columns of A_h = a_h× J (a_h × J's columns).
+    let jv = jc.map(DVec3::from_array);
+    let a_cols = |a: DVec3| [a.cross(jv[0]), a.cross(jv[1]), a.cross(jv[2])];
+    // Row r of A (from its columns).
+    let a_row = |ac: &[DVec3; 3], r: usize| DVec3::new(ac[0][r], ac[1][r], ac[2][r]);
     for (h, &ph) in handles.iter().enumerate() {
-        let ah = c - d.point[ph];
+        let ah = c - d.point[ph as usize];
         // b at P_h: [α; a_c + α × (P_h − c)] + a_g
-        d.b[ho + h] = a_g + SpatialMotion::new(acc_w, acc_c + ah.cross(acc_w));
+        d.b[top + h] = a_g + SpatialMotion::new(acc_w, acc_c + ah.cross(acc_w));
         let ahc = a_cols(ah);
-        for (k, &pk) in handles.iter().enumerate().skip(h) {
-            let akc = if k == h { ahc } else { a_cols(c - d.point[pk]) };
-            // a_h× A_kᵀ: its column q is a_h × (row q of A_k).
-            let row = |q: usize| DVec3::new(akc[0][q], akc[1][q], akc[2][q]);
-            let bc = [ah.cross(row(0)), ah.cross(row(1)), ah.cross(row(2))];
-            let mut out = [[0.0; 6]; 6];
+        let ahr = [a_row(&ahc, 0), a_row(&ahc, 1), a_row(&ahc, 2)];
+        // Φ_hh, upper triangle: [J, A_hᵀ; ·, a_h× A_hᵀ + 1/m], the lower-right block's row r
+        // being a_h × (row r of A_h) (a_h× J a_h×ᵀ = A_h a_h×ᵀ).
+        let br = [ah.cross(ahr[0]), ah.cross(ahr[1]), ah.cross(ahr[2])];
+        d.dg[top + h] = Sym6([
+            jc[0][0],
+            jc[0][1],
+            jc[0][2],
+            ahc[0].x,
+            ahc[0].y,
+            ahc[0].z, // row 0
+            jc[1][1],
+            jc[1][2],
+            ahc[1].x,
+            ahc[1].y,
+            ahc[1].z, // row 1
+            jc[2][2],
+            ahc[2].x,
+            ahc[2].y,
+            ahc[2].z, // row 2
+            br[0].x + im,
+            br[0].y,
+            br[0].z, // row 3
+            br[1].y + im,
+            br[1].z,      // row 4
+            br[2].z + im, // row 5
+        ]);
+        for (k, &pk) in handles.iter().enumerate().skip(h + 1) {
+            let ak = c - d.point[pk as usize];
+            let akc = a_cols(ak);
+            // Φ_hk = [J, A_kᵀ; A_h, A_h a_k×ᵀ + 1/m]: row r of the lower right is
+            // a_k × (row r of A_h); row r of A_kᵀ is column r of A_k.
+            let out = &mut d.phi[bo + ub(nh, h, k)].0;
             for r in 0..3 {
-                // [J | A_kᵀ]: row r of A_kᵀ is column r of A_k.
-                out[r] = [jc[r].x, jc[r].y, jc[r].z, akc[r].x, akc[r].y, akc[r].z];
-                // [A_h | a_h× A_kᵀ + 1/m]
-                out[r + 3] = [
-                    ahc[0][r], ahc[1][r], ahc[2][r], bc[0][r], bc[1][r], bc[2][r],
-                ];
+                let x = ak.cross(ahr[r]);
+                out[r] = [jc[r][0], jc[r][1], jc[r][2], akc[r].x, akc[r].y, akc[r].z];
+                out[r + 3] = [ahr[r].x, ahr[r].y, ahr[r].z, x.x, x.y, x.z];
                 out[r + 3][r + 3] += im;
-            }
-            if k == h {
-                d.dg[ho + h] = pack(&out);
-            } else {
-                d.phi[bo + ub(nh, h, k)] = Mat6(out);
             }
         }
     }
     Ok(())
+}
+
+/// `R S Rᵀ` for a symmetric 3×3 `S` and a rotation given by its columns `e` (`e[k] = R e_k`);
+/// the product's rows.
+#[inline(always)]
+fn rotate_sym(e: &[[f64; 3]; 3], s: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    // T = R S: row i is Σ_k R_ik (row k of S).
+    let t: [[f64; 3]; 3] = std::array::from_fn(|i| {
+        std::array::from_fn(|q| e[0][i] * s[0][q] + e[1][i] * s[1][q] + e[2][i] * s[2][q])
+    });
+    // (T Rᵀ)_il = row i of T · row l of R, upper triangle, mirrored.
+    let row = |l: usize| [e[0][l], e[1][l], e[2][l]];
+    let (r0, r1, r2) = (row(0), row(1), row(2));
+    let (a00, a01, a02) = (dot3(&t[0], &r0), dot3(&t[0], &r1), dot3(&t[0], &r2));
+    let (a11, a12, a22) = (dot3(&t[1], &r1), dot3(&t[1], &r2), dot3(&t[2], &r2));
+    [[a00, a01, a02], [a01, a11, a12], [a02, a12, a22]]
+}
+
+/// A symmetric 3×3 from its upper triangle (`xx, xy, xz, yy, yz, zz`), by rows.
+#[inline(always)]
+fn sym3(u: &[f64; 6]) -> [[f64; 3]; 3] {
+    [[u[0], u[1], u[2]], [u[1], u[3], u[4]], [u[2], u[4], u[5]]]
+}
+
+#[inline(always)]
+fn dot3a(a: &[f64; 3], x: DVec3) -> f64 {
+    a[0] * x.x + a[1] * x.y + a[2] * x.z
 }
 
 /// `L⁻¹ b` (forward substitution; `l` from [`crate::small::cholesky6`], inverse diagonal).
@@ -207,7 +303,7 @@ fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
 /// Joins A and B at `joint` into node `n` (DESIGN §5, any handle count); V and W never
 /// appear explicitly. With `K = Φ^A_jj + Φ^B_jj = V⁻¹`, W is the same for every basis `T` of
 /// the forces that do no work along S: `W = V − V S (SᵀVS)⁻¹ SᵀV = T (TᵀKT)⁻¹ Tᵀ`.
-/// - One revolute axis (the common case): the basis of [`Basis`] (fixed positions), the
+/// - One revolute axis (the common case): the basis of [`RevJoin`] (fixed positions), the
 ///   `L D Lᵀ` factors of the 5×5 `TᵀKT` ([`crate::small::ldl5`]),
 ///   `Ỹ_h = D^{-1/2} L⁻¹ Tᵀ Φ_jh` (5 rows), and the joint terms of [`joint_terms`].
 /// - Otherwise: the Cholesky factor of `K = L Lᵀ`, `Z = L⁻¹ S`, `D = ZᵀZ` and the orthogonal
@@ -216,6 +312,8 @@ fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
 ///
 /// Either way `Φ_hj W Φ_jk = Ỹ_hᵀ Ỹ_k`: one Gram product per stored block of C (`h ≤ k`; the
 /// diagonal ones on their upper triangle).
+///
+/// A's, B's and C's diagonal blocks and b are in their nodes' slots (see `DcaData::dg`).
 #[inline(never)]
 fn join(
     model: &Model,
@@ -228,77 +326,107 @@ fn join(
 ) -> Result<(), DynamicsError> {
     let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
     let d = &mut data.dca;
-    let nh = |x: usize| d.hoff[x + 1] - d.hoff[x];
-    let (nha, nhb, nhc) = (nh(a), nh(b), nh(n));
-    let (ja, jb) = (d.ja[n], d.jb[n]);
-    let (boa, bob) = (d.boff[a], d.boff[b]);
-    // K = Φ^A_jj + Φ^B_jj, from the packed diagonal blocks.
-    let (pa, pb) = (&d.dg[d.hoff[a] + ja].0, &d.dg[d.hoff[b] + jb].0);
-    let mut sum = [[0.0; 6]; 6];
-    for r in 0..6 {
-        for c in r..6 {
-            let x = pa[SYM_ROW[r] + c - r] + pb[SYM_ROW[r] + c - r];
-            sum[r][c] = x;
-            sum[c][r] = x;
-        }
-    }
+    let (na, nb, nc) = (d.node[a], d.node[b], d.node[n]);
+    let hc = nc.hoff as usize;
+    let (nha, nhb, nhc) = (na.nh as usize, nb.nh as usize, nc.nh as usize);
+    let (hoa, hob, top) = (na.slot as usize, nb.slot as usize, nc.slot as usize);
+    let (ja, jb) = (nc.ja as usize, nc.jb as usize);
+    let (boa, bob, bc) = (na.boff as usize, nb.boff as usize, nc.boff as usize);
+    // K = Φ^A_jj + Φ^B_jj, packed.
+    let (pa, pb) = (&d.dg[hoa + ja].0, &d.dg[hob + jb].0);
+    let kp: [f64; 21] = std::array::from_fn(|i| pa[i] + pb[i]);
     // S and c at the joint's point P_j.
     let pj = d.point[joint];
     let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj));
     let body = &model.bodies[joint]; // for error messages only
                                      // β = b_j^A − b_j^B + c
-    let beta = d.b[d.hoff[a] + ja] - d.b[d.hoff[b] + jb] + shift(data.c[joint]);
-    d.beta[n] = beta;
-    let (hc, bc) = (d.hoff[n], d.boff[n]);
+    let beta = d.b[hoa + ja] - d.b[hob + jb] + shift(data.c[joint]);
     // Φ_jh (rows) of C's handle h: the stored block, or the transpose of the stored Φ_hj.
     let from = |h: usize| match d.from[hc + h] {
-        (Side::A, i) => (boa, nha, ja, i),
-        (Side::B, i) => (bob, nhb, jb, i),
+        (Side::A, i) => (boa, nha, ja, i as usize),
+        (Side::B, i) => (bob, nhb, jb, i as usize),
     };
     let rows;
     let gamma;
-    if d.basis[n].one_dof {
-        // One revolute axis: the 5×5 constraint system (see `Basis`).
-        let w = data.s[vo].w; // s = [ω; 0] at P_j
+    if nc.one_dof {
+        // One revolute axis: the 5×5 constraint system (see `RevJoin`).
+        let w = data.s[vo].w.to_array(); // s = [ω; 0] at P_j
         let (p, q) = perpendicular_pair(w);
-        let mut bs = Basis {
-            one_dof: true,
-            w: w.to_array(),
-            p,
-            q,
-            qt: 0.0,
-            g: [0.0; 6],
+        // K's blocks: the symmetric angular one K_ω (rows and columns 0..3) and the coupling
+        // K_c (rows 0..3, columns 3..6): K_ω x and K_cᵀ x for x = p, q, ω.
+        let kw = |x: &[f64; 3]| {
+            [
+                kp[0] * x[0] + kp[1] * x[1] + kp[2] * x[2],
+                kp[1] * x[0] + kp[6] * x[1] + kp[7] * x[2],
+                kp[2] * x[0] + kp[7] * x[1] + kp[11] * x[2],
+            ]
         };
-        let m = &mut d.l[n];
-        if !crate::small::ldl5(&reduce(&sum, &bs), m) {
+        let kc = |x: &[f64; 3]| -> [f64; 3] {
+            std::array::from_fn(|c| x[0] * kp[3 + c] + x[1] * kp[8 + c] + x[2] * kp[12 + c])
+        };
+        let (kwp, kwq, kww) = (kw(&p), kw(&q), kw(&w));
+        let (kcp, kcq, kcw) = (kc(&p), kc(&q), kc(&w));
+        // Tᵀ K T (lower triangle): [pᵀK_ω p, ·; qᵀK_ω p, qᵀK_ω q; K_cᵀp, K_cᵀq, K_v].
+        let mut mt = [[0.0; 6]; 6];
+        mt[0][0] = dot3(&p, &kwp);
+        mt[1][0] = dot3(&q, &kwp);
+        mt[1][1] = dot3(&q, &kwq);
+        for r in 0..3 {
+            mt[2 + r][0] = kcp[r];
+            mt[2 + r][1] = kcq[r];
+        }
+        mt[2][2] = kp[15];
+        mt[3][2] = kp[16];
+        mt[4][2] = kp[17];
+        mt[3][3] = kp[18];
+        mt[4][3] = kp[19];
+        mt[4][4] = kp[20];
+        let mut m = [[0.0; 6]; 6];
+        if !crate::small::ldl5(&mt, &mut m) {
             return Err(DynamicsError::Singular {
                 joint: body.joint_name(),
                 detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
             });
         }
-        let m = &d.l[n];
-        joint_terms(&sum, m, &mut bs);
-        // γ = W β + f_τ τ, f_τ = −g
-        let wb = w_apply(m, &bs, &beta.to_array());
+        let rj = &mut d.rev[nc.jix as usize];
+        rj.p = p;
+        rj.q = q;
+        rj.l = [
+            m[0][0], m[1][0], m[1][1], m[2][0], m[2][1], m[2][2], m[3][0], m[3][1], m[3][2],
+            m[3][3], m[4][0], m[4][1], m[4][2], m[4][3], m[4][4],
+        ];
+        // K s = [K_ω ω; K_cᵀ ω]
+        let ks = [kww[0], kww[1], kww[2], kcw[0], kcw[1], kcw[2]];
+        let qt = joint_terms(&w, &ks, rj);
+        // γ = W β + f_τ τ, f_τ = −g: the joint force without handle forces; and q̈ then.
+        let ba = beta.to_array();
+        let wb = w_apply(rj, &ba);
         let t = tau[vo];
-        let mut g = [0.0; 6];
-        for i in 0..6 {
-            g[i] = wb[i] - bs.g[i] * t;
-        }
-        gamma = g;
-        d.basis[n] = bs;
+        gamma = std::array::from_fn(|i| wb[i] - rj.g[i] * t);
+        rj.gamma = gamma;
+        rj.qdd = dot6(&rj.g, &ba) + qt * t;
+        let rj = &d.rev[nc.jix as usize];
         for h in 0..nhc {
             let (bo, nh, j, i) = from(h);
             // Tᵀ Φ_jh: from the rows of the stored Φ_jh, or the columns of the stored Φ_hj.
             let tg = if j < i {
-                t_rows(&d.phi[bo + ub(nh, j, i)].0, &bs)
+                t_rows(&d.phi[bo + ub(nh, j, i)].0, rj)
             } else {
-                t_cols(&d.phi[bo + ub(nh, i, j)].0, &bs)
+                t_cols(&d.phi[bo + ub(nh, i, j)].0, rj)
             };
-            y_reduced(&mut d.y[h], tg, m);
+            y_reduced(&mut d.y[h], tg, &m);
         }
         rows = 5;
     } else {
+        let mut sum = [[0.0; 6]; 6];
+        for r in 0..6 {
+            for c in r..6 {
+                let x = kp[SYM_ROW[r] + c - r];
+                sum[r][c] = x;
+                sum[c][r] = x;
+            }
+        }
+        d.beta[n] = beta;
         // L Lᵀ = Φ^A_jj + Φ^B_jj
         let l = crate::small::cholesky6(&sum).ok_or_else(|| DynamicsError::Singular {
             joint: body.joint_name(),
@@ -359,21 +487,24 @@ fn join(
     // Φ_hk − Ỹ_hᵀỸ_k; across +Ỹ_hᵀỸ_k. A side's handles keep their order in C, so a same-side
     // pair h ≤ k is a stored block of that side too. Then b^C.
     let (src, dst) = d.phi.split_at_mut(bc);
-    let (dsrc, ddst) = d.dg.split_at_mut(hc);
-    let (hoa, hob) = (d.hoff[a], d.hoff[b]);
+    // C's slot lies below its children's (one level up the tree).
+    let mid = hoa.min(hob);
+    let (ddst, dsrc) = d.dg.split_at_mut(mid);
     for h in 0..nhc {
         let (sh, ih) = d.from[hc + h];
+        let ih = ih as usize;
         let yh = &d.y[h];
         let old = match sh {
-            Side::A => &dsrc[hoa + ih],
-            Side::B => &dsrc[hob + ih],
+            Side::A => &dsrc[hoa - mid + ih],
+            Side::B => &dsrc[hob - mid + ih],
         };
         match rows {
-            5 => gram_sym_into::<5>(&mut ddst[h], yh, old),
-            _ => gram_sym_into::<6>(&mut ddst[h], yh, old),
+            5 => gram_sym_into::<5>(&mut ddst[top + h], yh, old),
+            _ => gram_sym_into::<6>(&mut ddst[top + h], yh, old),
         }
         for kk in h + 1..nhc {
             let (sk, ik) = d.from[hc + kk];
+            let ik = ik as usize;
             let yk = &d.y[kk];
             let old = match (sh, sk) {
                 (Side::A, Side::A) => Some(&src[boa + ub(nha, ih, ik)].0),
@@ -388,29 +519,17 @@ fn join(
         }
         // b^C_h = b^A_h − Φ^A_hj γ  or  b^B_h + Φ^B_hj γ
         let (bo, nh, j, i) = from(h);
-        let phj_gamma = if j < i {
+        let phj_gamma = SpatialMotion::from_array(if j < i {
             mat_tr_vec(&src[bo + ub(nh, j, i)].0, &gamma)
         } else {
             mat_vec(&src[bo + ub(nh, i, j)].0, &gamma)
-        };
-        d.b[hc + h] = match sh {
-            Side::A => d.b[d.hoff[a] + ih] - SpatialMotion::from_array(phj_gamma),
-            Side::B => d.b[d.hoff[b] + ih] + SpatialMotion::from_array(phj_gamma),
+        });
+        d.b[top + h] = match sh {
+            Side::A => d.b[hoa + ih] - phj_gamma,
+            Side::B => d.b[hob + ih] + phj_gamma,
         };
     }
     Ok(())
-}
-
-/// The upper triangle of a symmetric 6×6, packed.
-#[inline(always)]
-fn pack(m: &[[f64; 6]; 6]) -> Sym6 {
-    let mut p = Sym6::ZERO;
-    for r in 0..6 {
-        for c in r..6 {
-            p.0[SYM_ROW[r] + c - r] = m[r][c];
-        }
-    }
-    p
 }
 
 /// Φ_jh (j ≠ h) of a node with `nh` handles and blocks at `bo`, as rows: only the blocks on
@@ -467,7 +586,8 @@ fn y_tilde(
 /// axis least aligned with ω (`|p| ≥ √(2/3) |ω|`), `q = ω × p`. T need not be orthonormal (W
 /// does not depend on the basis), so no square root or division enters.
 #[inline(always)]
-fn perpendicular_pair(w: DVec3) -> ([f64; 3], [f64; 3]) {
+fn perpendicular_pair(w: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+    let w = DVec3::from_array(w);
     let a = w.abs();
     let e = if a.x <= a.y && a.x <= a.z {
         DVec3::X
@@ -507,14 +627,14 @@ fn dot3(a: &[f64; 3], x: &[f64]) -> f64 {
 
 /// `Tᵀ x = [p·x_ω, q·x_ω, x_v]`.
 #[inline(always)]
-fn t_tr(x: &[f64; 6], bs: &Basis) -> [f64; 5] {
-    [dot3(&bs.p, &x[..3]), dot3(&bs.q, &x[..3]), x[3], x[4], x[5]]
+fn t_tr(x: &[f64; 6], rj: &RevJoin) -> [f64; 5] {
+    [dot3(&rj.p, &x[..3]), dot3(&rj.q, &x[..3]), x[3], x[4], x[5]]
 }
 
 /// `T λ = [λ_0 p + λ_1 q; λ_2, λ_3, λ_4]`.
 #[inline(always)]
-fn t_mul(bs: &Basis, l: [f64; 5]) -> [f64; 6] {
-    let (p, q) = (&bs.p, &bs.q);
+fn t_mul(rj: &RevJoin, l: [f64; 5]) -> [f64; 6] {
+    let (p, q) = (&rj.p, &rj.q);
     [
         l[0] * p[0] + l[1] * q[0],
         l[0] * p[1] + l[1] * q[1],
@@ -525,31 +645,12 @@ fn t_mul(bs: &Basis, l: [f64; 5]) -> [f64; 6] {
     ]
 }
 
-/// `Tᵀ K T` (5×5 lower triangle, in the leading block) for a symmetric `K`: with `K P` the
-/// products of K's rows with `P = [p q]`.
-#[inline(always)]
-fn reduce(k: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 6] {
-    let kp: [[f64; 2]; 6] = std::array::from_fn(|r| [dot3(&bs.p, &k[r]), dot3(&bs.q, &k[r])]);
-    let mut out = [[0.0; 6]; 6];
-    out[0][0] = bs.p[0] * kp[0][0] + bs.p[1] * kp[1][0] + bs.p[2] * kp[2][0];
-    out[1][0] = bs.q[0] * kp[0][0] + bs.q[1] * kp[1][0] + bs.q[2] * kp[2][0];
-    out[1][1] = bs.q[0] * kp[0][1] + bs.q[1] * kp[1][1] + bs.q[2] * kp[2][1];
-    for r in 0..3 {
-        out[2 + r][0] = kp[3 + r][0];
-        out[2 + r][1] = kp[3 + r][1];
-        for c in 0..=r {
-            out[2 + r][2 + c] = k[3 + r][3 + c];
-        }
-    }
-    out
-}
-
 /// The rows of `Tᵀ Gᵀ` (G's columns combined).
 #[inline(always)]
-fn t_cols(g: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 5] {
+fn t_cols(g: &[[f64; 6]; 6], rj: &RevJoin) -> [[f64; 6]; 5] {
     [
-        std::array::from_fn(|c| dot3(&bs.p, &g[c])),
-        std::array::from_fn(|c| dot3(&bs.q, &g[c])),
+        std::array::from_fn(|c| dot3(&rj.p, &g[c])),
+        std::array::from_fn(|c| dot3(&rj.q, &g[c])),
         std::array::from_fn(|c| g[c][3]),
         std::array::from_fn(|c| g[c][4]),
         std::array::from_fn(|c| g[c][5]),
@@ -558,8 +659,8 @@ fn t_cols(g: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 5] {
 
 /// The rows of `Tᵀ G` (G's rows combined).
 #[inline(always)]
-fn t_rows(g: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 5] {
-    let (p, q) = (&bs.p, &bs.q);
+fn t_rows(g: &[[f64; 6]; 6], rj: &RevJoin) -> [[f64; 6]; 5] {
+    let (p, q) = (&rj.p, &rj.q);
     [
         std::array::from_fn(|c| p[0] * g[0][c] + p[1] * g[1][c] + p[2] * g[2][c]),
         std::array::from_fn(|c| q[0] * g[0][c] + q[1] * g[1][c] + q[2] * g[2][c]),
@@ -569,24 +670,25 @@ fn t_rows(g: &[[f64; 6]; 6], bs: &Basis) -> [[f64; 6]; 5] {
     ]
 }
 
-/// `T (TᵀKT)⁻¹ Tᵀ y` (`m` the `L D Lᵀ` factors of `TᵀKT` from [`crate::small::ldl5`]), the
+/// `T (TᵀKT)⁻¹ Tᵀ y` (the packed `L D Lᵀ` factors of `TᵀKT` in `rj.l`, see [`RevJoin`]), the
 /// two unit triangular solves written out.
 #[inline(always)]
-fn w_apply(m: &[[f64; 6]; 6], bs: &Basis, y: &[f64; 6]) -> [f64; 6] {
-    let u = t_tr(y, bs);
+fn w_apply(rj: &RevJoin, y: &[f64; 6]) -> [f64; 6] {
+    let u = t_tr(y, rj);
+    let m = &rj.l;
     // L x = u
     let x0 = u[0];
-    let x1 = u[1] - m[1][0] * x0;
-    let x2 = u[2] - m[2][0] * x0 - m[2][1] * x1;
-    let x3 = u[3] - m[3][0] * x0 - m[3][1] * x1 - m[3][2] * x2;
-    let x4 = u[4] - m[4][0] * x0 - m[4][1] * x1 - m[4][2] * x2 - m[4][3] * x3;
+    let x1 = u[1] - m[1] * x0;
+    let x2 = u[2] - m[3] * x0 - m[4] * x1;
+    let x3 = u[3] - m[6] * x0 - m[7] * x1 - m[8] * x2;
+    let x4 = u[4] - m[10] * x0 - m[11] * x1 - m[12] * x2 - m[13] * x3;
     // Lᵀ λ = D⁻¹ x
-    let l4 = x4 * m[4][4];
-    let l3 = x3 * m[3][3] - m[4][3] * l4;
-    let l2 = x2 * m[2][2] - m[3][2] * l3 - m[4][2] * l4;
-    let l1 = x1 * m[1][1] - m[2][1] * l2 - m[3][1] * l3 - m[4][1] * l4;
-    let l0 = x0 * m[0][0] - m[1][0] * l1 - m[2][0] * l2 - m[3][0] * l3 - m[4][0] * l4;
-    t_mul(bs, [l0, l1, l2, l3, l4])
+    let l4 = x4 * m[14];
+    let l3 = x3 * m[9] - m[13] * l4;
+    let l2 = x2 * m[5] - m[8] * l3 - m[12] * l4;
+    let l1 = x1 * m[2] - m[4] * l2 - m[7] * l3 - m[11] * l4;
+    let l0 = x0 * m[0] - m[1] * l1 - m[3] * l2 - m[6] * l3 - m[10] * l4;
+    t_mul(rj, [l0, l1, l2, l3, l4])
 }
 
 /// What the back-substitution needs besides `W`: `g = (W K s − s) / sᵀs`, which gives
@@ -594,14 +696,11 @@ fn w_apply(m: &[[f64; 6]; 6], bs: &Basis, y: &[f64; 6]) -> [f64; 6] {
 /// symmetric), and with the unit-torque force `f₀ = s / sᵀs` (`sᵀ f₀ = 1`) the joint force per
 /// unit torque `f_τ = f₀ − W K f₀ = −g` (`sᵀ f_τ = 1`, `Tᵀ K f_τ = 0`) and
 /// `q̈_τ = sᵀ K f_τ / sᵀs = −gᵀ K s / sᵀs`. Joint torques enter linearly, so a huge τ cannot
-/// overflow an intermediate product.
+/// overflow an intermediate product. `ks = K s`, `s = [ω; 0]`; sets `g`, returns `q̈_τ`.
 #[inline(always)]
-fn joint_terms(k: &[[f64; 6]; 6], m: &[[f64; 6]; 6], bs: &mut Basis) {
-    let w = bs.w;
-    let ks: [f64; 6] = std::array::from_fn(|r| dot3(&w, &k[r])); // K s, s = [ω; 0]
-    let wks = w_apply(m, bs, &ks);
-    let ss = dot3(&w, &w);
-    let iss = 1.0 / ss;
+fn joint_terms(w: &[f64; 3], ks: &[f64; 6], rj: &mut RevJoin) -> f64 {
+    let wks = w_apply(rj, ks);
+    let iss = 1.0 / dot3(w, w);
     let g = [
         (wks[0] - w[0]) * iss,
         (wks[1] - w[1]) * iss,
@@ -610,8 +709,8 @@ fn joint_terms(k: &[[f64; 6]; 6], m: &[[f64; 6]; 6], bs: &mut Basis) {
         wks[4] * iss,
         wks[5] * iss,
     ];
-    bs.qt = -dot6(&g, &ks) * iss;
-    bs.g = g;
+    rj.g = g;
+    -dot6(&g, ks) * iss
 }
 
 /// `Ỹ = D^{-1/2} L⁻¹ Tᵀ G` (5 rows; `M = L D^{1/2}` the Cholesky factor of `TᵀKT`, `m` its
@@ -696,6 +795,32 @@ fn gram_rows<const C0: usize, const R: usize>(out: &mut Sym6, y: &[[f64; 6]; 6],
     }
 }
 
+/// How many nodes ahead the passes prefetch.
+const PREFETCH: usize = 8;
+
+/// Asks for the cache line holding address `p` (a hint: no effect on results).
+#[inline(always)]
+fn prefetch_ptr(p: *const u8) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch only hints the cache: it never faults, whatever the address, and
+    // reads nothing into the program.
+    unsafe {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        _mm_prefetch::<_MM_HINT_T0>(p.cast());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = p;
+}
+
+/// [`prefetch_ptr`] for every line of a 6×6 block (or a record as large) starting at `x`.
+#[inline(always)]
+fn prefetch_span<T: ?Sized>(x: &T) {
+    let p = (x as *const T).cast::<u8>();
+    for off in (0..std::mem::size_of::<Mat6>()).step_by(64) {
+        prefetch_ptr(p.wrapping_add(off));
+    }
+}
+
 /// Top-down: with `y = β + Σ_{k∈A} Φ^A_jk f_k − Σ_{k∈B} Φ^B_jk f_k` over C's handle forces
 /// and `w = L⁻¹ y`: `q̈ = D⁻¹ (Q − Zᵀ w)` (= `D⁻¹ (Q − Sᵀ V y)`) and the joint force
 /// `f = L⁻ᵀ (w + Z q̈)` (= `W y + V S D⁻¹ Q`).
@@ -703,41 +828,48 @@ fn gram_rows<const C0: usize, const R: usize>(out: &mut Sym6, y: &[[f64; 6]; 6],
 fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
     let tree = &model.assembly;
     for n in (0..tree.nodes.len()).rev() {
-        let NodeKind::Join {
-            joint,
-            parent_side: a,
-            child_side: b,
-        } = data.dca.kind[n]
-        else {
+        // What the join PREFETCH nodes ahead reads, on its way from memory meanwhile.
+        if let Some(m) = n.checked_sub(PREFETCH) {
+            let d = &data.dca;
+            if let DKind::Join { a, b, .. } = d.node[m].kind {
+                prefetch_span(&d.rev[d.node[m].jix as usize]);
+                prefetch_span(&d.phi[d.node[a as usize].boff as usize..]);
+                prefetch_span(&d.phi[d.node[b as usize].boff as usize..]);
+            }
+        }
+        let nc = data.dca.node[n];
+        let DKind::Join { joint, a, b } = nc.kind else {
             continue;
         };
+        let (joint, a, b) = (joint as usize, a as usize, b as usize);
         let d = &mut data.dca;
-        let nh = |x: usize| d.hoff[x + 1] - d.hoff[x];
-        let (nha, nhb, nhc) = (nh(a), nh(b), nh(n));
-        let (ja, jb, hc) = (d.ja[n], d.jb[n], d.hoff[n]);
-        let mut y = d.beta[n];
+        let (nha, nhb, nhc) = (d.node[a].nh as usize, d.node[b].nh as usize, nc.nh as usize);
+        let (ja, jb) = (nc.ja as usize, nc.jb as usize);
+        let (hc, sc) = (nc.hoff as usize, nc.slot as usize);
+        // y without β (one axis: the join's γ and q̈ hold it) or with it.
+        let mut y = if nc.one_dof {
+            SpatialMotion::ZERO
+        } else {
+            d.beta[n]
+        };
         for h in 0..nhc {
-            let f = d.f[hc + h];
+            let f = d.f[sc + h];
             match d.from[hc + h] {
-                (Side::A, i) => y += phi_jh_mul(d, a, nha, ja, i, f),
-                (Side::B, i) => y -= phi_jh_mul(d, b, nhb, jb, i, f),
+                (Side::A, i) => y += phi_jh_mul(d, a, nha, ja, i as usize, f),
+                (Side::B, i) => y -= phi_jh_mul(d, b, nhb, jb, i as usize, f),
             }
         }
         let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
-        let l = &d.l[n];
-        let f = if d.basis[n].one_dof {
-            // f = W y + f_τ τ (so K f = y + s q̈); q̈ = gᵀ y + q̈_τ τ (`joint_terms`).
-            let bs = &d.basis[n];
+        let f = if nc.one_dof {
+            // f = W (β + y) + f_τ τ = γ + W y (so K f = β + y + s q̈);
+            // q̈ = gᵀ (β + y) + q̈_τ τ (`joint_terms`).
+            let rj = &d.rev[nc.jix as usize];
             let ya = y.to_array();
-            let fy = w_apply(l, bs, &ya);
-            let t = tau[vo];
-            data.qdd[vo] = dot6(&bs.g, &ya) + bs.qt * t;
-            let mut f = [0.0; 6];
-            for i in 0..6 {
-                f[i] = fy[i] - bs.g[i] * t;
-            }
-            SpatialForce::from_array(f)
+            let fy = w_apply(rj, &ya);
+            data.qdd[vo] = rj.qdd + dot6(&rj.g, &ya);
+            SpatialForce::from_array(std::array::from_fn(|i| rj.gamma[i] + fy[i]))
         } else {
+            let l = &d.l[n];
             let mut w = solve_l(l, &y.to_array());
             let mut r = [0.0; 6];
             for p in 0..k {
@@ -752,12 +884,12 @@ fn back_substitution(model: &Model, tau: &[f64], data: &mut Data) {
             }
             SpatialForce::from_array(solve_lt(l, &w))
         };
-        let (hoa, hob) = (d.hoff[a], d.hoff[b]);
+        let (hoa, hob) = (d.node[a].slot as usize, d.node[b].slot as usize);
         for h in 0..nhc {
-            let fh = d.f[hc + h];
+            let fh = d.f[sc + h];
             match d.from[hc + h] {
-                (Side::A, i) => d.f[hoa + i] = fh,
-                (Side::B, i) => d.f[hob + i] = fh,
+                (Side::A, i) => d.f[hoa + i as usize] = fh,
+                (Side::B, i) => d.f[hob + i as usize] = fh,
             }
         }
         d.f[hoa + ja] = -f;

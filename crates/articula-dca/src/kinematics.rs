@@ -172,31 +172,40 @@ fn world_inertia(
     x: &SpatialTransform,
     i: &articula_spatial::SpatialInertia,
 ) -> articula_spatial::SpatialInertia {
-    let e = x.e;
-    let p = -(e * x.r);
+    // E by columns (e[k] = E e_k) and Ī by rows (symmetric).
+    let e = x.e.to_cols_array_2d();
+    let r = x.r.to_array();
     let m = i.mass;
-    let hp = e * i.h;
-    // Rows of E and of T = E Ī (glam stores columns).
-    let er = [
-        DVec3::new(e.x_axis.x, e.y_axis.x, e.z_axis.x),
-        DVec3::new(e.x_axis.y, e.y_axis.y, e.z_axis.y),
-        DVec3::new(e.x_axis.z, e.y_axis.z, e.z_axis.z),
+    let ib = i.ibar.to_cols_array_2d();
+    let ev = |u: [f64; 3]| -> [f64; 3] {
+        std::array::from_fn(|k| e[0][k] * u[0] + e[1][k] * u[1] + e[2][k] * u[2])
+    };
+    let er = ev(r);
+    let p = [-er[0], -er[1], -er[2]];
+    let hp = ev(i.h.to_array());
+    // T = E Ī: row a is Σ_k E_ak (row k of Ī); then (T Eᵀ)_ab = row a of T · row b of E.
+    let t: [[f64; 3]; 3] = std::array::from_fn(|a| {
+        std::array::from_fn(|c| e[0][a] * ib[0][c] + e[1][a] * ib[1][c] + e[2][a] * ib[2][c])
+    });
+    let te = |a: usize, b: usize| t[a][0] * e[0][b] + t[a][1] * e[1][b] + t[a][2] * e[2][b];
+    let dot = |u: &[f64; 3], v: &[f64; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+    let d = 2.0 * dot(&p, &hp) + m * dot(&p, &p);
+    let mp = [p[0] * m, p[1] * m, p[2] * m];
+    // h_P pᵀ + p h_Pᵀ + m p pᵀ = g pᵀ + p gᵀ
+    let g = [
+        hp[0] + mp[0] * 0.5,
+        hp[1] + mp[1] * 0.5,
+        hp[2] + mp[2] * 0.5,
     ];
-    let b = &i.ibar;
-    let trow = |r: DVec3| DVec3::new(r.dot(b.x_axis), r.dot(b.y_axis), r.dot(b.z_axis));
-    let tr = [trow(er[0]), trow(er[1]), trow(er[2])];
-    let d = 2.0 * p.dot(hp) + m * p.dot(p);
-    let mp = p * m;
-    let g = hp + mp * 0.5; // h_P pᵀ + p h_Pᵀ + m p pᵀ = g pᵀ + p gᵀ
-    let xx = tr[0].dot(er[0]) - 2.0 * g.x * p.x + d;
-    let yy = tr[1].dot(er[1]) - 2.0 * g.y * p.y + d;
-    let zz = tr[2].dot(er[2]) - 2.0 * g.z * p.z + d;
-    let xy = tr[0].dot(er[1]) - g.x * p.y - p.x * g.y;
-    let xz = tr[0].dot(er[2]) - g.x * p.z - p.x * g.z;
-    let yz = tr[1].dot(er[2]) - g.y * p.z - p.y * g.z;
+    let xx = te(0, 0) - 2.0 * g[0] * p[0] + d;
+    let yy = te(1, 1) - 2.0 * g[1] * p[1] + d;
+    let zz = te(2, 2) - 2.0 * g[2] * p[2] + d;
+    let xy = te(0, 1) - g[0] * p[1] - p[0] * g[1];
+    let xz = te(0, 2) - g[0] * p[2] - p[0] * g[2];
+    let yz = te(1, 2) - g[1] * p[2] - p[1] * g[2];
     articula_spatial::SpatialInertia {
         mass: m,
-        h: hp + mp,
+        h: DVec3::new(hp[0] + mp[0], hp[1] + mp[1], hp[2] + mp[2]),
         ibar: DMat3::from_cols(
             DVec3::new(xx, xy, xz),
             DVec3::new(xy, yy, yz),

@@ -104,7 +104,7 @@ pub fn forward_dynamics<'d>(
     let f_ext = std::mem::take(&mut data.f_ext_c);
     let result = match method {
         Method::Dca => {
-            kinematics::kinematics(model, q, qd, data, |_, _| {});
+            kinematics::kinematics(model, q, qd, data, dca::init_body);
             dca::dca(model, tau, &f_ext, data).and_then(|()| {
                 if model.floating_base && data.refine_floating {
                     refine::refine_dca(model, tau, &f_ext, data)
