@@ -50,7 +50,7 @@ def timed(budget_s, call):
     return med, samples, batch
 
 
-def run_pinocchio(pin, np, spec, budget_s):
+def run_pinocchio(pin, np, spec, budget_s, world=False):
     model = pin.buildModelFromUrdf(spec["urdf"])
     data = model.createData()
     q = pin.neutral(model)
@@ -70,12 +70,22 @@ def run_pinocchio(pin, np, spec, budget_s):
             q[j.idx_q] = jq
         v[j.idx_v] = jqd
         tau[j.idx_v] = jtau
-    med, samples, batch = timed(budget_s, lambda: pin.aba(model, data, q, v, tau))
-    a = pin.aba(model, data, q, v, tau)
+    if world:
+        # Pinocchio 3+: ABA with its quantities in the world frame (faster on long chains).
+        conv = pin.Convention.WORLD
+        med, samples, batch = timed(budget_s, lambda: pin.aba(model, data, q, v, tau, conv))
+        a = pin.aba(model, data, q, v, tau, conv)
+    else:
+        med, samples, batch = timed(budget_s, lambda: pin.aba(model, data, q, v, tau))
+        a = pin.aba(model, data, q, v, tau)
     qdd = {model.names[jid]: float(a[model.joints[jid].idx_v])
            for jid in range(1, model.njoints) if model.joints[jid].nv == 1}
+    if world:
+        return {"peer": "Pinocchio ABA (WORLD)", "us_per_call": med, "samples": samples,
+                "batch": batch, "qdd": qdd,
+                "note": "pin.aba(model, data, q, v, tau, pin.Convention.WORLD)"}
     return {"peer": "Pinocchio ABA", "us_per_call": med, "samples": samples, "batch": batch,
-            "qdd": qdd, "note": "pin.aba(model, data, q, v, tau)"}
+            "qdd": qdd, "note": "pin.aba(model, data, q, v, tau) (default convention)"}
 
 
 MUJOCO_EXT = ('<mujoco><compiler discardvisual="true" fusestatic="false" '
@@ -143,9 +153,9 @@ def one(config_path, index, peer):
     budget = float(config.get("budget_s", 0.3))
     spec = config["models"][index]
     import numpy as np
-    if peer == "pinocchio":
+    if peer in ("pinocchio", "pinocchio-world"):
         import pinocchio as pin
-        r = run_pinocchio(pin, np, spec, budget)
+        r = run_pinocchio(pin, np, spec, budget, world=peer == "pinocchio-world")
     else:
         import mujoco
         r = run_mujoco(mujoco, np, spec, budget)
@@ -168,6 +178,8 @@ def main():
         import pinocchio as pin
         out["versions"]["pin"] = pin.__version__
         peers.append(("Pinocchio ABA", "pinocchio"))
+        if hasattr(pin, "Convention"):
+            peers.append(("Pinocchio ABA (WORLD)", "pinocchio-world"))
     except ImportError as e:
         out["errors"].append(f"pinocchio: {e}")
     try:
