@@ -39,11 +39,13 @@
 // Index loops over joint columns and handles mirror the equations (S columns p, q; handles h, k).
 #![allow(clippy::needless_range_loop)]
 
+mod cache;
 mod dense;
 mod hierarchy;
 mod hybrid;
 mod metric;
 mod rigidify;
+mod update;
 
 pub use hybrid::{Adaptive, Selection};
 
@@ -241,6 +243,7 @@ impl Adaptive {
         f_ext: &[SpatialForce],
     ) -> Result<&[f64], AdaptiveError> {
         self.settings.validate()?;
+        self.cache.ready = false;
         self.load(model, q, qd, tau, f_ext)?;
         self.main_pass(model, tau, Level::Acceleration, true)?;
         self.metric_pass(model);
@@ -330,18 +333,47 @@ impl Adaptive {
     pub fn reselect(&mut self, model: &Model, state: &mut State) -> Result<bool, AdaptiveError> {
         self.settings.validate()?;
         self.load(model, &state.q, &state.qd, &state.tau, &state.f_ext)?;
-        self.reselect_loaded(model, state)
+        self.reselect_loaded(model, state, false)
     }
 
-    fn reselect_loaded(&mut self, model: &Model, state: &mut State) -> Result<bool, AdaptiveError> {
+    /// Whole-body re-selection; with `build` (and no velocity tolerance), the caches of every
+    /// rigid subassembly are built on the way (O(n), the first step's cost) so that the next
+    /// re-selections go through them.
+    fn reselect_loaded(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+        build: bool,
+    ) -> Result<bool, AdaptiveError> {
         self.main_pass(model, &state.tau, Level::Acceleration, true)?;
         let mut touched = self.touched;
         self.metric_pass(model);
         self.last = self.select(model);
+        let build = build && self.settings.velocity_tolerance.is_none();
+        if build {
+            // Positions and torques only: the impulse below does not change them.
+            self.build_all_caches(model, &state.q, &state.tau)?;
+            touched += model.assembly.nodes.len();
+        } else {
+            self.cache.ready = false;
+        }
         // (An impulse changes velocities only: the composites stay valid.)
         let locked = self.rebuild_hybrid(model, state, true)?;
         if locked {
             touched += self.touched;
+        }
+        if self.cache.ready {
+            // Caches of the nodes left in the active region (velocity tolerance) would be
+            // stale; the selection's nodes for the next cached one.
+            self.cache.sel.clear();
+            for (n, node) in model.assembly.nodes.iter().enumerate() {
+                if self.active[n] {
+                    self.cache.valid[n] = false;
+                }
+                if self.selected[n] && matches!(node.kind, NodeKind::Join { .. }) {
+                    self.cache.sel.push(n);
+                }
+            }
         }
         self.touched = touched;
         Ok(locked)
@@ -421,7 +453,8 @@ impl Adaptive {
             reselected: !self.hier.valid || self.steps.is_multiple_of(self.settings.reselect_every),
             ..StepReport::default()
         };
-        let full = report.reselected || self.full_passes;
+        let cached = report.reselected && self.can_reselect_cached(model, state);
+        let full = (report.reselected && !cached) || self.full_passes;
         if full {
             // Whole-body passes read the forces as one wrench per body.
             let mut fdense = std::mem::take(&mut self.fdense);
@@ -433,9 +466,18 @@ impl Adaptive {
             self.fdense = fdense;
             r?;
         }
-        if report.reselected {
+        if cached {
+            // O(active region): the caches of the rigid subassemblies (update.rs), then the
+            // step on the new hybrid body's reduced tree.
+            report.rigidified = self.cached_reselect(model, state)?;
+            let touched = self.touched;
+            self.check_active_inputs(model, state)?;
+            self.hybrid_step(model, &state.q, &state.qd, &state.tau)?;
+            self.touched += touched;
+        } else if report.reselected {
             self.hier.valid = false;
-            report.rigidified = self.reselect_loaded(model, state)?;
+            let build = self.use_cache && !self.full_passes;
+            report.rigidified = self.reselect_loaded(model, state, build)?;
             let mut touched = self.touched;
             self.main_pass(model, &state.tau, Level::Acceleration, false)?;
             touched += self.touched;
@@ -501,6 +543,7 @@ impl Adaptive {
                 _ => false,
             };
         }
+        self.cache.ready = false;
         let vtol = self.settings.velocity_tolerance.take();
         let locked = self.rebuild_hybrid(model, state, false);
         self.settings.velocity_tolerance = vtol;
@@ -517,6 +560,15 @@ impl Adaptive {
     /// the active joints.
     pub fn invalidate(&mut self) {
         self.hier.valid = false;
+        self.cache.ready = false;
+    }
+
+    /// Re-select through the caches of the rigid subassemblies (default, O(active region)) or
+    /// by whole-body passes (off: the reference, O(n)).
+    #[doc(hidden)]
+    pub fn set_cached_reselection(&mut self, on: bool) {
+        self.use_cache = on;
+        self.cache.ready = false;
     }
 
     /// Between re-selections, run whole-body kinematics and composites instead of the

@@ -16,8 +16,15 @@ impl Adaptive {
     /// `p_C = 2 Kᵀ A_C k + M_Aᵀ (2 Ψ_A m_A + p_A) + M_Bᵀ (2 Ψ_B m_B + p_B)`,
     /// `η_C = kᵀ A_C k + m_Aᵀ Ψ_A m_A + m_Aᵀ p_A + η_A + (same for B)`. Leaves: 0.
     pub(crate) fn metric_pass(&mut self, model: &Model) {
+        for n in 0..model.assembly.nodes.len() {
+            self.metric_node(model, n);
+        }
+    }
+
+    /// Ψ, p, η of node `n` from its children's (see [`Adaptive::metric_pass`]).
+    pub(crate) fn metric_node(&mut self, model: &Model, n: usize) {
         let tree = &model.assembly;
-        for n in 0..tree.nodes.len() {
+        {
             let nc = 6 * self.nh[n];
             let (po, pv) = (self.poff[n], 6 * self.lay.hoff[n]);
             let NodeKind::Join {
@@ -29,7 +36,7 @@ impl Adaptive {
                 self.psi[po..po + nc * nc].fill(0.0);
                 self.pvec[pv..pv + nc].fill(0.0);
                 self.eta[n] = 0.0;
-                continue;
+                return;
             };
             let body = &model.bodies[joint];
             let (vo, k) = (body.v_offset, body.nv);

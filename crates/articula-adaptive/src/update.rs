@@ -1,0 +1,444 @@
+//! Re-selection in O(active region) through the caches of the rigid subassemblies
+//! (DESIGN §6, adaptive update mechanisms; `cache.rs` holds the tensors).
+//!
+//! 1. Kinematics of the active joints (hierarchical state).
+//! 2. Each frontier node's articulated `Φ`, `b`, `Ψ`, `p`, `η` evaluated from its cache at its
+//!    current pose and velocity (a leaf: its rigid coefficients).
+//! 3. Main pass and metric pass over the active region only.
+//! 4. Top-down selection from the root; popping a rigid node evaluates its `K`, `N`, `k`, `n`
+//!    and its children's `Ψ`, `p`, `η` from their caches (frames carried down by the cached
+//!    relative poses).
+//! 5. Caches rebuilt for the nodes that leave the active region (their subtrees moved),
+//!    bottom-up from their children's caches.
+//! 6. The new hierarchical state and the locking impulse over the new reduced tree, with each
+//!    new cluster's momentum from the old clusters' (or its cache when it was rigid).
+
+use crate::cache::Part;
+use crate::hybrid::{Adaptive, Entry, Level, Rigid, Selection};
+use articula_dca::{DynamicsError, State};
+use articula_model::{Model, NodeKind};
+use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
+use glam::DVec3;
+
+impl Adaptive {
+    /// Whether this re-selection can go through the caches: caches built for the current
+    /// hybrid body, no velocity tolerance (it reads every joint's velocity), the locked joints'
+    /// torques unchanged (they are in the caches' constant columns: an O(n) comparison of τ,
+    /// a memcmp when nothing changed), every external force on an active body's own leaf.
+    pub(crate) fn can_reselect_cached(&mut self, model: &Model, state: &State) -> bool {
+        if !(self.use_cache
+            && self.cache.ready
+            && self.hier.valid
+            && !self.full_passes
+            && self.settings.velocity_tolerance.is_none()
+            && state.tau.len() == model.nv)
+        {
+            return false;
+        }
+        if state.tau != self.cache.tau {
+            for (j, body) in model.bodies.iter().enumerate() {
+                let r = body.v_offset..body.v_offset + body.nv;
+                if !self.hier.abody[j] && state.tau[r.clone()] != self.cache.tau[r] {
+                    self.cache.ready = false;
+                    return false;
+                }
+            }
+            self.cache.tau.copy_from_slice(&state.tau);
+        }
+        let tree = &model.assembly;
+        for &(i, _) in &self.fsparse {
+            let mut n = tree.body_leaf[i];
+            while let Some(p) = tree.nodes[n].parent.filter(|&p| !self.active[p]) {
+                n = p;
+            }
+            if !matches!(tree.nodes[n].kind, NodeKind::Body(_)) {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// The re-selection through the caches (see the module doc). Returns whether joints were
+    /// locked. `qdd` holds the selected joints' accelerations, zero for joints that left.
+    pub(crate) fn cached_reselect(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+    ) -> Result<bool, DynamicsError> {
+        let tree = &model.assembly;
+        self.check_active_inputs(model, state)?;
+        self.cache.epoch += 1;
+        let ep = self.cache.epoch;
+        self.data.origin = articula_dca::computation_origin(model, &state.q);
+        self.active_kinematics(model, &state.q, &state.qd);
+        for idx in 0..self.hier.ajoints.len() {
+            let j = self.hier.ajoints[idx];
+            self.point[j] = self.data.x[j].apply_point(DVec3::ZERO);
+        }
+        let mut touched = 0;
+        // External forces on the frontier leaves.
+        for idx in 0..self.hier.fnodes.len() {
+            let f = self.hier.fnodes[idx];
+            self.fsum[f] = SpatialForce::ZERO;
+        }
+        let x_cw = SpatialTransform::xlt(self.data.origin);
+        for k in 0..self.fsparse.len() {
+            let (i, fe) = self.fsparse[k];
+            let mut n = tree.body_leaf[i];
+            while let Some(p) = tree.nodes[n].parent.filter(|&p| !self.active[p]) {
+                n = p;
+            }
+            self.fsum[n] += x_cw.apply_force(fe);
+        }
+        // 2. The frontier from the caches.
+        for idx in 0..self.hier.fnodes.len() {
+            let f = self.hier.fnodes[idx];
+            touched += 1;
+            self.cache.stamp[f] = ep;
+            match tree.nodes[f].kind {
+                NodeKind::Ground => self.ground_coefficients(f),
+                NodeKind::Body(i) => {
+                    let x = self.data.x[i];
+                    let r = self.cache.rig[f];
+                    let world = Rigid {
+                        m: r.m,
+                        c: x.apply_point(r.c),
+                        ic: x.e * r.ic * x.e.transpose(),
+                    };
+                    self.cache.cx[f] = x;
+                    self.cache.cu[f] = x.inv_apply_motion(self.data.v[i]);
+                    let (v, fe) = (self.data.v[i], self.fsum[f]);
+                    self.rigid_coefficients(model, f, &world, v, fe, Level::Acceleration)?;
+                }
+                NodeKind::Join { .. } => {
+                    let x = self.cache_frame(f);
+                    let u = if self.grounded[f] {
+                        SpatialMotion::ZERO
+                    } else {
+                        x.inv_apply_motion(self.data.v[self.top[f]])
+                    };
+                    self.cache.cx[f] = x;
+                    self.cache.cu[f] = u;
+                    self.eval_cache(model, f, &x, u, Part::Coefficients);
+                    self.eval_cache(model, f, &x, u, Part::Metric);
+                    continue;
+                }
+            }
+            self.metric_node(model, f);
+        }
+        // 3. Main and metric passes over the active region (post-order).
+        for idx in 0..self.hier.hnodes.len() {
+            let n = self.hier.hnodes[idx];
+            self.join(model, n, &state.tau, Level::Acceleration)?;
+            self.metric_node(model, n);
+            self.cache.stamp[n] = ep;
+            touched += 1;
+        }
+        // 4. Selection.
+        self.last = self.select_cached(model, ep, &mut touched);
+        // 5. Caches of the nodes leaving the active region, bottom-up.
+        for idx in 0..self.hier.hnodes.len() {
+            let n = self.hier.hnodes[idx];
+            if !self.selected[n] {
+                self.build_cache(model, n, &state.q, &state.tau)?;
+                touched += 1;
+            }
+        }
+        for idx in 0..self.cache.sel.len() {
+            let n = self.cache.sel[idx];
+            self.cache.valid[n] = false;
+        }
+        // 6. Old clusters' momenta (before the flags change), the new hierarchy, the impulse.
+        let mut moving = false;
+        for &j in &self.hier.ajoints {
+            let body = &model.bodies[j];
+            if !self.selected[tree.joint_node[j]]
+                && state.qd[body.v_offset..body.v_offset + body.nv]
+                    .iter()
+                    .any(|x| *x != 0.0)
+            {
+                moving = true;
+            }
+        }
+        if moving {
+            self.cluster_momenta(model);
+        }
+        let leaving = std::mem::take(&mut self.cache.leaving);
+        let mut leaving = leaving;
+        leaving.clear();
+        for &j in &self.hier.ajoints {
+            if !self.selected[tree.joint_node[j]] {
+                leaving.push(j);
+            }
+        }
+        self.rebuild_hierarchy_cached(model);
+        if moving {
+            self.active_kinematics(model, &state.q, &state.qd);
+            let gm = std::mem::take(&mut self.gmom);
+            let mut gm = gm;
+            self.reduced_momenta(model, &mut gm);
+            let r = self.reduced_aba(model, &gm, Level::Impulse);
+            self.gmom = gm;
+            r?;
+            for &j in &self.hier.ajoints {
+                let b = &model.bodies[j];
+                let r = b.v_offset..b.v_offset + b.nv;
+                state.qd[r.clone()].copy_from_slice(&self.qdd[r]);
+            }
+        }
+        for &j in &leaving {
+            let b = &model.bodies[j];
+            state.qd[b.v_offset..b.v_offset + b.nv].fill(0.0);
+            self.qdd[b.v_offset..b.v_offset + b.nv].fill(0.0);
+        }
+        self.cache.leaving = leaving;
+        self.fresh = false;
+        self.touched = touched;
+        Ok(moving)
+    }
+
+    /// The selection of [`Adaptive::select`] over the slots of a cached re-selection: a
+    /// popped node outside the old active region gets its `K`, `k`, `N`, `n` from its cache,
+    /// its children their frames (`rel`), velocities and metric coefficients.
+    fn select_cached(&mut self, model: &Model, ep: u64, touched: &mut usize) -> Selection {
+        let tree = &model.assembly;
+        for idx in 0..self.cache.sel.len() {
+            let n = self.cache.sel[idx];
+            self.selected[n] = false;
+        }
+        self.cache.sel.clear();
+        self.heap.clear();
+        let root = tree.root();
+        let (ho, nh) = (self.lay.hoff[root], self.nh[root]);
+        self.f[ho..ho + nh].fill(SpatialForce::ZERO);
+        let total = self.metric_at(root);
+        let mut sel = Selection {
+            total_metric: total,
+            ..Selection::default()
+        };
+        if !matches!(tree.nodes[root].kind, NodeKind::Join { .. }) {
+            return sel;
+        }
+        self.heap.push(Entry {
+            metric: total,
+            node: root,
+        });
+        let mut remaining = total;
+        let budget = self.settings.budget;
+        let tol = self.settings.tolerance.filter(|t| *t > 0.0);
+        let mut first = true;
+        while let Some(&top) = self.heap.peek() {
+            let NodeKind::Join {
+                joint,
+                parent_side: a,
+                child_side: b,
+            } = tree.nodes[top.node].kind
+            else {
+                unreachable!("only joins are queued")
+            };
+            let cost = model.bodies[joint].nv;
+            let free = first && model.floating_base;
+            first = false;
+            if !free {
+                if tol.is_some_and(|t| remaining <= t) {
+                    break;
+                }
+                if budget.is_some_and(|b| sel.budget_used + cost > b) {
+                    break;
+                }
+                sel.budget_used += cost;
+            }
+            self.heap.pop();
+            remaining -= top.metric;
+            let n = top.node;
+            self.selected[n] = true;
+            self.cache.sel.push(n);
+            sel.active_dofs += cost;
+            let rigid = !self.active[n];
+            if rigid {
+                let (x, u) = (self.cache.cx[n], self.cache.cu[n]);
+                self.eval_cache(model, n, &x, u, Part::Maps);
+            }
+            self.expand(model, n);
+            for c in [a, b] {
+                if rigid && self.cache.stamp[c] != ep {
+                    // Below the old frontier: the child's frame and velocity from n's.
+                    let rel = self.cache.rel[c];
+                    let x = self.cache.cx[n] * rel;
+                    let u = rel.inv_apply_motion(self.cache.cu[n]);
+                    self.cache.cx[c] = x;
+                    self.cache.cu[c] = u;
+                    self.cache.stamp[c] = ep;
+                    if matches!(tree.nodes[c].kind, NodeKind::Join { .. }) {
+                        self.eval_cache(model, c, &x, u, Part::Metric);
+                        *touched += 1;
+                    }
+                }
+                if matches!(tree.nodes[c].kind, NodeKind::Join { .. }) {
+                    let metric = self.metric_at(c);
+                    remaining += metric;
+                    self.heap.push(Entry { metric, node: c });
+                }
+            }
+        }
+        sel.predicted_error = self.heap.iter().map(|e| e.metric).sum::<f64>().max(0.0);
+        // Post-order for the hierarchy.
+        self.cache.sel.sort_unstable();
+        sel
+    }
+
+    /// Spatial momentum (computation frame, about its origin) of every old cluster, summed up
+    /// the old active region, and of the rigid nodes the selection reached below it (from
+    /// their caches at their frames and velocities): `hm`.
+    fn cluster_momenta(&mut self, model: &Model) {
+        let tree = &model.assembly;
+        let momentum = |r: &Rigid, x: &SpatialTransform, u: SpatialMotion| {
+            let i = SpatialInertia::new(r.m, r.c, r.ic);
+            x.apply_force(i.mul_motion(u))
+        };
+        for idx in 0..self.hier.fnodes.len() {
+            let f = self.hier.fnodes[idx];
+            self.cache.hm[f] = if self.grounded[f] {
+                SpatialForce::ZERO
+            } else {
+                momentum(&self.hier.rig[f], &self.cache.cx[f], self.cache.cu[f])
+            };
+        }
+        for idx in 0..self.hier.hnodes.len() {
+            let n = self.hier.hnodes[idx];
+            if let NodeKind::Join {
+                parent_side: a,
+                child_side: b,
+                ..
+            } = tree.nodes[n].kind
+            {
+                self.cache.hm[n] = self.cache.hm[a] + self.cache.hm[b];
+            }
+        }
+        for idx in 0..self.cache.sel.len() {
+            let n = self.cache.sel[idx];
+            if self.active[n] {
+                continue;
+            }
+            if let NodeKind::Join {
+                parent_side: a,
+                child_side: b,
+                ..
+            } = tree.nodes[n].kind
+            {
+                for c in [a, b] {
+                    if !self.selected[c] {
+                        self.cache.hm[c] = if self.grounded[c] {
+                            SpatialForce::ZERO
+                        } else {
+                            momentum(&self.cache.rig[c], &self.cache.cx[c], self.cache.cu[c])
+                        };
+                    }
+                }
+            }
+        }
+    }
+
+    /// Generalized momenta of the new active joints over the new reduced tree:
+    /// `p_j = S_jᵀ H_j`, `H_j = h(cluster of j) + Σ_{children j'} H_j'`.
+    fn reduced_momenta(&mut self, model: &Model, gm: &mut [f64]) {
+        let h = &mut self.hier;
+        for idx in 0..h.ajoints.len() {
+            let j = h.ajoints[idx];
+            h.pa[j] = self.cache.hm[h.cl[j]];
+        }
+        for idx in (0..h.ajoints.len()).rev() {
+            let j = h.ajoints[idx];
+            let hj = h.pa[j];
+            let body = &model.bodies[j];
+            for p in 0..body.nv {
+                gm[body.v_offset + p] = self.data.s[body.v_offset + p].dot(hj);
+            }
+            if h.par[j] != usize::MAX {
+                h.pa[h.par[j]] += hj;
+            }
+        }
+    }
+
+    /// The hierarchical state of the newly selected hybrid body (`cache.sel`), touching the
+    /// old and new active regions only: flags, node and joint lists, clusters' mass properties
+    /// and the poses of active joints' parent bodies from the caches.
+    fn rebuild_hierarchy_cached(&mut self, model: &Model) {
+        let tree = &model.assembly;
+        let h = &mut self.hier;
+        for &n in &h.hnodes {
+            self.active[n] = false;
+        }
+        for &j in &h.ajoints {
+            h.abody[j] = false;
+        }
+        h.hnodes.clear();
+        h.fnodes.clear();
+        h.ajoints.clear();
+        for &n in &self.cache.sel {
+            self.active[n] = true;
+            h.hnodes.push(n);
+        }
+        for &n in &self.cache.sel {
+            if let NodeKind::Join {
+                joint,
+                parent_side: a,
+                child_side: b,
+            } = tree.nodes[n].kind
+            {
+                h.abody[joint] = true;
+                h.ajoints.push(joint);
+                for c in [a, b] {
+                    if !self.active[c] {
+                        h.fnodes.push(c);
+                    }
+                }
+            }
+        }
+        if h.hnodes.is_empty() {
+            h.fnodes.push(tree.root());
+        }
+        h.fnodes.sort_unstable();
+        h.ajoints.sort_unstable();
+        for &f in &h.fnodes {
+            if !self.grounded[f] {
+                h.rig[f] = self.cache.rig[f];
+            }
+        }
+        let cluster = |mut n: usize, active: &[bool]| {
+            while let Some(p) = tree.nodes[n].parent.filter(|&q| !active[q]) {
+                n = p;
+            }
+            n
+        };
+        for idx in 0..h.ajoints.len() {
+            let j = h.ajoints[idx];
+            h.pcl[j] = usize::MAX;
+            h.par[j] = usize::MAX;
+            if let Some(p) = model.bodies[j].parent {
+                if h.abody[p] {
+                    h.par[j] = p;
+                } else {
+                    let f = cluster(tree.body_leaf[p], &self.active);
+                    h.pcl[j] = f;
+                    h.prel[j] = match tree.nodes[f].kind {
+                        NodeKind::Join { .. } => {
+                            let k = tree.nodes[f]
+                                .handles
+                                .iter()
+                                .position(|&x| x == j)
+                                .expect("an active joint on a cluster is one of its handles");
+                            self.cache.hpose[self.lay.hoff[f] + k]
+                        }
+                        _ => SpatialTransform::IDENTITY,
+                    };
+                    if !self.grounded[f] {
+                        h.par[j] = self.top[f];
+                    }
+                }
+            }
+            h.cl[j] = cluster(tree.body_leaf[j], &self.active);
+        }
+        h.valid = true;
+    }
+}
