@@ -201,6 +201,10 @@ pub(crate) struct Caches {
     /// per node a spatial momentum (the locking impulse).
     pub sel: Vec<usize>,
     pub leaving: Vec<usize>,
+    /// Per node: the re-selection whose external forces made it dirty (on the path from a
+    /// forced body up to its cluster); the dirty nodes of this one.
+    pub dstamp: Vec<u64>,
+    pub dirty: Vec<usize>,
     pub hm: Vec<articula_spatial::SpatialForce>,
     // Scratch of a build: the children's tensors over the parent's monomials (computation
     // axes), the results, a monomial map and a product.
@@ -257,6 +261,8 @@ impl Adaptive {
         c.stamp = vec![0; nn];
         c.hm = vec![articula_spatial::SpatialForce::ZERO; nn];
         c.sel = Vec::with_capacity(nn);
+        c.dstamp = vec![0; nn];
+        c.dirty = Vec::with_capacity(nn);
         c.leaving = Vec::with_capacity(model.bodies.len());
         let mh = 6 * tree.max_handles().max(1);
         for s in 0..2 {

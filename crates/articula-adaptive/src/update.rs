@@ -24,7 +24,7 @@ impl Adaptive {
     /// Whether this re-selection can go through the caches: caches built for the current
     /// hybrid body, no velocity tolerance (it reads every joint's velocity), the locked joints'
     /// torques unchanged (they are in the caches' constant columns: an O(n) comparison of τ,
-    /// a memcmp when nothing changed), every external force on an active body's own leaf.
+    /// a memcmp when nothing changed).
     pub(crate) fn can_reselect_cached(&mut self, model: &Model, state: &State) -> bool {
         if !(self.use_cache
             && self.cache.ready
@@ -44,16 +44,6 @@ impl Adaptive {
                 }
             }
             self.cache.tau.copy_from_slice(&state.tau);
-        }
-        let tree = &model.assembly;
-        for &(i, _) in &self.fsparse {
-            let mut n = tree.body_leaf[i];
-            while let Some(p) = tree.nodes[n].parent.filter(|&p| !self.active[p]) {
-                n = p;
-            }
-            if !matches!(tree.nodes[n].kind, NodeKind::Body(_)) {
-                return false;
-            }
         }
         true
     }
@@ -76,23 +66,20 @@ impl Adaptive {
             self.point[j] = self.data.x[j].apply_point(DVec3::ZERO);
         }
         let mut touched = 0;
-        // External forces on the frontier leaves.
+        // External forces: on a frontier leaf they enter its rigid coefficients; on a body
+        // inside a cached cluster they make its path up to the cluster dirty.
         for idx in 0..self.hier.fnodes.len() {
             let f = self.hier.fnodes[idx];
             self.fsum[f] = SpatialForce::ZERO;
         }
-        let x_cw = SpatialTransform::xlt(self.data.origin);
-        for k in 0..self.fsparse.len() {
-            let (i, fe) = self.fsparse[k];
-            let mut n = tree.body_leaf[i];
-            while let Some(p) = tree.nodes[n].parent.filter(|&p| !self.active[p]) {
-                n = p;
-            }
-            self.fsum[n] += x_cw.apply_force(fe);
-        }
+        touched += self.dirty_paths(model, state, ep)?;
         // 2. The frontier from the caches.
         for idx in 0..self.hier.fnodes.len() {
             let f = self.hier.fnodes[idx];
+            if self.cache.dstamp[f] == ep {
+                // Computed exactly along its dirty paths.
+                continue;
+            }
             touched += 1;
             self.cache.stamp[f] = ep;
             match tree.nodes[f].kind {
@@ -197,6 +184,156 @@ impl Adaptive {
         Ok(moving)
     }
 
+    /// External forces on rigid parts (O(depth) per force): every node on the path from a
+    /// forced body's leaf up to its cluster (old frontier node) is dirty. Top-down, each dirty
+    /// node gets its frame and velocity (the cluster's from its top body, the others' from
+    /// their parent's by the cached relative pose), its joint's kinematics (`q̇ = 0`: a
+    /// transform from the parent body's cached pose) and its clean children's coefficients
+    /// and metric from their caches (a leaf: rigid coefficients); bottom-up, the dirty nodes
+    /// are joined and their metric computed exactly — the main pass's join, with the forces
+    /// in the leaves' rigid coefficients. Returns the nodes visited.
+    fn dirty_paths(
+        &mut self,
+        model: &Model,
+        state: &State,
+        ep: u64,
+    ) -> Result<usize, DynamicsError> {
+        let tree = &model.assembly;
+        self.cache.dirty.clear();
+        let x_cw = SpatialTransform::xlt(self.data.origin);
+        for k in 0..self.fsparse.len() {
+            let (i, fe) = self.fsparse[k];
+            let leaf = tree.body_leaf[i];
+            if tree.nodes[leaf].parent.is_none_or(|p| self.active[p]) {
+                // A frontier leaf: its own rigid coefficients take the force.
+                self.fsum[leaf] += x_cw.apply_force(fe);
+                continue;
+            }
+            if self.cache.dstamp[leaf] != ep {
+                self.fsum[leaf] = SpatialForce::ZERO;
+            }
+            self.fsum[leaf] += x_cw.apply_force(fe);
+            let mut n = leaf;
+            loop {
+                if self.cache.dstamp[n] == ep {
+                    // The rest of the path is dirty already.
+                    break;
+                }
+                self.cache.dstamp[n] = ep;
+                self.cache.dirty.push(n);
+                match tree.nodes[n].parent.filter(|&p| !self.active[p]) {
+                    Some(p) => n = p,
+                    None => break,
+                }
+            }
+        }
+        if self.cache.dirty.is_empty() {
+            return Ok(0);
+        }
+        // Top-down (a parent after its children in post-order).
+        self.cache.dirty.sort_unstable_by(|a, b| b.cmp(a));
+        let world_rigid = |r: &Rigid, x: &SpatialTransform| Rigid {
+            m: r.m,
+            c: x.apply_point(r.c),
+            ic: x.e * r.ic * x.e.transpose(),
+        };
+        for idx in 0..self.cache.dirty.len() {
+            let d = self.cache.dirty[idx];
+            let parent_dirty = tree.nodes[d]
+                .parent
+                .is_some_and(|p| self.cache.dstamp[p] == ep);
+            if !parent_dirty {
+                // The cluster: its frame from its top body.
+                let x = self.cache_frame(d);
+                self.cache.cx[d] = x;
+                self.cache.cu[d] = if self.grounded[d] {
+                    SpatialMotion::ZERO
+                } else {
+                    x.inv_apply_motion(self.data.v[self.top[d]])
+                };
+            }
+            self.cache.stamp[d] = ep;
+            let NodeKind::Join {
+                joint,
+                parent_side: a,
+                child_side: b,
+            } = tree.nodes[d].kind
+            else {
+                continue;
+            };
+            let (xd, ud) = (self.cache.cx[d], self.cache.cu[d]);
+            // The joint's kinematics: parent body at hpose_A[ja] in d's frame.
+            let xp = match tree.nodes[a].kind {
+                NodeKind::Join { .. } => xd * self.cache.hpose[self.lay.hoff[a] + self.lay.ja[d]],
+                _ => xd,
+            };
+            let v = xd.apply_motion(ud);
+            let (x, vj, c) = articula_dca::body_kinematics(
+                &model.bodies[joint],
+                xp,
+                v,
+                &state.q,
+                &state.qd,
+                &mut self.data.s,
+            );
+            self.data.x[joint] = x;
+            self.data.v[joint] = vj;
+            self.data.c[joint] = c;
+            self.point[joint] = x.apply_point(DVec3::ZERO);
+            for ch in [a, b] {
+                let rel = self.cache.rel[ch];
+                self.cache.cx[ch] = xd * rel;
+                self.cache.cu[ch] = rel.inv_apply_motion(ud);
+                if self.cache.dstamp[ch] == ep {
+                    continue;
+                }
+                // A clean child: from its cache (a leaf: rigid, no force).
+                self.cache.stamp[ch] = ep;
+                let (xc, uc) = (self.cache.cx[ch], self.cache.cu[ch]);
+                match tree.nodes[ch].kind {
+                    NodeKind::Ground => {
+                        self.ground_coefficients(ch);
+                        self.metric_node(model, ch);
+                    }
+                    NodeKind::Body(_) => {
+                        let r = world_rigid(&self.cache.rig[ch], &xc);
+                        let vc = xc.apply_motion(uc);
+                        self.rigid_coefficients(
+                            model,
+                            ch,
+                            &r,
+                            vc,
+                            SpatialForce::ZERO,
+                            Level::Acceleration,
+                        )?;
+                        self.metric_node(model, ch);
+                    }
+                    NodeKind::Join { .. } => {
+                        self.eval_cache(model, ch, &xc, uc, Part::Coefficients);
+                        self.eval_cache(model, ch, &xc, uc, Part::Metric);
+                    }
+                }
+            }
+        }
+        // Bottom-up: the dirty nodes exactly.
+        for idx in (0..self.cache.dirty.len()).rev() {
+            let d = self.cache.dirty[idx];
+            match tree.nodes[d].kind {
+                NodeKind::Ground => self.ground_coefficients(d),
+                NodeKind::Body(_) => {
+                    let (xc, uc) = (self.cache.cx[d], self.cache.cu[d]);
+                    let r = world_rigid(&self.cache.rig[d], &xc);
+                    let vc = xc.apply_motion(uc);
+                    let fe = self.fsum[d];
+                    self.rigid_coefficients(model, d, &r, vc, fe, Level::Acceleration)?;
+                }
+                NodeKind::Join { .. } => self.join(model, d, &state.tau, Level::Acceleration)?,
+            }
+            self.metric_node(model, d);
+        }
+        Ok(self.cache.dirty.len())
+    }
+
     /// The selection of [`Adaptive::select`] over the slots of a cached re-selection: a
     /// popped node outside the old active region gets its `K`, `k`, `N`, `n` from its cache,
     /// its children their frames (`rel`), velocities and metric coefficients.
@@ -255,7 +392,7 @@ impl Adaptive {
             self.cache.sel.push(n);
             sel.active_dofs += cost;
             let rigid = !self.active[n];
-            if rigid {
+            if rigid && self.cache.dstamp[n] != ep {
                 let (x, u) = (self.cache.cx[n], self.cache.cu[n]);
                 self.eval_cache(model, n, &x, u, Part::Maps);
             }
