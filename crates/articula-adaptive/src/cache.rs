@@ -205,6 +205,11 @@ pub(crate) struct Caches {
     /// forced body up to its cluster); the dirty nodes of this one.
     pub dstamp: Vec<u64>,
     pub dirty: Vec<usize>,
+    /// Per node: the re-selection whose computation-axes metric slots (Ψ, p, η) it holds;
+    /// its metric `A` at the exact handle forces and the re-selection that computed it.
+    pub pstamp: Vec<u64>,
+    pub amet: Vec<f64>,
+    pub astamp: Vec<u64>,
     pub hm: Vec<articula_spatial::SpatialForce>,
     // Scratch of a build: the children's tensors over the parent's monomials (computation
     // axes), the results, a monomial map and a product.
@@ -262,6 +267,9 @@ impl Adaptive {
         c.hm = vec![articula_spatial::SpatialForce::ZERO; nn];
         c.sel = Vec::with_capacity(nn);
         c.dstamp = vec![0; nn];
+        c.pstamp = vec![0; nn];
+        c.amet = vec![0.0; nn];
+        c.astamp = vec![0; nn];
         c.dirty = Vec::with_capacity(nn);
         c.leaving = Vec::with_capacity(model.bodies.len());
         let mh = 6 * tree.max_handles().max(1);
@@ -338,6 +346,8 @@ impl Adaptive {
         let r = self.join(model, n, tau, crate::hybrid::Level::Acceleration);
         self.record_maps = false;
         r?;
+        // Ψ of n and of its children in computation axes (the metric's bias part reads them).
+        self.world_metric(model, n);
         let xn = self.cache_frame(n);
         let grounded = self.grounded[n];
         let a_g = self.data.gravity;
@@ -746,6 +756,7 @@ impl Adaptive {
                 left_rot(pv, nc, 1, &r);
                 let e = &c.e[n * NW * NW..(n + 1) * NW * NW];
                 self.eta[n] = (0..NW).map(|i| w[i] * wdot(&e[i * NW..i * NW + NW])).sum();
+                self.cache.pstamp[n] = self.cache.epoch;
             }
             Part::Maps => {
                 let NodeKind::Join { joint, .. } = model.assembly.nodes[n].kind else {
@@ -773,6 +784,62 @@ impl Adaptive {
         }
     }
 
+    /// Makes node `n`'s metric slots (Ψ, p, η, computation axes) valid for this re-selection:
+    /// from its cache at its frame and velocity (`cx`, `cu`) when it is rigid and clean,
+    /// otherwise from its children's by the metric pass (a leaf: zero).
+    pub(crate) fn world_metric(&mut self, model: &Model, n: usize) {
+        let ep = self.cache.epoch;
+        if self.cache.pstamp[n] == ep {
+            return;
+        }
+        match model.assembly.nodes[n].kind {
+            NodeKind::Join {
+                parent_side: a,
+                child_side: b,
+                ..
+            } => {
+                if self.cache.valid[n] && self.cache.dstamp[n] != ep {
+                    let (x, u) = (self.cache.cx[n], self.cache.cu[n]);
+                    self.eval_cache(model, n, &x, u, Part::Metric);
+                } else {
+                    self.world_metric(model, a);
+                    self.world_metric(model, b);
+                    self.metric_node(model, n);
+                }
+            }
+            _ => self.metric_node(model, n),
+        }
+        self.cache.pstamp[n] = ep;
+    }
+
+    /// `A(n) = Fᵀ Ψ F + Fᵀ p + η` of a cached node at the handle forces in `f`, in its cache
+    /// frame (`F⁰ = Rᵀ F`; `p = P w`, `η = wᵀ E w` at its velocity `u`): no rotation of Ψ.
+    pub(crate) fn metric_local(&mut self, n: usize, x: &SpatialTransform, u: SpatialMotion) -> f64 {
+        let w = monomials(u);
+        let rt = tr3(&rows3(&x.e));
+        let (nh, hc) = (self.nh[n], self.lay.hoff[n]);
+        let nc = 6 * nh;
+        for h in 0..nh {
+            self.fx[6 * h..6 * h + 6].copy_from_slice(&self.f[hc + h].to_array());
+        }
+        left_rot(&mut self.fx[..nc], nc, 1, &rt);
+        let c = &self.cache;
+        let fx = &self.fx[..nc];
+        let wdot = |row: &[f64]| -> f64 { row.iter().zip(&w).map(|(a, b)| a * b).sum() };
+        let po = self.poff[n];
+        let o = hc * 6 * NW;
+        let mut a = crate::dense::quad(&c.psi[po..po + nc * nc], fx, nc);
+        for (row, &fr) in fx.iter().enumerate() {
+            if fr != 0.0 {
+                a += fr * wdot(&c.pw[o + row * NW..o + row * NW + NW]);
+            }
+        }
+        let e = &c.e[n * NW * NW..(n + 1) * NW * NW];
+        a + (0..NW)
+            .map(|i| w[i] * wdot(&e[i * NW..i * NW + NW]))
+            .sum::<f64>()
+    }
+
     /// Builds the caches of every join node that is not selected, bottom-up, from the
     /// articulated slots of a whole-body main and metric pass and the whole-body kinematics in
     /// `data` (the initial O(n) build).
@@ -787,6 +854,9 @@ impl Adaptive {
         if !self.cache.supported {
             return Ok(());
         }
+        // The whole-body metric pass filled every node's metric slots.
+        self.cache.epoch += 1;
+        self.cache.pstamp.fill(self.cache.epoch);
         for n in 0..model.assembly.nodes.len() {
             self.cache.valid[n] = false;
             if !self.selected[n] && matches!(model.assembly.nodes[n].kind, NodeKind::Join { .. }) {

@@ -107,20 +107,21 @@ impl Adaptive {
                     self.cache.cx[f] = x;
                     self.cache.cu[f] = u;
                     self.eval_cache(model, f, &x, u, Part::Coefficients);
-                    self.eval_cache(model, f, &x, u, Part::Metric);
-                    continue;
                 }
             }
-            self.metric_node(model, f);
         }
         // 3. Main and metric passes over the active region (post-order).
         for idx in 0..self.hier.hnodes.len() {
             let n = self.hier.hnodes[idx];
             self.join(model, n, &state.tau, Level::Acceleration)?;
-            self.metric_node(model, n);
             self.cache.stamp[n] = ep;
             touched += 1;
         }
+        // The metric of every active and frontier node at its exact handle forces: one
+        // back-substitution through the active region, each frontier node's quadratic form
+        // at its handle forces (in its cache frame), then `A(n) = q̈ᵀ A q̈ + A(a) + A(b)`
+        // bottom-up (what the metric pass's Ψ, p, η give at those forces; DESIGN §6).
+        self.active_metrics(model, ep);
         // 4. Selection.
         self.last = self.select_cached(model, ep, &mut touched);
         // 5. Caches of the nodes leaving the active region, bottom-up.
@@ -293,7 +294,7 @@ impl Adaptive {
                 match tree.nodes[ch].kind {
                     NodeKind::Ground => {
                         self.ground_coefficients(ch);
-                        self.metric_node(model, ch);
+                        self.world_metric(model, ch);
                     }
                     NodeKind::Body(_) => {
                         let r = world_rigid(&self.cache.rig[ch], &xc);
@@ -306,11 +307,11 @@ impl Adaptive {
                             SpatialForce::ZERO,
                             Level::Acceleration,
                         )?;
-                        self.metric_node(model, ch);
+                        self.world_metric(model, ch);
                     }
                     NodeKind::Join { .. } => {
                         self.eval_cache(model, ch, &xc, uc, Part::Coefficients);
-                        self.eval_cache(model, ch, &xc, uc, Part::Metric);
+                        self.world_metric(model, ch);
                     }
                 }
             }
@@ -330,8 +331,50 @@ impl Adaptive {
                 NodeKind::Join { .. } => self.join(model, d, &state.tau, Level::Acceleration)?,
             }
             self.metric_node(model, d);
+            self.cache.pstamp[d] = ep;
         }
         Ok(self.cache.dirty.len())
+    }
+
+    /// `A` of every node of the old active region and its frontier at the exact handle forces
+    /// (`amet`, stamped `astamp`): see [`Adaptive::cached_reselect`].
+    fn active_metrics(&mut self, model: &Model, ep: u64) {
+        let tree = &model.assembly;
+        let root = tree.root();
+        let (ho, nh) = (self.lay.hoff[root], self.nh[root]);
+        self.f[ho..ho + nh].fill(SpatialForce::ZERO);
+        for idx in (0..self.hier.hnodes.len()).rev() {
+            let n = self.hier.hnodes[idx];
+            self.expand(model, n);
+        }
+        for idx in 0..self.hier.fnodes.len() {
+            let f = self.hier.fnodes[idx];
+            self.cache.amet[f] = match tree.nodes[f].kind {
+                NodeKind::Join { .. } if self.cache.dstamp[f] == ep => self.metric_at(f),
+                NodeKind::Join { .. } => {
+                    let (x, u) = (self.cache.cx[f], self.cache.cu[f]);
+                    self.metric_local(f, &x, u)
+                }
+                _ => 0.0,
+            };
+            self.cache.astamp[f] = ep;
+        }
+        for idx in 0..self.hier.hnodes.len() {
+            let n = self.hier.hnodes[idx];
+            let NodeKind::Join {
+                joint,
+                parent_side: a,
+                child_side: b,
+            } = tree.nodes[n].kind
+            else {
+                continue;
+            };
+            let body = &model.bodies[joint];
+            let (vo, k, wo) = (body.v_offset, body.nv, self.woff[joint]);
+            let own = crate::dense::quad(&self.aw[wo..wo + k * k], &self.qdd[vo..vo + k], k);
+            self.cache.amet[n] = own + self.cache.amet[a] + self.cache.amet[b];
+            self.cache.astamp[n] = ep;
+        }
     }
 
     /// The selection of [`Adaptive::select`] over the slots of a cached re-selection: a
@@ -348,7 +391,7 @@ impl Adaptive {
         let root = tree.root();
         let (ho, nh) = (self.lay.hoff[root], self.nh[root]);
         self.f[ho..ho + nh].fill(SpatialForce::ZERO);
-        let total = self.metric_at(root);
+        let total = self.cache.amet[root];
         let mut sel = Selection {
             total_metric: total,
             ..Selection::default()
@@ -401,18 +444,20 @@ impl Adaptive {
                 if rigid && self.cache.stamp[c] != ep {
                     // Below the old frontier: the child's frame and velocity from n's.
                     let rel = self.cache.rel[c];
-                    let x = self.cache.cx[n] * rel;
-                    let u = rel.inv_apply_motion(self.cache.cu[n]);
-                    self.cache.cx[c] = x;
-                    self.cache.cu[c] = u;
+                    self.cache.cx[c] = self.cache.cx[n] * rel;
+                    self.cache.cu[c] = rel.inv_apply_motion(self.cache.cu[n]);
                     self.cache.stamp[c] = ep;
-                    if matches!(tree.nodes[c].kind, NodeKind::Join { .. }) {
-                        self.eval_cache(model, c, &x, u, Part::Metric);
-                        *touched += 1;
-                    }
                 }
                 if matches!(tree.nodes[c].kind, NodeKind::Join { .. }) {
-                    let metric = self.metric_at(c);
+                    let metric = if self.cache.astamp[c] == ep {
+                        self.cache.amet[c]
+                    } else if self.cache.pstamp[c] == ep {
+                        self.metric_at(c)
+                    } else {
+                        *touched += 1;
+                        let (x, u) = (self.cache.cx[c], self.cache.cu[c]);
+                        self.metric_local(c, &x, u)
+                    };
                     remaining += metric;
                     self.heap.push(Entry { metric, node: c });
                 }
