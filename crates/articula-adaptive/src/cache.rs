@@ -187,8 +187,10 @@ pub(crate) struct Caches {
     pub pw: Vec<f64>,
     /// Per node: `E` (NW × NW, symmetric).
     pub e: Vec<f64>,
-    /// The joint torques the caches were built with.
+    /// The joint torques the caches were built with, and whether each re-selection compares
+    /// them (O(n)) with the state's (see [`Adaptive::set_check_locked_torques`]).
     pub tau: Vec<f64>,
+    pub check_tau: bool,
     /// Whether the model's handle points are fixed in their rigid nodes (see the module doc).
     pub supported: bool,
     // Scratch of a re-selection: per node, the pose of its cache frame and its top body's

@@ -343,7 +343,10 @@ impl Adaptive {
             fresh_q: vec![0.0; model.nq],
             fresh_qd: vec![0.0; model.nv],
             hier: Default::default(),
-            cache: Default::default(),
+            cache: crate::cache::Caches {
+                check_tau: true,
+                ..Default::default()
+            },
             use_cache: true,
             record_maps: false,
             jm: JoinMaps::default(),

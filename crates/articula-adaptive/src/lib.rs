@@ -555,12 +555,25 @@ impl Adaptive {
         Ok(locked)
     }
 
-    /// Makes the next step re-select the hybrid body. Call it after changing the state of
-    /// locked joints (their `q` or `q̇`) from outside: between re-selections a step reads only
-    /// the active joints.
+    /// Makes the next step re-select the hybrid body by whole-body passes (rebuilding the
+    /// caches of the rigid subassemblies). Call it after changing the state of locked joints
+    /// (their `q` or `q̇`) from outside — between re-selections a step reads only the active
+    /// joints, and a cached re-selection takes the locked ones from the caches — and after
+    /// changing their torques when [`Adaptive::set_check_locked_torques`] is off.
     pub fn invalidate(&mut self) {
         self.hier.valid = false;
         self.cache.ready = false;
+    }
+
+    /// Whether a re-selection compares the joint torques with those the caches of the rigid
+    /// subassemblies were built with (default: on). The locked joints' torques sit in the
+    /// caches' constant columns: when one changed, the re-selection runs whole-body passes
+    /// and rebuilds the caches. The comparison reads all of τ — O(n), ~50 µs on a
+    /// 100,000-joint chain whose data has left the processor's caches. Turn it off when the
+    /// locked joints' torques never change, or call [`Adaptive::invalidate`] after changing
+    /// them.
+    pub fn set_check_locked_torques(&mut self, on: bool) {
+        self.cache.check_tau = on;
     }
 
     /// Re-select through the caches of the rigid subassemblies (default, O(active region)) or

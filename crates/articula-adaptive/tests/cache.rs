@@ -233,6 +233,57 @@ fn external_forces_on_rigid_parts_update_their_paths_exactly() {
 }
 
 #[test]
+fn a_changed_locked_torque_is_detected() {
+    // Locked joints' torques are in the caches' constant columns: changing them mid-run must
+    // not leave stale caches (detected by the comparison of τ, or by `invalidate` when it is
+    // off).
+    let model = load("chain100", false);
+    for check in [true, false] {
+        let settings = Settings {
+            budget: Some(12),
+            reselect_every: 2,
+            ..Settings::default()
+        };
+        let (mut fast, mut slow) = (
+            Adaptive::new(&model, settings.clone()),
+            Adaptive::new(&model, settings),
+        );
+        fast.set_check_locked_torques(check);
+        slow.set_cached_reselection(false);
+        let mut a = start(&model, 5, 1.0);
+        a.f_ext.clear();
+        let mut b = a.clone();
+        for k in 0..30 {
+            if k == 10 {
+                for (i, t) in a.tau.iter_mut().enumerate() {
+                    *t += 0.3 * ((i % 7) as f64 - 3.0);
+                }
+                b.tau.copy_from_slice(&a.tau);
+                if !check {
+                    fast.invalidate();
+                    slow.invalidate();
+                }
+            }
+            fast.step(&model, &mut a, 1e-3).unwrap();
+            slow.step(&model, &mut b, 1e-3).unwrap();
+            let d = max_diff(fast.qdd(), slow.qdd());
+            assert!(
+                d <= TOL * max_abs(slow.qdd()).max(1.0),
+                "check {check} step {k}: {d:e}"
+            );
+            // The locked joints' torques show in the fully articulated metric.
+            let (sa, sb) = (fast.selection(), slow.selection());
+            assert!(
+                (sa.total_metric - sb.total_metric).abs() <= TOL * sb.total_metric,
+                "check {check} step {k}: {sa:?} vs {sb:?}"
+            );
+            a.q.copy_from_slice(&b.q);
+            a.qd.copy_from_slice(&b.qd);
+        }
+    }
+}
+
+#[test]
 fn gravity_moves_a_free_body_without_changing_its_joint_accelerations() {
     // A free-floating body under uniform gravity: every handle's bias acceleration of a
     // subassembly not holding the ground shifts by a_g and no internal joint acceleration
