@@ -98,30 +98,25 @@ fn tr3(r: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
 
 /// `M ← blkdiag(r, r, …) M` for a row-major `rows × cols` matrix (rows a multiple of 3).
 pub(crate) fn left_rot(m: &mut [f64], rows: usize, cols: usize, r: &[[f64; 3]; 3]) {
-    for g in 0..rows / 3 {
-        for c in 0..cols {
-            let x = [
-                m[(3 * g) * cols + c],
-                m[(3 * g + 1) * cols + c],
-                m[(3 * g + 2) * cols + c],
-            ];
-            for i in 0..3 {
-                m[(3 * g + i) * cols + c] = r[i][0] * x[0] + r[i][1] * x[1] + r[i][2] * x[2];
-            }
+    for g in m[..rows * cols].chunks_exact_mut(3 * cols) {
+        let (x, rest) = g.split_at_mut(cols);
+        let (y, z) = rest.split_at_mut(cols);
+        for ((a, b), c) in x.iter_mut().zip(y.iter_mut()).zip(z.iter_mut()) {
+            let v = [*a, *b, *c];
+            *a = r[0][0] * v[0] + r[0][1] * v[1] + r[0][2] * v[2];
+            *b = r[1][0] * v[0] + r[1][1] * v[1] + r[1][2] * v[2];
+            *c = r[2][0] * v[0] + r[2][1] * v[1] + r[2][2] * v[2];
         }
     }
 }
 
-/// `M ← M blkdiag(rᵀ, rᵀ, …)` (each row's 3-groups rotated by `r`).
+/// `M ← M blkdiag(rᵀ, rᵀ, …)` (each row's 3-groups rotated by `r`; cols a multiple of 3).
 pub(crate) fn right_rot(m: &mut [f64], rows: usize, cols: usize, r: &[[f64; 3]; 3]) {
-    for i in 0..rows {
-        for g in 0..cols / 3 {
-            let o = i * cols + 3 * g;
-            let x = [m[o], m[o + 1], m[o + 2]];
-            for k in 0..3 {
-                m[o + k] = r[k][0] * x[0] + r[k][1] * x[1] + r[k][2] * x[2];
-            }
-        }
+    for v in m[..rows * cols].chunks_exact_mut(3) {
+        let x = [v[0], v[1], v[2]];
+        v[0] = r[0][0] * x[0] + r[0][1] * x[1] + r[0][2] * x[2];
+        v[1] = r[1][0] * x[0] + r[1][1] * x[1] + r[1][2] * x[2];
+        v[2] = r[2][0] * x[0] + r[2][1] * x[1] + r[2][2] * x[2];
     }
 }
 
@@ -312,6 +307,12 @@ impl Adaptive {
                 })
         });
         c.alloc = true;
+        // The hierarchy's lists, rebuilt by every cached re-selection, never reallocate.
+        let h = &mut self.hier;
+        h.hnodes.reserve(nn.saturating_sub(h.hnodes.len()));
+        h.fnodes.reserve(nn.saturating_sub(h.fnodes.len()));
+        h.ajoints
+            .reserve(model.bodies.len().saturating_sub(h.ajoints.len()));
     }
 
     /// The pose of node `n`'s cache frame in the computation frame from the kinematics in
