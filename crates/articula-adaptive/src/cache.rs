@@ -220,18 +220,10 @@ pub(crate) struct Caches {
     pub onw: Vec<f64>,
     pub mm: Vec<f64>,
     pub tmp: Vec<f64>,
-    /// Scratch of a joint transform: zero velocities and subspace columns (length nv).
+    /// Scratch of a joint transform (`X_J(q)` alone): zero velocities and subspace columns
+    /// (length nv).
     pub qd0: Vec<f64>,
     pub s0: Vec<SpatialMotion>,
-}
-
-/// A zero velocity vector of length `nv` (the joint transform reads no velocity).
-fn q_dummy(v: &mut Vec<f64>, nv: usize) -> &[f64] {
-    if v.len() != nv {
-        v.clear();
-        v.resize(nv, 0.0);
-    }
-    v
 }
 
 impl Adaptive {
@@ -368,7 +360,7 @@ impl Adaptive {
             SpatialTransform::IDENTITY,
             SpatialMotion::ZERO,
             q,
-            q_dummy(&mut self.cache.qd0, model.nv),
+            &self.cache.qd0,
             &mut self.cache.s0,
         );
         self.cache.rel[b] = pa * xj;

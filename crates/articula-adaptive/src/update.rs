@@ -111,7 +111,7 @@ impl Adaptive {
                 }
             }
         }
-        // 3. Main and metric passes over the active region (post-order).
+        // 3. The main pass over the active region (post-order).
         for idx in 0..self.hier.hnodes.len() {
             let n = self.hier.hnodes[idx];
             self.join(model, n, &state.tau, Level::Acceleration)?;
@@ -152,8 +152,7 @@ impl Adaptive {
         if moving {
             self.cluster_momenta(model);
         }
-        let leaving = std::mem::take(&mut self.cache.leaving);
-        let mut leaving = leaving;
+        let mut leaving = std::mem::take(&mut self.cache.leaving);
         leaving.clear();
         for &j in &self.hier.ajoints {
             if !self.selected[tree.joint_node[j]] {
@@ -163,8 +162,7 @@ impl Adaptive {
         self.rebuild_hierarchy_cached(model);
         if moving {
             self.active_kinematics(model, &state.q, &state.qd);
-            let gm = std::mem::take(&mut self.gmom);
-            let mut gm = gm;
+            let mut gm = std::mem::take(&mut self.gmom);
             self.reduced_momenta(model, &mut gm);
             let r = self.reduced_aba(model, &gm, Level::Impulse);
             self.gmom = gm;
