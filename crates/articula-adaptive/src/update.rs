@@ -328,15 +328,10 @@ impl Adaptive {
                     self.rigid_coefficients(model, d, &r, vc, fe, Level::Acceleration)?;
                 }
                 NodeKind::Join { .. } => {
-                    self.join(model, d, &state.tau, Level::Acceleration)?;
-                    // Ψ from the cache (configuration only), p and η with the forces.
-                    if self.cache.valid[d] {
-                        let (x, u) = (self.cache.cx[d], self.cache.cu[d]);
-                        self.eval_cache(model, d, &x, u, Part::Metric);
-                        self.metric_bias_node(model, d);
-                    } else {
-                        self.metric_node(model, d);
-                    }
+                    // Φ, K, N, Ψ from the cache (configuration only); b, k, n, p, η with the
+                    // forces.
+                    self.dirty_join(model, d, &state.tau);
+                    self.metric_bias_node(model, d);
                 }
             }
             if matches!(tree.nodes[d].kind, NodeKind::Body(_) | NodeKind::Ground) {
