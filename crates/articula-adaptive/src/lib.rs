@@ -381,14 +381,20 @@ impl Adaptive {
 
     /// One semi-implicit Euler step of the hybrid body. Every `reselect_every` steps (the first
     /// included) the joints are re-selected on the fully articulated coefficients and the
-    /// joints leaving the hybrid body are locked by impulses (this visits the whole body); the
-    /// steps in between visit the active region and its rigid frontier only (hierarchical
-    /// state), so their cost does not grow with the body's size. Then `q̇ ← q̇ + h q̈`,
-    /// `q ← q ⊕ h q̇` on the active joints (locked joints keep `q̇ = 0` and their `q`).
+    /// joints leaving the hybrid body are locked by impulses. The first re-selection (and the
+    /// next after [`Adaptive::invalidate`], a changed locked torque, or with a velocity
+    /// tolerance) visits the whole body and builds the caches of the rigid subassemblies; the
+    /// others go through those caches and visit the old and new active regions, their
+    /// frontiers, the nodes the selection reaches and the paths of external forces on rigid
+    /// parts only. The steps in between visit the active region and its rigid frontier only
+    /// (hierarchical state). Then `q̇ ← q̇ + h q̈`, `q ← q ⊕ h q̇` on the active joints (locked
+    /// joints keep `q̇ = 0` and their `q`).
     ///
-    /// Between re-selections only the active joints' inputs are read and checked; `data` then
-    /// holds the kinematics of the active bodies only. A non-empty `state.f_ext` is scanned
-    /// for non-zero wrenches (pass an empty one when there are none).
+    /// Apart from the whole-body re-selections, only the active joints' inputs are read and
+    /// checked (and τ compared, see [`Adaptive::set_check_locked_torques`]); `data` then holds
+    /// the kinematics of the active bodies only. A non-empty `state.f_ext` is scanned for
+    /// non-zero wrenches (pass an empty one, or use [`Adaptive::step_with_forces`], when there
+    /// are none).
     pub fn step(
         &mut self,
         model: &Model,
