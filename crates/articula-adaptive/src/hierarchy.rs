@@ -148,7 +148,7 @@ impl Adaptive {
 
     /// Forward kinematics of the active joints only (parents first): poses, velocities,
     /// subspace columns and velocity products of the active bodies, and the handle points.
-    fn active_kinematics(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
+    pub(crate) fn active_kinematics(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
         let x_cw = SpatialTransform::xlt(self.data.origin);
         for idx in 0..self.hier.ajoints.len() {
             let i = self.hier.ajoints[idx];

@@ -85,6 +85,17 @@ impl AxisBasis {
     }
 }
 
+/// The bias maps of one join (DESIGN §5), recorded by [`Adaptive::join`] when
+/// `record_maps` is set (cache builds): `k = κ_β β + κ_Q Q` (`kb`: nv × 6, `kq`: nv × nv) and
+/// `n = γ = ν_β β + ν_Q Q` (`nb`: 6 × 6, `nq`: 6 × nv), computation-frame axes.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct JoinMaps {
+    pub kb: [[f64; 6]; 6],
+    pub kq: [[f64; 6]; 6],
+    pub nb: [[f64; 6]; 6],
+    pub nq: [[f64; 6]; 6],
+}
+
 /// Which terms the main pass includes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Level {
@@ -236,6 +247,13 @@ pub struct Adaptive {
     pub(crate) fresh_q: Vec<f64>,
     pub(crate) fresh_qd: Vec<f64>,
     pub(crate) hier: crate::hierarchy::Hierarchy,
+    /// Caches of the rigid subassemblies (adaptive update mechanism, `cache.rs`).
+    pub(crate) cache: crate::cache::Caches,
+    /// Re-select through the caches (O(active region)); off: whole-body passes (reference).
+    pub(crate) use_cache: bool,
+    /// Record the bias maps of every join into `jm` (cache builds).
+    pub(crate) record_maps: bool,
+    pub(crate) jm: JoinMaps,
     pub(crate) last: Selection,
     /// Nodes visited by the passes of the last call (the cost measure of adaptive updates).
     pub(crate) touched: usize,
@@ -325,6 +343,13 @@ impl Adaptive {
             fresh_q: vec![0.0; model.nq],
             fresh_qd: vec![0.0; model.nv],
             hier: Default::default(),
+            cache: crate::cache::Caches {
+                check_tau: true,
+                ..Default::default()
+            },
+            use_cache: true,
+            record_maps: false,
+            jm: JoinMaps::default(),
             last: Selection::default(),
             touched: 0,
         }
@@ -508,6 +533,43 @@ impl Adaptive {
             joint: body.joint_name(),
             detail: "Sᵀ V S is not positive definite",
         })?;
+        if self.record_maps {
+            // κ_β = −D⁻¹ Zᵀ L⁻¹, ν_β = L⁻ᵀ (L⁻¹ + Z κ_β), κ_Q = D⁻¹, ν_Q = L⁻ᵀ Z D⁻¹.
+            let mut jm = JoinMaps::default();
+            for r in 0..6 {
+                let mut e = [0.0; 6];
+                e[r] = 1.0;
+                let wr = dense::solve_l(&l, &e);
+                let zw: [f64; 6] =
+                    std::array::from_fn(|p| if p < k { dot6(&z[p], &wr) } else { 0.0 });
+                let mut col = wr;
+                for p in 0..k {
+                    let x: f64 = -(0..k).map(|q| dinv[p][q] * zw[q]).sum::<f64>();
+                    jm.kb[p][r] = x;
+                    for s in 0..6 {
+                        col[s] += z[p][s] * x;
+                    }
+                }
+                let nc = dense::solve_lt(&l, &col);
+                for s in 0..6 {
+                    jm.nb[s][r] = nc[s];
+                }
+            }
+            for q in 0..k {
+                let mut col = [0.0; 6];
+                for p in 0..k {
+                    jm.kq[p][q] = dinv[p][q];
+                    for s in 0..6 {
+                        col[s] += z[p][s] * dinv[p][q];
+                    }
+                }
+                let nc = dense::solve_lt(&l, &col);
+                for s in 0..6 {
+                    jm.nq[s][q] = nc[s];
+                }
+            }
+            self.jm = jm;
+        }
         // w = L⁻¹ β
         let mut w = dense::solve_l(&l, &beta);
         // k = D⁻¹ (Q − Zᵀ w);  w ← w + Z k;  n = γ = L⁻ᵀ w
@@ -664,6 +726,22 @@ impl Adaptive {
         self.kvec[vo] = dot6(&gv, beta) / ss + qt * q;
         let wb = w_apply(beta);
         let nv: [f64; 6] = std::array::from_fn(|i| wb[i] + ft[i] * q);
+        if self.record_maps {
+            // κ_β = gᵀ / sᵀs, κ_Q = q̈_τ, ν_β = W, ν_Q = f_τ.
+            let mut jm = JoinMaps::default();
+            for r in 0..6 {
+                jm.kb[0][r] = gv[r] / ss;
+                let mut e = [0.0; 6];
+                e[r] = 1.0;
+                let c = w_apply(&e);
+                for s in 0..6 {
+                    jm.nb[s][r] = c[s];
+                }
+                jm.nq[r][0] = ft[r];
+            }
+            jm.kq[0][0] = qt;
+            self.jm = jm;
+        }
         self.nvec[n] = nv;
         let ko = self.koff[n];
         let wd = 6 * nhc;

@@ -16,8 +16,25 @@ impl Adaptive {
     /// `p_C = 2 Kᵀ A_C k + M_Aᵀ (2 Ψ_A m_A + p_A) + M_Bᵀ (2 Ψ_B m_B + p_B)`,
     /// `η_C = kᵀ A_C k + m_Aᵀ Ψ_A m_A + m_Aᵀ p_A + η_A + (same for B)`. Leaves: 0.
     pub(crate) fn metric_pass(&mut self, model: &Model) {
+        for n in 0..model.assembly.nodes.len() {
+            self.metric_node(model, n);
+        }
+    }
+
+    /// Ψ, p, η of node `n` from its children's (see [`Adaptive::metric_pass`]).
+    pub(crate) fn metric_node(&mut self, model: &Model, n: usize) {
+        self.metric_node_parts(model, n, true);
+    }
+
+    /// p and η of node `n` from its children's, Ψ left as it is (a dirty path: Ψ depends on
+    /// the configuration only and comes from the cache).
+    pub(crate) fn metric_bias_node(&mut self, model: &Model, n: usize) {
+        self.metric_node_parts(model, n, false);
+    }
+
+    fn metric_node_parts(&mut self, model: &Model, n: usize, with_psi: bool) {
         let tree = &model.assembly;
-        for n in 0..tree.nodes.len() {
+        {
             let nc = 6 * self.nh[n];
             let (po, pv) = (self.poff[n], 6 * self.lay.hoff[n]);
             let NodeKind::Join {
@@ -29,7 +46,7 @@ impl Adaptive {
                 self.psi[po..po + nc * nc].fill(0.0);
                 self.pvec[pv..pv + nc].fill(0.0);
                 self.eta[n] = 0.0;
-                continue;
+                return;
             };
             let body = &model.bodies[joint];
             let (vo, k) = (body.v_offset, body.nv);
@@ -37,9 +54,11 @@ impl Adaptive {
             // Own joint: AK = A_C K (k × nc), Ψ = Kᵀ A K, p = 2 Kᵀ A k, η = kᵀ A k.
             let (s1, s2) = (&mut self.s1, &mut self.s2);
             let kmat = &self.kmat[ko..ko + k * nc];
-            dense::a_b(&self.aw[wo..wo + k * k], kmat, k, k, nc, s1);
-            let psi = &mut self.psi[po..po + nc * nc];
-            dense::at_b(kmat, &s1[..k * nc], k, nc, nc, psi);
+            if with_psi {
+                dense::a_b(&self.aw[wo..wo + k * k], kmat, k, k, nc, s1);
+                let psi = &mut self.psi[po..po + nc * nc];
+                dense::at_b(kmat, &s1[..k * nc], k, nc, nc, psi);
+            }
             let kv = &self.kvec[vo..vo + k];
             let mut ak = [0.0; 6];
             dense::a_x(&self.aw[wo..wo + k * k], kv, k, k, &mut ak);
@@ -78,7 +97,7 @@ impl Adaptive {
                 // G = Ψ_X[jx,jx] N (6 × nc) in s2.
                 let g = &mut self.s2[..6 * nc];
                 g.fill(0.0);
-                for r in 0..6 {
+                for r in (0..6).filter(|_| with_psi) {
                     for t in 0..6 {
                         let w = psix[(6 * jx + r) * nx + 6 * jx + t];
                         if w != 0.0 {
@@ -92,7 +111,7 @@ impl Adaptive {
                     }
                 }
                 // Nᵀ G
-                for t in 0..6 {
+                for t in (0..6).filter(|_| with_psi) {
                     let grow = &g[t * nc..t * nc + nc];
                     for (i, &ni) in nm[t * nc..t * nc + nc].iter().enumerate() {
                         if ni != 0.0 {
@@ -127,7 +146,7 @@ impl Adaptive {
                         continue;
                     }
                     // Ψ_X[i,l] blocks for shared handles l.
-                    for l in 0..self.nh[x] {
+                    for l in (0..self.nh[x]).filter(|_| with_psi) {
                         let hl = map[l];
                         if hl == usize::MAX {
                             continue;
@@ -143,20 +162,22 @@ impl Adaptive {
                     }
                     // C = s Ψ_X[i,jx] N (6 × nc): rows 6 hi.., and columns 6 hi.. (transpose).
                     for r in 0..6 {
-                        let crow = &mut self.s3[..nc];
-                        crow.fill(0.0);
-                        for t in 0..6 {
-                            let w = sign * psix[(6 * i + r) * nx + 6 * jx + t];
-                            if w != 0.0 {
-                                for (cv, &nv) in crow.iter_mut().zip(&nm[t * nc..t * nc + nc]) {
-                                    *cv += w * nv;
+                        let row = 6 * hi + r;
+                        if with_psi {
+                            let crow = &mut self.s3[..nc];
+                            crow.fill(0.0);
+                            for t in 0..6 {
+                                let w = sign * psix[(6 * i + r) * nx + 6 * jx + t];
+                                if w != 0.0 {
+                                    for (cv, &nv) in crow.iter_mut().zip(&nm[t * nc..t * nc + nc]) {
+                                        *cv += w * nv;
+                                    }
                                 }
                             }
-                        }
-                        let row = 6 * hi + r;
-                        for c in 0..nc {
-                            psic[row * nc + c] += crow[c];
-                            psic[c * nc + row] += crow[c];
+                            for c in 0..nc {
+                                psic[row * nc + c] += crow[c];
+                                psic[c * nc + row] += crow[c];
+                            }
                         }
                         // u_i = 2 s Ψ_X[i,jx] n + p_X,i
                         let mut ui = px[6 * i + r];

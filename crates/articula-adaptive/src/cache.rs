@@ -1,0 +1,935 @@
+//! Caches of rigid subassemblies (DESIGN §6, the second adaptive update mechanism; Redon et
+//! al.'s *linear coefficient tensors*).
+//!
+//! After a re-selection every joint outside the active region is locked (`q̇ = 0`), so a rigid
+//! node C has a frozen internal configuration and all its bodies share one spatial velocity.
+//! In C's *cache frame* — its top body's frame (the computation frame for a node holding the
+//! ground) — its **articulated** coefficients (all its internal joints free, what the metric
+//! needs) `Φ^C`, the metric's `Ψ^C` and the back-substitution maps `K`, `N` are constant, and
+//! every bias-dependent quantity is linear in the 22 *monomials*
+//! `w = [u_a u_b (a ≤ b, 21 of them); 1]` of the top body's spatial velocity `u` (own
+//! coordinates): the velocity products `u ×* I_i u` are quadratic in `u`, the locked joints'
+//! torques sit in the constant column.
+//!
+//! ```text
+//! b^C_h = B_h w (+ a_g)     k = K_w w     n = N_w w     p^C = P w     η^C = wᵀ E w
+//! ```
+//!
+//! Uniform gravity adds `a_g` to every handle's bias acceleration of a node that does not hold
+//! the ground and changes no joint acceleration for given handle forces (it cancels in
+//! `β = b^A_j − b^B_j`; tested), so it is left out of the tensors of such nodes and added at
+//! evaluation. A node holding the ground has `u = 0`, and its constant column includes gravity.
+//!
+//! The tensors compose bottom-up with the same linear join as the main pass
+//! ([`Adaptive::join`]'s bias maps `κ`, `ν`, applied to the 22 columns), and the metric pass
+//! (`P` like `p`; `E` gets `Kwᵀ A Kw + Nwᵀ Ψ_X[jx,jx] Nw ± sym(Nwᵀ P_X,jx) + E_X` per child). A
+//! child's tensors, built in its own frame, are carried into the parent's by the rigid motion
+//! between the frames: rotations for the vectors (each handle's vectors are about its own
+//! point, so only axes change) and the induced 22 × 22 map on monomials for `w`.
+//!
+//! Each handle's point must be fixed in the rigid node (revolute, continuous and fixed joints
+//! whose parts after the first have no offset — every bundled model); otherwise the caches are
+//! not used and every re-selection runs whole-body passes.
+
+use crate::hybrid::{Adaptive, Rigid};
+use articula_dca::DynamicsError;
+use articula_model::{JointKind, Model, NodeKind};
+use articula_spatial::{Mat6, SpatialMotion, SpatialTransform};
+use glam::{DMat3, DVec3};
+
+/// Number of monomials: 21 quadratic `u_a u_b` and the constant.
+pub(crate) const NW: usize = 22;
+/// Index of the constant monomial.
+pub(crate) const CONST: usize = 21;
+
+/// The monomial index of `u_a u_b`, `a ≤ b`.
+const fn mono(a: usize, b: usize) -> usize {
+    // Rows a of the upper triangle: 6 + 5 + … before row a.
+    a * (11 - a) / 2 + b
+}
+
+/// `w(u)`: the 21 products `u_a u_b` (a ≤ b) and 1.
+#[inline]
+pub(crate) fn monomials(u: SpatialMotion) -> [f64; NW] {
+    let u = u.to_array();
+    let mut w = [0.0; NW];
+    for a in 0..6 {
+        for b in a..6 {
+            w[mono(a, b)] = u[a] * u[b];
+        }
+    }
+    w[CONST] = 1.0;
+    w
+}
+
+/// The map `M` with `w(T u) = M w(u)` for a linear map `T` of velocities (6 × 6, row-major),
+/// row-major 22 × 22: `(Tu)_a (Tu)_b = Σ_{c≤d} (T_ac T_bd + T_ad T_bc [c<d]) u_c u_d`.
+fn monomial_map(t: &[[f64; 6]; 6], m: &mut [f64]) {
+    m[..NW * NW].fill(0.0);
+    for a in 0..6 {
+        for b in a..6 {
+            let row = mono(a, b) * NW;
+            for c in 0..6 {
+                m[row + mono(c, c)] = t[a][c] * t[b][c];
+                for d in c + 1..6 {
+                    m[row + mono(c, d)] = t[a][c] * t[b][d] + t[a][d] * t[b][c];
+                }
+            }
+        }
+    }
+    m[CONST * NW + CONST] = 1.0;
+}
+
+/// A rotation as rows, `r[i][j]`.
+#[inline]
+pub(crate) fn rows3(e: &DMat3) -> [[f64; 3]; 3] {
+    let t = e.transpose();
+    [
+        t.x_axis.to_array(),
+        t.y_axis.to_array(),
+        t.z_axis.to_array(),
+    ]
+}
+
+#[inline]
+fn tr3(r: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    std::array::from_fn(|i| std::array::from_fn(|j| r[j][i]))
+}
+
+/// `M ← blkdiag(r, r, …) M` for a row-major `rows × cols` matrix (rows a multiple of 3).
+pub(crate) fn left_rot(m: &mut [f64], rows: usize, cols: usize, r: &[[f64; 3]; 3]) {
+    for g in m[..rows * cols].chunks_exact_mut(3 * cols) {
+        let (x, rest) = g.split_at_mut(cols);
+        let (y, z) = rest.split_at_mut(cols);
+        for ((a, b), c) in x.iter_mut().zip(y.iter_mut()).zip(z.iter_mut()) {
+            let v = [*a, *b, *c];
+            *a = r[0][0] * v[0] + r[0][1] * v[1] + r[0][2] * v[2];
+            *b = r[1][0] * v[0] + r[1][1] * v[1] + r[1][2] * v[2];
+            *c = r[2][0] * v[0] + r[2][1] * v[1] + r[2][2] * v[2];
+        }
+    }
+}
+
+/// `M ← M blkdiag(rᵀ, rᵀ, …)` (each row's 3-groups rotated by `r`; cols a multiple of 3).
+pub(crate) fn right_rot(m: &mut [f64], rows: usize, cols: usize, r: &[[f64; 3]; 3]) {
+    for v in m[..rows * cols].chunks_exact_mut(3) {
+        let x = [v[0], v[1], v[2]];
+        v[0] = r[0][0] * x[0] + r[0][1] * x[1] + r[0][2] * x[2];
+        v[1] = r[1][0] * x[0] + r[1][1] * x[1] + r[1][2] * x[2];
+        v[2] = r[2][0] * x[0] + r[2][1] * x[1] + r[2][2] * x[2];
+    }
+}
+
+/// The 6 × 6 matrix (row-major) of `u ↦ X⁻¹ u` for a transform `X`.
+fn inv_motion_matrix(x: &SpatialTransform) -> [[f64; 6]; 6] {
+    let mut t = [[0.0; 6]; 6];
+    for c in 0..6 {
+        let mut e = [0.0; 6];
+        e[c] = 1.0;
+        let col = x.inv_apply_motion(SpatialMotion::from_array(e)).to_array();
+        for r in 0..6 {
+            t[r][c] = col[r];
+        }
+    }
+    t
+}
+
+/// `c = a b` (row-major, `a`: m × r, `b`: r × n).
+fn mul(a: &[f64], b: &[f64], m: usize, r: usize, n: usize, c: &mut [f64]) {
+    crate::dense::a_b(a, b, m, r, n, c);
+}
+
+/// Which parts of a cached node an evaluation writes into the workspace's slots.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Part {
+    /// `Φ` and `b` (the main pass).
+    Coefficients,
+    /// `Ψ`, `p`, `η` (the metric).
+    Metric,
+    /// `Ψ` alone (a dirty node recomputes `p`, `η`).
+    Psi,
+    /// `K`, `k`, `N`, `n` (back-substitution of a popped node).
+    Maps,
+}
+
+/// Per-node caches (layouts of the workspace's slots, cache-frame axes) and the scratch of the
+/// cached re-selection.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Caches {
+    /// Allocated for the model.
+    pub alloc: bool,
+    /// Every rigid node's cache is valid for the current hybrid body.
+    pub ready: bool,
+    /// Per node: cache valid (its configuration is frozen as cached).
+    pub valid: Vec<bool>,
+    /// Per node: composite inertia in its cache frame.
+    pub rig: Vec<Rigid>,
+    /// Per node: its top frame's pose in its parent's cache frame (valid while the parent's
+    /// cache is).
+    pub rel: Vec<SpatialTransform>,
+    /// Per handle: pose of the handle joint's parent body in the node's cache frame (when
+    /// that body is in the node).
+    pub hpose: Vec<SpatialTransform>,
+    pub phi: Vec<Mat6>,
+    /// Per handle: `B_h` (6 × NW).
+    pub bw: Vec<f64>,
+    pub kmat: Vec<f64>,
+    /// Per degree of freedom: a row of `K_w` (NW).
+    pub kw: Vec<f64>,
+    pub nmat: Vec<f64>,
+    /// Per node: `N_w` (6 × NW).
+    pub nw: Vec<f64>,
+    pub psi: Vec<f64>,
+    /// Per handle: 6 rows of `P` (NW each).
+    pub pw: Vec<f64>,
+    /// Per node: `E` (NW × NW, symmetric).
+    pub e: Vec<f64>,
+    /// Per node: the join's bias maps κ, ν (cache-frame axes; a dirty path's join).
+    pub jm: Vec<crate::hybrid::JoinMaps>,
+    /// The joint torques the caches were built with, and whether each re-selection compares
+    /// them (O(n)) with the state's (see [`Adaptive::set_check_locked_torques`]).
+    pub tau: Vec<f64>,
+    pub check_tau: bool,
+    /// Whether the model's handle points are fixed in their rigid nodes (see the module doc).
+    pub supported: bool,
+    // Scratch of a re-selection: per node, the pose of its cache frame and its top body's
+    // velocity in it (own coordinates), and the re-selection that evaluated its slots.
+    pub cx: Vec<SpatialTransform>,
+    pub cu: Vec<SpatialMotion>,
+    pub stamp: Vec<u64>,
+    pub epoch: u64,
+    /// The nodes of the last selection (ascending), the joints leaving the active region, and
+    /// per node a spatial momentum (the locking impulse).
+    pub sel: Vec<usize>,
+    pub leaving: Vec<usize>,
+    /// Per node: the re-selection whose external forces made it dirty (on the path from a
+    /// forced body up to its cluster); the dirty nodes of this one.
+    pub dstamp: Vec<u64>,
+    pub dirty: Vec<usize>,
+    /// Per node: the re-selection whose computation-axes metric slots (Ψ, p, η) it holds;
+    /// its metric `A` at the exact handle forces and the re-selection that computed it.
+    pub pstamp: Vec<u64>,
+    pub amet: Vec<f64>,
+    pub astamp: Vec<u64>,
+    pub hm: Vec<articula_spatial::SpatialForce>,
+    // Scratch of a build: the children's tensors over the parent's monomials (computation
+    // axes), the results, a monomial map and a product.
+    pub xb: [Vec<f64>; 2],
+    pub xp: [Vec<f64>; 2],
+    pub xe: [Vec<f64>; 2],
+    pub ob: Vec<f64>,
+    pub op: Vec<f64>,
+    pub oe: Vec<f64>,
+    pub okw: Vec<f64>,
+    pub onw: Vec<f64>,
+    pub mm: Vec<f64>,
+    pub tmp: Vec<f64>,
+    /// Scratch of a joint transform (`X_J(q)` alone): zero velocities and subspace columns
+    /// (length nv).
+    pub qd0: Vec<f64>,
+    pub s0: Vec<SpatialMotion>,
+}
+
+impl Adaptive {
+    /// Allocates the caches (first use).
+    pub(crate) fn cache_alloc(&mut self, model: &Model) {
+        if self.cache.alloc {
+            return;
+        }
+        let tree = &model.assembly;
+        let nn = tree.nodes.len();
+        let lay = &self.lay;
+        let c = &mut self.cache;
+        c.valid = vec![false; nn];
+        c.rig = vec![Rigid::default(); nn];
+        c.rel = vec![SpatialTransform::IDENTITY; nn];
+        c.hpose = vec![SpatialTransform::IDENTITY; lay.handles];
+        c.phi = vec![Mat6::ZERO; lay.blocks];
+        c.bw = vec![0.0; 6 * NW * lay.handles];
+        c.kmat = vec![0.0; self.kmat.len()];
+        c.kw = vec![0.0; NW * model.nv];
+        c.nmat = vec![0.0; self.nmat.len()];
+        c.nw = vec![0.0; 6 * NW * nn];
+        c.psi = vec![0.0; self.psi.len()];
+        c.pw = vec![0.0; 6 * NW * lay.handles];
+        c.e = vec![0.0; NW * NW * nn];
+        c.jm = vec![crate::hybrid::JoinMaps::default(); nn];
+        c.tau = vec![0.0; model.nv];
+        c.cx = vec![SpatialTransform::IDENTITY; nn];
+        c.cu = vec![SpatialMotion::ZERO; nn];
+        c.stamp = vec![0; nn];
+        c.hm = vec![articula_spatial::SpatialForce::ZERO; nn];
+        c.sel = Vec::with_capacity(nn);
+        c.dstamp = vec![0; nn];
+        c.pstamp = vec![0; nn];
+        c.amet = vec![0.0; nn];
+        c.astamp = vec![0; nn];
+        c.dirty = Vec::with_capacity(nn);
+        c.leaving = Vec::with_capacity(model.bodies.len());
+        let mh = 6 * tree.max_handles().max(1);
+        for s in 0..2 {
+            c.xb[s] = vec![0.0; mh * NW];
+            c.xp[s] = vec![0.0; mh * NW];
+            c.xe[s] = vec![0.0; NW * NW];
+        }
+        c.ob = vec![0.0; mh * NW];
+        c.op = vec![0.0; mh * NW];
+        c.oe = vec![0.0; NW * NW];
+        c.okw = vec![0.0; 6 * NW];
+        c.onw = vec![0.0; 6 * NW];
+        c.mm = vec![0.0; NW * NW];
+        c.tmp = vec![0.0; (mh * NW).max(NW * NW)];
+        c.qd0 = vec![0.0; model.nv];
+        c.s0 = vec![SpatialMotion::ZERO; model.nv];
+        // Leaves: a body's composite in its own frame.
+        for (n, node) in tree.nodes.iter().enumerate() {
+            if let NodeKind::Body(i) = node.kind {
+                let bi = &model.bodies[i].inertia;
+                c.rig[n] = Rigid {
+                    m: bi.mass,
+                    c: bi.com(),
+                    ic: bi.inertia_about_com(),
+                };
+            }
+        }
+        // Handle points fixed in their rigid nodes: every joint below the root is revolute,
+        // continuous or fixed, and its parts after the first carry no offset.
+        c.supported = model.bodies.iter().all(|b| {
+            b.parent.is_none()
+                || b.joint.iter().enumerate().all(|(k, p)| {
+                    matches!(
+                        p.kind,
+                        JointKind::Revolute | JointKind::Continuous | JointKind::Fixed
+                    ) && (k == 0 || p.origin.r == DVec3::ZERO)
+                })
+        });
+        c.alloc = true;
+        // The hierarchy's lists, rebuilt by every cached re-selection, never reallocate.
+        let h = &mut self.hier;
+        h.hnodes.reserve(nn.saturating_sub(h.hnodes.len()));
+        h.fnodes.reserve(nn.saturating_sub(h.fnodes.len()));
+        h.ajoints
+            .reserve(model.bodies.len().saturating_sub(h.ajoints.len()));
+    }
+
+    /// The pose of node `n`'s cache frame in the computation frame from the kinematics in
+    /// `data` (its top body's; the computation frame for a node holding the ground).
+    pub(crate) fn cache_frame(&self, n: usize) -> SpatialTransform {
+        if self.grounded[n] {
+            SpatialTransform::xlt(self.data.origin)
+        } else {
+            self.data.x[self.top[n]]
+        }
+    }
+
+    /// Builds node `n`'s cache from its children's (or, for leaves, their bodies) at the
+    /// configuration in `data`, `point` and the articulated slots of the last main and metric
+    /// passes (`n`'s own Φ, K, N, Ψ and its children's Φ, Ψ, computation axes): the join is
+    /// repeated to record its bias maps, then the 22 bias columns go through it.
+    pub(crate) fn build_cache(
+        &mut self,
+        model: &Model,
+        n: usize,
+        q: &[f64],
+        tau: &[f64],
+    ) -> Result<(), DynamicsError> {
+        let tree = &model.assembly;
+        let NodeKind::Join {
+            joint,
+            parent_side: a,
+            child_side: b,
+        } = tree.nodes[n].kind
+        else {
+            return Ok(());
+        };
+        self.record_maps = true;
+        let r = self.join(model, n, tau, crate::hybrid::Level::Acceleration);
+        self.record_maps = false;
+        r?;
+        // Ψ of n and of its children in computation axes (the metric's bias part reads them).
+        self.world_metric(model, n);
+        let xn = self.cache_frame(n);
+        let grounded = self.grounded[n];
+        let a_g = self.data.gravity;
+        // The children's frames in n's, from the cached poses and the joint's q alone (never
+        // from world poses, which would feed the rounding of every rebuild into the next):
+        // n's top body is on A's side (parents precede their children), so A's frame is n's,
+        // and B's top body is the joint's child, at `hpose_A[ja] · X_J(q)`.
+        self.cache.rel[a] = SpatialTransform::IDENTITY;
+        let pa = match tree.nodes[a].kind {
+            NodeKind::Join { .. } => self.cache.hpose[self.lay.hoff[a] + self.lay.ja[n]],
+            _ => SpatialTransform::IDENTITY,
+        };
+        let (xj, _, _) = articula_dca::body_kinematics(
+            &model.bodies[joint],
+            SpatialTransform::IDENTITY,
+            SpatialMotion::ZERO,
+            q,
+            &self.cache.qd0,
+            &mut self.cache.s0,
+        );
+        self.cache.rel[b] = pa * xj;
+        // Children's tensors over n's monomials, computation axes.
+        for (side, x) in [(0usize, a), (1, b)] {
+            let nhx = self.nh[x];
+            let rows = 6 * nhx;
+            let rel = self.cache.rel[x];
+            let same = x == a && !grounded;
+            let xx = xn * rel;
+            // u_X = rel⁻¹ u_n (0 for a node holding the ground: nothing moves).
+            let t = if grounded {
+                [[0.0; 6]; 6]
+            } else {
+                inv_motion_matrix(&rel)
+            };
+            let c = &mut self.cache;
+            c.xb[side][..rows * NW].fill(0.0);
+            c.xp[side][..rows * NW].fill(0.0);
+            c.xe[side].fill(0.0);
+            match tree.nodes[x].kind {
+                NodeKind::Ground => {}
+                NodeKind::Body(_) => {
+                    self.leaf_columns(model, x, &xn, &xx, grounded, side);
+                }
+                NodeKind::Join { .. } => {
+                    let identity = same;
+                    let (ho, rx) = (self.lay.hoff[x], rows3(&xx.e));
+                    let c = &mut self.cache;
+                    let (bw, pw) = (
+                        &c.bw[ho * 6 * NW..(ho * 6 + rows) * NW],
+                        &c.pw[ho * 6 * NW..(ho * 6 + rows) * NW],
+                    );
+                    let e = &c.e[x * NW * NW..(x + 1) * NW * NW];
+                    if identity {
+                        c.xb[side][..rows * NW].copy_from_slice(bw);
+                        c.xp[side][..rows * NW].copy_from_slice(pw);
+                        c.xe[side].copy_from_slice(e);
+                    } else {
+                        monomial_map(&t, &mut c.mm);
+                        mul(bw, &c.mm, rows, NW, NW, &mut c.xb[side]);
+                        mul(pw, &c.mm, rows, NW, NW, &mut c.xp[side]);
+                        // E_X over n's monomials: Mᵀ E M.
+                        mul(e, &c.mm, NW, NW, NW, &mut c.tmp);
+                        crate::dense::at_b(&c.mm, &c.tmp, NW, NW, NW, &mut c.xe[side]);
+                    }
+                    left_rot(&mut c.xb[side], rows, NW, &rx);
+                    left_rot(&mut c.xp[side], rows, NW, &rx);
+                    if grounded && !self.grounded[x] {
+                        // A child not holding the ground left a_g out of its tensors.
+                        for h in 0..nhx {
+                            for r in 0..3 {
+                                c.xb[side][(6 * h + 3 + r) * NW + CONST] += a_g[r];
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        self.join_columns(model, n, NW, tau);
+        // Store in n's cache frame: Φ, K, N, Ψ from the slots, the tensors from the results.
+        let rt = tr3(&rows3(&xn.e));
+        let (nh, hc, bc) = (self.nh[n], self.lay.hoff[n], self.lay.boff[n]);
+        let nc = 6 * nh;
+        let k = model.bodies[joint].nv;
+        let vo = model.bodies[joint].v_offset;
+        let c = &mut self.cache;
+        for blk in 0..nh * nh {
+            let mut m = self.phi[bc + blk];
+            left_rot(m.0.as_flattened_mut(), 6, 6, &rt);
+            right_rot(m.0.as_flattened_mut(), 6, 6, &rt);
+            c.phi[bc + blk] = m;
+        }
+        let ko = self.koff[n];
+        c.kmat[ko..ko + k * nc].copy_from_slice(&self.kmat[ko..ko + k * nc]);
+        right_rot(&mut c.kmat[ko..ko + k * nc], k, nc, &rt);
+        c.nmat[36 * hc..36 * hc + 6 * nc].copy_from_slice(&self.nmat[36 * hc..36 * hc + 6 * nc]);
+        left_rot(&mut c.nmat[36 * hc..36 * hc + 6 * nc], 6, nc, &rt);
+        right_rot(&mut c.nmat[36 * hc..36 * hc + 6 * nc], 6, nc, &rt);
+        let po = self.poff[n];
+        c.psi[po..po + nc * nc].copy_from_slice(&self.psi[po..po + nc * nc]);
+        left_rot(&mut c.psi[po..po + nc * nc], nc, nc, &rt);
+        right_rot(&mut c.psi[po..po + nc * nc], nc, nc, &rt);
+        left_rot(&mut c.ob[..nc * NW], nc, NW, &rt);
+        c.bw[hc * 6 * NW..(hc * 6 + nc) * NW].copy_from_slice(&c.ob[..nc * NW]);
+        left_rot(&mut c.op[..nc * NW], nc, NW, &rt);
+        c.pw[hc * 6 * NW..(hc * 6 + nc) * NW].copy_from_slice(&c.op[..nc * NW]);
+        left_rot(&mut c.onw[..6 * NW], 6, NW, &rt);
+        c.nw[n * 6 * NW..(n + 1) * 6 * NW].copy_from_slice(&c.onw[..6 * NW]);
+        c.kw[vo * NW..(vo + k) * NW].copy_from_slice(&c.okw[..k * NW]);
+        c.e[n * NW * NW..(n + 1) * NW * NW].copy_from_slice(&c.oe);
+        // κ_β R, κ_Q, Rᵀ ν_β R, Rᵀ ν_Q: the maps from cache-frame β to k and n.
+        let mut jm = self.jm;
+        right_rot(jm.kb.as_flattened_mut(), 6, 6, &rt);
+        left_rot(jm.nb.as_flattened_mut(), 6, 6, &rt);
+        right_rot(jm.nb.as_flattened_mut(), 6, 6, &rt);
+        left_rot(jm.nq.as_flattened_mut(), 6, 6, &rt);
+        c.jm[n] = jm;
+        // Composite and the poses of the handles' parent bodies, in n's frame (`rel` maps a
+        // child's coordinates to n's).
+        let into = |r: &Rigid, rel: &SpatialTransform| Rigid {
+            m: r.m,
+            c: rel.apply_point(r.c),
+            ic: rel.e * r.ic * rel.e.transpose(),
+        };
+        let ra = into(&c.rig[a], &c.rel[a]);
+        let rb = into(&c.rig[b], &c.rel[b]);
+        c.rig[n] = ra.combine(&rb);
+        for h in 0..nh {
+            let (from_a, i) = self.lay.from[hc + h];
+            let x = if from_a { a } else { b };
+            c.hpose[hc + h] = match tree.nodes[x].kind {
+                NodeKind::Join { .. } => c.rel[x] * c.hpose[self.lay.hoff[x] + i],
+                _ => c.rel[x],
+            };
+        }
+        c.valid[n] = true;
+        Ok(())
+    }
+
+    /// The bias columns of leaf `x` (body `i`) over the monomials of its parent's velocity
+    /// `u` (parent frame `xn`; `u = 0` when the parent holds the ground): with the body's
+    /// world velocity `v = Xn u`, its velocity-product force `−v ×* I v` is bilinear,
+    /// `F(x, y) = [−ω_x × I_c ω_y; −m ω_x × y_c]` at the centre of mass, and the handle bias is
+    /// the rigid response `b_h = [J n_c; f/m + J n_c × (P_h − c)]` (`rigid_coefficients`).
+    fn leaf_columns(
+        &mut self,
+        model: &Model,
+        x: usize,
+        xn: &SpatialTransform,
+        xi: &SpatialTransform,
+        grounded: bool,
+        side: usize,
+    ) {
+        let NodeKind::Body(i) = model.assembly.nodes[x].kind else {
+            unreachable!("leaf_columns() on a join or the ground")
+        };
+        let bi = &model.bodies[i].inertia;
+        let (m, c) = (bi.mass, xi.apply_point(bi.com()));
+        let ic = xi.e * bi.inertia_about_com() * xi.e.transpose();
+        let j = ic.inverse();
+        let cols: [SpatialMotion; 6] = std::array::from_fn(|k| {
+            if grounded {
+                SpatialMotion::ZERO
+            } else {
+                let mut e = [0.0; 6];
+                e[k] = 1.0;
+                xn.apply_motion(SpatialMotion::from_array(e))
+            }
+        });
+        let bil = |x: &SpatialMotion, y: &SpatialMotion| {
+            let yc = y.v + y.w.cross(c);
+            (-x.w.cross(ic * y.w), -(x.w.cross(yc)) * m)
+        };
+        let handles = &model.assembly.nodes[x].handles;
+        let out = &mut self.cache.xb[side];
+        let a_g = self.data.gravity;
+        for a in 0..6 {
+            for bb in a..6 {
+                let (mut nc, mut f) = bil(&cols[a], &cols[bb]);
+                if bb != a {
+                    let (n2, f2) = bil(&cols[bb], &cols[a]);
+                    nc += n2;
+                    f += f2;
+                }
+                let aw = j * nc;
+                let ac = f / m;
+                for (h, &jh) in handles.iter().enumerate() {
+                    let lin = ac + aw.cross(self.point[jh] - c);
+                    let col = mono(a, bb);
+                    for r in 0..3 {
+                        out[(6 * h + r) * NW + col] = aw[r];
+                        out[(6 * h + 3 + r) * NW + col] = lin[r];
+                    }
+                }
+            }
+        }
+        if grounded {
+            for h in 0..handles.len() {
+                for r in 0..3 {
+                    out[(6 * h + 3 + r) * NW + CONST] = a_g[r];
+                }
+            }
+        }
+    }
+
+    /// The bias part of the join of node `n` and of its metric, on `nc` columns at once
+    /// (computation axes): the children's bias columns in `xb[0]` (A), `xb[1]` (B), their `P`
+    /// columns in `xp`, their `E` in `xe`; the joint torques enter the last column. With the
+    /// join's maps `jm`, `G_F` (`gf`), `K`, `N` and the children's Ψ from the slots:
+    /// `β = B^A_j − B^B_j`, `k = κ_β β + κ_Q Q`, `n = ν_β β + ν_Q Q`,
+    /// `B^C_h = B^X_h − G_F,hᵀ n` (into `ob`, `okw`, `onw`),
+    /// `P^C = 2 Kᵀ A k + Σ_X [Nᵀ s u_jx + u_i on the shared handles]` with
+    /// `u_jx = 2 s Ψ_X[jx,jx] n + P_X,jx`, `u_i = P_X,i + 2 s Ψ_X[i,jx] n` (into `op`), and
+    /// `E^C = k_wᵀ A k_w + Σ_X [E_X + n_wᵀ Ψ_X[jx,jx] n_w + s sym(n_wᵀ P_X,jx)]` (into `oe`).
+    pub(crate) fn join_columns(&mut self, model: &Model, n: usize, nc: usize, tau: &[f64]) {
+        let tree = &model.assembly;
+        let NodeKind::Join {
+            joint,
+            parent_side: a,
+            child_side: b,
+        } = tree.nodes[n].kind
+        else {
+            unreachable!("join_columns() on a leaf")
+        };
+        let body = &model.bodies[joint];
+        let (vo, k) = (body.v_offset, body.nv);
+        let (ja, jb) = (self.lay.ja[n], self.lay.jb[n]);
+        let (nhc, hc) = (self.nh[n], self.lay.hoff[n]);
+        let ncc = 6 * nhc;
+        let jm = self.jm;
+        let c = &mut self.cache;
+        // β, k, n per column.
+        for col in 0..nc {
+            let beta: [f64; 6] = std::array::from_fn(|r| {
+                c.xb[0][(6 * ja + r) * nc + col] - c.xb[1][(6 * jb + r) * nc + col]
+            });
+            let q: [f64; 6] = std::array::from_fn(|p| {
+                if p < k && col == nc - 1 {
+                    tau[vo + p]
+                } else {
+                    0.0
+                }
+            });
+            for p in 0..k {
+                let mut x = 0.0;
+                for r in 0..6 {
+                    x += jm.kb[p][r] * beta[r];
+                }
+                for qq in 0..k {
+                    x += jm.kq[p][qq] * q[qq];
+                }
+                c.okw[p * nc + col] = x;
+            }
+            for s in 0..6 {
+                let mut x = 0.0;
+                for r in 0..6 {
+                    x += jm.nb[s][r] * beta[r];
+                }
+                for qq in 0..k {
+                    x += jm.nq[s][qq] * q[qq];
+                }
+                c.onw[s * nc + col] = x;
+            }
+        }
+        // B^C_h = B^X_i − G_F,hᵀ n.
+        for h in 0..nhc {
+            let (from_a, i) = self.lay.from[hc + h];
+            let side = usize::from(!from_a);
+            let g = &self.gf[h].0;
+            for r in 0..6 {
+                for col in 0..nc {
+                    let mut x = c.xb[side][(6 * i + r) * nc + col];
+                    for s in 0..6 {
+                        x -= g[s][r] * c.onw[s * nc + col];
+                    }
+                    c.ob[(6 * h + r) * nc + col] = x;
+                }
+            }
+        }
+        // P^C: own joint 2 Kᵀ A k.
+        let (ko, wo) = (self.koff[n], self.woff[joint]);
+        let kmat = &self.kmat[ko..ko + k * ncc];
+        let aw = &self.aw[wo..wo + k * k];
+        let mut akw = [[0.0; NW]; 6];
+        for p in 0..k {
+            for col in 0..nc {
+                akw[p][col] = (0..k).map(|q| aw[p * k + q] * c.okw[q * nc + col]).sum();
+            }
+        }
+        for i in 0..ncc {
+            for col in 0..nc {
+                c.op[i * nc + col] =
+                    2.0 * (0..k).map(|p| kmat[p * ncc + i] * akw[p][col]).sum::<f64>();
+            }
+        }
+        // E^C: own joint k_wᵀ A k_w.
+        for r in 0..nc {
+            for col in 0..nc {
+                c.oe[r * nc + col] = (0..k).map(|p| c.okw[p * nc + r] * akw[p][col]).sum();
+            }
+        }
+        let nm = &self.nmat[36 * hc..36 * hc + 6 * ncc];
+        for (side, x, jx, sign) in [(0usize, a, ja, -1.0), (1, b, jb, 1.0)] {
+            let nx = 6 * self.nh[x];
+            let po = self.poff[x];
+            let psix = &self.psi[po..po + nx * nx];
+            let ps = |r: usize, t: usize| psix[r * nx + t];
+            // ψn = Ψ_X[jx,jx] n (6 × nc)
+            let mut psin = [[0.0; NW]; 6];
+            for r in 0..6 {
+                for col in 0..nc {
+                    psin[r][col] = (0..6)
+                        .map(|t| ps(6 * jx + r, 6 * jx + t) * c.onw[t * nc + col])
+                        .sum();
+                }
+            }
+            // P^C += Nᵀ (s u_jx), u_jx = 2 s ψn + P_X,jx.
+            for t in 0..6 {
+                for col in 0..nc {
+                    let u = 2.0 * sign * psin[t][col] + c.xp[side][(6 * jx + t) * nc + col];
+                    let su = sign * u;
+                    if su != 0.0 {
+                        for i in 0..ncc {
+                            c.op[i * nc + col] += nm[t * ncc + i] * su;
+                        }
+                    }
+                }
+            }
+            // Shared handles: u_i = P_X,i + 2 s Ψ_X[i,jx] n.
+            for h in 0..nhc {
+                let (from_a, i) = self.lay.from[hc + h];
+                if usize::from(!from_a) != side {
+                    continue;
+                }
+                for r in 0..6 {
+                    for col in 0..nc {
+                        let mut u = c.xp[side][(6 * i + r) * nc + col];
+                        for t in 0..6 {
+                            u += 2.0 * sign * ps(6 * i + r, 6 * jx + t) * c.onw[t * nc + col];
+                        }
+                        c.op[(6 * h + r) * nc + col] += u;
+                    }
+                }
+            }
+            // E^C += E_X + n_wᵀ Ψ_X[jx,jx] n_w + s sym(n_wᵀ P_X,jx).
+            for r in 0..nc {
+                for col in 0..nc {
+                    let mut x = c.xe[side][r * nc + col];
+                    for t in 0..6 {
+                        x += c.onw[t * nc + r] * psin[t][col];
+                        x += 0.5
+                            * sign
+                            * (c.onw[t * nc + r] * c.xp[side][(6 * jx + t) * nc + col]
+                                + c.onw[t * nc + col] * c.xp[side][(6 * jx + t) * nc + r]);
+                    }
+                    c.oe[r * nc + col] += x;
+                }
+            }
+        }
+    }
+
+    /// Evaluates node `n`'s cache at the pose `x` of its frame and its top body's velocity `u`
+    /// (own coordinates; 0 for a node holding the ground) into the workspace's slots,
+    /// computation axes: `Φ = R Φ⁰ Rᵀ`, `b_h = R B_h w + a_g`; or `Ψ = R Ψ⁰ Rᵀ`, `p = R P w`,
+    /// `η = wᵀ E w`; or `K = K⁰ Rᵀ`, `k = K_w w`, `N = R N⁰ Rᵀ`, `n = R N_w w`
+    /// (`R = blkdiag(E, E, …)` of the frame's axes).
+    pub(crate) fn eval_cache(
+        &mut self,
+        model: &Model,
+        n: usize,
+        x: &SpatialTransform,
+        u: SpatialMotion,
+        part: Part,
+    ) {
+        let w = monomials(u);
+        let r = rows3(&x.e);
+        let (nh, hc, bc) = (self.nh[n], self.lay.hoff[n], self.lay.boff[n]);
+        let nc = 6 * nh;
+        let c = &self.cache;
+        let wdot = |row: &[f64]| -> f64 { row.iter().zip(&w).map(|(a, b)| a * b).sum() };
+        match part {
+            Part::Coefficients => {
+                for blk in 0..nh * nh {
+                    let mut m = c.phi[bc + blk];
+                    left_rot(m.0.as_flattened_mut(), 6, 6, &r);
+                    right_rot(m.0.as_flattened_mut(), 6, 6, &r);
+                    self.phi[bc + blk] = m;
+                }
+                let a_g = if self.grounded[n] {
+                    DVec3::ZERO
+                } else {
+                    self.data.gravity
+                };
+                for h in 0..nh {
+                    let o = (hc + h) * 6 * NW;
+                    let mut v: [f64; 6] =
+                        std::array::from_fn(|row| wdot(&c.bw[o + row * NW..o + row * NW + NW]));
+                    left_rot(&mut v, 6, 1, &r);
+                    self.b[hc + h] =
+                        SpatialMotion::from_array(v) + SpatialMotion::new(DVec3::ZERO, a_g);
+                }
+            }
+            Part::Metric | Part::Psi => {
+                let po = self.poff[n];
+                let psi = &mut self.psi[po..po + nc * nc];
+                psi.copy_from_slice(&c.psi[po..po + nc * nc]);
+                left_rot(psi, nc, nc, &r);
+                right_rot(psi, nc, nc, &r);
+                if part == Part::Psi {
+                    return;
+                }
+                let pv = &mut self.pvec[6 * hc..6 * hc + nc];
+                let o = hc * 6 * NW;
+                for (row, p) in pv.iter_mut().enumerate() {
+                    *p = wdot(&c.pw[o + row * NW..o + row * NW + NW]);
+                }
+                left_rot(pv, nc, 1, &r);
+                let e = &c.e[n * NW * NW..(n + 1) * NW * NW];
+                self.eta[n] = (0..NW).map(|i| w[i] * wdot(&e[i * NW..i * NW + NW])).sum();
+                self.cache.pstamp[n] = self.cache.epoch;
+            }
+            Part::Maps => {
+                let NodeKind::Join { joint, .. } = model.assembly.nodes[n].kind else {
+                    return;
+                };
+                let body = &model.bodies[joint];
+                let (vo, k) = (body.v_offset, body.nv);
+                let ko = self.koff[n];
+                let km = &mut self.kmat[ko..ko + k * nc];
+                km.copy_from_slice(&c.kmat[ko..ko + k * nc]);
+                right_rot(km, k, nc, &r);
+                for p in 0..k {
+                    self.kvec[vo + p] = wdot(&c.kw[(vo + p) * NW..(vo + p + 1) * NW]);
+                }
+                let nm = &mut self.nmat[36 * hc..36 * hc + 6 * nc];
+                nm.copy_from_slice(&c.nmat[36 * hc..36 * hc + 6 * nc]);
+                left_rot(nm, 6, nc, &r);
+                right_rot(nm, 6, nc, &r);
+                let mut nv: [f64; 6] = std::array::from_fn(|row| {
+                    wdot(&c.nw[(n * 6 + row) * NW..(n * 6 + row + 1) * NW])
+                });
+                left_rot(&mut nv, 6, 1, &r);
+                self.nvec[n] = nv;
+            }
+        }
+    }
+
+    /// The join of a dirty node `n` (its configuration unchanged, its bias with the forces):
+    /// `Φ`, `K`, `N` and `Ψ` from its cache at `cx`, `cu`; from its children's biases in the
+    /// slots, `β = b^A_j − b^B_j`, `k = κ_β β + κ_Q Q`, `n = ν_β β + ν_Q Q` (the cached maps,
+    /// in the cache frame) and `b^C_h = b^X_h − G_F,hᵀ n` (`G_F,h = ±Φ^X_jh` from the
+    /// children's slots). The same numbers as [`Adaptive::join`] at a fraction of its cost.
+    pub(crate) fn dirty_join(&mut self, model: &Model, n: usize, tau: &[f64]) {
+        let NodeKind::Join {
+            joint,
+            parent_side: a,
+            child_side: b,
+        } = model.assembly.nodes[n].kind
+        else {
+            return;
+        };
+        let (x, u) = (self.cache.cx[n], self.cache.cu[n]);
+        self.eval_cache(model, n, &x, u, Part::Coefficients);
+        self.eval_cache(model, n, &x, u, Part::Maps);
+        self.eval_cache(model, n, &x, u, Part::Psi);
+        let r = rows3(&x.e);
+        let rt = tr3(&r);
+        let (ja, jb) = (self.lay.ja[n], self.lay.jb[n]);
+        let mut beta = (self.b[self.lay.hoff[a] + ja] - self.b[self.lay.hoff[b] + jb]).to_array();
+        left_rot(&mut beta, 6, 1, &rt);
+        let body = &model.bodies[joint];
+        let (vo, k) = (body.v_offset, body.nv);
+        let jm = &self.cache.jm[n];
+        for p in 0..k {
+            let mut x = 0.0;
+            for c in 0..6 {
+                x += jm.kb[p][c] * beta[c];
+            }
+            for q in 0..k {
+                x += jm.kq[p][q] * tau[vo + q];
+            }
+            self.kvec[vo + p] = x;
+        }
+        let mut nv: [f64; 6] = std::array::from_fn(|s| {
+            (0..6).map(|c| jm.nb[s][c] * beta[c]).sum::<f64>()
+                + (0..k).map(|q| jm.nq[s][q] * tau[vo + q]).sum::<f64>()
+        });
+        left_rot(&mut nv, 6, 1, &r);
+        self.nvec[n] = nv;
+        let hc = self.lay.hoff[n];
+        for h in 0..self.nh[n] {
+            let (from_a, i) = self.lay.from[hc + h];
+            let (xc, jx, sign) = if from_a { (a, ja, 1.0) } else { (b, jb, -1.0) };
+            let g = self.phi_at(xc, jx, i);
+            let mut bh = self.b[self.lay.hoff[xc] + i].to_array();
+            for c in 0..6 {
+                bh[c] -= sign * (0..6).map(|s| g.0[s][c] * nv[s]).sum::<f64>();
+            }
+            self.b[hc + h] = SpatialMotion::from_array(bh);
+        }
+    }
+
+    /// Makes node `n`'s metric slots (Ψ, p, η, computation axes) valid for this re-selection:
+    /// from its cache at its frame and velocity (`cx`, `cu`) when it is rigid and clean,
+    /// otherwise from its children's by the metric pass (a leaf: zero).
+    pub(crate) fn world_metric(&mut self, model: &Model, n: usize) {
+        let ep = self.cache.epoch;
+        if self.cache.pstamp[n] == ep {
+            return;
+        }
+        match model.assembly.nodes[n].kind {
+            NodeKind::Join {
+                parent_side: a,
+                child_side: b,
+                ..
+            } => {
+                if self.cache.valid[n] && self.cache.dstamp[n] != ep {
+                    let (x, u) = (self.cache.cx[n], self.cache.cu[n]);
+                    self.eval_cache(model, n, &x, u, Part::Metric);
+                } else {
+                    self.world_metric(model, a);
+                    self.world_metric(model, b);
+                    self.metric_node(model, n);
+                }
+            }
+            _ => self.metric_node(model, n),
+        }
+        self.cache.pstamp[n] = ep;
+    }
+
+    /// `A(n) = Fᵀ Ψ F + Fᵀ p + η` of a cached node at the handle forces in `f`, in its cache
+    /// frame (`F⁰ = Rᵀ F`; `p = P w`, `η = wᵀ E w` at its velocity `u`): no rotation of Ψ.
+    pub(crate) fn metric_local(&mut self, n: usize, x: &SpatialTransform, u: SpatialMotion) -> f64 {
+        let w = monomials(u);
+        let rt = tr3(&rows3(&x.e));
+        let (nh, hc) = (self.nh[n], self.lay.hoff[n]);
+        let nc = 6 * nh;
+        for h in 0..nh {
+            self.fx[6 * h..6 * h + 6].copy_from_slice(&self.f[hc + h].to_array());
+        }
+        left_rot(&mut self.fx[..nc], nc, 1, &rt);
+        let c = &self.cache;
+        let fx = &self.fx[..nc];
+        let wdot = |row: &[f64]| -> f64 { row.iter().zip(&w).map(|(a, b)| a * b).sum() };
+        let po = self.poff[n];
+        let o = hc * 6 * NW;
+        let mut a = crate::dense::quad(&c.psi[po..po + nc * nc], fx, nc);
+        for (row, &fr) in fx.iter().enumerate() {
+            if fr != 0.0 {
+                a += fr * wdot(&c.pw[o + row * NW..o + row * NW + NW]);
+            }
+        }
+        let e = &c.e[n * NW * NW..(n + 1) * NW * NW];
+        a + (0..NW)
+            .map(|i| w[i] * wdot(&e[i * NW..i * NW + NW]))
+            .sum::<f64>()
+    }
+
+    /// Builds the caches of every join node that is not selected, bottom-up, from the
+    /// articulated slots of a whole-body main and metric pass and the whole-body kinematics in
+    /// `data` (the initial O(n) build).
+    pub(crate) fn build_all_caches(
+        &mut self,
+        model: &Model,
+        q: &[f64],
+        tau: &[f64],
+    ) -> Result<(), DynamicsError> {
+        self.cache_alloc(model);
+        self.cache.ready = false;
+        if !self.cache.supported {
+            return Ok(());
+        }
+        // The whole-body metric pass filled every node's metric slots.
+        self.cache.epoch += 1;
+        self.cache.pstamp.fill(self.cache.epoch);
+        for n in 0..model.assembly.nodes.len() {
+            self.cache.valid[n] = false;
+            if !self.selected[n] && matches!(model.assembly.nodes[n].kind, NodeKind::Join { .. }) {
+                self.build_cache(model, n, q, tau)?;
+            }
+        }
+        self.cache.tau.copy_from_slice(tau);
+        self.cache.ready = true;
+        Ok(())
+    }
+}

@@ -1,0 +1,642 @@
+//! Re-selection in O(active region) through the caches of the rigid subassemblies
+//! (DESIGN §6, adaptive update mechanisms; `cache.rs` holds the tensors).
+//!
+//! 1. Kinematics of the active joints (hierarchical state).
+//! 2. Each frontier node's articulated `Φ`, `b`, `Ψ`, `p`, `η` evaluated from its cache at its
+//!    current pose and velocity (a leaf: its rigid coefficients).
+//! 3. Main pass and metric pass over the active region only.
+//! 4. Top-down selection from the root; popping a rigid node evaluates its `K`, `N`, `k`, `n`
+//!    and its children's `Ψ`, `p`, `η` from their caches (frames carried down by the cached
+//!    relative poses).
+//! 5. Caches rebuilt for the nodes that leave the active region (their subtrees moved),
+//!    bottom-up from their children's caches.
+//! 6. The new hierarchical state and the locking impulse over the new reduced tree, with each
+//!    new cluster's momentum from the old clusters' (or its cache when it was rigid).
+
+use crate::cache::Part;
+use crate::hybrid::{Adaptive, Entry, Level, Rigid, Selection};
+use articula_dca::{DynamicsError, State};
+use articula_model::{Model, NodeKind};
+use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
+use glam::DVec3;
+
+impl Adaptive {
+    /// Whether this re-selection can go through the caches: caches built for the current
+    /// hybrid body, no velocity tolerance (it reads every joint's velocity), the locked joints'
+    /// torques unchanged (they are in the caches' constant columns: an O(n) comparison of τ,
+    /// a bitwise comparison in blocks of eight when nothing changed: ~20 µs on 100,000
+    /// joints against ~100 µs for `==` on `f64`s).
+    pub(crate) fn can_reselect_cached(&mut self, model: &Model, state: &State) -> bool {
+        if !(self.use_cache
+            && self.cache.ready
+            && self.hier.valid
+            && !self.full_passes
+            && self.settings.velocity_tolerance.is_none()
+            && state.tau.len() == model.nv)
+        {
+            return false;
+        }
+        if self.cache.check_tau && !same_bits(&state.tau, &self.cache.tau) {
+            for (j, body) in model.bodies.iter().enumerate() {
+                let r = body.v_offset..body.v_offset + body.nv;
+                if !self.hier.abody[j] && state.tau[r.clone()] != self.cache.tau[r] {
+                    self.cache.ready = false;
+                    return false;
+                }
+            }
+            self.cache.tau.copy_from_slice(&state.tau);
+        }
+        true
+    }
+
+    /// The re-selection through the caches (see the module doc). Returns whether joints were
+    /// locked. `qdd` holds the selected joints' accelerations, zero for joints that left.
+    pub(crate) fn cached_reselect(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+    ) -> Result<bool, DynamicsError> {
+        let tree = &model.assembly;
+        self.check_active_inputs(model, state)?;
+        self.cache.epoch += 1;
+        let ep = self.cache.epoch;
+        self.data.origin = articula_dca::computation_origin(model, &state.q);
+        self.active_kinematics(model, &state.q, &state.qd);
+        for idx in 0..self.hier.ajoints.len() {
+            let j = self.hier.ajoints[idx];
+            self.point[j] = self.data.x[j].apply_point(DVec3::ZERO);
+        }
+        let mut touched = 0;
+        // External forces: on a frontier leaf they enter its rigid coefficients; on a body
+        // inside a cached cluster they make its path up to the cluster dirty.
+        for idx in 0..self.hier.fnodes.len() {
+            let f = self.hier.fnodes[idx];
+            self.fsum[f] = SpatialForce::ZERO;
+        }
+        touched += self.dirty_paths(model, state, ep)?;
+        // 2. The frontier from the caches.
+        for idx in 0..self.hier.fnodes.len() {
+            let f = self.hier.fnodes[idx];
+            if self.cache.dstamp[f] == ep {
+                // Computed exactly along its dirty paths.
+                continue;
+            }
+            touched += 1;
+            self.cache.stamp[f] = ep;
+            match tree.nodes[f].kind {
+                NodeKind::Ground => self.ground_coefficients(f),
+                NodeKind::Body(i) => {
+                    let x = self.data.x[i];
+                    let r = self.cache.rig[f];
+                    let world = Rigid {
+                        m: r.m,
+                        c: x.apply_point(r.c),
+                        ic: x.e * r.ic * x.e.transpose(),
+                    };
+                    self.cache.cx[f] = x;
+                    self.cache.cu[f] = x.inv_apply_motion(self.data.v[i]);
+                    let (v, fe) = (self.data.v[i], self.fsum[f]);
+                    self.rigid_coefficients(model, f, &world, v, fe, Level::Acceleration)?;
+                }
+                NodeKind::Join { .. } => {
+                    let x = self.cache_frame(f);
+                    let u = if self.grounded[f] {
+                        SpatialMotion::ZERO
+                    } else {
+                        x.inv_apply_motion(self.data.v[self.top[f]])
+                    };
+                    self.cache.cx[f] = x;
+                    self.cache.cu[f] = u;
+                    self.eval_cache(model, f, &x, u, Part::Coefficients);
+                }
+            }
+        }
+        // 3. The main pass over the active region (post-order).
+        for idx in 0..self.hier.hnodes.len() {
+            let n = self.hier.hnodes[idx];
+            self.join(model, n, &state.tau, Level::Acceleration)?;
+            self.cache.stamp[n] = ep;
+            touched += 1;
+        }
+        // The metric of every active and frontier node at its exact handle forces: one
+        // back-substitution through the active region, each frontier node's quadratic form
+        // at its handle forces (in its cache frame), then `A(n) = q̈ᵀ A q̈ + A(a) + A(b)`
+        // bottom-up (what the metric pass's Ψ, p, η give at those forces; DESIGN §6).
+        self.active_metrics(model, ep);
+        // 4. Selection.
+        self.last = self.select_cached(model, ep, &mut touched);
+        // 5. Caches of the nodes leaving the active region, bottom-up.
+        for idx in 0..self.hier.hnodes.len() {
+            let n = self.hier.hnodes[idx];
+            if !self.selected[n] {
+                self.build_cache(model, n, &state.q, &state.tau)?;
+                touched += 1;
+            }
+        }
+        for idx in 0..self.cache.sel.len() {
+            let n = self.cache.sel[idx];
+            self.cache.valid[n] = false;
+        }
+        // 6. Old clusters' momenta (before the flags change), the new hierarchy, the impulse.
+        let mut moving = false;
+        for &j in &self.hier.ajoints {
+            let body = &model.bodies[j];
+            if !self.selected[tree.joint_node[j]]
+                && state.qd[body.v_offset..body.v_offset + body.nv]
+                    .iter()
+                    .any(|x| *x != 0.0)
+            {
+                moving = true;
+            }
+        }
+        if moving {
+            self.cluster_momenta(model);
+        }
+        let mut leaving = std::mem::take(&mut self.cache.leaving);
+        leaving.clear();
+        for &j in &self.hier.ajoints {
+            if !self.selected[tree.joint_node[j]] {
+                leaving.push(j);
+            }
+        }
+        self.rebuild_hierarchy_cached(model);
+        if moving {
+            self.active_kinematics(model, &state.q, &state.qd);
+            let mut gm = std::mem::take(&mut self.gmom);
+            self.reduced_momenta(model, &mut gm);
+            let r = self.reduced_aba(model, &gm, Level::Impulse);
+            self.gmom = gm;
+            r?;
+            for &j in &self.hier.ajoints {
+                let b = &model.bodies[j];
+                let r = b.v_offset..b.v_offset + b.nv;
+                state.qd[r.clone()].copy_from_slice(&self.qdd[r]);
+            }
+        }
+        for &j in &leaving {
+            let b = &model.bodies[j];
+            state.qd[b.v_offset..b.v_offset + b.nv].fill(0.0);
+            self.qdd[b.v_offset..b.v_offset + b.nv].fill(0.0);
+        }
+        self.cache.leaving = leaving;
+        self.fresh = false;
+        self.touched = touched;
+        Ok(moving)
+    }
+
+    /// External forces on rigid parts (O(depth) per force): every node on the path from a
+    /// forced body's leaf up to its cluster (old frontier node) is dirty. Top-down, each dirty
+    /// node gets its frame and velocity (the cluster's from its top body, the others' from
+    /// their parent's by the cached relative pose), its joint's kinematics (`q̇ = 0`: a
+    /// transform from the parent body's cached pose) and its clean children's coefficients
+    /// and metric from their caches (a leaf: rigid coefficients); bottom-up, the dirty nodes
+    /// are joined and their metric computed exactly — the main pass's join, with the forces
+    /// in the leaves' rigid coefficients. Returns the nodes visited.
+    fn dirty_paths(
+        &mut self,
+        model: &Model,
+        state: &State,
+        ep: u64,
+    ) -> Result<usize, DynamicsError> {
+        let tree = &model.assembly;
+        self.cache.dirty.clear();
+        let x_cw = SpatialTransform::xlt(self.data.origin);
+        for k in 0..self.fsparse.len() {
+            let (i, fe) = self.fsparse[k];
+            let leaf = tree.body_leaf[i];
+            if tree.nodes[leaf].parent.is_none_or(|p| self.active[p]) {
+                // A frontier leaf: its own rigid coefficients take the force.
+                self.fsum[leaf] += x_cw.apply_force(fe);
+                continue;
+            }
+            if self.cache.dstamp[leaf] != ep {
+                self.fsum[leaf] = SpatialForce::ZERO;
+            }
+            self.fsum[leaf] += x_cw.apply_force(fe);
+            let mut n = leaf;
+            loop {
+                if self.cache.dstamp[n] == ep {
+                    // The rest of the path is dirty already.
+                    break;
+                }
+                self.cache.dstamp[n] = ep;
+                self.cache.dirty.push(n);
+                match tree.nodes[n].parent.filter(|&p| !self.active[p]) {
+                    Some(p) => n = p,
+                    None => break,
+                }
+            }
+        }
+        if self.cache.dirty.is_empty() {
+            return Ok(0);
+        }
+        // Top-down (a parent after its children in post-order).
+        self.cache.dirty.sort_unstable_by(|a, b| b.cmp(a));
+        let world_rigid = |r: &Rigid, x: &SpatialTransform| Rigid {
+            m: r.m,
+            c: x.apply_point(r.c),
+            ic: x.e * r.ic * x.e.transpose(),
+        };
+        for idx in 0..self.cache.dirty.len() {
+            let d = self.cache.dirty[idx];
+            let parent_dirty = tree.nodes[d]
+                .parent
+                .is_some_and(|p| self.cache.dstamp[p] == ep);
+            if !parent_dirty {
+                // The cluster: its frame from its top body.
+                let x = self.cache_frame(d);
+                self.cache.cx[d] = x;
+                self.cache.cu[d] = if self.grounded[d] {
+                    SpatialMotion::ZERO
+                } else {
+                    x.inv_apply_motion(self.data.v[self.top[d]])
+                };
+            }
+            self.cache.stamp[d] = ep;
+            let NodeKind::Join {
+                joint,
+                parent_side: a,
+                child_side: b,
+            } = tree.nodes[d].kind
+            else {
+                continue;
+            };
+            let (xd, ud) = (self.cache.cx[d], self.cache.cu[d]);
+            // The joint's kinematics: parent body at hpose_A[ja] in d's frame.
+            let xp = match tree.nodes[a].kind {
+                NodeKind::Join { .. } => xd * self.cache.hpose[self.lay.hoff[a] + self.lay.ja[d]],
+                _ => xd,
+            };
+            let v = xd.apply_motion(ud);
+            let (x, vj, c) = articula_dca::body_kinematics(
+                &model.bodies[joint],
+                xp,
+                v,
+                &state.q,
+                &state.qd,
+                &mut self.data.s,
+            );
+            self.data.x[joint] = x;
+            self.data.v[joint] = vj;
+            self.data.c[joint] = c;
+            self.point[joint] = x.apply_point(DVec3::ZERO);
+            for ch in [a, b] {
+                let rel = self.cache.rel[ch];
+                self.cache.cx[ch] = xd * rel;
+                self.cache.cu[ch] = rel.inv_apply_motion(ud);
+                if self.cache.dstamp[ch] == ep {
+                    continue;
+                }
+                // A clean child: from its cache (a leaf: rigid, no force).
+                self.cache.stamp[ch] = ep;
+                let (xc, uc) = (self.cache.cx[ch], self.cache.cu[ch]);
+                match tree.nodes[ch].kind {
+                    NodeKind::Ground => {
+                        self.ground_coefficients(ch);
+                        self.world_metric(model, ch);
+                    }
+                    NodeKind::Body(_) => {
+                        let r = world_rigid(&self.cache.rig[ch], &xc);
+                        let vc = xc.apply_motion(uc);
+                        self.rigid_coefficients(
+                            model,
+                            ch,
+                            &r,
+                            vc,
+                            SpatialForce::ZERO,
+                            Level::Acceleration,
+                        )?;
+                        self.world_metric(model, ch);
+                    }
+                    NodeKind::Join { .. } => {
+                        self.eval_cache(model, ch, &xc, uc, Part::Coefficients);
+                        self.world_metric(model, ch);
+                    }
+                }
+            }
+        }
+        // Bottom-up: the dirty nodes exactly.
+        for idx in (0..self.cache.dirty.len()).rev() {
+            let d = self.cache.dirty[idx];
+            match tree.nodes[d].kind {
+                NodeKind::Ground => self.ground_coefficients(d),
+                NodeKind::Body(_) => {
+                    let (xc, uc) = (self.cache.cx[d], self.cache.cu[d]);
+                    let r = world_rigid(&self.cache.rig[d], &xc);
+                    let vc = xc.apply_motion(uc);
+                    let fe = self.fsum[d];
+                    self.rigid_coefficients(model, d, &r, vc, fe, Level::Acceleration)?;
+                }
+                NodeKind::Join { .. } => {
+                    // Φ, K, N, Ψ from the cache (configuration only); b, k, n, p, η with the
+                    // forces.
+                    self.dirty_join(model, d, &state.tau);
+                    self.metric_bias_node(model, d);
+                }
+            }
+            if matches!(tree.nodes[d].kind, NodeKind::Body(_) | NodeKind::Ground) {
+                self.metric_node(model, d);
+            }
+            self.cache.pstamp[d] = ep;
+        }
+        Ok(self.cache.dirty.len())
+    }
+
+    /// `A` of every node of the old active region and its frontier at the exact handle forces
+    /// (`amet`, stamped `astamp`): see [`Adaptive::cached_reselect`].
+    fn active_metrics(&mut self, model: &Model, ep: u64) {
+        let tree = &model.assembly;
+        let root = tree.root();
+        let (ho, nh) = (self.lay.hoff[root], self.nh[root]);
+        self.f[ho..ho + nh].fill(SpatialForce::ZERO);
+        for idx in (0..self.hier.hnodes.len()).rev() {
+            let n = self.hier.hnodes[idx];
+            self.expand(model, n);
+        }
+        for idx in 0..self.hier.fnodes.len() {
+            let f = self.hier.fnodes[idx];
+            self.cache.amet[f] = match tree.nodes[f].kind {
+                NodeKind::Join { .. } if self.cache.dstamp[f] == ep => self.metric_at(f),
+                NodeKind::Join { .. } => {
+                    let (x, u) = (self.cache.cx[f], self.cache.cu[f]);
+                    self.metric_local(f, &x, u)
+                }
+                _ => 0.0,
+            };
+            self.cache.astamp[f] = ep;
+        }
+        for idx in 0..self.hier.hnodes.len() {
+            let n = self.hier.hnodes[idx];
+            let NodeKind::Join {
+                joint,
+                parent_side: a,
+                child_side: b,
+            } = tree.nodes[n].kind
+            else {
+                continue;
+            };
+            let body = &model.bodies[joint];
+            let (vo, k, wo) = (body.v_offset, body.nv, self.woff[joint]);
+            let own = crate::dense::quad(&self.aw[wo..wo + k * k], &self.qdd[vo..vo + k], k);
+            self.cache.amet[n] = own + self.cache.amet[a] + self.cache.amet[b];
+            self.cache.astamp[n] = ep;
+        }
+    }
+
+    /// The selection of [`Adaptive::select`] over the slots of a cached re-selection: a
+    /// popped node outside the old active region gets its `K`, `k`, `N`, `n` from its cache,
+    /// its children their frames (`rel`), velocities and metric coefficients.
+    fn select_cached(&mut self, model: &Model, ep: u64, touched: &mut usize) -> Selection {
+        let tree = &model.assembly;
+        for idx in 0..self.cache.sel.len() {
+            let n = self.cache.sel[idx];
+            self.selected[n] = false;
+        }
+        self.cache.sel.clear();
+        self.heap.clear();
+        let root = tree.root();
+        let (ho, nh) = (self.lay.hoff[root], self.nh[root]);
+        self.f[ho..ho + nh].fill(SpatialForce::ZERO);
+        let total = self.cache.amet[root];
+        let mut sel = Selection {
+            total_metric: total,
+            ..Selection::default()
+        };
+        if !matches!(tree.nodes[root].kind, NodeKind::Join { .. }) {
+            return sel;
+        }
+        self.heap.push(Entry {
+            metric: total,
+            node: root,
+        });
+        let mut remaining = total;
+        let budget = self.settings.budget;
+        let tol = self.settings.tolerance.filter(|t| *t > 0.0);
+        let mut first = true;
+        while let Some(&top) = self.heap.peek() {
+            let NodeKind::Join {
+                joint,
+                parent_side: a,
+                child_side: b,
+            } = tree.nodes[top.node].kind
+            else {
+                unreachable!("only joins are queued")
+            };
+            let cost = model.bodies[joint].nv;
+            let free = first && model.floating_base;
+            first = false;
+            if !free {
+                if tol.is_some_and(|t| remaining <= t) {
+                    break;
+                }
+                if budget.is_some_and(|b| sel.budget_used + cost > b) {
+                    break;
+                }
+                sel.budget_used += cost;
+            }
+            self.heap.pop();
+            remaining -= top.metric;
+            let n = top.node;
+            self.selected[n] = true;
+            self.cache.sel.push(n);
+            sel.active_dofs += cost;
+            let rigid = !self.active[n];
+            if rigid && self.cache.dstamp[n] != ep {
+                let (x, u) = (self.cache.cx[n], self.cache.cu[n]);
+                self.eval_cache(model, n, &x, u, Part::Maps);
+            }
+            self.expand(model, n);
+            for c in [a, b] {
+                if rigid && self.cache.stamp[c] != ep {
+                    // Below the old frontier: the child's frame and velocity from n's.
+                    let rel = self.cache.rel[c];
+                    self.cache.cx[c] = self.cache.cx[n] * rel;
+                    self.cache.cu[c] = rel.inv_apply_motion(self.cache.cu[n]);
+                    self.cache.stamp[c] = ep;
+                }
+                if matches!(tree.nodes[c].kind, NodeKind::Join { .. }) {
+                    let metric = if self.cache.astamp[c] == ep {
+                        self.cache.amet[c]
+                    } else if self.cache.pstamp[c] == ep {
+                        self.metric_at(c)
+                    } else {
+                        *touched += 1;
+                        let (x, u) = (self.cache.cx[c], self.cache.cu[c]);
+                        self.metric_local(c, &x, u)
+                    };
+                    remaining += metric;
+                    self.heap.push(Entry { metric, node: c });
+                }
+            }
+        }
+        sel.predicted_error = self.heap.iter().map(|e| e.metric).sum::<f64>().max(0.0);
+        // Post-order for the hierarchy.
+        self.cache.sel.sort_unstable();
+        sel
+    }
+
+    /// Spatial momentum (computation frame, about its origin) of every old cluster, summed up
+    /// the old active region, and of the rigid nodes the selection reached below it (from
+    /// their caches at their frames and velocities): `hm`.
+    fn cluster_momenta(&mut self, model: &Model) {
+        let tree = &model.assembly;
+        let momentum = |r: &Rigid, x: &SpatialTransform, u: SpatialMotion| {
+            let i = SpatialInertia::new(r.m, r.c, r.ic);
+            x.apply_force(i.mul_motion(u))
+        };
+        for idx in 0..self.hier.fnodes.len() {
+            let f = self.hier.fnodes[idx];
+            self.cache.hm[f] = if self.grounded[f] {
+                SpatialForce::ZERO
+            } else {
+                momentum(&self.hier.rig[f], &self.cache.cx[f], self.cache.cu[f])
+            };
+        }
+        for idx in 0..self.hier.hnodes.len() {
+            let n = self.hier.hnodes[idx];
+            if let NodeKind::Join {
+                parent_side: a,
+                child_side: b,
+                ..
+            } = tree.nodes[n].kind
+            {
+                self.cache.hm[n] = self.cache.hm[a] + self.cache.hm[b];
+            }
+        }
+        for idx in 0..self.cache.sel.len() {
+            let n = self.cache.sel[idx];
+            if self.active[n] {
+                continue;
+            }
+            if let NodeKind::Join {
+                parent_side: a,
+                child_side: b,
+                ..
+            } = tree.nodes[n].kind
+            {
+                for c in [a, b] {
+                    if !self.selected[c] {
+                        self.cache.hm[c] = if self.grounded[c] {
+                            SpatialForce::ZERO
+                        } else {
+                            momentum(&self.cache.rig[c], &self.cache.cx[c], self.cache.cu[c])
+                        };
+                    }
+                }
+            }
+        }
+    }
+
+    /// Generalized momenta of the new active joints over the new reduced tree:
+    /// `p_j = S_jᵀ H_j`, `H_j = h(cluster of j) + Σ_{children j'} H_j'`.
+    fn reduced_momenta(&mut self, model: &Model, gm: &mut [f64]) {
+        let h = &mut self.hier;
+        for idx in 0..h.ajoints.len() {
+            let j = h.ajoints[idx];
+            h.pa[j] = self.cache.hm[h.cl[j]];
+        }
+        for idx in (0..h.ajoints.len()).rev() {
+            let j = h.ajoints[idx];
+            let hj = h.pa[j];
+            let body = &model.bodies[j];
+            for p in 0..body.nv {
+                gm[body.v_offset + p] = self.data.s[body.v_offset + p].dot(hj);
+            }
+            if h.par[j] != usize::MAX {
+                h.pa[h.par[j]] += hj;
+            }
+        }
+    }
+
+    /// The hierarchical state of the newly selected hybrid body (`cache.sel`), touching the
+    /// old and new active regions only: flags, node and joint lists, clusters' mass properties
+    /// and the poses of active joints' parent bodies from the caches.
+    fn rebuild_hierarchy_cached(&mut self, model: &Model) {
+        let tree = &model.assembly;
+        let h = &mut self.hier;
+        for &n in &h.hnodes {
+            self.active[n] = false;
+        }
+        for &j in &h.ajoints {
+            h.abody[j] = false;
+        }
+        h.hnodes.clear();
+        h.fnodes.clear();
+        h.ajoints.clear();
+        for &n in &self.cache.sel {
+            self.active[n] = true;
+            h.hnodes.push(n);
+        }
+        for &n in &self.cache.sel {
+            if let NodeKind::Join {
+                joint,
+                parent_side: a,
+                child_side: b,
+            } = tree.nodes[n].kind
+            {
+                h.abody[joint] = true;
+                h.ajoints.push(joint);
+                for c in [a, b] {
+                    if !self.active[c] {
+                        h.fnodes.push(c);
+                    }
+                }
+            }
+        }
+        if h.hnodes.is_empty() {
+            h.fnodes.push(tree.root());
+        }
+        h.fnodes.sort_unstable();
+        h.ajoints.sort_unstable();
+        for &f in &h.fnodes {
+            if !self.grounded[f] {
+                h.rig[f] = self.cache.rig[f];
+            }
+        }
+        let cluster = |mut n: usize, active: &[bool]| {
+            while let Some(p) = tree.nodes[n].parent.filter(|&q| !active[q]) {
+                n = p;
+            }
+            n
+        };
+        for idx in 0..h.ajoints.len() {
+            let j = h.ajoints[idx];
+            h.pcl[j] = usize::MAX;
+            h.par[j] = usize::MAX;
+            if let Some(p) = model.bodies[j].parent {
+                if h.abody[p] {
+                    h.par[j] = p;
+                } else {
+                    let f = cluster(tree.body_leaf[p], &self.active);
+                    h.pcl[j] = f;
+                    h.prel[j] = match tree.nodes[f].kind {
+                        NodeKind::Join { .. } => {
+                            let k = tree.nodes[f]
+                                .handles
+                                .iter()
+                                .position(|&x| x == j)
+                                .expect("an active joint on a cluster is one of its handles");
+                            self.cache.hpose[self.lay.hoff[f] + k]
+                        }
+                        _ => SpatialTransform::IDENTITY,
+                    };
+                    if !self.grounded[f] {
+                        h.par[j] = self.top[f];
+                    }
+                }
+            }
+            h.cl[j] = cluster(tree.body_leaf[j], &self.active);
+        }
+        h.valid = true;
+    }
+}
+
+/// Whether two slices hold the same bits (compared in blocks of eight, which vectorizes).
+fn same_bits(a: &[f64], b: &[f64]) -> bool {
+    a.len() == b.len()
+        && a.chunks(8).zip(b.chunks(8)).all(|(x, y)| {
+            x.iter()
+                .zip(y)
+                .fold(true, |m, (p, q)| m & (p.to_bits() == q.to_bits()))
+        })
+}
