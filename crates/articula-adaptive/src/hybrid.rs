@@ -14,6 +14,12 @@ use articula_spatial::{skew, Mat6, SpatialForce, SpatialMotion};
 use glam::{DMat3, DVec3};
 use std::collections::BinaryHeap;
 
+/// The first five terms of [`dot6`], summed in the same order.
+#[inline(always)]
+fn dot5(a: &[f64; 6], b: &[f64; 6]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4]
+}
+
 #[inline]
 fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
@@ -622,13 +628,15 @@ impl Adaptive {
             self.yc[h] = yc;
             self.uc[h] = uc;
         }
-        self.assemble(n, a, b);
+        self.assemble(n, a, b, false);
         Ok(())
     }
 
     /// `Φ^C_hk = Φ^X_hk [same side] − Y_hᵀ U_k` (columns of Y_h and U_k in `yc`, `uc`) and
     /// `b^C_h = b^X_h − G_F,hᵀ γ` (`G_F,h` in `gf`, γ = `nvec[n]`) for the joined node `n`.
-    fn assemble(&mut self, n: usize, a: usize, b: usize) {
+    /// `gram`: U = Y with five rows (the one-axis join), so `Y_hᵀ Y_h` is symmetric to the bit:
+    /// its upper triangle is computed and mirrored, over the five rows (same sums, same order).
+    fn assemble(&mut self, n: usize, a: usize, b: usize, gram: bool) {
         let (nhc, hc, bc) = (self.nh[n], self.lay.hoff[n], self.lay.boff[n]);
         for h in 0..nhc {
             let (ah, ih) = self.lay.from[hc + h];
@@ -636,9 +644,26 @@ impl Adaptive {
             for kk in h..nhc {
                 let (ak, ik) = self.lay.from[hc + kk];
                 let mut blk = Mat6::ZERO;
-                for r in 0..6 {
-                    for c in 0..6 {
-                        blk.0[r][c] = -dot6(&self.yc[h][r], &self.uc[kk][c]);
+                if gram {
+                    let (yh, yk) = (&self.yc[h], &self.yc[kk]);
+                    for r in 0..6 {
+                        let c0 = if h == kk { r } else { 0 };
+                        for c in c0..6 {
+                            blk.0[r][c] = -dot5(&yh[r], &yk[c]);
+                        }
+                    }
+                    if h == kk {
+                        for r in 1..6 {
+                            for c in 0..r {
+                                blk.0[r][c] = blk.0[c][r];
+                            }
+                        }
+                    }
+                } else {
+                    for r in 0..6 {
+                        for c in 0..6 {
+                            blk.0[r][c] = -dot6(&self.yc[h][r], &self.uc[kk][c]);
+                        }
                     }
                 }
                 if ah == ak {
@@ -760,10 +785,7 @@ impl Adaptive {
             }
         }
         // Ỹ_hᵀ Ỹ_k is a Gram product: the subtracted part stays positive semidefinite.
-        for h in 0..nhc {
-            self.uc[h] = self.yc[h];
-        }
-        self.assemble(n, a, b);
+        self.assemble(n, a, b, true);
         Ok(())
     }
 
