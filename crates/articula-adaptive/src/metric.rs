@@ -216,14 +216,38 @@ impl Adaptive {
     /// at most the tolerance (tolerance 0 or no limit: until the queue is empty). A floating
     /// base's joint (the root) is always selected and free. Unselected joints get `q̈ = 0`.
     pub(crate) fn select(&mut self, model: &Model) -> Selection {
-        let tree = &model.assembly;
         self.selected.fill(false);
         self.qdd.fill(0.0);
+        let total = self.metric_at(model.assembly.root());
+        self.run_queue(
+            model,
+            total,
+            |_, _| {},
+            |ad, _, c| {
+                matches!(model.assembly.nodes[c].kind, NodeKind::Join { .. })
+                    .then(|| ad.metric_at(c))
+            },
+        )
+    }
+
+    /// The priority queue of the selection, from the root (metric `total`) with zero handle
+    /// forces: pops the largest metric while the budget and the tolerance allow, marks it
+    /// selected, lets `on_pop` prepare the node, back-substitutes it ([`Adaptive::expand`]) and
+    /// pushes each child for which `child(self, node, child)` gives a metric (the joins).
+    /// Shared by the whole-body selection ([`Adaptive::select`]) and the cached one
+    /// (`update.rs`), which differ only in where a node's coefficients and metric come from.
+    pub(crate) fn run_queue(
+        &mut self,
+        model: &Model,
+        total: f64,
+        mut on_pop: impl FnMut(&mut Self, usize),
+        mut child: impl FnMut(&mut Self, usize, usize) -> Option<f64>,
+    ) -> Selection {
+        let tree = &model.assembly;
         self.heap.clear();
         let root = tree.root();
         let (ho, nh) = (self.lay.hoff[root], self.nh[root]);
         self.f[ho..ho + nh].fill(SpatialForce::ZERO);
-        let total = self.metric_at(root);
         let mut sel = Selection {
             total_metric: total,
             ..Selection::default()
@@ -240,7 +264,12 @@ impl Adaptive {
         let tol = self.settings.tolerance.filter(|t| *t > 0.0);
         let mut first = true;
         while let Some(&top) = self.heap.peek() {
-            let NodeKind::Join { joint, .. } = tree.nodes[top.node].kind else {
+            let NodeKind::Join {
+                joint,
+                parent_side: a,
+                child_side: b,
+            } = tree.nodes[top.node].kind
+            else {
                 unreachable!("only joins are queued")
             };
             let cost = model.bodies[joint].nv;
@@ -257,20 +286,13 @@ impl Adaptive {
             }
             self.heap.pop();
             remaining -= top.metric;
-            self.selected[top.node] = true;
+            let n = top.node;
+            self.selected[n] = true;
             sel.active_dofs += cost;
-            self.expand(model, top.node);
-            let NodeKind::Join {
-                parent_side: a,
-                child_side: b,
-                ..
-            } = tree.nodes[top.node].kind
-            else {
-                unreachable!()
-            };
+            on_pop(self, n);
+            self.expand(model, n);
             for c in [a, b] {
-                if matches!(tree.nodes[c].kind, NodeKind::Join { .. }) {
-                    let metric = self.metric_at(c);
+                if let Some(metric) = child(self, n, c) {
                     remaining += metric;
                     self.heap.push(Entry { metric, node: c });
                 }

@@ -14,7 +14,7 @@
 //!    new cluster's momentum from the old clusters' (or its cache when it was rigid).
 
 use crate::cache::Part;
-use crate::hybrid::{Adaptive, Entry, Level, Rigid, Selection};
+use crate::hybrid::{Adaptive, Level, Rigid, Selection};
 use articula_dca::{DynamicsError, State};
 use articula_model::{Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
@@ -393,83 +393,39 @@ impl Adaptive {
             self.selected[n] = false;
         }
         self.cache.sel.clear();
-        self.heap.clear();
-        let root = tree.root();
-        let (ho, nh) = (self.lay.hoff[root], self.nh[root]);
-        self.f[ho..ho + nh].fill(SpatialForce::ZERO);
-        let total = self.cache.amet[root];
-        let mut sel = Selection {
-            total_metric: total,
-            ..Selection::default()
-        };
-        if !matches!(tree.nodes[root].kind, NodeKind::Join { .. }) {
-            return sel;
-        }
-        self.heap.push(Entry {
-            metric: total,
-            node: root,
-        });
-        let mut remaining = total;
-        let budget = self.settings.budget;
-        let tol = self.settings.tolerance.filter(|t| *t > 0.0);
-        let mut first = true;
-        while let Some(&top) = self.heap.peek() {
-            let NodeKind::Join {
-                joint,
-                parent_side: a,
-                child_side: b,
-            } = tree.nodes[top.node].kind
-            else {
-                unreachable!("only joins are queued")
-            };
-            let cost = model.bodies[joint].nv;
-            let free = first && model.floating_base;
-            first = false;
-            if !free {
-                if tol.is_some_and(|t| remaining <= t) {
-                    break;
+        let total = self.cache.amet[tree.root()];
+        let sel = self.run_queue(
+            model,
+            total,
+            |ad, n| {
+                ad.cache.sel.push(n);
+                if !ad.active[n] && ad.cache.dstamp[n] != ep {
+                    let (x, u) = (ad.cache.cx[n], ad.cache.cu[n]);
+                    ad.eval_cache(model, n, &x, u, Part::Maps);
                 }
-                if budget.is_some_and(|b| sel.budget_used + cost > b) {
-                    break;
-                }
-                sel.budget_used += cost;
-            }
-            self.heap.pop();
-            remaining -= top.metric;
-            let n = top.node;
-            self.selected[n] = true;
-            self.cache.sel.push(n);
-            sel.active_dofs += cost;
-            let rigid = !self.active[n];
-            if rigid && self.cache.dstamp[n] != ep {
-                let (x, u) = (self.cache.cx[n], self.cache.cu[n]);
-                self.eval_cache(model, n, &x, u, Part::Maps);
-            }
-            self.expand(model, n);
-            for c in [a, b] {
-                if rigid && self.cache.stamp[c] != ep {
+            },
+            |ad, n, c| {
+                if !ad.active[n] && ad.cache.stamp[c] != ep {
                     // Below the old frontier: the child's frame and velocity from n's.
-                    let rel = self.cache.rel[c];
-                    self.cache.cx[c] = self.cache.cx[n] * rel;
-                    self.cache.cu[c] = rel.inv_apply_motion(self.cache.cu[n]);
-                    self.cache.stamp[c] = ep;
+                    let rel = ad.cache.rel[c];
+                    ad.cache.cx[c] = ad.cache.cx[n] * rel;
+                    ad.cache.cu[c] = rel.inv_apply_motion(ad.cache.cu[n]);
+                    ad.cache.stamp[c] = ep;
                 }
-                if matches!(tree.nodes[c].kind, NodeKind::Join { .. }) {
-                    let metric = if self.cache.astamp[c] == ep {
-                        self.cache.amet[c]
-                    } else if self.cache.pstamp[c] == ep {
-                        self.metric_at(c)
-                    } else {
-                        *touched += 1;
-                        let (x, u) = (self.cache.cx[c], self.cache.cu[c]);
-                        self.metric_local(c, &x, u)
-                    };
-                    remaining += metric;
-                    self.heap.push(Entry { metric, node: c });
+                if !matches!(tree.nodes[c].kind, NodeKind::Join { .. }) {
+                    return None;
                 }
-            }
-        }
-        sel.predicted_error = self.heap.iter().map(|e| e.metric).sum::<f64>().max(0.0);
+                Some(if ad.cache.astamp[c] == ep {
+                    ad.cache.amet[c]
+                } else if ad.cache.pstamp[c] == ep {
+                    ad.metric_at(c)
+                } else {
+                    *touched += 1;
+                    let (x, u) = (ad.cache.cx[c], ad.cache.cu[c]);
+                    ad.metric_local(c, &x, u)
+                })
+            },
+        );
         // Post-order for the hierarchy.
         self.cache.sel.sort_unstable();
         sel
