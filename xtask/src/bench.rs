@@ -870,29 +870,22 @@ fn report(
         growth("DCA"),
         growth("ABA")
     );
-    let pin300 = peers
-        .results
-        .get(&("chain300".to_string(), "Pinocchio ABA".to_string()))
-        .map(|r| r.0);
-    if let Some(p) = pin300 {
-        let _ = writeln!(
-            s,
-            "300-link chain against Pinocchio's ABA ({p:.1} µs, default convention): our ABA {:.2}×, our DCA {:.2}× its time.\n",
-            speed_of(rows, "chain300", "ABA") / p,
-            speed_of(rows, "chain300", "DCA") / p
-        );
-    }
-    let pin300w = peers
-        .results
-        .get(&("chain300".to_string(), "Pinocchio ABA (WORLD)".to_string()))
-        .map(|r| r.0);
-    if let Some(p) = pin300w {
-        let _ = writeln!(
-            s,
-            "Against Pinocchio's ABA with `pin.Convention.WORLD` ({p:.1} µs, its faster variant on chains): our ABA {:.2}×, our DCA {:.2}×.\n",
-            speed_of(rows, "chain300", "ABA") / p,
-            speed_of(rows, "chain300", "DCA") / p
-        );
+    for (peer, call) in [
+        ("Pinocchio ABA", "the default convention"),
+        (
+            "Pinocchio ABA (WORLD)",
+            "`pin.Convention.WORLD`, its faster variant on chains",
+        ),
+    ] {
+        let key = ("chain300".to_string(), peer.to_string());
+        if let Some(p) = peers.results.get(&key).map(|r| r.0) {
+            let _ = writeln!(
+                s,
+                "300-link chain against {peer} ({p:.1} µs, {call}): our ABA {:.2}×, our DCA {:.2}× its time.\n",
+                speed_of(rows, "chain300", "ABA") / p,
+                speed_of(rows, "chain300", "DCA") / p
+            );
+        }
     }
     let _ = writeln!(s, "![time per step against links]({SPEED_CHART}.png)\n");
 
