@@ -14,6 +14,11 @@
 //! - **Rigidification**: joints leaving the hybrid body are locked by internal impulses that
 //!   keep the body's spatial momentum and never add kinetic energy; the hybrid body is
 //!   re-selected every [`Settings::reselect_every`] steps.
+//! - **Adaptive updates**: between re-selections a step touches the active region and its
+//!   rigid frontier only (hierarchical state); a re-selection reads every rigid subassembly's
+//!   articulated coefficients from caches kept in its own frame, with the velocity-dependent
+//!   terms as tensors in its rigid velocity, so it too costs O(active region)
+//!   (`docs/adaptive.md`).
 //!
 //! ```
 //! use articula_adaptive::{Adaptive, Settings};
