@@ -160,41 +160,87 @@ impl DepthBuffer {
         let i1 = ceil_index(x + rx).min(self.width);
         let j0 = floor_index(y - ry);
         let j1 = ceil_index(y + ry).min(self.height);
-        let inside = |u: f64, v: f64| {
-            let (a, b) = ((u - x) / rx, (v - y) / ry);
-            a * a + b * b <= 1.0
-        };
-        // On one grid line v the corners inside form one run of u (the test is monotone in
-        // |u − x|): find it once per line, not four times per cell. A cell row's cells are those
-        // whose two u corners lie in the runs of both of its lines.
-        let run = |v: f64| -> (usize, usize) {
-            let mut lo = i0;
-            while lo <= i1 && !inside(lo as f64, v) {
-                lo += 1;
-            }
-            if lo > i1 {
-                return (1, 0);
-            }
-            let mut hi = i1;
-            while !inside(hi as f64, v) {
-                hi -= 1;
-            }
-            (lo, hi)
+        // The corner test, with `bb = ((v − y)/ry)²` computed once per grid line v.
+        let inside = |u: f64, bb: f64| {
+            let a = (u - x) / rx;
+            a * a + bb <= 1.0
         };
         if j0 >= j1 || i0 > i1 {
             return;
         }
-        let mut below = run(j0 as f64);
-        for j in j0..j1 {
-            let above = run(j as f64 + 1.0);
-            let (lo, hi) = (below.0.max(above.0), below.1.min(above.1));
-            // Cells i with corners i and i + 1 both in [lo, hi].
-            if lo < hi {
-                let row = j * self.width;
-                for d in &mut self.depth[row + lo..row + hi] {
-                    *d = if far < *d { far } else { *d };
+        // On one grid line v the corners inside form one run of u: the test is monotone in
+        // |u − x| (rounding is monotone and symmetric), so the runs of all lines are nested
+        // intervals around x (their thresholds on |u − x| grow while |v − y| falls and shrink
+        // after). Each line's run is found from the previous one by moving its two ends (a few
+        // tests a line, not a scan of the bounding box); the first non-empty run grows from the
+        // corner nearest to x. A
+        // cell row's cells are those whose two u corners lie in the runs of both its lines.
+        let mut run: Option<(usize, usize)> = None;
+        let mut below = (1, 0);
+        for j in j0..=j1 {
+            let b = (j as f64 - y) / ry;
+            let bb = b * b;
+            let next = match run {
+                Some((lo, hi)) => {
+                    // Each end moves out while the next corner is inside, or in until one
+                    // is. An end that moves in past the other empties the run, and with it
+                    // every line after (farther from y).
+                    let (mut lo, mut hi) = (lo, hi);
+                    if inside(lo as f64, bb) {
+                        while lo > i0 && inside((lo - 1) as f64, bb) {
+                            lo -= 1;
+                        }
+                    } else {
+                        lo += 1;
+                        while lo <= hi && !inside(lo as f64, bb) {
+                            lo += 1;
+                        }
+                        if lo > hi {
+                            break;
+                        }
+                    }
+                    if inside(hi as f64, bb) {
+                        while hi < i1 && inside((hi + 1) as f64, bb) {
+                            hi += 1;
+                        }
+                    } else {
+                        // Stops at lo at the latest (inside).
+                        hi -= 1;
+                        while !inside(hi as f64, bb) {
+                            hi -= 1;
+                        }
+                    }
+                    Some((lo, hi))
+                }
+                None => {
+                    // The corner nearest to x (clamped to the box) is inside if any is.
+                    let c = floor_index(x + 0.5).clamp(i0, i1);
+                    if inside(c as f64, bb) {
+                        let (mut lo, mut hi) = (c, c);
+                        while lo > i0 && inside((lo - 1) as f64, bb) {
+                            lo -= 1;
+                        }
+                        while hi < i1 && inside((hi + 1) as f64, bb) {
+                            hi += 1;
+                        }
+                        Some((lo, hi))
+                    } else {
+                        None
+                    }
+                }
+            };
+            let above = next.unwrap_or((1, 0));
+            if j > j0 {
+                // Cells i of row j − 1 with corners i and i + 1 in both runs.
+                let (lo, hi) = (below.0.max(above.0), below.1.min(above.1));
+                if lo < hi {
+                    let row = (j - 1) * self.width;
+                    for d in &mut self.depth[row + lo..row + hi] {
+                        *d = if far < *d { far } else { *d };
+                    }
                 }
             }
+            run = next;
             below = above;
         }
     }
