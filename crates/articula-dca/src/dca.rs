@@ -7,7 +7,7 @@
 //! `q̈` and constraint force top-down.
 
 use crate::data::{DKind, RevJoin, Side};
-use crate::small::Sym6;
+use crate::small::{SymT, TILE};
 use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
@@ -41,9 +41,6 @@ fn ub(nh: usize, h: usize, k: usize) -> usize {
     debug_assert!(h < k && k < nh);
     h * nh - h * (h + 1) / 2 + (k - h - 1)
 }
-
-/// Start of row r's upper part in a packed symmetric 6×6 ([`Sym6`]).
-const SYM_ROW: [usize; 6] = [0, 6, 11, 15, 18, 20];
 
 /// `Φ_jh f` (j ≠ h) of node `n` (nh × nh blocks, those with j ≤ h stored, `Φ_hj = Φ_jhᵀ`).
 #[inline(always)]
@@ -117,7 +114,7 @@ fn main_pass(
                     data.dca.phi[bo + k] = Mat6::ZERO;
                 }
                 for h in 0..nh {
-                    data.dca.dg[top + h] = Sym6::ZERO;
+                    data.dca.dg[top + h] = SymT::ZERO;
                     data.dca.b[top + h] = SpatialMotion::ZERO;
                 }
             }
@@ -195,29 +192,16 @@ fn leaf(
         let ahr = [a_row(&ahc, 0), a_row(&ahc, 1), a_row(&ahc, 2)];
         // Φ_hh, upper triangle: [J, A_hᵀ; ·, a_h× A_hᵀ + 1/m], the lower-right block's row r
         // being a_h × (row r of A_h) (a_h× J a_h×ᵀ = A_h a_h×ᵀ).
-        let br = [ah.cross(ahr[0]), ah.cross(ahr[1]), ah.cross(ahr[2])];
-        d.dg[top + h] = Sym6([
-            jc[0][0],
-            jc[0][1],
-            jc[0][2],
-            ahc[0].x,
-            ahc[0].y,
-            ahc[0].z, // row 0
-            jc[1][1],
-            jc[1][2],
-            ahc[1].x,
-            ahc[1].y,
-            ahc[1].z, // row 1
-            jc[2][2],
-            ahc[2].x,
-            ahc[2].y,
-            ahc[2].z, // row 2
-            br[0].x + im,
-            br[0].y,
-            br[0].z, // row 3
-            br[1].y + im,
-            br[1].z,      // row 4
-            br[2].z + im, // row 5
+        let br = [ah.cross(ahr[0]), ah.cross(ahr[1]), ah.cross(ahr[2])].map(|v| v.to_array());
+        let a = ahc.map(|v| v.to_array());
+        // By tiles (`SymT`): rows 0-1, 2-3, 4-5 against columns 0-1, 2-3, 4-5.
+        d.dg[top + h] = SymT([
+            [jc[0][0], jc[0][1], jc[0][1], jc[1][1]],
+            [jc[0][2], a[0][0], jc[1][2], a[1][0]],
+            [a[0][1], a[0][2], a[1][1], a[1][2]],
+            [jc[2][2], a[2][0], a[2][0], br[0][0] + im],
+            [a[2][1], a[2][2], br[0][1], br[0][2]],
+            [br[1][1] + im, br[1][2], br[1][2], br[2][2] + im],
         ]);
         for (k, &pk) in handles.iter().enumerate().skip(h + 1) {
             let ak = c - d.point[pk as usize];
@@ -332,9 +316,9 @@ fn join(
     let (hoa, hob, top) = (na.slot as usize, nb.slot as usize, nc.slot as usize);
     let (ja, jb) = (nc.ja as usize, nc.jb as usize);
     let (boa, bob, bc) = (na.boff as usize, nb.boff as usize, nc.boff as usize);
-    // K = Φ^A_jj + Φ^B_jj, packed.
-    let (pa, pb) = (&d.dg[hoa + ja].0, &d.dg[hob + jb].0);
-    let kp: [f64; 21] = std::array::from_fn(|i| pa[i] + pb[i]);
+    // K = Φ^A_jj + Φ^B_jj, tiled.
+    let ks = SymT::sum(&d.dg[hoa + ja], &d.dg[hob + jb]);
+    let kf = |r: usize, c: usize| ks.at(r, c);
     // S and c at the joint's point P_j.
     let pj = d.point[joint];
     let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj));
@@ -354,15 +338,13 @@ fn join(
         let (p, q) = perpendicular_pair(w);
         // K's blocks: the symmetric angular one K_ω (rows and columns 0..3) and the coupling
         // K_c (rows 0..3, columns 3..6): K_ω x and K_cᵀ x for x = p, q, ω.
-        let kw = |x: &[f64; 3]| {
-            [
-                kp[0] * x[0] + kp[1] * x[1] + kp[2] * x[2],
-                kp[1] * x[0] + kp[6] * x[1] + kp[7] * x[2],
-                kp[2] * x[0] + kp[7] * x[1] + kp[11] * x[2],
-            ]
+        let kw = |x: &[f64; 3]| -> [f64; 3] {
+            let row = |r: usize| kf(r, 0) * x[0] + kf(r, 1) * x[1] + kf(r, 2) * x[2];
+            [row(0), row(1), row(2)]
         };
         let kc = |x: &[f64; 3]| -> [f64; 3] {
-            std::array::from_fn(|c| x[0] * kp[3 + c] + x[1] * kp[8 + c] + x[2] * kp[12 + c])
+            let col = |c: usize| x[0] * kf(0, c) + x[1] * kf(1, c) + x[2] * kf(2, c);
+            [col(3), col(4), col(5)]
         };
         let (kwp, kwq, kww) = (kw(&p), kw(&q), kw(&w));
         let (kcp, kcq, kcw) = (kc(&p), kc(&q), kc(&w));
@@ -375,12 +357,11 @@ fn join(
             mt[2 + r][0] = kcp[r];
             mt[2 + r][1] = kcq[r];
         }
-        mt[2][2] = kp[15];
-        mt[3][2] = kp[16];
-        mt[4][2] = kp[17];
-        mt[3][3] = kp[18];
-        mt[4][3] = kp[19];
-        mt[4][4] = kp[20];
+        for r in 2..5 {
+            for c in 2..=r {
+                mt[r][c] = kf(r + 1, c + 1);
+            }
+        }
         let mut m = [[0.0; 6]; 6];
         if !crate::small::ldl5(&mt, &mut m) {
             return Err(DynamicsError::Singular {
@@ -406,22 +387,28 @@ fn join(
         rj.gamma = gamma;
         rj.qdd = dot6(&rj.g, &ba) + qt * t;
         let rj = &d.rev[nc.jix as usize];
+        // M = L D^{1/2}, the Cholesky factor of TᵀKT: M_rq = L_rq √d_q below the diagonal.
+        let sd: [f64; 5] = std::array::from_fn(|q| 1.0 / m[q][5]);
+        let mm: [[f64; 5]; 5] = std::array::from_fn(|r| {
+            std::array::from_fn(|q| if q < r { m[r][q] * sd[q] } else { 0.0 })
+        });
+        let inv_d: [f64; 5] = std::array::from_fn(|r| m[r][5]);
         for h in 0..nhc {
             let (bo, nh, j, i) = from(h);
-            // Tᵀ Φ_jh: from the rows of the stored Φ_jh, or the columns of the stored Φ_hj.
-            let tg = if j < i {
-                t_rows(&d.phi[bo + ub(nh, j, i)].0, rj)
+            // Φ_jh: the stored block's rows, or the stored Φ_hj's columns.
+            let g = &d.phi[bo + if j < i { ub(nh, j, i) } else { ub(nh, i, j) }].0;
+            if j < i {
+                y_reduced(&mut d.y[h], |r, c| g[r][c], rj, &mm, &inv_d);
             } else {
-                t_cols(&d.phi[bo + ub(nh, i, j)].0, rj)
-            };
-            y_reduced(&mut d.y[h], tg, &m);
+                y_reduced(&mut d.y[h], |r, c| g[c][r], rj, &mm, &inv_d);
+            }
         }
         rows = 5;
     } else {
         let mut sum = [[0.0; 6]; 6];
         for r in 0..6 {
             for c in r..6 {
-                let x = kp[SYM_ROW[r] + c - r];
+                let x = kf(r, c);
                 sum[r][c] = x;
                 sum[c][r] = x;
             }
@@ -645,31 +632,6 @@ fn t_mul(rj: &RevJoin, l: [f64; 5]) -> [f64; 6] {
     ]
 }
 
-/// The rows of `Tᵀ Gᵀ` (G's columns combined).
-#[inline(always)]
-fn t_cols(g: &[[f64; 6]; 6], rj: &RevJoin) -> [[f64; 6]; 5] {
-    [
-        std::array::from_fn(|c| dot3(&rj.p, &g[c])),
-        std::array::from_fn(|c| dot3(&rj.q, &g[c])),
-        std::array::from_fn(|c| g[c][3]),
-        std::array::from_fn(|c| g[c][4]),
-        std::array::from_fn(|c| g[c][5]),
-    ]
-}
-
-/// The rows of `Tᵀ G` (G's rows combined).
-#[inline(always)]
-fn t_rows(g: &[[f64; 6]; 6], rj: &RevJoin) -> [[f64; 6]; 5] {
-    let (p, q) = (&rj.p, &rj.q);
-    [
-        std::array::from_fn(|c| p[0] * g[0][c] + p[1] * g[1][c] + p[2] * g[2][c]),
-        std::array::from_fn(|c| q[0] * g[0][c] + q[1] * g[1][c] + q[2] * g[2][c]),
-        g[3],
-        g[4],
-        g[5],
-    ]
-}
-
 /// `T (TᵀKT)⁻¹ Tᵀ y` (the packed `L D Lᵀ` factors of `TᵀKT` in `rj.l`, see [`RevJoin`]), the
 /// two unit triangular solves written out.
 #[inline(always)]
@@ -713,25 +675,40 @@ fn joint_terms(w: &[f64; 3], ks: &[f64; 6], rj: &mut RevJoin) -> f64 {
     -dot6(&g, ks) * iss
 }
 
-/// `Ỹ = D^{-1/2} L⁻¹ Tᵀ G` (5 rows; `M = L D^{1/2}` the Cholesky factor of `TᵀKT`, `m` its
-/// [`crate::small::ldl5`] form) for `G = Φ_jh`, from the rows `z` of `Tᵀ G`: unit forward
-/// substitution on whole rows, then each row scaled.
+/// `Ỹ = M⁻¹ Tᵀ G` (5 rows; `M = L D^{1/2}` the Cholesky factor of `TᵀKT`: `mm` its entries
+/// below the diagonal, `inv_d` the inverses of its diagonal) for `G = Φ_jh` with entries
+/// `g(r, c)`: a pair of columns at a time, `Tᵀ G` (`[p·g_ω; q·g_ω; g_v]`) then the forward
+/// substitution, all in registers.
 #[inline(always)]
-fn y_reduced(yt: &mut [[f64; 6]; 6], mut z: [[f64; 6]; 5], m: &[[f64; 6]; 6]) {
-    for r in 1..5 {
-        let (done, rest) = z.split_at_mut(r);
-        let v = &mut rest[0];
-        for (q, zq) in done.iter().enumerate() {
-            let mrq = m[r][q];
-            for c in 0..6 {
-                v[c] -= mrq * zq[c];
+fn y_reduced(
+    yt: &mut [[f64; 6]; 6],
+    g: impl Fn(usize, usize) -> f64,
+    rj: &RevJoin,
+    mm: &[[f64; 5]; 5],
+    inv_d: &[f64; 5],
+) {
+    let (p, q) = (&rj.p, &rj.q);
+    for c in [0, 2, 4] {
+        let col = |r: usize| [g(r, c), g(r, c + 1)];
+        let (g0, g1, g2) = (col(0), col(1), col(2));
+        let mut z: [[f64; 2]; 5] = [
+            std::array::from_fn(|k| p[0] * g0[k] + p[1] * g1[k] + p[2] * g2[k]),
+            std::array::from_fn(|k| q[0] * g0[k] + q[1] * g1[k] + q[2] * g2[k]),
+            col(3),
+            col(4),
+            col(5),
+        ];
+        // M Ỹ = Z, row by row.
+        for r in 0..5 {
+            for k in 0..2 {
+                let mut v = z[r][k];
+                for (qq, zq) in z[..r].iter().enumerate() {
+                    v -= mm[r][qq] * zq[k];
+                }
+                z[r][k] = v * inv_d[r];
             }
-        }
-    }
-    for r in 0..5 {
-        let s = m[r][5];
-        for c in 0..6 {
-            yt[r][c] = z[r][c] * s;
+            yt[r][c] = z[r][0];
+            yt[r][c + 1] = z[r][1];
         }
     }
 }
@@ -745,10 +722,16 @@ fn gram_into<const R: usize>(
     yk: &[[f64; 6]; 6],
     old: Option<&[[f64; 6]; 6]>,
 ) {
-    // Two rows at a time: each row of Ỹ_k is loaded once for both.
+    // Two rows at a time: each row of Ỹ_k is loaded once for both; the sums start with their
+    // first product.
     for r in (0..6).step_by(2) {
         let mut acc = [[0.0; 6]; 2];
-        for i in 0..R {
+        for dr in 0..2 {
+            for c in 0..6 {
+                acc[dr][c] = yh[0][r + dr] * yk[0][c];
+            }
+        }
+        for i in 1..R {
             let (x0, x1) = (yh[i][r], yh[i][r + 1]);
             let yki = &yk[i];
             for c in 0..6 {
@@ -769,29 +752,42 @@ fn gram_into<const R: usize>(
     }
 }
 
-/// [`gram_into`] for a diagonal block (`Ỹ_k = Ỹ_h`, symmetric): only the entries on and above
-/// the diagonal, in pairs of columns (rows 2p and 2p+1 start at column 2p); the caller mirrors.
+/// [`gram_into`] for a diagonal block (`Ỹ_k = Ỹ_h`, symmetric): only its upper 2×2 tiles
+/// ([`SymT`]), a row pair of tiles at a time.
 #[inline(never)]
-fn gram_sym_into<const R: usize>(out: &mut Sym6, y: &[[f64; 6]; 6], old: &Sym6) {
-    gram_rows::<0, R>(out, y, old);
-    gram_rows::<2, R>(out, y, old);
-    gram_rows::<4, R>(out, y, old);
+fn gram_sym_into<const R: usize>(out: &mut SymT, y: &[[f64; 6]; 6], old: &SymT) {
+    gram_tiles::<0, R>(out, y, old);
+    gram_tiles::<1, R>(out, y, old);
+    gram_tiles::<2, R>(out, y, old);
 }
 
+/// Tiles `(I, J)`, `J ≥ I`, of `old − ỸᵀỸ`: rows `2I`, `2I+1` from column `2I` on, the sums
+/// started with their first product.
 #[inline(always)]
-fn gram_rows<const C0: usize, const R: usize>(out: &mut Sym6, y: &[[f64; 6]; 6], old: &Sym6) {
-    for r in C0..C0 + 2 {
-        let mut acc = [0.0; 6];
-        for i in 0..R {
-            let x = y[i][r];
-            for c in C0..6 {
-                acc[c] += x * y[i][c];
+fn gram_tiles<const I: usize, const R: usize>(out: &mut SymT, y: &[[f64; 6]; 6], old: &SymT) {
+    let mut acc = [[0.0; 6]; 2];
+    for dr in 0..2 {
+        let x = y[0][2 * I + dr];
+        for c in 2 * I..6 {
+            acc[dr][c] = x * y[0][c];
+        }
+    }
+    for yi in &y[1..R] {
+        for dr in 0..2 {
+            let x = yi[2 * I + dr];
+            for c in 2 * I..6 {
+                acc[dr][c] += x * yi[c];
             }
         }
-        let o = SYM_ROW[r] - r;
-        for c in r..6 {
-            out.0[o + c] = old.0[o + c] - acc[c];
-        }
+    }
+    for j in I..3 {
+        let (o, c) = (&old.0[TILE[I][j]], 2 * j);
+        out.0[TILE[I][j]] = [
+            o[0] - acc[0][c],
+            o[1] - acc[0][c + 1],
+            o[2] - acc[1][c],
+            o[3] - acc[1][c + 1],
+        ];
     }
 }
 

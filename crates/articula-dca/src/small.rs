@@ -288,6 +288,39 @@ impl Sym6 {
     }
 }
 
+/// Tile of the 2×2 block `(I, J)` (`I ≤ J`, blocks of rows and columns `2I, 2I+1`) in [`SymT`].
+pub(crate) const TILE: [[usize; 3]; 3] = [[0, 1, 2], [1, 3, 4], [2, 4, 5]];
+
+/// A symmetric 6×6 matrix stored as its six upper 2×2 tiles `(I, J)`, `I ≤ J` (in the order
+/// of [`TILE`]), each by rows `[a_{2I,2J}, a_{2I,2J+1}, a_{2I+1,2J}, a_{2I+1,2J+1}]` (a diagonal
+/// tile holds its mirrored entry too): DCA's diagonal blocks Φ_hh, whose Gram updates then
+/// run on whole pairs of columns.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct SymT(pub [[f64; 4]; 6]);
+
+impl SymT {
+    pub const ZERO: SymT = SymT([[0.0; 4]; 6]);
+
+    /// Entry `(r, c)`.
+    #[inline(always)]
+    pub fn at(&self, r: usize, c: usize) -> f64 {
+        let (r, c) = if r / 2 > c / 2 { (c, r) } else { (r, c) };
+        self.0[TILE[r / 2][c / 2]][2 * (r % 2) + c % 2]
+    }
+
+    /// `a + b`.
+    #[inline(always)]
+    pub fn sum(a: &SymT, b: &SymT) -> SymT {
+        let mut s = *a;
+        for (st, bt) in s.0.iter_mut().zip(&b.0) {
+            for k in 0..4 {
+                st[k] += bt[k];
+            }
+        }
+        s
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -311,6 +344,17 @@ mod tests {
             assert!((y[i] - e).abs() < 1e-12);
             for j in 0..6 {
                 assert_eq!(s.get(i, j), dense[i][j]);
+            }
+        }
+        let mut t = SymT::ZERO;
+        for (i, j) in [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)] {
+            for k in 0..4 {
+                t.0[TILE[i][j]][k] = dense[2 * i + k / 2][2 * j + k % 2];
+            }
+        }
+        for i in 0..6 {
+            for j in 0..6 {
+                assert_eq!(t.at(i, j), dense[i][j], "({i}, {j})");
             }
         }
         let inertia = articula_spatial::SpatialInertia::new(
