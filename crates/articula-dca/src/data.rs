@@ -153,14 +153,17 @@ pub(crate) enum DKind {
     },
 }
 
-/// A leaf's `Φ = I⁻¹` in closed form, for the back-substitution (see `dca::leaf`): the
-/// computation-frame `J = R I_c⁻¹ Rᵀ` (upper triangle, row by row), the centre of mass `c` and
-/// `1/m`.
+/// A leaf's `Φ = I⁻¹` in closed form, for its leaf and the back-substitution (see
+/// `dca::init_body`, `dca::leaf`): the computation-frame `J = R I_c⁻¹ Rᵀ` (upper triangle, row
+/// by row), the centre of mass `c`, `1/m`, and the body's acceleration for no handle forces
+/// and no gravity, `[α; a_c]` at c.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct LeafK {
     pub j: [f64; 6],
     pub c: [f64; 3],
     pub im: f64,
+    pub alpha: [f64; 3],
+    pub acc_c: [f64; 3],
 }
 
 /// A body's inertia as its DCA leaf uses it, in body coordinates: 128 bytes, two cache lines.

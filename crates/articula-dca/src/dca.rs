@@ -6,30 +6,87 @@
 //! bottom-up over the assembly tree; the back-substitution computes each principal joint's
 //! `q̈` and constraint force top-down.
 
-use crate::data::{DKind, RevJoin, Side};
+use crate::data::{DKind, LeafK, RevJoin, Side};
 use crate::small::{SymT, TILE};
 use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::DVec3;
 
-/// Each handle (joint h) keeps its vectors about its own point P_h, the origin of body h: far
-/// from the computation origin the blocks would otherwise lose digits (a 100,000-link chain
-/// reaches 10 km). Runs in the kinematics loop, right after body h (its pose is in cache).
+/// Per body i, in the kinematics loop right after its pose and velocity (still in cache), what
+/// the leaf and the back-substitution need of it ([`LeafK`]) and its world inertia:
+/// - the point P_i, origin of body i, about which every vector of handle (joint) i is taken: far
+///   from the computation origin the blocks would otherwise lose digits (a 100,000-link chain
+///   reaches 10 km);
+/// - about the centre of mass c: `I_c = R I_c,body Rᵀ`, `J = I_c⁻¹ = R I_c,body⁻¹ Rᵀ`, and the
+///   leaf's acceleration for no handle forces and no gravity, `α = J (n_c − ω × I_c ω)`,
+///   `a_c = f/m − ω × v_c` (`f_ext = [n; f]` about the origin, `n_c = n − c × f`, `v_c` the
+///   velocity of the point at c);
+/// - `data.inertia[i]` by parallel axes: `Ī_O = I_c + m (c·c 1 − c cᵀ)`, `h = m c`.
 #[inline(always)]
-pub(crate) fn init_body(h: usize, data: &mut Data) {
-    data.dca.point[h] = data.x[h].apply_point(DVec3::ZERO);
+pub(crate) fn init_body(model: &Model, i: usize, data: &mut Data, f_ext: &[SpatialForce]) {
+    let x = &data.x[i];
+    let lc = &data.dca.leaf[i];
+    data.dca.point[i] = x.apply_point(DVec3::ZERO);
+    // R: body → computation-frame axes, by columns (e[k] = R e_k).
+    let e = x.e.to_cols_array_2d();
+    let c = x.apply_point(DVec3::from_array(lc.com));
+    let (ic, jc) = if lc.ic[1] == 0.0 && lc.ic[2] == 0.0 && lc.ic[4] == 0.0 {
+        // Principal axes along the body's (the common case): R diag(d) Rᵀ = Σ_k d_k e_k e_kᵀ.
+        rotate_diagonal_pair(
+            &e,
+            [lc.ic[0], lc.ic[3], lc.ic[5]],
+            [lc.ic_inv[0], lc.ic_inv[3], lc.ic_inv[5]],
+        )
+    } else {
+        (
+            rotate_sym(&e, &sym3(&lc.ic)),
+            rotate_sym(&e, &sym3(&lc.ic_inv)),
+        )
+    };
+    let v = data.v[i];
+    let fe = crate::f_ext_of(f_ext, i);
+    let w = v.w.to_array();
+    let icw = DVec3::new(dot3(&ic[0], &w), dot3(&ic[1], &w), dot3(&ic[2], &w));
+    let n_c = (fe.n - c.cross(fe.f) - v.w.cross(icw)).to_array();
+    let alpha = [dot3(&jc[0], &n_c), dot3(&jc[1], &n_c), dot3(&jc[2], &n_c)];
+    let im = lc.im;
+    let acc_c = fe.f * im - v.w.cross(v.v + v.w.cross(c));
+    data.dca.leafk[i] = LeafK {
+        j: [jc[0][0], jc[0][1], jc[0][2], jc[1][1], jc[1][2], jc[2][2]],
+        c: c.to_array(),
+        im,
+        alpha,
+        acc_c: acc_c.to_array(),
+    };
+    let m = model.bodies[i].inertia.mass;
+    let cc = c.dot(c);
+    let ca = c.to_array();
+    let pa = |r: usize, s: usize| ic[r][s] - m * ca[r] * ca[s];
+    let (xx, yy, zz) = (pa(0, 0) + m * cc, pa(1, 1) + m * cc, pa(2, 2) + m * cc);
+    let (xy, xz, yz) = (pa(0, 1), pa(0, 2), pa(1, 2));
+    data.inertia[i] = articula_spatial::SpatialInertia {
+        mass: m,
+        h: c * m,
+        ibar: glam::DMat3::from_cols(
+            DVec3::new(xx, xy, xz),
+            DVec3::new(xy, yy, yz),
+            DVec3::new(xz, yz, zz),
+        ),
+    };
 }
 
 /// Runs DCA on the kinematics already in `data` (see [`crate::forward_kinematics`], with
-/// [`init_body`] run per body); writes `data.qdd`.
+/// [`init_body`] run per body); writes `data.qdd`. Without `bias` the leaves' accelerations
+/// (velocity products, external forces) are left out, and with `data.gravity` and `data.c`
+/// zero this solves `H q̈ = τ`.
 pub(crate) fn dca(
     model: &Model,
     tau: &[f64],
-    f_ext: &[SpatialForce],
     data: &mut Data,
+    bias: bool,
 ) -> Result<(), DynamicsError> {
-    main_pass(model, tau, f_ext, data)?;
+    main_pass(model, tau, data, bias)?;
     back_substitution(model, tau, data);
     Ok(())
 }
@@ -94,12 +151,7 @@ fn leaf_mul(
     SpatialMotion::new(alpha, f.f * lk.im + (c - pj).cross(alpha))
 }
 
-fn main_pass(
-    model: &Model,
-    tau: &[f64],
-    f_ext: &[SpatialForce],
-    data: &mut Data,
-) -> Result<(), DynamicsError> {
+fn main_pass(model: &Model, tau: &[f64], data: &mut Data, bias: bool) -> Result<(), DynamicsError> {
     let tree = &model.assembly;
     let a_g = SpatialMotion::new(DVec3::ZERO, data.gravity);
     for n in 0..tree.nodes.len() {
@@ -118,7 +170,7 @@ fn main_pass(
                     data.dca.b[top + h] = SpatialMotion::ZERO;
                 }
             }
-            DKind::Body(i) => leaf(model, i as usize, (ho, nh, bo, top), f_ext, a_g, data)?,
+            DKind::Body(i) => leaf(model, i as usize, (ho, nh, bo, top), a_g, bias, data)?,
             DKind::Join { joint, a, b } => {
                 join(model, tau, data, n, joint as usize, a as usize, b as usize)?
             }
@@ -128,21 +180,24 @@ fn main_pass(
 }
 
 /// Leaf (DESIGN §5): `Φ_hk = I⁻¹` for every handle pair, `b_h = a_g + I⁻¹ (f_ext − v ×* I v)`,
-/// each handle's rows and columns taken at its own point P_h. About the centre of mass c, where
-/// `I = diag(I_c, m 1)`: with `a_h = c − P_h`, `J = I_c⁻¹` and `A_h = a_h× J`,
-/// `Φ_hk = [J, A_kᵀ; A_h, a_h× A_kᵀ + 1/m]` (`−J e× = A_eᵀ` as J is symmetric). Only the blocks
-/// with `h ≤ k` are computed and stored (`Φ_kh = Φ_hkᵀ`).
+/// each handle's rows and columns taken at its own point P_h, from the body's [`LeafK`]
+/// ([`init_body`]). About the centre of mass c, where `I = diag(I_c, m 1)`: with
+/// `a_h = c − P_h`, `J = I_c⁻¹` and `A_h = a_h× J`,
+/// `Φ_hk = [J, A_kᵀ; A_h, a_h× A_kᵀ + 1/m]` (`−J e× = A_eᵀ` as J is symmetric), and
+/// `b_h = a_g + [α; a_c + a_h × α]`. Only the blocks with `h ≤ k` are computed and stored
+/// (`Φ_kh = Φ_hkᵀ`).
 #[inline(always)]
 fn leaf(
     model: &Model,
     i: usize,
     (ho, nh, bo, top): (usize, usize, usize, usize),
-    f_ext: &[SpatialForce],
     a_g: SpatialMotion,
+    bias: bool,
     data: &mut Data,
 ) -> Result<(), DynamicsError> {
-    let lc = &data.dca.leaf[i];
-    let im = lc.im;
+    let d = &mut data.dca;
+    let lk = &d.leafk[i];
+    let im = lk.im;
     // NaN marks an inertia that is not positive definite.
     if im.is_nan() {
         return Err(DynamicsError::Singular {
@@ -150,74 +205,78 @@ fn leaf(
             detail: "the body's spatial inertia is not positive definite",
         });
     }
-    let x = &data.x[i];
-    // R: body → computation-frame axes, by columns (e[k] = R e_k).
-    let e = x.e.to_cols_array_2d();
-    let c = x.apply_point(DVec3::from_array(lc.com));
-    // J = R I_c⁻¹ Rᵀ (symmetric: rows = columns).
-    let jc = rotate_sym(&e, &sym3(&lc.ic_inv));
-    // Net force about c: f_ext − v ×* I v, with v_c the velocity of the point at c;
-    // I_c ω = R I_c,body Rᵀ ω.
-    let v = data.v[i];
-    let v_c = v.v + v.w.cross(c);
-    let fe = crate::f_ext_of(f_ext, i);
-    let wb = [dot3a(&e[0], v.w), dot3a(&e[1], v.w), dot3a(&e[2], v.w)];
-    let icb = sym3(&lc.ic);
-    let icwb: [f64; 3] = std::array::from_fn(|r| dot3(&icb[r], &wb));
-    let icw = DVec3::from_array(std::array::from_fn(|r| {
-        e[0][r] * icwb[0] + e[1][r] * icwb[1] + e[2][r] * icwb[2]
-    }));
-    let n_c = fe.n - c.cross(fe.f) - v.w.cross(icw);
-    let nc = n_c.to_array();
-    let acc_w = DVec3::from_array(std::array::from_fn(|r| dot3(&jc[r], &nc)));
-    // a_c = (f_ext − m ω × v_c) / m
-    let acc_c = fe.f * im - v.w.cross(v_c);
-    let d = &mut data.dca;
-    d.leafk[i] = crate::data::LeafK {
-        j: [jc[0][0], jc[0][1], jc[0][2], jc[1][1], jc[1][2], jc[2][2]],
-        c: c.to_array(),
-        im,
+    // J by rows (= its columns), c, α and a_c + a_g.
+    let jc = sym3(&lk.j);
+    let c = lk.c;
+    let (alpha, acc_c) = if bias {
+        (lk.alpha, lk.acc_c)
+    } else {
+        ([0.0; 3], [0.0; 3])
     };
+    let acc = add3(acc_c, a_g.v.to_array());
+    let alpha_g = add3(alpha, a_g.w.to_array());
     let handles = &d.hj[ho..ho + nh];
-    // J's columns (= its rows), and the columns of A_h = a_h× J (a_h × J's columns).
-    let jv = jc.map(DVec3::from_array);
-    let a_cols = |a: DVec3| [a.cross(jv[0]), a.cross(jv[1]), a.cross(jv[2])];
-    // Row r of A (from its columns).
-    let a_row = |ac: &[DVec3; 3], r: usize| DVec3::new(ac[0][r], ac[1][r], ac[2][r]);
     for (h, &ph) in handles.iter().enumerate() {
-        let ah = c - d.point[ph as usize];
-        // b at P_h: [α; a_c + α × (P_h − c)] + a_g
-        d.b[top + h] = a_g + SpatialMotion::new(acc_w, acc_c + ah.cross(acc_w));
-        let ahc = a_cols(ah);
-        let ahr = [a_row(&ahc, 0), a_row(&ahc, 1), a_row(&ahc, 2)];
-        // Φ_hh, upper triangle: [J, A_hᵀ; ·, a_h× A_hᵀ + 1/m], the lower-right block's row r
-        // being a_h × (row r of A_h) (a_h× J a_h×ᵀ = A_h a_h×ᵀ).
-        let br = [ah.cross(ahr[0]), ah.cross(ahr[1]), ah.cross(ahr[2])].map(|v| v.to_array());
-        let a = ahc.map(|v| v.to_array());
-        // By tiles (`SymT`): rows 0-1, 2-3, 4-5 against columns 0-1, 2-3, 4-5.
+        let ah = sub3(c, d.point[ph as usize].to_array());
+        // b at P_h: [α; a_c + a_h × α] + a_g
+        d.b[top + h] = SpatialMotion::from_array(cat3(alpha_g, add3(acc, cross3(ah, alpha))));
+        // A_h's columns a_h × (column r of J), and its rows.
+        let col = [cross3(ah, jc[0]), cross3(ah, jc[1]), cross3(ah, jc[2])];
+        let row: [[f64; 3]; 3] = std::array::from_fn(|r| [col[0][r], col[1][r], col[2][r]]);
+        // Φ_hh's lower-right block a_h× A_hᵀ + 1/m: row r is a_h × (row r of A_h); its upper
+        // triangle.
+        let b0 = cross3(ah, row[0]);
+        let b11 = ah[2] * row[1][0] - ah[0] * row[1][2];
+        let b12 = ah[0] * row[1][1] - ah[1] * row[1][0];
+        let b22 = ah[0] * row[2][1] - ah[1] * row[2][0];
+        // By tiles (`SymT`): rows 0-1, 2-3, 4-5 against columns 0-1, 2-3, 4-5; the upper
+        // right block is A_hᵀ (row r = column r of A_h).
         d.dg[top + h] = SymT([
             [jc[0][0], jc[0][1], jc[0][1], jc[1][1]],
-            [jc[0][2], a[0][0], jc[1][2], a[1][0]],
-            [a[0][1], a[0][2], a[1][1], a[1][2]],
-            [jc[2][2], a[2][0], a[2][0], br[0][0] + im],
-            [a[2][1], a[2][2], br[0][1], br[0][2]],
-            [br[1][1] + im, br[1][2], br[1][2], br[2][2] + im],
+            [jc[0][2], col[0][0], jc[1][2], col[1][0]],
+            [col[0][1], col[0][2], col[1][1], col[1][2]],
+            [jc[2][2], col[2][0], col[2][0], b0[0] + im],
+            [col[2][1], col[2][2], b0[1], b0[2]],
+            [b11 + im, b12, b12, b22 + im],
         ]);
         for (k, &pk) in handles.iter().enumerate().skip(h + 1) {
-            let ak = c - d.point[pk as usize];
-            let akc = a_cols(ak);
+            let ak = sub3(c, d.point[pk as usize].to_array());
             // Φ_hk = [J, A_kᵀ; A_h, A_h a_k×ᵀ + 1/m]: row r of the lower right is
-            // a_k × (row r of A_h); row r of A_kᵀ is column r of A_k.
+            // a_k × (row r of A_h); row r of A_kᵀ is column r of A_k, a_k × (column r of J).
             let out = &mut d.phi[bo + ub(nh, h, k)].0;
             for r in 0..3 {
-                let x = ak.cross(ahr[r]);
-                out[r] = [jc[r][0], jc[r][1], jc[r][2], akc[r].x, akc[r].y, akc[r].z];
-                out[r + 3] = [ahr[r].x, ahr[r].y, ahr[r].z, x.x, x.y, x.z];
-                out[r + 3][r + 3] += im;
+                out[r] = cat3(jc[r], cross3(ak, jc[r]));
+                let mut x = cross3(ak, row[r]);
+                x[r] += im;
+                out[r + 3] = cat3(row[r], x);
             }
         }
     }
     Ok(())
+}
+
+#[inline(always)]
+fn cross3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+#[inline(always)]
+fn add3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+#[inline(always)]
+fn sub3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+#[inline(always)]
+fn cat3(a: [f64; 3], b: [f64; 3]) -> [f64; 6] {
+    [a[0], a[1], a[2], b[0], b[1], b[2]]
 }
 
 /// `R S Rᵀ` for a symmetric 3×3 `S` and a rotation given by its columns `e` (`e[k] = R e_k`);
@@ -236,15 +295,28 @@ fn rotate_sym(e: &[[f64; 3]; 3], s: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
     [[a00, a01, a02], [a01, a11, a12], [a02, a12, a22]]
 }
 
+/// `(R diag(d) Rᵀ, R diag(d') Rᵀ) = (Σ_k d_k e_k e_kᵀ, Σ_k d'_k e_k e_kᵀ)` for a rotation given by
+/// its columns `e` (`e[k] = R e_k`); the products' rows.
+#[inline(always)]
+fn rotate_diagonal_pair(
+    e: &[[f64; 3]; 3],
+    d: [f64; 3],
+    d2: [f64; 3],
+) -> ([[f64; 3]; 3], [[f64; 3]; 3]) {
+    // The upper triangles of e_k e_kᵀ: (0,0), (0,1), (0,2), (1,1), (1,2), (2,2).
+    const UP: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
+    let p: [[f64; 6]; 3] = std::array::from_fn(|k| UP.map(|(r, s)| e[k][r] * e[k][s]));
+    let sum = |d: [f64; 3]| -> [[f64; 3]; 3] {
+        let u: [f64; 6] = std::array::from_fn(|t| d[0] * p[0][t] + d[1] * p[1][t] + d[2] * p[2][t]);
+        sym3(&u)
+    };
+    (sum(d), sum(d2))
+}
+
 /// A symmetric 3×3 from its upper triangle (`xx, xy, xz, yy, yz, zz`), by rows.
 #[inline(always)]
 fn sym3(u: &[f64; 6]) -> [[f64; 3]; 3] {
     [[u[0], u[1], u[2]], [u[1], u[3], u[4]], [u[2], u[4], u[5]]]
-}
-
-#[inline(always)]
-fn dot3a(a: &[f64; 3], x: DVec3) -> f64 {
-    a[0] * x.x + a[1] * x.y + a[2] * x.z
 }
 
 /// `L⁻¹ b` (forward substitution; `l` from [`crate::small::cholesky6`], inverse diagonal).
@@ -378,10 +450,12 @@ fn join(
         ];
         // K s = [K_ω ω; K_cᵀ ω]
         let ks = [kww[0], kww[1], kww[2], kcw[0], kcw[1], kcw[2]];
-        let qt = joint_terms(&w, &ks, rj);
-        // γ = W β + f_τ τ, f_τ = −g: the joint force without handle forces; and q̈ then.
         let ba = beta.to_array();
-        let wb = w_apply(rj, &ba);
+        // W K s and W β side by side (two lanes).
+        let wkb = w_apply(rj, &std::array::from_fn(|i| P2([ks[i], ba[i]])));
+        let qt = joint_terms(&w, &ks, &wkb.map(|x| x.0[0]), rj);
+        // γ = W β + f_τ τ, f_τ = −g: the joint force without handle forces; and q̈ then.
+        let wb = wkb.map(|x| x.0[1]);
         let t = tau[vo];
         gamma = std::array::from_fn(|i| wb[i] - rj.g[i] * t);
         rj.gamma = gamma;
@@ -614,13 +688,20 @@ fn dot3(a: &[f64; 3], x: &[f64]) -> f64 {
 
 /// `Tᵀ x = [p·x_ω, q·x_ω, x_v]`.
 #[inline(always)]
-fn t_tr(x: &[f64; 6], rj: &RevJoin) -> [f64; 5] {
-    [dot3(&rj.p, &x[..3]), dot3(&rj.q, &x[..3]), x[3], x[4], x[5]]
+fn t_tr<X: Lane>(x: &[X; 6], rj: &RevJoin) -> [X; 5] {
+    let (p, q) = (&rj.p, &rj.q);
+    [
+        x[0] * p[0] + x[1] * p[1] + x[2] * p[2],
+        x[0] * q[0] + x[1] * q[1] + x[2] * q[2],
+        x[3],
+        x[4],
+        x[5],
+    ]
 }
 
 /// `T λ = [λ_0 p + λ_1 q; λ_2, λ_3, λ_4]`.
 #[inline(always)]
-fn t_mul(rj: &RevJoin, l: [f64; 5]) -> [f64; 6] {
+fn t_mul<X: Lane>(rj: &RevJoin, l: [X; 5]) -> [X; 6] {
     let (p, q) = (&rj.p, &rj.q);
     [
         l[0] * p[0] + l[1] * q[0],
@@ -632,24 +713,66 @@ fn t_mul(rj: &RevJoin, l: [f64; 5]) -> [f64; 6] {
     ]
 }
 
+/// What [`w_apply`] and [`y_reduced`] compute on: `f64`, or [`P2`].
+trait Lane:
+    Copy
+    + std::ops::Add<Output = Self>
+    + std::ops::Sub<Output = Self>
+    + std::ops::Mul<f64, Output = Self>
+{
+}
+
+impl Lane for f64 {}
+
+/// Two `f64` lanes (a pair of columns, or two right-hand sides) that the compiler keeps in one
+/// SSE2 register: the 5-row solves run on pairs.
+#[derive(Clone, Copy, Debug)]
+struct P2([f64; 2]);
+
+impl Lane for P2 {}
+
+impl std::ops::Add for P2 {
+    type Output = P2;
+    #[inline(always)]
+    fn add(self, o: P2) -> P2 {
+        P2([self.0[0] + o.0[0], self.0[1] + o.0[1]])
+    }
+}
+
+impl std::ops::Sub for P2 {
+    type Output = P2;
+    #[inline(always)]
+    fn sub(self, o: P2) -> P2 {
+        P2([self.0[0] - o.0[0], self.0[1] - o.0[1]])
+    }
+}
+
+impl std::ops::Mul<f64> for P2 {
+    type Output = P2;
+    #[inline(always)]
+    fn mul(self, x: f64) -> P2 {
+        P2([self.0[0] * x, self.0[1] * x])
+    }
+}
+
 /// `T (TᵀKT)⁻¹ Tᵀ y` (the packed `L D Lᵀ` factors of `TᵀKT` in `rj.l`, see [`RevJoin`]), the
-/// two unit triangular solves written out.
+/// two unit triangular solves written out; for one vector (`f64`) or two side by side ([`P2`]).
 #[inline(always)]
-fn w_apply(rj: &RevJoin, y: &[f64; 6]) -> [f64; 6] {
+fn w_apply<X: Lane>(rj: &RevJoin, y: &[X; 6]) -> [X; 6] {
     let u = t_tr(y, rj);
     let m = &rj.l;
     // L x = u
     let x0 = u[0];
-    let x1 = u[1] - m[1] * x0;
-    let x2 = u[2] - m[3] * x0 - m[4] * x1;
-    let x3 = u[3] - m[6] * x0 - m[7] * x1 - m[8] * x2;
-    let x4 = u[4] - m[10] * x0 - m[11] * x1 - m[12] * x2 - m[13] * x3;
+    let x1 = u[1] - x0 * m[1];
+    let x2 = u[2] - x0 * m[3] - x1 * m[4];
+    let x3 = u[3] - x0 * m[6] - x1 * m[7] - x2 * m[8];
+    let x4 = u[4] - x0 * m[10] - x1 * m[11] - x2 * m[12] - x3 * m[13];
     // Lᵀ λ = D⁻¹ x
     let l4 = x4 * m[14];
-    let l3 = x3 * m[9] - m[13] * l4;
-    let l2 = x2 * m[5] - m[8] * l3 - m[12] * l4;
-    let l1 = x1 * m[2] - m[4] * l2 - m[7] * l3 - m[11] * l4;
-    let l0 = x0 * m[0] - m[1] * l1 - m[3] * l2 - m[6] * l3 - m[10] * l4;
+    let l3 = x3 * m[9] - l4 * m[13];
+    let l2 = x2 * m[5] - l3 * m[8] - l4 * m[12];
+    let l1 = x1 * m[2] - l2 * m[4] - l3 * m[7] - l4 * m[11];
+    let l0 = x0 * m[0] - l1 * m[1] - l2 * m[3] - l3 * m[6] - l4 * m[10];
     t_mul(rj, [l0, l1, l2, l3, l4])
 }
 
@@ -659,9 +782,9 @@ fn w_apply(rj: &RevJoin, y: &[f64; 6]) -> [f64; 6] {
 /// unit torque `f_τ = f₀ − W K f₀ = −g` (`sᵀ f_τ = 1`, `Tᵀ K f_τ = 0`) and
 /// `q̈_τ = sᵀ K f_τ / sᵀs = −gᵀ K s / sᵀs`. Joint torques enter linearly, so a huge τ cannot
 /// overflow an intermediate product. `ks = K s`, `s = [ω; 0]`; sets `g`, returns `q̈_τ`.
+/// `wks = W K s`.
 #[inline(always)]
-fn joint_terms(w: &[f64; 3], ks: &[f64; 6], rj: &mut RevJoin) -> f64 {
-    let wks = w_apply(rj, ks);
+fn joint_terms(w: &[f64; 3], ks: &[f64; 6], wks: &[f64; 6], rj: &mut RevJoin) -> f64 {
     let iss = 1.0 / dot3(w, w);
     let g = [
         (wks[0] - w[0]) * iss,
@@ -689,26 +812,18 @@ fn y_reduced(
 ) {
     let (p, q) = (&rj.p, &rj.q);
     for c in [0, 2, 4] {
-        let col = |r: usize| [g(r, c), g(r, c + 1)];
+        let col = |r: usize| P2([g(r, c), g(r, c + 1)]);
         let (g0, g1, g2) = (col(0), col(1), col(2));
-        let mut z: [[f64; 2]; 5] = [
-            std::array::from_fn(|k| p[0] * g0[k] + p[1] * g1[k] + p[2] * g2[k]),
-            std::array::from_fn(|k| q[0] * g0[k] + q[1] * g1[k] + q[2] * g2[k]),
-            col(3),
-            col(4),
-            col(5),
-        ];
-        // M Ỹ = Z, row by row.
-        for r in 0..5 {
-            for k in 0..2 {
-                let mut v = z[r][k];
-                for (qq, zq) in z[..r].iter().enumerate() {
-                    v -= mm[r][qq] * zq[k];
-                }
-                z[r][k] = v * inv_d[r];
-            }
-            yt[r][c] = z[r][0];
-            yt[r][c + 1] = z[r][1];
+        // M Ỹ = Tᵀ G, row by row.
+        let y0 = (g0 * p[0] + g1 * p[1] + g2 * p[2]) * inv_d[0];
+        let y1 = (g0 * q[0] + g1 * q[1] + g2 * q[2] - y0 * mm[1][0]) * inv_d[1];
+        let y2 = (col(3) - y0 * mm[2][0] - y1 * mm[2][1]) * inv_d[2];
+        let y3 = (col(4) - y0 * mm[3][0] - y1 * mm[3][1] - y2 * mm[3][2]) * inv_d[3];
+        let y4 =
+            (col(5) - y0 * mm[4][0] - y1 * mm[4][1] - y2 * mm[4][2] - y3 * mm[4][3]) * inv_d[4];
+        for (r, y) in [y0, y1, y2, y3, y4].into_iter().enumerate() {
+            yt[r][c] = y.0[0];
+            yt[r][c + 1] = y.0[1];
         }
     }
 }
