@@ -388,6 +388,19 @@ fn join(
     let (hoa, hob, top) = (na.slot as usize, nb.slot as usize, nc.slot as usize);
     let (ja, jb) = (nc.ja as usize, nc.jb as usize);
     let (boa, bob, bc) = (na.boff as usize, nb.boff as usize, nc.boff as usize);
+    let at = JoinAt {
+        hc,
+        nha,
+        nhb,
+        hoa,
+        hob,
+        top,
+        ja,
+        jb,
+        boa,
+        bob,
+        bc,
+    };
     // K = Φ^A_jj + Φ^B_jj, tiled.
     let ks = SymT::sum(&d.dg[hoa + ja], &d.dg[hob + jb]);
     let kf = |r: usize, c: usize| ks.at(r, c);
@@ -397,11 +410,6 @@ fn join(
     let body = &model.bodies[joint]; // for error messages only
                                      // β = b_j^A − b_j^B + c
     let beta = d.b[hoa + ja] - d.b[hob + jb] + shift(data.c[joint]);
-    // Φ_jh (rows) of C's handle h: the stored block, or the transpose of the stored Φ_hj.
-    let from = |h: usize| match d.from[hc + h] {
-        (Side::A, i) => (boa, nha, ja, i as usize),
-        (Side::B, i) => (bob, nhb, jb, i as usize),
-    };
     let rows;
     let gamma;
     if nc.one_dof {
@@ -467,15 +475,12 @@ fn join(
             std::array::from_fn(|q| if q < r { m[r][q] * sd[q] } else { 0.0 })
         });
         let inv_d: [f64; 5] = std::array::from_fn(|r| m[r][5]);
-        for h in 0..nhc {
-            let (bo, nh, j, i) = from(h);
-            // Φ_jh: the stored block's rows, or the stored Φ_hj's columns.
-            let g = &d.phi[bo + if j < i { ub(nh, j, i) } else { ub(nh, i, j) }].0;
-            if j < i {
-                y_reduced(&mut d.y[h], |r, c| g[r][c], rj, &mm, &inv_d);
-            } else {
-                y_reduced(&mut d.y[h], |r, c| g[c][r], rj, &mm, &inv_d);
-            }
+        let pq = (rj.p, rj.q);
+        // Two handles (a chain's joins) unrolled.
+        if nhc == 2 {
+            y_all(d, &at, 2, pq, &mm, &inv_d)
+        } else {
+            y_all(d, &at, nhc, pq, &mm, &inv_d)
         }
         rows = 5;
     } else {
@@ -538,59 +543,100 @@ fn join(
         // Ỹ_h = Q L⁻¹ Φ_jh: forward substitution on whole rows of Φ_jh (vectorises), then the
         // projection Ỹ −= (Z D⁻¹)(Zᵀ Ỹ) (k rank-1 row updates).
         for h in 0..nhc {
-            let (bo, nh, j, i) = from(h);
+            let (bo, nh, j, i) = at.from(d, h);
             let g = cross_rows(&d.phi, bo, nh, j, i);
             y_tilde(&mut d.y[h], &g, &l, &d.z[vo..vo + k], &zd);
         }
         rows = 6;
     }
-    // Φ^C blocks (h ≤ k only; a diagonal block's upper triangle only): same side
-    // Φ_hk − Ỹ_hᵀỸ_k; across +Ỹ_hᵀỸ_k. A side's handles keep their order in C, so a same-side
-    // pair h ≤ k is a stored block of that side too. Then b^C.
-    let (src, dst) = d.phi.split_at_mut(bc);
+    // Two handles (a chain's joins) unrolled.
+    match (nhc, rows) {
+        (2, 5) => c_blocks::<5>(d, &at, 2, &gamma),
+        (_, 5) => c_blocks::<5>(d, &at, nhc, &gamma),
+        _ => c_blocks::<6>(d, &at, nhc, &gamma),
+    }
+    Ok(())
+}
+
+/// Where a join's nodes keep their handles and blocks (see [`DNode`](crate::data::DNode)): C's
+/// handle offset `hc`, A's and B's handle counts, the slots of A, B and C, the principal
+/// joint's index among A's and B's handles, and the block offsets of A, B and C.
+struct JoinAt {
+    hc: usize,
+    nha: usize,
+    nhb: usize,
+    hoa: usize,
+    hob: usize,
+    top: usize,
+    ja: usize,
+    jb: usize,
+    boa: usize,
+    bob: usize,
+    bc: usize,
+}
+
+impl JoinAt {
+    /// Where Φ_jh of C's handle h is: its side's block offset and handle count, the joint's
+    /// and the handle's index there.
+    #[inline(always)]
+    fn from(&self, d: &crate::data::DcaData, h: usize) -> (usize, usize, usize, usize) {
+        match d.from[self.hc + h] {
+            (Side::A, i) => (self.boa, self.nha, self.ja, i as usize),
+            (Side::B, i) => (self.bob, self.nhb, self.jb, i as usize),
+        }
+    }
+}
+
+/// C's blocks and bias from `Ỹ` (R rows each, in `d.y`) and γ: Φ^C_hk for `h ≤ k` (a diagonal
+/// block's upper triangle only): same side `Φ_hk − Ỹ_hᵀỸ_k`, across `+Ỹ_hᵀỸ_k` (a side's
+/// handles keep their order in C, so a same-side pair `h ≤ k` is a stored block of that side
+/// too); then `b^C_h = b^A_h − Φ^A_hj γ` or `b^B_h + Φ^B_hj γ`.
+#[inline(always)]
+fn c_blocks<const R: usize>(
+    d: &mut crate::data::DcaData,
+    at: &JoinAt,
+    nhc: usize,
+    gamma: &[f64; 6],
+) {
+    let (hoa, hob, top) = (at.hoa, at.hob, at.top);
+    let (src, dst) = d.phi.split_at_mut(at.bc);
     // C's slot lies below its children's (one level up the tree).
     let mid = hoa.min(hob);
     let (ddst, dsrc) = d.dg.split_at_mut(mid);
     for h in 0..nhc {
-        let (sh, ih) = d.from[hc + h];
+        let (sh, ih) = d.from[at.hc + h];
         let ih = ih as usize;
         let yh = &d.y[h];
         let old = match sh {
             Side::A => &dsrc[hoa - mid + ih],
             Side::B => &dsrc[hob - mid + ih],
         };
-        match rows {
-            5 => gram_sym_into::<5>(&mut ddst[top + h], yh, old),
-            _ => gram_sym_into::<6>(&mut ddst[top + h], yh, old),
-        }
+        gram_sym_into::<R>(&mut ddst[top + h], yh, old);
         for kk in h + 1..nhc {
-            let (sk, ik) = d.from[hc + kk];
+            let (sk, ik) = d.from[at.hc + kk];
             let ik = ik as usize;
             let yk = &d.y[kk];
             let old = match (sh, sk) {
-                (Side::A, Side::A) => Some(&src[boa + ub(nha, ih, ik)].0),
-                (Side::B, Side::B) => Some(&src[bob + ub(nhb, ih, ik)].0),
+                (Side::A, Side::A) => Some(&src[at.boa + ub(at.nha, ih, ik)].0),
+                (Side::B, Side::B) => Some(&src[at.bob + ub(at.nhb, ih, ik)].0),
                 _ => None,
             };
-            let out = &mut dst[ub(nhc, h, kk)].0;
-            match rows {
-                5 => gram_into::<5>(out, yh, yk, old),
-                _ => gram_into::<6>(out, yh, yk, old),
-            }
+            gram_into::<R>(&mut dst[ub(nhc, h, kk)].0, yh, yk, old);
         }
-        // b^C_h = b^A_h − Φ^A_hj γ  or  b^B_h + Φ^B_hj γ
-        let (bo, nh, j, i) = from(h);
+        let (bo, nh, j, i) = match sh {
+            Side::A => (at.boa, at.nha, at.ja, ih),
+            Side::B => (at.bob, at.nhb, at.jb, ih),
+        };
         let phj_gamma = SpatialMotion::from_array(if j < i {
-            mat_tr_vec(&src[bo + ub(nh, j, i)].0, &gamma)
+            mat_tr_vec(&src[bo + ub(nh, j, i)].0, gamma)
         } else {
-            mat_vec(&src[bo + ub(nh, i, j)].0, &gamma)
+            mat_vec(&src[bo + ub(nh, i, j)].0, gamma)
         });
         d.b[top + h] = match sh {
             Side::A => d.b[hoa + ih] - phj_gamma,
             Side::B => d.b[hob + ih] + phj_gamma,
         };
     }
-    Ok(())
 }
 
 /// Φ_jh (j ≠ h) of a node with `nh` handles and blocks at `bo`, as rows: only the blocks on
@@ -798,6 +844,28 @@ fn joint_terms(w: &[f64; 3], ks: &[f64; 6], wks: &[f64; 6], rj: &mut RevJoin) ->
     -dot6(&g, ks) * iss
 }
 
+/// [`y_reduced`] for each of C's `nhc` handles, into `d.y`.
+#[inline(always)]
+fn y_all(
+    d: &mut crate::data::DcaData,
+    at: &JoinAt,
+    nhc: usize,
+    pq: ([f64; 3], [f64; 3]),
+    mm: &[[f64; 5]; 5],
+    inv_d: &[f64; 5],
+) {
+    for h in 0..nhc {
+        let (bo, nh, j, i) = at.from(d, h);
+        // Φ_jh: the stored block's rows, or the stored Φ_hj's columns.
+        let g = &d.phi[bo + if j < i { ub(nh, j, i) } else { ub(nh, i, j) }].0;
+        if j < i {
+            y_reduced(&mut d.y[h], |r, c| g[r][c], pq, mm, inv_d);
+        } else {
+            y_reduced(&mut d.y[h], |r, c| g[c][r], pq, mm, inv_d);
+        }
+    }
+}
+
 /// `Ỹ = M⁻¹ Tᵀ G` (5 rows; `M = L D^{1/2}` the Cholesky factor of `TᵀKT`: `mm` its entries
 /// below the diagonal, `inv_d` the inverses of its diagonal) for `G = Φ_jh` with entries
 /// `g(r, c)`: a pair of columns at a time, `Tᵀ G` (`[p·g_ω; q·g_ω; g_v]`) then the forward
@@ -806,11 +874,10 @@ fn joint_terms(w: &[f64; 3], ks: &[f64; 6], wks: &[f64; 6], rj: &mut RevJoin) ->
 fn y_reduced(
     yt: &mut [[f64; 6]; 6],
     g: impl Fn(usize, usize) -> f64,
-    rj: &RevJoin,
+    (p, q): ([f64; 3], [f64; 3]),
     mm: &[[f64; 5]; 5],
     inv_d: &[f64; 5],
 ) {
-    let (p, q) = (&rj.p, &rj.q);
     for c in [0, 2, 4] {
         let col = |r: usize| P2([g(r, c), g(r, c + 1)]);
         let (g0, g1, g2) = (col(0), col(1), col(2));
