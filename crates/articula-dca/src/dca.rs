@@ -45,13 +45,17 @@ pub(crate) fn init_body(model: &Model, i: usize, data: &mut Data, f_ext: &[Spati
         )
     };
     let v = data.v[i];
-    let fe = crate::f_ext_of(f_ext, i);
     let w = v.w.to_array();
     let icw = DVec3::new(dot3(&ic[0], &w), dot3(&ic[1], &w), dot3(&ic[2], &w));
-    let n_c = (fe.n - c.cross(fe.f) - v.w.cross(icw)).to_array();
-    let alpha = [dot3(&jc[0], &n_c), dot3(&jc[1], &n_c), dot3(&jc[2], &n_c)];
     let im = lc.im;
-    let acc_c = fe.f * im - v.w.cross(v.v + v.w.cross(c));
+    let (mut n_c, mut acc_c) = (-v.w.cross(icw), -v.w.cross(v.v + v.w.cross(c)));
+    // An empty `f_ext` means no external forces.
+    if let Some(fe) = f_ext.get(i) {
+        n_c += fe.n - c.cross(fe.f);
+        acc_c += fe.f * im;
+    }
+    let n_c = n_c.to_array();
+    let alpha = [dot3(&jc[0], &n_c), dot3(&jc[1], &n_c), dot3(&jc[2], &n_c)];
     data.dca.leafk[i] = LeafK {
         j: [jc[0][0], jc[0][1], jc[0][2], jc[1][1], jc[1][2], jc[2][2]],
         c: c.to_array(),
