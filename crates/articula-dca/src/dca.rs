@@ -433,33 +433,31 @@ fn join(
         let (kwp, kwq, kww) = (kw(&p), kw(&q), kw(&w));
         let (kcp, kcq, kcw) = (kc(&p), kc(&q), kc(&w));
         // Tᵀ K T (lower triangle): [pᵀK_ω p, ·; qᵀK_ω p, qᵀK_ω q; K_cᵀp, K_cᵀq, K_v].
-        let mut mt = [[0.0; 6]; 6];
-        mt[0][0] = dot3(&p, &kwp);
-        mt[1][0] = dot3(&q, &kwp);
-        mt[1][1] = dot3(&q, &kwq);
-        for r in 0..3 {
-            mt[2 + r][0] = kcp[r];
-            mt[2 + r][1] = kcq[r];
-        }
-        for r in 2..5 {
-            for c in 2..=r {
-                mt[r][c] = kf(r + 1, c + 1);
-            }
-        }
-        let mut m = [[0.0; 6]; 6];
-        if !crate::small::ldl5(&mt, &mut m) {
+        let (t00, t10, t11) = (dot3(&p, &kwp), dot3(&q, &kwp), dot3(&q, &kwq));
+        let tkt = |r: usize, c: usize| match (r, c) {
+            (0, 0) => t00,
+            (1, 0) => t10,
+            (1, 1) => t11,
+            (_, 0) => kcp[r - 2],
+            (_, 1) => kcq[r - 2],
+            _ => kf(r + 1, c + 1),
+        };
+        // Its L D Lᵀ factors, and M = L D^{1/2} (`mm` below the diagonal, `inv_d` = 1/√d).
+        let Some(crate::small::Ldl5 {
+            l,
+            m: mm,
+            inv_sqrt_d: inv_d,
+        }) = crate::small::ldl5(tkt)
+        else {
             return Err(DynamicsError::Singular {
                 joint: body.joint_name(),
                 detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
             });
-        }
+        };
         let rj = &mut d.rev[nc.jix as usize];
         rj.p = p;
         rj.q = q;
-        rj.l = [
-            m[0][0], m[1][0], m[1][1], m[2][0], m[2][1], m[2][2], m[3][0], m[3][1], m[3][2],
-            m[3][3], m[4][0], m[4][1], m[4][2], m[4][3], m[4][4],
-        ];
+        rj.l = l;
         // K s = [K_ω ω; K_cᵀ ω]
         let ks = [kww[0], kww[1], kww[2], kcw[0], kcw[1], kcw[2]];
         let ba = beta.to_array();
@@ -473,12 +471,6 @@ fn join(
         rj.gamma = gamma;
         rj.qdd = dot6(&rj.g, &ba) + qt * t;
         let rj = &d.rev[nc.jix as usize];
-        // M = L D^{1/2}, the Cholesky factor of TᵀKT: M_rq = L_rq √d_q below the diagonal.
-        let sd: [f64; 5] = std::array::from_fn(|q| 1.0 / m[q][5]);
-        let mm: [[f64; 5]; 5] = std::array::from_fn(|r| {
-            std::array::from_fn(|q| if q < r { m[r][q] * sd[q] } else { 0.0 })
-        });
-        let inv_d: [f64; 5] = std::array::from_fn(|r| m[r][5]);
         let pq = (rj.p, rj.q);
         // Two handles (a chain's joins) unrolled.
         if nhc == 2 {

@@ -46,37 +46,62 @@ pub fn cholesky6(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
     ok.then_some(l)
 }
 
-/// `L D Lᵀ` of the leading 5×5 block of a symmetric positive definite matrix (its lower
-/// triangle is read) into `l`, `false` when a pivot is not positive. Below the diagonal: the unit lower
-/// factor L; on it: `1 / d_j`; in column 5: `1 / √d_j`, the inverse diagonal of the Cholesky
-/// factor `L D^{1/2}`. The recursion's critical path holds one division per column and no square
-/// root (those are taken at the end, independently of one another).
+/// `L D Lᵀ` of a 5×5 symmetric positive definite matrix given by its lower-triangle entries
+/// `a(i, j)`, `i ≥ j`; `None` when a pivot is not positive. Returns L packed by rows (`(i, j)`
+/// at `i (i + 1) / 2 + j`: `L_ij` below the diagonal, `1 / d_i` on it), and the Cholesky
+/// factor `M = L D^{1/2}` as its entries below the diagonal `M_ij = L_ij √d_j = c_ij / √d_j`
+/// (`c_ij = L_ij d_j`) and its inverse diagonal `1 / √d_i`. The recursion's critical path holds
+/// one division per column and no square root (those are taken at the end, independently of
+/// one another).
 #[inline(always)]
-pub fn ldl5(a: &[[f64; 6]; 6], l: &mut [[f64; 6]; 6]) -> bool {
-    // c_ij = L_ij d_j (i > j)
+pub fn ldl5(a: impl Fn(usize, usize) -> f64) -> Option<Ldl5> {
+    // l: L below the diagonal, 1/d_j on it; c_ij = L_ij d_j (i > j).
+    let mut l = [[0.0f64; 5]; 5];
     let mut c = [[0.0f64; 5]; 5];
     let mut ok = true;
-    ldl_col::<0>(a, l, &mut c, &mut ok);
-    ldl_col::<1>(a, l, &mut c, &mut ok);
-    ldl_col::<2>(a, l, &mut c, &mut ok);
-    ldl_col::<3>(a, l, &mut c, &mut ok);
-    ldl_col::<4>(a, l, &mut c, &mut ok);
-    for (j, row) in l.iter_mut().enumerate().take(5) {
-        row[5] = row[j].sqrt();
+    ldl_col::<0>(&a, &mut l, &mut c, &mut ok);
+    ldl_col::<1>(&a, &mut l, &mut c, &mut ok);
+    ldl_col::<2>(&a, &mut l, &mut c, &mut ok);
+    ldl_col::<3>(&a, &mut l, &mut c, &mut ok);
+    ldl_col::<4>(&a, &mut l, &mut c, &mut ok);
+    if !ok {
+        return None;
     }
-    ok
+    let isd: [f64; 5] = std::array::from_fn(|j| l[j][j].sqrt());
+    let m = std::array::from_fn(|i| {
+        std::array::from_fn(|j| if j < i { c[i][j] * isd[j] } else { 0.0 })
+    });
+    let packed = [
+        l[0][0], l[1][0], l[1][1], l[2][0], l[2][1], l[2][2], l[3][0], l[3][1], l[3][2], l[3][3],
+        l[4][0], l[4][1], l[4][2], l[4][3], l[4][4],
+    ];
+    Some(Ldl5 {
+        l: packed,
+        m,
+        inv_sqrt_d: isd,
+    })
+}
+
+/// What [`ldl5`] returns.
+pub struct Ldl5 {
+    /// L and `1 / d_i`, packed by rows.
+    pub l: [f64; 15],
+    /// `M = L D^{1/2}` below the diagonal.
+    pub m: [[f64; 5]; 5],
+    /// `1 / √d_i`.
+    pub inv_sqrt_d: [f64; 5],
 }
 
 /// Column `J` of [`ldl5`]: `d_J = a_JJ − Σ_p L_Jp c_Jp`, `c_iJ = a_iJ − Σ_p L_ip c_Jp`,
 /// `L_iJ = c_iJ / d_J`.
 #[inline(always)]
 fn ldl_col<const J: usize>(
-    a: &[[f64; 6]; 6],
-    l: &mut [[f64; 6]; 6],
+    a: &impl Fn(usize, usize) -> f64,
+    l: &mut [[f64; 5]; 5],
     c: &mut [[f64; 5]; 5],
     ok: &mut bool,
 ) {
-    let mut d = a[J][J];
+    let mut d = a(J, J);
     for p in 0..J {
         d -= l[J][p] * c[J][p];
     }
@@ -85,7 +110,7 @@ fn ldl_col<const J: usize>(
     let inv = 1.0 / d;
     l[J][J] = inv;
     for i in (J + 1)..5 {
-        let mut x = a[i][J];
+        let mut x = a(i, J);
         for p in 0..J {
             x -= l[i][p] * c[J][p];
         }
