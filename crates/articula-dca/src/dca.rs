@@ -371,7 +371,7 @@ fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
 ///   `γ = W β + V S D⁻¹ Q_τ = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − τ))` with `w = L⁻¹ β`.
 ///
 /// Either way `Φ_hj W Φ_jk = Ỹ_hᵀ Ỹ_k`: one Gram product per stored block of C (`h ≤ k`; the
-/// diagonal ones on their upper triangle).
+/// diagonal ones on their upper 2×2 tiles, [`SymT`]).
 ///
 /// A's, B's and C's diagonal blocks and b are in their nodes' slots (see `DcaData::dg`).
 #[inline(never)]
@@ -584,7 +584,7 @@ impl JoinAt {
 }
 
 /// C's blocks and bias from `Ỹ` (R rows each, in `d.y`) and γ: Φ^C_hk for `h ≤ k` (a diagonal
-/// block's upper triangle only): same side `Φ_hk − Ỹ_hᵀỸ_k`, across `+Ỹ_hᵀỸ_k` (a side's
+/// block's upper 2×2 tiles only): same side `Φ_hk − Ỹ_hᵀỸ_k`, across `+Ỹ_hᵀỸ_k` (a side's
 /// handles keep their order in C, so a same-side pair `h ≤ k` is a stored block of that side
 /// too); then `b^C_h = b^A_h − Φ^A_hj γ` or `b^B_h + Φ^B_hj γ`.
 #[inline(always)]
