@@ -1,7 +1,7 @@
 //! The workspace beside the immutable model: every per-step buffer, allocated once.
 
 use crate::kinematics::FkPlan;
-use crate::small::{SmallSpd, Sym6};
+use crate::small::{SmallSpd, Sym6, SymT};
 use articula_model::{JointKind, Model, NodeKind};
 use articula_spatial::{Mat6, SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
 use glam::DVec3;
@@ -84,12 +84,12 @@ pub(crate) struct DcaData {
     pub from: Vec<(Side, u32)>,
     /// Φ's cross blocks.
     pub phi: Vec<Mat6>,
-    /// Φ's diagonal blocks `Φ_hh` (packed symmetric) and the bias accelerations `b_h`: only the
+    /// Φ's diagonal blocks `Φ_hh` (symmetric, upper 2×2 tiles) and the bias accelerations `b_h`: only the
     /// parent join reads them, so they live in a slot per (depth, side) instead of per node —
     /// in post-order, the child visited first waits while its sibling's subtree (deeper
     /// nodes, and the sibling itself on the other side) is built, so no live slot is reused.
     /// A few kB, cache-resident however long the chain.
-    pub dg: Vec<Sym6>,
+    pub dg: Vec<SymT>,
     pub b: Vec<SpatialMotion>,
     /// Per body: what the back-substitution needs of its leaf.
     pub leafk: Vec<LeafK>,
@@ -153,14 +153,17 @@ pub(crate) enum DKind {
     },
 }
 
-/// A leaf's `Φ = I⁻¹` in closed form, for the back-substitution (see `dca::leaf`): the
-/// computation-frame `J = R I_c⁻¹ Rᵀ` (upper triangle, row by row), the centre of mass `c` and
-/// `1/m`.
+/// A leaf's `Φ = I⁻¹` in closed form, for its leaf and the back-substitution (see
+/// `dca::init_body`, `dca::leaf`): the computation-frame `J = R I_c⁻¹ Rᵀ` (upper triangle, row
+/// by row), the centre of mass `c`, `1/m`, and the body's acceleration for no handle forces
+/// and no gravity, `[α; a_c]` at c.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct LeafK {
     pub j: [f64; 6],
     pub c: [f64; 3],
     pub im: f64,
+    pub alpha: [f64; 3],
+    pub acc_c: [f64; 3],
 }
 
 /// A body's inertia as its DCA leaf uses it, in body coordinates: 128 bytes, two cache lines.
@@ -338,7 +341,7 @@ impl Data {
                     .collect(),
                 from,
                 phi: vec![Mat6::ZERO; blk],
-                dg: vec![Sym6::ZERO; slots],
+                dg: vec![SymT::ZERO; slots],
                 b: vec![SpatialMotion::ZERO; slots],
                 leafk: vec![LeafK::default(); n],
                 f: vec![SpatialForce::ZERO; slots],

@@ -6,30 +6,91 @@
 //! bottom-up over the assembly tree; the back-substitution computes each principal joint's
 //! `q̈` and constraint force top-down.
 
-use crate::data::{DKind, RevJoin, Side};
-use crate::small::Sym6;
+use crate::data::{DKind, LeafK, RevJoin, Side};
+use crate::small::{SymT, TILE};
 use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::DVec3;
 
-/// Each handle (joint h) keeps its vectors about its own point P_h, the origin of body h: far
-/// from the computation origin the blocks would otherwise lose digits (a 100,000-link chain
-/// reaches 10 km). Runs in the kinematics loop, right after body h (its pose is in cache).
+/// Per body i, in the kinematics loop right after its pose and velocity (still in cache), what
+/// the leaf and the back-substitution need of it ([`LeafK`]) and its world inertia:
+/// - the point P_i, origin of body i, about which every vector of handle (joint) i is taken: far
+///   from the computation origin the blocks would otherwise lose digits (a 100,000-link chain
+///   reaches 10 km);
+/// - about the centre of mass c: `I_c = R I_c,body Rᵀ`, `J = I_c⁻¹ = R I_c,body⁻¹ Rᵀ`, and the
+///   leaf's acceleration for no handle forces and no gravity, `α = J (n_c − ω × I_c ω)`,
+///   `a_c = f/m − ω × v_c` (`f_ext = [n; f]` about the origin, `n_c = n − c × f`, `v_c` the
+///   velocity of the point at c);
+/// - `data.inertia[i]` by parallel axes: `Ī_O = I_c + m (c·c 1 − c cᵀ)`, `h = m c`.
 #[inline(always)]
-pub(crate) fn init_body(h: usize, data: &mut Data) {
-    data.dca.point[h] = data.x[h].apply_point(DVec3::ZERO);
+pub(crate) fn init_body(model: &Model, i: usize, data: &mut Data, f_ext: &[SpatialForce]) {
+    let x = &data.x[i];
+    let lc = &data.dca.leaf[i];
+    data.dca.point[i] = x.apply_point(DVec3::ZERO);
+    // R: body → computation-frame axes, by columns (e[k] = R e_k).
+    let e = x.e.to_cols_array_2d();
+    let c = x.apply_point(DVec3::from_array(lc.com));
+    let (ic, jc) = if lc.ic[1] == 0.0 && lc.ic[2] == 0.0 && lc.ic[4] == 0.0 {
+        // Principal axes along the body's (the common case): R diag(d) Rᵀ = Σ_k d_k e_k e_kᵀ.
+        rotate_diagonal_pair(
+            &e,
+            [lc.ic[0], lc.ic[3], lc.ic[5]],
+            [lc.ic_inv[0], lc.ic_inv[3], lc.ic_inv[5]],
+        )
+    } else {
+        (
+            rotate_sym(&e, &sym3(&lc.ic)),
+            rotate_sym(&e, &sym3(&lc.ic_inv)),
+        )
+    };
+    let v = data.v[i];
+    let w = v.w.to_array();
+    let icw = DVec3::new(dot3(&ic[0], &w), dot3(&ic[1], &w), dot3(&ic[2], &w));
+    let im = lc.im;
+    let (mut n_c, mut acc_c) = (-v.w.cross(icw), -v.w.cross(v.v + v.w.cross(c)));
+    // An empty `f_ext` means no external forces.
+    if let Some(fe) = f_ext.get(i) {
+        n_c += fe.n - c.cross(fe.f);
+        acc_c += fe.f * im;
+    }
+    let n_c = n_c.to_array();
+    let alpha = [dot3(&jc[0], &n_c), dot3(&jc[1], &n_c), dot3(&jc[2], &n_c)];
+    data.dca.leafk[i] = LeafK {
+        j: [jc[0][0], jc[0][1], jc[0][2], jc[1][1], jc[1][2], jc[2][2]],
+        c: c.to_array(),
+        im,
+        alpha,
+        acc_c: acc_c.to_array(),
+    };
+    let m = model.bodies[i].inertia.mass;
+    let cc = c.dot(c);
+    let ca = c.to_array();
+    let pa = |r: usize, s: usize| ic[r][s] - m * ca[r] * ca[s];
+    let (xx, yy, zz) = (pa(0, 0) + m * cc, pa(1, 1) + m * cc, pa(2, 2) + m * cc);
+    let (xy, xz, yz) = (pa(0, 1), pa(0, 2), pa(1, 2));
+    data.inertia[i] = articula_spatial::SpatialInertia {
+        mass: m,
+        h: c * m,
+        ibar: glam::DMat3::from_cols(
+            DVec3::new(xx, xy, xz),
+            DVec3::new(xy, yy, yz),
+            DVec3::new(xz, yz, zz),
+        ),
+    };
 }
 
 /// Runs DCA on the kinematics already in `data` (see [`crate::forward_kinematics`], with
-/// [`init_body`] run per body); writes `data.qdd`.
+/// [`init_body`] run per body); writes `data.qdd`. Without `bias` the leaves' accelerations
+/// (velocity products, external forces) are left out, and with `data.gravity` and `data.c`
+/// zero this solves `H q̈ = τ`.
 pub(crate) fn dca(
     model: &Model,
     tau: &[f64],
-    f_ext: &[SpatialForce],
     data: &mut Data,
+    bias: bool,
 ) -> Result<(), DynamicsError> {
-    main_pass(model, tau, f_ext, data)?;
+    main_pass(model, tau, data, bias)?;
     back_substitution(model, tau, data);
     Ok(())
 }
@@ -41,9 +102,6 @@ fn ub(nh: usize, h: usize, k: usize) -> usize {
     debug_assert!(h < k && k < nh);
     h * nh - h * (h + 1) / 2 + (k - h - 1)
 }
-
-/// Start of row r's upper part in a packed symmetric 6×6 ([`Sym6`]).
-const SYM_ROW: [usize; 6] = [0, 6, 11, 15, 18, 20];
 
 /// `Φ_jh f` (j ≠ h) of node `n` (nh × nh blocks, those with j ≤ h stored, `Φ_hj = Φ_jhᵀ`).
 #[inline(always)]
@@ -97,12 +155,7 @@ fn leaf_mul(
     SpatialMotion::new(alpha, f.f * lk.im + (c - pj).cross(alpha))
 }
 
-fn main_pass(
-    model: &Model,
-    tau: &[f64],
-    f_ext: &[SpatialForce],
-    data: &mut Data,
-) -> Result<(), DynamicsError> {
+fn main_pass(model: &Model, tau: &[f64], data: &mut Data, bias: bool) -> Result<(), DynamicsError> {
     let tree = &model.assembly;
     let a_g = SpatialMotion::new(DVec3::ZERO, data.gravity);
     for n in 0..tree.nodes.len() {
@@ -117,11 +170,11 @@ fn main_pass(
                     data.dca.phi[bo + k] = Mat6::ZERO;
                 }
                 for h in 0..nh {
-                    data.dca.dg[top + h] = Sym6::ZERO;
+                    data.dca.dg[top + h] = SymT::ZERO;
                     data.dca.b[top + h] = SpatialMotion::ZERO;
                 }
             }
-            DKind::Body(i) => leaf(model, i as usize, (ho, nh, bo, top), f_ext, a_g, data)?,
+            DKind::Body(i) => leaf(model, i as usize, (ho, nh, bo, top), a_g, bias, data)?,
             DKind::Join { joint, a, b } => {
                 join(model, tau, data, n, joint as usize, a as usize, b as usize)?
             }
@@ -131,21 +184,24 @@ fn main_pass(
 }
 
 /// Leaf (DESIGN §5): `Φ_hk = I⁻¹` for every handle pair, `b_h = a_g + I⁻¹ (f_ext − v ×* I v)`,
-/// each handle's rows and columns taken at its own point P_h. About the centre of mass c, where
-/// `I = diag(I_c, m 1)`: with `a_h = c − P_h`, `J = I_c⁻¹` and `A_h = a_h× J`,
-/// `Φ_hk = [J, A_kᵀ; A_h, a_h× A_kᵀ + 1/m]` (`−J e× = A_eᵀ` as J is symmetric). Only the blocks
-/// with `h ≤ k` are computed and stored (`Φ_kh = Φ_hkᵀ`).
+/// each handle's rows and columns taken at its own point P_h, from the body's [`LeafK`]
+/// ([`init_body`]). About the centre of mass c, where `I = diag(I_c, m 1)`: with
+/// `a_h = c − P_h`, `J = I_c⁻¹` and `A_h = a_h× J`,
+/// `Φ_hk = [J, A_kᵀ; A_h, a_h× A_kᵀ + 1/m]` (`−J e× = A_eᵀ` as J is symmetric), and
+/// `b_h = a_g + [α; a_c + a_h × α]`. Only the blocks with `h ≤ k` are computed and stored
+/// (`Φ_kh = Φ_hkᵀ`).
 #[inline(always)]
 fn leaf(
     model: &Model,
     i: usize,
     (ho, nh, bo, top): (usize, usize, usize, usize),
-    f_ext: &[SpatialForce],
     a_g: SpatialMotion,
+    bias: bool,
     data: &mut Data,
 ) -> Result<(), DynamicsError> {
-    let lc = &data.dca.leaf[i];
-    let im = lc.im;
+    let d = &mut data.dca;
+    let lk = &d.leafk[i];
+    let im = lk.im;
     // NaN marks an inertia that is not positive definite.
     if im.is_nan() {
         return Err(DynamicsError::Singular {
@@ -153,87 +209,78 @@ fn leaf(
             detail: "the body's spatial inertia is not positive definite",
         });
     }
-    let x = &data.x[i];
-    // R: body → computation-frame axes, by columns (e[k] = R e_k).
-    let e = x.e.to_cols_array_2d();
-    let c = x.apply_point(DVec3::from_array(lc.com));
-    // J = R I_c⁻¹ Rᵀ (symmetric: rows = columns).
-    let jc = rotate_sym(&e, &sym3(&lc.ic_inv));
-    // Net force about c: f_ext − v ×* I v, with v_c the velocity of the point at c;
-    // I_c ω = R I_c,body Rᵀ ω.
-    let v = data.v[i];
-    let v_c = v.v + v.w.cross(c);
-    let fe = crate::f_ext_of(f_ext, i);
-    let wb = [dot3a(&e[0], v.w), dot3a(&e[1], v.w), dot3a(&e[2], v.w)];
-    let icb = sym3(&lc.ic);
-    let icwb: [f64; 3] = std::array::from_fn(|r| dot3(&icb[r], &wb));
-    let icw = DVec3::from_array(std::array::from_fn(|r| {
-        e[0][r] * icwb[0] + e[1][r] * icwb[1] + e[2][r] * icwb[2]
-    }));
-    let n_c = fe.n - c.cross(fe.f) - v.w.cross(icw);
-    let nc = n_c.to_array();
-    let acc_w = DVec3::from_array(std::array::from_fn(|r| dot3(&jc[r], &nc)));
-    // a_c = (f_ext − m ω × v_c) / m
-    let acc_c = fe.f * im - v.w.cross(v_c);
-    let d = &mut data.dca;
-    d.leafk[i] = crate::data::LeafK {
-        j: [jc[0][0], jc[0][1], jc[0][2], jc[1][1], jc[1][2], jc[2][2]],
-        c: c.to_array(),
-        im,
+    // J by rows (= its columns), c, α and a_c + a_g.
+    let jc = sym3(&lk.j);
+    let c = lk.c;
+    let (alpha, acc_c) = if bias {
+        (lk.alpha, lk.acc_c)
+    } else {
+        ([0.0; 3], [0.0; 3])
     };
+    let acc = add3(acc_c, a_g.v.to_array());
+    let alpha_g = add3(alpha, a_g.w.to_array());
     let handles = &d.hj[ho..ho + nh];
-    // J's columns (= its rows), and the columns of A_h = a_h× J (a_h × J's columns).
-    let jv = jc.map(DVec3::from_array);
-    let a_cols = |a: DVec3| [a.cross(jv[0]), a.cross(jv[1]), a.cross(jv[2])];
-    // Row r of A (from its columns).
-    let a_row = |ac: &[DVec3; 3], r: usize| DVec3::new(ac[0][r], ac[1][r], ac[2][r]);
     for (h, &ph) in handles.iter().enumerate() {
-        let ah = c - d.point[ph as usize];
-        // b at P_h: [α; a_c + α × (P_h − c)] + a_g
-        d.b[top + h] = a_g + SpatialMotion::new(acc_w, acc_c + ah.cross(acc_w));
-        let ahc = a_cols(ah);
-        let ahr = [a_row(&ahc, 0), a_row(&ahc, 1), a_row(&ahc, 2)];
-        // Φ_hh, upper triangle: [J, A_hᵀ; ·, a_h× A_hᵀ + 1/m], the lower-right block's row r
-        // being a_h × (row r of A_h) (a_h× J a_h×ᵀ = A_h a_h×ᵀ).
-        let br = [ah.cross(ahr[0]), ah.cross(ahr[1]), ah.cross(ahr[2])];
-        d.dg[top + h] = Sym6([
-            jc[0][0],
-            jc[0][1],
-            jc[0][2],
-            ahc[0].x,
-            ahc[0].y,
-            ahc[0].z, // row 0
-            jc[1][1],
-            jc[1][2],
-            ahc[1].x,
-            ahc[1].y,
-            ahc[1].z, // row 1
-            jc[2][2],
-            ahc[2].x,
-            ahc[2].y,
-            ahc[2].z, // row 2
-            br[0].x + im,
-            br[0].y,
-            br[0].z, // row 3
-            br[1].y + im,
-            br[1].z,      // row 4
-            br[2].z + im, // row 5
+        let ah = sub3(c, d.point[ph as usize].to_array());
+        // b at P_h: [α; a_c + a_h × α] + a_g
+        d.b[top + h] = SpatialMotion::from_array(cat3(alpha_g, add3(acc, cross3(ah, alpha))));
+        // A_h's columns a_h × (column r of J), and its rows.
+        let col = [cross3(ah, jc[0]), cross3(ah, jc[1]), cross3(ah, jc[2])];
+        let row: [[f64; 3]; 3] = std::array::from_fn(|r| [col[0][r], col[1][r], col[2][r]]);
+        // Φ_hh's lower-right block a_h× A_hᵀ + 1/m: row r is a_h × (row r of A_h); its upper
+        // triangle.
+        let b0 = cross3(ah, row[0]);
+        let b11 = ah[2] * row[1][0] - ah[0] * row[1][2];
+        let b12 = ah[0] * row[1][1] - ah[1] * row[1][0];
+        let b22 = ah[0] * row[2][1] - ah[1] * row[2][0];
+        // By tiles (`SymT`): rows 0-1, 2-3, 4-5 against columns 0-1, 2-3, 4-5; the upper
+        // right block is A_hᵀ (row r = column r of A_h).
+        d.dg[top + h] = SymT([
+            [jc[0][0], jc[0][1], jc[0][1], jc[1][1]],
+            [jc[0][2], col[0][0], jc[1][2], col[1][0]],
+            [col[0][1], col[0][2], col[1][1], col[1][2]],
+            [jc[2][2], col[2][0], col[2][0], b0[0] + im],
+            [col[2][1], col[2][2], b0[1], b0[2]],
+            [b11 + im, b12, b12, b22 + im],
         ]);
         for (k, &pk) in handles.iter().enumerate().skip(h + 1) {
-            let ak = c - d.point[pk as usize];
-            let akc = a_cols(ak);
+            let ak = sub3(c, d.point[pk as usize].to_array());
             // Φ_hk = [J, A_kᵀ; A_h, A_h a_k×ᵀ + 1/m]: row r of the lower right is
-            // a_k × (row r of A_h); row r of A_kᵀ is column r of A_k.
+            // a_k × (row r of A_h); row r of A_kᵀ is column r of A_k, a_k × (column r of J).
             let out = &mut d.phi[bo + ub(nh, h, k)].0;
             for r in 0..3 {
-                let x = ak.cross(ahr[r]);
-                out[r] = [jc[r][0], jc[r][1], jc[r][2], akc[r].x, akc[r].y, akc[r].z];
-                out[r + 3] = [ahr[r].x, ahr[r].y, ahr[r].z, x.x, x.y, x.z];
-                out[r + 3][r + 3] += im;
+                out[r] = cat3(jc[r], cross3(ak, jc[r]));
+                let mut x = cross3(ak, row[r]);
+                x[r] += im;
+                out[r + 3] = cat3(row[r], x);
             }
         }
     }
     Ok(())
+}
+
+#[inline(always)]
+fn cross3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+#[inline(always)]
+fn add3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+#[inline(always)]
+fn sub3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+#[inline(always)]
+fn cat3(a: [f64; 3], b: [f64; 3]) -> [f64; 6] {
+    [a[0], a[1], a[2], b[0], b[1], b[2]]
 }
 
 /// `R S Rᵀ` for a symmetric 3×3 `S` and a rotation given by its columns `e` (`e[k] = R e_k`);
@@ -252,15 +299,28 @@ fn rotate_sym(e: &[[f64; 3]; 3], s: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
     [[a00, a01, a02], [a01, a11, a12], [a02, a12, a22]]
 }
 
+/// `(R diag(d) Rᵀ, R diag(d') Rᵀ) = (Σ_k d_k e_k e_kᵀ, Σ_k d'_k e_k e_kᵀ)` for a rotation given by
+/// its columns `e` (`e[k] = R e_k`); the products' rows.
+#[inline(always)]
+fn rotate_diagonal_pair(
+    e: &[[f64; 3]; 3],
+    d: [f64; 3],
+    d2: [f64; 3],
+) -> ([[f64; 3]; 3], [[f64; 3]; 3]) {
+    // The upper triangles of e_k e_kᵀ: (0,0), (0,1), (0,2), (1,1), (1,2), (2,2).
+    const UP: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
+    let p: [[f64; 6]; 3] = std::array::from_fn(|k| UP.map(|(r, s)| e[k][r] * e[k][s]));
+    let sum = |d: [f64; 3]| -> [[f64; 3]; 3] {
+        let u: [f64; 6] = std::array::from_fn(|t| d[0] * p[0][t] + d[1] * p[1][t] + d[2] * p[2][t]);
+        sym3(&u)
+    };
+    (sum(d), sum(d2))
+}
+
 /// A symmetric 3×3 from its upper triangle (`xx, xy, xz, yy, yz, zz`), by rows.
 #[inline(always)]
 fn sym3(u: &[f64; 6]) -> [[f64; 3]; 3] {
     [[u[0], u[1], u[2]], [u[1], u[3], u[4]], [u[2], u[4], u[5]]]
-}
-
-#[inline(always)]
-fn dot3a(a: &[f64; 3], x: DVec3) -> f64 {
-    a[0] * x.x + a[1] * x.y + a[2] * x.z
 }
 
 /// `L⁻¹ b` (forward substitution; `l` from [`crate::small::cholesky6`], inverse diagonal).
@@ -311,7 +371,7 @@ fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
 ///   `γ = W β + V S D⁻¹ Q_τ = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − τ))` with `w = L⁻¹ β`.
 ///
 /// Either way `Φ_hj W Φ_jk = Ỹ_hᵀ Ỹ_k`: one Gram product per stored block of C (`h ≤ k`; the
-/// diagonal ones on their upper triangle).
+/// diagonal ones on their upper 2×2 tiles, [`SymT`]).
 ///
 /// A's, B's and C's diagonal blocks and b are in their nodes' slots (see `DcaData::dg`).
 #[inline(never)]
@@ -332,20 +392,28 @@ fn join(
     let (hoa, hob, top) = (na.slot as usize, nb.slot as usize, nc.slot as usize);
     let (ja, jb) = (nc.ja as usize, nc.jb as usize);
     let (boa, bob, bc) = (na.boff as usize, nb.boff as usize, nc.boff as usize);
-    // K = Φ^A_jj + Φ^B_jj, packed.
-    let (pa, pb) = (&d.dg[hoa + ja].0, &d.dg[hob + jb].0);
-    let kp: [f64; 21] = std::array::from_fn(|i| pa[i] + pb[i]);
+    let at = JoinAt {
+        hc,
+        nha,
+        nhb,
+        hoa,
+        hob,
+        top,
+        ja,
+        jb,
+        boa,
+        bob,
+        bc,
+    };
+    // K = Φ^A_jj + Φ^B_jj, tiled.
+    let ks = SymT::sum(&d.dg[hoa + ja], &d.dg[hob + jb]);
+    let kf = |r: usize, c: usize| ks.at(r, c);
     // S and c at the joint's point P_j.
     let pj = d.point[joint];
     let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj));
     let body = &model.bodies[joint]; // for error messages only
                                      // β = b_j^A − b_j^B + c
     let beta = d.b[hoa + ja] - d.b[hob + jb] + shift(data.c[joint]);
-    // Φ_jh (rows) of C's handle h: the stored block, or the transpose of the stored Φ_hj.
-    let from = |h: usize| match d.from[hc + h] {
-        (Side::A, i) => (boa, nha, ja, i as usize),
-        (Side::B, i) => (bob, nhb, jb, i as usize),
-    };
     let rows;
     let gamma;
     if nc.one_dof {
@@ -354,74 +422,68 @@ fn join(
         let (p, q) = perpendicular_pair(w);
         // K's blocks: the symmetric angular one K_ω (rows and columns 0..3) and the coupling
         // K_c (rows 0..3, columns 3..6): K_ω x and K_cᵀ x for x = p, q, ω.
-        let kw = |x: &[f64; 3]| {
-            [
-                kp[0] * x[0] + kp[1] * x[1] + kp[2] * x[2],
-                kp[1] * x[0] + kp[6] * x[1] + kp[7] * x[2],
-                kp[2] * x[0] + kp[7] * x[1] + kp[11] * x[2],
-            ]
+        let kw = |x: &[f64; 3]| -> [f64; 3] {
+            let row = |r: usize| kf(r, 0) * x[0] + kf(r, 1) * x[1] + kf(r, 2) * x[2];
+            [row(0), row(1), row(2)]
         };
         let kc = |x: &[f64; 3]| -> [f64; 3] {
-            std::array::from_fn(|c| x[0] * kp[3 + c] + x[1] * kp[8 + c] + x[2] * kp[12 + c])
+            let col = |c: usize| x[0] * kf(0, c) + x[1] * kf(1, c) + x[2] * kf(2, c);
+            [col(3), col(4), col(5)]
         };
         let (kwp, kwq, kww) = (kw(&p), kw(&q), kw(&w));
         let (kcp, kcq, kcw) = (kc(&p), kc(&q), kc(&w));
         // Tᵀ K T (lower triangle): [pᵀK_ω p, ·; qᵀK_ω p, qᵀK_ω q; K_cᵀp, K_cᵀq, K_v].
-        let mut mt = [[0.0; 6]; 6];
-        mt[0][0] = dot3(&p, &kwp);
-        mt[1][0] = dot3(&q, &kwp);
-        mt[1][1] = dot3(&q, &kwq);
-        for r in 0..3 {
-            mt[2 + r][0] = kcp[r];
-            mt[2 + r][1] = kcq[r];
-        }
-        mt[2][2] = kp[15];
-        mt[3][2] = kp[16];
-        mt[4][2] = kp[17];
-        mt[3][3] = kp[18];
-        mt[4][3] = kp[19];
-        mt[4][4] = kp[20];
-        let mut m = [[0.0; 6]; 6];
-        if !crate::small::ldl5(&mt, &mut m) {
+        let (t00, t10, t11) = (dot3(&p, &kwp), dot3(&q, &kwp), dot3(&q, &kwq));
+        let tkt = |r: usize, c: usize| match (r, c) {
+            (0, 0) => t00,
+            (1, 0) => t10,
+            (1, 1) => t11,
+            (_, 0) => kcp[r - 2],
+            (_, 1) => kcq[r - 2],
+            _ => kf(r + 1, c + 1),
+        };
+        // Its L D Lᵀ factors, and M = L D^{1/2} (`mm` below the diagonal, `inv_d` = 1/√d).
+        let Some(crate::small::Ldl5 {
+            l,
+            m: mm,
+            inv_sqrt_d: inv_d,
+        }) = crate::small::ldl5(tkt)
+        else {
             return Err(DynamicsError::Singular {
                 joint: body.joint_name(),
                 detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
             });
-        }
+        };
         let rj = &mut d.rev[nc.jix as usize];
         rj.p = p;
         rj.q = q;
-        rj.l = [
-            m[0][0], m[1][0], m[1][1], m[2][0], m[2][1], m[2][2], m[3][0], m[3][1], m[3][2],
-            m[3][3], m[4][0], m[4][1], m[4][2], m[4][3], m[4][4],
-        ];
+        rj.l = l;
         // K s = [K_ω ω; K_cᵀ ω]
         let ks = [kww[0], kww[1], kww[2], kcw[0], kcw[1], kcw[2]];
-        let qt = joint_terms(&w, &ks, rj);
-        // γ = W β + f_τ τ, f_τ = −g: the joint force without handle forces; and q̈ then.
         let ba = beta.to_array();
-        let wb = w_apply(rj, &ba);
+        // W K s and W β side by side (two lanes).
+        let wkb = w_apply(rj, &std::array::from_fn(|i| P2([ks[i], ba[i]])));
+        let qt = joint_terms(&w, &ks, &wkb.map(|x| x.0[0]), rj);
+        // γ = W β + f_τ τ, f_τ = −g: the joint force without handle forces; and q̈ then.
+        let wb = wkb.map(|x| x.0[1]);
         let t = tau[vo];
         gamma = std::array::from_fn(|i| wb[i] - rj.g[i] * t);
         rj.gamma = gamma;
         rj.qdd = dot6(&rj.g, &ba) + qt * t;
         let rj = &d.rev[nc.jix as usize];
-        for h in 0..nhc {
-            let (bo, nh, j, i) = from(h);
-            // Tᵀ Φ_jh: from the rows of the stored Φ_jh, or the columns of the stored Φ_hj.
-            let tg = if j < i {
-                t_rows(&d.phi[bo + ub(nh, j, i)].0, rj)
-            } else {
-                t_cols(&d.phi[bo + ub(nh, i, j)].0, rj)
-            };
-            y_reduced(&mut d.y[h], tg, &m);
+        let pq = (rj.p, rj.q);
+        // Two handles (a chain's joins) unrolled.
+        if nhc == 2 {
+            y_all(d, &at, 2, pq, &mm, &inv_d)
+        } else {
+            y_all(d, &at, nhc, pq, &mm, &inv_d)
         }
         rows = 5;
     } else {
         let mut sum = [[0.0; 6]; 6];
         for r in 0..6 {
             for c in r..6 {
-                let x = kp[SYM_ROW[r] + c - r];
+                let x = kf(r, c);
                 sum[r][c] = x;
                 sum[c][r] = x;
             }
@@ -477,59 +539,100 @@ fn join(
         // Ỹ_h = Q L⁻¹ Φ_jh: forward substitution on whole rows of Φ_jh (vectorises), then the
         // projection Ỹ −= (Z D⁻¹)(Zᵀ Ỹ) (k rank-1 row updates).
         for h in 0..nhc {
-            let (bo, nh, j, i) = from(h);
+            let (bo, nh, j, i) = at.from(d, h);
             let g = cross_rows(&d.phi, bo, nh, j, i);
             y_tilde(&mut d.y[h], &g, &l, &d.z[vo..vo + k], &zd);
         }
         rows = 6;
     }
-    // Φ^C blocks (h ≤ k only; a diagonal block's upper triangle only): same side
-    // Φ_hk − Ỹ_hᵀỸ_k; across +Ỹ_hᵀỸ_k. A side's handles keep their order in C, so a same-side
-    // pair h ≤ k is a stored block of that side too. Then b^C.
-    let (src, dst) = d.phi.split_at_mut(bc);
+    // Two handles (a chain's joins) unrolled.
+    match (nhc, rows) {
+        (2, 5) => c_blocks::<5>(d, &at, 2, &gamma),
+        (_, 5) => c_blocks::<5>(d, &at, nhc, &gamma),
+        _ => c_blocks::<6>(d, &at, nhc, &gamma),
+    }
+    Ok(())
+}
+
+/// Where a join's nodes keep their handles and blocks (see [`DNode`](crate::data::DNode)): C's
+/// handle offset `hc`, A's and B's handle counts, the slots of A, B and C, the principal
+/// joint's index among A's and B's handles, and the block offsets of A, B and C.
+struct JoinAt {
+    hc: usize,
+    nha: usize,
+    nhb: usize,
+    hoa: usize,
+    hob: usize,
+    top: usize,
+    ja: usize,
+    jb: usize,
+    boa: usize,
+    bob: usize,
+    bc: usize,
+}
+
+impl JoinAt {
+    /// Where Φ_jh of C's handle h is: its side's block offset and handle count, the joint's
+    /// and the handle's index there.
+    #[inline(always)]
+    fn from(&self, d: &crate::data::DcaData, h: usize) -> (usize, usize, usize, usize) {
+        match d.from[self.hc + h] {
+            (Side::A, i) => (self.boa, self.nha, self.ja, i as usize),
+            (Side::B, i) => (self.bob, self.nhb, self.jb, i as usize),
+        }
+    }
+}
+
+/// C's blocks and bias from `Ỹ` (R rows each, in `d.y`) and γ: Φ^C_hk for `h ≤ k` (a diagonal
+/// block's upper 2×2 tiles only): same side `Φ_hk − Ỹ_hᵀỸ_k`, across `+Ỹ_hᵀỸ_k` (a side's
+/// handles keep their order in C, so a same-side pair `h ≤ k` is a stored block of that side
+/// too); then `b^C_h = b^A_h − Φ^A_hj γ` or `b^B_h + Φ^B_hj γ`.
+#[inline(always)]
+fn c_blocks<const R: usize>(
+    d: &mut crate::data::DcaData,
+    at: &JoinAt,
+    nhc: usize,
+    gamma: &[f64; 6],
+) {
+    let (hoa, hob, top) = (at.hoa, at.hob, at.top);
+    let (src, dst) = d.phi.split_at_mut(at.bc);
     // C's slot lies below its children's (one level up the tree).
     let mid = hoa.min(hob);
     let (ddst, dsrc) = d.dg.split_at_mut(mid);
     for h in 0..nhc {
-        let (sh, ih) = d.from[hc + h];
+        let (sh, ih) = d.from[at.hc + h];
         let ih = ih as usize;
         let yh = &d.y[h];
         let old = match sh {
             Side::A => &dsrc[hoa - mid + ih],
             Side::B => &dsrc[hob - mid + ih],
         };
-        match rows {
-            5 => gram_sym_into::<5>(&mut ddst[top + h], yh, old),
-            _ => gram_sym_into::<6>(&mut ddst[top + h], yh, old),
-        }
+        gram_sym_into::<R>(&mut ddst[top + h], yh, old);
         for kk in h + 1..nhc {
-            let (sk, ik) = d.from[hc + kk];
+            let (sk, ik) = d.from[at.hc + kk];
             let ik = ik as usize;
             let yk = &d.y[kk];
             let old = match (sh, sk) {
-                (Side::A, Side::A) => Some(&src[boa + ub(nha, ih, ik)].0),
-                (Side::B, Side::B) => Some(&src[bob + ub(nhb, ih, ik)].0),
+                (Side::A, Side::A) => Some(&src[at.boa + ub(at.nha, ih, ik)].0),
+                (Side::B, Side::B) => Some(&src[at.bob + ub(at.nhb, ih, ik)].0),
                 _ => None,
             };
-            let out = &mut dst[ub(nhc, h, kk)].0;
-            match rows {
-                5 => gram_into::<5>(out, yh, yk, old),
-                _ => gram_into::<6>(out, yh, yk, old),
-            }
+            gram_into::<R>(&mut dst[ub(nhc, h, kk)].0, yh, yk, old);
         }
-        // b^C_h = b^A_h − Φ^A_hj γ  or  b^B_h + Φ^B_hj γ
-        let (bo, nh, j, i) = from(h);
+        let (bo, nh, j, i) = match sh {
+            Side::A => (at.boa, at.nha, at.ja, ih),
+            Side::B => (at.bob, at.nhb, at.jb, ih),
+        };
         let phj_gamma = SpatialMotion::from_array(if j < i {
-            mat_tr_vec(&src[bo + ub(nh, j, i)].0, &gamma)
+            mat_tr_vec(&src[bo + ub(nh, j, i)].0, gamma)
         } else {
-            mat_vec(&src[bo + ub(nh, i, j)].0, &gamma)
+            mat_vec(&src[bo + ub(nh, i, j)].0, gamma)
         });
         d.b[top + h] = match sh {
             Side::A => d.b[hoa + ih] - phj_gamma,
             Side::B => d.b[hob + ih] + phj_gamma,
         };
     }
-    Ok(())
 }
 
 /// Φ_jh (j ≠ h) of a node with `nh` handles and blocks at `bo`, as rows: only the blocks on
@@ -627,13 +730,20 @@ fn dot3(a: &[f64; 3], x: &[f64]) -> f64 {
 
 /// `Tᵀ x = [p·x_ω, q·x_ω, x_v]`.
 #[inline(always)]
-fn t_tr(x: &[f64; 6], rj: &RevJoin) -> [f64; 5] {
-    [dot3(&rj.p, &x[..3]), dot3(&rj.q, &x[..3]), x[3], x[4], x[5]]
+fn t_tr<X: Lane>(x: &[X; 6], rj: &RevJoin) -> [X; 5] {
+    let (p, q) = (&rj.p, &rj.q);
+    [
+        x[0] * p[0] + x[1] * p[1] + x[2] * p[2],
+        x[0] * q[0] + x[1] * q[1] + x[2] * q[2],
+        x[3],
+        x[4],
+        x[5],
+    ]
 }
 
 /// `T λ = [λ_0 p + λ_1 q; λ_2, λ_3, λ_4]`.
 #[inline(always)]
-fn t_mul(rj: &RevJoin, l: [f64; 5]) -> [f64; 6] {
+fn t_mul<X: Lane>(rj: &RevJoin, l: [X; 5]) -> [X; 6] {
     let (p, q) = (&rj.p, &rj.q);
     [
         l[0] * p[0] + l[1] * q[0],
@@ -645,49 +755,66 @@ fn t_mul(rj: &RevJoin, l: [f64; 5]) -> [f64; 6] {
     ]
 }
 
-/// The rows of `Tᵀ Gᵀ` (G's columns combined).
-#[inline(always)]
-fn t_cols(g: &[[f64; 6]; 6], rj: &RevJoin) -> [[f64; 6]; 5] {
-    [
-        std::array::from_fn(|c| dot3(&rj.p, &g[c])),
-        std::array::from_fn(|c| dot3(&rj.q, &g[c])),
-        std::array::from_fn(|c| g[c][3]),
-        std::array::from_fn(|c| g[c][4]),
-        std::array::from_fn(|c| g[c][5]),
-    ]
+/// What [`w_apply`] and [`y_reduced`] compute on: `f64`, or [`P2`].
+trait Lane:
+    Copy
+    + std::ops::Add<Output = Self>
+    + std::ops::Sub<Output = Self>
+    + std::ops::Mul<f64, Output = Self>
+{
 }
 
-/// The rows of `Tᵀ G` (G's rows combined).
-#[inline(always)]
-fn t_rows(g: &[[f64; 6]; 6], rj: &RevJoin) -> [[f64; 6]; 5] {
-    let (p, q) = (&rj.p, &rj.q);
-    [
-        std::array::from_fn(|c| p[0] * g[0][c] + p[1] * g[1][c] + p[2] * g[2][c]),
-        std::array::from_fn(|c| q[0] * g[0][c] + q[1] * g[1][c] + q[2] * g[2][c]),
-        g[3],
-        g[4],
-        g[5],
-    ]
+impl Lane for f64 {}
+
+/// Two `f64` lanes (a pair of columns, or two right-hand sides) that the compiler keeps in one
+/// SSE2 register: the 5-row solves run on pairs.
+#[derive(Clone, Copy, Debug)]
+struct P2([f64; 2]);
+
+impl Lane for P2 {}
+
+impl std::ops::Add for P2 {
+    type Output = P2;
+    #[inline(always)]
+    fn add(self, o: P2) -> P2 {
+        P2([self.0[0] + o.0[0], self.0[1] + o.0[1]])
+    }
+}
+
+impl std::ops::Sub for P2 {
+    type Output = P2;
+    #[inline(always)]
+    fn sub(self, o: P2) -> P2 {
+        P2([self.0[0] - o.0[0], self.0[1] - o.0[1]])
+    }
+}
+
+impl std::ops::Mul<f64> for P2 {
+    type Output = P2;
+    #[inline(always)]
+    fn mul(self, x: f64) -> P2 {
+        P2([self.0[0] * x, self.0[1] * x])
+    }
 }
 
 /// `T (TᵀKT)⁻¹ Tᵀ y` (the packed `L D Lᵀ` factors of `TᵀKT` in `rj.l`, see [`RevJoin`]), the
-/// two unit triangular solves written out.
+/// two unit triangular solves written out; for one vector (`f64`) or two side by side ([`P2`]).
 #[inline(always)]
-fn w_apply(rj: &RevJoin, y: &[f64; 6]) -> [f64; 6] {
+fn w_apply<X: Lane>(rj: &RevJoin, y: &[X; 6]) -> [X; 6] {
     let u = t_tr(y, rj);
     let m = &rj.l;
     // L x = u
     let x0 = u[0];
-    let x1 = u[1] - m[1] * x0;
-    let x2 = u[2] - m[3] * x0 - m[4] * x1;
-    let x3 = u[3] - m[6] * x0 - m[7] * x1 - m[8] * x2;
-    let x4 = u[4] - m[10] * x0 - m[11] * x1 - m[12] * x2 - m[13] * x3;
+    let x1 = u[1] - x0 * m[1];
+    let x2 = u[2] - x0 * m[3] - x1 * m[4];
+    let x3 = u[3] - x0 * m[6] - x1 * m[7] - x2 * m[8];
+    let x4 = u[4] - x0 * m[10] - x1 * m[11] - x2 * m[12] - x3 * m[13];
     // Lᵀ λ = D⁻¹ x
     let l4 = x4 * m[14];
-    let l3 = x3 * m[9] - m[13] * l4;
-    let l2 = x2 * m[5] - m[8] * l3 - m[12] * l4;
-    let l1 = x1 * m[2] - m[4] * l2 - m[7] * l3 - m[11] * l4;
-    let l0 = x0 * m[0] - m[1] * l1 - m[3] * l2 - m[6] * l3 - m[10] * l4;
+    let l3 = x3 * m[9] - l4 * m[13];
+    let l2 = x2 * m[5] - l3 * m[8] - l4 * m[12];
+    let l1 = x1 * m[2] - l2 * m[4] - l3 * m[7] - l4 * m[11];
+    let l0 = x0 * m[0] - l1 * m[1] - l2 * m[3] - l3 * m[6] - l4 * m[10];
     t_mul(rj, [l0, l1, l2, l3, l4])
 }
 
@@ -697,9 +824,9 @@ fn w_apply(rj: &RevJoin, y: &[f64; 6]) -> [f64; 6] {
 /// unit torque `f_τ = f₀ − W K f₀ = −g` (`sᵀ f_τ = 1`, `Tᵀ K f_τ = 0`) and
 /// `q̈_τ = sᵀ K f_τ / sᵀs = −gᵀ K s / sᵀs`. Joint torques enter linearly, so a huge τ cannot
 /// overflow an intermediate product. `ks = K s`, `s = [ω; 0]`; sets `g`, returns `q̈_τ`.
+/// `wks = W K s`.
 #[inline(always)]
-fn joint_terms(w: &[f64; 3], ks: &[f64; 6], rj: &mut RevJoin) -> f64 {
-    let wks = w_apply(rj, ks);
+fn joint_terms(w: &[f64; 3], ks: &[f64; 6], wks: &[f64; 6], rj: &mut RevJoin) -> f64 {
     let iss = 1.0 / dot3(w, w);
     let g = [
         (wks[0] - w[0]) * iss,
@@ -713,25 +840,53 @@ fn joint_terms(w: &[f64; 3], ks: &[f64; 6], rj: &mut RevJoin) -> f64 {
     -dot6(&g, ks) * iss
 }
 
-/// `Ỹ = D^{-1/2} L⁻¹ Tᵀ G` (5 rows; `M = L D^{1/2}` the Cholesky factor of `TᵀKT`, `m` its
-/// [`crate::small::ldl5`] form) for `G = Φ_jh`, from the rows `z` of `Tᵀ G`: unit forward
-/// substitution on whole rows, then each row scaled.
+/// [`y_reduced`] for each of C's `nhc` handles, into `d.y`.
 #[inline(always)]
-fn y_reduced(yt: &mut [[f64; 6]; 6], mut z: [[f64; 6]; 5], m: &[[f64; 6]; 6]) {
-    for r in 1..5 {
-        let (done, rest) = z.split_at_mut(r);
-        let v = &mut rest[0];
-        for (q, zq) in done.iter().enumerate() {
-            let mrq = m[r][q];
-            for c in 0..6 {
-                v[c] -= mrq * zq[c];
-            }
+fn y_all(
+    d: &mut crate::data::DcaData,
+    at: &JoinAt,
+    nhc: usize,
+    pq: ([f64; 3], [f64; 3]),
+    mm: &[[f64; 5]; 5],
+    inv_d: &[f64; 5],
+) {
+    for h in 0..nhc {
+        let (bo, nh, j, i) = at.from(d, h);
+        // Φ_jh: the stored block's rows, or the stored Φ_hj's columns.
+        let g = &d.phi[bo + if j < i { ub(nh, j, i) } else { ub(nh, i, j) }].0;
+        if j < i {
+            y_reduced(&mut d.y[h], |r, c| g[r][c], pq, mm, inv_d);
+        } else {
+            y_reduced(&mut d.y[h], |r, c| g[c][r], pq, mm, inv_d);
         }
     }
-    for r in 0..5 {
-        let s = m[r][5];
-        for c in 0..6 {
-            yt[r][c] = z[r][c] * s;
+}
+
+/// `Ỹ = M⁻¹ Tᵀ G` (5 rows; `M = L D^{1/2}` the Cholesky factor of `TᵀKT`: `mm` its entries
+/// below the diagonal, `inv_d` the inverses of its diagonal) for `G = Φ_jh` with entries
+/// `g(r, c)`: a pair of columns at a time, `Tᵀ G` (`[p·g_ω; q·g_ω; g_v]`) then the forward
+/// substitution, all in registers.
+#[inline(always)]
+fn y_reduced(
+    yt: &mut [[f64; 6]; 6],
+    g: impl Fn(usize, usize) -> f64,
+    (p, q): ([f64; 3], [f64; 3]),
+    mm: &[[f64; 5]; 5],
+    inv_d: &[f64; 5],
+) {
+    for c in [0, 2, 4] {
+        let col = |r: usize| P2([g(r, c), g(r, c + 1)]);
+        let (g0, g1, g2) = (col(0), col(1), col(2));
+        // M Ỹ = Tᵀ G, row by row.
+        let y0 = (g0 * p[0] + g1 * p[1] + g2 * p[2]) * inv_d[0];
+        let y1 = (g0 * q[0] + g1 * q[1] + g2 * q[2] - y0 * mm[1][0]) * inv_d[1];
+        let y2 = (col(3) - y0 * mm[2][0] - y1 * mm[2][1]) * inv_d[2];
+        let y3 = (col(4) - y0 * mm[3][0] - y1 * mm[3][1] - y2 * mm[3][2]) * inv_d[3];
+        let y4 =
+            (col(5) - y0 * mm[4][0] - y1 * mm[4][1] - y2 * mm[4][2] - y3 * mm[4][3]) * inv_d[4];
+        for (r, y) in [y0, y1, y2, y3, y4].into_iter().enumerate() {
+            yt[r][c] = y.0[0];
+            yt[r][c + 1] = y.0[1];
         }
     }
 }
@@ -745,10 +900,16 @@ fn gram_into<const R: usize>(
     yk: &[[f64; 6]; 6],
     old: Option<&[[f64; 6]; 6]>,
 ) {
-    // Two rows at a time: each row of Ỹ_k is loaded once for both.
+    // Two rows at a time: each row of Ỹ_k is loaded once for both; the sums start with their
+    // first product.
     for r in (0..6).step_by(2) {
         let mut acc = [[0.0; 6]; 2];
-        for i in 0..R {
+        for dr in 0..2 {
+            for c in 0..6 {
+                acc[dr][c] = yh[0][r + dr] * yk[0][c];
+            }
+        }
+        for i in 1..R {
             let (x0, x1) = (yh[i][r], yh[i][r + 1]);
             let yki = &yk[i];
             for c in 0..6 {
@@ -769,29 +930,42 @@ fn gram_into<const R: usize>(
     }
 }
 
-/// [`gram_into`] for a diagonal block (`Ỹ_k = Ỹ_h`, symmetric): only the entries on and above
-/// the diagonal, in pairs of columns (rows 2p and 2p+1 start at column 2p); the caller mirrors.
+/// [`gram_into`] for a diagonal block (`Ỹ_k = Ỹ_h`, symmetric): only its upper 2×2 tiles
+/// ([`SymT`]), a row pair of tiles at a time.
 #[inline(never)]
-fn gram_sym_into<const R: usize>(out: &mut Sym6, y: &[[f64; 6]; 6], old: &Sym6) {
-    gram_rows::<0, R>(out, y, old);
-    gram_rows::<2, R>(out, y, old);
-    gram_rows::<4, R>(out, y, old);
+fn gram_sym_into<const R: usize>(out: &mut SymT, y: &[[f64; 6]; 6], old: &SymT) {
+    gram_tiles::<0, R>(out, y, old);
+    gram_tiles::<1, R>(out, y, old);
+    gram_tiles::<2, R>(out, y, old);
 }
 
+/// Tiles `(I, J)`, `J ≥ I`, of `old − ỸᵀỸ`: rows `2I`, `2I+1` from column `2I` on, the sums
+/// started with their first product.
 #[inline(always)]
-fn gram_rows<const C0: usize, const R: usize>(out: &mut Sym6, y: &[[f64; 6]; 6], old: &Sym6) {
-    for r in C0..C0 + 2 {
-        let mut acc = [0.0; 6];
-        for i in 0..R {
-            let x = y[i][r];
-            for c in C0..6 {
-                acc[c] += x * y[i][c];
+fn gram_tiles<const I: usize, const R: usize>(out: &mut SymT, y: &[[f64; 6]; 6], old: &SymT) {
+    let mut acc = [[0.0; 6]; 2];
+    for dr in 0..2 {
+        let x = y[0][2 * I + dr];
+        for c in 2 * I..6 {
+            acc[dr][c] = x * y[0][c];
+        }
+    }
+    for yi in &y[1..R] {
+        for dr in 0..2 {
+            let x = yi[2 * I + dr];
+            for c in 2 * I..6 {
+                acc[dr][c] += x * yi[c];
             }
         }
-        let o = SYM_ROW[r] - r;
-        for c in r..6 {
-            out.0[o + c] = old.0[o + c] - acc[c];
-        }
+    }
+    for j in I..3 {
+        let (o, c) = (&old.0[TILE[I][j]], 2 * j);
+        out.0[TILE[I][j]] = [
+            o[0] - acc[0][c],
+            o[1] - acc[0][c + 1],
+            o[2] - acc[1][c],
+            o[3] - acc[1][c + 1],
+        ];
     }
 }
 

@@ -92,6 +92,19 @@ pub(crate) fn kinematics(
     q: &[f64],
     qd: &[f64],
     data: &mut Data,
+    per_body: impl FnMut(usize, &mut Data),
+) {
+    kinematics_with(model, q, qd, data, true, per_body)
+}
+
+/// [`kinematics`], where `per_body` sets `data.inertia[i]` itself unless `world_inertia`.
+#[inline(always)]
+pub(crate) fn kinematics_with(
+    model: &Model,
+    q: &[f64],
+    qd: &[f64],
+    data: &mut Data,
+    world_inertia: bool,
     mut per_body: impl FnMut(usize, &mut Data),
 ) {
     // X_{C←W} = xlt(origin)
@@ -126,7 +139,9 @@ pub(crate) fn kinematics(
         data.x[i] = x;
         data.v[i] = v;
         data.c[i] = c;
-        data.inertia[i] = world_inertia(&x, &body.inertia);
+        if world_inertia {
+            data.inertia[i] = self::world_inertia(&x, &body.inertia);
+        }
         per_body(i, data);
     }
 }

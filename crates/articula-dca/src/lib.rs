@@ -104,8 +104,11 @@ pub fn forward_dynamics<'d>(
     let f_ext = std::mem::take(&mut data.f_ext_c);
     let result = match method {
         Method::Dca => {
-            kinematics::kinematics(model, q, qd, data, dca::init_body);
-            dca::dca(model, tau, &f_ext, data).and_then(|()| {
+            // DCA's per-body step sets the world inertias itself.
+            kinematics::kinematics_with(model, q, qd, data, false, |i, d| {
+                dca::init_body(model, i, d, &f_ext)
+            });
+            dca::dca(model, tau, data, true).and_then(|()| {
                 if model.floating_base && data.refine_floating {
                     refine::refine_dca(model, tau, &f_ext, data)
                 } else {

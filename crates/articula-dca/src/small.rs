@@ -46,37 +46,62 @@ pub fn cholesky6(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
     ok.then_some(l)
 }
 
-/// `L D Lᵀ` of the leading 5×5 block of a symmetric positive definite matrix (its lower
-/// triangle is read) into `l`, `false` when a pivot is not positive. Below the diagonal: the unit lower
-/// factor L; on it: `1 / d_j`; in column 5: `1 / √d_j`, the inverse diagonal of the Cholesky
-/// factor `L D^{1/2}`. The recursion's critical path holds one division per column and no square
-/// root (those are taken at the end, independently of one another).
+/// `L D Lᵀ` of a 5×5 symmetric positive definite matrix given by its lower-triangle entries
+/// `a(i, j)`, `i ≥ j`; `None` when a pivot is not positive. Returns L packed by rows (`(i, j)`
+/// at `i (i + 1) / 2 + j`: `L_ij` below the diagonal, `1 / d_i` on it), and the Cholesky
+/// factor `M = L D^{1/2}` as its entries below the diagonal `M_ij = L_ij √d_j = c_ij / √d_j`
+/// (`c_ij = L_ij d_j`) and its inverse diagonal `1 / √d_i`. The recursion's critical path holds
+/// one division per column and no square root (those are taken at the end, independently of
+/// one another).
 #[inline(always)]
-pub fn ldl5(a: &[[f64; 6]; 6], l: &mut [[f64; 6]; 6]) -> bool {
-    // c_ij = L_ij d_j (i > j)
+pub fn ldl5(a: impl Fn(usize, usize) -> f64) -> Option<Ldl5> {
+    // l: L below the diagonal, 1/d_j on it; c_ij = L_ij d_j (i > j).
+    let mut l = [[0.0f64; 5]; 5];
     let mut c = [[0.0f64; 5]; 5];
     let mut ok = true;
-    ldl_col::<0>(a, l, &mut c, &mut ok);
-    ldl_col::<1>(a, l, &mut c, &mut ok);
-    ldl_col::<2>(a, l, &mut c, &mut ok);
-    ldl_col::<3>(a, l, &mut c, &mut ok);
-    ldl_col::<4>(a, l, &mut c, &mut ok);
-    for (j, row) in l.iter_mut().enumerate().take(5) {
-        row[5] = row[j].sqrt();
+    ldl_col::<0>(&a, &mut l, &mut c, &mut ok);
+    ldl_col::<1>(&a, &mut l, &mut c, &mut ok);
+    ldl_col::<2>(&a, &mut l, &mut c, &mut ok);
+    ldl_col::<3>(&a, &mut l, &mut c, &mut ok);
+    ldl_col::<4>(&a, &mut l, &mut c, &mut ok);
+    if !ok {
+        return None;
     }
-    ok
+    let isd: [f64; 5] = std::array::from_fn(|j| l[j][j].sqrt());
+    let m = std::array::from_fn(|i| {
+        std::array::from_fn(|j| if j < i { c[i][j] * isd[j] } else { 0.0 })
+    });
+    let packed = [
+        l[0][0], l[1][0], l[1][1], l[2][0], l[2][1], l[2][2], l[3][0], l[3][1], l[3][2], l[3][3],
+        l[4][0], l[4][1], l[4][2], l[4][3], l[4][4],
+    ];
+    Some(Ldl5 {
+        l: packed,
+        m,
+        inv_sqrt_d: isd,
+    })
+}
+
+/// What [`ldl5`] returns.
+pub struct Ldl5 {
+    /// L and `1 / d_i`, packed by rows.
+    pub l: [f64; 15],
+    /// `M = L D^{1/2}` below the diagonal.
+    pub m: [[f64; 5]; 5],
+    /// `1 / √d_i`.
+    pub inv_sqrt_d: [f64; 5],
 }
 
 /// Column `J` of [`ldl5`]: `d_J = a_JJ − Σ_p L_Jp c_Jp`, `c_iJ = a_iJ − Σ_p L_ip c_Jp`,
 /// `L_iJ = c_iJ / d_J`.
 #[inline(always)]
 fn ldl_col<const J: usize>(
-    a: &[[f64; 6]; 6],
-    l: &mut [[f64; 6]; 6],
+    a: &impl Fn(usize, usize) -> f64,
+    l: &mut [[f64; 5]; 5],
     c: &mut [[f64; 5]; 5],
     ok: &mut bool,
 ) {
-    let mut d = a[J][J];
+    let mut d = a(J, J);
     for p in 0..J {
         d -= l[J][p] * c[J][p];
     }
@@ -85,7 +110,7 @@ fn ldl_col<const J: usize>(
     let inv = 1.0 / d;
     l[J][J] = inv;
     for i in (J + 1)..5 {
-        let mut x = a[i][J];
+        let mut x = a(i, J);
         for p in 0..J {
             x -= l[i][p] * c[J][p];
         }
@@ -288,6 +313,39 @@ impl Sym6 {
     }
 }
 
+/// Tile of the 2×2 block `(I, J)` (`I ≤ J`, blocks of rows and columns `2I, 2I+1`) in [`SymT`].
+pub(crate) const TILE: [[usize; 3]; 3] = [[0, 1, 2], [1, 3, 4], [2, 4, 5]];
+
+/// A symmetric 6×6 matrix stored as its six upper 2×2 tiles `(I, J)`, `I ≤ J` (in the order
+/// of [`TILE`]), each by rows `[a_{2I,2J}, a_{2I,2J+1}, a_{2I+1,2J}, a_{2I+1,2J+1}]` (a diagonal
+/// tile holds its mirrored entry too): DCA's diagonal blocks Φ_hh, whose Gram updates then
+/// run on whole pairs of columns.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct SymT(pub [[f64; 4]; 6]);
+
+impl SymT {
+    pub const ZERO: SymT = SymT([[0.0; 4]; 6]);
+
+    /// Entry `(r, c)`.
+    #[inline(always)]
+    pub fn at(&self, r: usize, c: usize) -> f64 {
+        let (r, c) = if r / 2 > c / 2 { (c, r) } else { (r, c) };
+        self.0[TILE[r / 2][c / 2]][2 * (r % 2) + c % 2]
+    }
+
+    /// `a + b`.
+    #[inline(always)]
+    pub fn sum(a: &SymT, b: &SymT) -> SymT {
+        let mut s = *a;
+        for (st, bt) in s.0.iter_mut().zip(&b.0) {
+            for k in 0..4 {
+                st[k] += bt[k];
+            }
+        }
+        s
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -311,6 +369,17 @@ mod tests {
             assert!((y[i] - e).abs() < 1e-12);
             for j in 0..6 {
                 assert_eq!(s.get(i, j), dense[i][j]);
+            }
+        }
+        let mut t = SymT::ZERO;
+        for (i, j) in [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)] {
+            for k in 0..4 {
+                t.0[TILE[i][j]][k] = dense[2 * i + k / 2][2 * j + k % 2];
+            }
+        }
+        for i in 0..6 {
+            for j in 0..6 {
+                assert_eq!(t.at(i, j), dense[i][j], "({i}, {j})");
             }
         }
         let inertia = articula_spatial::SpatialInertia::new(
