@@ -163,7 +163,7 @@ impl Adaptive {
         if moving {
             self.active_kinematics(model, &state.q, &state.qd);
             let mut gm = std::mem::take(&mut self.gmom);
-            self.reduced_momenta(model, &mut gm);
+            self.reduced_momenta(&mut gm);
             let r = self.reduced_aba(model, &gm, Level::Impulse);
             self.gmom = gm;
             r?;
@@ -485,21 +485,22 @@ impl Adaptive {
 
     /// Generalized momenta of the new active joints over the new reduced tree:
     /// `p_j = S_jᵀ H_j`, `H_j = h(cluster of j) + Σ_{children j'} H_j'`.
-    fn reduced_momenta(&mut self, model: &Model, gm: &mut [f64]) {
+    fn reduced_momenta(&mut self, gm: &mut [f64]) {
         let h = &mut self.hier;
-        for idx in 0..h.ajoints.len() {
-            let j = h.ajoints[idx];
-            h.pa[j] = self.cache.hm[h.cl[j]];
+        for idx in 0..h.rec.len() {
+            h.pa[idx] = self.cache.hm[h.rec[idx].f].to_array();
         }
-        for idx in (0..h.ajoints.len()).rev() {
-            let j = h.ajoints[idx];
-            let hj = h.pa[j];
-            let body = &model.bodies[j];
-            for p in 0..body.nv {
-                gm[body.v_offset + p] = self.data.s[body.v_offset + p].dot(hj);
+        for idx in (0..h.rec.len()).rev() {
+            let r = &h.rec[idx];
+            let hj = SpatialForce::from_array(h.pa[idx]);
+            for p in 0..r.k {
+                gm[r.vo + p] = self.data.s[r.vo + p].dot(hj);
             }
-            if h.par[j] != usize::MAX {
-                h.pa[h.par[j]] += hj;
+            if r.pidx != usize::MAX {
+                let pp = &mut h.pa[r.pidx];
+                for (x, y) in pp.iter_mut().zip(hj.to_array()) {
+                    *x += y;
+                }
             }
         }
     }
@@ -583,7 +584,8 @@ impl Adaptive {
             }
             h.cl[j] = cluster(tree.body_leaf[j], &self.active);
         }
-        h.valid = true;
+        self.build_records(model);
+        self.hier.valid = true;
     }
 }
 
