@@ -19,6 +19,12 @@ use glam::DVec3;
 pub(crate) struct Hierarchy {
     /// Built for the current hybrid body (cleared by a re-selection).
     pub valid: bool,
+    /// Built by the cached re-selection (lists, clusters' mass properties and parent poses
+    /// from the caches).
+    pub from_cache: bool,
+    /// The active bodies' kinematics in `data` are those of the coming hybrid step's state
+    /// (set by a cached re-selection that kept the hybrid body, taken by the step).
+    pub kin_fresh: bool,
     /// Per frontier node (rigid cluster): mass properties in its top body's frame.
     pub rig: Vec<Rigid>,
     /// Active join nodes, then frontier nodes, each ascending (post-order).
@@ -206,6 +212,8 @@ impl Adaptive {
         }
         self.build_records(model);
         self.hier.valid = true;
+        self.hier.from_cache = false;
+        self.hier.kin_fresh = false;
     }
 
     /// The records of the reduced tree (`rec`) from the lists and frames of
@@ -328,17 +336,21 @@ impl Adaptive {
     /// same mechanical system the DCA main pass and back-substitution solve
     /// ([`Adaptive::set_full_passes`] runs those; tested equal to 1e-10), at a fraction of the
     /// cost per joint: the clusters' handle blocks are never formed. Writes `qdd` (zero outside
-    /// the active region).
+    /// the active region). `kinematics_fresh`: the active bodies' kinematics in `data` are
+    /// already those of `(q, q̇)` (a cached re-selection that kept the hybrid body).
     pub(crate) fn hybrid_step(
         &mut self,
         model: &Model,
         q: &[f64],
         qd: &[f64],
         tau: &[f64],
+        kinematics_fresh: bool,
     ) -> Result<(), DynamicsError> {
         let tree = &model.assembly;
-        self.data.origin = articula_dca::computation_origin(model, q);
-        self.active_kinematics(model, q, qd);
+        if !kinematics_fresh {
+            self.data.origin = articula_dca::computation_origin(model, q);
+            self.active_kinematics(model, q, qd);
+        }
         for idx in 0..self.hier.fnodes.len() {
             let f = self.hier.fnodes[idx];
             self.fsum[f] = SpatialForce::ZERO;

@@ -480,10 +480,12 @@ impl Adaptive {
         if cached {
             // O(active region): the caches of the rigid subassemblies (update.rs), then the
             // step on the new hybrid body's reduced tree.
-            report.rigidified = self.cached_reselect(model, state)?;
+            let r = self.cached_reselect(model, state);
+            let fresh = std::mem::take(&mut self.hier.kin_fresh);
+            report.rigidified = r?;
             let touched = self.touched;
             self.check_active_inputs(model, state)?;
-            self.hybrid_step(model, &state.q, &state.qd, &state.tau)?;
+            self.hybrid_step(model, &state.q, &state.qd, &state.tau, fresh)?;
             self.touched += touched;
         } else if report.reselected {
             self.hier.valid = false;
@@ -500,7 +502,7 @@ impl Adaptive {
             self.back_substitution(model, false);
         } else {
             self.check_active_inputs(model, state)?;
-            self.hybrid_step(model, &state.q, &state.qd, &state.tau)?;
+            self.hybrid_step(model, &state.q, &state.qd, &state.tau, false)?;
         }
         let mut dofs = 0;
         for idx in 0..self.hier.rec.len() {

@@ -159,7 +159,10 @@ impl Adaptive {
                 leaving.push(j);
             }
         }
+        let same = self.hier.valid && self.hier.from_cache && self.cache.sel == self.hier.hnodes;
         self.rebuild_hierarchy_cached(model);
+        // Same active joints and no impulse: their kinematics in `data` are this step's.
+        self.hier.kin_fresh = same && !moving;
         if moving {
             self.active_kinematics(model, &state.q, &state.qd);
             let mut gm = std::mem::take(&mut self.gmom);
@@ -511,6 +514,11 @@ impl Adaptive {
     fn rebuild_hierarchy_cached(&mut self, model: &Model) {
         let tree = &model.assembly;
         let h = &mut self.hier;
+        if h.valid && h.from_cache && self.cache.sel == h.hnodes {
+            // The same hybrid body, whose lists, clusters and poses came from the caches
+            // already: nothing changes.
+            return;
+        }
         for &n in &h.hnodes {
             self.active[n] = false;
         }
@@ -586,6 +594,7 @@ impl Adaptive {
         }
         self.build_records(model);
         self.hier.valid = true;
+        self.hier.from_cache = true;
     }
 }
 
