@@ -879,15 +879,34 @@ impl Adaptive {
             self.fx[6 * h..6 * h + 6].copy_from_slice(&self.f[hc + h].to_array());
         }
         let ko = self.koff[n];
-        for p in 0..k {
-            let row = &self.kmat[ko + p * w..ko + p * w + w];
-            self.qdd[vo + p] =
-                self.kvec[vo + p] + row.iter().zip(&self.fx).map(|(x, y)| x * y).sum::<f64>();
-        }
         let mut fj = self.nvec[n];
-        for (r, x) in fj.iter_mut().enumerate() {
-            let row = &self.nmat[36 * hc + r * w..36 * hc + r * w + w];
-            *x += row.iter().zip(&self.fx).map(|(x, y)| x * y).sum::<f64>();
+        if let (2, Ok(fx)) = (nhc, <&[f64; 12]>::try_from(&self.fx[..12])) {
+            // Two handles (a chain's inner nodes): fixed-length rows, the same sums in the
+            // same order (from the first product on, as `Iterator::sum` from −0).
+            let dot12 = |row: &[f64]| {
+                let row: &[f64; 12] = row.try_into().expect("a row of 12");
+                let mut acc = row[0] * fx[0];
+                for c in 1..12 {
+                    acc += row[c] * fx[c];
+                }
+                acc
+            };
+            for p in 0..k {
+                self.qdd[vo + p] = self.kvec[vo + p] + dot12(&self.kmat[ko + p * 12..][..12]);
+            }
+            for (r, x) in fj.iter_mut().enumerate() {
+                *x += dot12(&self.nmat[36 * hc + r * 12..][..12]);
+            }
+        } else {
+            for p in 0..k {
+                let row = &self.kmat[ko + p * w..ko + p * w + w];
+                self.qdd[vo + p] =
+                    self.kvec[vo + p] + row.iter().zip(&self.fx).map(|(x, y)| x * y).sum::<f64>();
+            }
+            for (r, x) in fj.iter_mut().enumerate() {
+                let row = &self.nmat[36 * hc + r * w..36 * hc + r * w + w];
+                *x += row.iter().zip(&self.fx).map(|(x, y)| x * y).sum::<f64>();
+            }
         }
         let fj = SpatialForce::from_array(fj);
         let (hoa, hob) = (self.lay.hoff[a], self.lay.hoff[b]);

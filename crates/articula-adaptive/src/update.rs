@@ -406,6 +406,9 @@ impl Adaptive {
                     let (x, u) = (ad.cache.cx[n], ad.cache.cu[n]);
                     ad.eval_cache(model, n, &x, u, Part::Maps);
                 }
+                // The old active region was back-substituted by `active_metrics` (the same
+                // forces from the same maps).
+                ad.active[n]
             },
             |ad, n, c| {
                 if !ad.active[n] && ad.cache.stamp[c] != ep {
