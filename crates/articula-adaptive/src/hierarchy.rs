@@ -221,6 +221,20 @@ impl Adaptive {
     pub(crate) fn build_records(&mut self, model: &Model) {
         let h = &mut self.hier;
         h.rec.clear();
+        // Room for every body at the first build: later hybrid bodies allocate nothing.
+        let nb = model.bodies.len();
+        if h.rec.capacity() < nb {
+            h.rec.reserve(nb);
+            for v in [&mut h.ia, &mut h.chol] {
+                v.reserve(nb.saturating_sub(v.len()));
+            }
+            for v in [&mut h.pa, &mut h.acc] {
+                v.reserve(nb.saturating_sub(v.len()));
+            }
+            h.dinv.reserve(nb.saturating_sub(h.dinv.len()));
+            h.u.reserve(model.nv.saturating_sub(h.u.len()));
+            h.uu.reserve(model.nv.saturating_sub(h.uu.len()));
+        }
         // Body → record index, for the parents (through `acc`'s slots: rewritten below).
         let mut dof = 0;
         for idx in 0..h.ajoints.len() {
@@ -393,42 +407,41 @@ impl Adaptive {
         // top-body frame), `I = [Ī, h×; h×ᵀ, m 1]` with `Ī = E I_c Eᵀ + m (|c|² 1 − c cᵀ)`,
         // `h = m c`, and bias force `pᴬ = v ×* I v − f_ext` (gravity enters as the world's
         // acceleration −a_g).
-        for (idx, r) in h.rec.iter().enumerate() {
+        for ((r, ia), pa) in h.rec.iter().zip(h.ia.iter_mut()).zip(h.pa.iter_mut()) {
             let x = &d.x[r.j];
             let rl = &r.rig;
             let m = rl.m;
-            // Rows of E (x.e is column-major) and of E I_c.
+            // Rows of E (x.e is column-major) and of E I_c (I_c symmetric).
             let e = [x.e.row(0), x.e.row(1), x.e.row(2)];
-            let ei = [rl.ic * e[0], rl.ic * e[1], rl.ic * e[2]]; // (E I_c)ᵀ columns: I_c symmetric
+            let ei = [rl.ic * e[0], rl.ic * e[1], rl.ic * e[2]];
             let cw = x.e * (rl.c - x.r);
             let cc = cw.length_squared();
-            let ia = &mut h.ia[idx];
             let cwa = cw.to_array();
-            for rr in 0..3 {
-                for c in rr..3 {
-                    let mut v = ei[rr].dot(e[c]) - m * cwa[rr] * cwa[c];
-                    if rr == c {
-                        v += m * cc;
-                    }
-                    ia[rr][c] = v;
-                    ia[c][rr] = v;
+            // Ī = E I_c Eᵀ + m (|c|² 1 − c cᵀ), upper triangle.
+            let ib = |rr: usize, c: usize| {
+                let v = ei[rr].dot(e[c]) - m * cwa[rr] * cwa[c];
+                if rr == c {
+                    v + m * cc
+                } else {
+                    v
                 }
-            }
+            };
+            let (i00, i01, i02, i11, i12, i22) =
+                (ib(0, 0), ib(0, 1), ib(0, 2), ib(1, 1), ib(1, 2), ib(2, 2));
             let hv = cw * m;
-            // h× and its transpose.
-            let hx = [[0.0, -hv.z, hv.y], [hv.z, 0.0, -hv.x], [-hv.y, hv.x, 0.0]];
-            for rr in 0..3 {
-                for c in 0..3 {
-                    ia[rr][c + 3] = hx[rr][c];
-                    ia[c + 3][rr] = hx[rr][c];
-                    ia[rr + 3][c + 3] = if rr == c { m } else { 0.0 };
-                }
-            }
-            h.pa[idx] = if accel {
+            *ia = [
+                [i00, i01, i02, 0.0, -hv.z, hv.y],
+                [i01, i11, i12, hv.z, 0.0, -hv.x],
+                [i02, i12, i22, -hv.y, hv.x, 0.0],
+                [0.0, hv.z, -hv.y, m, 0.0, 0.0],
+                [-hv.z, 0.0, hv.x, 0.0, m, 0.0],
+                [hv.y, -hv.x, 0.0, 0.0, 0.0, m],
+            ];
+            *pa = if accel {
                 let v = d.v[r.j];
-                let ibw = DVec3::new(ia[0][0], ia[0][1], ia[0][2]) * v.w.x
-                    + DVec3::new(ia[1][0], ia[1][1], ia[1][2]) * v.w.y
-                    + DVec3::new(ia[2][0], ia[2][1], ia[2][2]) * v.w.z;
+                let ibw = DVec3::new(i00, i01, i02) * v.w.x
+                    + DVec3::new(i01, i11, i12) * v.w.y
+                    + DVec3::new(i02, i12, i22) * v.w.z;
                 let iv = SpatialForce::new(ibw + hv.cross(v.v), v.v * m - hv.cross(v.w));
                 (v.cross_force(iv) - self.fsum[r.f]).to_array()
             } else {
