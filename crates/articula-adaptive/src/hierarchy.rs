@@ -50,6 +50,8 @@ pub(crate) struct Hierarchy {
     /// The reduced tree, one record per active joint in the order of `ajoints` (parents
     /// first): what its kinematics and articulated-body passes read, contiguous.
     pub rec: Vec<ActiveJoint>,
+    /// Per body: its record while building them (valid for the active bodies).
+    pub ridx: Vec<usize>,
     /// Articulated-body workspace of the reduced tree (one rigid cluster per active joint),
     /// indexed like `rec`: `Iᴬ`, `pᴬ`, the cluster's acceleration, `D⁻¹` (one DOF) or the
     /// Cholesky factor of `D` (several); per degree of freedom (at `rec.dof`) `U = Iᴬ s` and
@@ -235,7 +237,9 @@ impl Adaptive {
             h.u.reserve(model.nv.saturating_sub(h.u.len()));
             h.uu.reserve(model.nv.saturating_sub(h.uu.len()));
         }
-        // Body → record index, for the parents (through `acc`'s slots: rewritten below).
+        if h.ridx.len() != nb {
+            h.ridx.resize(nb, usize::MAX);
+        }
         let mut dof = 0;
         for idx in 0..h.ajoints.len() {
             let j = h.ajoints[idx];
@@ -264,10 +268,9 @@ impl Adaptive {
             let pidx = if h.par[j] == usize::MAX {
                 usize::MAX
             } else {
-                h.rec
-                    .binary_search_by_key(&h.par[j], |r| r.j)
-                    .expect("the parent's active joint comes first")
+                h.ridx[h.par[j]]
             };
+            h.ridx[j] = h.rec.len();
             h.rec.push(ActiveJoint {
                 j,
                 qo: body.q_offset,
