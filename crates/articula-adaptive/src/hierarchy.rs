@@ -47,6 +47,8 @@ pub(crate) struct Hierarchy {
     /// Per body: `(i, ±1)` for a joint of one revolute part about the coordinate axis `±e_i`
     /// (the usual URDF case, kinematics in closed form), else `None`. Built once per model.
     pub axis: Vec<Option<(usize, f64)>>,
+    /// Per body: its joint's [`RevoluteParts`] (built with `axis`).
+    pub parts: Vec<Option<RevoluteParts>>,
     /// The reduced tree, one record per active joint in the order of `ajoints` (parents
     /// first): what its kinematics and articulated-body passes read, contiguous.
     pub rec: Vec<ActiveJoint>,
@@ -152,6 +154,7 @@ impl Adaptive {
         h.par.resize(nb, usize::MAX);
         if h.axis.len() != nb {
             h.axis = model.bodies.iter().map(coordinate_axis).collect();
+            h.parts = model.bodies.iter().map(revolute_parts).collect();
         }
         h.hnodes.clear();
         h.fnodes.clear();
@@ -259,7 +262,7 @@ impl Adaptive {
             if axis.is_some() {
                 let o = body.joint[0].origin;
                 if o.e != glam::DMat3::IDENTITY || o.r != DVec3::ZERO {
-                    x0 = x0 * o;
+                    x0 = if mulx { x0 * o } else { o };
                     mulx = true;
                 }
             }
@@ -313,32 +316,34 @@ impl Adaptive {
                 Parent::Active(p) | Parent::Cluster(p) => (d.x[p], d.v[p]),
             };
             let x = if r.mulx { base * r.x0 } else { base };
-            let (x, v, c) = match r.axis {
-                Some((i, sign)) => {
-                    let (mut x, v) = (x, v);
-                    let (sn, cs) = (sign * q[r.qo]).sin_cos();
-                    // E ← E R(q), r ← R(q)ᵀ r for the rotation about coordinate axis i.
-                    let (a, b) = ((i + 1) % 3, (i + 2) % 3);
-                    let (ea, eb) = (x.e.col(a), x.e.col(b));
-                    *x.e.col_mut(a) = ea * cs + eb * sn;
-                    *x.e.col_mut(b) = eb * cs - ea * sn;
-                    let (ra, rb) = (x.r[a], x.r[b]);
-                    x.r[a] = cs * ra + sn * rb;
-                    x.r[b] = cs * rb - sn * ra;
-                    let w = x.e.col(i) * sign;
-                    let p = -(x.e * x.r);
-                    let s = SpatialMotion::new(w, p.cross(w));
-                    d.s[r.vo] = s;
-                    let vj = s * qd[r.vo];
-                    (x, v + vj, v.cross_motion(vj))
-                }
-                None => {
-                    let body = &model.bodies[r.j];
-                    revolute_kinematics(body, x, v, q, qd, &mut d.s).unwrap_or_else(|| {
-                        articula_dca::body_kinematics(body, x, v, q, qd, &mut d.s)
-                    })
-                }
+            let Some((i, sign)) = r.axis else {
+                let body = &model.bodies[r.j];
+                let (x, v, c) = match &h.parts[r.j] {
+                    Some(parts) => revolute_kinematics(body, parts, x, v, q, qd, &mut d.s),
+                    None => articula_dca::body_kinematics(body, x, v, q, qd, &mut d.s),
+                };
+                d.x[r.j] = x;
+                d.v[r.j] = v;
+                d.c[r.j] = c;
+                continue;
             };
+            let mut x = x;
+            let (sn, cs) = (sign * q[r.qo]).sin_cos();
+            // E ← E R(q), r ← R(q)ᵀ r for the rotation about coordinate axis i.
+            let (a, b) = ((i + 1) % 3, (i + 2) % 3);
+            let (ea, eb) = (x.e.col(a), x.e.col(b));
+            *x.e.col_mut(a) = ea * cs + eb * sn;
+            *x.e.col_mut(b) = eb * cs - ea * sn;
+            let (ra, rb) = (x.r[a], x.r[b]);
+            x.r[a] = cs * ra + sn * rb;
+            x.r[b] = cs * rb - sn * ra;
+            let w = x.e.col(i) * sign;
+            let p = -(x.e * x.r);
+            let s = SpatialMotion::new(w, p.cross(w));
+            d.s[r.vo] = s;
+            let vj = s * qd[r.vo];
+            let c = v.cross_motion(vj);
+            let v = v + vj;
             d.x[r.j] = x;
             d.v[r.j] = v;
             d.c[r.j] = c;
@@ -614,20 +619,19 @@ impl Adaptive {
     }
 }
 
-/// [`articula_dca::body_kinematics`] for a joint made of revolute parts about coordinate axes
-/// (`±x`, `±y`, `±z`, the usual URDF case): the rotation by `q` touches two columns of the
-/// pose and an identity part origin (the massless links of a composed joint) costs nothing.
-/// `None` for any other joint.
-#[inline]
-fn revolute_kinematics(
-    body: &articula_model::Body,
-    x0: SpatialTransform,
-    v0: SpatialMotion,
-    q: &[f64],
-    qd: &[f64],
-    s: &mut [SpatialMotion],
-) -> Option<(SpatialTransform, SpatialMotion, SpatialMotion)> {
+/// The parts of a joint made of revolute parts about coordinate axes (`±x`, `±y`, `±z`, the
+/// usual URDF case): per part `(i, ±1)` of its axis `±e_i`, and a bit per part whose origin is
+/// not the identity (the massless links of a composed joint often are). `None` for any other
+/// joint.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RevoluteParts {
+    axes: [(usize, f64); 6],
+    moved: u8,
+}
+
+fn revolute_parts(body: &articula_model::Body) -> Option<RevoluteParts> {
     let mut axes = [(0usize, 0.0f64); 6];
+    let mut moved = 0u8;
     for (k, part) in body.joint.iter().enumerate() {
         if k >= 6
             || !matches!(
@@ -643,14 +647,33 @@ fn revolute_kinematics(
             return None;
         }
         axes[k] = (i, a[i]);
+        if part.origin.e != glam::DMat3::IDENTITY || part.origin.r != DVec3::ZERO {
+            moved |= 1 << k;
+        }
     }
+    Some(RevoluteParts { axes, moved })
+}
+
+/// [`articula_dca::body_kinematics`] for a joint of [`RevoluteParts`]: the rotation by `q`
+/// touches two columns of the pose and an identity part origin costs nothing. (Kept out of
+/// line, beside the closed-form one-axis path of `active_kinematics`.)
+#[inline(never)]
+fn revolute_kinematics(
+    body: &articula_model::Body,
+    parts: &RevoluteParts,
+    x0: SpatialTransform,
+    v0: SpatialMotion,
+    q: &[f64],
+    qd: &[f64],
+    s: &mut [SpatialMotion],
+) -> (SpatialTransform, SpatialMotion, SpatialMotion) {
     let (mut x, mut v) = (x0, v0);
     let mut c = SpatialMotion::ZERO;
     for (k, part) in body.joint.iter().enumerate() {
-        if part.origin.e != glam::DMat3::IDENTITY || part.origin.r != DVec3::ZERO {
+        if parts.moved & (1 << k) != 0 {
             x = x * part.origin;
         }
-        let (i, sign) = axes[k];
+        let (i, sign) = parts.axes[k];
         let (sn, cs) = (sign * q[part.q_offset]).sin_cos();
         // E ← E R(q), r ← R(q)ᵀ r for the rotation about coordinate axis i: columns / components
         // (i+1, i+2) turn by the angle.
@@ -667,7 +690,7 @@ fn revolute_kinematics(
         c += v.cross_motion(vj);
         v += vj;
     }
-    Some((x, v, c))
+    (x, v, c)
 }
 
 /// `a x` for a 6 × 6 matrix.
