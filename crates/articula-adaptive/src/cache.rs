@@ -62,6 +62,32 @@ pub(crate) fn monomials(u: SpatialMotion) -> [f64; NW] {
     w
 }
 
+/// `row · w` over the NW monomials, in two interleaved partial sums.
+#[inline(always)]
+fn wdot(row: &[f64], w: &[f64; NW]) -> f64 {
+    let row: &[f64; NW] = row.try_into().expect("a row of NW");
+    let mut acc = [0.0; 2];
+    for i in 0..NW / 2 {
+        acc[0] += row[2 * i] * w[2 * i];
+        acc[1] += row[2 * i + 1] * w[2 * i + 1];
+    }
+    acc[0] + acc[1]
+}
+
+/// `wᵀ E w` for a symmetric NW × NW `E` (row-major): `(Σ_i w_i E_i) · w`, rows summed as
+/// vectors.
+#[inline]
+fn quad_w(e: &[f64], w: &[f64; NW]) -> f64 {
+    let mut t = [0.0; NW];
+    for (i, &wi) in w.iter().enumerate() {
+        let row: &[f64; NW] = e[i * NW..][..NW].try_into().expect("a row of NW");
+        for (x, &y) in t.iter_mut().zip(row) {
+            *x += wi * y;
+        }
+    }
+    wdot(&t, w)
+}
+
 /// The map `M` with `w(T u) = M w(u)` for a linear map `T` of velocities (6 × 6, row-major),
 /// row-major 22 × 22: `(Tu)_a (Tu)_b = Σ_{c≤d} (T_ac T_bd + T_ad T_bc [c<d]) u_c u_d`.
 fn monomial_map(t: &[[f64; 6]; 6], m: &mut [f64]) {
@@ -726,7 +752,7 @@ impl Adaptive {
         let (nh, hc, bc) = (self.nh[n], self.lay.hoff[n], self.lay.boff[n]);
         let nc = 6 * nh;
         let c = &self.cache;
-        let wdot = |row: &[f64]| -> f64 { row.iter().zip(&w).map(|(a, b)| a * b).sum() };
+        let wdot = |row: &[f64]| wdot(row, &w);
         match part {
             Part::Coefficients => {
                 for blk in 0..nh * nh {
@@ -765,7 +791,7 @@ impl Adaptive {
                 }
                 left_rot(pv, nc, 1, &r);
                 let e = &c.e[n * NW * NW..(n + 1) * NW * NW];
-                self.eta[n] = (0..NW).map(|i| w[i] * wdot(&e[i * NW..i * NW + NW])).sum();
+                self.eta[n] = quad_w(e, &w);
                 self.cache.pstamp[n] = self.cache.epoch;
             }
             Part::Maps => {
@@ -890,19 +916,22 @@ impl Adaptive {
         left_rot(&mut self.fx[..nc], nc, 1, &rt);
         let c = &self.cache;
         let fx = &self.fx[..nc];
-        let wdot = |row: &[f64]| -> f64 { row.iter().zip(&w).map(|(a, b)| a * b).sum() };
         let po = self.poff[n];
         let o = hc * 6 * NW;
         let mut a = crate::dense::quad(&c.psi[po..po + nc * nc], fx, nc);
+        // Fᵀ P w = (Σ_row F_row P_row) · w.
+        let mut pf = [0.0; NW];
         for (row, &fr) in fx.iter().enumerate() {
             if fr != 0.0 {
-                a += fr * wdot(&c.pw[o + row * NW..o + row * NW + NW]);
+                let pr: &[f64; NW] = c.pw[o + row * NW..][..NW].try_into().expect("NW");
+                for (x, &y) in pf.iter_mut().zip(pr) {
+                    *x += fr * y;
+                }
             }
         }
+        a += wdot(&pf, &w);
         let e = &c.e[n * NW * NW..(n + 1) * NW * NW];
-        a + (0..NW)
-            .map(|i| w[i] * wdot(&e[i * NW..i * NW + NW]))
-            .sum::<f64>()
+        a + quad_w(e, &w)
     }
 
     /// Builds the caches of every join node that is not selected, bottom-up, from the

@@ -106,11 +106,13 @@ pub(crate) fn spd_cholesky(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
 pub(crate) use articula_dca::cholesky as cholesky_k;
 
 /// `(L Lᵀ)⁻¹ u` for the leading k×k factor `L`.
+#[inline(always)]
 pub(crate) fn solve_llt_k(l: &[[f64; 6]; 6], u: &[f64; 5], k: usize) -> [f64; 5] {
     solve_lt_k(l, &solve_l_k(l, u, k), k)
 }
 
 /// `L⁻¹ u` for the leading k×k factor `L`.
+#[inline(always)]
 pub(crate) fn solve_l_k(l: &[[f64; 6]; 6], u: &[f64; 5], k: usize) -> [f64; 5] {
     let mut x = [0.0; 5];
     for i in 0..k {
@@ -124,6 +126,7 @@ pub(crate) fn solve_l_k(l: &[[f64; 6]; 6], u: &[f64; 5], k: usize) -> [f64; 5] {
 }
 
 /// `L⁻ᵀ u` for the leading k×k factor `L`.
+#[inline(always)]
 pub(crate) fn solve_lt_k(l: &[[f64; 6]; 6], u: &[f64; 5], k: usize) -> [f64; 5] {
     let mut x = *u;
     for i in (0..k).rev() {

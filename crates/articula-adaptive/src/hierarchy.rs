@@ -11,7 +11,7 @@ use crate::dense;
 use crate::hybrid::{Adaptive, Level, Rigid};
 use articula_dca::DynamicsError;
 use articula_model::{Model, NodeKind};
-use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
+use articula_spatial::{SpatialForce, SpatialMotion, SpatialTransform};
 use glam::DVec3;
 
 /// Lists and frames of the current hybrid body.
@@ -19,6 +19,12 @@ use glam::DVec3;
 pub(crate) struct Hierarchy {
     /// Built for the current hybrid body (cleared by a re-selection).
     pub valid: bool,
+    /// Built by the cached re-selection (lists, clusters' mass properties and parent poses
+    /// from the caches).
+    pub from_cache: bool,
+    /// The active bodies' kinematics in `data` are those of the coming hybrid step's state
+    /// (set by a cached re-selection that kept the hybrid body, taken by the step).
+    pub kin_fresh: bool,
     /// Per frontier node (rigid cluster): mass properties in its top body's frame.
     pub rig: Vec<Rigid>,
     /// Active join nodes, then frontier nodes, each ascending (post-order).
@@ -38,16 +44,84 @@ pub(crate) struct Hierarchy {
     /// cluster welded to the ground).
     pub cl: Vec<usize>,
     pub par: Vec<usize>,
-    /// Articulated-body workspace of the reduced tree (one rigid cluster per active body):
-    /// per active body `Iᴬ`, `pᴬ`, `D⁻¹` (one DOF) or the Cholesky factor of `D` (several)
-    /// and the cluster's acceleration; per degree of
-    /// freedom `U = Iᴬ s` and `u = τ − sᵀ pᴬ`.
+    /// Per body: `(i, ±1)` for a joint of one revolute part about the coordinate axis `±e_i`
+    /// (the usual URDF case, kinematics in closed form), else `None`. Built once per model.
+    pub axis: Vec<Option<(usize, f64)>>,
+    /// Per body: its joint's [`RevoluteParts`] (built with `axis`).
+    pub parts: Vec<Option<RevoluteParts>>,
+    /// The reduced tree, one record per active joint in the order of `ajoints` (parents
+    /// first): what its kinematics and articulated-body passes read, contiguous.
+    pub rec: Vec<ActiveJoint>,
+    /// Per body: its record while building them (valid for the active bodies).
+    pub ridx: Vec<usize>,
+    /// Articulated-body workspace of the reduced tree (one rigid cluster per active joint),
+    /// indexed like `rec`: `Iᴬ`, `pᴬ`, the cluster's acceleration, `D⁻¹` (one DOF) or the
+    /// Cholesky factor of `D` (several); per degree of freedom (at `rec.dof`) `U = Iᴬ s` and
+    /// `u = τ − sᵀ pᴬ`.
     pub ia: Vec<[[f64; 6]; 6]>,
-    pub pa: Vec<SpatialForce>,
-    pub dinv: Vec<[[f64; 6]; 6]>,
-    pub acc: Vec<SpatialMotion>,
+    pub pa: Vec<[f64; 6]>,
+    pub acc: Vec<[f64; 6]>,
+    pub dinv: Vec<f64>,
+    pub chol: Vec<[[f64; 6]; 6]>,
     pub u: Vec<[f64; 6]>,
     pub uu: Vec<f64>,
+}
+
+/// Where an active joint's parent body is.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Parent {
+    /// The world (no parent body): the computation frame.
+    World,
+    /// An active body.
+    Active(usize),
+    /// A rigid cluster topped by this body, at the record's constant pose in its frame.
+    Cluster(usize),
+    /// A cluster welded to the ground, at the record's constant pose in the world.
+    Ground,
+}
+
+/// One active joint of the reduced tree.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ActiveJoint {
+    /// Body, offsets of its coordinates, degrees of freedom, first slot in `u`/`uu`.
+    pub j: usize,
+    pub qo: usize,
+    pub vo: usize,
+    pub k: usize,
+    pub dof: usize,
+    /// Index (in `rec`) of the active joint topping the cluster that holds the parent body.
+    pub pidx: usize,
+    pub parent: Parent,
+    /// The cluster this joint tops (frontier node).
+    pub f: usize,
+    /// Constant pose that follows the parent frame: for a closed-form revolute joint its
+    /// origin, composed with the parent body's pose in its cluster; for other joints that pose
+    /// alone (their origins are applied by the general kinematics). `mulx`: not the identity.
+    pub x0: SpatialTransform,
+    pub mulx: bool,
+    /// `(i, ±1)` of a closed-form revolute joint.
+    pub axis: Option<(usize, f64)>,
+    /// The cluster's mass properties in this body's frame.
+    pub rig: Rigid,
+}
+
+/// `(i, ±1)` when `body`'s joint is one revolute part about the coordinate axis `±e_i`.
+fn coordinate_axis(body: &articula_model::Body) -> Option<(usize, f64)> {
+    let [part] = body.joint.as_slice() else {
+        return None;
+    };
+    if !matches!(
+        part.kind,
+        articula_model::JointKind::Revolute | articula_model::JointKind::Continuous
+    ) {
+        return None;
+    }
+    let a = part.axis.to_array();
+    let i = (0..3).find(|&i| a[i] == 1.0 || a[i] == -1.0)?;
+    if a[(i + 1) % 3] != 0.0 || a[(i + 2) % 3] != 0.0 {
+        return None;
+    }
+    Some((i, a[i]))
 }
 
 impl Adaptive {
@@ -78,12 +152,10 @@ impl Adaptive {
         h.prel.resize(nb, SpatialTransform::IDENTITY);
         h.cl.resize(nb, usize::MAX);
         h.par.resize(nb, usize::MAX);
-        h.ia.resize(nb, [[0.0; 6]; 6]);
-        h.pa.resize(nb, SpatialForce::ZERO);
-        h.dinv.resize(nb, [[0.0; 6]; 6]);
-        h.acc.resize(nb, SpatialMotion::ZERO);
-        h.u.resize(model.nv, [0.0; 6]);
-        h.uu.resize(model.nv, 0.0);
+        if h.axis.len() != nb {
+            h.axis = model.bodies.iter().map(coordinate_axis).collect();
+            h.parts = model.bodies.iter().map(revolute_parts).collect();
+        }
         h.hnodes.clear();
         h.fnodes.clear();
         h.ajoints.clear();
@@ -143,36 +215,138 @@ impl Adaptive {
             }
             self.hier.cl[j] = n;
         }
+        self.build_records(model);
         self.hier.valid = true;
+        self.hier.from_cache = false;
+        self.hier.kin_fresh = false;
+    }
+
+    /// The records of the reduced tree (`rec`) from the lists and frames of
+    /// [`Adaptive::build_hierarchy`], and the articulated-body workspace sized to them.
+    pub(crate) fn build_records(&mut self, model: &Model) {
+        let h = &mut self.hier;
+        h.rec.clear();
+        // Room for every body at the first build: later hybrid bodies allocate nothing.
+        let nb = model.bodies.len();
+        if h.rec.capacity() < nb {
+            h.rec.reserve(nb);
+            for v in [&mut h.ia, &mut h.chol] {
+                v.reserve(nb.saturating_sub(v.len()));
+            }
+            for v in [&mut h.pa, &mut h.acc] {
+                v.reserve(nb.saturating_sub(v.len()));
+            }
+            h.dinv.reserve(nb.saturating_sub(h.dinv.len()));
+            h.u.reserve(model.nv.saturating_sub(h.u.len()));
+            h.uu.reserve(model.nv.saturating_sub(h.uu.len()));
+        }
+        if h.ridx.len() != nb {
+            h.ridx.resize(nb, usize::MAX);
+        }
+        let mut dof = 0;
+        for idx in 0..h.ajoints.len() {
+            let j = h.ajoints[idx];
+            let body = &model.bodies[j];
+            let axis = h.axis[j];
+            let parent = match body.parent {
+                None => Parent::World,
+                Some(p) if h.abody[p] => Parent::Active(p),
+                Some(_) if self.grounded[h.pcl[j]] => Parent::Ground,
+                Some(_) => Parent::Cluster(self.top[h.pcl[j]]),
+            };
+            let mut x0 = match parent {
+                Parent::World | Parent::Active(_) => SpatialTransform::IDENTITY,
+                Parent::Cluster(_) | Parent::Ground => h.prel[j],
+            };
+            let mut mulx = !matches!(parent, Parent::World | Parent::Active(_));
+            if axis.is_some() {
+                let o = body.joint[0].origin;
+                if o.e != glam::DMat3::IDENTITY || o.r != DVec3::ZERO {
+                    x0 = if mulx { x0 * o } else { o };
+                    mulx = true;
+                }
+            }
+            // The parent record: the active body topping the parent's cluster (`par`) comes
+            // earlier in `ajoints`.
+            let pidx = if h.par[j] == usize::MAX {
+                usize::MAX
+            } else {
+                h.ridx[h.par[j]]
+            };
+            h.ridx[j] = h.rec.len();
+            h.rec.push(ActiveJoint {
+                j,
+                qo: body.q_offset,
+                vo: body.v_offset,
+                k: body.nv,
+                dof,
+                pidx,
+                parent,
+                f: h.cl[j],
+                x0,
+                mulx,
+                axis,
+                rig: h.rig[h.cl[j]],
+            });
+            dof += body.nv;
+        }
+        let na = h.rec.len();
+        h.ia.resize(na, [[0.0; 6]; 6]);
+        h.pa.resize(na, [0.0; 6]);
+        h.acc.resize(na, [0.0; 6]);
+        h.dinv.resize(na, 0.0);
+        h.chol.resize(na, [[0.0; 6]; 6]);
+        h.u.resize(dof, [0.0; 6]);
+        h.uu.resize(dof, 0.0);
     }
 
     /// Forward kinematics of the active joints only (parents first): poses, velocities,
-    /// subspace columns and velocity products of the active bodies, and the handle points.
+    /// subspace columns and velocity products of the active bodies. A joint of one revolute
+    /// part about a coordinate axis takes its parent frame composed with its constant pose
+    /// (`x0`: the parent body's pose in its cluster and the joint origin) and turns two
+    /// columns of it; its axis is a column of the pose, `s = [ω; p × ω]` with `p` the body's
+    /// origin.
     pub(crate) fn active_kinematics(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
         let x_cw = SpatialTransform::xlt(self.data.origin);
-        for idx in 0..self.hier.ajoints.len() {
-            let i = self.hier.ajoints[idx];
-            let body = &model.bodies[i];
-            let (x, v) = match body.parent {
-                None => (x_cw, SpatialMotion::ZERO),
-                Some(p) if self.hier.abody[p] => (self.data.x[p], self.data.v[p]),
-                Some(_) => {
-                    let f = self.hier.pcl[i];
-                    if self.grounded[f] {
-                        (x_cw * self.hier.prel[i], SpatialMotion::ZERO)
-                    } else {
-                        let t = self.top[f];
-                        (self.data.x[t] * self.hier.prel[i], self.data.v[t])
-                    }
-                }
+        let h = &self.hier;
+        let d = &mut self.data;
+        for r in &h.rec {
+            let (base, v) = match r.parent {
+                Parent::World | Parent::Ground => (x_cw, SpatialMotion::ZERO),
+                Parent::Active(p) | Parent::Cluster(p) => (d.x[p], d.v[p]),
             };
-            let (x, v, c) = revolute_kinematics(body, x, v, q, qd, &mut self.data.s)
-                .unwrap_or_else(|| {
-                    articula_dca::body_kinematics(body, x, v, q, qd, &mut self.data.s)
-                });
-            self.data.x[i] = x;
-            self.data.v[i] = v;
-            self.data.c[i] = c;
+            let x = if r.mulx { base * r.x0 } else { base };
+            let Some((i, sign)) = r.axis else {
+                let body = &model.bodies[r.j];
+                let (x, v, c) = match &h.parts[r.j] {
+                    Some(parts) => revolute_kinematics(body, parts, x, v, q, qd, &mut d.s),
+                    None => articula_dca::body_kinematics(body, x, v, q, qd, &mut d.s),
+                };
+                d.x[r.j] = x;
+                d.v[r.j] = v;
+                d.c[r.j] = c;
+                continue;
+            };
+            let mut x = x;
+            let (sn, cs) = (sign * q[r.qo]).sin_cos();
+            // E ← E R(q), r ← R(q)ᵀ r for the rotation about coordinate axis i.
+            let (a, b) = ((i + 1) % 3, (i + 2) % 3);
+            let (ea, eb) = (x.e.col(a), x.e.col(b));
+            *x.e.col_mut(a) = ea * cs + eb * sn;
+            *x.e.col_mut(b) = eb * cs - ea * sn;
+            let (ra, rb) = (x.r[a], x.r[b]);
+            x.r[a] = cs * ra + sn * rb;
+            x.r[b] = cs * rb - sn * ra;
+            let w = x.e.col(i) * sign;
+            let p = -(x.e * x.r);
+            let s = SpatialMotion::new(w, p.cross(w));
+            d.s[r.vo] = s;
+            let vj = s * qd[r.vo];
+            let c = v.cross_motion(vj);
+            let v = v + vj;
+            d.x[r.j] = x;
+            d.v[r.j] = v;
+            d.c[r.j] = c;
         }
     }
 
@@ -184,17 +358,21 @@ impl Adaptive {
     /// same mechanical system the DCA main pass and back-substitution solve
     /// ([`Adaptive::set_full_passes`] runs those; tested equal to 1e-10), at a fraction of the
     /// cost per joint: the clusters' handle blocks are never formed. Writes `qdd` (zero outside
-    /// the active region).
+    /// the active region). `kinematics_fresh`: the active bodies' kinematics in `data` are
+    /// already those of `(q, q̇)` (a cached re-selection that kept the hybrid body).
     pub(crate) fn hybrid_step(
         &mut self,
         model: &Model,
         q: &[f64],
         qd: &[f64],
         tau: &[f64],
+        kinematics_fresh: bool,
     ) -> Result<(), DynamicsError> {
         let tree = &model.assembly;
-        self.data.origin = articula_dca::computation_origin(model, q);
-        self.active_kinematics(model, q, qd);
+        if !kinematics_fresh {
+            self.data.origin = articula_dca::computation_origin(model, q);
+            self.active_kinematics(model, q, qd);
+        }
         for idx in 0..self.hier.fnodes.len() {
             let f = self.hier.fnodes[idx];
             self.fsum[f] = SpatialForce::ZERO;
@@ -232,168 +410,189 @@ impl Adaptive {
         // The nodes this stands for: the active joins and the rigid frontier.
         self.touched = self.hier.hnodes.len() + self.hier.fnodes.len();
         let h = &mut self.hier;
+        let d = &self.data;
         // Pass 1: each cluster's spatial inertia about the computation origin (from its
-        // top-body frame), `I = [Ī, h×; h×ᵀ, m 1]`, and bias force `pᴬ = v ×* I v − f_ext`
-        // (gravity enters as the world's acceleration −a_g).
-        for &j in &h.ajoints {
-            let f = h.cl[j];
-            let x = &self.data.x[j];
-            let rl = &h.rig[f];
-            let inertia =
-                SpatialInertia::new(rl.m, x.apply_point(rl.c), x.e * rl.ic * x.e.transpose());
-            let (ib, hv, m) = (inertia.ibar, inertia.h, inertia.mass);
-            let ia = &mut h.ia[j];
-            let ibc = [ib.x_axis, ib.y_axis, ib.z_axis];
-            for r in 0..3 {
-                for c in 0..3 {
-                    ia[r][c] = ibc[c][r];
-                    ia[r + 3][c + 3] = if r == c { m } else { 0.0 };
+        // top-body frame), `I = [Ī, h×; h×ᵀ, m 1]` with `Ī = E I_c Eᵀ + m (|c|² 1 − c cᵀ)`,
+        // `h = m c`, and bias force `pᴬ = v ×* I v − f_ext` (gravity enters as the world's
+        // acceleration −a_g).
+        for ((r, ia), pa) in h.rec.iter().zip(h.ia.iter_mut()).zip(h.pa.iter_mut()) {
+            let x = &d.x[r.j];
+            let rl = &r.rig;
+            let m = rl.m;
+            // Rows of E (x.e is column-major) and of E I_c (I_c symmetric).
+            let e = [x.e.row(0), x.e.row(1), x.e.row(2)];
+            let ei = [rl.ic * e[0], rl.ic * e[1], rl.ic * e[2]];
+            let cw = x.e * (rl.c - x.r);
+            let cc = cw.length_squared();
+            let cwa = cw.to_array();
+            // Ī = E I_c Eᵀ + m (|c|² 1 − c cᵀ), upper triangle.
+            let ib = |rr: usize, c: usize| {
+                let v = ei[rr].dot(e[c]) - m * cwa[rr] * cwa[c];
+                if rr == c {
+                    v + m * cc
+                } else {
+                    v
                 }
-            }
-            // h× and its transpose.
-            let hx = [[0.0, -hv.z, hv.y], [hv.z, 0.0, -hv.x], [-hv.y, hv.x, 0.0]];
-            for r in 0..3 {
-                for c in 0..3 {
-                    ia[r][c + 3] = hx[r][c];
-                    ia[c + 3][r] = hx[r][c];
-                }
-            }
-            h.pa[j] = if accel {
-                let v = self.data.v[j];
-                v.cross_force(inertia.mul_motion(v)) - self.fsum[f]
+            };
+            let (i00, i01, i02, i11, i12, i22) =
+                (ib(0, 0), ib(0, 1), ib(0, 2), ib(1, 1), ib(1, 2), ib(2, 2));
+            let hv = cw * m;
+            *ia = [
+                [i00, i01, i02, 0.0, -hv.z, hv.y],
+                [i01, i11, i12, hv.z, 0.0, -hv.x],
+                [i02, i12, i22, -hv.y, hv.x, 0.0],
+                [0.0, hv.z, -hv.y, m, 0.0, 0.0],
+                [-hv.z, 0.0, hv.x, 0.0, m, 0.0],
+                [hv.y, -hv.x, 0.0, 0.0, 0.0, m],
+            ];
+            *pa = if accel {
+                let v = d.v[r.j];
+                let ibw = DVec3::new(i00, i01, i02) * v.w.x
+                    + DVec3::new(i01, i11, i12) * v.w.y
+                    + DVec3::new(i02, i12, i22) * v.w.z;
+                let iv = SpatialForce::new(ibw + hv.cross(v.v), v.v * m - hv.cross(v.w));
+                (v.cross_force(iv) - self.fsum[r.f]).to_array()
             } else {
-                SpatialForce::ZERO
+                [0.0; 6]
             };
         }
         // Pass 2, leaves to root: U = Iᴬ S, D = Sᵀ U, u = τ − Sᵀ pᴬ; the parent cluster gets
         // Iᵃ = Iᴬ − U D⁻¹ Uᵀ and pᵃ = pᴬ + Iᵃ c + U D⁻¹ u.
-        for idx in (0..h.ajoints.len()).rev() {
-            let j = h.ajoints[idx];
-            let body = &model.bodies[j];
-            let (vo, k) = (body.v_offset, body.nv);
-            let pa = h.pa[j];
-            let parent = h.par[j];
-            let c = if accel {
-                self.data.c[j].to_array()
-            } else {
-                [0.0; 6]
-            };
+        for idx in (0..h.rec.len()).rev() {
+            let r = &h.rec[idx];
+            let (vo, k, dof) = (r.vo, r.k, r.dof);
+            let pa = h.pa[idx];
+            let parent = r.pidx;
+            let c = if accel { d.c[r.j].to_array() } else { [0.0; 6] };
             if k == 1 {
-                let ia = &h.ia[j];
-                let s = self.data.s[vo].to_array();
-                let u = mul6(ia, &s);
-                let d = dot6(&s, &u);
-                if d.is_nan() || d <= 0.0 {
-                    return Err(singular(model, j));
+                let ia = &h.ia[idx];
+                let s = d.s[vo].to_array();
+                // U = Iᴬ s and Iᴬ c in one sweep (Iᴬ symmetric: sums of its rows).
+                let mut u = [0.0; 6];
+                let mut ic = [0.0; 6];
+                for (row, (&sc, &cc)) in ia.iter().zip(s.iter().zip(&c)) {
+                    for rr in 0..6 {
+                        u[rr] += row[rr] * sc;
+                        ic[rr] += row[rr] * cc;
+                    }
                 }
-                let dinv = 1.0 / d;
-                let uu = tau[vo] - self.data.s[vo].dot(pa);
-                h.u[vo] = u;
-                h.uu[vo] = uu;
-                h.dinv[j][0][0] = dinv;
+                let dd = dot6(&s, &u);
+                if dd.is_nan() || dd <= 0.0 {
+                    return Err(singular(model, r.j));
+                }
+                let dinv = 1.0 / dd;
+                let uu = tau[vo] - dot6(&s, &pa);
+                h.u[dof] = u;
+                h.uu[dof] = uu;
+                h.dinv[idx] = dinv;
                 if parent == usize::MAX {
                     continue;
                 }
-                let ic = mul6(ia, &c);
                 let g = dinv * (uu - dot6(&c, &u));
-                let add = SpatialForce::from_array(std::array::from_fn(|r| ic[r] + u[r] * g));
-                h.pa[parent] += pa + add;
-                let (lo, hi) = h.ia.split_at_mut(j);
+                let pp = &mut h.pa[parent];
+                for rr in 0..6 {
+                    pp[rr] += pa[rr] + (ic[rr] + u[rr] * g);
+                }
+                let (lo, hi) = h.ia.split_at_mut(idx);
                 add_sub_outer(&mut lo[parent], &hi[0], &u, dinv);
                 continue;
             }
-            let mut d = [[0.0; 6]; 6];
+            let mut dm = [[0.0; 6]; 6];
             for p in 0..k {
-                let u = mul6(&h.ia[j], &self.data.s[vo + p].to_array());
-                h.u[vo + p] = u;
+                let u = mul6(&h.ia[idx], &d.s[vo + p].to_array());
+                h.u[dof + p] = u;
                 for qq in 0..=p {
-                    let x = dot6(&self.data.s[vo + qq].to_array(), &u);
-                    d[p][qq] = x;
-                    d[qq][p] = x;
+                    let x = dot6(&d.s[vo + qq].to_array(), &u);
+                    dm[p][qq] = x;
+                    dm[qq][p] = x;
                 }
-                h.uu[vo + p] = tau[vo + p] - self.data.s[vo + p].dot(pa);
+                h.uu[dof + p] = tau[vo + p] - dot6(&d.s[vo + p].to_array(), &pa);
             }
             // D = L Lᵀ. With Y = U L⁻ᵀ (columns y_p) and z = L⁻¹ u: U D⁻¹ Uᵀ = Y Yᵀ and
             // U D⁻¹ u = Y z.
             if k > 0 {
-                h.dinv[j] = dense::cholesky_k(&d, k).ok_or_else(|| singular(model, j))?;
+                h.chol[idx] = dense::cholesky_k(&dm, k).ok_or_else(|| singular(model, r.j))?;
             }
             if parent == usize::MAX {
                 continue;
             }
-            let l = &h.dinv[j];
+            let l = &h.chol[idx];
             let mut y = [[0.0; 6]; 6];
             let mut z = [0.0; 6];
             for p in 0..k {
-                let mut yp = h.u[vo + p];
-                let mut zp = h.uu[vo + p];
+                let mut yp = h.u[dof + p];
+                let mut zp = h.uu[dof + p];
                 for qq in 0..p {
                     let lpq = l[p][qq];
                     zp -= lpq * z[qq];
-                    for r in 0..6 {
-                        yp[r] -= lpq * y[qq][r];
+                    for rr in 0..6 {
+                        yp[rr] -= lpq * y[qq][rr];
                     }
                 }
                 let inv = 1.0 / l[p][p];
                 z[p] = zp * inv;
-                for r in 0..6 {
-                    yp[r] *= inv;
+                for rr in 0..6 {
+                    yp[rr] *= inv;
                 }
                 y[p] = yp;
             }
             // Iᵃ = Iᴬ − Y Yᵀ, pᵃ = pᴬ + Iᵃ c + Y z (Iᵃ c = Iᴬ c − Y (Yᵀ c)).
-            let (lo, hi) = h.ia.split_at_mut(j);
+            let (lo, hi) = h.ia.split_at_mut(idx);
             let (target, ia) = (&mut lo[parent], &hi[0]);
             let mut add = mul6(ia, &c);
             for p in 0..k {
                 let g = z[p] - dot6(&y[p], &c);
-                for r in 0..6 {
-                    add[r] += y[p][r] * g;
+                for rr in 0..6 {
+                    add[rr] += y[p][rr] * g;
                 }
             }
-            h.pa[parent] += pa + SpatialForce::from_array(add);
-            for r in 0..6 {
-                for cc in r..6 {
-                    let mut x = target[r][cc] + ia[r][cc];
+            let pp = &mut h.pa[parent];
+            for rr in 0..6 {
+                pp[rr] += pa[rr] + add[rr];
+            }
+            for rr in 0..6 {
+                for cc in rr..6 {
+                    let mut x = target[rr][cc] + ia[rr][cc];
                     for p in 0..k {
-                        x -= y[p][r] * y[p][cc];
+                        x -= y[p][rr] * y[p][cc];
                     }
-                    target[r][cc] = x;
-                    target[cc][r] = x;
+                    target[rr][cc] = x;
+                    target[cc][rr] = x;
                 }
             }
         }
         // Pass 3, root to leaves: a' = a_parent + c, q̈ = D⁻¹ (u − Uᵀ a'), a = a' + S q̈.
         let a0 = if accel {
-            SpatialMotion::new(DVec3::ZERO, -self.data.gravity)
+            SpatialMotion::new(DVec3::ZERO, -d.gravity).to_array()
         } else {
-            SpatialMotion::ZERO
+            [0.0; 6]
         };
-        for idx in 0..h.ajoints.len() {
-            let j = h.ajoints[idx];
-            let body = &model.bodies[j];
-            let (vo, k) = (body.v_offset, body.nv);
-            let parent = h.par[j];
-            let mut ap = if parent == usize::MAX {
+        for idx in 0..h.rec.len() {
+            let r = &h.rec[idx];
+            let (vo, k, dof) = (r.vo, r.k, r.dof);
+            let mut ap = if r.pidx == usize::MAX {
                 a0
             } else {
-                h.acc[parent]
+                h.acc[r.pidx]
             };
             if accel {
-                ap += self.data.c[j];
+                let c = d.c[r.j].to_array();
+                for rr in 0..6 {
+                    ap[rr] += c[rr];
+                }
             }
-            let apa = ap.to_array();
             if k == 1 {
-                let x = h.dinv[j][0][0] * (h.uu[vo] - dot6(&apa, &h.u[vo]));
+                let x = h.dinv[idx] * (h.uu[dof] - dot6(&ap, &h.u[dof]));
                 self.qdd[vo] = x;
-                h.acc[j] = ap + self.data.s[vo] * x;
+                let s = d.s[vo].to_array();
+                h.acc[idx] = std::array::from_fn(|rr| ap[rr] + s[rr] * x);
                 continue;
             }
             // q̈ = L⁻ᵀ L⁻¹ r.
-            let l = &h.dinv[j];
+            let l = &h.chol[idx];
             let mut x = [0.0; 6];
             for p in 0..k {
-                let mut v = h.uu[vo + p] - dot6(&apa, &h.u[vo + p]);
+                let mut v = h.uu[dof + p] - dot6(&ap, &h.u[dof + p]);
                 for qq in 0..p {
                     v -= l[p][qq] * x[qq];
                 }
@@ -409,28 +608,30 @@ impl Adaptive {
             let mut a = ap;
             for p in 0..k {
                 self.qdd[vo + p] = x[p];
-                a += self.data.s[vo + p] * x[p];
+                let s = d.s[vo + p].to_array();
+                for rr in 0..6 {
+                    a[rr] += s[rr] * x[p];
+                }
             }
-            h.acc[j] = a;
+            h.acc[idx] = a;
         }
         Ok(())
     }
 }
 
-/// [`articula_dca::body_kinematics`] for a joint made of revolute parts about coordinate axes
-/// (`±x`, `±y`, `±z`, the usual URDF case): the rotation by `q` touches two columns of the
-/// pose and an identity part origin (the massless links of a composed joint) costs nothing.
-/// `None` for any other joint.
-#[inline]
-fn revolute_kinematics(
-    body: &articula_model::Body,
-    x0: SpatialTransform,
-    v0: SpatialMotion,
-    q: &[f64],
-    qd: &[f64],
-    s: &mut [SpatialMotion],
-) -> Option<(SpatialTransform, SpatialMotion, SpatialMotion)> {
+/// The parts of a joint made of revolute parts about coordinate axes (`±x`, `±y`, `±z`, the
+/// usual URDF case): per part `(i, ±1)` of its axis `±e_i`, and a bit per part whose origin is
+/// not the identity (the massless links of a composed joint often are). `None` for any other
+/// joint.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RevoluteParts {
+    axes: [(usize, f64); 6],
+    moved: u8,
+}
+
+fn revolute_parts(body: &articula_model::Body) -> Option<RevoluteParts> {
     let mut axes = [(0usize, 0.0f64); 6];
+    let mut moved = 0u8;
     for (k, part) in body.joint.iter().enumerate() {
         if k >= 6
             || !matches!(
@@ -446,14 +647,33 @@ fn revolute_kinematics(
             return None;
         }
         axes[k] = (i, a[i]);
+        if part.origin.e != glam::DMat3::IDENTITY || part.origin.r != DVec3::ZERO {
+            moved |= 1 << k;
+        }
     }
+    Some(RevoluteParts { axes, moved })
+}
+
+/// [`articula_dca::body_kinematics`] for a joint of [`RevoluteParts`]: the rotation by `q`
+/// touches two columns of the pose and an identity part origin costs nothing. (Kept out of
+/// line, beside the closed-form one-axis path of `active_kinematics`.)
+#[inline(never)]
+fn revolute_kinematics(
+    body: &articula_model::Body,
+    parts: &RevoluteParts,
+    x0: SpatialTransform,
+    v0: SpatialMotion,
+    q: &[f64],
+    qd: &[f64],
+    s: &mut [SpatialMotion],
+) -> (SpatialTransform, SpatialMotion, SpatialMotion) {
     let (mut x, mut v) = (x0, v0);
     let mut c = SpatialMotion::ZERO;
     for (k, part) in body.joint.iter().enumerate() {
-        if part.origin.e != glam::DMat3::IDENTITY || part.origin.r != DVec3::ZERO {
+        if parts.moved & (1 << k) != 0 {
             x = x * part.origin;
         }
-        let (i, sign) = axes[k];
+        let (i, sign) = parts.axes[k];
         let (sn, cs) = (sign * q[part.q_offset]).sin_cos();
         // E ← E R(q), r ← R(q)ᵀ r for the rotation about coordinate axis i: columns / components
         // (i+1, i+2) turn by the angle.
@@ -470,7 +690,7 @@ fn revolute_kinematics(
         c += v.cross_motion(vj);
         v += vj;
     }
-    Some((x, v, c))
+    (x, v, c)
 }
 
 /// `a x` for a 6 × 6 matrix.
@@ -479,15 +699,13 @@ fn mul6(a: &[[f64; 6]; 6], x: &[f64; 6]) -> [f64; 6] {
     std::array::from_fn(|r| dot6(&a[r], x))
 }
 
-/// `s += a − α u uᵀ` on symmetric 6 × 6 matrices (upper triangle computed, mirrored).
+/// `s += a − α u uᵀ` on symmetric 6 × 6 matrices, row by row (`α (uᵢ uⱼ)`: symmetric to the
+/// bit).
 #[inline(always)]
 fn add_sub_outer(s: &mut [[f64; 6]; 6], a: &[[f64; 6]; 6], u: &[f64; 6], alpha: f64) {
-    for i in 0..6 {
-        let aui = alpha * u[i];
-        for j in i..6 {
-            let x = s[i][j] + a[i][j] - aui * u[j];
-            s[i][j] = x;
-            s[j][i] = x;
+    for ((si, ai), &ui) in s.iter_mut().zip(a).zip(u) {
+        for j in 0..6 {
+            si[j] += ai[j] - alpha * (ui * u[j]);
         }
     }
 }

@@ -14,15 +14,33 @@ use articula_spatial::{skew, Mat6, SpatialForce, SpatialMotion};
 use glam::{DMat3, DVec3};
 use std::collections::BinaryHeap;
 
-/// The first five terms of [`dot6`], summed in the same order.
-#[inline(always)]
-fn dot5(a: &[f64; 6], b: &[f64; 6]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4]
-}
-
 #[inline]
 fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
+}
+
+/// Rows `R0`, `R0 + 1` of `Σ_p a[p][r] b[p][c]` (p < 5, ascending) for columns `c ≥ R0` when
+/// `SYM` (`a` = `b`: a Gram block's upper part), all columns otherwise — the caller mirrors.
+#[inline(always)]
+fn gram_rows<const R0: usize, const SYM: bool>(
+    a: &[[f64; 6]; 6],
+    b: &[[f64; 6]; 6],
+    g: &mut [[f64; 6]; 6],
+) {
+    let c0 = if SYM { R0 } else { 0 };
+    for r in R0..R0 + 2 {
+        let mut acc = [0.0; 6];
+        for c in c0..6 {
+            acc[c] = a[0][r] * b[0][c];
+        }
+        for p in 1..5 {
+            let y = a[p][r];
+            for c in c0..6 {
+                acc[c] += y * b[p][c];
+            }
+        }
+        g[r] = acc;
+    }
 }
 
 /// The basis `T` of the forces that do no work along one axis `s` (`sᵀ T = 0`): for a
@@ -61,6 +79,7 @@ impl AxisBasis {
     }
 
     /// `Tᵀ x`.
+    #[inline(always)]
     fn tr(&self, x: &[f64; 6]) -> [f64; 5] {
         [
             x[self.a] - self.ra * x[self.m],
@@ -72,6 +91,7 @@ impl AxisBasis {
     }
 
     /// `T u`.
+    #[inline(always)]
     fn apply(&self, u: &[f64; 5]) -> [f64; 6] {
         let mut f = [0.0; 6];
         f[self.a] = u[0];
@@ -81,13 +101,6 @@ impl AxisBasis {
         f[self.keep[1]] = u[3];
         f[self.keep[2]] = u[4];
         f
-    }
-
-    /// Column `c` of `T`.
-    fn col(&self, c: usize) -> [f64; 6] {
-        let mut u = [0.0; 5];
-        u[c] = 1.0;
-        self.apply(&u)
     }
 }
 
@@ -634,8 +647,8 @@ impl Adaptive {
 
     /// `Φ^C_hk = Φ^X_hk [same side] − Y_hᵀ U_k` (columns of Y_h and U_k in `yc`, `uc`) and
     /// `b^C_h = b^X_h − G_F,hᵀ γ` (`G_F,h` in `gf`, γ = `nvec[n]`) for the joined node `n`.
-    /// `gram`: U = Y with five rows (the one-axis join), so `Y_hᵀ Y_h` is symmetric to the bit:
-    /// its upper triangle is computed and mirrored, over the five rows (same sums, same order).
+    /// `gram`: U = Y with five rows (the one-axis join, `yc[h]` holding the rows of Ỹ_h), so
+    /// `Y_hᵀ Y_h` is symmetric to the bit.
     fn assemble(&mut self, n: usize, a: usize, b: usize, gram: bool) {
         let (nhc, hc, bc) = (self.nh[n], self.lay.hoff[n], self.lay.boff[n]);
         for h in 0..nhc {
@@ -643,29 +656,32 @@ impl Adaptive {
             let x = if ah { a } else { b };
             for kk in h..nhc {
                 let (ak, ik) = self.lay.from[hc + kk];
-                let mut blk = Mat6::ZERO;
-                if gram {
+                let mut blk = if gram {
+                    // Rows p < 5 of Ỹ_h, Ỹ_k in yc: −Σ_p Ỹ_h[p][r] Ỹ_k[p][c], p ascending (the
+                    // products commute, so a diagonal block is symmetric to the bit: its upper
+                    // part, in pairs of rows, is mirrored).
                     let (yh, yk) = (&self.yc[h], &self.yc[kk]);
-                    for r in 0..6 {
-                        let c0 = if h == kk { r } else { 0 };
-                        for c in c0..6 {
-                            blk.0[r][c] = -dot5(&yh[r], &yk[c]);
-                        }
-                    }
+                    let mut g = [[0.0; 6]; 6];
                     if h == kk {
-                        for r in 1..6 {
-                            for c in 0..r {
-                                blk.0[r][c] = blk.0[c][r];
+                        gram_rows::<0, true>(yh, yh, &mut g);
+                        gram_rows::<2, true>(yh, yh, &mut g);
+                        gram_rows::<4, true>(yh, yh, &mut g);
+                        for r in 2..6 {
+                            for c in 0..(r & !1) {
+                                g[r][c] = g[c][r];
                             }
                         }
+                    } else {
+                        gram_rows::<0, false>(yh, yk, &mut g);
+                        gram_rows::<2, false>(yh, yk, &mut g);
+                        gram_rows::<4, false>(yh, yk, &mut g);
                     }
+                    Mat6(g.map(|row| row.map(|x| -x)))
                 } else {
-                    for r in 0..6 {
-                        for c in 0..6 {
-                            blk.0[r][c] = -dot6(&self.yc[h][r], &self.uc[kk][c]);
-                        }
-                    }
-                }
+                    Mat6(std::array::from_fn(|r| {
+                        std::array::from_fn(|c| -dot6(&self.yc[h][r], &self.uc[kk][c]))
+                    }))
+                };
                 if ah == ak {
                     blk += *self.phi_at(x, ih, ik);
                 }
@@ -719,9 +735,15 @@ impl Adaptive {
         }
         let t = AxisBasis::new(&sv, off);
         // M = Tᵀ G T (5×5) and its Cholesky factor.
+        // Columns of T are sparse: G T e_0 = G_a − r_a G_m, G T e_1 = G_b − r_b G_m, the others
+        // columns of G (the same sums as the dense product: two terms at most).
         let mut m5 = [[0.0; 6]; 6];
         for c in 0..5 {
-            let gt = Mat6(*g).mul_vec(&t.col(c));
+            let gt: [f64; 6] = match c {
+                0 => std::array::from_fn(|r| g[r][t.a] + g[r][t.m] * -t.ra),
+                1 => std::array::from_fn(|r| g[r][t.b] + g[r][t.m] * -t.rb),
+                _ => std::array::from_fn(|r| g[r][t.keep[c - 2]]),
+            };
             let r = t.tr(&gt);
             for i in 0..5 {
                 m5[i][c] = r[i];
@@ -742,7 +764,7 @@ impl Adaptive {
         let gv: [f64; 6] = std::array::from_fn(|i| wgs[i] - sv[i]);
         let mut f0 = [0.0; 6];
         f0[t.m] = 1.0 / sv[t.m];
-        let gf0 = Mat6(*g).mul_vec(&f0);
+        let gf0: [f64; 6] = std::array::from_fn(|r| g[r][t.m] * f0[t.m]);
         let wgf0 = w_apply(&gf0);
         let ft: [f64; 6] = std::array::from_fn(|i| f0[i] - wgf0[i]);
         let gft = Mat6(*g).mul_vec(&ft);
@@ -770,19 +792,67 @@ impl Adaptive {
         self.nvec[n] = nv;
         let ko = self.koff[n];
         let wd = 6 * nhc;
-        // Ỹ_h = L⁻¹ Tᵀ G_F,h (5 × 6, kept column-wise in yc), N_h = T L⁻ᵀ Ỹ_h.
+        // Per handle h, all six columns of G_F,h at once, row by row (each column's sums in
+        // the order of one column at a time): K_h = gᵀ G_F,h / sᵀs, Ỹ_h = L⁻¹ Tᵀ G_F,h
+        // (5 × 6, its rows kept in yc[h][0..5]), N_h = T L⁻ᵀ Ỹ_h.
         for h in 0..nhc {
-            let gtr = self.gf[h].transpose(); // row c = column c of G_F,h
-            for c in 0..6 {
-                self.kmat[ko + 6 * h + c] = dot6(&gv, &gtr.0[c]) / ss;
-                let u = t.tr(&gtr.0[c]);
-                let y = dense::solve_l_k(&l5, &u, 5);
-                let col = t.apply(&dense::solve_lt_k(&l5, &y, 5));
-                self.yc[h][c] = [y[0], y[1], y[2], y[3], y[4], 0.0];
-                for r in 0..6 {
-                    self.nmat[36 * hc + r * wd + 6 * h + c] = col[r];
+            let gfm = &self.gf[h].0;
+            let mut kr = gfm[0].map(|x| gv[0] * x);
+            for r in 1..6 {
+                for c in 0..6 {
+                    kr[c] += gv[r] * gfm[r][c];
                 }
             }
+            for c in 0..6 {
+                self.kmat[ko + 6 * h + c] = kr[c] / ss;
+            }
+            // Tᵀ G_F,h, then the forward substitution row by row.
+            let mut y = [[0.0; 6]; 5];
+            for c in 0..6 {
+                y[0][c] = gfm[t.a][c] - t.ra * gfm[t.m][c];
+                y[1][c] = gfm[t.b][c] - t.rb * gfm[t.m][c];
+                y[2][c] = gfm[t.keep[0]][c];
+                y[3][c] = gfm[t.keep[1]][c];
+                y[4][c] = gfm[t.keep[2]][c];
+            }
+            for i in 0..5 {
+                let mut v = y[i];
+                for p in 0..i {
+                    let lip = l5[i][p];
+                    for c in 0..6 {
+                        v[c] -= lip * y[p][c];
+                    }
+                }
+                let d = l5[i][i];
+                y[i] = v.map(|x| x / d);
+            }
+            // L⁻ᵀ Ỹ_h, then T.
+            let mut z = y;
+            for i in (0..5).rev() {
+                let mut v = z[i];
+                for p in (i + 1)..5 {
+                    let lpi = l5[p][i];
+                    for c in 0..6 {
+                        v[c] -= lpi * z[p][c];
+                    }
+                }
+                let d = l5[i][i];
+                z[i] = v.map(|x| x / d);
+            }
+            let base = 36 * hc + 6 * h;
+            let mut put = |r: usize, row: [f64; 6]| {
+                self.nmat[base + r * wd..base + r * wd + 6].copy_from_slice(&row);
+            };
+            put(t.a, z[0]);
+            put(t.b, z[1]);
+            put(
+                t.m,
+                std::array::from_fn(|c| -t.ra * z[0][c] - t.rb * z[1][c]),
+            );
+            put(t.keep[0], z[2]);
+            put(t.keep[1], z[3]);
+            put(t.keep[2], z[4]);
+            self.yc[h][..5].copy_from_slice(&y);
         }
         // Ỹ_hᵀ Ỹ_k is a Gram product: the subtracted part stays positive semidefinite.
         self.assemble(n, a, b, true);
@@ -809,15 +879,34 @@ impl Adaptive {
             self.fx[6 * h..6 * h + 6].copy_from_slice(&self.f[hc + h].to_array());
         }
         let ko = self.koff[n];
-        for p in 0..k {
-            let row = &self.kmat[ko + p * w..ko + p * w + w];
-            self.qdd[vo + p] =
-                self.kvec[vo + p] + row.iter().zip(&self.fx).map(|(x, y)| x * y).sum::<f64>();
-        }
         let mut fj = self.nvec[n];
-        for (r, x) in fj.iter_mut().enumerate() {
-            let row = &self.nmat[36 * hc + r * w..36 * hc + r * w + w];
-            *x += row.iter().zip(&self.fx).map(|(x, y)| x * y).sum::<f64>();
+        if let (2, Ok(fx)) = (nhc, <&[f64; 12]>::try_from(&self.fx[..12])) {
+            // Two handles (a chain's inner nodes): fixed-length rows, the same sums in the
+            // same order (from the first product on, as `Iterator::sum` from −0).
+            let dot12 = |row: &[f64]| {
+                let row: &[f64; 12] = row.try_into().expect("a row of 12");
+                let mut acc = row[0] * fx[0];
+                for c in 1..12 {
+                    acc += row[c] * fx[c];
+                }
+                acc
+            };
+            for p in 0..k {
+                self.qdd[vo + p] = self.kvec[vo + p] + dot12(&self.kmat[ko + p * 12..][..12]);
+            }
+            for (r, x) in fj.iter_mut().enumerate() {
+                *x += dot12(&self.nmat[36 * hc + r * 12..][..12]);
+            }
+        } else {
+            for p in 0..k {
+                let row = &self.kmat[ko + p * w..ko + p * w + w];
+                self.qdd[vo + p] =
+                    self.kvec[vo + p] + row.iter().zip(&self.fx).map(|(x, y)| x * y).sum::<f64>();
+            }
+            for (r, x) in fj.iter_mut().enumerate() {
+                let row = &self.nmat[36 * hc + r * w..36 * hc + r * w + w];
+                *x += row.iter().zip(&self.fx).map(|(x, y)| x * y).sum::<f64>();
+            }
         }
         let fj = SpatialForce::from_array(fj);
         let (hoa, hob) = (self.lay.hoff[a], self.lay.hoff[b]);

@@ -480,10 +480,12 @@ impl Adaptive {
         if cached {
             // O(active region): the caches of the rigid subassemblies (update.rs), then the
             // step on the new hybrid body's reduced tree.
-            report.rigidified = self.cached_reselect(model, state)?;
+            let r = self.cached_reselect(model, state);
+            let fresh = std::mem::take(&mut self.hier.kin_fresh);
+            report.rigidified = r?;
             let touched = self.touched;
             self.check_active_inputs(model, state)?;
-            self.hybrid_step(model, &state.q, &state.qd, &state.tau)?;
+            self.hybrid_step(model, &state.q, &state.qd, &state.tau, fresh)?;
             self.touched += touched;
         } else if report.reselected {
             self.hier.valid = false;
@@ -500,15 +502,30 @@ impl Adaptive {
             self.back_substitution(model, false);
         } else {
             self.check_active_inputs(model, state)?;
-            self.hybrid_step(model, &state.q, &state.qd, &state.tau)?;
+            self.hybrid_step(model, &state.q, &state.qd, &state.tau, false)?;
         }
         let mut dofs = 0;
-        for idx in 0..self.hier.ajoints.len() {
-            let body = &model.bodies[self.hier.ajoints[idx]];
+        for idx in 0..self.hier.rec.len() {
+            let rec = &self.hier.rec[idx];
+            if rec.axis.is_some() {
+                // One revolute coordinate: the same semi-implicit Euler update, written back
+                // only when finite (otherwise the general path below reports it).
+                let (vo, qo) = (rec.vo, rec.qo);
+                let a = self.qdd[vo];
+                let v = state.qd[vo] + dt * a;
+                let q = state.q[qo] + v * dt;
+                if a.is_finite() && v.is_finite() && q.is_finite() {
+                    state.qd[vo] = v;
+                    state.q[qo] = q;
+                    dofs += 1;
+                    continue;
+                }
+            }
+            let body = &model.bodies[rec.j];
             dofs += body.nv;
             let r = body.v_offset..body.v_offset + body.nv;
             if self.qdd[r.clone()].iter().any(|x| !x.is_finite()) {
-                return Err(non_finite(model, self.hier.ajoints[idx], "qdd", &self.qdd).into());
+                return Err(non_finite(model, rec.j, "qdd", &self.qdd).into());
             }
             for (v, a) in state.qd[r.clone()].iter_mut().zip(&self.qdd[r]) {
                 *v += dt * a;
@@ -524,7 +541,7 @@ impl Adaptive {
                 } else {
                     ("qd after the step", &state.qd)
                 };
-                return Err(non_finite(model, self.hier.ajoints[idx], what.0, what.1).into());
+                return Err(non_finite(model, rec.j, what.0, what.1).into());
             }
         }
         self.steps += 1;
@@ -612,8 +629,17 @@ impl Adaptive {
         {
             return check_inputs(model, &state.q, &state.qd, &state.tau, &state.f_ext);
         }
-        for &j in &self.hier.ajoints {
-            let b = &model.bodies[j];
+        for rec in &self.hier.rec {
+            if rec.axis.is_some() {
+                if state.q[rec.qo].is_finite()
+                    && state.qd[rec.vo].is_finite()
+                    && state.tau[rec.vo].is_finite()
+                {
+                    continue;
+                }
+                return check_inputs(model, &state.q, &state.qd, &state.tau, &state.f_ext);
+            }
+            let b = &model.bodies[rec.j];
             let bad = state.q[b.q_offset..b.q_offset + b.nq]
                 .iter()
                 .chain(&state.qd[b.v_offset..b.v_offset + b.nv])

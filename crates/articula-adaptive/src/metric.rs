@@ -222,7 +222,7 @@ impl Adaptive {
         self.run_queue(
             model,
             total,
-            |_, _| {},
+            |_, _| false,
             |ad, _, c| {
                 matches!(model.assembly.nodes[c].kind, NodeKind::Join { .. })
                     .then(|| ad.metric_at(c))
@@ -232,7 +232,8 @@ impl Adaptive {
 
     /// The priority queue of the selection, from the root (metric `total`) with zero handle
     /// forces: pops the largest metric while the budget and the tolerance allow, marks it
-    /// selected, lets `on_pop` prepare the node, back-substitutes it ([`Adaptive::expand`]) and
+    /// selected, lets `on_pop` prepare the node, back-substitutes it ([`Adaptive::expand`];
+    /// not when `on_pop` says this pass's handle forces and `q̈` of the node are there already) and
     /// pushes each child for which `child(self, node, child)` gives a metric (the joins).
     /// Shared by the whole-body selection ([`Adaptive::select`]) and the cached one
     /// (`update.rs`), which differ only in where a node's coefficients and metric come from.
@@ -240,7 +241,7 @@ impl Adaptive {
         &mut self,
         model: &Model,
         total: f64,
-        mut on_pop: impl FnMut(&mut Self, usize),
+        mut on_pop: impl FnMut(&mut Self, usize) -> bool,
         mut child: impl FnMut(&mut Self, usize, usize) -> Option<f64>,
     ) -> Selection {
         let tree = &model.assembly;
@@ -289,8 +290,9 @@ impl Adaptive {
             let n = top.node;
             self.selected[n] = true;
             sel.active_dofs += cost;
-            on_pop(self, n);
-            self.expand(model, n);
+            if !on_pop(self, n) {
+                self.expand(model, n);
+            }
             for c in [a, b] {
                 if let Some(metric) = child(self, n, c) {
                     remaining += metric;

@@ -159,11 +159,14 @@ impl Adaptive {
                 leaving.push(j);
             }
         }
+        let same = self.hier.valid && self.hier.from_cache && self.cache.sel == self.hier.hnodes;
         self.rebuild_hierarchy_cached(model);
+        // Same active joints and no impulse: their kinematics in `data` are this step's.
+        self.hier.kin_fresh = same && !moving;
         if moving {
             self.active_kinematics(model, &state.q, &state.qd);
             let mut gm = std::mem::take(&mut self.gmom);
-            self.reduced_momenta(model, &mut gm);
+            self.reduced_momenta(&mut gm);
             let r = self.reduced_aba(model, &gm, Level::Impulse);
             self.gmom = gm;
             r?;
@@ -403,6 +406,9 @@ impl Adaptive {
                     let (x, u) = (ad.cache.cx[n], ad.cache.cu[n]);
                     ad.eval_cache(model, n, &x, u, Part::Maps);
                 }
+                // The old active region was back-substituted by `active_metrics` (the same
+                // forces from the same maps).
+                ad.active[n]
             },
             |ad, n, c| {
                 if !ad.active[n] && ad.cache.stamp[c] != ep {
@@ -485,21 +491,22 @@ impl Adaptive {
 
     /// Generalized momenta of the new active joints over the new reduced tree:
     /// `p_j = S_jᵀ H_j`, `H_j = h(cluster of j) + Σ_{children j'} H_j'`.
-    fn reduced_momenta(&mut self, model: &Model, gm: &mut [f64]) {
+    fn reduced_momenta(&mut self, gm: &mut [f64]) {
         let h = &mut self.hier;
-        for idx in 0..h.ajoints.len() {
-            let j = h.ajoints[idx];
-            h.pa[j] = self.cache.hm[h.cl[j]];
+        for idx in 0..h.rec.len() {
+            h.pa[idx] = self.cache.hm[h.rec[idx].f].to_array();
         }
-        for idx in (0..h.ajoints.len()).rev() {
-            let j = h.ajoints[idx];
-            let hj = h.pa[j];
-            let body = &model.bodies[j];
-            for p in 0..body.nv {
-                gm[body.v_offset + p] = self.data.s[body.v_offset + p].dot(hj);
+        for idx in (0..h.rec.len()).rev() {
+            let r = &h.rec[idx];
+            let hj = SpatialForce::from_array(h.pa[idx]);
+            for p in 0..r.k {
+                gm[r.vo + p] = self.data.s[r.vo + p].dot(hj);
             }
-            if h.par[j] != usize::MAX {
-                h.pa[h.par[j]] += hj;
+            if r.pidx != usize::MAX {
+                let pp = &mut h.pa[r.pidx];
+                for (x, y) in pp.iter_mut().zip(hj.to_array()) {
+                    *x += y;
+                }
             }
         }
     }
@@ -510,6 +517,11 @@ impl Adaptive {
     fn rebuild_hierarchy_cached(&mut self, model: &Model) {
         let tree = &model.assembly;
         let h = &mut self.hier;
+        if h.valid && h.from_cache && self.cache.sel == h.hnodes {
+            // The same hybrid body, whose lists, clusters and poses came from the caches
+            // already: nothing changes.
+            return;
+        }
         for &n in &h.hnodes {
             self.active[n] = false;
         }
@@ -583,7 +595,9 @@ impl Adaptive {
             }
             h.cl[j] = cluster(tree.body_leaf[j], &self.active);
         }
-        h.valid = true;
+        self.build_records(model);
+        self.hier.valid = true;
+        self.hier.from_cache = true;
     }
 }
 
