@@ -77,10 +77,6 @@ impl Adaptive {
         // 2. The frontier from the caches.
         for idx in 0..self.hier.fnodes.len() {
             let f = self.hier.fnodes[idx];
-            if self.cache.dstamp[f] == ep {
-                // Computed exactly along its dirty paths.
-                continue;
-            }
             touched += 1;
             self.cache.stamp[f] = ep;
             match tree.nodes[f].kind {
@@ -108,6 +104,13 @@ impl Adaptive {
                     self.cache.cx[f] = x;
                     self.cache.cu[f] = u;
                     self.eval_cache(model, f, &x, u, Part::Coefficients);
+                    if self.cache.dstamp[f] == ep {
+                        // Plus what the forces on its dirty paths add.
+                        let hc = self.lay.hoff[f];
+                        for h in 0..self.nh[f] {
+                            self.b[hc + h] += self.cache.db[hc + h];
+                        }
+                    }
                 }
             }
         }
@@ -235,11 +238,6 @@ impl Adaptive {
         }
         // Top-down (a parent after its children in post-order).
         self.cache.dirty.sort_unstable_by(|a, b| b.cmp(a));
-        let world_rigid = |r: &Rigid, x: &SpatialTransform| Rigid {
-            m: r.m,
-            c: x.apply_point(r.c),
-            ic: x.e * r.ic * x.e.transpose(),
-        };
         for idx in 0..self.cache.dirty.len() {
             let d = self.cache.dirty[idx];
             let parent_dirty = tree.nodes[d]
@@ -284,63 +282,21 @@ impl Adaptive {
             self.data.c[joint] = c;
             self.point[joint] = x.apply_point(DVec3::ZERO);
             for ch in [a, b] {
+                // The children's frames (a clean child's cache is read where needed).
                 let rel = self.cache.rel[ch];
                 self.cache.cx[ch] = xd * rel;
                 self.cache.cu[ch] = rel.inv_apply_motion(ud);
-                if self.cache.dstamp[ch] == ep {
-                    continue;
-                }
-                // A clean child: from its cache (a leaf: rigid, no force).
                 self.cache.stamp[ch] = ep;
-                let (xc, uc) = (self.cache.cx[ch], self.cache.cu[ch]);
-                match tree.nodes[ch].kind {
-                    NodeKind::Ground => {
-                        self.ground_coefficients(ch);
-                        self.world_metric(model, ch);
-                    }
-                    NodeKind::Body(_) => {
-                        let r = world_rigid(&self.cache.rig[ch], &xc);
-                        let vc = xc.apply_motion(uc);
-                        self.rigid_coefficients(
-                            model,
-                            ch,
-                            &r,
-                            vc,
-                            SpatialForce::ZERO,
-                            Level::Acceleration,
-                        )?;
-                        self.world_metric(model, ch);
-                    }
-                    NodeKind::Join { .. } => {
-                        self.eval_cache(model, ch, &xc, uc, Part::Coefficients);
-                        self.world_metric(model, ch);
-                    }
-                }
             }
         }
-        // Bottom-up: the dirty nodes exactly.
+        // Bottom-up: what the forces add, from the forced leaves up.
         for idx in (0..self.cache.dirty.len()).rev() {
             let d = self.cache.dirty[idx];
             match tree.nodes[d].kind {
-                NodeKind::Ground => self.ground_coefficients(d),
-                NodeKind::Body(_) => {
-                    let (xc, uc) = (self.cache.cx[d], self.cache.cu[d]);
-                    let r = world_rigid(&self.cache.rig[d], &xc);
-                    let vc = xc.apply_motion(uc);
-                    let fe = self.fsum[d];
-                    self.rigid_coefficients(model, d, &r, vc, fe, Level::Acceleration)?;
-                }
-                NodeKind::Join { .. } => {
-                    // Φ, K, N, Ψ from the cache (configuration only); b, k, n, p, η with the
-                    // forces.
-                    self.dirty_join(model, d, &state.tau);
-                    self.metric_bias_node(model, d);
-                }
+                NodeKind::Ground => {}
+                NodeKind::Body(_) => self.leaf_delta(model, d),
+                NodeKind::Join { .. } => self.dirty_delta(model, d),
             }
-            if matches!(tree.nodes[d].kind, NodeKind::Body(_) | NodeKind::Ground) {
-                self.metric_node(model, d);
-            }
-            self.cache.pstamp[d] = ep;
         }
         Ok(self.cache.dirty.len())
     }
@@ -359,10 +315,14 @@ impl Adaptive {
         for idx in 0..self.hier.fnodes.len() {
             let f = self.hier.fnodes[idx];
             self.cache.amet[f] = match tree.nodes[f].kind {
-                NodeKind::Join { .. } if self.cache.dstamp[f] == ep => self.metric_at(f),
                 NodeKind::Join { .. } => {
                     let (x, u) = (self.cache.cx[f], self.cache.cu[f]);
-                    self.metric_local(f, &x, u)
+                    let a = self.metric_local(f, &x, u);
+                    if self.cache.dstamp[f] == ep {
+                        a + self.metric_delta(f)
+                    } else {
+                        a
+                    }
                 }
                 _ => 0.0,
             };
@@ -402,9 +362,23 @@ impl Adaptive {
             total,
             |ad, n| {
                 ad.cache.sel.push(n);
-                if !ad.active[n] && ad.cache.dstamp[n] != ep {
+                if !ad.active[n] {
                     let (x, u) = (ad.cache.cx[n], ad.cache.cu[n]);
                     ad.eval_cache(model, n, &x, u, Part::Maps);
+                    if ad.cache.dstamp[n] == ep {
+                        // Plus what the forces on its dirty paths add.
+                        if let NodeKind::Join { joint, .. } = tree.nodes[n].kind {
+                            let body = &model.bodies[joint];
+                            let r = body.v_offset..body.v_offset + body.nv;
+                            ad.kvec[r.clone()]
+                                .iter_mut()
+                                .zip(&ad.cache.dk[r])
+                                .for_each(|(k, d)| *k += d);
+                        }
+                        for (v, d) in ad.nvec[n].iter_mut().zip(ad.cache.dn[n]) {
+                            *v += d;
+                        }
+                    }
                 }
                 // The old active region was back-substituted by `active_metrics` (the same
                 // forces from the same maps).
@@ -428,7 +402,12 @@ impl Adaptive {
                 } else {
                     *touched += 1;
                     let (x, u) = (ad.cache.cx[c], ad.cache.cu[c]);
-                    ad.metric_local(c, &x, u)
+                    let a = ad.metric_local(c, &x, u);
+                    if ad.cache.dstamp[c] == ep {
+                        a + ad.metric_delta(c)
+                    } else {
+                        a
+                    }
                 })
             },
         );
