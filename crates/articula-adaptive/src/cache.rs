@@ -117,8 +117,22 @@ pub(crate) fn rows3(e: &DMat3) -> [[f64; 3]; 3] {
     ]
 }
 
+/// `blkdiag(r, r) v`.
 #[inline]
-fn tr3(r: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+pub(crate) fn rot6(r: &[[f64; 3]; 3], v: &[f64; 6]) -> [f64; 6] {
+    std::array::from_fn(|i| {
+        let (o, k) = (3 * (i / 3), i % 3);
+        r[k][0] * v[o] + r[k][1] * v[o + 1] + r[k][2] * v[o + 2]
+    })
+}
+
+#[inline]
+fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+#[inline]
+pub(crate) fn tr3(r: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
     std::array::from_fn(|i| std::array::from_fn(|j| r[j][i]))
 }
 
@@ -231,9 +245,9 @@ pub(crate) struct Caches {
     pub dstamp: Vec<u64>,
     pub dirty: Vec<usize>,
     /// Per dirty node, what the external forces add to its force-free (cached) values:
-    /// per handle `Δb` (computation axes) and `Δp` (6 rows, its cache frame's axes), per
-    /// node `Δn` (computation axes) and `Δη`, per degree of freedom `Δk`.
-    pub db: Vec<SpatialMotion>,
+    /// per handle `Δb` and `Δp` (6 rows), per node `Δn` and `Δη` (all in its cache frame's
+    /// axes), per degree of freedom `Δk`.
+    pub db: Vec<[f64; 6]>,
     pub dp: Vec<f64>,
     pub dn: Vec<[f64; 6]>,
     pub deta: Vec<f64>,
@@ -297,7 +311,7 @@ impl Adaptive {
         c.amet = vec![0.0; nn];
         c.astamp = vec![0; nn];
         c.dirty = Vec::with_capacity(nn);
-        c.db = vec![SpatialMotion::ZERO; lay.handles];
+        c.db = vec![[0.0; 6]; lay.handles];
         c.dp = vec![0.0; 6 * lay.handles];
         c.dn = vec![[0.0; 6]; nn];
         c.deta = vec![0.0; nn];
@@ -828,10 +842,10 @@ impl Adaptive {
         }
     }
 
-    /// What the external forces on a dirty leaf add to its bias (computation axes): with
-    /// its world composite at `cx` and the wrench `f_e` (computation frame, about its
-    /// origin), `α = I_c⁻¹ (n_e − c × f_e)`, `Δb_h = [α; f_e/m + α × (P_h − c)]` — the force
-    /// terms of [`Adaptive::rigid_coefficients`] (its velocity terms are in the cache).
+    /// What the external forces on a dirty leaf add to its bias (its cache frame's axes):
+    /// with its composite at `cx` and the wrench `f_e` (computation frame, about its origin),
+    /// `α = I_c⁻¹ (n_e − c × f_e)`, `Δb_h = [α; f_e/m + α × (P_h − c)]` — the force terms of
+    /// [`Adaptive::rigid_coefficients`] (its velocity terms are in the cache).
     pub(crate) fn leaf_delta(&mut self, model: &Model, n: usize) {
         let x = self.cache.cx[n];
         let r = self.cache.rig[n];
@@ -840,62 +854,51 @@ impl Adaptive {
         let fe = self.fsum[n];
         let alpha = ic.inverse() * (fe.n - c.cross(fe.f));
         let a_c = fe.f / r.m;
+        let rt = tr3(&rows3(&x.e));
         let ho = self.lay.hoff[n];
         for (h, &jh) in model.assembly.nodes[n].handles.iter().enumerate() {
-            self.cache.db[ho + h] =
-                SpatialMotion::new(alpha, a_c + alpha.cross(self.point[jh] - c));
+            let bh = SpatialMotion::new(alpha, a_c + alpha.cross(self.point[jh] - c));
+            self.cache.db[ho + h] = rot6(&rt, &bh.to_array());
         }
     }
 
-    /// `Φ^X_{jx,i}ᵀ v` (computation axes) of child `x` of a dirty node: a join's block from
-    /// its cache, `R Φ⁰ᵀ Rᵀ v`; a leaf's rigid block at its pose and handle points; the
-    /// ground's is 0.
-    fn phi_t_times(&self, model: &Model, x: usize, jx: usize, i: usize, v: [f64; 6]) -> [f64; 6] {
-        match model.assembly.nodes[x].kind {
-            NodeKind::Ground => [0.0; 6],
-            NodeKind::Body(_) => {
-                let xf = self.cache.cx[x];
-                let r = self.cache.rig[x];
-                let c = xf.apply_point(r.c);
-                let ic = xf.e * r.ic * xf.e.transpose();
-                let hs = &model.assembly.nodes[x].handles;
-                let g = crate::hybrid::rigid_phi(
-                    r.m,
-                    c,
-                    ic.inverse(),
-                    self.point[hs[jx]],
-                    self.point[hs[i]],
-                );
-                std::array::from_fn(|col| (0..6).map(|s| g.0[s][col] * v[s]).sum())
-            }
-            NodeKind::Join { .. } => {
-                let rx = rows3(&self.cache.cx[x].e);
-                let mut y = v;
-                left_rot(&mut y, 6, 1, &tr3(&rx));
-                let g = &self.cache.phi[self.lay.boff[x] + jx * self.nh[x] + i];
-                let mut z: [f64; 6] =
-                    std::array::from_fn(|col| (0..6).map(|s| g.0[s][col] * y[s]).sum());
-                left_rot(&mut z, 6, 1, &rx);
-                z
-            }
-        }
+    /// `Φ^X_{jx,i}ᵀ v` of a leaf child `x` of a dirty node (computation axes): its rigid block
+    /// at its pose and handle points (the ground's is 0).
+    fn leaf_phi_t(&self, model: &Model, x: usize, jx: usize, i: usize, v: &[f64; 6]) -> [f64; 6] {
+        let NodeKind::Body(_) = model.assembly.nodes[x].kind else {
+            return [0.0; 6];
+        };
+        let xf = self.cache.cx[x];
+        let r = self.cache.rig[x];
+        let ic = xf.e * r.ic * xf.e.transpose();
+        let hs = &model.assembly.nodes[x].handles;
+        let g = crate::hybrid::rigid_phi(
+            r.m,
+            xf.apply_point(r.c),
+            ic.inverse(),
+            self.point[hs[jx]],
+            self.point[hs[i]],
+        );
+        std::array::from_fn(|col| (0..6).map(|s| g.0[s][col] * v[s]).sum())
     }
 
     /// What the external forces add to a dirty join `n`'s force-dependent values, from its
-    /// children's (0 for a clean child): its configuration and velocity are those of its
-    /// cache, so `Φ`, `K`, `N`, `Ψ` and the force-free `b`, `k`, `n`, `p`, `η` come from the
-    /// cache, and only the bias maps carry the forces' part (all linear in it, `η` quadratic).
-    /// With `Δβ = Δb^A_j − Δb^B_j` in the cache frame: `Δk = κ_β Δβ`, `Δn = ν_β Δβ`,
-    /// `Δb_h = Δb^X_i ∓ Φ^X_{j,i}ᵀ Δn`; the metric's bias part of [`Adaptive::metric_pass`]
-    /// differenced at `k = k₀ + Δk`, `n = n₀ + Δn`, `p_X = p_X₀ + Δp_X` (each child in its
-    /// cache frame, `m_X = s n` on its handle `j`):
+    /// children's (0 for a clean child), in n's cache frame: its configuration and velocity
+    /// are those of its cache, so `Φ`, `K`, `N`, `Ψ` and the force-free `b`, `k`, `n`, `p`,
+    /// `η` come from the cache, and only the bias maps carry the forces' part (all linear in
+    /// it, `η` quadratic). A child's values are in its own cache frame, turned into n's by
+    /// its relative pose's rotation `R_X` (`rel`). With `Δβ = Δb^A_j − Δb^B_j`:
+    /// `Δk = κ_β Δβ`, `Δn = ν_β Δβ`, `Δb_h = Δb^X_i ∓ Φ^X_{j,i}ᵀ Δn`; the metric's bias part
+    /// of [`Adaptive::metric_pass`] differenced at `k = k₀ + Δk`, `n = n₀ + Δn`,
+    /// `p_X = p_X₀ + Δp_X` (`m_X = s n` on X's handle `j`):
     /// ```text
     /// Δp = 2 Kᵀ A Δk + Σ_X [s Nᵀ (2 s Ψ_X[j,j] Δn + Δp_X,j)  on C's rows,
     ///                        Δp_X,i + 2 s Ψ_X[i,j] Δn        on shared handles i]
     /// Δη = k₀ᵀAΔk + ΔkᵀAk₀ + ΔkᵀAΔk + Σ_X [Δη_X + 2 n₀ᵀΨ_X[j,j]Δn + ΔnᵀΨ_X[j,j]Δn
     ///                                    + s (Δnᵀ p_X₀,j + n₀ᵀ Δp_X,j + Δnᵀ Δp_X,j)]
     /// ```
-    /// O(1) per node: no rotation of a cached matrix, no evaluation of a clean child.
+    /// O(1) per node: no cached matrix rotated, no clean child evaluated (a clean join
+    /// child: `Ψ_X[·,j]` and the six rows of `P_X,j` read from its cache).
     pub(crate) fn dirty_delta(&mut self, model: &Model, n: usize) {
         let NodeKind::Join {
             joint,
@@ -906,60 +909,41 @@ impl Adaptive {
             return;
         };
         let ep = self.cache.epoch;
-        let dirty = |x: usize| self.cache.dstamp[x] == ep;
         let (hc, nhc) = (self.lay.hoff[n], self.nh[n]);
         let nc = 6 * nhc;
         let (ja, jb) = (self.lay.ja[n], self.lay.jb[n]);
-        let rd = rows3(&self.cache.cx[n].e);
-        let rdt = tr3(&rd);
-        let wd = monomials(self.cache.cu[n]);
-        // Δβ in n's cache frame.
+        let children = [(a, ja, -1.0), (b, jb, 1.0)];
+        let rel: [[[f64; 3]; 3]; 2] = [a, b].map(|x| rows3(&self.cache.rel[x].e));
+        let xdirty = [a, b].map(|x| self.cache.dstamp[x] == ep);
+        // Δβ = Δb^A_ja − Δb^B_jb.
         let mut beta = [0.0; 6];
-        for (x, jx, sign) in [(a, ja, 1.0), (b, jb, -1.0)] {
-            if dirty(x) {
-                let d = self.cache.db[self.lay.hoff[x] + jx].to_array();
+        for (side, &(x, jx, sign)) in children.iter().enumerate() {
+            if xdirty[side] {
+                let d = rot6(&rel[side], &self.cache.db[self.lay.hoff[x] + jx]);
                 for (bv, dv) in beta.iter_mut().zip(d) {
-                    *bv += sign * dv;
+                    *bv -= sign * dv;
                 }
             }
         }
-        left_rot(&mut beta, 6, 1, &rdt);
         let body = &model.bodies[joint];
         let (vo, k) = (body.v_offset, body.nv);
         let jm = &self.cache.jm[n];
+        let dn: [f64; 6] = std::array::from_fn(|s| dot6(&jm.nb[s], &beta));
         let mut dk = [0.0; 6];
-        let mut k0 = [0.0; 6];
         for p in 0..k {
-            dk[p] = (0..6).map(|c| jm.kb[p][c] * beta[c]).sum();
-            k0[p] = wdot(&self.cache.kw[(vo + p) * NW..(vo + p + 1) * NW], &wd);
+            dk[p] = dot6(&jm.kb[p], &beta);
         }
         self.cache.dk[vo..vo + k].copy_from_slice(&dk[..k]);
-        let mut dn: [f64; 6] = std::array::from_fn(|s| (0..6).map(|c| jm.nb[s][c] * beta[c]).sum());
-        let mut n0: [f64; 6] =
-            std::array::from_fn(|row| wdot(&self.cache.nw[(n * 6 + row) * NW..][..NW], &wd));
-        left_rot(&mut dn, 6, 1, &rd);
-        left_rot(&mut n0, 6, 1, &rd);
         self.cache.dn[n] = dn;
-        // Δb_h = Δb^X_i − s Φ^X_{jx,i}ᵀ Δn.
-        for h in 0..nhc {
-            let (from_a, i) = self.lay.from[hc + h];
-            let (x, jx, sign) = if from_a { (a, ja, 1.0) } else { (b, jb, -1.0) };
-            let g = self.phi_t_times(model, x, jx, i, dn);
-            let mut bh = if dirty(x) {
-                self.cache.db[self.lay.hoff[x] + i].to_array()
-            } else {
-                [0.0; 6]
-            };
-            for (bv, gv) in bh.iter_mut().zip(g) {
-                *bv -= sign * gv;
-            }
-            self.cache.db[hc + h] = SpatialMotion::from_array(bh);
-        }
+        let wd = monomials(self.cache.cu[n]);
         // Own joint: Δp = 2 Kᵀ A Δk, Δη = k₀ᵀAΔk + ΔkᵀAk₀ + ΔkᵀAΔk.
+        let mut k0 = [0.0; 6];
+        for p in 0..k {
+            k0[p] = wdot(&self.cache.kw[(vo + p) * NW..][..NW], &wd);
+        }
         let wo = self.woff[joint];
         let aw = &self.aw[wo..wo + k * k];
-        let mut adk = [0.0; 6];
-        let mut ak0 = [0.0; 6];
+        let (mut adk, mut ak0) = ([0.0; 6], [0.0; 6]);
         crate::dense::a_x(aw, &dk[..k], k, k, &mut adk);
         crate::dense::a_x(aw, &k0[..k], k, k, &mut ak0);
         let mut deta: f64 = (0..k)
@@ -971,40 +955,76 @@ impl Adaptive {
         for (i, d) in dp.iter_mut().enumerate() {
             *d = 2.0 * (0..k).map(|p| km[p * nc + i] * adk[p]).sum::<f64>();
         }
-        // Children (joins only: a leaf's Ψ, p, η are 0), each in its cache frame.
-        for (x, jx, sign) in [(a, ja, -1.0), (b, jb, 1.0)] {
-            if !matches!(model.assembly.nodes[x].kind, NodeKind::Join { .. }) {
+        // n₀ (only a join child's metric reads it).
+        let n0: [f64; 6] = if children
+            .iter()
+            .any(|c| matches!(model.assembly.nodes[c.0].kind, NodeKind::Join { .. }))
+        {
+            std::array::from_fn(|row| wdot(&self.cache.nw[(n * 6 + row) * NW..][..NW], &wd))
+        } else {
+            [0.0; 6]
+        };
+        for (side, &(x, jx, sign)) in children.iter().enumerate() {
+            let hx = self.lay.hoff[x];
+            let r = &rel[side];
+            let NodeKind::Join { .. } = model.assembly.nodes[x].kind else {
+                // A leaf (Ψ, p, η are 0): its shared handles' Δb through its rigid block,
+                // in computation axes.
+                let rd = rows3(&self.cache.cx[n].e);
+                let dnw = rot6(&rd, &dn);
+                for h in 0..nhc {
+                    let (from_a, i) = self.lay.from[hc + h];
+                    if from_a != (side == 0) {
+                        continue;
+                    }
+                    let g = self.leaf_phi_t(model, x, jx, i, &dnw);
+                    let mut bh = rot6(&tr3(&rd), &g);
+                    let own = if xdirty[side] {
+                        rot6(r, &self.cache.db[hx + i])
+                    } else {
+                        [0.0; 6]
+                    };
+                    for (bv, ov) in bh.iter_mut().zip(own) {
+                        *bv = ov + sign * *bv;
+                    }
+                    self.cache.db[hc + h] = bh;
+                }
                 continue;
-            }
-            let rx = rows3(&self.cache.cx[x].e);
-            let rxt = tr3(&rx);
+            };
+            // X's frame: Δn, n₀ there; its cache's Ψ_X[·,jx], P_X,jx at its velocity.
+            let rt = tr3(r);
+            let dnx = rot6(&rt, &dn);
+            let n0x = rot6(&rt, &n0);
             let wx = monomials(self.cache.cu[x]);
-            let (mut dnx, mut n0x) = (dn, n0);
-            left_rot(&mut dnx, 6, 1, &rxt);
-            left_rot(&mut n0x, 6, 1, &rxt);
             let nx = 6 * self.nh[x];
-            let (po, hx) = (self.poff[x], self.lay.hoff[x]);
+            let po = self.poff[x];
             let c = &self.cache;
             let psi = &c.psi[po..po + nx * nx];
-            let xdirty = c.dstamp[x] == ep;
-            let dpx = |row: usize| if xdirty { c.dp[6 * hx + row] } else { 0.0 };
-            // g = Ψ_X[jx,jx] Δn, p_X₀,jx, Δp_X,jx.
+            // Ψ_X[i,jx] Δn for every handle i of X (6 each).
+            let psidn = |i: usize| -> [f64; 6] {
+                std::array::from_fn(|r| {
+                    let row = &psi[(6 * i + r) * nx + 6 * jx..][..6];
+                    dot6(row.try_into().expect("6"), &dnx)
+                })
+            };
+            let g = psidn(jx);
             let mut du = [0.0; 6];
-            let mut eta_x = if xdirty { c.deta[x] } else { 0.0 };
+            let mut eta_x = if xdirty[side] { c.deta[x] } else { 0.0 };
             for r in 0..6 {
                 let row = 6 * jx + r;
-                let g: f64 = (0..6).map(|t| psi[row * nx + 6 * jx + t] * dnx[t]).sum();
                 let p0 = wdot(&c.pw[(hx * 6 + row) * NW..][..NW], &wx);
-                let dpj = dpx(row);
-                eta_x += 2.0 * n0x[r] * g
-                    + dnx[r] * g
-                    + sign * (dnx[r] * p0 + n0x[r] * dpj + dnx[r] * dpj);
-                du[r] = 2.0 * sign * g + dpj;
+                let dpj = if xdirty[side] {
+                    c.dp[6 * hx + row]
+                } else {
+                    0.0
+                };
+                eta_x +=
+                    (2.0 * n0x[r] + dnx[r]) * g[r] + sign * (dnx[r] * p0 + (n0x[r] + dnx[r]) * dpj);
+                du[r] = 2.0 * sign * g[r] + dpj;
             }
             deta += eta_x;
-            // Into n's frame: Δp += s Nᵀ Δu_jx.
-            left_rot(&mut du, 6, 1, &rx);
-            left_rot(&mut du, 6, 1, &rdt);
+            // Δp += s Nᵀ Δu_jx (n's frame).
+            let du = rot6(r, &du);
             let nm = &self.cache.nmat[36 * hc..36 * hc + 6 * nc];
             let dp = &mut self.cache.dp[6 * hc..6 * hc + nc];
             for t in 0..6 {
@@ -1013,31 +1033,39 @@ impl Adaptive {
                     *d += w * nv;
                 }
             }
-            // Shared handles i → h: Δp_h += Δp_X,i + 2 s Ψ_X[i,jx] Δn.
+            // Shared handles i → h: Δp_h += Δp_X,i + 2 s Ψ_X[i,jx] Δn,
+            // Δb_h = Δb^X_i + s Φ^X_{jx,i}ᵀ Δn (s = −1 for A: `G_F = ±Φ^X_j·`).
             for h in 0..nhc {
                 let (from_a, i) = self.lay.from[hc + h];
-                if from_a != (sign < 0.0) {
+                if from_a != (side == 0) {
                     continue;
                 }
                 let c = &self.cache;
                 let psi = &c.psi[po..po + nx * nx];
-                let mut u: [f64; 6] = std::array::from_fn(|r| {
-                    let row = 6 * i + r;
-                    let dpi = if xdirty { c.dp[6 * hx + row] } else { 0.0 };
-                    dpi + 2.0
-                        * sign
-                        * (0..6)
-                            .map(|t| psi[row * nx + 6 * jx + t] * dnx[t])
-                            .sum::<f64>()
+                let pd: [f64; 6] = std::array::from_fn(|r| {
+                    let row = &psi[(6 * i + r) * nx + 6 * jx..][..6];
+                    dot6(row.try_into().expect("6"), &dnx)
                 });
-                left_rot(&mut u, 6, 1, &rx);
-                left_rot(&mut u, 6, 1, &rdt);
-                for (d, v) in self.cache.dp[6 * hc + 6 * h..6 * hc + 6 * h + 6]
+                let g = &c.phi[self.lay.boff[x] + jx * self.nh[x] + i];
+                let mut u = [0.0; 6];
+                let mut bh: [f64; 6] = std::array::from_fn(|col| {
+                    sign * (0..6).map(|s| g.0[s][col] * dnx[s]).sum::<f64>()
+                });
+                for r in 0..6 {
+                    u[r] = 2.0 * sign * pd[r];
+                    if xdirty[side] {
+                        u[r] += c.dp[6 * hx + 6 * i + r];
+                        bh[r] += c.db[hx + i][r];
+                    }
+                }
+                let (u, bh) = (rot6(r, &u), rot6(r, &bh));
+                for (d, v) in self.cache.dp[6 * (hc + h)..6 * (hc + h) + 6]
                     .iter_mut()
                     .zip(u)
                 {
                     *d += v;
                 }
+                self.cache.db[hc + h] = bh;
             }
         }
         self.cache.deta[n] = deta;

@@ -13,7 +13,7 @@
 //! 6. The new hierarchical state and the locking impulse over the new reduced tree, with each
 //!    new cluster's momentum from the old clusters' (or its cache when it was rigid).
 
-use crate::cache::Part;
+use crate::cache::{rot6, rows3, Part};
 use crate::hybrid::{Adaptive, Level, Rigid, Selection};
 use articula_dca::{DynamicsError, State};
 use articula_model::{Model, NodeKind};
@@ -73,7 +73,7 @@ impl Adaptive {
             let f = self.hier.fnodes[idx];
             self.fsum[f] = SpatialForce::ZERO;
         }
-        touched += self.dirty_paths(model, state, ep)?;
+        touched += self.dirty_paths(model, ep);
         // 2. The frontier from the caches.
         for idx in 0..self.hier.fnodes.len() {
             let f = self.hier.fnodes[idx];
@@ -106,9 +106,10 @@ impl Adaptive {
                     self.eval_cache(model, f, &x, u, Part::Coefficients);
                     if self.cache.dstamp[f] == ep {
                         // Plus what the forces on its dirty paths add.
-                        let hc = self.lay.hoff[f];
+                        let (hc, r) = (self.lay.hoff[f], rows3(&x.e));
                         for h in 0..self.nh[f] {
-                            self.b[hc + h] += self.cache.db[hc + h];
+                            let db = rot6(&r, &self.cache.db[hc + h]);
+                            self.b[hc + h] += SpatialMotion::from_array(db);
                         }
                     }
                 }
@@ -191,19 +192,16 @@ impl Adaptive {
     }
 
     /// External forces on rigid parts (O(depth) per force): every node on the path from a
-    /// forced body's leaf up to its cluster (old frontier node) is dirty. Top-down, each dirty
-    /// node gets its frame and velocity (the cluster's from its top body, the others' from
-    /// their parent's by the cached relative pose), its joint's kinematics (`q̇ = 0`: a
-    /// transform from the parent body's cached pose) and its clean children's coefficients
-    /// and metric from their caches (a leaf: rigid coefficients); bottom-up, the dirty nodes
-    /// are joined and their metric computed exactly — the main pass's join, with the forces
-    /// in the leaves' rigid coefficients. Returns the nodes visited.
-    fn dirty_paths(
-        &mut self,
-        model: &Model,
-        state: &State,
-        ep: u64,
-    ) -> Result<usize, DynamicsError> {
+    /// forced body's leaf up to its cluster (old frontier node) is dirty. Its configuration
+    /// and velocity are still its cache's, so only what the forces add is computed.
+    /// Top-down, each dirty node gets its frame and velocity (the cluster's from its top
+    /// body, the others' from their parent's by the cached relative pose), its children
+    /// theirs, and its joint's point (its child body's origin: a leaf's handle); bottom-up,
+    /// `Δb` of the forced leaves ([`Adaptive::leaf_delta`]) and `Δb`, `Δk`, `Δn`, `Δp`, `Δη`
+    /// of the dirty joins ([`Adaptive::dirty_delta`]). The frontier adds `Δb` to its cached
+    /// bias, a popped dirty node `Δk`, `Δn` to its cached maps, a dirty node's metric
+    /// `Fᵀ Δp + Δη` to its cached quadratic form. Returns the nodes visited.
+    fn dirty_paths(&mut self, model: &Model, ep: u64) -> usize {
         let tree = &model.assembly;
         self.cache.dirty.clear();
         let x_cw = SpatialTransform::xlt(self.data.origin);
@@ -234,7 +232,7 @@ impl Adaptive {
             }
         }
         if self.cache.dirty.is_empty() {
-            return Ok(0);
+            return 0;
         }
         // Top-down (a parent after its children in post-order).
         self.cache.dirty.sort_unstable_by(|a, b| b.cmp(a));
@@ -263,24 +261,6 @@ impl Adaptive {
                 continue;
             };
             let (xd, ud) = (self.cache.cx[d], self.cache.cu[d]);
-            // The joint's kinematics: parent body at hpose_A[ja] in d's frame.
-            let xp = match tree.nodes[a].kind {
-                NodeKind::Join { .. } => xd * self.cache.hpose[self.lay.hoff[a] + self.lay.ja[d]],
-                _ => xd,
-            };
-            let v = xd.apply_motion(ud);
-            let (x, vj, c) = articula_dca::body_kinematics(
-                &model.bodies[joint],
-                xp,
-                v,
-                &state.q,
-                &state.qd,
-                &mut self.data.s,
-            );
-            self.data.x[joint] = x;
-            self.data.v[joint] = vj;
-            self.data.c[joint] = c;
-            self.point[joint] = x.apply_point(DVec3::ZERO);
             for ch in [a, b] {
                 // The children's frames (a clean child's cache is read where needed).
                 let rel = self.cache.rel[ch];
@@ -288,6 +268,8 @@ impl Adaptive {
                 self.cache.cu[ch] = rel.inv_apply_motion(ud);
                 self.cache.stamp[ch] = ep;
             }
+            // The joint's point (its child body's origin, B's top body: a leaf's handle).
+            self.point[joint] = self.cache.cx[b].apply_point(DVec3::ZERO);
         }
         // Bottom-up: what the forces add, from the forced leaves up.
         for idx in (0..self.cache.dirty.len()).rev() {
@@ -298,7 +280,7 @@ impl Adaptive {
                 NodeKind::Join { .. } => self.dirty_delta(model, d),
             }
         }
-        Ok(self.cache.dirty.len())
+        self.cache.dirty.len()
     }
 
     /// `A` of every node of the old active region and its frontier at the exact handle forces
@@ -375,7 +357,8 @@ impl Adaptive {
                                 .zip(&ad.cache.dk[r])
                                 .for_each(|(k, d)| *k += d);
                         }
-                        for (v, d) in ad.nvec[n].iter_mut().zip(ad.cache.dn[n]) {
+                        let dn = rot6(&rows3(&x.e), &ad.cache.dn[n]);
+                        for (v, d) in ad.nvec[n].iter_mut().zip(dn) {
                             *v += d;
                         }
                     }
