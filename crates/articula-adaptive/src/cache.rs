@@ -964,6 +964,7 @@ impl Adaptive {
         } else {
             [0.0; 6]
         };
+        let mut sdu = [0.0; 6];
         for (side, &(x, jx, sign)) in children.iter().enumerate() {
             let hx = self.lay.hoff[x];
             let r = &rel[side];
@@ -1023,15 +1024,9 @@ impl Adaptive {
                 du[r] = 2.0 * sign * g[r] + dpj;
             }
             deta += eta_x;
-            // Δp += s Nᵀ Δu_jx (n's frame).
-            let du = rot6(r, &du);
-            let nm = &self.cache.nmat[36 * hc..36 * hc + 6 * nc];
-            let dp = &mut self.cache.dp[6 * hc..6 * hc + nc];
-            for t in 0..6 {
-                let w = sign * du[t];
-                for (d, &nv) in dp.iter_mut().zip(&nm[t * nc..t * nc + nc]) {
-                    *d += w * nv;
-                }
+            // s Δu_jx, summed over the children for one Nᵀ (n's frame).
+            for (sv, dv) in sdu.iter_mut().zip(rot6(r, &du)) {
+                *sv += sign * dv;
             }
             // Shared handles i → h: Δp_h += Δp_X,i + 2 s Ψ_X[i,jx] Δn,
             // Δb_h = Δb^X_i + s Φ^X_{jx,i}ᵀ Δn (s = −1 for A: `G_F = ±Φ^X_j·`).
@@ -1066,6 +1061,14 @@ impl Adaptive {
                     *d += v;
                 }
                 self.cache.db[hc + h] = bh;
+            }
+        }
+        // Δp += Nᵀ Σ_X s Δu_jx.
+        let nm = &self.cache.nmat[36 * hc..36 * hc + 6 * nc];
+        let dp = &mut self.cache.dp[6 * hc..6 * hc + nc];
+        for (t, &w) in sdu.iter().enumerate() {
+            for (d, &nv) in dp.iter_mut().zip(&nm[t * nc..t * nc + nc]) {
+                *d += w * nv;
             }
         }
         self.cache.deta[n] = deta;

@@ -262,11 +262,18 @@ impl Adaptive {
             };
             let (xd, ud) = (self.cache.cx[d], self.cache.cu[d]);
             for ch in [a, b] {
-                // The children's frames (a clean child's cache is read where needed).
+                // The children's velocities; their frames when they are dirty or leaves, and
+                // B's (its origin is the joint's point; a clean join's frame is set by the
+                // selection if it gets there).
                 let rel = self.cache.rel[ch];
-                self.cache.cx[ch] = xd * rel;
                 self.cache.cu[ch] = rel.inv_apply_motion(ud);
-                self.cache.stamp[ch] = ep;
+                if ch == b
+                    || self.cache.dstamp[ch] == ep
+                    || !matches!(tree.nodes[ch].kind, NodeKind::Join { .. })
+                {
+                    self.cache.cx[ch] = xd * rel;
+                    self.cache.stamp[ch] = ep;
+                }
             }
             // The joint's point (its child body's origin, B's top body: a leaf's handle).
             self.point[joint] = self.cache.cx[b].apply_point(DVec3::ZERO);
