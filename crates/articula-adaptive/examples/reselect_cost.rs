@@ -2,7 +2,8 @@
 //! `cargo run --release -p articula-adaptive --example reselect_cost -- N BUDGET PERIOD STEPS [dca]`
 //! (defaults 300 50 1 2000; `dca`: exact DCA steps of the same run instead, for the ratio;
 //! a sixth argument F puts F constant external forces on evenly spread bodies, as the
-//! benches' seeds table does). The chain starts crumpled (random angles ±1.2 rad, seed 42) at
+//! benches' seeds table does; a seventh, `seeded`, applies each at its body's origin as the
+//! table's `seeded_state` does). The chain starts crumpled (random angles ±1.2 rad, seed 42) at
 //! rest under gravity; the first step (whole-body re-selection building every cache) is not
 //! timed. Prints the median over batches of 100 steps and the nodes the last step visited.
 //! Also a fixed workload for callgrind (run it with two step counts and diff).
@@ -24,14 +25,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     s.qd.fill(0.0);
     s.f_ext.clear();
     let nf = arg(6, 0) as usize;
+    // `seeded` (seventh argument): each force at its body's origin, as the benches'
+    // `seeded_state` puts it; otherwise at the computation frame's origin.
+    let seeded = std::env::args().nth(7).as_deref() == Some("seeded");
+    let kin = {
+        let mut d = articula_dca::Data::new(&model);
+        articula_dca::forward_kinematics(&model, &s.q, &s.qd, &mut d);
+        d
+    };
     let forces: Vec<(usize, articula_spatial::SpatialForce)> = (0..nf.min(n as usize))
         .map(|k| {
-            let body = k * n as usize / nf;
+            let body = k * n as usize / nf.min(n as usize);
             let dir = glam::DVec3::new(1.0, (k as f64).sin(), (k as f64).cos());
-            (
-                body,
-                articula_spatial::SpatialForce::new(glam::DVec3::ZERO, dir),
-            )
+            let f = if seeded {
+                kin.point_force(body, glam::DVec3::ZERO, dir)
+            } else {
+                articula_spatial::SpatialForce::new(glam::DVec3::ZERO, dir)
+            };
+            (body, f)
         })
         .collect();
     if std::env::args().nth(5).as_deref() == Some("dca") {

@@ -117,8 +117,22 @@ pub(crate) fn rows3(e: &DMat3) -> [[f64; 3]; 3] {
     ]
 }
 
+/// `blkdiag(r, r) v`.
 #[inline]
-fn tr3(r: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+pub(crate) fn rot6(r: &[[f64; 3]; 3], v: &[f64; 6]) -> [f64; 6] {
+    std::array::from_fn(|i| {
+        let (o, k) = (3 * (i / 3), i % 3);
+        r[k][0] * v[o] + r[k][1] * v[o + 1] + r[k][2] * v[o + 2]
+    })
+}
+
+#[inline]
+fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+#[inline]
+pub(crate) fn tr3(r: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
     std::array::from_fn(|i| std::array::from_fn(|j| r[j][i]))
 }
 
@@ -172,8 +186,6 @@ pub(crate) enum Part {
     Coefficients,
     /// `Ψ`, `p`, `η` (the metric).
     Metric,
-    /// `Ψ` alone (a dirty node recomputes `p`, `η`).
-    Psi,
     /// `K`, `k`, `N`, `n` (back-substitution of a popped node).
     Maps,
 }
@@ -232,6 +244,14 @@ pub(crate) struct Caches {
     /// forced body up to its cluster); the dirty nodes of this one.
     pub dstamp: Vec<u64>,
     pub dirty: Vec<usize>,
+    /// Per dirty node, what the external forces add to its force-free (cached) values:
+    /// per handle `Δb` and `Δp` (6 rows), per node `Δn` and `Δη` (all in its cache frame's
+    /// axes), per degree of freedom `Δk`.
+    pub db: Vec<[f64; 6]>,
+    pub dp: Vec<f64>,
+    pub dn: Vec<[f64; 6]>,
+    pub deta: Vec<f64>,
+    pub dk: Vec<f64>,
     /// Per node: the re-selection whose computation-axes metric slots (Ψ, p, η) it holds;
     /// its metric `A` at the exact handle forces and the re-selection that computed it.
     pub pstamp: Vec<u64>,
@@ -291,6 +311,11 @@ impl Adaptive {
         c.amet = vec![0.0; nn];
         c.astamp = vec![0; nn];
         c.dirty = Vec::with_capacity(nn);
+        c.db = vec![[0.0; 6]; lay.handles];
+        c.dp = vec![0.0; 6 * lay.handles];
+        c.dn = vec![[0.0; 6]; nn];
+        c.deta = vec![0.0; nn];
+        c.dk = vec![0.0; model.nv];
         c.leaving = Vec::with_capacity(model.bodies.len());
         let mh = 6 * tree.max_handles().max(1);
         for s in 0..2 {
@@ -775,15 +800,12 @@ impl Adaptive {
                         SpatialMotion::from_array(v) + SpatialMotion::new(DVec3::ZERO, a_g);
                 }
             }
-            Part::Metric | Part::Psi => {
+            Part::Metric => {
                 let po = self.poff[n];
                 let psi = &mut self.psi[po..po + nc * nc];
                 psi.copy_from_slice(&c.psi[po..po + nc * nc]);
                 left_rot(psi, nc, nc, &r);
                 right_rot(psi, nc, nc, &r);
-                if part == Part::Psi {
-                    return;
-                }
                 let pv = &mut self.pvec[6 * hc..6 * hc + nc];
                 let o = hc * 6 * NW;
                 for (row, p) in pv.iter_mut().enumerate() {
@@ -820,12 +842,64 @@ impl Adaptive {
         }
     }
 
-    /// The join of a dirty node `n` (its configuration unchanged, its bias with the forces):
-    /// `Φ`, `K`, `N` and `Ψ` from its cache at `cx`, `cu`; from its children's biases in the
-    /// slots, `β = b^A_j − b^B_j`, `k = κ_β β + κ_Q Q`, `n = ν_β β + ν_Q Q` (the cached maps,
-    /// in the cache frame) and `b^C_h = b^X_h − G_F,hᵀ n` (`G_F,h = ±Φ^X_jh` from the
-    /// children's slots). The same numbers as [`Adaptive::join`] at a fraction of its cost.
-    pub(crate) fn dirty_join(&mut self, model: &Model, n: usize, tau: &[f64]) {
+    /// What the external forces on a dirty leaf add to its bias (its cache frame's axes):
+    /// with its composite at `cx` and the wrench `f_e` (computation frame, about its origin),
+    /// `α = I_c⁻¹ (n_e − c × f_e)`, `Δb_h = [α; f_e/m + α × (P_h − c)]` — the force terms of
+    /// [`Adaptive::rigid_coefficients`] (its velocity terms are in the cache).
+    pub(crate) fn leaf_delta(&mut self, model: &Model, n: usize) {
+        let x = self.cache.cx[n];
+        let r = self.cache.rig[n];
+        let c = x.apply_point(r.c);
+        let ic = x.e * r.ic * x.e.transpose();
+        let fe = self.fsum[n];
+        let alpha = ic.inverse() * (fe.n - c.cross(fe.f));
+        let a_c = fe.f / r.m;
+        let rt = tr3(&rows3(&x.e));
+        let ho = self.lay.hoff[n];
+        for (h, &jh) in model.assembly.nodes[n].handles.iter().enumerate() {
+            let bh = SpatialMotion::new(alpha, a_c + alpha.cross(self.point[jh] - c));
+            self.cache.db[ho + h] = rot6(&rt, &bh.to_array());
+        }
+    }
+
+    /// `Φ^X_{jx,i}ᵀ v` of a leaf child `x` of a dirty node (computation axes): its rigid block
+    /// at its pose and handle points (the ground's is 0).
+    fn leaf_phi_t(&self, model: &Model, x: usize, jx: usize, i: usize, v: &[f64; 6]) -> [f64; 6] {
+        let NodeKind::Body(_) = model.assembly.nodes[x].kind else {
+            return [0.0; 6];
+        };
+        let xf = self.cache.cx[x];
+        let r = self.cache.rig[x];
+        let ic = xf.e * r.ic * xf.e.transpose();
+        let hs = &model.assembly.nodes[x].handles;
+        let g = crate::hybrid::rigid_phi(
+            r.m,
+            xf.apply_point(r.c),
+            ic.inverse(),
+            self.point[hs[jx]],
+            self.point[hs[i]],
+        );
+        std::array::from_fn(|col| (0..6).map(|s| g.0[s][col] * v[s]).sum())
+    }
+
+    /// What the external forces add to a dirty join `n`'s force-dependent values, from its
+    /// children's (0 for a clean child), in n's cache frame: its configuration and velocity
+    /// are those of its cache, so `Φ`, `K`, `N`, `Ψ` and the force-free `b`, `k`, `n`, `p`,
+    /// `η` come from the cache, and only the bias maps carry the forces' part (all linear in
+    /// it, `η` quadratic). A child's values are in its own cache frame, turned into n's by
+    /// its relative pose's rotation `R_X` (`rel`). With `Δβ = Δb^A_j − Δb^B_j`:
+    /// `Δk = κ_β Δβ`, `Δn = ν_β Δβ`, `Δb_h = Δb^X_i ∓ Φ^X_{j,i}ᵀ Δn`; the metric's bias part
+    /// of [`Adaptive::metric_pass`] differenced at `k = k₀ + Δk`, `n = n₀ + Δn`,
+    /// `p_X = p_X₀ + Δp_X` (`m_X = s n` on X's handle `j`):
+    /// ```text
+    /// Δp = 2 Kᵀ A Δk + Σ_X [s Nᵀ (2 s Ψ_X[j,j] Δn + Δp_X,j)  on C's rows,
+    ///                        Δp_X,i + 2 s Ψ_X[i,j] Δn        on shared handles i]
+    /// Δη = k₀ᵀAΔk + ΔkᵀAk₀ + ΔkᵀAΔk + Σ_X [Δη_X + 2 n₀ᵀΨ_X[j,j]Δn + ΔnᵀΨ_X[j,j]Δn
+    ///                                    + s (Δnᵀ p_X₀,j + n₀ᵀ Δp_X,j + Δnᵀ Δp_X,j)]
+    /// ```
+    /// O(1) per node: no cached matrix rotated, no clean child evaluated (a clean join
+    /// child: `Ψ_X[·,j]` and the six rows of `P_X,j` read from its cache).
+    pub(crate) fn dirty_delta(&mut self, model: &Model, n: usize) {
         let NodeKind::Join {
             joint,
             parent_side: a,
@@ -834,49 +908,188 @@ impl Adaptive {
         else {
             return;
         };
-        let (x, u) = (self.cache.cx[n], self.cache.cu[n]);
-        self.eval_cache(model, n, &x, u, Part::Coefficients);
-        self.eval_cache(model, n, &x, u, Part::Maps);
-        self.eval_cache(model, n, &x, u, Part::Psi);
-        let r = rows3(&x.e);
-        let rt = tr3(&r);
+        let ep = self.cache.epoch;
+        let (hc, nhc) = (self.lay.hoff[n], self.nh[n]);
+        let nc = 6 * nhc;
         let (ja, jb) = (self.lay.ja[n], self.lay.jb[n]);
-        let mut beta = (self.b[self.lay.hoff[a] + ja] - self.b[self.lay.hoff[b] + jb]).to_array();
-        left_rot(&mut beta, 6, 1, &rt);
+        let children = [(a, ja, -1.0), (b, jb, 1.0)];
+        let rel: [[[f64; 3]; 3]; 2] = [a, b].map(|x| rows3(&self.cache.rel[x].e));
+        let xdirty = [a, b].map(|x| self.cache.dstamp[x] == ep);
+        // Δβ = Δb^A_ja − Δb^B_jb.
+        let mut beta = [0.0; 6];
+        for (side, &(x, jx, sign)) in children.iter().enumerate() {
+            if xdirty[side] {
+                let d = rot6(&rel[side], &self.cache.db[self.lay.hoff[x] + jx]);
+                for (bv, dv) in beta.iter_mut().zip(d) {
+                    *bv -= sign * dv;
+                }
+            }
+        }
         let body = &model.bodies[joint];
         let (vo, k) = (body.v_offset, body.nv);
         let jm = &self.cache.jm[n];
+        let dn: [f64; 6] = std::array::from_fn(|s| dot6(&jm.nb[s], &beta));
+        let mut dk = [0.0; 6];
         for p in 0..k {
-            let mut x = 0.0;
-            for c in 0..6 {
-                x += jm.kb[p][c] * beta[c];
-            }
-            for q in 0..k {
-                x += jm.kq[p][q] * tau[vo + q];
-            }
-            self.kvec[vo + p] = x;
+            dk[p] = dot6(&jm.kb[p], &beta);
         }
-        let mut nv: [f64; 6] = std::array::from_fn(|s| {
-            (0..6).map(|c| jm.nb[s][c] * beta[c]).sum::<f64>()
-                + (0..k).map(|q| jm.nq[s][q] * tau[vo + q]).sum::<f64>()
-        });
-        left_rot(&mut nv, 6, 1, &r);
-        self.nvec[n] = nv;
-        let hc = self.lay.hoff[n];
-        for h in 0..self.nh[n] {
-            let (from_a, i) = self.lay.from[hc + h];
-            let (xc, jx, sign) = if from_a { (a, ja, 1.0) } else { (b, jb, -1.0) };
-            let g = self.phi_at(xc, jx, i);
-            let mut bh = self.b[self.lay.hoff[xc] + i].to_array();
-            for c in 0..6 {
-                bh[c] -= sign * (0..6).map(|s| g.0[s][c] * nv[s]).sum::<f64>();
-            }
-            self.b[hc + h] = SpatialMotion::from_array(bh);
+        self.cache.dk[vo..vo + k].copy_from_slice(&dk[..k]);
+        self.cache.dn[n] = dn;
+        let wd = monomials(self.cache.cu[n]);
+        // Own joint: Δp = 2 Kᵀ A Δk, Δη = k₀ᵀAΔk + ΔkᵀAk₀ + ΔkᵀAΔk.
+        let mut k0 = [0.0; 6];
+        for p in 0..k {
+            k0[p] = wdot(&self.cache.kw[(vo + p) * NW..][..NW], &wd);
         }
+        let wo = self.woff[joint];
+        let aw = &self.aw[wo..wo + k * k];
+        let (mut adk, mut ak0) = ([0.0; 6], [0.0; 6]);
+        crate::dense::a_x(aw, &dk[..k], k, k, &mut adk);
+        crate::dense::a_x(aw, &k0[..k], k, k, &mut ak0);
+        let mut deta: f64 = (0..k)
+            .map(|p| (k0[p] + dk[p]) * adk[p] + dk[p] * ak0[p])
+            .sum();
+        let ko = self.koff[n];
+        let km = &self.cache.kmat[ko..ko + k * nc];
+        let dp = &mut self.cache.dp[6 * hc..6 * hc + nc];
+        for (i, d) in dp.iter_mut().enumerate() {
+            *d = 2.0 * (0..k).map(|p| km[p * nc + i] * adk[p]).sum::<f64>();
+        }
+        // n₀ (only a join child's metric reads it).
+        let n0: [f64; 6] = if children
+            .iter()
+            .any(|c| matches!(model.assembly.nodes[c.0].kind, NodeKind::Join { .. }))
+        {
+            std::array::from_fn(|row| wdot(&self.cache.nw[(n * 6 + row) * NW..][..NW], &wd))
+        } else {
+            [0.0; 6]
+        };
+        let mut sdu = [0.0; 6];
+        for (side, &(x, jx, sign)) in children.iter().enumerate() {
+            let hx = self.lay.hoff[x];
+            let r = &rel[side];
+            let NodeKind::Join { .. } = model.assembly.nodes[x].kind else {
+                // A leaf (Ψ, p, η are 0): its shared handles' Δb through its rigid block,
+                // in computation axes.
+                let rd = rows3(&self.cache.cx[n].e);
+                let dnw = rot6(&rd, &dn);
+                for h in 0..nhc {
+                    let (from_a, i) = self.lay.from[hc + h];
+                    if from_a != (side == 0) {
+                        continue;
+                    }
+                    let g = self.leaf_phi_t(model, x, jx, i, &dnw);
+                    let mut bh = rot6(&tr3(&rd), &g);
+                    let own = if xdirty[side] {
+                        rot6(r, &self.cache.db[hx + i])
+                    } else {
+                        [0.0; 6]
+                    };
+                    for (bv, ov) in bh.iter_mut().zip(own) {
+                        *bv = ov + sign * *bv;
+                    }
+                    self.cache.db[hc + h] = bh;
+                }
+                continue;
+            };
+            // X's frame: Δn, n₀ there; its cache's Ψ_X[·,jx], P_X,jx at its velocity.
+            let rt = tr3(r);
+            let dnx = rot6(&rt, &dn);
+            let n0x = rot6(&rt, &n0);
+            let wx = monomials(self.cache.cu[x]);
+            let nx = 6 * self.nh[x];
+            let po = self.poff[x];
+            let c = &self.cache;
+            let psi = &c.psi[po..po + nx * nx];
+            // Ψ_X[i,jx] Δn for every handle i of X (6 each).
+            let psidn = |i: usize| -> [f64; 6] {
+                std::array::from_fn(|r| {
+                    let row = &psi[(6 * i + r) * nx + 6 * jx..][..6];
+                    dot6(row.try_into().expect("6"), &dnx)
+                })
+            };
+            let g = psidn(jx);
+            let mut du = [0.0; 6];
+            let mut eta_x = if xdirty[side] { c.deta[x] } else { 0.0 };
+            for r in 0..6 {
+                let row = 6 * jx + r;
+                let p0 = wdot(&c.pw[(hx * 6 + row) * NW..][..NW], &wx);
+                let dpj = if xdirty[side] {
+                    c.dp[6 * hx + row]
+                } else {
+                    0.0
+                };
+                eta_x +=
+                    (2.0 * n0x[r] + dnx[r]) * g[r] + sign * (dnx[r] * p0 + (n0x[r] + dnx[r]) * dpj);
+                du[r] = 2.0 * sign * g[r] + dpj;
+            }
+            deta += eta_x;
+            // s Δu_jx, summed over the children for one Nᵀ (n's frame).
+            for (sv, dv) in sdu.iter_mut().zip(rot6(r, &du)) {
+                *sv += sign * dv;
+            }
+            // Shared handles i → h: Δp_h += Δp_X,i + 2 s Ψ_X[i,jx] Δn,
+            // Δb_h = Δb^X_i + s Φ^X_{jx,i}ᵀ Δn (s = −1 for A: `G_F = ±Φ^X_j·`).
+            for h in 0..nhc {
+                let (from_a, i) = self.lay.from[hc + h];
+                if from_a != (side == 0) {
+                    continue;
+                }
+                let c = &self.cache;
+                let psi = &c.psi[po..po + nx * nx];
+                let pd: [f64; 6] = std::array::from_fn(|r| {
+                    let row = &psi[(6 * i + r) * nx + 6 * jx..][..6];
+                    dot6(row.try_into().expect("6"), &dnx)
+                });
+                let g = &c.phi[self.lay.boff[x] + jx * self.nh[x] + i];
+                let mut u = [0.0; 6];
+                let mut bh: [f64; 6] = std::array::from_fn(|col| {
+                    sign * (0..6).map(|s| g.0[s][col] * dnx[s]).sum::<f64>()
+                });
+                for r in 0..6 {
+                    u[r] = 2.0 * sign * pd[r];
+                    if xdirty[side] {
+                        u[r] += c.dp[6 * hx + 6 * i + r];
+                        bh[r] += c.db[hx + i][r];
+                    }
+                }
+                let (u, bh) = (rot6(r, &u), rot6(r, &bh));
+                for (d, v) in self.cache.dp[6 * (hc + h)..6 * (hc + h) + 6]
+                    .iter_mut()
+                    .zip(u)
+                {
+                    *d += v;
+                }
+                self.cache.db[hc + h] = bh;
+            }
+        }
+        // Δp += Nᵀ Σ_X s Δu_jx.
+        let nm = &self.cache.nmat[36 * hc..36 * hc + 6 * nc];
+        let dp = &mut self.cache.dp[6 * hc..6 * hc + nc];
+        for (t, &w) in sdu.iter().enumerate() {
+            for (d, &nv) in dp.iter_mut().zip(&nm[t * nc..t * nc + nc]) {
+                *d += w * nv;
+            }
+        }
+        self.cache.deta[n] = deta;
+    }
+
+    /// What the forces add to a dirty node's metric at the handle forces whose cache-frame
+    /// components [`Adaptive::metric_local`] left in `fx`: `F⁰ᵀ Δp + Δη`.
+    pub(crate) fn metric_delta(&self, n: usize) -> f64 {
+        let nc = 6 * self.nh[n];
+        let o = 6 * self.lay.hoff[n];
+        self.fx[..nc]
+            .iter()
+            .zip(&self.cache.dp[o..o + nc])
+            .map(|(f, d)| f * d)
+            .sum::<f64>()
+            + self.cache.deta[n]
     }
 
     /// Makes node `n`'s metric slots (Ψ, p, η, computation axes) valid for this re-selection:
-    /// from its cache at its frame and velocity (`cx`, `cu`) when it is rigid and clean,
+    /// from its cache at its frame and velocity (`cx`, `cu`) when it is rigid (p and η then
+    /// without external forces: a build reads Ψ alone),
     /// otherwise from its children's by the metric pass (a leaf: zero).
     pub(crate) fn world_metric(&mut self, model: &Model, n: usize) {
         let ep = self.cache.epoch;
@@ -889,7 +1102,7 @@ impl Adaptive {
                 child_side: b,
                 ..
             } => {
-                if self.cache.valid[n] && self.cache.dstamp[n] != ep {
+                if self.cache.valid[n] {
                     let (x, u) = (self.cache.cx[n], self.cache.cu[n]);
                     self.eval_cache(model, n, &x, u, Part::Metric);
                 } else {

@@ -459,11 +459,8 @@ impl Adaptive {
         };
         for (h, &jh) in node.handles.iter().enumerate() {
             let ah = c - self.point[jh];
-            let axj = skew(ah) * j;
             for (k, &jk) in node.handles.iter().enumerate() {
-                let ek = skew(c - self.point[jk]);
-                let br = -(axj * ek) + DMat3::from_diagonal(DVec3::splat(1.0 / m));
-                self.phi[bo + h * nh + k] = Mat6::from_blocks(j, -(j * ek), axj, br);
+                self.phi[bo + h * nh + k] = rigid_phi(m, c, j, self.point[jh], self.point[jk]);
             }
             // b at P_h: [α; a_c + α × (P_h − c)] + a_g
             self.b[ho + h] = a_g + SpatialMotion::new(acc_w, acc_c + acc_w.cross(-ah));
@@ -975,4 +972,14 @@ impl Adaptive {
             }
         }
     }
+}
+
+/// A rigid body's handle block `Φ_hk` (mass `m`, centre of mass `c`, `j = I_c⁻¹`, handle
+/// points `P_h`, `P_k`; computation axes): `[j, −j E_k; E_h j, 1/m − E_h j E_k]` with
+/// `E_x = [c − P_x]×`.
+pub(crate) fn rigid_phi(m: f64, c: DVec3, j: DMat3, ph: DVec3, pk: DVec3) -> Mat6 {
+    let axj = skew(c - ph) * j;
+    let ek = skew(c - pk);
+    let br = -(axj * ek) + DMat3::from_diagonal(DVec3::splat(1.0 / m));
+    Mat6::from_blocks(j, -(j * ek), axj, br)
 }

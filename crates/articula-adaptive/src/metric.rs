@@ -23,16 +23,6 @@ impl Adaptive {
 
     /// Ψ, p, η of node `n` from its children's (see [`Adaptive::metric_pass`]).
     pub(crate) fn metric_node(&mut self, model: &Model, n: usize) {
-        self.metric_node_parts(model, n, true);
-    }
-
-    /// p and η of node `n` from its children's, Ψ left as it is (a dirty path: Ψ depends on
-    /// the configuration only and comes from the cache).
-    pub(crate) fn metric_bias_node(&mut self, model: &Model, n: usize) {
-        self.metric_node_parts(model, n, false);
-    }
-
-    fn metric_node_parts(&mut self, model: &Model, n: usize, with_psi: bool) {
         let tree = &model.assembly;
         {
             let nc = 6 * self.nh[n];
@@ -54,11 +44,9 @@ impl Adaptive {
             // Own joint: AK = A_C K (k × nc), Ψ = Kᵀ A K, p = 2 Kᵀ A k, η = kᵀ A k.
             let (s1, s2) = (&mut self.s1, &mut self.s2);
             let kmat = &self.kmat[ko..ko + k * nc];
-            if with_psi {
-                dense::a_b(&self.aw[wo..wo + k * k], kmat, k, k, nc, s1);
-                let psi = &mut self.psi[po..po + nc * nc];
-                dense::at_b(kmat, &s1[..k * nc], k, nc, nc, psi);
-            }
+            dense::a_b(&self.aw[wo..wo + k * k], kmat, k, k, nc, s1);
+            let psi = &mut self.psi[po..po + nc * nc];
+            dense::at_b(kmat, &s1[..k * nc], k, nc, nc, psi);
             let kv = &self.kvec[vo..vo + k];
             let mut ak = [0.0; 6];
             dense::a_x(&self.aw[wo..wo + k * k], kv, k, k, &mut ak);
@@ -97,7 +85,7 @@ impl Adaptive {
                 // G = Ψ_X[jx,jx] N (6 × nc) in s2.
                 let g = &mut self.s2[..6 * nc];
                 g.fill(0.0);
-                for r in (0..6).filter(|_| with_psi) {
+                for r in 0..6 {
                     for t in 0..6 {
                         let w = psix[(6 * jx + r) * nx + 6 * jx + t];
                         if w != 0.0 {
@@ -111,7 +99,7 @@ impl Adaptive {
                     }
                 }
                 // Nᵀ G
-                for t in (0..6).filter(|_| with_psi) {
+                for t in 0..6 {
                     let grow = &g[t * nc..t * nc + nc];
                     for (i, &ni) in nm[t * nc..t * nc + nc].iter().enumerate() {
                         if ni != 0.0 {
@@ -146,7 +134,7 @@ impl Adaptive {
                         continue;
                     }
                     // Ψ_X[i,l] blocks for shared handles l.
-                    for l in (0..self.nh[x]).filter(|_| with_psi) {
+                    for l in 0..self.nh[x] {
                         let hl = map[l];
                         if hl == usize::MAX {
                             continue;
@@ -163,21 +151,19 @@ impl Adaptive {
                     // C = s Ψ_X[i,jx] N (6 × nc): rows 6 hi.., and columns 6 hi.. (transpose).
                     for r in 0..6 {
                         let row = 6 * hi + r;
-                        if with_psi {
-                            let crow = &mut self.s3[..nc];
-                            crow.fill(0.0);
-                            for t in 0..6 {
-                                let w = sign * psix[(6 * i + r) * nx + 6 * jx + t];
-                                if w != 0.0 {
-                                    for (cv, &nv) in crow.iter_mut().zip(&nm[t * nc..t * nc + nc]) {
-                                        *cv += w * nv;
-                                    }
+                        let crow = &mut self.s3[..nc];
+                        crow.fill(0.0);
+                        for t in 0..6 {
+                            let w = sign * psix[(6 * i + r) * nx + 6 * jx + t];
+                            if w != 0.0 {
+                                for (cv, &nv) in crow.iter_mut().zip(&nm[t * nc..t * nc + nc]) {
+                                    *cv += w * nv;
                                 }
                             }
-                            for c in 0..nc {
-                                psic[row * nc + c] += crow[c];
-                                psic[c * nc + row] += crow[c];
-                            }
+                        }
+                        for c in 0..nc {
+                            psic[row * nc + c] += crow[c];
+                            psic[c * nc + row] += crow[c];
                         }
                         // u_i = 2 s Ψ_X[i,jx] n + p_X,i
                         let mut ui = px[6 * i + r];

@@ -13,7 +13,7 @@
 //! 6. The new hierarchical state and the locking impulse over the new reduced tree, with each
 //!    new cluster's momentum from the old clusters' (or its cache when it was rigid).
 
-use crate::cache::Part;
+use crate::cache::{rot6, rows3, Part};
 use crate::hybrid::{Adaptive, Level, Rigid, Selection};
 use articula_dca::{DynamicsError, State};
 use articula_model::{Model, NodeKind};
@@ -73,14 +73,10 @@ impl Adaptive {
             let f = self.hier.fnodes[idx];
             self.fsum[f] = SpatialForce::ZERO;
         }
-        touched += self.dirty_paths(model, state, ep)?;
+        touched += self.dirty_paths(model, ep);
         // 2. The frontier from the caches.
         for idx in 0..self.hier.fnodes.len() {
             let f = self.hier.fnodes[idx];
-            if self.cache.dstamp[f] == ep {
-                // Computed exactly along its dirty paths.
-                continue;
-            }
             touched += 1;
             self.cache.stamp[f] = ep;
             match tree.nodes[f].kind {
@@ -108,6 +104,14 @@ impl Adaptive {
                     self.cache.cx[f] = x;
                     self.cache.cu[f] = u;
                     self.eval_cache(model, f, &x, u, Part::Coefficients);
+                    if self.cache.dstamp[f] == ep {
+                        // Plus what the forces on its dirty paths add.
+                        let (hc, r) = (self.lay.hoff[f], rows3(&x.e));
+                        for h in 0..self.nh[f] {
+                            let db = rot6(&r, &self.cache.db[hc + h]);
+                            self.b[hc + h] += SpatialMotion::from_array(db);
+                        }
+                    }
                 }
             }
         }
@@ -188,19 +192,16 @@ impl Adaptive {
     }
 
     /// External forces on rigid parts (O(depth) per force): every node on the path from a
-    /// forced body's leaf up to its cluster (old frontier node) is dirty. Top-down, each dirty
-    /// node gets its frame and velocity (the cluster's from its top body, the others' from
-    /// their parent's by the cached relative pose), its joint's kinematics (`q̇ = 0`: a
-    /// transform from the parent body's cached pose) and its clean children's coefficients
-    /// and metric from their caches (a leaf: rigid coefficients); bottom-up, the dirty nodes
-    /// are joined and their metric computed exactly — the main pass's join, with the forces
-    /// in the leaves' rigid coefficients. Returns the nodes visited.
-    fn dirty_paths(
-        &mut self,
-        model: &Model,
-        state: &State,
-        ep: u64,
-    ) -> Result<usize, DynamicsError> {
+    /// forced body's leaf up to its cluster (old frontier node) is dirty. Its configuration
+    /// and velocity are still its cache's, so only what the forces add is computed.
+    /// Top-down, each dirty node gets its frame and velocity (the cluster's from its top
+    /// body, the others' from their parent's by the cached relative pose), its children
+    /// theirs, and its joint's point (its child body's origin: a leaf's handle); bottom-up,
+    /// `Δb` of the forced leaves ([`Adaptive::leaf_delta`]) and `Δb`, `Δk`, `Δn`, `Δp`, `Δη`
+    /// of the dirty joins ([`Adaptive::dirty_delta`]). The frontier adds `Δb` to its cached
+    /// bias, a popped dirty node `Δk`, `Δn` to its cached maps, a dirty node's metric
+    /// `Fᵀ Δp + Δη` to its cached quadratic form. Returns the nodes visited.
+    fn dirty_paths(&mut self, model: &Model, ep: u64) -> usize {
         let tree = &model.assembly;
         self.cache.dirty.clear();
         let x_cw = SpatialTransform::xlt(self.data.origin);
@@ -231,15 +232,10 @@ impl Adaptive {
             }
         }
         if self.cache.dirty.is_empty() {
-            return Ok(0);
+            return 0;
         }
         // Top-down (a parent after its children in post-order).
         self.cache.dirty.sort_unstable_by(|a, b| b.cmp(a));
-        let world_rigid = |r: &Rigid, x: &SpatialTransform| Rigid {
-            m: r.m,
-            c: x.apply_point(r.c),
-            ic: x.e * r.ic * x.e.transpose(),
-        };
         for idx in 0..self.cache.dirty.len() {
             let d = self.cache.dirty[idx];
             let parent_dirty = tree.nodes[d]
@@ -265,84 +261,33 @@ impl Adaptive {
                 continue;
             };
             let (xd, ud) = (self.cache.cx[d], self.cache.cu[d]);
-            // The joint's kinematics: parent body at hpose_A[ja] in d's frame.
-            let xp = match tree.nodes[a].kind {
-                NodeKind::Join { .. } => xd * self.cache.hpose[self.lay.hoff[a] + self.lay.ja[d]],
-                _ => xd,
-            };
-            let v = xd.apply_motion(ud);
-            let (x, vj, c) = articula_dca::body_kinematics(
-                &model.bodies[joint],
-                xp,
-                v,
-                &state.q,
-                &state.qd,
-                &mut self.data.s,
-            );
-            self.data.x[joint] = x;
-            self.data.v[joint] = vj;
-            self.data.c[joint] = c;
-            self.point[joint] = x.apply_point(DVec3::ZERO);
             for ch in [a, b] {
+                // The children's velocities; their frames when they are dirty or leaves, and
+                // B's (its origin is the joint's point; a clean join's frame is set by the
+                // selection if it gets there).
                 let rel = self.cache.rel[ch];
-                self.cache.cx[ch] = xd * rel;
                 self.cache.cu[ch] = rel.inv_apply_motion(ud);
-                if self.cache.dstamp[ch] == ep {
-                    continue;
-                }
-                // A clean child: from its cache (a leaf: rigid, no force).
-                self.cache.stamp[ch] = ep;
-                let (xc, uc) = (self.cache.cx[ch], self.cache.cu[ch]);
-                match tree.nodes[ch].kind {
-                    NodeKind::Ground => {
-                        self.ground_coefficients(ch);
-                        self.world_metric(model, ch);
-                    }
-                    NodeKind::Body(_) => {
-                        let r = world_rigid(&self.cache.rig[ch], &xc);
-                        let vc = xc.apply_motion(uc);
-                        self.rigid_coefficients(
-                            model,
-                            ch,
-                            &r,
-                            vc,
-                            SpatialForce::ZERO,
-                            Level::Acceleration,
-                        )?;
-                        self.world_metric(model, ch);
-                    }
-                    NodeKind::Join { .. } => {
-                        self.eval_cache(model, ch, &xc, uc, Part::Coefficients);
-                        self.world_metric(model, ch);
-                    }
+                if ch == b
+                    || self.cache.dstamp[ch] == ep
+                    || !matches!(tree.nodes[ch].kind, NodeKind::Join { .. })
+                {
+                    self.cache.cx[ch] = xd * rel;
+                    self.cache.stamp[ch] = ep;
                 }
             }
+            // The joint's point (its child body's origin, B's top body: a leaf's handle).
+            self.point[joint] = self.cache.cx[b].apply_point(DVec3::ZERO);
         }
-        // Bottom-up: the dirty nodes exactly.
+        // Bottom-up: what the forces add, from the forced leaves up.
         for idx in (0..self.cache.dirty.len()).rev() {
             let d = self.cache.dirty[idx];
             match tree.nodes[d].kind {
-                NodeKind::Ground => self.ground_coefficients(d),
-                NodeKind::Body(_) => {
-                    let (xc, uc) = (self.cache.cx[d], self.cache.cu[d]);
-                    let r = world_rigid(&self.cache.rig[d], &xc);
-                    let vc = xc.apply_motion(uc);
-                    let fe = self.fsum[d];
-                    self.rigid_coefficients(model, d, &r, vc, fe, Level::Acceleration)?;
-                }
-                NodeKind::Join { .. } => {
-                    // Φ, K, N, Ψ from the cache (configuration only); b, k, n, p, η with the
-                    // forces.
-                    self.dirty_join(model, d, &state.tau);
-                    self.metric_bias_node(model, d);
-                }
+                NodeKind::Ground => {}
+                NodeKind::Body(_) => self.leaf_delta(model, d),
+                NodeKind::Join { .. } => self.dirty_delta(model, d),
             }
-            if matches!(tree.nodes[d].kind, NodeKind::Body(_) | NodeKind::Ground) {
-                self.metric_node(model, d);
-            }
-            self.cache.pstamp[d] = ep;
         }
-        Ok(self.cache.dirty.len())
+        self.cache.dirty.len()
     }
 
     /// `A` of every node of the old active region and its frontier at the exact handle forces
@@ -359,10 +304,14 @@ impl Adaptive {
         for idx in 0..self.hier.fnodes.len() {
             let f = self.hier.fnodes[idx];
             self.cache.amet[f] = match tree.nodes[f].kind {
-                NodeKind::Join { .. } if self.cache.dstamp[f] == ep => self.metric_at(f),
                 NodeKind::Join { .. } => {
                     let (x, u) = (self.cache.cx[f], self.cache.cu[f]);
-                    self.metric_local(f, &x, u)
+                    let a = self.metric_local(f, &x, u);
+                    if self.cache.dstamp[f] == ep {
+                        a + self.metric_delta(f)
+                    } else {
+                        a
+                    }
                 }
                 _ => 0.0,
             };
@@ -402,9 +351,24 @@ impl Adaptive {
             total,
             |ad, n| {
                 ad.cache.sel.push(n);
-                if !ad.active[n] && ad.cache.dstamp[n] != ep {
+                if !ad.active[n] {
                     let (x, u) = (ad.cache.cx[n], ad.cache.cu[n]);
                     ad.eval_cache(model, n, &x, u, Part::Maps);
+                    if ad.cache.dstamp[n] == ep {
+                        // Plus what the forces on its dirty paths add.
+                        if let NodeKind::Join { joint, .. } = tree.nodes[n].kind {
+                            let body = &model.bodies[joint];
+                            let r = body.v_offset..body.v_offset + body.nv;
+                            ad.kvec[r.clone()]
+                                .iter_mut()
+                                .zip(&ad.cache.dk[r])
+                                .for_each(|(k, d)| *k += d);
+                        }
+                        let dn = rot6(&rows3(&x.e), &ad.cache.dn[n]);
+                        for (v, d) in ad.nvec[n].iter_mut().zip(dn) {
+                            *v += d;
+                        }
+                    }
                 }
                 // The old active region was back-substituted by `active_metrics` (the same
                 // forces from the same maps).
@@ -428,7 +392,12 @@ impl Adaptive {
                 } else {
                     *touched += 1;
                     let (x, u) = (ad.cache.cx[c], ad.cache.cu[c]);
-                    ad.metric_local(c, &x, u)
+                    let a = ad.metric_local(c, &x, u);
+                    if ad.cache.dstamp[c] == ep {
+                        a + ad.metric_delta(c)
+                    } else {
+                        a
+                    }
                 })
             },
         );

@@ -233,6 +233,54 @@ fn external_forces_on_rigid_parts_update_their_paths_exactly() {
 }
 
 #[test]
+fn forces_deep_in_large_clusters_with_small_budgets() {
+    // Small budgets leave nearly the whole body locked, so the forced bodies sit deep in
+    // large clusters; several forces share a path (their dirty paths merge), and the budget
+    // changes every ten steps so that the selection pops dirty nodes (their maps and
+    // children's metrics with the forces' deltas). Cached and reference re-selections must
+    // agree.
+    for (name, floating, budget) in [
+        ("chain100", false, 2),
+        ("chain300", false, 4),
+        ("humanoid", true, 3),
+        ("plant", false, 2),
+    ] {
+        let model = load(name, floating);
+        let nb = model.bodies.len();
+        let bodies = [1, 2, nb / 3, nb / 3 + 2, nb - 1];
+        let forces = |k: usize| -> Vec<(usize, SpatialForce)> {
+            bodies
+                .iter()
+                .enumerate()
+                .map(|(j, &body)| {
+                    let t = (k + 3 * j) as f64;
+                    let n = glam::DVec3::new(0.3, -0.2 * t.sin(), 0.1);
+                    let f = glam::DVec3::new(1.0 + t.cos(), 0.5, -0.7);
+                    (body, SpatialForce::new(n, f))
+                })
+                .collect()
+        };
+        for period in [1u64, 5] {
+            let run = Run {
+                budget,
+                period,
+                steps: 40,
+                dt: 1e-3,
+                vary_budget: true,
+            };
+            let s0 = start(&model, 5 + period, 1.0);
+            compare(
+                &format!("{name} deep forces every {period}"),
+                &model,
+                s0,
+                &run,
+                forces,
+            );
+        }
+    }
+}
+
+#[test]
 fn a_changed_locked_torque_is_detected() {
     // Locked joints' torques are in the caches' constant columns: changing them mid-run must
     // not leave stale caches (detected by the comparison of τ, or by `invalidate` when it is
