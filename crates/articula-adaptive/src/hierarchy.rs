@@ -110,6 +110,11 @@ fn coordinate_axis(body: &articula_model::Body) -> Option<(usize, f64)> {
     let [part] = body.joint.as_slice() else {
         return None;
     };
+    part_axis(part)
+}
+
+/// `(i, ±1)` when `part` is revolute about the coordinate axis `±e_i`.
+fn part_axis(part: &articula_model::JointPart) -> Option<(usize, f64)> {
     if !matches!(
         part.kind,
         articula_model::JointKind::Revolute | articula_model::JointKind::Continuous
@@ -633,20 +638,10 @@ fn revolute_parts(body: &articula_model::Body) -> Option<RevoluteParts> {
     let mut axes = [(0usize, 0.0f64); 6];
     let mut moved = 0u8;
     for (k, part) in body.joint.iter().enumerate() {
-        if k >= 6
-            || !matches!(
-                part.kind,
-                articula_model::JointKind::Revolute | articula_model::JointKind::Continuous
-            )
-        {
+        if k >= 6 {
             return None;
         }
-        let a = part.axis.to_array();
-        let i = (0..3).find(|&i| a[i] == 1.0 || a[i] == -1.0)?;
-        if a[(i + 1) % 3] != 0.0 || a[(i + 2) % 3] != 0.0 {
-            return None;
-        }
-        axes[k] = (i, a[i]);
+        axes[k] = part_axis(part)?;
         if part.origin.e != glam::DMat3::IDENTITY || part.origin.r != DVec3::ZERO {
             moved |= 1 << k;
         }
