@@ -110,23 +110,7 @@ fn coordinate_axis(body: &articula_model::Body) -> Option<(usize, f64)> {
     let [part] = body.joint.as_slice() else {
         return None;
     };
-    part_axis(part)
-}
-
-/// `(i, ±1)` when `part` is revolute about the coordinate axis `±e_i`.
-fn part_axis(part: &articula_model::JointPart) -> Option<(usize, f64)> {
-    if !matches!(
-        part.kind,
-        articula_model::JointKind::Revolute | articula_model::JointKind::Continuous
-    ) {
-        return None;
-    }
-    let a = part.axis.to_array();
-    let i = (0..3).find(|&i| a[i] == 1.0 || a[i] == -1.0)?;
-    if a[(i + 1) % 3] != 0.0 || a[(i + 2) % 3] != 0.0 {
-        return None;
-    }
-    Some((i, a[i]))
+    part.coordinate_axis()
 }
 
 impl Adaptive {
@@ -641,7 +625,7 @@ fn revolute_parts(body: &articula_model::Body) -> Option<RevoluteParts> {
         if k >= 6 {
             return None;
         }
-        axes[k] = part_axis(part)?;
+        axes[k] = part.coordinate_axis()?;
         if part.origin.e != glam::DMat3::IDENTITY || part.origin.r != DVec3::ZERO {
             moved |= 1 << k;
         }

@@ -52,6 +52,21 @@ impl JointPart {
         self.kind.nv()
     }
 
+    /// `(i, ±1)` when this part is revolute (or continuous) about the coordinate axis `±e_i`
+    /// of its joint frame — the usual URDF case, for which kinematics can rotate two columns
+    /// instead of forming the general axis–angle rotation.
+    pub fn coordinate_axis(&self) -> Option<(usize, f64)> {
+        if !matches!(self.kind, JointKind::Revolute | JointKind::Continuous) {
+            return None;
+        }
+        let a = self.axis.to_array();
+        let i = (0..3).find(|&i| a[i] == 1.0 || a[i] == -1.0)?;
+        if a[(i + 1) % 3] != 0.0 || a[(i + 2) % 3] != 0.0 {
+            return None;
+        }
+        Some((i, a[i]))
+    }
+
     /// The joint's own motion: the map from the moving frame (after the motion) to the joint
     /// frame, for this part's coordinates `q` (length [`JointPart::nq`]).
     ///

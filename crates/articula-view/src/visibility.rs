@@ -467,18 +467,21 @@ fn compose_part(part: &articula_model::JointPart, q: &[f64], r: &mut DMat3, p: &
     }
     match part.kind {
         articula_model::JointKind::Revolute | articula_model::JointKind::Continuous => {
-            // About a coordinate axis, `r · Rot(axis, q)` mixes two of r's columns (the
-            // general product's other terms are exact zeros and ones: the same numbers).
-            let (sn, cs) = q[part.q_offset].sin_cos();
+            // About a coordinate axis ±e_i, `r · Rot(axis, q)` mixes two of r's columns (the
+            // general product's other terms are exact zeros and ones, and the sign of the axis
+            // is the sign of the sine: the same numbers).
             let (x, y, z) = (r.x_axis, r.y_axis, r.z_axis);
-            if part.axis == DVec3::X {
-                (r.y_axis, r.z_axis) = (y * cs + z * sn, y * -sn + z * cs);
-            } else if part.axis == DVec3::Y {
-                (r.x_axis, r.z_axis) = (x * cs + z * -sn, x * sn + z * cs);
-            } else if part.axis == DVec3::Z {
-                (r.x_axis, r.y_axis) = (x * cs + y * sn, x * -sn + y * cs);
-            } else {
-                *r *= DMat3::from_axis_angle(part.axis, q[part.q_offset]);
+            match part.coordinate_axis() {
+                Some((i, sign)) => {
+                    let (sn, cs) = q[part.q_offset].sin_cos();
+                    let sn = sn * sign;
+                    match i {
+                        0 => (r.y_axis, r.z_axis) = (y * cs + z * sn, y * -sn + z * cs),
+                        1 => (r.x_axis, r.z_axis) = (x * cs + z * -sn, x * sn + z * cs),
+                        _ => (r.x_axis, r.y_axis) = (x * cs + y * sn, x * -sn + y * cs),
+                    }
+                }
+                None => *r *= DMat3::from_axis_angle(part.axis, q[part.q_offset]),
             }
         }
         _ => {

@@ -283,6 +283,48 @@ fn joint_weights_take_the_largest_weight_below() {
 }
 
 #[test]
+fn body_poses_about_signed_coordinate_axes_match_forward_kinematics() {
+    // A chain whose revolute axes are ±x, ±y, ±z (the two-column path of the poses) and one
+    // tilted axis (the general rotation), with rotated joint origins.
+    let axes = [
+        "1 0 0",
+        "0 -1 0",
+        "0 0 1",
+        "-1 0 0",
+        "0 1 0",
+        "0 0 -1",
+        "0.6 0 0.8",
+    ];
+    let mut urdf = String::from(
+        r#"<robot name="axes"><link name="l0"><inertial><mass value="1"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial></link>"#,
+    );
+    for (k, a) in axes.iter().enumerate() {
+        urdf += &format!(
+            r#"<link name="l{c}"><inertial><mass value="1"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial></link><joint name="j{c}" type="revolute"><parent link="l{k}"/><child link="l{c}"/><origin xyz="0.1 0.2 0.3" rpy="0.3 -0.2 0.1"/><axis xyz="{a}"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>"#,
+            c = k + 1
+        );
+    }
+    urdf += "</robot>";
+    let model = Model::from_urdf_str(&urdf, &LoadOptions::default()).unwrap();
+    let mut data = Data::new(&model);
+    let mut poses = Vec::new();
+    for seed in 0..5 {
+        let s = State::random(&model, seed, 1.0);
+        forward_kinematics(&model, &s.q, &s.qd, &mut data);
+        body_poses(&model, &s.q, &mut poses);
+        for (i, &(r, p)) in poses.iter().enumerate() {
+            let (r2, p2) = data.body_pose(i);
+            assert!((p - p2).length() < 1e-12, "body {i}");
+            let d = (r - r2)
+                .to_cols_array()
+                .iter()
+                .fold(0.0f64, |a, x| a.max(x.abs()));
+            assert!(d < 1e-12, "body {i}: {d}");
+        }
+    }
+}
+
+#[test]
 fn body_poses_match_forward_kinematics() {
     for (file, floating) in [
         ("humanoid.urdf", true),
