@@ -443,14 +443,49 @@ impl Classifier {
 
 /// World pose of body `i` of `model` at configuration `q` (rotation, origin): the pose-only
 /// part of forward kinematics along the path from the root to `i`.
+///
+/// No recursion (a 100,000-link chain must not overflow the stack): a path of up to 64
+/// bodies is composed root first, exactly as [`body_poses`] does (the same
+/// numbers); a deeper one from `i` up, each body's joint on the left of what lies below it
+/// (the same pose up to rounding).
 pub fn body_pose(model: &articula_model::Model, q: &[f64], i: usize) -> (DMat3, DVec3) {
-    let body = &model.bodies[i];
-    let (mut r, mut p) = match body.parent {
-        Some(j) => body_pose(model, q, j),
-        None => (DMat3::IDENTITY, DVec3::ZERO),
-    };
-    for part in &body.joint {
-        compose_part(part, q, &mut r, &mut p);
+    let mut path = [0usize; POSE_PATH];
+    let mut depth = 0;
+    let mut k = Some(i);
+    while let Some(j) = k {
+        if depth == POSE_PATH {
+            return body_pose_upward(model, q, i);
+        }
+        path[depth] = j;
+        depth += 1;
+        k = model.bodies[j].parent;
+    }
+    let (mut r, mut p) = (DMat3::IDENTITY, DVec3::ZERO);
+    for &j in path[..depth].iter().rev() {
+        for part in &model.bodies[j].joint {
+            compose_part(part, q, &mut r, &mut p);
+        }
+    }
+    (r, p)
+}
+
+/// Longest root path [`body_pose`] composes root first (on the stack).
+const POSE_PATH: usize = 64;
+
+/// [`body_pose`] from `i` up to the root: `(r, p) ← J_j · (r, p)` for each body `j` on the
+/// way, `J_j` the pose of its joint (origin · motion · … over its parts) in its parent.
+fn body_pose_upward(model: &articula_model::Model, q: &[f64], i: usize) -> (DMat3, DVec3) {
+    let (mut r, mut p) = (DMat3::IDENTITY, DVec3::ZERO);
+    let mut k = Some(i);
+    while let Some(j) = k {
+        let body = &model.bodies[j];
+        let (mut rj, mut pj) = (DMat3::IDENTITY, DVec3::ZERO);
+        for part in &body.joint {
+            compose_part(part, q, &mut rj, &mut pj);
+        }
+        p = rj * p + pj;
+        r = rj * r;
+        k = body.parent;
     }
     (r, p)
 }

@@ -3,8 +3,8 @@
 use articula_dca::{forward_kinematics, Data, State};
 use articula_model::{LoadOptions, Model};
 use articula_view::{
-    body_poses, body_volumes, BodyVolumes, Camera, Classifier, DepthBuffer, Placed, Visibility,
-    VisibilitySettings,
+    body_pose, body_poses, body_volumes, BodyVolumes, Camera, Classifier, DepthBuffer, Placed,
+    Visibility, VisibilitySettings,
 };
 use glam::{DMat3, DVec3};
 
@@ -417,4 +417,65 @@ fn a_rasterised_ball_fills_exactly_the_cells_wholly_inside_its_disc() {
         filled_total > 10_000,
         "the test must fill cells: {filled_total}"
     );
+}
+
+#[test]
+fn body_pose_of_one_body_equals_all_poses() {
+    // Up to 64 bodies deep, one body's pose is composed root first as `body_poses` does: the
+    // same bits. The 1,000-link chain's deeper links take the upward composition (same pose up
+    // to rounding); 20,000 links deep a recursive walk would overflow a 2 MiB test thread.
+    for (file, floating) in [
+        ("humanoid.urdf", true),
+        ("plant.urdf", false),
+        ("chain1000.urdf", false),
+    ] {
+        let model = Model::from_urdf_file(
+            models().join(file),
+            &LoadOptions {
+                floating_base: floating,
+            },
+        )
+        .unwrap();
+        let mut poses = Vec::new();
+        for seed in 0..3 {
+            let s = State::random(&model, seed, 1.0);
+            body_poses(&model, &s.q, &mut poses);
+            for (i, &(r, p)) in poses.iter().enumerate() {
+                let (r1, p1) = body_pose(&model, &s.q, i);
+                if i < 64 {
+                    assert_eq!((r1, p1), (r, p), "{file} body {i}");
+                } else {
+                    let scale = 1.0 + p.length();
+                    assert!((p1 - p).length() < 1e-10 * scale, "{file} body {i}");
+                    let d = (r1 - r)
+                        .to_cols_array()
+                        .iter()
+                        .fold(0.0f64, |a, x| a.max(x.abs()));
+                    assert!(d < 1e-10, "{file} body {i}: {d}");
+                }
+            }
+        }
+    }
+    let deep =
+        articula_model::Model::from_urdf_str(&planar_chain_urdf(20_000), &LoadOptions::default())
+            .unwrap();
+    let q = vec![0.01; deep.nq];
+    let mut poses = Vec::new();
+    body_poses(&deep, &q, &mut poses);
+    let (_, p) = body_pose(&deep, &q, deep.bodies.len() - 1);
+    let p_all = poses.last().unwrap().1;
+    assert!((p - p_all).length() < 1e-8 * (1.0 + p_all.length()));
+}
+
+/// A planar chain of `n` unit links (revolute about z), as URDF.
+fn planar_chain_urdf(n: usize) -> String {
+    let inertial = r#"<inertial><origin xyz="0.5 0 0"/><mass value="1"/><inertia ixx="0.01" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial>"#;
+    let mut u = format!(r#"<robot name="c"><link name="l0">{inertial}</link>"#);
+    for k in 1..n {
+        u += &format!(
+            r#"<link name="l{k}">{inertial}</link><joint name="j{k}" type="revolute"><parent link="l{p}"/><child link="l{k}"/><origin xyz="1 0 0"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>"#,
+            p = k - 1
+        );
+    }
+    u + "</robot>"
 }
