@@ -153,17 +153,14 @@ pub(crate) enum DKind {
     },
 }
 
-/// A leaf's `Φ = I⁻¹` in closed form, for its leaf and the back-substitution (see
-/// `dca::init_body`, `dca::leaf`): the computation-frame `J = R I_c⁻¹ Rᵀ` (upper triangle, row
-/// by row), the centre of mass `c`, `1/m`, and the body's acceleration for no handle forces
-/// and no gravity, `[α; a_c]` at c.
+/// A leaf's `Φ = I⁻¹` in closed form, written by its leaf for the back-substitution (see
+/// `dca::leaf`): the computation-frame `J = R I_c⁻¹ Rᵀ` (upper triangle, row by row), the
+/// centre of mass `c` and `1/m`.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct LeafK {
     pub j: [f64; 6],
     pub c: [f64; 3],
     pub im: f64,
-    pub alpha: [f64; 3],
-    pub acc_c: [f64; 3],
 }
 
 /// A body's inertia as its DCA leaf uses it, in body coordinates: 128 bytes, two cache lines.
@@ -328,7 +325,15 @@ impl Data {
             x: vec![SpatialTransform::IDENTITY; n],
             v: vec![SpatialMotion::ZERO; n],
             c: vec![SpatialMotion::ZERO; n],
-            inertia: vec![SpatialInertia::ZERO; n],
+            // The masses, which DCA's leaves read here (they set the rest).
+            inertia: model
+                .bodies
+                .iter()
+                .map(|b| SpatialInertia {
+                    mass: b.inertia.mass,
+                    ..SpatialInertia::ZERO
+                })
+                .collect(),
             s: vec![SpatialMotion::ZERO; nv],
             qdd: vec![0.0; nv],
             momentum_projection: true,

@@ -13,84 +13,27 @@ use articula_model::Model;
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::DVec3;
 
-/// Per body i, in the kinematics loop right after its pose and velocity (still in cache), what
-/// the leaf and the back-substitution need of it ([`LeafK`]) and its world inertia:
-/// - the point P_i, origin of body i, about which every vector of handle (joint) i is taken: far
-///   from the computation origin the blocks would otherwise lose digits (a 100,000-link chain
-///   reaches 10 km);
-/// - about the centre of mass c: `I_c = R I_c,body Rᵀ`, `J = I_c⁻¹ = R I_c,body⁻¹ Rᵀ`, and the
-///   leaf's acceleration for no handle forces and no gravity, `α = J (n_c − ω × I_c ω)`,
-///   `a_c = f/m − ω × v_c` (`f_ext = [n; f]` about the origin, `n_c = n − c × f`, `v_c` the
-///   velocity of the point at c);
-/// - `data.inertia[i]` by parallel axes: `Ī_O = I_c + m (c·c 1 − c cᵀ)`, `h = m c`.
+/// Per body i, in the kinematics loop right after its pose: the point P_i, origin of body i,
+/// about which every vector of handle (joint) i is taken (far from the computation origin the
+/// blocks would otherwise lose digits: a 100,000-link chain reaches 10 km).
 #[inline(always)]
-pub(crate) fn init_body(model: &Model, i: usize, data: &mut Data, f_ext: &[SpatialForce]) {
-    let x = &data.x[i];
-    let lc = &data.dca.leaf[i];
-    data.dca.point[i] = x.apply_point(DVec3::ZERO);
-    // R: body → computation-frame axes, by columns (e[k] = R e_k).
-    let e = x.e.to_cols_array_2d();
-    let c = x.apply_point(DVec3::from_array(lc.com));
-    let (ic, jc) = if lc.ic[1] == 0.0 && lc.ic[2] == 0.0 && lc.ic[4] == 0.0 {
-        // Principal axes along the body's (the common case): R diag(d) Rᵀ = Σ_k d_k e_k e_kᵀ.
-        rotate_diagonal_pair(
-            &e,
-            [lc.ic[0], lc.ic[3], lc.ic[5]],
-            [lc.ic_inv[0], lc.ic_inv[3], lc.ic_inv[5]],
-        )
-    } else {
-        (
-            rotate_sym(&e, &sym3(&lc.ic)),
-            rotate_sym(&e, &sym3(&lc.ic_inv)),
-        )
-    };
-    let v = data.v[i];
-    let w = v.w.to_array();
-    let icw = DVec3::new(dot3(&ic[0], &w), dot3(&ic[1], &w), dot3(&ic[2], &w));
-    let im = lc.im;
-    let (mut n_c, mut acc_c) = (-v.w.cross(icw), -v.w.cross(v.v + v.w.cross(c)));
-    // An empty `f_ext` means no external forces.
-    if let Some(fe) = f_ext.get(i) {
-        n_c += fe.n - c.cross(fe.f);
-        acc_c += fe.f * im;
-    }
-    let n_c = n_c.to_array();
-    let alpha = [dot3(&jc[0], &n_c), dot3(&jc[1], &n_c), dot3(&jc[2], &n_c)];
-    data.dca.leafk[i] = LeafK {
-        j: [jc[0][0], jc[0][1], jc[0][2], jc[1][1], jc[1][2], jc[2][2]],
-        c: c.to_array(),
-        im,
-        alpha,
-        acc_c: acc_c.to_array(),
-    };
-    let m = model.bodies[i].inertia.mass;
-    let cc = c.dot(c);
-    let ca = c.to_array();
-    let pa = |r: usize, s: usize| ic[r][s] - m * ca[r] * ca[s];
-    let (xx, yy, zz) = (pa(0, 0) + m * cc, pa(1, 1) + m * cc, pa(2, 2) + m * cc);
-    let (xy, xz, yz) = (pa(0, 1), pa(0, 2), pa(1, 2));
-    data.inertia[i] = articula_spatial::SpatialInertia {
-        mass: m,
-        h: c * m,
-        ibar: glam::DMat3::from_cols(
-            DVec3::new(xx, xy, xz),
-            DVec3::new(xy, yy, yz),
-            DVec3::new(xz, yz, zz),
-        ),
-    };
+pub(crate) fn init_body(i: usize, data: &mut Data) {
+    data.dca.point[i] = data.x[i].apply_point(DVec3::ZERO);
 }
 
 /// Runs DCA on the kinematics already in `data` (see [`crate::forward_kinematics`], with
-/// [`init_body`] run per body); writes `data.qdd`. Without `bias` the leaves' accelerations
-/// (velocity products, external forces) are left out, and with `data.gravity` and `data.c`
-/// zero this solves `H q̈ = τ`.
+/// [`init_body`] run per body) and the external forces `f_ext` (computation frame, empty for
+/// none); writes `data.qdd`. Without `bias` the leaves' accelerations (velocity products,
+/// external forces) are left out, and with `data.gravity` and `data.c` zero this solves
+/// `H q̈ = τ`.
 pub(crate) fn dca(
     model: &Model,
     tau: &[f64],
+    f_ext: &[SpatialForce],
     data: &mut Data,
     bias: bool,
 ) -> Result<(), DynamicsError> {
-    main_pass(model, tau, data, bias)?;
+    main_pass(model, tau, f_ext, data, bias)?;
     back_substitution(model, tau, data);
     Ok(())
 }
@@ -155,7 +98,13 @@ fn leaf_mul(
     SpatialMotion::new(alpha, f.f * lk.im + (c - pj).cross(alpha))
 }
 
-fn main_pass(model: &Model, tau: &[f64], data: &mut Data, bias: bool) -> Result<(), DynamicsError> {
+fn main_pass(
+    model: &Model,
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+    data: &mut Data,
+    bias: bool,
+) -> Result<(), DynamicsError> {
     let tree = &model.assembly;
     let a_g = SpatialMotion::new(DVec3::ZERO, data.gravity);
     for n in 0..tree.nodes.len() {
@@ -174,7 +123,7 @@ fn main_pass(model: &Model, tau: &[f64], data: &mut Data, bias: bool) -> Result<
                     data.dca.b[top + h] = SpatialMotion::ZERO;
                 }
             }
-            DKind::Body(i) => leaf(model, i as usize, (ho, nh, bo, top), a_g, bias, data)?,
+            DKind::Body(i) => leaf(model, i as usize, (ho, nh, bo, top), f_ext, a_g, bias, data)?,
             DKind::Join { joint, a, b } => {
                 join(model, tau, data, n, joint as usize, a as usize, b as usize)?
             }
@@ -184,24 +133,27 @@ fn main_pass(model: &Model, tau: &[f64], data: &mut Data, bias: bool) -> Result<
 }
 
 /// Leaf (DESIGN §5): `Φ_hk = I⁻¹` for every handle pair, `b_h = a_g + I⁻¹ (f_ext − v ×* I v)`,
-/// each handle's rows and columns taken at its own point P_h, from the body's [`LeafK`]
-/// ([`init_body`]). About the centre of mass c, where `I = diag(I_c, m 1)`: with
-/// `a_h = c − P_h`, `J = I_c⁻¹` and `A_h = a_h× J`,
+/// each handle's rows and columns taken at its own point P_h. About the centre of mass c, where
+/// `I = diag(I_c, m 1)`: with `I_c = R I_c,body Rᵀ`, `J = I_c⁻¹ = R I_c,body⁻¹ Rᵀ`,
+/// `a_h = c − P_h` and `A_h = a_h× J`,
 /// `Φ_hk = [J, A_kᵀ; A_h, a_h× A_kᵀ + 1/m]` (`−J e× = A_eᵀ` as J is symmetric), and
-/// `b_h = a_g + [α; a_c + a_h × α]`. Only the blocks with `h ≤ k` are computed and stored
-/// (`Φ_kh = Φ_hkᵀ`).
+/// `b_h = a_g + [α; a_c + a_h × α]` with the body's acceleration for no handle forces and no
+/// gravity `α = J (n_c − ω × I_c ω)`, `a_c = f/m − ω × v_c` (`f_ext = [n; f]` about the
+/// origin, `n_c = n − c × f`, `v_c` the velocity of the point at c). Only the blocks with
+/// `h ≤ k` are computed and stored (`Φ_kh = Φ_hkᵀ`). J, c and 1/m are kept for the
+/// back-substitution ([`LeafK`]), and the world inertia `data.inertia[i]` is set here.
 #[inline(always)]
 fn leaf(
     model: &Model,
     i: usize,
     (ho, nh, bo, top): (usize, usize, usize, usize),
+    f_ext: &[SpatialForce],
     a_g: SpatialMotion,
     bias: bool,
     data: &mut Data,
 ) -> Result<(), DynamicsError> {
-    let d = &mut data.dca;
-    let lk = &d.leafk[i];
-    let im = lk.im;
+    let lc = &data.dca.leaf[i];
+    let im = lc.im;
     // NaN marks an inertia that is not positive definite.
     if im.is_nan() {
         return Err(DynamicsError::Singular {
@@ -209,13 +161,59 @@ fn leaf(
             detail: "the body's spatial inertia is not positive definite",
         });
     }
-    // J by rows (= its columns), c, α and a_c + a_g.
-    let jc = sym3(&lk.j);
-    let c = lk.c;
+    let x = &data.x[i];
+    // R: body → computation-frame axes, by columns (e[k] = R e_k).
+    let e = x.e.to_cols_array_2d();
+    let cv = x.apply_point(DVec3::from_array(lc.com));
+    let (ic, jc) = if lc.ic[1] == 0.0 && lc.ic[2] == 0.0 && lc.ic[4] == 0.0 {
+        // Principal axes along the body's (the common case): R diag(d) Rᵀ = Σ_k d_k e_k e_kᵀ.
+        rotate_diagonal_pair(
+            &e,
+            [lc.ic[0], lc.ic[3], lc.ic[5]],
+            [lc.ic_inv[0], lc.ic_inv[3], lc.ic_inv[5]],
+        )
+    } else {
+        (
+            rotate_sym(&e, &sym3(&lc.ic)),
+            rotate_sym(&e, &sym3(&lc.ic_inv)),
+        )
+    };
     let (alpha, acc_c) = if bias {
-        (lk.alpha, lk.acc_c)
+        let v = data.v[i];
+        let w = v.w.to_array();
+        let icw = DVec3::new(dot3(&ic[0], &w), dot3(&ic[1], &w), dot3(&ic[2], &w));
+        let (mut n_c, mut acc_c) = (-v.w.cross(icw), -v.w.cross(v.v + v.w.cross(cv)));
+        // An empty `f_ext` means no external forces.
+        if let Some(fe) = f_ext.get(i) {
+            n_c += fe.n - cv.cross(fe.f);
+            acc_c += fe.f * im;
+        }
+        let n_c = n_c.to_array();
+        let alpha = [dot3(&jc[0], &n_c), dot3(&jc[1], &n_c), dot3(&jc[2], &n_c)];
+        (alpha, acc_c.to_array())
     } else {
         ([0.0; 3], [0.0; 3])
+    };
+    let c = cv.to_array();
+    // The body's world inertia by parallel axes: `Ī_O = I_c + m (c·c 1 − c cᵀ)`, `h = m c`
+    // (its mass set once, in `Data::new`).
+    let wi = &mut data.inertia[i];
+    let m = wi.mass;
+    let cc = cv.dot(cv);
+    let pa = |r: usize, s: usize| ic[r][s] - m * c[r] * c[s];
+    let (xx, yy, zz) = (pa(0, 0) + m * cc, pa(1, 1) + m * cc, pa(2, 2) + m * cc);
+    let (xy, xz, yz) = (pa(0, 1), pa(0, 2), pa(1, 2));
+    wi.h = cv * m;
+    wi.ibar = glam::DMat3::from_cols(
+        DVec3::new(xx, xy, xz),
+        DVec3::new(xy, yy, yz),
+        DVec3::new(xz, yz, zz),
+    );
+    let d = &mut data.dca;
+    d.leafk[i] = LeafK {
+        j: [jc[0][0], jc[0][1], jc[0][2], jc[1][1], jc[1][2], jc[2][2]],
+        c,
+        im,
     };
     let acc = add3(acc_c, a_g.v.to_array());
     let alpha_g = add3(alpha, a_g.w.to_array());

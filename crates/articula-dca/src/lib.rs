@@ -104,11 +104,9 @@ pub fn forward_dynamics<'d>(
     let f_ext = std::mem::take(&mut data.f_ext_c);
     let result = match method {
         Method::Dca => {
-            // DCA's per-body step sets the world inertias itself.
-            kinematics::kinematics_with(model, q, qd, data, false, |i, d| {
-                dca::init_body(model, i, d, &f_ext)
-            });
-            dca::dca(model, tau, data, true).and_then(|()| {
+            // DCA's leaves set the world inertias themselves.
+            kinematics::kinematics_with(model, q, qd, data, false, dca::init_body);
+            dca::dca(model, tau, &f_ext, data, true).and_then(|()| {
                 if model.floating_base && data.refine_floating {
                     refine::refine_dca(model, tau, &f_ext, data)
                 } else {

@@ -156,7 +156,7 @@ pub(crate) fn refine_dca(
     std::mem::swap(&mut data.v, &mut data.refine.zv);
     std::mem::swap(&mut data.c, &mut data.refine.zc);
     let g = std::mem::replace(&mut data.gravity, DVec3::ZERO);
-    let result = crate::dca::dca(model, &r, data, false);
+    let result = crate::dca::dca(model, &r, &[], data, false);
     data.gravity = g;
     std::mem::swap(&mut data.v, &mut data.refine.zv);
     std::mem::swap(&mut data.c, &mut data.refine.zc);
