@@ -1355,9 +1355,13 @@ impl Adaptive {
             let gdnx = m6_rot(&rt, &gdn);
             let mut n0x = nw0;
             left_rot(n0x.as_flattened_mut(), 6, NW, &rt);
-            // M_X: w_X = M_X w (u_X = rel⁻¹ u).
-            let t = inv_motion_matrix(&self.cache.rel[x]);
-            monomial_map(&t, &mut self.cache.mm);
+            // M_X: w_X = M_X w (u_X = rel⁻¹ u); a node holding the ground does not move
+            // (`w = e_CONST`): only the constant column matters, which M_X keeps.
+            let still = self.grounded[n];
+            if !still {
+                let t = inv_motion_matrix(&self.cache.rel[x]);
+                monomial_map(&t, &mut self.cache.mm);
+            }
             let nx = 6 * self.nh[x];
             let po = self.poff[x];
             let psi_at = |c: &Caches, i: usize| -> M6 {
@@ -1369,18 +1373,31 @@ impl Adaptive {
             };
             let c = &self.cache;
             let gg = m6_mul(&psi_at(c, jx), &gdnx);
-            // P_X,jx M_X (6 × NW).
-            let mut p0 = [[0.0; NW]; 6];
-            for (r, pr) in p0.iter_mut().enumerate() {
-                let row = &c.pw[(hx * 6 + 6 * jx + r) * NW..][..NW];
-                for (m, &pv) in row.iter().enumerate() {
-                    for (o, &mv) in pr.iter_mut().zip(&c.mm[m * NW..(m + 1) * NW]) {
-                        *o += pv * mv;
+            // The terms over X's monomials, `s G_nxᵀ P_X,jx (+ J_X)`, carried to n's by one
+            // product with M_X below.
+            let p0: [[f64; NW]; 6] = std::array::from_fn(|r| {
+                c.pw[(hx * 6 + 6 * jx + r) * NW..][..NW]
+                    .try_into()
+                    .expect("NW")
+            });
+            let mut jxw = if xdirty[side] {
+                c.mjw[x]
+            } else {
+                [[0.0; NW]; 6]
+            };
+            add_at_b(&mut jxw, sign, &gdnx, &p0);
+            for (jr, xr) in jw.iter_mut().zip(&jxw) {
+                if still {
+                    jr[CONST] += xr[CONST];
+                    continue;
+                }
+                for (m, &xv) in xr.iter().enumerate() {
+                    for (o, &mv) in jr.iter_mut().zip(&c.mm[m * NW..(m + 1) * NW]) {
+                        *o += xv * mv;
                     }
                 }
             }
             add_at_b(&mut jw, 2.0, &gg, &n0x);
-            add_at_b(&mut jw, sign, &gdnx, &p0);
             let h1 = m6_tmul(&gdnx, &gg);
             let mut du = gg.map(|row| row.map(|v| 2.0 * sign * v));
             if xdirty[side] {
@@ -1388,15 +1405,6 @@ impl Adaptive {
                 add_at_b(&mut jw, sign, &gpj, &n0x);
                 let h2 = m6_tmul(&gdnx, &gpj);
                 let hx_ = c.mhq[x];
-                // J_X M_X.
-                let jx_ = &c.mjw[x];
-                for (jr, xr) in jw.iter_mut().zip(jx_) {
-                    for (m, &xv) in xr.iter().enumerate() {
-                        for (o, &mv) in jr.iter_mut().zip(&c.mm[m * NW..(m + 1) * NW]) {
-                            *o += xv * mv;
-                        }
-                    }
-                }
                 for rr in 0..6 {
                     for cc in 0..6 {
                         hq[rr][cc] += h1[rr][cc] + sign * h2[rr][cc] + hx_[rr][cc];
