@@ -34,7 +34,7 @@
 use crate::hybrid::{Adaptive, Rigid};
 use articula_dca::DynamicsError;
 use articula_model::{JointKind, Model, NodeKind};
-use articula_spatial::{Mat6, SpatialMotion, SpatialTransform};
+use articula_spatial::{Mat6, SpatialForce, SpatialMotion, SpatialTransform};
 use glam::{DMat3, DVec3};
 
 /// Number of monomials: 21 quadratic `u_a u_b` and the constant.
@@ -138,6 +138,10 @@ pub(crate) fn tr3(r: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
 
 /// `M ← blkdiag(r, r, …) M` for a row-major `rows × cols` matrix (rows a multiple of 3).
 pub(crate) fn left_rot(m: &mut [f64], rows: usize, cols: usize, r: &[[f64; 3]; 3]) {
+    if cols == 0 {
+        // No handles (the root of a fixed base, rigid at budget 0): nothing to turn.
+        return;
+    }
     for g in m[..rows * cols].chunks_exact_mut(3 * cols) {
         let (x, rest) = g.split_at_mut(cols);
         let (y, z) = rest.split_at_mut(cols);
@@ -177,6 +181,44 @@ fn inv_motion_matrix(x: &SpatialTransform) -> [[f64; 6]; 6] {
 /// `c = a b` (row-major, `a`: m × r, `b`: r × n).
 fn mul(a: &[f64], b: &[f64], m: usize, r: usize, n: usize, c: &mut [f64]) {
     crate::dense::a_b(a, b, m, r, n, c);
+}
+
+/// A 6 × 6 matrix, row-major `[row][col]`.
+pub(crate) type M6 = [[f64; 6]; 6];
+
+/// `a b`.
+fn m6_mul(a: &M6, b: &M6) -> M6 {
+    std::array::from_fn(|r| std::array::from_fn(|c| (0..6).map(|s| a[r][s] * b[s][c]).sum()))
+}
+
+/// `aᵀ b`.
+fn m6_tmul(a: &M6, b: &M6) -> M6 {
+    std::array::from_fn(|r| std::array::from_fn(|c| (0..6).map(|s| a[s][r] * b[s][c]).sum()))
+}
+
+/// `blkdiag(r, r) m`.
+fn m6_rot(r: &[[f64; 3]; 3], m: &M6) -> M6 {
+    let mut o = *m;
+    left_rot(o.as_flattened_mut(), 6, 6, r);
+    o
+}
+
+/// `m v`.
+#[inline]
+fn m6_x(m: &M6, v: &[f64; 6]) -> [f64; 6] {
+    std::array::from_fn(|r| dot6(&m[r], v))
+}
+
+/// `J += s aᵀ B` for `a` 6 × 6 and `B` 6 × NW.
+fn add_at_b(j: &mut [[f64; NW]; 6], s: f64, a: &M6, b: &[[f64; NW]; 6]) {
+    for (c, jr) in j.iter_mut().enumerate() {
+        for (r, br) in b.iter().enumerate() {
+            let f = s * a[r][c];
+            for (x, &y) in jr.iter_mut().zip(br) {
+                *x += f * y;
+            }
+        }
+    }
 }
 
 /// Which parts of a cached node an evaluation writes into the workspace's slots.
@@ -252,6 +294,38 @@ pub(crate) struct Caches {
     pub dn: Vec<[f64; 6]>,
     pub deta: Vec<f64>,
     pub dk: Vec<f64>,
+    /// Forced paths as linear maps of one leaf's wrench ([`Adaptive::join_map`]): per node
+    /// the number of forced leaves below it on this re-selection's dirty paths (saturating at
+    /// 2), the one leaf when there is one, whether its map is valid, and the re-selection
+    /// that evaluated its deltas.
+    pub nforced: Vec<u8>,
+    pub fleaf: Vec<usize>,
+    pub mok: Vec<bool>,
+    pub dvstamp: Vec<u64>,
+    /// A clock stamping cache builds (`cgen`, per node) and map builds (`mtime`): a map is
+    /// valid while it is younger than its node's cache and its dirty child's map.
+    pub clock: u64,
+    pub cgen: Vec<u64>,
+    /// Off: every dirty node by [`Adaptive::dirty_delta`] (the reference for tests).
+    pub no_maps: bool,
+    /// The maps (allocated at the first re-selection with external forces), per node: the
+    /// leaf they are for, their record's time, whether built, the leaf's frame in the node's
+    /// (`mpose`), `G_n`, `H`, `J`; per handle `G_b`, `G_p`; per degree of freedom a row of
+    /// `G_k`.
+    pub malloc: bool,
+    pub mleaf: Vec<usize>,
+    pub mtime: Vec<u64>,
+    pub mbuilt: Vec<bool>,
+    pub mpose: Vec<SpatialTransform>,
+    pub mgn: Vec<M6>,
+    pub mhq: Vec<M6>,
+    pub mjw: Vec<[[f64; NW]; 6]>,
+    pub mgb: Vec<M6>,
+    pub mgp: Vec<M6>,
+    pub mgk: Vec<[f64; 6]>,
+    /// Maps built and evaluated (for tests: the maps are used).
+    pub map_builds: u64,
+    pub map_evals: u64,
     /// Per node: the re-selection whose computation-axes metric slots (Ψ, p, η) it holds;
     /// its metric `A` at the exact handle forces and the re-selection that computed it.
     pub pstamp: Vec<u64>,
@@ -316,6 +390,11 @@ impl Adaptive {
         c.dn = vec![[0.0; 6]; nn];
         c.deta = vec![0.0; nn];
         c.dk = vec![0.0; model.nv];
+        c.nforced = vec![0; nn];
+        c.fleaf = vec![0; nn];
+        c.mok = vec![false; nn];
+        c.dvstamp = vec![0; nn];
+        c.cgen = vec![0; nn];
         c.leaving = Vec::with_capacity(model.bodies.len());
         let mh = 6 * tree.max_handles().max(1);
         for s in 0..2 {
@@ -534,6 +613,8 @@ impl Adaptive {
             };
         }
         c.valid[n] = true;
+        c.clock += 1;
+        c.cgen[n] = c.clock;
         Ok(())
     }
 
@@ -846,12 +927,11 @@ impl Adaptive {
     /// with its composite at `cx` and the wrench `f_e` (computation frame, about its origin),
     /// `α = I_c⁻¹ (n_e − c × f_e)`, `Δb_h = [α; f_e/m + α × (P_h − c)]` — the force terms of
     /// [`Adaptive::rigid_coefficients`] (its velocity terms are in the cache).
-    pub(crate) fn leaf_delta(&mut self, model: &Model, n: usize) {
+    pub(crate) fn leaf_delta(&mut self, model: &Model, n: usize, fe: SpatialForce) {
         let x = self.cache.cx[n];
         let r = self.cache.rig[n];
         let c = x.apply_point(r.c);
         let ic = x.e * r.ic * x.e.transpose();
-        let fe = self.fsum[n];
         let alpha = ic.inverse() * (fe.n - c.cross(fe.f));
         let a_c = fe.f / r.m;
         let rt = tr3(&rows3(&x.e));
@@ -1072,6 +1152,367 @@ impl Adaptive {
             }
         }
         self.cache.deta[n] = deta;
+    }
+
+    /// Allocates the forced paths' maps (the first re-selection with external forces).
+    pub(crate) fn map_alloc(&mut self, model: &Model) {
+        if self.cache.malloc {
+            return;
+        }
+        let nn = model.assembly.nodes.len();
+        let c = &mut self.cache;
+        c.mleaf = vec![usize::MAX; nn];
+        c.mtime = vec![0; nn];
+        c.mbuilt = vec![false; nn];
+        c.mpose = vec![SpatialTransform::IDENTITY; nn];
+        c.mgn = vec![[[0.0; 6]; 6]; nn];
+        c.mhq = vec![[[0.0; 6]; 6]; nn];
+        c.mjw = vec![[[0.0; NW]; 6]; nn];
+        c.mgb = vec![[[0.0; 6]; 6]; self.lay.handles];
+        c.mgp = vec![[[0.0; 6]; 6]; self.lay.handles];
+        c.mgk = vec![[0.0; 6]; model.nv];
+        c.malloc = true;
+    }
+
+    /// Whether dirty node `n`'s map record (one forced leaf below it) holds: made for this
+    /// leaf, after n's cache was built and after its dirty child's record, which holds
+    /// (`mok`, set bottom-up). A record is made the first time a path is seen and its map
+    /// built the second time (a path seen once — the selection moving — is not worth six
+    /// columns).
+    pub(crate) fn map_holds(&self, model: &Model, n: usize) -> bool {
+        let c = &self.cache;
+        if c.mleaf[n] != c.fleaf[n] {
+            return false;
+        }
+        match model.assembly.nodes[n].kind {
+            NodeKind::Join {
+                parent_side: a,
+                child_side: b,
+                ..
+            } => {
+                let x = if c.dstamp[a] == c.epoch { a } else { b };
+                c.mtime[n] > c.cgen[n] && c.mtime[n] > c.mtime[x] && c.mok[x]
+            }
+            _ => true,
+        }
+    }
+
+    /// A new map record for dirty node `n` (its map not built yet).
+    pub(crate) fn map_record(&mut self, n: usize) {
+        let c = &mut self.cache;
+        c.mleaf[n] = c.fleaf[n];
+        c.clock += 1;
+        c.mtime[n] = c.clock;
+        c.mbuilt[n] = false;
+    }
+
+    /// The map of a forced leaf `n`: `Δb_h = G_b,h f` for its wrench `f` in its own frame
+    /// (about its origin), the columns of [`Adaptive::leaf_delta`] at the unit wrenches.
+    pub(crate) fn leaf_map(&mut self, model: &Model, n: usize) {
+        let x = self.cache.cx[n];
+        let (ho, nh) = (self.lay.hoff[n], self.nh[n]);
+        for col in 0..6 {
+            let mut e = [0.0; 6];
+            e[col] = 1.0;
+            self.leaf_delta(model, n, x.apply_force(SpatialForce::from_array(e)));
+            for h in 0..nh {
+                let d = self.cache.db[ho + h];
+                for (row, v) in d.iter().enumerate() {
+                    self.cache.mgb[ho + h][row][col] = *v;
+                }
+            }
+        }
+        let c = &mut self.cache;
+        c.mpose[n] = SpatialTransform::IDENTITY;
+        c.mbuilt[n] = true;
+        c.map_builds += 1;
+    }
+
+    /// The map of a dirty join `n` with one forced leaf below it, from its dirty child's:
+    /// [`Adaptive::dirty_delta`] with every delta a linear map of the leaf's wrench `f` (own
+    /// frame, `mpose` in n's) and `Δη` a quadratic form plus a bilinear one in `f` and n's
+    /// monomials `w`,
+    /// ```text
+    /// Δb_h = G_b,h f   Δp = G_p f   Δk = G_k f   Δn = G_n f   Δη = fᵀ H f + fᵀ J w
+    /// ```
+    /// all constant while n's cache and the maps below stay: `G_β = −s_X R_X G_b,jx^X`,
+    /// `G_n = ν_β G_β`, `G_k = κ_β G_β`; the own joint adds `H += G_kᵀ A G_k`,
+    /// `J += G_kᵀ (A + Aᵀ) K_w`, `G_p = 2 Kᵀ A G_k`; a join child X (`G_nx = R_Xᵀ G_n`,
+    /// `N⁰_x = R_Xᵀ N_w`, `M_X` its monomial map, `w_X = M_X w`, `G_g = Ψ_X[jx,jx] G_nx`) adds
+    /// `J += 2 G_gᵀ N⁰_x + s G_nxᵀ P_X,jx M_X`, `H += G_nxᵀ G_g`, and when dirty
+    /// `J += s G_p,jxᵀ N⁰_x + J_X M_X`, `H += s G_nxᵀ G_p,jx + H_X` — the terms of `Δη` in
+    /// [`Adaptive::dirty_delta`] with `n₀ = N_w w`, `k₀ = K_w w`, `p_X₀ = P_X w_X`.
+    pub(crate) fn join_map(&mut self, model: &Model, n: usize) {
+        let NodeKind::Join {
+            joint,
+            parent_side: a,
+            child_side: b,
+        } = model.assembly.nodes[n].kind
+        else {
+            return;
+        };
+        let ep = self.cache.epoch;
+        let (hc, nhc) = (self.lay.hoff[n], self.nh[n]);
+        let nc = 6 * nhc;
+        let (ja, jb) = (self.lay.ja[n], self.lay.jb[n]);
+        let children = [(a, ja, -1.0), (b, jb, 1.0)];
+        let rel: [[[f64; 3]; 3]; 2] = [a, b].map(|x| rows3(&self.cache.rel[x].e));
+        let xdirty = [a, b].map(|x| self.cache.dstamp[x] == ep);
+        // G_β = −s_X R_X G_b,jx^X of the dirty child.
+        let mut gbeta = [[0.0; 6]; 6];
+        for (side, &(x, jx, sign)) in children.iter().enumerate() {
+            if xdirty[side] {
+                let d = m6_rot(&rel[side], &self.cache.mgb[self.lay.hoff[x] + jx]);
+                for (br, dr) in gbeta.iter_mut().zip(&d) {
+                    for (bv, dv) in br.iter_mut().zip(dr) {
+                        *bv -= sign * dv;
+                    }
+                }
+            }
+        }
+        let body = &model.bodies[joint];
+        let (vo, k) = (body.v_offset, body.nv);
+        let jm = self.cache.jm[n];
+        let gdn = m6_mul(&jm.nb, &gbeta);
+        let gdk = m6_mul(&jm.kb, &gbeta);
+        // Own joint: A G_k, Aᵀ G_k (rows p < k).
+        let wo = self.woff[joint];
+        let aw = &self.aw[wo..wo + k * k];
+        let mut adk = [[0.0; 6]; 6];
+        let mut atdk = [[0.0; 6]; 6];
+        for p in 0..k {
+            for q in 0..k {
+                for col in 0..6 {
+                    adk[p][col] += aw[p * k + q] * gdk[q][col];
+                    atdk[p][col] += aw[q * k + p] * gdk[q][col];
+                }
+            }
+        }
+        let mut hq = [[0.0; 6]; 6];
+        for p in 0..k {
+            for r in 0..6 {
+                for col in 0..6 {
+                    hq[r][col] += gdk[p][r] * adk[p][col];
+                }
+            }
+        }
+        let mut jw = [[0.0; NW]; 6];
+        for p in 0..k {
+            let kw: &[f64; NW] = self.cache.kw[(vo + p) * NW..][..NW].try_into().expect("NW");
+            for (r, jr) in jw.iter_mut().enumerate() {
+                let f = adk[p][r] + atdk[p][r];
+                for (x, &y) in jr.iter_mut().zip(kw) {
+                    *x += f * y;
+                }
+            }
+        }
+        let ko = self.koff[n];
+        for i in 0..nc {
+            for col in 0..6 {
+                self.cache.mgp[hc + i / 6][i % 6][col] = 2.0
+                    * (0..k)
+                        .map(|p| self.cache.kmat[ko + p * nc + i] * adk[p][col])
+                        .sum::<f64>();
+            }
+        }
+        // N_w (6 × NW) of n.
+        let nw0: [[f64; NW]; 6] = std::array::from_fn(|row| {
+            self.cache.nw[(n * 6 + row) * NW..][..NW]
+                .try_into()
+                .expect("NW")
+        });
+        let mut gsdu = [[0.0; 6]; 6];
+        for (side, &(x, jx, sign)) in children.iter().enumerate() {
+            let hx = self.lay.hoff[x];
+            let r = &rel[side];
+            let NodeKind::Join { .. } = model.assembly.nodes[x].kind else {
+                // A leaf: its shared handles' Δb through its rigid block (computation axes,
+                // turned into n's).
+                let rd = rows3(&self.cache.cx[n].e);
+                for h in 0..nhc {
+                    let (from_a, i) = self.lay.from[hc + h];
+                    if from_a != (side == 0) {
+                        continue;
+                    }
+                    let mut gb = if xdirty[side] {
+                        m6_rot(r, &self.cache.mgb[hx + i])
+                    } else {
+                        [[0.0; 6]; 6]
+                    };
+                    for col in 0..6 {
+                        let v: [f64; 6] = std::array::from_fn(|row| gdn[row][col]);
+                        let g = self.leaf_phi_t(model, x, jx, i, &rot6(&rd, &v));
+                        let bh = rot6(&tr3(&rd), &g);
+                        for row in 0..6 {
+                            gb[row][col] += sign * bh[row];
+                        }
+                    }
+                    self.cache.mgb[hc + h] = gb;
+                }
+                continue;
+            };
+            let rt = tr3(r);
+            let gdnx = m6_rot(&rt, &gdn);
+            let mut n0x = nw0;
+            left_rot(n0x.as_flattened_mut(), 6, NW, &rt);
+            // M_X: w_X = M_X w (u_X = rel⁻¹ u); a node holding the ground does not move
+            // (`w = e_CONST`): only the constant column matters, which M_X keeps.
+            let still = self.grounded[n];
+            if !still {
+                let t = inv_motion_matrix(&self.cache.rel[x]);
+                monomial_map(&t, &mut self.cache.mm);
+            }
+            let nx = 6 * self.nh[x];
+            let po = self.poff[x];
+            let psi_at = |c: &Caches, i: usize| -> M6 {
+                std::array::from_fn(|r| {
+                    c.psi[po + (6 * i + r) * nx + 6 * jx..][..6]
+                        .try_into()
+                        .expect("6")
+                })
+            };
+            let c = &self.cache;
+            let gg = m6_mul(&psi_at(c, jx), &gdnx);
+            // The terms over X's monomials, `s G_nxᵀ P_X,jx (+ J_X)`, carried to n's by one
+            // product with M_X below.
+            let p0: [[f64; NW]; 6] = std::array::from_fn(|r| {
+                c.pw[(hx * 6 + 6 * jx + r) * NW..][..NW]
+                    .try_into()
+                    .expect("NW")
+            });
+            let mut jxw = if xdirty[side] {
+                c.mjw[x]
+            } else {
+                [[0.0; NW]; 6]
+            };
+            add_at_b(&mut jxw, sign, &gdnx, &p0);
+            for (jr, xr) in jw.iter_mut().zip(&jxw) {
+                if still {
+                    jr[CONST] += xr[CONST];
+                    continue;
+                }
+                for (m, &xv) in xr.iter().enumerate() {
+                    for (o, &mv) in jr.iter_mut().zip(&c.mm[m * NW..(m + 1) * NW]) {
+                        *o += xv * mv;
+                    }
+                }
+            }
+            add_at_b(&mut jw, 2.0, &gg, &n0x);
+            let h1 = m6_tmul(&gdnx, &gg);
+            let mut du = gg.map(|row| row.map(|v| 2.0 * sign * v));
+            if xdirty[side] {
+                let gpj = c.mgp[hx + jx];
+                add_at_b(&mut jw, sign, &gpj, &n0x);
+                let h2 = m6_tmul(&gdnx, &gpj);
+                let hx_ = c.mhq[x];
+                for rr in 0..6 {
+                    for cc in 0..6 {
+                        hq[rr][cc] += h1[rr][cc] + sign * h2[rr][cc] + hx_[rr][cc];
+                        du[rr][cc] += gpj[rr][cc];
+                    }
+                }
+            } else {
+                for rr in 0..6 {
+                    for cc in 0..6 {
+                        hq[rr][cc] += h1[rr][cc];
+                    }
+                }
+            }
+            let du = m6_rot(r, &du);
+            for rr in 0..6 {
+                for cc in 0..6 {
+                    gsdu[rr][cc] += sign * du[rr][cc];
+                }
+            }
+            // Shared handles i → h: G_p,h += R (G_p,i + 2 s Ψ_X[i,jx] G_nx),
+            // G_b,h = R (G_b,i + s Φ^X_{jx,i}ᵀ G_nx).
+            for h in 0..nhc {
+                let (from_a, i) = self.lay.from[hc + h];
+                if from_a != (side == 0) {
+                    continue;
+                }
+                let c = &self.cache;
+                let pd = m6_mul(&psi_at(c, i), &gdnx);
+                let g = &c.phi[self.lay.boff[x] + jx * self.nh[x] + i];
+                let mut bh = m6_tmul(&g.0, &gdnx);
+                let mut u = [[0.0; 6]; 6];
+                for rr in 0..6 {
+                    for cc in 0..6 {
+                        bh[rr][cc] *= sign;
+                        u[rr][cc] = 2.0 * sign * pd[rr][cc];
+                        if xdirty[side] {
+                            u[rr][cc] += c.mgp[hx + i][rr][cc];
+                            bh[rr][cc] += c.mgb[hx + i][rr][cc];
+                        }
+                    }
+                }
+                let (u, bh) = (m6_rot(r, &u), m6_rot(r, &bh));
+                let gp = &mut self.cache.mgp[hc + h];
+                for rr in 0..6 {
+                    for cc in 0..6 {
+                        gp[rr][cc] += u[rr][cc];
+                    }
+                }
+                self.cache.mgb[hc + h] = bh;
+            }
+        }
+        // G_p += Nᵀ Σ_X s R_X G_du,X.
+        for i in 0..nc {
+            for col in 0..6 {
+                let add: f64 = (0..6)
+                    .map(|t| self.cache.nmat[36 * hc + t * nc + i] * gsdu[t][col])
+                    .sum();
+                self.cache.mgp[hc + i / 6][i % 6][col] += add;
+            }
+        }
+        let xd = if xdirty[0] { a } else { b };
+        let c = &mut self.cache;
+        c.mgn[n] = gdn;
+        c.mgk[vo..vo + k].copy_from_slice(&gdk[..k]);
+        c.mhq[n] = hq;
+        c.mjw[n] = jw;
+        c.mpose[n] = c.rel[xd] * c.mpose[xd];
+        c.mbuilt[n] = true;
+        c.map_builds += 1;
+    }
+
+    /// Dirty node `n`'s deltas from its map at its leaf's wrench (`f` in the leaf's frame, at
+    /// `cx[n] · mpose`) and n's velocity: `Δb_h = G_b,h f`, `Δp = G_p f`, `Δk = G_k f`,
+    /// `Δn = G_n f`, `Δη = fᵀ H f + fᵀ J w`.
+    pub(crate) fn eval_map(&mut self, model: &Model, n: usize) {
+        let c = &mut self.cache;
+        let l = c.mleaf[n];
+        let xl = c.cx[n] * c.mpose[n];
+        let f = xl.inv_apply_force(self.fsum[l]).to_array();
+        let (hc, nh) = (self.lay.hoff[n], self.nh[n]);
+        for h in 0..nh {
+            c.db[hc + h] = m6_x(&c.mgb[hc + h], &f);
+        }
+        if let NodeKind::Join { joint, .. } = model.assembly.nodes[n].kind {
+            for h in 0..nh {
+                let p = m6_x(&c.mgp[hc + h], &f);
+                c.dp[6 * (hc + h)..6 * (hc + h) + 6].copy_from_slice(&p);
+            }
+            c.dn[n] = m6_x(&c.mgn[n], &f);
+            let body = &model.bodies[joint];
+            for p in body.v_offset..body.v_offset + body.nv {
+                c.dk[p] = dot6(&c.mgk[p], &f);
+            }
+            let w = monomials(c.cu[n]);
+            let hf = m6_x(&c.mhq[n], &f);
+            let jw: [f64; 6] = std::array::from_fn(|r| wdot(&c.mjw[n][r], &w));
+            c.deta[n] = (0..6).map(|r| f[r] * (hf[r] + jw[r])).sum();
+        }
+        c.dvstamp[n] = c.epoch;
+        c.map_evals += 1;
+    }
+
+    /// Makes dirty node `n`'s deltas this re-selection's: a node inside a forced path with one
+    /// leaf is evaluated from its map when the selection first reads it.
+    pub(crate) fn ensure_delta(&mut self, model: &Model, n: usize) {
+        if self.cache.dstamp[n] == self.cache.epoch && self.cache.dvstamp[n] != self.cache.epoch {
+            self.eval_map(model, n);
+        }
     }
 
     /// What the forces add to a dirty node's metric at the handle forces whose cache-frame

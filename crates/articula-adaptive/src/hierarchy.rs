@@ -682,9 +682,13 @@ fn mul6(a: &[[f64; 6]; 6], x: &[f64; 6]) -> [f64; 6] {
 /// bit).
 #[inline(always)]
 fn add_sub_outer(s: &mut [[f64; 6]; 6], a: &[[f64; 6]; 6], u: &[f64; 6], alpha: f64) {
-    for ((si, ai), &ui) in s.iter_mut().zip(a).zip(u) {
-        for j in 0..6 {
-            si[j] += ai[j] - alpha * (ui * u[j]);
+    // The upper triangle, mirrored: both operands are symmetric to the bit, so the lower
+    // entries would be the same sums.
+    for i in 0..6 {
+        for j in i..6 {
+            let x = s[i][j] + (a[i][j] - alpha * (u[i] * u[j]));
+            s[i][j] = x;
+            s[j][i] = x;
         }
     }
 }

@@ -612,6 +612,19 @@ impl Adaptive {
         self.cache.ready = false;
     }
 
+    /// Take a forced path's deltas from its linear maps of the leaf's wrench (default) or
+    /// recompute every dirty node from its children's (off: the reference for tests).
+    #[doc(hidden)]
+    pub fn set_path_maps(&mut self, on: bool) {
+        self.cache.no_maps = !on;
+    }
+
+    /// Forced-path maps built and evaluated so far (for tests: whether the maps were used).
+    #[doc(hidden)]
+    pub fn path_map_counts(&self) -> (u64, u64) {
+        (self.cache.map_builds, self.cache.map_evals)
+    }
+
     /// Between re-selections, run whole-body kinematics and composites instead of the
     /// hierarchical state (a reference for tests; same results, cost O(n)).
     #[doc(hidden)]

@@ -200,10 +200,18 @@ impl Adaptive {
     /// `Δb` of the forced leaves ([`Adaptive::leaf_delta`]) and `Δb`, `Δk`, `Δn`, `Δp`, `Δη`
     /// of the dirty joins ([`Adaptive::dirty_delta`]). The frontier adds `Δb` to its cached
     /// bias, a popped dirty node `Δk`, `Δn` to its cached maps, a dirty node's metric
-    /// `Fᵀ Δp + Δη` to its cached quadratic form. Returns the nodes visited.
+    /// `Fᵀ Δp + Δη` to its cached quadratic form. A node with one forced leaf below it whose
+    /// path was dirty at the previous re-selection too takes all of these from the path's
+    /// linear maps of the leaf's wrench ([`Adaptive::join_map`], built once, reused while the
+    /// caches below it stay): evaluated at the top of the mapped part, and inside it only
+    /// when the selection reads a node. Returns the nodes marked.
     fn dirty_paths(&mut self, model: &Model, ep: u64) -> usize {
         let tree = &model.assembly;
         self.cache.dirty.clear();
+        if !self.fsparse.is_empty() && !self.cache.no_maps {
+            // The maps' storage, at the first re-selection with external forces.
+            self.map_alloc(model);
+        }
         let x_cw = SpatialTransform::xlt(self.data.origin);
         for k in 0..self.fsparse.len() {
             let (i, fe) = self.fsparse[k];
@@ -213,18 +221,26 @@ impl Adaptive {
                 self.fsum[leaf] += x_cw.apply_force(fe);
                 continue;
             }
-            if self.cache.dstamp[leaf] != ep {
+            let fresh = self.cache.dstamp[leaf] != ep;
+            if fresh {
                 self.fsum[leaf] = SpatialForce::ZERO;
             }
             self.fsum[leaf] += x_cw.apply_force(fe);
+            if !fresh {
+                // Its path is marked (and counted) already.
+                continue;
+            }
             let mut n = leaf;
             loop {
                 if self.cache.dstamp[n] == ep {
-                    // The rest of the path is dirty already.
-                    break;
+                    // Below it another forced leaf's path: two or more leaves from here up.
+                    self.cache.nforced[n] = 2;
+                } else {
+                    self.cache.dstamp[n] = ep;
+                    self.cache.dirty.push(n);
+                    self.cache.nforced[n] = if self.cache.no_maps { 2 } else { 1 };
+                    self.cache.fleaf[n] = leaf;
                 }
-                self.cache.dstamp[n] = ep;
-                self.cache.dirty.push(n);
                 match tree.nodes[n].parent.filter(|&p| !self.active[p]) {
                     Some(p) => n = p,
                     None => break,
@@ -234,10 +250,39 @@ impl Adaptive {
         if self.cache.dirty.is_empty() {
             return 0;
         }
-        // Top-down (a parent after its children in post-order).
-        self.cache.dirty.sort_unstable_by(|a, b| b.cmp(a));
-        for idx in 0..self.cache.dirty.len() {
+        // Post-order: children before parents.
+        self.cache.dirty.sort_unstable();
+        // A node with one forced leaf below it takes its deltas from its path's map when its
+        // record holds (`mok`; valid while the caches below it stay), built on the second
+        // sighting; which maps must be built, bottom-up.
+        let mut build = false;
+        if !self.cache.no_maps {
+            for idx in 0..self.cache.dirty.len() {
+                let d = self.cache.dirty[idx];
+                let ok = self.cache.nforced[d] == 1 && self.map_holds(model, d);
+                if self.cache.nforced[d] == 1 && !ok {
+                    self.map_record(d);
+                }
+                build |= ok && !self.cache.mbuilt[d];
+                self.cache.mok[d] = ok;
+            }
+        }
+        // A mapped node is the top of its part of the path when its parent is not dirty (the
+        // cluster) or not mapped (`dirty_delta` reads its deltas).
+        let top = |ad: &Adaptive, d: usize| {
+            tree.nodes[d]
+                .parent
+                .is_none_or(|p| ad.cache.dstamp[p] != ep || !ad.cache.mok[p])
+        };
+        // Top-down (parents first): frames, velocities and joint points of the nodes a map
+        // build or `dirty_delta` reads; with every map built, only of the nodes without a map
+        // and of the tops (the selection sets the others' if it gets there).
+        for idx in (0..self.cache.dirty.len()).rev() {
             let d = self.cache.dirty[idx];
+            let mapped = !self.cache.no_maps && self.cache.mok[d];
+            if !build && mapped && !top(self, d) {
+                continue;
+            }
             let parent_dirty = tree.nodes[d]
                 .parent
                 .is_some_and(|p| self.cache.dstamp[p] == ep);
@@ -252,6 +297,9 @@ impl Adaptive {
                 };
             }
             self.cache.stamp[d] = ep;
+            if !build && mapped {
+                continue;
+            }
             let NodeKind::Join {
                 joint,
                 parent_side: a,
@@ -278,14 +326,28 @@ impl Adaptive {
             // The joint's point (its child body's origin, B's top body: a leaf's handle).
             self.point[joint] = self.cache.cx[b].apply_point(DVec3::ZERO);
         }
-        // Bottom-up: what the forces add, from the forced leaves up.
-        for idx in (0..self.cache.dirty.len()).rev() {
+        // Bottom-up: what the forces add, from the forced leaves up — maps (re)built where
+        // invalid and evaluated at the tops, the nodes with several leaves by `dirty_delta`.
+        for idx in 0..self.cache.dirty.len() {
             let d = self.cache.dirty[idx];
+            if !self.cache.no_maps && self.cache.mok[d] {
+                if !self.cache.mbuilt[d] {
+                    match tree.nodes[d].kind {
+                        NodeKind::Join { .. } => self.join_map(model, d),
+                        _ => self.leaf_map(model, d),
+                    }
+                }
+                if top(self, d) {
+                    self.eval_map(model, d);
+                }
+                continue;
+            }
             match tree.nodes[d].kind {
                 NodeKind::Ground => {}
-                NodeKind::Body(_) => self.leaf_delta(model, d),
+                NodeKind::Body(_) => self.leaf_delta(model, d, self.fsum[d]),
                 NodeKind::Join { .. } => self.dirty_delta(model, d),
             }
+            self.cache.dvstamp[d] = ep;
         }
         self.cache.dirty.len()
     }
@@ -356,6 +418,7 @@ impl Adaptive {
                     ad.eval_cache(model, n, &x, u, Part::Maps);
                     if ad.cache.dstamp[n] == ep {
                         // Plus what the forces on its dirty paths add.
+                        ad.ensure_delta(model, n);
                         if let NodeKind::Join { joint, .. } = tree.nodes[n].kind {
                             let body = &model.bodies[joint];
                             let r = body.v_offset..body.v_offset + body.nv;
@@ -394,6 +457,7 @@ impl Adaptive {
                     let (x, u) = (ad.cache.cx[c], ad.cache.cu[c]);
                     let a = ad.metric_local(c, &x, u);
                     if ad.cache.dstamp[c] == ep {
+                        ad.ensure_delta(model, c);
                         a + ad.metric_delta(c)
                     } else {
                         a

@@ -281,6 +281,113 @@ fn forces_deep_in_large_clusters_with_small_budgets() {
 }
 
 #[test]
+fn forced_path_maps_equal_the_recomputed_paths() {
+    // A forced path with one leaf is taken from its linear maps of the leaf's wrench (built
+    // on the path's second re-selection, reused while the caches below stay). Against the
+    // same cached re-selection recomputing every dirty node (maps off) and the whole-body
+    // reference: wrenches that change every step on fixed bodies (maps reused, moving
+    // clusters: the velocity terms), bodies that change every 12 steps (new paths), two
+    // forces sharing a path, and a budget that changes (caches rebuilt, maps invalidated,
+    // dirty nodes popped).
+    for (name, floating, budget, period) in [
+        ("chain100", false, 3, 1u64),
+        ("chain300", false, 1, 2),
+        ("chain300", false, 6, 3),
+        ("humanoid", true, 3, 1),
+        ("plant", false, 4, 2),
+    ] {
+        let model = load(name, floating);
+        let nb = model.bodies.len();
+        let forces = |k: usize| -> Vec<(usize, SpatialForce)> {
+            let moved = (k / 12) * 7;
+            [
+                nb / 5,
+                nb / 2 + moved % (nb / 3),
+                nb / 2 + moved % (nb / 3) + 1,
+                nb - 2,
+            ]
+            .iter()
+            .enumerate()
+            .map(|(j, &body)| {
+                let t = (k + 5 * j) as f64;
+                let n = glam::DVec3::new(0.3 * t.cos(), -0.2, 0.1 * t.sin());
+                let f = glam::DVec3::new(1.0 + t.sin(), 0.5 * (0.7 * t).cos(), -0.7);
+                (body, SpatialForce::new(n, f))
+            })
+            .collect()
+        };
+        let run = Run {
+            budget,
+            period,
+            steps: 60,
+            dt: 1e-3,
+            vary_budget: true,
+        };
+        let s0 = start(&model, 77 + period, 1.0);
+        let label = format!("{name} maps, budget {budget}, every {period}");
+        // Maps on (default) against the whole-body reference.
+        compare(&label, &model, s0.clone(), &run, forces);
+        // Maps on against maps off, both cached.
+        let settings = Settings {
+            budget: Some(budget),
+            reselect_every: period,
+            ..Settings::default()
+        };
+        let (mut on, mut off) = (
+            Adaptive::new(&model, settings.clone()),
+            Adaptive::new(&model, settings),
+        );
+        off.set_path_maps(false);
+        let (mut a, mut b) = (s0.clone(), s0);
+        a.f_ext.clear();
+        b.f_ext.clear();
+        for k in 0..run.steps {
+            if k % 10 == 0 {
+                let s = Settings {
+                    budget: Some([budget, budget / 2, budget + budget / 2][(k / 10) % 3]),
+                    reselect_every: period,
+                    ..Settings::default()
+                };
+                on.set_settings(s.clone()).unwrap();
+                off.set_settings(s).unwrap();
+            }
+            let f = forces(k);
+            on.step_with_forces(&model, &mut a, 1e-3, &f).unwrap();
+            off.step_with_forces(&model, &mut b, 1e-3, &f).unwrap();
+            for body in 0..nb {
+                assert_eq!(
+                    on.is_active(&model, body),
+                    off.is_active(&model, body),
+                    "{label} step {k}: body {body}"
+                );
+            }
+            let (sa, sb) = (on.selection(), off.selection());
+            let scale = sb.total_metric.abs().max(1e-300);
+            assert!(
+                (sa.total_metric - sb.total_metric).abs() <= 1e-10 * scale
+                    && (sa.predicted_error - sb.predicted_error).abs() <= 1e-10 * scale,
+                "{label} step {k}: {sa:?} vs {sb:?}"
+            );
+            let dqdd = max_diff(on.qdd(), off.qdd());
+            assert!(
+                dqdd <= 1e-10 * max_abs(off.qdd()).max(1.0),
+                "{label} step {k}: q̈ {dqdd:e} of {:e}",
+                max_abs(off.qdd())
+            );
+            a.q.copy_from_slice(&b.q);
+            a.qd.copy_from_slice(&b.qd);
+        }
+        let (builds, evals) = on.path_map_counts();
+        println!("{label}: {builds} maps built, {evals} evaluated");
+        assert!(
+            builds > 0 && evals > builds,
+            "{label}: {builds} built, {evals} evaluated"
+        );
+        assert_eq!(off.path_map_counts(), (0, 0), "{label}");
+    }
+}
+
+#[test]
 fn a_changed_locked_torque_is_detected() {
     // Locked joints' torques are in the caches' constant columns: changing them mid-run must
     // not leave stale caches (detected by the comparison of τ, or by `invalidate` when it is
