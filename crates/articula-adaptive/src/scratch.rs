@@ -155,11 +155,31 @@ impl Adaptive {
     /// articulated-body passes index it by record and degree of freedom): a shared buffer may
     /// have been sized for another body's reduced tree, and the workspace's own buffers for an
     /// older one of this body.
+    #[inline]
     fn fit_reduced(&mut self, full: [usize; 2]) {
-        let h = &mut self.hier;
+        let h = &self.hier;
         let na = h.rec.len();
         let dof = h.rec.last().map_or(0, |r| r.dof + r.k);
-        let [nb, nv] = full;
+        let fits = [
+            h.ia.len(),
+            h.pa.len(),
+            h.acc.len(),
+            h.dinv.len(),
+            h.chol.len(),
+        ]
+        .iter()
+        .all(|&l| l >= na)
+            && h.u.len() >= dof
+            && h.uu.len() >= dof;
+        if !fits {
+            self.grow_reduced(na, dof, full);
+        }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn grow_reduced(&mut self, na: usize, dof: usize, [nb, nv]: [usize; 2]) {
+        let h = &mut self.hier;
         grow(&mut h.ia, na, nb, [[0.0; 6]; 6]);
         grow(&mut h.pa, na, nb, [0.0; 6]);
         grow(&mut h.acc, na, nb, [0.0; 6]);
