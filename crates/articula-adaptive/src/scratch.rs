@@ -24,17 +24,19 @@
 //! - the kinematics in `data` (`x`, `v`, `c`, `s`, `inertia`): a whole-body load computes them
 //!   all, a hybrid step or cached re-selection those of the active bodies (parents first)
 //!   before anything reads them. The one exception is [`Adaptive::node_metrics`]'s kinematics,
-//!   which the next call reuses for the same state (`fresh`): the `_with` calls then leave the
-//!   kinematics in the workspace, and [`Adaptive::node_metrics_with`] (whose whole `data`
-//!   lives in the scratch) clears `fresh`, so the next load recomputes the same numbers.
+//!   which the next call reuses for the same state (`fresh`): a `_with` call that finds them
+//!   leaves the kinematics in the workspace, and [`Adaptive::node_metrics_with`] (whose whole
+//!   `data` lives in the scratch) clears `fresh`, so the next load recomputes the same numbers.
 //!
 //! What stays in each workspace: the hybrid body (flags, lists, the reduced tree's records),
 //! the caches of rigid subassemblies, the weights, the selection, `qdd` (zero outside the
 //! active region), the `data` settings (gravity, origin, refinement flag).
 //!
 //! After a `_with` call, the kinematics of the call are in the scratch, not in the workspace's
-//! public `data` (which keeps those of its last plain call). The workspace's own buffers stay
-//! allocated and sized, so plain calls keep working before and after `_with` calls, in any mix.
+//! public `data` (whose `x`, `v`, `c`, `s`, `inertia` keep those of its last plain call; its
+//! `origin` is the call's). The workspace's own buffers stay allocated at full size (~RSS
+//! unchanged; untouched memory costs no cache) and are re-fitted to the reduced tree after each
+//! `_with` call, so plain calls keep working before and after `_with` calls, in any mix.
 
 use crate::hybrid::{Adaptive, Rigid};
 use crate::{AdaptiveError, StepReport};
