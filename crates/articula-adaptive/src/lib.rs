@@ -50,9 +50,11 @@ mod hierarchy;
 mod hybrid;
 mod metric;
 mod rigidify;
+mod scratch;
 mod update;
 
 pub use hybrid::{Adaptive, Selection};
+pub use scratch::Scratch;
 
 use articula_dca::{check_inputs, forward_kinematics, DynamicsError, State};
 use articula_model::{Model, NodeKind};

@@ -23,7 +23,7 @@
 use crate::render::{rigid_groups, FrameBody};
 use crate::scene_file::LoadedScene;
 use crate::visibility::{body_pose, body_poses, BodyView, Classifier, Placed, Visibility};
-use articula_adaptive::{Adaptive, AdaptiveError, Settings};
+use articula_adaptive::{Adaptive, AdaptiveError, Scratch, Settings};
 use articula_dca::State;
 use articula_model::{Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SymMat6};
@@ -283,6 +283,11 @@ pub struct SceneSim<'s> {
     /// Per model: the pose springs, `(q index, v index, k, c)` per internal degree of freedom.
     springs: Vec<Vec<(usize, usize, f64, f64)>>,
     classifier: Classifier,
+    /// Per model: the per-call buffers every body's adaptive workspace shares
+    /// ([`Adaptive::step_with`]: one copy stays in the processor's caches, not one per body).
+    scratch: Vec<Scratch>,
+    /// Whether the bodies use `scratch` (default) or their own buffers (the reference).
+    shared: bool,
     metrics: Vec<Vec<f64>>,
     wanted: Vec<bool>,
     last: SceneStep,
@@ -340,6 +345,12 @@ impl<'s> SceneSim<'s> {
             .collect();
         SceneSim {
             springs,
+            scratch: scene
+                .models
+                .iter()
+                .map(|m| Scratch::new(&m.model))
+                .collect(),
+            shared: true,
             metrics: vec![Vec::new(); bodies.len()],
             wanted: Vec::new(),
             views: Vec::new(),
@@ -350,6 +361,14 @@ impl<'s> SceneSim<'s> {
             scene,
             last: SceneStep::default(),
         }
+    }
+
+    /// Whether the bodies' adaptive calls share one [`Scratch`] per model (default: on) or
+    /// use their own workspaces' buffers (off: the reference, the same results to the bit and
+    /// slower, see `docs/view.md`).
+    #[doc(hidden)]
+    pub fn set_shared_scratch(&mut self, on: bool) {
+        self.shared = on;
     }
 
     /// Simulated time (s).
@@ -452,9 +471,14 @@ impl<'s> SceneSim<'s> {
                 }
                 metrics.resize(model.assembly.nodes.len(), 0.0);
                 let s = &b.state;
-                b.adaptive
-                    .node_metrics(model, &s.q, &s.qd, &s.tau, &s.f_ext, metrics)
-                    .map_err(|e| SceneSimError::new(scene, b.model, &e))?;
+                let ad = &mut b.adaptive;
+                if self.shared {
+                    let scratch = &mut self.scratch[b.model];
+                    ad.node_metrics_with(scratch, model, &s.q, &s.qd, &s.tau, &s.f_ext, metrics)
+                } else {
+                    ad.node_metrics(model, &s.q, &s.qd, &s.tau, &s.f_ext, metrics)
+                }
+                .map_err(|e| SceneSimError::new(scene, b.model, &e))?;
             }
             let models: Vec<&Model> = self
                 .bodies
@@ -492,10 +516,14 @@ impl<'s> SceneSim<'s> {
                         .map_err(|e| SceneSimError::new(scene, b.model, &e))?;
                     // Exactly the chosen joints stay free; the others are locked by
                     // momentum-keeping impulses (no second articulated pass).
-                    let wanted = &self.wanted;
-                    b.adaptive
-                        .set_active(model, &mut b.state, |j| wanted[tree.joint_node[j]])
-                        .map_err(|e| SceneSimError::body(scene, i, &e))?;
+                    let wanted = |j: usize| self.wanted[tree.joint_node[j]];
+                    let (ad, state) = (&mut b.adaptive, &mut b.state);
+                    if self.shared {
+                        ad.set_active_with(&mut self.scratch[b.model], model, state, wanted)
+                    } else {
+                        ad.set_active(model, state, wanted)
+                    }
+                    .map_err(|e| SceneSimError::body(scene, i, &e))?;
                     b.rigid = None;
                 }
                 b.changed = needed;
@@ -518,9 +546,13 @@ impl<'s> SceneSim<'s> {
                 })?;
                 continue;
             }
-            b.adaptive
-                .step(model, &mut b.state, scene.dt)
-                .map_err(|e| SceneSimError::body(scene, i, &e))?;
+            let (ad, state) = (&mut b.adaptive, &mut b.state);
+            if self.shared {
+                ad.step_with(&mut self.scratch[b.model], model, state, scene.dt)
+            } else {
+                ad.step(model, state, scene.dt)
+            }
+            .map_err(|e| SceneSimError::body(scene, i, &e))?;
             b.active = b
                 .adaptive
                 .active_dofs(model)

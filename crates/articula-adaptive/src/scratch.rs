@@ -1,0 +1,305 @@
+//! Per-call buffers shared by many workspaces of one model ([`Scratch`]).
+//!
+//! A scene of many bodies keeps one [`Adaptive`] per body. Most of a workspace's memory is
+//! written and read within one call only; with one copy per body, every call brings that
+//! memory back from beyond the processor's caches. A [`Scratch`] holds those buffers once per
+//! model: [`Adaptive::step_with`], [`Adaptive::set_active_with`] and
+//! [`Adaptive::node_metrics_with`] exchange the workspace's own buffers with the scratch's for
+//! the duration of the call (swapping `Vec` headers: nothing is copied), so every body's call
+//! writes and reads the same, cache-resident memory. The results are bit-identical to the
+//! plain calls (`tests/scratch.rs`).
+//!
+//! The buffers exchanged, and why they carry nothing from one call to the next (every call
+//! writes what it reads of them first):
+//! - the reduced tree's articulated-body workspace (`Iᴬ`, `pᴬ`, accelerations, `D⁻¹` or its
+//!   Cholesky factor, `U`, `u`): pass 1 of the reduced ABA writes `Iᴬ`, `pᴬ` of every record,
+//!   pass 2 `U`, `u`, `D⁻¹`/factor of every record before pass 3 reads them, and pass 3 a
+//!   record's acceleration before its children read it;
+//! - per node, the composite inertias and external-force sums: written for every node by each
+//!   whole-body load, the frontier's force sums by each hybrid step or cached re-selection
+//!   before the reduced ABA reads them;
+//! - per body, the subtree momenta of a locking impulse and the generalized momenta (written
+//!   for the bodies, resp. the active joints, the impulse then reads), the external wrenches in
+//!   the computation frame and the dense wrench array of a whole-body pass (filled per call);
+//! - the kinematics in `data` (`x`, `v`, `c`, `s`, `inertia`): a whole-body load computes them
+//!   all, a hybrid step or cached re-selection those of the active bodies (parents first)
+//!   before anything reads them. The one exception is [`Adaptive::node_metrics`]'s kinematics,
+//!   which the next call reuses for the same state (`fresh`): a `_with` call that finds them
+//!   leaves the kinematics in the workspace, and [`Adaptive::node_metrics_with`] (whose whole
+//!   `data` lives in the scratch) clears `fresh`, so the next load recomputes the same numbers.
+//!
+//! What stays in each workspace: the hybrid body (flags, lists, the reduced tree's records),
+//! the caches of rigid subassemblies, the weights, the selection, `qdd` (zero outside the
+//! active region), the `data` settings (gravity, origin, refinement flag).
+//!
+//! After a `_with` call, the kinematics of the call are in the scratch, not in the workspace's
+//! public `data` (whose `x`, `v`, `c`, `s`, `inertia` keep those of its last plain call; its
+//! `origin` is the call's). The workspace's own buffers stay allocated at full size (~RSS
+//! unchanged; untouched memory costs no cache) and are re-fitted to the reduced tree after each
+//! `_with` call, so plain calls keep working before and after `_with` calls, in any mix.
+
+use crate::hybrid::{Adaptive, Rigid};
+use crate::{AdaptiveError, StepReport};
+use articula_dca::{Data, State};
+use articula_model::Model;
+use articula_spatial::SpatialForce;
+use std::mem::swap;
+
+/// The per-call buffers of [`Adaptive`] for one model, shared by every workspace of that model
+/// (see the module documentation of `scratch.rs` and [`Adaptive::step_with`]). Build one per
+/// model with [`Scratch::new`]; a `_with` call allocates nothing.
+#[derive(Clone, Debug)]
+pub struct Scratch {
+    /// Bodies, degrees of freedom, coordinates and assembly-tree nodes of the model.
+    sizes: [usize; 4],
+    /// The whole `data` of [`Adaptive::node_metrics_with`]; its kinematics (`x`, `v`, `c`,
+    /// `s`, `inertia`) for the other calls.
+    data: Data,
+    ia: Vec<[[f64; 6]; 6]>,
+    pa: Vec<[f64; 6]>,
+    acc: Vec<[f64; 6]>,
+    dinv: Vec<f64>,
+    chol: Vec<[[f64; 6]; 6]>,
+    u: Vec<[f64; 6]>,
+    uu: Vec<f64>,
+    comp: Vec<Rigid>,
+    fsum: Vec<SpatialForce>,
+    hsub: Vec<SpatialForce>,
+    gmom: Vec<f64>,
+    fext_c: Vec<SpatialForce>,
+    fdense: Vec<SpatialForce>,
+}
+
+impl Scratch {
+    /// Allocates the shared buffers for `model`, at their full sizes.
+    pub fn new(model: &Model) -> Scratch {
+        let nb = model.bodies.len();
+        let nv = model.nv;
+        let nn = model.assembly.nodes.len();
+        Scratch {
+            sizes: [nb, nv, model.nq, nn],
+            data: Data::new(model),
+            ia: vec![[[0.0; 6]; 6]; nb],
+            pa: vec![[0.0; 6]; nb],
+            acc: vec![[0.0; 6]; nb],
+            dinv: vec![0.0; nb],
+            chol: vec![[[0.0; 6]; 6]; nb],
+            u: vec![[0.0; 6]; nv],
+            uu: vec![0.0; nv],
+            comp: vec![Rigid::default(); nn],
+            fsum: vec![SpatialForce::ZERO; nn],
+            hsub: vec![SpatialForce::ZERO; nb],
+            gmom: vec![0.0; nv],
+            fext_c: Vec::with_capacity(nb),
+            fdense: vec![SpatialForce::ZERO; nb],
+        }
+    }
+
+    /// Whether this scratch has the sizes of `ad`'s model.
+    fn check(&self, ad: &Adaptive) -> Result<(), AdaptiveError> {
+        let own = [
+            ad.data.x.len(),
+            ad.data.s.len(),
+            ad.fresh_q.len(),
+            ad.nh.len(),
+        ];
+        if own == self.sizes {
+            Ok(())
+        } else {
+            Err(AdaptiveError::Setting(format!(
+                "scratch built for another model (bodies, dofs, coordinates, nodes: {:?}, \
+                 workspace: {own:?})",
+                self.sizes
+            )))
+        }
+    }
+}
+
+/// Grows `v` to at least `need` elements, reserving `full` at the first growth (a later one
+/// then allocates nothing).
+fn grow<T: Clone>(v: &mut Vec<T>, need: usize, full: usize, x: T) {
+    if v.len() < need {
+        if v.capacity() < full {
+            v.reserve_exact(full - v.len());
+        }
+        v.resize(need, x);
+    }
+}
+
+impl Adaptive {
+    /// Exchanges the per-call buffers with `s`'s (the kinematics in `data` too when `kin`).
+    fn swap_scratch(&mut self, s: &mut Scratch, kin: bool) {
+        let h = &mut self.hier;
+        swap(&mut h.ia, &mut s.ia);
+        swap(&mut h.pa, &mut s.pa);
+        swap(&mut h.acc, &mut s.acc);
+        swap(&mut h.dinv, &mut s.dinv);
+        swap(&mut h.chol, &mut s.chol);
+        swap(&mut h.u, &mut s.u);
+        swap(&mut h.uu, &mut s.uu);
+        swap(&mut self.comp, &mut s.comp);
+        swap(&mut self.fsum, &mut s.fsum);
+        swap(&mut self.hsub, &mut s.hsub);
+        swap(&mut self.gmom, &mut s.gmom);
+        swap(&mut self.fext_c, &mut s.fext_c);
+        swap(&mut self.fdense, &mut s.fdense);
+        if kin {
+            let (d, sd) = (&mut self.data, &mut s.data);
+            swap(&mut d.x, &mut sd.x);
+            swap(&mut d.v, &mut sd.v);
+            swap(&mut d.c, &mut sd.c);
+            swap(&mut d.s, &mut sd.s);
+            swap(&mut d.inertia, &mut sd.inertia);
+        }
+    }
+
+    /// The reduced tree's workspace in `hier` at least as long as its records need (the
+    /// articulated-body passes index it by record and degree of freedom): a shared buffer may
+    /// have been sized for another body's reduced tree, and the workspace's own buffers for an
+    /// older one of this body.
+    #[inline]
+    fn fit_reduced(&mut self, full: [usize; 2]) {
+        let h = &self.hier;
+        let na = h.rec.len();
+        let dof = h.rec.last().map_or(0, |r| r.dof + r.k);
+        let fits = [
+            h.ia.len(),
+            h.pa.len(),
+            h.acc.len(),
+            h.dinv.len(),
+            h.chol.len(),
+        ]
+        .iter()
+        .all(|&l| l >= na)
+            && h.u.len() >= dof
+            && h.uu.len() >= dof;
+        if !fits {
+            self.grow_reduced(na, dof, full);
+        }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn grow_reduced(&mut self, na: usize, dof: usize, [nb, nv]: [usize; 2]) {
+        let h = &mut self.hier;
+        grow(&mut h.ia, na, nb, [[0.0; 6]; 6]);
+        grow(&mut h.pa, na, nb, [0.0; 6]);
+        grow(&mut h.acc, na, nb, [0.0; 6]);
+        grow(&mut h.dinv, na, nb, 0.0);
+        grow(&mut h.chol, na, nb, [[0.0; 6]; 6]);
+        grow(&mut h.u, dof, nv, [0.0; 6]);
+        grow(&mut h.uu, dof, nv, 0.0);
+    }
+
+    /// Runs `call` on this workspace with `s`'s per-call buffers in place of its own.
+    fn with_scratch<R>(
+        &mut self,
+        s: &mut Scratch,
+        call: impl FnOnce(&mut Adaptive) -> Result<R, AdaptiveError>,
+    ) -> Result<R, AdaptiveError> {
+        s.check(self)?;
+        // Kinematics left by `node_metrics` for its state are read by the next load: they
+        // stay where they are.
+        let kin = !self.fresh;
+        let full = [s.sizes[0], s.sizes[1]];
+        self.swap_scratch(s, kin);
+        self.fit_reduced(full);
+        let r = call(self);
+        self.swap_scratch(s, kin);
+        self.fit_reduced(full);
+        if kin {
+            // (No call but `node_metrics` sets it; its kinematics would be in the scratch.)
+            self.fresh = false;
+        }
+        r
+    }
+
+    /// [`Adaptive::step`] with the per-call buffers of `scratch` (one per model, shared by
+    /// every workspace of that model): the same result to the bit, with the memory a step
+    /// writes and reads only within the call shared by all workspaces instead of one copy per
+    /// workspace — what keeps a scene of many bodies in the processor's caches. See
+    /// [`Scratch`]. After the call, the step's kinematics are in the scratch, not in
+    /// [`Adaptive::data`]. An error if `scratch` was built for a model of other sizes.
+    ///
+    /// ```
+    /// use articula_adaptive::{Adaptive, Scratch, Settings};
+    /// use articula_dca::State;
+    /// use articula_model::{LoadOptions, Model};
+    ///
+    /// let model = Model::from_urdf_file("../../models/chain30.urdf", &LoadOptions::default()).unwrap();
+    /// let settings = Settings { budget: Some(5), reselect_every: 4, ..Settings::default() };
+    /// let mut scratch = Scratch::new(&model);
+    /// let (mut a, mut b) = (Adaptive::new(&model, settings.clone()), Adaptive::new(&model, settings.clone()));
+    /// let (mut sa, mut sb) = (State::random(&model, 1, 1.0), State::random(&model, 2, 1.0));
+    /// let (mut alone, mut sa_alone) = (Adaptive::new(&model, settings), sa.clone());
+    /// for _ in 0..10 {
+    ///     a.step_with(&mut scratch, &model, &mut sa, 1e-3).unwrap();
+    ///     b.step_with(&mut scratch, &model, &mut sb, 1e-3).unwrap();
+    ///     alone.step(&model, &mut sa_alone, 1e-3).unwrap();
+    /// }
+    /// assert_eq!(sa.q, sa_alone.q);
+    /// assert_eq!(sa.qd, sa_alone.qd);
+    /// ```
+    pub fn step_with(
+        &mut self,
+        scratch: &mut Scratch,
+        model: &Model,
+        state: &mut State,
+        dt: f64,
+    ) -> Result<StepReport, AdaptiveError> {
+        self.with_scratch(scratch, |ad| ad.step(model, state, dt))
+    }
+
+    /// [`Adaptive::step_with_forces`] with the per-call buffers of `scratch` (see
+    /// [`Adaptive::step_with`]).
+    pub fn step_with_forces_and_scratch(
+        &mut self,
+        scratch: &mut Scratch,
+        model: &Model,
+        state: &mut State,
+        dt: f64,
+        forces: &[(usize, SpatialForce)],
+    ) -> Result<StepReport, AdaptiveError> {
+        self.with_scratch(scratch, |ad| ad.step_with_forces(model, state, dt, forces))
+    }
+
+    /// [`Adaptive::set_active`] with the per-call buffers of `scratch` (see
+    /// [`Adaptive::step_with`]): the same hybrid body and impulse to the bit.
+    pub fn set_active_with(
+        &mut self,
+        scratch: &mut Scratch,
+        model: &Model,
+        state: &mut State,
+        active: impl Fn(usize) -> bool,
+    ) -> Result<bool, AdaptiveError> {
+        self.with_scratch(scratch, |ad| ad.set_active(model, state, active))
+    }
+
+    /// [`Adaptive::node_metrics`] with the whole `data` of `scratch` (its exact solve's
+    /// buffers and kinematics; the workspace's gravity): the same metrics and `qdd` to the bit.
+    /// The kinematics stay in the scratch, so the next call on this workspace recomputes them
+    /// (the plain call lets the next load of the same state reuse them; the same numbers).
+    #[allow(clippy::too_many_arguments)]
+    pub fn node_metrics_with(
+        &mut self,
+        scratch: &mut Scratch,
+        model: &Model,
+        q: &[f64],
+        qd: &[f64],
+        tau: &[f64],
+        f_ext: &[SpatialForce],
+        out: &mut [f64],
+    ) -> Result<(), AdaptiveError> {
+        scratch.check(self)?;
+        swap(&mut self.data, &mut scratch.data);
+        // The workspace's settings on the scratch's buffers.
+        let own = &scratch.data;
+        self.data.gravity = own.gravity;
+        self.data.refine_floating = own.refine_floating;
+        self.data.momentum_projection = own.momentum_projection;
+        let r = self.node_metrics(model, q, qd, tau, f_ext, out);
+        swap(&mut self.data, &mut scratch.data);
+        self.fresh = false;
+        r
+    }
+}

@@ -1,0 +1,105 @@
+//! Steps through a shared [`Scratch`] — re-selections by hand after node metrics, cached
+//! re-selections, forces — allocate nothing once the workspaces are warm.
+
+use articula_adaptive::{Adaptive, Scratch, Settings};
+use articula_dca::State;
+use articula_model::{LoadOptions, Model};
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// The system allocator, counting allocations.
+struct Counting;
+
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+#[test]
+fn shared_scratch_steps_allocate_nothing() {
+    let path = format!("{}/../../models/humanoid.urdf", env!("CARGO_MANIFEST_DIR"));
+    let model = Model::from_urdf_file(
+        &path,
+        &LoadOptions {
+            floating_base: true,
+        },
+    )
+    .unwrap();
+    let n = 4;
+    let start = ALLOCATIONS.load(Ordering::Relaxed);
+    let mut scratch = Scratch::new(&model);
+    let mut ads: Vec<Adaptive> = (0..n)
+        .map(|i| {
+            Adaptive::new(
+                &model,
+                Settings {
+                    budget: Some(6 + 3 * i),
+                    reselect_every: 4,
+                    ..Settings::default()
+                },
+            )
+        })
+        .collect();
+    let mut states: Vec<State> = (0..n)
+        .map(|i| {
+            let mut s = State::random(&model, 5 + i as u64, 0.5);
+            s.randomize_forces(9 + i as u64, 0.2);
+            s
+        })
+        .collect();
+    let mut metrics = vec![vec![0.0; model.assembly.nodes.len()]; n];
+    let mut run = |k: usize| {
+        if k % 10 == 3 {
+            for i in 0..n {
+                let s = &states[i];
+                ads[i]
+                    .node_metrics_with(
+                        &mut scratch,
+                        &model,
+                        &s.q,
+                        &s.qd,
+                        &s.tau,
+                        &s.f_ext,
+                        &mut metrics[i],
+                    )
+                    .unwrap();
+            }
+            for i in 0..n {
+                // Alternating hybrid bodies: every other joint, then the first half.
+                let pick = |j: usize| if k % 20 == 3 { j % 2 != 1 } else { j < 18 };
+                ads[i]
+                    .set_active_with(&mut scratch, &model, &mut states[i], pick)
+                    .unwrap();
+            }
+        }
+        for i in 0..n {
+            ads[i]
+                .step_with(&mut scratch, &model, &mut states[i], 1e-3)
+                .unwrap();
+        }
+    };
+    for k in 0..40 {
+        run(k);
+    }
+    let before = ALLOCATIONS.load(Ordering::Relaxed);
+    // The counter counts: the workspaces and the first steps' caches were allocated.
+    assert!(before > start + 10);
+    for k in 40..140 {
+        run(k);
+    }
+    assert_eq!(ALLOCATIONS.load(Ordering::Relaxed) - before, 0);
+}
