@@ -484,7 +484,7 @@ fn plant_segment_dims(depth: usize) -> (f64, f64, f64) {
 /// split apart about `plant_axis(d + 1)`, and their joints rotate about the
 /// same axis (perpendicular to the branch, in the plane of the split).
 fn plant_axis(depth: usize) -> [f64; 3] {
-    if depth % 2 == 0 {
+    if depth.is_multiple_of(2) {
         X
     } else {
         Y

@@ -156,13 +156,18 @@ impl Adaptive {
     }
 
     /// Acceleration-metric weight of body `body`'s joint: `A = scale · 1` (scale ≥ 0).
+    ///
+    /// The caches of the rigid subassemblies hold metric coefficients built with the weights:
+    /// a weight that changes marks them stale, so the next re-selection runs whole-body passes
+    /// (an unchanged weight keeps them).
     pub fn set_weight(&mut self, model: &Model, body: usize, scale: f64) {
         let k = model.bodies[body].nv;
-        scaled_identity(
-            &mut self.aw[self.woff[body]..self.woff[body] + k * k],
-            k,
-            scale,
-        );
+        let w = &mut self.aw[self.woff[body]..self.woff[body] + k * k];
+        let same = (0..k).all(|i| (0..k).all(|j| w[i * k + j] == if i == j { scale } else { 0.0 }));
+        if !same {
+            scaled_identity(w, k, scale);
+            self.cache.ready = false;
+        }
     }
 
     /// Velocity-metric weight of body `body`'s joint: `V = scale · 1` (scale ≥ 0).

@@ -439,6 +439,51 @@ fn a_changed_locked_torque_is_detected() {
 }
 
 #[test]
+fn a_changed_weight_is_not_read_from_stale_caches() {
+    // The caches hold Ψ built with the weights: after `set_weight` changes one, a cached
+    // re-selection must give the metric of a workspace that re-selects by whole-body passes.
+    let model = load("chain100", false);
+    let settings = Settings {
+        budget: Some(12),
+        reselect_every: 2,
+        ..Settings::default()
+    };
+    let (mut fast, mut slow) = (
+        Adaptive::new(&model, settings.clone()),
+        Adaptive::new(&model, settings),
+    );
+    slow.set_cached_reselection(false);
+    let mut a = start(&model, 7, 1.0);
+    a.f_ext.clear();
+    let mut b = a.clone();
+    for k in 0..30 {
+        if k == 9 {
+            // Heavier weights on the tip half: the selection moves there.
+            for body in 50..model.bodies.len() {
+                fast.set_weight(&model, body, 25.0);
+                slow.set_weight(&model, body, 25.0);
+            }
+        }
+        fast.step(&model, &mut a, 1e-3).unwrap();
+        slow.step(&model, &mut b, 1e-3).unwrap();
+        let (sa, sb) = (fast.selection(), slow.selection());
+        assert!(
+            (sa.total_metric - sb.total_metric).abs() <= TOL * sb.total_metric,
+            "step {k}: {sa:?} vs {sb:?}"
+        );
+        for body in 0..model.bodies.len() {
+            assert_eq!(
+                fast.is_active(&model, body),
+                slow.is_active(&model, body),
+                "step {k}: body {body}"
+            );
+        }
+        a.q.copy_from_slice(&b.q);
+        a.qd.copy_from_slice(&b.qd);
+    }
+}
+
+#[test]
 fn gravity_moves_a_free_body_without_changing_its_joint_accelerations() {
     // A free-floating body under uniform gravity: every handle's bias acceleration of a
     // subassembly not holding the ground shifts by a_g and no internal joint acceleration

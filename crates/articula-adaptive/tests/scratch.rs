@@ -6,9 +6,8 @@
 //! forces (dense and as a list), a floating base and fixed-base trees, and plain calls mixed
 //! with shared ones on the same workspace.
 
-// Workspaces are indexed alike in several parallel vectors; (`is_multiple_of` needs Rust 1.87,
-// the workspace supports 1.80).
-#![allow(clippy::needless_range_loop, clippy::manual_is_multiple_of)]
+// Workspaces are indexed alike in several parallel vectors.
+#![allow(clippy::needless_range_loop)]
 
 use articula_adaptive::{Adaptive, Scratch, Settings};
 use articula_dca::State;
@@ -140,7 +139,7 @@ fn alone_and_shared(
             alone_reports.push(r.unwrap());
         }
         // Shared: every workspace's metrics, then every hybrid body, then every step.
-        let plain = |i: usize, call: usize| i == 0 && (k + call) % 3 == 0;
+        let plain = |i: usize, call: usize| i == 0 && (k + call).is_multiple_of(3);
         for i in 0..n {
             if !by_hand(i, k) {
                 continue;

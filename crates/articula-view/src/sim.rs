@@ -427,9 +427,7 @@ impl<'s> SceneSim<'s> {
     pub fn step(&mut self) -> Result<SceneStep, SceneSimError> {
         let scene = self.scene;
         let t = self.time();
-        // (`is_multiple_of` needs Rust 1.87; the workspace supports 1.80.)
-        #[allow(clippy::manual_is_multiple_of)]
-        let reselect = self.steps % scene.reselect_every as u64 == 0;
+        let reselect = self.steps.is_multiple_of(scene.reselect_every as u64);
         // Pushes acting now: world wrenches about the world origin.
         for b in &mut self.bodies {
             b.state
