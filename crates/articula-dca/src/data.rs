@@ -220,9 +220,17 @@ pub(crate) struct RevJoin {
 /// ABA buffers.
 #[derive(Clone, Debug)]
 pub(crate) struct AbaData {
-    /// Per body: articulated inertia (packed) and bias force.
+    /// The children's articulated inertias `Σ Iᵃ` (packed) and bias forces `Σ pᵃ` of the bodies
+    /// pass 2 has reached a child of but not the body itself, by slot (`acc`); `pa` is also
+    /// per-body scratch for the floating-base refinement.
     pub ia: Vec<Sym6>,
     pub pa: Vec<SpatialForce>,
+    /// Per body: the slot of its children's sums (`u32::MAX` without children), and whether it
+    /// is the first of its parent's children that pass 2 reaches (the highest index: it sets
+    /// the parent's sums, later siblings add). A slot is reused once its body is done, so a
+    /// chain needs one: the sums stay in cache instead of a per-body stream.
+    pub acc: Vec<u32>,
+    pub first: Vec<bool>,
     /// Per degree of freedom: `U = Iᴬ s` and `u = τ − sᵀ pᴬ`.
     pub u: Vec<[f64; 6]>,
     pub uu: Vec<f64>,
@@ -259,6 +267,24 @@ impl Data {
             .iter()
             .map(|&(a, i)| (if a { Side::A } else { Side::B }, u(i)))
             .collect();
+        // ABA's slots for children's sums: in pass 2's order (reverse index), a body's slot is
+        // taken when its first child is reached and freed when the body is (its sums are read
+        // before its parent's are written, so the parent may take the freed slot).
+        let (mut acc, mut first) = (vec![u32::MAX; n], vec![false; n]);
+        let (mut free, mut acc_slots) = (Vec::new(), 0u32);
+        for (i, b) in model.bodies.iter().enumerate().rev() {
+            if acc[i] != u32::MAX {
+                free.push(acc[i]);
+            }
+            if let Some(p) = b.parent.filter(|&p| acc[p] == u32::MAX) {
+                first[i] = true;
+                acc[p] = free.pop().unwrap_or_else(|| {
+                    acc_slots += 1;
+                    acc_slots - 1
+                });
+            }
+        }
+        let acc_slots = acc_slots as usize;
         let max_h = tree.max_handles().max(1);
         // Slots of the diagonal blocks and b (see `DcaData::dg`): node x at depth δ, the
         // parent side (0) or child side (1) of its parent's join, has max_h handles at
@@ -375,7 +401,9 @@ impl Data {
                 .collect(),
             refine: crate::refine::RefineData::new(model),
             aba: AbaData {
-                ia: vec![Sym6::ZERO; n],
+                ia: vec![Sym6::ZERO; acc_slots],
+                acc,
+                first,
                 pa: vec![SpatialForce::ZERO; n],
                 u: vec![[0.0; 6]; nv],
                 uu: vec![0.0; nv],

@@ -291,6 +291,14 @@ impl Sym6 {
         s[20] += a[20] - au[5] * u[5];
     }
 
+    /// `self − alpha · u uᵀ`.
+    #[inline(always)]
+    pub fn sub_outer(&self, u: &[f64; 6], alpha: f64) -> Sym6 {
+        let mut s = Sym6::ZERO;
+        s.add_sub_outer(self, u, alpha);
+        s
+    }
+
     /// `self −= u wᵀ` on the upper triangle: summed over the columns of `U` with
     /// `w_p = Σ_q D⁻¹_pq u_q`, this subtracts the symmetric `U D⁻¹ Uᵀ`.
     #[inline]
