@@ -148,8 +148,9 @@ fn accelerations(
         let mut ap = if t.parent == usize::MAX {
             a0
         } else {
-            aba.a[t.parent]
+            aba.a[aba.aslot[t.parent] as usize]
         };
+        let slot = aba.aslot[i] as usize;
         if let Some(c) = c {
             ap += c[i];
         }
@@ -157,7 +158,7 @@ fn accelerations(
         if k == 1 {
             let x = aba.dinv[doff] * (aba.uu[vo] - dot6(&apa, &aba.u[vo]));
             qdd[vo] = x;
-            aba.a[i] = ap + s[vo] * x;
+            aba.a[slot] = ap + s[vo] * x;
             continue;
         }
         let mut r = [0.0; 6];
@@ -173,7 +174,7 @@ fn accelerations(
             qdd[vo + p] = x;
             a += s[vo + p] * x;
         }
-        aba.a[i] = a;
+        aba.a[slot] = a;
     }
 }
 

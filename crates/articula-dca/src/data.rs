@@ -237,8 +237,10 @@ pub(crate) struct AbaData {
     /// `D⁻¹` of every joint (k×k row-major), body i's at `doff[i]`.
     pub dinv: Vec<f64>,
     pub doff: Vec<usize>,
-    /// Per body: spatial acceleration.
+    /// Spatial accelerations of the bodies pass 3 has reached but not all of whose children,
+    /// by slot (`aslot`; a chain needs one); also per-body scratch for the refinement.
     pub a: Vec<SpatialMotion>,
+    pub aslot: Vec<u32>,
 }
 
 /// Integrator buffers.
@@ -285,6 +287,27 @@ impl Data {
             }
         }
         let acc_slots = acc_slots as usize;
+        // ABA pass 3's slots for accelerations: in index order, a body's slot is freed once its
+        // last child has read it (a childless body's at once), and the child may take it.
+        let mut last = vec![usize::MAX; n];
+        for (i, b) in model.bodies.iter().enumerate() {
+            if let Some(p) = b.parent {
+                last[p] = i;
+            }
+        }
+        let (mut aslot, mut free, mut a_slots) = (vec![0u32; n], Vec::new(), 0u32);
+        for (i, b) in model.bodies.iter().enumerate() {
+            if let Some(p) = b.parent.filter(|&p| last[p] == i) {
+                free.push(aslot[p]);
+            }
+            aslot[i] = free.pop().unwrap_or_else(|| {
+                a_slots += 1;
+                a_slots - 1
+            });
+            if last[i] == usize::MAX {
+                free.push(aslot[i]);
+            }
+        }
         let max_h = tree.max_handles().max(1);
         // Slots of the diagonal blocks and b (see `DcaData::dg`): node x at depth δ, the
         // parent side (0) or child side (1) of its parent's join, has max_h handles at
@@ -417,7 +440,8 @@ impl Data {
                         Some(here)
                     })
                     .collect(),
-                a: vec![SpatialMotion::ZERO; n],
+                a: vec![SpatialMotion::ZERO; n.max(a_slots as usize)],
+                aslot,
             },
             rk: RkData {
                 q0: vec![0.0; model.nq],
