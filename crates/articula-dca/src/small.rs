@@ -294,8 +294,15 @@ impl Sym6 {
     /// `self − alpha · u uᵀ`.
     #[inline(always)]
     pub fn sub_outer(&self, u: &[f64; 6], alpha: f64) -> Sym6 {
+        let au = u.map(|x| alpha * x);
         let mut s = Sym6::ZERO;
-        s.add_sub_outer(self, u, alpha);
+        let mut k = 0;
+        for i in 0..6 {
+            for j in i..6 {
+                s.0[k] = self.0[k] - au[i] * u[j];
+                k += 1;
+            }
+        }
         s
     }
 
