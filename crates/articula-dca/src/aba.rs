@@ -7,29 +7,35 @@ use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::{SpatialForce, SpatialMotion};
 
-/// Pass 1, per body, fused into the kinematics loop (while the body's numbers are in cache):
-/// `Iᴬᵢ = Iᵢ`, `pᴬᵢ = vᵢ ×* Iᵢ vᵢ − f_ext,i` (gravity enters as `a_0 = −a_g`).
-#[inline(always)]
-pub(crate) fn init_body(i: usize, data: &mut Data, f_ext: &[SpatialForce]) {
-    let inertia = &data.inertia[i];
-    let v = data.v[i];
-    data.aba.ia[i] = Sym6::from_inertia(inertia);
-    data.aba.pa[i] = v.cross_force(inertia.mul_motion(v)) - crate::f_ext_of(f_ext, i);
-}
-
-/// Runs passes 2 and 3 of ABA on the kinematics and pass-1 values in `data`
-/// ([`init_body`]); writes `data.qdd`.
-pub(crate) fn aba(model: &Model, tau: &[f64], data: &mut Data) -> Result<(), DynamicsError> {
+/// Runs ABA on the kinematics in `data` (pass 1 is the kinematics loop); writes `data.qdd`.
+pub(crate) fn aba(
+    model: &Model,
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+    data: &mut Data,
+) -> Result<(), DynamicsError> {
     let n = model.bodies.len();
     let aba = &mut data.aba;
-    // Pass 2, leaves to root: U = Iᴬ S, D = Sᵀ U, u = τ − Sᵀ pᴬ,
-    // Iᵃ = Iᴬ − U D⁻¹ Uᵀ, pᵃ = pᴬ + Iᵃ c + U D⁻¹ u; added to the parent (same frame).
+    // Pass 2, leaves to root: Iᴬᵢ = Iᵢ + Σ_children Iᵃ, pᴬᵢ = vᵢ ×* Iᵢ vᵢ − f_ext,i + Σ pᵃ
+    // (gravity enters as a_0 = −a_g); U = Iᴬ S, D = Sᵀ U, u = τ − Sᵀ pᴬ,
+    // Iᵃ = Iᴬ − U D⁻¹ Uᵀ, pᵃ = pᴬ + Iᵃ c + U D⁻¹ u, passed to the parent (same frame).
+    // Pass 1's part (Iᵢ, vᵢ ×* Iᵢ vᵢ) is formed here, where it is first used: `ia`, `pa` hold
+    // only the children's sums, set by the first child processed (`first`), so that no per-body
+    // array is written in the kinematics loop and read back a whole chain later.
     let topo = &data.topo[..n];
     for i in (0..n).rev() {
         let t = topo[i];
         let (vo, k, doff) = (t.vo, t.nv, aba.doff[i]);
-        let ia = aba.ia[i];
-        let pa_i = aba.pa[i];
+        let inertia = &data.inertia[i];
+        let v = data.v[i];
+        let mut ia = Sym6::from_inertia(inertia);
+        let mut pa_i = v.cross_force(inertia.mul_motion(v)) - crate::f_ext_of(f_ext, i);
+        let slot = aba.acc[i] as usize;
+        if slot != u32::MAX as usize {
+            ia.add_assign(&aba.ia[slot]);
+            pa_i += aba.pa[slot];
+        }
+        let first = aba.first[i];
         if k == 1 {
             // One DOF (the common case): U = Iᴬ s, D = sᵀU scalar.
             let s = data.s[vo].to_array();
@@ -50,15 +56,19 @@ pub(crate) fn aba(model: &Model, tau: &[f64], data: &mut Data) -> Result<(), Dyn
             if parent == usize::MAX {
                 continue;
             }
+            let ps = aba.acc[parent] as usize;
             // pᵃ = pᴬ + Iᵃ c + U D⁻¹ u with Iᵃ c = Iᴬ c − U (Uᵀc) / D
             let c = data.c[i].to_array();
             let ic = ia.mul_vec(&c);
             let g = dinv * (uu - dot6(&c, &u));
-            let pp = &mut aba.pa[parent];
             let add = SpatialForce::from_array(std::array::from_fn(|r| ic[r] + u[r] * g));
-            *pp += pa_i + add;
-            let (lo, hi) = aba.ia.split_at_mut(i);
-            lo[parent].add_sub_outer(&hi[0], &u, dinv);
+            if first {
+                aba.pa[ps] = pa_i + add;
+                aba.ia[ps] = ia.sub_outer(&u, dinv);
+            } else {
+                aba.pa[ps] += pa_i + add;
+                aba.ia[ps].add_sub_outer(&ia, &u, dinv);
+            }
             continue;
         }
         let mut dm = SmallSpd {
@@ -108,8 +118,14 @@ pub(crate) fn aba(model: &Model, tau: &[f64], data: &mut Data) -> Result<(), Dyn
             pa += SpatialForce::from_array(aba.u[vo + p]) * du[p];
         }
         pa += SpatialForce::from_array(ia_a.mul_vec(&data.c[i].to_array()));
-        aba.ia[parent].add_assign(&ia_a);
-        aba.pa[parent] += pa;
+        let ps = aba.acc[parent] as usize;
+        if first {
+            aba.ia[ps] = ia_a;
+            aba.pa[ps] = pa;
+        } else {
+            aba.ia[ps].add_assign(&ia_a);
+            aba.pa[ps] += pa;
+        }
     }
     let a0 = SpatialMotion::new(glam::DVec3::ZERO, -data.gravity);
     accelerations(topo, aba, &data.s, Some(&data.c), a0, &mut data.qdd);
@@ -132,8 +148,9 @@ fn accelerations(
         let mut ap = if t.parent == usize::MAX {
             a0
         } else {
-            aba.a[t.parent]
+            aba.a[aba.aslot[t.parent] as usize]
         };
+        let slot = aba.aslot[i] as usize;
         if let Some(c) = c {
             ap += c[i];
         }
@@ -141,7 +158,7 @@ fn accelerations(
         if k == 1 {
             let x = aba.dinv[doff] * (aba.uu[vo] - dot6(&apa, &aba.u[vo]));
             qdd[vo] = x;
-            aba.a[i] = ap + s[vo] * x;
+            aba.a[slot] = ap + s[vo] * x;
             continue;
         }
         let mut r = [0.0; 6];
@@ -157,7 +174,7 @@ fn accelerations(
             qdd[vo + p] = x;
             a += s[vo + p] * x;
         }
-        aba.a[i] = a;
+        aba.a[slot] = a;
     }
 }
 

@@ -220,17 +220,27 @@ pub(crate) struct RevJoin {
 /// ABA buffers.
 #[derive(Clone, Debug)]
 pub(crate) struct AbaData {
-    /// Per body: articulated inertia (packed) and bias force.
+    /// The children's articulated inertias `Σ Iᵃ` (packed) and bias forces `Σ pᵃ` of the bodies
+    /// pass 2 has reached a child of but not the body itself, by slot (`acc`); `pa` is also
+    /// per-body scratch for the floating-base refinement.
     pub ia: Vec<Sym6>,
     pub pa: Vec<SpatialForce>,
+    /// Per body: the slot of its children's sums (`u32::MAX` without children), and whether it
+    /// is the first of its parent's children that pass 2 reaches (the highest index: it sets
+    /// the parent's sums, later siblings add). A slot is reused once its body is done, so a
+    /// chain needs one: the sums stay in cache instead of a per-body stream.
+    pub acc: Vec<u32>,
+    pub first: Vec<bool>,
     /// Per degree of freedom: `U = Iᴬ s` and `u = τ − sᵀ pᴬ`.
     pub u: Vec<[f64; 6]>,
     pub uu: Vec<f64>,
     /// `D⁻¹` of every joint (k×k row-major), body i's at `doff[i]`.
     pub dinv: Vec<f64>,
     pub doff: Vec<usize>,
-    /// Per body: spatial acceleration.
+    /// Spatial accelerations of the bodies pass 3 has reached but not all of whose children,
+    /// by slot (`aslot`; a chain needs one); also per-body scratch for the refinement.
     pub a: Vec<SpatialMotion>,
+    pub aslot: Vec<u32>,
 }
 
 /// Integrator buffers.
@@ -259,6 +269,45 @@ impl Data {
             .iter()
             .map(|&(a, i)| (if a { Side::A } else { Side::B }, u(i)))
             .collect();
+        // ABA's slots for children's sums: in pass 2's order (reverse index), a body's slot is
+        // taken when its first child is reached and freed when the body is (its sums are read
+        // before its parent's are written, so the parent may take the freed slot).
+        let (mut acc, mut first) = (vec![u32::MAX; n], vec![false; n]);
+        let (mut free, mut acc_slots) = (Vec::new(), 0u32);
+        for (i, b) in model.bodies.iter().enumerate().rev() {
+            if acc[i] != u32::MAX {
+                free.push(acc[i]);
+            }
+            if let Some(p) = b.parent.filter(|&p| acc[p] == u32::MAX) {
+                first[i] = true;
+                acc[p] = free.pop().unwrap_or_else(|| {
+                    acc_slots += 1;
+                    acc_slots - 1
+                });
+            }
+        }
+        let acc_slots = acc_slots as usize;
+        // ABA pass 3's slots for accelerations: in index order, a body's slot is freed once its
+        // last child has read it (a childless body's at once), and the child may take it.
+        let mut last = vec![usize::MAX; n];
+        for (i, b) in model.bodies.iter().enumerate() {
+            if let Some(p) = b.parent {
+                last[p] = i;
+            }
+        }
+        let (mut aslot, mut free, mut a_slots) = (vec![0u32; n], Vec::new(), 0u32);
+        for (i, b) in model.bodies.iter().enumerate() {
+            if let Some(p) = b.parent.filter(|&p| last[p] == i) {
+                free.push(aslot[p]);
+            }
+            aslot[i] = free.pop().unwrap_or_else(|| {
+                a_slots += 1;
+                a_slots - 1
+            });
+            if last[i] == usize::MAX {
+                free.push(aslot[i]);
+            }
+        }
         let max_h = tree.max_handles().max(1);
         // Slots of the diagonal blocks and b (see `DcaData::dg`): node x at depth δ, the
         // parent side (0) or child side (1) of its parent's join, has max_h handles at
@@ -375,7 +424,9 @@ impl Data {
                 .collect(),
             refine: crate::refine::RefineData::new(model),
             aba: AbaData {
-                ia: vec![Sym6::ZERO; n],
+                ia: vec![Sym6::ZERO; acc_slots],
+                acc,
+                first,
                 pa: vec![SpatialForce::ZERO; n],
                 u: vec![[0.0; 6]; nv],
                 uu: vec![0.0; nv],
@@ -389,7 +440,8 @@ impl Data {
                         Some(here)
                     })
                     .collect(),
-                a: vec![SpatialMotion::ZERO; n],
+                a: vec![SpatialMotion::ZERO; n.max(a_slots as usize)],
+                aslot,
             },
             rk: RkData {
                 q0: vec![0.0; model.nq],

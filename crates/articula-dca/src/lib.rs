@@ -115,8 +115,8 @@ pub fn forward_dynamics<'d>(
             })
         }
         Method::Aba => {
-            kinematics::kinematics(model, q, qd, data, |i, d| aba::init_body(i, d, &f_ext));
-            aba::aba(model, tau, data).map(|()| {
+            kinematics::kinematics(model, q, qd, data, |_, _| {});
+            aba::aba(model, tau, &f_ext, data).map(|()| {
                 if model.floating_base && data.refine_floating {
                     aba::refine(model, tau, &f_ext, data);
                 }

@@ -291,6 +291,21 @@ impl Sym6 {
         s[20] += a[20] - au[5] * u[5];
     }
 
+    /// `self − alpha · u uᵀ`.
+    #[inline(always)]
+    pub fn sub_outer(&self, u: &[f64; 6], alpha: f64) -> Sym6 {
+        let au = u.map(|x| alpha * x);
+        let mut s = Sym6::ZERO;
+        let mut k = 0;
+        for i in 0..6 {
+            for j in i..6 {
+                s.0[k] = self.0[k] - au[i] * u[j];
+                k += 1;
+            }
+        }
+        s
+    }
+
     /// `self −= u wᵀ` on the upper triangle: summed over the columns of `U` with
     /// `w_p = Σ_q D⁻¹_pq u_q`, this subtracts the symmetric `U D⁻¹ Uᵀ`.
     #[inline]
