@@ -12,6 +12,18 @@ fn models() -> std::path::PathBuf {
     std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../models")
 }
 
+fn load(file: &str, floating_base: bool) -> Model {
+    Model::from_urdf_file(models().join(file), &LoadOptions { floating_base }).unwrap()
+}
+
+/// Largest absolute entry of `a − b`.
+fn max_diff(a: DMat3, b: DMat3) -> f64 {
+    (a - b)
+        .to_cols_array()
+        .iter()
+        .fold(0.0f64, |m, x| m.max(x.abs()))
+}
+
 fn cam() -> Camera {
     Camera::look_at(
         DVec3::ZERO,
@@ -228,13 +240,7 @@ fn the_depth_buffer_never_hides_a_ball_that_a_ray_can_see() {
 fn joint_weights_take_the_largest_weight_below() {
     // Humanoid at a distance with its left arm out of the frustum is hard to arrange; instead
     // place one humanoid so that only part of it is in view and check the subtree rule directly.
-    let model = Model::from_urdf_file(
-        models().join("humanoid.urdf"),
-        &LoadOptions {
-            floating_base: true,
-        },
-    )
-    .unwrap();
+    let model = load("humanoid.urdf", true);
     let vols = body_volumes(&model);
     let parents: Vec<Option<usize>> = model.bodies.iter().map(|b| b.parent).collect();
     let mut poses = Vec::new();
@@ -315,10 +321,7 @@ fn body_poses_about_signed_coordinate_axes_match_forward_kinematics() {
         for (i, &(r, p)) in poses.iter().enumerate() {
             let (r2, p2) = data.body_pose(i);
             assert!((p - p2).length() < 1e-12, "body {i}");
-            let d = (r - r2)
-                .to_cols_array()
-                .iter()
-                .fold(0.0f64, |a, x| a.max(x.abs()));
+            let d = max_diff(r, r2);
             assert!(d < 1e-12, "body {i}: {d}");
         }
     }
@@ -331,13 +334,7 @@ fn body_poses_match_forward_kinematics() {
         ("plant.urdf", false),
         ("chain30.urdf", true),
     ] {
-        let model = Model::from_urdf_file(
-            models().join(file),
-            &LoadOptions {
-                floating_base: floating,
-            },
-        )
-        .unwrap();
+        let model = load(file, floating);
         let mut data = Data::new(&model);
         let mut poses = Vec::new();
         for seed in 0..5 {
@@ -347,11 +344,7 @@ fn body_poses_match_forward_kinematics() {
             for (i, &(r, p)) in poses.iter().enumerate() {
                 let (r2, p2) = data.body_pose(i);
                 assert!((p - p2).length() < 1e-9, "{file} body {i}");
-                let d = (r - r2)
-                    .to_cols_array()
-                    .iter()
-                    .fold(0.0f64, |a, x| a.max(x.abs()));
-                assert!(d < 1e-12, "{file} body {i}");
+                assert!(max_diff(r, r2) < 1e-12, "{file} body {i}");
             }
         }
     }
@@ -421,61 +414,42 @@ fn a_rasterised_ball_fills_exactly_the_cells_wholly_inside_its_disc() {
 
 #[test]
 fn body_pose_of_one_body_equals_all_poses() {
-    // Up to 64 bodies deep, one body's pose is composed root first as `body_poses` does: the
-    // same bits. The 1,000-link chain's deeper links take the upward composition (same pose up
-    // to rounding); 20,000 links deep a recursive walk would overflow a 2 MiB test thread.
+    // A root path of up to 64 bodies is composed root first as `body_poses` does: the same
+    // bits. The 1,000-link chain's deeper links take the upward composition (same pose up to
+    // rounding); 20,000 links deep a recursive walk would overflow a 2 MiB test thread.
     for (file, floating) in [
         ("humanoid.urdf", true),
         ("plant.urdf", false),
         ("chain1000.urdf", false),
     ] {
-        let model = Model::from_urdf_file(
-            models().join(file),
-            &LoadOptions {
-                floating_base: floating,
-            },
-        )
-        .unwrap();
+        let model = load(file, floating);
+        // Bodies on the root path, the body included (parents come first).
+        let mut depth = vec![0usize; model.bodies.len()];
+        for (i, b) in model.bodies.iter().enumerate() {
+            depth[i] = 1 + b.parent.map_or(0, |j| depth[j]);
+        }
         let mut poses = Vec::new();
         for seed in 0..3 {
             let s = State::random(&model, seed, 1.0);
             body_poses(&model, &s.q, &mut poses);
             for (i, &(r, p)) in poses.iter().enumerate() {
                 let (r1, p1) = body_pose(&model, &s.q, i);
-                if i < 64 {
+                if depth[i] <= 64 {
                     assert_eq!((r1, p1), (r, p), "{file} body {i}");
                 } else {
                     let scale = 1.0 + p.length();
                     assert!((p1 - p).length() < 1e-10 * scale, "{file} body {i}");
-                    let d = (r1 - r)
-                        .to_cols_array()
-                        .iter()
-                        .fold(0.0f64, |a, x| a.max(x.abs()));
+                    let d = max_diff(r1, r);
                     assert!(d < 1e-10, "{file} body {i}: {d}");
                 }
             }
         }
     }
-    let deep =
-        articula_model::Model::from_urdf_str(&planar_chain_urdf(20_000), &LoadOptions::default())
-            .unwrap();
+    let deep = articula_benches::chain(20_000);
     let q = vec![0.01; deep.nq];
     let mut poses = Vec::new();
     body_poses(&deep, &q, &mut poses);
     let (_, p) = body_pose(&deep, &q, deep.bodies.len() - 1);
     let p_all = poses.last().unwrap().1;
     assert!((p - p_all).length() < 1e-8 * (1.0 + p_all.length()));
-}
-
-/// A planar chain of `n` unit links (revolute about z), as URDF.
-fn planar_chain_urdf(n: usize) -> String {
-    let inertial = r#"<inertial><origin xyz="0.5 0 0"/><mass value="1"/><inertia ixx="0.01" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial>"#;
-    let mut u = format!(r#"<robot name="c"><link name="l0">{inertial}</link>"#);
-    for k in 1..n {
-        u += &format!(
-            r#"<link name="l{k}">{inertial}</link><joint name="j{k}" type="revolute"><parent link="l{p}"/><child link="l{k}"/><origin xyz="1 0 0"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>"#,
-            p = k - 1
-        );
-    }
-    u + "</robot>"
 }
