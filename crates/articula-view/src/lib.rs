@@ -32,7 +32,7 @@ pub use scene_file::{
 };
 pub use sim::{global_selection, GlobalSelection, SceneSim, SceneSimError, SceneStep, SimBody};
 pub use visibility::{
-    body_pose, body_poses, BodyView, Classifier, DepthBuffer, Placed, Visibility,
+    body_pose, body_poses, BodyView, Classifier, DepthBuffer, Placed, PosePlan, Visibility,
     VisibilitySettings,
 };
 pub use volumes::{body_volumes, inertia_box, symmetric_eigen, BodyVolumes, Volume};

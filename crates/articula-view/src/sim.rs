@@ -22,7 +22,7 @@
 
 use crate::render::{rigid_groups, FrameBody};
 use crate::scene_file::LoadedScene;
-use crate::visibility::{body_pose, body_poses, BodyView, Classifier, Placed, Visibility};
+use crate::visibility::{BodyView, Classifier, Placed, PosePlan, Visibility};
 use articula_adaptive::{Adaptive, AdaptiveError, Scratch, Settings};
 use articula_dca::State;
 use articula_model::{Model, NodeKind};
@@ -94,7 +94,23 @@ pub fn global_selection(
         ..GlobalSelection::default()
     };
     let mut heap = BinaryHeap::new();
-    let push_children = |heap: &mut BinaryHeap<Entry>, b: usize, node: usize| {
+    // Queues a node; returns its metric (for the mass left). A node of metric ≤ 0 is never
+    // popped (the loop stops at the first one) and adds nothing to the error: it is counted in
+    // the mass left but not queued (a NaN is queued, as before).
+    let push = |heap: &mut BinaryHeap<Entry>, b: usize, node: usize| -> f64 {
+        let metric = metrics[b].get(node).copied().unwrap_or(0.0);
+        if metric > 0.0 || metric.is_nan() {
+            heap.push(Entry {
+                metric,
+                body: b,
+                node,
+            });
+        }
+        metric
+    };
+    // Queues a join's children that are joins; returns the sum of their metrics.
+    let push_children = |heap: &mut BinaryHeap<Entry>, b: usize, node: usize| -> f64 {
+        let mut added = 0.0;
         if let NodeKind::Join {
             parent_side,
             child_side,
@@ -103,15 +119,13 @@ pub fn global_selection(
         {
             for c in [parent_side, child_side] {
                 if matches!(models[b].assembly.nodes[c].kind, NodeKind::Join { .. }) {
-                    heap.push(Entry {
-                        metric: metrics[b].get(c).copied().unwrap_or(0.0),
-                        body: b,
-                        node: c,
-                    });
+                    added += push(heap, b, c);
                 }
             }
         }
+        added
     };
+    let mut remaining = 0.0;
     for (b, m) in models.iter().enumerate() {
         let root = m.assembly.root();
         if !matches!(m.assembly.nodes[root].kind, NodeKind::Join { .. }) {
@@ -120,17 +134,12 @@ pub fn global_selection(
         if m.floating_base {
             // Free: expanded at once.
             sel.popped[b].push(root);
-            push_children(&mut heap, b, root);
+            remaining += push_children(&mut heap, b, root);
         } else {
-            heap.push(Entry {
-                metric: metrics[b].get(root).copied().unwrap_or(0.0),
-                body: b,
-                node: root,
-            });
+            remaining += push(&mut heap, b, root);
         }
     }
     let tol = tolerance.filter(|t| *t > 0.0);
-    let mut remaining: f64 = heap.iter().map(|e| e.metric).sum();
     while let Some(&top) = heap.peek() {
         if top.metric <= 0.0 || tol.is_some_and(|t| remaining <= t) {
             break;
@@ -147,11 +156,7 @@ pub fn global_selection(
         sel.used += cost;
         sel.allocation[top.body] += cost;
         sel.popped[top.body].push(top.node);
-        let before = heap.len();
-        push_children(&mut heap, top.body, top.node);
-        for e in heap.iter().skip(before) {
-            remaining += e.metric;
-        }
+        remaining += push_children(&mut heap, top.body, top.node);
     }
     for e in heap.iter() {
         sel.error[e.body] += e.metric.max(0.0);
@@ -189,11 +194,15 @@ pub struct SimBody {
 impl SimBody {
     /// The composite spatial inertia of the whole body in its root frame, in its current
     /// configuration.
-    fn composite_in_root(&mut self, model: &Model) -> Option<(SpatialInertia, SymMat6)> {
+    fn composite_in_root(
+        &mut self,
+        model: &Model,
+        plan: &PosePlan,
+    ) -> Option<(SpatialInertia, SymMat6)> {
         if !model.floating_base {
             return None;
         }
-        body_poses(model, &self.state.q, &mut self.poses);
+        plan.poses(model, &self.state.q, &mut self.poses);
         let (r0, p0) = self.poses[0];
         let mut total = SpatialInertia::ZERO;
         for (body, &(r, p)) in model.bodies.iter().zip(&self.poses) {
@@ -280,6 +289,8 @@ pub struct SceneSim<'s> {
     /// Steps done.
     pub steps: u64,
     parents: Vec<Vec<Option<usize>>>,
+    /// Per model: its pose-only kinematics, prepared once.
+    plans: Vec<PosePlan>,
     /// Per model: the pose springs, `(q index, v index, k, c)` per internal degree of freedom.
     springs: Vec<Vec<(usize, usize, f64, f64)>>,
     classifier: Classifier,
@@ -296,6 +307,11 @@ pub struct SceneSim<'s> {
 impl<'s> SceneSim<'s> {
     /// Sets every body up in its initial state.
     pub fn new(scene: &'s LoadedScene) -> SceneSim<'s> {
+        let plans: Vec<PosePlan> = scene
+            .models
+            .iter()
+            .map(|m| PosePlan::new(&m.model))
+            .collect();
         let bodies: Vec<SimBody> = scene
             .placements
             .iter()
@@ -315,7 +331,7 @@ impl<'s> SceneSim<'s> {
                 );
                 adaptive.data.gravity = scene.gravity;
                 let mut poses = Vec::new();
-                body_poses(model, &state.q, &mut poses);
+                plans[p.model].poses(model, &state.q, &mut poses);
                 SimBody {
                     model: p.model,
                     state,
@@ -357,6 +373,7 @@ impl<'s> SceneSim<'s> {
             classifier: Classifier::new(&scene.visibility),
             bodies,
             parents,
+            plans,
             steps: 0,
             scene,
             last: SceneStep::default(),
@@ -394,7 +411,8 @@ impl<'s> SceneSim<'s> {
         let scene = self.scene;
         let margin_steps = scene.reselect_every as f64 * scene.dt;
         for b in &mut self.bodies {
-            body_poses(&scene.models[b.model].model, &b.state.q, &mut b.poses);
+            let model = &scene.models[b.model].model;
+            self.plans[b.model].poses(model, &b.state.q, &mut b.poses);
         }
         let placed: Vec<Placed> = self
             .bodies
@@ -442,7 +460,7 @@ impl<'s> SceneSim<'s> {
             let b = &mut self.bodies[p.body];
             let model = &scene.models[b.model].model;
             // The pushed link's pose alone (its path from the root).
-            let (r, pos) = body_pose(model, &b.state.q, p.link_body);
+            let (r, pos) = self.plans[b.model].pose(model, &b.state.q, p.link_body);
             let at = r * p.point + pos;
             b.state.f_ext[p.link_body] += SpatialForce::new(at.cross(p.force), p.force);
         }
@@ -564,7 +582,7 @@ impl<'s> SceneSim<'s> {
             {
                 match b.rigid {
                     Some(r) if !reselects => Some(r),
-                    _ => b.composite_in_root(model),
+                    _ => b.composite_in_root(model, &self.plans[b.model]),
                 }
             } else {
                 None
@@ -583,7 +601,7 @@ impl<'s> SceneSim<'s> {
         groups.resize_with(self.bodies.len(), Vec::new);
         for (b, g) in self.bodies.iter_mut().zip(groups.iter_mut()) {
             let model = &scene.models[b.model].model;
-            body_poses(model, &b.state.q, &mut b.poses);
+            self.plans[b.model].poses(model, &b.state.q, &mut b.poses);
             let active: Vec<bool> = (0..model.bodies.len())
                 .map(|i| b.adaptive.is_active(model, i))
                 .collect();

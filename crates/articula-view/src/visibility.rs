@@ -442,108 +442,184 @@ impl Classifier {
 }
 
 /// World pose of body `i` of `model` at configuration `q` (rotation, origin): the pose-only
-/// part of forward kinematics along the path from the root to `i`.
-///
-/// No recursion (a 100,000-link chain must not overflow the stack): a path of up to 64
-/// bodies is composed root first, exactly as [`body_poses`] does (the same
-/// numbers); a deeper one from `i` up, each body's joint on the left of what lies below it
-/// (the same pose up to rounding).
+/// part of forward kinematics along the path from the root to `i`. Prepares a [`PosePlan`]
+/// each call: for repeated calls keep one and use [`PosePlan::pose`].
 pub fn body_pose(model: &articula_model::Model, q: &[f64], i: usize) -> (DMat3, DVec3) {
-    let mut path = [0usize; POSE_PATH];
-    let mut depth = 0;
-    let mut k = Some(i);
-    while let Some(j) = k {
-        if depth == POSE_PATH {
-            return body_pose_upward(model, q, i);
-        }
-        path[depth] = j;
-        depth += 1;
-        k = model.bodies[j].parent;
-    }
-    let (mut r, mut p) = (DMat3::IDENTITY, DVec3::ZERO);
-    for &j in path[..depth].iter().rev() {
-        for part in &model.bodies[j].joint {
-            compose_part(part, q, &mut r, &mut p);
-        }
-    }
-    (r, p)
-}
-
-/// Longest root path [`body_pose`] composes root first (on the stack).
-const POSE_PATH: usize = 64;
-
-/// [`body_pose`] from `i` up to the root: `(r, p) ← J_j · (r, p)` for each body `j` on the
-/// way, `J_j` the pose of its joint (origin · motion · … over its parts) in its parent.
-fn body_pose_upward(model: &articula_model::Model, q: &[f64], i: usize) -> (DMat3, DVec3) {
-    let (mut r, mut p) = (DMat3::IDENTITY, DVec3::ZERO);
-    let mut k = Some(i);
-    while let Some(j) = k {
-        let body = &model.bodies[j];
-        let (mut rj, mut pj) = (DMat3::IDENTITY, DVec3::ZERO);
-        for part in &body.joint {
-            compose_part(part, q, &mut rj, &mut pj);
-        }
-        p = rj * p + pj;
-        r = rj * r;
-        k = body.parent;
-    }
-    (r, p)
-}
-
-/// `(r, p) ← (r, p) · origin · motion(q)` for one joint part. An identity origin (the
-/// massless links of a composed joint) and a revolute motion's zero translation add exactly
-/// nothing, so they are skipped: the same numbers as the general product, for less work.
-#[inline]
-fn compose_part(part: &articula_model::JointPart, q: &[f64], r: &mut DMat3, p: &mut DVec3) {
-    if part.origin.e != DMat3::IDENTITY || part.origin.r != DVec3::ZERO {
-        let (ro, po) = part.origin.to_pose();
-        *p += *r * po;
-        *r *= ro;
-    }
-    match part.kind {
-        articula_model::JointKind::Revolute | articula_model::JointKind::Continuous => {
-            // About a coordinate axis ±e_i, `r · Rot(axis, q)` mixes two of r's columns (the
-            // general product's other terms are exact zeros and ones, and the sign of the axis
-            // is the sign of the sine: the same numbers).
-            let (x, y, z) = (r.x_axis, r.y_axis, r.z_axis);
-            match part.coordinate_axis() {
-                Some((i, sign)) => {
-                    let (sn, cs) = q[part.q_offset].sin_cos();
-                    let sn = sn * sign;
-                    match i {
-                        0 => (r.y_axis, r.z_axis) = (y * cs + z * sn, y * -sn + z * cs),
-                        1 => (r.x_axis, r.z_axis) = (x * cs + z * -sn, x * sn + z * cs),
-                        _ => (r.x_axis, r.y_axis) = (x * cs + y * sn, x * -sn + y * cs),
-                    }
-                }
-                None => *r *= DMat3::from_axis_angle(part.axis, q[part.q_offset]),
-            }
-        }
-        _ => {
-            let (rm, pm) = part
-                .motion_transform(&q[part.q_offset..part.q_offset + part.nq()])
-                .to_pose();
-            *p += *r * pm;
-            *r *= rm;
-        }
-    }
+    PosePlan::new(model).pose(model, q, i)
 }
 
 /// World poses of every body of `model` at configuration `q` (rotation, origin), parents
-/// first: the pose-only part of forward kinematics.
+/// first: the pose-only part of forward kinematics. Prepares a [`PosePlan`] each call: for
+/// repeated calls keep one and use [`PosePlan::poses`].
 pub fn body_poses(model: &articula_model::Model, q: &[f64], out: &mut Vec<(DMat3, DVec3)>) {
-    out.clear();
-    for body in &model.bodies {
-        let (mut r, mut p) = match body.parent {
-            Some(i) => out[i],
-            None => (DMat3::IDENTITY, DVec3::ZERO),
+    PosePlan::new(model).poses(model, q, out);
+}
+
+/// The pose-only forward kinematics of one model, prepared once: per joint part, its origin
+/// as a pose (absent when it is the identity: the massless links of a composed joint) and its
+/// motion, a rotation about `±e_i` where the axis is a coordinate axis (the usual URDF case).
+/// Its [`PosePlan::pose`] and [`PosePlan::poses`] give the same numbers as composing each
+/// part's general transform (the products skipped are exact zeros and ones).
+#[derive(Clone, Debug)]
+pub struct PosePlan {
+    /// Per model body: its parent and the range of its parts in `parts`.
+    bodies: Vec<(Option<usize>, std::ops::Range<usize>)>,
+    parts: Vec<PlanPart>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct PlanPart {
+    /// The part's origin as a pose (rotation, translation); `None` for the identity.
+    origin: Option<(DMat3, DVec3)>,
+    motion: PlanMotion,
+}
+
+#[derive(Clone, Copy, Debug)]
+enum PlanMotion {
+    /// Rotation by `q[q]` about `sign · e_i`.
+    Axis { i: usize, sign: f64, q: usize },
+    /// Any other motion: part `part` of body `body`'s joint.
+    General { body: usize, part: usize },
+}
+
+impl PosePlan {
+    /// The plan of `model`.
+    pub fn new(model: &articula_model::Model) -> PosePlan {
+        let mut plan = PosePlan {
+            bodies: Vec::with_capacity(model.bodies.len()),
+            parts: Vec::new(),
         };
-        for part in &body.joint {
-            compose_part(part, q, &mut r, &mut p);
+        for (b, body) in model.bodies.iter().enumerate() {
+            let first = plan.parts.len();
+            for (k, part) in body.joint.iter().enumerate() {
+                let o = &part.origin;
+                let origin = (o.e != DMat3::IDENTITY || o.r != DVec3::ZERO).then(|| o.to_pose());
+                let motion = match part.coordinate_axis() {
+                    Some((i, sign)) => PlanMotion::Axis {
+                        i,
+                        sign,
+                        q: part.q_offset,
+                    },
+                    None => PlanMotion::General { body: b, part: k },
+                };
+                plan.parts.push(PlanPart { origin, motion });
+            }
+            plan.bodies.push((body.parent, first..plan.parts.len()));
         }
-        out.push((r, p));
+        plan
+    }
+
+    /// World poses of every body at configuration `q`, parents first (`model`: the one the
+    /// plan was made from).
+    pub fn poses(&self, model: &articula_model::Model, q: &[f64], out: &mut Vec<(DMat3, DVec3)>) {
+        out.clear();
+        for (parent, parts) in &self.bodies {
+            let (mut r, mut p) = match *parent {
+                Some(i) => out[i],
+                None => (DMat3::IDENTITY, DVec3::ZERO),
+            };
+            for part in &self.parts[parts.clone()] {
+                self.compose(part, model, q, &mut r, &mut p);
+            }
+            out.push((r, p));
+        }
+    }
+
+    /// World pose of body `i` at configuration `q`: its root path only.
+    ///
+    /// No recursion (a 100,000-link chain must not overflow the stack): a path of up to 64
+    /// bodies is composed root first, exactly as [`PosePlan::poses`] does (the same numbers);
+    /// a deeper one from `i` up, each body's joint on the left of what lies below it (the same
+    /// pose up to rounding).
+    pub fn pose(&self, model: &articula_model::Model, q: &[f64], i: usize) -> (DMat3, DVec3) {
+        let mut path = [0usize; POSE_PATH];
+        let mut depth = 0;
+        let mut k = Some(i);
+        while let Some(j) = k {
+            if depth == POSE_PATH {
+                return self.pose_upward(model, q, i);
+            }
+            path[depth] = j;
+            depth += 1;
+            k = self.bodies[j].0;
+        }
+        let (mut r, mut p) = (DMat3::IDENTITY, DVec3::ZERO);
+        for &j in path[..depth].iter().rev() {
+            for part in &self.parts[self.bodies[j].1.clone()] {
+                self.compose(part, model, q, &mut r, &mut p);
+            }
+        }
+        (r, p)
+    }
+
+    /// [`PosePlan::pose`] from `i` up to the root: `(r, p) ← J_j · (r, p)` for each body `j`
+    /// on the way, `J_j` the pose of its joint (origin · motion · … over its parts) in its
+    /// parent.
+    fn pose_upward(&self, model: &articula_model::Model, q: &[f64], i: usize) -> (DMat3, DVec3) {
+        let (mut r, mut p) = (DMat3::IDENTITY, DVec3::ZERO);
+        let mut k = Some(i);
+        while let Some(j) = k {
+            let (parent, parts) = &self.bodies[j];
+            let (mut rj, mut pj) = (DMat3::IDENTITY, DVec3::ZERO);
+            for part in &self.parts[parts.clone()] {
+                self.compose(part, model, q, &mut rj, &mut pj);
+            }
+            p = rj * p + pj;
+            r = rj * r;
+            k = *parent;
+        }
+        (r, p)
+    }
+
+    /// `(r, p) ← (r, p) · origin · motion(q)` for one joint part.
+    #[inline]
+    fn compose(
+        &self,
+        part: &PlanPart,
+        model: &articula_model::Model,
+        q: &[f64],
+        r: &mut DMat3,
+        p: &mut DVec3,
+    ) {
+        if let Some((ro, po)) = part.origin {
+            *p += *r * po;
+            *r *= ro;
+        }
+        match part.motion {
+            PlanMotion::Axis { i, sign, q: qi } => {
+                // `r · Rot(±e_i, q)` mixes two of r's columns (the general product's other
+                // terms are exact zeros and ones, and the sign of the axis is the sign of the
+                // sine: the same numbers).
+                let (x, y, z) = (r.x_axis, r.y_axis, r.z_axis);
+                let (sn, cs) = q[qi].sin_cos();
+                let sn = sn * sign;
+                match i {
+                    0 => (r.y_axis, r.z_axis) = (y * cs + z * sn, y * -sn + z * cs),
+                    1 => (r.x_axis, r.z_axis) = (x * cs + z * -sn, x * sn + z * cs),
+                    _ => (r.x_axis, r.y_axis) = (x * cs + y * sn, x * -sn + y * cs),
+                }
+            }
+            PlanMotion::General { body, part } => {
+                let jp = &model.bodies[body].joint[part];
+                match jp.kind {
+                    articula_model::JointKind::Revolute | articula_model::JointKind::Continuous => {
+                        *r *= DMat3::from_axis_angle(jp.axis, q[jp.q_offset])
+                    }
+                    _ => {
+                        let (rm, pm) = jp
+                            .motion_transform(&q[jp.q_offset..jp.q_offset + jp.nq()])
+                            .to_pose();
+                        *p += *r * pm;
+                        *r *= rm;
+                    }
+                }
+            }
+        }
     }
 }
+
+/// Longest root path [`PosePlan::pose`] composes root first (on the stack).
+const POSE_PATH: usize = 64;
 
 #[cfg(test)]
 mod tests {

@@ -294,6 +294,130 @@ fn the_global_queue_beats_an_equal_split() {
     );
 }
 
+/// The global queue against a plain reference: a frontier list scanned for its largest metric
+/// at every pop, the mass left summed afresh each time (no heap, no running sums).
+#[test]
+fn the_global_queue_equals_a_frontier_scan_with_budget_and_tolerance() {
+    let s = scene(
+        r#"{"models": {"h": "humanoid.urdf"},
+            "bodies": [{"model": "h", "position": [3, 0, 1]},
+                       {"model": "h", "position": [5, 0, 1]},
+                       {"model": "h", "position": [7, 0, 1]},
+                       {"model": "h", "position": [9, 0, 1]}],
+            "camera": {"eye": [0, 0, 1.5], "target": [10, 0, 1]}}"#,
+    );
+    let model = &s.models[0].model;
+    let tree = &model.assembly;
+    let join = |n: usize| match tree.nodes[n].kind {
+        articula_model::NodeKind::Join {
+            joint,
+            parent_side,
+            child_side,
+        } => Some((joint, parent_side, child_side)),
+        _ => None,
+    };
+    // Metrics from a fixed generator; about one node in four weighs 0 (an invisible part).
+    let mut x = 0x2545f4914f6cdd1du64;
+    let metrics: Vec<Vec<f64>> = (0..4)
+        .map(|_| {
+            (0..tree.nodes.len())
+                .map(|_| {
+                    x ^= x << 13;
+                    x ^= x >> 7;
+                    x ^= x << 17;
+                    let u = (x >> 11) as f64 / (1u64 << 53) as f64;
+                    if u < 0.25 {
+                        0.0
+                    } else {
+                        u * u * 10.0
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let total: f64 = metrics.iter().flatten().sum();
+    let models: Vec<&Model> = vec![model; 4];
+    let refs: Vec<&[f64]> = metrics.iter().map(|m| m.as_slice()).collect();
+    let mut cases = 0;
+    for budget in [None, Some(0), Some(7), Some(40), Some(1000)] {
+        for tolerance in [
+            None,
+            Some(0.5 * total),
+            Some(0.1 * total),
+            Some(0.01 * total),
+        ] {
+            if budget.is_none() && tolerance.is_none() {
+                continue;
+            }
+            let got = global_selection(&models, &refs, budget, tolerance);
+            // The reference: the frontier as (body, node) pairs; floating roots are free.
+            let mut frontier: Vec<(usize, usize)> = Vec::new();
+            let mut popped = vec![Vec::new(); 4];
+            let mut used = 0;
+            for b in 0..4 {
+                let root = tree.root();
+                popped[b].push(root);
+                let (_, a, c) = join(root).unwrap();
+                frontier.extend(
+                    [a, c]
+                        .into_iter()
+                        .filter(|&n| join(n).is_some())
+                        .map(|n| (b, n)),
+                );
+            }
+            loop {
+                let left: f64 = frontier.iter().map(|&(b, n)| metrics[b][n]).sum();
+                let Some(k) = (0..frontier.len()).max_by(|&i, &j| {
+                    let (bi, ni) = frontier[i];
+                    let (bj, nj) = frontier[j];
+                    metrics[bi][ni]
+                        .total_cmp(&metrics[bj][nj])
+                        .then(bj.cmp(&bi))
+                        .then(nj.cmp(&ni))
+                }) else {
+                    break;
+                };
+                let (b, n) = frontier[k];
+                if metrics[b][n] <= 0.0 || tolerance.is_some_and(|t| left <= t) {
+                    break;
+                }
+                let (j, a, c) = join(n).unwrap();
+                let cost = model.bodies[j].nv;
+                if budget.is_some_and(|k| used + cost > k) {
+                    break;
+                }
+                used += cost;
+                frontier.swap_remove(k);
+                popped[b].push(n);
+                frontier.extend(
+                    [a, c]
+                        .into_iter()
+                        .filter(|&m| join(m).is_some())
+                        .map(|m| (b, m)),
+                );
+            }
+            assert_eq!(got.used, used, "budget {budget:?}, tolerance {tolerance:?}");
+            assert_eq!(
+                got.popped, popped,
+                "budget {budget:?}, tolerance {tolerance:?}"
+            );
+            let error: f64 = frontier.iter().map(|&(b, n)| metrics[b][n]).sum();
+            assert!(
+                (got.total_error - error).abs() <= 1e-12 * total,
+                "budget {budget:?}, tolerance {tolerance:?}: {} vs {error}",
+                got.total_error
+            );
+            if let Some(t) = tolerance {
+                if budget.is_none() {
+                    assert!(got.total_error <= t * (1.0 + 1e-12));
+                }
+            }
+            cases += 1;
+        }
+    }
+    assert_eq!(cases, 19);
+}
+
 // ---------------------------------------------------------------------------------------------
 // 3. Entering the view: joints come back within one re-selection.
 
