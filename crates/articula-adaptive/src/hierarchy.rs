@@ -7,7 +7,6 @@
 //! active joint sits at a constant pose in its rigid cluster (`prel`), and every body of a
 //! cluster shares the cluster's spatial velocity.
 
-use crate::dense;
 use crate::hybrid::{Adaptive, Level, Rigid};
 use articula_dca::DynamicsError;
 use articula_model::{Model, NodeKind};
@@ -486,68 +485,31 @@ impl Adaptive {
                 add_sub_outer(&mut lo[parent], &hi[0], &u, dinv);
                 continue;
             }
-            let mut dm = [[0.0; 6]; 6];
-            for p in 0..k {
-                let u = mul6(&h.ia[idx], &d.s[vo + p].to_array());
-                h.u[dof + p] = u;
-                for qq in 0..=p {
-                    let x = dot6(&d.s[vo + qq].to_array(), &u);
-                    dm[p][qq] = x;
-                    dm[qq][p] = x;
-                }
-                h.uu[dof + p] = tau[vo + p] - dot6(&d.s[vo + p].to_array(), &pa);
-            }
-            // D = L Lᵀ. With Y = U L⁻ᵀ (columns y_p) and z = L⁻¹ u: U D⁻¹ Uᵀ = Y Yᵀ and
-            // U D⁻¹ u = Y z.
-            if k > 0 {
-                h.chol[idx] = dense::cholesky_k(&dm, k).ok_or_else(|| singular(model, r.j))?;
-            }
-            if parent == usize::MAX {
-                continue;
-            }
-            let l = &h.chol[idx];
-            let mut y = [[0.0; 6]; 6];
-            let mut z = [0.0; 6];
-            for p in 0..k {
-                let mut yp = h.u[dof + p];
-                let mut zp = h.uu[dof + p];
-                for qq in 0..p {
-                    let lpq = l[p][qq];
-                    zp -= lpq * z[qq];
-                    for rr in 0..6 {
-                        yp[rr] -= lpq * y[qq][rr];
-                    }
-                }
-                let inv = 1.0 / l[p][p];
-                z[p] = zp * inv;
-                for rr in 0..6 {
-                    yp[rr] *= inv;
-                }
-                y[p] = yp;
-            }
-            // Iᵃ = Iᴬ − Y Yᵀ, pᵃ = pᴬ + Iᵃ c + Y z (Iᵃ c = Iᴬ c − Y (Yᵀ c)).
+            // A joint of k > 1 degrees of freedom, its column loops of fixed length.
             let (lo, hi) = h.ia.split_at_mut(idx);
-            let (target, ia) = (&mut lo[parent], &hi[0]);
-            let mut add = mul6(ia, &c);
-            for p in 0..k {
-                let g = z[p] - dot6(&y[p], &c);
-                for rr in 0..6 {
-                    add[rr] += y[p][rr] * g;
-                }
-            }
-            let pp = &mut h.pa[parent];
-            for rr in 0..6 {
-                pp[rr] += pa[rr] + add[rr];
-            }
-            for rr in 0..6 {
-                for cc in rr..6 {
-                    let mut x = target[rr][cc] + ia[rr][cc];
-                    for p in 0..k {
-                        x -= y[p][rr] * y[p][cc];
-                    }
-                    target[rr][cc] = x;
-                    target[cc][rr] = x;
-                }
+            let parent = (parent != usize::MAX).then(|| (&mut lo[parent], &mut h.pa[parent]));
+            let args = (
+                &d.s[vo..vo + k],
+                &tau[vo..vo + k],
+                &hi[0],
+                &pa,
+                &c,
+                &mut h.u[dof..dof + k],
+                &mut h.uu[dof..dof + k],
+                &mut h.chol[idx],
+                parent,
+            );
+            debug_assert!(k <= 6, "a joint has at most 6 degrees of freedom");
+            let ok = match k {
+                0 => articulate_multi::<0>(args),
+                2 => articulate_multi::<2>(args),
+                3 => articulate_multi::<3>(args),
+                4 => articulate_multi::<4>(args),
+                5 => articulate_multi::<5>(args),
+                _ => articulate_multi::<6>(args),
+            };
+            if !ok {
+                return Err(singular(model, r.j));
             }
         }
         // Pass 3, root to leaves: a' = a_parent + c, q̈ = D⁻¹ (u − Uᵀ a'), a = a' + S q̈.
@@ -577,35 +539,179 @@ impl Adaptive {
                 h.acc[idx] = std::array::from_fn(|rr| ap[rr] + s[rr] * x);
                 continue;
             }
-            // q̈ = L⁻ᵀ L⁻¹ r.
-            let l = &h.chol[idx];
-            let mut x = [0.0; 6];
-            for p in 0..k {
-                let mut v = h.uu[dof + p] - dot6(&ap, &h.u[dof + p]);
-                for qq in 0..p {
-                    v -= l[p][qq] * x[qq];
-                }
-                x[p] = v / l[p][p];
-            }
-            for p in (0..k).rev() {
-                let mut v = x[p];
-                for qq in p + 1..k {
-                    v -= l[qq][p] * x[qq];
-                }
-                x[p] = v / l[p][p];
-            }
-            let mut a = ap;
-            for p in 0..k {
-                self.qdd[vo + p] = x[p];
-                let s = d.s[vo + p].to_array();
-                for rr in 0..6 {
-                    a[rr] += s[rr] * x[p];
-                }
-            }
-            h.acc[idx] = a;
+            let args = (
+                &h.chol[idx],
+                &h.uu[dof..dof + k],
+                &h.u[dof..dof + k],
+                &ap,
+                &d.s[vo..vo + k],
+                &mut self.qdd[vo..vo + k],
+            );
+            h.acc[idx] = match k {
+                0 => accelerate_multi::<0>(args),
+                2 => accelerate_multi::<2>(args),
+                3 => accelerate_multi::<3>(args),
+                4 => accelerate_multi::<4>(args),
+                5 => accelerate_multi::<5>(args),
+                _ => accelerate_multi::<6>(args),
+            };
         }
         Ok(())
     }
+}
+
+/// The arguments of [`articulate_multi`]: the joint's subspace columns `S`, its `τ`, its
+/// cluster's `Iᴬ` and `pᴬ`, the velocity product `c`, the outputs `U` (columns), `u` and the
+/// Cholesky factor of `D`, and the parent's `Iᴬ` and `pᴬ` (absent at the root).
+type MultiArgs<'a> = (
+    &'a [SpatialMotion],
+    &'a [f64],
+    &'a [[f64; 6]; 6],
+    &'a [f64; 6],
+    &'a [f64; 6],
+    &'a mut [[f64; 6]],
+    &'a mut [f64],
+    &'a mut [[f64; 6]; 6],
+    Option<(&'a mut [[f64; 6]; 6], &'a mut [f64; 6])>,
+);
+
+/// Pass 2 of [`Adaptive::reduced_aba`] at a joint of `K` > 1 degrees of freedom: `U = Iᴬ S`,
+/// `D = Sᵀ U = L Lᵀ`, `u = τ − Sᵀ pᴬ`; with `Y = U L⁻ᵀ` and `z = L⁻¹ u` the parent gets
+/// `Iᵃ = Iᴬ − Y Yᵀ` and `pᵃ = pᴬ + Iᵃ c + Y z` (`Iᵃ c = Iᴬ c − Y (Yᵀ c)`). The same operations
+/// in the same order as the loops over `k` it replaces (the same numbers), unrolled. `false`:
+/// `D` is not positive definite.
+#[inline(always)]
+fn articulate_multi<const K: usize>(args: MultiArgs) -> bool {
+    let (s, tau, ia, pa, c, u_out, uu_out, chol, parent) = args;
+    let s: &[SpatialMotion; K] = s.try_into().expect("K columns");
+    let tau: &[f64; K] = tau.try_into().expect("K torques");
+    let u_out: &mut [[f64; 6]; K] = u_out.try_into().expect("K columns");
+    let uu_out: &mut [f64; K] = uu_out.try_into().expect("K entries");
+    let s: [[f64; 6]; K] = std::array::from_fn(|p| s[p].to_array());
+    let mut dm = [[0.0; K]; K];
+    for p in 0..K {
+        let u = mul6(ia, &s[p]);
+        u_out[p] = u;
+        for qq in 0..=p {
+            let x = dot6(&s[qq], &u);
+            dm[p][qq] = x;
+            dm[qq][p] = x;
+        }
+        uu_out[p] = tau[p] - dot6(&s[p], pa);
+    }
+    // D = L Lᵀ (articula_dca::cholesky's order of operations).
+    let mut l = [[0.0f64; 6]; 6];
+    for j in 0..K {
+        let mut dj = dm[j][j];
+        for p in 0..j {
+            dj -= l[j][p] * l[j][p];
+        }
+        if dj.is_nan() || dj <= 0.0 {
+            return false;
+        }
+        let ljj = dj.sqrt();
+        l[j][j] = ljj;
+        let inv = 1.0 / ljj;
+        for i in (j + 1)..K {
+            let mut x = dm[i][j];
+            for p in 0..j {
+                x -= l[i][p] * l[j][p];
+            }
+            l[i][j] = x * inv;
+        }
+    }
+    *chol = l;
+    let Some((target, pp)) = parent else {
+        return true;
+    };
+    let mut y = [[0.0; 6]; K];
+    let mut z = [0.0; K];
+    for p in 0..K {
+        let mut yp = u_out[p];
+        let mut zp = uu_out[p];
+        for qq in 0..p {
+            let lpq = l[p][qq];
+            zp -= lpq * z[qq];
+            for rr in 0..6 {
+                yp[rr] -= lpq * y[qq][rr];
+            }
+        }
+        let inv = 1.0 / l[p][p];
+        z[p] = zp * inv;
+        for v in &mut yp {
+            *v *= inv;
+        }
+        y[p] = yp;
+    }
+    let mut add = mul6(ia, c);
+    for p in 0..K {
+        let g = z[p] - dot6(&y[p], c);
+        for rr in 0..6 {
+            add[rr] += y[p][rr] * g;
+        }
+    }
+    for rr in 0..6 {
+        pp[rr] += pa[rr] + add[rr];
+    }
+    for rr in 0..6 {
+        for cc in rr..6 {
+            let mut x = target[rr][cc] + ia[rr][cc];
+            for yp in &y {
+                x -= yp[rr] * yp[cc];
+            }
+            target[rr][cc] = x;
+            target[cc][rr] = x;
+        }
+    }
+    true
+}
+
+/// The arguments of [`accelerate_multi`]: the joint's Cholesky factor of `D`, its `u` and
+/// `U` columns, the parent's acceleration plus `c` (`a'`), its subspace columns, and its
+/// `q̈` (output).
+type AccelArgs<'a> = (
+    &'a [[f64; 6]; 6],
+    &'a [f64],
+    &'a [[f64; 6]],
+    &'a [f64; 6],
+    &'a [SpatialMotion],
+    &'a mut [f64],
+);
+
+/// Pass 3 of [`Adaptive::reduced_aba`] at a joint of `K` > 1 degrees of freedom:
+/// `q̈ = L⁻ᵀ L⁻¹ (u − Uᵀ a')`; returns `a = a' + S q̈`. Unrolled, the same numbers as the
+/// loops over `k` it replaces.
+#[inline(always)]
+fn accelerate_multi<const K: usize>(args: AccelArgs) -> [f64; 6] {
+    let (l, uu, u, ap, s, qdd) = args;
+    let uu: &[f64; K] = uu.try_into().expect("K entries");
+    let u: &[[f64; 6]; K] = u.try_into().expect("K columns");
+    let s: &[SpatialMotion; K] = s.try_into().expect("K columns");
+    let qdd: &mut [f64; K] = qdd.try_into().expect("K accelerations");
+    let mut x = [0.0; K];
+    for p in 0..K {
+        let mut v = uu[p] - dot6(ap, &u[p]);
+        for qq in 0..p {
+            v -= l[p][qq] * x[qq];
+        }
+        x[p] = v / l[p][p];
+    }
+    for p in (0..K).rev() {
+        let mut v = x[p];
+        for qq in p + 1..K {
+            v -= l[qq][p] * x[qq];
+        }
+        x[p] = v / l[p][p];
+    }
+    let mut a = *ap;
+    for p in 0..K {
+        qdd[p] = x[p];
+        let s = s[p].to_array();
+        for rr in 0..6 {
+            a[rr] += s[rr] * x[p];
+        }
+    }
+    a
 }
 
 /// The parts of a joint made of revolute parts about coordinate axes (`±x`, `±y`, `±z`, the
