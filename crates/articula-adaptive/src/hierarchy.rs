@@ -754,22 +754,42 @@ fn revolute_kinematics(
 ) -> (SpatialTransform, SpatialMotion, SpatialMotion) {
     let (mut x, mut v) = (x0, v0);
     let mut c = SpatialMotion::ZERO;
+    // The body's origin in the computation frame, `p = −E r`: a part's rotation leaves it
+    // (`E R Rᵀ r = E r`), a part's origin moves it.
+    let mut p = -(x.e * x.r);
     for (k, part) in body.joint.iter().enumerate() {
         if parts.moved & (1 << k) != 0 {
             x = x * part.origin;
+            p = -(x.e * x.r);
         }
         let (i, sign) = parts.axes[k];
         let (sn, cs) = (sign * q[part.q_offset]).sin_cos();
-        // E ← E R(q), r ← R(q)ᵀ r for the rotation about coordinate axis i: columns / components
-        // (i+1, i+2) turn by the angle.
-        let (a, b) = ((i + 1) % 3, (i + 2) % 3);
-        let (ea, eb) = (x.e.col(a), x.e.col(b));
-        *x.e.col_mut(a) = ea * cs + eb * sn;
-        *x.e.col_mut(b) = eb * cs - ea * sn;
-        let (ra, rb) = (x.r[a], x.r[b]);
-        x.r[a] = cs * ra + sn * rb;
-        x.r[b] = cs * rb - sn * ra;
-        let sk = x.apply_motion(part.subspace_column(0));
+        // E ← E R(q), r ← R(q)ᵀ r for the rotation about coordinate axis i: columns /
+        // components (i+1, i+2) turn by the angle; column i (the axis) stays.
+        let (e, r) = (&mut x.e, &mut x.r);
+        let axis = match i {
+            0 => {
+                (e.y_axis, e.z_axis) =
+                    (e.y_axis * cs + e.z_axis * sn, e.z_axis * cs - e.y_axis * sn);
+                (r.y, r.z) = (cs * r.y + sn * r.z, cs * r.z - sn * r.y);
+                e.x_axis
+            }
+            1 => {
+                (e.z_axis, e.x_axis) =
+                    (e.z_axis * cs + e.x_axis * sn, e.x_axis * cs - e.z_axis * sn);
+                (r.z, r.x) = (cs * r.z + sn * r.x, cs * r.x - sn * r.z);
+                e.y_axis
+            }
+            _ => {
+                (e.x_axis, e.y_axis) =
+                    (e.x_axis * cs + e.y_axis * sn, e.y_axis * cs - e.x_axis * sn);
+                (r.x, r.y) = (cs * r.x + sn * r.y, cs * r.y - sn * r.x);
+                e.z_axis
+            }
+        };
+        // S = X [±e_i; 0] = [w; p × w], `w = ±` column i of E.
+        let w = axis * sign;
+        let sk = SpatialMotion::new(w, p.cross(w));
         s[part.v_offset] = sk;
         let vj = sk * qd[part.v_offset];
         c += v.cross_motion(vj);
