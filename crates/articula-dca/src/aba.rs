@@ -71,53 +71,34 @@ pub(crate) fn aba(
             }
             continue;
         }
-        let mut dm = SmallSpd {
-            k,
-            a: [[0.0; 6]; 6],
+        // Several DOF: the same equations with k×k `D`, its loops of fixed length.
+        let args = MultiArgs {
+            s: &data.s[vo..vo + k],
+            tau: &tau[vo..vo + k],
+            c: data.c[i],
+            ia,
+            pa_i,
+            u: &mut aba.u[vo..vo + k],
+            uu: &mut aba.uu[vo..vo + k],
+            dinv: &mut aba.dinv[doff..doff + k * k],
         };
-        for p in 0..k {
-            let u = ia.mul_vec(&data.s[vo + p].to_array());
-            aba.u[vo + p] = u;
-            for q in 0..=p {
-                let x = dot6(&data.s[vo + q].to_array(), &u);
-                dm.a[p][q] = x;
-                dm.a[q][p] = x;
-            }
-            aba.uu[vo + p] = tau[vo + p] - data.s[vo + p].dot(pa_i);
-        }
-        if !dm.invert() {
+        let Some((ia_a, pa)) = (match k {
+            0 => articulate_multi::<0>(args, t.parent != usize::MAX),
+            2 => articulate_multi::<2>(args, t.parent != usize::MAX),
+            3 => articulate_multi::<3>(args, t.parent != usize::MAX),
+            4 => articulate_multi::<4>(args, t.parent != usize::MAX),
+            5 => articulate_multi::<5>(args, t.parent != usize::MAX),
+            _ => articulate_multi::<6>(args, t.parent != usize::MAX),
+        }) else {
             return Err(DynamicsError::Singular {
                 joint: model.bodies[i].joint_name(),
                 detail: "Sᵀ Iᴬ S is not positive definite",
             });
-        }
-        for p in 0..k {
-            for q in 0..k {
-                aba.dinv[doff + p * k + q] = dm.a[p][q];
-            }
-        }
+        };
         let parent = t.parent;
         if parent == usize::MAX {
             continue;
         }
-        // Iᵃ = Iᴬ − Σ_p U_p w_pᵀ with w_p = Σ_q D⁻¹_pq U_q;  pᵃ = pᴬ + Iᵃ c + Σ_p U_p (D⁻¹u)_p.
-        let mut ia_a = ia;
-        let mut du = [0.0; 6];
-        dm.mul(&aba.uu[vo..vo + k], &mut du);
-        let mut pa = pa_i;
-        for p in 0..k {
-            let mut w = [0.0; 6];
-            for q in 0..k {
-                let x = dm.a[p][q];
-                let uq = &aba.u[vo + q];
-                for r in 0..6 {
-                    w[r] += x * uq[r];
-                }
-            }
-            ia_a.sub_upper_outer(&aba.u[vo + p], &w);
-            pa += SpatialForce::from_array(aba.u[vo + p]) * du[p];
-        }
-        pa += SpatialForce::from_array(ia_a.mul_vec(&data.c[i].to_array()));
         let ps = aba.acc[parent] as usize;
         if first {
             aba.ia[ps] = ia_a;
@@ -161,21 +142,128 @@ fn accelerations(
             aba.a[slot] = ap + s[vo] * x;
             continue;
         }
-        let mut r = [0.0; 6];
-        for p in 0..k {
-            r[p] = aba.uu[vo + p] - dot6(&apa, &aba.u[vo + p]);
-        }
-        let mut a = ap;
-        for p in 0..k {
-            let mut x = 0.0;
-            for q in 0..k {
-                x += aba.dinv[doff + p * k + q] * r[q];
-            }
-            qdd[vo + p] = x;
-            a += s[vo + p] * x;
-        }
-        aba.a[slot] = a;
+        let args = (
+            &aba.uu[vo..vo + k],
+            &aba.u[vo..vo + k],
+            &aba.dinv[doff..doff + k * k],
+            &s[vo..vo + k],
+            &mut qdd[vo..vo + k],
+        );
+        aba.a[slot] = match k {
+            0 => accelerate_multi::<0>(args, ap),
+            2 => accelerate_multi::<2>(args, ap),
+            3 => accelerate_multi::<3>(args, ap),
+            4 => accelerate_multi::<4>(args, ap),
+            5 => accelerate_multi::<5>(args, ap),
+            _ => accelerate_multi::<6>(args, ap),
+        };
     }
+}
+
+/// What pass 2 reads and writes at a joint of several degrees of freedom: its subspace
+/// columns, torques and velocity product, `Iᴬ` and `pᴬ`, and its `U`, `u`, `D⁻¹` (k×k).
+struct MultiArgs<'a> {
+    s: &'a [SpatialMotion],
+    tau: &'a [f64],
+    c: SpatialMotion,
+    ia: Sym6,
+    pa_i: SpatialForce,
+    u: &'a mut [[f64; 6]],
+    uu: &'a mut [f64],
+    dinv: &'a mut [f64],
+}
+
+/// Pass 2 at a joint of `K` > 1 degrees of freedom: `U = Iᴬ S`, `D = Sᵀ U`, `u = τ − Sᵀ pᴬ`,
+/// `D⁻¹`; with a parent (`to_parent`), also `Iᵃ = Iᴬ − Σ_p U_p w_pᵀ` (`w_p = Σ_q D⁻¹_pq U_q`)
+/// and `pᵃ = pᴬ + Iᵃ c + Σ_p U_p (D⁻¹u)_p`. The operations of the loops over `k` it replaces,
+/// in their order, unrolled. `None`: `D` is not positive definite.
+#[inline(always)]
+fn articulate_multi<const K: usize>(m: MultiArgs, to_parent: bool) -> Option<(Sym6, SpatialForce)> {
+    let s: &[SpatialMotion; K] = m.s.try_into().expect("K columns");
+    let tau: &[f64; K] = m.tau.try_into().expect("K torques");
+    let u_out: &mut [[f64; 6]; K] = m.u.try_into().expect("K columns");
+    let uu: &mut [f64; K] = m.uu.try_into().expect("K entries");
+    let (ia, pa_i) = (m.ia, m.pa_i);
+    let mut dm = SmallSpd {
+        k: K,
+        a: [[0.0; 6]; 6],
+    };
+    for p in 0..K {
+        let u = ia.mul_vec(&s[p].to_array());
+        u_out[p] = u;
+        for q in 0..=p {
+            let x = dot6(&s[q].to_array(), &u);
+            dm.a[p][q] = x;
+            dm.a[q][p] = x;
+        }
+        uu[p] = tau[p] - s[p].dot(pa_i);
+    }
+    if !dm.invert_fixed::<K>() {
+        return None;
+    }
+    for p in 0..K {
+        for q in 0..K {
+            m.dinv[p * K + q] = dm.a[p][q];
+        }
+    }
+    if !to_parent {
+        return Some((ia, pa_i));
+    }
+    let mut ia_a = ia;
+    let mut du = [0.0; 6];
+    dm.mul(&uu[..], &mut du);
+    let mut pa = pa_i;
+    for p in 0..K {
+        let mut w = [0.0; 6];
+        for q in 0..K {
+            let x = dm.a[p][q];
+            let uq = &u_out[q];
+            for r in 0..6 {
+                w[r] += x * uq[r];
+            }
+        }
+        ia_a.sub_upper_outer(&u_out[p], &w);
+        pa += SpatialForce::from_array(u_out[p]) * du[p];
+    }
+    pa += SpatialForce::from_array(ia_a.mul_vec(&m.c.to_array()));
+    Some((ia_a, pa))
+}
+
+/// What pass 3 reads and writes at a joint of several degrees of freedom: its `u`, `U`,
+/// `D⁻¹` (k×k), `S`, and its `q̈` (written).
+type AccelArgs<'a> = (
+    &'a [f64],
+    &'a [[f64; 6]],
+    &'a [f64],
+    &'a [SpatialMotion],
+    &'a mut [f64],
+);
+
+/// Pass 3 at a joint of `K` > 1 degrees of freedom: `q̈ = D⁻¹ (u − Uᵀ a')`, returning
+/// `a = a' + S q̈` (arguments: `u`, `U`, `D⁻¹`, `S`, and `q̈` written). Unrolled, the same
+/// operations as the loops over `k` it replaces.
+#[inline(always)]
+fn accelerate_multi<const K: usize>(args: AccelArgs, ap: SpatialMotion) -> SpatialMotion {
+    let (uu, u, dinv, s, qdd) = args;
+    let uu: &[f64; K] = uu.try_into().expect("K entries");
+    let u: &[[f64; 6]; K] = u.try_into().expect("K columns");
+    let s: &[SpatialMotion; K] = s.try_into().expect("K columns");
+    let qdd: &mut [f64; K] = qdd.try_into().expect("K accelerations");
+    let apa = ap.to_array();
+    let mut r = [0.0; K];
+    for p in 0..K {
+        r[p] = uu[p] - dot6(&apa, &u[p]);
+    }
+    let mut a = ap;
+    for p in 0..K {
+        let mut x = 0.0;
+        for q in 0..K {
+            x += dinv[p * K + q] * r[q];
+        }
+        qdd[p] = x;
+        a += s[p] * x;
+    }
+    a
 }
 
 #[inline(always)]

@@ -152,20 +152,34 @@ pub struct SmallSpd {
 impl SmallSpd {
     /// Inverts in place by Cholesky; `false` when not positive definite.
     pub fn invert(&mut self) -> bool {
-        let k = self.k;
-        if k == 1 {
-            let d = self.a[0][0];
-            if d.is_nan() || d <= 0.0 {
-                return false;
+        match self.k {
+            0 => true,
+            1 => {
+                let d = self.a[0][0];
+                if d.is_nan() || d <= 0.0 {
+                    return false;
+                }
+                self.a[0][0] = 1.0 / d;
+                true
             }
-            self.a[0][0] = 1.0 / d;
-            return true;
+            2 => self.invert_fixed::<2>(),
+            3 => self.invert_fixed::<3>(),
+            4 => self.invert_fixed::<4>(),
+            5 => self.invert_fixed::<5>(),
+            _ => self.invert_fixed::<6>(),
         }
-        let Some(l) = cholesky(&self.a, k) else {
+    }
+
+    /// [`SmallSpd::invert`] for `k = K` > 1, with loops of fixed length: `A = L Lᵀ`,
+    /// `A⁻¹ = L⁻ᵀ L⁻¹`.
+    #[inline(always)]
+    pub fn invert_fixed<const K: usize>(&mut self) -> bool {
+        debug_assert_eq!(self.k, K);
+        let Some(l) = cholesky(&self.a, K) else {
             return false;
         };
         let mut li = [[0.0f64; 6]; 6];
-        for i in 0..k {
+        for i in 0..K {
             li[i][i] = 1.0 / l[i][i];
             for j in 0..i {
                 let mut s = 0.0;
@@ -175,10 +189,10 @@ impl SmallSpd {
                 li[i][j] = s / l[i][i];
             }
         }
-        for i in 0..k {
-            for j in i..k {
+        for i in 0..K {
+            for j in i..K {
                 let mut s = 0.0;
-                for p in j..k {
+                for p in j..K {
                     s += li[p][i] * li[p][j];
                 }
                 self.a[i][j] = s;
