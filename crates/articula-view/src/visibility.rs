@@ -280,20 +280,29 @@ impl DepthBuffer {
     }
 }
 
-/// `⌊x⌋` as a cell index, 0 below 0 (and for NaN): `x.floor().max(0.0) as usize` without the
-/// `floor` call (a library call on baseline x86-64; truncation is the floor of x ≥ 0).
+/// Largest cell index [`floor_index`] and [`ceil_index`] return (2⁵²: past any buffer; every
+/// caller clamps to its width or height).
+const INDEX_CAP: f64 = 4503599627370496.0;
+
+/// `⌊x⌋` as a cell index, 0 below 0 (and for NaN), at most 2⁵²: `x.floor().max(0.0) as
+/// usize` without the `floor` call (a library call on baseline x86-64; truncation is the floor
+/// of x ≥ 0) nor the saturating conversion's range checks.
 #[inline]
+#[allow(clippy::manual_clamp)] // `clamp` keeps a NaN, which the conversion must not see
 fn floor_index(x: f64) -> usize {
-    x.max(0.0) as usize
+    // `max` turns NaN into 0; `min` keeps it in i64's range.
+    let t = x.max(0.0).min(INDEX_CAP);
+    // SAFETY: t is finite and in [0, 2⁵²], which i64 represents.
+    unsafe { t.to_int_unchecked::<i64>() as usize }
 }
 
-/// `⌈x⌉` as a cell index, 0 below 0 (and for NaN): `x.ceil().max(0.0) as usize` without the
-/// `ceil` call.
+/// `⌈x⌉` as a cell index, 0 below 0 (and for NaN), at most 2⁵² + 1: `x.ceil().max(0.0) as
+/// usize` without the `ceil` call.
 #[inline]
 fn ceil_index(x: f64) -> usize {
-    let t = x.max(0.0) as usize;
+    let t = floor_index(x);
     if (t as f64) < x {
-        t.saturating_add(1)
+        t + 1
     } else {
         t
     }
@@ -642,9 +651,17 @@ mod tests {
             let x = k as f64 * 0.25;
             xs.extend([x, x + 1e-12, x - 1e-12, f64::from_bits(x.to_bits() + 1)]);
         }
+        // Above 2⁵² (where every f64 is an integer) the indices stop at the cap.
+        let cap = |i: usize| i.min(1 << 52);
         for x in xs {
-            assert_eq!(floor_index(x), x.floor().max(0.0) as usize, "floor of {x}");
-            assert_eq!(ceil_index(x), x.ceil().max(0.0) as usize, "ceil of {x}");
+            assert_eq!(
+                floor_index(x),
+                cap(x.floor().max(0.0) as usize),
+                "floor of {x}"
+            );
+            let c = ceil_index(x);
+            assert_eq!(cap(c), cap(x.ceil().max(0.0) as usize), "ceil of {x}");
+            assert!(c <= (1 << 52) + 1, "ceil of {x}");
         }
     }
 }
