@@ -57,8 +57,8 @@ pub(crate) struct Hierarchy {
     /// Articulated-body workspace of the reduced tree (one rigid cluster per active joint),
     /// indexed like `rec`: `Iᴬ`, `pᴬ`, the cluster's acceleration, `D⁻¹` (one DOF) or the
     /// Cholesky factor of `D` (several); per degree of freedom (at `rec.dof`) `U = Iᴬ s` and
-    /// `u = τ − sᵀ pᴬ`.
-    pub ia: Vec<[[f64; 6]; 6]>,
+    /// `u = τ − sᵀ pᴬ`. `Iᴬ` is symmetric: its upper triangle, packed ([`Sym6`]).
+    pub ia: Vec<Sym6>,
     pub pa: Vec<[f64; 6]>,
     pub acc: Vec<[f64; 6]>,
     pub dinv: Vec<f64>,
@@ -219,9 +219,8 @@ impl Adaptive {
         let nb = model.bodies.len();
         if h.rec.capacity() < nb {
             h.rec.reserve(nb);
-            for v in [&mut h.ia, &mut h.chol] {
-                v.reserve(nb.saturating_sub(v.len()));
-            }
+            h.ia.reserve(nb.saturating_sub(h.ia.len()));
+            h.chol.reserve(nb.saturating_sub(h.chol.len()));
             for v in [&mut h.pa, &mut h.acc] {
                 v.reserve(nb.saturating_sub(v.len()));
             }
@@ -280,7 +279,7 @@ impl Adaptive {
             dof += body.nv;
         }
         let na = h.rec.len();
-        h.ia.resize(na, [[0.0; 6]; 6]);
+        h.ia.resize(na, [0.0; 21]);
         h.pa.resize(na, [0.0; 6]);
         h.acc.resize(na, [0.0; 6]);
         h.dinv.resize(na, 0.0);
@@ -426,13 +425,14 @@ impl Adaptive {
             let (i00, i01, i02, i11, i12, i22) =
                 (ib(0, 0), ib(0, 1), ib(0, 2), ib(1, 1), ib(1, 2), ib(2, 2));
             let hv = cw * m;
+            // Upper triangle of [Ī, h×; h×ᵀ, m 1], rows packed.
             *ia = [
-                [i00, i01, i02, 0.0, -hv.z, hv.y],
-                [i01, i11, i12, hv.z, 0.0, -hv.x],
-                [i02, i12, i22, -hv.y, hv.x, 0.0],
-                [0.0, hv.z, -hv.y, m, 0.0, 0.0],
-                [-hv.z, 0.0, hv.x, 0.0, m, 0.0],
-                [hv.y, -hv.x, 0.0, 0.0, 0.0, m],
+                i00, i01, i02, 0.0, -hv.z, hv.y, //
+                i11, i12, hv.z, 0.0, -hv.x, //
+                i22, -hv.y, hv.x, 0.0, //
+                m, 0.0, 0.0, //
+                m, 0.0, //
+                m,
             ];
             *pa = if accel {
                 let v = d.v[r.j];
@@ -459,10 +459,11 @@ impl Adaptive {
                 // U = Iᴬ s and Iᴬ c in one sweep (Iᴬ symmetric: sums of its rows).
                 let mut u = [0.0; 6];
                 let mut ic = [0.0; 6];
-                for (row, (&sc, &cc)) in ia.iter().zip(s.iter().zip(&c)) {
+                for (row, (&sc, &cc)) in s.iter().zip(&c).enumerate() {
                     for rr in 0..6 {
-                        u[rr] += row[rr] * sc;
-                        ic[rr] += row[rr] * cc;
+                        let x = ia[SYM[row][rr]];
+                        u[rr] += x * sc;
+                        ic[rr] += x * cc;
                     }
                 }
                 let dd = dot6(&s, &u);
@@ -486,9 +487,10 @@ impl Adaptive {
                 add_sub_outer(&mut lo[parent], &hi[0], &u, dinv);
                 continue;
             }
+            let ia = unpack(&h.ia[idx]);
             let mut dm = [[0.0; 6]; 6];
             for p in 0..k {
-                let u = mul6(&h.ia[idx], &d.s[vo + p].to_array());
+                let u = mul6(&ia, &d.s[vo + p].to_array());
                 h.u[dof + p] = u;
                 for qq in 0..=p {
                     let x = dot6(&d.s[vo + qq].to_array(), &u);
@@ -526,9 +528,8 @@ impl Adaptive {
                 y[p] = yp;
             }
             // Iᵃ = Iᴬ − Y Yᵀ, pᵃ = pᴬ + Iᵃ c + Y z (Iᵃ c = Iᴬ c − Y (Yᵀ c)).
-            let (lo, hi) = h.ia.split_at_mut(idx);
-            let (target, ia) = (&mut lo[parent], &hi[0]);
-            let mut add = mul6(ia, &c);
+            let target = &mut h.ia[parent];
+            let mut add = mul6(&ia, &c);
             for p in 0..k {
                 let g = z[p] - dot6(&y[p], &c);
                 for rr in 0..6 {
@@ -541,12 +542,11 @@ impl Adaptive {
             }
             for rr in 0..6 {
                 for cc in rr..6 {
-                    let mut x = target[rr][cc] + ia[rr][cc];
+                    let mut x = target[SYM[rr][cc]] + ia[rr][cc];
                     for p in 0..k {
                         x -= y[p][rr] * y[p][cc];
                     }
-                    target[rr][cc] = x;
-                    target[cc][rr] = x;
+                    target[SYM[rr][cc]] = x;
                 }
             }
         }
@@ -678,17 +678,45 @@ fn mul6(a: &[[f64; 6]; 6], x: &[f64; 6]) -> [f64; 6] {
     std::array::from_fn(|r| dot6(&a[r], x))
 }
 
-/// `s += a − α u uᵀ` on symmetric 6 × 6 matrices, row by row (`α (uᵢ uⱼ)`: symmetric to the
-/// bit).
+/// A symmetric 6 × 6 matrix by its upper triangle, rows packed: entry `(r, c)` at
+/// `SYM[r][c]` (= `SYM[c][r]`).
+pub(crate) type Sym6 = [f64; 21];
+
+/// Index of entry `(r, c)` of a [`Sym6`]: row `r ≤ c` starts at `r (11 − r) / 2`.
+const fn sym_index(r: usize, c: usize) -> usize {
+    let (r, c) = if r <= c { (r, c) } else { (c, r) };
+    r * (11 - r) / 2 + c
+}
+
+/// The [`Sym6`] index of every entry.
+const SYM: [[usize; 6]; 6] = {
+    let mut t = [[0; 6]; 6];
+    let mut r = 0;
+    while r < 6 {
+        let mut c = 0;
+        while c < 6 {
+            t[r][c] = sym_index(r, c);
+            c += 1;
+        }
+        r += 1;
+    }
+    t
+};
+
+/// The full matrix of a [`Sym6`].
 #[inline(always)]
-fn add_sub_outer(s: &mut [[f64; 6]; 6], a: &[[f64; 6]; 6], u: &[f64; 6], alpha: f64) {
-    // The upper triangle, mirrored: both operands are symmetric to the bit, so the lower
-    // entries would be the same sums.
+fn unpack(p: &Sym6) -> [[f64; 6]; 6] {
+    std::array::from_fn(|r| std::array::from_fn(|c| p[SYM[r][c]]))
+}
+
+/// `s += a − α u uᵀ` on symmetric 6 × 6 matrices (upper triangles; `α (uᵢ uⱼ)` keeps the
+/// result symmetric to the bit).
+#[inline(always)]
+fn add_sub_outer(s: &mut Sym6, a: &Sym6, u: &[f64; 6], alpha: f64) {
     for i in 0..6 {
         for j in i..6 {
-            let x = s[i][j] + (a[i][j] - alpha * (u[i] * u[j]));
-            s[i][j] = x;
-            s[j][i] = x;
+            let x = SYM[i][j];
+            s[x] += a[x] - alpha * (u[i] * u[j]);
         }
     }
 }
