@@ -487,67 +487,15 @@ impl Adaptive {
                 add_sub_outer(&mut lo[parent], &hi[0], &u, dinv);
                 continue;
             }
-            let ia = unpack(&h.ia[idx]);
-            let mut dm = [[0.0; 6]; 6];
-            for p in 0..k {
-                let u = mul6(&ia, &d.s[vo + p].to_array());
-                h.u[dof + p] = u;
-                for qq in 0..=p {
-                    let x = dot6(&d.s[vo + qq].to_array(), &u);
-                    dm[p][qq] = x;
-                    dm[qq][p] = x;
-                }
-                h.uu[dof + p] = tau[vo + p] - dot6(&d.s[vo + p].to_array(), &pa);
-            }
-            // D = L Lᵀ. With Y = U L⁻ᵀ (columns y_p) and z = L⁻¹ u: U D⁻¹ Uᵀ = Y Yᵀ and
-            // U D⁻¹ u = Y z.
-            if k > 0 {
-                h.chol[idx] = dense::cholesky_k(&dm, k).ok_or_else(|| singular(model, r.j))?;
-            }
-            if parent == usize::MAX {
-                continue;
-            }
-            let l = &h.chol[idx];
-            let mut y = [[0.0; 6]; 6];
-            let mut z = [0.0; 6];
-            for p in 0..k {
-                let mut yp = h.u[dof + p];
-                let mut zp = h.uu[dof + p];
-                for qq in 0..p {
-                    let lpq = l[p][qq];
-                    zp -= lpq * z[qq];
-                    for rr in 0..6 {
-                        yp[rr] -= lpq * y[qq][rr];
-                    }
-                }
-                let inv = 1.0 / l[p][p];
-                z[p] = zp * inv;
-                for rr in 0..6 {
-                    yp[rr] *= inv;
-                }
-                y[p] = yp;
-            }
-            // Iᵃ = Iᴬ − Y Yᵀ, pᵃ = pᴬ + Iᵃ c + Y z (Iᵃ c = Iᴬ c − Y (Yᵀ c)).
-            let target = &mut h.ia[parent];
-            let mut add = mul6(&ia, &c);
-            for p in 0..k {
-                let g = z[p] - dot6(&y[p], &c);
-                for rr in 0..6 {
-                    add[rr] += y[p][rr] * g;
-                }
-            }
-            let pp = &mut h.pa[parent];
-            for rr in 0..6 {
-                pp[rr] += pa[rr] + add[rr];
-            }
-            for rr in 0..6 {
-                for cc in rr..6 {
-                    let mut x = target[SYM[rr][cc]] + ia[rr][cc];
-                    for p in 0..k {
-                        x -= y[p][rr] * y[p][cc];
-                    }
-                    target[SYM[rr][cc]] = x;
-                }
+            // Several degrees of freedom: the loops over them unrolled for the usual counts.
+            let ok = match k {
+                2 => articulate_multi::<2>(h, &d.s, tau, idx, k, &c),
+                3 => articulate_multi::<3>(h, &d.s, tau, idx, k, &c),
+                6 => articulate_multi::<6>(h, &d.s, tau, idx, k, &c),
+                _ => articulate_multi::<0>(h, &d.s, tau, idx, k, &c),
+            };
+            if !ok {
+                return Err(singular(model, h.rec[idx].j));
             }
         }
         // Pass 3, root to leaves: a' = a_parent + c, q̈ = D⁻¹ (u − Uᵀ a'), a = a' + S q̈.
@@ -577,35 +525,143 @@ impl Adaptive {
                 h.acc[idx] = std::array::from_fn(|rr| ap[rr] + s[rr] * x);
                 continue;
             }
-            // q̈ = L⁻ᵀ L⁻¹ r.
-            let l = &h.chol[idx];
-            let mut x = [0.0; 6];
-            for p in 0..k {
-                let mut v = h.uu[dof + p] - dot6(&ap, &h.u[dof + p]);
-                for qq in 0..p {
-                    v -= l[p][qq] * x[qq];
-                }
-                x[p] = v / l[p][p];
+            match k {
+                2 => accelerate_multi::<2>(h, &d.s, &mut self.qdd, idx, k, ap),
+                3 => accelerate_multi::<3>(h, &d.s, &mut self.qdd, idx, k, ap),
+                6 => accelerate_multi::<6>(h, &d.s, &mut self.qdd, idx, k, ap),
+                _ => accelerate_multi::<0>(h, &d.s, &mut self.qdd, idx, k, ap),
             }
-            for p in (0..k).rev() {
-                let mut v = x[p];
-                for qq in p + 1..k {
-                    v -= l[qq][p] * x[qq];
-                }
-                x[p] = v / l[p][p];
-            }
-            let mut a = ap;
-            for p in 0..k {
-                self.qdd[vo + p] = x[p];
-                let s = d.s[vo + p].to_array();
-                for rr in 0..6 {
-                    a[rr] += s[rr] * x[p];
-                }
-            }
-            h.acc[idx] = a;
         }
         Ok(())
     }
+}
+
+/// Pass 2 of the reduced ABA at record `idx` for a joint of several degrees of freedom:
+/// `U = Iᴬ S`, `D = Sᵀ U = L Lᵀ`, `u = τ − Sᵀ pᴬ`, and the parent's `Iᵃ`, `pᵃ`. `K`: the
+/// degrees of freedom when known at compile time (loops unrolled; the same sums), 0: `k`.
+/// False when `D` is not positive definite.
+#[inline(always)]
+fn articulate_multi<const K: usize>(
+    h: &mut Hierarchy,
+    s: &[SpatialMotion],
+    tau: &[f64],
+    idx: usize,
+    k: usize,
+    c: &[f64; 6],
+) -> bool {
+    let k = if K == 0 { k } else { K };
+    let r = &h.rec[idx];
+    let (vo, dof, parent) = (r.vo, r.dof, r.pidx);
+    let pa = h.pa[idx];
+    let ia = unpack(&h.ia[idx]);
+    let mut dm = [[0.0; 6]; 6];
+    for p in 0..k {
+        let u = mul6(&ia, &s[vo + p].to_array());
+        h.u[dof + p] = u;
+        for qq in 0..=p {
+            let x = dot6(&s[vo + qq].to_array(), &u);
+            dm[p][qq] = x;
+            dm[qq][p] = x;
+        }
+        h.uu[dof + p] = tau[vo + p] - dot6(&s[vo + p].to_array(), &pa);
+    }
+    // D = L Lᵀ. With Y = U L⁻ᵀ (columns y_p) and z = L⁻¹ u: U D⁻¹ Uᵀ = Y Yᵀ and
+    // U D⁻¹ u = Y z.
+    if k > 0 {
+        match dense::cholesky_k(&dm, k) {
+            Some(l) => h.chol[idx] = l,
+            None => return false,
+        }
+    }
+    if parent == usize::MAX {
+        return true;
+    }
+    let l = &h.chol[idx];
+    let mut y = [[0.0; 6]; 6];
+    let mut z = [0.0; 6];
+    for p in 0..k {
+        let mut yp = h.u[dof + p];
+        let mut zp = h.uu[dof + p];
+        for qq in 0..p {
+            let lpq = l[p][qq];
+            zp -= lpq * z[qq];
+            for rr in 0..6 {
+                yp[rr] -= lpq * y[qq][rr];
+            }
+        }
+        let inv = 1.0 / l[p][p];
+        z[p] = zp * inv;
+        for rr in 0..6 {
+            yp[rr] *= inv;
+        }
+        y[p] = yp;
+    }
+    // Iᵃ = Iᴬ − Y Yᵀ, pᵃ = pᴬ + Iᵃ c + Y z (Iᵃ c = Iᴬ c − Y (Yᵀ c)).
+    let target = &mut h.ia[parent];
+    let mut add = mul6(&ia, c);
+    for p in 0..k {
+        let g = z[p] - dot6(&y[p], c);
+        for rr in 0..6 {
+            add[rr] += y[p][rr] * g;
+        }
+    }
+    let pp = &mut h.pa[parent];
+    for rr in 0..6 {
+        pp[rr] += pa[rr] + add[rr];
+    }
+    for rr in 0..6 {
+        for cc in rr..6 {
+            let mut x = target[SYM[rr][cc]] + ia[rr][cc];
+            for p in 0..k {
+                x -= y[p][rr] * y[p][cc];
+            }
+            target[SYM[rr][cc]] = x;
+        }
+    }
+    true
+}
+
+/// Pass 3 of the reduced ABA at record `idx` for a joint of several degrees of freedom, from
+/// `a' = a_parent + c`: `q̈ = L⁻ᵀ L⁻¹ (u − Uᵀ a')`, `a = a' + S q̈`. `K` as in
+/// [`articulate_multi`].
+#[inline(always)]
+fn accelerate_multi<const K: usize>(
+    h: &mut Hierarchy,
+    s: &[SpatialMotion],
+    qdd: &mut [f64],
+    idx: usize,
+    k: usize,
+    ap: [f64; 6],
+) {
+    let k = if K == 0 { k } else { K };
+    let r = &h.rec[idx];
+    let (vo, dof) = (r.vo, r.dof);
+    // q̈ = L⁻ᵀ L⁻¹ r.
+    let l = &h.chol[idx];
+    let mut x = [0.0; 6];
+    for p in 0..k {
+        let mut v = h.uu[dof + p] - dot6(&ap, &h.u[dof + p]);
+        for qq in 0..p {
+            v -= l[p][qq] * x[qq];
+        }
+        x[p] = v / l[p][p];
+    }
+    for p in (0..k).rev() {
+        let mut v = x[p];
+        for qq in p + 1..k {
+            v -= l[qq][p] * x[qq];
+        }
+        x[p] = v / l[p][p];
+    }
+    let mut a = ap;
+    for p in 0..k {
+        qdd[vo + p] = x[p];
+        let s = s[vo + p].to_array();
+        for rr in 0..6 {
+            a[rr] += s[rr] * x[p];
+        }
+    }
+    h.acc[idx] = a;
 }
 
 /// The parts of a joint made of revolute parts about coordinate axes (`±x`, `±y`, `±z`, the
