@@ -7,6 +7,7 @@
 //! active joint sits at a constant pose in its rigid cluster (`prel`), and every body of a
 //! cluster shares the cluster's spatial velocity.
 
+use crate::dense;
 use crate::hybrid::{Adaptive, Level, Rigid};
 use articula_dca::DynamicsError;
 use articula_model::{Model, NodeKind};
@@ -56,8 +57,8 @@ pub(crate) struct Hierarchy {
     /// Articulated-body workspace of the reduced tree (one rigid cluster per active joint),
     /// indexed like `rec`: `Iᴬ`, `pᴬ`, the cluster's acceleration, `D⁻¹` (one DOF) or the
     /// Cholesky factor of `D` (several); per degree of freedom (at `rec.dof`) `U = Iᴬ s` and
-    /// `u = τ − sᵀ pᴬ`.
-    pub ia: Vec<[[f64; 6]; 6]>,
+    /// `u = τ − sᵀ pᴬ`. `Iᴬ` is symmetric: its upper triangle, packed ([`Sym6`]).
+    pub ia: Vec<Sym6>,
     pub pa: Vec<[f64; 6]>,
     pub acc: Vec<[f64; 6]>,
     pub dinv: Vec<f64>,
@@ -218,9 +219,8 @@ impl Adaptive {
         let nb = model.bodies.len();
         if h.rec.capacity() < nb {
             h.rec.reserve(nb);
-            for v in [&mut h.ia, &mut h.chol] {
-                v.reserve(nb.saturating_sub(v.len()));
-            }
+            h.ia.reserve(nb.saturating_sub(h.ia.len()));
+            h.chol.reserve(nb.saturating_sub(h.chol.len()));
             for v in [&mut h.pa, &mut h.acc] {
                 v.reserve(nb.saturating_sub(v.len()));
             }
@@ -279,7 +279,7 @@ impl Adaptive {
             dof += body.nv;
         }
         let na = h.rec.len();
-        h.ia.resize(na, [[0.0; 6]; 6]);
+        h.ia.resize(na, [0.0; 21]);
         h.pa.resize(na, [0.0; 6]);
         h.acc.resize(na, [0.0; 6]);
         h.dinv.resize(na, 0.0);
@@ -425,13 +425,14 @@ impl Adaptive {
             let (i00, i01, i02, i11, i12, i22) =
                 (ib(0, 0), ib(0, 1), ib(0, 2), ib(1, 1), ib(1, 2), ib(2, 2));
             let hv = cw * m;
+            // Upper triangle of [Ī, h×; h×ᵀ, m 1], rows packed.
             *ia = [
-                [i00, i01, i02, 0.0, -hv.z, hv.y],
-                [i01, i11, i12, hv.z, 0.0, -hv.x],
-                [i02, i12, i22, -hv.y, hv.x, 0.0],
-                [0.0, hv.z, -hv.y, m, 0.0, 0.0],
-                [-hv.z, 0.0, hv.x, 0.0, m, 0.0],
-                [hv.y, -hv.x, 0.0, 0.0, 0.0, m],
+                i00, i01, i02, 0.0, -hv.z, hv.y, //
+                i11, i12, hv.z, 0.0, -hv.x, //
+                i22, -hv.y, hv.x, 0.0, //
+                m, 0.0, 0.0, //
+                m, 0.0, //
+                m,
             ];
             *pa = if accel {
                 let v = d.v[r.j];
@@ -458,10 +459,11 @@ impl Adaptive {
                 // U = Iᴬ s and Iᴬ c in one sweep (Iᴬ symmetric: sums of its rows).
                 let mut u = [0.0; 6];
                 let mut ic = [0.0; 6];
-                for (row, (&sc, &cc)) in ia.iter().zip(s.iter().zip(&c)) {
+                for (row, (&sc, &cc)) in s.iter().zip(&c).enumerate() {
                     for rr in 0..6 {
-                        u[rr] += row[rr] * sc;
-                        ic[rr] += row[rr] * cc;
+                        let x = ia[SYM[row][rr]];
+                        u[rr] += x * sc;
+                        ic[rr] += x * cc;
                     }
                 }
                 let dd = dot6(&s, &u);
@@ -485,31 +487,15 @@ impl Adaptive {
                 add_sub_outer(&mut lo[parent], &hi[0], &u, dinv);
                 continue;
             }
-            // A joint of k > 1 degrees of freedom, its column loops of fixed length.
-            let (lo, hi) = h.ia.split_at_mut(idx);
-            let parent = (parent != usize::MAX).then(|| (&mut lo[parent], &mut h.pa[parent]));
-            let args = (
-                &d.s[vo..vo + k],
-                &tau[vo..vo + k],
-                &hi[0],
-                &pa,
-                &c,
-                &mut h.u[dof..dof + k],
-                &mut h.uu[dof..dof + k],
-                &mut h.chol[idx],
-                parent,
-            );
-            debug_assert!(k <= 6, "a joint has at most 6 degrees of freedom");
+            // Several degrees of freedom: the loops over them unrolled for the usual counts.
             let ok = match k {
-                0 => articulate_multi::<0>(args),
-                2 => articulate_multi::<2>(args),
-                3 => articulate_multi::<3>(args),
-                4 => articulate_multi::<4>(args),
-                5 => articulate_multi::<5>(args),
-                _ => articulate_multi::<6>(args),
+                2 => articulate_multi::<2>(h, &d.s, tau, idx, k, &c),
+                3 => articulate_multi::<3>(h, &d.s, tau, idx, k, &c),
+                6 => articulate_multi::<6>(h, &d.s, tau, idx, k, &c),
+                _ => articulate_multi::<0>(h, &d.s, tau, idx, k, &c),
             };
             if !ok {
-                return Err(singular(model, r.j));
+                return Err(singular(model, h.rec[idx].j));
             }
         }
         // Pass 3, root to leaves: a' = a_parent + c, q̈ = D⁻¹ (u − Uᵀ a'), a = a' + S q̈.
@@ -539,96 +525,63 @@ impl Adaptive {
                 h.acc[idx] = std::array::from_fn(|rr| ap[rr] + s[rr] * x);
                 continue;
             }
-            let args = (
-                &h.chol[idx],
-                &h.uu[dof..dof + k],
-                &h.u[dof..dof + k],
-                &ap,
-                &d.s[vo..vo + k],
-                &mut self.qdd[vo..vo + k],
-            );
-            h.acc[idx] = match k {
-                0 => accelerate_multi::<0>(args),
-                2 => accelerate_multi::<2>(args),
-                3 => accelerate_multi::<3>(args),
-                4 => accelerate_multi::<4>(args),
-                5 => accelerate_multi::<5>(args),
-                _ => accelerate_multi::<6>(args),
-            };
+            match k {
+                2 => accelerate_multi::<2>(h, &d.s, &mut self.qdd, idx, k, ap),
+                3 => accelerate_multi::<3>(h, &d.s, &mut self.qdd, idx, k, ap),
+                6 => accelerate_multi::<6>(h, &d.s, &mut self.qdd, idx, k, ap),
+                _ => accelerate_multi::<0>(h, &d.s, &mut self.qdd, idx, k, ap),
+            }
         }
         Ok(())
     }
 }
 
-/// The arguments of [`articulate_multi`]: the joint's subspace columns `S`, its `τ`, its
-/// cluster's `Iᴬ` and `pᴬ`, the velocity product `c`, the outputs `U` (columns), `u` and the
-/// Cholesky factor of `D`, and the parent's `Iᴬ` and `pᴬ` (absent at the root).
-type MultiArgs<'a> = (
-    &'a [SpatialMotion],
-    &'a [f64],
-    &'a [[f64; 6]; 6],
-    &'a [f64; 6],
-    &'a [f64; 6],
-    &'a mut [[f64; 6]],
-    &'a mut [f64],
-    &'a mut [[f64; 6]; 6],
-    Option<(&'a mut [[f64; 6]; 6], &'a mut [f64; 6])>,
-);
-
-/// Pass 2 of [`Adaptive::reduced_aba`] at a joint of `K` > 1 degrees of freedom: `U = Iᴬ S`,
-/// `D = Sᵀ U = L Lᵀ`, `u = τ − Sᵀ pᴬ`; with `Y = U L⁻ᵀ` and `z = L⁻¹ u` the parent gets
-/// `Iᵃ = Iᴬ − Y Yᵀ` and `pᵃ = pᴬ + Iᵃ c + Y z` (`Iᵃ c = Iᴬ c − Y (Yᵀ c)`). The same operations
-/// in the same order as the loops over `k` it replaces (the same numbers), unrolled. `false`:
-/// `D` is not positive definite.
+/// Pass 2 of the reduced ABA at record `idx` for a joint of several degrees of freedom:
+/// `U = Iᴬ S`, `D = Sᵀ U = L Lᵀ`, `u = τ − Sᵀ pᴬ`, and the parent's `Iᵃ`, `pᵃ`. `K`: the
+/// degrees of freedom when known at compile time (loops unrolled; the same sums), 0: `k`.
+/// False when `D` is not positive definite.
 #[inline(always)]
-fn articulate_multi<const K: usize>(args: MultiArgs) -> bool {
-    let (s, tau, ia, pa, c, u_out, uu_out, chol, parent) = args;
-    let s: &[SpatialMotion; K] = s.try_into().expect("K columns");
-    let tau: &[f64; K] = tau.try_into().expect("K torques");
-    let u_out: &mut [[f64; 6]; K] = u_out.try_into().expect("K columns");
-    let uu_out: &mut [f64; K] = uu_out.try_into().expect("K entries");
-    let s: [[f64; 6]; K] = std::array::from_fn(|p| s[p].to_array());
-    let mut dm = [[0.0; K]; K];
-    for p in 0..K {
-        let u = mul6(ia, &s[p]);
-        u_out[p] = u;
+fn articulate_multi<const K: usize>(
+    h: &mut Hierarchy,
+    s: &[SpatialMotion],
+    tau: &[f64],
+    idx: usize,
+    k: usize,
+    c: &[f64; 6],
+) -> bool {
+    let k = if K == 0 { k } else { K };
+    let r = &h.rec[idx];
+    let (vo, dof, parent) = (r.vo, r.dof, r.pidx);
+    let pa = h.pa[idx];
+    let ia = unpack(&h.ia[idx]);
+    let mut dm = [[0.0; 6]; 6];
+    for p in 0..k {
+        let u = mul6(&ia, &s[vo + p].to_array());
+        h.u[dof + p] = u;
         for qq in 0..=p {
-            let x = dot6(&s[qq], &u);
+            let x = dot6(&s[vo + qq].to_array(), &u);
             dm[p][qq] = x;
             dm[qq][p] = x;
         }
-        uu_out[p] = tau[p] - dot6(&s[p], pa);
+        h.uu[dof + p] = tau[vo + p] - dot6(&s[vo + p].to_array(), &pa);
     }
-    // D = L Lᵀ (articula_dca::cholesky's order of operations).
-    let mut l = [[0.0f64; 6]; 6];
-    for j in 0..K {
-        let mut dj = dm[j][j];
-        for p in 0..j {
-            dj -= l[j][p] * l[j][p];
-        }
-        if dj.is_nan() || dj <= 0.0 {
-            return false;
-        }
-        let ljj = dj.sqrt();
-        l[j][j] = ljj;
-        let inv = 1.0 / ljj;
-        for i in (j + 1)..K {
-            let mut x = dm[i][j];
-            for p in 0..j {
-                x -= l[i][p] * l[j][p];
-            }
-            l[i][j] = x * inv;
+    // D = L Lᵀ. With Y = U L⁻ᵀ (columns y_p) and z = L⁻¹ u: U D⁻¹ Uᵀ = Y Yᵀ and
+    // U D⁻¹ u = Y z.
+    if k > 0 {
+        match dense::cholesky_k(&dm, k) {
+            Some(l) => h.chol[idx] = l,
+            None => return false,
         }
     }
-    *chol = l;
-    let Some((target, pp)) = parent else {
+    if parent == usize::MAX {
         return true;
-    };
-    let mut y = [[0.0; 6]; K];
-    let mut z = [0.0; K];
-    for p in 0..K {
-        let mut yp = u_out[p];
-        let mut zp = uu_out[p];
+    }
+    let l = &h.chol[idx];
+    let mut y = [[0.0; 6]; 6];
+    let mut z = [0.0; 6];
+    for p in 0..k {
+        let mut yp = h.u[dof + p];
+        let mut zp = h.uu[dof + p];
         for qq in 0..p {
             let lpq = l[p][qq];
             zp -= lpq * z[qq];
@@ -638,80 +591,77 @@ fn articulate_multi<const K: usize>(args: MultiArgs) -> bool {
         }
         let inv = 1.0 / l[p][p];
         z[p] = zp * inv;
-        for v in &mut yp {
-            *v *= inv;
+        for rr in 0..6 {
+            yp[rr] *= inv;
         }
         y[p] = yp;
     }
-    let mut add = mul6(ia, c);
-    for p in 0..K {
+    // Iᵃ = Iᴬ − Y Yᵀ, pᵃ = pᴬ + Iᵃ c + Y z (Iᵃ c = Iᴬ c − Y (Yᵀ c)).
+    let target = &mut h.ia[parent];
+    let mut add = mul6(&ia, c);
+    for p in 0..k {
         let g = z[p] - dot6(&y[p], c);
         for rr in 0..6 {
             add[rr] += y[p][rr] * g;
         }
     }
+    let pp = &mut h.pa[parent];
     for rr in 0..6 {
         pp[rr] += pa[rr] + add[rr];
     }
     for rr in 0..6 {
         for cc in rr..6 {
-            let mut x = target[rr][cc] + ia[rr][cc];
-            for yp in &y {
-                x -= yp[rr] * yp[cc];
+            let mut x = target[SYM[rr][cc]] + ia[rr][cc];
+            for p in 0..k {
+                x -= y[p][rr] * y[p][cc];
             }
-            target[rr][cc] = x;
-            target[cc][rr] = x;
+            target[SYM[rr][cc]] = x;
         }
     }
     true
 }
 
-/// The arguments of [`accelerate_multi`]: the joint's Cholesky factor of `D`, its `u` and
-/// `U` columns, the parent's acceleration plus `c` (`a'`), its subspace columns, and its
-/// `q̈` (output).
-type AccelArgs<'a> = (
-    &'a [[f64; 6]; 6],
-    &'a [f64],
-    &'a [[f64; 6]],
-    &'a [f64; 6],
-    &'a [SpatialMotion],
-    &'a mut [f64],
-);
-
-/// Pass 3 of [`Adaptive::reduced_aba`] at a joint of `K` > 1 degrees of freedom:
-/// `q̈ = L⁻ᵀ L⁻¹ (u − Uᵀ a')`; returns `a = a' + S q̈`. Unrolled, the same numbers as the
-/// loops over `k` it replaces.
+/// Pass 3 of the reduced ABA at record `idx` for a joint of several degrees of freedom, from
+/// `a' = a_parent + c`: `q̈ = L⁻ᵀ L⁻¹ (u − Uᵀ a')`, `a = a' + S q̈`. `K` as in
+/// [`articulate_multi`].
 #[inline(always)]
-fn accelerate_multi<const K: usize>(args: AccelArgs) -> [f64; 6] {
-    let (l, uu, u, ap, s, qdd) = args;
-    let uu: &[f64; K] = uu.try_into().expect("K entries");
-    let u: &[[f64; 6]; K] = u.try_into().expect("K columns");
-    let s: &[SpatialMotion; K] = s.try_into().expect("K columns");
-    let qdd: &mut [f64; K] = qdd.try_into().expect("K accelerations");
-    let mut x = [0.0; K];
-    for p in 0..K {
-        let mut v = uu[p] - dot6(ap, &u[p]);
+fn accelerate_multi<const K: usize>(
+    h: &mut Hierarchy,
+    s: &[SpatialMotion],
+    qdd: &mut [f64],
+    idx: usize,
+    k: usize,
+    ap: [f64; 6],
+) {
+    let k = if K == 0 { k } else { K };
+    let r = &h.rec[idx];
+    let (vo, dof) = (r.vo, r.dof);
+    // q̈ = L⁻ᵀ L⁻¹ r.
+    let l = &h.chol[idx];
+    let mut x = [0.0; 6];
+    for p in 0..k {
+        let mut v = h.uu[dof + p] - dot6(&ap, &h.u[dof + p]);
         for qq in 0..p {
             v -= l[p][qq] * x[qq];
         }
         x[p] = v / l[p][p];
     }
-    for p in (0..K).rev() {
+    for p in (0..k).rev() {
         let mut v = x[p];
-        for qq in p + 1..K {
+        for qq in p + 1..k {
             v -= l[qq][p] * x[qq];
         }
         x[p] = v / l[p][p];
     }
-    let mut a = *ap;
-    for p in 0..K {
-        qdd[p] = x[p];
-        let s = s[p].to_array();
+    let mut a = ap;
+    for p in 0..k {
+        qdd[vo + p] = x[p];
+        let s = s[vo + p].to_array();
         for rr in 0..6 {
             a[rr] += s[rr] * x[p];
         }
     }
-    a
+    h.acc[idx] = a;
 }
 
 /// The parts of a joint made of revolute parts about coordinate axes (`±x`, `±y`, `±z`, the
@@ -804,17 +754,45 @@ fn mul6(a: &[[f64; 6]; 6], x: &[f64; 6]) -> [f64; 6] {
     std::array::from_fn(|r| dot6(&a[r], x))
 }
 
-/// `s += a − α u uᵀ` on symmetric 6 × 6 matrices, row by row (`α (uᵢ uⱼ)`: symmetric to the
-/// bit).
+/// A symmetric 6 × 6 matrix by its upper triangle, rows packed: entry `(r, c)` at
+/// `SYM[r][c]` (= `SYM[c][r]`).
+pub(crate) type Sym6 = [f64; 21];
+
+/// Index of entry `(r, c)` of a [`Sym6`]: row `r ≤ c` starts at `r (11 − r) / 2`.
+const fn sym_index(r: usize, c: usize) -> usize {
+    let (r, c) = if r <= c { (r, c) } else { (c, r) };
+    r * (11 - r) / 2 + c
+}
+
+/// The [`Sym6`] index of every entry.
+const SYM: [[usize; 6]; 6] = {
+    let mut t = [[0; 6]; 6];
+    let mut r = 0;
+    while r < 6 {
+        let mut c = 0;
+        while c < 6 {
+            t[r][c] = sym_index(r, c);
+            c += 1;
+        }
+        r += 1;
+    }
+    t
+};
+
+/// The full matrix of a [`Sym6`].
 #[inline(always)]
-fn add_sub_outer(s: &mut [[f64; 6]; 6], a: &[[f64; 6]; 6], u: &[f64; 6], alpha: f64) {
-    // The upper triangle, mirrored: both operands are symmetric to the bit, so the lower
-    // entries would be the same sums.
+fn unpack(p: &Sym6) -> [[f64; 6]; 6] {
+    std::array::from_fn(|r| std::array::from_fn(|c| p[SYM[r][c]]))
+}
+
+/// `s += a − α u uᵀ` on symmetric 6 × 6 matrices (upper triangles; `α (uᵢ uⱼ)` keeps the
+/// result symmetric to the bit).
+#[inline(always)]
+fn add_sub_outer(s: &mut Sym6, a: &Sym6, u: &[f64; 6], alpha: f64) {
     for i in 0..6 {
         for j in i..6 {
-            let x = s[i][j] + (a[i][j] - alpha * (u[i] * u[j]));
-            s[i][j] = x;
-            s[j][i] = x;
+            let x = SYM[i][j];
+            s[x] += a[x] - alpha * (u[i] * u[j]);
         }
     }
 }

@@ -459,8 +459,13 @@ impl Adaptive {
         };
         for (h, &jh) in node.handles.iter().enumerate() {
             let ah = c - self.point[jh];
-            for (k, &jk) in node.handles.iter().enumerate() {
-                self.phi[bo + h * nh + k] = rigid_phi(m, c, j, self.point[jh], self.point[jk]);
+            // Φ is symmetric (`Φ_kh = Φ_hkᵀ`): the blocks on and above the diagonal, mirrored.
+            for (k, &jk) in node.handles.iter().enumerate().skip(h) {
+                let blk = rigid_phi(m, c, j, self.point[jh], self.point[jk]);
+                if k > h {
+                    self.phi[bo + k * nh + h] = blk.transpose();
+                }
+                self.phi[bo + h * nh + k] = blk;
             }
             // b at P_h: [α; a_c + α × (P_h − c)] + a_g
             self.b[ho + h] = a_g + SpatialMotion::new(acc_w, acc_c + acc_w.cross(-ah));

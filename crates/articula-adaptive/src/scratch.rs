@@ -55,7 +55,7 @@ pub struct Scratch {
     /// The whole `data` of [`Adaptive::node_metrics_with`]; its kinematics (`x`, `v`, `c`,
     /// `s`, `inertia`) for the other calls.
     data: Data,
-    ia: Vec<[[f64; 6]; 6]>,
+    ia: Vec<crate::hierarchy::Sym6>,
     pa: Vec<[f64; 6]>,
     acc: Vec<[f64; 6]>,
     dinv: Vec<f64>,
@@ -79,7 +79,7 @@ impl Scratch {
         Scratch {
             sizes: [nb, nv, model.nq, nn],
             data: Data::new(model),
-            ia: vec![[[0.0; 6]; 6]; nb],
+            ia: vec![[0.0; 21]; nb],
             pa: vec![[0.0; 6]; nb],
             acc: vec![[0.0; 6]; nb],
             dinv: vec![0.0; nb],
@@ -182,7 +182,7 @@ impl Adaptive {
     #[inline(never)]
     fn grow_reduced(&mut self, na: usize, dof: usize, [nb, nv]: [usize; 2]) {
         let h = &mut self.hier;
-        grow(&mut h.ia, na, nb, [[0.0; 6]; 6]);
+        grow(&mut h.ia, na, nb, [0.0; 21]);
         grow(&mut h.pa, na, nb, [0.0; 6]);
         grow(&mut h.acc, na, nb, [0.0; 6]);
         grow(&mut h.dinv, na, nb, 0.0);
