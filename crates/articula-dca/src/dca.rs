@@ -21,6 +21,52 @@ pub(crate) fn init_body(i: usize, data: &mut Data) {
     data.dca.point[i] = data.x[i].apply_point(DVec3::ZERO);
 }
 
+/// `forward_dynamics`' DCA call: the kinematics loop (with [`init_body`]) and [`dca`] with the
+/// leaves' bias accelerations, both in the compilation [`dca`] picks.
+pub(crate) fn forward(
+    model: &Model,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+    data: &mut Data,
+) -> Result<(), DynamicsError> {
+    #[cfg(target_arch = "x86_64")]
+    if data.dca.fused {
+        // SAFETY: as in `dca`: `fused` means the CPU has AVX2 and FMA.
+        return unsafe { forward_fused(model, q, qd, tau, f_ext, data) };
+    }
+    forward_with::<Portable>(model, q, qd, tau, f_ext, data)
+}
+
+/// [`forward`] compiled for AVX2 + FMA (see [`dca_fused`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn forward_fused(
+    model: &Model,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+    data: &mut Data,
+) -> Result<(), DynamicsError> {
+    forward_with::<Fused>(model, q, qd, tau, f_ext, data)
+}
+
+#[inline(always)]
+fn forward_with<A: Arith>(
+    model: &Model,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+    data: &mut Data,
+) -> Result<(), DynamicsError> {
+    // DCA's leaves set the world inertias themselves.
+    crate::kinematics::kinematics_with(model, q, qd, data, false, init_body);
+    dca_with::<A>(model, tau, f_ext, data, true)
+}
+
 /// Runs DCA on the kinematics already in `data` (see [`crate::forward_kinematics`], with
 /// [`init_body`] run per body) and the external forces `f_ext` (computation frame, empty for
 /// none); writes `data.qdd`. Without `bias` the leaves' accelerations (velocity products,
