@@ -21,87 +21,37 @@ pub(crate) fn init_body(i: usize, data: &mut Data) {
     data.dca.point[i] = data.x[i].apply_point(DVec3::ZERO);
 }
 
-/// Which compilation of the DCA pass runs (the same code, see [`Arith`]); chosen once per
-/// [`Data`] by [`best_isa`], kept in `DcaData::isa`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-pub(crate) enum Isa {
-    /// Any CPU: products and sums ([`Portable`]).
-    Portable,
-    /// x86-64 with AVX2 and FMA: fused multiply–adds ([`Fused`]) on 256-bit vectors.
-    Fma,
-    /// x86-64 with AVX-512 (F, VL) as well: the same with 32 vector registers and masked
-    /// 512-bit vectors where the compiler finds them (measured faster than [`Isa::Fma`]).
-    Avx512,
-}
-
-/// The fastest compilation this CPU can run.
-pub(crate) fn best_isa() -> Isa {
+/// `forward_dynamics`' DCA call: the kinematics loop (with [`init_body`]) and [`dca`] with the
+/// leaves' bias accelerations, both in the compilation [`dca`] picks.
+pub(crate) fn forward(
+    model: &Model,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+    data: &mut Data,
+) -> Result<(), DynamicsError> {
     #[cfg(target_arch = "x86_64")]
-    {
-        let fma = is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma");
-        if fma && is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512vl") {
-            return Isa::Avx512;
-        }
-        if fma {
-            return Isa::Fma;
-        }
+    if data.dca.fused {
+        // SAFETY: as in `dca`: `fused` means the CPU has AVX2 and FMA.
+        return unsafe { forward_fused(model, q, qd, tau, f_ext, data) };
     }
-    Isa::Portable
+    forward_with::<Portable>(model, q, qd, tau, f_ext, data)
 }
 
-/// One entry point of the pass per compilation: `$fma` and `$avx512` call `$generic::<Fused>`
-/// with their target features enabled (everything below is `#[inline(always)]`, so it is all
-/// built with them, and [`Fused::mul_add`] becomes one instruction); `$name` picks one by
-/// `$data.dca.isa` (`$data` the `&mut Data` argument).
-macro_rules! dispatched {
-    ($(#[$doc:meta])* $name:ident, $fma:ident, $avx512:ident, $generic:ident, $data:ident,
-     ($($arg:ident: $ty:ty),*)) => {
-        $(#[$doc])*
-        pub(crate) fn $name($($arg: $ty),*) -> Result<(), DynamicsError> {
-            match $data.dca.isa {
-                #[cfg(target_arch = "x86_64")]
-                // SAFETY: `isa` is `Fma` only when the CPU running us has AVX2 and FMA
-                // (`best_isa`, in `Data::new`; tests set it only to what `best_isa` allows).
-                Isa::Fma => unsafe { $fma($($arg),*) },
-                #[cfg(target_arch = "x86_64")]
-                // SAFETY: as for `Fma`, with AVX-512 F and VL as well.
-                Isa::Avx512 => unsafe { $avx512($($arg),*) },
-                _ => $generic::<Portable>($($arg),*),
-            }
-        }
-
-        #[cfg(target_arch = "x86_64")]
-        #[target_feature(enable = "avx2,fma")]
-        fn $fma($($arg: $ty),*) -> Result<(), DynamicsError> {
-            $generic::<Fused>($($arg),*)
-        }
-
-        #[cfg(target_arch = "x86_64")]
-        #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
-        fn $avx512($($arg: $ty),*) -> Result<(), DynamicsError> {
-            $generic::<Fused>($($arg),*)
-        }
-    };
+/// [`forward`] compiled for AVX2 + FMA (see [`dca_fused`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn forward_fused(
+    model: &Model,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+    data: &mut Data,
+) -> Result<(), DynamicsError> {
+    forward_with::<Fused>(model, q, qd, tau, f_ext, data)
 }
-
-dispatched!(
-    /// `forward_dynamics`' DCA call: the kinematics loop (with [`init_body`]) and [`dca`] with
-    /// the leaves' bias accelerations, in the compilation `data.dca.isa` names.
-    forward,
-    forward_fma,
-    forward_avx512,
-    forward_with,
-    data,
-    (
-        model: &Model,
-        q: &[f64],
-        qd: &[f64],
-        tau: &[f64],
-        f_ext: &[SpatialForce],
-        data: &mut Data
-    )
-);
 
 #[inline(always)]
 fn forward_with<A: Arith>(
@@ -117,25 +67,56 @@ fn forward_with<A: Arith>(
     dca_with::<A>(model, tau, f_ext, data, true)
 }
 
-dispatched!(
-    /// Runs DCA on the kinematics already in `data` (see [`crate::forward_kinematics`], with
-    /// [`init_body`] run per body) and the external forces `f_ext` (computation frame, empty
-    /// for none); writes `data.qdd`. Without `bias` the leaves' accelerations (velocity
-    /// products, external forces) are left out, and with `data.gravity` and `data.c` zero this
-    /// solves `H q̈ = τ`. In the compilation `data.dca.isa` names.
-    dca,
-    dca_fma,
-    dca_avx512,
-    dca_with,
-    data,
-    (
-        model: &Model,
-        tau: &[f64],
-        f_ext: &[SpatialForce],
-        data: &mut Data,
-        bias: bool
-    )
-);
+/// Runs DCA on the kinematics already in `data` (see [`crate::forward_kinematics`], with
+/// [`init_body`] run per body) and the external forces `f_ext` (computation frame, empty for
+/// none); writes `data.qdd`. Without `bias` the leaves' accelerations (velocity products,
+/// external forces) are left out, and with `data.gravity` and `data.c` zero this solves
+/// `H q̈ = τ`.
+///
+/// The pass runs in one of two compilations of the same code: with fused multiply–adds
+/// ([`Fused`], on an x86-64 CPU with AVX2 and FMA, chosen once in `Data::new`: see
+/// `DcaData::fused`) or the portable one ([`Portable`]).
+pub(crate) fn dca(
+    model: &Model,
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+    data: &mut Data,
+    bias: bool,
+) -> Result<(), DynamicsError> {
+    #[cfg(target_arch = "x86_64")]
+    if data.dca.fused {
+        // SAFETY: `fused` is true only when the CPU running us has AVX2 and FMA
+        // (`is_x86_feature_detected!` in `DcaData::new`).
+        return unsafe { dca_fused(model, tau, f_ext, data, bias) };
+    }
+    dca_with::<Portable>(model, tau, f_ext, data, bias)
+}
+
+/// [`dca`] compiled for AVX2 + FMA: everything below is inlined into it, so it is all built
+/// with these features, and [`Fused::mul_add`] becomes one instruction.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn dca_fused(
+    model: &Model,
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+    data: &mut Data,
+    bias: bool,
+) -> Result<(), DynamicsError> {
+    dca_with::<Fused>(model, tau, f_ext, data, bias)
+}
+
+/// Whether this CPU can run [`dca_fused`] (checked once per `Data`).
+pub(crate) fn fused_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
 
 #[inline(always)]
 fn dca_with<A: Arith>(
@@ -151,8 +132,7 @@ fn dca_with<A: Arith>(
 }
 
 /// How the pass forms `a·b + c`: rounded twice ([`Portable`]) or once ([`Fused`]). The two
-/// give the same solution to rounding; the fused one only runs inside the entry points with
-/// FMA enabled (see [`Isa`]).
+/// give the same solution to rounding; the fused one only runs inside [`dca_fused`].
 pub(crate) trait Arith {
     /// `a·b + c`.
     fn mul_add(a: f64, b: f64, c: f64) -> f64;
@@ -178,12 +158,10 @@ impl Arith for Portable {
     }
 }
 
-/// `a·b + c` rounded once: a `vfmadd` inside the entry points with FMA enabled (elsewhere
-/// `f64::mul_add` would call a slow library routine, so only they use this type).
-#[cfg(target_arch = "x86_64")]
+/// `a·b + c` rounded once: a `vfmadd` inside [`dca_fused`] (elsewhere `f64::mul_add` would
+/// call a slow library routine, so only that function uses this type).
 pub(crate) struct Fused;
 
-#[cfg(target_arch = "x86_64")]
 impl Arith for Fused {
     #[inline(always)]
     fn mul_add(a: f64, b: f64, c: f64) -> f64 {
@@ -1306,27 +1284,20 @@ fn back_substitution<A: Arith>(model: &Model, tau: &[f64], data: &mut Data) {
 
 #[cfg(test)]
 mod tests {
-    use super::{best_isa, Isa};
     use crate::{forward_dynamics, Data, Method, State};
     use articula_model::{LoadOptions, Model};
 
-    /// Every compilation of the pass this CPU can run agrees with the portable one to 1e-12
-    /// relative (max |difference| / max |q̈|) on every bundled model, fixed and floating base,
-    /// with and without external forces; and each fused one differs from it somewhere (it
-    /// rounds once per multiply–add), which shows that it ran. The floating 300-link chain is
-    /// the exception, at 1e-11: its solve is ill-conditioned enough to take the Newton–Euler
-    /// refinement (`refine.rs`), and there the AVX2 + FMA and portable roundings differed by up
-    /// to 5.4e-12, each as far from CRBA and ABA as the other (1.7–6.2e-12).
+    /// The fused (AVX2 + FMA) and portable compilations of the pass agree to 1e-12 relative
+    /// (max |difference| / max |q̈|) on every bundled model, fixed and floating base, with and
+    /// without external forces; where the CPU has FMA the two must also differ somewhere (the
+    /// fused one rounds once per multiply–add), which shows that it ran. The floating 300-link
+    /// chain is the exception, at 1e-11: its solve is ill-conditioned enough to take the
+    /// Newton–Euler refinement (`refine.rs`), and there the two roundings differed by up to
+    /// 5.4e-12, each as far from CRBA and ABA as the other (1.7–6.2e-12).
     #[test]
-    fn compilations_agree() {
-        let best = best_isa();
-        let fused: Vec<Isa> = match best {
-            Isa::Portable => vec![],
-            Isa::Fma => vec![Isa::Fma],
-            Isa::Avx512 => vec![Isa::Fma, Isa::Avx512],
-        };
+    fn fused_and_portable_agree() {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models");
-        let mut differ = vec![false; fused.len()];
+        let mut differ = false;
         for name in ["chain10", "chain300", "humanoid", "plant", "rope"] {
             for floating_base in [false, true] {
                 let tol = if floating_base && name == "chain300" {
@@ -1340,14 +1311,14 @@ mod tests {
                 )
                 .unwrap();
                 let mut data = Data::new(&model);
-                assert_eq!(data.dca.isa, best);
+                assert_eq!(data.dca.fused, super::fused_available());
                 for seed in 0..6 {
                     let mut s = State::random(&model, seed, 1.0);
                     if seed % 2 == 1 {
                         s.randomize_forces(seed, 0.5);
                     }
-                    let mut solve = |isa: Isa| {
-                        data.dca.isa = isa;
+                    let mut solve = |fused: bool| {
+                        data.dca.fused = fused;
                         forward_dynamics(
                             &model,
                             &mut data,
@@ -1360,24 +1331,21 @@ mod tests {
                         .unwrap()
                         .to_vec()
                     };
-                    let portable = solve(Isa::Portable);
+                    let (portable, fused) = (solve(false), solve(super::fused_available()));
                     let scale = portable.iter().fold(1.0f64, |m, x| m.max(x.abs()));
-                    for (k, &isa) in fused.iter().enumerate() {
-                        let other = solve(isa);
-                        let diff = portable
-                            .iter()
-                            .zip(&other)
-                            .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
-                        assert!(
-                            diff <= tol * scale,
-                            "{isa:?} {name} floating={floating_base} seed {seed}: {:e}",
-                            diff / scale
-                        );
-                        differ[k] |= portable != other;
-                    }
+                    let diff = portable
+                        .iter()
+                        .zip(&fused)
+                        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+                    assert!(
+                        diff <= tol * scale,
+                        "{name} floating={floating_base} seed {seed}: {:e}",
+                        diff / scale
+                    );
+                    differ |= portable != fused;
                 }
             }
         }
-        assert!(differ.iter().all(|&d| d), "{fused:?}: {differ:?}");
+        assert_eq!(differ, super::fused_available());
     }
 }
