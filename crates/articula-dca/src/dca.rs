@@ -31,8 +31,9 @@ pub(crate) fn forward(
     f_ext: &[SpatialForce],
     data: &mut Data,
 ) -> Result<(), DynamicsError> {
-    #[cfg(target_arch = "x86_64")]
+    // (`fused` is never set on other CPUs.)
     if data.dca.fused {
+        #[cfg(target_arch = "x86_64")]
         // SAFETY: as in `dca`: `fused` means the CPU has AVX2 and FMA.
         return unsafe { forward_fused(model, q, qd, tau, f_ext, data) };
     }
@@ -83,10 +84,10 @@ pub(crate) fn dca(
     data: &mut Data,
     bias: bool,
 ) -> Result<(), DynamicsError> {
-    #[cfg(target_arch = "x86_64")]
     if data.dca.fused {
+        #[cfg(target_arch = "x86_64")]
         // SAFETY: `fused` is true only when the CPU running us has AVX2 and FMA
-        // (`is_x86_feature_detected!` in `DcaData::new`).
+        // (`is_x86_feature_detected!` in `Data::new`).
         return unsafe { dca_fused(model, tau, f_ext, data, bias) };
     }
     dca_with::<Portable>(model, tau, f_ext, data, bias)
@@ -160,8 +161,10 @@ impl Arith for Portable {
 
 /// `a·b + c` rounded once: a `vfmadd` inside [`dca_fused`] (elsewhere `f64::mul_add` would
 /// call a slow library routine, so only that function uses this type).
+#[cfg(target_arch = "x86_64")]
 pub(crate) struct Fused;
 
+#[cfg(target_arch = "x86_64")]
 impl Arith for Fused {
     #[inline(always)]
     fn mul_add(a: f64, b: f64, c: f64) -> f64 {
