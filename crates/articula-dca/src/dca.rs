@@ -604,7 +604,7 @@ fn join<A: Arith>(
             l,
             m: mm,
             inv_sqrt_d: inv_d,
-        }) = crate::small::ldl5(tkt)
+        }) = crate::small::ldl5::<A>(tkt)
         else {
             return Err(DynamicsError::Singular {
                 joint: body.joint_name(),
