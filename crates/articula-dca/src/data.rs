@@ -75,6 +75,9 @@ pub(crate) struct Topo {
 /// DCA buffers (DESIGN §5), laid out over the assembly tree.
 #[derive(Clone, Debug)]
 pub(crate) struct DcaData {
+    /// Run the pass compiled for AVX2 + FMA (`dca::dca_fused`): set in [`Data::new`] when the
+    /// CPU has both (x86-64 only); tests clear it to check the portable compilation.
+    pub fused: bool,
     /// Per node, what the passes read of it, in one compact record (see [`DNode`]).
     pub node: Vec<DNode>,
     /// Per handle (flat, `DNode::hoff`): its joint.
@@ -387,6 +390,7 @@ impl Data {
             qdd: vec![0.0; nv],
             momentum_projection: true,
             dca: DcaData {
+                fused: crate::dca::fused_available(),
                 node,
                 hj: tree
                     .nodes

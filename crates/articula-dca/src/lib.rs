@@ -103,17 +103,13 @@ pub fn forward_dynamics<'d>(
     kinematics::forces_to_computation_frame(f_ext, data);
     let f_ext = std::mem::take(&mut data.f_ext_c);
     let result = match method {
-        Method::Dca => {
-            // DCA's leaves set the world inertias themselves.
-            kinematics::kinematics_with(model, q, qd, data, false, dca::init_body);
-            dca::dca(model, tau, &f_ext, data, true).and_then(|()| {
-                if model.floating_base && data.refine_floating {
-                    refine::refine_dca(model, tau, &f_ext, data)
-                } else {
-                    Ok(())
-                }
-            })
-        }
+        Method::Dca => dca::forward(model, q, qd, tau, &f_ext, data).and_then(|()| {
+            if model.floating_base && data.refine_floating {
+                refine::refine_dca(model, tau, &f_ext, data)
+            } else {
+                Ok(())
+            }
+        }),
         Method::Aba => {
             kinematics::kinematics(model, q, qd, data, |_, _| {});
             aba::aba(model, tau, &f_ext, data).map(|()| {

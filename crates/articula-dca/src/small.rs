@@ -2,6 +2,8 @@
 //! matrices `D = Sᵀ V S` and `D = Sᵀ Iᴬ S` of multi-DOF joints, and DCA's 6×6
 //! `Φ^A_jj + Φ^B_jj`.
 
+use crate::dca::Arith;
+
 /// Cholesky factor `L` (lower) of the leading k×k block of a symmetric positive definite
 /// matrix, `None` when a pivot is not positive.
 #[inline]
@@ -52,18 +54,19 @@ pub fn cholesky6(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
 /// factor `M = L D^{1/2}` as its entries below the diagonal `M_ij = L_ij √d_j = c_ij / √d_j`
 /// (`c_ij = L_ij d_j`) and its inverse diagonal `1 / √d_i`. The recursion's critical path holds
 /// one division per column and no square root (those are taken at the end, independently of
-/// one another).
+/// one another); its multiply–subtracts go through `A` (fused in DCA's fused compilation,
+/// which halves their latency).
 #[inline(always)]
-pub fn ldl5(a: impl Fn(usize, usize) -> f64) -> Option<Ldl5> {
+pub(crate) fn ldl5<A: Arith>(a: impl Fn(usize, usize) -> f64) -> Option<Ldl5> {
     // l: L below the diagonal, 1/d_j on it; c_ij = L_ij d_j (i > j).
     let mut l = [[0.0f64; 5]; 5];
     let mut c = [[0.0f64; 5]; 5];
     let mut ok = true;
-    ldl_col::<0>(&a, &mut l, &mut c, &mut ok);
-    ldl_col::<1>(&a, &mut l, &mut c, &mut ok);
-    ldl_col::<2>(&a, &mut l, &mut c, &mut ok);
-    ldl_col::<3>(&a, &mut l, &mut c, &mut ok);
-    ldl_col::<4>(&a, &mut l, &mut c, &mut ok);
+    ldl_col::<A, 0>(&a, &mut l, &mut c, &mut ok);
+    ldl_col::<A, 1>(&a, &mut l, &mut c, &mut ok);
+    ldl_col::<A, 2>(&a, &mut l, &mut c, &mut ok);
+    ldl_col::<A, 3>(&a, &mut l, &mut c, &mut ok);
+    ldl_col::<A, 4>(&a, &mut l, &mut c, &mut ok);
     if !ok {
         return None;
     }
@@ -95,7 +98,7 @@ pub struct Ldl5 {
 /// Column `J` of [`ldl5`]: `d_J = a_JJ − Σ_p L_Jp c_Jp`, `c_iJ = a_iJ − Σ_p L_ip c_Jp`,
 /// `L_iJ = c_iJ / d_J`.
 #[inline(always)]
-fn ldl_col<const J: usize>(
+fn ldl_col<A: Arith, const J: usize>(
     a: &impl Fn(usize, usize) -> f64,
     l: &mut [[f64; 5]; 5],
     c: &mut [[f64; 5]; 5],
@@ -103,7 +106,7 @@ fn ldl_col<const J: usize>(
 ) {
     let mut d = a(J, J);
     for p in 0..J {
-        d -= l[J][p] * c[J][p];
+        d = A::neg_mul_add(l[J][p], c[J][p], d);
     }
     // `!(d > 0)` also catches NaN.
     *ok &= d > 0.0;
@@ -112,7 +115,7 @@ fn ldl_col<const J: usize>(
     for i in (J + 1)..5 {
         let mut x = a(i, J);
         for p in 0..J {
-            x -= l[i][p] * c[J][p];
+            x = A::neg_mul_add(l[i][p], c[J][p], x);
         }
         c[i][J] = x;
         l[i][J] = x * inv;
