@@ -540,7 +540,8 @@ impl Adaptive {
 /// `U = Iᴬ S`, `D = Sᵀ U = L Lᵀ`, `u = τ − Sᵀ pᴬ`, and the parent's `Iᵃ`, `pᵃ`. `K`: the
 /// degrees of freedom when known at compile time (loops unrolled; the same sums), 0: `k`.
 /// False when `D` is not positive definite.
-#[inline(always)]
+// Out of line: the one-degree-of-freedom path of the passes keeps its registers.
+#[inline(never)]
 fn articulate_multi<const K: usize>(
     h: &mut Hierarchy,
     s: &[SpatialMotion],
@@ -624,7 +625,8 @@ fn articulate_multi<const K: usize>(
 /// Pass 3 of the reduced ABA at record `idx` for a joint of several degrees of freedom, from
 /// `a' = a_parent + c`: `q̈ = L⁻ᵀ L⁻¹ (u − Uᵀ a')`, `a = a' + S q̈`. `K` as in
 /// [`articulate_multi`].
-#[inline(always)]
+// Out of line: the one-degree-of-freedom path of the passes keeps its registers.
+#[inline(never)]
 fn accelerate_multi<const K: usize>(
     h: &mut Hierarchy,
     s: &[SpatialMotion],

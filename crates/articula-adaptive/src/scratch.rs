@@ -26,7 +26,10 @@
 //!   before anything reads them. The one exception is [`Adaptive::node_metrics`]'s kinematics,
 //!   which the next call reuses for the same state (`fresh`): a `_with` call that finds them
 //!   leaves the kinematics in the workspace, and [`Adaptive::node_metrics_with`] (whose whole
-//!   `data` lives in the scratch) clears `fresh`, so the next load recomputes the same numbers.
+//!   `data` lives in the scratch) copies its kinematics (`origin`, `x`, `v`, `c`, `s`,
+//!   `inertia`) into the workspace's `data`, so that the next load of the same state (a
+//!   [`Adaptive::set_active_with`] after a scene's selection) reuses them as after the plain
+//!   call.
 //!
 //! What stays in each workspace: the hybrid body (flags, lists, the reduced tree's records),
 //! the caches of rigid subassemblies, the weights, the selection, `qdd` (zero outside the
@@ -277,8 +280,8 @@ impl Adaptive {
 
     /// [`Adaptive::node_metrics`] with the whole `data` of `scratch` (its exact solve's
     /// buffers and kinematics; the workspace's gravity): the same metrics and `qdd` to the bit.
-    /// The kinematics stay in the scratch, so the next call on this workspace recomputes them
-    /// (the plain call lets the next load of the same state reuse them; the same numbers).
+    /// Its kinematics are copied into the workspace's `data` (a few kB), so that the next
+    /// load of the same state reuses them, as after the plain call.
     #[allow(clippy::too_many_arguments)]
     pub fn node_metrics_with(
         &mut self,
@@ -299,7 +302,20 @@ impl Adaptive {
         self.data.momentum_projection = own.momentum_projection;
         let r = self.node_metrics(model, q, qd, tau, f_ext, out);
         swap(&mut self.data, &mut scratch.data);
-        self.fresh = false;
+        if r.is_ok() {
+            // The exact solve's kinematics into the workspace, for the next load of this state
+            // (`fresh`, as after the plain call): a `set_active_with` that follows (the usual
+            // re-selection of a scene) then skips its whole-body forward kinematics.
+            let (d, sd) = (&mut self.data, &scratch.data);
+            d.origin = sd.origin;
+            d.x.copy_from_slice(&sd.x);
+            d.v.copy_from_slice(&sd.v);
+            d.c.copy_from_slice(&sd.c);
+            d.s.copy_from_slice(&sd.s);
+            d.inertia.copy_from_slice(&sd.inertia);
+        } else {
+            self.fresh = false;
+        }
         r
     }
 }
