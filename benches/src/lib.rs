@@ -37,3 +37,20 @@ pub fn bundled(name: &str) -> Model {
 pub fn chain(n: usize) -> Model {
     Model::from_urdf_str(&chain_urdf(n), &LoadOptions::default()).expect("chain loads")
 }
+
+/// The adaptive seeds' state (`cargo bench -p articula-adaptive --bench adaptive`): a random
+/// configuration (seed 42) at rest with `forces` constant external forces on evenly spread
+/// bodies, each a point force at its body's origin.
+pub fn seeded_state(model: &Model, forces: usize) -> articula_dca::State {
+    let mut s = articula_dca::State::random(model, 42, 0.0);
+    s.qd.fill(0.0);
+    let mut data = articula_dca::Data::new(model);
+    articula_dca::forward_kinematics(model, &s.q, &s.qd, &mut data);
+    let n = model.bodies.len();
+    for k in 0..forces.min(n) {
+        let body = (k * n) / forces.min(n);
+        let dir = glam::DVec3::new(1.0, (k as f64).sin(), (k as f64).cos());
+        s.f_ext[body] = data.point_force(body, glam::DVec3::ZERO, dir);
+    }
+    s
+}

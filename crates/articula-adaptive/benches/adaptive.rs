@@ -3,32 +3,12 @@
 //! `cargo bench -p articula-adaptive --bench adaptive`
 
 use articula_adaptive::{Adaptive, Settings};
-use articula_benches::chain;
+use articula_benches::{chain, seeded_state};
 use articula_dca::{step, Data, Integrator, Method, State};
-use articula_model::Model;
 use articula_spatial::SpatialForce;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
-
-/// The seeds' state: a random configuration at rest with `forces` external forces on evenly
-/// spread bodies.
-fn seeded_state(model: &Model, forces: usize) -> State {
-    let mut s = State::random(model, 42, 0.0);
-    s.qd.fill(0.0);
-    let data = {
-        let mut d = Data::new(model);
-        articula_dca::forward_kinematics(model, &s.q, &s.qd, &mut d);
-        d
-    };
-    let n = model.bodies.len();
-    for k in 0..forces.min(n) {
-        let body = (k * n) / forces.min(n);
-        let dir = glam::DVec3::new(1.0, (k as f64).sin(), (k as f64).cos());
-        s.f_ext[body] = data.point_force(body, glam::DVec3::ZERO, dir);
-    }
-    s
-}
 
 /// Steps after which a run restarts from its initial state (0.1 s at dt = 1e-4): long
 /// semi-implicit Euler runs of a whipping chain diverge, even exact ones.

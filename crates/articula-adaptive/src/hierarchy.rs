@@ -9,7 +9,9 @@
 
 use crate::dense;
 use crate::hybrid::{Adaptive, Level, Rigid};
-use articula_dca::DynamicsError;
+#[cfg(target_arch = "x86_64")]
+use articula_dca::Fused;
+use articula_dca::{Arith, DynamicsError, Portable};
 use articula_model::{Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialMotion, SpatialTransform};
 use glam::DVec3;
@@ -388,7 +390,39 @@ impl Adaptive {
     /// [`Level::Impulse`] there are no bias terms (no velocity products, gravity or external
     /// forces) and `tau` holds generalized momenta: the result is the velocity after the
     /// locking impulse.
+    ///
+    /// Compiled twice over [`Arith`], as articula-dca's DCA pass: with fused multiply–adds
+    /// ([`Fused`], on a CPU with AVX2 and FMA: `Adaptive::fused`) or portably.
     pub(crate) fn reduced_aba(
+        &mut self,
+        model: &Model,
+        tau: &[f64],
+        level: Level,
+    ) -> Result<(), DynamicsError> {
+        #[cfg(target_arch = "x86_64")]
+        if self.fused {
+            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // has AVX2 and FMA).
+            return unsafe { self.reduced_aba_fused(model, tau, level) };
+        }
+        self.reduced_aba_with::<Portable>(model, tau, level)
+    }
+
+    /// [`Adaptive::reduced_aba`] compiled for AVX2 + FMA (everything using [`Fused`] below it
+    /// is inlined).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn reduced_aba_fused(
+        &mut self,
+        model: &Model,
+        tau: &[f64],
+        level: Level,
+    ) -> Result<(), DynamicsError> {
+        self.reduced_aba_with::<Fused>(model, tau, level)
+    }
+
+    #[inline(always)]
+    fn reduced_aba_with<A: Arith>(
         &mut self,
         model: &Model,
         tau: &[f64],
@@ -462,29 +496,29 @@ impl Adaptive {
                 for (row, (&sc, &cc)) in s.iter().zip(&c).enumerate() {
                     for rr in 0..6 {
                         let x = ia[SYM[row][rr]];
-                        u[rr] += x * sc;
-                        ic[rr] += x * cc;
+                        u[rr] = A::mul_add(x, sc, u[rr]);
+                        ic[rr] = A::mul_add(x, cc, ic[rr]);
                     }
                 }
-                let dd = dot6(&s, &u);
+                let dd = dot6::<A>(&s, &u);
                 if dd.is_nan() || dd <= 0.0 {
                     return Err(singular(model, r.j));
                 }
                 let dinv = 1.0 / dd;
-                let uu = tau[vo] - dot6(&s, &pa);
+                let uu = tau[vo] - dot6::<A>(&s, &pa);
                 h.u[dof] = u;
                 h.uu[dof] = uu;
                 h.dinv[idx] = dinv;
                 if parent == usize::MAX {
                     continue;
                 }
-                let g = dinv * (uu - dot6(&c, &u));
+                let g = dinv * (uu - dot6::<A>(&c, &u));
                 let pp = &mut h.pa[parent];
                 for rr in 0..6 {
-                    pp[rr] += pa[rr] + (ic[rr] + u[rr] * g);
+                    pp[rr] += pa[rr] + A::mul_add(u[rr], g, ic[rr]);
                 }
                 let (lo, hi) = h.ia.split_at_mut(idx);
-                add_sub_outer(&mut lo[parent], &hi[0], &u, dinv);
+                add_sub_outer::<A>(&mut lo[parent], &hi[0], &u, dinv);
                 continue;
             }
             // Several degrees of freedom: the loops over them unrolled for the usual counts.
@@ -519,10 +553,10 @@ impl Adaptive {
                 }
             }
             if k == 1 {
-                let x = h.dinv[idx] * (h.uu[dof] - dot6(&ap, &h.u[dof]));
+                let x = h.dinv[idx] * (h.uu[dof] - dot6::<A>(&ap, &h.u[dof]));
                 self.qdd[vo] = x;
                 let s = d.s[vo].to_array();
-                h.acc[idx] = std::array::from_fn(|rr| ap[rr] + s[rr] * x);
+                h.acc[idx] = std::array::from_fn(|rr| A::mul_add(s[rr], x, ap[rr]));
                 continue;
             }
             match k {
@@ -560,11 +594,11 @@ fn articulate_multi<const K: usize>(
         let u = mul6(&ia, &s[vo + p].to_array());
         h.u[dof + p] = u;
         for qq in 0..=p {
-            let x = dot6(&s[vo + qq].to_array(), &u);
+            let x = dot6::<Portable>(&s[vo + qq].to_array(), &u);
             dm[p][qq] = x;
             dm[qq][p] = x;
         }
-        h.uu[dof + p] = tau[vo + p] - dot6(&s[vo + p].to_array(), &pa);
+        h.uu[dof + p] = tau[vo + p] - dot6::<Portable>(&s[vo + p].to_array(), &pa);
     }
     // D = L Lᵀ. With Y = U L⁻ᵀ (columns y_p) and z = L⁻¹ u: U D⁻¹ Uᵀ = Y Yᵀ and
     // U D⁻¹ u = Y z.
@@ -601,7 +635,7 @@ fn articulate_multi<const K: usize>(
     let target = &mut h.ia[parent];
     let mut add = mul6(&ia, c);
     for p in 0..k {
-        let g = z[p] - dot6(&y[p], c);
+        let g = z[p] - dot6::<Portable>(&y[p], c);
         for rr in 0..6 {
             add[rr] += y[p][rr] * g;
         }
@@ -642,7 +676,7 @@ fn accelerate_multi<const K: usize>(
     let l = &h.chol[idx];
     let mut x = [0.0; 6];
     for p in 0..k {
-        let mut v = h.uu[dof + p] - dot6(&ap, &h.u[dof + p]);
+        let mut v = h.uu[dof + p] - dot6::<Portable>(&ap, &h.u[dof + p]);
         for qq in 0..p {
             v -= l[p][qq] * x[qq];
         }
@@ -753,7 +787,7 @@ fn revolute_kinematics(
 /// `a x` for a 6 × 6 matrix.
 #[inline(always)]
 fn mul6(a: &[[f64; 6]; 6], x: &[f64; 6]) -> [f64; 6] {
-    std::array::from_fn(|r| dot6(&a[r], x))
+    std::array::from_fn(|r| dot6::<Portable>(&a[r], x))
 }
 
 /// A symmetric 6 × 6 matrix by its upper triangle, rows packed: entry `(r, c)` at
@@ -790,18 +824,25 @@ fn unpack(p: &Sym6) -> [[f64; 6]; 6] {
 /// `s += a − α u uᵀ` on symmetric 6 × 6 matrices (upper triangles; `α (uᵢ uⱼ)` keeps the
 /// result symmetric to the bit).
 #[inline(always)]
-fn add_sub_outer(s: &mut Sym6, a: &Sym6, u: &[f64; 6], alpha: f64) {
+fn add_sub_outer<A: Arith>(s: &mut Sym6, a: &Sym6, u: &[f64; 6], alpha: f64) {
+    // `w = α u` once: `a − w_i u_j` rounds once when fused (the packed upper triangle holds
+    // each pair once, so symmetry needs no care).
+    let w = u.map(|x| alpha * x);
     for i in 0..6 {
         for j in i..6 {
             let x = SYM[i][j];
-            s[x] += a[x] - alpha * (u[i] * u[j]);
+            s[x] += A::neg_mul_add(w[i], u[j], a[x]);
         }
     }
 }
 
 #[inline(always)]
-fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
+fn dot6<A: Arith>(a: &[f64; 6], b: &[f64; 6]) -> f64 {
+    let mut x = a[0] * b[0];
+    for k in 1..6 {
+        x = A::mul_add(a[k], b[k], x);
+    }
+    x
 }
 
 /// The error of a joint whose `Sᵀ Iᴬ S` is not positive definite.

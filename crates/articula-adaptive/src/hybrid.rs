@@ -263,6 +263,9 @@ pub struct Adaptive {
     /// `data` holds the whole-body kinematics of `(fresh_q, fresh_qd)` (set by
     /// [`Adaptive::node_metrics`], cleared by every other writer of `data`).
     pub(crate) fresh: bool,
+    /// Run the reduced ABA compiled with fused multiply–adds (set in [`Adaptive::new`] where
+    /// the CPU has AVX2 and FMA: `articula_dca::fused_available`).
+    pub(crate) fused: bool,
     pub(crate) fresh_q: Vec<f64>,
     pub(crate) fresh_qd: Vec<f64>,
     pub(crate) hier: crate::hierarchy::Hierarchy,
@@ -359,6 +362,7 @@ impl Adaptive {
             steps: 0,
             full_passes: false,
             fresh: false,
+            fused: articula_dca::fused_available(),
             fresh_q: vec![0.0; model.nq],
             fresh_qd: vec![0.0; model.nv],
             hier: Default::default(),

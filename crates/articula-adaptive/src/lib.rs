@@ -622,6 +622,14 @@ impl Adaptive {
         self.cache.ready = false;
     }
 
+    /// Run the hybrid step's reduced ABA with fused multiply–adds where the CPU has AVX2 and
+    /// FMA (default: whenever available) or portably everywhere (off: the reference for tests;
+    /// the same solution to rounding). Asking for it on a CPU without them keeps it off.
+    #[doc(hidden)]
+    pub fn set_fused(&mut self, on: bool) {
+        self.fused = on && articula_dca::fused_available();
+    }
+
     /// Take a forced path's deltas from its linear maps of the leaf's wrench (default) or
     /// recompute every dirty node from its children's (off: the reference for tests).
     #[doc(hidden)]

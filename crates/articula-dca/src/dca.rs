@@ -107,8 +107,9 @@ fn dca_fused(
     dca_with::<Fused>(model, tau, f_ext, data, bias)
 }
 
-/// Whether this CPU can run [`dca_fused`] (checked once per `Data`).
-pub(crate) fn fused_available() -> bool {
+/// Whether this CPU can run the fused (AVX2 + FMA) compilations: of the DCA pass here
+/// (checked once per `Data`), and of other crates' passes written over [`Arith`].
+pub fn fused_available() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")
@@ -132,9 +133,12 @@ fn dca_with<A: Arith>(
     Ok(())
 }
 
-/// How the pass forms `a·b + c`: rounded twice ([`Portable`]) or once ([`Fused`]). The two
-/// give the same solution to rounding; the fused one only runs inside [`dca_fused`].
-pub(crate) trait Arith {
+/// How a pass forms `a·b + c`: rounded twice ([`Portable`]) or once ([`Fused`]). The two
+/// give the same solution to rounding. A pass written over `Arith` is compiled twice: with
+/// [`Portable`] for any CPU, and with [`Fused`] only inside a function compiled with
+/// `#[target_feature(enable = "avx2,fma")]` into which everything using it is inlined (here
+/// the DCA pass's `dca_fused`), called only when [`fused_available`].
+pub trait Arith {
     /// `a·b + c`.
     fn mul_add(a: f64, b: f64, c: f64) -> f64;
 
@@ -146,7 +150,7 @@ pub(crate) trait Arith {
 }
 
 /// `a·b + c` as a product and a sum (any CPU).
-pub(crate) struct Portable;
+pub struct Portable;
 
 impl Arith for Portable {
     #[inline(always)]
@@ -159,10 +163,11 @@ impl Arith for Portable {
     }
 }
 
-/// `a·b + c` rounded once: a `vfmadd` inside [`dca_fused`] (elsewhere `f64::mul_add` would
-/// call a slow library routine, so only that function uses this type).
+/// `a·b + c` rounded once: a `vfmadd` inside a function compiled for AVX2 + FMA such as
+/// the DCA pass's `dca_fused` (elsewhere `f64::mul_add` would call a slow library routine, so only such
+/// functions may use this type).
 #[cfg(target_arch = "x86_64")]
-pub(crate) struct Fused;
+pub struct Fused;
 
 #[cfg(target_arch = "x86_64")]
 impl Arith for Fused {

@@ -42,6 +42,9 @@ mod small;
 mod state;
 
 pub use data::Data;
+#[cfg(target_arch = "x86_64")]
+pub use dca::Fused;
+pub use dca::{fused_available, Arith, Portable};
 pub use error::DynamicsError;
 pub use integrate::{integrate_floating, integrate_q, step, Integrator};
 pub use kinematics::{body_kinematics, computation_origin, forward_kinematics};
