@@ -54,3 +54,17 @@ pub fn seeded_state(model: &Model, forces: usize) -> articula_dca::State {
     }
     s
 }
+
+/// The non-zero wrenches of a dense external-force array as `(body, wrench)` pairs: how the
+/// adaptive runs take their forces (`Adaptive::step_with_forces`: no O(n) scan of a dense
+/// array per step).
+pub fn force_list(
+    f_ext: &[articula_spatial::SpatialForce],
+) -> Vec<(usize, articula_spatial::SpatialForce)> {
+    f_ext
+        .iter()
+        .enumerate()
+        .filter(|(_, f)| **f != articula_spatial::SpatialForce::ZERO)
+        .map(|(i, f)| (i, *f))
+        .collect()
+}

@@ -3,9 +3,8 @@
 //! `cargo bench -p articula-adaptive --bench adaptive`
 
 use articula_adaptive::{Adaptive, Settings};
-use articula_benches::{chain, seeded_state};
+use articula_benches::{chain, force_list, seeded_state};
 use articula_dca::{step, Data, Integrator, Method, State};
-use articula_spatial::SpatialForce;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -66,13 +65,7 @@ fn seeds_table(c: &mut Criterion) {
             },
         );
         // The adaptive runs take the forces as a list (no O(n) scan of a dense one).
-        let list: Vec<(usize, SpatialForce)> = s0
-            .f_ext
-            .iter()
-            .enumerate()
-            .filter(|(_, f)| **f != SpatialForce::ZERO)
-            .map(|(i, f)| (i, *f))
-            .collect();
+        let list = force_list(&s0.f_ext);
         let mut a0 = s0.clone();
         a0.f_ext.clear();
         for budget in [1usize, 50, 100, 150, 200, 250, 300] {

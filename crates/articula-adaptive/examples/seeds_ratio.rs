@@ -12,9 +12,8 @@
 //! the minima and the median round ratio per budget.
 
 use articula_adaptive::{Adaptive, Settings};
-use articula_benches::{chain, seeded_state};
+use articula_benches::{chain, force_list, seeded_state};
 use articula_dca::{step, Data, Integrator, Method};
-use articula_spatial::SpatialForce;
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
@@ -33,13 +32,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let model = chain(300);
     let s0 = seeded_state(&model, 1);
-    let list: Vec<(usize, SpatialForce)> = s0
-        .f_ext
-        .iter()
-        .enumerate()
-        .filter(|(_, f)| **f != SpatialForce::ZERO)
-        .map(|(i, f)| (i, *f))
-        .collect();
+    let list = force_list(&s0.f_ext);
     let mut a0 = s0.clone();
     a0.f_ext.clear();
 
