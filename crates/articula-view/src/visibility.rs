@@ -344,7 +344,7 @@ impl BodyView {
     }
 }
 
-/// Scratch of [`classify`], reused between calls.
+/// Scratch of [`Classifier::classify`], reused between calls.
 #[derive(Clone, Debug)]
 pub struct Classifier {
     /// The depth buffer of the last call.
