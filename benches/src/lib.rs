@@ -28,9 +28,14 @@ pub fn chain_urdf(n: usize) -> String {
 
 /// Loads a bundled model by file stem (`humanoid`, `chain300`, ...).
 pub fn bundled(name: &str) -> Model {
+    bundled_with(name, false)
+}
+
+/// Loads a bundled model by file stem, its root welded to the world or (`floating_base`) free.
+pub fn bundled_with(name: &str, floating_base: bool) -> Model {
     let path =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../models/{name}.urdf"));
-    Model::from_urdf_file(path, &LoadOptions::default()).expect("bundled model loads")
+    Model::from_urdf_file(path, &LoadOptions { floating_base }).expect("bundled model loads")
 }
 
 /// A chain of `n` links.

@@ -16,16 +16,7 @@ const MODELS: [&str; 8] = [
     "rope",
 ];
 
-fn load(name: &str, floating: bool) -> Model {
-    let path = format!("{}/../../models/{name}.urdf", env!("CARGO_MANIFEST_DIR"));
-    Model::from_urdf_file(
-        &path,
-        &LoadOptions {
-            floating_base: floating,
-        },
-    )
-    .unwrap()
-}
+use articula_benches::bundled_with as load;
 
 /// Every bundled model, fixed base, plus the floating humanoid and floating chain30.
 fn models() -> Vec<(String, Model)> {

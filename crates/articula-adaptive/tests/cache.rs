@@ -3,19 +3,10 @@
 
 use articula_adaptive::{Adaptive, Settings};
 use articula_dca::{forward_dynamics, Data, Method, State};
-use articula_model::{LoadOptions, Model};
+use articula_model::Model;
 use articula_spatial::SpatialForce;
 
-fn load(name: &str, floating: bool) -> Model {
-    let path = format!("{}/../../models/{name}.urdf", env!("CARGO_MANIFEST_DIR"));
-    Model::from_urdf_file(
-        &path,
-        &LoadOptions {
-            floating_base: floating,
-        },
-    )
-    .unwrap()
-}
+use articula_benches::bundled_with as load;
 
 /// Relative agreement required of q̈, predicted error and q̇ after the locking impulses.
 const TOL: f64 = 1e-9;

@@ -8,18 +8,8 @@
 
 use articula_adaptive::{Adaptive, Settings};
 use articula_dca::{forward_dynamics, Data, Method, State};
-use articula_model::{LoadOptions, Model};
 
-fn load(name: &str, floating: bool) -> Model {
-    let path = format!("{}/../../models/{name}.urdf", env!("CARGO_MANIFEST_DIR"));
-    Model::from_urdf_file(
-        &path,
-        &LoadOptions {
-            floating_base: floating,
-        },
-    )
-    .unwrap()
-}
+use articula_benches::bundled_with as load;
 
 /// max |x − y| / max(1, max |x|).
 fn rel(x: &[f64], y: &[f64]) -> f64 {

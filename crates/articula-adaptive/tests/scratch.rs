@@ -11,20 +11,11 @@
 
 use articula_adaptive::{Adaptive, Scratch, Settings};
 use articula_dca::State;
-use articula_model::{LoadOptions, Model};
+use articula_model::Model;
 use articula_spatial::SpatialForce;
 use glam::DVec3;
 
-fn load(name: &str, floating: bool) -> Model {
-    let path = format!("{}/../../models/{name}.urdf", env!("CARGO_MANIFEST_DIR"));
-    Model::from_urdf_file(
-        &path,
-        &LoadOptions {
-            floating_base: floating,
-        },
-    )
-    .unwrap()
-}
+use articula_benches::bundled_with as load;
 
 /// Bitwise equality of two float slices (`==` would take −0 for 0 and reject NaN).
 fn same(a: &[f64], b: &[f64]) -> bool {
