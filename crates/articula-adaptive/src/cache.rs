@@ -232,6 +232,19 @@ pub(crate) enum Part {
     Maps,
 }
 
+/// A join of a dirty path as the delta and map passes see it ([`Adaptive::dirty_join`]).
+struct DirtyJoin {
+    joint: usize,
+    a: usize,
+    b: usize,
+    hc: usize,
+    nhc: usize,
+    nc: usize,
+    children: [(usize, usize, f64); 2],
+    rel: [[[f64; 3]; 3]; 2],
+    xdirty: [bool; 2],
+}
+
 /// Per-node caches (layouts of the workspace's slots, cache-frame axes) and the scratch of the
 /// cached re-selection.
 #[derive(Clone, Debug, Default)]
@@ -962,6 +975,36 @@ impl Adaptive {
         std::array::from_fn(|col| (0..6).map(|s| g.0[s][col] * v[s]).sum())
     }
 
+    /// What [`Adaptive::dirty_delta`] and [`Adaptive::join_map`] read of join `n` of a dirty
+    /// path (`None` for a leaf): its joint and children `a` (parent side) and `b`, its
+    /// handles' offset and count (`nc = 6 nh` columns), each child as `(node, handle of the
+    /// joint in it, sign)`, each child's frame rotation (rows) and whether the child is dirty
+    /// in this epoch.
+    fn dirty_join(&self, model: &Model, n: usize) -> Option<DirtyJoin> {
+        let NodeKind::Join {
+            joint,
+            parent_side: a,
+            child_side: b,
+        } = model.assembly.nodes[n].kind
+        else {
+            return None;
+        };
+        let ep = self.cache.epoch;
+        let (hc, nhc) = (self.lay.hoff[n], self.nh[n]);
+        let (ja, jb) = (self.lay.ja[n], self.lay.jb[n]);
+        Some(DirtyJoin {
+            joint,
+            a,
+            b,
+            hc,
+            nhc,
+            nc: 6 * nhc,
+            children: [(a, ja, -1.0), (b, jb, 1.0)],
+            rel: [a, b].map(|x| rows3(&self.cache.rel[x].e)),
+            xdirty: [a, b].map(|x| self.cache.dstamp[x] == ep),
+        })
+    }
+
     /// What the external forces add to a dirty join `n`'s force-dependent values, from its
     /// children's (0 for a clean child), in n's cache frame: its configuration and velocity
     /// are those of its cache, so `Φ`, `K`, `N`, `Ψ` and the force-free `b`, `k`, `n`, `p`,
@@ -980,21 +1023,19 @@ impl Adaptive {
     /// O(1) per node: no cached matrix rotated, no clean child evaluated (a clean join
     /// child: `Ψ_X[·,j]` and the six rows of `P_X,j` read from its cache).
     pub(crate) fn dirty_delta(&mut self, model: &Model, n: usize) {
-        let NodeKind::Join {
+        let Some(DirtyJoin {
             joint,
-            parent_side: a,
-            child_side: b,
-        } = model.assembly.nodes[n].kind
+            hc,
+            nhc,
+            nc,
+            children,
+            rel,
+            xdirty,
+            ..
+        }) = self.dirty_join(model, n)
         else {
             return;
         };
-        let ep = self.cache.epoch;
-        let (hc, nhc) = (self.lay.hoff[n], self.nh[n]);
-        let nc = 6 * nhc;
-        let (ja, jb) = (self.lay.ja[n], self.lay.jb[n]);
-        let children = [(a, ja, -1.0), (b, jb, 1.0)];
-        let rel: [[[f64; 3]; 3]; 2] = [a, b].map(|x| rows3(&self.cache.rel[x].e));
-        let xdirty = [a, b].map(|x| self.cache.dstamp[x] == ep);
         // Δβ = Δb^A_ja − Δb^B_jb.
         let mut beta = [0.0; 6];
         for (side, &(x, jx, sign)) in children.iter().enumerate() {
@@ -1243,21 +1284,20 @@ impl Adaptive {
     /// `J += s G_p,jxᵀ N⁰_x + J_X M_X`, `H += s G_nxᵀ G_p,jx + H_X` — the terms of `Δη` in
     /// [`Adaptive::dirty_delta`] with `n₀ = N_w w`, `k₀ = K_w w`, `p_X₀ = P_X w_X`.
     pub(crate) fn join_map(&mut self, model: &Model, n: usize) {
-        let NodeKind::Join {
+        let Some(DirtyJoin {
             joint,
-            parent_side: a,
-            child_side: b,
-        } = model.assembly.nodes[n].kind
+            a,
+            b,
+            hc,
+            nhc,
+            nc,
+            children,
+            rel,
+            xdirty,
+        }) = self.dirty_join(model, n)
         else {
             return;
         };
-        let ep = self.cache.epoch;
-        let (hc, nhc) = (self.lay.hoff[n], self.nh[n]);
-        let nc = 6 * nhc;
-        let (ja, jb) = (self.lay.ja[n], self.lay.jb[n]);
-        let children = [(a, ja, -1.0), (b, jb, 1.0)];
-        let rel: [[[f64; 3]; 3]; 2] = [a, b].map(|x| rows3(&self.cache.rel[x].e));
-        let xdirty = [a, b].map(|x| self.cache.dstamp[x] == ep);
         // G_β = −s_X R_X G_b,jx^X of the dirty child.
         let mut gbeta = [[0.0; 6]; 6];
         for (side, &(x, jx, sign)) in children.iter().enumerate() {

@@ -3,30 +3,7 @@
 use articula_adaptive::{Adaptive, Settings};
 use articula_dca::State;
 use articula_spatial::SpatialForce;
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
-
-/// The system allocator, counting allocations.
-struct Counting;
-
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: Counting = Counting;
+mod counting;
 
 #[test]
 fn cached_reselection_steps_allocate_nothing() {
@@ -44,7 +21,7 @@ fn cached_reselection_steps_allocate_nothing() {
         })
         .collect();
     for budget in [1usize, 50] {
-        let start = ALLOCATIONS.load(Ordering::Relaxed);
+        let start = counting::allocations();
         let mut ad = Adaptive::new(
             &model,
             Settings {
@@ -56,7 +33,7 @@ fn cached_reselection_steps_allocate_nothing() {
         for _ in 0..50 {
             ad.step_with_forces(&model, &mut s, 1e-4, &forces).unwrap();
         }
-        let before = ALLOCATIONS.load(Ordering::Relaxed);
+        let before = counting::allocations();
         // The counter counts: the workspace and the first step's caches were allocated.
         assert!(before > start + 10, "budget {budget}");
         let mut cached = 0;
@@ -65,7 +42,7 @@ fn cached_reselection_steps_allocate_nothing() {
             assert!(r.reselected);
             cached += usize::from(r.nodes_touched < model.assembly.nodes.len());
         }
-        let after = ALLOCATIONS.load(Ordering::Relaxed);
+        let after = counting::allocations();
         assert_eq!(
             cached, 200,
             "budget {budget}: every re-selection through the caches"

@@ -4,30 +4,7 @@
 use articula_adaptive::{Adaptive, Scratch, Settings};
 use articula_dca::State;
 use articula_model::{LoadOptions, Model};
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
-
-/// The system allocator, counting allocations.
-struct Counting;
-
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: Counting = Counting;
+mod counting;
 
 #[test]
 fn shared_scratch_steps_allocate_nothing() {
@@ -40,7 +17,7 @@ fn shared_scratch_steps_allocate_nothing() {
     )
     .unwrap();
     let n = 4;
-    let start = ALLOCATIONS.load(Ordering::Relaxed);
+    let start = counting::allocations();
     let mut scratch = Scratch::new(&model);
     let mut ads: Vec<Adaptive> = (0..n)
         .map(|i| {
@@ -95,11 +72,11 @@ fn shared_scratch_steps_allocate_nothing() {
     for k in 0..40 {
         run(k);
     }
-    let before = ALLOCATIONS.load(Ordering::Relaxed);
+    let before = counting::allocations();
     // The counter counts: the workspaces and the first steps' caches were allocated.
     assert!(before > start + 10);
     for k in 40..140 {
         run(k);
     }
-    assert_eq!(ALLOCATIONS.load(Ordering::Relaxed) - before, 0);
+    assert_eq!(counting::allocations() - before, 0);
 }
