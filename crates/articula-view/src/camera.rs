@@ -60,6 +60,20 @@ impl Frustum {
         self.planes.iter().all(|p| p.distance(center) >= -radius)
     }
 
+    /// The least signed distance of `center` to the planes (positive inside), NaN if any is:
+    /// `sphere(center, r)` is `nearest_plane_distance(center) >= -r`.
+    pub fn nearest_plane_distance(&self, center: DVec3) -> f64 {
+        let mut least = f64::INFINITY;
+        for p in &self.planes {
+            let d = p.distance(center);
+            if d.is_nan() {
+                return f64::NAN;
+            }
+            least = least.min(d);
+        }
+        least
+    }
+
     /// Whether the capsule (segment `a`–`b` swept by a sphere of `radius`) may touch the
     /// frustum: the signed distance is affine along the segment, so the capsule is outside a
     /// plane exactly when both end spheres are.

@@ -170,8 +170,13 @@ pub fn global_selection(
 pub struct SimBody {
     /// Index into the scene's models.
     pub model: usize,
-    /// Its state.
+    /// Its state. Its `f_ext` stays empty: the external wrenches of the step are in
+    /// [`SimBody::forces`].
     pub state: State,
+    /// The external wrenches acting at this step, `(model body, world wrench about the world
+    /// origin)`, one entry per pushed body (a list: nothing scans or clears a dense array of
+    /// every body's links each step).
+    pub forces: Vec<(usize, SpatialForce)>,
     /// Its adaptive workspace.
     pub adaptive: Adaptive,
     /// World pose of every model body (at the last re-selection or render).
@@ -229,10 +234,9 @@ impl SimBody {
         let p0 = DVec3::new(q[0], q[1], q[2]);
         let gb = rot.transpose() * gravity;
         let fw = self
-            .state
-            .f_ext
+            .forces
             .iter()
-            .fold(SpatialForce::ZERO, |a, f| a + *f);
+            .fold(SpatialForce::ZERO, |a, (_, f)| a + *f);
         // World wrench about the world origin → root coordinates about the root origin.
         let n = rot.transpose() * (fw.n - p0.cross(fw.f));
         let f = SpatialForce::new(
@@ -300,6 +304,8 @@ pub struct SceneSim<'s> {
     /// Whether the bodies use `scratch` (default) or their own buffers (the reference).
     shared: bool,
     metrics: Vec<Vec<f64>>,
+    /// The dense external wrenches of one body's exact solve (its metrics).
+    fdense: Vec<SpatialForce>,
     wanted: Vec<bool>,
     last: SceneStep,
 }
@@ -318,6 +324,7 @@ impl<'s> SceneSim<'s> {
             .map(|p| {
                 let model = &scene.models[p.model].model;
                 let mut state = State::neutral(model);
+                state.f_ext.clear();
                 state.q.copy_from_slice(&p.q);
                 state.qd.copy_from_slice(&p.qd);
                 // The scene drives re-selection (`set_active`); the workspace never re-selects
@@ -335,6 +342,7 @@ impl<'s> SceneSim<'s> {
                 SimBody {
                     model: p.model,
                     state,
+                    forces: Vec::new(),
                     adaptive,
                     poses,
                     active: model.nv.saturating_sub(6),
@@ -368,6 +376,7 @@ impl<'s> SceneSim<'s> {
                 .collect(),
             shared: true,
             metrics: vec![Vec::new(); bodies.len()],
+            fdense: Vec::new(),
             wanted: Vec::new(),
             views: Vec::new(),
             classifier: Classifier::new(&scene.visibility),
@@ -448,12 +457,10 @@ impl<'s> SceneSim<'s> {
         let reselect = self.steps.is_multiple_of(scene.reselect_every as u64);
         // Pushes acting now: world wrenches about the world origin.
         for b in &mut self.bodies {
-            b.state
-                .f_ext
-                .iter_mut()
-                .for_each(|f| *f = SpatialForce::ZERO);
+            b.forces.clear();
+            let s = &mut b.state;
             for &(qi, vi, k, c) in &self.springs[b.model] {
-                b.state.tau[vi] = -k * b.state.q[qi] - c * b.state.qd[vi];
+                s.tau[vi] = -k * s.q[qi] - c * s.qd[vi];
             }
         }
         for p in scene.pushes.iter().filter(|p| p.t0 <= t && t < p.t1) {
@@ -462,7 +469,12 @@ impl<'s> SceneSim<'s> {
             // The pushed link's pose alone (its path from the root).
             let (r, pos) = self.plans[b.model].pose(model, &b.state.q, p.link_body);
             let at = r * p.point + pos;
-            b.state.f_ext[p.link_body] += SpatialForce::new(at.cross(p.force), p.force);
+            let w = SpatialForce::new(at.cross(p.force), p.force);
+            // One entry per link, in link order (as a scan of a dense array would list them).
+            match b.forces.binary_search_by_key(&p.link_body, |e| e.0) {
+                Ok(k) => b.forces[k].1 += w,
+                Err(k) => b.forces.insert(k, (p.link_body, w)),
+            }
         }
         if reselect {
             self.classify();
@@ -488,11 +500,20 @@ impl<'s> SceneSim<'s> {
                 metrics.resize(model.assembly.nodes.len(), 0.0);
                 let s = &b.state;
                 let ad = &mut b.adaptive;
+                // The exact solve takes the wrenches as a dense array (empty: none).
+                self.fdense.clear();
+                if !b.forces.is_empty() {
+                    self.fdense.resize(model.bodies.len(), SpatialForce::ZERO);
+                    for &(i, f) in &b.forces {
+                        self.fdense[i] = f;
+                    }
+                }
+                let f_ext = &self.fdense;
                 if self.shared {
                     let scratch = &mut self.scratch[b.model];
-                    ad.node_metrics_with(scratch, model, &s.q, &s.qd, &s.tau, &s.f_ext, metrics)
+                    ad.node_metrics_with(scratch, model, &s.q, &s.qd, &s.tau, f_ext, metrics)
                 } else {
-                    ad.node_metrics(model, &s.q, &s.qd, &s.tau, &s.f_ext, metrics)
+                    ad.node_metrics(model, &s.q, &s.qd, &s.tau, f_ext, metrics)
                 }
                 .map_err(|e| SceneSimError::new(scene, b.model, &e))?;
             }
@@ -562,11 +583,12 @@ impl<'s> SceneSim<'s> {
                 })?;
                 continue;
             }
-            let (ad, state) = (&mut b.adaptive, &mut b.state);
+            let (ad, state, forces) = (&mut b.adaptive, &mut b.state, &b.forces);
             if self.shared {
-                ad.step_with(&mut self.scratch[b.model], model, state, scene.dt)
+                let scratch = &mut self.scratch[b.model];
+                ad.step_with_forces_and_scratch(scratch, model, state, scene.dt, forces)
             } else {
-                ad.step(model, state, scene.dt)
+                ad.step_with_forces(model, state, scene.dt, forces)
             }
             .map_err(|e| SceneSimError::body(scene, i, &e))?;
             b.active = b

@@ -156,15 +156,38 @@ impl DepthBuffer {
         }
         // Cells [i, i+1] × [j, j+1] wholly inside the ellipse ((u−x)/rx)² + ((v−y)/ry)² ≤ 1:
         // its four corners inside (the ellipse is convex).
-        let i0 = floor_index(x - rx);
-        let i1 = ceil_index(x + rx).min(self.width);
-        let j0 = floor_index(y - ry);
-        let j1 = ceil_index(y + ry).min(self.height);
         // The corner test, with `bb = ((v − y)/ry)²` computed once per grid line v.
         let inside = |u: f64, bb: f64| {
             let a = (u - x) / rx;
             a * a + bb <= 1.0
         };
+        let line = |v: f64| {
+            let b = (v - y) / ry;
+            b * b
+        };
+        if rx < 1.0 && ry < 1.0 {
+            // A small ellipse (most balls of a distant crowd): a cell with its four corners
+            // inside has them within less than one cell of the centre on each axis, so it is
+            // the cell holding the centre: test that one (the same corner tests).
+            if x < 0.0 || y < 0.0 {
+                return;
+            }
+            let (i, j) = (floor_index(x), floor_index(y));
+            if i + 1 > self.width || j + 1 > self.height {
+                return;
+            }
+            let (u, v) = (i as f64, j as f64);
+            let (b0, b1) = (line(v), line(v + 1.0));
+            if inside(u, b0) && inside(u + 1.0, b0) && inside(u, b1) && inside(u + 1.0, b1) {
+                let d = &mut self.depth[j * self.width + i];
+                *d = if far < *d { far } else { *d };
+            }
+            return;
+        }
+        let i0 = floor_index(x - rx);
+        let i1 = ceil_index(x + rx).min(self.width);
+        let j0 = floor_index(y - ry);
+        let j1 = ceil_index(y + ry).min(self.height);
         if j0 >= j1 || i0 > i1 {
             return;
         }
@@ -178,8 +201,7 @@ impl DepthBuffer {
         let mut run: Option<(usize, usize)> = None;
         let mut below = (1, 0);
         for j in j0..=j1 {
-            let b = (j as f64 - y) / ry;
-            let bb = b * b;
+            let bb = line(j as f64);
             let next = match run {
                 Some((lo, hi)) => {
                     // Each end moves out while the next corner is inside, or in until one
@@ -392,13 +414,15 @@ impl Classifier {
                 let (c, r) = vol.bound;
                 let center = rot * c + pos;
                 world.push((center, r));
-                let class = if frustum.sphere(center, r + placed.margin) {
+                // Frustum::sphere with the margin and without, from one pass over the planes.
+                let d = frustum.nearest_plane_distance(center);
+                let class = if d >= -(r + placed.margin) {
                     Visibility::Visible
                 } else {
                     Visibility::Invisible
                 };
                 view.links.push(class);
-                if class == Visibility::Visible && frustum.sphere(center, r) {
+                if class == Visibility::Visible && d >= -r {
                     self.spheres.clear();
                     // Balls whose projected disc cannot hold a whole cell write nothing: skip
                     // volumes that thin at this distance (depth ≥ distance − r).

@@ -365,12 +365,15 @@ fn a_rasterised_ball_fills_exactly_the_cells_wholly_inside_its_disc() {
             .wrapping_add(1442695040888963407);
         lo + (hi - lo) * ((seed >> 11) as f64 / (1u64 << 53) as f64)
     };
-    let mut filled_total = 0;
+    let (mut filled_total, mut one_cell) = (0, 0);
     for k in 0..3000 {
         let x = rnd(0.5, 40.0);
         let p = DVec3::new(x, rnd(-1.5, 1.5) * x, rnd(-1.0, 1.0) * x);
-        // Small to huge discs, some crossing the image border.
-        let r = if k % 3 == 0 {
+        // Small to huge discs, some crossing the image border; every fourth about one cell
+        // across (the buffer's one-cell path: radii of 0.6–1.3 cells).
+        let r = if k % 4 == 3 {
+            rnd(0.6, 1.3) * x / fy
+        } else if k % 3 == 0 {
             rnd(0.01, 0.3)
         } else {
             rnd(0.1, 0.6) * x
@@ -398,6 +401,7 @@ fn a_rasterised_ball_fills_exactly_the_cells_wholly_inside_its_disc() {
                     && inside(u + 1.0, v + 1.0);
                 let want = if full { q.z + r } else { f64::INFINITY };
                 filled_total += usize::from(full);
+                one_cell += usize::from(full && k % 4 == 3 && rx < 1.0 && ry < 1.0);
                 assert_eq!(
                     buf.depth[j * w + i],
                     want,
@@ -409,6 +413,10 @@ fn a_rasterised_ball_fills_exactly_the_cells_wholly_inside_its_disc() {
     assert!(
         filled_total > 10_000,
         "the test must fill cells: {filled_total}"
+    );
+    assert!(
+        one_cell > 10,
+        "the test must fill single cells of small discs: {one_cell}"
     );
 }
 
