@@ -465,12 +465,19 @@ fn rotate_diagonal_pair<A: Arith>(
     d: [f64; 3],
     d2: [f64; 3],
 ) -> ([[f64; 3]; 3], [[f64; 3]; 3]) {
-    // The upper triangles of e_k e_kᵀ: (0,0), (0,1), (0,2), (1,1), (1,2), (2,2).
-    const UP: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
-    let p: [[f64; 6]; 3] = std::array::from_fn(|k| UP.map(|(r, s)| e[k][r] * e[k][s]));
+    // Entry (r, s) is Σ_k (d_k e_k[r]) e_k[s]: the upper triangle, mirrored. (Written out:
+    // `array::map` over the index pairs was not inlined and cost ~250 instructions per leaf.)
     let sum = |d: [f64; 3]| -> [[f64; 3]; 3] {
-        let u: [f64; 6] = std::array::from_fn(|t| dot3::<A>(&d, &[p[0][t], p[1][t], p[2][t]]));
-        sym3(&u)
+        let u: [[f64; 3]; 3] =
+            std::array::from_fn(|k| [d[k] * e[k][0], d[k] * e[k][1], d[k] * e[k][2]]);
+        let at = |r: usize, s: usize| {
+            A::mul_add(
+                u[2][r],
+                e[2][s],
+                A::mul_add(u[1][r], e[1][s], u[0][r] * e[0][s]),
+            )
+        };
+        sym3(&[at(0, 0), at(0, 1), at(0, 2), at(1, 1), at(1, 2), at(2, 2)])
     };
     (sum(d), sum(d2))
 }
