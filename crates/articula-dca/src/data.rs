@@ -78,6 +78,12 @@ pub(crate) struct DcaData {
     /// Run the pass compiled for AVX2 + FMA (`dca::dca_fused`): set in [`Data::new`] when the
     /// CPU has both (x86-64 only); tests clear it to check the portable compilation.
     pub fused: bool,
+    /// Whether `forward_dynamics` runs the kinematics inside the main pass: each body's at its
+    /// parent's leaf (the root bodies' at the ground's), which needs the ground first and every
+    /// body's leaf after its parent's (true for the assembly trees of `articula-model`, whose
+    /// post-order visits a join's parent side first; checked in [`Data::new`]). The pose,
+    /// velocity, `c` and `S` are then used while in cache instead of read back from memory.
+    pub leaf_kinematics: bool,
     /// Per node, what the passes read of it, in one compact record (see [`DNode`]).
     pub node: Vec<DNode>,
     /// Per handle (flat, `DNode::hoff`): its joint.
@@ -369,6 +375,23 @@ impl Data {
                 one_dof,
             });
         }
+        // Whether the main pass can run each body's kinematics at its parent's leaf (the
+        // roots' at the ground's) before anything reads it (see `DcaData::leaf_kinematics`).
+        let mut done = vec![false; n];
+        let leaf_kinematics = tree.nodes.iter().all(|nd| match nd.kind {
+            NodeKind::Ground => nd.handles.iter().all(|&h| {
+                done[h] = true;
+                model.bodies[h].parent.is_none()
+            }),
+            NodeKind::Body(b) => {
+                let ok = done[b];
+                for &h in nd.handles.iter().filter(|&&h| h != b) {
+                    done[h] = true;
+                }
+                ok
+            }
+            NodeKind::Join { joint, .. } => done[joint],
+        }) && done.iter().all(|&x| x);
         Data {
             gravity: DVec3::new(0.0, 0.0, -9.81),
             refine_floating: true,
@@ -391,6 +414,7 @@ impl Data {
             momentum_projection: true,
             dca: DcaData {
                 fused: crate::dca::fused_available(),
+                leaf_kinematics,
                 node,
                 hj: tree
                     .nodes
