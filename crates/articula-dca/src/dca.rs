@@ -189,6 +189,10 @@ impl Arith for Fused {
 #[inline(always)]
 fn ub(nh: usize, h: usize, k: usize) -> usize {
     debug_assert!(h < k && k < nh);
+    // Two handles (a chain's nodes): the one block.
+    if nh == 2 {
+        return 0;
+    }
     h * nh - h * (h + 1) / 2 + (k - h - 1)
 }
 
