@@ -345,17 +345,16 @@ fn leaf<A: Arith>(
     // R: body → computation-frame axes, by columns (e[k] = R e_k).
     let e = x.e.to_cols_array_2d();
     let cv = x.apply_point(DVec3::from_array(lc.com));
-    let (ic, jc) = if lc.ic[1] == 0.0 && lc.ic[2] == 0.0 && lc.ic[4] == 0.0 {
-        // Principal axes along the body's (the common case): R diag(d) Rᵀ = Σ_k d_k e_k e_kᵀ.
-        rotate_diagonal_pair::<A>(
-            &e,
-            [lc.ic[0], lc.ic[3], lc.ic[5]],
-            [lc.ic_inv[0], lc.ic_inv[3], lc.ic_inv[5]],
-        )
+    let (ic, jc) = if lc.full == u32::MAX {
+        // Principal axes along the body's (the common case): R diag(d) Rᵀ = Σ_k d_k e_k e_kᵀ,
+        // and the inverse's with 1/d_k.
+        let d = lc.ic;
+        rotate_diagonal_pair::<A>(&e, d, [1.0 / d[0], 1.0 / d[1], 1.0 / d[2]])
     } else {
+        let [u, u_inv] = &data.dca.leaf_full[lc.full as usize];
         (
-            rotate_sym::<A>(&e, &sym3(&lc.ic)),
-            rotate_sym::<A>(&e, &sym3(&lc.ic_inv)),
+            rotate_sym::<A>(&e, &sym3(u)),
+            rotate_sym::<A>(&e, &sym3(u_inv)),
         )
     };
     let (alpha, acc_c) = if bias {
