@@ -78,6 +78,12 @@ pub(crate) struct DcaData {
     /// Run the pass compiled for AVX2 + FMA (`dca::dca_fused`): set in [`Data::new`] when the
     /// CPU has both (x86-64 only); tests clear it to check the portable compilation.
     pub fused: bool,
+    /// Whether `forward_dynamics` runs the kinematics inside the main pass: each body's at its
+    /// parent's leaf (the root bodies' at the ground's), which needs the ground first and every
+    /// body's leaf after its parent's (true for the assembly trees of `articula-model`, whose
+    /// post-order visits a join's parent side first; checked in [`Data::new`]). The pose,
+    /// velocity, `c` and `S` are then used while in cache instead of read back from memory.
+    pub leaf_kinematics: bool,
     /// Per node, what the passes read of it, in one compact record (see [`DNode`]).
     pub node: Vec<DNode>,
     /// Per handle (flat, `DNode::hoff`): its joint.
@@ -118,6 +124,8 @@ pub(crate) struct DcaData {
     pub y: Vec<[[f64; 6]; 6]>,
     /// Per body: the constants of its leaf.
     pub leaf: Vec<LeafConst>,
+    /// The rotational inertias with products of inertia (see [`LeafConst::full`]).
+    pub leaf_full: Vec<[[f64; 6]; 2]>,
 }
 
 /// A node of the assembly tree as DCA's passes read it: 40 bytes (the tree's own node and the
@@ -166,7 +174,8 @@ pub(crate) struct LeafK {
     pub im: f64,
 }
 
-/// A body's inertia as its DCA leaf uses it, in body coordinates: 128 bytes, two cache lines.
+/// A body's inertia as its DCA leaf uses it, in body coordinates: 64 bytes, one cache line
+/// (the main pass reads one per body: at 10,000 links a stream from beyond L2).
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub(crate) struct LeafConst {
@@ -175,14 +184,17 @@ pub(crate) struct LeafConst {
     /// `1/m`; NaN when the spatial inertia is not positive definite (the dynamics call reports
     /// it).
     pub im: f64,
-    /// Rotational inertia about the centre of mass, `I_c`, and its inverse: upper triangles,
-    /// row by row (`xx, xy, xz, yy, yz, zz`).
-    pub ic: [f64; 6],
-    pub ic_inv: [f64; 6],
+    /// With principal axes along the body's (`full == u32::MAX`, the common case): the
+    /// principal moments, the diagonal of `I_c` (the leaf takes their inverses).
+    pub ic: [f64; 3],
+    /// Otherwise: the index of `I_c` and `I_c⁻¹` in `DcaData::leaf_full`.
+    pub full: u32,
 }
 
 impl LeafConst {
-    fn of(inertia: &SpatialInertia) -> LeafConst {
+    /// The constants of `inertia`; a rotational inertia with products of inertia goes to
+    /// `full` (`I_c` and its inverse: upper triangles, row by row, `xx, xy, xz, yy, yz, zz`).
+    fn of(inertia: &SpatialInertia, full: &mut Vec<[[f64; 6]; 2]>) -> LeafConst {
         let ic = inertia.inertia_about_com();
         let m = inertia.mass;
         let ok = !m.is_nan() && m > 0.0 && ic.determinant() > 0.0;
@@ -191,11 +203,19 @@ impl LeafConst {
                 a.x_axis.x, a.y_axis.x, a.z_axis.x, a.y_axis.y, a.z_axis.y, a.z_axis.z,
             ]
         };
+        let u = up(ic);
+        let diagonal = u[1] == 0.0 && u[2] == 0.0 && u[4] == 0.0;
+        let index = if diagonal {
+            u32::MAX
+        } else {
+            full.push([u, if ok { up(ic.inverse()) } else { [f64::NAN; 6] }]);
+            u32::try_from(full.len() - 1).expect("too many bodies for 32-bit indices")
+        };
         LeafConst {
             com: inertia.com().to_array(),
             im: if ok { 1.0 / m } else { f64::NAN },
-            ic: up(ic),
-            ic_inv: if ok { up(ic.inverse()) } else { [f64::NAN; 6] },
+            ic: [u[0], u[3], u[5]],
+            full: index,
         }
     }
 }
@@ -369,6 +389,29 @@ impl Data {
                 one_dof,
             });
         }
+        // Whether the main pass can run each body's kinematics at its parent's leaf (the
+        // roots' at the ground's) before anything reads it (see `DcaData::leaf_kinematics`).
+        let mut done = vec![false; n];
+        let leaf_kinematics = tree.nodes.iter().all(|nd| match nd.kind {
+            NodeKind::Ground => nd.handles.iter().all(|&h| {
+                done[h] = true;
+                model.bodies[h].parent.is_none()
+            }),
+            NodeKind::Body(b) => {
+                let ok = done[b];
+                for &h in nd.handles.iter().filter(|&&h| h != b) {
+                    done[h] = true;
+                }
+                ok
+            }
+            NodeKind::Join { joint, .. } => done[joint],
+        }) && done.iter().all(|&x| x);
+        let mut leaf_full = Vec::new();
+        let leaf = model
+            .bodies
+            .iter()
+            .map(|b| LeafConst::of(&b.inertia, &mut leaf_full))
+            .collect();
         Data {
             gravity: DVec3::new(0.0, 0.0, -9.81),
             refine_floating: true,
@@ -391,6 +434,7 @@ impl Data {
             momentum_projection: true,
             dca: DcaData {
                 fused: crate::dca::fused_available(),
+                leaf_kinematics,
                 node,
                 hj: tree
                     .nodes
@@ -410,11 +454,8 @@ impl Data {
                 point: vec![DVec3::ZERO; n],
                 rev: vec![RevJoin::default(); joins],
                 y: vec![[[0.0; 6]; 6]; max_h],
-                leaf: model
-                    .bodies
-                    .iter()
-                    .map(|b| LeafConst::of(&b.inertia))
-                    .collect(),
+                leaf,
+                leaf_full,
             },
             fk_plan: model.bodies.iter().map(FkPlan::of).collect(),
             topo: model

@@ -21,8 +21,9 @@ pub(crate) fn init_body(i: usize, data: &mut Data) {
     data.dca.point[i] = data.x[i].apply_point(DVec3::ZERO);
 }
 
-/// `forward_dynamics`' DCA call: the kinematics loop (with [`init_body`]) and [`dca`] with the
-/// leaves' bias accelerations, both in the compilation [`dca`] picks.
+/// `forward_dynamics`' DCA call: the kinematics (at the leaves, or in a loop of its own with
+/// [`init_body`]) and [`dca`] with the leaves' bias accelerations, both in the compilation
+/// [`dca`] picks.
 pub(crate) fn forward(
     model: &Model,
     q: &[f64],
@@ -63,6 +64,12 @@ fn forward_with<A: Arith>(
     f_ext: &[SpatialForce],
     data: &mut Data,
 ) -> Result<(), DynamicsError> {
+    if data.dca.leaf_kinematics {
+        // Each body's kinematics at its leaf (see `DcaData::leaf_kinematics`).
+        main_pass::<A>(model, tau, f_ext, data, true, Some((q, qd)))?;
+        back_substitution::<A>(model, tau, data);
+        return Ok(());
+    }
     // DCA's leaves set the world inertias themselves.
     crate::kinematics::kinematics_with(model, q, qd, data, false, init_body);
     dca_with::<A>(model, tau, f_ext, data, true)
@@ -128,7 +135,7 @@ fn dca_with<A: Arith>(
     data: &mut Data,
     bias: bool,
 ) -> Result<(), DynamicsError> {
-    main_pass::<A>(model, tau, f_ext, data, bias)?;
+    main_pass::<A>(model, tau, f_ext, data, bias, None)?;
     back_substitution::<A>(model, tau, data);
     Ok(())
 }
@@ -182,6 +189,10 @@ impl Arith for Fused {
 #[inline(always)]
 fn ub(nh: usize, h: usize, k: usize) -> usize {
     debug_assert!(h < k && k < nh);
+    // Two handles (a chain's nodes): the one block.
+    if nh == 2 {
+        return 0;
+    }
     h * nh - h * (h + 1) / 2 + (k - h - 1)
 }
 
@@ -247,9 +258,12 @@ fn main_pass<A: Arith>(
     f_ext: &[SpatialForce],
     data: &mut Data,
     bias: bool,
+    kinematics: Option<(&[f64], &[f64])>,
 ) -> Result<(), DynamicsError> {
     let tree = &model.assembly;
     let a_g = SpatialMotion::new(DVec3::ZERO, data.gravity);
+    // X_{C←W} = xlt(origin), for the kinematics at the leaves.
+    let x_cw = articula_spatial::SpatialTransform::xlt(data.origin);
     for n in 0..tree.nodes.len() {
         // Φ's diagonal blocks and b, read only by the parent join, go to the node's slot.
         let nd = data.dca.node[n];
@@ -258,6 +272,14 @@ fn main_pass<A: Arith>(
         match nd.kind {
             // Ground: Φ = 0, b = 0.
             DKind::Ground => {
+                if let Some((q, qd)) = kinematics {
+                    // The root bodies' kinematics (its handles).
+                    for h in ho..ho + nh {
+                        let c = data.dca.hj[h] as usize;
+                        crate::kinematics::kinematics_body(model, c, q, qd, data, x_cw, false);
+                        init_body(c, data);
+                    }
+                }
                 for k in 0..nh * nh.saturating_sub(1) / 2 {
                     data.dca.phi[bo + k] = Mat6::ZERO;
                 }
@@ -267,7 +289,20 @@ fn main_pass<A: Arith>(
                 }
             }
             DKind::Body(i) => {
-                leaf::<A>(model, i as usize, (ho, nh, bo, top), f_ext, a_g, bias, data)?
+                let i = i as usize;
+                if let Some((q, qd)) = kinematics {
+                    // The kinematics of the body's children (its handles but its own joint,
+                    // whose point the leaf needs), the body's done (see
+                    // `DcaData::leaf_kinematics`).
+                    for h in ho..ho + nh {
+                        let c = data.dca.hj[h] as usize;
+                        if c != i {
+                            crate::kinematics::kinematics_body(model, c, q, qd, data, x_cw, false);
+                            init_body(c, data);
+                        }
+                    }
+                }
+                leaf::<A>(model, i, (ho, nh, bo, top), f_ext, a_g, bias, data)?
             }
             DKind::Join { joint, a, b } => {
                 join::<A>(model, tau, data, n, joint as usize, a as usize, b as usize)?
@@ -310,17 +345,16 @@ fn leaf<A: Arith>(
     // R: body → computation-frame axes, by columns (e[k] = R e_k).
     let e = x.e.to_cols_array_2d();
     let cv = x.apply_point(DVec3::from_array(lc.com));
-    let (ic, jc) = if lc.ic[1] == 0.0 && lc.ic[2] == 0.0 && lc.ic[4] == 0.0 {
-        // Principal axes along the body's (the common case): R diag(d) Rᵀ = Σ_k d_k e_k e_kᵀ.
-        rotate_diagonal_pair::<A>(
-            &e,
-            [lc.ic[0], lc.ic[3], lc.ic[5]],
-            [lc.ic_inv[0], lc.ic_inv[3], lc.ic_inv[5]],
-        )
+    let (ic, jc) = if lc.full == u32::MAX {
+        // Principal axes along the body's (the common case): R diag(d) Rᵀ = Σ_k d_k e_k e_kᵀ,
+        // and the inverse's with 1/d_k.
+        let d = lc.ic;
+        rotate_diagonal_pair::<A>(&e, d, [1.0 / d[0], 1.0 / d[1], 1.0 / d[2]])
     } else {
+        let [u, u_inv] = &data.dca.leaf_full[lc.full as usize];
         (
-            rotate_sym::<A>(&e, &sym3(&lc.ic)),
-            rotate_sym::<A>(&e, &sym3(&lc.ic_inv)),
+            rotate_sym::<A>(&e, &sym3(u)),
+            rotate_sym::<A>(&e, &sym3(u_inv)),
         )
     };
     let (alpha, acc_c) = if bias {
@@ -465,12 +499,19 @@ fn rotate_diagonal_pair<A: Arith>(
     d: [f64; 3],
     d2: [f64; 3],
 ) -> ([[f64; 3]; 3], [[f64; 3]; 3]) {
-    // The upper triangles of e_k e_kᵀ: (0,0), (0,1), (0,2), (1,1), (1,2), (2,2).
-    const UP: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
-    let p: [[f64; 6]; 3] = std::array::from_fn(|k| UP.map(|(r, s)| e[k][r] * e[k][s]));
+    // Entry (r, s) is Σ_k (d_k e_k[r]) e_k[s]: the upper triangle, mirrored. (Written out:
+    // `array::map` over the index pairs was not inlined and cost ~250 instructions per leaf.)
     let sum = |d: [f64; 3]| -> [[f64; 3]; 3] {
-        let u: [f64; 6] = std::array::from_fn(|t| dot3::<A>(&d, &[p[0][t], p[1][t], p[2][t]]));
-        sym3(&u)
+        let u: [[f64; 3]; 3] =
+            std::array::from_fn(|k| [d[k] * e[k][0], d[k] * e[k][1], d[k] * e[k][2]]);
+        let at = |r: usize, s: usize| {
+            A::mul_add(
+                u[2][r],
+                e[2][s],
+                A::mul_add(u[1][r], e[1][s], u[0][r] * e[0][s]),
+            )
+        };
+        sym3(&[at(0, 0), at(0, 1), at(0, 2), at(1, 1), at(1, 2), at(2, 2)])
     };
     (sum(d), sum(d2))
 }
@@ -1355,5 +1396,66 @@ mod tests {
             }
         }
         assert_eq!(differ, super::fused_available());
+    }
+
+    /// The kinematics at the leaves (`DcaData::leaf_kinematics`, set on every bundled model)
+    /// and in a loop of its own give the same q̈ to rounding: the handle points differ only
+    /// in rounding (a child's origin from its own pose instead of its parent's), fixed and
+    /// floating base, with and without external forces.
+    #[test]
+    fn leaf_kinematics_agrees() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models");
+        for name in ["chain10", "chain300", "humanoid", "plant", "rope"] {
+            for floating_base in [false, true] {
+                let tol = if floating_base && name == "chain300" {
+                    1e-11
+                } else {
+                    1e-12
+                };
+                let model = Model::from_urdf_file(
+                    dir.join(format!("{name}.urdf")),
+                    &LoadOptions { floating_base },
+                )
+                .unwrap();
+                let mut data = Data::new(&model);
+                assert!(data.dca.leaf_kinematics, "{name}");
+                for seed in 0..4 {
+                    let mut s = State::random(&model, seed, 1.0);
+                    if seed % 2 == 1 {
+                        s.randomize_forces(seed, 0.5);
+                    }
+                    let mut solve = |at_leaves: bool| {
+                        data.dca.leaf_kinematics = at_leaves;
+                        let qdd = forward_dynamics(
+                            &model,
+                            &mut data,
+                            &s.q,
+                            &s.qd,
+                            &s.tau,
+                            &s.f_ext,
+                            Method::Dca,
+                        )
+                        .unwrap()
+                        .to_vec();
+                        (qdd, data.x.clone(), data.v.clone())
+                    };
+                    let (loop_, leaves) = (solve(false), solve(true));
+                    let scale = loop_.0.iter().fold(1.0f64, |m, x| m.max(x.abs()));
+                    let diff = loop_
+                        .0
+                        .iter()
+                        .zip(&leaves.0)
+                        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+                    assert!(
+                        diff <= tol * scale,
+                        "{name} floating={floating_base} seed {seed}: {:e}",
+                        diff / scale
+                    );
+                    // The same kinematics, bit for bit.
+                    assert_eq!(loop_.1, leaves.1);
+                    assert_eq!(loop_.2, leaves.2);
+                }
+            }
+        }
     }
 }

@@ -109,40 +109,57 @@ pub(crate) fn kinematics_with(
 ) {
     // X_{C←W} = xlt(origin)
     let x_cw = SpatialTransform::xlt(data.origin);
-    for (i, body) in model.bodies.iter().enumerate() {
-        let parent = data.topo[i].parent;
-        let (x0, v0) = if parent == usize::MAX {
-            (x_cw, SpatialMotion::ZERO)
-        } else {
-            (data.x[parent], data.v[parent])
-        };
-        let (x, v, c) = match data.fk_plan[i] {
-            FkPlan::AxisRevolute {
-                k,
-                sign,
-                origin_r,
-                qo,
-                vo,
-            } => {
-                let qi = sign * q[qo];
-                let (x, s) = match k {
-                    0 => axis_revolute::<0, 1, 2>(x0, origin_r, qi, sign),
-                    1 => axis_revolute::<1, 2, 0>(x0, origin_r, qi, sign),
-                    _ => axis_revolute::<2, 0, 1>(x0, origin_r, qi, sign),
-                };
-                data.s[vo] = s;
-                let vj = s * qd[vo];
-                (x, v0 + vj, v0.cross_motion(vj))
-            }
-            FkPlan::General => body_kinematics(body, x0, v0, q, qd, &mut data.s),
-        };
-        data.x[i] = x;
-        data.v[i] = v;
-        data.c[i] = c;
-        if world_inertia {
-            data.inertia[i] = self::world_inertia(&x, &body.inertia);
-        }
+    for i in 0..model.bodies.len() {
+        kinematics_body(model, i, q, qd, data, x_cw, world_inertia);
         per_body(i, data);
+    }
+}
+
+/// One body of the kinematics loop (its parent done): `X_{C←i}`, `vᵢ`, `cᵢ`, its columns of
+/// `S`, and with `world_inertia` its world inertia. `x_cw = X_{C←W}`. DCA's main pass also
+/// runs it at each leaf (see `DcaData::leaf_kinematics`).
+#[inline(always)]
+pub(crate) fn kinematics_body(
+    model: &Model,
+    i: usize,
+    q: &[f64],
+    qd: &[f64],
+    data: &mut Data,
+    x_cw: SpatialTransform,
+    world_inertia: bool,
+) {
+    let body = &model.bodies[i];
+    let parent = data.topo[i].parent;
+    let (x0, v0) = if parent == usize::MAX {
+        (x_cw, SpatialMotion::ZERO)
+    } else {
+        (data.x[parent], data.v[parent])
+    };
+    let (x, v, c) = match data.fk_plan[i] {
+        FkPlan::AxisRevolute {
+            k,
+            sign,
+            origin_r,
+            qo,
+            vo,
+        } => {
+            let qi = sign * q[qo];
+            let (x, s) = match k {
+                0 => axis_revolute::<0, 1, 2>(x0, origin_r, qi, sign),
+                1 => axis_revolute::<1, 2, 0>(x0, origin_r, qi, sign),
+                _ => axis_revolute::<2, 0, 1>(x0, origin_r, qi, sign),
+            };
+            data.s[vo] = s;
+            let vj = s * qd[vo];
+            (x, v0 + vj, v0.cross_motion(vj))
+        }
+        FkPlan::General => body_kinematics(body, x0, v0, q, qd, &mut data.s),
+    };
+    data.x[i] = x;
+    data.v[i] = v;
+    data.c[i] = c;
+    if world_inertia {
+        data.inertia[i] = self::world_inertia(&x, &body.inertia);
     }
 }
 
