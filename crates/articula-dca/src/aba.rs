@@ -7,13 +7,12 @@ use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::{SpatialForce, SpatialMotion};
 
-/// Runs ABA on the kinematics in `data` (pass 1 is the kinematics loop); writes `data.qdd`.
-///
-/// On an x86-64 CPU with AVX2 and FMA (`data.dca.fused`, as for the DCA pass) the same code
-/// runs compiled for those features: the same arithmetic in the same order (no fused
-/// multiply–adds), so the same bits, with wider vectors and three-operand instructions.
-pub(crate) fn aba(
+/// `forward_dynamics`' ABA call: the kinematics loop (pass 1) then [`aba_with`], compiled for
+/// AVX2 + FMA when `data.dca.fused` (see [`aba_with`]).
+pub(crate) fn forward(
     model: &Model,
+    q: &[f64],
+    qd: &[f64],
     tau: &[f64],
     f_ext: &[SpatialForce],
     data: &mut Data,
@@ -21,23 +20,31 @@ pub(crate) fn aba(
     #[cfg(target_arch = "x86_64")]
     if data.dca.fused {
         // SAFETY: `fused` is set only where the CPU has AVX2 and FMA (`Data::new`).
-        return unsafe { aba_avx2(model, tau, f_ext, data) };
+        return unsafe { forward_avx2(model, q, qd, tau, f_ext, data) };
     }
+    crate::kinematics::kinematics(model, q, qd, data, |_, _| {});
     aba_with(model, tau, f_ext, data)
 }
 
-/// [`aba`] compiled for AVX2 + FMA.
+/// [`forward`] compiled for AVX2 + FMA.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-fn aba_avx2(
+fn forward_avx2(
     model: &Model,
+    q: &[f64],
+    qd: &[f64],
     tau: &[f64],
     f_ext: &[SpatialForce],
     data: &mut Data,
 ) -> Result<(), DynamicsError> {
+    crate::kinematics::kinematics(model, q, qd, data, |_, _| {});
     aba_with(model, tau, f_ext, data)
 }
 
+/// Runs ABA on the kinematics in `data` (pass 1 is the kinematics loop); writes `data.qdd`.
+/// Through [`forward`]: on an x86-64 CPU with AVX2 and FMA (`data.dca.fused`, as for the DCA
+/// pass) compiled for those features with the same arithmetic in the same order (no fused
+/// multiply–adds), so the same bits, with wider vectors and three-operand instructions.
 #[inline(always)]
 fn aba_with(
     model: &Model,

@@ -118,14 +118,11 @@ pub fn forward_dynamics<'d>(
                 Ok(())
             }
         }),
-        Method::Aba => {
-            kinematics::kinematics(model, q, qd, data, |_, _| {});
-            aba::aba(model, tau, &f_ext, data).map(|()| {
-                if model.floating_base && data.refine_floating {
-                    aba::refine(model, tau, &f_ext, data);
-                }
-            })
-        }
+        Method::Aba => aba::forward(model, q, qd, tau, &f_ext, data).map(|()| {
+            if model.floating_base && data.refine_floating {
+                aba::refine(model, tau, &f_ext, data);
+            }
+        }),
         Method::Crba => {
             kinematics::kinematics(model, q, qd, data, |_, _| {});
             crba::crba(model, tau, &f_ext, data)
