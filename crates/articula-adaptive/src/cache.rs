@@ -76,7 +76,7 @@ fn wdot(row: &[f64], w: &[f64; NW]) -> f64 {
 
 /// `wᵀ E w` for a symmetric NW × NW `E` (row-major): `(Σ_i w_i E_i) · w`, rows summed as
 /// vectors.
-#[inline]
+#[inline(always)]
 fn quad_w(e: &[f64], w: &[f64; NW]) -> f64 {
     let mut t = [0.0; NW];
     for (i, &wi) in w.iter().enumerate() {
@@ -866,6 +866,39 @@ impl Adaptive {
         u: SpatialMotion,
         part: Part,
     ) {
+        #[cfg(target_arch = "x86_64")]
+        if self.fused {
+            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // has AVX2 and FMA).
+            return unsafe { self.eval_cache_wide(model, n, x, u, part) };
+        }
+        self.eval_cache_with(model, n, x, u, part)
+    }
+
+    /// [`Adaptive::eval_cache`] compiled for AVX2 + FMA: the same arithmetic (no fused
+    /// multiply–adds) in wider, three-operand instructions, so the same results to the bit.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn eval_cache_wide(
+        &mut self,
+        model: &Model,
+        n: usize,
+        x: &SpatialTransform,
+        u: SpatialMotion,
+        part: Part,
+    ) {
+        self.eval_cache_with(model, n, x, u, part)
+    }
+
+    #[inline(always)]
+    fn eval_cache_with(
+        &mut self,
+        model: &Model,
+        n: usize,
+        x: &SpatialTransform,
+        u: SpatialMotion,
+        part: Part,
+    ) {
         let w = monomials(u);
         let r = rows3(&x.e);
         let (nh, hc, bc) = (self.nh[n], self.lay.hoff[n], self.lay.boff[n]);
@@ -1600,6 +1633,25 @@ impl Adaptive {
     /// `A(n) = Fᵀ Ψ F + Fᵀ p + η` of a cached node at the handle forces in `f`, in its cache
     /// frame (`F⁰ = Rᵀ F`; `p = P w`, `η = wᵀ E w` at its velocity `u`): no rotation of Ψ.
     pub(crate) fn metric_local(&mut self, n: usize, x: &SpatialTransform, u: SpatialMotion) -> f64 {
+        #[cfg(target_arch = "x86_64")]
+        if self.fused {
+            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // has AVX2 and FMA).
+            return unsafe { self.metric_local_wide(n, x, u) };
+        }
+        self.metric_local_with(n, x, u)
+    }
+
+    /// [`Adaptive::metric_local`] compiled for AVX2 + FMA: the same arithmetic (no fused
+    /// multiply–adds) in wider, three-operand instructions, so the same results to the bit.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn metric_local_wide(&mut self, n: usize, x: &SpatialTransform, u: SpatialMotion) -> f64 {
+        self.metric_local_with(n, x, u)
+    }
+
+    #[inline(always)]
+    fn metric_local_with(&mut self, n: usize, x: &SpatialTransform, u: SpatialMotion) -> f64 {
         let w = monomials(u);
         let rt = tr3(&rows3(&x.e));
         let (nh, hc) = (self.nh[n], self.lay.hoff[n]);

@@ -437,6 +437,41 @@ impl Adaptive {
         fe: SpatialForce,
         level: Level,
     ) -> Result<(), DynamicsError> {
+        #[cfg(target_arch = "x86_64")]
+        if self.fused {
+            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // has AVX2 and FMA).
+            return unsafe { self.rigid_coefficients_wide(model, n, inertia, v, fe, level) };
+        }
+        self.rigid_coefficients_with(model, n, inertia, v, fe, level)
+    }
+
+    /// [`Adaptive::rigid_coefficients`] compiled for AVX2 + FMA: the same arithmetic (no fused
+    /// multiply–adds) in wider, three-operand instructions, so the same results to the bit.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn rigid_coefficients_wide(
+        &mut self,
+        model: &Model,
+        n: usize,
+        inertia: &Rigid,
+        v: SpatialMotion,
+        fe: SpatialForce,
+        level: Level,
+    ) -> Result<(), DynamicsError> {
+        self.rigid_coefficients_with(model, n, inertia, v, fe, level)
+    }
+
+    #[inline(always)]
+    fn rigid_coefficients_with(
+        &mut self,
+        model: &Model,
+        n: usize,
+        inertia: &Rigid,
+        v: SpatialMotion,
+        fe: SpatialForce,
+        level: Level,
+    ) -> Result<(), DynamicsError> {
         let node = &model.assembly.nodes[n];
         let (ho, bo, nh) = (self.lay.hoff[n], self.lay.boff[n], self.nh[n]);
         let (m, ic, c) = (inertia.m, inertia.ic, inertia.c);
@@ -493,6 +528,37 @@ impl Adaptive {
     /// `Φ^C_hk = Φ^X_hk [same side] ∓ Φ^X_hj N_k = Φ^X_hk [same side] − Y_hᵀ U_k` and
     /// `b^C_h = b^X_h ∓ Φ^X_hj γ = b^X_h − G_F,hᵀ γ` (`assemble`).
     pub(crate) fn join(
+        &mut self,
+        model: &Model,
+        n: usize,
+        tau: &[f64],
+        level: Level,
+    ) -> Result<(), DynamicsError> {
+        #[cfg(target_arch = "x86_64")]
+        if self.fused {
+            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // has AVX2 and FMA).
+            return unsafe { self.join_wide(model, n, tau, level) };
+        }
+        self.join_with(model, n, tau, level)
+    }
+
+    /// [`Adaptive::join`] compiled for AVX2 + FMA: wider vector instructions for the same
+    /// arithmetic (no fused multiply–adds), so the same results to the bit.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn join_wide(
+        &mut self,
+        model: &Model,
+        n: usize,
+        tau: &[f64],
+        level: Level,
+    ) -> Result<(), DynamicsError> {
+        self.join_with(model, n, tau, level)
+    }
+
+    #[inline(always)]
+    fn join_with(
         &mut self,
         model: &Model,
         n: usize,
@@ -655,6 +721,7 @@ impl Adaptive {
     /// `b^C_h = b^X_h − G_F,hᵀ γ` (`G_F,h` in `gf`, γ = `nvec[n]`) for the joined node `n`.
     /// `gram`: U = Y with five rows (the one-axis join, `yc[h]` holding the rows of Ỹ_h), so
     /// `Y_hᵀ Y_h` is symmetric to the bit.
+    #[inline(always)]
     fn assemble(&mut self, n: usize, a: usize, b: usize, gram: bool) {
         let (nhc, hc, bc) = (self.nh[n], self.lay.hoff[n], self.lay.boff[n]);
         for h in 0..nhc {
@@ -713,6 +780,7 @@ impl Adaptive {
     /// `K = gᵀ G_F / sᵀs`, `N = W G_F`, `n = γ = W β + f_τ Q`,
     /// `Φ^C_hk = Φ^X_hk [same side] − G_F,hᵀ N_k`, `b^C_h = b^X_h − G_F,hᵀ γ`.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     fn join_one_axis(
         &mut self,
         model: &Model,
@@ -868,6 +936,25 @@ impl Adaptive {
     /// Back-substitution at join node `n` with its handle forces in `f`: writes its joint's
     /// `q̈ = K F + k` into `qdd` and its children's handle forces.
     pub(crate) fn expand(&mut self, model: &Model, n: usize) {
+        #[cfg(target_arch = "x86_64")]
+        if self.fused {
+            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // has AVX2 and FMA).
+            return unsafe { self.expand_wide(model, n) };
+        }
+        self.expand_with(model, n)
+    }
+
+    /// [`Adaptive::expand`] compiled for AVX2 + FMA: the same arithmetic (no fused
+    /// multiply–adds) in wider, three-operand instructions, so the same results to the bit.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn expand_wide(&mut self, model: &Model, n: usize) {
+        self.expand_with(model, n)
+    }
+
+    #[inline(always)]
+    fn expand_with(&mut self, model: &Model, n: usize) {
         let tree = &model.assembly;
         let NodeKind::Join {
             joint,
