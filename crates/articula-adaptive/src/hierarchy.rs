@@ -59,7 +59,8 @@ pub(crate) struct Hierarchy {
     /// Articulated-body workspace of the reduced tree (one rigid cluster per active joint),
     /// indexed like `rec`: `Iᴬ`, `pᴬ`, the cluster's acceleration, `D⁻¹` (one DOF) or the
     /// Cholesky factor of `D` (several); per degree of freedom (at `rec.dof`) `U = Iᴬ s` and
-    /// `u = τ − sᵀ pᴬ`. `Iᴬ` is symmetric: its upper triangle, packed ([`Sym6`]).
+    /// `u = τ − sᵀ pᴬ`. `Iᴬ` is symmetric, stored whole with both halves equal to the bit
+    /// ([`Sym6`]): its rows are contiguous vectors.
     pub ia: Vec<Sym6>,
     pub pa: Vec<[f64; 6]>,
     pub acc: Vec<[f64; 6]>,
@@ -281,7 +282,7 @@ impl Adaptive {
             dof += body.nv;
         }
         let na = h.rec.len();
-        h.ia.resize(na, [0.0; 21]);
+        h.ia.resize(na, [[0.0; 6]; 6]);
         h.pa.resize(na, [0.0; 6]);
         h.acc.resize(na, [0.0; 6]);
         h.dinv.resize(na, 0.0);
@@ -448,6 +449,7 @@ impl Adaptive {
         level: Level,
     ) -> Result<(), DynamicsError> {
         let accel = level == Level::Acceleration;
+        let wide = self.fused;
         // The nodes this stands for: the active joins and the rigid frontier.
         self.touched = self.hier.hnodes.len() + self.hier.fnodes.len();
         let h = &mut self.hier;
@@ -478,14 +480,14 @@ impl Adaptive {
             let (i00, i01, i02, i11, i12, i22) =
                 (ib(0, 0), ib(0, 1), ib(0, 2), ib(1, 1), ib(1, 2), ib(2, 2));
             let hv = cw * m;
-            // Upper triangle of [Ī, h×; h×ᵀ, m 1], rows packed.
+            // [Ī, h×; h×ᵀ, m 1].
             *ia = [
-                i00, i01, i02, 0.0, -hv.z, hv.y, //
-                i11, i12, hv.z, 0.0, -hv.x, //
-                i22, -hv.y, hv.x, 0.0, //
-                m, 0.0, 0.0, //
-                m, 0.0, //
-                m,
+                [i00, i01, i02, 0.0, -hv.z, hv.y],
+                [i01, i11, i12, hv.z, 0.0, -hv.x],
+                [i02, i12, i22, -hv.y, hv.x, 0.0],
+                [0.0, hv.z, -hv.y, m, 0.0, 0.0],
+                [-hv.z, 0.0, hv.x, 0.0, m, 0.0],
+                [hv.y, -hv.x, 0.0, 0.0, 0.0, m],
             ];
             *pa = if accel {
                 let v = d.v[r.j];
@@ -512,9 +514,9 @@ impl Adaptive {
                 // U = Iᴬ s and Iᴬ c in one sweep (Iᴬ symmetric: sums of its rows).
                 let mut u = [0.0; 6];
                 let mut ic = [0.0; 6];
-                for (row, (&sc, &cc)) in s.iter().zip(&c).enumerate() {
+                for (row, (&sc, &cc)) in ia.iter().zip(s.iter().zip(&c)) {
                     for rr in 0..6 {
-                        let x = ia[SYM[row][rr]];
+                        let x = row[rr];
                         u[rr] = A::mul_add(x, sc, u[rr]);
                         ic[rr] = A::mul_add(x, cc, ic[rr]);
                     }
@@ -542,10 +544,10 @@ impl Adaptive {
             }
             // Several degrees of freedom: the loops over them unrolled for the usual counts.
             let ok = match k {
-                2 => articulate_multi::<2>(h, &d.s, tau, idx, k, &c),
-                3 => articulate_multi::<3>(h, &d.s, tau, idx, k, &c),
-                6 => articulate_multi::<6>(h, &d.s, tau, idx, k, &c),
-                _ => articulate_multi::<0>(h, &d.s, tau, idx, k, &c),
+                2 => articulate::<2>(wide, h, &d.s, tau, idx, k, &c),
+                3 => articulate::<3>(wide, h, &d.s, tau, idx, k, &c),
+                6 => articulate::<6>(wide, h, &d.s, tau, idx, k, &c),
+                _ => articulate::<0>(wide, h, &d.s, tau, idx, k, &c),
             };
             if !ok {
                 return Err(singular(model, h.rec[idx].j));
@@ -579,23 +581,69 @@ impl Adaptive {
                 continue;
             }
             match k {
-                2 => accelerate_multi::<2>(h, &d.s, &mut self.qdd, idx, k, ap),
-                3 => accelerate_multi::<3>(h, &d.s, &mut self.qdd, idx, k, ap),
-                6 => accelerate_multi::<6>(h, &d.s, &mut self.qdd, idx, k, ap),
-                _ => accelerate_multi::<0>(h, &d.s, &mut self.qdd, idx, k, ap),
+                2 => accelerate::<2>(wide, h, &d.s, &mut self.qdd, idx, k, ap),
+                3 => accelerate::<3>(wide, h, &d.s, &mut self.qdd, idx, k, ap),
+                6 => accelerate::<6>(wide, h, &d.s, &mut self.qdd, idx, k, ap),
+                _ => accelerate::<0>(wide, h, &d.s, &mut self.qdd, idx, k, ap),
             }
         }
         Ok(())
     }
 }
 
+/// [`articulate_multi_with`] out of line (the one-degree-of-freedom path of the passes keeps
+/// its registers), compiled for AVX2 + FMA when `wide` (the same arithmetic: no fused
+/// multiply–adds, the same results to the bit).
+#[inline(always)]
+fn articulate<const K: usize>(
+    wide: bool,
+    h: &mut Hierarchy,
+    s: &[SpatialMotion],
+    tau: &[f64],
+    idx: usize,
+    k: usize,
+    c: &[f64; 6],
+) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if wide {
+        // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
+        return unsafe { articulate_multi_wide::<K>(h, s, tau, idx, k, c) };
+    }
+    articulate_multi::<K>(h, s, tau, idx, k, c)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+fn articulate_multi_wide<const K: usize>(
+    h: &mut Hierarchy,
+    s: &[SpatialMotion],
+    tau: &[f64],
+    idx: usize,
+    k: usize,
+    c: &[f64; 6],
+) -> bool {
+    articulate_multi_with::<K>(h, s, tau, idx, k, c)
+}
+
+#[inline(never)]
+fn articulate_multi<const K: usize>(
+    h: &mut Hierarchy,
+    s: &[SpatialMotion],
+    tau: &[f64],
+    idx: usize,
+    k: usize,
+    c: &[f64; 6],
+) -> bool {
+    articulate_multi_with::<K>(h, s, tau, idx, k, c)
+}
+
 /// Pass 2 of the reduced ABA at record `idx` for a joint of several degrees of freedom:
 /// `U = Iᴬ S`, `D = Sᵀ U = L Lᵀ`, `u = τ − Sᵀ pᴬ`, and the parent's `Iᵃ`, `pᵃ`. `K`: the
 /// degrees of freedom when known at compile time (loops unrolled; the same sums), 0: `k`.
 /// False when `D` is not positive definite.
-// Out of line: the one-degree-of-freedom path of the passes keeps its registers.
-#[inline(never)]
-fn articulate_multi<const K: usize>(
+#[inline(always)]
+fn articulate_multi_with<const K: usize>(
     h: &mut Hierarchy,
     s: &[SpatialMotion],
     tau: &[f64],
@@ -607,10 +655,11 @@ fn articulate_multi<const K: usize>(
     let r = &h.rec[idx];
     let (vo, dof, parent) = (r.vo, r.dof, r.pidx);
     let pa = h.pa[idx];
-    let ia = unpack(&h.ia[idx]);
+    let (lo, hi) = h.ia.split_at_mut(idx);
+    let ia = &hi[0];
     let mut dm = [[0.0; 6]; 6];
     for p in 0..k {
-        let u = mul6(&ia, &s[vo + p].to_array());
+        let u = sym_mul6(ia, &s[vo + p].to_array());
         h.u[dof + p] = u;
         for qq in 0..=p {
             let x = dot6::<Portable>(&s[vo + qq].to_array(), &u);
@@ -651,8 +700,8 @@ fn articulate_multi<const K: usize>(
         y[p] = yp;
     }
     // Iᵃ = Iᴬ − Y Yᵀ, pᵃ = pᴬ + Iᵃ c + Y z (Iᵃ c = Iᴬ c − Y (Yᵀ c)).
-    let target = &mut h.ia[parent];
-    let mut add = mul6(&ia, c);
+    let target = &mut lo[parent];
+    let mut add = sym_mul6(ia, c);
     for p in 0..k {
         let g = z[p] - dot6::<Portable>(&y[p], c);
         for rr in 0..6 {
@@ -663,24 +712,71 @@ fn articulate_multi<const K: usize>(
     for rr in 0..6 {
         pp[rr] += pa[rr] + add[rr];
     }
+    // Whole rows: entry (c, r) has the same sums as (r, c) (Iᴬ symmetric, the products
+    // commute), so the result stays symmetric to the bit.
     for rr in 0..6 {
-        for cc in rr..6 {
-            let mut x = target[SYM[rr][cc]] + ia[rr][cc];
-            for p in 0..k {
-                x -= y[p][rr] * y[p][cc];
+        let mut x: [f64; 6] = std::array::from_fn(|cc| target[rr][cc] + ia[rr][cc]);
+        for p in 0..k {
+            for cc in 0..6 {
+                x[cc] -= y[p][rr] * y[p][cc];
             }
-            target[SYM[rr][cc]] = x;
         }
+        target[rr] = x;
     }
     true
+}
+
+/// [`accelerate_multi_with`] out of line, compiled for AVX2 + FMA when `wide` (the same
+/// arithmetic).
+#[inline(always)]
+fn accelerate<const K: usize>(
+    wide: bool,
+    h: &mut Hierarchy,
+    s: &[SpatialMotion],
+    qdd: &mut [f64],
+    idx: usize,
+    k: usize,
+    ap: [f64; 6],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if wide {
+        // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
+        return unsafe { accelerate_multi_wide::<K>(h, s, qdd, idx, k, ap) };
+    }
+    accelerate_multi::<K>(h, s, qdd, idx, k, ap)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+fn accelerate_multi_wide<const K: usize>(
+    h: &mut Hierarchy,
+    s: &[SpatialMotion],
+    qdd: &mut [f64],
+    idx: usize,
+    k: usize,
+    ap: [f64; 6],
+) {
+    accelerate_multi_with::<K>(h, s, qdd, idx, k, ap)
+}
+
+#[inline(never)]
+fn accelerate_multi<const K: usize>(
+    h: &mut Hierarchy,
+    s: &[SpatialMotion],
+    qdd: &mut [f64],
+    idx: usize,
+    k: usize,
+    ap: [f64; 6],
+) {
+    accelerate_multi_with::<K>(h, s, qdd, idx, k, ap)
 }
 
 /// Pass 3 of the reduced ABA at record `idx` for a joint of several degrees of freedom, from
 /// `a' = a_parent + c`: `q̈ = L⁻ᵀ L⁻¹ (u − Uᵀ a')`, `a = a' + S q̈`. `K` as in
 /// [`articulate_multi`].
-// Out of line: the one-degree-of-freedom path of the passes keeps its registers.
-#[inline(never)]
-fn accelerate_multi<const K: usize>(
+#[inline(always)]
+fn accelerate_multi_with<const K: usize>(
     h: &mut Hierarchy,
     s: &[SpatialMotion],
     qdd: &mut [f64],
@@ -803,54 +899,33 @@ fn revolute_kinematics(
     (x, v, c)
 }
 
-/// `a x` for a 6 × 6 matrix.
+/// `a x` for a symmetric 6 × 6 matrix as a sum of its rows (= columns) scaled by `x`: per
+/// entry the same sums, in the same order, as the rows' dot products with `x`.
 #[inline(always)]
-fn mul6(a: &[[f64; 6]; 6], x: &[f64; 6]) -> [f64; 6] {
-    std::array::from_fn(|r| dot6::<Portable>(&a[r], x))
-}
-
-/// A symmetric 6 × 6 matrix by its upper triangle, rows packed: entry `(r, c)` at
-/// `SYM[r][c]` (= `SYM[c][r]`).
-pub(crate) type Sym6 = [f64; 21];
-
-/// Index of entry `(r, c)` of a [`Sym6`]: row `r ≤ c` starts at `r (11 − r) / 2`.
-const fn sym_index(r: usize, c: usize) -> usize {
-    let (r, c) = if r <= c { (r, c) } else { (c, r) };
-    r * (11 - r) / 2 + c
-}
-
-/// The [`Sym6`] index of every entry.
-const SYM: [[usize; 6]; 6] = {
-    let mut t = [[0; 6]; 6];
-    let mut r = 0;
-    while r < 6 {
-        let mut c = 0;
-        while c < 6 {
-            t[r][c] = sym_index(r, c);
-            c += 1;
+fn sym_mul6(a: &Sym6, x: &[f64; 6]) -> [f64; 6] {
+    let mut y = a[0].map(|v| v * x[0]);
+    for c in 1..6 {
+        for r in 0..6 {
+            y[r] += a[c][r] * x[c];
         }
-        r += 1;
     }
-    t
-};
-
-/// The full matrix of a [`Sym6`].
-#[inline(always)]
-fn unpack(p: &Sym6) -> [[f64; 6]; 6] {
-    std::array::from_fn(|r| std::array::from_fn(|c| p[SYM[r][c]]))
+    y
 }
 
-/// `s += a − α u uᵀ` on symmetric 6 × 6 matrices (upper triangles; `α (uᵢ uⱼ)` keeps the
-/// result symmetric to the bit).
+/// A symmetric 6 × 6 matrix stored whole, rows `[r][c]`, both halves equal to the bit
+/// (each pair computed once and written twice): its rows are contiguous vectors.
+pub(crate) type Sym6 = [[f64; 6]; 6];
+
+/// `s += a − α u uᵀ` on symmetric 6 × 6 matrices: the upper triangle computed (`w = α u`
+/// once: `a − w_i u_j` rounds once when fused), each entry written to both halves.
 #[inline(always)]
 fn add_sub_outer<A: Arith>(s: &mut Sym6, a: &Sym6, u: &[f64; 6], alpha: f64) {
-    // `w = α u` once: `a − w_i u_j` rounds once when fused (the packed upper triangle holds
-    // each pair once, so symmetry needs no care).
     let w = u.map(|x| alpha * x);
     for i in 0..6 {
         for j in i..6 {
-            let x = SYM[i][j];
-            s[x] += A::neg_mul_add(w[i], u[j], a[x]);
+            let x = s[i][j] + A::neg_mul_add(w[i], u[j], a[i][j]);
+            s[i][j] = x;
+            s[j][i] = x;
         }
     }
 }
