@@ -74,6 +74,17 @@ fn wdot(row: &[f64], w: &[f64; NW]) -> f64 {
     acc[0] + acc[1]
 }
 
+/// `M w` for six rows of NW entries (row-major), a loop rather than `array::from_fn`, whose
+/// closure was not inlined.
+#[inline(always)]
+fn wdot6(rows: &[f64], w: &[f64; NW]) -> [f64; 6] {
+    let mut v = [0.0; 6];
+    for (x, row) in v.iter_mut().zip(rows.chunks_exact(NW)) {
+        *x = wdot(row, w);
+    }
+    v
+}
+
 /// `wᵀ E w` for a symmetric NW × NW `E` (row-major): `(Σ_i w_i E_i) · w`, rows summed as
 /// vectors.
 #[inline(always)]
@@ -920,8 +931,7 @@ impl Adaptive {
                 };
                 for h in 0..nh {
                     let o = (hc + h) * 6 * NW;
-                    let mut v: [f64; 6] =
-                        std::array::from_fn(|row| wdot(&c.bw[o + row * NW..o + row * NW + NW]));
+                    let mut v = wdot6(&c.bw[o..o + 6 * NW], &w);
                     left_rot(&mut v, 6, 1, &r);
                     self.b[hc + h] =
                         SpatialMotion::from_array(v) + SpatialMotion::new(DVec3::ZERO, a_g);
@@ -960,9 +970,7 @@ impl Adaptive {
                 nm.copy_from_slice(&c.nmat[36 * hc..36 * hc + 6 * nc]);
                 left_rot(nm, 6, nc, &r);
                 right_rot(nm, 6, nc, &r);
-                let mut nv: [f64; 6] = std::array::from_fn(|row| {
-                    wdot(&c.nw[(n * 6 + row) * NW..(n * 6 + row + 1) * NW])
-                });
+                let mut nv = wdot6(&c.nw[n * 6 * NW..(n + 1) * 6 * NW], &w);
                 left_rot(&mut nv, 6, 1, &r);
                 self.nvec[n] = nv;
             }
@@ -1573,7 +1581,7 @@ impl Adaptive {
             }
             let w = monomials(c.cu[n]);
             let hf = m6_x(&c.mhq[n], &f);
-            let jw: [f64; 6] = std::array::from_fn(|r| wdot(&c.mjw[n][r], &w));
+            let jw = wdot6(c.mjw[n].as_flattened(), &w);
             c.deta[n] = (0..6).map(|r| f[r] * (hf[r] + jw[r])).sum();
         }
         c.dvstamp[n] = c.epoch;

@@ -56,6 +56,11 @@ pub(crate) struct Hierarchy {
     pub rec: Vec<ActiveJoint>,
     /// Per body: its record while building them (valid for the active bodies).
     pub ridx: Vec<usize>,
+    /// Builds of the records so far (the reduced tree and the active flags change only with
+    /// them), and per body the rigid cluster (frontier node) an external force on it goes to,
+    /// with the build it was found in (`(gen, node)`, found on the first force after a build).
+    pub gen: u64,
+    pub fcl: Vec<(u64, usize)>,
     /// Articulated-body workspace of the reduced tree (one rigid cluster per active joint),
     /// indexed like `rec`: `Iᴬ`, `pᴬ`, the cluster's acceleration, `D⁻¹` (one DOF) or the
     /// Cholesky factor of `D` (several); per degree of freedom (at `rec.dof`) `U = Iᴬ s` and
@@ -218,6 +223,10 @@ impl Adaptive {
     pub(crate) fn build_records(&mut self, model: &Model) {
         let h = &mut self.hier;
         h.rec.clear();
+        h.gen += 1;
+        if h.fcl.len() != model.bodies.len() {
+            h.fcl = vec![(0, 0); model.bodies.len()];
+        }
         // Room for every body at the first build: later hybrid bodies allocate nothing.
         let nb = model.bodies.len();
         if h.rec.capacity() < nb {
@@ -339,15 +348,7 @@ impl Adaptive {
             };
             let mut x = x;
             let (sn, cs) = (sign * q[r.qo]).sin_cos();
-            // E ← E R(q), r ← R(q)ᵀ r for the rotation about coordinate axis i.
-            let (a, b) = ((i + 1) % 3, (i + 2) % 3);
-            let (ea, eb) = (x.e.col(a), x.e.col(b));
-            *x.e.col_mut(a) = ea * cs + eb * sn;
-            *x.e.col_mut(b) = eb * cs - ea * sn;
-            let (ra, rb) = (x.r[a], x.r[b]);
-            x.r[a] = cs * ra + sn * rb;
-            x.r[b] = cs * rb - sn * ra;
-            let w = x.e.col(i) * sign;
+            let w = turn(&mut x, i, sn, cs) * sign;
             let p = -(x.e * x.r);
             let s = SpatialMotion::new(w, p.cross(w));
             d.s[r.vo] = s;
@@ -387,15 +388,24 @@ impl Adaptive {
             let f = self.hier.fnodes[idx];
             self.fsum[f] = SpatialForce::ZERO;
         }
-        // An external force on a rigid part goes to its cluster: a walk up the tree.
+        // An external force on a rigid part goes to its cluster: a walk up the tree, once per
+        // body and hybrid body.
         if !self.fsparse.is_empty() {
             let x_cw = SpatialTransform::xlt(self.data.origin);
+            let gen = self.hier.gen;
             for k in 0..self.fsparse.len() {
                 let (i, fe) = self.fsparse[k];
-                let mut n = tree.body_leaf[i];
-                while let Some(p) = tree.nodes[n].parent.filter(|&p| !self.active[p]) {
-                    n = p;
-                }
+                let n = match self.hier.fcl[i] {
+                    (g, n) if g == gen => n,
+                    _ => {
+                        let mut n = tree.body_leaf[i];
+                        while let Some(p) = tree.nodes[n].parent.filter(|&p| !self.active[p]) {
+                            n = p;
+                        }
+                        self.hier.fcl[i] = (gen, n);
+                        n
+                    }
+                };
                 self.fsum[n] += x_cw.apply_force(fe);
             }
         }
@@ -865,29 +875,7 @@ fn revolute_kinematics(
         }
         let (i, sign) = parts.axes[k];
         let (sn, cs) = (sign * q[part.q_offset]).sin_cos();
-        // E ← E R(q), r ← R(q)ᵀ r for the rotation about coordinate axis i: columns /
-        // components (i+1, i+2) turn by the angle; column i (the axis) stays.
-        let (e, r) = (&mut x.e, &mut x.r);
-        let axis = match i {
-            0 => {
-                (e.y_axis, e.z_axis) =
-                    (e.y_axis * cs + e.z_axis * sn, e.z_axis * cs - e.y_axis * sn);
-                (r.y, r.z) = (cs * r.y + sn * r.z, cs * r.z - sn * r.y);
-                e.x_axis
-            }
-            1 => {
-                (e.z_axis, e.x_axis) =
-                    (e.z_axis * cs + e.x_axis * sn, e.x_axis * cs - e.z_axis * sn);
-                (r.z, r.x) = (cs * r.z + sn * r.x, cs * r.x - sn * r.z);
-                e.y_axis
-            }
-            _ => {
-                (e.x_axis, e.y_axis) =
-                    (e.x_axis * cs + e.y_axis * sn, e.y_axis * cs - e.x_axis * sn);
-                (r.x, r.y) = (cs * r.x + sn * r.y, cs * r.y - sn * r.x);
-                e.z_axis
-            }
-        };
+        let axis = turn(&mut x, i, sn, cs);
         // S = X [±e_i; 0] = [w; p × w], `w = ±` column i of E.
         let w = axis * sign;
         let sk = SpatialMotion::new(w, p.cross(w));
@@ -897,6 +885,31 @@ fn revolute_kinematics(
         v += vj;
     }
     (x, v, c)
+}
+
+/// `E ← E R(q)`, `r ← R(q)ᵀ r` for the rotation by `q` (`sin`, `cos` given) about coordinate
+/// axis `i`: columns / components `(i+1, i+2)` turn by the angle; column `i` (the axis, which
+/// it returns) stays.
+#[inline(always)]
+fn turn(x: &mut SpatialTransform, i: usize, sn: f64, cs: f64) -> DVec3 {
+    let (e, r) = (&mut x.e, &mut x.r);
+    match i {
+        0 => {
+            (e.y_axis, e.z_axis) = (e.y_axis * cs + e.z_axis * sn, e.z_axis * cs - e.y_axis * sn);
+            (r.y, r.z) = (cs * r.y + sn * r.z, cs * r.z - sn * r.y);
+            e.x_axis
+        }
+        1 => {
+            (e.z_axis, e.x_axis) = (e.z_axis * cs + e.x_axis * sn, e.x_axis * cs - e.z_axis * sn);
+            (r.z, r.x) = (cs * r.z + sn * r.x, cs * r.x - sn * r.z);
+            e.y_axis
+        }
+        _ => {
+            (e.x_axis, e.y_axis) = (e.x_axis * cs + e.y_axis * sn, e.y_axis * cs - e.x_axis * sn);
+            (r.x, r.y) = (cs * r.x + sn * r.y, cs * r.y - sn * r.x);
+            e.z_axis
+        }
+    }
 }
 
 /// `a x` for a symmetric 6 × 6 matrix as a sum of its rows (= columns) scaled by `x`: per
