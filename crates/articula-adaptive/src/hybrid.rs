@@ -729,8 +729,9 @@ impl Adaptive {
             let x = if ah { a } else { b };
             for kk in h..nhc {
                 let (ak, ik) = self.lay.from[hc + kk];
-                let mut blk = if gram {
-                    // Rows p < 5 of Ỹ_h, Ỹ_k in yc: −Σ_p Ỹ_h[p][r] Ỹ_k[p][c], p ascending (the
+                // Y_hᵀ U_k.
+                let yu: [[f64; 6]; 6] = if gram {
+                    // Rows p < 5 of Ỹ_h, Ỹ_k in yc: Σ_p Ỹ_h[p][r] Ỹ_k[p][c], p ascending (the
                     // products commute, so a diagonal block is symmetric to the bit: its upper
                     // part, in pairs of rows, is mirrored).
                     let (yh, yk) = (&self.yc[h], &self.yc[kk]);
@@ -749,14 +750,27 @@ impl Adaptive {
                         gram_rows::<2, false>(yh, yk, &mut g);
                         gram_rows::<4, false>(yh, yk, &mut g);
                     }
-                    Mat6(g.map(|row| row.map(|x| -x)))
+                    g
                 } else {
-                    Mat6(std::array::from_fn(|r| {
-                        std::array::from_fn(|c| -dot6(&self.yc[h][r], &self.uc[kk][c]))
-                    }))
+                    std::array::from_fn(|r| {
+                        std::array::from_fn(|c| dot6(&self.yc[h][r], &self.uc[kk][c]))
+                    })
                 };
+                // Φ^X_hk − Y_hᵀ U_k on the same side, −Y_hᵀ U_k across.
+                let mut blk = Mat6(yu);
                 if ah == ak {
-                    blk += *self.phi_at(x, ih, ik);
+                    let phi = &self.phi_at(x, ih, ik).0;
+                    for r in 0..6 {
+                        for c in 0..6 {
+                            blk.0[r][c] = phi[r][c] - yu[r][c];
+                        }
+                    }
+                } else {
+                    for row in &mut blk.0 {
+                        for v in row {
+                            *v = -*v;
+                        }
+                    }
                 }
                 if h == kk {
                     blk = *blk.symmetric_part().as_mat6();
