@@ -326,6 +326,7 @@ impl Adaptive {
 
     #[inline(always)]
     fn active_kinematics_with(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
+        let wide = self.fused;
         let x_cw = SpatialTransform::xlt(self.data.origin);
         let h = &self.hier;
         let d = &mut self.data;
@@ -338,7 +339,7 @@ impl Adaptive {
             let Some((i, sign)) = r.axis else {
                 let body = &model.bodies[r.j];
                 let (x, v, c) = match &h.parts[r.j] {
-                    Some(parts) => revolute_kinematics(body, parts, x, v, q, qd, &mut d.s),
+                    Some(parts) => revolute(wide, body, parts, x, v, q, qd, &mut d.s),
                     None => articula_dca::body_kinematics(body, x, v, q, qd, &mut d.s),
                 };
                 d.x[r.j] = x;
@@ -850,11 +851,60 @@ fn revolute_parts(body: &articula_model::Body) -> Option<RevoluteParts> {
     Some(RevoluteParts { axes, moved })
 }
 
-/// [`articula_dca::body_kinematics`] for a joint of [`RevoluteParts`]: the rotation by `q`
-/// touches two columns of the pose and an identity part origin costs nothing. (Kept out of
-/// line, beside the closed-form one-axis path of `active_kinematics`.)
+/// [`revolute_kinematics`], compiled for AVX2 + FMA when `wide` (the same arithmetic).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn revolute(
+    wide: bool,
+    body: &articula_model::Body,
+    parts: &RevoluteParts,
+    x0: SpatialTransform,
+    v0: SpatialMotion,
+    q: &[f64],
+    qd: &[f64],
+    s: &mut [SpatialMotion],
+) -> (SpatialTransform, SpatialMotion, SpatialMotion) {
+    #[cfg(target_arch = "x86_64")]
+    if wide {
+        // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
+        return unsafe { revolute_kinematics_wide(body, parts, x0, v0, q, qd, s) };
+    }
+    revolute_kinematics(body, parts, x0, v0, q, qd, s)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+fn revolute_kinematics_wide(
+    body: &articula_model::Body,
+    parts: &RevoluteParts,
+    x0: SpatialTransform,
+    v0: SpatialMotion,
+    q: &[f64],
+    qd: &[f64],
+    s: &mut [SpatialMotion],
+) -> (SpatialTransform, SpatialMotion, SpatialMotion) {
+    revolute_kinematics_with(body, parts, x0, v0, q, qd, s)
+}
+
 #[inline(never)]
 fn revolute_kinematics(
+    body: &articula_model::Body,
+    parts: &RevoluteParts,
+    x0: SpatialTransform,
+    v0: SpatialMotion,
+    q: &[f64],
+    qd: &[f64],
+    s: &mut [SpatialMotion],
+) -> (SpatialTransform, SpatialMotion, SpatialMotion) {
+    revolute_kinematics_with(body, parts, x0, v0, q, qd, s)
+}
+
+/// [`articula_dca::body_kinematics`] for a joint of [`RevoluteParts`]: the rotation by `q`
+/// touches two columns of the pose and an identity part origin costs nothing. (Called out of
+/// line, beside the closed-form one-axis path of `active_kinematics`.)
+#[inline(always)]
+fn revolute_kinematics_with(
     body: &articula_model::Body,
     parts: &RevoluteParts,
     x0: SpatialTransform,
