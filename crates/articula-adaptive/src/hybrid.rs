@@ -880,6 +880,10 @@ impl Adaptive {
         self.nvec[n] = nv;
         let ko = self.koff[n];
         let wd = 6 * nhc;
+        // The substitutions below multiply by reciprocals (a division's latency would sit on
+        // their critical path).
+        let ldinv: [f64; 5] = std::array::from_fn(|i| 1.0 / l5[i][i]);
+        let ssinv = 1.0 / ss;
         // Per handle h, all six columns of G_F,h at once, row by row (each column's sums in
         // the order of one column at a time): K_h = gᵀ G_F,h / sᵀs, Ỹ_h = L⁻¹ Tᵀ G_F,h
         // (5 × 6, its rows kept in yc[h][0..5]), N_h = T L⁻ᵀ Ỹ_h.
@@ -892,7 +896,7 @@ impl Adaptive {
                 }
             }
             for c in 0..6 {
-                self.kmat[ko + 6 * h + c] = kr[c] / ss;
+                self.kmat[ko + 6 * h + c] = kr[c] * ssinv;
             }
             // Tᵀ G_F,h, then the forward substitution row by row.
             let mut y = [[0.0; 6]; 5];
@@ -911,8 +915,7 @@ impl Adaptive {
                         v[c] -= lip * y[p][c];
                     }
                 }
-                let d = l5[i][i];
-                y[i] = v.map(|x| x / d);
+                y[i] = v.map(|x| x * ldinv[i]);
             }
             // L⁻ᵀ Ỹ_h, then T.
             let mut z = y;
@@ -924,8 +927,7 @@ impl Adaptive {
                         v[c] -= lpi * z[p][c];
                     }
                 }
-                let d = l5[i][i];
-                z[i] = v.map(|x| x / d);
+                z[i] = v.map(|x| x * ldinv[i]);
             }
             let base = 36 * hc + 6 * h;
             let mut put = |r: usize, row: [f64; 6]| {
