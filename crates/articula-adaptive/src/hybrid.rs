@@ -263,8 +263,10 @@ pub struct Adaptive {
     /// `data` holds the whole-body kinematics of `(fresh_q, fresh_qd)` (set by
     /// [`Adaptive::node_metrics`], cleared by every other writer of `data`).
     pub(crate) fresh: bool,
-    /// Run the reduced ABA compiled with fused multiply–adds (set in [`Adaptive::new`] where
-    /// the CPU has AVX2 and FMA: `articula_dca::fused_available`).
+    /// Run the reduced ABA compiled with fused multiply–adds, and the other hot passes (join,
+    /// kinematics, rigid coefficients, back-substitution, cache evaluations) compiled for
+    /// AVX2 + FMA with the same arithmetic as their portable versions (set in
+    /// [`Adaptive::new`] where the CPU has AVX2 and FMA: `articula_dca::fused_available`).
     pub(crate) fused: bool,
     pub(crate) fresh_q: Vec<f64>,
     pub(crate) fresh_qd: Vec<f64>,
