@@ -74,9 +74,20 @@ fn wdot(row: &[f64], w: &[f64; NW]) -> f64 {
     acc[0] + acc[1]
 }
 
+/// `M w` for six rows of NW entries (row-major), a loop rather than `array::from_fn`, whose
+/// closure was not inlined.
+#[inline(always)]
+fn wdot6(rows: &[f64], w: &[f64; NW]) -> [f64; 6] {
+    let mut v = [0.0; 6];
+    for (x, row) in v.iter_mut().zip(rows.chunks_exact(NW)) {
+        *x = wdot(row, w);
+    }
+    v
+}
+
 /// `wᵀ E w` for a symmetric NW × NW `E` (row-major): `(Σ_i w_i E_i) · w`, rows summed as
 /// vectors.
-#[inline]
+#[inline(always)]
 fn quad_w(e: &[f64], w: &[f64; NW]) -> f64 {
     let mut t = [0.0; NW];
     for (i, &wi) in w.iter().enumerate() {
@@ -866,6 +877,39 @@ impl Adaptive {
         u: SpatialMotion,
         part: Part,
     ) {
+        #[cfg(target_arch = "x86_64")]
+        if self.fused {
+            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // has AVX2 and FMA).
+            return unsafe { self.eval_cache_wide(model, n, x, u, part) };
+        }
+        self.eval_cache_with(model, n, x, u, part)
+    }
+
+    /// [`Adaptive::eval_cache`] compiled for AVX2 + FMA: the same arithmetic (no fused
+    /// multiply–adds) in wider, three-operand instructions, so the same results to the bit.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn eval_cache_wide(
+        &mut self,
+        model: &Model,
+        n: usize,
+        x: &SpatialTransform,
+        u: SpatialMotion,
+        part: Part,
+    ) {
+        self.eval_cache_with(model, n, x, u, part)
+    }
+
+    #[inline(always)]
+    fn eval_cache_with(
+        &mut self,
+        model: &Model,
+        n: usize,
+        x: &SpatialTransform,
+        u: SpatialMotion,
+        part: Part,
+    ) {
         let w = monomials(u);
         let r = rows3(&x.e);
         let (nh, hc, bc) = (self.nh[n], self.lay.hoff[n], self.lay.boff[n]);
@@ -887,8 +931,7 @@ impl Adaptive {
                 };
                 for h in 0..nh {
                     let o = (hc + h) * 6 * NW;
-                    let mut v: [f64; 6] =
-                        std::array::from_fn(|row| wdot(&c.bw[o + row * NW..o + row * NW + NW]));
+                    let mut v = wdot6(&c.bw[o..o + 6 * NW], &w);
                     left_rot(&mut v, 6, 1, &r);
                     self.b[hc + h] =
                         SpatialMotion::from_array(v) + SpatialMotion::new(DVec3::ZERO, a_g);
@@ -927,9 +970,7 @@ impl Adaptive {
                 nm.copy_from_slice(&c.nmat[36 * hc..36 * hc + 6 * nc]);
                 left_rot(nm, 6, nc, &r);
                 right_rot(nm, 6, nc, &r);
-                let mut nv: [f64; 6] = std::array::from_fn(|row| {
-                    wdot(&c.nw[(n * 6 + row) * NW..(n * 6 + row + 1) * NW])
-                });
+                let mut nv = wdot6(&c.nw[n * 6 * NW..(n + 1) * 6 * NW], &w);
                 left_rot(&mut nv, 6, 1, &r);
                 self.nvec[n] = nv;
             }
@@ -1540,7 +1581,7 @@ impl Adaptive {
             }
             let w = monomials(c.cu[n]);
             let hf = m6_x(&c.mhq[n], &f);
-            let jw: [f64; 6] = std::array::from_fn(|r| wdot(&c.mjw[n][r], &w));
+            let jw = wdot6(c.mjw[n].as_flattened(), &w);
             c.deta[n] = (0..6).map(|r| f[r] * (hf[r] + jw[r])).sum();
         }
         c.dvstamp[n] = c.epoch;
@@ -1600,6 +1641,25 @@ impl Adaptive {
     /// `A(n) = Fᵀ Ψ F + Fᵀ p + η` of a cached node at the handle forces in `f`, in its cache
     /// frame (`F⁰ = Rᵀ F`; `p = P w`, `η = wᵀ E w` at its velocity `u`): no rotation of Ψ.
     pub(crate) fn metric_local(&mut self, n: usize, x: &SpatialTransform, u: SpatialMotion) -> f64 {
+        #[cfg(target_arch = "x86_64")]
+        if self.fused {
+            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // has AVX2 and FMA).
+            return unsafe { self.metric_local_wide(n, x, u) };
+        }
+        self.metric_local_with(n, x, u)
+    }
+
+    /// [`Adaptive::metric_local`] compiled for AVX2 + FMA: the same arithmetic (no fused
+    /// multiply–adds) in wider, three-operand instructions, so the same results to the bit.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn metric_local_wide(&mut self, n: usize, x: &SpatialTransform, u: SpatialMotion) -> f64 {
+        self.metric_local_with(n, x, u)
+    }
+
+    #[inline(always)]
+    fn metric_local_with(&mut self, n: usize, x: &SpatialTransform, u: SpatialMotion) -> f64 {
         let w = monomials(u);
         let rt = tr3(&rows3(&x.e));
         let (nh, hc) = (self.nh[n], self.lay.hoff[n]);

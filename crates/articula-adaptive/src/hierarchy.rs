@@ -56,10 +56,16 @@ pub(crate) struct Hierarchy {
     pub rec: Vec<ActiveJoint>,
     /// Per body: its record while building them (valid for the active bodies).
     pub ridx: Vec<usize>,
+    /// Builds of the records so far (the reduced tree and the active flags change only with
+    /// them), and per body the rigid cluster (frontier node) an external force on it goes to,
+    /// with the build it was found in (`(gen, node)`, found on the first force after a build).
+    pub gen: u64,
+    pub fcl: Vec<(u64, usize)>,
     /// Articulated-body workspace of the reduced tree (one rigid cluster per active joint),
     /// indexed like `rec`: `Iᴬ`, `pᴬ`, the cluster's acceleration, `D⁻¹` (one DOF) or the
     /// Cholesky factor of `D` (several); per degree of freedom (at `rec.dof`) `U = Iᴬ s` and
-    /// `u = τ − sᵀ pᴬ`. `Iᴬ` is symmetric: its upper triangle, packed ([`Sym6`]).
+    /// `u = τ − sᵀ pᴬ`. `Iᴬ` is symmetric, stored whole with both halves equal to the bit
+    /// ([`Sym6`]): its rows are contiguous vectors.
     pub ia: Vec<Sym6>,
     pub pa: Vec<[f64; 6]>,
     pub acc: Vec<[f64; 6]>,
@@ -217,6 +223,10 @@ impl Adaptive {
     pub(crate) fn build_records(&mut self, model: &Model) {
         let h = &mut self.hier;
         h.rec.clear();
+        h.gen += 1;
+        if h.fcl.len() != model.bodies.len() {
+            h.fcl = vec![(0, 0); model.bodies.len()];
+        }
         // Room for every body at the first build: later hybrid bodies allocate nothing.
         let nb = model.bodies.len();
         if h.rec.capacity() < nb {
@@ -281,7 +291,7 @@ impl Adaptive {
             dof += body.nv;
         }
         let na = h.rec.len();
-        h.ia.resize(na, [0.0; 21]);
+        h.ia.resize(na, [[0.0; 6]; 6]);
         h.pa.resize(na, [0.0; 6]);
         h.acc.resize(na, [0.0; 6]);
         h.dinv.resize(na, 0.0);
@@ -297,6 +307,26 @@ impl Adaptive {
     /// columns of it; its axis is a column of the pose, `s = [ω; p × ω]` with `p` the body's
     /// origin.
     pub(crate) fn active_kinematics(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
+        #[cfg(target_arch = "x86_64")]
+        if self.fused {
+            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // has AVX2 and FMA).
+            return unsafe { self.active_kinematics_wide(model, q, qd) };
+        }
+        self.active_kinematics_with(model, q, qd)
+    }
+
+    /// [`Adaptive::active_kinematics`] compiled for AVX2 + FMA: the same arithmetic (no
+    /// fused multiply–adds) in three-operand vector instructions, the same results to the bit.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn active_kinematics_wide(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
+        self.active_kinematics_with(model, q, qd)
+    }
+
+    #[inline(always)]
+    fn active_kinematics_with(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
+        let wide = self.fused;
         let x_cw = SpatialTransform::xlt(self.data.origin);
         let h = &self.hier;
         let d = &mut self.data;
@@ -309,7 +339,7 @@ impl Adaptive {
             let Some((i, sign)) = r.axis else {
                 let body = &model.bodies[r.j];
                 let (x, v, c) = match &h.parts[r.j] {
-                    Some(parts) => revolute_kinematics(body, parts, x, v, q, qd, &mut d.s),
+                    Some(parts) => revolute(wide, body, parts, x, v, q, qd, &mut d.s),
                     None => articula_dca::body_kinematics(body, x, v, q, qd, &mut d.s),
                 };
                 d.x[r.j] = x;
@@ -319,15 +349,7 @@ impl Adaptive {
             };
             let mut x = x;
             let (sn, cs) = (sign * q[r.qo]).sin_cos();
-            // E ← E R(q), r ← R(q)ᵀ r for the rotation about coordinate axis i.
-            let (a, b) = ((i + 1) % 3, (i + 2) % 3);
-            let (ea, eb) = (x.e.col(a), x.e.col(b));
-            *x.e.col_mut(a) = ea * cs + eb * sn;
-            *x.e.col_mut(b) = eb * cs - ea * sn;
-            let (ra, rb) = (x.r[a], x.r[b]);
-            x.r[a] = cs * ra + sn * rb;
-            x.r[b] = cs * rb - sn * ra;
-            let w = x.e.col(i) * sign;
+            let w = turn(&mut x, i, sn, cs) * sign;
             let p = -(x.e * x.r);
             let s = SpatialMotion::new(w, p.cross(w));
             d.s[r.vo] = s;
@@ -367,15 +389,24 @@ impl Adaptive {
             let f = self.hier.fnodes[idx];
             self.fsum[f] = SpatialForce::ZERO;
         }
-        // An external force on a rigid part goes to its cluster: a walk up the tree.
+        // An external force on a rigid part goes to its cluster: a walk up the tree, once per
+        // body and hybrid body.
         if !self.fsparse.is_empty() {
             let x_cw = SpatialTransform::xlt(self.data.origin);
+            let gen = self.hier.gen;
             for k in 0..self.fsparse.len() {
                 let (i, fe) = self.fsparse[k];
-                let mut n = tree.body_leaf[i];
-                while let Some(p) = tree.nodes[n].parent.filter(|&p| !self.active[p]) {
-                    n = p;
-                }
+                let n = match self.hier.fcl[i] {
+                    (g, n) if g == gen => n,
+                    _ => {
+                        let mut n = tree.body_leaf[i];
+                        while let Some(p) = tree.nodes[n].parent.filter(|&p| !self.active[p]) {
+                            n = p;
+                        }
+                        self.hier.fcl[i] = (gen, n);
+                        n
+                    }
+                };
                 self.fsum[n] += x_cw.apply_force(fe);
             }
         }
@@ -429,6 +460,7 @@ impl Adaptive {
         level: Level,
     ) -> Result<(), DynamicsError> {
         let accel = level == Level::Acceleration;
+        let wide = self.fused;
         // The nodes this stands for: the active joins and the rigid frontier.
         self.touched = self.hier.hnodes.len() + self.hier.fnodes.len();
         let h = &mut self.hier;
@@ -459,14 +491,14 @@ impl Adaptive {
             let (i00, i01, i02, i11, i12, i22) =
                 (ib(0, 0), ib(0, 1), ib(0, 2), ib(1, 1), ib(1, 2), ib(2, 2));
             let hv = cw * m;
-            // Upper triangle of [Ī, h×; h×ᵀ, m 1], rows packed.
+            // [Ī, h×; h×ᵀ, m 1].
             *ia = [
-                i00, i01, i02, 0.0, -hv.z, hv.y, //
-                i11, i12, hv.z, 0.0, -hv.x, //
-                i22, -hv.y, hv.x, 0.0, //
-                m, 0.0, 0.0, //
-                m, 0.0, //
-                m,
+                [i00, i01, i02, 0.0, -hv.z, hv.y],
+                [i01, i11, i12, hv.z, 0.0, -hv.x],
+                [i02, i12, i22, -hv.y, hv.x, 0.0],
+                [0.0, hv.z, -hv.y, m, 0.0, 0.0],
+                [-hv.z, 0.0, hv.x, 0.0, m, 0.0],
+                [hv.y, -hv.x, 0.0, 0.0, 0.0, m],
             ];
             *pa = if accel {
                 let v = d.v[r.j];
@@ -493,9 +525,9 @@ impl Adaptive {
                 // U = Iᴬ s and Iᴬ c in one sweep (Iᴬ symmetric: sums of its rows).
                 let mut u = [0.0; 6];
                 let mut ic = [0.0; 6];
-                for (row, (&sc, &cc)) in s.iter().zip(&c).enumerate() {
+                for (row, (&sc, &cc)) in ia.iter().zip(s.iter().zip(&c)) {
                     for rr in 0..6 {
-                        let x = ia[SYM[row][rr]];
+                        let x = row[rr];
                         u[rr] = A::mul_add(x, sc, u[rr]);
                         ic[rr] = A::mul_add(x, cc, ic[rr]);
                     }
@@ -523,10 +555,10 @@ impl Adaptive {
             }
             // Several degrees of freedom: the loops over them unrolled for the usual counts.
             let ok = match k {
-                2 => articulate_multi::<2>(h, &d.s, tau, idx, k, &c),
-                3 => articulate_multi::<3>(h, &d.s, tau, idx, k, &c),
-                6 => articulate_multi::<6>(h, &d.s, tau, idx, k, &c),
-                _ => articulate_multi::<0>(h, &d.s, tau, idx, k, &c),
+                2 => articulate::<2>(wide, h, &d.s, tau, idx, k, &c),
+                3 => articulate::<3>(wide, h, &d.s, tau, idx, k, &c),
+                6 => articulate::<6>(wide, h, &d.s, tau, idx, k, &c),
+                _ => articulate::<0>(wide, h, &d.s, tau, idx, k, &c),
             };
             if !ok {
                 return Err(singular(model, h.rec[idx].j));
@@ -560,23 +592,69 @@ impl Adaptive {
                 continue;
             }
             match k {
-                2 => accelerate_multi::<2>(h, &d.s, &mut self.qdd, idx, k, ap),
-                3 => accelerate_multi::<3>(h, &d.s, &mut self.qdd, idx, k, ap),
-                6 => accelerate_multi::<6>(h, &d.s, &mut self.qdd, idx, k, ap),
-                _ => accelerate_multi::<0>(h, &d.s, &mut self.qdd, idx, k, ap),
+                2 => accelerate::<2>(wide, h, &d.s, &mut self.qdd, idx, k, ap),
+                3 => accelerate::<3>(wide, h, &d.s, &mut self.qdd, idx, k, ap),
+                6 => accelerate::<6>(wide, h, &d.s, &mut self.qdd, idx, k, ap),
+                _ => accelerate::<0>(wide, h, &d.s, &mut self.qdd, idx, k, ap),
             }
         }
         Ok(())
     }
 }
 
+/// [`articulate_multi_with`] out of line (the one-degree-of-freedom path of the passes keeps
+/// its registers), compiled for AVX2 + FMA when `wide` (the same arithmetic: no fused
+/// multiply–adds, the same results to the bit).
+#[inline(always)]
+fn articulate<const K: usize>(
+    wide: bool,
+    h: &mut Hierarchy,
+    s: &[SpatialMotion],
+    tau: &[f64],
+    idx: usize,
+    k: usize,
+    c: &[f64; 6],
+) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if wide {
+        // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
+        return unsafe { articulate_multi_wide::<K>(h, s, tau, idx, k, c) };
+    }
+    articulate_multi::<K>(h, s, tau, idx, k, c)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+fn articulate_multi_wide<const K: usize>(
+    h: &mut Hierarchy,
+    s: &[SpatialMotion],
+    tau: &[f64],
+    idx: usize,
+    k: usize,
+    c: &[f64; 6],
+) -> bool {
+    articulate_multi_with::<K>(h, s, tau, idx, k, c)
+}
+
+#[inline(never)]
+fn articulate_multi<const K: usize>(
+    h: &mut Hierarchy,
+    s: &[SpatialMotion],
+    tau: &[f64],
+    idx: usize,
+    k: usize,
+    c: &[f64; 6],
+) -> bool {
+    articulate_multi_with::<K>(h, s, tau, idx, k, c)
+}
+
 /// Pass 2 of the reduced ABA at record `idx` for a joint of several degrees of freedom:
 /// `U = Iᴬ S`, `D = Sᵀ U = L Lᵀ`, `u = τ − Sᵀ pᴬ`, and the parent's `Iᵃ`, `pᵃ`. `K`: the
 /// degrees of freedom when known at compile time (loops unrolled; the same sums), 0: `k`.
 /// False when `D` is not positive definite.
-// Out of line: the one-degree-of-freedom path of the passes keeps its registers.
-#[inline(never)]
-fn articulate_multi<const K: usize>(
+#[inline(always)]
+fn articulate_multi_with<const K: usize>(
     h: &mut Hierarchy,
     s: &[SpatialMotion],
     tau: &[f64],
@@ -588,10 +666,11 @@ fn articulate_multi<const K: usize>(
     let r = &h.rec[idx];
     let (vo, dof, parent) = (r.vo, r.dof, r.pidx);
     let pa = h.pa[idx];
-    let ia = unpack(&h.ia[idx]);
+    let (lo, hi) = h.ia.split_at_mut(idx);
+    let ia = &hi[0];
     let mut dm = [[0.0; 6]; 6];
     for p in 0..k {
-        let u = mul6(&ia, &s[vo + p].to_array());
+        let u = sym_mul6(ia, &s[vo + p].to_array());
         h.u[dof + p] = u;
         for qq in 0..=p {
             let x = dot6::<Portable>(&s[vo + qq].to_array(), &u);
@@ -632,8 +711,8 @@ fn articulate_multi<const K: usize>(
         y[p] = yp;
     }
     // Iᵃ = Iᴬ − Y Yᵀ, pᵃ = pᴬ + Iᵃ c + Y z (Iᵃ c = Iᴬ c − Y (Yᵀ c)).
-    let target = &mut h.ia[parent];
-    let mut add = mul6(&ia, c);
+    let target = &mut lo[parent];
+    let mut add = sym_mul6(ia, c);
     for p in 0..k {
         let g = z[p] - dot6::<Portable>(&y[p], c);
         for rr in 0..6 {
@@ -644,24 +723,71 @@ fn articulate_multi<const K: usize>(
     for rr in 0..6 {
         pp[rr] += pa[rr] + add[rr];
     }
+    // Whole rows: entry (c, r) has the same sums as (r, c) (Iᴬ symmetric, the products
+    // commute), so the result stays symmetric to the bit.
     for rr in 0..6 {
-        for cc in rr..6 {
-            let mut x = target[SYM[rr][cc]] + ia[rr][cc];
-            for p in 0..k {
-                x -= y[p][rr] * y[p][cc];
+        let mut x: [f64; 6] = std::array::from_fn(|cc| target[rr][cc] + ia[rr][cc]);
+        for p in 0..k {
+            for cc in 0..6 {
+                x[cc] -= y[p][rr] * y[p][cc];
             }
-            target[SYM[rr][cc]] = x;
         }
+        target[rr] = x;
     }
     true
+}
+
+/// [`accelerate_multi_with`] out of line, compiled for AVX2 + FMA when `wide` (the same
+/// arithmetic).
+#[inline(always)]
+fn accelerate<const K: usize>(
+    wide: bool,
+    h: &mut Hierarchy,
+    s: &[SpatialMotion],
+    qdd: &mut [f64],
+    idx: usize,
+    k: usize,
+    ap: [f64; 6],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if wide {
+        // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
+        return unsafe { accelerate_multi_wide::<K>(h, s, qdd, idx, k, ap) };
+    }
+    accelerate_multi::<K>(h, s, qdd, idx, k, ap)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+fn accelerate_multi_wide<const K: usize>(
+    h: &mut Hierarchy,
+    s: &[SpatialMotion],
+    qdd: &mut [f64],
+    idx: usize,
+    k: usize,
+    ap: [f64; 6],
+) {
+    accelerate_multi_with::<K>(h, s, qdd, idx, k, ap)
+}
+
+#[inline(never)]
+fn accelerate_multi<const K: usize>(
+    h: &mut Hierarchy,
+    s: &[SpatialMotion],
+    qdd: &mut [f64],
+    idx: usize,
+    k: usize,
+    ap: [f64; 6],
+) {
+    accelerate_multi_with::<K>(h, s, qdd, idx, k, ap)
 }
 
 /// Pass 3 of the reduced ABA at record `idx` for a joint of several degrees of freedom, from
 /// `a' = a_parent + c`: `q̈ = L⁻ᵀ L⁻¹ (u − Uᵀ a')`, `a = a' + S q̈`. `K` as in
 /// [`articulate_multi`].
-// Out of line: the one-degree-of-freedom path of the passes keeps its registers.
-#[inline(never)]
-fn accelerate_multi<const K: usize>(
+#[inline(always)]
+fn accelerate_multi_with<const K: usize>(
     h: &mut Hierarchy,
     s: &[SpatialMotion],
     qdd: &mut [f64],
@@ -725,11 +851,60 @@ fn revolute_parts(body: &articula_model::Body) -> Option<RevoluteParts> {
     Some(RevoluteParts { axes, moved })
 }
 
-/// [`articula_dca::body_kinematics`] for a joint of [`RevoluteParts`]: the rotation by `q`
-/// touches two columns of the pose and an identity part origin costs nothing. (Kept out of
-/// line, beside the closed-form one-axis path of `active_kinematics`.)
+/// [`revolute_kinematics`], compiled for AVX2 + FMA when `wide` (the same arithmetic).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn revolute(
+    wide: bool,
+    body: &articula_model::Body,
+    parts: &RevoluteParts,
+    x0: SpatialTransform,
+    v0: SpatialMotion,
+    q: &[f64],
+    qd: &[f64],
+    s: &mut [SpatialMotion],
+) -> (SpatialTransform, SpatialMotion, SpatialMotion) {
+    #[cfg(target_arch = "x86_64")]
+    if wide {
+        // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
+        return unsafe { revolute_kinematics_wide(body, parts, x0, v0, q, qd, s) };
+    }
+    revolute_kinematics(body, parts, x0, v0, q, qd, s)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+fn revolute_kinematics_wide(
+    body: &articula_model::Body,
+    parts: &RevoluteParts,
+    x0: SpatialTransform,
+    v0: SpatialMotion,
+    q: &[f64],
+    qd: &[f64],
+    s: &mut [SpatialMotion],
+) -> (SpatialTransform, SpatialMotion, SpatialMotion) {
+    revolute_kinematics_with(body, parts, x0, v0, q, qd, s)
+}
+
 #[inline(never)]
 fn revolute_kinematics(
+    body: &articula_model::Body,
+    parts: &RevoluteParts,
+    x0: SpatialTransform,
+    v0: SpatialMotion,
+    q: &[f64],
+    qd: &[f64],
+    s: &mut [SpatialMotion],
+) -> (SpatialTransform, SpatialMotion, SpatialMotion) {
+    revolute_kinematics_with(body, parts, x0, v0, q, qd, s)
+}
+
+/// [`articula_dca::body_kinematics`] for a joint of [`RevoluteParts`]: the rotation by `q`
+/// touches two columns of the pose and an identity part origin costs nothing. (Called out of
+/// line, beside the closed-form one-axis path of `active_kinematics`.)
+#[inline(always)]
+fn revolute_kinematics_with(
     body: &articula_model::Body,
     parts: &RevoluteParts,
     x0: SpatialTransform,
@@ -750,29 +925,7 @@ fn revolute_kinematics(
         }
         let (i, sign) = parts.axes[k];
         let (sn, cs) = (sign * q[part.q_offset]).sin_cos();
-        // E ← E R(q), r ← R(q)ᵀ r for the rotation about coordinate axis i: columns /
-        // components (i+1, i+2) turn by the angle; column i (the axis) stays.
-        let (e, r) = (&mut x.e, &mut x.r);
-        let axis = match i {
-            0 => {
-                (e.y_axis, e.z_axis) =
-                    (e.y_axis * cs + e.z_axis * sn, e.z_axis * cs - e.y_axis * sn);
-                (r.y, r.z) = (cs * r.y + sn * r.z, cs * r.z - sn * r.y);
-                e.x_axis
-            }
-            1 => {
-                (e.z_axis, e.x_axis) =
-                    (e.z_axis * cs + e.x_axis * sn, e.x_axis * cs - e.z_axis * sn);
-                (r.z, r.x) = (cs * r.z + sn * r.x, cs * r.x - sn * r.z);
-                e.y_axis
-            }
-            _ => {
-                (e.x_axis, e.y_axis) =
-                    (e.x_axis * cs + e.y_axis * sn, e.y_axis * cs - e.x_axis * sn);
-                (r.x, r.y) = (cs * r.x + sn * r.y, cs * r.y - sn * r.x);
-                e.z_axis
-            }
-        };
+        let axis = turn(&mut x, i, sn, cs);
         // S = X [±e_i; 0] = [w; p × w], `w = ±` column i of E.
         let w = axis * sign;
         let sk = SpatialMotion::new(w, p.cross(w));
@@ -784,54 +937,58 @@ fn revolute_kinematics(
     (x, v, c)
 }
 
-/// `a x` for a 6 × 6 matrix.
+/// `E ← E R(q)`, `r ← R(q)ᵀ r` for the rotation by `q` (`sin`, `cos` given) about coordinate
+/// axis `i`: columns / components `(i+1, i+2)` turn by the angle; column `i` (the axis, which
+/// it returns) stays.
 #[inline(always)]
-fn mul6(a: &[[f64; 6]; 6], x: &[f64; 6]) -> [f64; 6] {
-    std::array::from_fn(|r| dot6::<Portable>(&a[r], x))
-}
-
-/// A symmetric 6 × 6 matrix by its upper triangle, rows packed: entry `(r, c)` at
-/// `SYM[r][c]` (= `SYM[c][r]`).
-pub(crate) type Sym6 = [f64; 21];
-
-/// Index of entry `(r, c)` of a [`Sym6`]: row `r ≤ c` starts at `r (11 − r) / 2`.
-const fn sym_index(r: usize, c: usize) -> usize {
-    let (r, c) = if r <= c { (r, c) } else { (c, r) };
-    r * (11 - r) / 2 + c
-}
-
-/// The [`Sym6`] index of every entry.
-const SYM: [[usize; 6]; 6] = {
-    let mut t = [[0; 6]; 6];
-    let mut r = 0;
-    while r < 6 {
-        let mut c = 0;
-        while c < 6 {
-            t[r][c] = sym_index(r, c);
-            c += 1;
+fn turn(x: &mut SpatialTransform, i: usize, sn: f64, cs: f64) -> DVec3 {
+    let (e, r) = (&mut x.e, &mut x.r);
+    match i {
+        0 => {
+            (e.y_axis, e.z_axis) = (e.y_axis * cs + e.z_axis * sn, e.z_axis * cs - e.y_axis * sn);
+            (r.y, r.z) = (cs * r.y + sn * r.z, cs * r.z - sn * r.y);
+            e.x_axis
         }
-        r += 1;
+        1 => {
+            (e.z_axis, e.x_axis) = (e.z_axis * cs + e.x_axis * sn, e.x_axis * cs - e.z_axis * sn);
+            (r.z, r.x) = (cs * r.z + sn * r.x, cs * r.x - sn * r.z);
+            e.y_axis
+        }
+        _ => {
+            (e.x_axis, e.y_axis) = (e.x_axis * cs + e.y_axis * sn, e.y_axis * cs - e.x_axis * sn);
+            (r.x, r.y) = (cs * r.x + sn * r.y, cs * r.y - sn * r.x);
+            e.z_axis
+        }
     }
-    t
-};
-
-/// The full matrix of a [`Sym6`].
-#[inline(always)]
-fn unpack(p: &Sym6) -> [[f64; 6]; 6] {
-    std::array::from_fn(|r| std::array::from_fn(|c| p[SYM[r][c]]))
 }
 
-/// `s += a − α u uᵀ` on symmetric 6 × 6 matrices (upper triangles; `α (uᵢ uⱼ)` keeps the
-/// result symmetric to the bit).
+/// `a x` for a symmetric 6 × 6 matrix as a sum of its rows (= columns) scaled by `x`: per
+/// entry the same sums, in the same order, as the rows' dot products with `x`.
+#[inline(always)]
+fn sym_mul6(a: &Sym6, x: &[f64; 6]) -> [f64; 6] {
+    let mut y = a[0].map(|v| v * x[0]);
+    for c in 1..6 {
+        for r in 0..6 {
+            y[r] += a[c][r] * x[c];
+        }
+    }
+    y
+}
+
+/// A symmetric 6 × 6 matrix stored whole, rows `[r][c]`, both halves equal to the bit
+/// (each pair computed once and written twice): its rows are contiguous vectors.
+pub(crate) type Sym6 = [[f64; 6]; 6];
+
+/// `s += a − α u uᵀ` on symmetric 6 × 6 matrices: the upper triangle computed (`w = α u`
+/// once: `a − w_i u_j` rounds once when fused), each entry written to both halves.
 #[inline(always)]
 fn add_sub_outer<A: Arith>(s: &mut Sym6, a: &Sym6, u: &[f64; 6], alpha: f64) {
-    // `w = α u` once: `a − w_i u_j` rounds once when fused (the packed upper triangle holds
-    // each pair once, so symmetry needs no care).
     let w = u.map(|x| alpha * x);
     for i in 0..6 {
         for j in i..6 {
-            let x = SYM[i][j];
-            s[x] += A::neg_mul_add(w[i], u[j], a[x]);
+            let x = s[i][j] + A::neg_mul_add(w[i], u[j], a[i][j]);
+            s[i][j] = x;
+            s[j][i] = x;
         }
     }
 }

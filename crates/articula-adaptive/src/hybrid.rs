@@ -263,8 +263,10 @@ pub struct Adaptive {
     /// `data` holds the whole-body kinematics of `(fresh_q, fresh_qd)` (set by
     /// [`Adaptive::node_metrics`], cleared by every other writer of `data`).
     pub(crate) fresh: bool,
-    /// Run the reduced ABA compiled with fused multiply–adds (set in [`Adaptive::new`] where
-    /// the CPU has AVX2 and FMA: `articula_dca::fused_available`).
+    /// Run the reduced ABA compiled with fused multiply–adds, and the other hot passes (join,
+    /// kinematics, rigid coefficients, back-substitution, cache evaluations) compiled for
+    /// AVX2 + FMA with the same arithmetic as their portable versions (set in
+    /// [`Adaptive::new`] where the CPU has AVX2 and FMA: `articula_dca::fused_available`).
     pub(crate) fused: bool,
     pub(crate) fresh_q: Vec<f64>,
     pub(crate) fresh_qd: Vec<f64>,
@@ -437,6 +439,41 @@ impl Adaptive {
         fe: SpatialForce,
         level: Level,
     ) -> Result<(), DynamicsError> {
+        #[cfg(target_arch = "x86_64")]
+        if self.fused {
+            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // has AVX2 and FMA).
+            return unsafe { self.rigid_coefficients_wide(model, n, inertia, v, fe, level) };
+        }
+        self.rigid_coefficients_with(model, n, inertia, v, fe, level)
+    }
+
+    /// [`Adaptive::rigid_coefficients`] compiled for AVX2 + FMA: the same arithmetic (no fused
+    /// multiply–adds) in wider, three-operand instructions, so the same results to the bit.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn rigid_coefficients_wide(
+        &mut self,
+        model: &Model,
+        n: usize,
+        inertia: &Rigid,
+        v: SpatialMotion,
+        fe: SpatialForce,
+        level: Level,
+    ) -> Result<(), DynamicsError> {
+        self.rigid_coefficients_with(model, n, inertia, v, fe, level)
+    }
+
+    #[inline(always)]
+    fn rigid_coefficients_with(
+        &mut self,
+        model: &Model,
+        n: usize,
+        inertia: &Rigid,
+        v: SpatialMotion,
+        fe: SpatialForce,
+        level: Level,
+    ) -> Result<(), DynamicsError> {
         let node = &model.assembly.nodes[n];
         let (ho, bo, nh) = (self.lay.hoff[n], self.lay.boff[n], self.nh[n]);
         let (m, ic, c) = (inertia.m, inertia.ic, inertia.c);
@@ -493,6 +530,37 @@ impl Adaptive {
     /// `Φ^C_hk = Φ^X_hk [same side] ∓ Φ^X_hj N_k = Φ^X_hk [same side] − Y_hᵀ U_k` and
     /// `b^C_h = b^X_h ∓ Φ^X_hj γ = b^X_h − G_F,hᵀ γ` (`assemble`).
     pub(crate) fn join(
+        &mut self,
+        model: &Model,
+        n: usize,
+        tau: &[f64],
+        level: Level,
+    ) -> Result<(), DynamicsError> {
+        #[cfg(target_arch = "x86_64")]
+        if self.fused {
+            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // has AVX2 and FMA).
+            return unsafe { self.join_wide(model, n, tau, level) };
+        }
+        self.join_with(model, n, tau, level)
+    }
+
+    /// [`Adaptive::join`] compiled for AVX2 + FMA: wider vector instructions for the same
+    /// arithmetic (no fused multiply–adds), so the same results to the bit.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn join_wide(
+        &mut self,
+        model: &Model,
+        n: usize,
+        tau: &[f64],
+        level: Level,
+    ) -> Result<(), DynamicsError> {
+        self.join_with(model, n, tau, level)
+    }
+
+    #[inline(always)]
+    fn join_with(
         &mut self,
         model: &Model,
         n: usize,
@@ -655,6 +723,7 @@ impl Adaptive {
     /// `b^C_h = b^X_h − G_F,hᵀ γ` (`G_F,h` in `gf`, γ = `nvec[n]`) for the joined node `n`.
     /// `gram`: U = Y with five rows (the one-axis join, `yc[h]` holding the rows of Ỹ_h), so
     /// `Y_hᵀ Y_h` is symmetric to the bit.
+    #[inline(always)]
     fn assemble(&mut self, n: usize, a: usize, b: usize, gram: bool) {
         let (nhc, hc, bc) = (self.nh[n], self.lay.hoff[n], self.lay.boff[n]);
         for h in 0..nhc {
@@ -662,8 +731,9 @@ impl Adaptive {
             let x = if ah { a } else { b };
             for kk in h..nhc {
                 let (ak, ik) = self.lay.from[hc + kk];
-                let mut blk = if gram {
-                    // Rows p < 5 of Ỹ_h, Ỹ_k in yc: −Σ_p Ỹ_h[p][r] Ỹ_k[p][c], p ascending (the
+                // Y_hᵀ U_k.
+                let yu: [[f64; 6]; 6] = if gram {
+                    // Rows p < 5 of Ỹ_h, Ỹ_k in yc: Σ_p Ỹ_h[p][r] Ỹ_k[p][c], p ascending (the
                     // products commute, so a diagonal block is symmetric to the bit: its upper
                     // part, in pairs of rows, is mirrored).
                     let (yh, yk) = (&self.yc[h], &self.yc[kk]);
@@ -682,14 +752,27 @@ impl Adaptive {
                         gram_rows::<2, false>(yh, yk, &mut g);
                         gram_rows::<4, false>(yh, yk, &mut g);
                     }
-                    Mat6(g.map(|row| row.map(|x| -x)))
+                    g
                 } else {
-                    Mat6(std::array::from_fn(|r| {
-                        std::array::from_fn(|c| -dot6(&self.yc[h][r], &self.uc[kk][c]))
-                    }))
+                    std::array::from_fn(|r| {
+                        std::array::from_fn(|c| dot6(&self.yc[h][r], &self.uc[kk][c]))
+                    })
                 };
+                // Φ^X_hk − Y_hᵀ U_k on the same side, −Y_hᵀ U_k across.
+                let mut blk = Mat6(yu);
                 if ah == ak {
-                    blk += *self.phi_at(x, ih, ik);
+                    let phi = &self.phi_at(x, ih, ik).0;
+                    for r in 0..6 {
+                        for c in 0..6 {
+                            blk.0[r][c] = phi[r][c] - yu[r][c];
+                        }
+                    }
+                } else {
+                    for row in &mut blk.0 {
+                        for v in row {
+                            *v = -*v;
+                        }
+                    }
                 }
                 if h == kk {
                     blk = *blk.symmetric_part().as_mat6();
@@ -713,6 +796,7 @@ impl Adaptive {
     /// `K = gᵀ G_F / sᵀs`, `N = W G_F`, `n = γ = W β + f_τ Q`,
     /// `Φ^C_hk = Φ^X_hk [same side] − G_F,hᵀ N_k`, `b^C_h = b^X_h − G_F,hᵀ γ`.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     fn join_one_axis(
         &mut self,
         model: &Model,
@@ -798,6 +882,10 @@ impl Adaptive {
         self.nvec[n] = nv;
         let ko = self.koff[n];
         let wd = 6 * nhc;
+        // The substitutions below multiply by reciprocals (a division's latency would sit on
+        // their critical path).
+        let ldinv: [f64; 5] = std::array::from_fn(|i| 1.0 / l5[i][i]);
+        let ssinv = 1.0 / ss;
         // Per handle h, all six columns of G_F,h at once, row by row (each column's sums in
         // the order of one column at a time): K_h = gᵀ G_F,h / sᵀs, Ỹ_h = L⁻¹ Tᵀ G_F,h
         // (5 × 6, its rows kept in yc[h][0..5]), N_h = T L⁻ᵀ Ỹ_h.
@@ -810,7 +898,7 @@ impl Adaptive {
                 }
             }
             for c in 0..6 {
-                self.kmat[ko + 6 * h + c] = kr[c] / ss;
+                self.kmat[ko + 6 * h + c] = kr[c] * ssinv;
             }
             // Tᵀ G_F,h, then the forward substitution row by row.
             let mut y = [[0.0; 6]; 5];
@@ -829,8 +917,7 @@ impl Adaptive {
                         v[c] -= lip * y[p][c];
                     }
                 }
-                let d = l5[i][i];
-                y[i] = v.map(|x| x / d);
+                y[i] = v.map(|x| x * ldinv[i]);
             }
             // L⁻ᵀ Ỹ_h, then T.
             let mut z = y;
@@ -842,8 +929,7 @@ impl Adaptive {
                         v[c] -= lpi * z[p][c];
                     }
                 }
-                let d = l5[i][i];
-                z[i] = v.map(|x| x / d);
+                z[i] = v.map(|x| x * ldinv[i]);
             }
             let base = 36 * hc + 6 * h;
             let mut put = |r: usize, row: [f64; 6]| {
@@ -868,6 +954,25 @@ impl Adaptive {
     /// Back-substitution at join node `n` with its handle forces in `f`: writes its joint's
     /// `q̈ = K F + k` into `qdd` and its children's handle forces.
     pub(crate) fn expand(&mut self, model: &Model, n: usize) {
+        #[cfg(target_arch = "x86_64")]
+        if self.fused {
+            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // has AVX2 and FMA).
+            return unsafe { self.expand_wide(model, n) };
+        }
+        self.expand_with(model, n)
+    }
+
+    /// [`Adaptive::expand`] compiled for AVX2 + FMA: the same arithmetic (no fused
+    /// multiply–adds) in wider, three-operand instructions, so the same results to the bit.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn expand_wide(&mut self, model: &Model, n: usize) {
+        self.expand_with(model, n)
+    }
+
+    #[inline(always)]
+    fn expand_with(&mut self, model: &Model, n: usize) {
         let tree = &model.assembly;
         let NodeKind::Join {
             joint,

@@ -624,7 +624,9 @@ impl Adaptive {
 
     /// Run the hybrid step's reduced ABA with fused multiply–adds where the CPU has AVX2 and
     /// FMA (default: whenever available) or portably everywhere (off: the reference for tests;
-    /// the same solution to rounding). Asking for it on a CPU without them keeps it off.
+    /// the same solution to rounding). The same switch picks the AVX2 + FMA compilations of
+    /// the other hot passes, whose arithmetic is the portable one (the same bits either way).
+    /// Asking for it on a CPU without them keeps it off.
     #[doc(hidden)]
     pub fn set_fused(&mut self, on: bool) {
         self.fused = on && articula_dca::fused_available();

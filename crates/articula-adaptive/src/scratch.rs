@@ -82,7 +82,7 @@ impl Scratch {
         Scratch {
             sizes: [nb, nv, model.nq, nn],
             data: Data::new(model),
-            ia: vec![[0.0; 21]; nb],
+            ia: vec![[[0.0; 6]; 6]; nb],
             pa: vec![[0.0; 6]; nb],
             acc: vec![[0.0; 6]; nb],
             dinv: vec![0.0; nb],
@@ -185,7 +185,7 @@ impl Adaptive {
     #[inline(never)]
     fn grow_reduced(&mut self, na: usize, dof: usize, [nb, nv]: [usize; 2]) {
         let h = &mut self.hier;
-        grow(&mut h.ia, na, nb, [0.0; 21]);
+        grow(&mut h.ia, na, nb, [[0.0; 6]; 6]);
         grow(&mut h.pa, na, nb, [0.0; 6]);
         grow(&mut h.acc, na, nb, [0.0; 6]);
         grow(&mut h.dinv, na, nb, 0.0);

@@ -636,10 +636,14 @@ impl Adaptive {
 
 /// Whether two slices hold the same bits (compared in blocks of eight, which vectorizes).
 fn same_bits(a: &[f64], b: &[f64]) -> bool {
-    a.len() == b.len()
-        && a.chunks(8).zip(b.chunks(8)).all(|(x, y)| {
-            x.iter()
-                .zip(y)
-                .fold(true, |m, (p, q)| m & (p.to_bits() == q.to_bits()))
-        })
+    if a.len() != b.len() {
+        return false;
+    }
+    // Blocks of eight fixed-size rows, their differing bits or-ed together.
+    let (xa, ya) = (a.chunks_exact(8), b.chunks_exact(8));
+    let (ra, rb) = (xa.remainder(), ya.remainder());
+    xa.zip(ya).all(|(x, y)| {
+        let (x, y): (&[f64; 8], &[f64; 8]) = (x.try_into().unwrap(), y.try_into().unwrap());
+        (0..8).fold(0u64, |d, k| d | (x[k].to_bits() ^ y[k].to_bits())) == 0
+    }) && ra.iter().zip(rb).all(|(p, q)| p.to_bits() == q.to_bits())
 }
