@@ -377,50 +377,23 @@ pub(crate) fn refine(model: &Model, tau: &[f64], f_ext: &[SpatialForce], data: &
 
 #[cfg(test)]
 mod tests {
-    use crate::{forward_dynamics, Data, Method, State};
-    use articula_model::{LoadOptions, Model};
+    use crate::{Data, Method};
 
     /// ABA compiled for AVX2 + FMA runs the same arithmetic as the portable build: the same
     /// q̈ to the bit on every bundled model, fixed and floating base, with and without forces.
     #[test]
     fn avx2_and_portable_aba_are_bit_identical() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models");
-        for name in ["chain10", "chain300", "humanoid", "plant", "rope"] {
-            for floating_base in [false, true] {
-                let model = Model::from_urdf_file(
-                    dir.join(format!("{name}.urdf")),
-                    &LoadOptions { floating_base },
-                )
-                .unwrap();
-                let mut data = Data::new(&model);
-                for seed in 0..4 {
-                    let mut s = State::random(&model, seed, 1.0);
-                    if seed % 2 == 1 {
-                        s.randomize_forces(seed, 0.5);
-                    }
-                    let mut solve = |fused: bool| {
-                        data.dca.fused = fused;
-                        forward_dynamics(
-                            &model,
-                            &mut data,
-                            &s.q,
-                            &s.qd,
-                            &s.tau,
-                            &s.f_ext,
-                            Method::Aba,
-                        )
-                        .unwrap()
-                        .to_vec()
-                    };
-                    let portable = solve(false);
-                    let avx2 = solve(crate::dca::fused_available());
-                    assert!(portable.iter().all(|x| x.is_finite()));
-                    assert_eq!(
-                        portable.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
-                        avx2.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
-                        "{name} floating={floating_base} seed {seed}"
-                    );
-                }
+        for (name, floating_base, model) in crate::bundled_models() {
+            let mut data = Data::new(&model);
+            for seed in 0..4 {
+                let (portable, avx2) =
+                    crate::solve_portable_and_fused(&model, &mut data, seed, Method::Aba);
+                assert!(portable.iter().all(|x| x.is_finite()));
+                assert_eq!(
+                    portable.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                    avx2.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                    "{name} floating={floating_base} seed {seed}"
+                );
             }
         }
     }

@@ -1334,7 +1334,6 @@ fn back_substitution<A: Arith>(model: &Model, tau: &[f64], data: &mut Data) {
 #[cfg(test)]
 mod tests {
     use crate::{forward_dynamics, Data, Method, State};
-    use articula_model::{LoadOptions, Model};
 
     /// The fused (AVX2 + FMA) and portable compilations of the pass agree to 1e-12 relative
     /// (max |difference| / max |q̈|) on every bundled model, fixed and floating base, with and
@@ -1345,54 +1344,29 @@ mod tests {
     /// 5.4e-12, each as far from CRBA and ABA as the other (1.7–6.2e-12).
     #[test]
     fn fused_and_portable_agree() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models");
         let mut differ = false;
-        for name in ["chain10", "chain300", "humanoid", "plant", "rope"] {
-            for floating_base in [false, true] {
-                let tol = if floating_base && name == "chain300" {
-                    1e-11
-                } else {
-                    1e-12
-                };
-                let model = Model::from_urdf_file(
-                    dir.join(format!("{name}.urdf")),
-                    &LoadOptions { floating_base },
-                )
-                .unwrap();
-                let mut data = Data::new(&model);
-                assert_eq!(data.dca.fused, super::fused_available());
-                for seed in 0..6 {
-                    let mut s = State::random(&model, seed, 1.0);
-                    if seed % 2 == 1 {
-                        s.randomize_forces(seed, 0.5);
-                    }
-                    let mut solve = |fused: bool| {
-                        data.dca.fused = fused;
-                        forward_dynamics(
-                            &model,
-                            &mut data,
-                            &s.q,
-                            &s.qd,
-                            &s.tau,
-                            &s.f_ext,
-                            Method::Dca,
-                        )
-                        .unwrap()
-                        .to_vec()
-                    };
-                    let (portable, fused) = (solve(false), solve(super::fused_available()));
-                    let scale = portable.iter().fold(1.0f64, |m, x| m.max(x.abs()));
-                    let diff = portable
-                        .iter()
-                        .zip(&fused)
-                        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
-                    assert!(
-                        diff <= tol * scale,
-                        "{name} floating={floating_base} seed {seed}: {:e}",
-                        diff / scale
-                    );
-                    differ |= portable != fused;
-                }
+        for (name, floating_base, model) in crate::bundled_models() {
+            let tol = if floating_base && name == "chain300" {
+                1e-11
+            } else {
+                1e-12
+            };
+            let mut data = Data::new(&model);
+            assert_eq!(data.dca.fused, super::fused_available());
+            for seed in 0..6 {
+                let (portable, fused) =
+                    crate::solve_portable_and_fused(&model, &mut data, seed, Method::Dca);
+                let scale = portable.iter().fold(1.0f64, |m, x| m.max(x.abs()));
+                let diff = portable
+                    .iter()
+                    .zip(&fused)
+                    .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+                assert!(
+                    diff <= tol * scale,
+                    "{name} floating={floating_base} seed {seed}: {:e}",
+                    diff / scale
+                );
+                differ |= portable != fused;
             }
         }
         assert_eq!(differ, super::fused_available());
@@ -1404,57 +1378,49 @@ mod tests {
     /// floating base, with and without external forces.
     #[test]
     fn leaf_kinematics_agrees() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models");
-        for name in ["chain10", "chain300", "humanoid", "plant", "rope"] {
-            for floating_base in [false, true] {
-                let tol = if floating_base && name == "chain300" {
-                    1e-11
-                } else {
-                    1e-12
-                };
-                let model = Model::from_urdf_file(
-                    dir.join(format!("{name}.urdf")),
-                    &LoadOptions { floating_base },
-                )
-                .unwrap();
-                let mut data = Data::new(&model);
-                assert!(data.dca.leaf_kinematics, "{name}");
-                for seed in 0..4 {
-                    let mut s = State::random(&model, seed, 1.0);
-                    if seed % 2 == 1 {
-                        s.randomize_forces(seed, 0.5);
-                    }
-                    let mut solve = |at_leaves: bool| {
-                        data.dca.leaf_kinematics = at_leaves;
-                        let qdd = forward_dynamics(
-                            &model,
-                            &mut data,
-                            &s.q,
-                            &s.qd,
-                            &s.tau,
-                            &s.f_ext,
-                            Method::Dca,
-                        )
-                        .unwrap()
-                        .to_vec();
-                        (qdd, data.x.clone(), data.v.clone())
-                    };
-                    let (loop_, leaves) = (solve(false), solve(true));
-                    let scale = loop_.0.iter().fold(1.0f64, |m, x| m.max(x.abs()));
-                    let diff = loop_
-                        .0
-                        .iter()
-                        .zip(&leaves.0)
-                        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
-                    assert!(
-                        diff <= tol * scale,
-                        "{name} floating={floating_base} seed {seed}: {:e}",
-                        diff / scale
-                    );
-                    // The same kinematics, bit for bit.
-                    assert_eq!(loop_.1, leaves.1);
-                    assert_eq!(loop_.2, leaves.2);
+        for (name, floating_base, model) in crate::bundled_models() {
+            let tol = if floating_base && name == "chain300" {
+                1e-11
+            } else {
+                1e-12
+            };
+            let mut data = Data::new(&model);
+            assert!(data.dca.leaf_kinematics, "{name}");
+            for seed in 0..4 {
+                let mut s = State::random(&model, seed, 1.0);
+                if seed % 2 == 1 {
+                    s.randomize_forces(seed, 0.5);
                 }
+                let mut solve = |at_leaves: bool| {
+                    data.dca.leaf_kinematics = at_leaves;
+                    let qdd = forward_dynamics(
+                        &model,
+                        &mut data,
+                        &s.q,
+                        &s.qd,
+                        &s.tau,
+                        &s.f_ext,
+                        Method::Dca,
+                    )
+                    .unwrap()
+                    .to_vec();
+                    (qdd, data.x.clone(), data.v.clone())
+                };
+                let (loop_, leaves) = (solve(false), solve(true));
+                let scale = loop_.0.iter().fold(1.0f64, |m, x| m.max(x.abs()));
+                let diff = loop_
+                    .0
+                    .iter()
+                    .zip(&leaves.0)
+                    .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+                assert!(
+                    diff <= tol * scale,
+                    "{name} floating={floating_base} seed {seed}: {:e}",
+                    diff / scale
+                );
+                // The same kinematics, bit for bit.
+                assert_eq!(loop_.1, leaves.1);
+                assert_eq!(loop_.2, leaves.2);
             }
         }
     }

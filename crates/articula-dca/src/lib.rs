@@ -207,3 +207,42 @@ pub fn check_inputs(
     }
     Ok(())
 }
+
+/// Every bundled model (`models/*.urdf` of the workspace), fixed and floating base, for the
+/// crate's unit tests: `(name, floating_base, model)`.
+#[cfg(test)]
+pub(crate) fn bundled_models() -> impl Iterator<Item = (&'static str, bool, Model)> {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models");
+    ["chain10", "chain300", "humanoid", "plant", "rope"]
+        .into_iter()
+        .flat_map(|name| [false, true].map(|floating_base| (name, floating_base)))
+        .map(move |(name, floating_base)| {
+            let options = articula_model::LoadOptions { floating_base };
+            let model = Model::from_urdf_file(dir.join(format!("{name}.urdf")), &options)
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
+            (name, floating_base, model)
+        })
+}
+
+/// `method`'s q̈ at seeded state `seed` of `model` (random external forces on odd seeds),
+/// solved with the portable compilation and with the AVX2 + FMA one where the CPU has it:
+/// `(portable, fused)`, for the crate's unit tests.
+#[cfg(test)]
+pub(crate) fn solve_portable_and_fused(
+    model: &Model,
+    data: &mut Data,
+    seed: u64,
+    method: Method,
+) -> (Vec<f64>, Vec<f64>) {
+    let mut s = State::random(model, seed, 1.0);
+    if seed % 2 == 1 {
+        s.randomize_forces(seed, 0.5);
+    }
+    let mut solve = |fused: bool| {
+        data.dca.fused = fused;
+        forward_dynamics(model, data, &s.q, &s.qd, &s.tau, &s.f_ext, method)
+            .unwrap()
+            .to_vec()
+    };
+    (solve(false), solve(dca::fused_available()))
+}
