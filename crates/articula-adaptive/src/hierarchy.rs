@@ -153,9 +153,14 @@ impl Adaptive {
             h.axis = model.bodies.iter().map(coordinate_axis).collect();
             h.parts = model.bodies.iter().map(revolute_parts).collect();
         }
+        // At their largest from the first build on (every node, every body), so that a later
+        // hybrid body with more joints grows nothing.
         h.hnodes.clear();
+        h.hnodes.reserve(nn);
         h.fnodes.clear();
+        h.fnodes.reserve(nn);
         h.ajoints.clear();
+        h.ajoints.reserve(nb);
         for n in 0..nn {
             let node = &tree.nodes[n];
             if let NodeKind::Join { joint, .. } = node.kind {

@@ -86,19 +86,47 @@ pub fn global_selection(
     budget: Option<usize>,
     tolerance: Option<f64>,
 ) -> GlobalSelection {
-    let n = models.len();
-    let mut sel = GlobalSelection {
-        allocation: vec![0; n],
-        error: vec![0.0; n],
-        popped: vec![Vec::new(); n],
-        ..GlobalSelection::default()
-    };
+    let mut sel = GlobalSelection::default();
     let mut heap = BinaryHeap::new();
+    global_selection_into(
+        &mut sel,
+        &mut heap,
+        models.len(),
+        |b| models[b],
+        |b| metrics[b],
+        budget,
+        tolerance,
+    );
+    sel
+}
+
+/// [`global_selection`] into `sel`, with `heap` as the queue (both cleared first: their
+/// buffers are reused, so that a scene's re-selection allocates nothing once they have
+/// grown); bodies `0..n`, body `b`'s model `model(b)` and node metrics `metrics(b)`.
+fn global_selection_into<'m>(
+    sel: &mut GlobalSelection,
+    heap: &mut BinaryHeap<Entry>,
+    n: usize,
+    model: impl Fn(usize) -> &'m Model,
+    metrics: impl Fn(usize) -> &'m [f64],
+    budget: Option<usize>,
+    tolerance: Option<f64>,
+) {
+    sel.allocation.clear();
+    sel.allocation.resize(n, 0);
+    sel.error.clear();
+    sel.error.resize(n, 0.0);
+    sel.popped.truncate(n);
+    sel.popped.iter_mut().for_each(Vec::clear);
+    sel.popped.resize_with(n, Vec::new);
+    sel.total_error = 0.0;
+    sel.used = 0;
+    heap.clear();
     // Queues a node; returns its metric (for the mass left). A node of metric ≤ 0 is never
     // popped (the loop stops at the first one) and adds nothing to the error: it is counted in
     // the mass left but not queued (a NaN is queued, as before).
     let push = |heap: &mut BinaryHeap<Entry>, b: usize, node: usize| -> f64 {
-        let metric = metrics[b].get(node).copied().unwrap_or(0.0);
+        let metric = metrics(b).get(node).copied().unwrap_or(0.0);
         if metric > 0.0 || metric.is_nan() {
             heap.push(Entry {
                 metric,
@@ -115,10 +143,10 @@ pub fn global_selection(
             parent_side,
             child_side,
             ..
-        } = models[b].assembly.nodes[node].kind
+        } = model(b).assembly.nodes[node].kind
         {
             for c in [parent_side, child_side] {
-                if matches!(models[b].assembly.nodes[c].kind, NodeKind::Join { .. }) {
+                if matches!(model(b).assembly.nodes[c].kind, NodeKind::Join { .. }) {
                     added += push(heap, b, c);
                 }
             }
@@ -126,7 +154,8 @@ pub fn global_selection(
         added
     };
     let mut remaining = 0.0;
-    for (b, m) in models.iter().enumerate() {
+    for b in 0..n {
+        let m = model(b);
         let root = m.assembly.root();
         if !matches!(m.assembly.nodes[root].kind, NodeKind::Join { .. }) {
             continue;
@@ -134,9 +163,9 @@ pub fn global_selection(
         if m.floating_base {
             // Free: expanded at once.
             sel.popped[b].push(root);
-            remaining += push_children(&mut heap, b, root);
+            remaining += push_children(heap, b, root);
         } else {
-            remaining += push(&mut heap, b, root);
+            remaining += push(heap, b, root);
         }
     }
     let tol = tolerance.filter(|t| *t > 0.0);
@@ -144,10 +173,10 @@ pub fn global_selection(
         if top.metric <= 0.0 || tol.is_some_and(|t| remaining <= t) {
             break;
         }
-        let NodeKind::Join { joint, .. } = models[top.body].assembly.nodes[top.node].kind else {
+        let NodeKind::Join { joint, .. } = model(top.body).assembly.nodes[top.node].kind else {
             unreachable!("only joins are queued")
         };
-        let cost = models[top.body].bodies[joint].nv;
+        let cost = model(top.body).bodies[joint].nv;
         if budget.is_some_and(|k| sel.used + cost > k) {
             break;
         }
@@ -156,13 +185,12 @@ pub fn global_selection(
         sel.used += cost;
         sel.allocation[top.body] += cost;
         sel.popped[top.body].push(top.node);
-        remaining += push_children(&mut heap, top.body, top.node);
+        remaining += push_children(heap, top.body, top.node);
     }
     for e in heap.iter() {
         sel.error[e.body] += e.metric.max(0.0);
     }
     sel.total_error = sel.error.iter().sum();
-    sel
 }
 
 /// One body of a running scene.
@@ -304,6 +332,11 @@ pub struct SceneSim<'s> {
     /// Whether the bodies use `scratch` (default) or their own buffers (the reference).
     shared: bool,
     metrics: Vec<Vec<f64>>,
+    /// The last re-selection's global queue and its heap (buffers reused).
+    selection: GlobalSelection,
+    heap: BinaryHeap<Entry>,
+    /// Per body: how far it can move before the next re-selection (classification margins).
+    margins: Vec<f64>,
     /// The dense external wrenches of one body's exact solve (its metrics).
     fdense: Vec<SpatialForce>,
     wanted: Vec<bool>,
@@ -367,6 +400,17 @@ impl<'s> SceneSim<'s> {
                 None => Vec::new(),
             })
             .collect();
+        // The global queue's buffers at their largest: a body pops at most its nodes, the heap
+        // holds at most every node (so that no re-selection grows them).
+        let nodes = |b: &SimBody| scene.models[b.model].model.assembly.nodes.len();
+        let selection = GlobalSelection {
+            popped: bodies
+                .iter()
+                .map(|b| Vec::with_capacity(nodes(b)))
+                .collect(),
+            ..GlobalSelection::default()
+        };
+        let heap = BinaryHeap::with_capacity(bodies.iter().map(nodes).sum());
         SceneSim {
             springs,
             scratch: scene
@@ -377,6 +421,9 @@ impl<'s> SceneSim<'s> {
             shared: true,
             metrics: vec![Vec::new(); bodies.len()],
             fdense: Vec::new(),
+            selection,
+            heap,
+            margins: Vec::new(),
             wanted: Vec::new(),
             views: Vec::new(),
             classifier: Classifier::new(&scene.visibility),
@@ -423,31 +470,38 @@ impl<'s> SceneSim<'s> {
             let model = &scene.models[b.model].model;
             self.plans[b.model].poses(model, &b.state.q, &mut b.poses);
         }
-        let placed: Vec<Placed> = self
-            .bodies
-            .iter()
-            .map(|b| {
-                let m = &scene.models[b.model];
-                // How far the body can get before the next re-selection: its root speed plus
-                // the rim speed of its bounding sphere, times the period (and one step more).
-                let (w, v) = (b.state.qd[..3].iter(), b.state.qd[3..6].iter());
-                let wn = w.map(|x| x * x).sum::<f64>().sqrt();
-                let vn = v.map(|x| x * x).sum::<f64>().sqrt();
-                let reach = m
-                    .volumes
-                    .iter()
-                    .map(|v| v.bound.0.length() + v.bound.1)
-                    .fold(0.0, f64::max);
-                Placed {
-                    volumes: &m.volumes,
-                    poses: &b.poses,
-                    parents: &self.parents[b.model],
-                    margin: (vn + wn * reach) * (margin_steps + scene.dt),
-                }
-            })
-            .collect();
-        self.classifier
-            .classify(&cam, &scene.visibility, &placed, &mut self.views);
+        self.margins.clear();
+        self.margins.extend(self.bodies.iter().map(|b| {
+            let m = &scene.models[b.model];
+            // How far the body can get before the next re-selection: its root speed plus
+            // the rim speed of its bounding sphere, times the period (and one step more).
+            let (w, v) = (b.state.qd[..3].iter(), b.state.qd[3..6].iter());
+            let wn = w.map(|x| x * x).sum::<f64>().sqrt();
+            let vn = v.map(|x| x * x).sum::<f64>().sqrt();
+            let reach = m
+                .volumes
+                .iter()
+                .map(|v| v.bound.0.length() + v.bound.1)
+                .fold(0.0, f64::max);
+            (vn + wn * reach) * (margin_steps + scene.dt)
+        }));
+        let (bodies, parents, margins) = (&self.bodies, &self.parents, &self.margins);
+        let placed = |i: usize| {
+            let b = &bodies[i];
+            Placed {
+                volumes: &scene.models[b.model].volumes,
+                poses: &b.poses,
+                parents: &parents[b.model],
+                margin: margins[i],
+            }
+        };
+        self.classifier.classify_with(
+            &cam,
+            &scene.visibility,
+            bodies.len(),
+            placed,
+            &mut self.views,
+        );
     }
 
     /// Advances the scene by one step.
@@ -517,13 +571,17 @@ impl<'s> SceneSim<'s> {
                 }
                 .map_err(|e| SceneSimError::new(scene, b.model, &e))?;
             }
-            let models: Vec<&Model> = self
-                .bodies
-                .iter()
-                .map(|b| &scene.models[b.model].model)
-                .collect();
-            let metrics: Vec<&[f64]> = self.metrics.iter().map(|m| m.as_slice()).collect();
-            let sel = global_selection(&models, &metrics, scene.budget, scene.tolerance);
+            let (bodies, metrics) = (&self.bodies, &self.metrics);
+            global_selection_into(
+                &mut self.selection,
+                &mut self.heap,
+                bodies.len(),
+                |b| &scene.models[bodies[b].model].model,
+                |b| metrics[b].as_slice(),
+                scene.budget,
+                scene.tolerance,
+            );
+            let sel = &self.selection;
             for (i, b) in self.bodies.iter_mut().enumerate() {
                 b.allocation = sel.allocation[i];
                 b.error = sel.error[i];

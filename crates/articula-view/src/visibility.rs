@@ -394,6 +394,19 @@ impl Classifier {
         bodies: &[Placed],
         out: &mut Vec<BodyView>,
     ) {
+        self.classify_with(cam, settings, bodies.len(), |b| bodies[b], out);
+    }
+
+    /// [`Classifier::classify`] of bodies `0..n`, body `b` given by `body(b)` (called twice per
+    /// body): no list of the bodies to build.
+    pub fn classify_with<'a>(
+        &mut self,
+        cam: &Camera,
+        settings: &VisibilitySettings,
+        n: usize,
+        body: impl Fn(usize) -> Placed<'a>,
+        out: &mut Vec<BodyView>,
+    ) {
         let frustum = cam.frustum();
         self.buffer.clear();
         let lens = self.buffer.lens(cam);
@@ -402,12 +415,11 @@ impl Classifier {
         let t = cam.tan_half_fov();
         let cells_per_unit = (self.buffer.height as f64 / (2.0 * t))
             .max(self.buffer.width as f64 / (2.0 * t * cam.aspect));
-        out.resize_with(bodies.len(), BodyView::default);
-        self.world.resize_with(bodies.len(), Vec::new);
+        out.resize_with(n, BodyView::default);
+        self.world.resize_with(n, Vec::new);
         // 1. Frustum culling on world bounding spheres; occluders into the depth buffer.
-        for (b, placed) in bodies.iter().enumerate() {
-            let view = &mut out[b];
-            let world = &mut self.world[b];
+        for (b, (view, world)) in out.iter_mut().zip(&mut self.world).take(n).enumerate() {
+            let placed = &body(b);
             world.clear();
             view.links.clear();
             for (vol, &(rot, pos)) in placed.volumes.iter().zip(placed.poses) {
@@ -440,9 +452,8 @@ impl Classifier {
             }
         }
         // 2. Occlusion, projected size, weights.
-        for (b, placed) in bodies.iter().enumerate() {
-            let view = &mut out[b];
-            let world = &self.world[b];
+        for (b, (view, world)) in out.iter_mut().zip(&self.world).take(n).enumerate() {
+            let placed = &body(b);
             for (l, &(c, r)) in world.iter().enumerate() {
                 if view.links[l] == Visibility::Visible && self.buffer.hidden(cam, &lens, c, r) {
                     view.links[l] = Visibility::Occluded;

@@ -1,0 +1,33 @@
+//! A scene step allocates nothing once its buffers have grown: the bundled crowd200 scene
+//! (pushes, re-selections every 10 steps, bodies changing their hybrid bodies and turning
+//! rigid) stepped with the system allocator counting.
+
+#[path = "../../articula-adaptive/tests/counting/mod.rs"]
+mod counting;
+
+use articula_view::{load_scene, SceneSim};
+use std::path::Path;
+
+#[test]
+fn scene_steps_allocate_nothing_after_warm_up() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/scenes/crowd200.json");
+    let scene = load_scene(path).unwrap();
+    let mut sim = SceneSim::new(&scene);
+    // Warm-up: the first whole-body selection and a few re-selections size every buffer.
+    for _ in 0..60 {
+        sim.step().unwrap();
+    }
+    let mut per_step = Vec::new();
+    let mut reselections = 0;
+    for _ in 0..60 {
+        let before = counting::allocations();
+        let step = sim.step().unwrap();
+        per_step.push(counting::allocations() - before);
+        reselections += usize::from(step.reselected);
+    }
+    assert!(reselections >= 5, "the window must hold re-selections");
+    assert!(
+        per_step.iter().all(|&n| n == 0),
+        "allocations per step: {per_step:?}"
+    );
+}
