@@ -273,8 +273,32 @@ pub fn body_kinematics(
     let mut c = SpatialMotion::ZERO;
     for part in &body.joint {
         // X_{W←k} = X_{W←k-1} · origin · motion(q); for a rotation rot(R_q) the second product
-        // is just e = e R_q, r = R_qᵀ r.
-        x = x * part.origin;
+        // is just e = e R_q, r = R_qᵀ r. (The parts after a composed joint's first usually
+        // have the identity as origin: its product changes nothing.)
+        let o = &part.origin;
+        if o.e != DMat3::IDENTITY || o.r != DVec3::ZERO {
+            x = x * part.origin;
+        }
+        if let Some((k, sign)) = part.coordinate_axis() {
+            // A rotation about ±e_k: columns (a, b) of E and entries (a, b) of r turn by the
+            // angle ((k, a, b) cyclic); s = [w; p × w] with w = ±E e_k, p = −E r the origin.
+            let (sn, cs) = (sign * q[part.q_offset]).sin_cos();
+            let (a, b) = ((k + 1) % 3, (k + 2) % 3);
+            let (ea, eb) = (x.e.col(a), x.e.col(b));
+            *x.e.col_mut(a) = ea * cs + eb * sn;
+            *x.e.col_mut(b) = eb * cs - ea * sn;
+            let (ra, rb) = (x.r[a], x.r[b]);
+            x.r[a] = cs * ra + sn * rb;
+            x.r[b] = cs * rb - sn * ra;
+            let w = x.e.col(k) * sign;
+            let p = -(x.e * x.r);
+            let sk = SpatialMotion::new(w, p.cross(w));
+            s[part.v_offset] = sk;
+            let vj = sk * qd[part.v_offset];
+            c += v.cross_motion(vj);
+            v += vj;
+            continue;
+        }
         match part.kind {
             JointKind::Revolute | JointKind::Continuous => {
                 let rq = DMat3::from_axis_angle(part.axis, q[part.q_offset]);
