@@ -280,19 +280,15 @@ pub fn body_kinematics(
             x = x * part.origin;
         }
         if let Some((k, sign)) = part.coordinate_axis() {
-            // A rotation about ±e_k: columns (a, b) of E and entries (a, b) of r turn by the
-            // angle ((k, a, b) cyclic); s = [w; p × w] with w = ±E e_k, p = −E r the origin.
-            let (sn, cs) = (sign * q[part.q_offset]).sin_cos();
-            let (a, b) = ((k + 1) % 3, (k + 2) % 3);
-            let (ea, eb) = (x.e.col(a), x.e.col(b));
-            *x.e.col_mut(a) = ea * cs + eb * sn;
-            *x.e.col_mut(b) = eb * cs - ea * sn;
-            let (ra, rb) = (x.r[a], x.r[b]);
-            x.r[a] = cs * ra + sn * rb;
-            x.r[b] = cs * rb - sn * ra;
-            let w = x.e.col(k) * sign;
-            let p = -(x.e * x.r);
-            let sk = SpatialMotion::new(w, p.cross(w));
+            // A rotation about ±e_k: the one-axis fast path's column mix (no translation left
+            // to add: the origin is applied above).
+            let qi = sign * q[part.q_offset];
+            let (xk, sk) = match k {
+                0 => axis_revolute::<0, 1, 2>(x, DVec3::ZERO, qi, sign),
+                1 => axis_revolute::<1, 2, 0>(x, DVec3::ZERO, qi, sign),
+                _ => axis_revolute::<2, 0, 1>(x, DVec3::ZERO, qi, sign),
+            };
+            x = xk;
             s[part.v_offset] = sk;
             let vj = sk * qd[part.v_offset];
             c += v.cross_motion(vj);

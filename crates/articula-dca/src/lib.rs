@@ -10,7 +10,8 @@
 //! The DCA pass is compiled twice: portably, and with fused multiply–adds for x86-64 CPUs with
 //! AVX2 and FMA ([`fused_available`]), which `Data::new` picks when it can. The two agree to
 //! rounding (~1e-12 relative), so results may differ in their last bits between machines.
-//! Other crates write their passes over the same [`Arith`] type to do likewise.
+//! Other crates write their passes over the same [`Arith`] type to do likewise. ABA (with its
+//! kinematics) is compiled for AVX2 too, with the portable arithmetic: the same bits.
 //!
 //! ```
 //! use articula_dca::{forward_dynamics, Data, Method, State};

@@ -57,7 +57,7 @@ impl Frustum {
     /// plane (the usual conservative test: a sphere near a corner, outside two planes but not
     /// entirely outside either, counts as inside).
     pub fn sphere(&self, center: DVec3, radius: f64) -> bool {
-        self.planes.iter().all(|p| p.distance(center) >= -radius)
+        self.nearest_plane_distance(center) >= -radius
     }
 
     /// The least signed distance of `center` to the planes (positive inside), NaN if any is:

@@ -202,7 +202,7 @@ pub struct SimBody {
     /// [`SimBody::forces`].
     pub state: State,
     /// The external wrenches acting at this step, `(model body, world wrench about the world
-    /// origin)`, one entry per pushed body (a list: nothing scans or clears a dense array of
+    /// origin)`, one entry per pushed link (a list: nothing scans or clears a dense array of
     /// every body's links each step).
     pub forces: Vec<(usize, SpatialForce)>,
     /// Its adaptive workspace.
@@ -323,6 +323,9 @@ pub struct SceneSim<'s> {
     parents: Vec<Vec<Option<usize>>>,
     /// Per model: its pose-only kinematics, prepared once.
     plans: Vec<PosePlan>,
+    /// Per model: the largest `|centre| + radius` of its links' bounding spheres (each in its
+    /// link's frame), the reach in the classification margins.
+    reach: Vec<f64>,
     /// Per model: the pose springs, `(q index, v index, k, c)` per internal degree of freedom.
     springs: Vec<Vec<(usize, usize, f64, f64)>>,
     classifier: Classifier,
@@ -411,7 +414,18 @@ impl<'s> SceneSim<'s> {
             ..GlobalSelection::default()
         };
         let heap = BinaryHeap::with_capacity(bodies.iter().map(nodes).sum());
+        let reach = scene
+            .models
+            .iter()
+            .map(|m| {
+                m.volumes
+                    .iter()
+                    .map(|v| v.bound.0.length() + v.bound.1)
+                    .fold(0.0, f64::max)
+            })
+            .collect();
         SceneSim {
+            reach,
             springs,
             scratch: scene
                 .models
@@ -472,18 +486,12 @@ impl<'s> SceneSim<'s> {
         }
         self.margins.clear();
         self.margins.extend(self.bodies.iter().map(|b| {
-            let m = &scene.models[b.model];
             // How far the body can get before the next re-selection: its root speed plus
             // the rim speed of its bounding sphere, times the period (and one step more).
             let (w, v) = (b.state.qd[..3].iter(), b.state.qd[3..6].iter());
             let wn = w.map(|x| x * x).sum::<f64>().sqrt();
             let vn = v.map(|x| x * x).sum::<f64>().sqrt();
-            let reach = m
-                .volumes
-                .iter()
-                .map(|v| v.bound.0.length() + v.bound.1)
-                .fold(0.0, f64::max);
-            (vn + wn * reach) * (margin_steps + scene.dt)
+            (vn + wn * self.reach[b.model]) * (margin_steps + scene.dt)
         }));
         let (bodies, parents, margins) = (&self.bodies, &self.parents, &self.margins);
         let placed = |i: usize| {
