@@ -59,12 +59,19 @@ impl JointPart {
         if !matches!(self.kind, JointKind::Revolute | JointKind::Continuous) {
             return None;
         }
-        let a = self.axis.to_array();
-        let i = (0..3).find(|&i| a[i] == 1.0 || a[i] == -1.0)?;
-        if a[(i + 1) % 3] != 0.0 || a[(i + 2) % 3] != 0.0 {
-            return None;
+        // One component ±1, the other two 0 (−0 included): straight-line tests, no search
+        // (kinematics asks this of every composed-joint part at every call).
+        let unit = |x: f64| x == 1.0 || x == -1.0;
+        let DVec3 { x, y, z } = self.axis;
+        if unit(x) && y == 0.0 && z == 0.0 {
+            Some((0, x))
+        } else if unit(y) && x == 0.0 && z == 0.0 {
+            Some((1, y))
+        } else if unit(z) && x == 0.0 && y == 0.0 {
+            Some((2, z))
+        } else {
+            None
         }
-        Some((i, a[i]))
     }
 
     /// The joint's own motion: the map from the moving frame (after the motion) to the joint
@@ -422,5 +429,52 @@ impl Model {
         }
         model.assembly = AssemblyTree::build(&model);
         Ok(model)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{JointKind, JointPart};
+    use articula_spatial::SpatialTransform;
+    use glam::DVec3;
+
+    /// `coordinate_axis` against its definition: `Some((i, s))` exactly when the part is
+    /// revolute or continuous and its axis equals `s · e_i` (s = ±1), over every combination of
+    /// components from a set with ±1, ±0, non-unit values and NaN.
+    #[test]
+    fn coordinate_axis_is_a_signed_unit_axis() {
+        let vals = [1.0, -1.0, 0.0, -0.0, 0.5, 1.0 + f64::EPSILON, f64::NAN];
+        let mut found = 0;
+        for kind in [
+            JointKind::Revolute,
+            JointKind::Continuous,
+            JointKind::Prismatic,
+        ] {
+            for &x in &vals {
+                for &y in &vals {
+                    for &z in &vals {
+                        let part = JointPart {
+                            name: "j".into(),
+                            kind,
+                            origin: SpatialTransform::IDENTITY,
+                            axis: DVec3::new(x, y, z),
+                            q_offset: 0,
+                            v_offset: 0,
+                        };
+                        let rotates = matches!(kind, JointKind::Revolute | JointKind::Continuous);
+                        let expected =
+                            (0..3).flat_map(|i| [(i, 1.0), (i, -1.0)]).find(|&(i, s)| {
+                                let mut e = DVec3::ZERO;
+                                e[i] = s;
+                                rotates && part.axis == e
+                            });
+                        assert_eq!(part.coordinate_axis(), expected, "{kind:?} {:?}", part.axis);
+                        found += expected.is_some() as usize;
+                    }
+                }
+            }
+        }
+        // ±e_i with either zero sign in the other two components: 6 axes × 4, for two kinds.
+        assert_eq!(found, 2 * 6 * 4);
     }
 }
