@@ -19,28 +19,127 @@ fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
 }
 
-/// Rows `R0`, `R0 + 1` of `Σ_p a[p][r] b[p][c]` (p < 5, ascending) for columns `c ≥ R0` when
-/// `SYM` (`a` = `b`: a Gram block's upper part), all columns otherwise — the caller mirrors.
+/// Five rows of a one-axis join's `Ỹ_h`, each padded to eight lanes (the last two zero).
+#[repr(C, align(64))]
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Rows5(pub [[f64; 8]; 5]);
+
+/// `Σ_p a[p][r] b[p][c]` (p < 5, ascending) for `r, c < 6`, the sums started with their first
+/// product: a row at a time over all eight lanes of `b`'s rows (two 4-wide vectors).
 #[inline(always)]
-fn gram_rows<const R0: usize, const SYM: bool>(
-    a: &[[f64; 6]; 6],
-    b: &[[f64; 6]; 6],
-    g: &mut [[f64; 6]; 6],
-) {
-    let c0 = if SYM { R0 } else { 0 };
-    for r in R0..R0 + 2 {
-        let mut acc = [0.0; 6];
-        for c in c0..6 {
-            acc[c] = a[0][r] * b[0][c];
+fn gram8(a: &[[f64; 8]; 5], b: &[[f64; 8]; 5]) -> [[f64; 6]; 6] {
+    let mut g = [[0.0; 6]; 6];
+    for r in 0..6 {
+        let x = a[0][r];
+        let mut acc = [0.0; 8];
+        for c in 0..8 {
+            acc[c] = x * b[0][c];
         }
         for p in 1..5 {
-            let y = a[p][r];
-            for c in c0..6 {
-                acc[c] += y * b[p][c];
+            let x = a[p][r];
+            for c in 0..8 {
+                acc[c] += x * b[p][c];
             }
         }
-        g[r] = acc;
+        g[r].copy_from_slice(&acc[..6]);
     }
+    g
+}
+
+/// `x s`, a row of six.
+#[inline(always)]
+fn row_scaled(x: &[f64; 6], s: f64) -> [f64; 6] {
+    let mut o = [0.0; 6];
+    for c in 0..6 {
+        o[c] = x[c] * s;
+    }
+    o
+}
+
+/// `v += s x`, a row of six.
+#[inline(always)]
+fn row_add_scaled(v: &mut [f64; 6], s: f64, x: &[f64; 6]) {
+    for c in 0..6 {
+        v[c] += s * x[c];
+    }
+}
+
+/// `v −= s x`, a row of six.
+#[inline(always)]
+fn row_sub_scaled(v: &mut [f64; 6], s: f64, x: &[f64; 6]) {
+    for c in 0..6 {
+        v[c] -= s * x[c];
+    }
+}
+
+/// Cholesky factor `L` (lower) of the leading 5×5 block of a symmetric positive definite
+/// matrix (its lower triangle is read), `None` when a pivot is not positive: articula-dca's
+/// `cholesky` with the size fixed (the same operations in the same order, unrolled).
+#[inline(always)]
+fn cholesky5(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
+    let mut l = [[0.0f64; 6]; 6];
+    for j in 0..5 {
+        let mut d = a[j][j];
+        for p in 0..j {
+            d -= l[j][p] * l[j][p];
+        }
+        if d.is_nan() || d <= 0.0 {
+            return None;
+        }
+        let ljj = d.sqrt();
+        l[j][j] = ljj;
+        let inv = 1.0 / ljj;
+        for i in (j + 1)..5 {
+            let mut x = a[i][j];
+            for p in 0..j {
+                x -= l[i][p] * l[j][p];
+            }
+            l[i][j] = x * inv;
+        }
+    }
+    Some(l)
+}
+
+/// `W yₖ = T (L Lᵀ)⁻¹ Tᵀ yₖ` for three right-hand sides side by side (lanes of four, the last
+/// unused): per lane the operations of `dense::solve_llt_k`, in its order.
+#[inline(always)]
+fn w_apply3(t: &AxisBasis, l: &[[f64; 6]; 6], ys: [&[f64; 6]; 3]) -> [[f64; 6]; 3] {
+    let us = ys.map(|y| t.tr(y));
+    let mut x = [[0.0; 4]; 5];
+    for i in 0..5 {
+        for k in 0..3 {
+            x[i][k] = us[k][i];
+        }
+    }
+    // L x = u
+    for i in 0..5 {
+        let mut v = x[i];
+        for p in 0..i {
+            let lip = l[i][p];
+            for k in 0..4 {
+                v[k] -= lip * x[p][k];
+            }
+        }
+        let d = l[i][i];
+        for k in 0..4 {
+            x[i][k] = v[k] / d;
+        }
+    }
+    // Lᵀ λ = x
+    for i in (0..5).rev() {
+        let mut v = x[i];
+        for p in (i + 1)..5 {
+            let lpi = l[p][i];
+            for k in 0..4 {
+                v[k] -= lpi * x[p][k];
+            }
+        }
+        let d = l[i][i];
+        for k in 0..4 {
+            x[i][k] = v[k] / d;
+        }
+    }
+    std::array::from_fn(|k| t.apply(&[x[0][k], x[1][k], x[2][k], x[3][k], x[4][k]]))
 }
 
 /// The basis `T` of the forces that do no work along one axis `s` (`sᵀ T = 0`): for a
@@ -256,6 +355,9 @@ pub struct Adaptive {
     /// Scratch of the join being computed, per handle: the columns of `Y_h` and `U_h`.
     pub(crate) yc: Vec<[[f64; 6]; 6]>,
     pub(crate) uc: Vec<[[f64; 6]; 6]>,
+    /// Scratch of the one-axis join, per handle: the five rows of `Ỹ_h`, each padded to eight
+    /// (lanes 6, 7 stay zero) so that its Gram products run on whole 4-wide vectors.
+    pub(crate) yt: Vec<Rows5>,
     /// Scratch of the one-axis join, per handle: `G_F,h`.
     pub(crate) gf: Vec<Mat6>,
     pub(crate) steps: u64,
@@ -359,6 +461,7 @@ impl Adaptive {
             map: vec![usize::MAX; tree.max_handles().max(1)],
             yc: vec![[[0.0; 6]; 6]; tree.max_handles().max(1)],
             uc: vec![[[0.0; 6]; 6]; tree.max_handles().max(1)],
+            yt: vec![Rows5([[0.0; 8]; 5]); tree.max_handles().max(1)],
             gf: vec![Mat6::ZERO; tree.max_handles().max(1)],
             lay,
             steps: 0,
@@ -721,7 +824,7 @@ impl Adaptive {
 
     /// `Φ^C_hk = Φ^X_hk [same side] − Y_hᵀ U_k` (columns of Y_h and U_k in `yc`, `uc`) and
     /// `b^C_h = b^X_h − G_F,hᵀ γ` (`G_F,h` in `gf`, γ = `nvec[n]`) for the joined node `n`.
-    /// `gram`: U = Y with five rows (the one-axis join, `yc[h]` holding the rows of Ỹ_h), so
+    /// `gram`: U = Y with five rows (the one-axis join, `yt[h]` holding the rows of Ỹ_h), so
     /// `Y_hᵀ Y_h` is symmetric to the bit.
     #[inline(always)]
     fn assemble(&mut self, n: usize, a: usize, b: usize, gram: bool) {
@@ -733,26 +836,9 @@ impl Adaptive {
                 let (ak, ik) = self.lay.from[hc + kk];
                 // Y_hᵀ U_k.
                 let yu: [[f64; 6]; 6] = if gram {
-                    // Rows p < 5 of Ỹ_h, Ỹ_k in yc: Σ_p Ỹ_h[p][r] Ỹ_k[p][c], p ascending (the
-                    // products commute, so a diagonal block is symmetric to the bit: its upper
-                    // part, in pairs of rows, is mirrored).
-                    let (yh, yk) = (&self.yc[h], &self.yc[kk]);
-                    let mut g = [[0.0; 6]; 6];
-                    if h == kk {
-                        gram_rows::<0, true>(yh, yh, &mut g);
-                        gram_rows::<2, true>(yh, yh, &mut g);
-                        gram_rows::<4, true>(yh, yh, &mut g);
-                        for r in 2..6 {
-                            for c in 0..(r & !1) {
-                                g[r][c] = g[c][r];
-                            }
-                        }
-                    } else {
-                        gram_rows::<0, false>(yh, yk, &mut g);
-                        gram_rows::<2, false>(yh, yk, &mut g);
-                        gram_rows::<4, false>(yh, yk, &mut g);
-                    }
-                    g
+                    // The five rows of Ỹ_h, Ỹ_k in yt: Σ_p Ỹ_h[p][r] Ỹ_k[p][c], p ascending (the
+                    // products commute, so a diagonal block is symmetric to the bit).
+                    gram8(&self.yt[h].0, &self.yt[kk].0)
                 } else {
                     std::array::from_fn(|r| {
                         std::array::from_fn(|c| dot6(&self.yc[h][r], &self.uc[kk][c]))
@@ -839,7 +925,7 @@ impl Adaptive {
                 m5[i][c] = r[i];
             }
         }
-        let l5 = dense::cholesky_k(&m5, 5).ok_or_else(|| DynamicsError::Singular {
+        let l5 = cholesky5(&m5).ok_or_else(|| DynamicsError::Singular {
             joint: body.joint_name(),
             detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
         })?;
@@ -850,18 +936,17 @@ impl Adaptive {
         };
         let ss: f64 = sv.iter().map(|x| x * x).sum();
         let gs = Mat6(*g).mul_vec(&sv);
-        let wgs = w_apply(&gs);
-        let gv: [f64; 6] = std::array::from_fn(|i| wgs[i] - sv[i]);
         let mut f0 = [0.0; 6];
         f0[t.m] = 1.0 / sv[t.m];
         let gf0: [f64; 6] = std::array::from_fn(|r| g[r][t.m] * f0[t.m]);
-        let wgf0 = w_apply(&gf0);
+        // W G s, W G f₀ and W β: three independent right-hand sides, solved side by side.
+        let [wgs, wgf0, wb] = w_apply3(&t, &l5, [&gs, &gf0, beta]);
+        let gv: [f64; 6] = std::array::from_fn(|i| wgs[i] - sv[i]);
         let ft: [f64; 6] = std::array::from_fn(|i| f0[i] - wgf0[i]);
         let gft = Mat6(*g).mul_vec(&ft);
         let qt = dot6(&sv, &gft) / ss;
         let q = tau[vo];
         self.kvec[vo] = dot6(&gv, beta) / ss + qt * q;
-        let wb = w_apply(beta);
         let nv: [f64; 6] = std::array::from_fn(|i| wb[i] + ft[i] * q);
         if self.record_maps {
             // κ_β = gᵀ / sᵀs, κ_Q = q̈_τ, ν_β = W, ν_Q = f_τ.
@@ -891,60 +976,56 @@ impl Adaptive {
         // (5 × 6, its rows kept in yc[h][0..5]), N_h = T L⁻ᵀ Ỹ_h.
         for h in 0..nhc {
             let gfm = &self.gf[h].0;
-            let mut kr = gfm[0].map(|x| gv[0] * x);
+            let mut kr = row_scaled(&gfm[0], gv[0]);
             for r in 1..6 {
-                for c in 0..6 {
-                    kr[c] += gv[r] * gfm[r][c];
-                }
+                row_add_scaled(&mut kr, gv[r], &gfm[r]);
             }
-            for c in 0..6 {
-                self.kmat[ko + 6 * h + c] = kr[c] * ssinv;
-            }
+            let krow: &mut [f64; 6] = (&mut self.kmat[ko + 6 * h..ko + 6 * h + 6])
+                .try_into()
+                .expect("a row of 6");
+            *krow = row_scaled(&kr, ssinv);
             // Tᵀ G_F,h, then the forward substitution row by row.
             let mut y = [[0.0; 6]; 5];
-            for c in 0..6 {
-                y[0][c] = gfm[t.a][c] - t.ra * gfm[t.m][c];
-                y[1][c] = gfm[t.b][c] - t.rb * gfm[t.m][c];
-                y[2][c] = gfm[t.keep[0]][c];
-                y[3][c] = gfm[t.keep[1]][c];
-                y[4][c] = gfm[t.keep[2]][c];
-            }
+            y[0] = gfm[t.a];
+            row_sub_scaled(&mut y[0], t.ra, &gfm[t.m]);
+            y[1] = gfm[t.b];
+            row_sub_scaled(&mut y[1], t.rb, &gfm[t.m]);
+            y[2] = gfm[t.keep[0]];
+            y[3] = gfm[t.keep[1]];
+            y[4] = gfm[t.keep[2]];
             for i in 0..5 {
                 let mut v = y[i];
                 for p in 0..i {
-                    let lip = l5[i][p];
-                    for c in 0..6 {
-                        v[c] -= lip * y[p][c];
-                    }
+                    row_sub_scaled(&mut v, l5[i][p], &y[p]);
                 }
-                y[i] = v.map(|x| x * ldinv[i]);
+                y[i] = row_scaled(&v, ldinv[i]);
             }
             // L⁻ᵀ Ỹ_h, then T.
             let mut z = y;
             for i in (0..5).rev() {
                 let mut v = z[i];
                 for p in (i + 1)..5 {
-                    let lpi = l5[p][i];
-                    for c in 0..6 {
-                        v[c] -= lpi * z[p][c];
-                    }
+                    row_sub_scaled(&mut v, l5[p][i], &z[p]);
                 }
-                z[i] = v.map(|x| x * ldinv[i]);
+                z[i] = row_scaled(&v, ldinv[i]);
             }
+            let mut nr = [[0.0; 6]; 6];
+            nr[t.a] = z[0];
+            nr[t.b] = z[1];
+            // −r_a z₀ − r_b z₁
+            let mut zm = row_scaled(&z[0], -t.ra);
+            row_sub_scaled(&mut zm, t.rb, &z[1]);
+            nr[t.m] = zm;
+            nr[t.keep[0]] = z[2];
+            nr[t.keep[1]] = z[3];
+            nr[t.keep[2]] = z[4];
             let base = 36 * hc + 6 * h;
-            let mut put = |r: usize, row: [f64; 6]| {
-                self.nmat[base + r * wd..base + r * wd + 6].copy_from_slice(&row);
-            };
-            put(t.a, z[0]);
-            put(t.b, z[1]);
-            put(
-                t.m,
-                std::array::from_fn(|c| -t.ra * z[0][c] - t.rb * z[1][c]),
-            );
-            put(t.keep[0], z[2]);
-            put(t.keep[1], z[3]);
-            put(t.keep[2], z[4]);
-            self.yc[h][..5].copy_from_slice(&y);
+            for (r, row) in nr.iter().enumerate() {
+                self.nmat[base + r * wd..base + r * wd + 6].copy_from_slice(row);
+            }
+            for (dst, src) in self.yt[h].0.iter_mut().zip(&y) {
+                dst[..6].copy_from_slice(src);
+            }
         }
         // Ỹ_hᵀ Ỹ_k is a Gram product: the subtracted part stays positive semidefinite.
         self.assemble(n, a, b, true);
@@ -986,29 +1067,36 @@ impl Adaptive {
         let (vo, k) = (body.v_offset, body.nv);
         let (nhc, hc) = (self.nh[n], self.lay.hoff[n]);
         let w = 6 * nhc;
-        for h in 0..nhc {
-            self.fx[6 * h..6 * h + 6].copy_from_slice(&self.f[hc + h].to_array());
-        }
         let ko = self.koff[n];
         let mut fj = self.nvec[n];
-        if let (2, Ok(fx)) = (nhc, <&[f64; 12]>::try_from(&self.fx[..12])) {
+        if nhc == 2 {
             // Two handles (a chain's inner nodes): fixed-length rows, the same sums in the
             // same order (from the first product on, as `Iterator::sum` from −0).
-            let dot12 = |row: &[f64]| {
-                let row: &[f64; 12] = row.try_into().expect("a row of 12");
+            let (f0, f1) = (self.f[hc].to_array(), self.f[hc + 1].to_array());
+            let fx: [f64; 12] = std::array::from_fn(|c| if c < 6 { f0[c] } else { f1[c - 6] });
+            let dot12 = |row: &[f64; 12]| {
                 let mut acc = row[0] * fx[0];
                 for c in 1..12 {
                     acc += row[c] * fx[c];
                 }
                 acc
             };
+            let kr = &self.kmat[ko..ko + 12 * k];
             for p in 0..k {
-                self.qdd[vo + p] = self.kvec[vo + p] + dot12(&self.kmat[ko + p * 12..][..12]);
+                let row: &[f64; 12] = kr[12 * p..12 * p + 12].try_into().expect("a row of 12");
+                self.qdd[vo + p] = self.kvec[vo + p] + dot12(row);
             }
+            let nm: &[f64; 72] = self.nmat[36 * hc..36 * hc + 72]
+                .try_into()
+                .expect("six rows of 12");
             for (r, x) in fj.iter_mut().enumerate() {
-                *x += dot12(&self.nmat[36 * hc + r * 12..][..12]);
+                let row: &[f64; 12] = nm[12 * r..12 * r + 12].try_into().expect("a row of 12");
+                *x += dot12(row);
             }
         } else {
+            for h in 0..nhc {
+                self.fx[6 * h..6 * h + 6].copy_from_slice(&self.f[hc + h].to_array());
+            }
             for p in 0..k {
                 let row = &self.kmat[ko + p * w..ko + p * w + w];
                 self.qdd[vo + p] =
