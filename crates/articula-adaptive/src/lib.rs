@@ -95,27 +95,33 @@ impl Default for Settings {
 impl Settings {
     /// Checks the values: a finite non-negative tolerance and velocity tolerance, a re-selection
     /// period of at least one step.
+    ///
+    /// Every step checks them (a workspace may have been built with any settings), so the
+    /// check is a few inlined comparisons and the messages are built out of line.
+    #[inline]
     pub fn validate(&self) -> Result<(), AdaptiveError> {
-        if let Some(t) = self.tolerance {
-            if !(t >= 0.0 && t.is_finite()) {
-                return Err(AdaptiveError::Setting(format!(
-                    "tolerance must be a finite number ≥ 0, got {t}"
-                )));
-            }
+        let ok = |t: Option<f64>| t.is_none_or(|t| t >= 0.0 && t.is_finite());
+        if ok(self.tolerance) && ok(self.velocity_tolerance) && self.reselect_every != 0 {
+            Ok(())
+        } else {
+            Err(self.invalid())
         }
-        if let Some(t) = self.velocity_tolerance {
-            if !(t >= 0.0 && t.is_finite()) {
-                return Err(AdaptiveError::Setting(format!(
-                    "velocity tolerance must be a finite number ≥ 0, got {t}"
-                )));
-            }
+    }
+
+    /// The error naming the first invalid setting (see [`Settings::validate`]).
+    #[cold]
+    #[inline(never)]
+    fn invalid(&self) -> AdaptiveError {
+        let bad = |t: Option<f64>| t.filter(|t| !(*t >= 0.0 && t.is_finite()));
+        if let Some(t) = bad(self.tolerance) {
+            AdaptiveError::Setting(format!("tolerance must be a finite number ≥ 0, got {t}"))
+        } else if let Some(t) = bad(self.velocity_tolerance) {
+            AdaptiveError::Setting(format!(
+                "velocity tolerance must be a finite number ≥ 0, got {t}"
+            ))
+        } else {
+            AdaptiveError::Setting("reselect_every must be at least 1".into())
         }
-        if self.reselect_every == 0 {
-            return Err(AdaptiveError::Setting(
-                "reselect_every must be at least 1".into(),
-            ));
-        }
-        Ok(())
     }
 }
 

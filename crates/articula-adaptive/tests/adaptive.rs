@@ -322,14 +322,52 @@ fn invalid_settings_are_errors() {
             ..Settings::default()
         },
         Settings {
+            tolerance: Some(f64::INFINITY),
+            ..Settings::default()
+        },
+        Settings {
+            velocity_tolerance: Some(-0.5),
+            ..Settings::default()
+        },
+        Settings {
+            velocity_tolerance: Some(f64::INFINITY),
+            ..Settings::default()
+        },
+        Settings {
             reselect_every: 0,
             ..Settings::default()
         },
     ] {
-        let mut ad = Adaptive::new(&model, settings);
+        let mut ad = Adaptive::new(&model, settings.clone());
         assert!(ad
             .forward_dynamics(&model, &s.q, &s.qd, &s.tau, &s.f_ext)
             .is_err());
+        // A step checks them too, and the message names the setting.
+        let e = ad
+            .step(&model, &mut s.clone(), 1e-3)
+            .unwrap_err()
+            .to_string();
+        let named = if settings.velocity_tolerance.is_some() {
+            "velocity tolerance"
+        } else if settings.tolerance.is_some() {
+            "tolerance"
+        } else {
+            "reselect_every"
+        };
+        assert!(e.contains(named), "{e}");
+        assert!(settings.validate().is_err());
+    }
+    // Valid values pass.
+    for settings in [
+        Settings::default(),
+        Settings {
+            tolerance: Some(0.0),
+            velocity_tolerance: Some(1e-3),
+            reselect_every: 7,
+            ..Settings::default()
+        },
+    ] {
+        assert!(settings.validate().is_ok());
     }
 }
 
