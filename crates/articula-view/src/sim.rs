@@ -520,9 +520,11 @@ impl<'s> SceneSim<'s> {
         // Pushes acting now: world wrenches about the world origin.
         for b in &mut self.bodies {
             b.forces.clear();
-            let s = &mut b.state;
-            for &(qi, vi, k, c) in &self.springs[b.model] {
-                s.tau[vi] = -k * s.q[qi] - c * s.qd[vi];
+            // The pose springs' torques: here when the re-selection reads them, else just
+            // before the body's step (the same values: nothing moves the body in between),
+            // while its state is in the caches anyway.
+            if reselect {
+                spring_torques(&self.springs[b.model], &mut b.state);
             }
         }
         for p in scene.pushes.iter().filter(|p| p.t0 <= t && t < p.t1) {
@@ -642,6 +644,9 @@ impl<'s> SceneSim<'s> {
         let mut total = 0;
         for (i, b) in self.bodies.iter_mut().enumerate() {
             let model = &scene.models[b.model].model;
+            if !reselect {
+                spring_torques(&self.springs[b.model], &mut b.state);
+            }
             let reselects = std::mem::take(&mut b.changed);
             if !reselects && b.rigid.is_some() {
                 b.rigid_step(model, scene.gravity, scene.dt).map_err(|e| {
@@ -710,6 +715,14 @@ impl<'s> SceneSim<'s> {
                 active_joints: b.active,
             })
             .collect()
+    }
+}
+
+/// `τ = −k q − c q̇` of each pose spring `(q index, v index, k, c)`.
+#[inline]
+fn spring_torques(springs: &[(usize, usize, f64, f64)], s: &mut State) {
+    for &(qi, vi, k, c) in springs {
+        s.tau[vi] = -k * s.q[qi] - c * s.qd[vi];
     }
 }
 
