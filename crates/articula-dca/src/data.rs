@@ -506,6 +506,16 @@ impl Data {
         SpatialForce::new(p.cross(force), force)
     }
 
+    /// Runs the DCA pass compiled with fused multiply–adds (`true`, the default where
+    /// [`crate::fused_available`]) or the portable compilation (`false`); `true` on a CPU
+    /// without AVX2 and FMA is ignored. For comparing the two compilations (benchmarks, the
+    /// `qdd_hash` example); returns the compilation now in use (`true`: fused).
+    #[doc(hidden)]
+    pub fn set_fused_dca(&mut self, fused: bool) -> bool {
+        self.dca.fused = fused && crate::dca::fused_available();
+        self.dca.fused
+    }
+
     /// How many DCA solves on this workspace took a refinement step: with a floating base,
     /// DCA checks its `q̈` against the Newton–Euler residual and corrects it once when the
     /// residual is above rounding level (see `docs/algorithms.md`).
