@@ -1048,6 +1048,47 @@ impl std::ops::Mul<f64> for P2 {
     }
 }
 
+/// A row of six `f64` (six columns side by side): [`y_reduced`]'s lanes.
+#[derive(Clone, Copy, Debug)]
+struct R6([f64; 6]);
+
+impl Lane for R6 {
+    #[inline(always)]
+    fn mul_add<A: Arith>(self, x: f64, c: R6) -> R6 {
+        R6(std::array::from_fn(|k| A::mul_add(self.0[k], x, c.0[k])))
+    }
+    #[inline(always)]
+    fn neg_mul_add<A: Arith>(self, x: f64, c: R6) -> R6 {
+        R6(std::array::from_fn(|k| {
+            A::neg_mul_add(self.0[k], x, c.0[k])
+        }))
+    }
+}
+
+impl std::ops::Add for R6 {
+    type Output = R6;
+    #[inline(always)]
+    fn add(self, o: R6) -> R6 {
+        R6(std::array::from_fn(|k| self.0[k] + o.0[k]))
+    }
+}
+
+impl std::ops::Sub for R6 {
+    type Output = R6;
+    #[inline(always)]
+    fn sub(self, o: R6) -> R6 {
+        R6(std::array::from_fn(|k| self.0[k] - o.0[k]))
+    }
+}
+
+impl std::ops::Mul<f64> for R6 {
+    type Output = R6;
+    #[inline(always)]
+    fn mul(self, x: f64) -> R6 {
+        R6(self.0.map(|v| v * x))
+    }
+}
+
 /// `T (TᵀKT)⁻¹ Tᵀ y` (the packed `L D Lᵀ` factors of `TᵀKT` in `rj.l`, see [`RevJoin`]), the
 /// two unit triangular solves written out; for one vector (`f64`) or two side by side ([`P2`]).
 #[inline(always)]
@@ -1103,48 +1144,53 @@ fn y_all<A: Arith>(
 ) {
     for h in 0..nhc {
         let (bo, nh, j, i) = at.from(d, h);
-        // Φ_jh: the stored block's rows, or the stored Φ_hj's columns.
-        let g = &d.phi[bo + if j < i { ub(nh, j, i) } else { ub(nh, i, j) }].0;
+        // Φ_jh by rows: the stored block's, or the stored Φ_hj's columns (a transpose).
         if j < i {
-            y_reduced::<A>(&mut d.y[h], |r, c| g[r][c], pq, mm, inv_d);
+            let g = &d.phi[bo + ub(nh, j, i)].0;
+            y_reduced::<A>(&mut d.y[h], g, pq, mm, inv_d);
         } else {
-            y_reduced::<A>(&mut d.y[h], |r, c| g[c][r], pq, mm, inv_d);
+            let g = transpose6(&d.phi[bo + ub(nh, i, j)].0);
+            y_reduced::<A>(&mut d.y[h], &g, pq, mm, inv_d);
         }
     }
 }
 
+/// The transpose of a 6×6 block.
+#[inline(always)]
+fn transpose6(b: &[[f64; 6]; 6]) -> [[f64; 6]; 6] {
+    std::array::from_fn(|r| std::array::from_fn(|c| b[c][r]))
+}
+
 /// `Ỹ = M⁻¹ Tᵀ G` (5 rows; `M = L D^{1/2}` the Cholesky factor of `TᵀKT`: `mm` its entries
-/// below the diagonal, `inv_d` the inverses of its diagonal) for `G = Φ_jh` with entries
-/// `g(r, c)`: a pair of columns at a time, `Tᵀ G` (`[p·g_ω; q·g_ω; g_v]`) then the forward
-/// substitution, all in registers.
+/// below the diagonal, `inv_d` the inverses of its diagonal) for `G = Φ_jh` given by rows:
+/// `Tᵀ G` (`[p·g_ω; q·g_ω; g_v]`) then the forward substitution, on whole rows of six
+/// ([`R6`]: every column's own arithmetic, in the same order as column by column).
 #[inline(always)]
 fn y_reduced<A: Arith>(
     yt: &mut [[f64; 6]; 6],
-    g: impl Fn(usize, usize) -> f64,
+    g: &[[f64; 6]; 6],
     (p, q): ([f64; 3], [f64; 3]),
     mm: &[[f64; 5]; 5],
     inv_d: &[f64; 5],
 ) {
-    for c in [0, 2, 4] {
-        let col = |r: usize| P2([g(r, c), g(r, c + 1)]);
-        let (g0, g1, g2) = (col(0), col(1), col(2));
-        // M Ỹ = Tᵀ G, row by row.
-        let m = |r: usize| mm[r];
-        let y0 = sum_products::<A, P2, 3>([(g0, p[0]), (g1, p[1]), (g2, p[2])]) * inv_d[0];
-        let tq = sum_products::<A, P2, 3>([(g0, q[0]), (g1, q[1]), (g2, q[2])]);
-        let y1 = sub_products::<A, P2, 1>(tq, [(y0, m(1)[0])]) * inv_d[1];
-        let y2 = sub_products::<A, P2, 2>(col(3), [(y0, m(2)[0]), (y1, m(2)[1])]) * inv_d[2];
-        let y3 = sub_products::<A, P2, 3>(col(4), [(y0, m(3)[0]), (y1, m(3)[1]), (y2, m(3)[2])])
-            * inv_d[3];
-        let y4 = sub_products::<A, P2, 4>(
-            col(5),
-            [(y0, m(4)[0]), (y1, m(4)[1]), (y2, m(4)[2]), (y3, m(4)[3])],
-        ) * inv_d[4];
-        for (r, y) in [y0, y1, y2, y3, y4].into_iter().enumerate() {
-            yt[r][c] = y.0[0];
-            yt[r][c + 1] = y.0[1];
-        }
-    }
+    let (g0, g1, g2) = (R6(g[0]), R6(g[1]), R6(g[2]));
+    // M Ỹ = Tᵀ G, row by row.
+    let m = |r: usize| mm[r];
+    let y0 = sum_products::<A, R6, 3>([(g0, p[0]), (g1, p[1]), (g2, p[2])]) * inv_d[0];
+    let tq = sum_products::<A, R6, 3>([(g0, q[0]), (g1, q[1]), (g2, q[2])]);
+    let y1 = sub_products::<A, R6, 1>(tq, [(y0, m(1)[0])]) * inv_d[1];
+    let y2 = sub_products::<A, R6, 2>(R6(g[3]), [(y0, m(2)[0]), (y1, m(2)[1])]) * inv_d[2];
+    let y3 = sub_products::<A, R6, 3>(R6(g[4]), [(y0, m(3)[0]), (y1, m(3)[1]), (y2, m(3)[2])])
+        * inv_d[3];
+    let y4 = sub_products::<A, R6, 4>(
+        R6(g[5]),
+        [(y0, m(4)[0]), (y1, m(4)[1]), (y2, m(4)[2]), (y3, m(4)[3])],
+    ) * inv_d[4];
+    yt[0] = y0.0;
+    yt[1] = y1.0;
+    yt[2] = y2.0;
+    yt[3] = y3.0;
+    yt[4] = y4.0;
 }
 
 /// `out = old − Ỹ_hᵀ Ỹ_k` (or `+Ỹ_hᵀ Ỹ_k` without `old`): row r is
