@@ -404,17 +404,69 @@ fn leaf<A: Arith>(
     };
     let acc = add3(acc_c, a_g.v.to_array());
     let alpha_g = add3(alpha, a_g.w.to_array());
-    let handles = &d.hj[ho..ho + nh];
-    for (h, &ph) in handles.iter().enumerate() {
-        let ah = sub3(c, d.point[ph as usize].to_array());
-        // b at P_h: [α; a_c + a_h × α] + a_g
-        d.b[top + h] = SpatialMotion::from_array(cat3(alpha_g, add3(acc, cross3::<A>(ah, alpha))));
-        // A_h's columns a_h × (column r of J), and its rows.
+    let lh = LeafHandles {
+        c,
+        jc: &jc,
+        im,
+        alpha,
+        alpha_g,
+        acc,
+    };
+    // Two handles (a chain's bodies) unrolled.
+    if nh == 2 {
+        leaf_handles::<A, 2>(d, &lh, ho, bo, top, 2);
+    } else {
+        leaf_handles::<A, 0>(d, &lh, ho, bo, top, nh);
+    }
+    Ok(())
+}
+
+/// What [`leaf_handles`] needs of its leaf: the centre of mass `c`, `J`, `1/m`, α, and the
+/// bias acceleration's parts `α + a_g^ω` and `a_c + a_g^v`.
+struct LeafHandles<'a> {
+    c: [f64; 3],
+    jc: &'a [[f64; 3]; 3],
+    im: f64,
+    alpha: [f64; 3],
+    alpha_g: [f64; 3],
+    acc: [f64; 3],
+}
+
+/// A leaf's per-handle outputs (see [`leaf`]): `b_h`, the diagonal blocks `Φ_hh` and the cross
+/// blocks `Φ_hk`, `h < k`, for its `nh` handles (`N = nh` when `N > 0`, unrolled). Handle k's
+/// `A_k` columns `a_k × (column r of J)` are computed once and serve both `Φ_kk` and the upper
+/// right of every `Φ_hk`.
+#[inline(always)]
+fn leaf_handles<A: Arith, const N: usize>(
+    d: &mut crate::data::DcaData,
+    lh: &LeafHandles,
+    ho: usize,
+    bo: usize,
+    top: usize,
+    nh: usize,
+) {
+    let nh = if N > 0 { N } else { nh };
+    if nh == 0 {
+        return;
+    }
+    let (c, jc, im) = (lh.c, lh.jc, lh.im);
+    // Handle h's a_h and A_h's columns a_h × (column r of J).
+    let arm = |d: &crate::data::DcaData, h: usize| {
+        let ah = sub3(c, d.point[d.hj[ho + h] as usize].to_array());
         let col = [
             cross3::<A>(ah, jc[0]),
             cross3::<A>(ah, jc[1]),
             cross3::<A>(ah, jc[2]),
         ];
+        (ah, col)
+    };
+    let mut next = arm(d, 0);
+    for h in 0..nh {
+        let (ah, col) = next;
+        // b at P_h: [α; a_c + a_h × α] + a_g
+        d.b[top + h] =
+            SpatialMotion::from_array(cat3(lh.alpha_g, add3(lh.acc, cross3::<A>(ah, lh.alpha))));
+        // A_h's rows.
         let row: [[f64; 3]; 3] = std::array::from_fn(|r| [col[0][r], col[1][r], col[2][r]]);
         // Φ_hh's lower-right block a_h× A_hᵀ + 1/m: row r is a_h × (row r of A_h); its upper
         // triangle.
@@ -432,20 +484,24 @@ fn leaf<A: Arith>(
             [col[2][1], col[2][2], b0[1], b0[2]],
             [b11 + im, b12, b12, b22 + im],
         ]);
-        for (k, &pk) in handles.iter().enumerate().skip(h + 1) {
-            let ak = sub3(c, d.point[pk as usize].to_array());
+        for k in h + 1..nh {
+            let (ak, colk) = if k == h + 1 {
+                next = arm(d, k);
+                next
+            } else {
+                arm(d, k)
+            };
             // Φ_hk = [J, A_kᵀ; A_h, A_h a_k×ᵀ + 1/m]: row r of the lower right is
-            // a_k × (row r of A_h); row r of A_kᵀ is column r of A_k, a_k × (column r of J).
+            // a_k × (row r of A_h); row r of A_kᵀ is column r of A_k.
             let out = &mut d.phi[bo + ub(nh, h, k)].0;
             for r in 0..3 {
-                out[r] = cat3(jc[r], cross3::<A>(ak, jc[r]));
+                out[r] = cat3(jc[r], colk[r]);
                 let mut x = cross3::<A>(ak, row[r]);
                 x[r] += im;
                 out[r + 3] = cat3(row[r], x);
             }
         }
     }
-    Ok(())
 }
 
 #[inline(always)]
