@@ -450,9 +450,13 @@ fn leaf_handles<A: Arith, const N: usize>(
         return;
     }
     let (c, jc, im) = (lh.c, lh.jc, lh.im);
+    // The leaf's slots and handles, bounds checked once.
+    let (hj, point) = (&d.hj[ho..ho + nh], &d.point);
+    let (bs, dgs) = (&mut d.b[top..top + nh], &mut d.dg[top..top + nh]);
+    let phi = &mut d.phi;
     // Handle h's a_h and A_h's columns a_h × (column r of J).
-    let arm = |d: &crate::data::DcaData, h: usize| {
-        let ah = sub3(c, d.point[d.hj[ho + h] as usize].to_array());
+    let arm = |h: usize| {
+        let ah = sub3(c, point[hj[h] as usize].to_array());
         let col = [
             cross3::<A>(ah, jc[0]),
             cross3::<A>(ah, jc[1]),
@@ -460,11 +464,11 @@ fn leaf_handles<A: Arith, const N: usize>(
         ];
         (ah, col)
     };
-    let mut next = arm(d, 0);
+    let mut next = arm(0);
     for h in 0..nh {
         let (ah, col) = next;
         // b at P_h: [α; a_c + a_h × α] + a_g
-        d.b[top + h] =
+        bs[h] =
             SpatialMotion::from_array(cat3(lh.alpha_g, add3(lh.acc, cross3::<A>(ah, lh.alpha))));
         // A_h's rows.
         let row: [[f64; 3]; 3] = std::array::from_fn(|r| [col[0][r], col[1][r], col[2][r]]);
@@ -476,7 +480,7 @@ fn leaf_handles<A: Arith, const N: usize>(
         let b22 = A::neg_mul_add(ah[1], row[2][0], ah[0] * row[2][1]);
         // By tiles (`SymT`): rows 0-1, 2-3, 4-5 against columns 0-1, 2-3, 4-5; the upper
         // right block is A_hᵀ (row r = column r of A_h).
-        d.dg[top + h] = SymT([
+        dgs[h] = SymT([
             [jc[0][0], jc[0][1], jc[0][1], jc[1][1]],
             [jc[0][2], col[0][0], jc[1][2], col[1][0]],
             [col[0][1], col[0][2], col[1][1], col[1][2]],
@@ -486,14 +490,14 @@ fn leaf_handles<A: Arith, const N: usize>(
         ]);
         for k in h + 1..nh {
             let (ak, colk) = if k == h + 1 {
-                next = arm(d, k);
+                next = arm(k);
                 next
             } else {
-                arm(d, k)
+                arm(k)
             };
             // Φ_hk = [J, A_kᵀ; A_h, A_h a_k×ᵀ + 1/m]: row r of the lower right is
             // a_k × (row r of A_h); row r of A_kᵀ is column r of A_k.
-            let out = &mut d.phi[bo + ub(nh, h, k)].0;
+            let out = &mut phi[bo + ub(nh, h, k)].0;
             for r in 0..3 {
                 out[r] = cat3(jc[r], colk[r]);
                 let mut x = cross3::<A>(ak, row[r]);
