@@ -1382,59 +1382,78 @@ fn back_substitution<A: Arith>(model: &Model, tau: &[f64], data: &mut Data) {
             continue;
         };
         let (joint, a, b) = (joint as usize, a as usize, b as usize);
-        let d = &mut data.dca;
-        let (nha, nhb, nhc) = (d.node[a].nh as usize, d.node[b].nh as usize, nc.nh as usize);
-        let (ja, jb) = (nc.ja as usize, nc.jb as usize);
-        let (hc, sc) = (nc.hoff as usize, nc.slot as usize);
-        // y without β (one axis: the join's γ and q̈ hold it) or with it.
-        let mut y = if nc.one_dof {
-            SpatialMotion::ZERO
+        // Two handles (a chain's joins) unrolled.
+        if nc.nh == 2 {
+            back_node::<A, 2>(tau, data, n, &nc, (joint, a, b));
         } else {
-            d.beta[n]
-        };
-        for h in 0..nhc {
-            let f = d.f[sc + h];
-            match d.from[hc + h] {
-                (Side::A, i) => y += phi_jh_mul::<A>(d, a, nha, ja, i as usize, f),
-                (Side::B, i) => y -= phi_jh_mul::<A>(d, b, nhb, jb, i as usize, f),
-            }
+            back_node::<A, 0>(tau, data, n, &nc, (joint, a, b));
         }
-        let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
-        let f = if nc.one_dof {
-            // f = W (β + y) + f_τ τ = γ + W y (so K f = β + y + s q̈);
-            // q̈ = gᵀ (β + y) + q̈_τ τ (`joint_terms`).
-            let rj = &d.rev[nc.jix as usize];
-            let ya = y.to_array();
-            let fy = w_apply::<A, f64>(rj, &ya);
-            data.qdd[vo] = rj.qdd + dot6::<A>(&rj.g, &ya);
-            SpatialForce::from_array(std::array::from_fn(|i| rj.gamma[i] + fy[i]))
-        } else {
-            let l = &d.l[n];
-            let mut w = solve_l(l, &y.to_array());
-            let mut r = [0.0; 6];
-            for p in 0..k {
-                r[p] = tau[vo + p] - dot6::<A>(&d.z[vo + p], &w);
-            }
-            d.dinv[joint].mul(&r[..k], &mut data.qdd[vo..vo + k]);
-            for p in 0..k {
-                let (z, qdd) = (d.z[vo + p], data.qdd[vo + p]);
-                for i in 0..6 {
-                    w[i] += z[i] * qdd;
-                }
-            }
-            SpatialForce::from_array(solve_lt(l, &w))
-        };
-        let (hoa, hob) = (d.node[a].slot as usize, d.node[b].slot as usize);
-        for h in 0..nhc {
-            let fh = d.f[sc + h];
-            match d.from[hc + h] {
-                (Side::A, i) => d.f[hoa + i as usize] = fh,
-                (Side::B, i) => d.f[hob + i as usize] = fh,
-            }
-        }
-        d.f[hoa + ja] = -f;
-        d.f[hob + jb] = f;
     }
+}
+
+/// [`back_substitution`] at join `n` (`nc`, principal joint `joint`, sides `a` and `b`), with
+/// `N` handles when `N > 0` (unrolled), `nc.nh` otherwise.
+#[inline(always)]
+fn back_node<A: Arith, const N: usize>(
+    tau: &[f64],
+    data: &mut Data,
+    n: usize,
+    nc: &crate::data::DNode,
+    (joint, a, b): (usize, usize, usize),
+) {
+    let d = &mut data.dca;
+    let nhc = if N > 0 { N } else { nc.nh as usize };
+    let (nha, nhb) = (d.node[a].nh as usize, d.node[b].nh as usize);
+    let (ja, jb) = (nc.ja as usize, nc.jb as usize);
+    let (hc, sc) = (nc.hoff as usize, nc.slot as usize);
+    // y without β (one axis: the join's γ and q̈ hold it) or with it.
+    let mut y = if nc.one_dof {
+        SpatialMotion::ZERO
+    } else {
+        d.beta[n]
+    };
+    for h in 0..nhc {
+        let f = d.f[sc + h];
+        match d.from[hc + h] {
+            (Side::A, i) => y += phi_jh_mul::<A>(d, a, nha, ja, i as usize, f),
+            (Side::B, i) => y -= phi_jh_mul::<A>(d, b, nhb, jb, i as usize, f),
+        }
+    }
+    let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
+    let f = if nc.one_dof {
+        // f = W (β + y) + f_τ τ = γ + W y (so K f = β + y + s q̈);
+        // q̈ = gᵀ (β + y) + q̈_τ τ (`joint_terms`).
+        let rj = &d.rev[nc.jix as usize];
+        let ya = y.to_array();
+        let fy = w_apply::<A, f64>(rj, &ya);
+        data.qdd[vo] = rj.qdd + dot6::<A>(&rj.g, &ya);
+        SpatialForce::from_array(std::array::from_fn(|i| rj.gamma[i] + fy[i]))
+    } else {
+        let l = &d.l[n];
+        let mut w = solve_l(l, &y.to_array());
+        let mut r = [0.0; 6];
+        for p in 0..k {
+            r[p] = tau[vo + p] - dot6::<A>(&d.z[vo + p], &w);
+        }
+        d.dinv[joint].mul(&r[..k], &mut data.qdd[vo..vo + k]);
+        for p in 0..k {
+            let (z, qdd) = (d.z[vo + p], data.qdd[vo + p]);
+            for i in 0..6 {
+                w[i] += z[i] * qdd;
+            }
+        }
+        SpatialForce::from_array(solve_lt(l, &w))
+    };
+    let (hoa, hob) = (d.node[a].slot as usize, d.node[b].slot as usize);
+    for h in 0..nhc {
+        let fh = d.f[sc + h];
+        match d.from[hc + h] {
+            (Side::A, i) => d.f[hoa + i as usize] = fh,
+            (Side::B, i) => d.f[hob + i as usize] = fh,
+        }
+    }
+    d.f[hoa + ja] = -f;
+    d.f[hob + jb] = f;
 }
 
 #[cfg(test)]
