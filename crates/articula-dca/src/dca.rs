@@ -1338,6 +1338,10 @@ fn gram_tiles<A: Arith, const I: usize, const R: usize>(
 /// How many nodes ahead the passes prefetch.
 const PREFETCH: usize = 8;
 
+/// The size of the back-substitution's per-join streams (each join's `RevJoin` and cross
+/// block) above which it prefetches (see `DcaData::prefetch`): a quarter of a 1 MB L2.
+pub(crate) const PREFETCH_ABOVE: usize = 256 * 1024;
+
 /// Asks for the cache line holding address `p` (a hint: no effect on results).
 #[inline(always)]
 fn prefetch_ptr(p: *const u8) {
@@ -1368,8 +1372,9 @@ fn prefetch_span<T: ?Sized>(x: &T) {
 fn back_substitution<A: Arith>(model: &Model, tau: &[f64], data: &mut Data) {
     let tree = &model.assembly;
     for n in (0..tree.nodes.len()).rev() {
-        // What the join PREFETCH nodes ahead reads, on its way from memory meanwhile.
-        if let Some(m) = n.checked_sub(PREFETCH) {
+        // What the join PREFETCH nodes ahead reads, on its way from memory meanwhile (only
+        // where those streams outgrow the caches: `DcaData::prefetch`).
+        if let Some(m) = n.checked_sub(PREFETCH).filter(|_| data.dca.prefetch) {
             let d = &data.dca;
             if let DKind::Join { a, b, .. } = d.node[m].kind {
                 prefetch_span(&d.rev[d.node[m].jix as usize]);
