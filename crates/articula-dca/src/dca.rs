@@ -978,9 +978,9 @@ fn mat_vec<A: Arith>(g: &[[f64; 6]; 6], x: &[f64; 6]) -> [f64; 6] {
 #[inline(always)]
 fn mat_tr_vec<A: Arith>(g: &[[f64; 6]; 6], x: &[f64; 6]) -> [f64; 6] {
     let mut y: [f64; 6] = std::array::from_fn(|c| g[0][c] * x[0]);
-    for (row, &xr) in g.iter().zip(x).skip(1) {
+    for r in 1..6 {
         for c in 0..6 {
-            y[c] = A::mul_add(row[c], xr, y[c]);
+            y[c] = A::mul_add(g[r][c], x[r], y[c]);
         }
     }
     y
