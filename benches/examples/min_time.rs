@@ -3,6 +3,7 @@
 //! (method, chain length, batches, calls per batch). Prints the minimum and the median
 //! wall-clock time per call over the batches. Instead of a chain length, a bundled model's
 //! name (`humanoid`, or `humanoid-floating` for its floating-base version) times that model.
+//! A fifth argument `portable` runs DCA's portable compilation instead of the fused one.
 use articula_dca::{forward_dynamics, Data, Method, State};
 
 fn main() {
@@ -20,6 +21,9 @@ fn main() {
     };
     let s = State::random(&model, 42, 1.0);
     let mut data = Data::new(&model);
+    if a.get(5).map(String::as_str) == Some("portable") {
+        data.set_fused_dca(false);
+    }
     let mut acc = 0.0;
     let mut run = |data: &mut Data| {
         acc += forward_dynamics(&model, data, &s.q, &s.qd, &s.tau, &[], method).unwrap()[0];
