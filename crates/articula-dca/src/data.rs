@@ -84,6 +84,11 @@ pub(crate) struct DcaData {
     /// post-order visits a join's parent side first; checked in [`Data::new`]). The pose,
     /// velocity, `c` and `S` are then used while in cache instead of read back from memory.
     pub leaf_kinematics: bool,
+    /// Whether the back-substitution prefetches what the join a few nodes ahead reads: set in
+    /// [`Data::new`] when the per-join streams it reads (`rev` and the cross blocks) exceed
+    /// `dca::PREFETCH_ABOVE` bytes. Below that they stay in cache from the main pass, and the
+    /// prefetches would only cost instructions (1.7% of a 300-link chain's call).
+    pub prefetch: bool,
     /// Per node, what the passes read of it, in one compact record (see [`DNode`]).
     pub node: Vec<DNode>,
     /// Per handle (flat, `DNode::hoff`): its joint.
@@ -434,6 +439,8 @@ impl Data {
             momentum_projection: true,
             dca: DcaData {
                 fused: crate::dca::fused_available(),
+                prefetch: joins * (std::mem::size_of::<RevJoin>() + std::mem::size_of::<Mat6>())
+                    > crate::dca::PREFETCH_ABOVE,
                 leaf_kinematics,
                 node,
                 hj: tree
@@ -504,6 +511,16 @@ impl Data {
     pub fn point_force(&self, body: usize, point: DVec3, force: DVec3) -> SpatialForce {
         let p = self.x[body].apply_point(point) + self.origin;
         SpatialForce::new(p.cross(force), force)
+    }
+
+    /// Runs the DCA pass compiled with fused multiply–adds (`true`, the default where
+    /// [`crate::fused_available`]) or the portable compilation (`false`); `true` on a CPU
+    /// without AVX2 and FMA is ignored. For comparing the two compilations (benchmarks, the
+    /// `qdd_hash` example); returns the compilation now in use (`true`: fused).
+    #[doc(hidden)]
+    pub fn set_fused_dca(&mut self, fused: bool) -> bool {
+        self.dca.fused = fused && crate::dca::fused_available();
+        self.dca.fused
     }
 
     /// How many DCA solves on this workspace took a refinement step: with a floating base,

@@ -404,17 +404,73 @@ fn leaf<A: Arith>(
     };
     let acc = add3(acc_c, a_g.v.to_array());
     let alpha_g = add3(alpha, a_g.w.to_array());
-    let handles = &d.hj[ho..ho + nh];
-    for (h, &ph) in handles.iter().enumerate() {
-        let ah = sub3(c, d.point[ph as usize].to_array());
-        // b at P_h: [α; a_c + a_h × α] + a_g
-        d.b[top + h] = SpatialMotion::from_array(cat3(alpha_g, add3(acc, cross3::<A>(ah, alpha))));
-        // A_h's columns a_h × (column r of J), and its rows.
+    let lh = LeafHandles {
+        c,
+        jc: &jc,
+        im,
+        alpha,
+        alpha_g,
+        acc,
+    };
+    // Two handles (a chain's bodies) unrolled.
+    if nh == 2 {
+        leaf_handles::<A, 2>(d, &lh, ho, bo, top, 2);
+    } else {
+        leaf_handles::<A, 0>(d, &lh, ho, bo, top, nh);
+    }
+    Ok(())
+}
+
+/// What [`leaf_handles`] needs of its leaf: the centre of mass `c`, `J`, `1/m`, α, and the
+/// bias acceleration's parts `α + a_g^ω` and `a_c + a_g^v`.
+struct LeafHandles<'a> {
+    c: [f64; 3],
+    jc: &'a [[f64; 3]; 3],
+    im: f64,
+    alpha: [f64; 3],
+    alpha_g: [f64; 3],
+    acc: [f64; 3],
+}
+
+/// A leaf's per-handle outputs (see [`leaf`]): `b_h`, the diagonal blocks `Φ_hh` and the cross
+/// blocks `Φ_hk`, `h < k`, for its `nh` handles (`N = nh` when `N > 0`, unrolled). Handle k's
+/// `A_k` columns `a_k × (column r of J)` are computed once and serve both `Φ_kk` and the upper
+/// right of every `Φ_hk`.
+#[inline(always)]
+fn leaf_handles<A: Arith, const N: usize>(
+    d: &mut crate::data::DcaData,
+    lh: &LeafHandles,
+    ho: usize,
+    bo: usize,
+    top: usize,
+    nh: usize,
+) {
+    let nh = if N > 0 { N } else { nh };
+    if nh == 0 {
+        return;
+    }
+    let (c, jc, im) = (lh.c, lh.jc, lh.im);
+    // The leaf's slots and handles, bounds checked once.
+    let (hj, point) = (&d.hj[ho..ho + nh], &d.point);
+    let (bs, dgs) = (&mut d.b[top..top + nh], &mut d.dg[top..top + nh]);
+    let phi = &mut d.phi;
+    // Handle h's a_h and A_h's columns a_h × (column r of J).
+    let arm = |h: usize| {
+        let ah = sub3(c, point[hj[h] as usize].to_array());
         let col = [
             cross3::<A>(ah, jc[0]),
             cross3::<A>(ah, jc[1]),
             cross3::<A>(ah, jc[2]),
         ];
+        (ah, col)
+    };
+    let mut next = arm(0);
+    for h in 0..nh {
+        let (ah, col) = next;
+        // b at P_h: [α; a_c + a_h × α] + a_g
+        bs[h] =
+            SpatialMotion::from_array(cat3(lh.alpha_g, add3(lh.acc, cross3::<A>(ah, lh.alpha))));
+        // A_h's rows.
         let row: [[f64; 3]; 3] = std::array::from_fn(|r| [col[0][r], col[1][r], col[2][r]]);
         // Φ_hh's lower-right block a_h× A_hᵀ + 1/m: row r is a_h × (row r of A_h); its upper
         // triangle.
@@ -424,7 +480,7 @@ fn leaf<A: Arith>(
         let b22 = A::neg_mul_add(ah[1], row[2][0], ah[0] * row[2][1]);
         // By tiles (`SymT`): rows 0-1, 2-3, 4-5 against columns 0-1, 2-3, 4-5; the upper
         // right block is A_hᵀ (row r = column r of A_h).
-        d.dg[top + h] = SymT([
+        dgs[h] = SymT([
             [jc[0][0], jc[0][1], jc[0][1], jc[1][1]],
             [jc[0][2], col[0][0], jc[1][2], col[1][0]],
             [col[0][1], col[0][2], col[1][1], col[1][2]],
@@ -432,20 +488,24 @@ fn leaf<A: Arith>(
             [col[2][1], col[2][2], b0[1], b0[2]],
             [b11 + im, b12, b12, b22 + im],
         ]);
-        for (k, &pk) in handles.iter().enumerate().skip(h + 1) {
-            let ak = sub3(c, d.point[pk as usize].to_array());
+        for k in h + 1..nh {
+            let (ak, colk) = if k == h + 1 {
+                next = arm(k);
+                next
+            } else {
+                arm(k)
+            };
             // Φ_hk = [J, A_kᵀ; A_h, A_h a_k×ᵀ + 1/m]: row r of the lower right is
-            // a_k × (row r of A_h); row r of A_kᵀ is column r of A_k, a_k × (column r of J).
-            let out = &mut d.phi[bo + ub(nh, h, k)].0;
+            // a_k × (row r of A_h); row r of A_kᵀ is column r of A_k.
+            let out = &mut phi[bo + ub(nh, h, k)].0;
             for r in 0..3 {
-                out[r] = cat3(jc[r], cross3::<A>(ak, jc[r]));
+                out[r] = cat3(jc[r], colk[r]);
                 let mut x = cross3::<A>(ak, row[r]);
                 x[r] += im;
                 out[r + 3] = cat3(row[r], x);
             }
         }
     }
-    Ok(())
 }
 
 #[inline(always)]
@@ -918,9 +978,9 @@ fn mat_vec<A: Arith>(g: &[[f64; 6]; 6], x: &[f64; 6]) -> [f64; 6] {
 #[inline(always)]
 fn mat_tr_vec<A: Arith>(g: &[[f64; 6]; 6], x: &[f64; 6]) -> [f64; 6] {
     let mut y: [f64; 6] = std::array::from_fn(|c| g[0][c] * x[0]);
-    for (row, &xr) in g.iter().zip(x).skip(1) {
+    for r in 1..6 {
         for c in 0..6 {
-            y[c] = A::mul_add(row[c], xr, y[c]);
+            y[c] = A::mul_add(g[r][c], x[r], y[c]);
         }
     }
     y
@@ -1048,6 +1108,47 @@ impl std::ops::Mul<f64> for P2 {
     }
 }
 
+/// A row of six `f64` (six columns side by side): [`y_reduced`]'s lanes.
+#[derive(Clone, Copy, Debug)]
+struct R6([f64; 6]);
+
+impl Lane for R6 {
+    #[inline(always)]
+    fn mul_add<A: Arith>(self, x: f64, c: R6) -> R6 {
+        R6(std::array::from_fn(|k| A::mul_add(self.0[k], x, c.0[k])))
+    }
+    #[inline(always)]
+    fn neg_mul_add<A: Arith>(self, x: f64, c: R6) -> R6 {
+        R6(std::array::from_fn(|k| {
+            A::neg_mul_add(self.0[k], x, c.0[k])
+        }))
+    }
+}
+
+impl std::ops::Add for R6 {
+    type Output = R6;
+    #[inline(always)]
+    fn add(self, o: R6) -> R6 {
+        R6(std::array::from_fn(|k| self.0[k] + o.0[k]))
+    }
+}
+
+impl std::ops::Sub for R6 {
+    type Output = R6;
+    #[inline(always)]
+    fn sub(self, o: R6) -> R6 {
+        R6(std::array::from_fn(|k| self.0[k] - o.0[k]))
+    }
+}
+
+impl std::ops::Mul<f64> for R6 {
+    type Output = R6;
+    #[inline(always)]
+    fn mul(self, x: f64) -> R6 {
+        R6(self.0.map(|v| v * x))
+    }
+}
+
 /// `T (TᵀKT)⁻¹ Tᵀ y` (the packed `L D Lᵀ` factors of `TᵀKT` in `rj.l`, see [`RevJoin`]), the
 /// two unit triangular solves written out; for one vector (`f64`) or two side by side ([`P2`]).
 #[inline(always)]
@@ -1103,48 +1204,53 @@ fn y_all<A: Arith>(
 ) {
     for h in 0..nhc {
         let (bo, nh, j, i) = at.from(d, h);
-        // Φ_jh: the stored block's rows, or the stored Φ_hj's columns.
-        let g = &d.phi[bo + if j < i { ub(nh, j, i) } else { ub(nh, i, j) }].0;
+        // Φ_jh by rows: the stored block's, or the stored Φ_hj's columns (a transpose).
         if j < i {
-            y_reduced::<A>(&mut d.y[h], |r, c| g[r][c], pq, mm, inv_d);
+            let g = &d.phi[bo + ub(nh, j, i)].0;
+            y_reduced::<A>(&mut d.y[h], g, pq, mm, inv_d);
         } else {
-            y_reduced::<A>(&mut d.y[h], |r, c| g[c][r], pq, mm, inv_d);
+            let g = transpose6(&d.phi[bo + ub(nh, i, j)].0);
+            y_reduced::<A>(&mut d.y[h], &g, pq, mm, inv_d);
         }
     }
 }
 
+/// The transpose of a 6×6 block.
+#[inline(always)]
+fn transpose6(b: &[[f64; 6]; 6]) -> [[f64; 6]; 6] {
+    std::array::from_fn(|r| std::array::from_fn(|c| b[c][r]))
+}
+
 /// `Ỹ = M⁻¹ Tᵀ G` (5 rows; `M = L D^{1/2}` the Cholesky factor of `TᵀKT`: `mm` its entries
-/// below the diagonal, `inv_d` the inverses of its diagonal) for `G = Φ_jh` with entries
-/// `g(r, c)`: a pair of columns at a time, `Tᵀ G` (`[p·g_ω; q·g_ω; g_v]`) then the forward
-/// substitution, all in registers.
+/// below the diagonal, `inv_d` the inverses of its diagonal) for `G = Φ_jh` given by rows:
+/// `Tᵀ G` (`[p·g_ω; q·g_ω; g_v]`) then the forward substitution, on whole rows of six
+/// ([`R6`]: every column's own arithmetic, in the same order as column by column).
 #[inline(always)]
 fn y_reduced<A: Arith>(
     yt: &mut [[f64; 6]; 6],
-    g: impl Fn(usize, usize) -> f64,
+    g: &[[f64; 6]; 6],
     (p, q): ([f64; 3], [f64; 3]),
     mm: &[[f64; 5]; 5],
     inv_d: &[f64; 5],
 ) {
-    for c in [0, 2, 4] {
-        let col = |r: usize| P2([g(r, c), g(r, c + 1)]);
-        let (g0, g1, g2) = (col(0), col(1), col(2));
-        // M Ỹ = Tᵀ G, row by row.
-        let m = |r: usize| mm[r];
-        let y0 = sum_products::<A, P2, 3>([(g0, p[0]), (g1, p[1]), (g2, p[2])]) * inv_d[0];
-        let tq = sum_products::<A, P2, 3>([(g0, q[0]), (g1, q[1]), (g2, q[2])]);
-        let y1 = sub_products::<A, P2, 1>(tq, [(y0, m(1)[0])]) * inv_d[1];
-        let y2 = sub_products::<A, P2, 2>(col(3), [(y0, m(2)[0]), (y1, m(2)[1])]) * inv_d[2];
-        let y3 = sub_products::<A, P2, 3>(col(4), [(y0, m(3)[0]), (y1, m(3)[1]), (y2, m(3)[2])])
-            * inv_d[3];
-        let y4 = sub_products::<A, P2, 4>(
-            col(5),
-            [(y0, m(4)[0]), (y1, m(4)[1]), (y2, m(4)[2]), (y3, m(4)[3])],
-        ) * inv_d[4];
-        for (r, y) in [y0, y1, y2, y3, y4].into_iter().enumerate() {
-            yt[r][c] = y.0[0];
-            yt[r][c + 1] = y.0[1];
-        }
-    }
+    let (g0, g1, g2) = (R6(g[0]), R6(g[1]), R6(g[2]));
+    // M Ỹ = Tᵀ G, row by row.
+    let m = |r: usize| mm[r];
+    let y0 = sum_products::<A, R6, 3>([(g0, p[0]), (g1, p[1]), (g2, p[2])]) * inv_d[0];
+    let tq = sum_products::<A, R6, 3>([(g0, q[0]), (g1, q[1]), (g2, q[2])]);
+    let y1 = sub_products::<A, R6, 1>(tq, [(y0, m(1)[0])]) * inv_d[1];
+    let y2 = sub_products::<A, R6, 2>(R6(g[3]), [(y0, m(2)[0]), (y1, m(2)[1])]) * inv_d[2];
+    let y3 = sub_products::<A, R6, 3>(R6(g[4]), [(y0, m(3)[0]), (y1, m(3)[1]), (y2, m(3)[2])])
+        * inv_d[3];
+    let y4 = sub_products::<A, R6, 4>(
+        R6(g[5]),
+        [(y0, m(4)[0]), (y1, m(4)[1]), (y2, m(4)[2]), (y3, m(4)[3])],
+    ) * inv_d[4];
+    yt[0] = y0.0;
+    yt[1] = y1.0;
+    yt[2] = y2.0;
+    yt[3] = y3.0;
+    yt[4] = y4.0;
 }
 
 /// `out = old − Ỹ_hᵀ Ỹ_k` (or `+Ỹ_hᵀ Ỹ_k` without `old`): row r is
@@ -1232,6 +1338,10 @@ fn gram_tiles<A: Arith, const I: usize, const R: usize>(
 /// How many nodes ahead the passes prefetch.
 const PREFETCH: usize = 8;
 
+/// The size of the back-substitution's per-join streams (each join's `RevJoin` and cross
+/// block) above which it prefetches (see `DcaData::prefetch`): a quarter of a 1 MB L2.
+pub(crate) const PREFETCH_ABOVE: usize = 256 * 1024;
+
 /// Asks for the cache line holding address `p` (a hint: no effect on results).
 #[inline(always)]
 fn prefetch_ptr(p: *const u8) {
@@ -1262,8 +1372,9 @@ fn prefetch_span<T: ?Sized>(x: &T) {
 fn back_substitution<A: Arith>(model: &Model, tau: &[f64], data: &mut Data) {
     let tree = &model.assembly;
     for n in (0..tree.nodes.len()).rev() {
-        // What the join PREFETCH nodes ahead reads, on its way from memory meanwhile.
-        if let Some(m) = n.checked_sub(PREFETCH) {
+        // What the join PREFETCH nodes ahead reads, on its way from memory meanwhile (only
+        // where those streams outgrow the caches: `DcaData::prefetch`).
+        if let Some(m) = n.checked_sub(PREFETCH).filter(|_| data.dca.prefetch) {
             let d = &data.dca;
             if let DKind::Join { a, b, .. } = d.node[m].kind {
                 prefetch_span(&d.rev[d.node[m].jix as usize]);
@@ -1276,59 +1387,78 @@ fn back_substitution<A: Arith>(model: &Model, tau: &[f64], data: &mut Data) {
             continue;
         };
         let (joint, a, b) = (joint as usize, a as usize, b as usize);
-        let d = &mut data.dca;
-        let (nha, nhb, nhc) = (d.node[a].nh as usize, d.node[b].nh as usize, nc.nh as usize);
-        let (ja, jb) = (nc.ja as usize, nc.jb as usize);
-        let (hc, sc) = (nc.hoff as usize, nc.slot as usize);
-        // y without β (one axis: the join's γ and q̈ hold it) or with it.
-        let mut y = if nc.one_dof {
-            SpatialMotion::ZERO
+        // Two handles (a chain's joins) unrolled.
+        if nc.nh == 2 {
+            back_node::<A, 2>(tau, data, n, &nc, (joint, a, b));
         } else {
-            d.beta[n]
-        };
-        for h in 0..nhc {
-            let f = d.f[sc + h];
-            match d.from[hc + h] {
-                (Side::A, i) => y += phi_jh_mul::<A>(d, a, nha, ja, i as usize, f),
-                (Side::B, i) => y -= phi_jh_mul::<A>(d, b, nhb, jb, i as usize, f),
-            }
+            back_node::<A, 0>(tau, data, n, &nc, (joint, a, b));
         }
-        let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
-        let f = if nc.one_dof {
-            // f = W (β + y) + f_τ τ = γ + W y (so K f = β + y + s q̈);
-            // q̈ = gᵀ (β + y) + q̈_τ τ (`joint_terms`).
-            let rj = &d.rev[nc.jix as usize];
-            let ya = y.to_array();
-            let fy = w_apply::<A, f64>(rj, &ya);
-            data.qdd[vo] = rj.qdd + dot6::<A>(&rj.g, &ya);
-            SpatialForce::from_array(std::array::from_fn(|i| rj.gamma[i] + fy[i]))
-        } else {
-            let l = &d.l[n];
-            let mut w = solve_l(l, &y.to_array());
-            let mut r = [0.0; 6];
-            for p in 0..k {
-                r[p] = tau[vo + p] - dot6::<A>(&d.z[vo + p], &w);
-            }
-            d.dinv[joint].mul(&r[..k], &mut data.qdd[vo..vo + k]);
-            for p in 0..k {
-                let (z, qdd) = (d.z[vo + p], data.qdd[vo + p]);
-                for i in 0..6 {
-                    w[i] += z[i] * qdd;
-                }
-            }
-            SpatialForce::from_array(solve_lt(l, &w))
-        };
-        let (hoa, hob) = (d.node[a].slot as usize, d.node[b].slot as usize);
-        for h in 0..nhc {
-            let fh = d.f[sc + h];
-            match d.from[hc + h] {
-                (Side::A, i) => d.f[hoa + i as usize] = fh,
-                (Side::B, i) => d.f[hob + i as usize] = fh,
-            }
-        }
-        d.f[hoa + ja] = -f;
-        d.f[hob + jb] = f;
     }
+}
+
+/// [`back_substitution`] at join `n` (`nc`, principal joint `joint`, sides `a` and `b`), with
+/// `N` handles when `N > 0` (unrolled), `nc.nh` otherwise.
+#[inline(always)]
+fn back_node<A: Arith, const N: usize>(
+    tau: &[f64],
+    data: &mut Data,
+    n: usize,
+    nc: &crate::data::DNode,
+    (joint, a, b): (usize, usize, usize),
+) {
+    let d = &mut data.dca;
+    let nhc = if N > 0 { N } else { nc.nh as usize };
+    let (nha, nhb) = (d.node[a].nh as usize, d.node[b].nh as usize);
+    let (ja, jb) = (nc.ja as usize, nc.jb as usize);
+    let (hc, sc) = (nc.hoff as usize, nc.slot as usize);
+    // y without β (one axis: the join's γ and q̈ hold it) or with it.
+    let mut y = if nc.one_dof {
+        SpatialMotion::ZERO
+    } else {
+        d.beta[n]
+    };
+    for h in 0..nhc {
+        let f = d.f[sc + h];
+        match d.from[hc + h] {
+            (Side::A, i) => y += phi_jh_mul::<A>(d, a, nha, ja, i as usize, f),
+            (Side::B, i) => y -= phi_jh_mul::<A>(d, b, nhb, jb, i as usize, f),
+        }
+    }
+    let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
+    let f = if nc.one_dof {
+        // f = W (β + y) + f_τ τ = γ + W y (so K f = β + y + s q̈);
+        // q̈ = gᵀ (β + y) + q̈_τ τ (`joint_terms`).
+        let rj = &d.rev[nc.jix as usize];
+        let ya = y.to_array();
+        let fy = w_apply::<A, f64>(rj, &ya);
+        data.qdd[vo] = rj.qdd + dot6::<A>(&rj.g, &ya);
+        SpatialForce::from_array(std::array::from_fn(|i| rj.gamma[i] + fy[i]))
+    } else {
+        let l = &d.l[n];
+        let mut w = solve_l(l, &y.to_array());
+        let mut r = [0.0; 6];
+        for p in 0..k {
+            r[p] = tau[vo + p] - dot6::<A>(&d.z[vo + p], &w);
+        }
+        d.dinv[joint].mul(&r[..k], &mut data.qdd[vo..vo + k]);
+        for p in 0..k {
+            let (z, qdd) = (d.z[vo + p], data.qdd[vo + p]);
+            for i in 0..6 {
+                w[i] += z[i] * qdd;
+            }
+        }
+        SpatialForce::from_array(solve_lt(l, &w))
+    };
+    let (hoa, hob) = (d.node[a].slot as usize, d.node[b].slot as usize);
+    for h in 0..nhc {
+        let fh = d.f[sc + h];
+        match d.from[hc + h] {
+            (Side::A, i) => d.f[hoa + i as usize] = fh,
+            (Side::B, i) => d.f[hob + i as usize] = fh,
+        }
+    }
+    d.f[hoa + ja] = -f;
+    d.f[hob + jb] = f;
 }
 
 #[cfg(test)]
