@@ -73,6 +73,10 @@ pub(crate) struct Hierarchy {
     pub chol: Vec<[[f64; 6]; 6]>,
     pub u: Vec<[f64; 6]>,
     pub uu: Vec<f64>,
+    /// Per record of a closed-form revolute joint: `sin`, `cos` of its signed angle, computed
+    /// in a first sweep of [`Adaptive::active_kinematics`] so that its main loop makes no call
+    /// (every vector register is caller-saved).
+    pub sc: Vec<(f64, f64)>,
 }
 
 /// Where an active joint's parent body is.
@@ -242,6 +246,7 @@ impl Adaptive {
                 v.reserve(nb.saturating_sub(v.len()));
             }
             h.dinv.reserve(nb.saturating_sub(h.dinv.len()));
+            h.sc.reserve(nb.saturating_sub(h.sc.len()));
             h.u.reserve(model.nv.saturating_sub(h.u.len()));
             h.uu.reserve(model.nv.saturating_sub(h.uu.len()));
         }
@@ -300,6 +305,7 @@ impl Adaptive {
         h.pa.resize(na, [0.0; 6]);
         h.acc.resize(na, [0.0; 6]);
         h.dinv.resize(na, 0.0);
+        h.sc.resize(na, (0.0, 1.0));
         h.chol.resize(na, [[0.0; 6]; 6]);
         h.u.resize(dof, [0.0; 6]);
         h.uu.resize(dof, 0.0);
@@ -333,9 +339,16 @@ impl Adaptive {
     fn active_kinematics_with(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
         let wide = self.fused;
         let x_cw = SpatialTransform::xlt(self.data.origin);
+        // The angles' sines and cosines first (the same calls as in the loop below).
+        let h = &mut self.hier;
+        for (r, sc) in h.rec.iter().zip(h.sc.iter_mut()) {
+            if let Some((_, sign)) = r.axis {
+                *sc = (sign * q[r.qo]).sin_cos();
+            }
+        }
         let h = &self.hier;
         let d = &mut self.data;
-        for r in &h.rec {
+        for (r, &(sn, cs)) in h.rec.iter().zip(&h.sc) {
             let (base, v) = match r.parent {
                 Parent::World | Parent::Ground => (x_cw, SpatialMotion::ZERO),
                 Parent::Active(p) | Parent::Cluster(p) => (d.x[p], d.v[p]),
@@ -353,7 +366,6 @@ impl Adaptive {
                 continue;
             };
             let mut x = x;
-            let (sn, cs) = (sign * q[r.qo]).sin_cos();
             let w = turn(&mut x, i, sn, cs) * sign;
             let p = -(x.e * x.r);
             let s = SpatialMotion::new(w, p.cross(w));

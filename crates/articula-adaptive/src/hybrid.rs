@@ -104,7 +104,9 @@ fn cholesky5(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
 /// unused): per lane the operations of `dense::solve_llt_k`, in its order.
 #[inline(always)]
 fn w_apply3(t: &AxisBasis, l: &[[f64; 6]; 6], ys: [&[f64; 6]; 3]) -> [[f64; 6]; 3] {
-    let us = ys.map(|y| t.tr(y));
+    // Written out rather than `ys.map(..)` / `array::from_fn(..)`: their closures are called
+    // out of line (std's generic code, not compiled for AVX2), ~90 instructions a join.
+    let us = [t.tr(ys[0]), t.tr(ys[1]), t.tr(ys[2])];
     let mut x = [[0.0; 4]; 5];
     for i in 0..5 {
         for k in 0..3 {
@@ -139,7 +141,8 @@ fn w_apply3(t: &AxisBasis, l: &[[f64; 6]; 6], ys: [&[f64; 6]; 3]) -> [[f64; 6]; 
             x[i][k] = v[k] / d;
         }
     }
-    std::array::from_fn(|k| t.apply(&[x[0][k], x[1][k], x[2][k], x[3][k], x[4][k]]))
+    let col = |k: usize| t.apply(&[x[0][k], x[1][k], x[2][k], x[3][k], x[4][k]]);
+    [col(0), col(1), col(2)]
 }
 
 /// The basis `T` of the forces that do no work along one axis `s` (`sᵀ T = 0`): for a
@@ -868,7 +871,7 @@ impl Adaptive {
                     self.phi[bc + kk * nhc + h] = blk.transpose();
                 }
             }
-            let db = self.gf[h].tr_mul_vec(&self.nvec[n]);
+            let db = tr_mul_vec(&self.gf[h], &self.nvec[n]);
             self.b[hc + h] = self.b[self.lay.hoff[x] + ih] - SpatialMotion::from_array(db);
         }
     }
@@ -1174,6 +1177,19 @@ impl Adaptive {
             }
         }
     }
+}
+
+/// `aᵀ x` ([`Mat6::tr_mul_vec`]'s operations, in its order), inlined into the AVX2 join
+/// (the crate's own copy was called out of line, unvectorised).
+#[inline(always)]
+fn tr_mul_vec(a: &Mat6, x: &[f64; 6]) -> [f64; 6] {
+    let mut y = [0.0; 6];
+    for (r, &xi) in a.0.iter().zip(x) {
+        for j in 0..6 {
+            y[j] += r[j] * xi;
+        }
+    }
+    y
 }
 
 /// A rigid body's handle block `Φ_hk` (mass `m`, centre of mass `c`, `j = I_c⁻¹`, handle
