@@ -111,6 +111,10 @@ pub(crate) struct ActiveJoint {
     /// alone (their origins are applied by the general kinematics). `mulx`: not the identity.
     pub x0: SpatialTransform,
     pub mulx: bool,
+    /// `x0`'s rotation is the identity (a joint origin that only translates, the usual URDF
+    /// link): the composition `X x0 = (E, r₀ + r)` costs three additions. (The full product's
+    /// `E · 1` and `1ᵀ r` are the same numbers; only the sign of an exact zero may differ.)
+    pub shift: bool,
     /// `(i, ±1)` of a closed-form revolute joint.
     pub axis: Option<(usize, f64)>,
     /// The cluster's mass properties in this body's frame.
@@ -295,6 +299,7 @@ impl Adaptive {
                 f: h.cl[j],
                 x0,
                 mulx,
+                shift: mulx && x0.e == glam::DMat3::IDENTITY,
                 axis,
                 rig: h.rig[h.cl[j]],
             });
@@ -353,7 +358,16 @@ impl Adaptive {
                 Parent::World | Parent::Ground => (x_cw, SpatialMotion::ZERO),
                 Parent::Active(p) | Parent::Cluster(p) => (d.x[p], d.v[p]),
             };
-            let x = if r.mulx { base * r.x0 } else { base };
+            let x = if r.shift {
+                SpatialTransform {
+                    e: base.e,
+                    r: r.x0.r + base.r,
+                }
+            } else if r.mulx {
+                base * r.x0
+            } else {
+                base
+            };
             let Some((i, sign)) = r.axis else {
                 let body = &model.bodies[r.j];
                 let (x, v, c) = match &h.parts[r.j] {
