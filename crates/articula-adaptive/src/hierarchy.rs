@@ -553,35 +553,41 @@ impl Adaptive {
             if k == 1 {
                 let ia = &h.ia[idx];
                 let s = d.s[vo].to_array();
-                // U = Iᴬ s and Iᴬ c in one sweep (Iᴬ symmetric: sums of its rows).
+                // U = Iᴬ s (Iᴬ symmetric: a sum of its rows).
                 let mut u = [0.0; 6];
-                let mut ic = [0.0; 6];
-                for (row, (&sc, &cc)) in ia.iter().zip(s.iter().zip(&c)) {
+                for (row, &sc) in ia.iter().zip(&s) {
                     for rr in 0..6 {
-                        let x = row[rr];
-                        u[rr] = A::mul_add(x, sc, u[rr]);
-                        ic[rr] = A::mul_add(x, cc, ic[rr]);
+                        u[rr] = A::mul_add(row[rr], sc, u[rr]);
                     }
                 }
                 let dd = dot6::<A>(&s, &u);
-                if dd.is_nan() || dd <= 0.0 {
-                    return Err(singular(model, r.j));
-                }
                 let dinv = 1.0 / dd;
                 let uu = tau[vo] - dot6::<A>(&s, &pa);
                 h.u[dof] = u;
                 h.uu[dof] = uu;
                 h.dinv[idx] = dinv;
-                if parent == usize::MAX {
-                    continue;
+                if parent != usize::MAX {
+                    // Iᴬ c, a second sweep over the rows (read again: sweeping them once for
+                    // both products spilled them, and the broadcasts, to the stack).
+                    let mut ic = [0.0; 6];
+                    for (row, &cc) in ia.iter().zip(&c) {
+                        for rr in 0..6 {
+                            ic[rr] = A::mul_add(row[rr], cc, ic[rr]);
+                        }
+                    }
+                    let g = dinv * (uu - dot6::<A>(&c, &u));
+                    let pp = &mut h.pa[parent];
+                    for rr in 0..6 {
+                        pp[rr] += pa[rr] + A::mul_add(u[rr], g, ic[rr]);
+                    }
+                    let (lo, hi) = h.ia.split_at_mut(idx);
+                    add_sub_outer::<A>(&mut lo[parent], &hi[0], &u, dinv);
                 }
-                let g = dinv * (uu - dot6::<A>(&c, &u));
-                let pp = &mut h.pa[parent];
-                for rr in 0..6 {
-                    pp[rr] += pa[rr] + A::mul_add(u[rr], g, ic[rr]);
+                // Checked after the parent's update (which an error leaves unused: pass 1
+                // rewrites every Iᴬ, pᴬ): the branch no longer splits the sweep over Iᴬ's rows.
+                if dd.is_nan() || dd <= 0.0 {
+                    return Err(singular(model, r.j));
                 }
-                let (lo, hi) = h.ia.split_at_mut(idx);
-                add_sub_outer::<A>(&mut lo[parent], &hi[0], &u, dinv);
                 continue;
             }
             // Several degrees of freedom: the loops over them unrolled for the usual counts.
