@@ -10,7 +10,7 @@ use crate::dense;
 use crate::Settings;
 use articula_dca::{Data, DynamicsError};
 use articula_model::{HandleLayout, JointKind, Model, NodeKind};
-use articula_spatial::{skew, Mat6, SpatialForce, SpatialMotion};
+use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::{DMat3, DVec3};
 use std::collections::BinaryHeap;
 
@@ -1195,9 +1195,99 @@ fn tr_mul_vec(a: &Mat6, x: &[f64; 6]) -> [f64; 6] {
 /// A rigid body's handle block `Φ_hk` (mass `m`, centre of mass `c`, `j = I_c⁻¹`, handle
 /// points `P_h`, `P_k`; computation axes): `[j, −j E_k; E_h j, 1/m − E_h j E_k]` with
 /// `E_x = [c − P_x]×`.
+///
+/// In closed form, row by row: the columns of `E_h j` are `a × j_k` (`a = c − P_h`) and those
+/// of `X E_k` are `[X_y e_z − X_z e_y, X_z e_x − X_x e_z, X_x e_y − X_y e_x]` (`e = c − P_k`,
+/// `X_x` the columns of X). The products by a skew matrix as 3 × 3 products (as
+/// [`rigid_phi_product`] writes them) add a zero to each of these two-term differences, so the
+/// results are the same numbers but for the sign of an exact zero.
+#[inline(always)]
 pub(crate) fn rigid_phi(m: f64, c: DVec3, j: DMat3, ph: DVec3, pk: DVec3) -> Mat6 {
+    let (a, e) = (c - ph, c - pk);
+    let jc = [j.x_axis, j.y_axis, j.z_axis];
+    // Columns of E_h j, of j E_k and of E_h j E_k.
+    let axj = [a.cross(jc[0]), a.cross(jc[1]), a.cross(jc[2])];
+    let times_ek = |x: &[DVec3; 3]| {
+        [
+            x[1] * e.z - x[2] * e.y,
+            x[2] * e.x - x[0] * e.z,
+            x[0] * e.y - x[1] * e.x,
+        ]
+    };
+    let jek = times_ek(&jc);
+    let aje = times_ek(&axj);
+    let im = 1.0 / m;
+    let row = |r: usize| -> [f64; 6] {
+        [
+            jc[0][r], jc[1][r], jc[2][r], -jek[0][r], -jek[1][r], -jek[2][r],
+        ]
+    };
+    let low = |r: usize| -> [f64; 6] {
+        let d = |k: usize| if k == r { -aje[k][r] + im } else { -aje[k][r] };
+        [axj[0][r], axj[1][r], axj[2][r], d(0), d(1), d(2)]
+    };
+    Mat6([row(0), row(1), row(2), low(0), low(1), low(2)])
+}
+
+/// [`rigid_phi`] by 3 × 3 matrix products, as it was computed before its closed form (the
+/// reference of the test that they agree).
+#[cfg(test)]
+pub(crate) fn rigid_phi_product(m: f64, c: DVec3, j: DMat3, ph: DVec3, pk: DVec3) -> Mat6 {
+    use articula_spatial::skew;
     let axj = skew(c - ph) * j;
     let ek = skew(c - pk);
     let br = -(axj * ek) + DMat3::from_diagonal(DVec3::splat(1.0 / m));
     Mat6::from_blocks(j, -(j * ek), axj, br)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{rigid_phi, rigid_phi_product};
+    use glam::{DMat3, DVec3};
+
+    /// The closed-form handle block equals the 3 × 3-product one entry by entry, to the bit
+    /// for every non-zero entry (`==` also lets an exact zero differ in sign), over random
+    /// inertias and points, and points with zero components or on the centre of mass.
+    #[test]
+    fn rigid_phi_closed_form_is_the_product_form() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let mut checked = 0;
+        for case in 0..500 {
+            let l = DMat3::from_cols_array(&std::array::from_fn(|_| rnd()));
+            // I_c = L Lᵀ + 0.1: symmetric positive definite, and its inverse as the code forms it.
+            let ic = l * l.transpose() + DMat3::from_diagonal(DVec3::splat(0.1));
+            let j = ic.inverse();
+            let m = 0.5 + rnd().abs();
+            let c = DVec3::new(rnd(), rnd(), rnd());
+            let mut ph = DVec3::new(rnd(), rnd(), rnd());
+            let mut pk = DVec3::new(rnd(), rnd(), rnd());
+            match case % 5 {
+                1 => ph = c,
+                2 => pk = DVec3::new(c.x, 0.0, c.z),
+                3 => (ph, pk) = (DVec3::new(0.0, ph.y, 0.0), ph),
+                _ => {}
+            }
+            let (a, b) = (
+                rigid_phi(m, c, j, ph, pk),
+                rigid_phi_product(m, c, j, ph, pk),
+            );
+            for r in 0..6 {
+                for k in 0..6 {
+                    let (x, y) = (a.0[r][k], b.0[r][k]);
+                    assert!(x == y, "case {case} entry ({r}, {k}): {x} vs {y}");
+                    if x != 0.0 {
+                        assert_eq!(x.to_bits(), y.to_bits());
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked > 500 * 20);
+    }
 }
