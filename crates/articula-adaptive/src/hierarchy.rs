@@ -544,14 +544,37 @@ impl Adaptive {
         }
         // Pass 2, leaves to root: U = Iᴬ S, D = Sᵀ U, u = τ − Sᵀ pᴬ; the parent cluster gets
         // Iᵃ = Iᴬ − U D⁻¹ Uᵀ and pᵃ = pᴬ + Iᵃ c + U D⁻¹ u.
-        for idx in (0..h.rec.len()).rev() {
-            let r = &h.rec[idx];
+        // The workspace as local slices (their pointers and lengths stay in registers, and
+        // the per-record arrays need no bounds checks).
+        let Hierarchy {
+            rec,
+            ia,
+            pa: pas,
+            acc,
+            dinv,
+            u: us,
+            uu: uus,
+            chol,
+            ..
+        } = h;
+        let n = rec.len();
+        let rec = &rec[..];
+        let mut w = Art {
+            ia: &mut ia[..n],
+            pa: &mut pas[..n],
+            u: &mut us[..],
+            uu: &mut uus[..],
+            chol: &mut chol[..n],
+        };
+        let dinvs = &mut dinv[..n];
+        for idx in (0..n).rev() {
+            let r = &rec[idx];
             let (vo, k, dof) = (r.vo, r.k, r.dof);
-            let pa = h.pa[idx];
+            let pa = w.pa[idx];
             let parent = r.pidx;
             let c = if accel { d.c[r.j].to_array() } else { [0.0; 6] };
             if k == 1 {
-                let ia = &h.ia[idx];
+                let ia = &w.ia[idx];
                 let s = d.s[vo].to_array();
                 // U = Iᴬ s (Iᴬ symmetric: a sum of its rows).
                 let mut u = [0.0; 6];
@@ -563,9 +586,9 @@ impl Adaptive {
                 let dd = dot6::<A>(&s, &u);
                 let dinv = 1.0 / dd;
                 let uu = tau[vo] - dot6::<A>(&s, &pa);
-                h.u[dof] = u;
-                h.uu[dof] = uu;
-                h.dinv[idx] = dinv;
+                w.u[dof] = u;
+                w.uu[dof] = uu;
+                dinvs[idx] = dinv;
                 if parent != usize::MAX {
                     // Iᴬ c, a second sweep over the rows (read again: sweeping them once for
                     // both products spilled them, and the broadcasts, to the stack).
@@ -576,11 +599,11 @@ impl Adaptive {
                         }
                     }
                     let g = dinv * (uu - dot6::<A>(&c, &u));
-                    let pp = &mut h.pa[parent];
+                    let pp = &mut w.pa[parent];
                     for rr in 0..6 {
                         pp[rr] += pa[rr] + A::mul_add(u[rr], g, ic[rr]);
                     }
-                    let (lo, hi) = h.ia.split_at_mut(idx);
+                    let (lo, hi) = w.ia.split_at_mut(idx);
                     add_sub_outer::<A>(&mut lo[parent], &hi[0], &u, dinv);
                 }
                 // Checked after the parent's update (which an error leaves unused: pass 1
@@ -592,13 +615,13 @@ impl Adaptive {
             }
             // Several degrees of freedom: the loops over them unrolled for the usual counts.
             let ok = match k {
-                2 => articulate::<2>(wide, h, &d.s, tau, idx, k, &c),
-                3 => articulate::<3>(wide, h, &d.s, tau, idx, k, &c),
-                6 => articulate::<6>(wide, h, &d.s, tau, idx, k, &c),
-                _ => articulate::<0>(wide, h, &d.s, tau, idx, k, &c),
+                2 => articulate::<2>(wide, r, &mut w, &d.s, tau, idx, k, &c),
+                3 => articulate::<3>(wide, r, &mut w, &d.s, tau, idx, k, &c),
+                6 => articulate::<6>(wide, r, &mut w, &d.s, tau, idx, k, &c),
+                _ => articulate::<0>(wide, r, &mut w, &d.s, tau, idx, k, &c),
             };
             if !ok {
-                return Err(singular(model, h.rec[idx].j));
+                return Err(singular(model, r.j));
             }
         }
         // Pass 3, root to leaves: a' = a_parent + c, q̈ = D⁻¹ (u − Uᵀ a'), a = a' + S q̈.
@@ -607,13 +630,15 @@ impl Adaptive {
         } else {
             [0.0; 6]
         };
-        for idx in 0..h.rec.len() {
-            let r = &h.rec[idx];
+        let (acc, dinv, chol) = (&mut acc[..n], &*dinvs, &*w.chol);
+        let (u, uu) = (&*w.u, &*w.uu);
+        let qdd = &mut self.qdd[..];
+        for (idx, r) in rec.iter().enumerate() {
             let (vo, k, dof) = (r.vo, r.k, r.dof);
             let mut ap = if r.pidx == usize::MAX {
                 a0
             } else {
-                h.acc[r.pidx]
+                acc[r.pidx]
             };
             if accel {
                 let c = d.c[r.j].to_array();
@@ -622,30 +647,42 @@ impl Adaptive {
                 }
             }
             if k == 1 {
-                let x = h.dinv[idx] * (h.uu[dof] - dot6::<A>(&ap, &h.u[dof]));
-                self.qdd[vo] = x;
+                let x = dinv[idx] * (uu[dof] - dot6::<A>(&ap, &u[dof]));
+                qdd[vo] = x;
                 let s = d.s[vo].to_array();
-                h.acc[idx] = std::array::from_fn(|rr| A::mul_add(s[rr], x, ap[rr]));
+                acc[idx] = std::array::from_fn(|rr| A::mul_add(s[rr], x, ap[rr]));
                 continue;
             }
-            match k {
-                2 => accelerate::<2>(wide, h, &d.s, &mut self.qdd, idx, k, ap),
-                3 => accelerate::<3>(wide, h, &d.s, &mut self.qdd, idx, k, ap),
-                6 => accelerate::<6>(wide, h, &d.s, &mut self.qdd, idx, k, ap),
-                _ => accelerate::<0>(wide, h, &d.s, &mut self.qdd, idx, k, ap),
-            }
+            let w = (&chol[idx], u, uu, &d.s[..], &mut *qdd);
+            acc[idx] = match k {
+                2 => accelerate::<2>(wide, r, w, k, ap),
+                3 => accelerate::<3>(wide, r, w, k, ap),
+                6 => accelerate::<6>(wide, r, w, k, ap),
+                _ => accelerate::<0>(wide, r, w, k, ap),
+            };
         }
         Ok(())
     }
+}
+
+/// What pass 2 writes: `Iᴬ`, `pᴬ` (the parents'), `U`, `u` and the Cholesky factors.
+struct Art<'a> {
+    ia: &'a mut [Sym6],
+    pa: &'a mut [[f64; 6]],
+    u: &'a mut [[f64; 6]],
+    uu: &'a mut [f64],
+    chol: &'a mut [[[f64; 6]; 6]],
 }
 
 /// [`articulate_multi_with`] out of line (the one-degree-of-freedom path of the passes keeps
 /// its registers), compiled for AVX2 + FMA when `wide` (the same arithmetic: no fused
 /// multiply–adds, the same results to the bit).
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn articulate<const K: usize>(
     wide: bool,
-    h: &mut Hierarchy,
+    r: &ActiveJoint,
+    w: &mut Art,
     s: &[SpatialMotion],
     tau: &[f64],
     idx: usize,
@@ -655,35 +692,39 @@ fn articulate<const K: usize>(
     #[cfg(target_arch = "x86_64")]
     if wide {
         // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
-        return unsafe { articulate_multi_wide::<K>(h, s, tau, idx, k, c) };
+        return unsafe { articulate_multi_wide::<K>(r, w, s, tau, idx, k, c) };
     }
-    articulate_multi::<K>(h, s, tau, idx, k, c)
+    articulate_multi::<K>(r, w, s, tau, idx, k, c)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline(never)]
+#[allow(clippy::too_many_arguments)]
 fn articulate_multi_wide<const K: usize>(
-    h: &mut Hierarchy,
+    r: &ActiveJoint,
+    w: &mut Art,
     s: &[SpatialMotion],
     tau: &[f64],
     idx: usize,
     k: usize,
     c: &[f64; 6],
 ) -> bool {
-    articulate_multi_with::<K>(h, s, tau, idx, k, c)
+    articulate_multi_with::<K>(r, w, s, tau, idx, k, c)
 }
 
 #[inline(never)]
+#[allow(clippy::too_many_arguments)]
 fn articulate_multi<const K: usize>(
-    h: &mut Hierarchy,
+    r: &ActiveJoint,
+    w: &mut Art,
     s: &[SpatialMotion],
     tau: &[f64],
     idx: usize,
     k: usize,
     c: &[f64; 6],
 ) -> bool {
-    articulate_multi_with::<K>(h, s, tau, idx, k, c)
+    articulate_multi_with::<K>(r, w, s, tau, idx, k, c)
 }
 
 /// Pass 2 of the reduced ABA at record `idx` for a joint of several degrees of freedom:
@@ -691,8 +732,10 @@ fn articulate_multi<const K: usize>(
 /// degrees of freedom when known at compile time (loops unrolled; the same sums), 0: `k`.
 /// False when `D` is not positive definite.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn articulate_multi_with<const K: usize>(
-    h: &mut Hierarchy,
+    r: &ActiveJoint,
+    h: &mut Art,
     s: &[SpatialMotion],
     tau: &[f64],
     idx: usize,
@@ -700,7 +743,6 @@ fn articulate_multi_with<const K: usize>(
     c: &[f64; 6],
 ) -> bool {
     let k = if K == 0 { k } else { K };
-    let r = &h.rec[idx];
     let (vo, dof, parent) = (r.vo, r.dof, r.pidx);
     let pa = h.pa[idx];
     let (lo, hi) = h.ia.split_at_mut(idx);
@@ -774,72 +816,72 @@ fn articulate_multi_with<const K: usize>(
     true
 }
 
+/// What pass 3 of a several-degree-of-freedom joint reads and writes: its Cholesky factor,
+/// `U`, `u`, the subspace columns and `q̈`.
+type AccelIo<'a> = (
+    &'a [[f64; 6]; 6],
+    &'a [[f64; 6]],
+    &'a [f64],
+    &'a [SpatialMotion],
+    &'a mut [f64],
+);
+
 /// [`accelerate_multi_with`] out of line, compiled for AVX2 + FMA when `wide` (the same
 /// arithmetic).
 #[inline(always)]
 fn accelerate<const K: usize>(
     wide: bool,
-    h: &mut Hierarchy,
-    s: &[SpatialMotion],
-    qdd: &mut [f64],
-    idx: usize,
+    r: &ActiveJoint,
+    w: AccelIo,
     k: usize,
     ap: [f64; 6],
-) {
+) -> [f64; 6] {
     #[cfg(target_arch = "x86_64")]
     if wide {
         // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
-        return unsafe { accelerate_multi_wide::<K>(h, s, qdd, idx, k, ap) };
+        return unsafe { accelerate_multi_wide::<K>(r, w, k, ap) };
     }
-    accelerate_multi::<K>(h, s, qdd, idx, k, ap)
+    accelerate_multi::<K>(r, w, k, ap)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline(never)]
 fn accelerate_multi_wide<const K: usize>(
-    h: &mut Hierarchy,
-    s: &[SpatialMotion],
-    qdd: &mut [f64],
-    idx: usize,
+    r: &ActiveJoint,
+    w: AccelIo,
     k: usize,
     ap: [f64; 6],
-) {
-    accelerate_multi_with::<K>(h, s, qdd, idx, k, ap)
+) -> [f64; 6] {
+    accelerate_multi_with::<K>(r, w, k, ap)
 }
 
 #[inline(never)]
 fn accelerate_multi<const K: usize>(
-    h: &mut Hierarchy,
-    s: &[SpatialMotion],
-    qdd: &mut [f64],
-    idx: usize,
+    r: &ActiveJoint,
+    w: AccelIo,
     k: usize,
     ap: [f64; 6],
-) {
-    accelerate_multi_with::<K>(h, s, qdd, idx, k, ap)
+) -> [f64; 6] {
+    accelerate_multi_with::<K>(r, w, k, ap)
 }
 
-/// Pass 3 of the reduced ABA at record `idx` for a joint of several degrees of freedom, from
-/// `a' = a_parent + c`: `q̈ = L⁻ᵀ L⁻¹ (u − Uᵀ a')`, `a = a' + S q̈`. `K` as in
+/// Pass 3 of the reduced ABA at record `r` for a joint of several degrees of freedom, from
+/// `a' = a_parent + c`: `q̈ = L⁻ᵀ L⁻¹ (u − Uᵀ a')`, returns `a = a' + S q̈`. `K` as in
 /// [`articulate_multi`].
 #[inline(always)]
 fn accelerate_multi_with<const K: usize>(
-    h: &mut Hierarchy,
-    s: &[SpatialMotion],
-    qdd: &mut [f64],
-    idx: usize,
+    r: &ActiveJoint,
+    (l, u, uu, s, qdd): AccelIo,
     k: usize,
     ap: [f64; 6],
-) {
+) -> [f64; 6] {
     let k = if K == 0 { k } else { K };
-    let r = &h.rec[idx];
     let (vo, dof) = (r.vo, r.dof);
     // q̈ = L⁻ᵀ L⁻¹ r.
-    let l = &h.chol[idx];
     let mut x = [0.0; 6];
     for p in 0..k {
-        let mut v = h.uu[dof + p] - dot6::<Portable>(&ap, &h.u[dof + p]);
+        let mut v = uu[dof + p] - dot6::<Portable>(&ap, &u[dof + p]);
         for qq in 0..p {
             v -= l[p][qq] * x[qq];
         }
@@ -860,7 +902,7 @@ fn accelerate_multi_with<const K: usize>(
             a[rr] += s[rr] * x[p];
         }
     }
-    h.acc[idx] = a;
+    a
 }
 
 /// The parts of a joint made of revolute parts about coordinate axes (`±x`, `±y`, `±z`, the
