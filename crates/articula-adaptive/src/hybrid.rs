@@ -685,7 +685,7 @@ impl Adaptive {
         let body = &model.bodies[joint];
         let (ja, jb) = (self.lay.ja[n], self.lay.jb[n]);
         let (nhc, hc) = (self.nh[n], self.lay.hoff[n]);
-        let g = (*self.phi_at(a, ja, ja) + *self.phi_at(b, jb, jb)).0;
+        let g = add6(&self.phi_at(a, ja, ja).0, &self.phi_at(b, jb, jb).0);
         // S, c at the joint's point P_j; β = b^A_j − b^B_j + c (no velocity product at impulse
         // level); G_F,h per handle of C.
         let pj = self.point[joint];
@@ -1022,9 +1022,14 @@ impl Adaptive {
             nr[t.keep[0]] = z[2];
             nr[t.keep[1]] = z[3];
             nr[t.keep[2]] = z[4];
-            let base = 36 * hc + 6 * h;
-            for (r, row) in nr.iter().enumerate() {
-                self.nmat[base + r * wd..base + r * wd + 6].copy_from_slice(row);
+            // N's six rows of width 6·nhc, this handle's six columns of each (one range
+            // check for the node's block, then fixed-size row slices).
+            let blk = &mut self.nmat[36 * hc..36 * hc + 6 * wd];
+            for (dst, row) in blk.chunks_exact_mut(wd).zip(&nr) {
+                let dst: &mut [f64; 6] = (&mut dst[6 * h..6 * h + 6])
+                    .try_into()
+                    .expect("six columns per handle");
+                *dst = *row;
             }
             for (dst, src) in self.yt[h].0.iter_mut().zip(&y) {
                 dst[..6].copy_from_slice(src);
@@ -1177,6 +1182,19 @@ impl Adaptive {
             }
         }
     }
+}
+
+/// `a + b` entry by entry, row by row (`Mat6 + Mat6` took each entry by a scalar load in the
+/// join: the same sums).
+#[inline(always)]
+fn add6(a: &[[f64; 6]; 6], b: &[[f64; 6]; 6]) -> [[f64; 6]; 6] {
+    let mut g = *a;
+    for (gr, br) in g.iter_mut().zip(b) {
+        for (x, y) in gr.iter_mut().zip(br) {
+            *x += y;
+        }
+    }
+    g
 }
 
 /// `aᵀ x` ([`Mat6::tr_mul_vec`]'s operations, in its order), inlined into the AVX2 join
