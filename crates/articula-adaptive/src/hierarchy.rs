@@ -358,17 +358,22 @@ impl Adaptive {
                 Parent::World | Parent::Ground => (x_cw, SpatialMotion::ZERO),
                 Parent::Active(p) | Parent::Cluster(p) => (d.x[p], d.v[p]),
             };
-            let x = if r.shift {
-                SpatialTransform {
-                    e: base.e,
-                    r: r.x0.r + base.r,
+            // The parent frame composed with the record's constant pose (in each branch: the
+            // general path passes it in memory, the closed form keeps it in registers).
+            let compose = |base: SpatialTransform| {
+                if r.shift {
+                    SpatialTransform {
+                        e: base.e,
+                        r: r.x0.r + base.r,
+                    }
+                } else if r.mulx {
+                    base * r.x0
+                } else {
+                    base
                 }
-            } else if r.mulx {
-                base * r.x0
-            } else {
-                base
             };
             let Some((i, sign)) = r.axis else {
+                let x = compose(base);
                 let body = &model.bodies[r.j];
                 let (x, v, c) = match &h.parts[r.j] {
                     Some(parts) => revolute(wide, body, parts, x, v, q, qd, &mut d.s),
@@ -379,7 +384,7 @@ impl Adaptive {
                 d.c[r.j] = c;
                 continue;
             };
-            let mut x = x;
+            let mut x = compose(base);
             let w = turn(&mut x, i, sn, cs) * sign;
             let p = -(x.e * x.r);
             let s = SpatialMotion::new(w, p.cross(w));
