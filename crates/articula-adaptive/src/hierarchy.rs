@@ -509,24 +509,47 @@ impl Adaptive {
             let x = &d.x[r.j];
             let rl = &r.rig;
             let m = rl.m;
-            // Rows of E (x.e is column-major) and of E I_c (I_c symmetric).
-            let e = [x.e.row(0), x.e.row(1), x.e.row(2)];
-            let ei = [rl.ic * e[0], rl.ic * e[1], rl.ic * e[2]];
-            let cw = x.e * (rl.c - x.r);
-            let cc = cw.length_squared();
-            let cwa = cw.to_array();
-            // Ī = E I_c Eᵀ + m (|c|² 1 − c cᵀ), upper triangle.
-            let ib = |rr: usize, c: usize| {
-                let v = ei[rr].dot(e[c]) - m * cwa[rr] * cwa[c];
-                if rr == c {
-                    v + m * cc
-                } else {
-                    v
+            // Ī = E I_c Eᵀ + m (|c|² 1 − c cᵀ) in lanes of four (the fourth unused), each
+            // entry by glam's operations in glam's order: with `e_r` row r of E and
+            // `ei_r = I_c e_r`, `ei_r[i] = (I_c[0][i] e_r,x + I_c[1][i] e_r,y) + I_c[2][i] e_r,z`
+            // (`I_c[col][row]`) is lane r of `a_i`, a sum of E's columns; `Ī[r][c] = ei_r · e_c
+            // − (m c_r) c_c` is lane r of column c (upper triangle used, r ≤ c).
+            let ec = [lanes3(x.e.x_axis), lanes3(x.e.y_axis), lanes3(x.e.z_axis)];
+            let icm = rl.ic.to_cols_array_2d();
+            let comb = |k: [f64; 3], v: &[[f64; 4]; 3]| -> [f64; 4] {
+                let mut o = [0.0; 4];
+                for l in 0..4 {
+                    o[l] = v[0][l] * k[0] + v[1][l] * k[1] + v[2][l] * k[2];
                 }
+                o
             };
-            let (i00, i01, i02, i11, i12, i22) =
-                (ib(0, 0), ib(0, 1), ib(0, 2), ib(1, 1), ib(1, 2), ib(2, 2));
-            let hv = cw * m;
+            let a = [
+                comb([icm[0][0], icm[1][0], icm[2][0]], &ec),
+                comb([icm[0][1], icm[1][1], icm[2][1]], &ec),
+                comb([icm[0][2], icm[1][2], icm[2][2]], &ec),
+            ];
+            let dl = rl.c - x.r;
+            let cwl = comb([dl.x, dl.y, dl.z], &ec);
+            let cc = cwl[0] * cwl[0] + cwl[1] * cwl[1] + cwl[2] * cwl[2];
+            let mcw: [f64; 4] = [m * cwl[0], m * cwl[1], m * cwl[2], m * cwl[3]];
+            let col = |c: usize| -> [f64; 4] {
+                let dot = comb([ec[0][c], ec[1][c], ec[2][c]], &a);
+                let mut o = [0.0; 4];
+                for l in 0..4 {
+                    o[l] = dot[l] - mcw[l] * cwl[c];
+                }
+                o
+            };
+            let (c0, c1, c2) = (col(0), col(1), col(2));
+            let (i00, i01, i02, i11, i12, i22) = (
+                c0[0] + m * cc,
+                c1[0],
+                c2[0],
+                c1[1] + m * cc,
+                c2[1],
+                c2[2] + m * cc,
+            );
+            let hv = DVec3::new(cwl[0] * m, cwl[1] * m, cwl[2] * m);
             // [Ī, h×; h×ᵀ, m 1].
             *ia = [
                 [i00, i01, i02, 0.0, -hv.z, hv.y],
@@ -1044,6 +1067,12 @@ fn turn(x: &mut SpatialTransform, i: usize, sn: f64, cs: f64) -> DVec3 {
             e.z_axis
         }
     }
+}
+
+/// A 3-vector as four lanes, the last zero.
+#[inline(always)]
+fn lanes3(v: DVec3) -> [f64; 4] {
+    [v.x, v.y, v.z, 0.0]
 }
 
 /// `a x` for a symmetric 6 × 6 matrix as a sum of its rows (= columns) scaled by `x`: per
