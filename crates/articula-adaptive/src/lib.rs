@@ -500,7 +500,11 @@ impl Adaptive {
             let fresh = std::mem::take(&mut self.hier.kin_fresh);
             report.rigidified = r?;
             let touched = self.touched;
-            self.check_active_inputs(model, state)?;
+            if !fresh {
+                // New active joints or velocities after an impulse (`cached_reselect` checked
+                // the old active joints' inputs; with the hybrid body kept they are these).
+                self.check_active_inputs(model, state)?;
+            }
             self.hybrid_step(model, &state.q, &state.qd, &state.tau, fresh)?;
             self.touched += touched;
         } else if report.reselected {
