@@ -73,6 +73,10 @@ pub(crate) struct Hierarchy {
     pub chol: Vec<[[f64; 6]; 6]>,
     pub u: Vec<[f64; 6]>,
     pub uu: Vec<f64>,
+    /// Per record of a closed-form revolute joint: `sin`, `cos` of its signed angle, computed
+    /// in a first sweep of [`Adaptive::active_kinematics`] so that its main loop makes no call
+    /// (every vector register is caller-saved).
+    pub sc: Vec<(f64, f64)>,
 }
 
 /// Where an active joint's parent body is.
@@ -107,6 +111,10 @@ pub(crate) struct ActiveJoint {
     /// alone (their origins are applied by the general kinematics). `mulx`: not the identity.
     pub x0: SpatialTransform,
     pub mulx: bool,
+    /// `x0`'s rotation is the identity (a joint origin that only translates, the usual URDF
+    /// link): the composition `X x0 = (E, r₀ + r)` costs three additions. (The full product's
+    /// `E · 1` and `1ᵀ r` are the same numbers; only the sign of an exact zero may differ.)
+    pub shift: bool,
     /// `(i, ±1)` of a closed-form revolute joint.
     pub axis: Option<(usize, f64)>,
     /// The cluster's mass properties in this body's frame.
@@ -242,6 +250,7 @@ impl Adaptive {
                 v.reserve(nb.saturating_sub(v.len()));
             }
             h.dinv.reserve(nb.saturating_sub(h.dinv.len()));
+            h.sc.reserve(nb.saturating_sub(h.sc.len()));
             h.u.reserve(model.nv.saturating_sub(h.u.len()));
             h.uu.reserve(model.nv.saturating_sub(h.uu.len()));
         }
@@ -290,6 +299,7 @@ impl Adaptive {
                 f: h.cl[j],
                 x0,
                 mulx,
+                shift: mulx && x0.e == glam::DMat3::IDENTITY,
                 axis,
                 rig: h.rig[h.cl[j]],
             });
@@ -300,6 +310,7 @@ impl Adaptive {
         h.pa.resize(na, [0.0; 6]);
         h.acc.resize(na, [0.0; 6]);
         h.dinv.resize(na, 0.0);
+        h.sc.resize(na, (0.0, 1.0));
         h.chol.resize(na, [[0.0; 6]; 6]);
         h.u.resize(dof, [0.0; 6]);
         h.uu.resize(dof, 0.0);
@@ -333,15 +344,36 @@ impl Adaptive {
     fn active_kinematics_with(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
         let wide = self.fused;
         let x_cw = SpatialTransform::xlt(self.data.origin);
+        // The angles' sines and cosines first (the same calls as in the loop below).
+        let h = &mut self.hier;
+        for (r, sc) in h.rec.iter().zip(h.sc.iter_mut()) {
+            if let Some((_, sign)) = r.axis {
+                *sc = (sign * q[r.qo]).sin_cos();
+            }
+        }
         let h = &self.hier;
         let d = &mut self.data;
-        for r in &h.rec {
+        for (r, &(sn, cs)) in h.rec.iter().zip(&h.sc) {
             let (base, v) = match r.parent {
                 Parent::World | Parent::Ground => (x_cw, SpatialMotion::ZERO),
                 Parent::Active(p) | Parent::Cluster(p) => (d.x[p], d.v[p]),
             };
-            let x = if r.mulx { base * r.x0 } else { base };
+            // The parent frame composed with the record's constant pose (in each branch: the
+            // general path passes it in memory, the closed form keeps it in registers).
+            let compose = |base: SpatialTransform| {
+                if r.shift {
+                    SpatialTransform {
+                        e: base.e,
+                        r: r.x0.r + base.r,
+                    }
+                } else if r.mulx {
+                    base * r.x0
+                } else {
+                    base
+                }
+            };
             let Some((i, sign)) = r.axis else {
+                let x = compose(base);
                 let body = &model.bodies[r.j];
                 let (x, v, c) = match &h.parts[r.j] {
                     Some(parts) => revolute(wide, body, parts, x, v, q, qd, &mut d.s),
@@ -352,8 +384,7 @@ impl Adaptive {
                 d.c[r.j] = c;
                 continue;
             };
-            let mut x = x;
-            let (sn, cs) = (sign * q[r.qo]).sin_cos();
+            let mut x = compose(base);
             let w = turn(&mut x, i, sn, cs) * sign;
             let p = -(x.e * x.r);
             let s = SpatialMotion::new(w, p.cross(w));
@@ -478,24 +509,47 @@ impl Adaptive {
             let x = &d.x[r.j];
             let rl = &r.rig;
             let m = rl.m;
-            // Rows of E (x.e is column-major) and of E I_c (I_c symmetric).
-            let e = [x.e.row(0), x.e.row(1), x.e.row(2)];
-            let ei = [rl.ic * e[0], rl.ic * e[1], rl.ic * e[2]];
-            let cw = x.e * (rl.c - x.r);
-            let cc = cw.length_squared();
-            let cwa = cw.to_array();
-            // Ī = E I_c Eᵀ + m (|c|² 1 − c cᵀ), upper triangle.
-            let ib = |rr: usize, c: usize| {
-                let v = ei[rr].dot(e[c]) - m * cwa[rr] * cwa[c];
-                if rr == c {
-                    v + m * cc
-                } else {
-                    v
+            // Ī = E I_c Eᵀ + m (|c|² 1 − c cᵀ) in lanes of four (the fourth unused), each
+            // entry by glam's operations in glam's order: with `e_r` row r of E and
+            // `ei_r = I_c e_r`, `ei_r[i] = (I_c[0][i] e_r,x + I_c[1][i] e_r,y) + I_c[2][i] e_r,z`
+            // (`I_c[col][row]`) is lane r of `a_i`, a sum of E's columns; `Ī[r][c] = ei_r · e_c
+            // − (m c_r) c_c` is lane r of column c (upper triangle used, r ≤ c).
+            let ec = [lanes3(x.e.x_axis), lanes3(x.e.y_axis), lanes3(x.e.z_axis)];
+            let icm = rl.ic.to_cols_array_2d();
+            let comb = |k: [f64; 3], v: &[[f64; 4]; 3]| -> [f64; 4] {
+                let mut o = [0.0; 4];
+                for l in 0..4 {
+                    o[l] = v[0][l] * k[0] + v[1][l] * k[1] + v[2][l] * k[2];
                 }
+                o
             };
-            let (i00, i01, i02, i11, i12, i22) =
-                (ib(0, 0), ib(0, 1), ib(0, 2), ib(1, 1), ib(1, 2), ib(2, 2));
-            let hv = cw * m;
+            let a = [
+                comb([icm[0][0], icm[1][0], icm[2][0]], &ec),
+                comb([icm[0][1], icm[1][1], icm[2][1]], &ec),
+                comb([icm[0][2], icm[1][2], icm[2][2]], &ec),
+            ];
+            let dl = rl.c - x.r;
+            let cwl = comb([dl.x, dl.y, dl.z], &ec);
+            let cc = cwl[0] * cwl[0] + cwl[1] * cwl[1] + cwl[2] * cwl[2];
+            let mcw: [f64; 4] = [m * cwl[0], m * cwl[1], m * cwl[2], m * cwl[3]];
+            let col = |c: usize| -> [f64; 4] {
+                let dot = comb([ec[0][c], ec[1][c], ec[2][c]], &a);
+                let mut o = [0.0; 4];
+                for l in 0..4 {
+                    o[l] = dot[l] - mcw[l] * cwl[c];
+                }
+                o
+            };
+            let (c0, c1, c2) = (col(0), col(1), col(2));
+            let (i00, i01, i02, i11, i12, i22) = (
+                c0[0] + m * cc,
+                c1[0],
+                c2[0],
+                c1[1] + m * cc,
+                c2[1],
+                c2[2] + m * cc,
+            );
+            let hv = DVec3::new(cwl[0] * m, cwl[1] * m, cwl[2] * m);
             // [Ī, h×; h×ᵀ, m 1].
             *ia = [
                 [i00, i01, i02, 0.0, -hv.z, hv.y],
@@ -518,55 +572,84 @@ impl Adaptive {
         }
         // Pass 2, leaves to root: U = Iᴬ S, D = Sᵀ U, u = τ − Sᵀ pᴬ; the parent cluster gets
         // Iᵃ = Iᴬ − U D⁻¹ Uᵀ and pᵃ = pᴬ + Iᵃ c + U D⁻¹ u.
-        for idx in (0..h.rec.len()).rev() {
-            let r = &h.rec[idx];
+        // The workspace as local slices (their pointers and lengths stay in registers, and
+        // the per-record arrays need no bounds checks).
+        let Hierarchy {
+            rec,
+            ia,
+            pa: pas,
+            acc,
+            dinv,
+            u: us,
+            uu: uus,
+            chol,
+            ..
+        } = h;
+        let n = rec.len();
+        let rec = &rec[..];
+        let mut w = Art {
+            ia: &mut ia[..n],
+            pa: &mut pas[..n],
+            u: &mut us[..],
+            uu: &mut uus[..],
+            chol: &mut chol[..n],
+        };
+        let dinvs = &mut dinv[..n];
+        for idx in (0..n).rev() {
+            let r = &rec[idx];
             let (vo, k, dof) = (r.vo, r.k, r.dof);
-            let pa = h.pa[idx];
+            let pa = w.pa[idx];
             let parent = r.pidx;
             let c = if accel { d.c[r.j].to_array() } else { [0.0; 6] };
             if k == 1 {
-                let ia = &h.ia[idx];
+                let ia = &w.ia[idx];
                 let s = d.s[vo].to_array();
-                // U = Iᴬ s and Iᴬ c in one sweep (Iᴬ symmetric: sums of its rows).
+                // U = Iᴬ s (Iᴬ symmetric: a sum of its rows).
                 let mut u = [0.0; 6];
-                let mut ic = [0.0; 6];
-                for (row, (&sc, &cc)) in ia.iter().zip(s.iter().zip(&c)) {
+                for (row, &sc) in ia.iter().zip(&s) {
                     for rr in 0..6 {
-                        let x = row[rr];
-                        u[rr] = A::mul_add(x, sc, u[rr]);
-                        ic[rr] = A::mul_add(x, cc, ic[rr]);
+                        u[rr] = A::mul_add(row[rr], sc, u[rr]);
                     }
                 }
                 let dd = dot6::<A>(&s, &u);
+                let dinv = 1.0 / dd;
+                let uu = tau[vo] - dot6::<A>(&s, &pa);
+                w.u[dof] = u;
+                w.uu[dof] = uu;
+                dinvs[idx] = dinv;
+                if parent != usize::MAX {
+                    // Iᴬ c, a second sweep over the rows (read again: sweeping them once for
+                    // both products spilled them, and the broadcasts, to the stack).
+                    let mut ic = [0.0; 6];
+                    for (row, &cc) in ia.iter().zip(&c) {
+                        for rr in 0..6 {
+                            ic[rr] = A::mul_add(row[rr], cc, ic[rr]);
+                        }
+                    }
+                    let g = dinv * (uu - dot6::<A>(&c, &u));
+                    let pp = &mut w.pa[parent];
+                    for rr in 0..6 {
+                        pp[rr] += pa[rr] + A::mul_add(u[rr], g, ic[rr]);
+                    }
+                    let (lo, hi) = w.ia.split_at_mut(idx);
+                    add_sub_outer::<A>(&mut lo[parent], &hi[0], &u, dinv);
+                }
+                // Checked after the parent's update (which an error leaves unused: pass 1
+                // rewrites every Iᴬ, pᴬ): the branch no longer splits the sweep over Iᴬ's rows.
                 if dd.is_nan() || dd <= 0.0 {
                     return Err(singular(model, r.j));
                 }
-                let dinv = 1.0 / dd;
-                let uu = tau[vo] - dot6::<A>(&s, &pa);
-                h.u[dof] = u;
-                h.uu[dof] = uu;
-                h.dinv[idx] = dinv;
-                if parent == usize::MAX {
-                    continue;
-                }
-                let g = dinv * (uu - dot6::<A>(&c, &u));
-                let pp = &mut h.pa[parent];
-                for rr in 0..6 {
-                    pp[rr] += pa[rr] + A::mul_add(u[rr], g, ic[rr]);
-                }
-                let (lo, hi) = h.ia.split_at_mut(idx);
-                add_sub_outer::<A>(&mut lo[parent], &hi[0], &u, dinv);
                 continue;
             }
             // Several degrees of freedom: the loops over them unrolled for the usual counts.
             let ok = match k {
-                2 => articulate::<2>(wide, h, &d.s, tau, idx, k, &c),
-                3 => articulate::<3>(wide, h, &d.s, tau, idx, k, &c),
-                6 => articulate::<6>(wide, h, &d.s, tau, idx, k, &c),
-                _ => articulate::<0>(wide, h, &d.s, tau, idx, k, &c),
+                2 => articulate::<2>(wide, r, &mut w, &d.s, tau, idx, k, &c),
+                3 => articulate::<3>(wide, r, &mut w, &d.s, tau, idx, k, &c),
+                6 => articulate::<6>(wide, r, &mut w, &d.s, tau, idx, k, &c),
+                _ => articulate::<0>(wide, r, &mut w, &d.s, tau, idx, k, &c),
             };
             if !ok {
-                return Err(singular(model, h.rec[idx].j));
+                return Err(singular(model, r.j));
             }
         }
         // Pass 3, root to leaves: a' = a_parent + c, q̈ = D⁻¹ (u − Uᵀ a'), a = a' + S q̈.
@@ -575,13 +658,15 @@ impl Adaptive {
         } else {
             [0.0; 6]
         };
-        for idx in 0..h.rec.len() {
-            let r = &h.rec[idx];
+        let (acc, dinv, chol) = (&mut acc[..n], &*dinvs, &*w.chol);
+        let (u, uu) = (&*w.u, &*w.uu);
+        let qdd = &mut self.qdd[..];
+        for (idx, r) in rec.iter().enumerate() {
             let (vo, k, dof) = (r.vo, r.k, r.dof);
             let mut ap = if r.pidx == usize::MAX {
                 a0
             } else {
-                h.acc[r.pidx]
+                acc[r.pidx]
             };
             if accel {
                 let c = d.c[r.j].to_array();
@@ -590,30 +675,42 @@ impl Adaptive {
                 }
             }
             if k == 1 {
-                let x = h.dinv[idx] * (h.uu[dof] - dot6::<A>(&ap, &h.u[dof]));
-                self.qdd[vo] = x;
+                let x = dinv[idx] * (uu[dof] - dot6::<A>(&ap, &u[dof]));
+                qdd[vo] = x;
                 let s = d.s[vo].to_array();
-                h.acc[idx] = std::array::from_fn(|rr| A::mul_add(s[rr], x, ap[rr]));
+                acc[idx] = std::array::from_fn(|rr| A::mul_add(s[rr], x, ap[rr]));
                 continue;
             }
-            match k {
-                2 => accelerate::<2>(wide, h, &d.s, &mut self.qdd, idx, k, ap),
-                3 => accelerate::<3>(wide, h, &d.s, &mut self.qdd, idx, k, ap),
-                6 => accelerate::<6>(wide, h, &d.s, &mut self.qdd, idx, k, ap),
-                _ => accelerate::<0>(wide, h, &d.s, &mut self.qdd, idx, k, ap),
-            }
+            let w = (&chol[idx], u, uu, &d.s[..], &mut *qdd);
+            acc[idx] = match k {
+                2 => accelerate::<2>(wide, r, w, k, ap),
+                3 => accelerate::<3>(wide, r, w, k, ap),
+                6 => accelerate::<6>(wide, r, w, k, ap),
+                _ => accelerate::<0>(wide, r, w, k, ap),
+            };
         }
         Ok(())
     }
+}
+
+/// What pass 2 writes: `Iᴬ`, `pᴬ` (the parents'), `U`, `u` and the Cholesky factors.
+struct Art<'a> {
+    ia: &'a mut [Sym6],
+    pa: &'a mut [[f64; 6]],
+    u: &'a mut [[f64; 6]],
+    uu: &'a mut [f64],
+    chol: &'a mut [[[f64; 6]; 6]],
 }
 
 /// [`articulate_multi_with`] out of line (the one-degree-of-freedom path of the passes keeps
 /// its registers), compiled for AVX2 + FMA when `wide` (the same arithmetic: no fused
 /// multiply–adds, the same results to the bit).
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn articulate<const K: usize>(
     wide: bool,
-    h: &mut Hierarchy,
+    r: &ActiveJoint,
+    w: &mut Art,
     s: &[SpatialMotion],
     tau: &[f64],
     idx: usize,
@@ -623,35 +720,39 @@ fn articulate<const K: usize>(
     #[cfg(target_arch = "x86_64")]
     if wide {
         // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
-        return unsafe { articulate_multi_wide::<K>(h, s, tau, idx, k, c) };
+        return unsafe { articulate_multi_wide::<K>(r, w, s, tau, idx, k, c) };
     }
-    articulate_multi::<K>(h, s, tau, idx, k, c)
+    articulate_multi::<K>(r, w, s, tau, idx, k, c)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline(never)]
+#[allow(clippy::too_many_arguments)]
 fn articulate_multi_wide<const K: usize>(
-    h: &mut Hierarchy,
+    r: &ActiveJoint,
+    w: &mut Art,
     s: &[SpatialMotion],
     tau: &[f64],
     idx: usize,
     k: usize,
     c: &[f64; 6],
 ) -> bool {
-    articulate_multi_with::<K>(h, s, tau, idx, k, c)
+    articulate_multi_with::<K>(r, w, s, tau, idx, k, c)
 }
 
 #[inline(never)]
+#[allow(clippy::too_many_arguments)]
 fn articulate_multi<const K: usize>(
-    h: &mut Hierarchy,
+    r: &ActiveJoint,
+    w: &mut Art,
     s: &[SpatialMotion],
     tau: &[f64],
     idx: usize,
     k: usize,
     c: &[f64; 6],
 ) -> bool {
-    articulate_multi_with::<K>(h, s, tau, idx, k, c)
+    articulate_multi_with::<K>(r, w, s, tau, idx, k, c)
 }
 
 /// Pass 2 of the reduced ABA at record `idx` for a joint of several degrees of freedom:
@@ -659,8 +760,10 @@ fn articulate_multi<const K: usize>(
 /// degrees of freedom when known at compile time (loops unrolled; the same sums), 0: `k`.
 /// False when `D` is not positive definite.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn articulate_multi_with<const K: usize>(
-    h: &mut Hierarchy,
+    r: &ActiveJoint,
+    h: &mut Art,
     s: &[SpatialMotion],
     tau: &[f64],
     idx: usize,
@@ -668,7 +771,6 @@ fn articulate_multi_with<const K: usize>(
     c: &[f64; 6],
 ) -> bool {
     let k = if K == 0 { k } else { K };
-    let r = &h.rec[idx];
     let (vo, dof, parent) = (r.vo, r.dof, r.pidx);
     let pa = h.pa[idx];
     let (lo, hi) = h.ia.split_at_mut(idx);
@@ -742,72 +844,72 @@ fn articulate_multi_with<const K: usize>(
     true
 }
 
+/// What pass 3 of a several-degree-of-freedom joint reads and writes: its Cholesky factor,
+/// `U`, `u`, the subspace columns and `q̈`.
+type AccelIo<'a> = (
+    &'a [[f64; 6]; 6],
+    &'a [[f64; 6]],
+    &'a [f64],
+    &'a [SpatialMotion],
+    &'a mut [f64],
+);
+
 /// [`accelerate_multi_with`] out of line, compiled for AVX2 + FMA when `wide` (the same
 /// arithmetic).
 #[inline(always)]
 fn accelerate<const K: usize>(
     wide: bool,
-    h: &mut Hierarchy,
-    s: &[SpatialMotion],
-    qdd: &mut [f64],
-    idx: usize,
+    r: &ActiveJoint,
+    w: AccelIo,
     k: usize,
     ap: [f64; 6],
-) {
+) -> [f64; 6] {
     #[cfg(target_arch = "x86_64")]
     if wide {
         // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
-        return unsafe { accelerate_multi_wide::<K>(h, s, qdd, idx, k, ap) };
+        return unsafe { accelerate_multi_wide::<K>(r, w, k, ap) };
     }
-    accelerate_multi::<K>(h, s, qdd, idx, k, ap)
+    accelerate_multi::<K>(r, w, k, ap)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline(never)]
 fn accelerate_multi_wide<const K: usize>(
-    h: &mut Hierarchy,
-    s: &[SpatialMotion],
-    qdd: &mut [f64],
-    idx: usize,
+    r: &ActiveJoint,
+    w: AccelIo,
     k: usize,
     ap: [f64; 6],
-) {
-    accelerate_multi_with::<K>(h, s, qdd, idx, k, ap)
+) -> [f64; 6] {
+    accelerate_multi_with::<K>(r, w, k, ap)
 }
 
 #[inline(never)]
 fn accelerate_multi<const K: usize>(
-    h: &mut Hierarchy,
-    s: &[SpatialMotion],
-    qdd: &mut [f64],
-    idx: usize,
+    r: &ActiveJoint,
+    w: AccelIo,
     k: usize,
     ap: [f64; 6],
-) {
-    accelerate_multi_with::<K>(h, s, qdd, idx, k, ap)
+) -> [f64; 6] {
+    accelerate_multi_with::<K>(r, w, k, ap)
 }
 
-/// Pass 3 of the reduced ABA at record `idx` for a joint of several degrees of freedom, from
-/// `a' = a_parent + c`: `q̈ = L⁻ᵀ L⁻¹ (u − Uᵀ a')`, `a = a' + S q̈`. `K` as in
+/// Pass 3 of the reduced ABA at record `r` for a joint of several degrees of freedom, from
+/// `a' = a_parent + c`: `q̈ = L⁻ᵀ L⁻¹ (u − Uᵀ a')`, returns `a = a' + S q̈`. `K` as in
 /// [`articulate_multi`].
 #[inline(always)]
 fn accelerate_multi_with<const K: usize>(
-    h: &mut Hierarchy,
-    s: &[SpatialMotion],
-    qdd: &mut [f64],
-    idx: usize,
+    r: &ActiveJoint,
+    (l, u, uu, s, qdd): AccelIo,
     k: usize,
     ap: [f64; 6],
-) {
+) -> [f64; 6] {
     let k = if K == 0 { k } else { K };
-    let r = &h.rec[idx];
     let (vo, dof) = (r.vo, r.dof);
     // q̈ = L⁻ᵀ L⁻¹ r.
-    let l = &h.chol[idx];
     let mut x = [0.0; 6];
     for p in 0..k {
-        let mut v = h.uu[dof + p] - dot6::<Portable>(&ap, &h.u[dof + p]);
+        let mut v = uu[dof + p] - dot6::<Portable>(&ap, &u[dof + p]);
         for qq in 0..p {
             v -= l[p][qq] * x[qq];
         }
@@ -828,7 +930,7 @@ fn accelerate_multi_with<const K: usize>(
             a[rr] += s[rr] * x[p];
         }
     }
-    h.acc[idx] = a;
+    a
 }
 
 /// The parts of a joint made of revolute parts about coordinate axes (`±x`, `±y`, `±z`, the
@@ -965,6 +1067,12 @@ fn turn(x: &mut SpatialTransform, i: usize, sn: f64, cs: f64) -> DVec3 {
             e.z_axis
         }
     }
+}
+
+/// A 3-vector as four lanes, the last zero.
+#[inline(always)]
+fn lanes3(v: DVec3) -> [f64; 4] {
+    [v.x, v.y, v.z, 0.0]
 }
 
 /// `a x` for a symmetric 6 × 6 matrix as a sum of its rows (= columns) scaled by `x`: per

@@ -10,7 +10,7 @@ use crate::dense;
 use crate::Settings;
 use articula_dca::{Data, DynamicsError};
 use articula_model::{HandleLayout, JointKind, Model, NodeKind};
-use articula_spatial::{skew, Mat6, SpatialForce, SpatialMotion};
+use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::{DMat3, DVec3};
 use std::collections::BinaryHeap;
 
@@ -104,7 +104,9 @@ fn cholesky5(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
 /// unused): per lane the operations of `dense::solve_llt_k`, in its order.
 #[inline(always)]
 fn w_apply3(t: &AxisBasis, l: &[[f64; 6]; 6], ys: [&[f64; 6]; 3]) -> [[f64; 6]; 3] {
-    let us = ys.map(|y| t.tr(y));
+    // Written out rather than `ys.map(..)` / `array::from_fn(..)`: their closures are called
+    // out of line (std's generic code, not compiled for AVX2), ~90 instructions a join.
+    let us = [t.tr(ys[0]), t.tr(ys[1]), t.tr(ys[2])];
     let mut x = [[0.0; 4]; 5];
     for i in 0..5 {
         for k in 0..3 {
@@ -139,7 +141,8 @@ fn w_apply3(t: &AxisBasis, l: &[[f64; 6]; 6], ys: [&[f64; 6]; 3]) -> [[f64; 6]; 
             x[i][k] = v[k] / d;
         }
     }
-    std::array::from_fn(|k| t.apply(&[x[0][k], x[1][k], x[2][k], x[3][k], x[4][k]]))
+    let col = |k: usize| t.apply(&[x[0][k], x[1][k], x[2][k], x[3][k], x[4][k]]);
+    [col(0), col(1), col(2)]
 }
 
 /// The basis `T` of the forces that do no work along one axis `s` (`sᵀ T = 0`): for a
@@ -682,7 +685,7 @@ impl Adaptive {
         let body = &model.bodies[joint];
         let (ja, jb) = (self.lay.ja[n], self.lay.jb[n]);
         let (nhc, hc) = (self.nh[n], self.lay.hoff[n]);
-        let g = (*self.phi_at(a, ja, ja) + *self.phi_at(b, jb, jb)).0;
+        let g = add6(&self.phi_at(a, ja, ja).0, &self.phi_at(b, jb, jb).0);
         // S, c at the joint's point P_j; β = b^A_j − b^B_j + c (no velocity product at impulse
         // level); G_F,h per handle of C.
         let pj = self.point[joint];
@@ -868,7 +871,7 @@ impl Adaptive {
                     self.phi[bc + kk * nhc + h] = blk.transpose();
                 }
             }
-            let db = self.gf[h].tr_mul_vec(&self.nvec[n]);
+            let db = tr_mul_vec(&self.gf[h], &self.nvec[n]);
             self.b[hc + h] = self.b[self.lay.hoff[x] + ih] - SpatialMotion::from_array(db);
         }
     }
@@ -1019,9 +1022,14 @@ impl Adaptive {
             nr[t.keep[0]] = z[2];
             nr[t.keep[1]] = z[3];
             nr[t.keep[2]] = z[4];
-            let base = 36 * hc + 6 * h;
-            for (r, row) in nr.iter().enumerate() {
-                self.nmat[base + r * wd..base + r * wd + 6].copy_from_slice(row);
+            // N's six rows of width 6·nhc, this handle's six columns of each (one range
+            // check for the node's block, then fixed-size row slices).
+            let blk = &mut self.nmat[36 * hc..36 * hc + 6 * wd];
+            for (dst, row) in blk.chunks_exact_mut(wd).zip(&nr) {
+                let dst: &mut [f64; 6] = (&mut dst[6 * h..6 * h + 6])
+                    .try_into()
+                    .expect("six columns per handle");
+                *dst = *row;
             }
             for (dst, src) in self.yt[h].0.iter_mut().zip(&y) {
                 dst[..6].copy_from_slice(src);
@@ -1176,12 +1184,128 @@ impl Adaptive {
     }
 }
 
+/// `a + b` entry by entry, row by row (`Mat6 + Mat6` took each entry by a scalar load in the
+/// join: the same sums).
+#[inline(always)]
+fn add6(a: &[[f64; 6]; 6], b: &[[f64; 6]; 6]) -> [[f64; 6]; 6] {
+    let mut g = *a;
+    for (gr, br) in g.iter_mut().zip(b) {
+        for (x, y) in gr.iter_mut().zip(br) {
+            *x += y;
+        }
+    }
+    g
+}
+
+/// `aᵀ x` ([`Mat6::tr_mul_vec`]'s operations, in its order), inlined into the AVX2 join
+/// (the crate's own copy was called out of line, unvectorised).
+#[inline(always)]
+fn tr_mul_vec(a: &Mat6, x: &[f64; 6]) -> [f64; 6] {
+    let mut y = [0.0; 6];
+    for (r, &xi) in a.0.iter().zip(x) {
+        for j in 0..6 {
+            y[j] += r[j] * xi;
+        }
+    }
+    y
+}
+
 /// A rigid body's handle block `Φ_hk` (mass `m`, centre of mass `c`, `j = I_c⁻¹`, handle
 /// points `P_h`, `P_k`; computation axes): `[j, −j E_k; E_h j, 1/m − E_h j E_k]` with
 /// `E_x = [c − P_x]×`.
+///
+/// In closed form, row by row: the columns of `E_h j` are `a × j_k` (`a = c − P_h`) and those
+/// of `X E_k` are `[X_y e_z − X_z e_y, X_z e_x − X_x e_z, X_x e_y − X_y e_x]` (`e = c − P_k`,
+/// `X_x` the columns of X). The products by a skew matrix as 3 × 3 products (as
+/// [`rigid_phi_product`] writes them) add a zero to each of these two-term differences, so the
+/// results are the same numbers but for the sign of an exact zero.
+#[inline(always)]
 pub(crate) fn rigid_phi(m: f64, c: DVec3, j: DMat3, ph: DVec3, pk: DVec3) -> Mat6 {
+    let (a, e) = (c - ph, c - pk);
+    let jc = [j.x_axis, j.y_axis, j.z_axis];
+    // Columns of E_h j, of j E_k and of E_h j E_k.
+    let axj = [a.cross(jc[0]), a.cross(jc[1]), a.cross(jc[2])];
+    let times_ek = |x: &[DVec3; 3]| {
+        [
+            x[1] * e.z - x[2] * e.y,
+            x[2] * e.x - x[0] * e.z,
+            x[0] * e.y - x[1] * e.x,
+        ]
+    };
+    let jek = times_ek(&jc);
+    let aje = times_ek(&axj);
+    let im = 1.0 / m;
+    let row = |r: usize| -> [f64; 6] {
+        [
+            jc[0][r], jc[1][r], jc[2][r], -jek[0][r], -jek[1][r], -jek[2][r],
+        ]
+    };
+    let low = |r: usize| -> [f64; 6] {
+        let d = |k: usize| if k == r { -aje[k][r] + im } else { -aje[k][r] };
+        [axj[0][r], axj[1][r], axj[2][r], d(0), d(1), d(2)]
+    };
+    Mat6([row(0), row(1), row(2), low(0), low(1), low(2)])
+}
+
+/// [`rigid_phi`] by 3 × 3 matrix products, as it was computed before its closed form (the
+/// reference of the test that they agree).
+#[cfg(test)]
+pub(crate) fn rigid_phi_product(m: f64, c: DVec3, j: DMat3, ph: DVec3, pk: DVec3) -> Mat6 {
+    use articula_spatial::skew;
     let axj = skew(c - ph) * j;
     let ek = skew(c - pk);
     let br = -(axj * ek) + DMat3::from_diagonal(DVec3::splat(1.0 / m));
     Mat6::from_blocks(j, -(j * ek), axj, br)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{rigid_phi, rigid_phi_product};
+    use glam::{DMat3, DVec3};
+
+    /// The closed-form handle block equals the 3 × 3-product one entry by entry, to the bit
+    /// for every non-zero entry (`==` also lets an exact zero differ in sign), over random
+    /// inertias and points, and points with zero components or on the centre of mass.
+    #[test]
+    fn rigid_phi_closed_form_is_the_product_form() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let mut checked = 0;
+        for case in 0..500 {
+            let l = DMat3::from_cols_array(&std::array::from_fn(|_| rnd()));
+            // I_c = L Lᵀ + 0.1: symmetric positive definite, and its inverse as the code forms it.
+            let ic = l * l.transpose() + DMat3::from_diagonal(DVec3::splat(0.1));
+            let j = ic.inverse();
+            let m = 0.5 + rnd().abs();
+            let c = DVec3::new(rnd(), rnd(), rnd());
+            let mut ph = DVec3::new(rnd(), rnd(), rnd());
+            let mut pk = DVec3::new(rnd(), rnd(), rnd());
+            match case % 5 {
+                1 => ph = c,
+                2 => pk = DVec3::new(c.x, 0.0, c.z),
+                3 => (ph, pk) = (DVec3::new(0.0, ph.y, 0.0), ph),
+                _ => {}
+            }
+            let (a, b) = (
+                rigid_phi(m, c, j, ph, pk),
+                rigid_phi_product(m, c, j, ph, pk),
+            );
+            for r in 0..6 {
+                for k in 0..6 {
+                    let (x, y) = (a.0[r][k], b.0[r][k]);
+                    assert!(x == y, "case {case} entry ({r}, {k}): {x} vs {y}");
+                    if x != 0.0 {
+                        assert_eq!(x.to_bits(), y.to_bits());
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked > 500 * 20);
+    }
 }

@@ -56,6 +56,34 @@ impl Adaptive {
         model: &Model,
         state: &mut State,
     ) -> Result<bool, DynamicsError> {
+        #[cfg(target_arch = "x86_64")]
+        if self.fused {
+            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // has AVX2 and FMA).
+            return unsafe { self.cached_reselect_wide(model, state) };
+        }
+        self.cached_reselect_with(model, state)
+    }
+
+    /// [`Adaptive::cached_reselect`] compiled for AVX2 + FMA (its own arithmetic — the
+    /// frontier leaves' world inertias, the frames — in wider instructions; no fused
+    /// multiply–adds, so the same results to the bit).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn cached_reselect_wide(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+    ) -> Result<bool, DynamicsError> {
+        self.cached_reselect_with(model, state)
+    }
+
+    #[inline(always)]
+    fn cached_reselect_with(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+    ) -> Result<bool, DynamicsError> {
         let tree = &model.assembly;
         self.check_active_inputs(model, state)?;
         self.cache.epoch += 1;
