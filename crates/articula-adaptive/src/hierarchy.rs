@@ -641,11 +641,16 @@ impl Adaptive {
                 }
                 continue;
             }
-            // Several degrees of freedom: the loops over them unrolled for the usual counts.
+            // Several degrees of freedom: the loops over them unrolled for three (the
+            // humanoid's hips, shoulders, spine and neck); any other count takes the same
+            // loops with their length read at run time (the same operations in the same
+            // order). One unrolled copy per count a body's step runs is code the instruction
+            // cache must hold for every body of a crowd: with 2- and 6-DOF copies too,
+            // crowd200's steps between re-selections ran 1.8% fewer instructions, 8% more
+            // instruction-cache misses (32 kB L1i) and ~3% more wall time (docs/view.md,
+            // session 10).
             let ok = match k {
-                2 => articulate::<2>(wide, r, &mut w, &d.s, tau, idx, k, &c),
                 3 => articulate::<3>(wide, r, &mut w, &d.s, tau, idx, k, &c),
-                6 => articulate::<6>(wide, r, &mut w, &d.s, tau, idx, k, &c),
                 _ => articulate::<0>(wide, r, &mut w, &d.s, tau, idx, k, &c),
             };
             if !ok {
@@ -683,9 +688,7 @@ impl Adaptive {
             }
             let w = (&chol[idx], u, uu, &d.s[..], &mut *qdd);
             acc[idx] = match k {
-                2 => accelerate::<2>(wide, r, w, k, ap),
                 3 => accelerate::<3>(wide, r, w, k, ap),
-                6 => accelerate::<6>(wide, r, w, k, ap),
                 _ => accelerate::<0>(wide, r, w, k, ap),
             };
         }
