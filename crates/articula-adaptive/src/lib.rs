@@ -59,7 +59,7 @@ mod update;
 pub use hybrid::{Adaptive, Selection};
 pub use scratch::Scratch;
 
-use articula_dca::{check_inputs, forward_kinematics, DynamicsError, State};
+use articula_dca::{all_finite, check_inputs, forward_kinematics, DynamicsError, State};
 use articula_model::{Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialTransform};
 use hybrid::Level;
@@ -533,7 +533,7 @@ impl Adaptive {
                 let a = self.qdd[vo];
                 let v = state.qd[vo] + dt * a;
                 let q = state.q[qo] + v * dt;
-                if all_finite3(a, v, q) {
+                if all_finite(&[a, v, q]) {
                     state.qd[vo] = v;
                     state.q[qo] = q;
                     dofs += 1;
@@ -673,7 +673,7 @@ impl Adaptive {
         }
         for rec in &self.hier.rec {
             if rec.axis.is_some() {
-                if all_finite3(state.q[rec.qo], state.qd[rec.vo], state.tau[rec.vo]) {
+                if all_finite(&[state.q[rec.qo], state.qd[rec.vo], state.tau[rec.vo]]) {
                     continue;
                 }
                 return check_inputs(model, &state.q, &state.qd, &state.tau, &state.f_ext);
@@ -696,15 +696,6 @@ impl Adaptive {
         }
         Ok(())
     }
-}
-
-/// `a`, `b` and `c` are finite: `x − x` is `+0` for a finite `x` and NaN for an infinite or
-/// NaN one, so the sum is zero exactly when all three are finite (one comparison instead of
-/// three classifications and branches).
-#[inline(always)]
-#[allow(clippy::eq_op)] // `x − x` is the point: NaN unless `x` is finite.
-fn all_finite3(a: f64, b: f64, c: f64) -> bool {
-    (a - a) + (b - b) + (c - c) == 0.0
 }
 
 /// The error naming the part of body `j`'s joint whose value in `x` is not finite.
@@ -763,36 +754,4 @@ fn check_qdd(model: &Model, qdd: &[f64]) -> Result<(), DynamicsError> {
         }
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::all_finite3;
-
-    /// `all_finite3` agrees with three `is_finite` tests on every triple of special and
-    /// ordinary values (zeros of both signs, subnormals, the extremes, infinities, NaNs).
-    #[test]
-    fn all_finite3_is_three_is_finite_tests() {
-        let vals = [
-            0.0,
-            -0.0,
-            1.5,
-            -2.25e-300,
-            f64::MIN_POSITIVE / 4.0,
-            f64::MAX,
-            f64::MIN,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::NAN,
-            -f64::NAN,
-        ];
-        for &a in &vals {
-            for &b in &vals {
-                for &c in &vals {
-                    let want = a.is_finite() && b.is_finite() && c.is_finite();
-                    assert_eq!(all_finite3(a, b, c), want, "{a} {b} {c}");
-                }
-            }
-        }
-    }
 }

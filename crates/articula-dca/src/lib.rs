@@ -149,9 +149,10 @@ pub fn forward_dynamics<'d>(
 
 /// Whether every entry of `xs` is finite, without an early exit so that it vectorises: `x·0`
 /// is ±0 for a finite `x` and NaN for an infinite or NaN one, summed in four lanes (a sum of
-/// zeros is zero; one NaN makes it NaN).
+/// zeros is zero; one NaN makes it NaN). The input checks of the solvers here and of
+/// articula-adaptive's steps use it.
 #[inline]
-fn all_finite(xs: &[f64]) -> bool {
+pub fn all_finite(xs: &[f64]) -> bool {
     let mut acc = [0.0f64; 4];
     let mut chunks = xs.chunks_exact(4);
     for c in &mut chunks {
