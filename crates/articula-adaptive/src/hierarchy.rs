@@ -348,7 +348,7 @@ impl Adaptive {
         let h = &mut self.hier;
         for (r, sc) in h.rec.iter().zip(h.sc.iter_mut()) {
             if let Some((_, sign)) = r.axis {
-                *sc = (sign * q[r.qo]).sin_cos();
+                *sc = crate::trig::sin_cos(sign * q[r.qo]);
             }
         }
         let h = &self.hier;
@@ -1034,7 +1034,7 @@ fn revolute_kinematics_with(
             p = -(x.e * x.r);
         }
         let (i, sign) = parts.axes[k];
-        let (sn, cs) = (sign * q[part.q_offset]).sin_cos();
+        let (sn, cs) = crate::trig::sin_cos(sign * q[part.q_offset]);
         let axis = turn(&mut x, i, sn, cs);
         // S = X [±e_i; 0] = [w; p × w], `w = ±` column i of E.
         let w = axis * sign;
