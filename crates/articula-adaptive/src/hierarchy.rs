@@ -322,6 +322,7 @@ impl Adaptive {
     /// (`x0`: the parent body's pose in its cluster and the joint origin) and turns two
     /// columns of it; its axis is a column of the pose, `s = [ω; p × ω]` with `p` the body's
     /// origin.
+    #[inline]
     pub(crate) fn active_kinematics(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
         #[cfg(target_arch = "x86_64")]
         if self.fused {
@@ -344,9 +345,17 @@ impl Adaptive {
     fn active_kinematics_with(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
         let wide = self.fused;
         let x_cw = SpatialTransform::xlt(self.data.origin);
-        // The angles' sines and cosines first (the same calls as in the loop below).
+        // The angles' sines and cosines first (the loop below then makes no call), four
+        // records at a time in AVX2 lanes when `wide` (the same bits).
         let h = &mut self.hier;
-        for (r, sc) in h.rec.iter().zip(h.sc.iter_mut()) {
+        let (rec, scs) = (&h.rec[..], &mut h.sc[..h.rec.len()]);
+        let mut done = 0;
+        #[cfg(target_arch = "x86_64")]
+        if wide && rec.len() >= 4 {
+            // SAFETY: `wide` is `fused`, set only where the CPU has AVX2 and FMA.
+            done = unsafe { sin_cos_records4(rec, scs, q) };
+        }
+        for (r, sc) in rec[done..].iter().zip(&mut scs[done..]) {
             if let Some((_, sign)) = r.axis {
                 *sc = crate::trig::sin_cos(sign * q[r.qo]);
             }
@@ -694,6 +703,34 @@ impl Adaptive {
         }
         Ok(())
     }
+}
+
+/// The first sweep of [`Adaptive::active_kinematics`] four records at a time
+/// ([`crate::trig::sin_cos4`]; out of line, so that a reduced tree of a few joints pays
+/// nothing for it): `sc` of each closed-form revolute record among the first `4 ⌊n/4⌋`,
+/// whose count it returns.
+///
+/// # Safety
+/// The CPU must have AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+unsafe fn sin_cos_records4(rec: &[ActiveJoint], scs: &mut [(f64, f64)], q: &[f64]) -> usize {
+    for (rs, sc) in rec.chunks_exact(4).zip(scs.chunks_exact_mut(4)) {
+        let mut x = [0.0; 4];
+        for (xl, r) in x.iter_mut().zip(rs) {
+            if let Some((_, sign)) = r.axis {
+                *xl = sign * q[r.qo];
+            }
+        }
+        let (s4, c4) = crate::trig::sin_cos4(&x);
+        for (l, (r, sc)) in rs.iter().zip(sc.iter_mut()).enumerate() {
+            if r.axis.is_some() {
+                *sc = (s4[l], c4[l]);
+            }
+        }
+    }
+    rec.len() / 4 * 4
 }
 
 /// What pass 2 writes: `Iᴬ`, `pᴬ` (the parents'), `U`, `u` and the Cholesky factors.
