@@ -430,9 +430,10 @@ impl Adaptive {
             self.data.origin = articula_dca::computation_origin(model, q);
             self.active_kinematics(model, q, qd);
         }
-        for idx in 0..self.hier.fnodes.len() {
-            let f = self.hier.fnodes[idx];
-            self.fsum[f] = SpatialForce::ZERO;
+        // (Through disjoint borrows, so that the vectors' pointers stay in registers.)
+        let (fnodes, fsum) = (&self.hier.fnodes, &mut self.fsum);
+        for &f in fnodes {
+            fsum[f] = SpatialForce::ZERO;
         }
         // An external force on a rigid part goes to its cluster: a walk up the tree, once per
         // body and hybrid body.
@@ -475,6 +476,11 @@ impl Adaptive {
         tau: &[f64],
         level: Level,
     ) -> Result<(), DynamicsError> {
+        if let [r] = &self.hier.rec[..] {
+            if r.k == 1 && r.pidx == usize::MAX {
+                return self.one_joint(model, tau, level);
+            }
+        }
         #[cfg(target_arch = "x86_64")]
         if self.fused {
             // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
@@ -482,6 +488,81 @@ impl Adaptive {
             return unsafe { self.reduced_aba_fused(model, tau, level) };
         }
         self.reduced_aba_with::<Portable>(model, tau, level)
+    }
+
+    /// [`Adaptive::reduced_aba`] for a reduced tree of one single-DOF joint on the world or
+    /// on a cluster welded to the ground (budget 1 on a fixed base): the articulated-body
+    /// algorithm with nothing to articulate, `q̈ = (τ − sᵀ pᴬ − sᵀ I a') / sᵀ I s` with
+    /// `a' = a₀ + c` (RBDA Table 7.1: `U = I s`, `D = sᵀ U`, `u = τ − sᵀ pᴬ`,
+    /// `q̈ = D⁻¹ (u − Uᵀ a')`). The two products by the cluster's spatial inertia
+    /// (`I s`, and `I v` in `pᴬ = v ×* I v − f_ext`) come from its parts ([`Parts`]) instead
+    /// of forming the 6 × 6 matrix and sweeping it. The same solution; the rounding differs
+    /// from the general passes' (tests compare both with exact DCA).
+    fn one_joint(&mut self, model: &Model, tau: &[f64], level: Level) -> Result<(), DynamicsError> {
+        #[cfg(target_arch = "x86_64")]
+        if self.fused {
+            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // has AVX2 and FMA).
+            return unsafe { self.one_joint_wide(model, tau, level) };
+        }
+        self.one_joint_with(model, tau, level)
+    }
+
+    /// [`Adaptive::one_joint`] compiled for AVX2 + FMA (no fused multiply–adds: the same
+    /// bits as the portable compilation).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn one_joint_wide(
+        &mut self,
+        model: &Model,
+        tau: &[f64],
+        level: Level,
+    ) -> Result<(), DynamicsError> {
+        self.one_joint_with(model, tau, level)
+    }
+
+    #[inline(always)]
+    fn one_joint_with(
+        &mut self,
+        model: &Model,
+        tau: &[f64],
+        level: Level,
+    ) -> Result<(), DynamicsError> {
+        let accel = level == Level::Acceleration;
+        self.touched = self.hier.hnodes.len() + self.hier.fnodes.len();
+        let d = &self.data;
+        let r = &self.hier.rec[0];
+        let x = &d.x[r.j];
+        let rl = &r.rig;
+        // The cluster's centre of mass from the joint's body (computation axes), h = m c.
+        let cw = x.e * (rl.c - x.r);
+        let body = Parts {
+            e: x.e,
+            et: x.e.transpose(),
+            ic: rl.ic,
+            m: rl.m,
+            cw,
+            cc: cw.dot(cw),
+            hv: cw * rl.m,
+        };
+        let s = d.s[r.vo];
+        let u = body.inertia(s);
+        let dd = s.dot(u);
+        if dd.is_nan() || dd <= 0.0 {
+            return Err(singular(model, r.j));
+        }
+        let (pa, ap) = if accel {
+            let v = d.v[r.j];
+            (
+                v.cross_force(body.inertia(v)) - self.fsum[r.f],
+                SpatialMotion::new(DVec3::ZERO, -d.gravity) + d.c[r.j],
+            )
+        } else {
+            (SpatialForce::ZERO, SpatialMotion::ZERO)
+        };
+        let uu = tau[r.vo] - s.dot(pa);
+        self.qdd[r.vo] = (1.0 / dd) * (uu - ap.dot(u));
+        Ok(())
     }
 
     /// [`Adaptive::reduced_aba`] compiled for AVX2 + FMA (everything using [`Fused`] below it
@@ -731,6 +812,31 @@ unsafe fn sin_cos_records4(rec: &[ActiveJoint], scs: &mut [(f64, f64)], q: &[f64
         }
     }
     rec.len() / 4 * 4
+}
+
+/// A rigid cluster's spatial inertia about the computation origin by its parts
+/// ([`Adaptive::one_joint`]): axes `E` (and `Eᵀ`), central inertia `I_c` in its frame, mass,
+/// centre of mass `c` (computation axes, from the origin), `|c|²` and `h = m c` (pass 1's
+/// quantities).
+struct Parts {
+    e: glam::DMat3,
+    et: glam::DMat3,
+    ic: glam::DMat3,
+    m: f64,
+    cw: DVec3,
+    cc: f64,
+    hv: DVec3,
+}
+
+impl Parts {
+    /// `I [a; b] = [Ī a + h × b; m b − h × a]` with `Ī a = E I_c Eᵀ a + m (|c|² a − c (c·a))`.
+    #[inline(always)]
+    fn inertia(&self, v: SpatialMotion) -> SpatialForce {
+        let a = v.w;
+        let ibar =
+            self.e * (self.ic * (self.et * a)) + (a * self.cc - self.cw * self.cw.dot(a)) * self.m;
+        SpatialForce::new(ibar + self.hv.cross(v.v), v.v * self.m - self.hv.cross(a))
+    }
 }
 
 /// What pass 2 writes: `Iᴬ`, `pᴬ` (the parents'), `U`, `u` and the Cholesky factors.
