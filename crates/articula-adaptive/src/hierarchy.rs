@@ -695,11 +695,18 @@ impl Adaptive {
                 let ia = &w.ia[idx];
                 let s = d.s[vo].to_array();
                 // U = Iᴬ s (Iᴬ symmetric: a sum of its rows).
-                let mut u = [0.0; 6];
-                for (row, &sc) in ia.iter().zip(&s) {
+                // In two halves of three rows, then summed: the chain from a joint's Iᴬ to
+                // its parent's is three multiply–adds and an addition here, not six.
+                let (mut ua, mut ub) = ([0.0; 6], [0.0; 6]);
+                for k in 0..3 {
                     for rr in 0..6 {
-                        u[rr] = A::mul_add(row[rr], sc, u[rr]);
+                        ua[rr] = A::mul_add(ia[k][rr], s[k], ua[rr]);
+                        ub[rr] = A::mul_add(ia[k + 3][rr], s[k + 3], ub[rr]);
                     }
+                }
+                let mut u = [0.0; 6];
+                for rr in 0..6 {
+                    u[rr] = ua[rr] + ub[rr];
                 }
                 let dd = dot6::<A>(&s, &u);
                 let dinv = 1.0 / dd;
@@ -1254,11 +1261,15 @@ fn add_sub_outer<A: Arith>(s: &mut Sym6, a: &Sym6, u: &[f64; 6], alpha: f64) {
 
 #[inline(always)]
 fn dot6<A: Arith>(a: &[f64; 6], b: &[f64; 6]) -> f64 {
-    let mut x = a[0] * b[0];
-    for k in 1..6 {
-        x = A::mul_add(a[k], b[k], x);
-    }
-    x
+    // Three pairs summed (a dependency chain of a product, a multiply–add and two additions
+    // instead of six multiply–adds: pass 2's `D = sᵀ U` and pass 3's `Uᵀ a'` sit on the
+    // chain from joint to joint).
+    let p = [
+        A::mul_add(a[1], b[1], a[0] * b[0]),
+        A::mul_add(a[3], b[3], a[2] * b[2]),
+        A::mul_add(a[5], b[5], a[4] * b[4]),
+    ];
+    (p[0] + p[1]) + p[2]
 }
 
 /// The error of a joint whose `Sᵀ Iᴬ S` is not positive definite.
