@@ -322,6 +322,7 @@ impl Adaptive {
     /// (`x0`: the parent body's pose in its cluster and the joint origin) and turns two
     /// columns of it; its axis is a column of the pose, `s = [ω; p × ω]` with `p` the body's
     /// origin.
+    #[inline]
     pub(crate) fn active_kinematics(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
         #[cfg(target_arch = "x86_64")]
         if self.fused {
@@ -344,11 +345,19 @@ impl Adaptive {
     fn active_kinematics_with(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
         let wide = self.fused;
         let x_cw = SpatialTransform::xlt(self.data.origin);
-        // The angles' sines and cosines first (the same calls as in the loop below).
+        // The angles' sines and cosines first (the loop below then makes no call), four
+        // records at a time in AVX2 lanes when `wide` (the same bits).
         let h = &mut self.hier;
-        for (r, sc) in h.rec.iter().zip(h.sc.iter_mut()) {
+        let (rec, scs) = (&h.rec[..], &mut h.sc[..h.rec.len()]);
+        let mut done = 0;
+        #[cfg(target_arch = "x86_64")]
+        if wide && rec.len() >= 4 {
+            // SAFETY: `wide` is `fused`, set only where the CPU has AVX2 and FMA.
+            done = unsafe { sin_cos_records4(rec, scs, q) };
+        }
+        for (r, sc) in rec[done..].iter().zip(&mut scs[done..]) {
             if let Some((_, sign)) = r.axis {
-                *sc = (sign * q[r.qo]).sin_cos();
+                *sc = crate::trig::sin_cos(sign * q[r.qo]);
             }
         }
         let h = &self.hier;
@@ -421,9 +430,10 @@ impl Adaptive {
             self.data.origin = articula_dca::computation_origin(model, q);
             self.active_kinematics(model, q, qd);
         }
-        for idx in 0..self.hier.fnodes.len() {
-            let f = self.hier.fnodes[idx];
-            self.fsum[f] = SpatialForce::ZERO;
+        // (Through disjoint borrows, so that the vectors' pointers stay in registers.)
+        let (fnodes, fsum) = (&self.hier.fnodes, &mut self.fsum);
+        for &f in fnodes {
+            fsum[f] = SpatialForce::ZERO;
         }
         // An external force on a rigid part goes to its cluster: a walk up the tree, once per
         // body and hybrid body.
@@ -466,6 +476,11 @@ impl Adaptive {
         tau: &[f64],
         level: Level,
     ) -> Result<(), DynamicsError> {
+        if let [r] = &self.hier.rec[..] {
+            if r.k == 1 && r.pidx == usize::MAX {
+                return self.one_joint(model, tau, level);
+            }
+        }
         #[cfg(target_arch = "x86_64")]
         if self.fused {
             // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
@@ -473,6 +488,81 @@ impl Adaptive {
             return unsafe { self.reduced_aba_fused(model, tau, level) };
         }
         self.reduced_aba_with::<Portable>(model, tau, level)
+    }
+
+    /// [`Adaptive::reduced_aba`] for a reduced tree of one single-DOF joint on the world or
+    /// on a cluster welded to the ground (budget 1 on a fixed base): the articulated-body
+    /// algorithm with nothing to articulate, `q̈ = (τ − sᵀ pᴬ − sᵀ I a') / sᵀ I s` with
+    /// `a' = a₀ + c` (RBDA Table 7.1: `U = I s`, `D = sᵀ U`, `u = τ − sᵀ pᴬ`,
+    /// `q̈ = D⁻¹ (u − Uᵀ a')`). The two products by the cluster's spatial inertia
+    /// (`I s`, and `I v` in `pᴬ = v ×* I v − f_ext`) come from its parts ([`Parts`]) instead
+    /// of forming the 6 × 6 matrix and sweeping it. The same solution; the rounding differs
+    /// from the general passes' (tests compare both with exact DCA).
+    fn one_joint(&mut self, model: &Model, tau: &[f64], level: Level) -> Result<(), DynamicsError> {
+        #[cfg(target_arch = "x86_64")]
+        if self.fused {
+            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // has AVX2 and FMA).
+            return unsafe { self.one_joint_wide(model, tau, level) };
+        }
+        self.one_joint_with(model, tau, level)
+    }
+
+    /// [`Adaptive::one_joint`] compiled for AVX2 + FMA (no fused multiply–adds: the same
+    /// bits as the portable compilation).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn one_joint_wide(
+        &mut self,
+        model: &Model,
+        tau: &[f64],
+        level: Level,
+    ) -> Result<(), DynamicsError> {
+        self.one_joint_with(model, tau, level)
+    }
+
+    #[inline(always)]
+    fn one_joint_with(
+        &mut self,
+        model: &Model,
+        tau: &[f64],
+        level: Level,
+    ) -> Result<(), DynamicsError> {
+        let accel = level == Level::Acceleration;
+        self.touched = self.hier.hnodes.len() + self.hier.fnodes.len();
+        let d = &self.data;
+        let r = &self.hier.rec[0];
+        let x = &d.x[r.j];
+        let rl = &r.rig;
+        // The cluster's centre of mass from the joint's body (computation axes), h = m c.
+        let cw = x.e * (rl.c - x.r);
+        let body = Parts {
+            e: x.e,
+            et: x.e.transpose(),
+            ic: rl.ic,
+            m: rl.m,
+            cw,
+            cc: cw.dot(cw),
+            hv: cw * rl.m,
+        };
+        let s = d.s[r.vo];
+        let u = body.inertia(s);
+        let dd = s.dot(u);
+        if dd.is_nan() || dd <= 0.0 {
+            return Err(singular(model, r.j));
+        }
+        let (pa, ap) = if accel {
+            let v = d.v[r.j];
+            (
+                v.cross_force(body.inertia(v)) - self.fsum[r.f],
+                SpatialMotion::new(DVec3::ZERO, -d.gravity) + d.c[r.j],
+            )
+        } else {
+            (SpatialForce::ZERO, SpatialMotion::ZERO)
+        };
+        let uu = tau[r.vo] - s.dot(pa);
+        self.qdd[r.vo] = (1.0 / dd) * (uu - ap.dot(u));
+        Ok(())
     }
 
     /// [`Adaptive::reduced_aba`] compiled for AVX2 + FMA (everything using [`Fused`] below it
@@ -605,11 +695,18 @@ impl Adaptive {
                 let ia = &w.ia[idx];
                 let s = d.s[vo].to_array();
                 // U = Iᴬ s (Iᴬ symmetric: a sum of its rows).
-                let mut u = [0.0; 6];
-                for (row, &sc) in ia.iter().zip(&s) {
+                // In two halves of three rows, then summed: the chain from a joint's Iᴬ to
+                // its parent's is three multiply–adds and an addition here, not six.
+                let (mut ua, mut ub) = ([0.0; 6], [0.0; 6]);
+                for k in 0..3 {
                     for rr in 0..6 {
-                        u[rr] = A::mul_add(row[rr], sc, u[rr]);
+                        ua[rr] = A::mul_add(ia[k][rr], s[k], ua[rr]);
+                        ub[rr] = A::mul_add(ia[k + 3][rr], s[k + 3], ub[rr]);
                     }
+                }
+                let mut u = [0.0; 6];
+                for rr in 0..6 {
+                    u[rr] = ua[rr] + ub[rr];
                 }
                 let dd = dot6::<A>(&s, &u);
                 let dinv = 1.0 / dd;
@@ -693,6 +790,59 @@ impl Adaptive {
             };
         }
         Ok(())
+    }
+}
+
+/// The first sweep of [`Adaptive::active_kinematics`] four records at a time
+/// ([`crate::trig::sin_cos4`]; out of line, so that a reduced tree of a few joints pays
+/// nothing for it): `sc` of each closed-form revolute record among the first `4 ⌊n/4⌋`,
+/// whose count it returns.
+///
+/// # Safety
+/// The CPU must have AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+unsafe fn sin_cos_records4(rec: &[ActiveJoint], scs: &mut [(f64, f64)], q: &[f64]) -> usize {
+    for (rs, sc) in rec.chunks_exact(4).zip(scs.chunks_exact_mut(4)) {
+        let mut x = [0.0; 4];
+        for (xl, r) in x.iter_mut().zip(rs) {
+            if let Some((_, sign)) = r.axis {
+                *xl = sign * q[r.qo];
+            }
+        }
+        let (s4, c4) = crate::trig::sin_cos4(&x);
+        for (l, (r, sc)) in rs.iter().zip(sc.iter_mut()).enumerate() {
+            if r.axis.is_some() {
+                *sc = (s4[l], c4[l]);
+            }
+        }
+    }
+    rec.len() / 4 * 4
+}
+
+/// A rigid cluster's spatial inertia about the computation origin by its parts
+/// ([`Adaptive::one_joint`]): axes `E` (and `Eᵀ`), central inertia `I_c` in its frame, mass,
+/// centre of mass `c` (computation axes, from the origin), `|c|²` and `h = m c` (pass 1's
+/// quantities).
+struct Parts {
+    e: glam::DMat3,
+    et: glam::DMat3,
+    ic: glam::DMat3,
+    m: f64,
+    cw: DVec3,
+    cc: f64,
+    hv: DVec3,
+}
+
+impl Parts {
+    /// `I [a; b] = [Ī a + h × b; m b − h × a]` with `Ī a = E I_c Eᵀ a + m (|c|² a − c (c·a))`.
+    #[inline(always)]
+    fn inertia(&self, v: SpatialMotion) -> SpatialForce {
+        let a = v.w;
+        let ibar =
+            self.e * (self.ic * (self.et * a)) + (a * self.cc - self.cw * self.cw.dot(a)) * self.m;
+        SpatialForce::new(ibar + self.hv.cross(v.v), v.v * self.m - self.hv.cross(a))
     }
 }
 
@@ -1034,7 +1184,7 @@ fn revolute_kinematics_with(
             p = -(x.e * x.r);
         }
         let (i, sign) = parts.axes[k];
-        let (sn, cs) = (sign * q[part.q_offset]).sin_cos();
+        let (sn, cs) = crate::trig::sin_cos(sign * q[part.q_offset]);
         let axis = turn(&mut x, i, sn, cs);
         // S = X [±e_i; 0] = [w; p × w], `w = ±` column i of E.
         let w = axis * sign;
@@ -1111,11 +1261,15 @@ fn add_sub_outer<A: Arith>(s: &mut Sym6, a: &Sym6, u: &[f64; 6], alpha: f64) {
 
 #[inline(always)]
 fn dot6<A: Arith>(a: &[f64; 6], b: &[f64; 6]) -> f64 {
-    let mut x = a[0] * b[0];
-    for k in 1..6 {
-        x = A::mul_add(a[k], b[k], x);
-    }
-    x
+    // Three pairs summed (a dependency chain of a product, a multiply–add and two additions
+    // instead of six multiply–adds: pass 2's `D = sᵀ U` and pass 3's `Uᵀ a'` sit on the
+    // chain from joint to joint).
+    let p = [
+        A::mul_add(a[1], b[1], a[0] * b[0]),
+        A::mul_add(a[3], b[3], a[2] * b[2]),
+        A::mul_add(a[5], b[5], a[4] * b[4]),
+    ];
+    (p[0] + p[1]) + p[2]
 }
 
 /// The error of a joint whose `Sᵀ Iᴬ S` is not positive definite.

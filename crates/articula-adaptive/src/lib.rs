@@ -54,6 +54,7 @@ mod hybrid;
 mod metric;
 mod rigidify;
 mod scratch;
+mod trig;
 mod update;
 
 pub use hybrid::{Adaptive, Selection};

@@ -662,16 +662,40 @@ impl Adaptive {
     }
 }
 
-/// Whether two slices hold the same bits (compared in blocks of eight, which vectorizes).
+/// Whether two slices hold the same bits: compared as `u64`s, which the standard library's
+/// slice equality does by `memcmp` (vectorised; in blocks of eight `f64` bit patterns or-ed
+/// together, the comparison took ~860 instructions on chain300's 300 torques, as `memcmp` ~130).
 fn same_bits(a: &[f64], b: &[f64]) -> bool {
-    if a.len() != b.len() {
-        return false;
+    let bits = |x: &[f64]| -> &[u64] {
+        // SAFETY: `f64` and `u64` have the same size and alignment, and every bit pattern is a
+        // valid `u64`; the view borrows `x` for its lifetime.
+        unsafe { std::slice::from_raw_parts(x.as_ptr().cast::<u64>(), x.len()) }
+    };
+    bits(a) == bits(b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::same_bits;
+
+    /// `same_bits` is bitwise equality: `0.0` and `-0.0` differ, equal NaN payloads agree,
+    /// lengths must match, and a difference anywhere (every position of several lengths) is
+    /// found.
+    #[test]
+    fn same_bits_is_bitwise_equality() {
+        assert!(same_bits(&[], &[]));
+        assert!(!same_bits(&[1.0], &[1.0, 2.0]));
+        assert!(!same_bits(&[0.0], &[-0.0]));
+        assert!(same_bits(&[f64::NAN], &[f64::NAN]));
+        assert!(!same_bits(&[f64::NAN], &[-f64::NAN]));
+        for n in [1, 7, 8, 9, 31, 300] {
+            let a: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
+            assert!(same_bits(&a, &a.clone()));
+            for k in 0..n {
+                let mut b = a.clone();
+                b[k] = f64::from_bits(b[k].to_bits() ^ 1);
+                assert!(!same_bits(&a, &b), "n {n}, k {k}");
+            }
+        }
     }
-    // Blocks of eight fixed-size rows, their differing bits or-ed together.
-    let (xa, ya) = (a.chunks_exact(8), b.chunks_exact(8));
-    let (ra, rb) = (xa.remainder(), ya.remainder());
-    xa.zip(ya).all(|(x, y)| {
-        let (x, y): (&[f64; 8], &[f64; 8]) = (x.try_into().unwrap(), y.try_into().unwrap());
-        (0..8).fold(0u64, |d, k| d | (x[k].to_bits() ^ y[k].to_bits())) == 0
-    }) && ra.iter().zip(rb).all(|(p, q)| p.to_bits() == q.to_bits())
 }
