@@ -1281,16 +1281,19 @@ fn sym_mul6(a: &Sym6, x: &[f64; 6]) -> [f64; 6] {
 /// (each pair computed once and written twice): its rows are contiguous vectors.
 pub(crate) type Sym6 = [[f64; 6]; 6];
 
-/// `s += a − α u uᵀ` on symmetric 6 × 6 matrices: the upper triangle computed (`w = α u`
-/// once: `a − w_i u_j` rounds once when fused), each entry written to both halves.
+/// `s += a − α u uᵀ` on symmetric 6 × 6 matrices, row by row: entry `(i, j)` is
+/// `s_ij + (a_ij − α (u_i u_j))` (`u_i u_j = u_j u_i` to the bit, so the result stays
+/// symmetric to the bit; a product, a multiply–add and an addition per lane, no shuffles, and
+/// from `α` to the result a multiply–add and an addition).
 #[inline(always)]
 fn add_sub_outer<A: Arith>(s: &mut Sym6, a: &Sym6, u: &[f64; 6], alpha: f64) {
-    let w = u.map(|x| alpha * x);
-    for i in 0..6 {
-        for j in i..6 {
-            let x = s[i][j] + A::neg_mul_add(w[i], u[j], a[i][j]);
-            s[i][j] = x;
-            s[j][i] = x;
+    for ((srow, arow), &ui) in s.iter_mut().zip(a).zip(u) {
+        let (lo, hi) = srow.split_at_mut(4);
+        for j in 0..4 {
+            lo[j] += A::neg_mul_add(alpha, ui * u[j], arow[j]);
+        }
+        for j in 0..2 {
+            hi[j] += A::neg_mul_add(alpha, ui * u[j + 4], arow[j + 4]);
         }
     }
 }
