@@ -763,25 +763,61 @@ impl Adaptive {
         let (acc, dinv, chol) = (&mut acc[..n], &*dinvs, &*w.chol);
         let (u, uu) = (&*w.u, &*w.uu);
         let qdd = &mut self.qdd[..];
+        // The previous record when it is a one-degree-of-freedom joint (`usize::MAX`
+        // otherwise): its index, a', S and q̈, kept in locals for a child that follows it
+        // (on a chain, every record).
+        let (mut pidx1, mut pap, mut ps, mut px) = (usize::MAX, [0.0; 6], [0.0; 6], 0.0);
         for (idx, r) in rec.iter().enumerate() {
             let (vo, k, dof) = (r.vo, r.k, r.dof);
+            let c = if accel { d.c[r.j].to_array() } else { [0.0; 6] };
+            if k == 1 {
+                let s = d.s[vo].to_array();
+                let ud = &u[dof];
+                let (ap, x) = if r.pidx == pidx1 && r.pidx != usize::MAX {
+                    // The parent is the previous record: a' = (a'_p + S_p q̈_p) + c, and
+                    // q̈ = D⁻¹ (u − Uᵀ(a'_p + c) − (Uᵀ S_p) q̈_p), whose chain from the
+                    // parent's q̈ is one multiply–add and a product (the parent's a' is
+                    // known before its q̈).
+                    let mut base = pap;
+                    let mut ap: [f64; 6] =
+                        std::array::from_fn(|rr| A::mul_add(ps[rr], px, pap[rr]));
+                    if accel {
+                        for rr in 0..6 {
+                            base[rr] += c[rr];
+                            ap[rr] += c[rr];
+                        }
+                    }
+                    let sig = dot6::<A>(ud, &ps);
+                    let x = dinv[idx] * A::neg_mul_add(sig, px, uu[dof] - dot6::<A>(&base, ud));
+                    (ap, x)
+                } else {
+                    let mut ap = if r.pidx == usize::MAX {
+                        a0
+                    } else {
+                        acc[r.pidx]
+                    };
+                    if accel {
+                        for rr in 0..6 {
+                            ap[rr] += c[rr];
+                        }
+                    }
+                    (ap, dinv[idx] * (uu[dof] - dot6::<A>(&ap, ud)))
+                };
+                qdd[vo] = x;
+                acc[idx] = std::array::from_fn(|rr| A::mul_add(s[rr], x, ap[rr]));
+                (pidx1, pap, ps, px) = (idx, ap, s, x);
+                continue;
+            }
+            pidx1 = usize::MAX;
             let mut ap = if r.pidx == usize::MAX {
                 a0
             } else {
                 acc[r.pidx]
             };
             if accel {
-                let c = d.c[r.j].to_array();
                 for rr in 0..6 {
                     ap[rr] += c[rr];
                 }
-            }
-            if k == 1 {
-                let x = dinv[idx] * (uu[dof] - dot6::<A>(&ap, &u[dof]));
-                qdd[vo] = x;
-                let s = d.s[vo].to_array();
-                acc[idx] = std::array::from_fn(|rr| A::mul_add(s[rr], x, ap[rr]));
-                continue;
             }
             let w = (&chol[idx], u, uu, &d.s[..], &mut *qdd);
             acc[idx] = match k {
@@ -1245,16 +1281,19 @@ fn sym_mul6(a: &Sym6, x: &[f64; 6]) -> [f64; 6] {
 /// (each pair computed once and written twice): its rows are contiguous vectors.
 pub(crate) type Sym6 = [[f64; 6]; 6];
 
-/// `s += a − α u uᵀ` on symmetric 6 × 6 matrices: the upper triangle computed (`w = α u`
-/// once: `a − w_i u_j` rounds once when fused), each entry written to both halves.
+/// `s += a − α u uᵀ` on symmetric 6 × 6 matrices, row by row: entry `(i, j)` is
+/// `s_ij + (a_ij − α (u_i u_j))` (`u_i u_j = u_j u_i` to the bit, so the result stays
+/// symmetric to the bit; a product, a multiply–add and an addition per lane, no shuffles, and
+/// from `α` to the result a multiply–add and an addition).
 #[inline(always)]
 fn add_sub_outer<A: Arith>(s: &mut Sym6, a: &Sym6, u: &[f64; 6], alpha: f64) {
-    let w = u.map(|x| alpha * x);
-    for i in 0..6 {
-        for j in i..6 {
-            let x = s[i][j] + A::neg_mul_add(w[i], u[j], a[i][j]);
-            s[i][j] = x;
-            s[j][i] = x;
+    for ((srow, arow), &ui) in s.iter_mut().zip(a).zip(u) {
+        let (lo, hi) = srow.split_at_mut(4);
+        for j in 0..4 {
+            lo[j] += A::neg_mul_add(alpha, ui * u[j], arow[j]);
+        }
+        for j in 0..2 {
+            hi[j] += A::neg_mul_add(alpha, ui * u[j + 4], arow[j + 4]);
         }
     }
 }

@@ -73,11 +73,13 @@ fn row_sub_scaled(v: &mut [f64; 6], s: f64, x: &[f64; 6]) {
 }
 
 /// Cholesky factor `L` (lower) of the leading 5×5 block of a symmetric positive definite
-/// matrix (its lower triangle is read), `None` when a pivot is not positive: articula-dca's
-/// `cholesky` with the size fixed (the same operations in the same order, unrolled).
+/// matrix (its lower triangle is read) and the reciprocals `1 / L_jj` of its diagonal, `None`
+/// when a pivot is not positive: articula-dca's `cholesky` with the size fixed (the same
+/// operations in the same order, unrolled).
 #[inline(always)]
-fn cholesky5(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
+fn cholesky5(a: &[[f64; 6]; 6]) -> Option<([[f64; 6]; 6], [f64; 5])> {
     let mut l = [[0.0f64; 6]; 6];
+    let mut linv = [0.0f64; 5];
     for j in 0..5 {
         let mut d = a[j][j];
         for p in 0..j {
@@ -89,6 +91,7 @@ fn cholesky5(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
         let ljj = d.sqrt();
         l[j][j] = ljj;
         let inv = 1.0 / ljj;
+        linv[j] = inv;
         for i in (j + 1)..5 {
             let mut x = a[i][j];
             for p in 0..j {
@@ -97,13 +100,20 @@ fn cholesky5(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
             l[i][j] = x * inv;
         }
     }
-    Some(l)
+    Some((l, linv))
 }
 
 /// `W yₖ = T (L Lᵀ)⁻¹ Tᵀ yₖ` for three right-hand sides side by side (lanes of four, the last
-/// unused): per lane the operations of `dense::solve_llt_k`, in its order.
+/// unused): per lane the operations of `dense::solve_llt_k`, in its order, except that each
+/// step multiplies by `linv[i] = 1 / L_ii` instead of dividing by `L_ii` (ten divisions in a
+/// row were the join's longest dependency chain).
 #[inline(always)]
-fn w_apply3(t: &AxisBasis, l: &[[f64; 6]; 6], ys: [&[f64; 6]; 3]) -> [[f64; 6]; 3] {
+fn w_apply3(
+    t: &AxisBasis,
+    l: &[[f64; 6]; 6],
+    linv: &[f64; 5],
+    ys: [&[f64; 6]; 3],
+) -> [[f64; 6]; 3] {
     // Written out rather than `ys.map(..)` / `array::from_fn(..)`: their closures are called
     // out of line (std's generic code, not compiled for AVX2), ~90 instructions a join.
     let us = [t.tr(ys[0]), t.tr(ys[1]), t.tr(ys[2])];
@@ -122,9 +132,9 @@ fn w_apply3(t: &AxisBasis, l: &[[f64; 6]; 6], ys: [&[f64; 6]; 3]) -> [[f64; 6]; 
                 v[k] -= lip * x[p][k];
             }
         }
-        let d = l[i][i];
+        let d = linv[i];
         for k in 0..4 {
-            x[i][k] = v[k] / d;
+            x[i][k] = v[k] * d;
         }
     }
     // Lᵀ λ = x
@@ -136,9 +146,9 @@ fn w_apply3(t: &AxisBasis, l: &[[f64; 6]; 6], ys: [&[f64; 6]; 3]) -> [[f64; 6]; 
                 v[k] -= lpi * x[p][k];
             }
         }
-        let d = l[i][i];
+        let d = linv[i];
         for k in 0..4 {
-            x[i][k] = v[k] / d;
+            x[i][k] = v[k] * d;
         }
     }
     let col = |k: usize| t.apply(&[x[0][k], x[1][k], x[2][k], x[3][k], x[4][k]]);
@@ -928,7 +938,7 @@ impl Adaptive {
                 m5[i][c] = r[i];
             }
         }
-        let l5 = cholesky5(&m5).ok_or_else(|| DynamicsError::Singular {
+        let (l5, ldinv) = cholesky5(&m5).ok_or_else(|| DynamicsError::Singular {
             joint: body.joint_name(),
             detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
         })?;
@@ -943,7 +953,7 @@ impl Adaptive {
         f0[t.m] = 1.0 / sv[t.m];
         let gf0: [f64; 6] = std::array::from_fn(|r| g[r][t.m] * f0[t.m]);
         // W G s, W G f₀ and W β: three independent right-hand sides, solved side by side.
-        let [wgs, wgf0, wb] = w_apply3(&t, &l5, [&gs, &gf0, beta]);
+        let [wgs, wgf0, wb] = w_apply3(&t, &l5, &ldinv, [&gs, &gf0, beta]);
         let gv: [f64; 6] = std::array::from_fn(|i| wgs[i] - sv[i]);
         let ft: [f64; 6] = std::array::from_fn(|i| f0[i] - wgf0[i]);
         let gft = Mat6(*g).mul_vec(&ft);
@@ -970,9 +980,8 @@ impl Adaptive {
         self.nvec[n] = nv;
         let ko = self.koff[n];
         let wd = 6 * nhc;
-        // The substitutions below multiply by reciprocals (a division's latency would sit on
-        // their critical path).
-        let ldinv: [f64; 5] = std::array::from_fn(|i| 1.0 / l5[i][i]);
+        // The substitutions below multiply by reciprocals (`ldinv` from the factorisation: a
+        // division's latency would sit on their critical path).
         let ssinv = 1.0 / ss;
         // Per handle h, all six columns of G_F,h at once, row by row (each column's sums in
         // the order of one column at a time): K_h = gᵀ G_F,h / sᵀs, Ỹ_h = L⁻¹ Tᵀ G_F,h
