@@ -125,8 +125,12 @@ pub(crate) struct DcaData {
     /// Per join (`DNode::jix`): what a one-axis join keeps for the back-substitution, dense in
     /// post-order (a back-substitution stream without the leaves' gaps).
     pub rev: Vec<RevJoin>,
-    /// Scratch per handle of the node being joined: `Ỹ_h = Q L⁻¹ Φ_jh` (or `D^{-1/2} L⁻¹ Tᵀ Φ_jh`).
+    /// Scratch per handle of the node being joined: `Ỹ_h = Q L⁻¹ Φ_jh` (or, one axis,
+    /// `Z_h = L⁻¹ Tᵀ Φ_jh`).
     pub y: Vec<[[f64; 6]; 6]>,
+    /// Scratch per handle of a one-axis join: `D⁻¹ Z_h`, the rows of `Z_h` (in `y`) divided by
+    /// the pivots (see `dca::y_reduced`).
+    pub u: Vec<[[f64; 6]; 6]>,
     /// Per body: the constants of its leaf.
     pub leaf: Vec<LeafConst>,
     /// The rotational inertias with products of inertia (see [`LeafConst::full`]).
@@ -461,6 +465,7 @@ impl Data {
                 point: vec![DVec3::ZERO; n],
                 rev: vec![RevJoin::default(); joins],
                 y: vec![[[0.0; 6]; 6]; max_h],
+                u: vec![[[0.0; 6]; 6]; max_h],
                 leaf,
                 leaf_full,
             },

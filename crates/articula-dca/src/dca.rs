@@ -624,13 +624,14 @@ fn dot6<A: Arith>(a: &[f64; 6], b: &[f64; 6]) -> f64 {
 /// the forces that do no work along S: `W = V − V S (SᵀVS)⁻¹ SᵀV = T (TᵀKT)⁻¹ Tᵀ`.
 /// - One revolute axis (the common case): the basis of [`RevJoin`] (fixed positions), the
 ///   `L D Lᵀ` factors of the 5×5 `TᵀKT` ([`crate::small::ldl5`]),
-///   `Ỹ_h = D^{-1/2} L⁻¹ Tᵀ Φ_jh` (5 rows), and the joint terms of [`joint_terms`].
+///   `Z_h = L⁻¹ Tᵀ Φ_jh` and `U_h = D⁻¹ Z_h` (5 rows each), and the joint terms of
+///   [`joint_terms`]: `Φ_hj W Φ_jk = U_hᵀ Z_k` (no square root on the way).
 /// - Otherwise: the Cholesky factor of `K = L Lᵀ`, `Z = L⁻¹ S`, `D = ZᵀZ` and the orthogonal
 ///   projector `Q = 1 − Z D⁻¹ Zᵀ`: `W = L⁻ᵀ Q L⁻¹`, `Ỹ_h = Q L⁻¹ Φ_jh` (`Q = QᵀQ`), and
 ///   `γ = W β + V S D⁻¹ Q_τ = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − τ))` with `w = L⁻¹ β`.
 ///
-/// Either way `Φ_hj W Φ_jk = Ỹ_hᵀ Ỹ_k`: one Gram product per stored block of C (`h ≤ k`; the
-/// diagonal ones on their upper 2×2 tiles, [`SymT`]).
+/// Either way one Gram product per stored block of C (`h ≤ k`; the diagonal ones on their
+/// upper 2×2 tiles, [`SymT`]): `Φ_hj W Φ_jk = Ỹ_hᵀ Ỹ_k` or `U_hᵀ Z_k`.
 ///
 /// A's, B's and C's diagonal blocks and b are in their nodes' slots (see `DcaData::dg`).
 #[inline(always)]
@@ -705,13 +706,8 @@ fn join<A: Arith>(
             (_, 1) => kcq[r - 2],
             _ => kf(r + 1, c + 1),
         };
-        // Its L D Lᵀ factors, and M = L D^{1/2} (`mm` below the diagonal, `inv_d` = 1/√d).
-        let Some(crate::small::Ldl5 {
-            l,
-            m: mm,
-            inv_sqrt_d: inv_d,
-        }) = crate::small::ldl5::<A>(tkt)
-        else {
+        // Its L D Lᵀ factors (L packed by rows, 1/d on the diagonal).
+        let Some(l) = crate::small::ldl5::<A>(tkt) else {
             return Err(DynamicsError::Singular {
                 joint: body.joint_name(),
                 detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
@@ -737,9 +733,9 @@ fn join<A: Arith>(
         let pq = (rj.p, rj.q);
         // Two handles (a chain's joins) unrolled.
         if nhc == 2 {
-            y_all::<A>(d, &at, 2, pq, &mm, &inv_d)
+            y_all::<A>(d, &at, 2, pq, &l)
         } else {
-            y_all::<A>(d, &at, nhc, pq, &mm, &inv_d)
+            y_all::<A>(d, &at, nhc, pq, &l)
         }
         rows = 5;
     } else {
@@ -846,7 +842,8 @@ impl JoinAt {
     }
 }
 
-/// C's blocks and bias from `Ỹ` (R rows each, in `d.y`) and γ: Φ^C_hk for `h ≤ k` (a diagonal
+/// C's blocks and bias from `Ỹ` (R rows each, in `d.y`; with R = 5, one axis, `Ỹ_hᵀỸ_k` reads
+/// `U_hᵀ Z_k`, `U_h` in `d.u` and `Z_k` in `d.y`) and γ: Φ^C_hk for `h ≤ k` (a diagonal
 /// block's upper 2×2 tiles only): same side `Φ_hk − Ỹ_hᵀỸ_k`, across `+Ỹ_hᵀỸ_k` (a side's
 /// handles keep their order in C, so a same-side pair `h ≤ k` is a stored block of that side
 /// too); then `b^C_h = b^A_h − Φ^A_hj γ` or `b^B_h + Φ^B_hj γ`.
@@ -865,12 +862,13 @@ fn c_blocks<A: Arith, const R: usize>(
     for h in 0..nhc {
         let (sh, ih) = d.from[at.hc + h];
         let ih = ih as usize;
-        let yh = &d.y[h];
+        // The Gram products' left factor: U_h (one axis) or Ỹ_h.
+        let xh = if R == 5 { &d.u[h] } else { &d.y[h] };
         let old = match sh {
             Side::A => &dsrc[hoa - mid + ih],
             Side::B => &dsrc[hob - mid + ih],
         };
-        gram_sym_into::<A, R>(&mut ddst[top + h], yh, old);
+        gram_sym_into::<A, R>(&mut ddst[top + h], xh, &d.y[h], old);
         for kk in h + 1..nhc {
             let (sk, ik) = d.from[at.hc + kk];
             let ik = ik as usize;
@@ -880,7 +878,7 @@ fn c_blocks<A: Arith, const R: usize>(
                 (Side::B, Side::B) => Some(&src[at.bob + ub(at.nhb, ih, ik)].0),
                 _ => None,
             };
-            gram_into::<A, R>(&mut dst[ub(nhc, h, kk)].0, yh, yk, old);
+            gram_into::<A, R>(&mut dst[ub(nhc, h, kk)].0, xh, yk, old);
         }
         let (bo, nh, j, i) = match sh {
             Side::A => (at.boa, at.nha, at.ja, ih),
@@ -1199,18 +1197,17 @@ fn y_all<A: Arith>(
     at: &JoinAt,
     nhc: usize,
     pq: ([f64; 3], [f64; 3]),
-    mm: &[[f64; 5]; 5],
-    inv_d: &[f64; 5],
+    l: &[f64; 15],
 ) {
     for h in 0..nhc {
         let (bo, nh, j, i) = at.from(d, h);
         // Φ_jh by rows: the stored block's, or the stored Φ_hj's columns (a transpose).
         if j < i {
             let g = &d.phi[bo + ub(nh, j, i)].0;
-            y_reduced::<A>(&mut d.y[h], g, pq, mm, inv_d);
+            y_reduced::<A>(&mut d.y[h], &mut d.u[h], g, pq, l);
         } else {
             let g = transpose6(&d.phi[bo + ub(nh, i, j)].0);
-            y_reduced::<A>(&mut d.y[h], &g, pq, mm, inv_d);
+            y_reduced::<A>(&mut d.y[h], &mut d.u[h], &g, pq, l);
         }
     }
 }
@@ -1221,44 +1218,46 @@ fn transpose6(b: &[[f64; 6]; 6]) -> [[f64; 6]; 6] {
     std::array::from_fn(|r| std::array::from_fn(|c| b[c][r]))
 }
 
-/// `Ỹ = M⁻¹ Tᵀ G` (5 rows; `M = L D^{1/2}` the Cholesky factor of `TᵀKT`: `mm` its entries
-/// below the diagonal, `inv_d` the inverses of its diagonal) for `G = Φ_jh` given by rows:
-/// `Tᵀ G` (`[p·g_ω; q·g_ω; g_v]`) then the forward substitution, on whole rows of six
-/// ([`R6`]: every column's own arithmetic, in the same order as column by column).
+/// `Z = L⁻¹ Tᵀ G` and `U = D⁻¹ Z` (5 rows each; `L D Lᵀ = TᵀKT` packed by rows in `l`, `1/d`
+/// on the diagonal) for `G = Φ_jh` given by rows: `Tᵀ G` (`[p·g_ω; q·g_ω; g_v]`) then the unit
+/// forward substitution, on whole rows of six ([`R6`]: every column's own arithmetic, in the
+/// same order as column by column). Then `Φ_hj W Φ_jk = Z_hᵀ D⁻¹ Z_k = U_hᵀ Z_k`. (Not
+/// `Ỹ = D^{-1/2} Z`: its square roots and scalings sat on the path from one join's factors to
+/// the next join's.)
 #[inline(always)]
 fn y_reduced<A: Arith>(
-    yt: &mut [[f64; 6]; 6],
+    zt: &mut [[f64; 6]; 6],
+    ut: &mut [[f64; 6]; 6],
     g: &[[f64; 6]; 6],
     (p, q): ([f64; 3], [f64; 3]),
-    mm: &[[f64; 5]; 5],
-    inv_d: &[f64; 5],
+    l: &[f64; 15],
 ) {
     let (g0, g1, g2) = (R6(g[0]), R6(g[1]), R6(g[2]));
-    // M Ỹ = Tᵀ G, row by row.
-    let m = |r: usize| mm[r];
-    let y0 = sum_products::<A, R6, 3>([(g0, p[0]), (g1, p[1]), (g2, p[2])]) * inv_d[0];
+    // L Z = Tᵀ G, row by row (L unit lower: z_i = (TᵀG)_i − Σ_{p<i} L_ip z_p).
+    let z0 = sum_products::<A, R6, 3>([(g0, p[0]), (g1, p[1]), (g2, p[2])]);
     let tq = sum_products::<A, R6, 3>([(g0, q[0]), (g1, q[1]), (g2, q[2])]);
-    let y1 = sub_products::<A, R6, 1>(tq, [(y0, m(1)[0])]) * inv_d[1];
-    let y2 = sub_products::<A, R6, 2>(R6(g[3]), [(y0, m(2)[0]), (y1, m(2)[1])]) * inv_d[2];
-    let y3 = sub_products::<A, R6, 3>(R6(g[4]), [(y0, m(3)[0]), (y1, m(3)[1]), (y2, m(3)[2])])
-        * inv_d[3];
-    let y4 = sub_products::<A, R6, 4>(
+    let z1 = sub_products::<A, R6, 1>(tq, [(z0, l[1])]);
+    let z2 = sub_products::<A, R6, 2>(R6(g[3]), [(z0, l[3]), (z1, l[4])]);
+    let z3 = sub_products::<A, R6, 3>(R6(g[4]), [(z0, l[6]), (z1, l[7]), (z2, l[8])]);
+    let z4 = sub_products::<A, R6, 4>(
         R6(g[5]),
-        [(y0, m(4)[0]), (y1, m(4)[1]), (y2, m(4)[2]), (y3, m(4)[3])],
-    ) * inv_d[4];
-    yt[0] = y0.0;
-    yt[1] = y1.0;
-    yt[2] = y2.0;
-    yt[3] = y3.0;
-    yt[4] = y4.0;
+        [(z0, l[10]), (z1, l[11]), (z2, l[12]), (z3, l[13])],
+    );
+    let z = [z0, z1, z2, z3, z4];
+    // U = D⁻¹ Z.
+    let inv_d = [l[0], l[2], l[5], l[9], l[14]];
+    for r in 0..5 {
+        zt[r] = z[r].0;
+        ut[r] = (z[r] * inv_d[r]).0;
+    }
 }
 
-/// `out = old − Ỹ_hᵀ Ỹ_k` (or `+Ỹ_hᵀ Ỹ_k` without `old`): row r is
-/// `Σ_i Ỹ_h[i][r] · (row i of Ỹ_k)`, six accumulators per row.
+/// `out = old − X_hᵀ Ỹ_k` (or `+X_hᵀ Ỹ_k` without `old`; `X_h` is `Ỹ_h` or `U_h`, see
+/// [`c_blocks`]): row r is `Σ_i X_h[i][r] · (row i of Ỹ_k)`, six accumulators per row.
 #[inline(always)]
 fn gram_into<A: Arith, const R: usize>(
     out: &mut [[f64; 6]; 6],
-    yh: &[[f64; 6]; 6],
+    xh: &[[f64; 6]; 6],
     yk: &[[f64; 6]; 6],
     old: Option<&[[f64; 6]; 6]>,
 ) {
@@ -1268,11 +1267,11 @@ fn gram_into<A: Arith, const R: usize>(
         let mut acc = [[0.0; 6]; 2];
         for dr in 0..2 {
             for c in 0..6 {
-                acc[dr][c] = yh[0][r + dr] * yk[0][c];
+                acc[dr][c] = xh[0][r + dr] * yk[0][c];
             }
         }
         for i in 1..R {
-            let (x0, x1) = (yh[i][r], yh[i][r + 1]);
+            let (x0, x1) = (xh[i][r], xh[i][r + 1]);
             let yki = &yk[i];
             for c in 0..6 {
                 acc[0][c] = A::mul_add(x0, yki[c], acc[0][c]);
@@ -1292,33 +1291,39 @@ fn gram_into<A: Arith, const R: usize>(
     }
 }
 
-/// [`gram_into`] for a diagonal block (`Ỹ_k = Ỹ_h`, symmetric): only its upper 2×2 tiles
+/// [`gram_into`] for a diagonal block (`X_hᵀ Ỹ_h`, symmetric): only its upper 2×2 tiles
 /// ([`SymT`]), a row pair of tiles at a time.
 #[inline(always)]
-fn gram_sym_into<A: Arith, const R: usize>(out: &mut SymT, y: &[[f64; 6]; 6], old: &SymT) {
-    gram_tiles::<A, 0, R>(out, y, old);
-    gram_tiles::<A, 1, R>(out, y, old);
-    gram_tiles::<A, 2, R>(out, y, old);
+fn gram_sym_into<A: Arith, const R: usize>(
+    out: &mut SymT,
+    x: &[[f64; 6]; 6],
+    y: &[[f64; 6]; 6],
+    old: &SymT,
+) {
+    gram_tiles::<A, 0, R>(out, x, y, old);
+    gram_tiles::<A, 1, R>(out, x, y, old);
+    gram_tiles::<A, 2, R>(out, x, y, old);
 }
 
-/// Tiles `(I, J)`, `J ≥ I`, of `old − ỸᵀỸ`: rows `2I`, `2I+1` from column `2I` on, the sums
+/// Tiles `(I, J)`, `J ≥ I`, of `old − XᵀỸ`: rows `2I`, `2I+1` from column `2I` on, the sums
 /// started with their first product.
 #[inline(always)]
 fn gram_tiles<A: Arith, const I: usize, const R: usize>(
     out: &mut SymT,
+    xs: &[[f64; 6]; 6],
     y: &[[f64; 6]; 6],
     old: &SymT,
 ) {
     let mut acc = [[0.0; 6]; 2];
     for dr in 0..2 {
-        let x = y[0][2 * I + dr];
+        let x = xs[0][2 * I + dr];
         for c in 2 * I..6 {
             acc[dr][c] = x * y[0][c];
         }
     }
-    for yi in &y[1..R] {
+    for (xi, yi) in xs[1..R].iter().zip(&y[1..R]) {
         for dr in 0..2 {
-            let x = yi[2 * I + dr];
+            let x = xi[2 * I + dr];
             for c in 2 * I..6 {
                 acc[dr][c] = A::mul_add(x, yi[c], acc[dr][c]);
             }

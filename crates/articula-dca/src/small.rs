@@ -50,14 +50,12 @@ pub fn cholesky6(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
 
 /// `L D Lᵀ` of a 5×5 symmetric positive definite matrix given by its lower-triangle entries
 /// `a(i, j)`, `i ≥ j`; `None` when a pivot is not positive. Returns L packed by rows (`(i, j)`
-/// at `i (i + 1) / 2 + j`: `L_ij` below the diagonal, `1 / d_i` on it), and the Cholesky
-/// factor `M = L D^{1/2}` as its entries below the diagonal `M_ij = L_ij √d_j = c_ij / √d_j`
-/// (`c_ij = L_ij d_j`) and its inverse diagonal `1 / √d_i`. The recursion's critical path holds
-/// one division per column and no square root (those are taken at the end, independently of
-/// one another); its multiply–subtracts go through `A` (fused in DCA's fused compilation,
-/// which halves their latency).
+/// at `i (i + 1) / 2 + j`: `L_ij` below the diagonal, `1 / d_i` on it). The recursion's
+/// critical path holds one division and one multiply–add per column and no square root; its
+/// multiply–subtracts go through `A` (fused in DCA's fused compilation, which halves their
+/// latency).
 #[inline(always)]
-pub(crate) fn ldl5<A: Arith>(a: impl Fn(usize, usize) -> f64) -> Option<Ldl5> {
+pub(crate) fn ldl5<A: Arith>(a: impl Fn(usize, usize) -> f64) -> Option<[f64; 15]> {
     // l: L below the diagonal, 1/d_j on it; c_ij = L_ij d_j (i > j).
     let mut l = [[0.0f64; 5]; 5];
     let mut c = [[0.0f64; 5]; 5];
@@ -67,36 +65,16 @@ pub(crate) fn ldl5<A: Arith>(a: impl Fn(usize, usize) -> f64) -> Option<Ldl5> {
     ldl_col::<A, 2>(&a, &mut l, &mut c, &mut ok);
     ldl_col::<A, 3>(&a, &mut l, &mut c, &mut ok);
     ldl_col::<A, 4>(&a, &mut l, &mut c, &mut ok);
-    if !ok {
-        return None;
-    }
-    let isd: [f64; 5] = std::array::from_fn(|j| l[j][j].sqrt());
-    let m = std::array::from_fn(|i| {
-        std::array::from_fn(|j| if j < i { c[i][j] * isd[j] } else { 0.0 })
-    });
-    let packed = [
+    ok.then_some([
         l[0][0], l[1][0], l[1][1], l[2][0], l[2][1], l[2][2], l[3][0], l[3][1], l[3][2], l[3][3],
         l[4][0], l[4][1], l[4][2], l[4][3], l[4][4],
-    ];
-    Some(Ldl5 {
-        l: packed,
-        m,
-        inv_sqrt_d: isd,
-    })
+    ])
 }
 
-/// What [`ldl5`] returns.
-pub struct Ldl5 {
-    /// L and `1 / d_i`, packed by rows.
-    pub l: [f64; 15],
-    /// `M = L D^{1/2}` below the diagonal.
-    pub m: [[f64; 5]; 5],
-    /// `1 / √d_i`.
-    pub inv_sqrt_d: [f64; 5],
-}
-
-/// Column `J` of [`ldl5`]: `d_J = a_JJ − Σ_p L_Jp c_Jp`, `c_iJ = a_iJ − Σ_p L_ip c_Jp`,
-/// `L_iJ = c_iJ / d_J`.
+/// Column `J` of [`ldl5`]: `d_J = a_JJ − Σ_p c_Jp² (1/d_p)`, `c_iJ = a_iJ − Σ_p L_ip c_Jp`,
+/// `L_iJ = c_iJ / d_J`. (`c_Jp² · 1/d_p` rather than `L_Jp c_Jp`: the square is ready before
+/// the division `1/d_p`, so from one pivot's division to the next there is one multiply–add,
+/// not a multiply and then a multiply–add.)
 #[inline(always)]
 fn ldl_col<A: Arith, const J: usize>(
     a: &impl Fn(usize, usize) -> f64,
@@ -106,7 +84,7 @@ fn ldl_col<A: Arith, const J: usize>(
 ) {
     let mut d = a(J, J);
     for p in 0..J {
-        d = A::neg_mul_add(l[J][p], c[J][p], d);
+        d = A::neg_mul_add(c[J][p] * c[J][p], l[p][p], d);
     }
     // `!(d > 0)` also catches NaN.
     *ok &= d > 0.0;
