@@ -1190,7 +1190,7 @@ fn joint_terms<A: Arith>(w: &[f64; 3], ks: &[f64; 6], wks: &[f64; 6], rj: &mut R
     -dot6::<A>(&g, ks) * iss
 }
 
-/// [`y_reduced`] for each of C's `nhc` handles, into `d.y`.
+/// [`y_reduced`] for each of C's `nhc` handles, into `d.y` (Z) and `d.u` (D⁻¹ Z).
 #[inline(always)]
 fn y_all<A: Arith>(
     d: &mut crate::data::DcaData,
