@@ -292,6 +292,26 @@ impl Adaptive {
         f_ext: &[SpatialForce],
         out: &mut [f64],
     ) -> Result<(), AdaptiveError> {
+        self.exact_solve(model, q, qd, tau, f_ext)?;
+        crate::metric::subtree_quadratic(model, &self.aw, &self.woff, &self.qdd, out);
+        Ok(())
+    }
+
+    /// The exact solve behind [`Adaptive::node_metrics`] alone: the exact accelerations of
+    /// `(q, q̇, τ, f_ext)` into [`Adaptive::qdd`] and their kinematics into
+    /// [`Adaptive::data`] (`data.x[i]`: computation frame → body `i`, the frame's origin at
+    /// `data.origin`), which the next load of the same state reuses. Follow it with
+    /// [`Adaptive::scaled_node_metrics`] when every weight is a multiple of the identity and
+    /// the weights are known only after the solve (a scene that classifies from the solve's
+    /// poses).
+    pub fn exact_solve(
+        &mut self,
+        model: &Model,
+        q: &[f64],
+        qd: &[f64],
+        tau: &[f64],
+        f_ext: &[SpatialForce],
+    ) -> Result<(), AdaptiveError> {
         // A metric steers the selection: ~1e-9 relative is plenty, so the floating-base
         // refinement of the exact solve (for long floating chains) is skipped here.
         let refine = std::mem::replace(&mut self.data.refine_floating, false);
@@ -310,8 +330,17 @@ impl Adaptive {
         self.fresh = true;
         self.fresh_q.copy_from_slice(q);
         self.fresh_qd.copy_from_slice(qd);
-        crate::metric::subtree_quadratic(model, &self.aw, &self.woff, &self.qdd, out);
         Ok(())
+    }
+
+    /// The node metrics of the last exact solve ([`Adaptive::exact_solve`],
+    /// [`Adaptive::node_metrics`]) with the weights `Aᵢ = weights[i] · 1` (one per model body,
+    /// its joint's scale) instead of the workspace's own: `out[n] = Σ_{i∈C} wᵢ q̈ᵢᵀq̈ᵢ` over
+    /// node `n`'s subtree. The same numbers, to the bit, as [`Adaptive::set_weight`] of every
+    /// body followed by [`Adaptive::node_metrics`] (the products and sums in the same order),
+    /// without writing the weight matrices.
+    pub fn scaled_node_metrics(&self, model: &Model, weights: &[f64], out: &mut [f64]) {
+        crate::metric::subtree_scaled_quadratic(model, weights, &self.qdd, out);
     }
 
     /// The metric `A(C) = Fᵀ Ψ F + Fᵀ p + η` predicted at every node of the assembly tree from

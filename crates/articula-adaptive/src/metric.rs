@@ -321,3 +321,30 @@ pub(crate) fn subtree_quadratic(
         };
     }
 }
+
+/// [`subtree_quadratic`] with every weight a scaled identity `Aᵢ = wᵢ 1` given by its scale
+/// (one per model body): per joint `Σₖ xₖ (wᵢ xₖ)` over its non-zero components, in order —
+/// the same operations [`crate::dense::quad`] does on the scaled identity (its row sums add
+/// exact zeros to `wᵢ xₖ`), so the same numbers to the bit.
+pub(crate) fn subtree_scaled_quadratic(model: &Model, w: &[f64], x: &[f64], out: &mut [f64]) {
+    for (n, node) in model.assembly.nodes.iter().enumerate() {
+        out[n] = match node.kind {
+            NodeKind::Join {
+                joint,
+                parent_side: a,
+                child_side: b,
+            } => {
+                let body = &model.bodies[joint];
+                let (vo, k, wi) = (body.v_offset, body.nv, w[joint]);
+                let mut s = 0.0;
+                for &xk in &x[vo..vo + k] {
+                    if xk != 0.0 {
+                        s += xk * (wi * xk);
+                    }
+                }
+                s + out[a] + out[b]
+            }
+            _ => 0.0,
+        };
+    }
+}

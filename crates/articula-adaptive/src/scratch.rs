@@ -293,6 +293,23 @@ impl Adaptive {
         f_ext: &[SpatialForce],
         out: &mut [f64],
     ) -> Result<(), AdaptiveError> {
+        self.exact_solve_with(scratch, model, q, qd, tau, f_ext)?;
+        crate::metric::subtree_quadratic(model, &self.aw, &self.woff, &self.qdd, out);
+        Ok(())
+    }
+
+    /// [`Adaptive::exact_solve`] with the whole `data` of `scratch`, as
+    /// [`Adaptive::node_metrics_with`]: the same `qdd` to the bit, and the kinematics copied
+    /// into the workspace's `data`.
+    pub fn exact_solve_with(
+        &mut self,
+        scratch: &mut Scratch,
+        model: &Model,
+        q: &[f64],
+        qd: &[f64],
+        tau: &[f64],
+        f_ext: &[SpatialForce],
+    ) -> Result<(), AdaptiveError> {
         scratch.check(self)?;
         swap(&mut self.data, &mut scratch.data);
         // The workspace's settings on the scratch's buffers.
@@ -300,7 +317,7 @@ impl Adaptive {
         self.data.gravity = own.gravity;
         self.data.refine_floating = own.refine_floating;
         self.data.momentum_projection = own.momentum_projection;
-        let r = self.node_metrics(model, q, qd, tau, f_ext, out);
+        let r = self.exact_solve(model, q, qd, tau, f_ext);
         swap(&mut self.data, &mut scratch.data);
         if r.is_ok() {
             // The exact solve's kinematics into the workspace, for the next load of this state

@@ -640,3 +640,60 @@ fn hybrid_body_equals_the_model_with_its_locked_joints_welded() {
         }
     }
 }
+
+/// `exact_solve` then `scaled_node_metrics` (weights given per body, as a scene classifies
+/// them after the solve) equal `set_weight` of every body then `node_metrics` to the bit, and
+/// both equal the subtree sums `Σ wᵢ |q̈ᵢ|²` of an independent ABA solve (to rounding).
+#[test]
+fn scaled_node_metrics_equal_set_weights_then_node_metrics() {
+    for (name, model) in models() {
+        let nodes = model.assembly.nodes.len();
+        let (mut a, mut b) = (
+            Adaptive::new(&model, Settings::default()),
+            Adaptive::new(&model, Settings::default()),
+        );
+        for seed in 0..6u64 {
+            let s = state(&model, seed);
+            // Weights of every kind: zero, tiny, one, large.
+            let w: Vec<f64> = (0..model.bodies.len())
+                .map(|i| [0.0, 1e-3, 1.0, 37.5, 0.25][(i + seed as usize) % 5])
+                .collect();
+            for (i, &wi) in w.iter().enumerate() {
+                a.set_weight(&model, i, wi);
+            }
+            let (mut ma, mut mb) = (vec![0.0; nodes], vec![f64::NAN; nodes]);
+            a.node_metrics(&model, &s.q, &s.qd, &s.tau, &s.f_ext, &mut ma)
+                .unwrap();
+            b.exact_solve(&model, &s.q, &s.qd, &s.tau, &s.f_ext)
+                .unwrap();
+            b.scaled_node_metrics(&model, &w, &mut mb);
+            assert!(
+                ma.iter().zip(&mb).all(|(x, y)| x.to_bits() == y.to_bits()),
+                "{name} seed {seed}: {ma:?} vs {mb:?}"
+            );
+            // Independent: ABA's accelerations, each join's subtree summed by walking it.
+            let qdd = solve(&model, &s, Method::Aba);
+            for (n, &got) in mb.iter().enumerate() {
+                let mut want = 0.0;
+                let mut stack = vec![n];
+                while let Some(m) = stack.pop() {
+                    if let NodeKind::Join {
+                        joint,
+                        parent_side,
+                        child_side,
+                    } = model.assembly.nodes[m].kind
+                    {
+                        let body = &model.bodies[joint];
+                        let x = &qdd[body.v_offset..body.v_offset + body.nv];
+                        want += w[joint] * x.iter().map(|v| v * v).sum::<f64>();
+                        stack.extend([parent_side, child_side]);
+                    }
+                }
+                assert!(
+                    (got - want).abs() <= 1e-9 * want.abs().max(1.0),
+                    "{name} seed {seed} node {n}: {got} vs {want}"
+                );
+            }
+        }
+    }
+}

@@ -2,11 +2,16 @@
 //! scene-wide budget of joints where the view-weighted acceleration metric is largest.
 //!
 //! At every re-selection (every `reselect_every` steps, the first included):
-//! 1. the camera classifies every link ([`crate::visibility`]) and sets the acceleration-metric
-//!    weights `Aᵢ = wᵢ 1` of every joint of every body;
-//! 2. each body with a non-zero weight computes the metric `A(C)` of every node of its assembly
-//!    tree at the exact handle forces ([`Adaptive::node_metrics`]) — the values its own queue
-//!    would see, since a queued node's ancestors are all expanded exactly;
+//! 1. each body gets its exact solve ([`Adaptive::exact_solve`]: its exact accelerations, and
+//!    kinematics from which its link poses are read) — except a body whose whole bounding
+//!    sphere, grown by how far it can move before the next re-selection, lies outside the view:
+//!    its links are all invisible, so it gets only its pose-only kinematics;
+//! 2. the camera classifies every link ([`crate::visibility`]) and gives every joint of every
+//!    body its weight `wᵢ` (the acceleration-metric weight `Aᵢ = wᵢ 1`); each body with a
+//!    non-zero weight computes the metric `A(C)` of every node of its assembly tree at the
+//!    exact handle forces from its solve ([`Adaptive::scaled_node_metrics`], the same numbers
+//!    as [`Adaptive::node_metrics`] with those weights) — the values its own queue would see,
+//!    since a queued node's ancestors are all expanded exactly;
 //! 3. [`global_selection`] runs the queue over all bodies' roots: pop the node with the largest
 //!    metric in the whole scene, push its children, until the budget of internal degrees of
 //!    freedom (the floating bases' six are free) or the tolerance is reached. Each body's
@@ -23,9 +28,10 @@
 use crate::render::{rigid_groups, FrameBody};
 use crate::scene_file::LoadedScene;
 use crate::visibility::{BodyView, Classifier, Placed, PosePlan, Visibility};
+use crate::volumes::BodyVolumes;
 use articula_adaptive::{Adaptive, AdaptiveError, Scratch, Settings};
 use articula_dca::State;
-use articula_model::{Model, NodeKind};
+use articula_model::{JointKind, Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SymMat6};
 use glam::{DMat3, DQuat, DVec3};
 use std::collections::BinaryHeap;
@@ -326,6 +332,12 @@ pub struct SceneSim<'s> {
     /// Per model: the largest `|centre| + radius` of its links' bounding spheres (each in its
     /// link's frame), the reach in the classification margins.
     reach: Vec<f64>,
+    /// Per model: a bound on the distance from the root body's origin to any point of any
+    /// link's bounding sphere in every configuration ([`whole_reach`]).
+    whole_reach: Vec<Option<f64>>,
+    /// Per body: whether this re-selection's exact solve ran (bodies surely outside the view
+    /// skip it: their weights are all 0).
+    solved: Vec<bool>,
     /// Per model: the pose springs, `(q index, v index, k, c)` per internal degree of freedom.
     springs: Vec<Vec<(usize, usize, f64, f64)>>,
     classifier: Classifier,
@@ -424,8 +436,15 @@ impl<'s> SceneSim<'s> {
                     .fold(0.0, f64::max)
             })
             .collect();
+        let whole_reach = scene
+            .models
+            .iter()
+            .map(|m| whole_reach(&m.model, &m.volumes))
+            .collect();
         SceneSim {
             reach,
+            whole_reach,
+            solved: Vec::new(),
             springs,
             scratch: scene
                 .models
@@ -475,24 +494,25 @@ impl<'s> SceneSim<'s> {
             .sum()
     }
 
-    /// Classifies what the camera sees now and sets every joint's weight.
-    fn classify(&mut self) {
-        let cam = self.scene.camera.at(self.time());
+    /// How far each body can get before the next re-selection (into `margins`): its root
+    /// speed plus the rim speed of its bounding sphere, times the period (and one step more).
+    fn set_margins(&mut self) {
         let scene = self.scene;
         let margin_steps = scene.reselect_every as f64 * scene.dt;
-        for b in &mut self.bodies {
-            let model = &scene.models[b.model].model;
-            self.plans[b.model].poses(model, &b.state.q, &mut b.poses);
-        }
         self.margins.clear();
         self.margins.extend(self.bodies.iter().map(|b| {
-            // How far the body can get before the next re-selection: its root speed plus
-            // the rim speed of its bounding sphere, times the period (and one step more).
             let (w, v) = (b.state.qd[..3].iter(), b.state.qd[3..6].iter());
             let wn = w.map(|x| x * x).sum::<f64>().sqrt();
             let vn = v.map(|x| x * x).sum::<f64>().sqrt();
             (vn + wn * self.reach[b.model]) * (margin_steps + scene.dt)
         }));
+    }
+
+    /// Classifies what the camera sees now (from the bodies' `poses`, which must be those of
+    /// their current states, and the `margins`) and sets every joint's weight.
+    fn classify(&mut self) {
+        let cam = self.scene.camera.at(self.time());
+        let scene = self.scene;
         let (bodies, parents, margins) = (&self.bodies, &self.parents, &self.margins);
         let placed = |i: usize| {
             let b = &bodies[i];
@@ -510,6 +530,31 @@ impl<'s> SceneSim<'s> {
             placed,
             &mut self.views,
         );
+    }
+
+    /// Body `i`'s exact solve at its current state and forces (the metrics' accelerations and
+    /// the kinematics the classification and the next hybrid body reuse).
+    fn exact_solve(&mut self, i: usize) -> Result<(), SceneSimError> {
+        let scene = self.scene;
+        let b = &mut self.bodies[i];
+        let model = &scene.models[b.model].model;
+        let (s, ad) = (&b.state, &mut b.adaptive);
+        // The exact solve takes the wrenches as a dense array (empty: none).
+        self.fdense.clear();
+        if !b.forces.is_empty() {
+            self.fdense.resize(model.bodies.len(), SpatialForce::ZERO);
+            for &(i, f) in &b.forces {
+                self.fdense[i] = f;
+            }
+        }
+        let f_ext = &self.fdense;
+        if self.shared {
+            let scratch = &mut self.scratch[b.model];
+            ad.exact_solve_with(scratch, model, &s.q, &s.qd, &s.tau, f_ext)
+        } else {
+            ad.exact_solve(model, &s.q, &s.qd, &s.tau, f_ext)
+        }
+        .map_err(|e| SceneSimError::body(scene, i, &e))
     }
 
     /// Advances the scene by one step.
@@ -541,45 +586,70 @@ impl<'s> SceneSim<'s> {
             }
         }
         if reselect {
+            // Every body's exact solve first: its accelerations give the metrics once the
+            // weights are known, and its kinematics the link poses the camera classifies (no
+            // separate pose pass) and the next hybrid body's load.
+            // A body whose whole bounding sphere (about its root, grown by its margin) lies
+            // outside a frustum plane has every link invisible (each link's sphere is inside
+            // it): all its weights will be 0, so its solve is skipped and the pose-only
+            // kinematics give the classifier its poses.
+            self.set_margins();
+            let frustum = scene.camera.at(t).frustum();
+            self.solved.clear();
+            for i in 0..self.bodies.len() {
+                let b = &self.bodies[i];
+                let (plan, model) = (&self.plans[b.model], &scene.models[b.model].model);
+                let outside = self.whole_reach[b.model].is_some_and(|r| {
+                    let root = plan.pose(model, &b.state.q, 0).1;
+                    frustum.nearest_plane_distance(root) < -(r + self.margins[i])
+                });
+                if outside {
+                    let b = &mut self.bodies[i];
+                    plan.poses(model, &b.state.q, &mut b.poses);
+                } else {
+                    self.exact_solve(i)?;
+                    let b = &mut self.bodies[i];
+                    poses_from_kinematics(&b.adaptive.data, &mut b.poses);
+                }
+                self.solved.push(!outside);
+            }
             self.classify();
             let mut link_classes = [0; 3];
             let mut classes = [0; 3];
-            for (b, view) in self.bodies.iter_mut().zip(&self.views) {
+            for ((b, view), metrics) in self
+                .bodies
+                .iter_mut()
+                .zip(&self.views)
+                .zip(&mut self.metrics)
+            {
                 let model = &scene.models[b.model].model;
-                for (i, w) in view.joint_weights.iter().enumerate() {
-                    b.adaptive.set_weight(model, i, *w);
-                }
                 b.unweighted = view.joint_weights.iter().all(|w| *w == 0.0);
                 for c in &view.links {
                     link_classes[*c as usize] += 1;
                 }
                 classes[view.summary() as usize] += 1;
-            }
-            for (b, metrics) in self.bodies.iter_mut().zip(&mut self.metrics) {
-                let model = &scene.models[b.model].model;
                 metrics.clear();
                 if b.unweighted {
                     continue;
                 }
                 metrics.resize(model.assembly.nodes.len(), 0.0);
-                let s = &b.state;
-                let ad = &mut b.adaptive;
-                // The exact solve takes the wrenches as a dense array (empty: none).
-                self.fdense.clear();
-                if !b.forces.is_empty() {
-                    self.fdense.resize(model.bodies.len(), SpatialForce::ZERO);
-                    for &(i, f) in &b.forces {
-                        self.fdense[i] = f;
-                    }
+            }
+            for i in 0..self.bodies.len() {
+                if self.bodies[i].unweighted {
+                    continue;
                 }
-                let f_ext = &self.fdense;
-                if self.shared {
-                    let scratch = &mut self.scratch[b.model];
-                    ad.node_metrics_with(scratch, model, &s.q, &s.qd, &s.tau, f_ext, metrics)
-                } else {
-                    ad.node_metrics(model, &s.q, &s.qd, &s.tau, f_ext, metrics)
+                if !self.solved[i] {
+                    // (Not reached: a body outside the view classifies invisible; a safeguard
+                    // against rounding at the frustum's edge.)
+                    self.exact_solve(i)?;
                 }
-                .map_err(|e| SceneSimError::new(scene, b.model, &e))?;
+                let b = &self.bodies[i];
+                let model = &scene.models[b.model].model;
+                b.adaptive.scaled_node_metrics(
+                    model,
+                    &self.views[i].joint_weights,
+                    &mut self.metrics[i],
+                );
             }
             let (bodies, metrics) = (&self.bodies, &self.metrics);
             global_selection_into(
@@ -718,6 +788,43 @@ impl<'s> SceneSim<'s> {
     }
 }
 
+/// An upper bound on the distance from the root body's origin to any point of any link's
+/// bounding sphere (`volumes[i].bound`, in link `i`'s frame), whatever the configuration: the
+/// joint origins' offsets summed along each root path (rotations keep lengths) plus the
+/// sphere's reach. `None` when a joint below the root translates (prismatic, floating).
+pub(crate) fn whole_reach(model: &Model, volumes: &[BodyVolumes]) -> Option<f64> {
+    let mut path = vec![0.0; model.bodies.len()];
+    let mut bound = 0.0f64;
+    for (i, body) in model.bodies.iter().enumerate() {
+        if let Some(p) = body.parent {
+            let mut r = path[p];
+            for part in &body.joint {
+                match part.kind {
+                    JointKind::Revolute | JointKind::Continuous | JointKind::Fixed => {
+                        r += part.origin.r.length()
+                    }
+                    _ => return None,
+                }
+            }
+            path[i] = r;
+        }
+        let (c, radius) = volumes.get(i)?.bound;
+        bound = bound.max(path[i] + c.length() + radius);
+    }
+    Some(bound)
+}
+
+/// World poses `(rotation, origin)` of every model body from the kinematics of an exact solve:
+/// `x[i]` maps body `i`'s coordinates to the computation frame's (world axes, origin at
+/// `data.origin`), so its pose there is [`articula_spatial::SpatialTransform::to_pose`].
+fn poses_from_kinematics(data: &articula_dca::Data, out: &mut Vec<(DMat3, DVec3)>) {
+    out.clear();
+    out.extend(data.x.iter().map(|x| {
+        let (e, p) = x.to_pose();
+        (e, p + data.origin)
+    }));
+}
+
 /// `τ = −k q − c q̇` of each pose spring `(q index, v index, k, c)`.
 #[inline]
 fn spring_torques(springs: &[(usize, usize, f64, f64)], s: &mut State) {
@@ -788,5 +895,42 @@ impl SceneSimError {
     }
     fn body(scene: &LoadedScene, b: usize, e: &AdaptiveError) -> Self {
         SceneSimError(format!("body '{}': {e}", scene.placements[b].name))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::whole_reach;
+    use crate::visibility::body_poses;
+    use crate::volumes::body_volumes;
+    use articula_dca::State;
+    use articula_model::{LoadOptions, Model};
+
+    /// Every link's bounding sphere stays within `whole_reach` of the root body's origin, in
+    /// random configurations (the bound is what lets a re-selection skip the exact solve of a
+    /// body outside the view), and the bound is not loose by more than the joints' offsets.
+    #[test]
+    fn whole_reach_bounds_every_link_sphere() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../models/humanoid.urdf");
+        let opts = LoadOptions {
+            floating_base: true,
+        };
+        let model = Model::from_urdf_file(path, &opts).unwrap();
+        let volumes = body_volumes(&model);
+        let bound = whole_reach(&model, &volumes).unwrap();
+        let mut farthest = 0.0f64;
+        let mut poses = Vec::new();
+        for seed in 0..500 {
+            let s = State::random(&model, seed, 3.0);
+            body_poses(&model, &s.q, &mut poses);
+            let root = poses[0].1;
+            for (v, &(r, p)) in volumes.iter().zip(&poses) {
+                let (c, radius) = v.bound;
+                let d = (r * c + p - root).length() + radius;
+                assert!(d <= bound * (1.0 + 1e-12), "{d} > {bound}");
+                farthest = farthest.max(d);
+            }
+        }
+        assert!(farthest > 0.5 * bound, "{farthest} against {bound}");
     }
 }
