@@ -371,7 +371,6 @@ impl BodyView {
 pub struct Classifier {
     /// The depth buffer of the last call.
     pub buffer: DepthBuffer,
-    spheres: Vec<(DVec3, f64)>,
     world: Vec<Vec<(DVec3, f64)>>,
 }
 
@@ -380,7 +379,6 @@ impl Classifier {
     pub fn new(settings: &VisibilitySettings) -> Classifier {
         Classifier {
             buffer: DepthBuffer::new(settings.depth_width, settings.depth_height),
-            spheres: Vec::new(),
             world: Vec::new(),
         }
     }
@@ -435,18 +433,16 @@ impl Classifier {
                 };
                 view.links.push(class);
                 if class == Visibility::Visible && d >= -r {
-                    self.spheres.clear();
                     // Balls whose projected disc cannot hold a whole cell write nothing: skip
                     // volumes that thin at this distance (depth ≥ distance − r).
                     let depth = (cam.to_camera(center).z - r).max(cam.near);
                     let min_radius = 0.7 * depth / cells_per_unit;
-                    for v in vol.primitives.iter().chain(&vol.skeleton) {
-                        if v.inner_radius() >= min_radius {
-                            v.transformed(rot, pos).inner_spheres(&mut self.spheres);
+                    for (inner, range) in &vol.inner {
+                        if *inner >= min_radius {
+                            for &(c, r) in &vol.balls[range.clone()] {
+                                self.buffer.raster(cam, &lens, rot * c + pos, r);
+                            }
                         }
-                    }
-                    for &(c, r) in &self.spheres {
-                        self.buffer.raster(cam, &lens, c, r);
                     }
                 }
             }
@@ -515,6 +511,9 @@ pub struct PosePlan {
 struct PlanPart {
     /// The part's origin as a pose (rotation, translation); `None` for the identity.
     origin: Option<(DMat3, DVec3)>,
+    /// Whether that origin's rotation is the identity (a pure offset, the usual URDF joint):
+    /// composing it then only moves the position (`r · 1` is `r`, up to the sign of zeros).
+    offset_only: bool,
     motion: PlanMotion,
 }
 
@@ -546,7 +545,12 @@ impl PosePlan {
                     },
                     None => PlanMotion::General { body: b, part: k },
                 };
-                plan.parts.push(PlanPart { origin, motion });
+                let offset_only = o.e == DMat3::IDENTITY;
+                plan.parts.push(PlanPart {
+                    origin,
+                    offset_only,
+                    motion,
+                });
             }
             plan.bodies.push((body.parent, first..plan.parts.len()));
         }
@@ -627,7 +631,9 @@ impl PosePlan {
     ) {
         if let Some((ro, po)) = part.origin {
             *p += *r * po;
-            *r *= ro;
+            if !part.offset_only {
+                *r *= ro;
+            }
         }
         match part.motion {
             PlanMotion::Axis { i, sign, q: qi } => {

@@ -150,6 +150,12 @@ pub struct BodyVolumes {
     pub radius: f64,
     /// Bounding sphere of everything above: centre (body frame) and radius.
     pub bound: (DVec3, f64),
+    /// The occluder balls ([`Volume::inner_spheres`], body frame) of `primitives` then
+    /// `skeleton`, in `balls`, one group per volume: `(its inner radius, its balls' range)`.
+    /// Made once: a classification only moves their centres.
+    pub inner: Vec<(f64, std::ops::Range<usize>)>,
+    /// See `inner`.
+    pub balls: Vec<(DVec3, f64)>,
 }
 
 /// Eigen-decomposition of a symmetric 3×3 matrix by cyclic Jacobi rotations: eigenvalues and
@@ -300,12 +306,20 @@ pub fn body_volumes(model: &Model) -> Vec<BodyVolumes> {
                 .iter()
                 .map(|(c, r)| (*c - center).length() + r)
                 .fold(0.0, f64::max);
+            let (mut inner, mut balls) = (Vec::new(), Vec::new());
+            for v in primitives.iter().chain(&skeleton) {
+                let first = balls.len();
+                v.inner_spheres(&mut balls);
+                inner.push((v.inner_radius(), first..balls.len()));
+            }
             BodyVolumes {
                 primitives,
                 from_inertia,
                 skeleton,
                 radius,
                 bound: (center, r),
+                inner,
+                balls,
             }
         })
         .collect()
