@@ -191,6 +191,37 @@ impl DepthBuffer {
         if j0 >= j1 || i0 > i1 {
             return;
         }
+        if i1 - i0 < 64 {
+            // Up to 64 corner columns (every ball of a crowd but the nearest): each grid
+            // line's inside corners as a bit mask, with `a²` of each corner column computed
+            // once (the same value `inside` computes) — no walk, no data-dependent branch per
+            // corner. A cell row's cells are the bits set in both its lines' masks and in the
+            // next column's.
+            let n = i1 - i0 + 1;
+            // (Padded to pairs with +∞: never inside.)
+            let mut aa = [f64::INFINITY; 64];
+            for (k, a2) in aa[..n].iter_mut().enumerate() {
+                let a = ((i0 + k) as f64 - x) / rx;
+                *a2 = a * a;
+            }
+            let pairs = n.div_ceil(2);
+            let mut below = 0u64;
+            for j in j0..=j1 {
+                let above = inside_mask(&aa[..2 * pairs], line(j as f64));
+                let both = below & above;
+                let mut cells = both & (both >> 1);
+                if cells != 0 {
+                    let row = (j - 1) * self.width + i0;
+                    while cells != 0 {
+                        let d = &mut self.depth[row + cells.trailing_zeros() as usize];
+                        *d = if far < *d { far } else { *d };
+                        cells &= cells - 1;
+                    }
+                }
+                below = above;
+            }
+            return;
+        }
         // On one grid line v the corners inside form one run of u: the test is monotone in
         // |u − x| (rounding is monotone and symmetric), so the runs of all lines are nested
         // intervals around x (their thresholds on |u − x| grow while |v − y| falls and shrink
@@ -299,6 +330,38 @@ impl DepthBuffer {
             }
         }
         true
+    }
+}
+
+/// Bit `k` set when `a2[k] + bb ≤ 1` (the corner test with `a²` precomputed), for up to 64
+/// entries of even count: two at a time in SSE2 lanes on x86-64 (the same sums and
+/// comparisons).
+#[inline]
+fn inside_mask(a2: &[f64], bb: f64) -> u64 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{
+            _mm_add_pd, _mm_cmple_pd, _mm_loadu_pd, _mm_movemask_pd, _mm_set1_pd,
+        };
+        // SAFETY: SSE2 is part of the x86-64 baseline; every load reads two in-bounds entries
+        // (`chunks_exact(2)`).
+        unsafe {
+            let (b, one) = (_mm_set1_pd(bb), _mm_set1_pd(1.0));
+            let mut m = 0u64;
+            for (p, pair) in a2.chunks_exact(2).enumerate() {
+                let s = _mm_add_pd(_mm_loadu_pd(pair.as_ptr()), b);
+                m |= (_mm_movemask_pd(_mm_cmple_pd(s, one)) as u64) << (2 * p);
+            }
+            m
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let mut m = 0u64;
+        for (k, a) in a2.iter().enumerate() {
+            m |= u64::from(*a + bb <= 1.0) << k;
+        }
+        m
     }
 }
 
