@@ -1378,13 +1378,41 @@ fn back_substitution<A: Arith>(model: &Model, tau: &[f64], data: &mut Data) {
     let tree = &model.assembly;
     for n in (0..tree.nodes.len()).rev() {
         // What the join PREFETCH nodes ahead reads, on its way from memory meanwhile (only
-        // where those streams outgrow the caches: `DcaData::prefetch`).
-        if let Some(m) = n.checked_sub(PREFETCH).filter(|_| data.dca.prefetch) {
+        // where those streams outgrow the caches: `DcaData::prefetch`). Its node record and
+        // its children's are read here to find the rest, so they are asked for PREFETCH nodes
+        // earlier still: a miss on them would stall this join.
+        if data.dca.prefetch {
             let d = &data.dca;
-            if let DKind::Join { a, b, .. } = d.node[m].kind {
-                prefetch_span(&d.rev[d.node[m].jix as usize]);
-                prefetch_span(&d.phi[d.node[a as usize].boff as usize..]);
-                prefetch_span(&d.phi[d.node[b as usize].boff as usize..]);
+            prefetch_ptr(
+                d.node
+                    .as_ptr()
+                    .wrapping_sub(2 * PREFETCH)
+                    .wrapping_add(n)
+                    .cast(),
+            );
+            if let Some(m) = n.checked_sub(PREFETCH) {
+                let nm = &d.node[m];
+                prefetch_ptr(d.hj.as_ptr().wrapping_add(nm.hoff as usize).cast());
+                prefetch_ptr(d.from.as_ptr().wrapping_add(nm.hoff as usize).cast());
+                if let DKind::Join { joint, a, b } = nm.kind {
+                    prefetch_span(&d.rev[nm.jix as usize]);
+                    for c in [a, b] {
+                        let nd = &d.node[c as usize];
+                        match nd.kind {
+                            DKind::Join { .. } => prefetch_span(&d.phi[nd.boff as usize..]),
+                            // A leaf's closed-form Φ (`leaf_mul`): its `LeafK` (80 bytes: two
+                            // lines at most) and its own point.
+                            DKind::Body(i) => {
+                                let lk = (&d.leafk[i as usize] as *const LeafK).cast::<u8>();
+                                prefetch_ptr(lk);
+                                prefetch_ptr(lk.wrapping_add(std::mem::size_of::<LeafK>() - 1));
+                                prefetch_ptr((&d.point[i as usize] as *const DVec3).cast());
+                            }
+                            DKind::Ground => {}
+                        }
+                    }
+                    prefetch_ptr((&data.topo[joint as usize] as *const crate::data::Topo).cast());
+                }
             }
         }
         let nc = data.dca.node[n];
