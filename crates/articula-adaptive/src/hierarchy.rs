@@ -78,8 +78,9 @@ pub(crate) struct Hierarchy {
     /// its coordinate and sign (`ang`, built with the records) and the `sin`, `cos` of its
     /// signed value (`sc`), computed in a first sweep of [`Adaptive::active_kinematics`], four
     /// at a time, so that its main loop makes no call (every vector register is
-    /// caller-saved).
-    pub ang: Vec<(usize, f64)>,
+    /// caller-saved). (`ang` in 8 bytes an angle, the sign `±1` exact in `f32`: a crowd's
+    /// bodies run through more data than the 1 MB L2 holds, every byte read per step counts.)
+    pub ang: Vec<(u32, f32)>,
     pub sc: Vec<(f64, f64)>,
 }
 
@@ -122,12 +123,12 @@ pub(crate) struct ActiveJoint {
     /// `(i, ±1)` of a closed-form revolute joint.
     pub axis: Option<(usize, f64)>,
     /// The record's first angle in `Hierarchy::ang`, `sc` (closed-form and revolute-parts
-    /// joints).
-    pub si: usize,
+    /// joints). (`si` and `revs` narrow: they fit beside the flags, the record stays as long.)
+    pub si: u32,
     /// The number of parts of a joint of one or more revolute parts about coordinate axes
     /// ([`RevoluteParts`]) whose coordinates are contiguous (part `p` at `qo + p`, `vo + p`):
     /// the integration updates them as one-axis coordinates. 0 for any other joint.
-    pub revs: usize,
+    pub revs: u8,
     /// The cluster's mass properties in this body's frame.
     pub rig: Rigid,
 }
@@ -307,16 +308,17 @@ impl Adaptive {
                     }) && body.nq == body.joint.len()
                         && body.nv == body.joint.len() =>
                 {
-                    body.joint.len()
+                    body.joint.len() as u8
                 }
                 _ => 0,
             };
-            let si = h.ang.len();
+            let narrow = |i: usize| u32::try_from(i).expect("fewer than 2³² coordinates");
+            let si = narrow(h.ang.len());
             if let Some((_, sign)) = axis {
-                h.ang.push((body.q_offset, sign));
+                h.ang.push((narrow(body.q_offset), sign as f32));
             } else if let Some(parts) = &h.parts[j] {
                 for (k, part) in body.joint.iter().enumerate() {
-                    h.ang.push((part.q_offset, parts.axes[k].1));
+                    h.ang.push((narrow(part.q_offset), parts.axes[k].1 as f32));
                 }
             }
             h.ridx[j] = h.rec.len();
@@ -390,7 +392,7 @@ impl Adaptive {
             done = unsafe { sin_cos_angles4(ang, scs, q) };
         }
         for (&(qi, sign), sc) in ang[done..].iter().zip(&mut scs[done..]) {
-            *sc = crate::trig::sin_cos(sign * q[qi]);
+            *sc = crate::trig::sin_cos(sign as f64 * q[qi as usize]);
         }
         let h = &self.hier;
         let d = &mut self.data;
@@ -418,20 +420,28 @@ impl Adaptive {
                 let body = &model.bodies[r.j];
                 match &h.parts[r.j] {
                     Some(parts) => {
-                        let sc = &h.sc[r.si..r.si + body.joint.len()];
+                        let si = r.si as usize;
+                        let sc = &h.sc[si..si + body.joint.len()];
                         let out = (&mut d.x[r.j], &mut d.v[r.j], &mut d.c[r.j]);
                         revolute(wide, body, parts, &x, &v, sc, qd, &mut d.s, out);
                     }
-                    None => {
-                        let (x, v, c) = articula_dca::body_kinematics(body, x, v, q, qd, &mut d.s);
-                        d.x[r.j] = x;
-                        d.v[r.j] = v;
-                        d.c[r.j] = c;
-                    }
+                    None => match body.joint.as_slice() {
+                        [part] if part.kind == articula_model::JointKind::Floating => {
+                            let out = (&mut d.x[r.j], &mut d.v[r.j], &mut d.c[r.j]);
+                            floating(wide, part, &x, &v, q, qd, &mut d.s, out);
+                        }
+                        _ => {
+                            let (x, v, c) =
+                                articula_dca::body_kinematics(body, x, v, q, qd, &mut d.s);
+                            d.x[r.j] = x;
+                            d.v[r.j] = v;
+                            d.c[r.j] = c;
+                        }
+                    },
                 }
                 continue;
             };
-            let (sn, cs) = h.sc[r.si];
+            let (sn, cs) = h.sc[r.si as usize];
             let mut x = compose(base);
             let w = turn(&mut x, i, sn, cs) * sign;
             let p = -(x.e * x.r);
@@ -877,11 +887,11 @@ impl Adaptive {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline(never)]
-unsafe fn sin_cos_angles4(ang: &[(usize, f64)], scs: &mut [(f64, f64)], q: &[f64]) -> usize {
+unsafe fn sin_cos_angles4(ang: &[(u32, f32)], scs: &mut [(f64, f64)], q: &[f64]) -> usize {
     for (a4, sc) in ang.chunks_exact(4).zip(scs.chunks_exact_mut(4)) {
         let mut x = [0.0; 4];
         for (xl, &(qi, sign)) in x.iter_mut().zip(a4) {
-            *xl = sign * q[qi];
+            *xl = sign as f64 * q[qi as usize];
         }
         let (s4, c4) = crate::trig::sin_cos4(&x);
         for (l, sc) in sc.iter_mut().enumerate() {
@@ -1319,6 +1329,102 @@ fn revolute_kinematics_with(
     }
     *out.0 = x;
     *out.1 = v;
+    *out.2 = c;
+}
+
+/// [`floating_kinematics`], compiled for AVX2 + FMA when `wide` (the same arithmetic).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn floating(
+    wide: bool,
+    part: &articula_model::JointPart,
+    x0: &SpatialTransform,
+    v0: &SpatialMotion,
+    q: &[f64],
+    qd: &[f64],
+    s: &mut [SpatialMotion],
+    out: KinOut,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if wide {
+        // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
+        return unsafe { floating_kinematics_wide(part, x0, v0, q, qd, s, out) };
+    }
+    floating_kinematics(part, x0, v0, q, qd, s, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+fn floating_kinematics_wide(
+    part: &articula_model::JointPart,
+    x0: &SpatialTransform,
+    v0: &SpatialMotion,
+    q: &[f64],
+    qd: &[f64],
+    s: &mut [SpatialMotion],
+    out: KinOut,
+) {
+    floating_kinematics_with(part, x0, v0, q, qd, s, out)
+}
+
+#[inline(never)]
+fn floating_kinematics(
+    part: &articula_model::JointPart,
+    x0: &SpatialTransform,
+    v0: &SpatialMotion,
+    q: &[f64],
+    qd: &[f64],
+    s: &mut [SpatialMotion],
+    out: KinOut,
+) {
+    floating_kinematics_with(part, x0, v0, q, qd, s, out)
+}
+
+/// [`articula_dca::body_kinematics`] for a joint of one floating part (a floating base):
+/// the pose by the same products; the subspace columns `X [e_k; 0]`, `X [0; e_k]` written
+/// out — `[E e_k; E (−r × e_k)]` and `[0; E e_k]`, the columns of `E` and two-term sums of
+/// them (`apply_motion`'s products by the unit vector's zeros and ones add only zeros, and
+/// the sums keep their order) — and `v_J = Σ S_k q̇_k` in the general path's order (its
+/// zero terms dropped). The same numbers but for the sign of an exact zero.
+#[inline(always)]
+fn floating_kinematics_with(
+    part: &articula_model::JointPart,
+    x0: &SpatialTransform,
+    v0: &SpatialMotion,
+    q: &[f64],
+    qd: &[f64],
+    s: &mut [SpatialMotion],
+    out: KinOut,
+) {
+    let mut x = *x0;
+    let o = &part.origin;
+    if o.e != glam::DMat3::IDENTITY || o.r != DVec3::ZERO {
+        x = x * part.origin;
+    }
+    x = x * part.motion_transform(&q[part.q_offset..part.q_offset + 7]);
+    let (e, r) = (&x.e, x.r);
+    // −r × e_k: (0, −r_z, r_y), (r_z, 0, −r_x), (−r_y, r_x, 0).
+    let w = [e.x_axis, e.y_axis, e.z_axis];
+    let lin = [
+        e.y_axis * -r.z + e.z_axis * r.y,
+        e.x_axis * r.z + e.z_axis * -r.x,
+        e.x_axis * -r.y + e.y_axis * r.x,
+    ];
+    let vo = part.v_offset;
+    let (qd, s) = (&qd[vo..vo + 6], &mut s[vo..vo + 6]);
+    for k in 0..3 {
+        s[k] = SpatialMotion::new(w[k], lin[k]);
+        s[3 + k] = SpatialMotion::new(DVec3::ZERO, w[k]);
+    }
+    let vw = (w[0] * qd[0] + w[1] * qd[1]) + w[2] * qd[2];
+    let vv = ((((lin[0] * qd[0] + lin[1] * qd[1]) + lin[2] * qd[2]) + w[0] * qd[3]) + w[1] * qd[4])
+        + w[2] * qd[5];
+    let vj = SpatialMotion::new(vw, vv);
+    let mut c = SpatialMotion::ZERO;
+    c += v0.cross_motion(vj);
+    *out.0 = x;
+    *out.1 = *v0 + vj;
     *out.2 = c;
 }
 
