@@ -74,7 +74,7 @@ pub(crate) struct Hierarchy {
     pub u: Vec<[f64; 6]>,
     pub uu: Vec<f64>,
     /// Per angle of the reduced tree — a closed-form revolute joint's, then each part of a
-    /// joint of [`RevoluteParts`], in record order (a record's first at `ActiveJoint::si`) —
+    /// joint of [`RevoluteParts`], in record order (the kinematics take them in turn) —
     /// its coordinate and sign (`ang`, built with the records) and the `sin`, `cos` of its
     /// signed value (`sc`), computed in a first sweep of [`Adaptive::active_kinematics`], four
     /// at a time, so that its main loop makes no call (every vector register is
@@ -122,12 +122,10 @@ pub(crate) struct ActiveJoint {
     pub shift: bool,
     /// `(i, ±1)` of a closed-form revolute joint.
     pub axis: Option<(usize, f64)>,
-    /// The record's first angle in `Hierarchy::ang`, `sc` (closed-form and revolute-parts
-    /// joints). (`si` and `revs` narrow: they fit beside the flags, the record stays as long.)
-    pub si: u32,
     /// The number of parts of a joint of one or more revolute parts about coordinate axes
     /// ([`RevoluteParts`]) whose coordinates are contiguous (part `p` at `qo + p`, `vo + p`):
-    /// the integration updates them as one-axis coordinates. 0 for any other joint.
+    /// the integration updates them as one-axis coordinates. 0 for any other joint. (Narrow:
+    /// it fits beside the flags, the record stays as long.)
     pub revs: u8,
     /// The cluster's mass properties in this body's frame.
     pub rig: Rigid,
@@ -313,7 +311,6 @@ impl Adaptive {
                 _ => 0,
             };
             let narrow = |i: usize| u32::try_from(i).expect("fewer than 2³² coordinates");
-            let si = narrow(h.ang.len());
             if let Some((_, sign)) = axis {
                 h.ang.push((narrow(body.q_offset), sign as f32));
             } else if let Some(parts) = &h.parts[j] {
@@ -335,7 +332,6 @@ impl Adaptive {
                 mulx,
                 shift: mulx && x0.e == glam::DMat3::IDENTITY,
                 axis,
-                si,
                 revs,
                 rig: h.rig[h.cl[j]],
             });
@@ -396,6 +392,8 @@ impl Adaptive {
         }
         let h = &self.hier;
         let d = &mut self.data;
+        // The records' sines and cosines in turn (one per closed-form joint, one per part).
+        let mut scs = &h.sc[..];
         for r in &h.rec {
             let (base, v) = match r.parent {
                 Parent::World | Parent::Ground => (x_cw, SpatialMotion::ZERO),
@@ -420,8 +418,8 @@ impl Adaptive {
                 let body = &model.bodies[r.j];
                 match &h.parts[r.j] {
                     Some(parts) => {
-                        let si = r.si as usize;
-                        let sc = &h.sc[si..si + body.joint.len()];
+                        let sc;
+                        (sc, scs) = scs.split_at(body.joint.len());
                         let out = (&mut d.x[r.j], &mut d.v[r.j], &mut d.c[r.j]);
                         revolute(wide, body, parts, &x, &v, sc, qd, &mut d.s, out);
                     }
@@ -441,7 +439,10 @@ impl Adaptive {
                 }
                 continue;
             };
-            let (sn, cs) = h.sc[r.si as usize];
+            let Some((&(sn, cs), rest)) = scs.split_first() else {
+                unreachable!("one angle per closed-form joint")
+            };
+            scs = rest;
             let mut x = compose(base);
             let w = turn(&mut x, i, sn, cs) * sign;
             let p = -(x.e * x.r);
