@@ -73,9 +73,14 @@ pub(crate) struct Hierarchy {
     pub chol: Vec<[[f64; 6]; 6]>,
     pub u: Vec<[f64; 6]>,
     pub uu: Vec<f64>,
-    /// Per record of a closed-form revolute joint: `sin`, `cos` of its signed angle, computed
-    /// in a first sweep of [`Adaptive::active_kinematics`] so that its main loop makes no call
-    /// (every vector register is caller-saved).
+    /// Per angle of the reduced tree — a closed-form revolute joint's, then each part of a
+    /// joint of [`RevoluteParts`], in record order (the kinematics take them in turn) —
+    /// its coordinate and sign (`ang`, built with the records) and the `sin`, `cos` of its
+    /// signed value (`sc`), computed in a first sweep of [`Adaptive::active_kinematics`], four
+    /// at a time, so that its main loop makes no call (every vector register is
+    /// caller-saved). (`ang` in 8 bytes an angle, the sign `±1` exact in `f32`: a crowd's
+    /// bodies run through more data than the 1 MB L2 holds, every byte read per step counts.)
+    pub ang: Vec<(u32, f32)>,
     pub sc: Vec<(f64, f64)>,
 }
 
@@ -117,6 +122,11 @@ pub(crate) struct ActiveJoint {
     pub shift: bool,
     /// `(i, ±1)` of a closed-form revolute joint.
     pub axis: Option<(usize, f64)>,
+    /// The number of parts of a joint of one or more revolute parts about coordinate axes
+    /// ([`RevoluteParts`]) whose coordinates are contiguous (part `p` at `qo + p`, `vo + p`):
+    /// the integration updates them as one-axis coordinates. 0 for any other joint. (Narrow:
+    /// it fits beside the flags, the record stays as long.)
+    pub revs: u8,
     /// The cluster's mass properties in this body's frame.
     pub rig: Rigid,
 }
@@ -250,7 +260,8 @@ impl Adaptive {
                 v.reserve(nb.saturating_sub(v.len()));
             }
             h.dinv.reserve(nb.saturating_sub(h.dinv.len()));
-            h.sc.reserve(nb.saturating_sub(h.sc.len()));
+            h.sc.reserve(model.nv.saturating_sub(h.sc.len()));
+            h.ang.reserve(model.nv.saturating_sub(h.ang.len()));
             h.u.reserve(model.nv.saturating_sub(h.u.len()));
             h.uu.reserve(model.nv.saturating_sub(h.uu.len()));
         }
@@ -258,6 +269,7 @@ impl Adaptive {
             h.ridx.resize(nb, usize::MAX);
         }
         let mut dof = 0;
+        h.ang.clear();
         for idx in 0..h.ajoints.len() {
             let j = h.ajoints[idx];
             let body = &model.bodies[j];
@@ -287,6 +299,25 @@ impl Adaptive {
             } else {
                 h.ridx[h.par[j]]
             };
+            let revs = match h.parts[j] {
+                Some(_)
+                    if body.joint.iter().enumerate().all(|(p, part)| {
+                        part.q_offset == body.q_offset + p && part.v_offset == body.v_offset + p
+                    }) && body.nq == body.joint.len()
+                        && body.nv == body.joint.len() =>
+                {
+                    body.joint.len() as u8
+                }
+                _ => 0,
+            };
+            let narrow = |i: usize| u32::try_from(i).expect("fewer than 2³² coordinates");
+            if let Some((_, sign)) = axis {
+                h.ang.push((narrow(body.q_offset), sign as f32));
+            } else if let Some(parts) = &h.parts[j] {
+                for (k, part) in body.joint.iter().enumerate() {
+                    h.ang.push((narrow(part.q_offset), parts.axes[k].1 as f32));
+                }
+            }
             h.ridx[j] = h.rec.len();
             h.rec.push(ActiveJoint {
                 j,
@@ -301,6 +332,7 @@ impl Adaptive {
                 mulx,
                 shift: mulx && x0.e == glam::DMat3::IDENTITY,
                 axis,
+                revs,
                 rig: h.rig[h.cl[j]],
             });
             dof += body.nv;
@@ -310,7 +342,7 @@ impl Adaptive {
         h.pa.resize(na, [0.0; 6]);
         h.acc.resize(na, [0.0; 6]);
         h.dinv.resize(na, 0.0);
-        h.sc.resize(na, (0.0, 1.0));
+        h.sc.resize(h.ang.len(), (0.0, 1.0));
         h.chol.resize(na, [[0.0; 6]; 6]);
         h.u.resize(dof, [0.0; 6]);
         h.uu.resize(dof, 0.0);
@@ -348,21 +380,21 @@ impl Adaptive {
         // The angles' sines and cosines first (the loop below then makes no call), four
         // records at a time in AVX2 lanes when `wide` (the same bits).
         let h = &mut self.hier;
-        let (rec, scs) = (&h.rec[..], &mut h.sc[..h.rec.len()]);
+        let (ang, scs) = (&h.ang[..], &mut h.sc[..h.ang.len()]);
         let mut done = 0;
         #[cfg(target_arch = "x86_64")]
-        if wide && rec.len() >= 4 {
+        if wide && ang.len() >= 4 {
             // SAFETY: `wide` is `fused`, set only where the CPU has AVX2 and FMA.
-            done = unsafe { sin_cos_records4(rec, scs, q) };
+            done = unsafe { sin_cos_angles4(ang, scs, q) };
         }
-        for (r, sc) in rec[done..].iter().zip(&mut scs[done..]) {
-            if let Some((_, sign)) = r.axis {
-                *sc = crate::trig::sin_cos(sign * q[r.qo]);
-            }
+        for (&(qi, sign), sc) in ang[done..].iter().zip(&mut scs[done..]) {
+            *sc = crate::trig::sin_cos(sign as f64 * q[qi as usize]);
         }
         let h = &self.hier;
         let d = &mut self.data;
-        for (r, &(sn, cs)) in h.rec.iter().zip(&h.sc) {
+        // The records' sines and cosines in turn (one per closed-form joint, one per part).
+        let mut scs = &h.sc[..];
+        for r in &h.rec {
             let (base, v) = match r.parent {
                 Parent::World | Parent::Ground => (x_cw, SpatialMotion::ZERO),
                 Parent::Active(p) | Parent::Cluster(p) => (d.x[p], d.v[p]),
@@ -384,15 +416,33 @@ impl Adaptive {
             let Some((i, sign)) = r.axis else {
                 let x = compose(base);
                 let body = &model.bodies[r.j];
-                let (x, v, c) = match &h.parts[r.j] {
-                    Some(parts) => revolute(wide, body, parts, x, v, q, qd, &mut d.s),
-                    None => articula_dca::body_kinematics(body, x, v, q, qd, &mut d.s),
-                };
-                d.x[r.j] = x;
-                d.v[r.j] = v;
-                d.c[r.j] = c;
+                match &h.parts[r.j] {
+                    Some(parts) => {
+                        let sc;
+                        (sc, scs) = scs.split_at(body.joint.len());
+                        let out = (&mut d.x[r.j], &mut d.v[r.j], &mut d.c[r.j]);
+                        revolute(wide, body, parts, &x, &v, sc, qd, &mut d.s, out);
+                    }
+                    None => match body.joint.as_slice() {
+                        [part] if part.kind == articula_model::JointKind::Floating => {
+                            let out = (&mut d.x[r.j], &mut d.v[r.j], &mut d.c[r.j]);
+                            floating(wide, part, &x, &v, q, qd, &mut d.s, out);
+                        }
+                        _ => {
+                            let (x, v, c) =
+                                articula_dca::body_kinematics(body, x, v, q, qd, &mut d.s);
+                            d.x[r.j] = x;
+                            d.v[r.j] = v;
+                            d.c[r.j] = c;
+                        }
+                    },
+                }
                 continue;
             };
+            let Some((&(sn, cs), rest)) = scs.split_first() else {
+                unreachable!("one angle per closed-form joint")
+            };
+            scs = rest;
             let mut x = compose(base);
             let w = turn(&mut x, i, sn, cs) * sign;
             let p = -(x.e * x.r);
@@ -829,32 +879,27 @@ impl Adaptive {
     }
 }
 
-/// The first sweep of [`Adaptive::active_kinematics`] four records at a time
+/// The first sweep of [`Adaptive::active_kinematics`] four angles at a time
 /// ([`crate::trig::sin_cos4`]; out of line, so that a reduced tree of a few joints pays
-/// nothing for it): `sc` of each closed-form revolute record among the first `4 ⌊n/4⌋`,
-/// whose count it returns.
+/// nothing for it): `sc` of the first `4 ⌊n/4⌋` angles, whose count it returns.
 ///
 /// # Safety
 /// The CPU must have AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline(never)]
-unsafe fn sin_cos_records4(rec: &[ActiveJoint], scs: &mut [(f64, f64)], q: &[f64]) -> usize {
-    for (rs, sc) in rec.chunks_exact(4).zip(scs.chunks_exact_mut(4)) {
+unsafe fn sin_cos_angles4(ang: &[(u32, f32)], scs: &mut [(f64, f64)], q: &[f64]) -> usize {
+    for (a4, sc) in ang.chunks_exact(4).zip(scs.chunks_exact_mut(4)) {
         let mut x = [0.0; 4];
-        for (xl, r) in x.iter_mut().zip(rs) {
-            if let Some((_, sign)) = r.axis {
-                *xl = sign * q[r.qo];
-            }
+        for (xl, &(qi, sign)) in x.iter_mut().zip(a4) {
+            *xl = sign as f64 * q[qi as usize];
         }
         let (s4, c4) = crate::trig::sin_cos4(&x);
-        for (l, (r, sc)) in rs.iter().zip(sc.iter_mut()).enumerate() {
-            if r.axis.is_some() {
-                *sc = (s4[l], c4[l]);
-            }
+        for (l, sc) in sc.iter_mut().enumerate() {
+            *sc = (s4[l], c4[l]);
         }
     }
-    rec.len() / 4 * 4
+    ang.len() / 4 * 4
 }
 
 /// A rigid cluster's spatial inertia about the computation origin by its parts
@@ -977,7 +1022,39 @@ fn articulate_multi_with<const K: usize>(
     }
     // D = L Lᵀ. With Y = U L⁻ᵀ (columns y_p) and z = L⁻¹ u: U D⁻¹ Uᵀ = Y Yᵀ and
     // U D⁻¹ u = Y z.
-    if k > 0 {
+    // `1 / L_pp` as the factorisation forms it (three joints: reused by the substitutions
+    // below instead of dividing again — the same numbers).
+    let mut invs = [0.0; 6];
+    if K == 3 {
+        // The operations of `articula_dca::cholesky` in its order (the same bits), inline:
+        // the leading 3 × 3 block written (the rest of the factor is never read for k = 3),
+        // not the whole 6 × 6 returned and copied.
+        let mut l = [[0.0; 3]; 3];
+        for j in 0..3 {
+            let mut d = dm[j][j];
+            for p in 0..j {
+                d -= l[j][p] * l[j][p];
+            }
+            if d.is_nan() || d <= 0.0 {
+                return false;
+            }
+            let ljj = d.sqrt();
+            l[j][j] = ljj;
+            let inv = 1.0 / ljj;
+            invs[j] = inv;
+            for i in (j + 1)..3 {
+                let mut x = dm[i][j];
+                for p in 0..j {
+                    x -= l[i][p] * l[j][p];
+                }
+                l[i][j] = x * inv;
+            }
+        }
+        let c = &mut h.chol[idx];
+        for i in 0..3 {
+            c[i][..=i].copy_from_slice(&l[i][..=i]);
+        }
+    } else if k > 0 {
         match dense::cholesky_k(&dm, k) {
             Some(l) => h.chol[idx] = l,
             None => return false,
@@ -999,7 +1076,7 @@ fn articulate_multi_with<const K: usize>(
                 yp[rr] -= lpq * y[qq][rr];
             }
         }
-        let inv = 1.0 / l[p][p];
+        let inv = if K == 3 { invs[p] } else { 1.0 / l[p][p] };
         z[p] = zp * inv;
         for rr in 0..6 {
             yp[rr] *= inv;
@@ -1130,11 +1207,13 @@ fn accelerate_multi_with<const K: usize>(
 pub(crate) struct RevoluteParts {
     axes: [(usize, f64); 6],
     moved: u8,
+    /// A bit per moved part whose origin's rotation is the identity (it only translates).
+    shift: u8,
 }
 
 fn revolute_parts(body: &articula_model::Body) -> Option<RevoluteParts> {
     let mut axes = [(0usize, 0.0f64); 6];
-    let mut moved = 0u8;
+    let (mut moved, mut shift) = (0u8, 0u8);
     for (k, part) in body.joint.iter().enumerate() {
         if k >= 6 {
             return None;
@@ -1142,9 +1221,12 @@ fn revolute_parts(body: &articula_model::Body) -> Option<RevoluteParts> {
         axes[k] = part.coordinate_axis()?;
         if part.origin.e != glam::DMat3::IDENTITY || part.origin.r != DVec3::ZERO {
             moved |= 1 << k;
+            if part.origin.e == glam::DMat3::IDENTITY {
+                shift |= 1 << k;
+            }
         }
     }
-    Some(RevoluteParts { axes, moved })
+    Some(RevoluteParts { axes, moved, shift })
 }
 
 /// [`revolute_kinematics`], compiled for AVX2 + FMA when `wide` (the same arithmetic).
@@ -1154,73 +1236,89 @@ fn revolute(
     wide: bool,
     body: &articula_model::Body,
     parts: &RevoluteParts,
-    x0: SpatialTransform,
-    v0: SpatialMotion,
-    q: &[f64],
+    x0: &SpatialTransform,
+    v0: &SpatialMotion,
+    sc: &[(f64, f64)],
     qd: &[f64],
     s: &mut [SpatialMotion],
-) -> (SpatialTransform, SpatialMotion, SpatialMotion) {
+    out: KinOut,
+) {
     #[cfg(target_arch = "x86_64")]
     if wide {
         // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
-        return unsafe { revolute_kinematics_wide(body, parts, x0, v0, q, qd, s) };
+        return unsafe { revolute_kinematics_wide(body, parts, x0, v0, sc, qd, s, out) };
     }
-    revolute_kinematics(body, parts, x0, v0, q, qd, s)
+    revolute_kinematics(body, parts, x0, v0, sc, qd, s, out)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline(never)]
+#[allow(clippy::too_many_arguments)]
 fn revolute_kinematics_wide(
     body: &articula_model::Body,
     parts: &RevoluteParts,
-    x0: SpatialTransform,
-    v0: SpatialMotion,
-    q: &[f64],
+    x0: &SpatialTransform,
+    v0: &SpatialMotion,
+    sc: &[(f64, f64)],
     qd: &[f64],
     s: &mut [SpatialMotion],
-) -> (SpatialTransform, SpatialMotion, SpatialMotion) {
-    revolute_kinematics_with(body, parts, x0, v0, q, qd, s)
+    out: KinOut,
+) {
+    revolute_kinematics_with(body, parts, x0, v0, sc, qd, s, out)
 }
 
 #[inline(never)]
+#[allow(clippy::too_many_arguments)]
 fn revolute_kinematics(
     body: &articula_model::Body,
     parts: &RevoluteParts,
-    x0: SpatialTransform,
-    v0: SpatialMotion,
-    q: &[f64],
+    x0: &SpatialTransform,
+    v0: &SpatialMotion,
+    sc: &[(f64, f64)],
     qd: &[f64],
     s: &mut [SpatialMotion],
-) -> (SpatialTransform, SpatialMotion, SpatialMotion) {
-    revolute_kinematics_with(body, parts, x0, v0, q, qd, s)
+    out: KinOut,
+) {
+    revolute_kinematics_with(body, parts, x0, v0, sc, qd, s, out)
 }
 
 /// [`articula_dca::body_kinematics`] for a joint of [`RevoluteParts`]: the rotation by `q`
 /// touches two columns of the pose and an identity part origin costs nothing. (Called out of
 /// line, beside the closed-form one-axis path of `active_kinematics`.)
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn revolute_kinematics_with(
     body: &articula_model::Body,
     parts: &RevoluteParts,
-    x0: SpatialTransform,
-    v0: SpatialMotion,
-    q: &[f64],
+    x0: &SpatialTransform,
+    v0: &SpatialMotion,
+    sc: &[(f64, f64)],
     qd: &[f64],
     s: &mut [SpatialMotion],
-) -> (SpatialTransform, SpatialMotion, SpatialMotion) {
-    let (mut x, mut v) = (x0, v0);
+    out: KinOut,
+) {
+    let (mut x, mut v) = (*x0, *v0);
     let mut c = SpatialMotion::ZERO;
     // The body's origin in the computation frame, `p = −E r`: a part's rotation leaves it
     // (`E R Rᵀ r = E r`), a part's origin moves it.
-    let mut p = -(x.e * x.r);
-    for (k, part) in body.joint.iter().enumerate() {
-        if parts.moved & (1 << k) != 0 {
-            x = x * part.origin;
+    // (Formed before the first part only when that part's origin is the identity.) An origin
+    // that only translates (`shift`) composes as `(E, r₀ + r)`: the full product's `E · 1` and
+    // `1ᵀ r` are the same numbers but for the sign of an exact zero.
+    let mut p = DVec3::ZERO;
+    for ((k, part), &(sn, cs)) in body.joint.iter().enumerate().zip(sc) {
+        let bit = 1 << k;
+        if parts.moved & bit != 0 {
+            if parts.shift & bit != 0 {
+                x.r = part.origin.r + x.r;
+            } else {
+                x = x * part.origin;
+            }
+        }
+        if k == 0 || parts.moved & bit != 0 {
             p = -(x.e * x.r);
         }
         let (i, sign) = parts.axes[k];
-        let (sn, cs) = crate::trig::sin_cos(sign * q[part.q_offset]);
         let axis = turn(&mut x, i, sn, cs);
         // S = X [±e_i; 0] = [w; p × w], `w = ±` column i of E.
         let w = axis * sign;
@@ -1230,8 +1328,113 @@ fn revolute_kinematics_with(
         c += v.cross_motion(vj);
         v += vj;
     }
-    (x, v, c)
+    *out.0 = x;
+    *out.1 = v;
+    *out.2 = c;
 }
+
+/// [`floating_kinematics`], compiled for AVX2 + FMA when `wide` (the same arithmetic).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn floating(
+    wide: bool,
+    part: &articula_model::JointPart,
+    x0: &SpatialTransform,
+    v0: &SpatialMotion,
+    q: &[f64],
+    qd: &[f64],
+    s: &mut [SpatialMotion],
+    out: KinOut,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if wide {
+        // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
+        return unsafe { floating_kinematics_wide(part, x0, v0, q, qd, s, out) };
+    }
+    floating_kinematics(part, x0, v0, q, qd, s, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+fn floating_kinematics_wide(
+    part: &articula_model::JointPart,
+    x0: &SpatialTransform,
+    v0: &SpatialMotion,
+    q: &[f64],
+    qd: &[f64],
+    s: &mut [SpatialMotion],
+    out: KinOut,
+) {
+    floating_kinematics_with(part, x0, v0, q, qd, s, out)
+}
+
+#[inline(never)]
+fn floating_kinematics(
+    part: &articula_model::JointPart,
+    x0: &SpatialTransform,
+    v0: &SpatialMotion,
+    q: &[f64],
+    qd: &[f64],
+    s: &mut [SpatialMotion],
+    out: KinOut,
+) {
+    floating_kinematics_with(part, x0, v0, q, qd, s, out)
+}
+
+/// [`articula_dca::body_kinematics`] for a joint of one floating part (a floating base):
+/// the pose by the same products; the subspace columns `X [e_k; 0]`, `X [0; e_k]` written
+/// out — `[E e_k; E (−r × e_k)]` and `[0; E e_k]`, the columns of `E` and two-term sums of
+/// them (`apply_motion`'s products by the unit vector's zeros and ones add only zeros, and
+/// the sums keep their order) — and `v_J = Σ S_k q̇_k` in the general path's order (its
+/// zero terms dropped). The same numbers but for the sign of an exact zero.
+#[inline(always)]
+fn floating_kinematics_with(
+    part: &articula_model::JointPart,
+    x0: &SpatialTransform,
+    v0: &SpatialMotion,
+    q: &[f64],
+    qd: &[f64],
+    s: &mut [SpatialMotion],
+    out: KinOut,
+) {
+    let mut x = *x0;
+    let o = &part.origin;
+    if o.e != glam::DMat3::IDENTITY || o.r != DVec3::ZERO {
+        x = x * part.origin;
+    }
+    x = x * part.motion_transform(&q[part.q_offset..part.q_offset + 7]);
+    let (e, r) = (&x.e, x.r);
+    // −r × e_k: (0, −r_z, r_y), (r_z, 0, −r_x), (−r_y, r_x, 0).
+    let w = [e.x_axis, e.y_axis, e.z_axis];
+    let lin = [
+        e.y_axis * -r.z + e.z_axis * r.y,
+        e.x_axis * r.z + e.z_axis * -r.x,
+        e.x_axis * -r.y + e.y_axis * r.x,
+    ];
+    let vo = part.v_offset;
+    let (qd, s) = (&qd[vo..vo + 6], &mut s[vo..vo + 6]);
+    for k in 0..3 {
+        s[k] = SpatialMotion::new(w[k], lin[k]);
+        s[3 + k] = SpatialMotion::new(DVec3::ZERO, w[k]);
+    }
+    let vw = (w[0] * qd[0] + w[1] * qd[1]) + w[2] * qd[2];
+    let vv = ((((lin[0] * qd[0] + lin[1] * qd[1]) + lin[2] * qd[2]) + w[0] * qd[3]) + w[1] * qd[4])
+        + w[2] * qd[5];
+    let vj = SpatialMotion::new(vw, vv);
+    let mut c = SpatialMotion::ZERO;
+    c += v0.cross_motion(vj);
+    *out.0 = x;
+    *out.1 = *v0 + vj;
+    *out.2 = c;
+}
+
+/// Where a joint's kinematics go: the body's pose, velocity and velocity product.
+type KinOut<'a> = (
+    &'a mut SpatialTransform,
+    &'a mut SpatialMotion,
+    &'a mut SpatialMotion,
+);
 
 /// `E ← E R(q)`, `r ← R(q)ᵀ r` for the rotation by `q` (`sin`, `cos` given) about coordinate
 /// axis `i`: columns / components `(i+1, i+2)` turn by the angle; column `i` (the axis, which

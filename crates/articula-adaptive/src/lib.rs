@@ -569,11 +569,35 @@ impl Adaptive {
                     dofs += 1;
                     continue;
                 }
+            } else if rec.revs == 3 {
+                // Three revolute coordinates (a composed joint: the humanoid's hips,
+                // shoulders, spine, neck), contiguous: the same update per coordinate as the
+                // general path below (`q̇ += h q̈`, then `q += q̇ h`), written back when all
+                // nine numbers are finite.
+                let (vo, qo) = (rec.vo, rec.qo);
+                let (qdd, qd, q) = (
+                    &self.qdd[vo..vo + 3],
+                    &mut state.qd[vo..vo + 3],
+                    &mut state.q[qo..qo + 3],
+                );
+                let mut x = [0.0; 9];
+                for p in 0..3 {
+                    let v = qd[p] + dt * qdd[p];
+                    x[p] = qdd[p];
+                    x[3 + p] = v;
+                    x[6 + p] = q[p] + v * dt;
+                }
+                if all_finite(&x) {
+                    qd.copy_from_slice(&x[3..6]);
+                    q.copy_from_slice(&x[6..9]);
+                    dofs += 3;
+                    continue;
+                }
             }
             let body = &model.bodies[rec.j];
             dofs += body.nv;
             let r = body.v_offset..body.v_offset + body.nv;
-            if self.qdd[r.clone()].iter().any(|x| !x.is_finite()) {
+            if !all_finite(&self.qdd[r.clone()]) {
                 return Err(non_finite(model, rec.j, "qdd", &self.qdd).into());
             }
             for (v, a) in state.qd[r.clone()].iter_mut().zip(&self.qdd[r]) {
@@ -584,8 +608,8 @@ impl Adaptive {
             }
             let q = &state.q[body.q_offset..body.q_offset + body.nq];
             let qd = &state.qd[body.v_offset..body.v_offset + body.nv];
-            if q.iter().chain(qd).any(|x| !x.is_finite()) {
-                let what = if q.iter().any(|x| !x.is_finite()) {
+            if !(all_finite(q) && all_finite(qd)) {
+                let what = if !all_finite(q) {
                     ("q after the step", &state.q)
                 } else {
                     ("qd after the step", &state.qd)
@@ -704,6 +728,22 @@ impl Adaptive {
         for rec in &self.hier.rec {
             if rec.axis.is_some() {
                 if all_finite(&[state.q[rec.qo], state.qd[rec.vo], state.tau[rec.vo]]) {
+                    continue;
+                }
+                return check_inputs(model, &state.q, &state.qd, &state.tau, &state.f_ext);
+            }
+            if rec.revs == 3 {
+                // Three contiguous coordinates (a composed joint), nine numbers.
+                let (qo, vo) = (rec.qo, rec.vo);
+                let (q, qd, tau) = (
+                    &state.q[qo..qo + 3],
+                    &state.qd[vo..vo + 3],
+                    &state.tau[vo..vo + 3],
+                );
+                let x = [
+                    q[0], q[1], q[2], qd[0], qd[1], qd[2], tau[0], tau[1], tau[2],
+                ];
+                if all_finite(&x) {
                     continue;
                 }
                 return check_inputs(model, &state.q, &state.qd, &state.tau, &state.f_ext);
