@@ -7,7 +7,6 @@
 //! active joint sits at a constant pose in its rigid cluster (`prel`), and every body of a
 //! cluster shares the cluster's spatial velocity.
 
-use crate::dense;
 use crate::hybrid::{Adaptive, Level, Rigid};
 #[cfg(target_arch = "x86_64")]
 use articula_dca::Fused;
@@ -872,6 +871,7 @@ impl Adaptive {
             let w = (&chol[idx], u, uu, &d.s[..], &mut *qdd);
             acc[idx] = match k {
                 3 => accelerate::<3>(wide, r, w, k, ap),
+                6 => accelerate::<6>(wide, r, w, k, ap),
                 _ => accelerate::<0>(wide, r, w, k, ap),
             };
         }
@@ -1054,10 +1054,28 @@ fn articulate_multi_with<const K: usize>(
         for i in 0..3 {
             c[i][..=i].copy_from_slice(&l[i][..=i]);
         }
-    } else if k > 0 {
-        match dense::cholesky_k(&dm, k) {
-            Some(l) => h.chol[idx] = l,
-            None => return false,
+    } else {
+        // The same operations for any other count, in place (the lower triangle of the
+        // leading k × k block; no 288-byte factor returned and copied).
+        let l = &mut h.chol[idx];
+        for j in 0..k {
+            let mut d = dm[j][j];
+            for p in 0..j {
+                d -= l[j][p] * l[j][p];
+            }
+            if d.is_nan() || d <= 0.0 {
+                return false;
+            }
+            let ljj = d.sqrt();
+            l[j][j] = ljj;
+            let inv = 1.0 / ljj;
+            for i in (j + 1)..k {
+                let mut x = dm[i][j];
+                for p in 0..j {
+                    x -= l[i][p] * l[j][p];
+                }
+                l[i][j] = x * inv;
+            }
         }
     }
     if parent == usize::MAX {
