@@ -528,6 +528,14 @@ impl Data {
         self.dca.fused
     }
 
+    /// Turns the DCA back-substitution's software prefetches on or off (by default on when the
+    /// workspace is large enough, see `DcaData::prefetch`). For timing the two in one process
+    /// (`benches/examples/ab_prefetch.rs`); results do not change.
+    #[doc(hidden)]
+    pub fn set_dca_prefetch(&mut self, on: bool) {
+        self.dca.prefetch = on;
+    }
+
     /// How many DCA solves on this workspace took a refinement step: with a floating base,
     /// DCA checks its `q̈` against the Newton–Euler residual and corrects it once when the
     /// residual is above rounding level (see `docs/algorithms.md`).
