@@ -2,7 +2,7 @@
 //! world coordinates, so no coordinate transforms appear between bodies. Articulated inertias
 //! are kept packed (21 entries, [`Sym6`]) and 1-DOF joints take a rank-1 fast path.
 
-use crate::small::{SmallSpd, Sym6};
+use crate::small::Sym6;
 use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::{SpatialForce, SpatialMotion};
@@ -120,30 +120,26 @@ fn aba_with(
             uu: &mut aba.uu[vo..vo + k],
             dinv: &mut aba.dinv[doff..doff + k * k],
         };
-        let Some((ia_a, pa)) = (match k {
-            0 => articulate_multi::<0>(args, t.parent != usize::MAX),
-            2 => articulate_multi::<2>(args, t.parent != usize::MAX),
-            3 => articulate_multi::<3>(args, t.parent != usize::MAX),
-            4 => articulate_multi::<4>(args, t.parent != usize::MAX),
-            5 => articulate_multi::<5>(args, t.parent != usize::MAX),
-            _ => articulate_multi::<6>(args, t.parent != usize::MAX),
-        }) else {
+        let parent = t.parent;
+        let to_parent = if parent == usize::MAX {
+            None
+        } else {
+            let ps = aba.acc[parent] as usize;
+            Some((&mut aba.ia[ps], &mut aba.pa[ps], first))
+        };
+        let ok = match k {
+            0 => articulate_multi::<0>(args, to_parent),
+            2 => articulate_multi::<2>(args, to_parent),
+            3 => articulate_multi::<3>(args, to_parent),
+            4 => articulate_multi::<4>(args, to_parent),
+            5 => articulate_multi::<5>(args, to_parent),
+            _ => articulate_multi::<6>(args, to_parent),
+        };
+        if !ok {
             return Err(DynamicsError::Singular {
                 joint: model.bodies[i].joint_name(),
                 detail: "Sᵀ Iᴬ S is not positive definite",
             });
-        };
-        let parent = t.parent;
-        if parent == usize::MAX {
-            continue;
-        }
-        let ps = aba.acc[parent] as usize;
-        if first {
-            aba.ia[ps] = ia_a;
-            aba.pa[ps] = pa;
-        } else {
-            aba.ia[ps].add_assign(&ia_a);
-            aba.pa[ps] += pa;
         }
     }
     let a0 = SpatialMotion::new(glam::DVec3::ZERO, -data.gravity);
@@ -212,59 +208,133 @@ struct MultiArgs<'a> {
 }
 
 /// Pass 2 at a joint of `K` > 1 degrees of freedom: `U = Iᴬ S`, `D = Sᵀ U`, `u = τ − Sᵀ pᴬ`,
-/// `D⁻¹`; with a parent (`to_parent`), also `Iᵃ = Iᴬ − Σ_p U_p w_pᵀ` (`w_p = Σ_q D⁻¹_pq U_q`)
-/// and `pᵃ = pᴬ + Iᵃ c + Σ_p U_p (D⁻¹u)_p`. The operations of the loops over `k` it replaces,
-/// in their order, unrolled. `None`: `D` is not positive definite.
+/// `D⁻¹`; with a parent (`to_parent`: its sums and whether this is its first child), also
+/// `Iᵃ = Iᴬ − Σ_p U_p w_pᵀ` (`w_p = Σ_q D⁻¹_pq U_q`) and `pᵃ = pᴬ + Iᵃ c + Σ_p U_p (D⁻¹u)_p`,
+/// set into or added to the parent's sums. The operations of the loops over `k` it replaces
+/// (`SmallSpd::invert` and its products), in their order, on K×K arrays: no 6×6 copies, the
+/// factor's reciprocal pivots reused for `L⁻¹`'s diagonal (the same numbers), `Iᴬ S` on `Iᴬ`
+/// unpacked once (by columns: the same sums), and the rank-K update entry by entry.
+/// `false`: `D` is not positive definite.
 #[inline(always)]
-fn articulate_multi<const K: usize>(m: MultiArgs, to_parent: bool) -> Option<(Sym6, SpatialForce)> {
+fn articulate_multi<const K: usize>(
+    m: MultiArgs,
+    to_parent: Option<(&mut Sym6, &mut SpatialForce, bool)>,
+) -> bool {
     let s: &[SpatialMotion; K] = m.s.try_into().expect("K columns");
     let tau: &[f64; K] = m.tau.try_into().expect("K torques");
     let u_out: &mut [[f64; 6]; K] = m.u.try_into().expect("K columns");
     let uu: &mut [f64; K] = m.uu.try_into().expect("K entries");
-    let (ia, pa_i) = (m.ia, m.pa_i);
-    let mut dm = SmallSpd {
-        k: K,
-        a: [[0.0; 6]; 6],
-    };
+    let dinv: &mut [f64] = m.dinv;
+    let (ia, pa_i) = (&m.ia, m.pa_i);
+    let dense = ia.dense();
+    // D's lower triangle (all the factorisation reads): D_pq = s_qᵀ U_p, q ≤ p.
+    let mut dm = [[0.0; K]; K];
     for p in 0..K {
-        let u = ia.mul_vec(&s[p].to_array());
+        let u = Sym6::dense_mul(&dense, &s[p].to_array());
         u_out[p] = u;
         for q in 0..=p {
-            let x = dot6(&s[q].to_array(), &u);
-            dm.a[p][q] = x;
-            dm.a[q][p] = x;
+            dm[p][q] = dot6(&s[q].to_array(), &u);
         }
         uu[p] = tau[p] - s[p].dot(pa_i);
     }
-    if !dm.invert_fixed::<K>() {
-        return None;
-    }
-    for p in 0..K {
-        for q in 0..K {
-            m.dinv[p * K + q] = dm.a[p][q];
+    // D = L Lᵀ (`cholesky`'s operations), keeping 1 / L_jj.
+    let mut l = [[0.0; K]; K];
+    let mut inv = [0.0; K];
+    for j in 0..K {
+        let mut d = dm[j][j];
+        for p in 0..j {
+            d -= l[j][p] * l[j][p];
+        }
+        if d.is_nan() || d <= 0.0 {
+            return false;
+        }
+        let ljj = d.sqrt();
+        l[j][j] = ljj;
+        let r = 1.0 / ljj;
+        inv[j] = r;
+        for i in (j + 1)..K {
+            let mut x = dm[i][j];
+            for p in 0..j {
+                x -= l[i][p] * l[j][p];
+            }
+            l[i][j] = x * r;
         }
     }
-    if !to_parent {
-        return Some((ia, pa_i));
+    // L⁻¹ (`invert_fixed`'s operations: its diagonal `1.0 / l[i][i]` is `inv`), then
+    // D⁻¹ = L⁻ᵀ L⁻¹.
+    let mut li = [[0.0; K]; K];
+    for i in 0..K {
+        li[i][i] = inv[i];
+        for j in 0..i {
+            let mut x = 0.0;
+            for p in j..i {
+                x -= l[i][p] * li[p][j];
+            }
+            li[i][j] = x / l[i][i];
+        }
     }
-    let mut ia_a = ia;
-    let mut du = [0.0; 6];
-    dm.mul(&uu[..], &mut du);
-    let mut pa = pa_i;
+    let mut di = [[0.0; K]; K];
+    for i in 0..K {
+        for j in i..K {
+            let mut x = 0.0;
+            for p in j..K {
+                x += li[p][i] * li[p][j];
+            }
+            di[i][j] = x;
+            di[j][i] = x;
+        }
+    }
     for p in 0..K {
-        let mut w = [0.0; 6];
         for q in 0..K {
-            let x = dm.a[p][q];
-            let uq = &u_out[q];
+            dinv[p * K + q] = di[p][q];
+        }
+    }
+    let Some((ia_t, pa_t, first)) = to_parent else {
+        return true;
+    };
+    let mut du = [0.0; K];
+    for p in 0..K {
+        let mut x = 0.0;
+        for q in 0..K {
+            x += di[p][q] * uu[q];
+        }
+        du[p] = x;
+    }
+    let mut w = [[0.0; 6]; K];
+    for p in 0..K {
+        for q in 0..K {
+            let x = di[p][q];
             for r in 0..6 {
-                w[r] += x * uq[r];
+                w[p][r] += x * u_out[q][r];
             }
         }
-        ia_a.sub_upper_outer(&u_out[p], &w);
+    }
+    // Iᵃ = Iᴬ − Σ_p U_p w_pᵀ on the upper triangle, entry by entry (p in order).
+    let mut ia_a = Sym6::ZERO;
+    let mut k = 0;
+    for i in 0..6 {
+        for j in i..6 {
+            let mut x = ia.0[k];
+            for p in 0..K {
+                x -= u_out[p][i] * w[p][j];
+            }
+            ia_a.0[k] = x;
+            k += 1;
+        }
+    }
+    let mut pa = pa_i;
+    for p in 0..K {
         pa += SpatialForce::from_array(u_out[p]) * du[p];
     }
     pa += SpatialForce::from_array(ia_a.mul_vec(&m.c.to_array()));
-    Some((ia_a, pa))
+    if first {
+        *ia_t = ia_a;
+        *pa_t = pa;
+    } else {
+        ia_t.add_assign(&ia_a);
+        *pa_t += pa;
+    }
+    true
 }
 
 /// What pass 3 reads and writes at a joint of several degrees of freedom: its `u`, `U`,

@@ -258,6 +258,39 @@ impl Sym6 {
         ]
     }
 
+    /// The full matrix, by rows (which are its columns).
+    #[inline(always)]
+    pub fn dense(&self) -> [[f64; 6]; 6] {
+        let a = &self.0;
+        [
+            [a[0], a[1], a[2], a[3], a[4], a[5]],
+            [a[1], a[6], a[7], a[8], a[9], a[10]],
+            [a[2], a[7], a[11], a[12], a[13], a[14]],
+            [a[3], a[8], a[12], a[15], a[16], a[17]],
+            [a[4], a[9], a[13], a[16], a[18], a[19]],
+            [a[5], a[10], a[14], a[17], a[19], a[20]],
+        ]
+    }
+
+    /// [`Sym6::mul_vec`] on the matrix unpacked by [`Sym6::dense`]: the columns scaled and
+    /// summed in turn, which is each row's sum in [`Sym6::mul_vec`]'s order (the same bits),
+    /// on whole columns.
+    #[inline(always)]
+    pub fn dense_mul(d: &[[f64; 6]; 6], x: &[f64; 6]) -> [f64; 6] {
+        // Rows 0–3 and 4–5 apart: one 4-wide and one 2-wide vector per column.
+        let mut lo: [f64; 4] = std::array::from_fn(|r| d[0][r] * x[0]);
+        let mut hi: [f64; 2] = std::array::from_fn(|r| d[0][4 + r] * x[0]);
+        for j in 1..6 {
+            for r in 0..4 {
+                lo[r] += d[j][r] * x[j];
+            }
+            for r in 0..2 {
+                hi[r] += d[j][4 + r] * x[j];
+            }
+        }
+        [lo[0], lo[1], lo[2], lo[3], hi[0], hi[1]]
+    }
+
     /// `self += a − alpha · u uᵀ`.
     #[inline(always)]
     pub fn add_sub_outer(&mut self, a: &Sym6, u: &[f64; 6], alpha: f64) {
@@ -299,19 +332,6 @@ impl Sym6 {
             }
         }
         s
-    }
-
-    /// `self −= u wᵀ` on the upper triangle: summed over the columns of `U` with
-    /// `w_p = Σ_q D⁻¹_pq u_q`, this subtracts the symmetric `U D⁻¹ Uᵀ`.
-    #[inline]
-    pub fn sub_upper_outer(&mut self, u: &[f64; 6], w: &[f64; 6]) {
-        let mut k = 0;
-        for i in 0..6 {
-            for j in i..6 {
-                self.0[k] -= u[i] * w[j];
-                k += 1;
-            }
-        }
     }
 
     /// `self += a`.
