@@ -288,7 +288,19 @@ impl SimBody {
         let a = inv.force_to_motion(f - bias);
         let v = SpatialMotion::new(v.w + a.w * dt, v.v + a.v * dt);
         self.state.qd[..6].copy_from_slice(&v.to_array());
-        articula_dca::integrate_q(model, &mut self.state.q, &self.state.qd, dt);
+        // Only the floating root moves: every internal joint has q̇ = 0 exactly, so the
+        // whole-model update would leave its coordinates as they are.
+        match model.bodies[0].joint.first() {
+            Some(root) if root.kind == JointKind::Floating => {
+                let (qo, vo) = (root.q_offset, root.v_offset);
+                articula_dca::integrate_floating(
+                    &mut self.state.q[qo..qo + 7],
+                    &self.state.qd[vo..vo + 6],
+                    dt,
+                );
+            }
+            _ => articula_dca::integrate_q(model, &mut self.state.q, &self.state.qd, dt),
+        }
         if self.state.q[..7]
             .iter()
             .chain(&self.state.qd[..6])
