@@ -306,17 +306,27 @@ pub(crate) fn subtree_quadratic(
     x: &[f64],
     out: &mut [f64],
 ) {
+    subtree_sums(model, out, |joint, body| {
+        let (vo, k, wo) = (body.v_offset, body.nv, woff[joint]);
+        dense::quad(&w[wo..wo + k * k], &x[vo..vo + k], k)
+    });
+}
+
+/// `out[n]` = the join's own term `term(joint, body)` plus its two sides' sums, bottom-up over
+/// the assembly tree (0 at leaves).
+#[inline(always)]
+fn subtree_sums(
+    model: &Model,
+    out: &mut [f64],
+    term: impl Fn(usize, &articula_model::Body) -> f64,
+) {
     for (n, node) in model.assembly.nodes.iter().enumerate() {
         out[n] = match node.kind {
             NodeKind::Join {
                 joint,
                 parent_side: a,
                 child_side: b,
-            } => {
-                let body = &model.bodies[joint];
-                let (vo, k, wo) = (body.v_offset, body.nv, woff[joint]);
-                dense::quad(&w[wo..wo + k * k], &x[vo..vo + k], k) + out[a] + out[b]
-            }
+            } => term(joint, &model.bodies[joint]) + out[a] + out[b],
             _ => 0.0,
         };
     }
@@ -327,24 +337,14 @@ pub(crate) fn subtree_quadratic(
 /// the same operations [`crate::dense::quad`] does on the scaled identity (its row sums add
 /// exact zeros to `wᵢ xₖ`), so the same numbers to the bit.
 pub(crate) fn subtree_scaled_quadratic(model: &Model, w: &[f64], x: &[f64], out: &mut [f64]) {
-    for (n, node) in model.assembly.nodes.iter().enumerate() {
-        out[n] = match node.kind {
-            NodeKind::Join {
-                joint,
-                parent_side: a,
-                child_side: b,
-            } => {
-                let body = &model.bodies[joint];
-                let (vo, k, wi) = (body.v_offset, body.nv, w[joint]);
-                let mut s = 0.0;
-                for &xk in &x[vo..vo + k] {
-                    if xk != 0.0 {
-                        s += xk * (wi * xk);
-                    }
-                }
-                s + out[a] + out[b]
+    subtree_sums(model, out, |joint, body| {
+        let (vo, k, wi) = (body.v_offset, body.nv, w[joint]);
+        let mut s = 0.0;
+        for &xk in &x[vo..vo + k] {
+            if xk != 0.0 {
+                s += xk * (wi * xk);
             }
-            _ => 0.0,
-        };
-    }
+        }
+        s
+    });
 }
