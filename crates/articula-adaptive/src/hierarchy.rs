@@ -1022,61 +1022,12 @@ fn articulate_multi_with<const K: usize>(
     }
     // D = L Lᵀ. With Y = U L⁻ᵀ (columns y_p) and z = L⁻¹ u: U D⁻¹ Uᵀ = Y Yᵀ and
     // U D⁻¹ u = Y z.
-    // `1 / L_pp` as the factorisation forms it (three joints: reused by the substitutions
-    // below instead of dividing again — the same numbers).
+    // `1 / L_pp` as the factorisation forms it, reused by the substitutions below instead of
+    // dividing again (the same numbers). The factor goes straight into `chol` (the lower
+    // triangle of the leading k × k block: all that passes 2 and 3 read).
     let mut invs = [0.0; 6];
-    if K == 3 {
-        // The operations of `articula_dca::cholesky` in its order (the same bits), inline:
-        // the leading 3 × 3 block written (the rest of the factor is never read for k = 3),
-        // not the whole 6 × 6 returned and copied.
-        let mut l = [[0.0; 3]; 3];
-        for j in 0..3 {
-            let mut d = dm[j][j];
-            for p in 0..j {
-                d -= l[j][p] * l[j][p];
-            }
-            if d.is_nan() || d <= 0.0 {
-                return false;
-            }
-            let ljj = d.sqrt();
-            l[j][j] = ljj;
-            let inv = 1.0 / ljj;
-            invs[j] = inv;
-            for i in (j + 1)..3 {
-                let mut x = dm[i][j];
-                for p in 0..j {
-                    x -= l[i][p] * l[j][p];
-                }
-                l[i][j] = x * inv;
-            }
-        }
-        let c = &mut h.chol[idx];
-        for i in 0..3 {
-            c[i][..=i].copy_from_slice(&l[i][..=i]);
-        }
-    } else {
-        // The same operations for any other count, in place (the lower triangle of the
-        // leading k × k block; no 288-byte factor returned and copied).
-        let l = &mut h.chol[idx];
-        for j in 0..k {
-            let mut d = dm[j][j];
-            for p in 0..j {
-                d -= l[j][p] * l[j][p];
-            }
-            if d.is_nan() || d <= 0.0 {
-                return false;
-            }
-            let ljj = d.sqrt();
-            l[j][j] = ljj;
-            let inv = 1.0 / ljj;
-            for i in (j + 1)..k {
-                let mut x = dm[i][j];
-                for p in 0..j {
-                    x -= l[i][p] * l[j][p];
-                }
-                l[i][j] = x * inv;
-            }
-        }
+    if !articula_dca::cholesky_into(&dm, k, &mut h.chol[idx], &mut invs) {
+        return false;
     }
     if parent == usize::MAX {
         return true;
@@ -1094,7 +1045,7 @@ fn articulate_multi_with<const K: usize>(
                 yp[rr] -= lpq * y[qq][rr];
             }
         }
-        let inv = if K == 3 { invs[p] } else { 1.0 / l[p][p] };
+        let inv = invs[p];
         z[p] = zp * inv;
         for rr in 0..6 {
             yp[rr] *= inv;

@@ -299,8 +299,9 @@ impl Adaptive {
 
     /// The exact solve behind [`Adaptive::node_metrics`] alone: the exact accelerations of
     /// `(q, q̇, τ, f_ext)` into [`Adaptive::qdd`] and their kinematics into
-    /// [`Adaptive::data`] (`data.x[i]`: computation frame → body `i`, the frame's origin at
-    /// `data.origin`), which the next load of the same state reuses. Follow it with
+    /// [`Adaptive::data`] (`data.x[i]` maps body `i`'s coordinates to the computation frame's,
+    /// whose origin is `data.origin`; `data.body_pose(i)` is its world pose), which the next
+    /// load of the same state reuses. Follow it with
     /// [`Adaptive::scaled_node_metrics`] when every weight is a multiple of the identity and
     /// the weights are known only after the solve (a scene that classifies from the solve's
     /// poses).

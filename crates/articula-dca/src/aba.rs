@@ -240,25 +240,8 @@ fn articulate_multi<const K: usize>(
     // D = L Lᵀ (`cholesky`'s operations), keeping 1 / L_jj.
     let mut l = [[0.0; K]; K];
     let mut inv = [0.0; K];
-    for j in 0..K {
-        let mut d = dm[j][j];
-        for p in 0..j {
-            d -= l[j][p] * l[j][p];
-        }
-        if d.is_nan() || d <= 0.0 {
-            return false;
-        }
-        let ljj = d.sqrt();
-        l[j][j] = ljj;
-        let r = 1.0 / ljj;
-        inv[j] = r;
-        for i in (j + 1)..K {
-            let mut x = dm[i][j];
-            for p in 0..j {
-                x -= l[i][p] * l[j][p];
-            }
-            l[i][j] = x * r;
-        }
+    if !crate::small::cholesky_into(&dm, K, &mut l, &mut inv) {
+        return false;
     }
     // L⁻¹ (`invert_fixed`'s operations: its diagonal `1.0 / l[i][i]` is `inv`), then
     // D⁻¹ = L⁻ᵀ L⁻¹.

@@ -54,7 +54,7 @@ pub use dca::{fused_available, Arith, Portable};
 pub use error::DynamicsError;
 pub use integrate::{integrate_floating, integrate_q, step, Integrator};
 pub use kinematics::{body_kinematics, computation_origin, forward_kinematics};
-pub use small::cholesky;
+pub use small::{cholesky, cholesky_into};
 pub use state::{SplitMix64, State};
 
 use articula_model::Model;

@@ -9,26 +9,43 @@ use crate::dca::Arith;
 #[inline]
 pub fn cholesky(a: &[[f64; 6]; 6], k: usize) -> Option<[[f64; 6]; 6]> {
     let mut l = [[0.0f64; 6]; 6];
+    let mut inv = [0.0f64; 6];
+    cholesky_into(a, k, &mut l, &mut inv).then_some(l)
+}
+
+/// [`cholesky`]'s factorisation of the leading `k × k` block of `a` (its lower triangle is
+/// read) into the caller's arrays: the lower triangle of the leading block of `l` gets `L`
+/// (nothing else is written, nothing else is read) and `inv[j]` the `1 / L_jj` column `j` is
+/// scaled by — the same operations in the same order, so the same bits wherever it is inlined.
+/// `false` when a pivot is not positive (or NaN).
+#[inline(always)]
+pub fn cholesky_into<const N: usize, const M: usize>(
+    a: &[[f64; N]],
+    k: usize,
+    l: &mut [[f64; M]],
+    inv: &mut [f64],
+) -> bool {
     for j in 0..k {
         let mut d = a[j][j];
         for p in 0..j {
             d -= l[j][p] * l[j][p];
         }
         if d.is_nan() || d <= 0.0 {
-            return None;
+            return false;
         }
         let ljj = d.sqrt();
         l[j][j] = ljj;
-        let inv = 1.0 / ljj;
+        let r = 1.0 / ljj;
+        inv[j] = r;
         for i in (j + 1)..k {
             let mut x = a[i][j];
             for p in 0..j {
                 x -= l[i][p] * l[j][p];
             }
-            l[i][j] = x * inv;
+            l[i][j] = x * r;
         }
     }
-    Some(l)
+    true
 }
 
 /// Cholesky factor `L` (lower, `L Lᵀ = A`) of a 6×6 symmetric positive definite matrix
