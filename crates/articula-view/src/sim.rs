@@ -350,8 +350,8 @@ pub struct SceneSim<'s> {
     /// Per body: whether this re-selection's exact solve ran (bodies surely outside the view
     /// skip it: their weights are all 0).
     solved: Vec<bool>,
-    /// Per model: the pose springs, `(q index, v index, k, c)` per internal degree of freedom.
-    springs: Vec<Vec<(usize, usize, f64, f64)>>,
+    /// Per model: the pose springs, in runs of consecutive coordinates.
+    springs: Vec<SpringRuns>,
     classifier: Classifier,
     /// Per model: the per-call buffers every body's adaptive workspace shares
     /// ([`Adaptive::step_with`]: one copy stays in the processor's caches, not one per body).
@@ -423,8 +423,10 @@ impl<'s> SceneSim<'s> {
             .models
             .iter()
             .map(|m| match scene.joint_springs {
-                Some(sp) => pose_springs(&m.model, sp.frequency_hz, sp.damping_ratio),
-                None => Vec::new(),
+                Some(sp) => {
+                    SpringRuns::new(&pose_springs(&m.model, sp.frequency_hz, sp.damping_ratio))
+                }
+                None => SpringRuns::default(),
             })
             .collect();
         // The global queue's buffers at their largest: a body pops at most its nodes, the heap
@@ -833,11 +835,51 @@ pub(crate) fn whole_reach(model: &Model, volumes: &[BodyVolumes]) -> Option<f64>
     Some(bound)
 }
 
-/// `τ = −k q − c q̇` of each pose spring `(q index, v index, k, c)`.
+/// Pose springs grouped in runs whose `q` and `q̇` indices both advance by one (every internal
+/// degree of freedom of a floating humanoid is one run, `q` one ahead of `q̇` for the root's
+/// quaternion), so that [`spring_torques`] is a plain loop over slices.
+#[derive(Clone, Debug, Default)]
+struct SpringRuns {
+    /// Per run: its first `q` index, first `q̇` index, and its range in `k` and `c`.
+    runs: Vec<(usize, usize, std::ops::Range<usize>)>,
+    k: Vec<f64>,
+    c: Vec<f64>,
+}
+
+impl SpringRuns {
+    /// The runs of the springs `(q index, v index, k, c)`, in their order.
+    fn new(springs: &[(usize, usize, f64, f64)]) -> Self {
+        let mut out = SpringRuns::default();
+        for (i, &(qi, vi, k, c)) in springs.iter().enumerate() {
+            let extends = out
+                .runs
+                .last()
+                .is_some_and(|(q0, v0, r)| r.end == i && qi == q0 + r.len() && vi == v0 + r.len());
+            match out.runs.last_mut() {
+                Some(run) if extends => run.2.end += 1,
+                _ => out.runs.push((qi, vi, i..i + 1)),
+            }
+            out.k.push(k);
+            out.c.push(c);
+        }
+        out
+    }
+}
+
+/// `τ = −k q − c q̇` of each pose spring.
 #[inline]
-fn spring_torques(springs: &[(usize, usize, f64, f64)], s: &mut State) {
-    for &(qi, vi, k, c) in springs {
-        s.tau[vi] = -k * s.q[qi] - c * s.qd[vi];
+fn spring_torques(springs: &SpringRuns, s: &mut State) {
+    for (q0, v0, r) in &springs.runs {
+        let n = r.len();
+        let (k, c) = (&springs.k[r.clone()], &springs.c[r.clone()]);
+        let (q, qd) = (&s.q[*q0..q0 + n], &s.qd[*v0..v0 + n]);
+        for ((t, (k, c)), (q, qd)) in s.tau[*v0..v0 + n]
+            .iter_mut()
+            .zip(k.iter().zip(c))
+            .zip(q.iter().zip(qd))
+        {
+            *t = -k * q - c * qd;
+        }
     }
 }
 
@@ -908,7 +950,7 @@ impl SceneSimError {
 
 #[cfg(test)]
 mod tests {
-    use super::whole_reach;
+    use super::{pose_springs, spring_torques, whole_reach, SpringRuns};
     use crate::visibility::body_poses;
     use crate::volumes::body_volumes;
     use articula_dca::State;
@@ -940,5 +982,31 @@ mod tests {
             }
         }
         assert!(farthest > 0.5 * bound, "{farthest} against {bound}");
+    }
+
+    /// The runs give every spring's `τ = −k q − c q̇` to the bit, one spring at a time as the
+    /// reference: on the humanoid (one run) and on a shuffled, gapped list (many runs).
+    #[test]
+    fn spring_runs_equal_one_spring_at_a_time() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../models/humanoid.urdf");
+        let opts = LoadOptions {
+            floating_base: true,
+        };
+        let model = Model::from_urdf_file(path, &opts).unwrap();
+        let springs = pose_springs(&model, 2.0, 0.2);
+        assert_eq!(springs.len(), model.nv - 6);
+        assert_eq!(SpringRuns::new(&springs).runs.len(), 1);
+        let mut gapped: Vec<_> = springs.iter().copied().step_by(3).collect();
+        gapped.extend(springs.iter().rev().take(5));
+        gapped.extend(&springs[10..16]);
+        let runs = SpringRuns::new(&gapped);
+        assert!(runs.runs.len() > 10, "{}", runs.runs.len());
+        for seed in 0..20 {
+            let mut s = State::random(&model, seed, 2.0);
+            spring_torques(&runs, &mut s);
+            for &(qi, vi, k, c) in &gapped {
+                assert_eq!(s.tau[vi].to_bits(), (-k * s.q[qi] - c * s.qd[vi]).to_bits());
+            }
+        }
     }
 }
