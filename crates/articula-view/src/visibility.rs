@@ -192,18 +192,15 @@ impl DepthBuffer {
     /// in each term, so this is the largest of its four corner tests). `A` falls to the column
     /// holding x and rises after it, `B` likewise around y, so each row's cells are one run
     /// around x's column, the runs shrink row by row away from y's row, and the rows with
-    /// cells are consecutive around it: rows are walked from y's row outward, each run
-    /// shrunk from the previous one's ends, until a row is empty — a few tests a row, one
-    /// division per corner column and grid line. (Nothing here is NaN: x, y, rx and ry are
-    /// finite once the bounding box below is non-empty.)
+    /// cells are consecutive around it: the centre row's run is grown from x's column
+    /// (computing `A` of the columns it reaches), then rows are walked from it outward, each
+    /// run shrunk from the previous one's ends, until a row is empty — a few tests a row, one
+    /// division per column reached and per grid line. (Nothing here is NaN: x, y, rx and ry
+    /// are finite once the bounding box below is non-empty. The shortcut of the one-cell path,
+    /// no cell when `(0.5/rx)² + (0.5/ry)² > 1`, is left out: it never applies to an ellipse
+    /// this wide unless it is very eccentric.)
     #[inline(never)]
     fn raster_wide(&mut self, x: f64, y: f64, rx: f64, ry: f64, far: f64) {
-        // No unit cell fits in an ellipse whose centred unit square does not: the corner value
-        // (0.5/rx)² + (0.5/ry)² is the least any cell can have.
-        let (hx, hy) = (0.5 / rx, 0.5 / ry);
-        if hx * hx + hy * hy > 1.0 + 1e-9 {
-            return;
-        }
         // Cells i0..i1 × j0..j1: those between the bounding box's corner columns and lines.
         let i0 = floor_index(x - rx);
         let i1 = ceil_index(x + rx).min(self.width);
@@ -215,41 +212,55 @@ impl DepthBuffer {
         if j0 >= j1 {
             return;
         }
-        let aa = |u: f64| {
-            let a = (u - x) / rx;
+        let aa = |u: usize| {
+            let a = (as_f64(u) - x) / rx;
             a * a
         };
         let bb = |v: usize| {
             let b = (as_f64(v) - y) / ry;
             b * b
         };
-        // A(i) of each column, in `cols[i − i0]` (u counts the corner columns exactly).
-        let cols = &mut self.cols[..i1 - i0];
-        let mut u = as_f64(i0);
-        let mut left = aa(u);
-        for a in cols.iter_mut() {
-            u += 1.0;
-            let right = aa(u);
-            *a = if right > left { right } else { left };
-            left = right;
-        }
-        let cols = &self.cols[..i1 - i0];
-        let inside = |i: usize, b: f64| cols[i - i0] + b <= 1.0;
-        // The least A and B: the columns and rows holding the centre (clamped to the box).
+        let max = |p: f64, q: f64| if q > p { q } else { p };
+        // A cell's test on the sum `A(i) + B(j)` (false for NaN).
+        let fits = |sum: f64| sum <= 1.0;
+        // The least A and B: the column and row holding the centre (clamped to the box).
         let ic = floor_index(x).clamp(i0, i1 - 1);
         let jc = floor_index(y).clamp(j0, j1 - 1);
         let (bc, bn) = (bb(jc), bb(jc + 1));
-        let b = if bn > bc { bn } else { bc };
-        if !inside(ic, b) {
+        let b = max(bc, bn);
+        let (al, ar) = (aa(ic), aa(ic + 1));
+        let a = max(al, ar);
+        if !fits(a + b) {
             return;
         }
-        let (mut lo, mut hi) = (ic, ic);
-        while lo > i0 && inside(lo - 1, b) {
+        // The centre row's run, with A of its columns in `cols[i − i0]`: later rows only
+        // test columns inside it.
+        let cols = &mut self.cols;
+        cols[ic - i0] = a;
+        let (mut lo, mut right) = (ic, al);
+        while lo > i0 {
+            let left = aa(lo - 1);
+            let a = max(left, right);
+            if !fits(a + b) {
+                break;
+            }
             lo -= 1;
+            cols[lo - i0] = a;
+            right = left;
         }
-        while hi + 1 < i1 && inside(hi + 1, b) {
+        let (mut hi, mut left) = (ic, ar);
+        while hi + 1 < i1 {
+            let right = aa(hi + 2);
+            let a = max(left, right);
+            if !fits(a + b) {
+                break;
+            }
             hi += 1;
+            cols[hi - i0] = a;
+            left = right;
         }
+        let cols = &self.cols;
+        let inside = |i: usize, b: f64| cols[i - i0] + b <= 1.0;
         let width = self.width;
         let depth = &mut self.depth;
         let mut write = |j: usize, lo: usize, hi: usize| {
@@ -275,8 +286,7 @@ impl DepthBuffer {
         let (mut run, mut upper) = ((lo, hi), bc);
         for j in (j0..jc).rev() {
             let top = bb(j);
-            let b = if upper > top { upper } else { top };
-            match shrink(run, b) {
+            match shrink(run, max(upper, top)) {
                 Some(r) => run = r,
                 None => break,
             }
@@ -287,8 +297,7 @@ impl DepthBuffer {
         let (mut run, mut lower) = ((lo, hi), bn);
         for j in jc + 1..j1 {
             let bottom = bb(j + 1);
-            let b = if bottom > lower { bottom } else { lower };
-            match shrink(run, b) {
+            match shrink(run, max(lower, bottom)) {
                 Some(r) => run = r,
                 None => break,
             }
