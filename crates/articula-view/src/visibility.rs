@@ -68,6 +68,9 @@ pub enum Visibility {
 struct Lens {
     fx: f64,
     fy: f64,
+    /// The image centre in cells: half the buffer's width and height.
+    half_width: f64,
+    half_height: f64,
     /// World → camera rotation (the camera axes transposed) and the eye.
     rt: DMat3,
     eye: DVec3,
@@ -115,8 +118,8 @@ impl DepthBuffer {
     /// scale from camera lengths at depth 1 to cells.
     fn to_cells(&self, lens: &Lens, c: DVec3) -> (f64, f64, f64) {
         let (fx, fy) = (lens.fx, lens.fy);
-        let x = (c.x / c.z) * fx + 0.5 * self.width as f64;
-        let y = -(c.y / c.z) * fy + 0.5 * self.height as f64;
+        let x = (c.x / c.z) * fx + lens.half_width;
+        let y = -(c.y / c.z) * fy + lens.half_height;
         (x, y, fx.min(fy))
     }
 
@@ -129,6 +132,8 @@ impl DepthBuffer {
         Lens {
             fy: self.height as f64 / (2.0 * t),
             fx: self.width as f64 / (2.0 * t * cam.aspect),
+            half_width: 0.5 * self.width as f64,
+            half_height: 0.5 * self.height as f64,
             rt: cam.axes.transpose(),
             eye: cam.position,
         }
@@ -418,6 +423,10 @@ pub struct Classifier {
     /// The depth buffer of the last call.
     pub buffer: DepthBuffer,
     world: Vec<Vec<(DVec3, f64)>>,
+    /// Each body's enclosing sphere of its links' spheres.
+    whole: Vec<(DVec3, f64)>,
+    /// Per link of the body being classified: whether it is an occluder (in the frustum).
+    occluder: Vec<bool>,
 }
 
 impl Classifier {
@@ -426,6 +435,8 @@ impl Classifier {
         Classifier {
             buffer: DepthBuffer::new(settings.depth_width, settings.depth_height),
             world: Vec::new(),
+            whole: Vec::new(),
+            occluder: Vec::new(),
         }
     }
 
@@ -462,32 +473,60 @@ impl Classifier {
         out.resize_with(n, BodyView::default);
         self.world.resize_with(n, Vec::new);
         // 1. Frustum culling on world bounding spheres; occluders into the depth buffer.
+        self.whole.clear();
         for (b, (view, world)) in out.iter_mut().zip(&mut self.world).take(n).enumerate() {
             let placed = &body(b);
             world.clear();
             view.links.clear();
-            for (vol, &(rot, pos)) in placed.volumes.iter().zip(placed.poses) {
-                let (c, r) = vol.bound;
-                let center = rot * c + pos;
-                world.push((center, r));
+            world.extend(
+                placed
+                    .volumes
+                    .iter()
+                    .zip(placed.poses)
+                    .map(|(vol, &(rot, pos))| (rot * vol.bound.0 + pos, vol.bound.1)),
+            );
+            // The whole body's sphere (also its projected size, below). When it lies well
+            // inside every plane (`Frustum::holds_sphere`), so does each link's centre: its
+            // least plane distance is at least 0, so both tests below pass for a link of
+            // radius ≥ 0 and a margin ≥ 0 (NaN fails them) without the six plane distances.
+            // (A link's centre is within `|c − centre| ≤ (its rounded value + r)(1 + 1e-15)`
+            // of the body's centre, inside `radius (1 + 1e-12)`.)
+            let (center, radius) = enclosing_sphere(world);
+            self.whole.push((center, radius));
+            let inside = placed.margin >= 0.0 && frustum.holds_sphere(center, radius);
+            let occluder = &mut self.occluder;
+            occluder.clear();
+            for &(center, r) in world.iter() {
                 // Frustum::sphere with the margin and without, from one pass over the planes.
-                let d = frustum.nearest_plane_distance(center);
-                let class = if d >= -(r + placed.margin) {
+                let (visible, occludes) = if inside && r >= 0.0 {
+                    (true, true)
+                } else {
+                    let d = frustum.nearest_plane_distance(center);
+                    (d >= -(r + placed.margin), d >= -r)
+                };
+                view.links.push(if visible {
                     Visibility::Visible
                 } else {
                     Visibility::Invisible
-                };
-                view.links.push(class);
-                if class == Visibility::Visible && d >= -r {
-                    // Balls whose projected disc cannot hold a whole cell write nothing: skip
-                    // volumes that thin at this distance (depth ≥ distance − r).
-                    let depth = (cam.to_camera(center).z - r).max(cam.near);
-                    let min_radius = 0.7 * depth / cells_per_unit;
-                    for (inner, range) in &vol.inner {
-                        if *inner >= min_radius {
-                            for &(c, r) in &vol.balls[range.clone()] {
-                                self.buffer.raster(cam, &lens, rot * c + pos, r);
-                            }
+                });
+                occluder.push(visible && occludes);
+            }
+            for (((vol, &(rot, pos)), &(center, r)), _) in placed
+                .volumes
+                .iter()
+                .zip(placed.poses)
+                .zip(world.iter())
+                .zip(occluder.iter())
+                .filter(|(_, occludes)| **occludes)
+            {
+                // Balls whose projected disc cannot hold a whole cell write nothing: skip
+                // volumes that thin at this distance (depth ≥ distance − r).
+                let depth = (cam.to_camera(center).z - r).max(cam.near);
+                let min_radius = 0.7 * depth / cells_per_unit;
+                for (inner, range) in &vol.inner {
+                    if *inner >= min_radius {
+                        for &(c, r) in &vol.balls[range.clone()] {
+                            self.buffer.raster(cam, &lens, rot * c + pos, r);
                         }
                     }
                 }
@@ -502,12 +541,7 @@ impl Classifier {
                 }
             }
             view.class = view.links.iter().copied().min();
-            let n = world.len().max(1) as f64;
-            let center = world.iter().map(|s| s.0).sum::<DVec3>() / n;
-            let radius = world
-                .iter()
-                .map(|(c, r)| (*c - center).length() + r)
-                .fold(0.0, f64::max);
+            let (center, radius) = self.whole[b];
             view.projected_size = cam.projected_size(center, radius);
             let s = (view.projected_size / settings.full_detail_size).min(1.0);
             view.link_weights.clear();
@@ -525,6 +559,18 @@ impl Classifier {
             }
         }
     }
+}
+
+/// A sphere enclosing the spheres `(centre, radius)`: centred on their mean, the radius the
+/// largest `|cᵢ − centre| + rᵢ` (a body's whole sphere; centre 0 and radius 0 for none).
+fn enclosing_sphere(spheres: &[(DVec3, f64)]) -> (DVec3, f64) {
+    let n = spheres.len().max(1) as f64;
+    let center = spheres.iter().map(|s| s.0).sum::<DVec3>() / n;
+    let radius = spheres
+        .iter()
+        .map(|(c, r)| (*c - center).length() + r)
+        .fold(0.0, f64::max);
+    (center, radius)
 }
 
 /// World pose of body `i` of `model` at configuration `q` (rotation, origin): the pose-only
