@@ -330,7 +330,7 @@ impl DepthBuffer {
         let k = radius / (c.z * c.z - radius * radius).sqrt();
         let (rx, ry) = (k * fx, k * fy);
         let (xa, xb, ya, yb) = (x - rx, x + rx, y - ry, y + ry);
-        if xa < 0.0 || ya < 0.0 || xb > self.width as f64 || yb > self.height as f64 {
+        if xa < 0.0 || ya < 0.0 || xb > as_f64(self.width) || yb > as_f64(self.height) {
             return false;
         }
         let (i0, i1) = (floor_index(xa), ceil_index(xb).min(self.width));
