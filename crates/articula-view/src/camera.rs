@@ -74,6 +74,26 @@ impl Frustum {
         least
     }
 
+    /// Whether every point `p` within `radius (1 + 1e-12)` of `center` has a computed
+    /// distance ([`Plane::distance`]) of at least 0 to every plane, so that
+    /// `nearest_plane_distance(p) ≥ 0`, decided from the centre alone: its computed distance
+    /// to each plane must exceed `radius + 1e-9 (radius + |center|₁ + |offset| + 1)`. NaN gives
+    /// `false`.
+    ///
+    /// Why that margin suffices: with the plane's float coefficients, the exact distance
+    /// `D(p) = n·p + o` changes by at most `|n| |p − center|` (`|n| ≤ 1 + 1e-12`: a normalised
+    /// vector), and a computed distance (three products, three sums) is within
+    /// `5e-16 (|n|∞ |p|₁ + |o|)` of `D` (`γ₄`), where `|p|₁ ≤ |center|₁ + 2 |p − center|`. So
+    /// the computed distance at `p` is at least the centre's minus `radius (1 + 3e-12)` minus
+    /// `4e-15 (radius + |center|₁ + |o|)`: positive under a margin that is far above both.
+    pub fn holds_sphere(&self, center: DVec3, radius: f64) -> bool {
+        let size = radius + center.abs().element_sum() + 1.0;
+        self.planes.iter().all(|p| {
+            let margin = radius + 1e-9 * (size + p.offset.abs());
+            p.distance(center) >= margin
+        })
+    }
+
     /// Whether the capsule (segment `a`–`b` swept by a sphere of `radius`) may touch the
     /// frustum: the signed distance is affine along the segment, so the capsule is outside a
     /// plane exactly when both end spheres are.
@@ -304,5 +324,63 @@ impl CameraPath {
             self.near,
             self.far,
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Camera;
+    use glam::DVec3;
+
+    #[test]
+    fn a_held_sphere_is_inside_every_plane_to_its_rim() {
+        // Random cameras at several scales; for centres inside the frustum, the largest radius
+        // `holds_sphere` accepts, then points just beyond the rim towards each plane.
+        let mut seed = 5u64;
+        let mut rnd = |lo: f64, hi: f64| {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            lo + (hi - lo) * ((seed >> 11) as f64 / (1u64 << 53) as f64)
+        };
+        let mut held = 0;
+        for k in 0..4000 {
+            let scale = [1.0, 1e-3, 1e3, 1e6][k % 4];
+            let v = |rnd: &mut dyn FnMut(f64, f64) -> f64| {
+                DVec3::new(rnd(-1.0, 1.0), rnd(-1.0, 1.0), rnd(-1.0, 1.0)) * scale
+            };
+            let eye = v(&mut rnd);
+            let target = eye + v(&mut rnd);
+            let (fov, aspect) = (rnd(10.0, 120.0), rnd(0.5, 3.0));
+            let Ok(c) = Camera::look_at(
+                eye,
+                target,
+                DVec3::Z,
+                fov,
+                aspect,
+                0.01 * scale,
+                100.0 * scale,
+            ) else {
+                continue;
+            };
+            let f = c.frustum();
+            let local = DVec3::new(rnd(-0.5, 0.5), rnd(-0.5, 0.5), rnd(0.1, 1.0));
+            let center = c.position + c.axes * local * rnd(0.1, 50.0) * scale;
+            let least = f.nearest_plane_distance(center);
+            assert!(!f.holds_sphere(center, least), "{k}: no margin");
+            let mut radius = least * (1.0 - 1e-8);
+            while radius > least * 0.999 && !f.holds_sphere(center, radius) {
+                radius *= 1.0 - 1e-10;
+            }
+            if !f.holds_sphere(center, radius) {
+                continue;
+            }
+            held += 1;
+            for p in &f.planes {
+                let q = center - p.normal * radius * (1.0 + 1e-12);
+                assert!(f.nearest_plane_distance(q) >= 0.0, "{k}: {q}");
+            }
+        }
+        assert!(held > 1000, "{held}");
     }
 }

@@ -68,6 +68,9 @@ pub enum Visibility {
 struct Lens {
     fx: f64,
     fy: f64,
+    /// The image centre in cells: half the buffer's width and height.
+    half_width: f64,
+    half_height: f64,
     /// World → camera rotation (the camera axes transposed) and the eye.
     rt: DMat3,
     eye: DVec3,
@@ -90,6 +93,8 @@ pub struct DepthBuffer {
     pub height: usize,
     /// Depths, row-major from the top-left cell.
     pub depth: Vec<f64>,
+    /// Scratch of the raster: `A(i)` of the columns of one ball (width + 1 entries).
+    cols: Vec<f64>,
 }
 
 impl DepthBuffer {
@@ -100,6 +105,7 @@ impl DepthBuffer {
             width,
             height,
             depth: vec![f64::INFINITY; width * height],
+            cols: vec![0.0; width + 1],
         }
     }
 
@@ -112,8 +118,8 @@ impl DepthBuffer {
     /// scale from camera lengths at depth 1 to cells.
     fn to_cells(&self, lens: &Lens, c: DVec3) -> (f64, f64, f64) {
         let (fx, fy) = (lens.fx, lens.fy);
-        let x = (c.x / c.z) * fx + 0.5 * self.width as f64;
-        let y = -(c.y / c.z) * fy + 0.5 * self.height as f64;
+        let x = (c.x / c.z) * fx + lens.half_width;
+        let y = -(c.y / c.z) * fy + lens.half_height;
         (x, y, fx.min(fy))
     }
 
@@ -126,6 +132,8 @@ impl DepthBuffer {
         Lens {
             fy: self.height as f64 / (2.0 * t),
             fx: self.width as f64 / (2.0 * t * cam.aspect),
+            half_width: 0.5 * self.width as f64,
+            half_height: 0.5 * self.height as f64,
             rt: cam.axes.transpose(),
             eye: cam.position,
         }
@@ -138,6 +146,10 @@ impl DepthBuffer {
         self.raster(cam, &lens, center, radius);
     }
 
+    /// [`DepthBuffer::rasterize_ball`] with the lens computed once (inlined into the
+    /// classification's loop over a link's balls: most balls of a crowd end in the one-cell
+    /// test below).
+    #[inline]
     fn raster(&mut self, cam: &Camera, lens: &Lens, center: DVec3, radius: f64) {
         let c = lens.camera_point(center);
         if c.z - radius <= cam.near || radius <= 0.0 {
@@ -147,154 +159,155 @@ impl DepthBuffer {
         let (x, y, _) = self.to_cells(lens, c);
         let (rx, ry) = (radius / c.z * fx, radius / c.z * fy);
         let far = c.z + radius;
-        // No unit cell fits in an ellipse whose centred unit square does not: the corner value
-        // (0.5/rx)² + (0.5/ry)² is the least any cell can have (with a margin far above the
-        // rounding of the corner test, so this skips only balls that write nothing).
-        let (hx, hy) = (0.5 / rx, 0.5 / ry);
-        if hx * hx + hy * hy > 1.0 + 1e-9 {
-            return;
-        }
         // Cells [i, i+1] × [j, j+1] wholly inside the ellipse ((u−x)/rx)² + ((v−y)/ry)² ≤ 1:
-        // its four corners inside (the ellipse is convex).
-        // The corner test, with `bb = ((v − y)/ry)²` computed once per grid line v.
-        let inside = |u: f64, bb: f64| {
-            let a = (u - x) / rx;
-            a * a + bb <= 1.0
-        };
-        let line = |v: f64| {
-            let b = (v - y) / ry;
-            b * b
-        };
+        // its four corners inside (the ellipse is convex), each tested as
+        // `((u − x)/rx)² + ((v − y)/ry)² ≤ 1` in floating point. That test is monotone in
+        // |u − x| and in |v − y| (rounding is monotone and symmetric), so a cell's four tests
+        // pass exactly when the one at its corner farthest from the centre on both axes does.
         if rx < 1.0 && ry < 1.0 {
             // A small ellipse (most balls of a distant crowd): a cell with its four corners
             // inside has them within less than one cell of the centre on each axis, so it is
-            // the cell holding the centre: test that one (the same corner tests).
-            if x < 0.0 || y < 0.0 {
+            // the cell holding the centre: test its farthest corner. (No cell can fit when
+            // the centred unit square does not, `(0.5/rx)² + (0.5/ry)² > 1`: that corner is
+            // at least half a cell away on both axes, so this test rejects it too.)
+            // (The cell must lie in the buffer: 0 ≤ x < width, 0 ≤ y < height; NaN fails.)
+            if !(x >= 0.0 && y >= 0.0 && x < as_f64(self.width) && y < as_f64(self.height)) {
                 return;
             }
             let (i, j) = (floor_index(x), floor_index(y));
-            if i + 1 > self.width || j + 1 > self.height {
-                return;
-            }
-            let (u, v) = (i as f64, j as f64);
-            let (b0, b1) = (line(v), line(v + 1.0));
-            if inside(u, b0) && inside(u + 1.0, b0) && inside(u, b1) && inside(u + 1.0, b1) {
+            let (u, v) = (as_f64(i), as_f64(j));
+            let u = if x < u + 0.5 { u + 1.0 } else { u };
+            let v = if y < v + 0.5 { v + 1.0 } else { v };
+            let (a, b) = ((u - x) / rx, (v - y) / ry);
+            if a * a + b * b <= 1.0 {
                 let d = &mut self.depth[j * self.width + i];
                 *d = if far < *d { far } else { *d };
             }
             return;
         }
+        self.raster_wide(x, y, rx, ry, far);
+    }
+
+    /// [`DepthBuffer::raster`] of an ellipse at least one cell across on one axis (centre
+    /// `(x, y)` and radii in cells, depth `far`).
+    ///
+    /// With `aa(u) = ((u − x)/rx)²` per corner column and `bb(v) = ((v − y)/ry)²` per grid
+    /// line, cell (i, j) is inside when `A(i) + B(j) ≤ 1` for `A(i) = max(aa(i), aa(i + 1))`,
+    /// `B(j) = max(bb(j), bb(j + 1))` (its farthest corner's test: the rounded sum is monotone
+    /// in each term, so this is the largest of its four corner tests). `A` falls to the column
+    /// holding x and rises after it, `B` likewise around y, so each row's cells are one run
+    /// around x's column, the runs shrink row by row away from y's row, and the rows with
+    /// cells are consecutive around it: the centre row's run is grown from x's column
+    /// (computing `A` of the columns it reaches), then rows are walked from it outward, each
+    /// run shrunk from the previous one's ends, until a row is empty — a few tests a row, one
+    /// division per column reached and per grid line. (Nothing here is NaN: x, y, rx and ry
+    /// are finite once the bounding box below is non-empty. The shortcut of the one-cell path,
+    /// no cell when `(0.5/rx)² + (0.5/ry)² > 1`, is left out: it never applies to an ellipse
+    /// this wide unless it is very eccentric.)
+    #[inline(never)]
+    fn raster_wide(&mut self, x: f64, y: f64, rx: f64, ry: f64, far: f64) {
+        // Cells i0..i1 × j0..j1: those between the bounding box's corner columns and lines.
         let i0 = floor_index(x - rx);
         let i1 = ceil_index(x + rx).min(self.width);
+        if i0 >= i1 {
+            return;
+        }
         let j0 = floor_index(y - ry);
         let j1 = ceil_index(y + ry).min(self.height);
-        if j0 >= j1 || i0 > i1 {
+        if j0 >= j1 {
             return;
         }
-        if i1 - i0 < 64 {
-            // Up to 64 corner columns (every ball of a crowd but the nearest): each grid
-            // line's inside corners as a bit mask, with `a²` of each corner column computed
-            // once (the same value `inside` computes) — no walk, no data-dependent branch per
-            // corner. A cell row's cells are the bits set in both its lines' masks and in the
-            // next column's.
-            let n = i1 - i0 + 1;
-            // (Padded to pairs with +∞: never inside.)
-            let mut aa = [f64::INFINITY; 64];
-            for (k, a2) in aa[..n].iter_mut().enumerate() {
-                let a = ((i0 + k) as f64 - x) / rx;
-                *a2 = a * a;
-            }
-            let pairs = n.div_ceil(2);
-            let mut below = 0u64;
-            for j in j0..=j1 {
-                let above = inside_mask(&aa[..2 * pairs], line(j as f64));
-                let both = below & above;
-                let mut cells = both & (both >> 1);
-                if cells != 0 {
-                    let row = (j - 1) * self.width + i0;
-                    while cells != 0 {
-                        let d = &mut self.depth[row + cells.trailing_zeros() as usize];
-                        *d = if far < *d { far } else { *d };
-                        cells &= cells - 1;
-                    }
-                }
-                below = above;
-            }
+        let aa = |u: usize| {
+            let a = (as_f64(u) - x) / rx;
+            a * a
+        };
+        let bb = |v: usize| {
+            let b = (as_f64(v) - y) / ry;
+            b * b
+        };
+        let max = |p: f64, q: f64| if q > p { q } else { p };
+        // A cell's test on the sum `A(i) + B(j)` (false for NaN).
+        let fits = |sum: f64| sum <= 1.0;
+        // The least A and B: the column and row holding the centre (clamped to the box).
+        let ic = floor_index(x).clamp(i0, i1 - 1);
+        let jc = floor_index(y).clamp(j0, j1 - 1);
+        let (bc, bn) = (bb(jc), bb(jc + 1));
+        let b = max(bc, bn);
+        let (al, ar) = (aa(ic), aa(ic + 1));
+        let a = max(al, ar);
+        if !fits(a + b) {
             return;
         }
-        // On one grid line v the corners inside form one run of u: the test is monotone in
-        // |u − x| (rounding is monotone and symmetric), so the runs of all lines are nested
-        // intervals around x (their thresholds on |u − x| grow while |v − y| falls and shrink
-        // after). Each line's run is found from the previous one by moving its two ends (a few
-        // tests a line, not a scan of the bounding box); the first non-empty run grows from the
-        // corner nearest to x. A
-        // cell row's cells are those whose two u corners lie in the runs of both its lines.
-        let mut run: Option<(usize, usize)> = None;
-        let mut below = (1, 0);
-        for j in j0..=j1 {
-            let bb = line(j as f64);
-            let next = match run {
-                Some((lo, hi)) => {
-                    // Each end moves out while the next corner is inside, or in until one
-                    // is. An end that moves in past the other empties the run, and with it
-                    // every line after (farther from y).
-                    let (mut lo, mut hi) = (lo, hi);
-                    if inside(lo as f64, bb) {
-                        while lo > i0 && inside((lo - 1) as f64, bb) {
-                            lo -= 1;
-                        }
-                    } else {
-                        lo += 1;
-                        while lo <= hi && !inside(lo as f64, bb) {
-                            lo += 1;
-                        }
-                        if lo > hi {
-                            break;
-                        }
-                    }
-                    if inside(hi as f64, bb) {
-                        while hi < i1 && inside((hi + 1) as f64, bb) {
-                            hi += 1;
-                        }
-                    } else {
-                        // Stops at lo at the latest (inside).
-                        hi -= 1;
-                        while !inside(hi as f64, bb) {
-                            hi -= 1;
-                        }
-                    }
-                    Some((lo, hi))
-                }
-                None => {
-                    // The corner nearest to x (clamped to the box) is inside if any is.
-                    let c = floor_index(x + 0.5).clamp(i0, i1);
-                    if inside(c as f64, bb) {
-                        let (mut lo, mut hi) = (c, c);
-                        while lo > i0 && inside((lo - 1) as f64, bb) {
-                            lo -= 1;
-                        }
-                        while hi < i1 && inside((hi + 1) as f64, bb) {
-                            hi += 1;
-                        }
-                        Some((lo, hi))
-                    } else {
-                        None
-                    }
-                }
-            };
-            let above = next.unwrap_or((1, 0));
-            if j > j0 {
-                // Cells i of row j − 1 with corners i and i + 1 in both runs.
-                let (lo, hi) = (below.0.max(above.0), below.1.min(above.1));
-                if lo < hi {
-                    let row = (j - 1) * self.width;
-                    for d in &mut self.depth[row + lo..row + hi] {
-                        *d = if far < *d { far } else { *d };
-                    }
-                }
+        // The centre row's run, with A of its columns in `cols[i − i0]`: later rows only
+        // test columns inside it.
+        let cols = &mut self.cols;
+        cols[ic - i0] = a;
+        let (mut lo, mut right) = (ic, al);
+        while lo > i0 {
+            let left = aa(lo - 1);
+            let a = max(left, right);
+            if !fits(a + b) {
+                break;
             }
-            run = next;
-            below = above;
+            lo -= 1;
+            cols[lo - i0] = a;
+            right = left;
+        }
+        let (mut hi, mut left) = (ic, ar);
+        while hi + 1 < i1 {
+            let right = aa(hi + 2);
+            let a = max(left, right);
+            if !fits(a + b) {
+                break;
+            }
+            hi += 1;
+            cols[hi - i0] = a;
+            left = right;
+        }
+        let cols = &self.cols;
+        let inside = |i: usize, b: f64| cols[i - i0] + b <= 1.0;
+        let width = self.width;
+        let depth = &mut self.depth;
+        let mut write = |j: usize, lo: usize, hi: usize| {
+            for d in &mut depth[j * width + lo..=j * width + hi] {
+                *d = if far < *d { far } else { *d };
+            }
+        };
+        write(jc, lo, hi);
+        // A later row's run lies within the previous one's and holds ic when not empty.
+        let shrink = |(mut lo, mut hi): (usize, usize), b: f64| {
+            if !inside(ic, b) {
+                return None;
+            }
+            while !inside(lo, b) {
+                lo += 1;
+            }
+            while !inside(hi, b) {
+                hi -= 1;
+            }
+            Some((lo, hi))
+        };
+        // Rows above (towards j0), the upper line's bb from one row to the next.
+        let (mut run, mut upper) = ((lo, hi), bc);
+        for j in (j0..jc).rev() {
+            let top = bb(j);
+            match shrink(run, max(upper, top)) {
+                Some(r) => run = r,
+                None => break,
+            }
+            write(j, run.0, run.1);
+            upper = top;
+        }
+        // Rows below.
+        let (mut run, mut lower) = ((lo, hi), bn);
+        for j in jc + 1..j1 {
+            let bottom = bb(j + 1);
+            match shrink(run, max(lower, bottom)) {
+                Some(r) => run = r,
+                None => break,
+            }
+            write(j, run.0, run.1);
+            lower = bottom;
         }
     }
 
@@ -317,7 +330,7 @@ impl DepthBuffer {
         let k = radius / (c.z * c.z - radius * radius).sqrt();
         let (rx, ry) = (k * fx, k * fy);
         let (xa, xb, ya, yb) = (x - rx, x + rx, y - ry, y + ry);
-        if xa < 0.0 || ya < 0.0 || xb > self.width as f64 || yb > self.height as f64 {
+        if xa < 0.0 || ya < 0.0 || xb > as_f64(self.width) || yb > as_f64(self.height) {
             return false;
         }
         let (i0, i1) = (floor_index(xa), ceil_index(xb).min(self.width));
@@ -330,38 +343,6 @@ impl DepthBuffer {
             }
         }
         true
-    }
-}
-
-/// Bit `k` set when `a2[k] + bb ≤ 1` (the corner test with `a²` precomputed), for up to 64
-/// entries of even count: two at a time in SSE2 lanes on x86-64 (the same sums and
-/// comparisons).
-#[inline]
-fn inside_mask(a2: &[f64], bb: f64) -> u64 {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{
-            _mm_add_pd, _mm_cmple_pd, _mm_loadu_pd, _mm_movemask_pd, _mm_set1_pd,
-        };
-        // SAFETY: SSE2 is part of the x86-64 baseline; every load reads two in-bounds entries
-        // (`chunks_exact(2)`).
-        unsafe {
-            let (b, one) = (_mm_set1_pd(bb), _mm_set1_pd(1.0));
-            let mut m = 0u64;
-            for (p, pair) in a2.chunks_exact(2).enumerate() {
-                let s = _mm_add_pd(_mm_loadu_pd(pair.as_ptr()), b);
-                m |= (_mm_movemask_pd(_mm_cmple_pd(s, one)) as u64) << (2 * p);
-            }
-            m
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let mut m = 0u64;
-        for (k, a) in a2.iter().enumerate() {
-            m |= u64::from(*a + bb <= 1.0) << k;
-        }
-        m
     }
 }
 
@@ -386,11 +367,18 @@ fn floor_index(x: f64) -> usize {
 #[inline]
 fn ceil_index(x: f64) -> usize {
     let t = floor_index(x);
-    if (t as f64) < x {
+    if as_f64(t) < x {
         t + 1
     } else {
         t
     }
+}
+
+/// A cell index (at most 2⁵² + 1) as a float, exactly: through `i64`, whose conversion is one
+/// instruction on x86-64 (`usize`'s is not).
+#[inline]
+fn as_f64(i: usize) -> f64 {
+    i as i64 as f64
 }
 
 /// One articulated body placed in the world, as visibility sees it.
@@ -435,6 +423,10 @@ pub struct Classifier {
     /// The depth buffer of the last call.
     pub buffer: DepthBuffer,
     world: Vec<Vec<(DVec3, f64)>>,
+    /// Each body's enclosing sphere of its links' spheres.
+    whole: Vec<(DVec3, f64)>,
+    /// Per link of the body being classified: whether it is an occluder (in the frustum).
+    occluder: Vec<bool>,
 }
 
 impl Classifier {
@@ -443,6 +435,8 @@ impl Classifier {
         Classifier {
             buffer: DepthBuffer::new(settings.depth_width, settings.depth_height),
             world: Vec::new(),
+            whole: Vec::new(),
+            occluder: Vec::new(),
         }
     }
 
@@ -479,32 +473,60 @@ impl Classifier {
         out.resize_with(n, BodyView::default);
         self.world.resize_with(n, Vec::new);
         // 1. Frustum culling on world bounding spheres; occluders into the depth buffer.
+        self.whole.clear();
         for (b, (view, world)) in out.iter_mut().zip(&mut self.world).take(n).enumerate() {
             let placed = &body(b);
             world.clear();
             view.links.clear();
-            for (vol, &(rot, pos)) in placed.volumes.iter().zip(placed.poses) {
-                let (c, r) = vol.bound;
-                let center = rot * c + pos;
-                world.push((center, r));
+            world.extend(
+                placed
+                    .volumes
+                    .iter()
+                    .zip(placed.poses)
+                    .map(|(vol, &(rot, pos))| (rot * vol.bound.0 + pos, vol.bound.1)),
+            );
+            // The whole body's sphere (also its projected size, below). When it lies well
+            // inside every plane (`Frustum::holds_sphere`), so does each link's centre: its
+            // least plane distance is at least 0, so both tests below pass for a link of
+            // radius ≥ 0 and a margin ≥ 0 (NaN fails them) without the six plane distances.
+            // (A link's centre is within `|c − centre| ≤ (its rounded value + r)(1 + 1e-15)`
+            // of the body's centre, inside `radius (1 + 1e-12)`.)
+            let (center, radius) = enclosing_sphere(world);
+            self.whole.push((center, radius));
+            let inside = placed.margin >= 0.0 && frustum.holds_sphere(center, radius);
+            let occluder = &mut self.occluder;
+            occluder.clear();
+            for &(center, r) in world.iter() {
                 // Frustum::sphere with the margin and without, from one pass over the planes.
-                let d = frustum.nearest_plane_distance(center);
-                let class = if d >= -(r + placed.margin) {
+                let (visible, occludes) = if inside && r >= 0.0 {
+                    (true, true)
+                } else {
+                    let d = frustum.nearest_plane_distance(center);
+                    (d >= -(r + placed.margin), d >= -r)
+                };
+                view.links.push(if visible {
                     Visibility::Visible
                 } else {
                     Visibility::Invisible
-                };
-                view.links.push(class);
-                if class == Visibility::Visible && d >= -r {
-                    // Balls whose projected disc cannot hold a whole cell write nothing: skip
-                    // volumes that thin at this distance (depth ≥ distance − r).
-                    let depth = (cam.to_camera(center).z - r).max(cam.near);
-                    let min_radius = 0.7 * depth / cells_per_unit;
-                    for (inner, range) in &vol.inner {
-                        if *inner >= min_radius {
-                            for &(c, r) in &vol.balls[range.clone()] {
-                                self.buffer.raster(cam, &lens, rot * c + pos, r);
-                            }
+                });
+                occluder.push(visible && occludes);
+            }
+            for (((vol, &(rot, pos)), &(center, r)), _) in placed
+                .volumes
+                .iter()
+                .zip(placed.poses)
+                .zip(world.iter())
+                .zip(occluder.iter())
+                .filter(|(_, occludes)| **occludes)
+            {
+                // Balls whose projected disc cannot hold a whole cell write nothing: skip
+                // volumes that thin at this distance (depth ≥ distance − r).
+                let depth = (cam.to_camera(center).z - r).max(cam.near);
+                let min_radius = 0.7 * depth / cells_per_unit;
+                for (inner, range) in &vol.inner {
+                    if *inner >= min_radius {
+                        for &(c, r) in &vol.balls[range.clone()] {
+                            self.buffer.raster(cam, &lens, rot * c + pos, r);
                         }
                     }
                 }
@@ -519,12 +541,7 @@ impl Classifier {
                 }
             }
             view.class = view.links.iter().copied().min();
-            let n = world.len().max(1) as f64;
-            let center = world.iter().map(|s| s.0).sum::<DVec3>() / n;
-            let radius = world
-                .iter()
-                .map(|(c, r)| (*c - center).length() + r)
-                .fold(0.0, f64::max);
+            let (center, radius) = self.whole[b];
             view.projected_size = cam.projected_size(center, radius);
             let s = (view.projected_size / settings.full_detail_size).min(1.0);
             view.link_weights.clear();
@@ -542,6 +559,18 @@ impl Classifier {
             }
         }
     }
+}
+
+/// A sphere enclosing the spheres `(centre, radius)`: centred on their mean, the radius the
+/// largest `|cᵢ − centre| + rᵢ` (a body's whole sphere; centre 0 and radius 0 for none).
+fn enclosing_sphere(spheres: &[(DVec3, f64)]) -> (DVec3, f64) {
+    let n = spheres.len().max(1) as f64;
+    let center = spheres.iter().map(|s| s.0).sum::<DVec3>() / n;
+    let radius = spheres
+        .iter()
+        .map(|(c, r)| (*c - center).length() + r)
+        .fold(0.0, f64::max);
+    (center, radius)
 }
 
 /// World pose of body `i` of `model` at configuration `q` (rotation, origin): the pose-only
