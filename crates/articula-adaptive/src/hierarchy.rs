@@ -53,6 +53,9 @@ pub(crate) struct Hierarchy {
     /// The reduced tree, one record per active joint in the order of `ajoints` (parents
     /// first): what its kinematics and articulated-body passes read, contiguous.
     pub rec: Vec<ActiveJoint>,
+    /// The records' degrees of freedom, `Σ k` (what [`Adaptive::active_dofs`] reports while
+    /// `valid`, read once per step by a scene).
+    pub dofs: usize,
     /// Per body: its record while building them (valid for the active bodies).
     pub ridx: Vec<usize>,
     /// Builds of the records so far (the reduced tree and the active flags change only with
@@ -336,6 +339,7 @@ impl Adaptive {
             });
             dof += body.nv;
         }
+        h.dofs = dof;
         let na = h.rec.len();
         h.ia.resize(na, [[0.0; 6]; 6]);
         h.pa.resize(na, [0.0; 6]);

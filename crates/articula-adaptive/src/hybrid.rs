@@ -504,6 +504,21 @@ impl Adaptive {
 
     /// Composite inertia, ground flag, top body and external-force sum of every node, bottom-up.
     pub(crate) fn composites(&mut self, model: &Model) {
+        self.composites_with(model, true);
+    }
+
+    /// [`Adaptive::composites`] for a hybrid body set by hand ([`Adaptive::set_active`], its
+    /// `active` flags already closed upward): the composite inertias of the nodes outside the
+    /// active region only — every body leaf, every locked join, all that
+    /// [`Adaptive::build_hierarchy`] reads (an active join's children may be active, a locked
+    /// join's are not) — and no force sums (an impulse has no external force; the next step
+    /// sums the frontier's). Ground flags and top bodies of every node.
+    pub(crate) fn rigid_composites(&mut self, model: &Model) {
+        self.composites_with(model, false);
+    }
+
+    #[inline(always)]
+    fn composites_with(&mut self, model: &Model, all: bool) {
         let tree = &model.assembly;
         for (n, node) in tree.nodes.iter().enumerate() {
             match node.kind {
@@ -511,7 +526,9 @@ impl Adaptive {
                     self.comp[n] = Rigid::default();
                     self.grounded[n] = true;
                     self.top[n] = usize::MAX;
-                    self.fsum[n] = SpatialForce::ZERO;
+                    if all {
+                        self.fsum[n] = SpatialForce::ZERO;
+                    }
                 }
                 NodeKind::Body(i) => {
                     // From the body-frame inertia: about a far origin, I_c would lose digits.
@@ -524,17 +541,23 @@ impl Adaptive {
                     };
                     self.grounded[n] = false;
                     self.top[n] = i;
-                    self.fsum[n] = self.fext_c.get(i).copied().unwrap_or(SpatialForce::ZERO);
+                    if all {
+                        self.fsum[n] = self.fext_c.get(i).copied().unwrap_or(SpatialForce::ZERO);
+                    }
                 }
                 NodeKind::Join {
                     parent_side: a,
                     child_side: b,
                     ..
                 } => {
-                    self.comp[n] = self.comp[a].combine(&self.comp[b]);
+                    if all || !self.active[n] {
+                        self.comp[n] = self.comp[a].combine(&self.comp[b]);
+                    }
                     self.grounded[n] = self.grounded[a] || self.grounded[b];
                     self.top[n] = self.top[a].min(self.top[b]);
-                    self.fsum[n] = self.fsum[a] + self.fsum[b];
+                    if all {
+                        self.fsum[n] = self.fsum[a] + self.fsum[b];
+                    }
                 }
             }
         }

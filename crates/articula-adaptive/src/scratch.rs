@@ -31,6 +31,10 @@
 //!   [`Adaptive::set_active_with`] after a scene's selection) reuses them as after the plain
 //!   call.
 //!
+//! A step between re-selections (most of a scene's) exchanges only what it reads: the reduced
+//! tree's workspace, the force sums and the kinematics but `inertia` (twelve headers, not
+//! eighteen).
+//!
 //! What stays in each workspace: the hybrid body (flags, lists, the reduced tree's records),
 //! the caches of rigid subassemblies, the weights, the selection, `qdd` (zero outside the
 //! active region), the `data` settings (gravity, origin, refinement flag).
@@ -131,7 +135,11 @@ fn grow<T: Clone>(v: &mut Vec<T>, need: usize, full: usize, x: T) {
 
 impl Adaptive {
     /// Exchanges the per-call buffers with `s`'s (the kinematics in `data` too when `kin`).
-    fn swap_scratch(&mut self, s: &mut Scratch, kin: bool) {
+    /// With `step` (a hybrid step between re-selections, [`Adaptive::between_reselections`]),
+    /// only those that step reads: the reduced tree's workspace, the frontier's force sums and
+    /// the kinematics but `inertia`. (Out of line: one copy of the code for both exchanges.)
+    #[inline(never)]
+    fn swap_scratch(&mut self, s: &mut Scratch, kin: bool, step: bool) {
         let h = &mut self.hier;
         swap(&mut h.ia, &mut s.ia);
         swap(&mut h.pa, &mut s.pa);
@@ -140,20 +148,34 @@ impl Adaptive {
         swap(&mut h.chol, &mut s.chol);
         swap(&mut h.u, &mut s.u);
         swap(&mut h.uu, &mut s.uu);
-        swap(&mut self.comp, &mut s.comp);
         swap(&mut self.fsum, &mut s.fsum);
-        swap(&mut self.hsub, &mut s.hsub);
-        swap(&mut self.gmom, &mut s.gmom);
-        swap(&mut self.fext_c, &mut s.fext_c);
-        swap(&mut self.fdense, &mut s.fdense);
+        if !step {
+            swap(&mut self.comp, &mut s.comp);
+            swap(&mut self.hsub, &mut s.hsub);
+            swap(&mut self.gmom, &mut s.gmom);
+            swap(&mut self.fext_c, &mut s.fext_c);
+            swap(&mut self.fdense, &mut s.fdense);
+        }
         if kin {
             let (d, sd) = (&mut self.data, &mut s.data);
             swap(&mut d.x, &mut sd.x);
             swap(&mut d.v, &mut sd.v);
             swap(&mut d.c, &mut sd.c);
             swap(&mut d.s, &mut sd.s);
-            swap(&mut d.inertia, &mut sd.inertia);
+            if !step {
+                swap(&mut d.inertia, &mut sd.inertia);
+            }
         }
+    }
+
+    /// Whether the next step is a hybrid step between re-selections (`step_inner`'s last
+    /// branch): it reads none of the whole-body buffers (composites, impulse momenta, wrench
+    /// arrays, spatial inertias).
+    #[inline]
+    fn between_reselections(&self) -> bool {
+        self.hier.valid
+            && !self.full_passes
+            && !self.steps.is_multiple_of(self.settings.reselect_every)
     }
 
     /// The reduced tree's workspace in `hier` at least as long as its records need (the
@@ -194,10 +216,14 @@ impl Adaptive {
         grow(&mut h.uu, dof, nv, 0.0);
     }
 
-    /// Runs `call` on this workspace with `s`'s per-call buffers in place of its own.
+    /// Runs `call` on this workspace with `s`'s per-call buffers in place of its own (with
+    /// `step`, those of a hybrid step between re-selections only: see
+    /// [`Adaptive::swap_scratch`]).
+    #[inline(always)]
     fn with_scratch<R>(
         &mut self,
         s: &mut Scratch,
+        step: bool,
         call: impl FnOnce(&mut Adaptive) -> Result<R, AdaptiveError>,
     ) -> Result<R, AdaptiveError> {
         s.check(self)?;
@@ -205,10 +231,10 @@ impl Adaptive {
         // stay where they are.
         let kin = !self.fresh;
         let full = [s.sizes[0], s.sizes[1]];
-        self.swap_scratch(s, kin);
+        self.swap_scratch(s, kin, step);
         self.fit_reduced(full);
         let r = call(self);
-        self.swap_scratch(s, kin);
+        self.swap_scratch(s, kin, step);
         self.fit_reduced(full);
         if kin {
             // (No call but `node_metrics` sets it; its kinematics would be in the scratch.)
@@ -250,7 +276,8 @@ impl Adaptive {
         state: &mut State,
         dt: f64,
     ) -> Result<StepReport, AdaptiveError> {
-        self.with_scratch(scratch, |ad| ad.step(model, state, dt))
+        let step = self.between_reselections();
+        self.with_scratch(scratch, step, |ad| ad.step(model, state, dt))
     }
 
     /// [`Adaptive::step_with_forces`] with the per-call buffers of `scratch` (see
@@ -263,7 +290,10 @@ impl Adaptive {
         dt: f64,
         forces: &[(usize, SpatialForce)],
     ) -> Result<StepReport, AdaptiveError> {
-        self.with_scratch(scratch, |ad| ad.step_with_forces(model, state, dt, forces))
+        let step = self.between_reselections();
+        self.with_scratch(scratch, step, |ad| {
+            ad.step_with_forces(model, state, dt, forces)
+        })
     }
 
     /// [`Adaptive::set_active`] with the per-call buffers of `scratch` (see
@@ -275,7 +305,7 @@ impl Adaptive {
         state: &mut State,
         active: impl Fn(usize) -> bool,
     ) -> Result<bool, AdaptiveError> {
-        self.with_scratch(scratch, |ad| ad.set_active(model, state, active))
+        self.with_scratch(scratch, false, |ad| ad.set_active(model, state, active))
     }
 
     /// [`Adaptive::node_metrics`] with the whole `data` of `scratch` (its exact solve's
