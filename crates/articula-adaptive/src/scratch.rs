@@ -26,8 +26,9 @@
 //!   before anything reads them. The one exception is [`Adaptive::node_metrics`]'s kinematics,
 //!   which the next call reuses for the same state (`fresh`): a `_with` call that finds them
 //!   leaves the kinematics in the workspace, and [`Adaptive::node_metrics_with`] (whose whole
-//!   `data` lives in the scratch) copies its kinematics (`origin`, `x`, `v`, `c`, `s`,
-//!   `inertia`) into the workspace's `data`, so that the next load of the same state (a
+//!   `data` lives in the scratch) hands its kinematics (`origin` copied; `x`, `v`, `c`, `s`,
+//!   `inertia` by exchanging buffers) to the workspace's `data`, so that the next load of the
+//!   same state (a
 //!   [`Adaptive::set_active_with`] after a scene's selection) reuses them as after the plain
 //!   call.
 //!
@@ -310,8 +311,9 @@ impl Adaptive {
 
     /// [`Adaptive::node_metrics`] with the whole `data` of `scratch` (its exact solve's
     /// buffers and kinematics; the workspace's gravity): the same metrics and `qdd` to the bit.
-    /// Its kinematics are copied into the workspace's `data` (a few kB), so that the next
-    /// load of the same state reuses them, as after the plain call.
+    /// Its kinematics are handed to the workspace's `data` (their buffers exchanged with the
+    /// workspace's), so that the next load of the same state reuses them, as after the plain
+    /// call.
     #[allow(clippy::too_many_arguments)]
     pub fn node_metrics_with(
         &mut self,
@@ -329,8 +331,8 @@ impl Adaptive {
     }
 
     /// [`Adaptive::exact_solve`] with the whole `data` of `scratch`, as
-    /// [`Adaptive::node_metrics_with`]: the same `qdd` to the bit, and the kinematics copied
-    /// into the workspace's `data`.
+    /// [`Adaptive::node_metrics_with`]: the same `qdd` to the bit, and the kinematics handed
+    /// to the workspace's `data`.
     pub fn exact_solve_with(
         &mut self,
         scratch: &mut Scratch,
@@ -352,14 +354,17 @@ impl Adaptive {
         if r.is_ok() {
             // The exact solve's kinematics into the workspace, for the next load of this state
             // (`fresh`, as after the plain call): a `set_active_with` that follows (the usual
-            // re-selection of a scene) then skips its whole-body forward kinematics.
-            let (d, sd) = (&mut self.data, &scratch.data);
+            // re-selection of a scene) then skips its whole-body forward kinematics. Their
+            // buffers are exchanged with the workspace's (of the same lengths), not copied: the
+            // scratch's next exact solve, step or load writes every element of them before
+            // reading it.
+            let (d, sd) = (&mut self.data, &mut scratch.data);
             d.origin = sd.origin;
-            d.x.copy_from_slice(&sd.x);
-            d.v.copy_from_slice(&sd.v);
-            d.c.copy_from_slice(&sd.c);
-            d.s.copy_from_slice(&sd.s);
-            d.inertia.copy_from_slice(&sd.inertia);
+            swap(&mut d.x, &mut sd.x);
+            swap(&mut d.v, &mut sd.v);
+            swap(&mut d.c, &mut sd.c);
+            swap(&mut d.s, &mut sd.s);
+            swap(&mut d.inertia, &mut sd.inertia);
         } else {
             self.fresh = false;
         }
