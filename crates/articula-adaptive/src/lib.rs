@@ -855,11 +855,9 @@ fn zero_sum(xs: &[f64]) -> f64 {
             acc[k] += c[k] * 0.0;
         }
     }
-    let mut rest = 0.0;
-    for &x in chunks.remainder() {
-        rest += x * 0.0;
-    }
-    (acc[0] + acc[1]) + (acc[2] + acc[3]) + rest
+    // At most three left. (Sums paired as the lanes of two-wide vectors: no shuffles.)
+    let rest = chunks.remainder().iter().fold(0.0, |r, &x| r + x * 0.0);
+    (acc[0] + acc[2]) + (acc[1] + acc[3]) + rest
 }
 
 /// The error naming the part of body `j`'s joint whose value in `x` is not finite.
