@@ -255,8 +255,13 @@ impl Adaptive {
         f_ext: &[SpatialForce],
     ) -> Result<(), AdaptiveError> {
         check_inputs(model, q, qd, tau, f_ext)?;
-        // Kinematics left by node_metrics for this very state are reused.
-        if !(self.fresh && self.fresh_q == q && self.fresh_qd == qd) {
+        // Kinematics left by node_metrics for this very state are reused (the same bits:
+        // compared by `memcmp`, ~8× fewer instructions than `f64` equality; a `-0.0` for a
+        // `0.0` now recomputes them).
+        if !(self.fresh
+            && update::same_bits(&self.fresh_q, q)
+            && update::same_bits(&self.fresh_qd, qd))
+        {
             forward_kinematics(model, q, qd, &mut self.data);
         }
         self.fresh = false;
