@@ -815,7 +815,15 @@ impl Adaptive {
         };
         let (acc, dinv, chol) = (&mut acc[..n], &*dinvs, &*w.chol);
         let (u, uu) = (&*w.u, &*w.uu);
-        let qdd = &mut self.qdd[..];
+        // What a several-degree-of-freedom joint's pass 3 reads and writes, passed to it by
+        // one pointer (not nine words copied per call).
+        let mut io = Accel {
+            chol,
+            u,
+            uu,
+            s: &d.s[..],
+            qdd: &mut self.qdd[..],
+        };
         // The previous record when it is a one-degree-of-freedom joint (`usize::MAX`
         // otherwise): its index, a', S and q̈, kept in locals for a child that follows it
         // (on a chain, every record).
@@ -825,7 +833,7 @@ impl Adaptive {
             let c = if accel { d.c[r.j].to_array() } else { [0.0; 6] };
             if k == 1 {
                 let s = d.s[vo].to_array();
-                let ud = &u[dof];
+                let ud = &io.u[dof];
                 let (ap, x) = if r.pidx == pidx1 && r.pidx != usize::MAX {
                     // The parent is the previous record: a' = (a'_p + S_p q̈_p) + c, and
                     // q̈ = D⁻¹ (u − Uᵀ(a'_p + c) − (Uᵀ S_p) q̈_p), whose chain from the
@@ -841,7 +849,7 @@ impl Adaptive {
                         }
                     }
                     let sig = dot6::<A>(ud, &ps);
-                    let x = dinv[idx] * A::neg_mul_add(sig, px, uu[dof] - dot6::<A>(&base, ud));
+                    let x = dinv[idx] * A::neg_mul_add(sig, px, io.uu[dof] - dot6::<A>(&base, ud));
                     (ap, x)
                 } else {
                     let mut ap = if r.pidx == usize::MAX {
@@ -854,9 +862,9 @@ impl Adaptive {
                             ap[rr] += c[rr];
                         }
                     }
-                    (ap, dinv[idx] * (uu[dof] - dot6::<A>(&ap, ud)))
+                    (ap, dinv[idx] * (io.uu[dof] - dot6::<A>(&ap, ud)))
                 };
-                qdd[vo] = x;
+                io.qdd[vo] = x;
                 acc[idx] = std::array::from_fn(|rr| A::mul_add(s[rr], x, ap[rr]));
                 (pidx1, pap, ps, px) = (idx, ap, s, x);
                 continue;
@@ -872,11 +880,10 @@ impl Adaptive {
                     ap[rr] += c[rr];
                 }
             }
-            let w = (&chol[idx], u, uu, &d.s[..], &mut *qdd);
             acc[idx] = match k {
-                3 => accelerate::<3>(wide, r, w, k, ap),
-                6 => accelerate::<6>(wide, r, w, k, ap),
-                _ => accelerate::<0>(wide, r, w, k, ap),
+                3 => accelerate::<3>(wide, r, &mut io, idx, k, &ap),
+                6 => accelerate::<6>(wide, r, &mut io, idx, k, &ap),
+                _ => accelerate::<0>(wide, r, &mut io, idx, k, &ap),
             };
         }
         Ok(())
@@ -1083,15 +1090,15 @@ fn articulate_multi_with<const K: usize>(
     true
 }
 
-/// What pass 3 of a several-degree-of-freedom joint reads and writes: its Cholesky factor,
-/// `U`, `u`, the subspace columns and `q̈`.
-type AccelIo<'a> = (
-    &'a [[f64; 6]; 6],
-    &'a [[f64; 6]],
-    &'a [f64],
-    &'a [SpatialMotion],
-    &'a mut [f64],
-);
+/// What pass 3 of a several-degree-of-freedom joint reads and writes: the records' Cholesky
+/// factors, `U`, `u`, the subspace columns and `q̈`.
+struct Accel<'a> {
+    chol: &'a [[[f64; 6]; 6]],
+    u: &'a [[f64; 6]],
+    uu: &'a [f64],
+    s: &'a [SpatialMotion],
+    qdd: &'a mut [f64],
+}
 
 /// [`accelerate_multi_with`] out of line, compiled for AVX2 + FMA when `wide` (the same
 /// arithmetic).
@@ -1099,16 +1106,17 @@ type AccelIo<'a> = (
 fn accelerate<const K: usize>(
     wide: bool,
     r: &ActiveJoint,
-    w: AccelIo,
+    w: &mut Accel,
+    idx: usize,
     k: usize,
-    ap: [f64; 6],
+    ap: &[f64; 6],
 ) -> [f64; 6] {
     #[cfg(target_arch = "x86_64")]
     if wide {
         // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
-        return unsafe { accelerate_multi_wide::<K>(r, w, k, ap) };
+        return unsafe { accelerate_multi_wide::<K>(r, w, idx, k, ap) };
     }
-    accelerate_multi::<K>(r, w, k, ap)
+    accelerate_multi::<K>(r, w, idx, k, ap)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -1116,21 +1124,23 @@ fn accelerate<const K: usize>(
 #[inline(never)]
 fn accelerate_multi_wide<const K: usize>(
     r: &ActiveJoint,
-    w: AccelIo,
+    w: &mut Accel,
+    idx: usize,
     k: usize,
-    ap: [f64; 6],
+    ap: &[f64; 6],
 ) -> [f64; 6] {
-    accelerate_multi_with::<K>(r, w, k, ap)
+    accelerate_multi_with::<K>(r, w, idx, k, ap)
 }
 
 #[inline(never)]
 fn accelerate_multi<const K: usize>(
     r: &ActiveJoint,
-    w: AccelIo,
+    w: &mut Accel,
+    idx: usize,
     k: usize,
-    ap: [f64; 6],
+    ap: &[f64; 6],
 ) -> [f64; 6] {
-    accelerate_multi_with::<K>(r, w, k, ap)
+    accelerate_multi_with::<K>(r, w, idx, k, ap)
 }
 
 /// Pass 3 of the reduced ABA at record `r` for a joint of several degrees of freedom, from
@@ -1139,10 +1149,13 @@ fn accelerate_multi<const K: usize>(
 #[inline(always)]
 fn accelerate_multi_with<const K: usize>(
     r: &ActiveJoint,
-    (l, u, uu, s, qdd): AccelIo,
+    w: &mut Accel,
+    idx: usize,
     k: usize,
-    ap: [f64; 6],
+    ap: &[f64; 6],
 ) -> [f64; 6] {
+    let (l, u, uu, s) = (&w.chol[idx], w.u, w.uu, w.s);
+    let (qdd, ap) = (&mut *w.qdd, *ap);
     let k = if K == 0 { k } else { K };
     let (vo, dof) = (r.vo, r.dof);
     // q̈ = L⁻ᵀ L⁻¹ r.
