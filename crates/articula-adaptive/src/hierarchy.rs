@@ -15,54 +15,14 @@ use articula_model::{Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialMotion, SpatialTransform};
 use glam::DVec3;
 
-/// Lists and frames of the current hybrid body.
+/// Lists and frames of the current hybrid body. (`repr(C)`: the fields a step between
+/// re-selections reads come first, in a few cache lines; see [`Adaptive`]'s.)
 #[derive(Clone, Debug, Default)]
+#[repr(C)]
 pub(crate) struct Hierarchy {
-    /// Built for the current hybrid body (cleared by a re-selection).
-    pub valid: bool,
-    /// Built by the cached re-selection (lists, clusters' mass properties and parent poses
-    /// from the caches).
-    pub from_cache: bool,
-    /// The active bodies' kinematics in `data` are those of the coming hybrid step's state
-    /// (set by a cached re-selection that kept the hybrid body, taken by the step).
-    pub kin_fresh: bool,
-    /// Per frontier node (rigid cluster): mass properties in its top body's frame.
-    pub rig: Vec<Rigid>,
-    /// Active join nodes, then frontier nodes, each ascending (post-order).
-    pub hnodes: Vec<usize>,
-    pub fnodes: Vec<usize>,
-    /// Bodies whose joints are active, ascending (parents first).
-    pub ajoints: Vec<usize>,
-    /// Per body: its joint is active.
-    pub abody: Vec<bool>,
-    /// Per active body: the rigid cluster (frontier node) holding its parent body, or
-    /// `usize::MAX` when the parent is an active body or the world; and the parent's pose in the
-    /// cluster's top-body frame.
-    pub pcl: Vec<usize>,
-    pub prel: Vec<SpatialTransform>,
-    /// Per active body: its rigid cluster (the frontier node whose top body it is), and the
-    /// active body topping the cluster that holds its parent (`usize::MAX`: the world or a
-    /// cluster welded to the ground).
-    pub cl: Vec<usize>,
-    pub par: Vec<usize>,
-    /// Per body: `(i, ±1)` for a joint of one revolute part about the coordinate axis `±e_i`
-    /// (the usual URDF case, kinematics in closed form), else `None`. Built once per model.
-    pub axis: Vec<Option<(usize, f64)>>,
-    /// Per body: its joint's [`RevoluteParts`] (built with `axis`).
-    pub parts: Vec<Option<RevoluteParts>>,
     /// The reduced tree, one record per active joint in the order of `ajoints` (parents
     /// first): what its kinematics and articulated-body passes read, contiguous.
     pub rec: Vec<ActiveJoint>,
-    /// The records' degrees of freedom, `Σ k` (what [`Adaptive::active_dofs`] reports while
-    /// `valid`, read once per step by a scene).
-    pub dofs: usize,
-    /// Per body: its record while building them (valid for the active bodies).
-    pub ridx: Vec<usize>,
-    /// Builds of the records so far (the reduced tree and the active flags change only with
-    /// them), and per body the rigid cluster (frontier node) an external force on it goes to,
-    /// with the build it was found in (`(gen, node)`, found on the first force after a build).
-    pub gen: u64,
-    pub fcl: Vec<(u64, usize)>,
     /// Articulated-body workspace of the reduced tree (one rigid cluster per active joint),
     /// indexed like `rec`: `Iᴬ`, `pᴬ`, the cluster's acceleration, `D⁻¹` (one DOF) or the
     /// Cholesky factor of `D` (several); per degree of freedom (at `rec.dof`) `U = Iᴬ s` and
@@ -84,6 +44,48 @@ pub(crate) struct Hierarchy {
     /// bodies run through more data than the 1 MB L2 holds, every byte read per step counts.)
     pub ang: Vec<(u32, f32)>,
     pub sc: Vec<(f64, f64)>,
+    /// Active join nodes, then frontier nodes, each ascending (post-order).
+    pub hnodes: Vec<usize>,
+    pub fnodes: Vec<usize>,
+    /// Per body: its joint's [`RevoluteParts`] (built with `axis`).
+    pub parts: Vec<Option<RevoluteParts>>,
+    /// Builds of the records so far (the reduced tree and the active flags change only with
+    /// them), and per body the rigid cluster (frontier node) an external force on it goes to,
+    /// with the build it was found in (`(gen, node)`, found on the first force after a build).
+    pub gen: u64,
+    pub fcl: Vec<(u64, usize)>,
+    /// The records' degrees of freedom, `Σ k` (what [`Adaptive::active_dofs`] reports while
+    /// `valid`, read once per step by a scene).
+    pub dofs: usize,
+    /// Built for the current hybrid body (cleared by a re-selection).
+    pub valid: bool,
+    /// Built by the cached re-selection (lists, clusters' mass properties and parent poses
+    /// from the caches).
+    pub from_cache: bool,
+    /// The active bodies' kinematics in `data` are those of the coming hybrid step's state
+    /// (set by a cached re-selection that kept the hybrid body, taken by the step).
+    pub kin_fresh: bool,
+    /// Per frontier node (rigid cluster): mass properties in its top body's frame.
+    pub rig: Vec<Rigid>,
+    /// Bodies whose joints are active, ascending (parents first).
+    pub ajoints: Vec<usize>,
+    /// Per body: its joint is active.
+    pub abody: Vec<bool>,
+    /// Per active body: the rigid cluster (frontier node) holding its parent body, or
+    /// `usize::MAX` when the parent is an active body or the world; and the parent's pose in the
+    /// cluster's top-body frame.
+    pub pcl: Vec<usize>,
+    pub prel: Vec<SpatialTransform>,
+    /// Per active body: its rigid cluster (the frontier node whose top body it is), and the
+    /// active body topping the cluster that holds its parent (`usize::MAX`: the world or a
+    /// cluster welded to the ground).
+    pub cl: Vec<usize>,
+    pub par: Vec<usize>,
+    /// Per body: `(i, ±1)` for a joint of one revolute part about the coordinate axis `±e_i`
+    /// (the usual URDF case, kinematics in closed form), else `None`. Built once per model.
+    pub axis: Vec<Option<(usize, f64)>>,
+    /// Per body: its record while building them (valid for the active bodies).
+    pub ridx: Vec<usize>,
 }
 
 /// Where an active joint's parent body is.
