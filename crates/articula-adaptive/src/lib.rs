@@ -333,21 +333,7 @@ impl Adaptive {
         tau: &[f64],
         f_ext: &[SpatialForce],
     ) -> Result<(), AdaptiveError> {
-        // A metric steers the selection: ~1e-9 relative is plenty, so the floating-base
-        // refinement of the exact solve (for long floating chains) is skipped here.
-        let refine = std::mem::replace(&mut self.data.refine_floating, false);
-        let solved = articula_dca::forward_dynamics(
-            model,
-            &mut self.data,
-            q,
-            qd,
-            tau,
-            f_ext,
-            articula_dca::Method::Aba,
-        )
-        .map(|qdd| self.qdd.copy_from_slice(qdd));
-        self.data.refine_floating = refine;
-        solved?;
+        solve_exact(model, &mut self.data, &mut self.qdd, q, qd, tau, f_ext)?;
         self.fresh = true;
         self.fresh_q.copy_from_slice(q);
         self.fresh_qd.copy_from_slice(qd);
@@ -830,6 +816,27 @@ impl Adaptive {
         }
         Ok(())
     }
+}
+
+/// The exact solve of [`Adaptive::exact_solve`] on `data`'s buffers (the workspace's own or
+/// a scratch's): `q̈` into `qdd`.
+pub(crate) fn solve_exact(
+    model: &Model,
+    data: &mut articula_dca::Data,
+    qdd: &mut [f64],
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+) -> Result<(), DynamicsError> {
+    // A metric steers the selection: ~1e-9 relative is plenty, so the floating-base
+    // refinement of the exact solve (for long floating chains) is skipped here.
+    let refine = std::mem::replace(&mut data.refine_floating, false);
+    let solved =
+        articula_dca::forward_dynamics(model, data, q, qd, tau, f_ext, articula_dca::Method::Aba)
+            .map(|x| qdd.copy_from_slice(x));
+    data.refine_floating = refine;
+    solved
 }
 
 /// The most degrees of freedom of a body whose step between re-selections checks all of its

@@ -343,15 +343,17 @@ impl Adaptive {
         f_ext: &[SpatialForce],
     ) -> Result<(), AdaptiveError> {
         scratch.check(self)?;
-        swap(&mut self.data, &mut scratch.data);
-        // The workspace's settings on the scratch's buffers.
-        let own = &scratch.data;
-        self.data.gravity = own.gravity;
-        self.data.refine_floating = own.refine_floating;
-        self.data.momentum_projection = own.momentum_projection;
-        let r = self.exact_solve(model, q, qd, tau, f_ext);
-        swap(&mut self.data, &mut scratch.data);
+        // The workspace's settings on the scratch's buffers, solved in place (the
+        // workspace's `data`, 1.2 kB, is not exchanged).
+        let (d, sd) = (&self.data, &mut scratch.data);
+        sd.gravity = d.gravity;
+        sd.refine_floating = d.refine_floating;
+        sd.momentum_projection = d.momentum_projection;
+        let r = crate::solve_exact(model, sd, &mut self.qdd, q, qd, tau, f_ext);
         if r.is_ok() {
+            self.fresh = true;
+            self.fresh_q.copy_from_slice(q);
+            self.fresh_qd.copy_from_slice(qd);
             // The exact solve's kinematics into the workspace, for the next load of this state
             // (`fresh`, as after the plain call): a `set_active_with` that follows (the usual
             // re-selection of a scene) then skips its whole-body forward kinematics. Their
@@ -368,6 +370,6 @@ impl Adaptive {
         } else {
             self.fresh = false;
         }
-        r
+        Ok(r?)
     }
 }
