@@ -41,7 +41,8 @@ pub(crate) struct Hierarchy {
     /// signed value (`sc`), computed in a first sweep of [`Adaptive::active_kinematics`], four
     /// at a time, so that its main loop makes no call (every vector register is
     /// caller-saved). (`ang` in 8 bytes an angle, the sign `±1` exact in `f32`: a crowd's
-    /// bodies run through more data than the 1 MB L2 holds, every byte read per step counts.)
+    /// bodies run through more data than the 1 MB L2 holds, every byte read per step counts;
+    /// `sc` is written and read within one call: a `_with` call takes the scratch's.)
     pub ang: Vec<(u32, f32)>,
     pub sc: Vec<(f64, f64)>,
     /// Active join nodes, then frontier nodes, each ascending (post-order).
@@ -398,7 +399,7 @@ impl Adaptive {
         let h = &self.hier;
         let d = &mut self.data;
         // The records' sines and cosines in turn (one per closed-form joint, one per part).
-        let mut scs = &h.sc[..];
+        let mut scs = &h.sc[..h.ang.len()];
         for r in &h.rec {
             let (base, v) = match r.parent {
                 Parent::World | Parent::Ground => (x_cw, SpatialMotion::ZERO),

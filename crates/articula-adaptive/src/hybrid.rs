@@ -492,7 +492,13 @@ impl Adaptive {
             fused: articula_dca::fused_available(),
             fresh_q: vec![0.0; model.nq],
             fresh_qd: vec![0.0; model.nv],
-            hier: Default::default(),
+            // The angles' sines and cosines at full size now: a `_with` call exchanges them
+            // with a scratch's, and a body whose first hybrid bodies turn no angle would
+            // otherwise grow its own in a later step.
+            hier: crate::hierarchy::Hierarchy {
+                sc: Vec::with_capacity(model.nv),
+                ..Default::default()
+            },
             cache: crate::cache::Caches {
                 check_tau: true,
                 ..Default::default()

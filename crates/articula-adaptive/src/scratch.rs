@@ -14,7 +14,9 @@
 //! - the reduced tree's articulated-body workspace (`Iᴬ`, `pᴬ`, accelerations, `D⁻¹` or its
 //!   Cholesky factor, `U`, `u`): pass 1 of the reduced ABA writes `Iᴬ`, `pᴬ` of every record,
 //!   pass 2 `U`, `u`, `D⁻¹`/factor of every record before pass 3 reads them, and pass 3 a
-//!   record's acceleration before its children read it;
+//!   record's acceleration before its children read it; the sines and cosines of the active
+//!   angles, which the kinematics' first sweep writes for every angle before its main loop
+//!   reads them;
 //! - per node, the composite inertias and external-force sums: written for every node by each
 //!   whole-body load, the frontier's force sums by each hybrid step or cached re-selection
 //!   before the reduced ABA reads them;
@@ -33,8 +35,8 @@
 //!   call.
 //!
 //! A step between re-selections (most of a scene's) exchanges only what it reads: the reduced
-//! tree's workspace, the force sums and the kinematics but `inertia` (twelve headers, not
-//! eighteen).
+//! tree's workspace, the sines and cosines, the force sums and the kinematics but `inertia`
+//! (thirteen headers, not nineteen).
 //!
 //! What stays in each workspace: the hybrid body (flags, lists, the reduced tree's records),
 //! the caches of rigid subassemblies, the weights, the selection, `qdd` (zero outside the
@@ -70,6 +72,7 @@ pub struct Scratch {
     chol: Vec<[[f64; 6]; 6]>,
     u: Vec<[f64; 6]>,
     uu: Vec<f64>,
+    sc: Vec<(f64, f64)>,
     comp: Vec<Rigid>,
     fsum: Vec<SpatialForce>,
     hsub: Vec<SpatialForce>,
@@ -94,6 +97,7 @@ impl Scratch {
             chol: vec![[[0.0; 6]; 6]; nb],
             u: vec![[0.0; 6]; nv],
             uu: vec![0.0; nv],
+            sc: vec![(0.0, 1.0); nv],
             comp: vec![Rigid::default(); nn],
             fsum: vec![SpatialForce::ZERO; nn],
             hsub: vec![SpatialForce::ZERO; nb],
@@ -137,8 +141,9 @@ fn grow<T: Clone>(v: &mut Vec<T>, need: usize, full: usize, x: T) {
 impl Adaptive {
     /// Exchanges the per-call buffers with `s`'s (the kinematics in `data` too when `kin`).
     /// With `step` (a hybrid step between re-selections, [`Adaptive::between_reselections`]),
-    /// only those that step reads: the reduced tree's workspace, the frontier's force sums and
-    /// the kinematics but `inertia`. (Out of line: one copy of the code for both exchanges.)
+    /// only those that step reads: the reduced tree's workspace, the angles' sines and cosines,
+    /// the frontier's force sums and the kinematics but `inertia`. (Out of line: one copy of
+    /// the code for both exchanges.)
     #[inline(never)]
     fn swap_scratch(&mut self, s: &mut Scratch, kin: bool, step: bool) {
         let h = &mut self.hier;
@@ -149,6 +154,7 @@ impl Adaptive {
         swap(&mut h.chol, &mut s.chol);
         swap(&mut h.u, &mut s.u);
         swap(&mut h.uu, &mut s.uu);
+        swap(&mut h.sc, &mut s.sc);
         swap(&mut self.fsum, &mut s.fsum);
         if !step {
             swap(&mut self.comp, &mut s.comp);
@@ -198,7 +204,8 @@ impl Adaptive {
         .iter()
         .all(|&l| l >= na)
             && h.u.len() >= dof
-            && h.uu.len() >= dof;
+            && h.uu.len() >= dof
+            && h.sc.len() >= h.ang.len();
         if !fits {
             self.grow_reduced(na, dof, full);
         }
@@ -215,6 +222,7 @@ impl Adaptive {
         grow(&mut h.chol, na, nb, [[0.0; 6]; 6]);
         grow(&mut h.u, dof, nv, [0.0; 6]);
         grow(&mut h.uu, dof, nv, 0.0);
+        grow(&mut h.sc, h.ang.len(), nv, (0.0, 1.0));
     }
 
     /// Runs `call` on this workspace with `s`'s per-call buffers in place of its own (with
