@@ -320,7 +320,7 @@ impl Adaptive {
                 h.ang.push((narrow(body.q_offset), sign as f32));
             } else if let Some(parts) = &h.parts[j] {
                 for (k, part) in body.joint.iter().enumerate() {
-                    h.ang.push((narrow(part.q_offset), parts.axes[k].1 as f32));
+                    h.ang.push((narrow(part.q_offset), parts.axes[k].1));
                 }
             }
             h.ridx[j] = h.rec.len();
@@ -1191,23 +1191,26 @@ fn accelerate_multi_with<const K: usize>(
 /// The parts of a joint made of revolute parts about coordinate axes (`±x`, `±y`, `±z`, the
 /// usual URDF case): per part `(i, ±1)` of its axis `±e_i`, and a bit per part whose origin is
 /// not the identity (the massless links of a composed joint often are). `None` for any other
-/// joint.
+/// joint. (Narrow, the flags first: a step reads a record's first parts and flags from one
+/// cache line, 56 bytes a body instead of 112; the sign `±1` is exact in `f32`.)
 #[derive(Clone, Copy, Debug)]
+#[repr(C)]
 pub(crate) struct RevoluteParts {
-    axes: [(usize, f64); 6],
     moved: u8,
     /// A bit per moved part whose origin's rotation is the identity (it only translates).
     shift: u8,
+    axes: [(u32, f32); 6],
 }
 
 fn revolute_parts(body: &articula_model::Body) -> Option<RevoluteParts> {
-    let mut axes = [(0usize, 0.0f64); 6];
+    let mut axes = [(0u32, 0.0f32); 6];
     let (mut moved, mut shift) = (0u8, 0u8);
     for (k, part) in body.joint.iter().enumerate() {
         if k >= 6 {
             return None;
         }
-        axes[k] = part.coordinate_axis()?;
+        let (i, sign) = part.coordinate_axis()?;
+        axes[k] = (i as u32, sign as f32);
         if part.origin.e != glam::DMat3::IDENTITY || part.origin.r != DVec3::ZERO {
             moved |= 1 << k;
             if part.origin.e == glam::DMat3::IDENTITY {
@@ -1308,9 +1311,9 @@ fn revolute_kinematics_with(
             p = -(x.e * x.r);
         }
         let (i, sign) = parts.axes[k];
-        let axis = turn(&mut x, i, sn, cs);
+        let axis = turn(&mut x, i as usize, sn, cs);
         // S = X [±e_i; 0] = [w; p × w], `w = ±` column i of E.
-        let w = axis * sign;
+        let w = axis * sign as f64;
         let sk = SpatialMotion::new(w, p.cross(w));
         s[part.v_offset] = sk;
         let vj = sk * qd[part.v_offset];
