@@ -15,51 +15,14 @@ use articula_model::{Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialMotion, SpatialTransform};
 use glam::DVec3;
 
-/// Lists and frames of the current hybrid body.
+/// Lists and frames of the current hybrid body. (`repr(C)`: the fields a step between
+/// re-selections reads come first, in a few cache lines; see [`Adaptive`]'s.)
 #[derive(Clone, Debug, Default)]
+#[repr(C)]
 pub(crate) struct Hierarchy {
-    /// Built for the current hybrid body (cleared by a re-selection).
-    pub valid: bool,
-    /// Built by the cached re-selection (lists, clusters' mass properties and parent poses
-    /// from the caches).
-    pub from_cache: bool,
-    /// The active bodies' kinematics in `data` are those of the coming hybrid step's state
-    /// (set by a cached re-selection that kept the hybrid body, taken by the step).
-    pub kin_fresh: bool,
-    /// Per frontier node (rigid cluster): mass properties in its top body's frame.
-    pub rig: Vec<Rigid>,
-    /// Active join nodes, then frontier nodes, each ascending (post-order).
-    pub hnodes: Vec<usize>,
-    pub fnodes: Vec<usize>,
-    /// Bodies whose joints are active, ascending (parents first).
-    pub ajoints: Vec<usize>,
-    /// Per body: its joint is active.
-    pub abody: Vec<bool>,
-    /// Per active body: the rigid cluster (frontier node) holding its parent body, or
-    /// `usize::MAX` when the parent is an active body or the world; and the parent's pose in the
-    /// cluster's top-body frame.
-    pub pcl: Vec<usize>,
-    pub prel: Vec<SpatialTransform>,
-    /// Per active body: its rigid cluster (the frontier node whose top body it is), and the
-    /// active body topping the cluster that holds its parent (`usize::MAX`: the world or a
-    /// cluster welded to the ground).
-    pub cl: Vec<usize>,
-    pub par: Vec<usize>,
-    /// Per body: `(i, ±1)` for a joint of one revolute part about the coordinate axis `±e_i`
-    /// (the usual URDF case, kinematics in closed form), else `None`. Built once per model.
-    pub axis: Vec<Option<(usize, f64)>>,
-    /// Per body: its joint's [`RevoluteParts`] (built with `axis`).
-    pub parts: Vec<Option<RevoluteParts>>,
     /// The reduced tree, one record per active joint in the order of `ajoints` (parents
     /// first): what its kinematics and articulated-body passes read, contiguous.
     pub rec: Vec<ActiveJoint>,
-    /// Per body: its record while building them (valid for the active bodies).
-    pub ridx: Vec<usize>,
-    /// Builds of the records so far (the reduced tree and the active flags change only with
-    /// them), and per body the rigid cluster (frontier node) an external force on it goes to,
-    /// with the build it was found in (`(gen, node)`, found on the first force after a build).
-    pub gen: u64,
-    pub fcl: Vec<(u64, usize)>,
     /// Articulated-body workspace of the reduced tree (one rigid cluster per active joint),
     /// indexed like `rec`: `Iᴬ`, `pᴬ`, the cluster's acceleration, `D⁻¹` (one DOF) or the
     /// Cholesky factor of `D` (several); per degree of freedom (at `rec.dof`) `U = Iᴬ s` and
@@ -78,9 +41,52 @@ pub(crate) struct Hierarchy {
     /// signed value (`sc`), computed in a first sweep of [`Adaptive::active_kinematics`], four
     /// at a time, so that its main loop makes no call (every vector register is
     /// caller-saved). (`ang` in 8 bytes an angle, the sign `±1` exact in `f32`: a crowd's
-    /// bodies run through more data than the 1 MB L2 holds, every byte read per step counts.)
+    /// bodies run through more data than the 1 MB L2 holds, every byte read per step counts;
+    /// `sc` is written and read within one call: a `_with` call takes the scratch's.)
     pub ang: Vec<(u32, f32)>,
     pub sc: Vec<(f64, f64)>,
+    /// Active join nodes, then frontier nodes, each ascending (post-order).
+    pub hnodes: Vec<usize>,
+    pub fnodes: Vec<usize>,
+    /// Per body: its joint's [`RevoluteParts`] (built with `axis`).
+    pub parts: Vec<Option<RevoluteParts>>,
+    /// Builds of the records so far (the reduced tree and the active flags change only with
+    /// them), and per body the rigid cluster (frontier node) an external force on it goes to,
+    /// with the build it was found in (`(gen, node)`, found on the first force after a build).
+    pub gen: u64,
+    pub fcl: Vec<(u64, usize)>,
+    /// The records' degrees of freedom, `Σ k` (what [`Adaptive::active_dofs`] reports while
+    /// `valid`, read once per step by a scene).
+    pub dofs: usize,
+    /// Built for the current hybrid body (cleared by a re-selection).
+    pub valid: bool,
+    /// Built by the cached re-selection (lists, clusters' mass properties and parent poses
+    /// from the caches).
+    pub from_cache: bool,
+    /// The active bodies' kinematics in `data` are those of the coming hybrid step's state
+    /// (set by a cached re-selection that kept the hybrid body, taken by the step).
+    pub kin_fresh: bool,
+    /// Per frontier node (rigid cluster): mass properties in its top body's frame.
+    pub rig: Vec<Rigid>,
+    /// Bodies whose joints are active, ascending (parents first).
+    pub ajoints: Vec<usize>,
+    /// Per body: its joint is active.
+    pub abody: Vec<bool>,
+    /// Per active body: the rigid cluster (frontier node) holding its parent body, or
+    /// `usize::MAX` when the parent is an active body or the world; and the parent's pose in the
+    /// cluster's top-body frame.
+    pub pcl: Vec<usize>,
+    pub prel: Vec<SpatialTransform>,
+    /// Per active body: its rigid cluster (the frontier node whose top body it is), and the
+    /// active body topping the cluster that holds its parent (`usize::MAX`: the world or a
+    /// cluster welded to the ground).
+    pub cl: Vec<usize>,
+    pub par: Vec<usize>,
+    /// Per body: `(i, ±1)` for a joint of one revolute part about the coordinate axis `±e_i`
+    /// (the usual URDF case, kinematics in closed form), else `None`. Built once per model.
+    pub axis: Vec<Option<(usize, f64)>>,
+    /// Per body: its record while building them (valid for the active bodies).
+    pub ridx: Vec<usize>,
 }
 
 /// Where an active joint's parent body is.
@@ -314,7 +320,7 @@ impl Adaptive {
                 h.ang.push((narrow(body.q_offset), sign as f32));
             } else if let Some(parts) = &h.parts[j] {
                 for (k, part) in body.joint.iter().enumerate() {
-                    h.ang.push((narrow(part.q_offset), parts.axes[k].1 as f32));
+                    h.ang.push((narrow(part.q_offset), parts.axes[k].1));
                 }
             }
             h.ridx[j] = h.rec.len();
@@ -336,6 +342,7 @@ impl Adaptive {
             });
             dof += body.nv;
         }
+        h.dofs = dof;
         let na = h.rec.len();
         h.ia.resize(na, [[0.0; 6]; 6]);
         h.pa.resize(na, [0.0; 6]);
@@ -392,7 +399,7 @@ impl Adaptive {
         let h = &self.hier;
         let d = &mut self.data;
         // The records' sines and cosines in turn (one per closed-form joint, one per part).
-        let mut scs = &h.sc[..];
+        let mut scs = &h.sc[..h.ang.len()];
         for r in &h.rec {
             let (base, v) = match r.parent {
                 Parent::World | Parent::Ground => (x_cw, SpatialMotion::ZERO),
@@ -811,7 +818,15 @@ impl Adaptive {
         };
         let (acc, dinv, chol) = (&mut acc[..n], &*dinvs, &*w.chol);
         let (u, uu) = (&*w.u, &*w.uu);
-        let qdd = &mut self.qdd[..];
+        // What a several-degree-of-freedom joint's pass 3 reads and writes, passed to it by
+        // one pointer (not nine words copied per call).
+        let mut io = Accel {
+            chol,
+            u,
+            uu,
+            s: &d.s[..],
+            qdd: &mut self.qdd[..],
+        };
         // The previous record when it is a one-degree-of-freedom joint (`usize::MAX`
         // otherwise): its index, a', S and q̈, kept in locals for a child that follows it
         // (on a chain, every record).
@@ -821,7 +836,7 @@ impl Adaptive {
             let c = if accel { d.c[r.j].to_array() } else { [0.0; 6] };
             if k == 1 {
                 let s = d.s[vo].to_array();
-                let ud = &u[dof];
+                let ud = &io.u[dof];
                 let (ap, x) = if r.pidx == pidx1 && r.pidx != usize::MAX {
                     // The parent is the previous record: a' = (a'_p + S_p q̈_p) + c, and
                     // q̈ = D⁻¹ (u − Uᵀ(a'_p + c) − (Uᵀ S_p) q̈_p), whose chain from the
@@ -837,7 +852,7 @@ impl Adaptive {
                         }
                     }
                     let sig = dot6::<A>(ud, &ps);
-                    let x = dinv[idx] * A::neg_mul_add(sig, px, uu[dof] - dot6::<A>(&base, ud));
+                    let x = dinv[idx] * A::neg_mul_add(sig, px, io.uu[dof] - dot6::<A>(&base, ud));
                     (ap, x)
                 } else {
                     let mut ap = if r.pidx == usize::MAX {
@@ -850,9 +865,9 @@ impl Adaptive {
                             ap[rr] += c[rr];
                         }
                     }
-                    (ap, dinv[idx] * (uu[dof] - dot6::<A>(&ap, ud)))
+                    (ap, dinv[idx] * (io.uu[dof] - dot6::<A>(&ap, ud)))
                 };
-                qdd[vo] = x;
+                io.qdd[vo] = x;
                 acc[idx] = std::array::from_fn(|rr| A::mul_add(s[rr], x, ap[rr]));
                 (pidx1, pap, ps, px) = (idx, ap, s, x);
                 continue;
@@ -868,11 +883,10 @@ impl Adaptive {
                     ap[rr] += c[rr];
                 }
             }
-            let w = (&chol[idx], u, uu, &d.s[..], &mut *qdd);
             acc[idx] = match k {
-                3 => accelerate::<3>(wide, r, w, k, ap),
-                6 => accelerate::<6>(wide, r, w, k, ap),
-                _ => accelerate::<0>(wide, r, w, k, ap),
+                3 => accelerate::<3>(wide, r, &mut io, idx, k, &ap),
+                6 => accelerate::<6>(wide, r, &mut io, idx, k, &ap),
+                _ => accelerate::<0>(wide, r, &mut io, idx, k, &ap),
             };
         }
         Ok(())
@@ -1079,15 +1093,15 @@ fn articulate_multi_with<const K: usize>(
     true
 }
 
-/// What pass 3 of a several-degree-of-freedom joint reads and writes: its Cholesky factor,
-/// `U`, `u`, the subspace columns and `q̈`.
-type AccelIo<'a> = (
-    &'a [[f64; 6]; 6],
-    &'a [[f64; 6]],
-    &'a [f64],
-    &'a [SpatialMotion],
-    &'a mut [f64],
-);
+/// What pass 3 of a several-degree-of-freedom joint reads and writes: the records' Cholesky
+/// factors, `U`, `u`, the subspace columns and `q̈`.
+struct Accel<'a> {
+    chol: &'a [[[f64; 6]; 6]],
+    u: &'a [[f64; 6]],
+    uu: &'a [f64],
+    s: &'a [SpatialMotion],
+    qdd: &'a mut [f64],
+}
 
 /// [`accelerate_multi_with`] out of line, compiled for AVX2 + FMA when `wide` (the same
 /// arithmetic).
@@ -1095,16 +1109,17 @@ type AccelIo<'a> = (
 fn accelerate<const K: usize>(
     wide: bool,
     r: &ActiveJoint,
-    w: AccelIo,
+    w: &mut Accel,
+    idx: usize,
     k: usize,
-    ap: [f64; 6],
+    ap: &[f64; 6],
 ) -> [f64; 6] {
     #[cfg(target_arch = "x86_64")]
     if wide {
         // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
-        return unsafe { accelerate_multi_wide::<K>(r, w, k, ap) };
+        return unsafe { accelerate_multi_wide::<K>(r, w, idx, k, ap) };
     }
-    accelerate_multi::<K>(r, w, k, ap)
+    accelerate_multi::<K>(r, w, idx, k, ap)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -1112,21 +1127,23 @@ fn accelerate<const K: usize>(
 #[inline(never)]
 fn accelerate_multi_wide<const K: usize>(
     r: &ActiveJoint,
-    w: AccelIo,
+    w: &mut Accel,
+    idx: usize,
     k: usize,
-    ap: [f64; 6],
+    ap: &[f64; 6],
 ) -> [f64; 6] {
-    accelerate_multi_with::<K>(r, w, k, ap)
+    accelerate_multi_with::<K>(r, w, idx, k, ap)
 }
 
 #[inline(never)]
 fn accelerate_multi<const K: usize>(
     r: &ActiveJoint,
-    w: AccelIo,
+    w: &mut Accel,
+    idx: usize,
     k: usize,
-    ap: [f64; 6],
+    ap: &[f64; 6],
 ) -> [f64; 6] {
-    accelerate_multi_with::<K>(r, w, k, ap)
+    accelerate_multi_with::<K>(r, w, idx, k, ap)
 }
 
 /// Pass 3 of the reduced ABA at record `r` for a joint of several degrees of freedom, from
@@ -1135,10 +1152,13 @@ fn accelerate_multi<const K: usize>(
 #[inline(always)]
 fn accelerate_multi_with<const K: usize>(
     r: &ActiveJoint,
-    (l, u, uu, s, qdd): AccelIo,
+    w: &mut Accel,
+    idx: usize,
     k: usize,
-    ap: [f64; 6],
+    ap: &[f64; 6],
 ) -> [f64; 6] {
+    let (l, u, uu, s) = (&w.chol[idx], w.u, w.uu, w.s);
+    let (qdd, ap) = (&mut *w.qdd, *ap);
     let k = if K == 0 { k } else { K };
     let (vo, dof) = (r.vo, r.dof);
     // q̈ = L⁻ᵀ L⁻¹ r.
@@ -1171,23 +1191,26 @@ fn accelerate_multi_with<const K: usize>(
 /// The parts of a joint made of revolute parts about coordinate axes (`±x`, `±y`, `±z`, the
 /// usual URDF case): per part `(i, ±1)` of its axis `±e_i`, and a bit per part whose origin is
 /// not the identity (the massless links of a composed joint often are). `None` for any other
-/// joint.
+/// joint. (Narrow, the flags first: a step reads a record's first parts and flags from one
+/// cache line, 56 bytes a body instead of 112; the sign `±1` is exact in `f32`.)
 #[derive(Clone, Copy, Debug)]
+#[repr(C)]
 pub(crate) struct RevoluteParts {
-    axes: [(usize, f64); 6],
     moved: u8,
     /// A bit per moved part whose origin's rotation is the identity (it only translates).
     shift: u8,
+    axes: [(u32, f32); 6],
 }
 
 fn revolute_parts(body: &articula_model::Body) -> Option<RevoluteParts> {
-    let mut axes = [(0usize, 0.0f64); 6];
+    let mut axes = [(0u32, 0.0f32); 6];
     let (mut moved, mut shift) = (0u8, 0u8);
     for (k, part) in body.joint.iter().enumerate() {
         if k >= 6 {
             return None;
         }
-        axes[k] = part.coordinate_axis()?;
+        let (i, sign) = part.coordinate_axis()?;
+        axes[k] = (i as u32, sign as f32);
         if part.origin.e != glam::DMat3::IDENTITY || part.origin.r != DVec3::ZERO {
             moved |= 1 << k;
             if part.origin.e == glam::DMat3::IDENTITY {
@@ -1288,9 +1311,9 @@ fn revolute_kinematics_with(
             p = -(x.e * x.r);
         }
         let (i, sign) = parts.axes[k];
-        let axis = turn(&mut x, i, sn, cs);
+        let axis = turn(&mut x, i as usize, sn, cs);
         // S = X [±e_i; 0] = [w; p × w], `w = ±` column i of E.
-        let w = axis * sign;
+        let w = axis * sign as f64;
         let sk = SpatialMotion::new(w, p.cross(w));
         s[part.v_offset] = sk;
         let vj = sk * qd[part.v_offset];

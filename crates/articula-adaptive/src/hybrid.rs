@@ -313,12 +313,42 @@ pub struct Selection {
 /// The adaptive-dynamics workspace of one articulated body: the hybrid-body state (which
 /// joints are active) and every buffer, beside the immutable [`Model`].
 #[derive(Clone, Debug)]
+#[repr(C)]
 pub struct Adaptive {
     pub(crate) settings: Settings,
+    // The fields a step between re-selections reads come first, in this order (`repr(C)`):
+    // a crowd's step then touches a few cache lines of each workspace, not seventeen.
+    /// Steps counted from the last re-selection (the next at a multiple of `reselect_every`).
+    pub(crate) steps: u64,
+    /// Nodes visited by the passes of the last call (the cost measure of adaptive updates).
+    pub(crate) touched: usize,
+    /// The last selection.
+    pub(crate) last: Selection,
+    /// Per node: the sum of the external wrenches on its bodies (see `comp`).
+    pub(crate) fsum: Vec<SpatialForce>,
+    /// External wrenches of the current step, sparse `(body, world wrench)`.
+    pub(crate) fsparse: Vec<(usize, SpatialForce)>,
+    /// Per node: in the hybrid body's active region (its principal joint moves).
+    pub(crate) active: Vec<bool>,
+    /// The joint accelerations of the last call (zero outside the active region).
+    pub(crate) qdd: Vec<f64>,
+    /// Per node: its handles' count.
+    pub(crate) nh: Vec<usize>,
+    pub(crate) full_passes: bool,
+    /// `data` holds the whole-body kinematics of `(fresh_q, fresh_qd)` (set by
+    /// [`Adaptive::node_metrics`], cleared by every other writer of `data`).
+    pub(crate) fresh: bool,
+    /// Run the reduced ABA compiled with fused multiply–adds, and the other hot passes (join,
+    /// kinematics, rigid coefficients, back-substitution, cache evaluations) compiled for
+    /// AVX2 + FMA with the same arithmetic as their portable versions (set in
+    /// [`Adaptive::new`] where the CPU has AVX2 and FMA: `articula_dca::fused_available`).
+    pub(crate) fused: bool,
+    pub(crate) fresh_q: Vec<f64>,
+    pub(crate) fresh_qd: Vec<f64>,
+    pub(crate) hier: crate::hierarchy::Hierarchy,
     /// Kinematics of the last call (poses, velocities, subspaces, world inertias).
     pub data: Data,
     pub(crate) lay: HandleLayout,
-    pub(crate) nh: Vec<usize>,
     pub(crate) point: Vec<DVec3>,
     pub(crate) phi: Vec<Mat6>,
     pub(crate) b: Vec<SpatialMotion>,
@@ -344,18 +374,13 @@ pub struct Adaptive {
     pub(crate) comp: Vec<Rigid>,
     pub(crate) grounded: Vec<bool>,
     pub(crate) top: Vec<usize>,
-    pub(crate) fsum: Vec<SpatialForce>,
     pub(crate) fext_c: Vec<SpatialForce>,
-    /// External wrenches of the current step, sparse `(body, world wrench)` and dense.
-    pub(crate) fsparse: Vec<(usize, SpatialForce)>,
+    /// The external wrenches of a whole-body pass, one per body.
     pub(crate) fdense: Vec<SpatialForce>,
-    /// Per node: in the hybrid body's active region (its principal joint moves).
-    pub(crate) active: Vec<bool>,
     /// Per node: selected by the last acceleration-metric selection.
     pub(crate) selected: Vec<bool>,
     /// Per node: velocity metric of its subassembly.
     pub(crate) vmetric: Vec<f64>,
-    pub(crate) qdd: Vec<f64>,
     pub(crate) gmom: Vec<f64>,
     pub(crate) hsub: Vec<SpatialForce>,
     pub(crate) heap: BinaryHeap<Entry>,
@@ -373,19 +398,6 @@ pub struct Adaptive {
     pub(crate) yt: Vec<Rows5>,
     /// Scratch of the one-axis join, per handle: `G_F,h`.
     pub(crate) gf: Vec<Mat6>,
-    pub(crate) steps: u64,
-    pub(crate) full_passes: bool,
-    /// `data` holds the whole-body kinematics of `(fresh_q, fresh_qd)` (set by
-    /// [`Adaptive::node_metrics`], cleared by every other writer of `data`).
-    pub(crate) fresh: bool,
-    /// Run the reduced ABA compiled with fused multiply–adds, and the other hot passes (join,
-    /// kinematics, rigid coefficients, back-substitution, cache evaluations) compiled for
-    /// AVX2 + FMA with the same arithmetic as their portable versions (set in
-    /// [`Adaptive::new`] where the CPU has AVX2 and FMA: `articula_dca::fused_available`).
-    pub(crate) fused: bool,
-    pub(crate) fresh_q: Vec<f64>,
-    pub(crate) fresh_qd: Vec<f64>,
-    pub(crate) hier: crate::hierarchy::Hierarchy,
     /// Caches of the rigid subassemblies (adaptive update mechanism, `cache.rs`).
     pub(crate) cache: crate::cache::Caches,
     /// Re-select through the caches (O(active region)); off: whole-body passes (reference).
@@ -393,9 +405,6 @@ pub struct Adaptive {
     /// Record the bias maps of every join into `jm` (cache builds).
     pub(crate) record_maps: bool,
     pub(crate) jm: JoinMaps,
-    pub(crate) last: Selection,
-    /// Nodes visited by the passes of the last call (the cost measure of adaptive updates).
-    pub(crate) touched: usize,
 }
 
 impl Adaptive {
@@ -483,7 +492,13 @@ impl Adaptive {
             fused: articula_dca::fused_available(),
             fresh_q: vec![0.0; model.nq],
             fresh_qd: vec![0.0; model.nv],
-            hier: Default::default(),
+            // The angles' sines and cosines at full size now: a `_with` call exchanges them
+            // with a scratch's, and a body whose first hybrid bodies turn no angle would
+            // otherwise grow its own in a later step.
+            hier: crate::hierarchy::Hierarchy {
+                sc: Vec::with_capacity(model.nv),
+                ..Default::default()
+            },
             cache: crate::cache::Caches {
                 check_tau: true,
                 ..Default::default()
@@ -504,6 +519,21 @@ impl Adaptive {
 
     /// Composite inertia, ground flag, top body and external-force sum of every node, bottom-up.
     pub(crate) fn composites(&mut self, model: &Model) {
+        self.composites_with(model, true);
+    }
+
+    /// [`Adaptive::composites`] for a hybrid body set by hand ([`Adaptive::set_active`], its
+    /// `active` flags already closed upward): the composite inertias of the nodes outside the
+    /// active region only — every body leaf, every locked join, all that
+    /// [`Adaptive::build_hierarchy`] reads (an active join's children may be active, a locked
+    /// join's are not) — and no force sums (an impulse has no external force; the next step
+    /// sums the frontier's). Ground flags and top bodies of every node.
+    pub(crate) fn rigid_composites(&mut self, model: &Model) {
+        self.composites_with(model, false);
+    }
+
+    #[inline(always)]
+    fn composites_with(&mut self, model: &Model, all: bool) {
         let tree = &model.assembly;
         for (n, node) in tree.nodes.iter().enumerate() {
             match node.kind {
@@ -511,7 +541,9 @@ impl Adaptive {
                     self.comp[n] = Rigid::default();
                     self.grounded[n] = true;
                     self.top[n] = usize::MAX;
-                    self.fsum[n] = SpatialForce::ZERO;
+                    if all {
+                        self.fsum[n] = SpatialForce::ZERO;
+                    }
                 }
                 NodeKind::Body(i) => {
                     // From the body-frame inertia: about a far origin, I_c would lose digits.
@@ -524,17 +556,23 @@ impl Adaptive {
                     };
                     self.grounded[n] = false;
                     self.top[n] = i;
-                    self.fsum[n] = self.fext_c.get(i).copied().unwrap_or(SpatialForce::ZERO);
+                    if all {
+                        self.fsum[n] = self.fext_c.get(i).copied().unwrap_or(SpatialForce::ZERO);
+                    }
                 }
                 NodeKind::Join {
                     parent_side: a,
                     child_side: b,
                     ..
                 } => {
-                    self.comp[n] = self.comp[a].combine(&self.comp[b]);
+                    if all || !self.active[n] {
+                        self.comp[n] = self.comp[a].combine(&self.comp[b]);
+                    }
                     self.grounded[n] = self.grounded[a] || self.grounded[b];
                     self.top[n] = self.top[a].min(self.top[b]);
-                    self.fsum[n] = self.fsum[a] + self.fsum[b];
+                    if all {
+                        self.fsum[n] = self.fsum[a] + self.fsum[b];
+                    }
                 }
             }
         }

@@ -214,7 +214,8 @@ impl Adaptive {
     /// Degrees of freedom in the hybrid body's active region.
     pub fn active_dofs(&self, model: &Model) -> usize {
         if self.hier.valid {
-            return self.hier.ajoints.iter().map(|&j| model.bodies[j].nv).sum();
+            // Counted when the records were built (`Σ nv` over `ajoints`).
+            return self.hier.dofs;
         }
         model
             .assembly
@@ -229,7 +230,8 @@ impl Adaptive {
             .sum()
     }
 
-    /// Kinematics and external forces of a state into the workspace (checked).
+    /// Kinematics and external forces of a state into the workspace (checked), then the
+    /// composites of every node.
     fn load(
         &mut self,
         model: &Model,
@@ -238,9 +240,28 @@ impl Adaptive {
         tau: &[f64],
         f_ext: &[SpatialForce],
     ) -> Result<(), AdaptiveError> {
+        self.load_state(model, q, qd, tau, f_ext)?;
+        self.composites(model);
+        Ok(())
+    }
+
+    /// [`Adaptive::load`] without the composites.
+    fn load_state(
+        &mut self,
+        model: &Model,
+        q: &[f64],
+        qd: &[f64],
+        tau: &[f64],
+        f_ext: &[SpatialForce],
+    ) -> Result<(), AdaptiveError> {
         check_inputs(model, q, qd, tau, f_ext)?;
-        // Kinematics left by node_metrics for this very state are reused.
-        if !(self.fresh && self.fresh_q == q && self.fresh_qd == qd) {
+        // Kinematics left by node_metrics for this very state are reused (the same bits:
+        // compared by `memcmp`, ~8× fewer instructions than `f64` equality; a `-0.0` for a
+        // `0.0` now recomputes them).
+        if !(self.fresh
+            && update::same_bits(&self.fresh_q, q)
+            && update::same_bits(&self.fresh_qd, qd))
+        {
             forward_kinematics(model, q, qd, &mut self.data);
         }
         self.fresh = false;
@@ -248,7 +269,6 @@ impl Adaptive {
         self.fext_c.clear();
         self.fext_c
             .extend(f_ext.iter().map(|f| x_cw.apply_force(*f)));
-        self.composites(model);
         Ok(())
     }
 
@@ -313,21 +333,7 @@ impl Adaptive {
         tau: &[f64],
         f_ext: &[SpatialForce],
     ) -> Result<(), AdaptiveError> {
-        // A metric steers the selection: ~1e-9 relative is plenty, so the floating-base
-        // refinement of the exact solve (for long floating chains) is skipped here.
-        let refine = std::mem::replace(&mut self.data.refine_floating, false);
-        let solved = articula_dca::forward_dynamics(
-            model,
-            &mut self.data,
-            q,
-            qd,
-            tau,
-            f_ext,
-            articula_dca::Method::Aba,
-        )
-        .map(|qdd| self.qdd.copy_from_slice(qdd));
-        self.data.refine_floating = refine;
-        solved?;
+        solve_exact(model, &mut self.data, &mut self.qdd, q, qd, tau, f_ext)?;
         self.fresh = true;
         self.fresh_q.copy_from_slice(q);
         self.fresh_qd.copy_from_slice(qd);
@@ -443,7 +449,9 @@ impl Adaptive {
     /// joints keep `q̇ = 0` and their `q`).
     ///
     /// Apart from the whole-body re-selections, only the active joints' inputs are read and
-    /// checked (and τ compared, see [`Adaptive::set_check_locked_torques`]); `data` then holds
+    /// checked (and τ compared, see [`Adaptive::set_check_locked_torques`]; a body of at most
+    /// 64 degrees of freedom has all its `q`, `q̇`, `τ` swept for non-finite numbers first, an
+    /// error still only for an active joint's); `data` then holds
     /// the kinematics of the active bodies only. A non-empty `state.f_ext` is scanned for
     /// non-zero wrenches (pass an empty one, or use [`Adaptive::step_with_forces`], when there
     /// are none).
@@ -511,46 +519,8 @@ impl Adaptive {
             reselected: !self.hier.valid || self.steps.is_multiple_of(self.settings.reselect_every),
             ..StepReport::default()
         };
-        let cached = report.reselected && self.can_reselect_cached(model, state);
-        let full = (report.reselected && !cached) || self.full_passes;
-        if full {
-            // Whole-body passes read the forces as one wrench per body.
-            let mut fdense = std::mem::take(&mut self.fdense);
-            fdense.fill(SpatialForce::ZERO);
-            for &(i, f) in &self.fsparse {
-                fdense[i] += f;
-            }
-            let r = self.load(model, &state.q, &state.qd, &state.tau, &fdense);
-            self.fdense = fdense;
-            r?;
-        }
-        if cached {
-            // O(active region): the caches of the rigid subassemblies (update.rs), then the
-            // step on the new hybrid body's reduced tree.
-            let r = self.cached_reselect(model, state);
-            let fresh = std::mem::take(&mut self.hier.kin_fresh);
-            report.rigidified = r?;
-            let touched = self.touched;
-            if !fresh {
-                // New active joints or velocities after an impulse (`cached_reselect` checked
-                // the old active joints' inputs; with the hybrid body kept they are these).
-                self.check_active_inputs(model, state)?;
-            }
-            self.hybrid_step(model, &state.q, &state.qd, &state.tau, fresh)?;
-            self.touched += touched;
-        } else if report.reselected {
-            self.hier.valid = false;
-            let build = self.use_cache && !self.full_passes;
-            report.rigidified = self.reselect_loaded(model, state, build)?;
-            let mut touched = self.touched;
-            self.main_pass(model, &state.tau, Level::Acceleration, false)?;
-            touched += self.touched;
-            self.back_substitution(model, false);
-            self.touched = touched;
-        } else if self.full_passes {
-            // Reference path: whole-body kinematics and composites, same hybrid body.
-            self.main_pass(model, &state.tau, Level::Acceleration, false)?;
-            self.back_substitution(model, false);
+        if report.reselected || self.full_passes {
+            self.step_passes(model, state, &mut report)?;
         } else {
             self.check_active_inputs(model, state)?;
             self.hybrid_step(model, &state.q, &state.qd, &state.tau, false)?;
@@ -598,7 +568,7 @@ impl Adaptive {
             let body = &model.bodies[rec.j];
             dofs += body.nv;
             let r = body.v_offset..body.v_offset + body.nv;
-            if !all_finite(&self.qdd[r.clone()]) {
+            if !finite(&self.qdd[r.clone()]) {
                 return Err(non_finite(model, rec.j, "qdd", &self.qdd).into());
             }
             for (v, a) in state.qd[r.clone()].iter_mut().zip(&self.qdd[r]) {
@@ -609,8 +579,8 @@ impl Adaptive {
             }
             let q = &state.q[body.q_offset..body.q_offset + body.nq];
             let qd = &state.qd[body.v_offset..body.v_offset + body.nv];
-            if !(all_finite(q) && all_finite(qd)) {
-                let what = if !all_finite(q) {
+            if !(finite(q) && finite(qd)) {
+                let what = if !finite(q) {
                     ("q after the step", &state.q)
                 } else {
                     ("qd after the step", &state.qd)
@@ -625,6 +595,60 @@ impl Adaptive {
         Ok(report)
     }
 
+    /// The dynamics of a step that re-selects (through the caches or by whole-body passes)
+    /// or runs the reference whole-body passes: `q̈` into `qdd`, `report.rigidified`. (Out of
+    /// line: the steps between re-selections, most of a scene's, keep their code short.)
+    #[inline(never)]
+    fn step_passes(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+        report: &mut StepReport,
+    ) -> Result<(), AdaptiveError> {
+        let cached = report.reselected && self.can_reselect_cached(model, state);
+        let full = (report.reselected && !cached) || self.full_passes;
+        if full {
+            // Whole-body passes read the forces as one wrench per body.
+            let mut fdense = std::mem::take(&mut self.fdense);
+            fdense.fill(SpatialForce::ZERO);
+            for &(i, f) in &self.fsparse {
+                fdense[i] += f;
+            }
+            let r = self.load(model, &state.q, &state.qd, &state.tau, &fdense);
+            self.fdense = fdense;
+            r?;
+        }
+        if cached {
+            // O(active region): the caches of the rigid subassemblies (update.rs), then the
+            // step on the new hybrid body's reduced tree.
+            let r = self.cached_reselect(model, state);
+            let fresh = std::mem::take(&mut self.hier.kin_fresh);
+            report.rigidified = r?;
+            let touched = self.touched;
+            if !fresh {
+                // New active joints or velocities after an impulse (`cached_reselect` checked
+                // the old active joints' inputs; with the hybrid body kept they are these).
+                self.check_active_inputs(model, state)?;
+            }
+            self.hybrid_step(model, &state.q, &state.qd, &state.tau, fresh)?;
+            self.touched += touched;
+        } else if report.reselected {
+            self.hier.valid = false;
+            let build = self.use_cache && !self.full_passes;
+            report.rigidified = self.reselect_loaded(model, state, build)?;
+            let mut touched = self.touched;
+            self.main_pass(model, &state.tau, Level::Acceleration, false)?;
+            touched += self.touched;
+            self.back_substitution(model, false);
+            self.touched = touched;
+        } else if self.full_passes {
+            // Reference path: whole-body kinematics and composites, same hybrid body.
+            self.main_pass(model, &state.tau, Level::Acceleration, false)?;
+            self.back_substitution(model, false);
+        }
+        Ok(())
+    }
+
     /// Sets the hybrid body by hand: the joints of the bodies for which `active(body)` holds
     /// (closed upward in the assembly tree, so the result may hold more) stay free, every other
     /// moving joint is locked by the impulses of a re-selection. The next steps keep this hybrid
@@ -636,15 +660,25 @@ impl Adaptive {
         state: &mut State,
         active: impl Fn(usize) -> bool,
     ) -> Result<bool, AdaptiveError> {
-        self.load(model, &state.q, &state.qd, &state.tau, &state.f_ext)?;
-        for (n, node) in model.assembly.nodes.iter().enumerate() {
+        self.load_state(model, &state.q, &state.qd, &state.tau, &state.f_ext)?;
+        let tree = &model.assembly;
+        for (n, node) in tree.nodes.iter().enumerate() {
             self.selected[n] = match node.kind {
                 NodeKind::Join { joint, .. } => {
-                    active(joint) || n == model.assembly.root() && model.floating_base
+                    active(joint) || n == tree.root() && model.floating_base
                 }
                 _ => false,
             };
         }
+        // The active region now (as `rebuild_hybrid` closes it, with no velocity tolerance),
+        // so that only the composites outside it are formed.
+        self.active.copy_from_slice(&self.selected);
+        for (n, node) in tree.nodes.iter().enumerate() {
+            if let (true, Some(p)) = (self.active[n], node.parent) {
+                self.active[p] = true;
+            }
+        }
+        self.rigid_composites(model);
         self.cache.ready = false;
         let vtol = self.settings.velocity_tolerance.take();
         let locked = self.rebuild_hybrid(model, state, false);
@@ -726,6 +760,27 @@ impl Adaptive {
         {
             return check_inputs(model, &state.q, &state.qd, &state.tau, &state.f_ext);
         }
+        // A small body's whole state is a few cache lines that the step reads most of anyway:
+        // one sweep over all of it costs less than the walk over the records below, which
+        // then runs only when the sweep finds a non-finite number (the same errors; a large
+        // body keeps to its active joints, O(active region)).
+        let swept = model.nv <= SWEEP_NV && all_finite3(&state.q, &state.qd, &state.tau);
+        if !swept {
+            self.check_active_records(model, state)?;
+        }
+        if let Some(&(i, _)) = self.fsparse.iter().find(|(_, f)| !f.is_finite()) {
+            return Err(DynamicsError::NonFinite {
+                what: "external force",
+                name: model.bodies[i].name.clone(),
+            });
+        }
+        Ok(())
+    }
+
+    /// The records' walk of [`Adaptive::check_active_inputs`]: the active joints' `q`, `q̇`,
+    /// `τ` (lengths checked).
+    #[inline(never)]
+    fn check_active_records(&self, model: &Model, state: &State) -> Result<(), DynamicsError> {
         for rec in &self.hier.rec {
             if rec.axis.is_some() {
                 if all_finite(&[state.q[rec.qo], state.qd[rec.vo], state.tau[rec.vo]]) {
@@ -759,17 +814,67 @@ impl Adaptive {
                 return check_inputs(model, &state.q, &state.qd, &state.tau, &state.f_ext);
             }
         }
-        if let Some(&(i, _)) = self.fsparse.iter().find(|(_, f)| !f.is_finite()) {
-            return Err(DynamicsError::NonFinite {
-                what: "external force",
-                name: model.bodies[i].name.clone(),
-            });
-        }
         Ok(())
     }
 }
 
+/// The exact solve of [`Adaptive::exact_solve`] on `data`'s buffers (the workspace's own or
+/// a scratch's): `q̈` into `qdd`.
+pub(crate) fn solve_exact(
+    model: &Model,
+    data: &mut articula_dca::Data,
+    qdd: &mut [f64],
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+) -> Result<(), DynamicsError> {
+    // A metric steers the selection: ~1e-9 relative is plenty, so the floating-base
+    // refinement of the exact solve (for long floating chains) is skipped here.
+    let refine = std::mem::replace(&mut data.refine_floating, false);
+    let solved =
+        articula_dca::forward_dynamics(model, data, q, qd, tau, f_ext, articula_dca::Method::Aba)
+            .map(|x| qdd.copy_from_slice(x));
+    data.refine_floating = refine;
+    solved
+}
+
+/// The most degrees of freedom of a body whose step between re-selections checks all of its
+/// `q`, `q̇`, `τ` at once ([`Adaptive::check_active_inputs`]).
+const SWEEP_NV: usize = 64;
+
+/// Whether every number of `a`, `b`, `c` is finite ([`zero_sum`] of each is zero).
+#[inline]
+fn all_finite3(a: &[f64], b: &[f64], c: &[f64]) -> bool {
+    zero_sum(a) + zero_sum(b) + zero_sum(c) == 0.0
+}
+
+/// [`all_finite`] through [`zero_sum`] (one out-of-line copy of its loop).
+#[inline]
+fn finite(xs: &[f64]) -> bool {
+    zero_sum(xs) == 0.0
+}
+
+/// `Σ x · 0` over `xs` (as [`all_finite`]): zero unless some `x` is infinite or NaN. Out of
+/// line and called once per slice: one short loop of code for the instruction cache (a
+/// crowd's step runs through more code than the 32 kB L1i holds).
+#[inline(never)]
+fn zero_sum(xs: &[f64]) -> f64 {
+    let mut acc = [0.0f64; 4];
+    let mut chunks = xs.chunks_exact(4);
+    for c in &mut chunks {
+        for k in 0..4 {
+            acc[k] += c[k] * 0.0;
+        }
+    }
+    // At most three left. (Sums paired as the lanes of two-wide vectors: no shuffles.)
+    let rest = chunks.remainder().iter().fold(0.0, |r, &x| r + x * 0.0);
+    (acc[0] + acc[2]) + (acc[1] + acc[3]) + rest
+}
+
 /// The error naming the part of body `j`'s joint whose value in `x` is not finite.
+#[cold]
+#[inline(never)]
 fn non_finite(model: &Model, j: usize, what: &'static str, x: &[f64]) -> DynamicsError {
     let body = &model.bodies[j];
     let name = body

@@ -14,7 +14,9 @@
 //! - the reduced tree's articulated-body workspace (`Iᴬ`, `pᴬ`, accelerations, `D⁻¹` or its
 //!   Cholesky factor, `U`, `u`): pass 1 of the reduced ABA writes `Iᴬ`, `pᴬ` of every record,
 //!   pass 2 `U`, `u`, `D⁻¹`/factor of every record before pass 3 reads them, and pass 3 a
-//!   record's acceleration before its children read it;
+//!   record's acceleration before its children read it; the sines and cosines of the active
+//!   angles, which the kinematics' first sweep writes for every angle before its main loop
+//!   reads them;
 //! - per node, the composite inertias and external-force sums: written for every node by each
 //!   whole-body load, the frontier's force sums by each hybrid step or cached re-selection
 //!   before the reduced ABA reads them;
@@ -26,10 +28,15 @@
 //!   before anything reads them. The one exception is [`Adaptive::node_metrics`]'s kinematics,
 //!   which the next call reuses for the same state (`fresh`): a `_with` call that finds them
 //!   leaves the kinematics in the workspace, and [`Adaptive::node_metrics_with`] (whose whole
-//!   `data` lives in the scratch) copies its kinematics (`origin`, `x`, `v`, `c`, `s`,
-//!   `inertia`) into the workspace's `data`, so that the next load of the same state (a
+//!   `data` lives in the scratch) hands its kinematics (`origin` copied; `x`, `v`, `c`, `s`,
+//!   `inertia` by exchanging buffers) to the workspace's `data`, so that the next load of the
+//!   same state (a
 //!   [`Adaptive::set_active_with`] after a scene's selection) reuses them as after the plain
 //!   call.
+//!
+//! A step between re-selections (most of a scene's) exchanges only what it reads: the reduced
+//! tree's workspace, the sines and cosines, the force sums and the kinematics but `inertia`
+//! (thirteen headers, not nineteen).
 //!
 //! What stays in each workspace: the hybrid body (flags, lists, the reduced tree's records),
 //! the caches of rigid subassemblies, the weights, the selection, `qdd` (zero outside the
@@ -65,6 +72,7 @@ pub struct Scratch {
     chol: Vec<[[f64; 6]; 6]>,
     u: Vec<[f64; 6]>,
     uu: Vec<f64>,
+    sc: Vec<(f64, f64)>,
     comp: Vec<Rigid>,
     fsum: Vec<SpatialForce>,
     hsub: Vec<SpatialForce>,
@@ -89,6 +97,7 @@ impl Scratch {
             chol: vec![[[0.0; 6]; 6]; nb],
             u: vec![[0.0; 6]; nv],
             uu: vec![0.0; nv],
+            sc: vec![(0.0, 1.0); nv],
             comp: vec![Rigid::default(); nn],
             fsum: vec![SpatialForce::ZERO; nn],
             hsub: vec![SpatialForce::ZERO; nb],
@@ -131,7 +140,12 @@ fn grow<T: Clone>(v: &mut Vec<T>, need: usize, full: usize, x: T) {
 
 impl Adaptive {
     /// Exchanges the per-call buffers with `s`'s (the kinematics in `data` too when `kin`).
-    fn swap_scratch(&mut self, s: &mut Scratch, kin: bool) {
+    /// With `step` (a hybrid step between re-selections, [`Adaptive::between_reselections`]),
+    /// only those that step reads: the reduced tree's workspace, the angles' sines and cosines,
+    /// the frontier's force sums and the kinematics but `inertia`. (Out of line: one copy of
+    /// the code for both exchanges.)
+    #[inline(never)]
+    fn swap_scratch(&mut self, s: &mut Scratch, kin: bool, step: bool) {
         let h = &mut self.hier;
         swap(&mut h.ia, &mut s.ia);
         swap(&mut h.pa, &mut s.pa);
@@ -140,20 +154,35 @@ impl Adaptive {
         swap(&mut h.chol, &mut s.chol);
         swap(&mut h.u, &mut s.u);
         swap(&mut h.uu, &mut s.uu);
-        swap(&mut self.comp, &mut s.comp);
+        swap(&mut h.sc, &mut s.sc);
         swap(&mut self.fsum, &mut s.fsum);
-        swap(&mut self.hsub, &mut s.hsub);
-        swap(&mut self.gmom, &mut s.gmom);
-        swap(&mut self.fext_c, &mut s.fext_c);
-        swap(&mut self.fdense, &mut s.fdense);
+        if !step {
+            swap(&mut self.comp, &mut s.comp);
+            swap(&mut self.hsub, &mut s.hsub);
+            swap(&mut self.gmom, &mut s.gmom);
+            swap(&mut self.fext_c, &mut s.fext_c);
+            swap(&mut self.fdense, &mut s.fdense);
+        }
         if kin {
             let (d, sd) = (&mut self.data, &mut s.data);
             swap(&mut d.x, &mut sd.x);
             swap(&mut d.v, &mut sd.v);
             swap(&mut d.c, &mut sd.c);
             swap(&mut d.s, &mut sd.s);
-            swap(&mut d.inertia, &mut sd.inertia);
+            if !step {
+                swap(&mut d.inertia, &mut sd.inertia);
+            }
         }
+    }
+
+    /// Whether the next step is a hybrid step between re-selections (`step_inner`'s last
+    /// branch): it reads none of the whole-body buffers (composites, impulse momenta, wrench
+    /// arrays, spatial inertias).
+    #[inline]
+    fn between_reselections(&self) -> bool {
+        self.hier.valid
+            && !self.full_passes
+            && !self.steps.is_multiple_of(self.settings.reselect_every)
     }
 
     /// The reduced tree's workspace in `hier` at least as long as its records need (the
@@ -175,7 +204,8 @@ impl Adaptive {
         .iter()
         .all(|&l| l >= na)
             && h.u.len() >= dof
-            && h.uu.len() >= dof;
+            && h.uu.len() >= dof
+            && h.sc.len() >= h.ang.len();
         if !fits {
             self.grow_reduced(na, dof, full);
         }
@@ -192,12 +222,17 @@ impl Adaptive {
         grow(&mut h.chol, na, nb, [[0.0; 6]; 6]);
         grow(&mut h.u, dof, nv, [0.0; 6]);
         grow(&mut h.uu, dof, nv, 0.0);
+        grow(&mut h.sc, h.ang.len(), nv, (0.0, 1.0));
     }
 
-    /// Runs `call` on this workspace with `s`'s per-call buffers in place of its own.
+    /// Runs `call` on this workspace with `s`'s per-call buffers in place of its own (with
+    /// `step`, those of a hybrid step between re-selections only: see
+    /// [`Adaptive::swap_scratch`]).
+    #[inline(always)]
     fn with_scratch<R>(
         &mut self,
         s: &mut Scratch,
+        step: bool,
         call: impl FnOnce(&mut Adaptive) -> Result<R, AdaptiveError>,
     ) -> Result<R, AdaptiveError> {
         s.check(self)?;
@@ -205,10 +240,10 @@ impl Adaptive {
         // stay where they are.
         let kin = !self.fresh;
         let full = [s.sizes[0], s.sizes[1]];
-        self.swap_scratch(s, kin);
+        self.swap_scratch(s, kin, step);
         self.fit_reduced(full);
         let r = call(self);
-        self.swap_scratch(s, kin);
+        self.swap_scratch(s, kin, step);
         self.fit_reduced(full);
         if kin {
             // (No call but `node_metrics` sets it; its kinematics would be in the scratch.)
@@ -250,7 +285,8 @@ impl Adaptive {
         state: &mut State,
         dt: f64,
     ) -> Result<StepReport, AdaptiveError> {
-        self.with_scratch(scratch, |ad| ad.step(model, state, dt))
+        let step = self.between_reselections();
+        self.with_scratch(scratch, step, |ad| ad.step(model, state, dt))
     }
 
     /// [`Adaptive::step_with_forces`] with the per-call buffers of `scratch` (see
@@ -263,7 +299,10 @@ impl Adaptive {
         dt: f64,
         forces: &[(usize, SpatialForce)],
     ) -> Result<StepReport, AdaptiveError> {
-        self.with_scratch(scratch, |ad| ad.step_with_forces(model, state, dt, forces))
+        let step = self.between_reselections();
+        self.with_scratch(scratch, step, |ad| {
+            ad.step_with_forces(model, state, dt, forces)
+        })
     }
 
     /// [`Adaptive::set_active`] with the per-call buffers of `scratch` (see
@@ -275,13 +314,14 @@ impl Adaptive {
         state: &mut State,
         active: impl Fn(usize) -> bool,
     ) -> Result<bool, AdaptiveError> {
-        self.with_scratch(scratch, |ad| ad.set_active(model, state, active))
+        self.with_scratch(scratch, false, |ad| ad.set_active(model, state, active))
     }
 
     /// [`Adaptive::node_metrics`] with the whole `data` of `scratch` (its exact solve's
     /// buffers and kinematics; the workspace's gravity): the same metrics and `qdd` to the bit.
-    /// Its kinematics are copied into the workspace's `data` (a few kB), so that the next
-    /// load of the same state reuses them, as after the plain call.
+    /// Its kinematics are handed to the workspace's `data` (their buffers exchanged with the
+    /// workspace's), so that the next load of the same state reuses them, as after the plain
+    /// call.
     #[allow(clippy::too_many_arguments)]
     pub fn node_metrics_with(
         &mut self,
@@ -299,8 +339,8 @@ impl Adaptive {
     }
 
     /// [`Adaptive::exact_solve`] with the whole `data` of `scratch`, as
-    /// [`Adaptive::node_metrics_with`]: the same `qdd` to the bit, and the kinematics copied
-    /// into the workspace's `data`.
+    /// [`Adaptive::node_metrics_with`]: the same `qdd` to the bit, and the kinematics handed
+    /// to the workspace's `data`.
     pub fn exact_solve_with(
         &mut self,
         scratch: &mut Scratch,
@@ -311,28 +351,33 @@ impl Adaptive {
         f_ext: &[SpatialForce],
     ) -> Result<(), AdaptiveError> {
         scratch.check(self)?;
-        swap(&mut self.data, &mut scratch.data);
-        // The workspace's settings on the scratch's buffers.
-        let own = &scratch.data;
-        self.data.gravity = own.gravity;
-        self.data.refine_floating = own.refine_floating;
-        self.data.momentum_projection = own.momentum_projection;
-        let r = self.exact_solve(model, q, qd, tau, f_ext);
-        swap(&mut self.data, &mut scratch.data);
+        // The workspace's settings on the scratch's buffers, solved in place (the
+        // workspace's `data`, 1.2 kB, is not exchanged).
+        let (d, sd) = (&self.data, &mut scratch.data);
+        sd.gravity = d.gravity;
+        sd.refine_floating = d.refine_floating;
+        sd.momentum_projection = d.momentum_projection;
+        let r = crate::solve_exact(model, sd, &mut self.qdd, q, qd, tau, f_ext);
         if r.is_ok() {
+            self.fresh = true;
+            self.fresh_q.copy_from_slice(q);
+            self.fresh_qd.copy_from_slice(qd);
             // The exact solve's kinematics into the workspace, for the next load of this state
             // (`fresh`, as after the plain call): a `set_active_with` that follows (the usual
-            // re-selection of a scene) then skips its whole-body forward kinematics.
-            let (d, sd) = (&mut self.data, &scratch.data);
+            // re-selection of a scene) then skips its whole-body forward kinematics. Their
+            // buffers are exchanged with the workspace's (of the same lengths), not copied: the
+            // scratch's next exact solve, step or load writes every element of them before
+            // reading it.
+            let (d, sd) = (&mut self.data, &mut scratch.data);
             d.origin = sd.origin;
-            d.x.copy_from_slice(&sd.x);
-            d.v.copy_from_slice(&sd.v);
-            d.c.copy_from_slice(&sd.c);
-            d.s.copy_from_slice(&sd.s);
-            d.inertia.copy_from_slice(&sd.inertia);
+            swap(&mut d.x, &mut sd.x);
+            swap(&mut d.v, &mut sd.v);
+            swap(&mut d.c, &mut sd.c);
+            swap(&mut d.s, &mut sd.s);
+            swap(&mut d.inertia, &mut sd.inertia);
         } else {
             self.fresh = false;
         }
-        r
+        Ok(r?)
     }
 }

@@ -665,7 +665,7 @@ impl Adaptive {
 /// Whether two slices hold the same bits: compared as `u64`s, which the standard library's
 /// slice equality does by `memcmp` (vectorised; in blocks of eight `f64` bit patterns or-ed
 /// together, the comparison took ~860 instructions on chain300's 300 torques, as `memcmp` ~380).
-fn same_bits(a: &[f64], b: &[f64]) -> bool {
+pub(crate) fn same_bits(a: &[f64], b: &[f64]) -> bool {
     let bits = |x: &[f64]| -> &[u64] {
         // SAFETY: `f64` and `u64` have the same size and alignment, and every bit pattern is a
         // valid `u64`; the view borrows `x` for its lifetime.
