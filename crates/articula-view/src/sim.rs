@@ -589,9 +589,8 @@ impl<'s> SceneSim<'s> {
         for p in scene.pushes.iter().filter(|p| p.t0 <= t && t < p.t1) {
             let b = &mut self.bodies[p.body];
             let model = &scene.models[b.model].model;
-            // The pushed link's pose alone (its path from the root).
-            let (r, pos) = self.plans[b.model].pose(model, &b.state.q, p.link_body);
-            let at = r * p.point + pos;
+            // The pushed point alone (carried up its link's root path).
+            let at = self.plans[b.model].point(model, &b.state.q, p.link_body, p.point);
             let w = SpatialForce::new(at.cross(p.force), p.force);
             // One entry per link, in link order (as a scan of a dense array would list them).
             match b.forces.binary_search_by_key(&p.link_body, |e| e.0) {

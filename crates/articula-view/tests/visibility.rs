@@ -4,7 +4,7 @@ use articula_dca::{forward_kinematics, Data, State};
 use articula_model::{LoadOptions, Model};
 use articula_view::{
     body_pose, body_poses, body_volumes, BodyVolumes, Camera, Classifier, DepthBuffer, Placed,
-    Visibility, VisibilitySettings,
+    PosePlan, Visibility, VisibilitySettings,
 };
 use glam::{DMat3, DVec3};
 
@@ -347,6 +347,39 @@ fn body_poses_match_forward_kinematics() {
                 assert!(max_diff(r, r2) < 1e-12, "{file} body {i}");
             }
         }
+    }
+}
+
+#[test]
+fn a_point_carried_up_its_root_path_is_where_forward_kinematics_puts_it() {
+    // `PosePlan::point` (a push's point of application) against the body pose of the
+    // dynamics' own forward kinematics, on floating and fixed bases, composed and tilted axes.
+    for (file, floating) in [
+        ("humanoid.urdf", true),
+        ("plant.urdf", false),
+        ("chain30.urdf", true),
+    ] {
+        let model = load(file, floating);
+        let plan = PosePlan::new(&model);
+        let mut data = Data::new(&model);
+        let mut farthest = 0.0f64;
+        for seed in 0..10 {
+            let s = State::random(&model, seed, 2.0);
+            forward_kinematics(&model, &s.q, &s.qd, &mut data);
+            for i in 0..model.bodies.len() {
+                let local = DVec3::new(0.1, -0.2, 0.3) * (1.0 + seed as f64);
+                let (r, p) = data.body_pose(i);
+                let want = r * local + p;
+                let got = plan.point(&model, &s.q, i, local);
+                let scale = 1.0 + want.length();
+                assert!(
+                    (got - want).length() < 1e-12 * scale,
+                    "{file} body {i}: {got} against {want}"
+                );
+                farthest = farthest.max((want - p).length());
+            }
+        }
+        assert!(farthest > 0.3, "{file}: the points must be off the origins");
     }
 }
 
