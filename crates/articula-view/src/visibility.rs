@@ -734,10 +734,20 @@ impl PosePlan {
                     }
                     PlanMotion::General { body, part } => {
                         let jp = &model.bodies[body].joint[part];
-                        let (rm, pm) = jp
-                            .motion_transform(&q[jp.q_offset..jp.q_offset + jp.nq()])
-                            .to_pose();
-                        x = rm * x + pm;
+                        let qj = &q[jp.q_offset..jp.q_offset + jp.nq()];
+                        x = match jp.kind {
+                            // Position, then the unit quaternion (w, x, y, z) normalised as
+                            // `motion_transform` does, rotating the point directly.
+                            articula_model::JointKind::Floating => {
+                                let rot =
+                                    glam::DQuat::from_xyzw(qj[4], qj[5], qj[6], qj[3]).normalize();
+                                rot * x + DVec3::new(qj[0], qj[1], qj[2])
+                            }
+                            _ => {
+                                let (rm, pm) = jp.motion_transform(qj).to_pose();
+                                rm * x + pm
+                            }
+                        };
                     }
                 }
                 if let Some((ro, po)) = part.origin {
