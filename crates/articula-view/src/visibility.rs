@@ -727,10 +727,12 @@ impl PosePlan {
                         // Rot(±e_i, q) x: the sign of the axis is the sign of the sine.
                         let (sn, cs) = q[qi].sin_cos();
                         let sn = sn * sign;
-                        let [a, b] = [(i + 1) % 3, (i + 2) % 3];
-                        let (xa, xb) = (x[a], x[b]);
-                        x[a] = cs * xa - sn * xb;
-                        x[b] = sn * xa + cs * xb;
+                        let DVec3 { x: u, y: v, z: w } = x;
+                        x = match i {
+                            0 => DVec3::new(u, cs * v - sn * w, sn * v + cs * w),
+                            1 => DVec3::new(sn * w + cs * u, v, cs * w - sn * u),
+                            _ => DVec3::new(cs * u - sn * v, sn * u + cs * v, w),
+                        };
                     }
                     PlanMotion::General { body, part } => {
                         let jp = &model.bodies[body].joint[part];
