@@ -135,10 +135,12 @@ pub(crate) struct ActiveJoint {
     /// ([`RevoluteParts`]) whose coordinates are contiguous (part `p` at `qo + p`, `vo + p`):
     /// the integration updates them as one-axis coordinates. 0 for any other joint.
     pub revs: u8,
-    /// `(i, ±1)` of a closed-form revolute joint ([`ActiveJoint::axis`]; `ax` is `u8::MAX`
-    /// for any other joint: an `Option` of the pair would take 24 bytes).
+    /// `(i, ±1)` of a closed-form revolute joint ([`ActiveJoint::axis`]; an `Option` of the
+    /// pair would take 24 bytes). `ax` is [`AX_PARTS`] for a joint of [`RevoluteParts`]
+    /// (then in `rp`), `u8::MAX` for any other joint.
     ax: u8,
     sign: f64,
+    pub rp: RevoluteParts,
     /// Constant pose that follows the parent frame: for a closed-form revolute joint its
     /// origin, composed with the parent body's pose in its cluster; for other joints that pose
     /// alone (their origins are applied by the general kinematics).
@@ -148,6 +150,9 @@ pub(crate) struct ActiveJoint {
 }
 
 const _: () = assert!(std::mem::size_of::<ActiveJoint>() == 256);
+
+/// [`ActiveJoint::ax`] of a joint of [`RevoluteParts`].
+const AX_PARTS: u8 = 0xfe;
 
 impl ActiveJoint {
     #[inline(always)]
@@ -181,7 +186,12 @@ impl ActiveJoint {
     /// `(i, ±1)` of a closed-form revolute joint about `±e_i`.
     #[inline(always)]
     pub fn axis(&self) -> Option<(usize, f64)> {
-        (self.ax != u8::MAX).then_some((self.ax as usize, self.sign))
+        (self.ax < 3).then_some((self.ax as usize, self.sign))
+    }
+    /// The joint's [`RevoluteParts`], if it is made of them.
+    #[inline(always)]
+    pub fn parts(&self) -> Option<&RevoluteParts> {
+        (self.ax == AX_PARTS).then_some(&self.rp)
     }
 }
 
@@ -369,7 +379,7 @@ impl Adaptive {
                 h.ang.push((narrow(body.q_offset), sign as f32));
             } else if let Some(parts) = &h.parts[j] {
                 for (k, part) in body.joint.iter().enumerate() {
-                    h.ang.push((narrow(part.q_offset), parts.axes[k].1));
+                    h.ang.push((narrow(part.q_offset), parts.axis(k).1 as f32));
                 }
             }
             h.ridx[j] = h.rec.len();
@@ -385,8 +395,13 @@ impl Adaptive {
                 mulx,
                 shift: mulx && x0.e == glam::DMat3::IDENTITY,
                 revs,
-                ax: axis.map_or(u8::MAX, |(i, _)| i as u8),
+                ax: match (axis, &h.parts[j]) {
+                    (Some((i, _)), _) => i as u8,
+                    (None, Some(_)) => AX_PARTS,
+                    (None, None) => u8::MAX,
+                },
                 sign: axis.map_or(0.0, |(_, sign)| sign),
+                rp: h.parts[j].unwrap_or_default(),
                 x0,
                 rig: h.rig[h.cl[j]],
             });
@@ -472,7 +487,7 @@ impl Adaptive {
             let Some((i, sign)) = r.axis() else {
                 let x = compose(base);
                 let body = &model.bodies[r.j()];
-                match &h.parts[r.j()] {
+                match r.parts() {
                     Some(parts) => {
                         let sc;
                         (sc, scs) = scs.split_at(body.joint.len());
@@ -1249,26 +1264,36 @@ fn accelerate_multi_with<const K: usize>(
 /// The parts of a joint made of revolute parts about coordinate axes (`±x`, `±y`, `±z`, the
 /// usual URDF case): per part `(i, ±1)` of its axis `±e_i`, and a bit per part whose origin is
 /// not the identity (the massless links of a composed joint often are). `None` for any other
-/// joint. (Narrow, the flags first: a step reads a record's first parts and flags from one
-/// cache line, 56 bytes a body instead of 112; the sign `±1` is exact in `f32`.)
-#[derive(Clone, Copy, Debug)]
+/// joint. (Eight bytes: a copy sits in each composed joint's record, in its first line;
+/// per part `i` in bits 0–1 and the sign in bit 7 of one byte.)
+#[derive(Clone, Copy, Debug, Default)]
 #[repr(C)]
 pub(crate) struct RevoluteParts {
     moved: u8,
     /// A bit per moved part whose origin's rotation is the identity (it only translates).
     shift: u8,
-    axes: [(u32, f32); 6],
+    axes: [u8; 6],
+}
+
+impl RevoluteParts {
+    /// `(i, ±1)` of part `k`'s axis `±e_i` (the sign `±1.0` from the byte's bit 7, exact).
+    #[inline(always)]
+    fn axis(&self, k: usize) -> (usize, f64) {
+        let b = self.axes[k];
+        let sign = f64::from_bits(1.0f64.to_bits() | (u64::from(b & 0x80) << 56));
+        ((b & 3) as usize, sign)
+    }
 }
 
 fn revolute_parts(body: &articula_model::Body) -> Option<RevoluteParts> {
-    let mut axes = [(0u32, 0.0f32); 6];
+    let mut axes = [0u8; 6];
     let (mut moved, mut shift) = (0u8, 0u8);
     for (k, part) in body.joint.iter().enumerate() {
         if k >= 6 {
             return None;
         }
         let (i, sign) = part.coordinate_axis()?;
-        axes[k] = (i as u32, sign as f32);
+        axes[k] = i as u8 | if sign < 0.0 { 0x80 } else { 0 };
         if part.origin.e != glam::DMat3::IDENTITY || part.origin.r != DVec3::ZERO {
             moved |= 1 << k;
             if part.origin.e == glam::DMat3::IDENTITY {
@@ -1368,10 +1393,10 @@ fn revolute_kinematics_with(
         if k == 0 || parts.moved & bit != 0 {
             p = -(x.e * x.r);
         }
-        let (i, sign) = parts.axes[k];
-        let axis = turn(&mut x, i as usize, sn, cs);
+        let (i, sign) = parts.axis(k);
+        let axis = turn(&mut x, i, sn, cs);
         // S = X [±e_i; 0] = [w; p × w], `w = ±` column i of E.
-        let w = axis * sign as f64;
+        let w = axis * sign;
         let sk = SpatialMotion::new(w, p.cross(w));
         s[part.v_offset] = sk;
         let vj = sk * qd[part.v_offset];
