@@ -1276,12 +1276,12 @@ pub(crate) struct RevoluteParts {
 }
 
 impl RevoluteParts {
-    /// `(i, ±1)` of part `k`'s axis `±e_i` (the sign `±1.0` from the byte's bit 7, exact).
+    /// `(i, ±1)` of part `k`'s axis `±e_i` (the sign `±1.0` chosen by the byte's bit 7).
     #[inline(always)]
     fn axis(&self, k: usize) -> (usize, f64) {
+        const SIGNS: [f64; 2] = [1.0, -1.0];
         let b = self.axes[k];
-        let sign = f64::from_bits(1.0f64.to_bits() | (u64::from(b & 0x80) << 56));
-        ((b & 3) as usize, sign)
+        ((b & 3) as usize, SIGNS[usize::from(b >> 7)])
     }
 }
 
