@@ -25,7 +25,7 @@ pub(crate) struct Hierarchy {
     pub rec: Vec<ActiveJoint>,
     /// Articulated-body workspace of the reduced tree (one rigid cluster per active joint),
     /// indexed like `rec`: `Iᴬ`, `pᴬ`, the cluster's acceleration, `D⁻¹` (one DOF) or the
-    /// Cholesky factor of `D` (several); per degree of freedom (at `rec.dof`) `U = Iᴬ s` and
+    /// Cholesky factor of `D` (several); per degree of freedom (at `rec.dof()`) `U = Iᴬ s` and
     /// `u = τ − sᵀ pᴬ`. `Iᴬ` is symmetric, stored whole with both halves equal to the bit
     /// ([`Sym6`]): its rows are contiguous vectors.
     pub ia: Vec<Sym6>,
@@ -89,51 +89,110 @@ pub(crate) struct Hierarchy {
     pub ridx: Vec<usize>,
 }
 
-/// Where an active joint's parent body is.
+/// Where an active joint's parent body is. (Body indices as `u32`: eight bytes, not 16.)
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum Parent {
     /// The world (no parent body): the computation frame.
     World,
     /// An active body.
-    Active(usize),
+    Active(u32),
     /// A rigid cluster topped by this body, at the record's constant pose in its frame.
-    Cluster(usize),
+    Cluster(u32),
     /// A cluster welded to the ground, at the record's constant pose in the world.
     Ground,
 }
 
-/// One active joint of the reduced tree.
+/// [`ActiveJoint::pidx`] of a joint whose parent is the world or a cluster welded to it.
+pub(crate) const NO_PARENT: usize = u32::MAX as usize;
+
+/// One active joint of the reduced tree. Narrow and line-aligned: indices as `u32`, the
+/// axis index as `u8`, so that a record is four 64-byte lines (was 304 bytes, five or six
+/// lines) — the indices, parent, flags and axis (all passes 2 and 3 read) in its first line,
+/// `x0` (the kinematics) in the first three, `rig` (pass 1) in the last two.
 #[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
 pub(crate) struct ActiveJoint {
-    /// Body, offsets of its coordinates, degrees of freedom, first slot in `u`/`uu`.
-    pub j: usize,
-    pub qo: usize,
-    pub vo: usize,
-    pub k: usize,
-    pub dof: usize,
-    /// Index (in `rec`) of the active joint topping the cluster that holds the parent body.
-    pub pidx: usize,
-    pub parent: Parent,
+    /// Body, offsets of its coordinates, degrees of freedom, first slot in `u`/`uu` (read
+    /// through the methods of the same names).
+    j: u32,
+    qo: u32,
+    vo: u32,
+    k: u32,
+    dof: u32,
+    /// Index (in `rec`) of the active joint topping the cluster that holds the parent body
+    /// ([`NO_PARENT`]: none).
+    pidx: u32,
     /// The cluster this joint tops (frontier node).
-    pub f: usize,
-    /// Constant pose that follows the parent frame: for a closed-form revolute joint its
-    /// origin, composed with the parent body's pose in its cluster; for other joints that pose
-    /// alone (their origins are applied by the general kinematics). `mulx`: not the identity.
-    pub x0: SpatialTransform,
+    f: u32,
+    pub parent: Parent,
+    /// `x0` is not the identity.
     pub mulx: bool,
     /// `x0`'s rotation is the identity (a joint origin that only translates, the usual URDF
     /// link): the composition `X x0 = (E, r₀ + r)` costs three additions. (The full product's
     /// `E · 1` and `1ᵀ r` are the same numbers; only the sign of an exact zero may differ.)
     pub shift: bool,
-    /// `(i, ±1)` of a closed-form revolute joint.
-    pub axis: Option<(usize, f64)>,
     /// The number of parts of a joint of one or more revolute parts about coordinate axes
     /// ([`RevoluteParts`]) whose coordinates are contiguous (part `p` at `qo + p`, `vo + p`):
-    /// the integration updates them as one-axis coordinates. 0 for any other joint. (Narrow:
-    /// it fits beside the flags, the record stays as long.)
+    /// the integration updates them as one-axis coordinates. 0 for any other joint.
     pub revs: u8,
+    /// `(i, ±1)` of a closed-form revolute joint ([`ActiveJoint::axis`]; an `Option` of the
+    /// pair would take 24 bytes). `ax` is [`AX_PARTS`] for a joint of [`RevoluteParts`]
+    /// (then in `rp`), `u8::MAX` for any other joint.
+    ax: u8,
+    sign: f64,
+    pub rp: RevoluteParts,
+    /// Constant pose that follows the parent frame: for a closed-form revolute joint its
+    /// origin, composed with the parent body's pose in its cluster; for other joints that pose
+    /// alone (their origins are applied by the general kinematics).
+    pub x0: SpatialTransform,
     /// The cluster's mass properties in this body's frame.
     pub rig: Rigid,
+}
+
+const _: () = assert!(std::mem::size_of::<ActiveJoint>() == 256);
+
+/// [`ActiveJoint::ax`] of a joint of [`RevoluteParts`].
+const AX_PARTS: u8 = 0xfe;
+
+impl ActiveJoint {
+    #[inline(always)]
+    pub fn j(&self) -> usize {
+        self.j as usize
+    }
+    #[inline(always)]
+    pub fn qo(&self) -> usize {
+        self.qo as usize
+    }
+    #[inline(always)]
+    pub fn vo(&self) -> usize {
+        self.vo as usize
+    }
+    #[inline(always)]
+    pub fn k(&self) -> usize {
+        self.k as usize
+    }
+    #[inline(always)]
+    pub fn dof(&self) -> usize {
+        self.dof as usize
+    }
+    #[inline(always)]
+    pub fn pidx(&self) -> usize {
+        self.pidx as usize
+    }
+    #[inline(always)]
+    pub fn f(&self) -> usize {
+        self.f as usize
+    }
+    /// `(i, ±1)` of a closed-form revolute joint about `±e_i`.
+    #[inline(always)]
+    pub fn axis(&self) -> Option<(usize, f64)> {
+        (self.ax < 3).then_some((self.ax as usize, self.sign))
+    }
+    /// The joint's [`RevoluteParts`], if it is made of them.
+    #[inline(always)]
+    pub fn parts(&self) -> Option<&RevoluteParts> {
+        (self.ax == AX_PARTS).then_some(&self.rp)
+    }
 }
 
 /// `(i, ±1)` when `body`'s joint is one revolute part about the coordinate axis `±e_i`.
@@ -279,11 +338,12 @@ impl Adaptive {
             let j = h.ajoints[idx];
             let body = &model.bodies[j];
             let axis = h.axis[j];
+            let narrow = |i: usize| u32::try_from(i).expect("fewer than 2³² bodies, coordinates");
             let parent = match body.parent {
                 None => Parent::World,
-                Some(p) if h.abody[p] => Parent::Active(p),
+                Some(p) if h.abody[p] => Parent::Active(narrow(p)),
                 Some(_) if self.grounded[h.pcl[j]] => Parent::Ground,
-                Some(_) => Parent::Cluster(self.top[h.pcl[j]]),
+                Some(_) => Parent::Cluster(narrow(self.top[h.pcl[j]])),
             };
             let mut x0 = match parent {
                 Parent::World | Parent::Active(_) => SpatialTransform::IDENTITY,
@@ -300,9 +360,9 @@ impl Adaptive {
             // The parent record: the active body topping the parent's cluster (`par`) comes
             // earlier in `ajoints`.
             let pidx = if h.par[j] == usize::MAX {
-                usize::MAX
+                u32::MAX
             } else {
-                h.ridx[h.par[j]]
+                narrow(h.ridx[h.par[j]])
             };
             let revs = match h.parts[j] {
                 Some(_)
@@ -315,29 +375,34 @@ impl Adaptive {
                 }
                 _ => 0,
             };
-            let narrow = |i: usize| u32::try_from(i).expect("fewer than 2³² coordinates");
             if let Some((_, sign)) = axis {
                 h.ang.push((narrow(body.q_offset), sign as f32));
             } else if let Some(parts) = &h.parts[j] {
                 for (k, part) in body.joint.iter().enumerate() {
-                    h.ang.push((narrow(part.q_offset), parts.axes[k].1));
+                    h.ang.push((narrow(part.q_offset), parts.axis(k).1 as f32));
                 }
             }
             h.ridx[j] = h.rec.len();
             h.rec.push(ActiveJoint {
-                j,
-                qo: body.q_offset,
-                vo: body.v_offset,
-                k: body.nv,
-                dof,
+                j: narrow(j),
+                qo: narrow(body.q_offset),
+                vo: narrow(body.v_offset),
+                k: narrow(body.nv),
+                dof: narrow(dof),
                 pidx,
+                f: narrow(h.cl[j]),
                 parent,
-                f: h.cl[j],
-                x0,
                 mulx,
                 shift: mulx && x0.e == glam::DMat3::IDENTITY,
-                axis,
                 revs,
+                ax: match (axis, &h.parts[j]) {
+                    (Some((i, _)), _) => i as u8,
+                    (None, Some(_)) => AX_PARTS,
+                    (None, None) => u8::MAX,
+                },
+                sign: axis.map_or(0.0, |(_, sign)| sign),
+                rp: h.parts[j].unwrap_or_default(),
+                x0,
                 rig: h.rig[h.cl[j]],
             });
             dof += body.nv;
@@ -403,7 +468,7 @@ impl Adaptive {
         for r in &h.rec {
             let (base, v) = match r.parent {
                 Parent::World | Parent::Ground => (x_cw, SpatialMotion::ZERO),
-                Parent::Active(p) | Parent::Cluster(p) => (d.x[p], d.v[p]),
+                Parent::Active(p) | Parent::Cluster(p) => (d.x[p as usize], d.v[p as usize]),
             };
             // The parent frame composed with the record's constant pose (in each branch: the
             // general path passes it in memory, the closed form keeps it in registers).
@@ -419,27 +484,27 @@ impl Adaptive {
                     base
                 }
             };
-            let Some((i, sign)) = r.axis else {
+            let Some((i, sign)) = r.axis() else {
                 let x = compose(base);
-                let body = &model.bodies[r.j];
-                match &h.parts[r.j] {
+                let body = &model.bodies[r.j()];
+                match r.parts() {
                     Some(parts) => {
                         let sc;
                         (sc, scs) = scs.split_at(body.joint.len());
-                        let out = (&mut d.x[r.j], &mut d.v[r.j], &mut d.c[r.j]);
+                        let out = (&mut d.x[r.j()], &mut d.v[r.j()], &mut d.c[r.j()]);
                         revolute(wide, body, parts, &x, &v, sc, qd, &mut d.s, out);
                     }
                     None => match body.joint.as_slice() {
                         [part] if part.kind == articula_model::JointKind::Floating => {
-                            let out = (&mut d.x[r.j], &mut d.v[r.j], &mut d.c[r.j]);
+                            let out = (&mut d.x[r.j()], &mut d.v[r.j()], &mut d.c[r.j()]);
                             floating(wide, part, &x, &v, q, qd, &mut d.s, out);
                         }
                         _ => {
                             let (x, v, c) =
                                 articula_dca::body_kinematics(body, x, v, q, qd, &mut d.s);
-                            d.x[r.j] = x;
-                            d.v[r.j] = v;
-                            d.c[r.j] = c;
+                            d.x[r.j()] = x;
+                            d.v[r.j()] = v;
+                            d.c[r.j()] = c;
                         }
                     },
                 }
@@ -453,13 +518,13 @@ impl Adaptive {
             let w = turn(&mut x, i, sn, cs) * sign;
             let p = -(x.e * x.r);
             let s = SpatialMotion::new(w, p.cross(w));
-            d.s[r.vo] = s;
-            let vj = s * qd[r.vo];
+            d.s[r.vo()] = s;
+            let vj = s * qd[r.vo()];
             let c = v.cross_motion(vj);
             let v = v + vj;
-            d.x[r.j] = x;
-            d.v[r.j] = v;
-            d.c[r.j] = c;
+            d.x[r.j()] = x;
+            d.v[r.j()] = v;
+            d.c[r.j()] = c;
         }
     }
 
@@ -533,7 +598,7 @@ impl Adaptive {
         level: Level,
     ) -> Result<(), DynamicsError> {
         if let [r] = &self.hier.rec[..] {
-            if r.k == 1 && r.pidx == usize::MAX {
+            if r.k() == 1 && r.pidx() == NO_PARENT {
                 return self.one_joint(model, tau, level);
             }
         }
@@ -588,7 +653,7 @@ impl Adaptive {
         self.touched = self.hier.hnodes.len() + self.hier.fnodes.len();
         let d = &self.data;
         let r = &self.hier.rec[0];
-        let x = &d.x[r.j];
+        let x = &d.x[r.j()];
         let rl = &r.rig;
         // The cluster's centre of mass from the joint's body (computation axes), h = m c.
         let cw = x.e * (rl.c - x.r);
@@ -601,23 +666,23 @@ impl Adaptive {
             cc: cw.dot(cw),
             hv: cw * rl.m,
         };
-        let s = d.s[r.vo];
+        let s = d.s[r.vo()];
         let u = body.inertia(s);
         let dd = s.dot(u);
         if dd.is_nan() || dd <= 0.0 {
-            return Err(singular(model, r.j));
+            return Err(singular(model, r.j()));
         }
         let (pa, ap) = if accel {
-            let v = d.v[r.j];
+            let v = d.v[r.j()];
             (
-                v.cross_force(body.inertia(v)) - self.fsum[r.f],
-                SpatialMotion::new(DVec3::ZERO, -d.gravity) + d.c[r.j],
+                v.cross_force(body.inertia(v)) - self.fsum[r.f()],
+                SpatialMotion::new(DVec3::ZERO, -d.gravity) + d.c[r.j()],
             )
         } else {
             (SpatialForce::ZERO, SpatialMotion::ZERO)
         };
-        let uu = tau[r.vo] - s.dot(pa);
-        self.qdd[r.vo] = (1.0 / dd) * (uu - ap.dot(u));
+        let uu = tau[r.vo()] - s.dot(pa);
+        self.qdd[r.vo()] = (1.0 / dd) * (uu - ap.dot(u));
         Ok(())
     }
 
@@ -652,7 +717,7 @@ impl Adaptive {
         // `h = m c`, and bias force `pᴬ = v ×* I v − f_ext` (gravity enters as the world's
         // acceleration −a_g).
         for ((r, ia), pa) in h.rec.iter().zip(h.ia.iter_mut()).zip(h.pa.iter_mut()) {
-            let x = &d.x[r.j];
+            let x = &d.x[r.j()];
             let rl = &r.rig;
             let m = rl.m;
             // Ī = E I_c Eᵀ + m (|c|² 1 − c cᵀ) in lanes of four (the fourth unused), each
@@ -706,12 +771,12 @@ impl Adaptive {
                 [hv.y, -hv.x, 0.0, 0.0, 0.0, m],
             ];
             *pa = if accel {
-                let v = d.v[r.j];
+                let v = d.v[r.j()];
                 let ibw = DVec3::new(i00, i01, i02) * v.w.x
                     + DVec3::new(i01, i11, i12) * v.w.y
                     + DVec3::new(i02, i12, i22) * v.w.z;
                 let iv = SpatialForce::new(ibw + hv.cross(v.v), v.v * m - hv.cross(v.w));
-                (v.cross_force(iv) - self.fsum[r.f]).to_array()
+                (v.cross_force(iv) - self.fsum[r.f()]).to_array()
             } else {
                 [0.0; 6]
             };
@@ -743,10 +808,14 @@ impl Adaptive {
         let dinvs = &mut dinv[..n];
         for idx in (0..n).rev() {
             let r = &rec[idx];
-            let (vo, k, dof) = (r.vo, r.k, r.dof);
+            let (vo, k, dof) = (r.vo(), r.k(), r.dof());
             let pa = w.pa[idx];
-            let parent = r.pidx;
-            let c = if accel { d.c[r.j].to_array() } else { [0.0; 6] };
+            let parent = r.pidx();
+            let c = if accel {
+                d.c[r.j()].to_array()
+            } else {
+                [0.0; 6]
+            };
             if k == 1 {
                 let ia = &w.ia[idx];
                 let s = d.s[vo].to_array();
@@ -770,7 +839,7 @@ impl Adaptive {
                 w.u[dof] = u;
                 w.uu[dof] = uu;
                 dinvs[idx] = dinv;
-                if parent != usize::MAX {
+                if parent != NO_PARENT {
                     // Iᴬ c, a second sweep over the rows (read again: sweeping them once for
                     // both products spilled them, and the broadcasts, to the stack).
                     let mut ic = [0.0; 6];
@@ -790,7 +859,7 @@ impl Adaptive {
                 // Checked after the parent's update (which an error leaves unused: pass 1
                 // rewrites every Iᴬ, pᴬ): the branch no longer splits the sweep over Iᴬ's rows.
                 if dd.is_nan() || dd <= 0.0 {
-                    return Err(singular(model, r.j));
+                    return Err(singular(model, r.j()));
                 }
                 continue;
             }
@@ -807,7 +876,7 @@ impl Adaptive {
                 _ => articulate::<0>(wide, r, &mut w, &d.s, tau, idx, k, &c),
             };
             if !ok {
-                return Err(singular(model, r.j));
+                return Err(singular(model, r.j()));
             }
         }
         // Pass 3, root to leaves: a' = a_parent + c, q̈ = D⁻¹ (u − Uᵀ a'), a = a' + S q̈.
@@ -828,16 +897,20 @@ impl Adaptive {
             qdd: &mut self.qdd[..],
         };
         // The previous record when it is a one-degree-of-freedom joint (`usize::MAX`
-        // otherwise): its index, a', S and q̈, kept in locals for a child that follows it
+        // otherwise, which no `pidx` equals: [`NO_PARENT`] is `u32::MAX`): its index, a', S and q̈, kept in locals for a child that follows it
         // (on a chain, every record).
         let (mut pidx1, mut pap, mut ps, mut px) = (usize::MAX, [0.0; 6], [0.0; 6], 0.0);
         for (idx, r) in rec.iter().enumerate() {
-            let (vo, k, dof) = (r.vo, r.k, r.dof);
-            let c = if accel { d.c[r.j].to_array() } else { [0.0; 6] };
+            let (vo, k, dof) = (r.vo(), r.k(), r.dof());
+            let c = if accel {
+                d.c[r.j()].to_array()
+            } else {
+                [0.0; 6]
+            };
             if k == 1 {
                 let s = d.s[vo].to_array();
                 let ud = &io.u[dof];
-                let (ap, x) = if r.pidx == pidx1 && r.pidx != usize::MAX {
+                let (ap, x) = if r.pidx() == pidx1 {
                     // The parent is the previous record: a' = (a'_p + S_p q̈_p) + c, and
                     // q̈ = D⁻¹ (u − Uᵀ(a'_p + c) − (Uᵀ S_p) q̈_p), whose chain from the
                     // parent's q̈ is one multiply–add and a product (the parent's a' is
@@ -855,10 +928,10 @@ impl Adaptive {
                     let x = dinv[idx] * A::neg_mul_add(sig, px, io.uu[dof] - dot6::<A>(&base, ud));
                     (ap, x)
                 } else {
-                    let mut ap = if r.pidx == usize::MAX {
+                    let mut ap = if r.pidx() == NO_PARENT {
                         a0
                     } else {
-                        acc[r.pidx]
+                        acc[r.pidx()]
                     };
                     if accel {
                         for rr in 0..6 {
@@ -873,10 +946,10 @@ impl Adaptive {
                 continue;
             }
             pidx1 = usize::MAX;
-            let mut ap = if r.pidx == usize::MAX {
+            let mut ap = if r.pidx() == NO_PARENT {
                 a0
             } else {
-                acc[r.pidx]
+                acc[r.pidx()]
             };
             if accel {
                 for rr in 0..6 {
@@ -1019,7 +1092,7 @@ fn articulate_multi_with<const K: usize>(
     c: &[f64; 6],
 ) -> bool {
     let k = if K == 0 { k } else { K };
-    let (vo, dof, parent) = (r.vo, r.dof, r.pidx);
+    let (vo, dof, parent) = (r.vo(), r.dof(), r.pidx());
     let pa = h.pa[idx];
     let (lo, hi) = h.ia.split_at_mut(idx);
     let ia = &hi[0];
@@ -1043,7 +1116,7 @@ fn articulate_multi_with<const K: usize>(
     if !articula_dca::cholesky_into(&dm, k, &mut h.chol[idx], &mut invs) {
         return false;
     }
-    if parent == usize::MAX {
+    if parent == NO_PARENT {
         return true;
     }
     let l = &h.chol[idx];
@@ -1160,7 +1233,7 @@ fn accelerate_multi_with<const K: usize>(
     let (l, u, uu, s) = (&w.chol[idx], w.u, w.uu, w.s);
     let (qdd, ap) = (&mut *w.qdd, *ap);
     let k = if K == 0 { k } else { K };
-    let (vo, dof) = (r.vo, r.dof);
+    let (vo, dof) = (r.vo(), r.dof());
     // q̈ = L⁻ᵀ L⁻¹ r.
     let mut x = [0.0; 6];
     for p in 0..k {
@@ -1191,26 +1264,36 @@ fn accelerate_multi_with<const K: usize>(
 /// The parts of a joint made of revolute parts about coordinate axes (`±x`, `±y`, `±z`, the
 /// usual URDF case): per part `(i, ±1)` of its axis `±e_i`, and a bit per part whose origin is
 /// not the identity (the massless links of a composed joint often are). `None` for any other
-/// joint. (Narrow, the flags first: a step reads a record's first parts and flags from one
-/// cache line, 56 bytes a body instead of 112; the sign `±1` is exact in `f32`.)
-#[derive(Clone, Copy, Debug)]
+/// joint. (Eight bytes: a copy sits in each composed joint's record, in its first line;
+/// per part `i` in bits 0–1 and the sign in bit 7 of one byte.)
+#[derive(Clone, Copy, Debug, Default)]
 #[repr(C)]
 pub(crate) struct RevoluteParts {
     moved: u8,
     /// A bit per moved part whose origin's rotation is the identity (it only translates).
     shift: u8,
-    axes: [(u32, f32); 6],
+    axes: [u8; 6],
+}
+
+impl RevoluteParts {
+    /// `(i, ±1)` of part `k`'s axis `±e_i` (the sign `±1.0` chosen by the byte's bit 7).
+    #[inline(always)]
+    fn axis(&self, k: usize) -> (usize, f64) {
+        const SIGNS: [f64; 2] = [1.0, -1.0];
+        let b = self.axes[k];
+        ((b & 3) as usize, SIGNS[usize::from(b >> 7)])
+    }
 }
 
 fn revolute_parts(body: &articula_model::Body) -> Option<RevoluteParts> {
-    let mut axes = [(0u32, 0.0f32); 6];
+    let mut axes = [0u8; 6];
     let (mut moved, mut shift) = (0u8, 0u8);
     for (k, part) in body.joint.iter().enumerate() {
         if k >= 6 {
             return None;
         }
         let (i, sign) = part.coordinate_axis()?;
-        axes[k] = (i as u32, sign as f32);
+        axes[k] = i as u8 | if sign < 0.0 { 0x80 } else { 0 };
         if part.origin.e != glam::DMat3::IDENTITY || part.origin.r != DVec3::ZERO {
             moved |= 1 << k;
             if part.origin.e == glam::DMat3::IDENTITY {
@@ -1310,10 +1393,10 @@ fn revolute_kinematics_with(
         if k == 0 || parts.moved & bit != 0 {
             p = -(x.e * x.r);
         }
-        let (i, sign) = parts.axes[k];
-        let axis = turn(&mut x, i as usize, sn, cs);
+        let (i, sign) = parts.axis(k);
+        let axis = turn(&mut x, i, sn, cs);
         // S = X [±e_i; 0] = [w; p × w], `w = ±` column i of E.
-        let w = axis * sign as f64;
+        let w = axis * sign;
         let sk = SpatialMotion::new(w, p.cross(w));
         s[part.v_offset] = sk;
         let vj = sk * qd[part.v_offset];

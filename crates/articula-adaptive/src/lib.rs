@@ -527,10 +527,10 @@ impl Adaptive {
         }
         let mut dofs = 0;
         for rec in &self.hier.rec {
-            if rec.axis.is_some() {
+            if rec.axis().is_some() {
                 // One revolute coordinate: the same semi-implicit Euler update, written back
                 // only when finite (otherwise the general path below reports it).
-                let (vo, qo) = (rec.vo, rec.qo);
+                let (vo, qo) = (rec.vo(), rec.qo());
                 let a = self.qdd[vo];
                 let v = state.qd[vo] + dt * a;
                 let q = state.q[qo] + v * dt;
@@ -545,7 +545,7 @@ impl Adaptive {
                 // shoulders, spine, neck), contiguous: the same update per coordinate as the
                 // general path below (`q̇ += h q̈`, then `q += q̇ h`), written back when all
                 // nine numbers are finite.
-                let (vo, qo) = (rec.vo, rec.qo);
+                let (vo, qo) = (rec.vo(), rec.qo());
                 let (qdd, qd, q) = (
                     &self.qdd[vo..vo + 3],
                     &mut state.qd[vo..vo + 3],
@@ -565,11 +565,11 @@ impl Adaptive {
                     continue;
                 }
             }
-            let body = &model.bodies[rec.j];
+            let body = &model.bodies[rec.j()];
             dofs += body.nv;
             let r = body.v_offset..body.v_offset + body.nv;
             if !finite(&self.qdd[r.clone()]) {
-                return Err(non_finite(model, rec.j, "qdd", &self.qdd).into());
+                return Err(non_finite(model, rec.j(), "qdd", &self.qdd).into());
             }
             for (v, a) in state.qd[r.clone()].iter_mut().zip(&self.qdd[r]) {
                 *v += dt * a;
@@ -585,7 +585,7 @@ impl Adaptive {
                 } else {
                     ("qd after the step", &state.qd)
                 };
-                return Err(non_finite(model, rec.j, what.0, what.1).into());
+                return Err(non_finite(model, rec.j(), what.0, what.1).into());
             }
         }
         self.steps += 1;
@@ -782,15 +782,15 @@ impl Adaptive {
     #[inline(never)]
     fn check_active_records(&self, model: &Model, state: &State) -> Result<(), DynamicsError> {
         for rec in &self.hier.rec {
-            if rec.axis.is_some() {
-                if all_finite(&[state.q[rec.qo], state.qd[rec.vo], state.tau[rec.vo]]) {
+            if rec.axis().is_some() {
+                if all_finite(&[state.q[rec.qo()], state.qd[rec.vo()], state.tau[rec.vo()]]) {
                     continue;
                 }
                 return check_inputs(model, &state.q, &state.qd, &state.tau, &state.f_ext);
             }
             if rec.revs == 3 {
                 // Three contiguous coordinates (a composed joint), nine numbers.
-                let (qo, vo) = (rec.qo, rec.vo);
+                let (qo, vo) = (rec.qo(), rec.vo());
                 let (q, qd, tau) = (
                     &state.q[qo..qo + 3],
                     &state.qd[vo..vo + 3],
@@ -804,7 +804,7 @@ impl Adaptive {
                 }
                 return check_inputs(model, &state.q, &state.qd, &state.tau, &state.f_ext);
             }
-            let b = &model.bodies[rec.j];
+            let b = &model.bodies[rec.j()];
             let bad = state.q[b.q_offset..b.q_offset + b.nq]
                 .iter()
                 .chain(&state.qd[b.v_offset..b.v_offset + b.nv])

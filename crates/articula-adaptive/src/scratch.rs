@@ -193,7 +193,7 @@ impl Adaptive {
     fn fit_reduced(&mut self, full: [usize; 2]) {
         let h = &self.hier;
         let na = h.rec.len();
-        let dof = h.rec.last().map_or(0, |r| r.dof + r.k);
+        let dof = h.rec.last().map_or(0, |r| r.dof() + r.k());
         let fits = [
             h.ia.len(),
             h.pa.len(),

@@ -14,6 +14,7 @@
 //!    new cluster's momentum from the old clusters' (or its cache when it was rigid).
 
 use crate::cache::{rot6, rows3, Part};
+use crate::hierarchy::NO_PARENT;
 use crate::hybrid::{Adaptive, Level, Rigid, Selection};
 use articula_dca::{DynamicsError, State};
 use articula_model::{Model, NodeKind};
@@ -555,16 +556,16 @@ impl Adaptive {
     fn reduced_momenta(&mut self, gm: &mut [f64]) {
         let h = &mut self.hier;
         for idx in 0..h.rec.len() {
-            h.pa[idx] = self.cache.hm[h.rec[idx].f].to_array();
+            h.pa[idx] = self.cache.hm[h.rec[idx].f()].to_array();
         }
         for idx in (0..h.rec.len()).rev() {
             let r = &h.rec[idx];
             let hj = SpatialForce::from_array(h.pa[idx]);
-            for p in 0..r.k {
-                gm[r.vo + p] = self.data.s[r.vo + p].dot(hj);
+            for p in 0..r.k() {
+                gm[r.vo() + p] = self.data.s[r.vo() + p].dot(hj);
             }
-            if r.pidx != usize::MAX {
-                let pp = &mut h.pa[r.pidx];
+            if r.pidx() != NO_PARENT {
+                let pp = &mut h.pa[r.pidx()];
                 for (x, y) in pp.iter_mut().zip(hj.to_array()) {
                     *x += y;
                 }
