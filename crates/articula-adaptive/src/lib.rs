@@ -416,7 +416,7 @@ impl Adaptive {
             self.cache.ready = false;
         }
         // (An impulse changes velocities only: the composites stay valid.)
-        let locked = self.rebuild_hybrid(model, state, true)?;
+        let locked = self.rebuild_hybrid(model, state, true, false)?;
         if locked {
             touched += self.touched;
         }
@@ -681,7 +681,7 @@ impl Adaptive {
         self.rigid_composites(model);
         self.cache.ready = false;
         let vtol = self.settings.velocity_tolerance.take();
-        let locked = self.rebuild_hybrid(model, state, false);
+        let locked = self.rebuild_hybrid(model, state, false, true);
         self.settings.velocity_tolerance = vtol;
         let locked = locked?;
         // Joints outside the hybrid body have q̈ = 0 until the next re-selection.

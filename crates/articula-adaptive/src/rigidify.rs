@@ -18,12 +18,14 @@ impl Adaptive {
     /// state, then locks every joint outside it that still moves. Returns whether an impulse was
     /// applied. With `refresh`, the kinematics in `data` are then recomputed for the new
     /// velocities (whole-body passes follow); otherwise `data` keeps the old velocities (a step
-    /// between re-selections recomputes those of the active bodies).
+    /// between re-selections recomputes those of the active bodies). With `closed`, `active`
+    /// already holds `selected` closed upward (used when there is no velocity tolerance).
     pub(crate) fn rebuild_hybrid(
         &mut self,
         model: &Model,
         state: &mut State,
         refresh: bool,
+        closed: bool,
     ) -> Result<bool, DynamicsError> {
         let tree = &model.assembly;
         if let Some(vtol) = self.settings.velocity_tolerance {
@@ -31,14 +33,17 @@ impl Adaptive {
             for n in 0..tree.nodes.len() {
                 self.active[n] = self.selected[n] || (self.active[n] && self.vmetric[n] > vtol);
             }
-        } else {
+        } else if !closed {
             self.active.copy_from_slice(&self.selected);
         }
-        // Close upward (post-order: a child comes before its parent).
-        for n in 0..tree.nodes.len() {
-            if self.active[n] {
-                if let Some(p) = tree.nodes[n].parent {
-                    self.active[p] = true;
+        // Close upward (post-order: a child comes before its parent); with `closed` and no
+        // velocity tolerance, `active` is already `selected` closed ([`Adaptive::set_active`]).
+        if !closed || self.settings.velocity_tolerance.is_some() {
+            for n in 0..tree.nodes.len() {
+                if self.active[n] {
+                    if let Some(p) = tree.nodes[n].parent {
+                        self.active[p] = true;
+                    }
                 }
             }
         }
