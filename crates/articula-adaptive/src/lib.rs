@@ -241,11 +241,17 @@ impl Adaptive {
         f_ext: &[SpatialForce],
     ) -> Result<(), AdaptiveError> {
         self.load_state(model, q, qd, tau, f_ext)?;
+        // The external wrenches in the computation frame, `X*_{c←w} f` (only the composites'
+        // force sums read them: not built for `set_active`'s impulse).
+        let x_cw = SpatialTransform::xlt(self.data.origin);
+        self.fext_c.clear();
+        self.fext_c
+            .extend(f_ext.iter().map(|f| x_cw.apply_force(*f)));
         self.composites(model);
         Ok(())
     }
 
-    /// [`Adaptive::load`] without the composites.
+    /// [`Adaptive::load`] without the external wrenches' frame change and the composites.
     fn load_state(
         &mut self,
         model: &Model,
@@ -265,10 +271,6 @@ impl Adaptive {
             forward_kinematics(model, q, qd, &mut self.data);
         }
         self.fresh = false;
-        let x_cw = SpatialTransform::xlt(self.data.origin);
-        self.fext_c.clear();
-        self.fext_c
-            .extend(f_ext.iter().map(|f| x_cw.apply_force(*f)));
         Ok(())
     }
 
