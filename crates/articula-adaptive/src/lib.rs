@@ -336,10 +336,16 @@ impl Adaptive {
         f_ext: &[SpatialForce],
     ) -> Result<(), AdaptiveError> {
         solve_exact(model, &mut self.data, &mut self.qdd, q, qd, tau, f_ext)?;
+        self.mark_fresh(q, qd);
+        Ok(())
+    }
+
+    /// Records that `data` holds the whole-body kinematics of `(q, q̇)` (an exact solve's),
+    /// for the next load of the same state to reuse.
+    pub(crate) fn mark_fresh(&mut self, q: &[f64], qd: &[f64]) {
         self.fresh = true;
         self.fresh_q.copy_from_slice(q);
         self.fresh_qd.copy_from_slice(qd);
-        Ok(())
     }
 
     /// The node metrics of the last exact solve ([`Adaptive::exact_solve`],

@@ -359,9 +359,7 @@ impl Adaptive {
         sd.momentum_projection = d.momentum_projection;
         let r = crate::solve_exact(model, sd, &mut self.qdd, q, qd, tau, f_ext);
         if r.is_ok() {
-            self.fresh = true;
-            self.fresh_q.copy_from_slice(q);
-            self.fresh_qd.copy_from_slice(qd);
+            self.mark_fresh(q, qd);
             // The exact solve's kinematics into the workspace, for the next load of this state
             // (`fresh`, as after the plain call): a `set_active_with` that follows (the usual
             // re-selection of a scene) then skips its whole-body forward kinematics. Their

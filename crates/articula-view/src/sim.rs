@@ -850,10 +850,11 @@ impl SpringRuns {
     fn new(springs: &[(usize, usize, f64, f64)]) -> Self {
         let mut out = SpringRuns::default();
         for (i, &(qi, vi, k, c)) in springs.iter().enumerate() {
+            // (The last run always ends at spring i: every spring is appended.)
             let extends = out
                 .runs
                 .last()
-                .is_some_and(|(q0, v0, r)| r.end == i && qi == q0 + r.len() && vi == v0 + r.len());
+                .is_some_and(|(q0, v0, r)| qi == q0 + r.len() && vi == v0 + r.len());
             match out.runs.last_mut() {
                 Some(run) if extends => run.2.end += 1,
                 _ => out.runs.push((qi, vi, i..i + 1)),

@@ -684,29 +684,10 @@ impl PosePlan {
             k = self.bodies[j].0;
         }
         let (mut r, mut p) = (DMat3::IDENTITY, DVec3::ZERO);
-        let mut parts = path[..depth]
-            .iter()
-            .rev()
-            .flat_map(|&j| &self.parts[self.bodies[j].1.clone()]);
-        // The root's first part, when it is a bare floating joint (a floating base), is the
-        // pose itself: composing it onto the identity would only multiply by ones and add
-        // zeros (the numbers of `compose`, up to the sign of a zero).
-        if let Some(first) = parts.next() {
-            match (first.origin, first.motion) {
-                (None, PlanMotion::General { body, part })
-                    if model.bodies[body].joint[part].kind
-                        == articula_model::JointKind::Floating =>
-                {
-                    let jp = &model.bodies[body].joint[part];
-                    (r, p) = jp
-                        .motion_transform(&q[jp.q_offset..jp.q_offset + jp.nq()])
-                        .to_pose();
-                }
-                _ => self.compose(first, model, q, &mut r, &mut p),
+        for &j in path[..depth].iter().rev() {
+            for part in &self.parts[self.bodies[j].1.clone()] {
+                self.compose(part, model, q, &mut r, &mut p);
             }
-        }
-        for part in parts {
-            self.compose(part, model, q, &mut r, &mut p);
         }
         (r, p)
     }
