@@ -8,6 +8,8 @@
 
 use articula_model::{LoadOptions, Model};
 
+pub mod growth;
+
 /// A planar revolute pendulum chain of `n` links (0.1 m, 0.1 kg rods hanging along −z), the
 /// same bodies as the bundled `models/chainN.urdf`, for sizes that are not bundled.
 pub fn chain_urdf(n: usize) -> String {

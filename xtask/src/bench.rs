@@ -6,6 +6,8 @@
 //!   (`articula_benches::chain`) and the humanoid, on `State::random(model, 42, 1.0)` — the
 //!   criterion benches' state. Quick mode times in-process ([`crate::timing`]); full mode runs
 //!   `cargo bench -p articula-benches --bench dynamics` and reads criterion's medians.
+//! - Growth from 1,000 to 10,000 links of DCA and ABA, the two lengths interleaved in one
+//!   process ([`articula_benches::growth`]: ratio of the minima and per-round ratios).
 //! - Error against time per step on the 300-link chain: (a) the acceleration-metric error
 //!   `Σ (q̈ − q̈_exact)²` of one step, `q̈_exact` from the double-double reference
 //!   ([`crate::hp`]); (b) the deviation `‖q(1 s) − q_ref(1 s)‖` from an RK4 reference with a
@@ -161,6 +163,29 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
         });
     }
 
+    // 1b. Growth from 1,000 to 10,000 links, the two lengths interleaved in one process (the
+    // table's medians time each size apart, minutes apart in full mode, and a shared host's
+    // phases move them by more than the cache effects being measured).
+    let rounds = if opts.quick { 400 } else { 1000 };
+    let mut growths = Vec::new();
+    for method in [articula_dca::Method::Dca, articula_dca::Method::Aba] {
+        let t0 = Instant::now();
+        let g = articula_benches::growth::measure(method, 1000, 10_000, rounds, |r| {
+            if (1..4).any(|k| r == rounds * k / 4) {
+                println!("  growth {method:?} 1000 -> 10000: round {r}/{rounds}");
+            }
+        });
+        println!(
+            "  growth {method:?} 1000 -> 10000: minima {:.1} / {:.1} µs, {:.2}× (per-round median {:.2}×), {:.1} s",
+            g.short_us,
+            g.long_us,
+            g.ratio(),
+            g.per_round_quantile(0.5),
+            t0.elapsed().as_secs_f64()
+        );
+        growths.push(g);
+    }
+
     // 2. Accuracy on the 300-link chain.
     let chain300 = articula_benches::chain(300);
     let acc_state = State::random(&chain300, SEED, 1.0);
@@ -247,6 +272,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     let report = report(
         &opts,
         &rows,
+        &growths,
         &accel,
         &traj,
         &seeds,
@@ -783,10 +809,44 @@ fn fmt_us(t: Option<&f64>) -> String {
     }
 }
 
+/// The report's paragraph on the interleaved growth measurements.
+fn growth_paragraph(growths: &[articula_benches::growth::Growth]) -> String {
+    let Some(first) = growths.first() else {
+        return String::new();
+    };
+    let mut s = format!(
+        "The same growth with the two lengths interleaved in one process \
+         (`articula_benches::growth`, {} rounds; each round times 10 calls on 1,000 links and \
+         one on 10,000 back to back, so both see the same phase of a shared host):\n\n\
+         | method | 1,000 links (µs, minimum) | 10,000 links (µs, minimum) | ratio of the minima | \
+         per-round ratio: median (quartiles) |\n|---|---:|---:|---:|---:|\n",
+        first.per_round.len()
+    );
+    for g in growths {
+        let _ = writeln!(
+            s,
+            "| {:?} | {:.1} | {:.1} | **{:.2}×** | {:.2}× ({:.2}–{:.2}) |",
+            g.method,
+            g.short_us,
+            g.long_us,
+            g.ratio(),
+            g.per_round_quantile(0.5),
+            g.per_round_quantile(0.25),
+            g.per_round_quantile(0.75)
+        );
+    }
+    s += "\nThe ratio of the minima is the cost on a quiet host; the per-round median is what a \
+          typical minute of this machine gives (a slow phase costs the 10,000-link call, which \
+          streams megabytes through the last-level cache, more than the 1,000-link one, which \
+          largely stays in L2).\n";
+    s
+}
+
 #[allow(clippy::too_many_arguments)]
 fn report(
     opts: &Options,
     rows: &[SpeedRow],
+    growths: &[articula_benches::growth::Growth],
     accel: &[(String, f64, f64)],
     traj: &Traj,
     seeds: &SeedsTable,
@@ -866,10 +926,12 @@ fn report(
     let growth = |l: &str| speed_of(rows, "chain10000", l) / speed_of(rows, "chain1000", l);
     let _ = writeln!(
         s,
-        "\nGrowth from 1,000 to 10,000 links (10× the links; linear cost gives 10): DCA {:.1}×, ABA {:.1}×.\n",
+        "\nGrowth from 1,000 to 10,000 links (10× the links; linear cost gives 10), from the \
+         table (each size timed on its own): DCA {:.1}×, ABA {:.1}×.\n",
         growth("DCA"),
         growth("ABA")
     );
+    let _ = writeln!(s, "{}", growth_paragraph(growths));
     for (peer, call) in [
         ("Pinocchio ABA", "the default convention"),
         (
@@ -1057,6 +1119,25 @@ mod tests {
         assert_eq!(got[&("chain300".to_string(), "DCA".to_string())], 450.0);
         assert_eq!(got[&("humanoid".to_string(), "ABA".to_string())], 5.5);
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn growth_paragraph_reports_minima_and_per_round_ratios() {
+        let g = articula_benches::growth::Growth {
+            method: articula_dca::Method::Dca,
+            short: 1000,
+            long: 10_000,
+            short_us: 280.0,
+            long_us: 2940.0,
+            per_round: vec![10.0, 10.5, 11.0, 11.5, 12.0],
+        };
+        let p = growth_paragraph(&[g]);
+        assert!(p.contains("5 rounds"), "{p}");
+        assert!(
+            p.contains("| Dca | 280.0 | 2940.0 | **10.50×** | 11.00× (10.50–11.50) |"),
+            "{p}"
+        );
+        assert!(growth_paragraph(&[]).is_empty());
     }
 
     #[test]
