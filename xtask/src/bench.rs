@@ -36,6 +36,8 @@ pub const CHAIN_SIZES: [usize; 7] = [10, 30, 100, 300, 1000, 3000, 10_000];
 /// Columns of the seeds' table (Redon, Galoppo, Lin 2005): numbers of external forces on the
 /// 300-link chain; its rows are the adaptive budgets [`ADAPTIVE_BUDGETS`] and full DCA.
 pub const SEED_FORCES: [usize; 6] = [1, 5, 10, 20, 50, 250];
+/// Passes over the speed table (each cell gets `1 / PASSES` of its budget in each).
+pub const PASSES: usize = 4;
 /// The seed of the benchmarked state (as in the criterion benches and `articula bench`).
 pub const SEED: u64 = 42;
 /// Why the adaptive rows are empty.
@@ -125,9 +127,14 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     } else {
         Some(run_criterion(root)?)
     };
-    for (name, _, model) in &models {
-        let state = State::random(model, SEED, 1.0);
-        let mut times = BTreeMap::new();
+    // The cells timed in-process (all of them in quick mode, the adaptive ones in full mode)
+    // are timed in PASSES passes over the whole table, each with a share of the budget, and
+    // each cell's time is the median over the batches of all passes: a shared host's slow
+    // phases last seconds, and timing a cell in one window would let a phase set it alone
+    // (the 10,000-link chain's cells, ~60 calls, fit in a quarter of a second).
+    let mut times: Vec<BTreeMap<String, f64>> = vec![BTreeMap::new(); models.len()];
+    let mut pending: Vec<(usize, Solver, Vec<f64>, usize)> = Vec::new();
+    for (mi, (name, _, model)) in models.iter().enumerate() {
         for solver in Solver::all() {
             if !solver.runs_at(model.nv) {
                 continue;
@@ -135,27 +142,48 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
             let from_criterion = criterion
                 .as_ref()
                 .filter(|_| matches!(solver, Solver::Exact(_)));
-            let t = match from_criterion {
-                Some(c) => c
-                    .get(&(name.clone(), solver.label()))
-                    .copied()
-                    .ok_or_else(|| {
-                        format!("criterion has no estimate for {} on {name}", solver.label())
-                    })?,
-                None => {
-                    let t = time_forward(model, solver, &state, budget)?;
-                    println!(
-                        "  {name:<10} {:<5} {:>12.2} µs  (median of {} batches of {})",
-                        solver.label(),
-                        t.median_us,
-                        t.samples,
-                        t.batch
-                    );
-                    t.median_us
+            match from_criterion {
+                Some(c) => {
+                    let t = c
+                        .get(&(name.clone(), solver.label()))
+                        .copied()
+                        .ok_or_else(|| {
+                            format!("criterion has no estimate for {} on {name}", solver.label())
+                        })?;
+                    times[mi].insert(solver.label(), t);
                 }
-            };
-            times.insert(solver.label(), t);
+                None => pending.push((mi, solver, Vec::new(), 0)),
+            }
         }
+    }
+    for pass in 0..PASSES {
+        println!("  speed: pass {}/{PASSES}", pass + 1);
+        for (mi, solver, samples, batch) in &mut pending {
+            let model = &models[*mi].2;
+            let state = State::random(model, SEED, 1.0);
+            let mut r = Runner::new(model, *solver);
+            let s = timing::sample(budget / PASSES as u32, 11usize.div_ceil(PASSES), || {
+                r.forward(black_box(&state)).map(|q| {
+                    black_box(q[0]);
+                })
+            })?;
+            samples.extend(s.times_us);
+            *batch = s.batch;
+        }
+    }
+    for (mi, solver, mut samples, batch) in pending {
+        let t = timing::median(&mut samples);
+        println!(
+            "  {:<10} {:<5} {:>12.2} µs  (median of {} batches, the last of {} calls, over {PASSES} passes)",
+            models[mi].0,
+            solver.label(),
+            t,
+            samples.len(),
+            batch
+        );
+        times[mi].insert(solver.label(), t);
+    }
+    for ((name, _, model), times) in models.iter().zip(times) {
         rows.push(SpeedRow {
             model: name.clone(),
             links: model.bodies.len(),
@@ -226,8 +254,8 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
                 Some(solver) => {
                     let t = time_seeds_step(&chain300, solver, k, budget / 2)?;
                     println!(
-                        "  seeds' table: {label} with {k} forces {:.1} µs",
-                        t.median_us
+                        "  seeds' table: {label} with {k} forces {:.1} µs  (median of {} batches of {})",
+                        t.median_us, t.samples, t.batch
                     );
                     Some(t.median_us)
                 }
@@ -320,15 +348,6 @@ fn speed_of(rows: &[SpeedRow], model: &str, label: &str) -> f64 {
 /// `Σ (a − b)²`: the acceleration metric (identity weights) of the difference.
 pub fn metric_error(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum()
-}
-
-fn time_forward(model: &Model, solver: Solver, state: &State, budget: Duration) -> Result<Timing> {
-    let mut r = Runner::new(model, solver);
-    Ok(timing::time(budget, || {
-        r.forward(black_box(state)).map(|q| {
-            black_box(q[0]);
-        })
-    })?)
 }
 
 /// The seeds' table: per row (label), per number of forces, µs per step (`None`: pending).
@@ -861,9 +880,15 @@ fn report(
     };
     let mut s = String::new();
     let mode = if opts.quick {
-        "quick (in-process sampling: median over batches of calls after a warm-up)"
+        format!(
+            "quick (in-process sampling: median over batches of calls after a warm-up, \
+             gathered in {PASSES} passes over the table)"
+        )
     } else {
-        "full (criterion: `cargo bench -p articula-benches --bench dynamics`, median estimates)"
+        format!(
+            "full (criterion: `cargo bench -p articula-benches --bench dynamics`, median \
+             estimates; the adaptive cells in-process, in {PASSES} passes over the table)"
+        )
     };
     let _ = writeln!(s, "# articula benchmark report\n");
     let _ = writeln!(
@@ -927,7 +952,7 @@ fn report(
     let _ = writeln!(
         s,
         "\nGrowth from 1,000 to 10,000 links (10× the links; linear cost gives 10), from the \
-         table (each size timed on its own): DCA {:.1}×, ABA {:.1}×.\n",
+         table (medians, each size timed apart from the other): DCA {:.1}×, ABA {:.1}×.\n",
         growth("DCA"),
         growth("ABA")
     );
