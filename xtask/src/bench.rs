@@ -565,7 +565,8 @@ fn run_peers(
         };
         specs.push(serde_json::json!({"name": name, "urdf": path, "joints": joints, "skip": skip}));
     }
-    let config = serde_json::json!({"budget_s": budget.as_secs_f64(), "models": specs});
+    let config =
+        serde_json::json!({"budget_s": budget.as_secs_f64(), "passes": PASSES, "models": specs});
     let cfg = out.join("peers-config.json");
     if let Err(e) = std::fs::write(&cfg, config.to_string()) {
         return Peers {
@@ -1070,8 +1071,9 @@ fn report(
             let _ = writeln!(
                 s,
                 "Timed through their Python bindings by `peers/peers.py` ({}), with the same \
-                 harness (median over batches after a warm-up), on the same URDF files and \
-                 states (set by joint name). The bindings add roughly a microsecond per call, \
+                 harness (median over batches after a warm-up, gathered in {PASSES} passes over \
+                 the models, each (model, peer) in a child process of its own), on the same \
+                 URDF files and states (set by joint name). The bindings add roughly a microsecond per call, \
                  which matters only for the smallest models. Notes:\n",
                 v.join(", ")
             );
