@@ -8,7 +8,8 @@ Install the peers once (from the workspace root):
 
 Usage: peers.py CONFIG.json  (written by xtask) -> JSON on stdout:
     {"versions": {...}, "results": [{"model", "peer", "us_per_call", "samples", "batch",
-                                     "qdd": {joint: value} | null, "note"}], "errors": [...]}
+                                     "passes", "qdd": {joint: value} | null, "note",
+                                     "peak_rss_mib"}], "errors": [...]}
 
 CONFIG.json: {"budget_s": 0.3, "passes": 4,
               "models": [{"name", "urdf", "joints": {name: [q, qd, tau]},
@@ -21,8 +22,10 @@ Timing: a warm-up of a tenth of the budget, then batches of calls lasting >= 200
 xtask's in-process timings). With "passes" P > 1 (as xtask's speed table), every (model, peer)
 is timed P times, in P passes over the whole list, each with budget / P and at least
 ceil(11 / P) batches, and the figure is the median over the batches of all passes: a shared
-host's slow phases last seconds, and one window would let a phase set a figure alone. Each call goes through the Python bindings, which costs about a
-microsecond more than calling the C/C++ library directly: it matters only on small models.
+host's slow phases last seconds, and one window would let a phase set a figure alone ("samples"
+counts the batches of all passes, "batch" is the first pass's batch size). Each call goes
+through the Python bindings, which costs about a microsecond more than calling the C/C++
+library directly: it matters only on small models.
 """
 
 import json

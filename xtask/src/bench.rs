@@ -4,8 +4,9 @@
 //!
 //! - Time per forward-dynamics call of DCA, ABA and CRBA on chains of 10 … 10,000 links
 //!   (`articula_benches::chain`) and the humanoid, on `State::random(model, 42, 1.0)` — the
-//!   criterion benches' state. Quick mode times in-process ([`crate::timing`]); full mode runs
-//!   `cargo bench -p articula-benches --bench dynamics` and reads criterion's medians.
+//!   criterion benches' state. Quick mode times in-process ([`crate::timing`], in [`PASSES`]
+//!   passes over the table); full mode runs `cargo bench -p articula-benches --bench dynamics`
+//!   and reads criterion's medians.
 //! - Growth from 1,000 to 10,000 links of DCA and ABA, the two lengths interleaved in one
 //!   process ([`articula_benches::growth`]: ratio of the minima and per-round ratios).
 //! - Error against time per step on the 300-link chain: (a) the acceleration-metric error
@@ -133,7 +134,8 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     // phases last seconds, and timing a cell in one window would let a phase set it alone
     // (the 10,000-link chain's cells, ~60 calls, fit in a quarter of a second).
     let mut times: Vec<BTreeMap<String, f64>> = vec![BTreeMap::new(); models.len()];
-    let mut pending: Vec<(usize, Solver, Vec<f64>, usize)> = Vec::new();
+    // (model index, solver, per-call times of all passes' batches)
+    let mut pending: Vec<(usize, Solver, Vec<f64>)> = Vec::new();
     for (mi, (name, _, model)) in models.iter().enumerate() {
         for solver in Solver::all() {
             if !solver.runs_at(model.nv) {
@@ -152,34 +154,33 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
                         })?;
                     times[mi].insert(solver.label(), t);
                 }
-                None => pending.push((mi, solver, Vec::new(), 0)),
+                None => pending.push((mi, solver, Vec::new())),
             }
         }
     }
     for pass in 0..PASSES {
         println!("  speed: pass {}/{PASSES}", pass + 1);
-        for (mi, solver, samples, batch) in &mut pending {
+        for (mi, solver, samples) in &mut pending {
             let model = &models[*mi].2;
             let state = State::random(model, SEED, 1.0);
             let mut r = Runner::new(model, *solver);
-            let s = timing::sample(budget / PASSES as u32, 11usize.div_ceil(PASSES), || {
+            let per_pass = timing::MIN_BATCHES.div_ceil(PASSES);
+            let s = timing::sample(budget / PASSES as u32, per_pass, || {
                 r.forward(black_box(&state)).map(|q| {
                     black_box(q[0]);
                 })
             })?;
             samples.extend(s.times_us);
-            *batch = s.batch;
         }
     }
-    for (mi, solver, mut samples, batch) in pending {
+    for (mi, solver, mut samples) in pending {
         let t = timing::median(&mut samples);
         println!(
-            "  {:<10} {:<5} {:>12.2} µs  (median of {} batches, the last of {} calls, over {PASSES} passes)",
+            "  {:<10} {:<5} {:>12.2} µs  (median of {} batches over {PASSES} passes)",
             models[mi].0,
             solver.label(),
             t,
-            samples.len(),
-            batch
+            samples.len()
         );
         times[mi].insert(solver.label(), t);
     }
@@ -1073,8 +1074,8 @@ fn report(
                 "Timed through their Python bindings by `peers/peers.py` ({}), with the same \
                  harness (median over batches after a warm-up, gathered in {PASSES} passes over \
                  the models, each (model, peer) in a child process of its own), on the same \
-                 URDF files and states (set by joint name). The bindings add roughly a microsecond per call, \
-                 which matters only for the smallest models. Notes:\n",
+                 URDF files and states (set by joint name). The bindings add roughly a \
+                 microsecond per call, which matters only for the smallest models. Notes:\n",
                 v.join(", ")
             );
             let mut notes: BTreeMap<String, String> = BTreeMap::new();

@@ -22,6 +22,10 @@ pub fn median(xs: &mut [f64]) -> f64 {
     }
 }
 
+/// The fewest batches [`time`] times (a cell timed in `P` passes takes `MIN_BATCHES / P`
+/// rounded up in each).
+pub const MIN_BATCHES: usize = 11;
+
 /// Per-call times (µs) of timed batches of `batch` calls.
 #[derive(Clone, Debug)]
 pub struct Samples {
@@ -59,9 +63,9 @@ pub fn sample<E>(
     Ok(Samples { times_us, batch })
 }
 
-/// [`sample`] with at least 11 batches, and their median time per call.
+/// [`sample`] with at least [`MIN_BATCHES`] batches, and their median time per call.
 pub fn time<E>(budget: Duration, call: impl FnMut() -> Result<(), E>) -> Result<Timing, E> {
-    let mut s = sample(budget, 11, call)?;
+    let mut s = sample(budget, MIN_BATCHES, call)?;
     Ok(Timing {
         median_us: median(&mut s.times_us),
         samples: s.times_us.len(),
