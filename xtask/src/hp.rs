@@ -6,7 +6,7 @@
 //! It shares no arithmetic with `articula-dca` (which works in world coordinates with its own
 //! spatial types): it reads only the model's description (joint origins, axes, body inertias)
 //! and treats those `f64` numbers as exact. Each URDF joint of a composed joint is its own
-//! (massless) body here, which is the uncomposed model DESIGN §4.3 says composition must
+//! (massless) body here: the uncomposed model that composition (docs/design.md#composition) must
 //! reproduce. Fixed bases with revolute, continuous and prismatic joints only.
 
 use crate::dd::Real;

@@ -1,4 +1,4 @@
-//! Caches of rigid subassemblies (DESIGN §6, the second adaptive update mechanism; Redon et
+//! Caches of rigid subassemblies (docs/design.md#adaptive; the second update mechanism, Redon et
 //! al.'s *linear coefficient tensors*).
 //!
 //! After a re-selection every joint outside the active region is locked (`q̇ = 0`), so a rigid
@@ -97,8 +97,8 @@ fn quad_w(e: &[f64], w: &[f64; NW], wide: bool) -> f64 {
 /// summed in row order from zero (`t[x] += k_i M_i[x]`); rows whose `k_i` is zero are skipped
 /// when `skip_zero`. `wide` (only where the CPU has AVX2: `Adaptive::fused`) takes the same
 /// operations in 256-bit lanes written out ([`comb_rows_avx`]): left to the compiler, the
-/// 22-long accumulator was vectorised two lanes at a time (~28 instructions a row against
-/// ~14).
+/// 22-long accumulator is vectorised only two lanes at a time (twice the instructions a
+/// row).
 #[inline(always)]
 fn comb_rows(m: &[f64], k: &[f64], skip_zero: bool, wide: bool) -> [f64; NW] {
     assert_eq!(m.len(), k.len() * NW, "one row of NW per coefficient");
@@ -1423,8 +1423,8 @@ impl Adaptive {
     /// [`Adaptive::join_map`] compiled for AVX2 + FMA: the same arithmetic (no fused
     /// multiply–adds) in wider instructions, so the same results to the bit. A map is built
     /// once per forced path and hybrid body — in the benches' pattern (runs of 1,000 steps,
-    /// each starting from a whole-body re-selection) once per run, ~175k instructions on
-    /// chain300 in baseline x86-64 code.
+    /// each starting from a whole-body re-selection) once per run, where it is most of what
+    /// a run's forced path costs.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
     fn join_map_wide(&mut self, model: &Model, n: usize) {

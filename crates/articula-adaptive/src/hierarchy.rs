@@ -1,4 +1,4 @@
-//! Hierarchical state (DESIGN §6, adaptive updates): between re-selections a step touches the
+//! Hierarchical state (docs/design.md#adaptive): between re-selections a step touches the
 //! hybrid body's active region and its rigid frontier only.
 //!
 //! A rigid subassembly keeps its mass properties in the frame of its top body (the body nearest
@@ -867,10 +867,9 @@ impl Adaptive {
             // humanoid's hips, shoulders, spine and neck); any other count takes the same
             // loops with their length read at run time (the same operations in the same
             // order). One unrolled copy per count a body's step runs is code the instruction
-            // cache must hold for every body of a crowd: with 2- and 6-DOF copies too,
-            // crowd200's steps between re-selections ran 1.8% fewer instructions, 8% more
-            // instruction-cache misses (32 kB L1i) and ~3% more wall time (docs/view.md,
-            // session 10).
+            // cache must hold for every body of a crowd: copies for 2 and 6 DOF too cost more
+            // in instruction-cache misses and wall time than they save in instructions
+            // (docs/performance.md#crowd), so only the humanoid's common count has one.
             let ok = match k {
                 3 => articulate::<3>(wide, r, &mut w, &d.s, tau, idx, k, &c),
                 _ => articulate::<0>(wide, r, &mut w, &d.s, tau, idx, k, &c),

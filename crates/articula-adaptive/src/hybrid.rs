@@ -1,4 +1,4 @@
-//! The hybrid body (DESIGN §6): the workspace, the articulated-body coefficients of active
+//! The hybrid body (docs/design.md#adaptive): the workspace, articulated coefficients of active
 //! nodes, the rigid coefficients of rigidified ones, and the back-substitution.
 //!
 //! Conventions follow `articula-dca`: every spatial quantity is in the computation frame (world
@@ -115,7 +115,7 @@ fn w_apply3(
     ys: [&[f64; 6]; 3],
 ) -> [[f64; 6]; 3] {
     // Written out rather than `ys.map(..)` / `array::from_fn(..)`: their closures are called
-    // out of line (std's generic code, not compiled for AVX2), ~90 instructions a join.
+    // out of line (std's generic code is not compiled for AVX2).
     let us = [t.tr(ys[0]), t.tr(ys[1]), t.tr(ys[2])];
     let mut x = [[0.0; 4]; 5];
     for i in 0..5 {
@@ -216,7 +216,7 @@ impl AxisBasis {
     }
 }
 
-/// The bias maps of one join (DESIGN §5), recorded by [`Adaptive::join`] when
+/// The bias maps of one join (docs/design.md#dca), recorded by [`Adaptive::join`] when
 /// `record_maps` is set (cache builds): `k = κ_β β + κ_Q Q` (`kb`: nv × 6, `kq`: nv × nv) and
 /// `n = γ = ν_β β + ν_Q Q` (`nb`: 6 × 6, `nq`: 6 × nv), computation-frame axes.
 #[derive(Clone, Copy, Debug, Default)]
@@ -580,7 +580,7 @@ impl Adaptive {
 
     /// Φ and b of node `n` moving as one rigid body with composite inertia `inertia` (about the
     /// computation origin), common spatial velocity `v` and net external wrench `fe`
-    /// (DESIGN §5 leaf, §6 rigid node): `Φ_hk = I⁻¹` and `b_h = a_g + I⁻¹ (f_ext − v ×* I v)`,
+    /// (docs/design.md#adaptive): `Φ_hk = I⁻¹` and `b_h = a_g + I⁻¹ (f_ext − v ×* I v)`,
     /// each handle's rows and columns about its own point. About the centre of mass c, where
     /// `I = diag(I_c, m 1)`: with `a = c − P_h`, `e = c − P_k`, `J = I_c⁻¹`,
     /// `Φ_hk = [J, −J e×; a× J, −a× J e× + 1/m]`.
@@ -675,7 +675,7 @@ impl Adaptive {
         self.b[ho..ho + nh].fill(SpatialMotion::ZERO);
     }
 
-    /// Joins A and B at the principal joint of node `n` (DESIGN §5) and records the affine maps
+    /// Joins A and B at node `n`'s principal joint (docs/design.md#dca), records the affine maps
     /// `q̈ = K F + k` and `f = N F + n` of the back-substitution. With `G_F` the 6 × 6nh map
     /// `y = β + G_F F` (`+Φ^A_jh` for handles from A, `−Φ^B_jh` from B), `V = (Φ^A_jj +
     /// Φ^B_jj)⁻¹ = L⁻ᵀ L⁻¹`, `D = Sᵀ V S`: `K = −D⁻¹ SᵀV G_F`, `k = D⁻¹ (Q − SᵀV β)`,

@@ -1,6 +1,6 @@
 //! # articula-adaptive
 //!
-//! Adaptive forward dynamics of articulated bodies (Redon, Galoppo, Lin 2005; DESIGN §6) on
+//! Adaptive forward dynamics of articulated bodies (Redon et al. 2005; docs/design.md#adaptive) on
 //! top of [`articula_dca`]: simulate only the joints that matter and say how wrong that is.
 //!
 //! - **Hybrid body**: the active joints form a subtree of the assembly tree that contains the
@@ -262,7 +262,7 @@ impl Adaptive {
     ) -> Result<(), AdaptiveError> {
         check_inputs(model, q, qd, tau, f_ext)?;
         // Kinematics left by node_metrics for this very state are reused (the same bits:
-        // compared by `memcmp`, ~8× fewer instructions than `f64` equality; a `-0.0` for a
+        // compared by `memcmp`, much cheaper than `f64` equality; a `-0.0` for a
         // `0.0` now recomputes them).
         if !(self.fresh
             && update::same_bits(&self.fresh_q, q)
@@ -301,7 +301,7 @@ impl Adaptive {
     /// The exact accelerations are left in [`Adaptive::qdd`].
     ///
     /// At the exact handle forces the quadratic form `Fᵀ Ψ F + Fᵀ p + η` equals
-    /// `Σ_{i∈C} q̈ᵢᵀ Aᵢ q̈ᵢ` of the exact accelerations (DESIGN §6; tested against
+    /// `Σ_{i∈C} q̈ᵢᵀ Aᵢ q̈ᵢ` of the exact accelerations (docs/design.md#adaptive; tested against
     /// [`Adaptive::predicted_node_metrics`] to 1e-8), so this sums that bottom-up after one exact
     /// solve — articula-dca's articulated-body algorithm, the fastest exact solver on these
     /// trees — instead of building Ψ, p, η: a fraction of the cost, and never negative.
@@ -712,8 +712,8 @@ impl Adaptive {
     /// Whether a re-selection compares the joint torques with those the caches of the rigid
     /// subassemblies were built with (default: on). The locked joints' torques sit in the
     /// caches' constant columns: when one changed, the re-selection runs whole-body passes
-    /// and rebuilds the caches. The comparison reads all of τ — O(n), ~50 µs on a
-    /// 100,000-joint chain whose data has left the processor's caches. Turn it off when the
+    /// and rebuilds the caches. The comparison reads all of τ — O(n), noticeable on very long
+    /// chains whose data has left the processor's caches. Turn it off when the
     /// locked joints' torques never change, or call [`Adaptive::invalidate`] after changing
     /// them.
     pub fn set_check_locked_torques(&mut self, on: bool) {

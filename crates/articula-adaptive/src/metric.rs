@@ -1,4 +1,4 @@
-//! Motion metrics (DESIGN §6): the acceleration metric `A(C) = Σ_{i∈C} q̈ᵢᵀ Aᵢ q̈ᵢ` as a
+//! Motion metrics (docs/design.md#adaptive): acceleration metric `A(C) = Σ_{i∈C} q̈ᵢᵀ Aᵢ q̈ᵢ` as a
 //! quadratic function of C's handle forces, `A(C) = Fᵀ Ψ F + Fᵀ p + η` (the theorem: known
 //! before C's joint accelerations), the max-priority joint selection it drives, and the
 //! velocity metric `V(C) = Σ_{i∈C} q̇ᵢᵀ Vᵢ q̇ᵢ`.
@@ -195,7 +195,7 @@ impl Adaptive {
             + self.eta[n]
     }
 
-    /// Adaptive joint selection (DESIGN §6) on the articulated coefficients and metric of the
+    /// Joint selection (docs/design.md#adaptive) on the articulated coefficients and metric of the
     /// last passes: a max-priority queue keyed by `A(node)` from the root; pop the largest,
     /// compute its joint acceleration and its children's handle forces and metrics, push them;
     /// stop when the budget of internal degrees of freedom is spent or the metric mass left is

@@ -1,4 +1,4 @@
-//! Rigidification (DESIGN §6): the joints leaving the hybrid body are locked by internal
+//! Rigidification (docs/design.md#adaptive): joints leaving the hybrid body are locked by internal
 //! impulses — an inelastic locking that keeps the generalized momentum of every joint that
 //! stays free, hence the whole body's spatial momentum, and never increases kinetic energy.
 //!

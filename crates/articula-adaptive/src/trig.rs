@@ -1,5 +1,5 @@
-//! `sin` and `cos` of a joint angle together, inlined into the active kinematics (the libm call
-//! took ~111 instructions a joint, ~7% of a budget-50 step on chain300, and made every vector
+//! `sin` and `cos` of a joint angle together, inlined into the active kinematics (a libm call
+//! costs more on this hot path, with its rounding-mode guard, and makes every vector
 //! register caller-saved around it).
 //!
 //! The FreeBSD / musl algorithm (fdlibm's): the argument reduced by `n π/2` with `n` the nearest

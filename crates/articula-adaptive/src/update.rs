@@ -1,5 +1,5 @@
 //! Re-selection in O(active region) through the caches of the rigid subassemblies
-//! (DESIGN §6, adaptive update mechanisms; `cache.rs` holds the tensors).
+//! (docs/design.md#adaptive; `cache.rs` holds the tensors).
 //!
 //! 1. Kinematics of the active joints (hierarchical state).
 //! 2. Each frontier node's articulated `Φ`, `b`, `Ψ`, `p`, `η` evaluated from its cache at its
@@ -25,8 +25,8 @@ impl Adaptive {
     /// Whether this re-selection can go through the caches: caches built for the current
     /// hybrid body, no velocity tolerance (it reads every joint's velocity), the locked joints'
     /// torques unchanged (they are in the caches' constant columns: an O(n) comparison of τ,
-    /// a bitwise comparison in blocks of eight when nothing changed: ~20 µs on 100,000
-    /// joints against ~100 µs for `==` on `f64`s).
+    /// bitwise by `memcmp` (`same_bits`), much cheaper than `==` on `f64`s when nothing
+    /// changed).
     pub(crate) fn can_reselect_cached(&mut self, model: &Model, state: &State) -> bool {
         if !(self.use_cache
             && self.cache.ready
@@ -154,7 +154,7 @@ impl Adaptive {
         // The metric of every active and frontier node at its exact handle forces: one
         // back-substitution through the active region, each frontier node's quadratic form
         // at its handle forces (in its cache frame), then `A(n) = q̈ᵀ A q̈ + A(a) + A(b)`
-        // bottom-up (what the metric pass's Ψ, p, η give at those forces; DESIGN §6).
+        // bottom-up (what the metric pass's Ψ, p, η give at those forces; docs/design.md#adaptive).
         self.active_metrics(model, ep);
         // 4. Selection.
         self.last = self.select_cached(model, ep, &mut touched);
@@ -664,8 +664,8 @@ impl Adaptive {
 }
 
 /// Whether two slices hold the same bits: compared as `u64`s, which the standard library's
-/// slice equality does by `memcmp` (vectorised; in blocks of eight `f64` bit patterns or-ed
-/// together, the comparison took ~860 instructions on chain300's 300 torques, as `memcmp` ~380).
+/// slice equality does by `memcmp` (vectorised; about half the instructions of or-ing the
+/// `f64` bit patterns together in blocks of eight).
 pub(crate) fn same_bits(a: &[f64], b: &[f64]) -> bool {
     let bits = |x: &[f64]| -> &[u64] {
         // SAFETY: `f64` and `u64` have the same size and alignment, and every bit pattern is a

@@ -25,8 +25,8 @@ pub struct Data {
     pub gravity: DVec3,
     /// With a floating base, check DCA's and ABA's `q̈` against the Newton–Euler residual and
     /// refine it once when the residual is large (default `true`; see `docs/algorithms.md`).
-    /// It costs about 10% of a floating humanoid's solve and buys ~1e-11 instead of ~1e-9 on
-    /// 1,000-link floating chains; turn it off where ~1e-9 relative is enough.
+    /// It costs one Newton–Euler pass per floating-base solve and buys ~1e-11 instead of ~1e-9
+    /// on 1,000-link floating chains; turn it off where ~1e-9 relative is enough.
     pub refine_floating: bool,
     /// Origin of the computation frame in world coordinates (world axes). The world origin for a
     /// fixed base; the floating base's position otherwise (for accuracy). Every spatial quantity
@@ -72,7 +72,7 @@ pub(crate) struct Topo {
     pub nv: usize,
 }
 
-/// DCA buffers (DESIGN §5), laid out over the assembly tree.
+/// DCA buffers (docs/design.md#dca), laid out over the assembly tree.
 #[derive(Clone, Debug)]
 pub(crate) struct DcaData {
     /// Run the pass compiled for AVX2 + FMA (`dca::dca_fused`): set in [`Data::new`] when the
@@ -87,7 +87,7 @@ pub(crate) struct DcaData {
     /// Whether the back-substitution prefetches what the join a few nodes ahead reads: set in
     /// [`Data::new`] when the per-join streams it reads (`rev` and the cross blocks) exceed
     /// `dca::PREFETCH_ABOVE` bytes. Below that they stay in cache from the main pass, and the
-    /// prefetches would only cost instructions (1.7% of a 300-link chain's call).
+    /// prefetches would only cost instructions.
     pub prefetch: bool,
     /// Per node, what the passes read of it, in one compact record (see [`DNode`]).
     pub node: Vec<DNode>,

@@ -1,4 +1,4 @@
-//! Featherstone's divide-and-conquer algorithm (DESIGN §5), all quantities in world
+//! Featherstone's divide-and-conquer algorithm (docs/design.md#dca), all quantities in world
 //! coordinates.
 //!
 //! A subassembly with handles h obeys `a_h = Σ_k Φ_hk f_k + b_h` (handle forces `f_k` act on it;
@@ -312,7 +312,7 @@ fn main_pass<A: Arith>(
     Ok(())
 }
 
-/// Leaf (DESIGN §5): `Φ_hk = I⁻¹` for every handle pair, `b_h = a_g + I⁻¹ (f_ext − v ×* I v)`,
+/// Leaf (docs/design.md#dca): `Φ_hk = I⁻¹` for all handle pairs, `b_h = a_g + I⁻¹ (f_ext − v ×* I v)`,
 /// each handle's rows and columns taken at its own point P_h. About the centre of mass c, where
 /// `I = diag(I_c, m 1)`: with `I_c = R I_c,body Rᵀ`, `J = I_c⁻¹ = R I_c,body⁻¹ Rᵀ`,
 /// `a_h = c − P_h` and `A_h = a_h× J`,
@@ -560,7 +560,7 @@ fn rotate_diagonal_pair<A: Arith>(
     d2: [f64; 3],
 ) -> ([[f64; 3]; 3], [[f64; 3]; 3]) {
     // Entry (r, s) is Σ_k (d_k e_k[r]) e_k[s]: the upper triangle, mirrored. (Written out:
-    // `array::map` over the index pairs was not inlined and cost ~250 instructions per leaf.)
+    // `array::map` over the index pairs is not inlined there.)
     let sum = |d: [f64; 3]| -> [[f64; 3]; 3] {
         let u: [[f64; 3]; 3] =
             std::array::from_fn(|k| [d[k] * e[k][0], d[k] * e[k][1], d[k] * e[k][2]]);
@@ -619,7 +619,7 @@ fn dot6<A: Arith>(a: &[f64; 6], b: &[f64; 6]) -> f64 {
     even + odd
 }
 
-/// Joins A and B at `joint` into node `n` (DESIGN §5, any handle count); V and W never
+/// Joins A and B at `joint` into node `n` (docs/design.md#dca, any handle count); V and W never
 /// appear explicitly. With `K = Φ^A_jj + Φ^B_jj = V⁻¹`, W is the same for every basis `T` of
 /// the forces that do no work along S: `W = V − V S (SᵀVS)⁻¹ SᵀV = T (TᵀKT)⁻¹ Tᵀ`.
 /// - One revolute axis (the common case): the basis of [`RevJoin`] (fixed positions), the

@@ -1,4 +1,4 @@
-//! "A step allocates nothing" (DESIGN §2): a counting global allocator around DCA and ABA
+//! "A step allocates nothing" (docs/design.md#workspace): a counting allocator around DCA and ABA
 //! calls and steps on several models, fixed and floating base.
 //!
 //! The allocator counts only on threads that switched counting on (a thread-local flag), so

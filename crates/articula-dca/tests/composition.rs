@@ -1,4 +1,4 @@
-//! Composed joints (DESIGN §4.3): a 3-DOF hip built from three revolute joints with two
+//! Composed joints (docs/design.md#composition): a 3-DOF hip made of three revolute joints with two
 //! massless links between them is folded into one body with a 3-DOF joint. DCA on that model
 //! must give the q̈ that ABA gives on the uncomposed model — the same URDF with the two links
 //! given a negligible mass, so that nothing is composed.

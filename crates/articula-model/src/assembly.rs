@@ -1,4 +1,4 @@
-//! The binary assembly tree of the divide-and-conquer algorithm (DESIGN §4.4).
+//! The binary assembly tree of the divide-and-conquer algorithm (docs/design.md#assembly-tree).
 //!
 //! Vertices are the model's bodies plus the ground; edges are the bodies' joints (joint `i`
 //! is body `i`'s joint to its parent). Each internal node joins two subassemblies at one joint,
@@ -20,9 +20,9 @@ pub enum NodeKind {
     Join {
         /// The principal joint: the joint of this body (its parent is on the `parent_side`).
         joint: usize,
-        /// The node holding the principal joint's parent body ("A" in DESIGN §5).
+        /// The node holding the principal joint's parent body ("A" in docs/design.md#dca).
         parent_side: usize,
-        /// The node holding the principal joint's child body ("B" in DESIGN §5).
+        /// The node holding the principal joint's child body ("B" in docs/design.md#dca).
         child_side: usize,
     },
 }

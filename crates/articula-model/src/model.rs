@@ -132,7 +132,7 @@ pub struct Body {
     /// Child bodies, in index order.
     pub children: Vec<usize>,
     /// The joint from the parent to this body: one part per URDF joint, parent side first.
-    /// Several parts when massless links sat between moving joints (DESIGN §4.3).
+    /// Several parts when massless links sat between moving joints (docs/design.md#composition).
     pub joint: Vec<JointPart>,
     /// Spatial inertia in the body frame, including every link merged into it.
     pub inertia: SpatialInertia,

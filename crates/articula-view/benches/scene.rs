@@ -1,4 +1,4 @@
-//! Scene benchmarks (DESIGN §7, issue "view-dependent adaptive dynamics"):
+//! Scene benchmarks (docs/design.md#view):
 //! - `crowd200/adaptive_step`: one step of the bundled crowd200 scene (200 humanoids, budget
 //!   2,000 internal joints, re-selection every 10 steps amortised), against
 //!   `crowd200/exact_dca_step`: one exact DCA step (semi-implicit Euler) of every body, on the

@@ -1,6 +1,6 @@
 //! # articula-view
 //!
-//! View-dependent adaptive dynamics (DESIGN §7): a [`Camera`] and its frustum, per-body
+//! View-dependent adaptive dynamics (docs/design.md#view): a [`Camera`] and its frustum, per-body
 //! bounding [`volumes`], [`visibility`] classes (visible, occluded, invisible) turned into joint
 //! weights, and scenes of many articulated bodies.
 //!
