@@ -20,9 +20,9 @@ pub enum NodeKind {
     Join {
         /// The principal joint: the joint of this body (its parent is on the `parent_side`).
         joint: usize,
-        /// The node holding the principal joint's parent body ("A" in docs/design.md#dca).
+        /// The node holding the principal joint's parent body ("A" in docs/design.md#assembly-tree).
         parent_side: usize,
-        /// The node holding the principal joint's child body ("B" in docs/design.md#dca).
+        /// The node holding the principal joint's child body ("B" in docs/design.md#assembly-tree).
         child_side: usize,
     },
 }
