@@ -23,7 +23,7 @@
 
 use crate::timing::{self, median};
 use articula_dca::{forward_dynamics, Data, Method, State};
-use articula_model::{JointKind, LoadOptions, Model};
+use articula_model::{JointKind, JointPart, LoadOptions, Model};
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -96,10 +96,19 @@ fn warnings(model: &Model) -> Vec<String> {
     model.warnings.iter().map(|w| w.to_string()).collect()
 }
 
-// loader API: the URDF names of the joints the loader locked (q̈ = 0). With the import policy
-// this becomes `model.locked_joints()` (collected into owned names); this loader locks none.
-fn locked_joints(_model: &Model) -> Vec<String> {
+// loader API: the joints the loader locked (at their neutral position, q̈ = 0), whose
+// coordinates follow the bodies' in `q` and `qd`. With the import policy this becomes
+// `model.locked.iter().map(|l| l.joint.clone()).collect()`; this loader locks none.
+fn locked_joints(_model: &Model) -> Vec<JointPart> {
     Vec::new()
+}
+
+/// Every joint with coordinates in a state: the bodies' parts, then the locked joints.
+fn coordinate_parts<'a>(
+    model: &'a Model,
+    locked: &'a [JointPart],
+) -> impl Iterator<Item = &'a JointPart> {
+    model.joint_parts().map(|(_, p)| p).chain(locked)
 }
 
 #[derive(Debug)]
@@ -291,6 +300,8 @@ struct Case {
     model: Model,
     data: Data,
     warnings: Vec<String>,
+    /// The locked joints and their names.
+    locked_parts: Vec<JointPart>,
     locked: Vec<String>,
     states: Vec<State>,
     /// q̈ by joint (Pinocchio's coordinates) per state, per method, or the dynamics error.
@@ -465,18 +476,18 @@ fn run(
     Ok(summary.failures.is_empty())
 }
 
-/// A loaded robot's states (the locked joints at rest, unforced) and DCA's and ABA's q̈.
+/// A loaded robot's states (the locked joints neutral, at rest, unforced) and DCA's and ABA's
+/// q̈.
 fn solve(robot: usize, floating: bool, model: Model, seeds: &[u64]) -> Case {
-    let locked = locked_joints(&model);
+    let locked_parts = locked_joints(&model);
     let states: Vec<State> = seeds
         .iter()
         .map(|&seed| {
             let mut s = State::random(&model, seed, 1.0);
-            for name in &locked {
-                if let Some((_, p)) = model.find_joint(name) {
-                    s.qd[p.v_offset..p.v_offset + p.nv()].fill(0.0);
-                    s.tau[p.v_offset..p.v_offset + p.nv()].fill(0.0);
-                }
+            for p in &locked_parts {
+                s.q[p.q_offset..p.q_offset + p.nq()].copy_from_slice(p.neutral_q());
+                s.qd[p.v_offset..p.v_offset + p.nv()].fill(0.0);
+                s.tau[p.v_offset..p.v_offset + p.nv()].fill(0.0);
             }
             s
         })
@@ -487,7 +498,7 @@ fn solve(robot: usize, floating: bool, model: Model, seeds: &[u64]) -> Case {
             .iter()
             .map(|s| {
                 forward_dynamics(&model, &mut data, &s.q, &s.qd, &s.tau, &s.f_ext, method)
-                    .map(|qdd| ours_by_joint(&model, qdd))
+                    .map(|qdd| ours_by_joint(&model, &locked_parts, qdd))
                     .map_err(|e| format!("{}: {e}", method.name().to_uppercase()))
             })
             .collect()
@@ -496,7 +507,8 @@ fn solve(robot: usize, floating: bool, model: Model, seeds: &[u64]) -> Case {
         robot,
         floating,
         warnings: warnings(&model),
-        locked,
+        locked: locked_parts.iter().map(|p| p.name.clone()).collect(),
+        locked_parts,
         model,
         data,
         states,
@@ -508,10 +520,9 @@ fn solve(robot: usize, floating: bool, model: Model, seeds: &[u64]) -> Case {
 
 /// Our q̈ by URDF joint name, in Pinocchio's coordinates: a floating joint's `[α; a]` (angular
 /// first, child frame) becomes `[a; α]`.
-fn ours_by_joint(model: &Model, qdd: &[f64]) -> Joints {
-    model
-        .joint_parts()
-        .map(|(_, p)| {
+fn ours_by_joint(model: &Model, locked: &[JointPart], qdd: &[f64]) -> Joints {
+    coordinate_parts(model, locked)
+        .map(|p| {
             let a = &qdd[p.v_offset..p.v_offset + p.nv()];
             let a = if p.kind == JointKind::Floating {
                 swap_halves(a)
@@ -531,9 +542,13 @@ fn swap_halves(x: &[f64]) -> Vec<f64> {
 /// A joint's state for `peers/corpus.py`: `[q, q̇, τ]` for one coordinate; for a floating
 /// joint Pinocchio's free-flyer coordinates `q = [x, y, z, qx, qy, qz, qw]`, `v = [v; ω]`,
 /// `τ = [f; n]` from ours `[x, y, z, qw, qx, qy, qz]`, `[ω; v]`, `[n; f]` (child frame both).
-fn pin_joint_state(model: &Model, s: &State) -> serde_json::Map<String, Value> {
+fn pin_joint_state(
+    model: &Model,
+    locked: &[JointPart],
+    s: &State,
+) -> serde_json::Map<String, Value> {
     let mut joints = serde_json::Map::new();
-    for (_, p) in model.joint_parts() {
+    for p in coordinate_parts(model, locked) {
         let (q, v, t) = (
             &s.q[p.q_offset..p.q_offset + p.nq()],
             &s.qd[p.v_offset..p.v_offset + p.nv()],
@@ -617,7 +632,7 @@ fn pinocchio(
                 "root": root_joint(&c.model),
                 "locked": c.locked,
                 "inertias": (inertia == Inertia::Repair).then(|| body_inertias(&c.model)),
-                "states": c.states.iter().map(|s| pin_joint_state(&c.model, s)).collect::<Vec<_>>(),
+                "states": c.states.iter().map(|s| pin_joint_state(&c.model, &c.locked_parts, s)).collect::<Vec<_>>(),
             })
         })
         .collect();
@@ -1178,7 +1193,7 @@ mod tests {
         s.q = vec![1.0, 2.0, 3.0, 0.5, 0.5, 0.5, 0.5, 0.7];
         s.qd = (1..=7).map(f64::from).collect();
         s.tau = (11..=17).map(f64::from).collect();
-        let j = pin_joint_state(&model, &s);
+        let j = pin_joint_state(&model, &[], &s);
         assert_eq!(
             j["floating_base"],
             json!({"q": [1.0, 2.0, 3.0, 0.5, 0.5, 0.5, 0.5],
@@ -1188,13 +1203,33 @@ mod tests {
         assert_eq!(j["j"], json!([0.7, 7.0, 17.0]));
         s.q[3..7].copy_from_slice(&[0.1, 0.2, 0.3, 0.4]);
         assert_eq!(
-            pin_joint_state(&model, &s)["floating_base"]["q"],
+            pin_joint_state(&model, &[], &s)["floating_base"]["q"],
             json!([1.0, 2.0, 3.0, 0.2, 0.3, 0.4, 0.1])
         );
-        let a = ours_by_joint(&model, &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]);
+        let a = ours_by_joint(&model, &[], &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]);
         assert_eq!(a["floating_base"], vec![4.0, 5.0, 6.0, 1.0, 2.0, 3.0]);
         assert_eq!(a["j"], vec![7.0]);
         assert_eq!(root_joint(&model).as_deref(), Some("floating_base"));
+        // A locked joint's coordinates follow the bodies': it is sent and read like the others.
+        let finger = JointPart {
+            name: "finger".into(),
+            kind: JointKind::Revolute,
+            origin: articula_spatial::SpatialTransform::IDENTITY,
+            axis: glam::DVec3::Z,
+            q_offset: 8,
+            v_offset: 7,
+        };
+        s.q.push(0.0);
+        s.qd.push(0.5);
+        s.tau.push(-0.5);
+        let locked = [finger];
+        assert_eq!(
+            pin_joint_state(&model, &locked, &s)["finger"],
+            json!([0.0, 0.5, -0.5])
+        );
+        let a = ours_by_joint(&model, &locked, &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 0.0]);
+        assert_eq!(a["finger"], vec![0.0]);
+        assert_eq!(a.len(), 3);
     }
 
     #[test]
