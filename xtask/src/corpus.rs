@@ -918,6 +918,12 @@ fn summarize(rows: &[Row], robots: usize) -> Summary {
     Summary { line, failures }
 }
 
+/// A loader message's first line, for a table cell (the report lists the whole message).
+fn headline(message: &str) -> &str {
+    let first = message.lines().next().unwrap_or_default();
+    first.strip_suffix(':').unwrap_or(first)
+}
+
 fn fmt_us(t: Option<f64>) -> String {
     match t {
         Some(t) if t >= 100.0 => format!("{t:.0}"),
@@ -950,7 +956,7 @@ fn table(rows: &[Row]) -> String {
                     "| {} | {} | | refused: {} | | | | | | | | |",
                     r.robot,
                     base_name(r.floating),
-                    why.replace('|', "\\|")
+                    headline(why).replace('|', "\\|")
                 );
             }
             Ok(l) => {
@@ -1073,7 +1079,12 @@ fn report_md(
                     names.push(r.robot.clone());
                 }
             }
-            let _ = writeln!(s, "- {}: {why}", names.join(", "));
+            let mut lines = why.lines();
+            let first = lines.next().unwrap_or_default();
+            let _ = writeln!(s, "- {}: {first}", names.join(", "));
+            for line in lines.map(str::trim).filter(|l| !l.is_empty()) {
+                let _ = writeln!(s, "  - {}", line.trim_start_matches("- "));
+            }
         }
     }
     let warned: Vec<&Row> = rows
