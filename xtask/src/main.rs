@@ -2,6 +2,7 @@
 
 mod bench;
 mod chart;
+mod corpus;
 mod dd;
 mod hp;
 mod models;
@@ -25,6 +26,11 @@ subcommands:
                             --quick samples in-process (minutes), otherwise criterion;
                             --publish also copies the charts into docs/img/ and the
                             report to docs/bench-report.md
+    corpus [--quick] [--inertia accept|strict|repair] [--venv DIR] [NAME...]
+                            load every URDF of example-robot-data (fixed and floating
+                            base), compare DCA and ABA with Pinocchio's aba, time the
+                            three; writes target/articula-corpus/report.md (needs the
+                            venv of peers/corpus.py; exits 2 without it)
     models                  regenerate the URDF test/benchmark models in models/
     stability               accuracy of DCA, ABA, CRBA against a double-double reference
                             (chain length, mass ratio) and integrators' energy drift;
@@ -37,6 +43,7 @@ subcommands:
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
+        Some("corpus") => corpus::main(&workspace_root(), &args[1..]),
         Some("models") => run(models::run(&workspace_root().join("models"))),
         Some("bench") => run(bench::run(&workspace_root(), &args[1..])),
         Some("stability") => run(stability::run(&workspace_root(), &args[1..])),
