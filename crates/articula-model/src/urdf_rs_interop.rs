@@ -16,7 +16,7 @@ fn origin(p: &u::Pose) -> Origin {
 
 /// One primitive, dropped (like the built-in reader) when a dimension is negative or not
 /// finite, its origin is not finite, or its shape is unknown to articula (a capsule).
-fn geometry(g: &u::Geometry, pose: &u::Pose, role: GeometryRole) -> Option<Geometry> {
+fn primitive(g: &u::Geometry, pose: &u::Pose, role: GeometryRole) -> Option<Geometry> {
     let ok = |x: f64| x.is_finite() && x >= 0.0;
     let shape = match g {
         u::Geometry::Box { size } if size.0.iter().all(|&x| ok(x)) => Shape::Box {
@@ -48,13 +48,13 @@ pub(crate) fn robot_data(robot: &u::Robot) -> Result<RobotData<'_>, ModelError> 
             let mut geometry: Vec<Geometry> = l
                 .collision
                 .iter()
-                .filter_map(|c| geometry(&c.geometry, &c.origin, GeometryRole::Collision))
+                .filter_map(|c| primitive(&c.geometry, &c.origin, GeometryRole::Collision))
                 .collect();
             if geometry.is_empty() {
                 geometry = l
                     .visual
                     .iter()
-                    .filter_map(|v| geometry(&v.geometry, &v.origin, GeometryRole::Visual))
+                    .filter_map(|v| primitive(&v.geometry, &v.origin, GeometryRole::Visual))
                     .collect();
             }
             LinkData {
