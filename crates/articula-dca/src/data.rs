@@ -32,7 +32,7 @@ pub struct Data {
     /// floating base, or when some body's rotational inertia is tiny for its mass and size —
     /// a point mass given the smallest invertible inertia by the loader
     /// (`docs/loading.md`), where the joins of a body between two handles lose up to ~1e-5
-    /// relative. Set in [`Data::new`] ([`needs_refinement`]).
+    /// relative. Set in [`Data::new`].
     pub(crate) refine_dca: bool,
     /// Origin of the computation frame in world coordinates (world axes). The world origin for a
     /// fixed base; the floating base's position otherwise (for accuracy). Every spatial quantity

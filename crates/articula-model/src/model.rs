@@ -488,8 +488,10 @@ impl Model {
                 pending.extend(moving.into_iter().rev());
             }
         };
-        let lockable = |first: &JointPart| {
-            first.kind != JointKind::Floating && options.massless_leaf == MasslessLeafPolicy::Lock
+        // Any joint may be locked but a floating base (a robot without mass).
+        let lockable = |parent: Option<usize>| {
+            options.massless_leaf == MasslessLeafPolicy::Lock
+                && !(parent.is_none() && options.floating_base)
         };
         if options.floating_base {
             let name = if raw.joints.iter().any(|j| j.name == FLOATING_BASE_JOINT) {
@@ -521,7 +523,7 @@ impl Model {
         }
         while let Some((parent, first, mut link)) = stack.pop() {
             if !massive_below[link] {
-                if lockable(&first) {
+                if lockable(parent) {
                     let origin = first.origin;
                     lock(&mut model, first, link, Some((parent, origin)));
                 } else {
@@ -539,7 +541,7 @@ impl Model {
                 for &(j, origin) in &empty {
                     let joint = &raw.joints[j];
                     let p = part(&joint.name, joint.kind, origin, joint.axis);
-                    if lockable(&p) {
+                    if options.massless_leaf == MasslessLeafPolicy::Lock {
                         lock(&mut model, p, joint.child, None);
                     } else {
                         massless_leaves.push((raw.links[joint.child].name.clone(), p.name));
