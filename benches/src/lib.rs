@@ -37,7 +37,11 @@ pub fn bundled(name: &str) -> Model {
 pub fn bundled_with(name: &str, floating_base: bool) -> Model {
     let path =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../models/{name}.urdf"));
-    Model::from_urdf_file(path, &LoadOptions { floating_base }).expect("bundled model loads")
+    Model::from_urdf_file(
+        path,
+        &LoadOptions::default().with_floating_base(floating_base),
+    )
+    .expect("bundled model loads")
 }
 
 /// A chain of `n` links.

@@ -455,13 +455,8 @@ mod tests {
     #[test]
     fn floating_base_is_refused() {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../models/humanoid.urdf");
-        let m = Model::from_urdf_file(
-            path,
-            &LoadOptions {
-                floating_base: true,
-            },
-        )
-        .unwrap();
+        let m =
+            Model::from_urdf_file(path, &LoadOptions::default().with_floating_base(true)).unwrap();
         assert!(ReferenceModel::new(&m).is_err());
     }
 }

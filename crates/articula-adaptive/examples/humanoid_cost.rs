@@ -18,12 +18,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .and_then(|a| a.parse().ok())
         .unwrap_or(1000);
     let path = format!("{}/../../models/humanoid.urdf", env!("CARGO_MANIFEST_DIR"));
-    let model = Model::from_urdf_file(
-        &path,
-        &LoadOptions {
-            floating_base: true,
-        },
-    )?;
+    let model = Model::from_urdf_file(&path, &LoadOptions::default().with_floating_base(true))?;
     let mut s = State::random(&model, 7, 0.0);
     s.f_ext.clear();
     let mut ad = Adaptive::new(

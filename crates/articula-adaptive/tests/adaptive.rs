@@ -592,9 +592,7 @@ fn hybrid_body_equals_the_model_with_its_locked_joints_welded() {
             }
             let welded = Model::from_urdf_str(
                 &welded_text,
-                &LoadOptions {
-                    floating_base: floating,
-                },
+                &LoadOptions::default().with_floating_base(floating),
             )
             .unwrap();
             let mut ws = State::neutral(&welded);

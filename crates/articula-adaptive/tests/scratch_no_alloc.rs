@@ -9,13 +9,8 @@ mod counting;
 #[test]
 fn shared_scratch_steps_allocate_nothing() {
     let path = format!("{}/../../models/humanoid.urdf", env!("CARGO_MANIFEST_DIR"));
-    let model = Model::from_urdf_file(
-        &path,
-        &LoadOptions {
-            floating_base: true,
-        },
-    )
-    .unwrap();
+    let model =
+        Model::from_urdf_file(&path, &LoadOptions::default().with_floating_base(true)).unwrap();
     let n = 4;
     let start = counting::allocations();
     let mut scratch = Scratch::new(&model);

@@ -65,6 +65,13 @@ pub(crate) fn crba(
             }
         }
     }
+    // A locked joint's coordinates (after every body's) are no body's: H is the identity
+    // there and the right-hand side zero, so their q̈ is 0.
+    for l in &model.locked {
+        for k in 0..l.joint.nv() {
+            h[(l.joint.v_offset + k, l.joint.v_offset + k)] = 1.0;
+        }
+    }
     let llt = h
         .llt(faer::Side::Lower)
         .map_err(|_| DynamicsError::Singular {

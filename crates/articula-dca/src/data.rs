@@ -28,6 +28,12 @@ pub struct Data {
     /// It costs one Newton–Euler pass per floating-base solve and buys ~1e-11 instead of ~1e-9
     /// on 1,000-link floating chains; turn it off where ~1e-9 relative is enough.
     pub refine_floating: bool,
+    /// Whether DCA's `q̈` goes through that check (when `refine_floating` is set): with a
+    /// floating base, or when some body's rotational inertia is tiny for its mass and size —
+    /// a point mass given the smallest invertible inertia by the loader
+    /// (`docs/loading.md`), where the joins of a body between two handles lose up to ~1e-5
+    /// relative. Set in [`Data::new`].
+    pub(crate) refine_dca: bool,
     /// Origin of the computation frame in world coordinates (world axes). The world origin for a
     /// fixed base; the floating base's position otherwise (for accuracy). Every spatial quantity
     /// below is expressed in this frame.
@@ -286,6 +292,28 @@ pub(crate) struct RkData {
     pub theta: Vec<f64>,
 }
 
+/// A body's rotational inertia about its centre of mass is ill-conditioned when its smallest
+/// principal moment is below this fraction of `max(λ3, m ℓ²)`, `ℓ` the largest distance from
+/// its centre of mass to its joint or a child's.
+const ILL_CONDITIONED: f64 = 1e-6;
+
+/// Whether DCA's result needs the Newton–Euler check: a floating base, or a body whose rotational
+/// inertia is ill-conditioned ([`ILL_CONDITIONED`]).
+pub(crate) fn needs_refinement(model: &Model) -> bool {
+    model.floating_base
+        || model.bodies.iter().any(|b| {
+            let c = b.inertia.com();
+            let mut size2 = c.length_squared();
+            for &ch in &b.children {
+                let (_, at) = model.bodies[ch].joint[0].origin.to_pose();
+                size2 = size2.max((at - c).length_squared());
+            }
+            let (l, _) =
+                articula_model::body_inertia::principal_moments(b.inertia.inertia_about_com());
+            l[0] < ILL_CONDITIONED * l[2].max(b.inertia.mass * size2)
+        })
+}
+
 impl Data {
     /// Allocates every buffer for `model`.
     pub fn new(model: &Model) -> Data {
@@ -424,6 +452,7 @@ impl Data {
         Data {
             gravity: DVec3::new(0.0, 0.0, -9.81),
             refine_floating: true,
+            refine_dca: needs_refinement(model),
             origin: DVec3::ZERO,
             f_ext_c: Vec::with_capacity(n),
             x: vec![SpatialTransform::IDENTITY; n],
@@ -587,6 +616,20 @@ impl RkData {
             kv: Vec::new(),
             ka: Vec::new(),
             theta: Vec::new(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod refinement_tests {
+    use super::needs_refinement;
+
+    /// The check runs on floating bases only for every bundled model: their bodies are
+    /// well-conditioned, so fixed-base DCA costs and gives what it did.
+    #[test]
+    fn bundled_fixed_bases_need_no_refinement() {
+        for (name, floating_base, model) in crate::bundled_models() {
+            assert_eq!(needs_refinement(&model), floating_base, "{name}");
         }
     }
 }

@@ -113,7 +113,7 @@ pub fn forward_dynamics<'d>(
     let f_ext = std::mem::take(&mut data.f_ext_c);
     let result = match method {
         Method::Dca => dca::forward(model, q, qd, tau, &f_ext, data).and_then(|()| {
-            if model.floating_base && data.refine_floating {
+            if data.refine_dca && data.refine_floating {
                 refine::refine_dca(model, tau, &f_ext, data)
             } else {
                 Ok(())
@@ -237,7 +237,7 @@ pub(crate) fn bundled_models() -> impl Iterator<Item = (&'static str, bool, Mode
         .into_iter()
         .flat_map(|name| [false, true].map(|floating_base| (name, floating_base)))
         .map(move |(name, floating_base)| {
-            let options = articula_model::LoadOptions { floating_base };
+            let options = articula_model::LoadOptions::default().with_floating_base(floating_base);
             let model = Model::from_urdf_file(dir.join(format!("{name}.urdf")), &options)
                 .unwrap_or_else(|e| panic!("{name}: {e}"));
             (name, floating_base, model)

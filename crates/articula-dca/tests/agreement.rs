@@ -32,7 +32,7 @@ fn check(name: &str, floating_base: bool, states: u64) -> u64 {
     let tol = TOL;
     let model = Model::from_urdf_file(
         models_dir().join(format!("{name}.urdf")),
-        &LoadOptions { floating_base },
+        &LoadOptions::default().with_floating_base(floating_base),
     )
     .unwrap();
     let mut data = Data::new(&model);
@@ -119,9 +119,7 @@ fn refinement_can_be_turned_off() {
     // then keeps DCA's unrefined q̈, whose distance to CRBA is measurably larger.
     let model = Model::from_urdf_file(
         models_dir().join("chain1000.urdf"),
-        &LoadOptions {
-            floating_base: true,
-        },
+        &LoadOptions::default().with_floating_base(true),
     )
     .unwrap();
     let s = State::random(&model, 17, 1.0);

@@ -333,13 +333,8 @@ fn free_body(com: DVec3) -> Model {
         r#"<robot name="free"><link name="block">{}</link></robot>"#,
         inertial(FREE_M, com, FREE_I)
     );
-    let model = Model::from_urdf_str(
-        &urdf,
-        &LoadOptions {
-            floating_base: true,
-        },
-    )
-    .unwrap();
+    let model =
+        Model::from_urdf_str(&urdf, &LoadOptions::default().with_floating_base(true)).unwrap();
     assert_eq!((model.nq, model.nv), (7, 6));
     assert_eq!(model.bodies[0].joint[0].name, "floating_base");
     model

@@ -99,7 +99,7 @@ fn unmap_qdd(composed: &Model, full: &Model, qdd: &[f64]) -> Vec<f64> {
 /// Runs the comparison with hip links of mass `m`; returns the worst relative difference of
 /// DCA(composed) and ABA(uncomposed).
 fn check(floating_base: bool, m: f64) -> f64 {
-    let options = LoadOptions { floating_base };
+    let options = LoadOptions::default().with_floating_base(floating_base);
     let composed = Model::from_urdf_str(&leg(""), &options).unwrap();
     let full = Model::from_urdf_str(&leg(&tiny(m)), &options).unwrap();
 

@@ -12,7 +12,11 @@ fn load(name: &str, floating_base: bool) -> Model {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../models")
         .join(format!("{name}.urdf"));
-    Model::from_urdf_file(path, &LoadOptions { floating_base }).unwrap()
+    Model::from_urdf_file(
+        path,
+        &LoadOptions::default().with_floating_base(floating_base),
+    )
+    .unwrap()
 }
 
 fn pendulum() -> Model {

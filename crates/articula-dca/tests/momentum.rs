@@ -14,9 +14,7 @@ const BODY: &str = r#"<robot name="body"><link name="b"><inertial><origin xyz="0
   </inertial></link></robot>"#;
 
 fn floating(name: &str) -> Model {
-    let opts = LoadOptions {
-        floating_base: true,
-    };
+    let opts = LoadOptions::default().with_floating_base(true);
     if name == "body" {
         return Model::from_urdf_str(BODY, &opts).unwrap();
     }

@@ -1,5 +1,7 @@
 //! The one error type of model loading and validation.
 
+use crate::body_inertia::InertiaDefect;
+use crate::InertiaPolicy;
 use thiserror::Error;
 
 /// Everything that can go wrong turning a URDF into a [`crate::Model`]. Every variant that
@@ -110,25 +112,14 @@ pub enum ModelError {
         /// The link.
         link: String,
     },
-    /// The rotational inertia is not positive semidefinite.
-    #[error("link '{link}': rotational inertia is not positive semidefinite")]
-    InertiaNotPositive {
-        /// The link.
-        link: String,
-    },
-    /// The principal moments break the triangle inequality (no physical body has them).
-    #[error("link '{link}': principal moments of inertia break the triangle inequality")]
-    TriangleInequality {
-        /// The link.
-        link: String,
-    },
-    /// A body (after merging fixed joints) whose spatial inertia is singular but not zero —
-    /// a point or rod mass, or zero mass with rotational inertia. The divide-and-conquer
-    /// algorithm inverts every body's inertia.
-    #[error("body '{link}' has a singular spatial inertia (point or rod mass, or zero mass with rotational inertia): give it a full rotational inertia")]
-    DegenerateInertia {
-        /// The link.
-        link: String,
+    /// Bodies (after fixed-joint merging) whose inertia the policy refuses, every one listed
+    /// with its numbers.
+    #[error("{}", inertia_message(*policy, defects))]
+    Inertia {
+        /// The policy that refused them.
+        policy: InertiaPolicy,
+        /// Every broken condition of every refused body.
+        defects: Vec<InertiaDefect>,
     },
     /// A joint type articula does not know.
     #[error("joint '{joint}' has unknown type '{kind}'")]
@@ -160,14 +151,12 @@ pub enum ModelError {
         /// The joint.
         joint: String,
     },
-    /// A massless body at the end of a moving joint with nothing massive beyond it: the
-    /// joint's acceleration is undetermined.
-    #[error("link '{link}' is massless at the end of moving joint '{joint}' with nothing massive beyond it: the dynamics is singular")]
+    /// Moving joints that carry no mass (nothing massive beyond them), refused by
+    /// [`crate::MasslessLeafPolicy::Refuse`] — or a floating base with no mass at all.
+    #[error("{}", massless_message(leaves))]
     SingularMassless {
-        /// The massless link.
-        link: String,
-        /// The joint that moves it.
-        joint: String,
+        /// Every such joint with its first massless link: `(link, joint)`.
+        leaves: Vec<(String, String)>,
     },
     /// A massless link carries several moving joints to massive subtrees; it cannot be composed
     /// into one multi-DOF joint.
@@ -180,4 +169,66 @@ pub enum ModelError {
         /// Its moving child joints.
         joints: Vec<String>,
     },
+    /// An input larger than its limit (read no further).
+    #[error("{what} is larger than the limit of {limit} bytes (read {size} bytes)")]
+    TooLarge {
+        /// What was read (`the URDF file x.urdf`).
+        what: String,
+        /// Bytes read before stopping (the limit plus one when the input goes on).
+        size: u64,
+        /// The limit.
+        limit: u64,
+    },
+    /// XML elements nested deeper than the limit (the parser would exhaust the stack).
+    #[error(
+        "malformed XML at line {line}, column {column}: elements nested deeper than {limit} levels"
+    )]
+    TooDeep {
+        /// 1-based line of the element past the limit.
+        line: u32,
+        /// 1-based column.
+        column: u32,
+        /// The limit.
+        limit: usize,
+    },
+}
+
+fn inertia_message(policy: InertiaPolicy, defects: &[InertiaDefect]) -> String {
+    let mut bodies: Vec<&str> = defects.iter().map(|d| d.body.as_str()).collect();
+    bodies.dedup();
+    let n = bodies.len();
+    let mut out = format!(
+        "{n} bod{} with an inertia no rigid body has:",
+        if n == 1 { "y" } else { "ies" }
+    );
+    for d in defects {
+        out.push_str("\n  - ");
+        out.push_str(&d.to_string());
+    }
+    out.push('\n');
+    out.push_str(match policy {
+        InertiaPolicy::Strict => {
+            "refused by the strict inertia policy (--inertia strict); --inertia accept loads \
+             them as written where dynamics is defined, --inertia repair fixes them"
+        }
+        _ => {
+            "an indefinite or massless inertia has no dynamics: load with --inertia repair \
+             (InertiaPolicy::Repair) to fix it, or correct the URDF"
+        }
+    });
+    out
+}
+
+fn massless_message(leaves: &[(String, String)]) -> String {
+    let list: Vec<String> = leaves
+        .iter()
+        .map(|(link, joint)| format!("link '{link}' (joint '{joint}')"))
+        .collect();
+    format!(
+        "{} moving joint{} with nothing massive beyond: {}: the dynamics is singular (the default \
+         massless-leaf policy locks such joints; a floating base needs some mass)",
+        leaves.len(),
+        if leaves.len() == 1 { "" } else { "s" },
+        list.join(", ")
+    )
 }

@@ -3,8 +3,19 @@
 //! URDF → articulated model → binary assembly tree.
 //!
 //! - Loading ([`Model::from_urdf_file`], [`Model::from_urdf_str`]) validates everything dynamics
-//!   needs and fails with one typed [`ModelError`] that names the offending link or joint — never
-//!   a panic. Visual and collision geometry, materials, limits, `<gazebo>` and `<transmission>`
+//!   needs and fails with one typed [`ModelError`] that names the offending link or joint (every
+//!   one of them, for inertias and massless joints) — never a panic. Inputs are capped
+//!   ([`MAX_URDF_BYTES`], [`MAX_XML_DEPTH`] levels of nesting).
+//! - Inertias are checked on the bodies after fixed-joint merging (what dynamics sees), with
+//!   tolerances in each body's own scale, under an [`InertiaPolicy`] of [`LoadOptions`]:
+//!   `Accept` (the default: load as written, one [`LoadWarning`] per odd body), `Strict`
+//!   (refuse, every offender listed with its numbers) or `Repair` (MuJoCo-like fixes, each
+//!   reported before/after). On the command line: `--inertia accept|strict|repair`.
+//! - Moving joints that carry no mass (romeo's fingers) are locked by default
+//!   ([`MasslessLeafPolicy`], [`Model::locked_joints`]): their `q̈` is 0, never a NaN.
+//! - With the feature `urdf-rs`, [`Model::from_urdf_robot`] builds the same model from a robot
+//!   read by the `urdf-rs` crate.
+//! - See `docs/loading.md` for what is validated, the tolerances and the limits. Visual and collision geometry, materials, limits, `<gazebo>` and `<transmission>`
 //!   tags are ignored by the strict pass, so sloppy geometry never stops a load. Collision (else
 //!   visual) primitives are read leniently on the side into [`Body::geometry`]; malformed ones
 //!   are dropped.
@@ -33,14 +44,27 @@
 //! ```
 
 mod assembly;
+pub mod body_inertia;
 mod error;
 mod model;
+mod options;
 mod urdf;
+#[cfg(feature = "urdf-rs")]
+mod urdf_rs_interop;
+mod warning;
 
 pub use assembly::{AssemblyNode, AssemblyTree, HandleLayout, NodeKind};
+pub use body_inertia::{InertiaChange, InertiaDefect, InertiaDefectKind};
 pub use error::ModelError;
-pub use model::{Body, JointPart, LoadOptions, Model, FLOATING_BASE_JOINT};
-pub use urdf::{rpy_to_matrix, Geometry, GeometryRole, JointKind, Shape};
+pub use model::{Body, JointPart, LockedJoint, Model, FLOATING_BASE_JOINT};
+pub use options::{InertiaPolicy, LoadOptions, MasslessLeafPolicy};
+pub use urdf::{
+    read_limited, rpy_to_matrix, Geometry, GeometryRole, JointKind, Shape, MAX_URDF_BYTES,
+    MAX_XML_DEPTH,
+};
+#[cfg(feature = "urdf-rs")]
+pub use urdf_rs;
+pub use warning::LoadWarning;
 
 impl Body {
     /// The joint's name: its URDF joint name, or the names of its parts joined by `+` when

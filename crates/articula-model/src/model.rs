@@ -2,8 +2,9 @@
 //! one joint that may be composed of several single-axis URDF joints.
 
 use crate::assembly::AssemblyTree;
+use crate::body_inertia::{BodyInertia, InertiaDefect, InertiaDefectKind, Verdict};
 use crate::urdf::{self, Geometry, JointKind, RawRobot};
-use crate::ModelError;
+use crate::{LoadOptions, LoadWarning, MasslessLeafPolicy, ModelError};
 use articula_spatial::{SpatialInertia, SpatialMotion, SpatialTransform};
 use glam::{DMat3, DQuat, DVec3};
 use std::path::Path;
@@ -14,14 +15,6 @@ fn is_finite(x: &SpatialTransform) -> bool {
 
 /// Name given to the 6-DOF joint of a floating base.
 pub const FLOATING_BASE_JOINT: &str = "floating_base";
-
-/// How to turn a URDF into a model.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct LoadOptions {
-    /// Give the root link six degrees of freedom (joint [`FLOATING_BASE_JOINT`]) instead of
-    /// welding it to the world.
-    pub floating_base: bool,
-}
 
 /// One URDF joint inside a body's (possibly composed) joint.
 #[derive(Clone, Debug, PartialEq)]
@@ -174,9 +167,9 @@ pub struct Model {
     pub ground_mass: f64,
     /// Whether the root link has a floating joint.
     pub floating_base: bool,
-    /// Length of `q`.
+    /// Length of `q` (the locked joints' coordinates included).
     pub nq: usize,
-    /// Length of `qd` (degrees of freedom).
+    /// Length of `qd` (degrees of freedom, the locked joints' included).
     pub nv: usize,
     /// The binary assembly tree.
     pub assembly: AssemblyTree,
@@ -184,8 +177,26 @@ pub struct Model {
     pub urdf_links: usize,
     /// Number of joints in the URDF.
     pub urdf_joints: usize,
-    /// Things worth knowing that did not stop loading (mimic joints, normalised axes, ...).
-    pub warnings: Vec<String>,
+    /// Things worth knowing that did not stop loading: mimic joints, normalised axes, odd or
+    /// changed inertias, locked joints (`docs/loading.md`).
+    pub warnings: Vec<LoadWarning>,
+    /// Moving joints locked because they carry no mass ([`MasslessLeafPolicy::Lock`]), in URDF
+    /// depth-first order. Their coordinates come after every body's in `q` and `qd`; no
+    /// algorithm moves them (`q̈ = 0`).
+    pub locked: Vec<LockedJoint>,
+}
+
+/// A moving URDF joint that carries no mass, locked at its neutral position.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LockedJoint {
+    /// The joint, with its offsets in `q` and `qd` (after every body's coordinates).
+    pub joint: JointPart,
+    /// The massless links it moves (its child and the links welded to it).
+    pub links: Vec<String>,
+    /// The body its links are welded to (at the joint's neutral position), `None` for the
+    /// ground or when it hangs from a massless link inside a composed joint (its links are
+    /// then not part of any body).
+    pub body: Option<usize>,
 }
 
 impl Model {
@@ -200,6 +211,33 @@ impl Model {
     /// Loads a URDF from text.
     pub fn from_urdf_str(text: &str, options: &LoadOptions) -> Result<Model, ModelError> {
         Self::build(urdf::read_str(text)?, options)
+    }
+
+    /// Builds a model from a robot already read by the `urdf-rs` crate (feature `urdf-rs`),
+    /// with the same validation and policies as [`Model::from_urdf_str`]. `urdf-rs` has already
+    /// converted URDF 1.1 quaternions to roll, pitch, yaw.
+    #[cfg(feature = "urdf-rs")]
+    pub fn from_urdf_robot(
+        robot: &urdf_rs::Robot,
+        options: &LoadOptions,
+    ) -> Result<Model, ModelError> {
+        Self::build(
+            urdf::validate(crate::urdf_rs_interop::robot_data(robot)?)?,
+            options,
+        )
+    }
+
+    /// The URDF names of the locked joints ([`Model::locked`]).
+    pub fn locked_joints(&self) -> Vec<&str> {
+        self.locked.iter().map(|l| l.joint.name.as_str()).collect()
+    }
+
+    /// Every movable joint's coordinates in order: the bodies' parts ([`Model::joint_parts`])
+    /// then the locked joints. What a state (`q`, `qd`, `τ`) is made of.
+    pub fn coordinate_parts(&self) -> impl Iterator<Item = &JointPart> {
+        self.joint_parts()
+            .map(|(_, p)| p)
+            .chain(self.locked.iter().map(|l| &l.joint))
     }
 
     /// Total mass of the moving bodies (kg). The welded root of a fixed base is not counted.
@@ -224,7 +262,7 @@ impl Model {
     /// The neutral configuration (all angles zero, identity orientations).
     pub fn neutral_q(&self) -> Vec<f64> {
         let mut q = Vec::with_capacity(self.nq);
-        for (_, p) in self.joint_parts() {
+        for p in self.coordinate_parts() {
             q.extend_from_slice(p.neutral_q());
         }
         q
@@ -296,19 +334,81 @@ impl Model {
                 }
             }
         }
-        let massless = |l: usize| merged[l].mass == 0.0 && merged[l].ibar == DMat3::ZERO;
-        for &l in &order {
-            if owner[l] == l && !massless(l) && merged[l].inverse().is_none() {
-                let is_ground = l == raw.root && !options.floating_base;
-                if !is_ground {
-                    return Err(ModelError::DegenerateInertia {
-                        link: raw.links[l].name.clone(),
-                    });
-                }
+        let is_massless: Vec<bool> = merged
+            .iter()
+            .map(|m| m.mass == 0.0 && m.ibar == DMat3::ZERO)
+            .collect();
+        let massless = |l: usize| is_massless[l];
+        // Whether anything in the subtree of each link (through any joint) has mass.
+        let mut massive_below = vec![false; n];
+        for &l in order.iter().rev() {
+            massive_below[l] |= raw.links[l].inertia != SpatialInertia::ZERO;
+            for &j in &children_joints[l] {
+                massive_below[l] |= massive_below[raw.joints[j].child];
             }
         }
 
-        // 2. Bodies, depth first from the root; runs through massless links become one joint.
+        // 2. The inertia of every body dynamics sees (the owners with mass, the ground excepted),
+        //    checked and, by the policy, kept, changed or refused — all of them before failing.
+        let is_ground = |l: usize| l == raw.root && !options.floating_base;
+        let max_mass = order
+            .iter()
+            .filter(|&&l| owner[l] == l)
+            .map(|&l| merged[l].mass)
+            .fold(0.0, f64::max);
+        let mut refused: Vec<InertiaDefect> = Vec::new();
+        let mut warnings = raw.warnings.clone();
+        for &l in &order {
+            if owner[l] != l || is_ground(l) || massless(l) {
+                continue;
+            }
+            let com = merged[l].com();
+            let size = members[l]
+                .iter()
+                .map(|(_, x)| (x.to_pose().1 - com).length())
+                .fold(com.length(), f64::max);
+            let body = BodyInertia {
+                name: &raw.links[l].name,
+                links: members[l].iter().map(|m| m.0.clone()).collect(),
+                inertia: merged[l],
+                size,
+            };
+            match body.judge(options.inertia, max_mass) {
+                Verdict::Fine => {}
+                Verdict::Odd(defects) => warnings.push(LoadWarning::OddInertia(defects)),
+                Verdict::Changed(inertia, change) => {
+                    merged[l] = inertia;
+                    warnings.push(LoadWarning::InertiaChanged(change));
+                }
+                Verdict::Refused(defects) => refused.extend(defects),
+            }
+            // Whatever the policy let through must be invertible (the divide-and-conquer
+            // algorithm inverts every body's inertia).
+            if refused.last().is_none_or(|d| d.body != raw.links[l].name)
+                && merged[l].inverse().is_none()
+            {
+                let (moments, _) =
+                    crate::body_inertia::principal_moments(merged[l].inertia_about_com());
+                refused.push(InertiaDefect {
+                    body: raw.links[l].name.clone(),
+                    links: members[l].iter().map(|m| m.0.clone()).collect(),
+                    mass: merged[l].mass,
+                    moments,
+                    kind: InertiaDefectKind::Singular,
+                    by: moments[0],
+                    tolerance: 0.0,
+                });
+            }
+        }
+        if !refused.is_empty() {
+            return Err(ModelError::Inertia {
+                policy: options.inertia,
+                defects: refused,
+            });
+        }
+
+        // 3. Bodies, depth first from the root; runs through massless links become one joint;
+        //    joints carrying no mass at all are locked.
         let mut model = Model {
             name: raw.name.clone(),
             bodies: Vec::new(),
@@ -320,8 +420,10 @@ impl Model {
             assembly: AssemblyTree::default(),
             urdf_links: raw.links.len(),
             urdf_joints: raw.joints.len(),
-            warnings: raw.warnings.clone(),
+            warnings,
+            locked: Vec::new(),
         };
+        let mut massless_leaves: Vec<(String, String)> = Vec::new();
         // A pending moving joint: (parent body, first part, link it moves).
         let mut stack: Vec<(Option<usize>, JointPart, usize)> = Vec::new();
         let part = |name: &str, kind: JointKind, origin: SpatialTransform, axis: DVec3| JointPart {
@@ -331,6 +433,65 @@ impl Model {
             axis,
             q_offset: 0,
             v_offset: 0,
+        };
+        // Locks the massless subtree moved by `first` (which moves `link`), its links welded at
+        // the neutral position to `weld`: `Some((body or None for the ground, the map from the
+        // joint frame to that frame))`, or `None` to weld them nowhere.
+        let lock = |model: &mut Model,
+                    first: JointPart,
+                    link: usize,
+                    weld: Option<(Option<usize>, SpatialTransform)>| {
+            let mut pending = vec![(first, link, weld.map(|(_, x)| x))];
+            while let Some((joint, link, frame)) = pending.pop() {
+                let mut links = Vec::new();
+                let mut walk = vec![(link, frame)];
+                let mut moving = Vec::new();
+                while let Some((l, x)) = walk.pop() {
+                    links.push(raw.links[l].name.clone());
+                    if let (Some((target, _)), Some(x)) = (weld, x) {
+                        let list = match target {
+                            Some(b) => &mut model.bodies[b].links,
+                            None => &mut model.ground_links,
+                        };
+                        list.push((raw.links[l].name.clone(), x));
+                        let geometry = raw.links[l].geometry.iter().map(|g| Geometry {
+                            origin: x * g.origin,
+                            ..*g
+                        });
+                        if let Some(b) = target {
+                            model.bodies[b].geometry.extend(geometry);
+                        }
+                    }
+                    for &j in children_joints[l].iter().rev() {
+                        let jt = &raw.joints[j];
+                        let xc = x.map(|x| x * jt.origin);
+                        if jt.kind == JointKind::Fixed {
+                            walk.push((jt.child, xc));
+                        } else {
+                            moving.push((
+                                part(&jt.name, jt.kind, jt.origin, jt.axis),
+                                jt.child,
+                                xc,
+                            ));
+                        }
+                    }
+                }
+                model.warnings.push(LoadWarning::LockedJoint {
+                    joint: joint.name.clone(),
+                    links: links.clone(),
+                });
+                model.locked.push(LockedJoint {
+                    joint,
+                    links,
+                    body: weld.and_then(|(b, _)| b),
+                });
+                pending.extend(moving.into_iter().rev());
+            }
+        };
+        // Any joint may be locked but a floating base (a robot without mass).
+        let lockable = |parent: Option<usize>| {
+            options.massless_leaf == MasslessLeafPolicy::Lock
+                && !(parent.is_none() && options.floating_base)
         };
         if options.floating_base {
             let name = if raw.joints.iter().any(|j| j.name == FLOATING_BASE_JOINT) {
@@ -361,35 +522,45 @@ impl Model {
             }
         }
         while let Some((parent, first, mut link)) = stack.pop() {
+            if !massive_below[link] {
+                if lockable(parent) {
+                    let origin = first.origin;
+                    lock(&mut model, first, link, Some((parent, origin)));
+                } else {
+                    massless_leaves.push((raw.links[link].name.clone(), first.name));
+                }
+                continue;
+            }
             let mut parts = vec![first];
             let mut massless_links = Vec::new();
             while massless(link) {
-                let out = &moving_out[link];
-                let last = parts.last().map(|p| p.name.clone()).unwrap_or_default();
-                match out.len() {
-                    0 => {
-                        return Err(ModelError::SingularMassless {
-                            link: raw.links[link].name.clone(),
-                            joint: last,
-                        })
-                    }
-                    1 => {
-                        let (j, origin) = out[0];
-                        let joint = &raw.joints[j];
-                        massless_links.extend(members[link].iter().map(|m| m.0.clone()));
-                        parts.push(part(&joint.name, joint.kind, origin, joint.axis));
-                        link = joint.child;
-                    }
-                    _ => {
-                        return Err(ModelError::MasslessBranch {
-                            link: raw.links[link].name.clone(),
-                            joints: out
-                                .iter()
-                                .map(|&(j, _)| raw.joints[j].name.clone())
-                                .collect(),
-                        })
+                // Something beyond has mass: through one moving joint, or several (a branch).
+                let (out, empty): (Vec<_>, Vec<_>) = moving_out[link]
+                    .iter()
+                    .partition(|&&(j, _)| massive_below[raw.joints[j].child]);
+                for &(j, origin) in &empty {
+                    let joint = &raw.joints[j];
+                    let p = part(&joint.name, joint.kind, origin, joint.axis);
+                    if options.massless_leaf == MasslessLeafPolicy::Lock {
+                        lock(&mut model, p, joint.child, None);
+                    } else {
+                        massless_leaves.push((raw.links[joint.child].name.clone(), p.name));
                     }
                 }
+                if out.len() != 1 {
+                    return Err(ModelError::MasslessBranch {
+                        link: raw.links[link].name.clone(),
+                        joints: out
+                            .iter()
+                            .map(|&(j, _)| raw.joints[j].name.clone())
+                            .collect(),
+                    });
+                }
+                let (j, origin) = out[0];
+                let joint = &raw.joints[j];
+                massless_links.extend(members[link].iter().map(|m| m.0.clone()));
+                parts.push(part(&joint.name, joint.kind, origin, joint.axis));
+                link = joint.child;
             }
             let index = model.bodies.len();
             let (mut nq, mut nv) = (0, 0);
@@ -426,6 +597,18 @@ impl Model {
                     joint.child,
                 ));
             }
+        }
+        if !massless_leaves.is_empty() {
+            return Err(ModelError::SingularMassless {
+                leaves: massless_leaves,
+            });
+        }
+        // The locked joints' coordinates follow every body's.
+        for l in &mut model.locked {
+            l.joint.q_offset = model.nq;
+            l.joint.v_offset = model.nv;
+            model.nq += l.joint.nq();
+            model.nv += l.joint.nv();
         }
         model.assembly = AssemblyTree::build(&model);
         Ok(model)

@@ -9,7 +9,7 @@
 //! The values read are then validated (finite, positive semidefinite inertia, triangle
 //! inequality, unit axes, one root, no cycles).
 
-use crate::ModelError;
+use crate::{LoadWarning, ModelError};
 use articula_spatial::{SpatialInertia, SpatialTransform};
 use glam::{DMat3, DVec3};
 use std::borrow::Cow;
@@ -81,14 +81,48 @@ pub(crate) struct RawRobot {
     pub links: Vec<RawLink>,
     pub joints: Vec<RawJoint>,
     pub root: usize,
-    pub warnings: Vec<String>,
+    pub warnings: Vec<LoadWarning>,
+}
+
+/// The largest URDF read, in bytes (64 MiB: a 10,000-link chain takes about 10 MiB).
+pub const MAX_URDF_BYTES: u64 = 64 << 20;
+
+/// The deepest element nesting read (a URDF needs about six levels). The XML parser recurses
+/// once per level, so without a limit a small file of deeply nested elements exhausts the stack.
+pub const MAX_XML_DEPTH: usize = 256;
+
+/// Reads at most `limit` bytes of a file. A longer input (`/dev/zero` included) is an error of
+/// kind [`std::io::ErrorKind::FileTooLarge`] after reading `limit + 1` bytes, never an
+/// unbounded read.
+pub fn read_limited(path: &std::path::Path, limit: u64) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let file = std::fs::File::open(path)?;
+    let mut bytes = Vec::new();
+    file.take(limit.saturating_add(1)).read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > limit {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::FileTooLarge,
+            format!("larger than the limit of {limit} bytes"),
+        ));
+    }
+    Ok(bytes)
 }
 
 /// Reads a URDF file (bytes are checked for being text first).
 pub(crate) fn read_file(path: &std::path::Path) -> Result<RawRobot, ModelError> {
-    let bytes = std::fs::read(path).map_err(|e| ModelError::Io {
-        path: path.display().to_string(),
-        message: e.to_string(),
+    let bytes = read_limited(path, MAX_URDF_BYTES).map_err(|e| {
+        if e.kind() == std::io::ErrorKind::FileTooLarge {
+            ModelError::TooLarge {
+                what: format!("the URDF file {}", path.display()),
+                size: MAX_URDF_BYTES + 1,
+                limit: MAX_URDF_BYTES,
+            }
+        } else {
+            ModelError::Io {
+                path: path.display().to_string(),
+                message: e.to_string(),
+            }
+        }
     })?;
     let text = std::str::from_utf8(&bytes).map_err(|e| ModelError::NotText {
         reason: "invalid UTF-8".into(),
@@ -99,6 +133,19 @@ pub(crate) fn read_file(path: &std::path::Path) -> Result<RawRobot, ModelError> 
 
 /// Reads a URDF from text.
 pub(crate) fn read_str(text: &str) -> Result<RawRobot, ModelError> {
+    validate(read_data(text)?)
+}
+
+/// Parses the text into links and joints as written (checks of size, text, nesting, XML, and
+/// the strict reading of what dynamics needs).
+pub(crate) fn read_data(text: &str) -> Result<RobotData<'_>, ModelError> {
+    if text.len() as u64 > MAX_URDF_BYTES {
+        return Err(ModelError::TooLarge {
+            what: "the URDF text".into(),
+            size: text.len() as u64,
+            limit: MAX_URDF_BYTES,
+        });
+    }
     if text.trim().is_empty() {
         return Err(ModelError::Empty);
     }
@@ -108,6 +155,7 @@ pub(crate) fn read_str(text: &str) -> Result<RawRobot, ModelError> {
             offset,
         });
     }
+    check_depth(text, MAX_XML_DEPTH)?;
     let doc = roxmltree::Document::parse(text).map_err(|e| {
         let pos = e.pos();
         ModelError::Xml {
@@ -116,10 +164,72 @@ pub(crate) fn read_str(text: &str) -> Result<RawRobot, ModelError> {
             message: e.to_string(),
         }
     })?;
-    let robot = extract(&doc)?;
-    // What was read borrows only the text: free the document before validating.
-    drop(doc);
-    validate(robot)
+    extract(&doc)
+}
+
+/// Fails when elements nest deeper than `limit`, by a scan of the markup that skips comments,
+/// CDATA sections, processing instructions, declarations and quoted attribute values. Text that
+/// is not well-formed may be counted loosely; the parser reports it afterwards, before it can
+/// recurse past the point the scan stopped trusting.
+fn check_depth(text: &str, limit: usize) -> Result<(), ModelError> {
+    let b = text.as_bytes();
+    let find = |from: usize, pat: &[u8]| -> usize {
+        b[from.min(b.len())..]
+            .windows(pat.len())
+            .position(|w| w == pat)
+            .map_or(b.len(), |p| from + p + pat.len())
+    };
+    let mut depth = 0usize;
+    let mut i = 0;
+    while i < b.len() {
+        let Some(off) = b[i..].iter().position(|&c| c == b'<') else {
+            break;
+        };
+        let at = i + off;
+        let rest = &b[at..];
+        if rest.starts_with(b"<!--") {
+            i = find(at + 4, b"-->");
+        } else if rest.starts_with(b"<![CDATA[") {
+            i = find(at + 9, b"]]>");
+        } else if rest.starts_with(b"<?") {
+            i = find(at + 2, b"?>");
+        } else if rest.starts_with(b"<!") || rest.starts_with(b"</") {
+            if rest.starts_with(b"</") {
+                depth = depth.saturating_sub(1);
+            }
+            i = find(at + 2, b">");
+        } else {
+            // A start tag: to its '>' outside quotes.
+            let mut quote = None;
+            let mut end = b.len();
+            for (k, &c) in b.iter().enumerate().skip(at + 1) {
+                match (quote, c) {
+                    (None, b'"' | b'\'') => quote = Some(c),
+                    (Some(q), c) if c == q => quote = None,
+                    (None, b'>') => {
+                        end = k;
+                        break;
+                    }
+                    _ => {}
+                }
+            }
+            if end < b.len() && b[end - 1] != b'/' {
+                depth += 1;
+                if depth > limit {
+                    let before = &text[..at];
+                    let line = before.matches('\n').count() + 1;
+                    let column = before.rsplit('\n').next().unwrap_or("").chars().count() + 1;
+                    return Err(ModelError::TooDeep {
+                        line: u32::try_from(line).unwrap_or(u32::MAX),
+                        column: u32::try_from(column).unwrap_or(u32::MAX),
+                        limit,
+                    });
+                }
+            }
+            i = end.saturating_add(1);
+        }
+    }
+    Ok(())
 }
 
 fn malformed(element: &'static str, name: &str, message: impl Into<String>) -> ModelError {
@@ -223,9 +333,9 @@ fn quaternion_to_rpy([x, y, z, w]: [f64; 4]) -> DVec3 {
 /// An `<origin>` as read (not yet checked for being finite); a URDF 1.1 `quat_xyzw` is already
 /// converted to `rpy`. Absent attributes are zero.
 #[derive(Clone, Copy, Debug, Default)]
-struct Origin {
-    xyz: DVec3,
-    rpy: DVec3,
+pub(crate) struct Origin {
+    pub(crate) xyz: DVec3,
+    pub(crate) rpy: DVec3,
 }
 
 fn read_origin(
@@ -361,14 +471,14 @@ fn verbatim<'a>(
 }
 
 /// A link as read, before validation.
-struct LinkData<'a> {
-    name: Cow<'a, str>,
-    origin: Origin,
-    mass: f64,
+pub(crate) struct LinkData<'a> {
+    pub(crate) name: Cow<'a, str>,
+    pub(crate) origin: Origin,
+    pub(crate) mass: f64,
     /// `ixx ixy ixz iyy iyz izz`.
-    inertia: [f64; 6],
+    pub(crate) inertia: [f64; 6],
     /// Collision geometry if any was readable, else visual geometry.
-    geometry: Vec<Geometry>,
+    pub(crate) geometry: Vec<Geometry>,
 }
 
 /// A geometric primitive of a link's `<collision>` or `<visual>` (dimensions in metres, in the
@@ -465,22 +575,22 @@ fn read_geometry(el: roxmltree::Node, role: GeometryRole, quat: bool) -> Option<
 }
 
 /// A joint as read, before validation.
-struct JointData<'a> {
-    name: Cow<'a, str>,
+pub(crate) struct JointData<'a> {
+    pub(crate) name: Cow<'a, str>,
     /// The kind, or the name of a known type articula does not support.
-    kind: Result<JointKind, &'static str>,
-    origin: Origin,
-    parent: Cow<'a, str>,
-    child: Cow<'a, str>,
-    axis: DVec3,
+    pub(crate) kind: Result<JointKind, &'static str>,
+    pub(crate) origin: Origin,
+    pub(crate) parent: Cow<'a, str>,
+    pub(crate) child: Cow<'a, str>,
+    pub(crate) axis: DVec3,
 }
 
 /// The robot as read, before validation.
-struct RobotData<'a> {
-    name: Cow<'a, str>,
-    links: Vec<LinkData<'a>>,
-    joints: Vec<JointData<'a>>,
-    warnings: Vec<String>,
+pub(crate) struct RobotData<'a> {
+    pub(crate) name: Cow<'a, str>,
+    pub(crate) links: Vec<LinkData<'a>>,
+    pub(crate) joints: Vec<JointData<'a>>,
+    pub(crate) warnings: Vec<LoadWarning>,
 }
 
 fn read_link<'input>(
@@ -558,7 +668,7 @@ fn read_joint<'input>(
     doc: &roxmltree::Document<'input>,
     el: roxmltree::Node,
     quat: bool,
-    warnings: &mut Vec<String>,
+    warnings: &mut Vec<LoadWarning>,
 ) -> Result<JointData<'input>, ModelError> {
     check_prefixes(doc, el)?;
     let name = el
@@ -600,10 +710,10 @@ fn read_joint<'input>(
             "parent" => &mut parent,
             "child" => &mut child,
             "mimic" => {
-                warnings.push(format!(
-                    "joint '{name}' mimics '{}': loaded as an independent joint (the mimic constraint is not enforced)",
-                    c.attribute("joint").unwrap_or("?")
-                ));
+                warnings.push(LoadWarning::Mimic {
+                    joint: name.to_string(),
+                    leader: c.attribute("joint").unwrap_or("?").to_string(),
+                });
                 continue;
             }
             _ => continue,
@@ -682,29 +792,12 @@ pub fn rpy_to_matrix(rpy: DVec3) -> DMat3 {
     DMat3::from_rotation_z(rpy.z) * DMat3::from_rotation_y(rpy.y) * DMat3::from_rotation_x(rpy.x)
 }
 
-fn pose(o: &Origin) -> Option<SpatialTransform> {
+pub(crate) fn pose(o: &Origin) -> Option<SpatialTransform> {
     (o.xyz.is_finite() && o.rpy.is_finite())
         .then(|| SpatialTransform::from_pose(rpy_to_matrix(o.rpy), o.xyz))
 }
 
-/// Positive semidefinite test of a symmetric 3×3 matrix through all principal minors, with a
-/// tolerance relative to its scale.
-fn is_psd3(m: DMat3, scale: f64) -> bool {
-    let tol = 1e-9 * scale;
-    let a = |i: usize, j: usize| m.col(j)[i];
-    let d = [a(0, 0), a(1, 1), a(2, 2)];
-    if d.iter().any(|&x| x < -tol) {
-        return false;
-    }
-    for (i, j) in [(0, 1), (0, 2), (1, 2)] {
-        if a(i, i) * a(j, j) - a(i, j) * a(i, j) < -tol * tol {
-            return false;
-        }
-    }
-    m.determinant() >= -tol * tol * tol
-}
-
-fn validate(robot: RobotData) -> Result<RawRobot, ModelError> {
+pub(crate) fn validate(robot: RobotData) -> Result<RawRobot, ModelError> {
     let mut warnings = robot.warnings;
     if robot.links.is_empty() {
         return Err(ModelError::NoLinks);
@@ -724,6 +817,8 @@ fn validate(robot: RobotData) -> Result<RawRobot, ModelError> {
                 mass: m,
             });
         }
+        // Positive semidefiniteness and the triangle inequality are checked on the bodies
+        // after fixed-joint merging (`body_inertia`), where dynamics sees them.
         let [ixx, ixy, ixz, iyy, iyz, izz] = l.inertia;
         let ic = DMat3::from_cols(
             DVec3::new(ixx, ixy, ixz),
@@ -736,19 +831,6 @@ fn validate(robot: RobotData) -> Result<RawRobot, ModelError> {
                 link: l.name.to_string(),
             });
         };
-        let scale = ixx.abs() + iyy.abs() + izz.abs() + ixy.abs() + ixz.abs() + iyz.abs();
-        if !is_psd3(ic, scale) {
-            return Err(ModelError::InertiaNotPositive {
-                link: l.name.to_string(),
-            });
-        }
-        // Triangle inequality λi ≤ λj + λk  ⇔  tr(I)/2 · 1 − I ⪰ 0 (the second moment of mass).
-        let second_moment = DMat3::from_diagonal(DVec3::splat(0.5 * (ixx + iyy + izz))) - ic;
-        if !is_psd3(second_moment, scale) {
-            return Err(ModelError::TriangleInequality {
-                link: l.name.to_string(),
-            });
-        }
         // The inertial frame (origin, rpy) in link coordinates: com = xyz, I_com rotated.
         let (rot, com) = origin.to_pose();
         let inertia = SpatialInertia::new(m, com, rot * ic * rot.transpose());
@@ -819,10 +901,10 @@ fn validate(robot: RobotData) -> Result<RawRobot, ModelError> {
                 });
             }
             if (len - 1.0).abs() > 1e-6 {
-                warnings.push(format!(
-                    "joint '{}': axis of length {len} normalised",
-                    j.name
-                ));
+                warnings.push(LoadWarning::AxisNormalised {
+                    joint: j.name.to_string(),
+                    length: len,
+                });
             }
             axis = (axis / max).normalize();
         }

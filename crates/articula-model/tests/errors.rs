@@ -4,7 +4,10 @@
 
 mod common;
 
-use articula_model::{JointKind, LoadOptions, Model, ModelError, FLOATING_BASE_JOINT};
+use articula_model::{
+    InertiaDefectKind, InertiaPolicy, JointKind, LoadOptions, LoadWarning, MasslessLeafPolicy,
+    Model, ModelError, FLOATING_BASE_JOINT,
+};
 use common::*;
 use glam::{DMat3, DVec3};
 
@@ -399,33 +402,63 @@ fn non_finite_inertial_origin() {
     );
 }
 
+/// The kinds of the inertia defects of a refusal, with their bodies.
+fn refused_kinds(e: ModelError) -> Vec<(String, InertiaDefectKind)> {
+    match e {
+        ModelError::Inertia { defects, .. } => {
+            defects.into_iter().map(|d| (d.body, d.kind)).collect()
+        }
+        e => panic!("expected an inertia refusal, got {e}"),
+    }
+}
+
+fn load_with(text: &str, p: InertiaPolicy) -> Result<Model, ModelError> {
+    Model::from_urdf_str(text, &LoadOptions::default().with_inertia(p))
+}
+
 #[test]
 fn inertia_not_positive_semidefinite() {
     let text = one_link_on_a_joint(&link_raw("arm", "1", "-1", "1", "1"));
+    let e = load_err(&text);
+    assert!(e.to_string().contains("--inertia repair"), "{e}");
     assert_eq!(
-        load_err(&text),
-        ModelError::InertiaNotPositive { link: s("arm") }
+        refused_kinds(e),
+        vec![(s("arm"), InertiaDefectKind::NotPositive)]
     );
 }
 
 #[test]
 fn inertia_with_positive_diagonal_but_indefinite() {
-    // Diagonal positive, but ixy = 2 makes the xy minor 1·1 − 4 < 0.
+    // Diagonal positive, but ixy = 2 makes the xy minor 1·1 − 4 < 0: moments −1, 1, 3.
     let l = "  <link name=\"arm\"><inertial><mass value=\"1\"/>\
              <inertia ixx=\"1\" ixy=\"2\" ixz=\"0\" iyy=\"1\" iyz=\"0\" izz=\"1\"/>\
              </inertial></link>\n";
-    assert_eq!(
-        load_err(&one_link_on_a_joint(l)),
-        ModelError::InertiaNotPositive { link: s("arm") }
-    );
+    let e = load_err(&one_link_on_a_joint(l));
+    let ModelError::Inertia { defects, .. } = e else {
+        panic!("{e}")
+    };
+    assert_eq!(defects[0].kind, InertiaDefectKind::NotPositive);
+    let m = defects[0].moments;
+    assert!((m[0] + 1.0).abs() < 1e-12 && (m[1] - 1.0).abs() < 1e-12 && (m[2] - 3.0).abs() < 1e-12);
+    // 3 > −1 + 1 too.
+    assert_eq!(defects.len(), 1, "accept refuses for the sign only");
 }
 
 #[test]
 fn inertia_breaks_triangle_inequality() {
     let text = one_link_on_a_joint(&link_raw("arm", "1", "1", "1", "3"));
+    // Accepted as written, with one warning naming the body and the excess 3 − 1 − 1 = 1.
+    let m = load(&text).unwrap();
+    assert_eq!(m.bodies[0].inertia.ibar.z_axis.z, 3.0);
+    assert_eq!(m.warnings.len(), 1);
+    let w = m.warnings[0].to_string();
+    assert!(
+        w.contains("'arm'") && w.contains("triangle") && w.contains("by 1.000e0"),
+        "{w}"
+    );
     assert_eq!(
-        load_err(&text),
-        ModelError::TriangleInequality { link: s("arm") }
+        refused_kinds(load_with(&text, InertiaPolicy::Strict).unwrap_err()),
+        vec![(s("arm"), InertiaDefectKind::TriangleInequality)]
     );
 }
 
@@ -433,24 +466,42 @@ fn inertia_breaks_triangle_inequality() {
 fn inertia_on_the_triangle_boundary_loads() {
     // A thin disc: izz = ixx + iyy exactly.
     let text = one_link_on_a_joint(&link_raw("arm", "1", "1", "1", "2"));
-    load(&text).unwrap();
+    let m = load_with(&text, InertiaPolicy::Strict).unwrap();
+    assert!(m.warnings.is_empty());
 }
 
 #[test]
-fn point_mass_is_degenerate() {
+fn point_mass_gets_the_smallest_invertible_inertia() {
     let text = one_link_on_a_joint(&link_raw("arm", "1", "0", "0", "0"));
     assert_eq!(
-        load_err(&text),
-        ModelError::DegenerateInertia { link: s("arm") }
+        refused_kinds(load_with(&text, InertiaPolicy::Strict).unwrap_err()),
+        vec![(s("arm"), InertiaDefectKind::Singular)]
     );
+    let m = load(&text).unwrap();
+    // Centre of mass at the link origin: the scale is m·(1 mm)², the moments 1e-9 of it.
+    let ic = m.bodies[0].inertia.inertia_about_com();
+    assert_eq!(ic, DMat3::from_diagonal(DVec3::splat(1e-15)));
+    assert!(m.bodies[0].inertia.inverse().is_some());
+    assert!(matches!(m.warnings[0], LoadWarning::InertiaChanged(_)));
 }
 
 #[test]
-fn zero_mass_with_rotational_inertia_is_degenerate() {
+fn zero_mass_with_rotational_inertia() {
     let text = one_link_on_a_joint(&link_raw("arm", "0", "0.01", "0.01", "0.01"));
+    let e = load_err(&text);
+    assert!(e.to_string().contains("--inertia repair"), "{e}");
     assert_eq!(
-        load_err(&text),
-        ModelError::DegenerateInertia { link: s("arm") }
+        refused_kinds(e),
+        vec![(s("arm"), InertiaDefectKind::MasslessWithInertia)]
+    );
+    // Repair bounds the mass (1e-6 of the largest body mass: the base's 1 kg).
+    let m = load_with(&text, InertiaPolicy::Repair).unwrap();
+    let arm = m.bodies.iter().find(|b| b.name == "arm").unwrap();
+    assert_eq!(arm.inertia.mass, 1e-6);
+    assert!(
+        m.warnings[0].to_string().contains("boundmass"),
+        "{}",
+        m.warnings[0]
     );
 }
 
@@ -1080,6 +1131,13 @@ fn character_references_are_decoded() {
 // ---------------------------------------------------------------------------------------------
 // Massless links.
 
+fn load_refusing_massless(text: &str) -> Result<Model, ModelError> {
+    Model::from_urdf_str(
+        text,
+        &LoadOptions::default().with_massless_leaf(MasslessLeafPolicy::Refuse),
+    )
+}
+
 #[test]
 fn massless_leaf_on_a_moving_joint() {
     let text = robot(
@@ -1091,12 +1149,16 @@ fn massless_leaf_on_a_moving_joint() {
         .concat(),
     );
     assert_eq!(
-        load_err(&text),
+        load_refusing_massless(&text).unwrap_err(),
         ModelError::SingularMassless {
-            link: s("tip"),
-            joint: s("wrist")
+            leaves: vec![(s("tip"), s("wrist"))]
         }
     );
+    // Locked by default: welded to the ground, its coordinate kept.
+    let m = load(&text).unwrap();
+    assert_eq!((m.bodies.len(), m.nq, m.nv), (0, 1, 1));
+    assert_eq!(m.locked_joints(), vec!["wrist"]);
+    assert_eq!(m.ground_links.len(), 2);
 }
 
 #[test]
@@ -1115,12 +1177,15 @@ fn massless_run_ending_in_nothing_massive() {
         .concat(),
     );
     assert_eq!(
-        load_err(&text),
+        load_refusing_massless(&text).unwrap_err(),
         ModelError::SingularMassless {
-            link: s("m2"),
-            joint: s("j2")
+            leaves: vec![(s("m1"), s("j1"))]
         }
     );
+    let m = load(&text).unwrap();
+    assert_eq!(m.locked_joints(), vec!["j1", "j2"]);
+    assert_eq!(m.locked[1].links, vec![s("m2"), s("sensor")]);
+    assert_eq!((m.nq, m.nv), (2, 2));
 }
 
 #[test]
@@ -1152,8 +1217,7 @@ fn massless_floating_root_with_nothing_beyond() {
     assert_eq!(
         load_floating(&text).unwrap_err(),
         ModelError::SingularMassless {
-            link: s("alone"),
-            joint: s(FLOATING_BASE_JOINT)
+            leaves: vec![(s("alone"), s(FLOATING_BASE_JOINT))]
         }
     );
     // With a fixed base the same robot is just the ground.
@@ -1266,8 +1330,9 @@ fn mimic_joint_loads_with_a_warning() {
     let m = load(&text).unwrap();
     assert_eq!(m.nv, 2);
     assert_eq!(m.warnings.len(), 1, "warnings: {:?}", m.warnings);
-    assert!(m.warnings[0].contains("'follower'"), "{:?}", m.warnings);
-    assert!(m.warnings[0].contains("'leader'"), "{:?}", m.warnings);
+    let w = m.warnings[0].to_string();
+    assert!(w.contains("'follower'"), "{w}");
+    assert!(w.contains("'leader'"), "{w}");
 }
 
 #[test]
@@ -1275,7 +1340,11 @@ fn non_unit_axis_is_normalised_with_a_warning() {
     let m = load(&joint_text("prismatic", "<axis xyz=\"0 0 2\"/>")).unwrap();
     assert_eq!(m.bodies[0].joint[0].axis, DVec3::Z);
     assert_eq!(m.warnings.len(), 1);
-    assert!(m.warnings[0].contains("'elbow'"), "{:?}", m.warnings);
+    assert!(
+        m.warnings[0].to_string().contains("'elbow'"),
+        "{:?}",
+        m.warnings
+    );
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1539,8 +1608,11 @@ fn every_bundled_model_loads_with_a_valid_assembly_tree() {
     assert!(paths.len() >= 8, "found {paths:?}");
     for path in &paths {
         for floating_base in [false, true] {
-            let m = Model::from_urdf_file(path, &LoadOptions { floating_base })
-                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            let m = Model::from_urdf_file(
+                path,
+                &LoadOptions::default().with_floating_base(floating_base),
+            )
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
             assert!(!m.bodies.is_empty(), "{}", path.display());
             assert_eq!(m.floating_base, floating_base);
             assert!(

@@ -8,7 +8,7 @@
 
 mod common;
 
-use articula_model::{LoadOptions, Model, ModelError};
+use articula_model::{InertiaPolicy, LoadOptions, MasslessLeafPolicy, Model, ModelError};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
 use std::cell::RefCell;
@@ -334,25 +334,43 @@ fn fuzz(name: &str, seeds: &[String], cases: u32, max_mutations: usize) {
         0..seeds.len(),
         prop::collection::vec(mutation(), 1..=max_mutations),
         any::<bool>(),
+        (0..3usize, any::<bool>()),
     );
-    let result = runner.run(&strategy, |(seed, mutations, floating_base)| {
-        let mut bytes = seeds[seed].as_bytes().to_vec();
-        for m in &mutations {
-            apply(&mut bytes, m);
-        }
-        let text = String::from_utf8_lossy(&bytes);
-        let result = Model::from_urdf_str(&text, &LoadOptions { floating_base });
-        if let Ok(model) = &result {
-            common::check_invariants(model);
-        }
-        let mut t = tally.borrow_mut();
-        t.cases += 1;
-        match result {
-            Ok(_) => t.ok += 1,
-            Err(e) => *t.errors.entry(variant(&e)).or_default() += 1,
-        }
-        Ok(())
-    });
+    let result = runner.run(
+        &strategy,
+        |(seed, mutations, floating_base, (inertia, refuse))| {
+            let mut bytes = seeds[seed].as_bytes().to_vec();
+            for m in &mutations {
+                apply(&mut bytes, m);
+            }
+            let text = String::from_utf8_lossy(&bytes);
+            let options = LoadOptions::default()
+                .with_floating_base(floating_base)
+                .with_inertia(
+                    [
+                        InertiaPolicy::Accept,
+                        InertiaPolicy::Strict,
+                        InertiaPolicy::Repair,
+                    ][inertia],
+                )
+                .with_massless_leaf(if refuse {
+                    MasslessLeafPolicy::Refuse
+                } else {
+                    MasslessLeafPolicy::Lock
+                });
+            let result = Model::from_urdf_str(&text, &options);
+            if let Ok(model) = &result {
+                common::check_invariants(model);
+            }
+            let mut t = tally.borrow_mut();
+            t.cases += 1;
+            match result {
+                Ok(_) => t.ok += 1,
+                Err(e) => *t.errors.entry(variant(&e)).or_default() += 1,
+            }
+            Ok(())
+        },
+    );
     let t = tally.into_inner();
     let errors: usize = t.errors.values().sum();
     eprintln!(
@@ -371,8 +389,44 @@ fn fuzz_small_seed() {
     // The seed itself is valid and exercises merging, composition and mimic warnings.
     let m = common::load(SMALL).unwrap();
     assert!(m.bodies.iter().any(|b| b.joint.len() == 3));
-    assert!(m.warnings.iter().any(|w| w.contains("'ankle'")));
+    assert!(m.warnings.iter().any(|w| w.to_string().contains("'ankle'")));
     fuzz("small", &seeds, 7000, 4);
+}
+
+/// A robot with every inertia oddity the policies handle: a triangle violation, a point mass, an
+/// indefinite link welded to a heavy one (fine once merged), a round-off negative moment, a
+/// massless finger chain (locked) and a 1e-6 kg placeholder welded by a fixed joint. One
+/// element a line.
+const ODD: &str = r#"<?xml version="1.0"?>
+<robot name="odd">
+<link name="base"><inertial><mass value="5"/><inertia ixx="0.05" ixy="0" ixz="0" iyy="0.05" iyz="0" izz="0.05"/></inertial></link>
+<link name="placeholder"><inertial><mass value="1e-6"/><inertia ixx="1e-9" ixy="0" ixz="0" iyy="1e-9" iyz="0" izz="1e-5"/></inertial></link>
+<link name="arm"><inertial><origin xyz="0 0 -0.2"/><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.03"/></inertial></link>
+<link name="bob"><inertial><origin xyz="0.3 0 0"/><mass value="0.5"/><inertia ixx="0" ixy="0" ixz="2.4e-35" iyy="0" iyz="0" izz="0"/></inertial></link>
+<link name="shell"><inertial><mass value="2"/><inertia ixx="0.02" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.02"/></inertial></link>
+<link name="dent"><inertial><mass value="0.01"/><inertia ixx="-1e-6" ixy="0" ixz="0" iyy="1e-6" iyz="0" izz="1e-6"/></inertial></link>
+<link name="rounded"><inertial><mass value="1"/><inertia ixx="-1e-12" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
+<link name="finger1"/>
+<link name="finger2"><inertial><mass value="0"/><inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial></link>
+<joint name="weld" type="fixed"><origin xyz="0 0 0.1"/><parent link="base"/><child link="placeholder"/></joint>
+<joint name="shoulder" type="revolute"><parent link="base"/><child link="arm"/><axis xyz="0 1 0"/></joint>
+<joint name="elbow" type="revolute"><origin xyz="0 0 -0.4"/><parent link="arm"/><child link="bob"/><axis xyz="0 0 1"/></joint>
+<joint name="hip" type="revolute"><origin xyz="0.2 0 0"/><parent link="base"/><child link="shell"/><axis xyz="1 0 0"/></joint>
+<joint name="stud" type="fixed"><parent link="shell"/><child link="dent"/></joint>
+<joint name="knee" type="prismatic"><parent link="shell"/><child link="rounded"/><axis xyz="0 0 1"/></joint>
+<joint name="f1" type="revolute"><parent link="rounded"/><child link="finger1"/><axis xyz="0 1 0"/></joint>
+<joint name="f2" type="revolute"><parent link="finger1"/><child link="finger2"/><axis xyz="0 1 0"/><mimic joint="f1"/></joint>
+</robot>
+"#;
+
+#[test]
+fn fuzz_odd_inertias() {
+    // The seed loads by default: a triangle warning (arm), a point mass given an inertia (bob),
+    // a rounded negative moment given one too (rounded), two locked finger joints.
+    let m = common::load(ODD).unwrap();
+    assert_eq!(m.locked_joints(), vec!["f1", "f2"]);
+    assert_eq!(m.bodies.len(), 4);
+    fuzz("odd", &[ODD.to_string()], 2500, 4);
 }
 
 #[test]

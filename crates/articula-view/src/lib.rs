@@ -28,7 +28,8 @@ pub mod volumes;
 
 pub use camera::{Camera, CameraPath, Frustum, Keyframe, Plane};
 pub use scene_file::{
-    load_scene, parse_scene, CameraRig, LoadedScene, Placement, Push, SceneError, SceneSpec,
+    load_scene, load_scene_with, parse_scene, parse_scene_with, CameraRig, LoadedScene, Placement,
+    Push, SceneError, SceneSpec,
 };
 pub use sim::{global_selection, GlobalSelection, SceneSim, SceneSimError, SceneStep, SimBody};
 pub use visibility::{

@@ -21,7 +21,7 @@ use crate::camera::{Camera, CameraPath, Keyframe};
 use crate::visibility::VisibilitySettings;
 use crate::volumes::{body_volumes, BodyVolumes};
 use articula_dca::SplitMix64;
-use articula_model::{LoadOptions, Model, ModelError};
+use articula_model::{InertiaPolicy, LoadOptions, Model, ModelError};
 use glam::{DMat3, DQuat, DVec3};
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -434,20 +434,44 @@ pub struct LoadedScene {
     pub joint_springs: Option<SpringSpec>,
 }
 
+/// The largest scene file read, in bytes.
+pub const MAX_SCENE_BYTES: u64 = 16 << 20;
+
 /// Reads and checks a scene file.
 pub fn load_scene(path: impl AsRef<Path>) -> Result<LoadedScene, SceneError> {
+    load_scene_with(path, InertiaPolicy::default())
+}
+
+/// [`load_scene`] with the inertia policy its models are loaded with.
+pub fn load_scene_with(
+    path: impl AsRef<Path>,
+    inertia: InertiaPolicy,
+) -> Result<LoadedScene, SceneError> {
     let path = path.as_ref();
-    let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io {
+    let io = |message: String| SceneError::Io {
         path: path.display().to_string(),
-        message: e.to_string(),
-    })?;
+        message,
+    };
+    let bytes =
+        articula_model::read_limited(path, MAX_SCENE_BYTES).map_err(|e| io(e.to_string()))?;
+    let text = String::from_utf8(bytes).map_err(|e| io(e.to_string()))?;
     let base = path.parent().unwrap_or(Path::new("."));
-    parse_scene(&text, path, base)
+    parse_scene_with(&text, path, base, inertia)
 }
 
 /// Parses and checks scene text; `path` names the file in errors and `base` is the folder model
 /// paths are relative to.
 pub fn parse_scene(text: &str, path: &Path, base: &Path) -> Result<LoadedScene, SceneError> {
+    parse_scene_with(text, path, base, InertiaPolicy::default())
+}
+
+/// [`parse_scene`] with the inertia policy its models are loaded with.
+pub fn parse_scene_with(
+    text: &str,
+    path: &Path,
+    base: &Path,
+    inertia: InertiaPolicy,
+) -> Result<LoadedScene, SceneError> {
     let file = path.display().to_string();
     let de = &mut serde_json::Deserializer::from_str(text);
     let spec: SceneSpec = serde_path_to_error::deserialize(de).map_err(|e| {
@@ -461,14 +485,19 @@ pub fn parse_scene(text: &str, path: &Path, base: &Path) -> Result<LoadedScene, 
             message: e.inner().to_string(),
         }
     })?;
-    resolve(spec, path, base)
+    resolve(spec, path, base, inertia)
 }
 
 fn finite(v: &[f64]) -> bool {
     v.iter().all(|x| x.is_finite())
 }
 
-fn resolve(spec: SceneSpec, path: &Path, base: &Path) -> Result<LoadedScene, SceneError> {
+fn resolve(
+    spec: SceneSpec,
+    path: &Path,
+    base: &Path,
+    inertia: InertiaPolicy,
+) -> Result<LoadedScene, SceneError> {
     let file = path.display().to_string();
     let invalid = |field: String, message: String| SceneError::Invalid {
         path: file.clone(),
@@ -589,9 +618,9 @@ fn resolve(spec: SceneSpec, path: &Path, base: &Path) -> Result<LoadedScene, Sce
         let p = base.join(rel);
         let model = Model::from_urdf_file(
             &p,
-            &LoadOptions {
-                floating_base: true,
-            },
+            &LoadOptions::default()
+                .with_floating_base(true)
+                .with_inertia(inertia),
         )
         .map_err(|error| SceneError::Model {
             path: file.clone(),

@@ -962,9 +962,7 @@ mod tests {
     #[test]
     fn whole_reach_bounds_every_link_sphere() {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../models/humanoid.urdf");
-        let opts = LoadOptions {
-            floating_base: true,
-        };
+        let opts = LoadOptions::default().with_floating_base(true);
         let model = Model::from_urdf_file(path, &opts).unwrap();
         let volumes = body_volumes(&model);
         let bound = whole_reach(&model, &volumes).unwrap();
@@ -989,9 +987,7 @@ mod tests {
     #[test]
     fn spring_runs_equal_one_spring_at_a_time() {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../models/humanoid.urdf");
-        let opts = LoadOptions {
-            floating_base: true,
-        };
+        let opts = LoadOptions::default().with_floating_base(true);
         let model = Model::from_urdf_file(path, &opts).unwrap();
         let springs = pose_springs(&model, 2.0, 0.2);
         assert_eq!(springs.len(), model.nv - 6);

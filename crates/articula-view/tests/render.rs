@@ -8,13 +8,7 @@ use glam::DVec3;
 fn humanoid() -> Model {
     let path =
         std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../models/humanoid.urdf");
-    Model::from_urdf_file(
-        path,
-        &LoadOptions {
-            floating_base: true,
-        },
-    )
-    .unwrap()
+    Model::from_urdf_file(path, &LoadOptions::default().with_floating_base(true)).unwrap()
 }
 
 #[test]

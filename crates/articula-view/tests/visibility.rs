@@ -13,7 +13,11 @@ fn models() -> std::path::PathBuf {
 }
 
 fn load(file: &str, floating_base: bool) -> Model {
-    Model::from_urdf_file(models().join(file), &LoadOptions { floating_base }).unwrap()
+    Model::from_urdf_file(
+        models().join(file),
+        &LoadOptions::default().with_floating_base(floating_base),
+    )
+    .unwrap()
 }
 
 /// Largest absolute entry of `a − b`.
@@ -45,13 +49,7 @@ fn ball(radius: f64) -> (Model, Vec<BodyVolumes>) {
         <inertia ixx="{i}" ixy="0" ixz="0" iyy="{i}" iyz="0" izz="{i}"/></inertial>
         <collision><geometry><sphere radius="{radius}"/></geometry></collision></link></robot>"#
     );
-    let m = Model::from_urdf_str(
-        &urdf,
-        &LoadOptions {
-            floating_base: true,
-        },
-    )
-    .unwrap();
+    let m = Model::from_urdf_str(&urdf, &LoadOptions::default().with_floating_base(true)).unwrap();
     let v = body_volumes(&m);
     (m, v)
 }
@@ -64,13 +62,7 @@ fn wall(size: DVec3) -> (Model, Vec<BodyVolumes>) {
         <collision><geometry><box size="{} {} {}"/></geometry></collision></link></robot>"#,
         size.x, size.y, size.z
     );
-    let m = Model::from_urdf_str(
-        &urdf,
-        &LoadOptions {
-            floating_base: true,
-        },
-    )
-    .unwrap();
+    let m = Model::from_urdf_str(&urdf, &LoadOptions::default().with_floating_base(true)).unwrap();
     let v = body_volumes(&m);
     (m, v)
 }

@@ -72,9 +72,7 @@ fn inertia_box_recovers_a_solid_box() {
 fn humanoid_uses_its_urdf_primitives() {
     let model = Model::from_urdf_file(
         models().join("humanoid.urdf"),
-        &LoadOptions {
-            floating_base: true,
-        },
+        &LoadOptions::default().with_floating_base(true),
     )
     .unwrap();
     let vols = body_volumes(&model);
@@ -115,13 +113,8 @@ fn models_without_geometry_fall_back_to_the_inertia_box() {
         <visual><geometry><mesh filename="b.stl"/></geometry></visual></link>
         <joint name="j" type="revolute"><origin xyz="0 0 0.5"/><parent link="a"/><child link="b"/>
         <axis xyz="0 1 0"/></joint></robot>"#;
-    let model = Model::from_urdf_str(
-        urdf,
-        &LoadOptions {
-            floating_base: true,
-        },
-    )
-    .unwrap();
+    let model =
+        Model::from_urdf_str(urdf, &LoadOptions::default().with_floating_base(true)).unwrap();
     let vols = body_volumes(&model);
     for v in &vols {
         assert!(v.from_inertia);

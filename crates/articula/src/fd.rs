@@ -51,8 +51,8 @@ impl<'a> ByJoint<'a> {
     pub fn velocities(model: &'a Model, v: &'a [f64]) -> ByJoint<'a> {
         ByJoint(
             model
-                .joint_parts()
-                .map(|(_, p)| (p.name.as_str(), &v[p.v_offset..p.v_offset + p.nv()]))
+                .coordinate_parts()
+                .map(|p| (p.name.as_str(), &v[p.v_offset..p.v_offset + p.nv()]))
                 .collect(),
         )
     }

@@ -37,8 +37,20 @@ pub struct Info {
     pub ground_links: Vec<String>,
     /// The assembly tree.
     pub assembly: Assembly,
-    /// Load warnings.
+    /// Load warnings: odd or changed inertias, locked joints, mimic joints, normalised axes.
     pub warnings: Vec<String>,
+    /// Joints locked because they move no mass (q̈ = 0), with their massless links.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub locked_joints: Vec<Locked>,
+}
+
+/// A locked joint.
+#[derive(Serialize)]
+pub struct Locked {
+    /// The URDF joint.
+    pub joint: String,
+    /// The massless links it moves.
+    pub links: Vec<String>,
 }
 
 /// A composed joint.
@@ -82,7 +94,7 @@ impl Info {
             urdf_links: model.urdf_links,
             urdf_joints: model.urdf_joints,
             bodies: model.bodies.len(),
-            movable_joints: model.joint_parts().count(),
+            movable_joints: model.coordinate_parts().count(),
             dof: model.nv,
             nq: model.nq,
             floating_base: model.floating_base,
@@ -114,7 +126,15 @@ impl Info {
                 depth: model.assembly.depth(),
                 max_handles: model.assembly.max_handles(),
             },
-            warnings: model.warnings.clone(),
+            warnings: model.warnings.iter().map(|w| w.to_string()).collect(),
+            locked_joints: model
+                .locked
+                .iter()
+                .map(|l| Locked {
+                    joint: l.joint.name.clone(),
+                    links: l.links.clone(),
+                })
+                .collect(),
         }
     }
 }
@@ -125,8 +145,8 @@ fn round(x: f64) -> f64 {
 }
 
 /// Runs `articula info`.
-pub fn run(path: &Path, floating_base: bool, json: bool, tree: bool) -> Result<(), CliError> {
-    let model = Model::from_urdf_file(path, &LoadOptions { floating_base })?;
+pub fn run(path: &Path, options: &LoadOptions, json: bool, tree: bool) -> Result<(), CliError> {
+    let model = Model::from_urdf_file(path, options)?;
     let info = Info::of(&model);
     if json {
         return crate::print_out(&format!("{}\n", serde_json::to_string_pretty(&info)?));
@@ -177,6 +197,12 @@ pub fn run(path: &Path, floating_base: bool, json: bool, tree: bool) -> Result<(
                 c.joints.join(" + "),
                 c.massless_links.join(", ")
             )?;
+        }
+    }
+    if !info.locked_joints.is_empty() {
+        writeln!(out, "locked joints (moving no mass, q̈ = 0):")?;
+        for l in &info.locked_joints {
+            writeln!(out, "  {:<14} {}", l.joint, l.links.join(", "))?;
         }
     }
     if !info.merged_bodies.is_empty() {

@@ -11,7 +11,7 @@ mod simulate;
 mod state_json;
 
 use articula_dca::{Data, Method, State};
-use articula_model::{LoadOptions, Model};
+use articula_model::{InertiaPolicy, LoadOptions, Model};
 use articula_spatial::DVec3;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
@@ -44,6 +44,9 @@ enum Command {
         /// Also print the assembly tree as an indented outline (text mode).
         #[arg(long)]
         tree: bool,
+        /// What to do with bodies whose inertia no rigid body has (docs/loading.md).
+        #[arg(long, value_enum, default_value_t = InertiaArg::Accept)]
+        inertia: InertiaArg,
     },
     /// Forward dynamics of one state: the joint accelerations, as JSON keyed by URDF joint name.
     Fd(fd::FdArgs),
@@ -73,6 +76,9 @@ pub struct DynamicsArgs {
     /// to the world.
     #[arg(long)]
     pub floating_base: bool,
+    /// What to do with bodies whose inertia no rigid body has (docs/loading.md).
+    #[arg(long, value_enum, default_value_t = InertiaArg::Accept)]
+    pub inertia: InertiaArg,
     /// `--method adaptive`: the most internal degrees of freedom simulated (0 = one rigid body).
     #[arg(long, value_name = "K", value_parser = parse_budget, allow_hyphen_values = true)]
     pub budget: Option<usize>,
@@ -80,6 +86,28 @@ pub struct DynamicsArgs {
     /// most E (0 = exact).
     #[arg(long, value_name = "E", value_parser = parse_tolerance, allow_hyphen_values = true)]
     pub tolerance: Option<f64>,
+}
+
+/// `--inertia`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum InertiaArg {
+    /// Load the numbers as written, one warning per odd body; an indefinite inertia is refused.
+    Accept,
+    /// Refuse every odd body, each listed with its numbers.
+    Strict,
+    /// Fix odd bodies (MuJoCo-like bound mass, bound inertia, balance inertia), each change
+    /// reported.
+    Repair,
+}
+
+impl From<InertiaArg> for InertiaPolicy {
+    fn from(a: InertiaArg) -> Self {
+        match a {
+            InertiaArg::Accept => InertiaPolicy::Accept,
+            InertiaArg::Strict => InertiaPolicy::Strict,
+            InertiaArg::Repair => InertiaPolicy::Repair,
+        }
+    }
 }
 
 /// `--method`.
@@ -173,9 +201,9 @@ impl DynamicsArgs {
     pub fn load(&self) -> Result<(Model, Data), CliError> {
         let model = Model::from_urdf_file(
             &self.model,
-            &LoadOptions {
-                floating_base: self.floating_base,
-            },
+            &LoadOptions::default()
+                .with_floating_base(self.floating_base)
+                .with_inertia(self.inertia.into()),
         )?;
         for w in &model.warnings {
             eprintln!("warning: {w}");
@@ -204,12 +232,17 @@ pub fn print_out(text: &str) -> Result<(), CliError> {
     }
 }
 
+/// The largest state file read, in bytes.
+pub const MAX_STATE_BYTES: u64 = 16 << 20;
+
 /// The state in a STATE.json file, or the neutral state at rest without one.
 pub fn load_state(path: Option<&Path>, model: &Model) -> Result<State, CliError> {
     let Some(path) = path else {
         return Ok(State::neutral(model));
     };
-    let text = std::fs::read_to_string(path)
+    let bytes = articula_model::read_limited(path, MAX_STATE_BYTES)
+        .map_err(|e| CliError(format!("cannot read state file {}: {e}", path.display())))?;
+    let text = String::from_utf8(bytes)
         .map_err(|e| CliError(format!("cannot read state file {}: {e}", path.display())))?;
     state_json::parse_state(&text, model)
         .map_err(|e| CliError(format!("state file {}: {e}", path.display())))
@@ -232,7 +265,15 @@ fn main() -> ExitCode {
             floating_base,
             json,
             tree,
-        } => info::run(&model, floating_base, json, tree),
+            inertia,
+        } => info::run(
+            &model,
+            &LoadOptions::default()
+                .with_floating_base(floating_base)
+                .with_inertia(inertia.into()),
+            json,
+            tree,
+        ),
         Command::Fd(args) => fd::run(&args),
         Command::Simulate(args) => simulate::run(&args),
         Command::Bench(args) => bench::run(&args),

@@ -5,7 +5,7 @@
 use crate::simulate::parse_count;
 use crate::{print_out, CliError};
 use articula_view::render::{render_map, render_view, save_png};
-use articula_view::{load_scene, SceneSim};
+use articula_view::{load_scene_with, SceneSim};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -27,6 +27,10 @@ pub struct SceneArgs {
     /// written).
     #[arg(long, default_value_t = 1, value_parser = parse_every, allow_hyphen_values = true)]
     pub frame_every: u64,
+    /// What to do with the scene's models' bodies whose inertia no rigid body has
+    /// (docs/loading.md).
+    #[arg(long, value_enum, default_value_t = crate::InertiaArg::Accept)]
+    pub inertia: crate::InertiaArg,
 }
 
 fn parse_steps(s: &str) -> Result<u64, String> {
@@ -56,7 +60,12 @@ fn write_frame(
 
 /// Runs `articula scene`.
 pub fn run(args: &SceneArgs) -> Result<(), CliError> {
-    let scene = load_scene(&args.scene)?;
+    let scene = load_scene_with(&args.scene, args.inertia.into())?;
+    for m in &scene.models {
+        for w in &m.model.warnings {
+            eprintln!("warning: {}: {w}", m.name);
+        }
+    }
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir)
             .map_err(|e| CliError(format!("cannot create {}: {e}", dir.display())))?;

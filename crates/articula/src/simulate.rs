@@ -99,10 +99,10 @@ fn energy(model: &Model, data: &mut Data, state: &State) -> (f64, f64) {
 /// joint with several), then the same for velocities prefixed `qd:`.
 pub fn csv_header(model: &Model) -> String {
     let mut cols = vec!["t".to_string()];
-    for (_, p) in model.joint_parts() {
+    for p in model.coordinate_parts() {
         push_columns(&mut cols, "", &p.name, p.nq());
     }
-    for (_, p) in model.joint_parts() {
+    for p in model.coordinate_parts() {
         push_columns(&mut cols, "qd:", &p.name, p.nv());
     }
     cols.iter()

@@ -81,8 +81,8 @@ impl StateFile {
         let mut state = State::neutral(model);
         // One name lookup table (a 100,000-joint state would otherwise scan the joints per name).
         let parts: std::collections::HashMap<&str, &articula_model::JointPart> = model
-            .joint_parts()
-            .map(|(_, p)| (p.name.as_str(), p))
+            .coordinate_parts()
+            .map(|p| (p.name.as_str(), p))
             .collect();
         for (what, section) in [("q", &self.q), ("qd", &self.qd), ("tau", &self.tau)] {
             let Some(section) = section else { continue };
@@ -133,7 +133,7 @@ pub fn parse_state(text: &str, model: &Model) -> Result<State, String> {
 }
 
 fn unknown_joint(model: &Model, what: &str, name: &str) -> String {
-    let names: Vec<&str> = model.joint_parts().map(|(_, p)| p.name.as_str()).collect();
+    let names: Vec<&str> = model.coordinate_parts().map(|p| p.name.as_str()).collect();
     let list = if names.is_empty() {
         "it has none".to_string()
     } else {
@@ -346,7 +346,11 @@ mod tests {
     </robot>"#;
 
     fn model(floating_base: bool) -> Model {
-        Model::from_urdf_str(URDF, &LoadOptions { floating_base }).unwrap()
+        Model::from_urdf_str(
+            URDF,
+            &LoadOptions::default().with_floating_base(floating_base),
+        )
+        .unwrap()
     }
 
     fn offsets(model: &Model, name: &str) -> (usize, usize) {

@@ -132,7 +132,11 @@ fn urdf_movable_joints(path: &Path) -> Vec<String> {
 }
 
 fn load(path: &Path, floating_base: bool) -> Model {
-    Model::from_urdf_file(path, &LoadOptions { floating_base }).unwrap()
+    Model::from_urdf_file(
+        path,
+        &LoadOptions::default().with_floating_base(floating_base),
+    )
+    .unwrap()
 }
 
 fn assert_close(a: &[(String, Vec<f64>)], b: &[(String, Vec<f64>)], tol: f64, what: &str) {

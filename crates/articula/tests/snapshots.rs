@@ -63,9 +63,7 @@ fn snapshot_model(model: &str, name: &str, extra: &[&str]) {
     // The outline printed by the CLI is the library's outline of the same model.
     let loaded = Model::from_urdf_file(
         model_path(model),
-        &LoadOptions {
-            floating_base: extra.contains(&"--floating-base"),
-        },
+        &LoadOptions::default().with_floating_base(extra.contains(&"--floating-base")),
     )
     .expect("bundled model loads");
     let outline = loaded.assembly.outline(&loaded);

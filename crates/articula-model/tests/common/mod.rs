@@ -36,12 +36,7 @@ pub fn load(text: &str) -> Result<Model, ModelError> {
 
 /// Loads with a floating base.
 pub fn load_floating(text: &str) -> Result<Model, ModelError> {
-    Model::from_urdf_str(
-        text,
-        &LoadOptions {
-            floating_base: true,
-        },
-    )
+    Model::from_urdf_str(text, &LoadOptions::default().with_floating_base(true))
 }
 
 /// Loads and expects an error.
@@ -187,8 +182,16 @@ pub fn check_invariants(model: &Model) {
         nq += bq;
         nv += bv;
     }
+    // Locked joints: their coordinates after every body's, in order.
+    for l in &model.locked {
+        assert_eq!((l.joint.q_offset, l.joint.v_offset), (nq, nv));
+        assert!(!l.links.is_empty());
+        nq += l.joint.nq();
+        nv += l.joint.nv();
+    }
     assert_eq!((model.nq, model.nv), (nq, nv));
     assert_eq!(model.neutral_q().len(), model.nq);
+    assert_eq!(model.locked_joints().len(), model.locked.len());
     if model.floating_base {
         assert!(model.ground_links.is_empty());
         assert_eq!(model.ground_mass, 0.0);

@@ -1,0 +1,394 @@
+//! Validation and repair of the bodies' rotational inertias, after fixed-joint merging (what
+//! dynamics sees), with tolerances in each body's own scale (`docs/loading.md`).
+//!
+//! A body of mass `m` with rotational inertia `I_c` about its centre of mass has principal
+//! moments `λ1 ≤ λ2 ≤ λ3` (the eigenvalues of `I_c`). A rigid body has `λ1 ≥ 0` and
+//! `λ3 ≤ λ1 + λ2` (the triangle inequality: `I_c = tr(Σ) 1 − Σ` for a second moment of mass
+//! `Σ ⪰ 0`). Its scale is `s = max(λ3, m ℓ²)`, `ℓ` the body's size (the largest distance from its
+//! centre of mass to its frame or to the frame of a link merged into it, at least 1 mm).
+
+use crate::options::InertiaPolicy;
+use articula_spatial::SpatialInertia;
+use glam::{DMat3, DVec3};
+use std::fmt;
+
+/// Round-off tolerance, relative to the body's scale `s`: a moment below zero, or a triangle
+/// excess, of at most `TOLERANCE · s` is not a defect. URDF inertias are printed with about six
+/// significant digits, so entries carry round-off up to ~5e-7 of the largest.
+pub const TOLERANCE: f64 = 1e-6;
+
+/// A body whose smallest principal moment is at most `SINGULAR · s` is a point or rod mass: its
+/// spatial inertia is singular to working precision, and the divide-and-conquer algorithm,
+/// which inverts every body's inertia, would lose every digit. Such a body's small moments are
+/// raised to `SINGULAR · s`: a change of the dynamics of relative size ~1e-9.
+pub const SINGULAR: f64 = 1e-9;
+
+/// [`InertiaPolicy::Repair`] raises a mass of zero (a massless body with a rotational inertia)
+/// to this fraction of the largest body mass of the model.
+pub const MASS_FLOOR: f64 = 1e-6;
+
+/// The smallest body size used for the scale (1 mm).
+pub const MIN_SIZE: f64 = 1e-3;
+
+/// Eigenvalues (ascending) and unit eigenvectors (the matching columns) of a symmetric 3×3
+/// matrix, by cyclic Jacobi rotations (accurate to rounding for every symmetric input).
+pub fn principal_moments(m: DMat3) -> ([f64; 3], DMat3) {
+    let mut a = [[0.0; 3]; 3];
+    for (i, row) in a.iter_mut().enumerate() {
+        for (j, x) in row.iter_mut().enumerate() {
+            // Symmetrised, so an input asymmetric by rounding is read as its symmetric part.
+            *x = 0.5 * (m.col(j)[i] + m.col(i)[j]);
+        }
+    }
+    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    for _sweep in 0..64 {
+        let off = a[0][1].abs() + a[0][2].abs() + a[1][2].abs();
+        let diag = a[0][0].abs() + a[1][1].abs() + a[2][2].abs();
+        if off == 0.0 || off <= f64::EPSILON * 1e-3 * diag {
+            break;
+        }
+        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
+            if a[p][q] == 0.0 {
+                continue;
+            }
+            let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+            // theta = ±inf (a[p][q] negligible): t = 0.
+            let t = if t.is_finite() { t } else { 0.0 };
+            let c = 1.0 / (t * t + 1.0).sqrt();
+            let s = t * c;
+            // A ← Jᵀ A J with the rotation J in the (p, q) plane: columns, then rows.
+            for row in &mut a {
+                let (akp, akq) = (row[p], row[q]);
+                row[p] = c * akp - s * akq;
+                row[q] = s * akp + c * akq;
+            }
+            let (rp, rq) = (a[p], a[q]);
+            for k in 0..3 {
+                a[p][k] = c * rp[k] - s * rq[k];
+                a[q][k] = s * rp[k] + c * rq[k];
+            }
+            for row in &mut v {
+                let (vp, vq) = (row[p], row[q]);
+                row[p] = c * vp - s * vq;
+                row[q] = s * vp + c * vq;
+            }
+        }
+    }
+    let mut order = [0usize, 1, 2];
+    order.sort_by(|&i, &j| a[i][i].total_cmp(&a[j][j]));
+    let moments = order.map(|i| a[i][i]);
+    let col = |i: usize| DVec3::new(v[0][i], v[1][i], v[2][i]);
+    let axes = DMat3::from_cols(col(order[0]), col(order[1]), col(order[2]));
+    (moments, axes)
+}
+
+/// Which condition a body's inertia breaks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InertiaDefectKind {
+    /// `λ1 < 0` beyond the tolerance: the inertia is indefinite (no body has it).
+    NotPositive,
+    /// `λ3 > λ1 + λ2` beyond the tolerance.
+    TriangleInequality,
+    /// `λ1 ≈ 0` (within [`SINGULAR`] of the scale) with a positive mass: a point or rod mass,
+    /// singular for the divide-and-conquer algorithm.
+    Singular,
+    /// Zero mass with a rotational inertia.
+    MasslessWithInertia,
+}
+
+/// One broken condition of one body, with its numbers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InertiaDefect {
+    /// The body (its URDF link).
+    pub body: String,
+    /// The URDF links merged into it, its own first.
+    pub links: Vec<String>,
+    /// Its mass (kg).
+    pub mass: f64,
+    /// Principal moments about its centre of mass, ascending (kg·m²).
+    pub moments: [f64; 3],
+    /// The condition broken.
+    pub kind: InertiaDefectKind,
+    /// By how much (kg·m²): `−λ1` for [`InertiaDefectKind::NotPositive`], `λ3 − λ1 − λ2` for
+    /// the triangle inequality, `λ1` for a singular body, `λ3` for a massless one.
+    pub by: f64,
+    /// The body's round-off tolerance `TOLERANCE · s` (kg·m²).
+    pub tolerance: f64,
+}
+
+fn fmt_moments(m: &[f64; 3]) -> String {
+    format!("[{:.6e}, {:.6e}, {:.6e}]", m[0], m[1], m[2])
+}
+
+impl fmt::Display for InertiaDefect {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let [l1, l2, l3] = self.moments;
+        write!(
+            f,
+            "body '{}' (mass {} kg, principal moments {} kg·m² about its centre of mass",
+            self.body,
+            self.mass,
+            fmt_moments(&self.moments)
+        )?;
+        if self.links.len() > 1 {
+            write!(f, ", links {}", self.links.join(", "))?;
+        }
+        write!(f, "): ")?;
+        match self.kind {
+            InertiaDefectKind::NotPositive => write!(
+                f,
+                "not positive semidefinite: λ1 = {l1:.6e} < 0 by {:.3e} (tolerance {:.3e})",
+                self.by, self.tolerance
+            ),
+            InertiaDefectKind::TriangleInequality => write!(
+                f,
+                "breaks the triangle inequality λ3 ≤ λ1 + λ2: {l3:.6e} > {l1:.6e} + {l2:.6e} by \
+                 {:.3e} ({:.3}% of λ3; tolerance {:.3e})",
+                self.by,
+                100.0 * self.by / l3,
+                self.tolerance
+            ),
+            InertiaDefectKind::Singular => write!(
+                f,
+                "a point or rod mass: λ1 = {l1:.3e} is zero to working precision (≤ {:.3e}), so \
+                 its spatial inertia is singular",
+                SINGULAR / TOLERANCE * self.tolerance
+            ),
+            InertiaDefectKind::MasslessWithInertia => {
+                write!(f, "massless with a rotational inertia (λ3 = {l3:.6e})")
+            }
+        }
+    }
+}
+
+/// A body's inertia before and after a change by the loader.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InertiaChange {
+    /// What was wrong.
+    pub defects: Vec<InertiaDefect>,
+    /// Mass after (kg).
+    pub mass: f64,
+    /// Principal moments after, ascending (kg·m²).
+    pub moments: [f64; 3],
+    /// What was done: `boundmass`, `boundinertia`, `balanceinertia`.
+    pub fixes: Vec<&'static str>,
+}
+
+impl fmt::Display for InertiaChange {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let d = &self.defects[0];
+        write!(f, "body '{}': {} changed ", d.body, self.fixes.join(" + "))?;
+        if d.mass != self.mass {
+            write!(f, "mass {} → {} kg, ", d.mass, self.mass)?;
+        } else {
+            write!(f, "(mass {} kg) ", d.mass)?;
+        }
+        write!(
+            f,
+            "principal moments {} → {} kg·m² (",
+            fmt_moments(&d.moments),
+            fmt_moments(&self.moments)
+        )?;
+        let kinds: Vec<&str> = self
+            .defects
+            .iter()
+            .map(|d| match d.kind {
+                InertiaDefectKind::NotPositive => "not positive semidefinite",
+                InertiaDefectKind::TriangleInequality => "triangle inequality broken",
+                InertiaDefectKind::Singular => "point or rod mass",
+                InertiaDefectKind::MasslessWithInertia => "massless with rotational inertia",
+            })
+            .collect();
+        write!(f, "{})", kinds.join(", "))
+    }
+}
+
+/// A body's inertia under scrutiny.
+pub(crate) struct BodyInertia<'a> {
+    pub name: &'a str,
+    pub links: Vec<String>,
+    pub inertia: SpatialInertia,
+    /// The body's size ℓ before the [`MIN_SIZE`] floor.
+    pub size: f64,
+}
+
+/// The outcome of checking one body under a policy.
+pub(crate) enum Verdict {
+    /// Nothing odd.
+    Fine,
+    /// Loaded as written, with these defects reported as a warning.
+    Odd(Vec<InertiaDefect>),
+    /// Loaded with this new inertia (and the change reported).
+    Changed(SpatialInertia, InertiaChange),
+    /// Refused for these defects.
+    Refused(Vec<InertiaDefect>),
+}
+
+impl BodyInertia<'_> {
+    fn scale(&self, mass: f64, moments: &[f64; 3]) -> f64 {
+        let size = self.size.max(MIN_SIZE);
+        moments[2]
+            .abs()
+            .max(moments[0].abs())
+            .max(mass * size * size)
+    }
+
+    /// Every condition the body breaks.
+    pub fn defects(&self) -> Vec<InertiaDefect> {
+        let m = self.inertia.mass;
+        let (moments, _) = principal_moments(self.inertia.inertia_about_com());
+        let [l1, l2, l3] = moments;
+        let s = self.scale(m, &moments);
+        let tolerance = TOLERANCE * s;
+        let defect = |kind, by| InertiaDefect {
+            body: self.name.to_string(),
+            links: self.links.clone(),
+            mass: m,
+            moments,
+            kind,
+            by,
+            tolerance,
+        };
+        let mut out = Vec::new();
+        if m == 0.0 {
+            if l3.abs() > 0.0 || l1.abs() > 0.0 {
+                out.push(defect(InertiaDefectKind::MasslessWithInertia, l3.abs()));
+            }
+            return out;
+        }
+        if l1 < -tolerance {
+            out.push(defect(InertiaDefectKind::NotPositive, -l1));
+        } else if l1 <= SINGULAR * s {
+            out.push(defect(InertiaDefectKind::Singular, l1));
+        }
+        if l3 - l1 - l2 > tolerance {
+            out.push(defect(InertiaDefectKind::TriangleInequality, l3 - l1 - l2));
+        }
+        out
+    }
+
+    /// Applies `policy` (`max_mass`: the largest body mass of the model, for `boundmass`).
+    pub fn judge(&self, policy: InertiaPolicy, max_mass: f64) -> Verdict {
+        let defects = self.defects();
+        if defects.is_empty() {
+            return Verdict::Fine;
+        }
+        let has = |k| defects.iter().any(|d| d.kind == k);
+        match policy {
+            InertiaPolicy::Strict => Verdict::Refused(defects),
+            InertiaPolicy::Accept => {
+                if has(InertiaDefectKind::NotPositive)
+                    || has(InertiaDefectKind::MasslessWithInertia)
+                {
+                    Verdict::Refused(
+                        defects
+                            .into_iter()
+                            .filter(|d| {
+                                matches!(
+                                    d.kind,
+                                    InertiaDefectKind::NotPositive
+                                        | InertiaDefectKind::MasslessWithInertia
+                                )
+                            })
+                            .collect(),
+                    )
+                } else if has(InertiaDefectKind::Singular) {
+                    // Only what the solver needs: the triangle excess (if any) stays as written.
+                    let (inertia, change) = self.repair(defects, max_mass, false);
+                    Verdict::Changed(inertia, change)
+                } else {
+                    Verdict::Odd(defects)
+                }
+            }
+            InertiaPolicy::Repair => {
+                let (inertia, change) = self.repair(defects, max_mass, true);
+                Verdict::Changed(inertia, change)
+            }
+        }
+    }
+
+    /// `boundmass` (a zero mass raised to `MASS_FLOOR · max_mass`), `boundinertia` (moments
+    /// raised to `SINGULAR · s`), and with `balance` `balanceinertia` (the two smaller moments
+    /// raised by half the triangle excess each, so that `λ3 = λ1 + λ2`: the least change, where
+    /// MuJoCo sets all three to their mean). Principal axes and centre of mass are kept.
+    fn repair(
+        &self,
+        defects: Vec<InertiaDefect>,
+        max_mass: f64,
+        balance: bool,
+    ) -> (SpatialInertia, InertiaChange) {
+        let mut fixes = Vec::new();
+        let mut m = self.inertia.mass;
+        let com = self.inertia.com();
+        let (mut moments, axes) = principal_moments(self.inertia.inertia_about_com());
+        if m == 0.0 {
+            m = MASS_FLOOR * if max_mass > 0.0 { max_mass } else { 1.0 };
+            fixes.push("boundmass");
+        }
+        let floor = SINGULAR * self.scale(m, &moments);
+        if moments[0] <= floor {
+            for x in &mut moments {
+                *x = x.max(floor);
+            }
+            fixes.push("boundinertia");
+        }
+        let excess = moments[2] - moments[0] - moments[1];
+        if balance && excess > 0.0 {
+            moments[0] += 0.5 * excess;
+            moments[1] += 0.5 * excess;
+            fixes.push("balanceinertia");
+        }
+        let ic = axes * DMat3::from_diagonal(DVec3::from_array(moments)) * axes.transpose();
+        let inertia = SpatialInertia::new(m, com, ic);
+        let (after, _) = principal_moments(ic);
+        (
+            inertia,
+            InertiaChange {
+                defects,
+                mass: m,
+                moments: after,
+                fixes,
+            },
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn principal_moments_of_a_rotated_diagonal() {
+        let r = DMat3::from_euler(glam::EulerRot::ZYX, 0.3, -1.1, 2.0);
+        let d = DMat3::from_diagonal(DVec3::new(3.0, -1.0, 2.0));
+        let (moments, axes) = principal_moments(r * d * r.transpose());
+        for (got, want) in moments.iter().zip([-1.0, 2.0, 3.0]) {
+            assert!((got - want).abs() < 1e-14, "{moments:?}");
+        }
+        let back = axes * DMat3::from_diagonal(DVec3::from_array(moments)) * axes.transpose();
+        let err = (back - r * d * r.transpose())
+            .to_cols_array()
+            .iter()
+            .fold(0.0f64, |m, x| m.max(x.abs()));
+        assert!(err < 1e-14, "{err}");
+        // Orthonormal axes.
+        let e = (axes.transpose() * axes - DMat3::IDENTITY)
+            .to_cols_array()
+            .iter()
+            .fold(0.0f64, |m, x| m.max(x.abs()));
+        assert!(e < 1e-14, "{e}");
+    }
+
+    #[test]
+    fn principal_moments_of_tiny_and_zero_matrices() {
+        assert_eq!(principal_moments(DMat3::ZERO).0, [0.0; 3]);
+        let m = DMat3::from_cols(
+            DVec3::new(0.0, 0.0, 2.40741e-35),
+            DVec3::ZERO,
+            DVec3::new(2.40741e-35, 0.0, 0.0),
+        );
+        let (l, _) = principal_moments(m);
+        assert!((l[0] + 2.40741e-35).abs() < 1e-49 && (l[2] - 2.40741e-35).abs() < 1e-49);
+    }
+}

@@ -1,0 +1,91 @@
+//! How a URDF becomes a model: the import policies of [`LoadOptions`] (see `docs/loading.md`).
+
+/// What to do with a body (after fixed-joint merging) whose rotational inertia no rigid body
+/// has: principal moments below zero, breaking the triangle inequality, or a point or rod mass.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum InertiaPolicy {
+    /// Load the numbers as written and warn once per odd body: dynamics stays exact for the
+    /// numbers given (results equal Pinocchio's). Two exceptions: a body whose inertia is
+    /// really indefinite (a principal moment below zero beyond the tolerance), or massless with
+    /// a rotational inertia, is refused (no dynamics is defined for it: load with
+    /// [`InertiaPolicy::Repair`]); a point or rod mass — singular within round-off, which the
+    /// divide-and-conquer algorithm cannot invert — gets the smallest rotational inertia that
+    /// makes it invertible, reported as a warning.
+    #[default]
+    Accept,
+    /// Refuse every odd body, each listed with its numbers.
+    Strict,
+    /// Fix every odd body the way MuJoCo's `boundmass`, `boundinertia` and `balanceinertia`
+    /// do, each change reported with the numbers before and after.
+    Repair,
+}
+
+impl InertiaPolicy {
+    /// The lowercase name used on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            InertiaPolicy::Accept => "accept",
+            InertiaPolicy::Strict => "strict",
+            InertiaPolicy::Repair => "repair",
+        }
+    }
+}
+
+/// What to do with a moving joint whose child subtree has no mass at all (romeo's finger
+/// joints): its acceleration is undetermined (`0 · q̈ = τ`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MasslessLeafPolicy {
+    /// Lock the joint: its massless links are welded to its parent at the joint's neutral
+    /// position, its coordinates stay in `q` and `qd` (so states keep their shape) and its
+    /// `q̈` is exactly 0 from every algorithm. Reported as a warning and by
+    /// [`crate::Model::locked_joints`].
+    #[default]
+    Lock,
+    /// Refuse the model, listing every such joint.
+    Refuse,
+}
+
+/// How to turn a URDF into a model. Build it from [`LoadOptions::default`] and the `with_*`
+/// methods (the struct may grow):
+///
+/// ```
+/// use articula_model::{InertiaPolicy, LoadOptions};
+/// let options = LoadOptions::default()
+///     .with_floating_base(true)
+///     .with_inertia(InertiaPolicy::Repair);
+/// assert!(options.floating_base);
+/// ```
+#[non_exhaustive]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Give the root link six degrees of freedom (joint [`crate::FLOATING_BASE_JOINT`])
+    /// instead of welding it to the world.
+    pub floating_base: bool,
+    /// What to do with bodies whose inertia no rigid body has.
+    pub inertia: InertiaPolicy,
+    /// What to do with moving joints that carry no mass.
+    pub massless_leaf: MasslessLeafPolicy,
+}
+
+impl LoadOptions {
+    /// With or without a floating base.
+    pub fn with_floating_base(self, on: bool) -> Self {
+        Self {
+            floating_base: on,
+            ..self
+        }
+    }
+
+    /// With the given inertia policy.
+    pub fn with_inertia(self, p: InertiaPolicy) -> Self {
+        Self { inertia: p, ..self }
+    }
+
+    /// With the given massless-leaf policy.
+    pub fn with_massless_leaf(self, p: MasslessLeafPolicy) -> Self {
+        Self {
+            massless_leaf: p,
+            ..self
+        }
+    }
+}
