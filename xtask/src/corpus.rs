@@ -23,7 +23,7 @@
 
 use crate::timing::{self, median};
 use articula_dca::{forward_dynamics, Data, Method, State};
-use articula_model::{JointKind, JointPart, LoadOptions, Model};
+use articula_model::{InertiaPolicy, JointKind, JointPart, LoadOptions, Model};
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -77,30 +77,25 @@ impl Inertia {
     }
 }
 
-// loader API: the one place options are built. With the import policy this becomes
-// `Ok(LoadOptions::default().with_floating_base(floating_base).with_inertia(match inertia {
-//     Inertia::Accept => InertiaPolicy::Accept, Inertia::Strict => InertiaPolicy::Strict,
-//     Inertia::Repair => InertiaPolicy::Repair }))`.
-fn load_options(floating_base: bool, inertia: Inertia) -> Result<LoadOptions, String> {
-    match inertia {
-        Inertia::Accept => Ok(LoadOptions { floating_base }),
-        other => Err(format!(
-            "--inertia {}: this loader has no inertia policy yet (only its default)",
-            other.name()
-        )),
-    }
+/// The loader options for one run: the base and the inertia policy.
+fn load_options(floating_base: bool, inertia: Inertia) -> LoadOptions {
+    LoadOptions::default()
+        .with_floating_base(floating_base)
+        .with_inertia(match inertia {
+            Inertia::Accept => InertiaPolicy::Accept,
+            Inertia::Strict => InertiaPolicy::Strict,
+            Inertia::Repair => InertiaPolicy::Repair,
+        })
 }
 
-// loader API: the load warnings, one line each (`Model::warnings`, whose items are `Display`).
+/// The load warnings, one line each.
 fn warnings(model: &Model) -> Vec<String> {
     model.warnings.iter().map(|w| w.to_string()).collect()
 }
 
-// loader API: the joints the loader locked (at their neutral position, q̈ = 0), whose
-// coordinates follow the bodies' in `q` and `qd`. With the import policy this becomes
-// `model.locked.iter().map(|l| l.joint.clone()).collect()`; this loader locks none.
-fn locked_joints(_model: &Model) -> Vec<JointPart> {
-    Vec::new()
+/// The joints the loader locked (q̈ = 0), whose coordinates follow the bodies' in `q` and `qd`.
+fn locked_joints(model: &Model) -> Vec<JointPart> {
+    model.locked.iter().map(|l| l.joint.clone()).collect()
 }
 
 /// Every joint with coordinates in a state: the bodies' parts, then the locked joints.
@@ -165,10 +160,6 @@ pub fn main(root: &Path, args: &[String]) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    if let Err(e) = load_options(false, opts.inertia) {
-        eprintln!("error: {e}");
-        return ExitCode::from(2);
-    }
     let python = opts.venv.join("bin/python");
     if !python.exists() {
         eprintln!(
@@ -385,7 +376,7 @@ fn run(
     let mut cases = Vec::new();
     for (ri, robot) in robots.iter().enumerate() {
         for floating in [false, true] {
-            let options = load_options(floating, opts.inertia)?;
+            let options = load_options(floating, opts.inertia);
             match Model::from_urdf_file(&robot.path, &options) {
                 Err(e) => outcomes.push((ri, floating, Outcome::Refused(e.to_string()))),
                 Ok(model) => {
@@ -1199,7 +1190,7 @@ mod tests {
             <joint name="j" type="continuous"><parent link="base"/><child link="arm"/>
             <axis xyz="0 0 1"/></joint></robot>"#;
         let model =
-            Model::from_urdf_str(urdf, &load_options(true, Inertia::Accept).unwrap()).unwrap();
+            Model::from_urdf_str(urdf, &load_options(true, Inertia::Accept)).unwrap();
         let mut s = State::neutral(&model);
         s.q = vec![1.0, 2.0, 3.0, 0.5, 0.5, 0.5, 0.5, 0.7];
         s.qd = (1..=7).map(f64::from).collect();
