@@ -16,7 +16,7 @@ const MODELS: [&str; 8] = [
     "rope",
 ];
 
-use articula_benches::bundled_with as load;
+use articula_testkit::bundled_with as load;
 
 /// Every bundled model, fixed base, plus the floating humanoid and floating chain30.
 fn models() -> Vec<(String, Model)> {
@@ -550,8 +550,7 @@ fn hybrid_body_equals_the_model_with_its_locked_joints_welded() {
         ("plant", true),
     ] {
         let model = load(name, floating);
-        let path = format!("{}/../../models/{name}.urdf", env!("CARGO_MANIFEST_DIR"));
-        let text = std::fs::read_to_string(&path).unwrap();
+        let text = articula_testkit::bundled_urdf(name);
         for seed in 0..3u64 {
             let pick = |b: usize| !(b as u64 * 7 + seed).is_multiple_of(3);
             // The final active set (closed upward) first, then a state with the locked joints
@@ -580,7 +579,7 @@ fn hybrid_body_equals_the_model_with_its_locked_joints_welded() {
             ad.step(&model, &mut s.clone(), 1e-9).unwrap();
             let hybrid = ad.qdd().to_vec();
             // The welded model.
-            let mut welded_text = text.clone();
+            let mut welded_text = text.to_string();
             for (i, b) in model.bodies.iter().enumerate() {
                 if !active[i] {
                     let name = &b.joint[0].name;

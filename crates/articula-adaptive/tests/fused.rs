@@ -9,7 +9,7 @@
 use articula_adaptive::{Adaptive, Settings};
 use articula_dca::{forward_dynamics, Data, Method, State};
 
-use articula_benches::bundled_with as load;
+use articula_testkit::bundled_with as load;
 
 /// max |x − y| / max(1, max |x|).
 fn rel(x: &[f64], y: &[f64]) -> f64 {

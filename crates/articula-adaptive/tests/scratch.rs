@@ -15,7 +15,7 @@ use articula_model::Model;
 use articula_spatial::SpatialForce;
 use glam::DVec3;
 
-use articula_benches::bundled_with as load;
+use articula_testkit::bundled_with as load;
 
 /// Bitwise equality of two float slices (`==` would take −0 for 0 and reject NaN).
 fn same(a: &[f64], b: &[f64]) -> bool {

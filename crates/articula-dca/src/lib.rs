@@ -232,14 +232,11 @@ pub fn check_inputs(
 /// crate's unit tests: `(name, floating_base, model)`.
 #[cfg(test)]
 pub(crate) fn bundled_models() -> impl Iterator<Item = (&'static str, bool, Model)> {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models");
     ["chain10", "chain300", "humanoid", "plant", "rope"]
         .into_iter()
         .flat_map(|name| [false, true].map(|floating_base| (name, floating_base)))
-        .map(move |(name, floating_base)| {
-            let options = articula_model::LoadOptions { floating_base };
-            let model = Model::from_urdf_file(dir.join(format!("{name}.urdf")), &options)
-                .unwrap_or_else(|e| panic!("{name}: {e}"));
+        .map(|(name, floating_base)| {
+            let model = articula_testkit::bundled_with(name, floating_base);
             (name, floating_base, model)
         })
 }

@@ -954,18 +954,13 @@ mod tests {
     use crate::visibility::body_poses;
     use crate::volumes::body_volumes;
     use articula_dca::State;
-    use articula_model::{LoadOptions, Model};
 
     /// Every link's bounding sphere stays within `whole_reach` of the root body's origin, in
     /// random configurations (the bound is what lets a re-selection skip the exact solve of a
     /// body outside the view), and some link comes within a factor of two of it.
     #[test]
     fn whole_reach_bounds_every_link_sphere() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../models/humanoid.urdf");
-        let opts = LoadOptions {
-            floating_base: true,
-        };
-        let model = Model::from_urdf_file(path, &opts).unwrap();
+        let model = articula_testkit::bundled_with("humanoid", true);
         let volumes = body_volumes(&model);
         let bound = whole_reach(&model, &volumes).unwrap();
         let mut farthest = 0.0f64;
@@ -988,11 +983,7 @@ mod tests {
     /// reference: on the humanoid (one run) and on a shuffled, gapped list (many runs).
     #[test]
     fn spring_runs_equal_one_spring_at_a_time() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../models/humanoid.urdf");
-        let opts = LoadOptions {
-            floating_base: true,
-        };
-        let model = Model::from_urdf_file(path, &opts).unwrap();
+        let model = articula_testkit::bundled_with("humanoid", true);
         let springs = pose_springs(&model, 2.0, 0.2);
         assert_eq!(springs.len(), model.nv - 6);
         assert_eq!(SpringRuns::new(&springs).runs.len(), 1);
