@@ -17,12 +17,13 @@
 //! - `--peers`: Pinocchio's ABA and MuJoCo's `mj_forward` through `peers/peers.py`.
 
 use crate::chart::{self, HeatMap, LogLogPlot, Series};
-use articula_testkit::Dd;
-use articula_testkit::ReferenceModel;
 use crate::solver::{Runner, Solver, ADAPTIVE_BUDGETS};
 use crate::timing::{self, Timing};
-use articula_dca::{Integrator, SplitMix64, State};
+use articula_dca::internals::SplitMix64;
+use articula_dca::{Integrator, State};
 use articula_model::{LoadOptions, Model};
+use articula_testkit::Dd;
+use articula_testkit::ReferenceModel;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::hint::black_box;
@@ -220,7 +221,12 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     let acc_state = State::random(&chain300, SEED, 1.0);
     let reference = ReferenceModel::new(&chain300)?;
     let exact: Vec<f64> = reference
-        .aba::<Dd>(&acc_state.q, &acc_state.qd, &acc_state.tau, &acc_state.f_ext)
+        .aba::<Dd>(
+            &acc_state.q,
+            &acc_state.qd,
+            &acc_state.tau,
+            &acc_state.f_ext,
+        )
         .iter()
         .map(|x| x.to_f64())
         .collect();

@@ -36,9 +36,16 @@ const USAGE: &str = "cargo xtask profile dynamics METHOD MODEL CALLS
 
 const DT: f64 = 1e-4;
 
+/// External forces as `(body, world wrench)` pairs.
+type Forces = Vec<(usize, SpatialForce)>;
+
 pub fn run(args: &[String]) -> Result<()> {
     let at_origin = args.iter().any(|a| a == "--at-origin");
-    let args: Vec<String> = args.iter().filter(|a| *a != "--at-origin").cloned().collect();
+    let args: Vec<String> = args
+        .iter()
+        .filter(|a| *a != "--at-origin")
+        .cloned()
+        .collect();
     let mut a = Args::new(&args, USAGE);
     match a.next_str() {
         Some("dynamics") => {
@@ -84,7 +91,10 @@ pub fn run(args: &[String]) -> Result<()> {
 /// The measured workload: `f` called `n` times, in a function of its own for
 /// `--toggle-collect`.
 #[inline(never)]
-fn measured<E>(n: usize, mut f: impl FnMut() -> std::result::Result<(), E>) -> std::result::Result<(), E> {
+fn measured<E>(
+    n: usize,
+    mut f: impl FnMut() -> std::result::Result<(), E>,
+) -> std::result::Result<(), E> {
     for _ in 0..n {
         f()?;
     }
@@ -132,7 +142,7 @@ fn crumpled_chain(
     n: usize,
     forces: usize,
     at_body: bool,
-) -> Result<(Model, State, Vec<(usize, SpatialForce)>)> {
+) -> Result<(Model, State, Forces)> {
     if n == 0 {
         return Err("a chain needs at least one link".into());
     }
@@ -212,7 +222,14 @@ fn adaptive(
 fn exact(model: &Model, mut s: State, n: usize, steps: usize) -> Result<()> {
     let mut data = Data::new(model);
     let (median, batches) = batched_median(steps, || {
-        step(model, &mut data, &mut s, Method::Dca, Integrator::SemiImplicitEuler, DT)?;
+        step(
+            model,
+            &mut data,
+            &mut s,
+            Method::Dca,
+            Integrator::SemiImplicitEuler,
+            DT,
+        )?;
         Ok(())
     })?;
     println!("chain{n} DCA: {median:.3} us per step (median of {batches} batches)");
@@ -229,7 +246,7 @@ fn scene(path: &Path, warmup: u64, steps: u64) -> Result<()> {
     let t = Instant::now();
     measured(steps as usize, || {
         active += sim.step()?.active_total;
-        Ok::<(), articula_view::SceneSimError>(())
+        Ok::<(), articula_view::ViewError>(())
     })?;
     println!(
         "{:.3} ms/step over {steps} steps after {warmup}; mean active joints {:.1}",

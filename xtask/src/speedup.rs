@@ -76,7 +76,14 @@ fn seeds(rounds: usize, budgets: &[usize]) -> Result<()> {
                 s.clone_from(&s0);
                 t = Instant::now();
             }
-            step(&model, &mut data, &mut s, Method::Dca, Integrator::SemiImplicitEuler, DT)?;
+            step(
+                &model,
+                &mut data,
+                &mut s,
+                Method::Dca,
+                Integrator::SemiImplicitEuler,
+                DT,
+            )?;
             black_box(s.qd[0]);
         }
         Ok((total + t.elapsed()).as_secs_f64() * 1e6 / n as f64)
@@ -180,7 +187,14 @@ fn crowd(path: &Path, rounds: usize, steps: u64) -> Result<()> {
         for _ in 0..exact_steps {
             for (s, &m) in states.iter_mut().zip(&models) {
                 let model = &scene.models[m].model;
-                step(model, &mut data[m], s, Method::Dca, Integrator::SemiImplicitEuler, scene.dt)?;
+                step(
+                    model,
+                    &mut data[m],
+                    s,
+                    Method::Dca,
+                    Integrator::SemiImplicitEuler,
+                    scene.dt,
+                )?;
             }
         }
         let e = t.elapsed().as_secs_f64() * 1e3 / exact_steps as f64;

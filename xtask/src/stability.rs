@@ -9,12 +9,12 @@
 //!    rate, and against the strength of a short push.
 
 use crate::chart::{self, LogLogPlot, Series};
-use articula_testkit::Dd;
-use articula_testkit::ReferenceModel;
 use crate::solver::{Runner, Solver};
 use articula_adaptive::{Adaptive, Settings};
 use articula_dca::{forward_kinematics, step, Data, Integrator, Method, State};
 use articula_model::{LoadOptions, Model};
+use articula_testkit::Dd;
+use articula_testkit::ReferenceModel;
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;

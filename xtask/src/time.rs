@@ -15,7 +15,11 @@ const USAGE: &str = "cargo xtask time METHOD MODEL [BATCHES] [CALLS] [--portable
 
 pub fn run(args: &[String]) -> Result<()> {
     let portable = args.iter().any(|a| a == "--portable");
-    let args: Vec<String> = args.iter().filter(|a| *a != "--portable").cloned().collect();
+    let args: Vec<String> = args
+        .iter()
+        .filter(|a| *a != "--portable")
+        .cloned()
+        .collect();
     let mut a = Args::new(&args, USAGE);
     let method: Method = a.next("method")?;
     let name: String = a.next("model")?;

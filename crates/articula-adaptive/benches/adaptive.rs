@@ -11,9 +11,9 @@
 //! interleaved in one process, for the ratio.
 
 use articula_adaptive::{Adaptive, Settings};
+use articula_dca::{step, Data, Integrator, Method, State};
 use articula_testkit::chain;
 use articula_testkit::seeds::{force_list, seeded_state};
-use articula_dca::{step, Data, Integrator, Method, State};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use std::hint::black_box;
 use std::time::{Duration, Instant};

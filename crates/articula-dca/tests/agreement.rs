@@ -14,7 +14,6 @@ const TOL: f64 = 1e-10;
 // when that residual is large (long chains: without it the floating 1,000-link chain was 3.9e-10
 // off); `refinement_count` shows which models take the step.
 
-
 fn max_rel_diff(a: &[f64], b: &[f64]) -> f64 {
     let scale = a.iter().chain(b).fold(1.0f64, |m, x| m.max(x.abs()));
     a.iter()

@@ -103,7 +103,13 @@ impl ReferenceModel {
 
     /// Joint accelerations at `q`, `q̇`, `τ` with the external forces `f_ext` (world wrenches
     /// about the world origin, one per model body; empty for none).
-    pub fn aba<T: Real>(&self, q: &[f64], qd: &[f64], tau: &[f64], f_ext: &[SpatialForce]) -> Vec<T> {
+    pub fn aba<T: Real>(
+        &self,
+        q: &[f64],
+        qd: &[f64],
+        tau: &[f64],
+        f_ext: &[SpatialForce],
+    ) -> Vec<T> {
         let n = self.bodies.len();
         let z = T::zero();
         let f = T::from_f64;
@@ -438,7 +444,11 @@ mod tests {
                 .to_vec();
                 let ours: Vec<f64> = r.aba::<f64>(&st.q, &st.qd, &st.tau, &st.f_ext);
                 assert!(rel(&ours, &lib) < 1e-10, "{name} f64: {}", rel(&ours, &lib));
-                let hp: Vec<f64> = r.aba::<Dd>(&st.q, &st.qd, &st.tau, &st.f_ext).iter().map(|x| x.to_f64()).collect();
+                let hp: Vec<f64> = r
+                    .aba::<Dd>(&st.q, &st.qd, &st.tau, &st.f_ext)
+                    .iter()
+                    .map(|x| x.to_f64())
+                    .collect();
                 assert!(rel(&hp, &lib) < 1e-10, "{name} dd: {}", rel(&hp, &lib));
             }
         }

@@ -20,57 +20,13 @@
 use crate::camera::{Camera, CameraPath, Keyframe};
 use crate::visibility::VisibilitySettings;
 use crate::volumes::{body_volumes, BodyVolumes};
-use articula_dca::SplitMix64;
-use articula_model::{LoadOptions, Model, ModelError};
+use crate::ViewError;
+use articula_dca::internals::SplitMix64;
+use articula_model::{LoadOptions, Model};
 use glam::{DMat3, DQuat, DVec3};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-
-/// Everything that can be wrong with a scene file.
-#[derive(Debug, thiserror::Error)]
-pub enum SceneError {
-    /// The file could not be read.
-    #[error("cannot read scene file {path}: {message}")]
-    Io {
-        /// The path.
-        path: String,
-        /// The system's message.
-        message: String,
-    },
-    /// Not JSON, or JSON of the wrong shape.
-    #[error("scene file {path}: {field}: {message}")]
-    Json {
-        /// The scene file.
-        path: String,
-        /// The JSON path of the offending value (`.` for the top level).
-        field: String,
-        /// What is wrong (with line and column).
-        message: String,
-    },
-    /// A value of the right type that cannot be used.
-    #[error("scene file {path}: {field}: {message}")]
-    Invalid {
-        /// The scene file.
-        path: String,
-        /// The field.
-        field: String,
-        /// What is wrong.
-        message: String,
-    },
-    /// A model that cannot be loaded.
-    #[error("scene file {path}: models.{name}: {model_path}: {error}")]
-    Model {
-        /// The scene file.
-        path: String,
-        /// The model's key in `models`.
-        name: String,
-        /// The resolved URDF path.
-        model_path: String,
-        /// The loader's error.
-        error: Box<ModelError>,
-    },
-}
 
 /// `[x, y, z]`.
 type V3 = [f64; 3];
@@ -435,9 +391,9 @@ pub struct LoadedScene {
 }
 
 /// Reads and checks a scene file.
-pub fn load_scene(path: impl AsRef<Path>) -> Result<LoadedScene, SceneError> {
+pub fn load_scene(path: impl AsRef<Path>) -> Result<LoadedScene, ViewError> {
     let path = path.as_ref();
-    let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io {
+    let text = std::fs::read_to_string(path).map_err(|e| ViewError::Io {
         path: path.display().to_string(),
         message: e.to_string(),
     })?;
@@ -447,7 +403,7 @@ pub fn load_scene(path: impl AsRef<Path>) -> Result<LoadedScene, SceneError> {
 
 /// Parses and checks scene text; `path` names the file in errors and `base` is the folder model
 /// paths are relative to.
-pub fn parse_scene(text: &str, path: &Path, base: &Path) -> Result<LoadedScene, SceneError> {
+pub fn parse_scene(text: &str, path: &Path, base: &Path) -> Result<LoadedScene, ViewError> {
     let file = path.display().to_string();
     let de = &mut serde_json::Deserializer::from_str(text);
     let spec: SceneSpec = serde_path_to_error::deserialize(de).map_err(|e| {
@@ -455,7 +411,7 @@ pub fn parse_scene(text: &str, path: &Path, base: &Path) -> Result<LoadedScene, 
             f if f == "." => "top level".to_string(),
             f => f,
         };
-        SceneError::Json {
+        ViewError::Json {
             path: file.clone(),
             field,
             message: e.inner().to_string(),
@@ -468,9 +424,9 @@ fn finite(v: &[f64]) -> bool {
     v.iter().all(|x| x.is_finite())
 }
 
-fn resolve(spec: SceneSpec, path: &Path, base: &Path) -> Result<LoadedScene, SceneError> {
+fn resolve(spec: SceneSpec, path: &Path, base: &Path) -> Result<LoadedScene, ViewError> {
     let file = path.display().to_string();
-    let invalid = |field: String, message: String| SceneError::Invalid {
+    let invalid = |field: String, message: String| ViewError::Invalid {
         path: file.clone(),
         field,
         message,
@@ -541,7 +497,7 @@ fn resolve(spec: SceneSpec, path: &Path, base: &Path) -> Result<LoadedScene, Sce
     // Camera.
     let c = &spec.camera;
     let aspect = img.width as f64 / img.height as f64;
-    let cam_err = |e: crate::ViewError| invalid("camera".into(), e.to_string());
+    let cam_err = |e: ViewError| invalid("camera".into(), e.to_string());
     let camera = match (c.eye, c.target, &c.path) {
         (Some(eye), Some(target), None) => CameraRig::Fixed(
             Camera::look_at(
@@ -593,7 +549,7 @@ fn resolve(spec: SceneSpec, path: &Path, base: &Path) -> Result<LoadedScene, Sce
                 floating_base: true,
             },
         )
-        .map_err(|error| SceneError::Model {
+        .map_err(|error| ViewError::Model {
             path: file.clone(),
             name: name.clone(),
             model_path: p.display().to_string(),

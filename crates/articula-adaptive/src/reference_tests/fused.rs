@@ -6,7 +6,7 @@
 //! equals articula-dca's ABA on the same state. Where the CPU has FMA the two compilations
 //! must differ somewhere, which shows that the fused one ran.
 
-use articula_adaptive::{Adaptive, Settings};
+use crate::{Adaptive, Settings};
 use articula_dca::{forward_dynamics, Data, Method, State};
 
 use articula_testkit::bundled_with as load;
@@ -82,5 +82,5 @@ fn fused_and_portable_reduced_aba_agree() {
             }
         }
     }
-    assert_eq!(differ, articula_dca::fused_available());
+    assert_eq!(differ, articula_dca::internals::fused_available());
 }

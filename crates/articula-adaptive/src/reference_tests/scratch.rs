@@ -6,10 +6,7 @@
 //! forces (dense and as a list), a floating base and fixed-base trees, and plain calls mixed
 //! with shared ones on the same workspace.
 
-// Workspaces are indexed alike in several parallel vectors.
-#![allow(clippy::needless_range_loop)]
-
-use articula_adaptive::{Adaptive, Scratch, Settings};
+use crate::{Adaptive, Scratch, Settings};
 use articula_dca::State;
 use articula_model::Model;
 use articula_spatial::SpatialForce;

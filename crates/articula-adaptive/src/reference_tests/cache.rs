@@ -1,7 +1,7 @@
 //! Re-selection through the caches of the rigid subassemblies (O(active region)) against the
 //! whole-body re-selection it replaces.
 
-use articula_adaptive::{Adaptive, Settings};
+use crate::{Adaptive, Settings};
 use articula_dca::{forward_dynamics, Data, Method, State};
 use articula_model::Model;
 use articula_spatial::SpatialForce;
