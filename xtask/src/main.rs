@@ -52,6 +52,11 @@ subcommands:
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    // `cargo xtask SUBCOMMAND --help` prints the usage of every subcommand.
+    if args.iter().skip(1).any(|a| a == "-h" || a == "--help") {
+        print!("{USAGE}");
+        return ExitCode::SUCCESS;
+    }
     match args.first().map(String::as_str) {
         Some("models") if args.get(1).map(String::as_str) == Some("--chain") => {
             run(print_chain(&args[2..]))

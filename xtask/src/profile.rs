@@ -138,11 +138,7 @@ fn dynamics(method: Method, name: &str, calls: usize) -> Result<()> {
 /// A chain of `n` links crumpled at rest (random angles, seed 42) and `forces` constant forces
 /// of direction `(1, sin k, cos k)` on evenly spread bodies, at each body's origin
 /// (`at_body`) or at the computation frame's origin.
-fn crumpled_chain(
-    n: usize,
-    forces: usize,
-    at_body: bool,
-) -> Result<(Model, State, Forces)> {
+fn crumpled_chain(n: usize, forces: usize, at_body: bool) -> Result<(Model, State, Forces)> {
     if n == 0 {
         return Err("a chain needs at least one link".into());
     }

@@ -1,13 +1,20 @@
 //! A counting global allocator for the "a step allocates nothing" tests.
 //!
-//! A test binary installs it as its global allocator:
+//! A test binary installs it as its global allocator and measures a closure with
+//! [`count_allocations`]:
 //!
-//! ```ignore
+//! ```
 //! #[global_allocator]
 //! static ALLOCATOR: articula_testkit::CountingAllocator = articula_testkit::CountingAllocator;
-//! ```
 //!
-//! and measures a closure with [`count_allocations`]. Only the calling thread counts, while it
+//! fn main() {
+//!     let n = articula_testkit::count_allocations(|| {
+//!         std::hint::black_box(vec![1u8; 8]);
+//!     });
+//!     assert_eq!(n, 1);
+//! }
+//! ```
+//! Only the calling thread counts, while it
 //! runs the closure, so the test harness's other threads (and other tests of the binary running
 //! in parallel) cannot add to a count.
 
