@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Minimum and median time of Pinocchio's `pin.aba` on one URDF, for the interleaved
-comparisons with `benches/examples/min_time` that docs/performance.md quotes as `pin300.py`:
+comparisons with `cargo xtask time dca 300 20 100`:
 
-    target/release/examples/chain_urdf 300 > /tmp/c300.urdf
+    cargo xtask models --chain 300 > /tmp/c300.urdf
     target/peers-venv/bin/python peers/pin300.py /tmp/c300.urdf
 
 (Pinocchio from `target/peers-venv`, see peers/peers.py.) A seeded random state (q, v, tau

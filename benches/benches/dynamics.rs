@@ -1,9 +1,9 @@
 //! Forward dynamics: DCA, ABA and CRBA on chains of 10 … 10,000 links and on the humanoid.
 //! `cargo bench -p articula-benches --bench dynamics`
 
-use articula_benches::{bundled, chain};
 use articula_dca::{forward_dynamics, Data, Method, State};
 use articula_model::Model;
+use articula_testkit::{bundled, chain};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use std::hint::black_box;
 

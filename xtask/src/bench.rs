@@ -3,26 +3,27 @@
 //! charts (SVG and PNG).
 //!
 //! - Time per forward-dynamics call of DCA, ABA and CRBA on chains of 10 … 10,000 links
-//!   (`articula_benches::chain`) and the humanoid, on `State::random(model, 42, 1.0)` — the
+//!   (`articula_testkit::chain`) and the humanoid, on `State::random(model, 42, 1.0)` — the
 //!   criterion benches' state. Quick mode times in-process ([`crate::timing`], in [`PASSES`]
 //!   passes over the table); full mode runs `cargo bench -p articula-benches --bench dynamics`
 //!   and reads criterion's medians.
 //! - Growth from 1,000 to 10,000 links of DCA and ABA, the two lengths interleaved in one
-//!   process ([`articula_benches::growth`]: ratio of the minima and per-round ratios).
+//!   process ([`crate::growth`]: ratio of the minima and per-round ratios).
 //! - Error against time per step on the 300-link chain: (a) the acceleration-metric error
 //!   `Σ (q̈ − q̈_exact)²` of one step, `q̈_exact` from the double-double reference
-//!   ([`crate::hp`]); (b) the deviation `‖q(1 s) − q_ref(1 s)‖` from an RK4 reference with a
+//!   ([`articula_testkit::reference`]); (b) the deviation `‖q(1 s) − q_ref(1 s)‖` from an RK4 reference with a
 //!   ten times smaller step.
 //! - The seeds' table (adaptive budgets × external forces on the 300-link chain).
 //! - `--peers`: Pinocchio's ABA and MuJoCo's `mj_forward` through `peers/peers.py`.
 
 use crate::chart::{self, HeatMap, LogLogPlot, Series};
-use crate::dd::Dd;
-use crate::hp::ReferenceModel;
 use crate::solver::{Runner, Solver, ADAPTIVE_BUDGETS};
 use crate::timing::{self, Timing};
-use articula_dca::{Integrator, SplitMix64, State};
+use articula_dca::internals::SplitMix64;
+use articula_dca::{Integrator, State};
 use articula_model::{LoadOptions, Model};
+use articula_testkit::Dd;
+use articula_testkit::ReferenceModel;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::hint::black_box;
@@ -114,8 +115,8 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     let mut models: Vec<(String, PathBuf, Model)> = Vec::new();
     for n in CHAIN_SIZES {
         let path = out.join("urdf").join(format!("chain{n}.urdf"));
-        std::fs::write(&path, articula_benches::chain_urdf(n))?;
-        models.push((format!("chain{n}"), path, articula_benches::chain(n)));
+        std::fs::write(&path, articula_testkit::chain_urdf(n))?;
+        models.push((format!("chain{n}"), path, articula_testkit::chain(n)));
     }
     let hpath = root.join("models/humanoid.urdf");
     let humanoid = Model::from_urdf_file(&hpath, &LoadOptions::default())?;
@@ -199,7 +200,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     let mut growths = Vec::new();
     for method in [articula_dca::Method::Dca, articula_dca::Method::Aba] {
         let t0 = Instant::now();
-        let g = articula_benches::growth::measure(method, 1000, 10_000, rounds, |r| {
+        let g = crate::growth::measure(method, 1000, 10_000, rounds, |r| {
             if (1..4).any(|k| r == rounds * k / 4) {
                 println!("  growth {method:?} 1000 -> 10000: round {r}/{rounds}");
             }
@@ -216,11 +217,16 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     }
 
     // 2. Accuracy on the 300-link chain.
-    let chain300 = articula_benches::chain(300);
+    let chain300 = articula_testkit::chain(300);
     let acc_state = State::random(&chain300, SEED, 1.0);
     let reference = ReferenceModel::new(&chain300)?;
     let exact: Vec<f64> = reference
-        .aba::<Dd>(&acc_state)
+        .aba::<Dd>(
+            &acc_state.q,
+            &acc_state.qd,
+            &acc_state.tau,
+            &acc_state.f_ext,
+        )
         .iter()
         .map(|x| x.to_f64())
         .collect();
@@ -820,13 +826,13 @@ fn fmt_us(t: Option<&f64>) -> String {
 }
 
 /// The report's paragraph on the interleaved growth measurements.
-fn growth_paragraph(growths: &[articula_benches::growth::Growth]) -> String {
+fn growth_paragraph(growths: &[crate::growth::Growth]) -> String {
     let Some(first) = growths.first() else {
         return String::new();
     };
     let mut s = format!(
         "The same growth with the two lengths interleaved in one process \
-         (`articula_benches::growth`, {} rounds; each round times 10 calls on 1,000 links and \
+         (`crate::growth`, {} rounds; each round times 10 calls on 1,000 links and \
          one on 10,000 back to back, so both see the same phase of a shared host):\n\n\
          | method | 1,000 links (µs, minimum) | 10,000 links (µs, minimum) | ratio of the minima | \
          per-round ratio: median (quartiles) |\n|---|---:|---:|---:|---:|\n",
@@ -856,7 +862,7 @@ fn growth_paragraph(growths: &[articula_benches::growth::Growth]) -> String {
 fn report(
     opts: &Options,
     rows: &[SpeedRow],
-    growths: &[articula_benches::growth::Growth],
+    growths: &[crate::growth::Growth],
     accel: &[(String, f64, f64)],
     traj: &Traj,
     seeds: &SeedsTable,
@@ -916,7 +922,7 @@ fn report(
     let _ = writeln!(
         s,
         "State `State::random(model, {SEED}, 1.0)` (angles ±1.2 rad, rates ±2 rad/s, torques ±1), \
-         no external force; chains from `articula_benches::chain(n)` (0.1 m, 0.1 kg rods), the \
+         no external force; chains from `articula_testkit::chain(n)` (0.1 m, 0.1 kg rods), the \
          humanoid from `models/humanoid.urdf` (fixed base, 34 DOF). CRBA (dense O(n³)) stops \
          at 1000 links.\n"
     );
@@ -972,7 +978,7 @@ fn report(
         s,
         "**(a) One step.** Acceleration-metric error `Σᵢ (q̈ᵢ − q̈ᵢ,exact)²` (identity weights) at \
          the benchmarked state, against `q̈_exact` from the double-double ABA of \
-         `xtask/src/hp.rs` (~32 digits, independent of the library's f64 code).\n"
+         `crates/articula-testkit/src/reference.rs` (~32 digits, independent of the library's f64 code).\n"
     );
     let _ = writeln!(
         s,
@@ -1139,7 +1145,7 @@ mod tests {
 
     #[test]
     fn growth_paragraph_reports_minima_and_per_round_ratios() {
-        let g = articula_benches::growth::Growth {
+        let g = crate::growth::Growth {
             method: articula_dca::Method::Dca,
             short: 1000,
             long: 10_000,

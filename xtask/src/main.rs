@@ -1,14 +1,18 @@
 //! Project automation tasks, run via `cargo xtask <subcommand>`.
 
+mod args;
 mod bench;
 mod chart;
 mod corpus;
-mod dd;
-mod hp;
+mod growth;
+mod hash;
 mod models;
+mod profile;
 mod snapshots;
 mod solver;
+mod speedup;
 mod stability;
+mod time;
 mod timing;
 
 use std::path::PathBuf;
@@ -32,19 +36,44 @@ subcommands:
                             three; writes target/articula-corpus/report.md (needs the
                             venv of peers/corpus.py; exits 2 without it)
     models                  regenerate the URDF test/benchmark models in models/
+    models --chain N        print the URDF of an N-link chain (the bodies of chainN.urdf)
     stability               accuracy of DCA, ABA, CRBA against a double-double reference
                             (chain length, mass ratio) and integrators' energy drift;
                             writes docs/stability.md and charts in docs/img/
     snapshots [--accept]    run the snapshot tests of `articula info` (INSTA_UPDATE=no);
                             with --accept, rewrite the changed .snap files
                             (INSTA_UPDATE=always) and list them with git status
+    hash                    bit-level fingerprints: DCA's q̈ on the bundled models and
+                            chains (qdd_hash), a crowd scene's state after 500 steps
+    time METHOD MODEL [BATCHES] [CALLS] [--portable]
+                            minimum and median time per forward-dynamics call (MODEL: a
+                            chain length, a bundled model, or NAME-floating)
+    growth [METHOD] [SHORT] [LONG] [ROUNDS]
+                            time per call from a short to a long chain, the two interleaved
+    speedup seeds [ROUNDS] [BUDGET...] | speedup crowd SCENE.json [ROUNDS] [STEPS]
+                            adaptive against exact DCA steps, interleaved in one process
+    profile dynamics|adaptive|exact|scene ...
+                            fixed workloads for callgrind and perf (see xtask/src/profile.rs)
 ";
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    // `cargo xtask SUBCOMMAND --help` prints the usage of every subcommand.
+    if args.iter().skip(1).any(|a| a == "-h" || a == "--help") {
+        print!("{USAGE}");
+        return ExitCode::SUCCESS;
+    }
     match args.first().map(String::as_str) {
         Some("corpus") => corpus::main(&workspace_root(), &args[1..]),
+        Some("models") if args.get(1).map(String::as_str) == Some("--chain") => {
+            run(print_chain(&args[2..]))
+        }
         Some("models") => run(models::run(&workspace_root().join("models"))),
+        Some("hash") => run(hash::run(&workspace_root(), &args[1..])),
+        Some("time") => run(time::run(&args[1..])),
+        Some("growth") => run(growth::run(&args[1..])),
+        Some("speedup") => run(speedup::run(&args[1..])),
+        Some("profile") => run(profile::run(&args[1..])),
         Some("bench") => run(bench::run(&workspace_root(), &args[1..])),
         Some("stability") => run(stability::run(&workspace_root(), &args[1..])),
         Some("snapshots") => run(snapshots::run(&workspace_root(), &args[1..])),
@@ -62,6 +91,16 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
     }
+}
+
+/// `cargo xtask models --chain N`: the URDF of an N-link chain on stdout (for the peers'
+/// scripts, e.g. `peers/pin300.py`).
+fn print_chain(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
+    let mut a = args::Args::new(args, "cargo xtask models --chain N");
+    let n: usize = a.next("link count")?;
+    a.finish()?;
+    print!("{}", articula_testkit::chain_urdf(n));
+    Ok(())
 }
 
 /// Converts a task result into a process exit code, printing any error.

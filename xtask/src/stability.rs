@@ -1,7 +1,7 @@
 //! `cargo xtask stability`: where each method fails. Writes charts to `docs/img/` (and
 //! `target/articula-stability/`) and `docs/stability.md` with the measured figures.
 //!
-//! 1. Accuracy of DCA, ABA and CRBA against the double-double reference ([`crate::hp`]) as
+//! 1. Accuracy of DCA, ABA and CRBA against the double-double reference ([`articula_testkit::reference`]) as
 //!    chains grow (10 → 10,000 links).
 //! 2. The same as the mass and inertia ratio between neighbouring links grows (1 → 1e8).
 //! 3. Energy drift of semi-implicit Euler and RK4 against dt (10-link chain, 10 s).
@@ -9,12 +9,12 @@
 //!    rate, and against the strength of a short push.
 
 use crate::chart::{self, LogLogPlot, Series};
-use crate::dd::Dd;
-use crate::hp::ReferenceModel;
 use crate::solver::{Runner, Solver};
 use articula_adaptive::{Adaptive, Settings};
 use articula_dca::{forward_kinematics, step, Data, Integrator, Method, State};
 use articula_model::{LoadOptions, Model};
+use articula_testkit::Dd;
+use articula_testkit::ReferenceModel;
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
@@ -234,7 +234,7 @@ fn errors(model: &Model) -> Result<Errors> {
     for seed in SEEDS {
         let state = State::random(model, seed, 1.0);
         let exact: Vec<f64> = reference
-            .aba::<Dd>(&state)
+            .aba::<Dd>(&state.q, &state.qd, &state.tau, &state.f_ext)
             .iter()
             .map(|x| x.to_f64())
             .collect();
@@ -325,7 +325,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     let mut by_length = Vec::new();
     for n in LENGTHS {
         let t = Instant::now();
-        let model = articula_benches::chain(n);
+        let model = articula_testkit::chain(n);
         let e = errors(&model)?;
         println!(
             "  chain{n:<6} {}  ({:.1} s)",
@@ -375,7 +375,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     }
 
     // 4. Adaptive dynamics.
-    let chain100 = articula_benches::chain(100);
+    let chain100 = articula_testkit::chain(100);
     let ad_runs = adaptive_study(&chain100)?;
 
     // Charts.
@@ -537,9 +537,9 @@ fn document(
     );
     let _ = writeln!(
         s,
-        "**The reference.** `xtask/src/hp.rs` runs the articulated-body algorithm in body \
+        "**The reference.** `crates/articula-testkit/src/reference.rs` runs the articulated-body algorithm in body \
          coordinates (RBDA Table 7.1, explicit 6×6 Plücker transforms) in double-double \
-         arithmetic (`xtask/src/dd.rs`, ~32 significant digits). It shares no code or \
+         arithmetic (`crates/articula-testkit/src/dd.rs`, ~32 significant digits). It shares no code or \
          formulation with the library's f64 solvers, which work in world coordinates, and it \
          reads the model's f64 numbers as exact. Its q̈ is therefore exact to far below f64 \
          rounding, and every error below is the f64 method's own. Errors are relative, \
@@ -554,7 +554,7 @@ fn document(
     let _ = writeln!(s, "## 1. Accuracy as chains grow\n");
     let _ = writeln!(
         s,
-        "Planar pendulum chains of n rods (0.1 m, 0.1 kg; `articula_benches::chain(n)`). CRBA \
+        "Planar pendulum chains of n rods (0.1 m, 0.1 kg; `articula_testkit::chain(n)`). CRBA \
          is not run past 1000 links (dense O(n³)).\n"
     );
     table(&mut s, "links", by_length);
@@ -870,7 +870,7 @@ mod tests {
     /// On short chains every exact method agrees with the double-double reference.
     #[test]
     fn exact_methods_are_accurate_on_a_short_chain() {
-        let m = articula_benches::chain(10);
+        let m = articula_testkit::chain(10);
         for (s, e) in errors(&m).unwrap() {
             assert!(e.unwrap() < 1e-12, "{}: {e:?}", s.label());
         }

@@ -7,12 +7,13 @@
 //! workspace on its first call, so a filtered run sets up only what it measures. Criterion
 //! runs one benchmark after another: a ratio of two of its figures (DCA against an adaptive
 //! budget) carries the machine's drift between them — on the shared 2-core host, up to
-//! 1.5× from one minute to the next. The `seeds_ratio` example times the same steps
+//! 1.5× from one minute to the next. `cargo xtask speedup seeds` times the same steps
 //! interleaved in one process, for the ratio.
 
 use articula_adaptive::{Adaptive, Settings};
-use articula_benches::{chain, force_list, seeded_state};
 use articula_dca::{step, Data, Integrator, Method, State};
+use articula_testkit::chain;
+use articula_testkit::seeds::{force_list, seeded_state};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use std::hint::black_box;
 use std::time::{Duration, Instant};

@@ -104,7 +104,7 @@ fn comb_rows(m: &[f64], k: &[f64], skip_zero: bool, wide: bool) -> [f64; NW] {
     assert_eq!(m.len(), k.len() * NW, "one row of NW per coefficient");
     #[cfg(target_arch = "x86_64")]
     if wide {
-        // SAFETY: `wide` is `Adaptive::fused`, set only where `articula_dca::fused_available()`
+        // SAFETY: `wide` is `Adaptive::fused`, set only where `articula_dca::internals::fused_available()`
         // (the CPU has AVX2 and FMA); `m` holds `k.len()` rows of NW (asserted).
         return unsafe { comb_rows_avx(m, k, skip_zero) };
     }
@@ -600,7 +600,7 @@ impl Adaptive {
             NodeKind::Join { .. } => self.cache.hpose[self.lay.hoff[a] + self.lay.ja[n]],
             _ => SpatialTransform::IDENTITY,
         };
-        let (xj, _, _) = articula_dca::body_kinematics(
+        let (xj, _, _) = articula_dca::internals::body_kinematics(
             &model.bodies[joint],
             SpatialTransform::IDENTITY,
             SpatialMotion::ZERO,
@@ -965,7 +965,7 @@ impl Adaptive {
     ) {
         #[cfg(target_arch = "x86_64")]
         if self.fused {
-            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.eval_cache_wide(model, n, x, u, part) };
         }
@@ -1413,7 +1413,7 @@ impl Adaptive {
     pub(crate) fn join_map(&mut self, model: &Model, n: usize) {
         #[cfg(target_arch = "x86_64")]
         if self.fused {
-            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.join_map_wide(model, n) };
         }
@@ -1677,7 +1677,7 @@ impl Adaptive {
     pub(crate) fn eval_map(&mut self, model: &Model, n: usize) {
         #[cfg(target_arch = "x86_64")]
         if self.fused {
-            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.eval_map_wide(model, n) };
         }
@@ -1776,7 +1776,7 @@ impl Adaptive {
     pub(crate) fn metric_local(&mut self, n: usize, x: &SpatialTransform, u: SpatialMotion) -> f64 {
         #[cfg(target_arch = "x86_64")]
         if self.fused {
-            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.metric_local_wide(n, x, u) };
         }

@@ -9,8 +9,9 @@
 
 use crate::hybrid::{Adaptive, Level, Rigid};
 #[cfg(target_arch = "x86_64")]
-use articula_dca::Fused;
-use articula_dca::{Arith, DynamicsError, Portable};
+use articula_dca::internals::Fused;
+use articula_dca::internals::{Arith, Portable};
+use articula_dca::DynamicsError;
 use articula_model::{Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialMotion, SpatialTransform};
 use glam::DVec3;
@@ -429,7 +430,7 @@ impl Adaptive {
     pub(crate) fn active_kinematics(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
         #[cfg(target_arch = "x86_64")]
         if self.fused {
-            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.active_kinematics_wide(model, q, qd) };
         }
@@ -500,8 +501,9 @@ impl Adaptive {
                             floating(wide, part, &x, &v, q, qd, &mut d.s, out);
                         }
                         _ => {
-                            let (x, v, c) =
-                                articula_dca::body_kinematics(body, x, v, q, qd, &mut d.s);
+                            let (x, v, c) = articula_dca::internals::body_kinematics(
+                                body, x, v, q, qd, &mut d.s,
+                            );
                             d.x[r.j()] = x;
                             d.v[r.j()] = v;
                             d.c[r.j()] = c;
@@ -548,7 +550,7 @@ impl Adaptive {
     ) -> Result<(), DynamicsError> {
         let tree = &model.assembly;
         if !kinematics_fresh {
-            self.data.origin = articula_dca::computation_origin(model, q);
+            self.data.origin = articula_dca::internals::computation_origin(model, q);
             self.active_kinematics(model, q, qd);
         }
         // (Through disjoint borrows, so that the vectors' pointers stay in registers.)
@@ -604,7 +606,7 @@ impl Adaptive {
         }
         #[cfg(target_arch = "x86_64")]
         if self.fused {
-            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.reduced_aba_fused(model, tau, level) };
         }
@@ -622,7 +624,7 @@ impl Adaptive {
     fn one_joint(&mut self, model: &Model, tau: &[f64], level: Level) -> Result<(), DynamicsError> {
         #[cfg(target_arch = "x86_64")]
         if self.fused {
-            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.one_joint_wide(model, tau, level) };
         }
@@ -1112,7 +1114,7 @@ fn articulate_multi_with<const K: usize>(
     // dividing again (the same numbers). The factor goes straight into `chol` (the lower
     // triangle of the leading k × k block: all that passes 2 and 3 read).
     let mut invs = [0.0; 6];
-    if !articula_dca::cholesky_into(&dm, k, &mut h.chol[idx], &mut invs) {
+    if !articula_dca::internals::cholesky_into(&dm, k, &mut h.chol[idx], &mut invs) {
         return false;
     }
     if parent == NO_PARENT {
@@ -1357,7 +1359,7 @@ fn revolute_kinematics(
     revolute_kinematics_with(body, parts, x0, v0, sc, qd, s, out)
 }
 
-/// [`articula_dca::body_kinematics`] for a joint of [`RevoluteParts`]: the rotation by `q`
+/// [`articula_dca::internals::body_kinematics`] for a joint of [`RevoluteParts`]: the rotation by `q`
 /// touches two columns of the pose and an identity part origin costs nothing. (Called out of
 /// line, beside the closed-form one-axis path of `active_kinematics`.)
 #[allow(clippy::too_many_arguments)]
@@ -1456,7 +1458,7 @@ fn floating_kinematics(
     floating_kinematics_with(part, x0, v0, q, qd, s, out)
 }
 
-/// [`articula_dca::body_kinematics`] for a joint of one floating part (a floating base):
+/// [`articula_dca::internals::body_kinematics`] for a joint of one floating part (a floating base):
 /// the pose by the same products; the subspace columns `X [e_k; 0]`, `X [0; e_k]` written
 /// out — `[E e_k; E (−r × e_k)]` and `[0; E e_k]`, the columns of `E` and two-term sums of
 /// them (`apply_motion`'s products by the unit vector's zeros and ones add only zeros, and

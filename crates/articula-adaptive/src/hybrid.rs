@@ -341,7 +341,7 @@ pub struct Adaptive {
     /// Run the reduced ABA compiled with fused multiply–adds, and the other hot passes (join,
     /// kinematics, rigid coefficients, back-substitution, cache evaluations) compiled for
     /// AVX2 + FMA with the same arithmetic as their portable versions (set in
-    /// [`Adaptive::new`] where the CPU has AVX2 and FMA: `articula_dca::fused_available`).
+    /// [`Adaptive::new`] where the CPU has AVX2 and FMA: `articula_dca::internals::fused_available`).
     pub(crate) fused: bool,
     pub(crate) fresh_q: Vec<f64>,
     pub(crate) fresh_qd: Vec<f64>,
@@ -489,7 +489,7 @@ impl Adaptive {
             steps: 0,
             full_passes: false,
             fresh: false,
-            fused: articula_dca::fused_available(),
+            fused: articula_dca::internals::fused_available(),
             fresh_q: vec![0.0; model.nq],
             fresh_qd: vec![0.0; model.nv],
             // The angles' sines and cosines at full size now: a `_with` call exchanges them
@@ -595,7 +595,7 @@ impl Adaptive {
     ) -> Result<(), DynamicsError> {
         #[cfg(target_arch = "x86_64")]
         if self.fused {
-            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.rigid_coefficients_wide(model, n, inertia, v, fe, level) };
         }
@@ -692,7 +692,7 @@ impl Adaptive {
     ) -> Result<(), DynamicsError> {
         #[cfg(target_arch = "x86_64")]
         if self.fused {
-            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.join_wide(model, n, tau, level) };
         }
@@ -1092,7 +1092,7 @@ impl Adaptive {
     pub(crate) fn expand(&mut self, model: &Model, n: usize) {
         #[cfg(target_arch = "x86_64")]
         if self.fused {
-            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.expand_wide(model, n) };
         }

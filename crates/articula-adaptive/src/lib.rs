@@ -57,10 +57,14 @@ mod scratch;
 mod trig;
 mod update;
 
+#[cfg(test)]
+mod reference_tests;
+
 pub use hybrid::{Adaptive, Selection};
 pub use scratch::Scratch;
 
-use articula_dca::{all_finite, check_inputs, forward_kinematics, DynamicsError, State};
+use articula_dca::internals::all_finite;
+use articula_dca::{check_inputs, forward_kinematics, DynamicsError, State};
 use articula_model::{Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialTransform};
 use hybrid::Level;
@@ -721,40 +725,42 @@ impl Adaptive {
     }
 
     /// Re-select through the caches of the rigid subassemblies (default, O(active region)) or
-    /// by whole-body passes (off: the reference, O(n)).
-    #[doc(hidden)]
-    pub fn set_cached_reselection(&mut self, on: bool) {
+    /// by whole-body passes (off: the reference, O(n)). For the tests that compare the two.
+    #[cfg(test)]
+    pub(crate) fn set_cached_reselection(&mut self, on: bool) {
         self.use_cache = on;
         self.cache.ready = false;
     }
 
     /// Run the hybrid step's reduced ABA with fused multiply–adds where the CPU has AVX2 and
-    /// FMA (default: whenever available) or portably everywhere (off: the reference for tests;
-    /// the same solution to rounding). The same switch picks the AVX2 + FMA compilations of
-    /// the other hot passes, whose arithmetic is the portable one (the same bits either way).
-    /// Asking for it on a CPU without them keeps it off.
-    #[doc(hidden)]
-    pub fn set_fused(&mut self, on: bool) {
-        self.fused = on && articula_dca::fused_available();
+    /// FMA (default: whenever available) or portably everywhere (off: the reference; the same
+    /// solution to rounding). The same switch picks the AVX2 + FMA compilations of the other
+    /// hot passes, whose arithmetic is the portable one (the same bits either way). Asking for
+    /// it on a CPU without them keeps it off. For the tests that compare the two.
+    #[cfg(test)]
+    pub(crate) fn set_fused(&mut self, on: bool) {
+        self.fused = on && articula_dca::internals::fused_available();
     }
 
     /// Take a forced path's deltas from its linear maps of the leaf's wrench (default) or
-    /// recompute every dirty node from its children's (off: the reference for tests).
-    #[doc(hidden)]
-    pub fn set_path_maps(&mut self, on: bool) {
+    /// recompute every dirty node from its children's (off: the reference). For the tests
+    /// that compare the two.
+    #[cfg(test)]
+    pub(crate) fn set_path_maps(&mut self, on: bool) {
         self.cache.no_maps = !on;
     }
 
     /// Forced-path maps built and evaluated so far (for tests: whether the maps were used).
-    #[doc(hidden)]
-    pub fn path_map_counts(&self) -> (u64, u64) {
+    #[cfg(test)]
+    pub(crate) fn path_map_counts(&self) -> (u64, u64) {
         (self.cache.map_builds, self.cache.map_evals)
     }
 
     /// Between re-selections, run whole-body kinematics and composites instead of the
-    /// hierarchical state (a reference for tests; same results, cost O(n)).
-    #[doc(hidden)]
-    pub fn set_full_passes(&mut self, on: bool) {
+    /// hierarchical state (the reference; same results, cost O(n)). For the tests that
+    /// compare the two.
+    #[cfg(test)]
+    pub(crate) fn set_full_passes(&mut self, on: bool) {
         self.full_passes = on;
     }
 

@@ -59,7 +59,7 @@ impl Adaptive {
     ) -> Result<bool, DynamicsError> {
         #[cfg(target_arch = "x86_64")]
         if self.fused {
-            // SAFETY: `fused` is set only where `articula_dca::fused_available()` (the CPU
+            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.cached_reselect_wide(model, state) };
         }
@@ -89,7 +89,7 @@ impl Adaptive {
         self.check_active_inputs(model, state)?;
         self.cache.epoch += 1;
         let ep = self.cache.epoch;
-        self.data.origin = articula_dca::computation_origin(model, &state.q);
+        self.data.origin = articula_dca::internals::computation_origin(model, &state.q);
         self.active_kinematics(model, &state.q, &state.qd);
         for idx in 0..self.hier.ajoints.len() {
             let j = self.hier.ajoints[idx];

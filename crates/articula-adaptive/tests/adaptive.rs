@@ -16,7 +16,7 @@ const MODELS: [&str; 8] = [
     "rope",
 ];
 
-use articula_benches::bundled_with as load;
+use articula_testkit::bundled_with as load;
 
 /// Every bundled model, fixed base, plus the floating humanoid and floating chain30.
 fn models() -> Vec<(String, Model)> {
@@ -399,58 +399,6 @@ fn a_hybrid_step_visits_the_active_region_and_its_frontier_only() {
 }
 
 #[test]
-fn hierarchical_steps_match_whole_body_passes() {
-    // Budget 1 on a fixed base: a reduced tree of one joint on a grounded cluster, which the
-    // hybrid step solves in closed form (`one_joint`).
-    for (name, floating, budget) in [
-        ("chain100", false, 12),
-        ("chain100", false, 1),
-        ("humanoid", true, 10),
-        ("plant", false, 20),
-        ("plant", false, 1),
-        ("rope", true, 15),
-    ] {
-        let model = load(name, floating);
-        let mut s0 = State::random(&model, 77, 0.0);
-        // Light forces: the rope's 3-gram links reach 1e9 rad/s² under the usual ones.
-        s0.randomize_forces(78, 0.01);
-        let settings = Settings {
-            budget: Some(budget),
-            reselect_every: 7,
-            ..Settings::default()
-        };
-        let (mut fast, mut slow) = (
-            Adaptive::new(&model, settings.clone()),
-            Adaptive::new(&model, settings),
-        );
-        slow.set_full_passes(true);
-        // The same (whole-body) re-selections on both sides: this compares the steps between
-        // them; tests/cache.rs compares the cached re-selection (its locking impulses differ
-        // from these by rounding, ~1e-11 relative in q̇).
-        fast.set_cached_reselection(false);
-        let (mut a, mut b) = (s0.clone(), s0);
-        for k in 0..40 {
-            let ra = fast.step(&model, &mut a, 1e-3).unwrap();
-            let rb = slow.step(&model, &mut b, 1e-3).unwrap();
-            assert_eq!(ra.active_dofs, rb.active_dofs, "{name} step {k}");
-            let da = max_diff(fast.qdd(), slow.qdd());
-            assert!(
-                da <= 1e-10 * max_abs(slow.qdd()).max(1.0),
-                "{name} step {k}: q̈ {da:e}"
-            );
-            let (dq, dv) = (max_diff(&a.q, &b.q), max_diff(&a.qd, &b.qd));
-            // q̇ and q differ by h q̈ and h² q̈ of the difference above (h = 1e-3).
-            assert!(
-                dq <= 1e-12 + 2e-6 * da && dv <= 1e-12 * (1.0 + max_abs(&b.qd)) + 2e-3 * da,
-                "{name} step {k}: {dq:e} {dv:e}"
-            );
-            // The same inputs for the next step (a chaotic rope would amplify round-off).
-            a = b.clone();
-        }
-    }
-}
-
-#[test]
 fn velocity_tolerance_keeps_fast_subassemblies_moving() {
     // Budget 0 selects nothing; with a velocity tolerance every active subassembly whose
     // velocity metric V(C) = Σ q̇ᵀq̇ exceeds it stays in the hybrid body, the others lock.
@@ -550,8 +498,7 @@ fn hybrid_body_equals_the_model_with_its_locked_joints_welded() {
         ("plant", true),
     ] {
         let model = load(name, floating);
-        let path = format!("{}/../../models/{name}.urdf", env!("CARGO_MANIFEST_DIR"));
-        let text = std::fs::read_to_string(&path).unwrap();
+        let text = articula_testkit::bundled_urdf(name);
         for seed in 0..3u64 {
             let pick = |b: usize| !(b as u64 * 7 + seed).is_multiple_of(3);
             // The final active set (closed upward) first, then a state with the locked joints
@@ -580,7 +527,7 @@ fn hybrid_body_equals_the_model_with_its_locked_joints_welded() {
             ad.step(&model, &mut s.clone(), 1e-9).unwrap();
             let hybrid = ad.qdd().to_vec();
             // The welded model.
-            let mut welded_text = text.clone();
+            let mut welded_text = text.to_string();
             for (i, b) in model.bodies.iter().enumerate() {
                 if !active[i] {
                     let name = &b.joint[0].name;

@@ -3,29 +3,35 @@
 
 use articula_adaptive::{Adaptive, Scratch, Settings};
 use articula_dca::State;
-use articula_model::{LoadOptions, Model};
-mod counting;
+use articula_testkit::{count_allocations, CountingAllocator};
+
+#[global_allocator]
+static ALLOCATOR: CountingAllocator = CountingAllocator;
 
 #[test]
 fn shared_scratch_steps_allocate_nothing() {
-    let path = format!("{}/../../models/humanoid.urdf", env!("CARGO_MANIFEST_DIR"));
-    let model =
-        Model::from_urdf_file(&path, &LoadOptions::default().with_floating_base(true)).unwrap();
+    let model = articula_testkit::bundled_with("humanoid", true);
     let n = 4;
-    let start = counting::allocations();
-    let mut scratch = Scratch::new(&model);
-    let mut ads: Vec<Adaptive> = (0..n)
-        .map(|i| {
-            Adaptive::new(
-                &model,
-                Settings {
-                    budget: Some(6 + 3 * i),
-                    reselect_every: 4,
-                    ..Settings::default()
-                },
-            )
-        })
-        .collect();
+    let mut scratch = None;
+    let mut ads: Vec<Adaptive> = Vec::new();
+    // The counter counts: the workspaces are allocated.
+    let setup = count_allocations(|| {
+        scratch = Some(Scratch::new(&model));
+        ads = (0..n)
+            .map(|i| {
+                Adaptive::new(
+                    &model,
+                    Settings {
+                        budget: Some(6 + 3 * i),
+                        reselect_every: 4,
+                        ..Settings::default()
+                    },
+                )
+            })
+            .collect();
+    });
+    assert!(setup > 10, "{setup}");
+    let mut scratch = scratch.unwrap();
     let mut states: Vec<State> = (0..n)
         .map(|i| {
             let mut s = State::random(&model, 5 + i as u64, 0.5);
@@ -67,11 +73,10 @@ fn shared_scratch_steps_allocate_nothing() {
     for k in 0..40 {
         run(k);
     }
-    let before = counting::allocations();
-    // The counter counts: the workspaces and the first steps' caches were allocated.
-    assert!(before > start + 10);
-    for k in 40..140 {
-        run(k);
-    }
-    assert_eq!(counting::allocations() - before, 0);
+    let steps = count_allocations(|| {
+        for k in 40..140 {
+            run(k);
+        }
+    });
+    assert_eq!(steps, 0);
 }

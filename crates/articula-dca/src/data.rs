@@ -548,21 +548,14 @@ impl Data {
     }
 
     /// Runs the DCA pass compiled with fused multiply–adds (`true`, the default where
-    /// [`crate::fused_available`]) or the portable compilation (`false`); `true` on a CPU
-    /// without AVX2 and FMA is ignored. For comparing the two compilations (benchmarks, the
-    /// `qdd_hash` example); returns the compilation now in use (`true`: fused).
-    #[doc(hidden)]
+    /// [`crate::internals::fused_available`]) or the portable compilation (`false`); `true` on
+    /// a CPU without AVX2 and FMA is ignored. For comparing the two compilations (tests,
+    /// `cargo xtask hash`); returns the compilation now in use (`true`: fused). Needs the
+    /// `internals` feature.
+    #[cfg(feature = "internals")]
     pub fn set_fused_dca(&mut self, fused: bool) -> bool {
         self.dca.fused = fused && crate::dca::fused_available();
         self.dca.fused
-    }
-
-    /// Turns the DCA back-substitution's software prefetches on or off (by default on when the
-    /// workspace is large enough, see `DcaData::prefetch`). For timing the two in one process
-    /// (`benches/examples/ab_prefetch.rs`); results do not change.
-    #[doc(hidden)]
-    pub fn set_dca_prefetch(&mut self, on: bool) {
-        self.dca.prefetch = on;
     }
 
     /// How many DCA solves on this workspace took a refinement step: with a floating base,

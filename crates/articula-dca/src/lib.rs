@@ -8,10 +8,11 @@
 //! [`step`]s allocate nothing.
 //!
 //! The DCA pass is compiled twice: portably, and with fused multiply–adds for x86-64 CPUs with
-//! AVX2 and FMA ([`fused_available`]), which `Data::new` picks when it can. The two agree to
+//! AVX2 and FMA (detected at run time), which `Data::new` picks when it can. The two agree to
 //! rounding (~1e-12 relative), so results may differ in their last bits between machines.
-//! Other crates write their passes over the same [`Arith`] type to do likewise. ABA (with its
-//! kinematics) is compiled for AVX2 too, with the portable arithmetic: the same bits.
+//! articula-adaptive writes its passes over the same arithmetic strategy to do likewise (the
+//! `internals` feature). ABA (with its kinematics) is compiled for AVX2 too, with the portable
+//! arithmetic: the same bits.
 //!
 //! ```
 //! use articula_dca::{forward_dynamics, Data, Method, State};
@@ -41,6 +42,7 @@ mod crba;
 mod data;
 mod dca;
 mod error;
+mod finite;
 mod integrate;
 mod kinematics;
 mod refine;
@@ -48,14 +50,33 @@ mod small;
 mod state;
 
 pub use data::Data;
-#[cfg(target_arch = "x86_64")]
-pub use dca::Fused;
-pub use dca::{fused_available, Arith, Portable};
 pub use error::DynamicsError;
 pub use integrate::{integrate_floating, integrate_q, step, Integrator};
-pub use kinematics::{body_kinematics, computation_origin, forward_kinematics};
-pub use small::{cholesky, cholesky_into};
-pub use state::{SplitMix64, State};
+pub use kinematics::forward_kinematics;
+pub use state::State;
+
+use finite::all_finite;
+
+/// Building blocks that the workspace's higher layers (articula-adaptive, articula-view,
+/// `cargo xtask`) share with this crate, behind the `internals` cargo feature: the two
+/// compilations of the DCA pass (portable, and AVX2 + FMA where [`fused_available`]) as the
+/// [`Arith`] strategy, the small Cholesky kernels, per-body kinematics, the random-number
+/// generator of [`State::random`](crate::State::random), and the workspace's switch between the
+/// two compilations ([`Data::set_fused_dca`](crate::Data::set_fused_dca)). Not a stable API:
+/// users need none of it.
+///
+/// [`fused_available`]: internals::fused_available
+/// [`Arith`]: internals::Arith
+#[cfg(feature = "internals")]
+pub mod internals {
+    #[cfg(target_arch = "x86_64")]
+    pub use crate::dca::Fused;
+    pub use crate::dca::{fused_available, Arith, Portable};
+    pub use crate::finite::all_finite;
+    pub use crate::kinematics::{body_kinematics, computation_origin};
+    pub use crate::small::{cholesky, cholesky_into};
+    pub use crate::state::SplitMix64;
+}
 
 use articula_model::Model;
 use articula_spatial::SpatialForce;
@@ -147,25 +168,6 @@ pub fn forward_dynamics<'d>(
     Ok(&data.qdd)
 }
 
-/// Whether every entry of `xs` is finite, without an early exit so that it vectorises: `x·0`
-/// is ±0 for a finite `x` and NaN for an infinite or NaN one, summed in four lanes (a sum of
-/// zeros is zero; one NaN makes it NaN). The input checks of the solvers here and of
-/// articula-adaptive's steps use it.
-#[inline]
-pub fn all_finite(xs: &[f64]) -> bool {
-    let mut acc = [0.0f64; 4];
-    let mut chunks = xs.chunks_exact(4);
-    for c in &mut chunks {
-        for k in 0..4 {
-            acc[k] += c[k] * 0.0;
-        }
-    }
-    for &x in chunks.remainder() {
-        acc[0] += x * 0.0;
-    }
-    (acc[0] + acc[1]) + (acc[2] + acc[3]) == 0.0
-}
-
 /// External wrench on body `i`: an empty slice means none.
 #[inline]
 pub(crate) fn f_ext_of(f_ext: &[SpatialForce], i: usize) -> SpatialForce {
@@ -232,14 +234,11 @@ pub fn check_inputs(
 /// crate's unit tests: `(name, floating_base, model)`.
 #[cfg(test)]
 pub(crate) fn bundled_models() -> impl Iterator<Item = (&'static str, bool, Model)> {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models");
     ["chain10", "chain300", "humanoid", "plant", "rope"]
         .into_iter()
         .flat_map(|name| [false, true].map(|floating_base| (name, floating_base)))
-        .map(move |(name, floating_base)| {
-            let options = articula_model::LoadOptions::default().with_floating_base(floating_base);
-            let model = Model::from_urdf_file(dir.join(format!("{name}.urdf")), &options)
-                .unwrap_or_else(|e| panic!("{name}: {e}"));
+        .map(|(name, floating_base)| {
+            let model = articula_testkit::bundled_with(name, floating_base);
             (name, floating_base, model)
         })
 }
@@ -265,41 +264,4 @@ pub(crate) fn solve_portable_and_fused(
             .to_vec()
     };
     (solve(false), solve(dca::fused_available()))
-}
-
-#[cfg(test)]
-mod finite_tests {
-    /// `all_finite` against `is_finite` entry by entry: every length up to 13 (the four-lane
-    /// chunks and every remainder), with one NaN, +∞ or −∞ at each position, and all finite
-    /// (signed zeros, subnormals, the largest finite values included).
-    #[test]
-    fn all_finite_matches_is_finite() {
-        let finite = [
-            0.0,
-            -0.0,
-            1.5,
-            -2.25e300,
-            f64::MAX,
-            f64::MIN,
-            5e-324,
-            -1e-310,
-        ];
-        for len in 0..=13 {
-            let base: Vec<f64> = (0..len).map(|i| finite[i % finite.len()]).collect();
-            assert!(super::all_finite(&base), "len {len}");
-            for pos in 0..len {
-                for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
-                    let mut xs = base.clone();
-                    xs[pos] = bad;
-                    let expected = xs.iter().all(|x| x.is_finite());
-                    assert!(!expected);
-                    assert_eq!(
-                        super::all_finite(&xs),
-                        expected,
-                        "len {len} pos {pos} {bad}"
-                    );
-                }
-            }
-        }
-    }
 }

@@ -2,7 +2,6 @@
 //! and external forces, on seeded random states.
 
 use articula_dca::{forward_dynamics, Data, Method, State};
-use articula_model::{LoadOptions, Model};
 
 // Relative agreement (max |difference| / max |q̈|) demanded between DCA and ABA, and between
 // DCA and CRBA: 1e-10 (issue 3), on every bundled model, fixed and floating base, 20 seeded
@@ -15,10 +14,6 @@ const TOL: f64 = 1e-10;
 // when that residual is large (long chains: without it the floating 1,000-link chain was 3.9e-10
 // off); `refinement_count` shows which models take the step.
 
-fn models_dir() -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models")
-}
-
 fn max_rel_diff(a: &[f64], b: &[f64]) -> f64 {
     let scale = a.iter().chain(b).fold(1.0f64, |m, x| m.max(x.abs()));
     a.iter()
@@ -30,11 +25,7 @@ fn max_rel_diff(a: &[f64], b: &[f64]) -> f64 {
 /// Returns how many of the DCA solves took the floating-base refinement step.
 fn check(name: &str, floating_base: bool, states: u64) -> u64 {
     let tol = TOL;
-    let model = Model::from_urdf_file(
-        models_dir().join(format!("{name}.urdf")),
-        &LoadOptions::default().with_floating_base(floating_base),
-    )
-    .unwrap();
+    let model = articula_testkit::bundled_with(name, floating_base);
     let mut data = Data::new(&model);
     let mut worst = 0.0f64;
     let (mut w_aba, mut w_crba, mut w_ref) = (0.0f64, 0.0f64, 0.0f64);
@@ -117,11 +108,7 @@ fn chain1000_agrees() {
 fn refinement_can_be_turned_off() {
     // `Data::refine_floating = false` skips the residual check: the floating 1,000-link chain
     // then keeps DCA's unrefined q̈, whose distance to CRBA is measurably larger.
-    let model = Model::from_urdf_file(
-        models_dir().join("chain1000.urdf"),
-        &LoadOptions::default().with_floating_base(true),
-    )
-    .unwrap();
+    let model = articula_testkit::bundled_with("chain1000", true);
     let s = State::random(&model, 17, 1.0);
     let solve = |data: &mut Data, m| {
         forward_dynamics(&model, data, &s.q, &s.qd, &s.tau, &s.f_ext, m)

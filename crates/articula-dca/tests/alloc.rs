@@ -1,81 +1,16 @@
 //! "A step allocates nothing" (docs/design.md#workspace): a counting allocator around DCA and ABA
 //! calls and steps on several models, fixed and floating base.
 //!
-//! The allocator counts only on threads that switched counting on (a thread-local flag), so
+//! The allocator (articula-testkit's) counts only on the thread inside `count_allocations`, so
 //! the test harness's other threads (and other tests of this binary running in parallel) cannot
 //! add to a test's count. This file is its own test binary, so the allocator touches no other
 //! test.
 
 use articula_dca::{forward_dynamics, step, Data, Integrator, Method, State};
-use articula_model::{LoadOptions, Model};
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
-struct Counting;
-
-thread_local! {
-    static ENABLED: Cell<bool> = const { Cell::new(false) };
-    static COUNT: Cell<usize> = const { Cell::new(0) };
-}
-
-fn note() {
-    // `try_with`: the allocator may run while a thread's locals are being torn down.
-    if ENABLED.try_with(Cell::get).unwrap_or(false) {
-        let _ = COUNT.try_with(|c| c.set(c.get() + 1));
-    }
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        note();
-        System.alloc(layout)
-    }
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        note();
-        System.alloc_zeroed(layout)
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        note();
-        System.realloc(ptr, layout, new_size)
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        System.dealloc(ptr, layout)
-    }
-}
+use articula_testkit::{bundled_with as load, count_allocations, CountingAllocator};
 
 #[global_allocator]
-static GLOBAL: Counting = Counting;
-
-/// Runs `f` with counting on (this thread only) and returns the number of allocations
-/// (`alloc`, `alloc_zeroed` and `realloc` calls) it made.
-fn count_allocations(f: impl FnOnce()) -> usize {
-    COUNT.with(|c| c.set(0));
-    ENABLED.with(|e| e.set(true));
-    f();
-    ENABLED.with(|e| e.set(false));
-    COUNT.with(Cell::get)
-}
-
-fn load(name: &str, floating_base: bool) -> Model {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../models")
-        .join(format!("{name}.urdf"));
-    Model::from_urdf_file(
-        path,
-        &LoadOptions::default().with_floating_base(floating_base),
-    )
-    .unwrap()
-}
-
-#[test]
-fn the_counter_counts() {
-    let n = count_allocations(|| {
-        let v: Vec<u64> = Vec::with_capacity(10);
-        std::hint::black_box(v);
-    });
-    assert_eq!(n, 1);
-    assert_eq!(count_allocations(|| ()), 0);
-}
+static ALLOCATOR: CountingAllocator = CountingAllocator;
 
 #[test]
 fn dca_and_aba_allocate_nothing() {

@@ -3,19 +3,12 @@
 //! `dh/dt = Σ external wrenches` implied by the forward dynamics.
 
 use articula_dca::{forward_dynamics, forward_kinematics, step, Data, Integrator, Method, State};
-use articula_model::{LoadOptions, Model};
+use articula_model::Model;
 use articula_spatial::{SpatialForce, SpatialMotion, SpatialTransform};
 use glam::DVec3;
 
 fn load(name: &str, floating_base: bool) -> Model {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../models")
-        .join(format!("{name}.urdf"));
-    Model::from_urdf_file(
-        path,
-        &LoadOptions::default().with_floating_base(floating_base),
-    )
-    .unwrap()
+    articula_testkit::bundled_with(name, floating_base)
 }
 
 fn energy(model: &Model, data: &mut Data, s: &State) -> f64 {

@@ -9,14 +9,7 @@ use glam::DVec3;
 const METHODS: [Method; 3] = [Method::Dca, Method::Aba, Method::Crba];
 
 fn load(name: &str, floating_base: bool) -> Model {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../models")
-        .join(format!("{name}.urdf"));
-    Model::from_urdf_file(
-        path,
-        &LoadOptions::default().with_floating_base(floating_base),
-    )
-    .unwrap()
+    articula_testkit::bundled_with(name, floating_base)
 }
 
 fn pendulum() -> Model {

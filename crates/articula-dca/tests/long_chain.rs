@@ -15,30 +15,14 @@
 //! long enough chain (DCA then returns `DynamicsError::Singular`; with the current join basis a
 //! chain tilted 0.3 rad at its first joint solves at 8,000 links and stops at 10,000, and one
 //! hanging exactly straight down solves at 100,000); a crumpled chain has lever arms ~√N instead of N
-//! and 100,000 links still agree to ~3e-9 (measured with the `agree` example of
-//! articula-benches). Measured here (DCA vs ABA, max |Δq̈| / max |q̈|): straight
+//! and 100,000 links still agree to ~3e-9 (this file's `difference` at 100,000 links, too slow
+//! for a test). Measured here (DCA vs ABA, max |Δq̈| / max |q̈|): straight
 //! 1,000 links 1.9e-9, 2,000 8.1e-9, 4,000 4.6e-8; random states at 20,000 links 1.3e-10 and
 //! 8.0e-10.
 
 use articula_dca::{forward_dynamics, Data, Method, State};
-use articula_model::{LoadOptions, Model};
-
-/// The planar pendulum chain of `models/chainN.urdf` (as `articula_benches::chain_urdf`).
-fn chain(n: usize) -> Model {
-    let mut s = String::from("<robot name=\"chain\"><link name=\"base\"><inertial><mass value=\"1\"/><inertia ixx=\"0.01\" iyy=\"0.01\" izz=\"0.01\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>\n");
-    for i in 1..=n {
-        let parent = if i == 1 {
-            "base".to_string()
-        } else {
-            format!("link{}", i - 1)
-        };
-        let z = if i == 1 { -0.05 } else { -0.1 };
-        s += &format!(
-            "<link name=\"link{i}\"><inertial><origin xyz=\"0 0 -0.05\"/><mass value=\"0.1\"/><inertia ixx=\"8.5833e-5\" iyy=\"8.5833e-5\" izz=\"5e-6\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>\n<joint name=\"joint{i}\" type=\"revolute\"><parent link=\"{parent}\"/><child link=\"link{i}\"/><origin xyz=\"0 0 {z}\"/><axis xyz=\"0 1 0\"/><limit lower=\"-3.14\" upper=\"3.14\" effort=\"100\" velocity=\"10\"/></joint>\n"
-        );
-    }
-    Model::from_urdf_str(&(s + "</robot>"), &LoadOptions::default()).unwrap()
-}
+use articula_model::Model;
+use articula_testkit::chain;
 
 /// max |DCA − ABA| / max |q̈| on `s`.
 fn difference(model: &Model, data: &mut Data, s: &State) -> f64 {

@@ -18,10 +18,7 @@ fn floating(name: &str) -> Model {
     if name == "body" {
         return Model::from_urdf_str(BODY, &opts).unwrap();
     }
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../models")
-        .join(format!("{name}.urdf"));
-    Model::from_urdf_file(path, &opts).unwrap()
+    articula_testkit::bundled_with(name, true)
 }
 
 /// Momentum (world frame, about the world origin) and kinetic energy of `s`, from a fresh

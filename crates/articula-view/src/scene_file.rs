@@ -20,57 +20,13 @@
 use crate::camera::{Camera, CameraPath, Keyframe};
 use crate::visibility::VisibilitySettings;
 use crate::volumes::{body_volumes, BodyVolumes};
-use articula_dca::SplitMix64;
-use articula_model::{InertiaPolicy, LoadOptions, Model, ModelError};
+use crate::ViewError;
+use articula_dca::internals::SplitMix64;
+use articula_model::{InertiaPolicy, LoadOptions, Model};
 use glam::{DMat3, DQuat, DVec3};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-
-/// Everything that can be wrong with a scene file.
-#[derive(Debug, thiserror::Error)]
-pub enum SceneError {
-    /// The file could not be read.
-    #[error("cannot read scene file {path}: {message}")]
-    Io {
-        /// The path.
-        path: String,
-        /// The system's message.
-        message: String,
-    },
-    /// Not JSON, or JSON of the wrong shape.
-    #[error("scene file {path}: {field}: {message}")]
-    Json {
-        /// The scene file.
-        path: String,
-        /// The JSON path of the offending value (`.` for the top level).
-        field: String,
-        /// What is wrong (with line and column).
-        message: String,
-    },
-    /// A value of the right type that cannot be used.
-    #[error("scene file {path}: {field}: {message}")]
-    Invalid {
-        /// The scene file.
-        path: String,
-        /// The field.
-        field: String,
-        /// What is wrong.
-        message: String,
-    },
-    /// A model that cannot be loaded.
-    #[error("scene file {path}: models.{name}: {model_path}: {error}")]
-    Model {
-        /// The scene file.
-        path: String,
-        /// The model's key in `models`.
-        name: String,
-        /// The resolved URDF path.
-        model_path: String,
-        /// The loader's error.
-        error: Box<ModelError>,
-    },
-}
 
 /// `[x, y, z]`.
 type V3 = [f64; 3];
@@ -438,7 +394,7 @@ pub struct LoadedScene {
 pub const MAX_SCENE_BYTES: u64 = 16 << 20;
 
 /// Reads and checks a scene file.
-pub fn load_scene(path: impl AsRef<Path>) -> Result<LoadedScene, SceneError> {
+pub fn load_scene(path: impl AsRef<Path>) -> Result<LoadedScene, ViewError> {
     load_scene_with(path, InertiaPolicy::default())
 }
 
@@ -446,9 +402,9 @@ pub fn load_scene(path: impl AsRef<Path>) -> Result<LoadedScene, SceneError> {
 pub fn load_scene_with(
     path: impl AsRef<Path>,
     inertia: InertiaPolicy,
-) -> Result<LoadedScene, SceneError> {
+) -> Result<LoadedScene, ViewError> {
     let path = path.as_ref();
-    let io = |message: String| SceneError::Io {
+    let io = |message: String| ViewError::Io {
         path: path.display().to_string(),
         message,
     };
@@ -461,7 +417,7 @@ pub fn load_scene_with(
 
 /// Parses and checks scene text; `path` names the file in errors and `base` is the folder model
 /// paths are relative to.
-pub fn parse_scene(text: &str, path: &Path, base: &Path) -> Result<LoadedScene, SceneError> {
+pub fn parse_scene(text: &str, path: &Path, base: &Path) -> Result<LoadedScene, ViewError> {
     parse_scene_with(text, path, base, InertiaPolicy::default())
 }
 
@@ -471,7 +427,7 @@ pub fn parse_scene_with(
     path: &Path,
     base: &Path,
     inertia: InertiaPolicy,
-) -> Result<LoadedScene, SceneError> {
+) -> Result<LoadedScene, ViewError> {
     let file = path.display().to_string();
     let de = &mut serde_json::Deserializer::from_str(text);
     let spec: SceneSpec = serde_path_to_error::deserialize(de).map_err(|e| {
@@ -479,7 +435,7 @@ pub fn parse_scene_with(
             f if f == "." => "top level".to_string(),
             f => f,
         };
-        SceneError::Json {
+        ViewError::Json {
             path: file.clone(),
             field,
             message: e.inner().to_string(),
@@ -497,9 +453,9 @@ fn resolve(
     path: &Path,
     base: &Path,
     inertia: InertiaPolicy,
-) -> Result<LoadedScene, SceneError> {
+) -> Result<LoadedScene, ViewError> {
     let file = path.display().to_string();
-    let invalid = |field: String, message: String| SceneError::Invalid {
+    let invalid = |field: String, message: String| ViewError::Invalid {
         path: file.clone(),
         field,
         message,
@@ -570,7 +526,7 @@ fn resolve(
     // Camera.
     let c = &spec.camera;
     let aspect = img.width as f64 / img.height as f64;
-    let cam_err = |e: crate::ViewError| invalid("camera".into(), e.to_string());
+    let cam_err = |e: ViewError| invalid("camera".into(), e.to_string());
     let camera = match (c.eye, c.target, &c.path) {
         (Some(eye), Some(target), None) => CameraRig::Fixed(
             Camera::look_at(
@@ -622,7 +578,7 @@ fn resolve(
                 .with_floating_base(true)
                 .with_inertia(inertia),
         )
-        .map_err(|error| SceneError::Model {
+        .map_err(|error| ViewError::Model {
             path: file.clone(),
             name: name.clone(),
             model_path: p.display().to_string(),

@@ -29,8 +29,9 @@ use crate::render::{rigid_groups, FrameBody};
 use crate::scene_file::LoadedScene;
 use crate::visibility::{BodyView, Classifier, Placed, PosePlan, Visibility};
 use crate::volumes::BodyVolumes;
+use crate::ViewError;
 use articula_adaptive::{Adaptive, AdaptiveError, Scratch, Settings};
-use articula_dca::State;
+use articula_dca::{DynamicsError, State};
 use articula_model::{JointKind, Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SymMat6};
 use glam::{DMat3, DQuat, DVec3};
@@ -261,7 +262,7 @@ impl SimBody {
     /// locked with zero velocity): `I a = f − v ×* I v` in root coordinates (gravity at the
     /// centre of mass, the external wrenches), `v ← v + h a`, `q ← q ⊕ h v`. The same motion the
     /// adaptive step gives a body with no active joint, in O(1) instead of O(n).
-    fn rigid_step(&mut self, model: &Model, gravity: DVec3, dt: f64) -> Result<(), String> {
+    fn rigid_step(&mut self, model: &Model, gravity: DVec3, dt: f64) -> Result<(), DynamicsError> {
         let (inertia, inv) = self.rigid.expect("rigid_step on a rigid body");
         let q = &self.state.q;
         let rot = DMat3::from_quat(DQuat::from_xyzw(q[4], q[5], q[6], q[3]).normalize());
@@ -308,7 +309,10 @@ impl SimBody {
         {
             Ok(())
         } else {
-            Err("non-finite floating-base state after a rigid step".into())
+            Err(DynamicsError::NonFinite {
+                what: "floating-base state after a rigid step",
+                name: model.bodies[0].joint_name().to_string(),
+            })
         }
     }
 }
@@ -485,9 +489,9 @@ impl<'s> SceneSim<'s> {
 
     /// Whether the bodies' adaptive calls share one [`Scratch`] per model (default: on) or
     /// use their own workspaces' buffers (off: the reference, the same results to the bit and
-    /// slower, see `docs/view.md`).
-    #[doc(hidden)]
-    pub fn set_shared_scratch(&mut self, on: bool) {
+    /// slower). For the test that compares the two.
+    #[cfg(test)]
+    pub(crate) fn set_shared_scratch(&mut self, on: bool) {
         self.shared = on;
     }
 
@@ -548,7 +552,7 @@ impl<'s> SceneSim<'s> {
 
     /// Body `i`'s exact solve at its current state and forces (the metrics' accelerations and
     /// the kinematics the classification and the next hybrid body reuse).
-    fn exact_solve(&mut self, i: usize) -> Result<(), SceneSimError> {
+    fn exact_solve(&mut self, i: usize) -> Result<(), ViewError> {
         let scene = self.scene;
         let b = &mut self.bodies[i];
         let model = &scene.models[b.model].model;
@@ -568,11 +572,11 @@ impl<'s> SceneSim<'s> {
         } else {
             ad.exact_solve(model, &s.q, &s.qd, &s.tau, f_ext)
         }
-        .map_err(|e| SceneSimError::body(scene, i, &e))
+        .map_err(|e| body_error(scene, i, e))
     }
 
     /// Advances the scene by one step.
-    pub fn step(&mut self) -> Result<SceneStep, SceneSimError> {
+    pub fn step(&mut self) -> Result<SceneStep, ViewError> {
         let scene = self.scene;
         let t = self.time();
         let reselect = self.steps.is_multiple_of(scene.reselect_every as u64);
@@ -704,7 +708,7 @@ impl<'s> SceneSim<'s> {
                     };
                     b.adaptive
                         .set_settings(settings)
-                        .map_err(|e| SceneSimError::new(scene, b.model, &e))?;
+                        .map_err(|e| model_error(scene, b.model, e))?;
                     // Exactly the chosen joints stay free; the others are locked by
                     // momentum-keeping impulses (no second articulated pass).
                     let wanted = |j: usize| self.wanted[tree.joint_node[j]];
@@ -714,7 +718,7 @@ impl<'s> SceneSim<'s> {
                     } else {
                         ad.set_active(model, state, wanted)
                     }
-                    .map_err(|e| SceneSimError::body(scene, i, &e))?;
+                    .map_err(|e| body_error(scene, i, e))?;
                     b.rigid = None;
                 }
                 b.changed = needed;
@@ -735,9 +739,8 @@ impl<'s> SceneSim<'s> {
             }
             let reselects = std::mem::take(&mut b.changed);
             if !reselects && b.rigid.is_some() {
-                b.rigid_step(model, scene.gravity, scene.dt).map_err(|e| {
-                    SceneSimError(format!("body '{}': {e}", scene.placements[i].name))
-                })?;
+                b.rigid_step(model, scene.gravity, scene.dt)
+                    .map_err(|e| body_error(scene, i, e.into()))?;
                 continue;
             }
             let (ad, state, forces) = (&mut b.adaptive, &mut b.state, &b.forces);
@@ -747,7 +750,7 @@ impl<'s> SceneSim<'s> {
             } else {
                 ad.step_with_forces(model, state, scene.dt, forces)
             }
-            .map_err(|e| SceneSimError::body(scene, i, &e))?;
+            .map_err(|e| body_error(scene, i, e))?;
             b.active = b
                 .adaptive
                 .active_dofs(model)
@@ -934,36 +937,37 @@ pub fn pose_springs(
     out
 }
 
-/// A dynamics failure in a scene, naming the body.
-#[derive(Debug, Clone, thiserror::Error)]
-#[error("{0}")]
-pub struct SceneSimError(pub String);
-
-impl SceneSimError {
-    fn new(scene: &LoadedScene, model: usize, e: &AdaptiveError) -> Self {
-        SceneSimError(format!("model '{}': {e}", scene.models[model].name))
+/// A dynamics failure of model `model`'s shared workspace, naming the model.
+fn model_error(scene: &LoadedScene, model: usize, error: AdaptiveError) -> ViewError {
+    ViewError::Dynamics {
+        what: "model",
+        name: scene.models[model].name.clone(),
+        error,
     }
-    fn body(scene: &LoadedScene, b: usize, e: &AdaptiveError) -> Self {
-        SceneSimError(format!("body '{}': {e}", scene.placements[b].name))
+}
+
+/// A dynamics failure of body `b`, naming the body.
+fn body_error(scene: &LoadedScene, b: usize, error: AdaptiveError) -> ViewError {
+    ViewError::Dynamics {
+        what: "body",
+        name: scene.placements[b].name.clone(),
+        error,
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::{pose_springs, spring_torques, whole_reach, SpringRuns};
+    use super::{pose_springs, spring_torques, whole_reach, SceneSim, SpringRuns};
     use crate::visibility::body_poses;
     use crate::volumes::body_volumes;
     use articula_dca::State;
-    use articula_model::{LoadOptions, Model};
 
     /// Every link's bounding sphere stays within `whole_reach` of the root body's origin, in
     /// random configurations (the bound is what lets a re-selection skip the exact solve of a
     /// body outside the view), and some link comes within a factor of two of it.
     #[test]
     fn whole_reach_bounds_every_link_sphere() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../models/humanoid.urdf");
-        let opts = LoadOptions::default().with_floating_base(true);
-        let model = Model::from_urdf_file(path, &opts).unwrap();
+        let model = articula_testkit::bundled_with("humanoid", true);
         let volumes = body_volumes(&model);
         let bound = whole_reach(&model, &volumes).unwrap();
         let mut farthest = 0.0f64;
@@ -986,9 +990,7 @@ mod tests {
     /// reference: on the humanoid (one run) and on a shuffled, gapped list (many runs).
     #[test]
     fn spring_runs_equal_one_spring_at_a_time() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../models/humanoid.urdf");
-        let opts = LoadOptions::default().with_floating_base(true);
-        let model = Model::from_urdf_file(path, &opts).unwrap();
+        let model = articula_testkit::bundled_with("humanoid", true);
         let springs = pose_springs(&model, 2.0, 0.2);
         assert_eq!(springs.len(), model.nv - 6);
         assert_eq!(SpringRuns::new(&springs).runs.len(), 1);
@@ -1004,5 +1006,54 @@ mod tests {
                 assert_eq!(s.tau[vi].to_bits(), (-k * s.q[qi] - c * s.qd[vi]).to_bits());
             }
         }
+    }
+
+    fn same(a: &[f64], b: &[f64]) -> bool {
+        a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+    }
+
+    /// The bundled crowd stepped with one shared adaptive scratch per model (the default)
+    /// follows the trajectory of the reference that gives every body its own buffers, to the
+    /// bit: 300 steps (30 re-selections, every body's node metrics, hybrid bodies set by hand,
+    /// pushes on every body, bodies turning rigid and back).
+    #[test]
+    fn crowd200_with_a_shared_scratch_follows_the_per_body_trajectory() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../models/scenes/crowd200.json"
+        );
+        let scene = crate::load_scene(path).unwrap();
+        let mut shared = SceneSim::new(&scene);
+        let mut own = SceneSim::new(&scene);
+        own.set_shared_scratch(false);
+        let mut changed = 0;
+        for k in 0..300 {
+            let before: Vec<usize> = own.bodies.iter().map(|b| b.active).collect();
+            let a = shared.step().unwrap();
+            let b = own.step().unwrap();
+            assert_eq!(a, b, "step {k}");
+            for (i, (x, y)) in shared.bodies.iter().zip(&own.bodies).enumerate() {
+                assert!(same(&x.state.q, &y.state.q), "step {k}, body {i}: q");
+                assert!(same(&x.state.qd, &y.state.qd), "step {k}, body {i}: q̇");
+                assert_eq!(x.active, y.active, "step {k}, body {i}");
+                assert_eq!(x.rigid.is_some(), y.rigid.is_some(), "step {k}, body {i}");
+                assert!(
+                    same(x.adaptive.qdd(), y.adaptive.qdd()),
+                    "step {k}, body {i}: q̈"
+                );
+            }
+            changed += own
+                .bodies
+                .iter()
+                .zip(&before)
+                .filter(|(b, a)| b.active != **a)
+                .count();
+        }
+        // Hybrid bodies changed along the way (set by hand at re-selections), and bodies moved.
+        assert!(changed > 100, "{changed}");
+        assert!(shared
+            .bodies
+            .iter()
+            .all(|b| b.state.qd.iter().any(|x| *x != 0.0)));
     }
 }

@@ -1,7 +1,7 @@
 //! Scene files: placements, crowds, pushes, and clear errors naming the field.
 
 use articula_dca::{forward_kinematics, Data};
-use articula_view::{parse_scene, CameraRig, SceneError};
+use articula_view::{parse_scene, CameraRig, ViewError};
 use glam::DVec3;
 use std::path::{Path, PathBuf};
 
@@ -9,7 +9,7 @@ fn models() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../models")
 }
 
-fn parse(text: &str) -> Result<articula_view::LoadedScene, SceneError> {
+fn parse(text: &str) -> Result<articula_view::LoadedScene, ViewError> {
     parse_scene(text, Path::new("test.json"), &models())
 }
 
@@ -197,6 +197,6 @@ fn errors_name_the_file_and_the_field() {
 #[test]
 fn missing_scene_file_is_an_io_error() {
     let e = articula_view::load_scene("/nonexistent/scene.json").unwrap_err();
-    assert!(matches!(e, SceneError::Io { .. }));
+    assert!(matches!(e, ViewError::Io { .. }));
     assert!(e.to_string().contains("/nonexistent/scene.json"));
 }

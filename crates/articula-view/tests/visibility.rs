@@ -478,7 +478,7 @@ fn body_pose_of_one_body_equals_all_poses() {
             }
         }
     }
-    let deep = articula_benches::chain(20_000);
+    let deep = articula_testkit::chain(20_000);
     let q = vec![0.01; deep.nq];
     let mut poses = Vec::new();
     body_poses(&deep, &q, &mut poses);

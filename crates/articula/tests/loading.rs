@@ -3,7 +3,8 @@
 //! inertias, triangle violations, indefinite bodies, massless leaves (locked joints against the
 //! same model without them, by DCA, ABA and CRBA), deep nesting and oversize inputs.
 
-use articula_dca::{forward_dynamics, Data, Method, SplitMix64};
+use articula_dca::internals::SplitMix64;
+use articula_dca::{forward_dynamics, Data, Method};
 use articula_model::{
     InertiaDefectKind, InertiaPolicy, LoadOptions, LoadWarning, MasslessLeafPolicy, Model,
     ModelError,

@@ -6,10 +6,10 @@
 //! equals articula-dca's ABA on the same state. Where the CPU has FMA the two compilations
 //! must differ somewhere, which shows that the fused one ran.
 
-use articula_adaptive::{Adaptive, Settings};
+use crate::{Adaptive, Settings};
 use articula_dca::{forward_dynamics, Data, Method, State};
 
-use articula_benches::bundled_with as load;
+use articula_testkit::bundled_with as load;
 
 /// max |x − y| / max(1, max |x|).
 fn rel(x: &[f64], y: &[f64]) -> f64 {
@@ -82,5 +82,5 @@ fn fused_and_portable_reduced_aba_agree() {
             }
         }
     }
-    assert_eq!(differ, articula_dca::fused_available());
+    assert_eq!(differ, articula_dca::internals::fused_available());
 }

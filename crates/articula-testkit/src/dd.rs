@@ -1,9 +1,8 @@
 //! Double-double arithmetic: a value is the unevaluated sum `hi + lo` of two `f64` with
 //! `|lo| ≤ ulp(hi)/2`, which carries about 106 significant bits (~32 decimal digits).
 //! Error-free transformations (Knuth's two-sum, the FMA two-product) as in Hida, Li and
-//! Bailey's QD library. Used only for the high-precision reference dynamics of
-//! `cargo xtask stability` and `cargo xtask bench`, so it implements what that needs:
-//! `+ − × ÷`, `sqrt`, `sin`, `cos`.
+//! Bailey's QD library. It implements what the high-precision reference dynamics
+//! ([`crate::reference`]) needs: `+ − × ÷`, `sqrt`, `sin`, `cos`.
 
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
 
@@ -38,8 +37,9 @@ fn two_prod(a: f64, b: f64) -> (f64, f64) {
 }
 
 impl Dd {
-    #[allow(dead_code)] // used by sqrt and the tests
+    /// Zero.
     pub const ZERO: Dd = Dd { hi: 0.0, lo: 0.0 };
+    /// One.
     pub const ONE: Dd = Dd { hi: 1.0, lo: 0.0 };
     /// π to double-double precision.
     pub const PI: Dd = Dd {
@@ -59,7 +59,7 @@ impl Dd {
         self.hi + self.lo
     }
 
-    #[allow(dead_code)] // used by the tests
+    /// The absolute value.
     #[inline]
     pub fn abs(self) -> Dd {
         if self.hi < 0.0 {
@@ -70,7 +70,6 @@ impl Dd {
     }
 
     /// Square root: one Newton step on the `f64` root (Karp's trick).
-    #[allow(dead_code)] // used by the tests
     pub fn sqrt(self) -> Dd {
         if self.hi <= 0.0 {
             return Dd::ZERO;

@@ -6,16 +6,13 @@
 //! forces (dense and as a list), a floating base and fixed-base trees, and plain calls mixed
 //! with shared ones on the same workspace.
 
-// Workspaces are indexed alike in several parallel vectors.
-#![allow(clippy::needless_range_loop)]
-
-use articula_adaptive::{Adaptive, Scratch, Settings};
+use crate::{Adaptive, Scratch, Settings};
 use articula_dca::State;
 use articula_model::Model;
 use articula_spatial::SpatialForce;
 use glam::DVec3;
 
-use articula_benches::bundled_with as load;
+use articula_testkit::bundled_with as load;
 
 /// Bitwise equality of two float slices (`==` would take −0 for 0 and reject NaN).
 fn same(a: &[f64], b: &[f64]) -> bool {

@@ -1,12 +1,12 @@
 //! Re-selection through the caches of the rigid subassemblies (O(active region)) against the
 //! whole-body re-selection it replaces.
 
-use articula_adaptive::{Adaptive, Settings};
+use crate::{Adaptive, Settings};
 use articula_dca::{forward_dynamics, Data, Method, State};
 use articula_model::Model;
 use articula_spatial::SpatialForce;
 
-use articula_benches::bundled_with as load;
+use articula_testkit::bundled_with as load;
 
 /// Relative agreement required of q̈, predicted error and q̇ after the locking impulses.
 const TOL: f64 = 1e-9;
@@ -536,7 +536,7 @@ fn a_cached_reselection_touches_the_active_region_only() {
     // the active region, the same bound on chains of 1,000 and 10,000 links.
     let mut counts = Vec::new();
     for n in [1000usize, 10_000] {
-        let model = articula_benches_chain(n);
+        let model = articula_testkit::chain(n);
         let mut s = State::random(&model, 42, 0.0);
         s.qd.fill(0.0);
         s.f_ext.clear();
@@ -567,10 +567,4 @@ fn a_cached_reselection_touches_the_active_region_only() {
         "nodes touched per re-selection: chain1000 {}, chain10000 {}",
         counts[0], counts[1]
     );
-}
-
-/// A straight chain of `n` links (the benches' generator, without the dev-dependency's
-/// criterion).
-fn articula_benches_chain(n: usize) -> Model {
-    articula_benches::chain(n)
 }

@@ -10,8 +10,8 @@
 //! reproduce. Fixed bases with revolute, continuous and prismatic joints only.
 
 use crate::dd::Real;
-use articula_dca::State;
 use articula_model::{JointKind, Model};
+use articula_spatial::SpatialForce;
 
 type V6<T> = [T; 6];
 type M6<T> = [[T; 6]; 6];
@@ -101,9 +101,15 @@ impl ReferenceModel {
         })
     }
 
-    /// Joint accelerations for `state` (its `f_ext`, world wrenches about the world origin,
-    /// included when not empty).
-    pub fn aba<T: Real>(&self, state: &State) -> Vec<T> {
+    /// Joint accelerations at `q`, `q̇`, `τ` with the external forces `f_ext` (world wrenches
+    /// about the world origin, one per model body; empty for none).
+    pub fn aba<T: Real>(
+        &self,
+        q: &[f64],
+        qd: &[f64],
+        tau: &[f64],
+        f_ext: &[SpatialForce],
+    ) -> Vec<T> {
         let n = self.bodies.len();
         let z = T::zero();
         let f = T::from_f64;
@@ -126,8 +132,8 @@ impl ReferenceModel {
         // pᴬ_i = v_i ×* I_i v_i − f_ext,i.
         for i in 0..n {
             let b = &self.bodies[i];
-            let q = f(state.q[b.q_index]);
-            let qd = f(state.qd[b.v_index]);
+            let q = f(q[b.q_index]);
+            let qd = f(qd[b.v_index]);
             let ax = b.axis.map(f);
             // Pose of the moving frame in the parent frame: R = R_origin R_q, p = p_origin
             // (+ R_origin axis q when prismatic).
@@ -162,7 +168,7 @@ impl ReferenceModel {
             };
             world[i] = (mat3_mul(&pr, &rot), add3(pp, mat3_vec(&pr, pos)));
             if let Some(mb) = b.model_body {
-                if let Some(fe) = state.f_ext.get(mb) {
+                if let Some(fe) = f_ext.get(mb) {
                     // Local = X*_{i←0} f: n' = Rᵀ (n − p × f), f' = Rᵀ f.
                     let (rw, pw) = &world[i];
                     let nw = [f(fe.n.x), f(fe.n.y), f(fe.n.z)];
@@ -186,7 +192,7 @@ impl ReferenceModel {
             let b = &self.bodies[i];
             let u = mat6_vec(&ia[i], &s[i]);
             let d = dot6(&s[i], &u);
-            let small_u = f(state.tau[b.v_index]) - dot6(&s[i], &pa[i]);
+            let small_u = f(tau[b.v_index]) - dot6(&s[i], &pa[i]);
             uvec[i] = u;
             dd[i] = d;
             uu[i] = small_u;
@@ -400,16 +406,8 @@ fn crf<T: Real>(v: &V6<T>, f: &V6<T>) -> V6<T> {
 mod tests {
     use super::*;
     use crate::dd::Dd;
-    use articula_dca::{forward_dynamics, Data, Method};
-    use articula_model::LoadOptions;
-
-    fn model(name: &str) -> Model {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("..")
-            .join("models")
-            .join(format!("{name}.urdf"));
-        Model::from_urdf_file(path, &LoadOptions::default()).unwrap()
-    }
+    use crate::fixtures::{bundled, bundled_with};
+    use articula_dca::{forward_dynamics, Data, Method, State};
 
     fn rel(a: &[f64], b: &[f64]) -> f64 {
         let num = a
@@ -427,7 +425,7 @@ mod tests {
     #[test]
     fn reference_agrees_with_library_aba() {
         for name in ["chain10", "humanoid", "plant"] {
-            let m = model(name);
+            let m = bundled(name);
             let r = ReferenceModel::new(&m).unwrap();
             let mut data = Data::new(&m);
             for seed in 0..3 {
@@ -444,9 +442,13 @@ mod tests {
                 )
                 .unwrap()
                 .to_vec();
-                let ours: Vec<f64> = r.aba::<f64>(&st);
+                let ours: Vec<f64> = r.aba::<f64>(&st.q, &st.qd, &st.tau, &st.f_ext);
                 assert!(rel(&ours, &lib) < 1e-10, "{name} f64: {}", rel(&ours, &lib));
-                let hp: Vec<f64> = r.aba::<Dd>(&st).iter().map(|x| x.to_f64()).collect();
+                let hp: Vec<f64> = r
+                    .aba::<Dd>(&st.q, &st.qd, &st.tau, &st.f_ext)
+                    .iter()
+                    .map(|x| x.to_f64())
+                    .collect();
                 assert!(rel(&hp, &lib) < 1e-10, "{name} dd: {}", rel(&hp, &lib));
             }
         }
@@ -454,9 +456,7 @@ mod tests {
 
     #[test]
     fn floating_base_is_refused() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../models/humanoid.urdf");
-        let m =
-            Model::from_urdf_file(path, &LoadOptions::default().with_floating_base(true)).unwrap();
+        let m = bundled_with("humanoid", true);
         assert!(ReferenceModel::new(&m).is_err());
     }
 }

@@ -12,9 +12,48 @@
 //!   fastest call), the figure `growth` has always reported;
 //! - the **per-round ratios** (long / short in the same round): their median is what a typical
 //!   minute of this host gives.
+//!
+//! `cargo xtask growth [METHOD] [SHORT] [LONG] [ROUNDS]` (defaults `dca 1000 10000 1000`) prints
+//! both; `cargo xtask bench` reports them for DCA and ABA. Use runs of several seconds (1,000
+//! rounds of DCA 1000/10000 take about 12 s): the host's slow phases last seconds, and a short
+//! run's minima cannot escape them.
 
+use crate::args::Args;
 use articula_dca::{forward_dynamics, Data, Method, State};
 use std::time::Instant;
+
+type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
+
+/// `cargo xtask growth [METHOD] [SHORT] [LONG] [ROUNDS]`.
+pub fn run(args: &[String]) -> Result<()> {
+    let mut a = Args::new(args, "cargo xtask growth [METHOD] [SHORT] [LONG] [ROUNDS]");
+    let method: Method = a.next_or("method", Method::Dca)?;
+    let short: usize = a.next_or("short chain length", 1000)?;
+    let long: usize = a.next_or("long chain length", 10_000)?;
+    let rounds: usize = a.next_or("rounds", 1000)?;
+    a.finish()?;
+    if short == 0 || long == 0 || rounds == 0 {
+        return Err("chain lengths and rounds must be at least 1".into());
+    }
+    let g = measure(method, short, long, rounds, |_| {});
+    println!(
+        "{} chain{} {:.2} us, chain{} {:.2} us (minima over {rounds} interleaved rounds): growth {:.2}x",
+        g.method.name(),
+        g.short,
+        g.short_us,
+        g.long,
+        g.long_us,
+        g.ratio()
+    );
+    println!(
+        "per-round ratio: quartiles {:.2} {:.2} {:.2}, tenth percentile {:.2}",
+        g.per_round_quantile(0.25),
+        g.per_round_quantile(0.5),
+        g.per_round_quantile(0.75),
+        g.per_round_quantile(0.1)
+    );
+    Ok(())
+}
 
 /// One growth measurement (see the module documentation).
 #[derive(Clone, Debug)]
@@ -60,7 +99,7 @@ pub fn measure(
     mut progress: impl FnMut(usize),
 ) -> Growth {
     let setup = |n: usize| {
-        let model = crate::chain(n);
+        let model = articula_testkit::chain(n);
         let s = State::random(&model, 42, 1.0);
         let data = Data::new(&model);
         (model, s, data)

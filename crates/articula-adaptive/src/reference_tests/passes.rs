@@ -1,0 +1,68 @@
+//! Steps between re-selections through the hierarchical state (O(active region)) against
+//! whole-body kinematics and composites (O(n)), the reference only tests can select.
+
+use crate::{Adaptive, Settings};
+use articula_dca::State;
+use articula_testkit::bundled_with as load;
+
+fn max_diff(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+}
+
+fn max_abs(x: &[f64]) -> f64 {
+    x.iter().fold(0.0f64, |m, v| m.max(v.abs()))
+}
+
+#[test]
+fn hierarchical_steps_match_whole_body_passes() {
+    // Budget 1 on a fixed base: a reduced tree of one joint on a grounded cluster, which the
+    // hybrid step solves in closed form (`one_joint`).
+    for (name, floating, budget) in [
+        ("chain100", false, 12),
+        ("chain100", false, 1),
+        ("humanoid", true, 10),
+        ("plant", false, 20),
+        ("plant", false, 1),
+        ("rope", true, 15),
+    ] {
+        let model = load(name, floating);
+        let mut s0 = State::random(&model, 77, 0.0);
+        // Light forces: the rope's 3-gram links reach 1e9 rad/s² under the usual ones.
+        s0.randomize_forces(78, 0.01);
+        let settings = Settings {
+            budget: Some(budget),
+            reselect_every: 7,
+            ..Settings::default()
+        };
+        let (mut fast, mut slow) = (
+            Adaptive::new(&model, settings.clone()),
+            Adaptive::new(&model, settings),
+        );
+        slow.set_full_passes(true);
+        // The same (whole-body) re-selections on both sides: this compares the steps between
+        // them; tests/cache.rs compares the cached re-selection (its locking impulses differ
+        // from these by rounding, ~1e-11 relative in q̇).
+        fast.set_cached_reselection(false);
+        let (mut a, mut b) = (s0.clone(), s0);
+        for k in 0..40 {
+            let ra = fast.step(&model, &mut a, 1e-3).unwrap();
+            let rb = slow.step(&model, &mut b, 1e-3).unwrap();
+            assert_eq!(ra.active_dofs, rb.active_dofs, "{name} step {k}");
+            let da = max_diff(fast.qdd(), slow.qdd());
+            assert!(
+                da <= 1e-10 * max_abs(slow.qdd()).max(1.0),
+                "{name} step {k}: q̈ {da:e}"
+            );
+            let (dq, dv) = (max_diff(&a.q, &b.q), max_diff(&a.qd, &b.qd));
+            // q̇ and q differ by h q̈ and h² q̈ of the difference above (h = 1e-3).
+            assert!(
+                dq <= 1e-12 + 2e-6 * da && dv <= 1e-12 * (1.0 + max_abs(&b.qd)) + 2e-3 * da,
+                "{name} step {k}: {dq:e} {dv:e}"
+            );
+            // The same inputs for the next step (a chaotic rope would amplify round-off).
+            a = b.clone();
+        }
+    }
+}

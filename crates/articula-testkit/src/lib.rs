@@ -1,0 +1,30 @@
+//! Test support shared by the crates of the articula workspace (`publish = false`): what their
+//! tests, benchmarks and `cargo xtask` have in common.
+//!
+//! - [`fixtures`]: the bundled models (embedded, so no test reads `models/` at run time) and
+//!   procedural chains of any length.
+//! - [`alloc`]: a counting global allocator for the "a step allocates nothing" tests.
+//! - [`dd`] and [`reference`]: double-double arithmetic and a high-precision articulated-body
+//!   algorithm written independently of the library, the reference for accuracy tests.
+//! - With the `dca` feature, [`seeds`]: the adaptive benchmarks' state with external forces.
+//!
+//! It depends on articula-model only (and articula-dca with `dca`), so every crate from
+//! articula-dca up can dev-depend on it.
+//!
+//! ```
+//! let model = articula_testkit::chain(1000);
+//! assert_eq!((model.bodies.len(), model.nv), (1000, 1000));
+//! assert_eq!(model.assembly.max_handles(), 2);
+//! ```
+
+pub mod alloc;
+pub mod dd;
+pub mod fixtures;
+pub mod reference;
+#[cfg(feature = "dca")]
+pub mod seeds;
+
+pub use alloc::{count_allocations, CountingAllocator};
+pub use dd::{Dd, Real};
+pub use fixtures::{bundled, bundled_urdf, bundled_with, chain, chain_urdf, BUNDLED};
+pub use reference::ReferenceModel;

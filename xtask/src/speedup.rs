@@ -1,0 +1,216 @@
+//! `cargo xtask speedup`: adaptive against exact dynamics, the two interleaved in one process
+//! so that a machine whose speed drifts times both alike; prints each round and the ratio of
+//! the minima and the median round ratio.
+//!
+//! - `seeds [ROUNDS] [BUDGET...]` (defaults 8 rounds, budgets 1 and 50): the seeds table's
+//!   runs (the criterion bench `adaptive_seeds_table/*/f1`): the 300-link chain in the seeds'
+//!   state with one external force ([`articula_testkit::seeds::seeded_state`]), semi-implicit
+//!   Euler at dt = 1e-4; full DCA steps against adaptive steps re-selecting every 10 steps
+//!   (selection included); runs restarted every 1,000 steps, the restart and the whole-body
+//!   re-selection after it untimed. Each round times a batch of DCA steps, then a batch of each
+//!   budget's steps of about the same duration.
+//! - `crowd SCENE.json [ROUNDS] [STEPS]` (defaults 8 and 500): each round times `STEPS` scene
+//!   steps from a fresh scene (re-selections, pushes and all, as the criterion bench
+//!   `adaptive_step`), then `STEPS / 10` exact semi-implicit DCA steps of every body from the
+//!   states after 20 scene steps, one shared workspace per model (as `exact_dca_step`).
+
+use crate::args::Args;
+use articula_adaptive::{Adaptive, Settings};
+use articula_dca::{step, Data, Integrator, Method, State};
+use articula_testkit::seeds::{force_list, seeded_state};
+use articula_view::SceneSim;
+use std::hint::black_box;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
+
+const USAGE: &str = "cargo xtask speedup seeds [ROUNDS] [BUDGET...]
+       cargo xtask speedup crowd SCENE.json [ROUNDS] [STEPS]";
+
+pub fn run(args: &[String]) -> Result<()> {
+    let mut a = Args::new(args, USAGE);
+    match a.next_str() {
+        Some("seeds") => {
+            let rounds: usize = a.next_or("rounds", 8)?;
+            let mut budgets: Vec<usize> = a.rest("budget")?;
+            if budgets.is_empty() {
+                budgets = vec![1, 50];
+            }
+            seeds(rounds.max(1), &budgets)
+        }
+        Some("crowd") => {
+            let path: String = a.next("scene file")?;
+            let rounds: usize = a.next_or("rounds", 8)?;
+            let steps: u64 = a.next_or("steps", 500)?;
+            a.finish()?;
+            crowd(Path::new(&path), rounds.max(1), steps.max(1))
+        }
+        Some(other) => Err(format!("unknown comparison `{other}`; usage: {USAGE}").into()),
+        None => Err(format!("usage: {USAGE}").into()),
+    }
+}
+
+/// Steps per run of the seeds comparison before a restart.
+const RUN: u64 = 1000;
+const DT: f64 = 1e-4;
+
+fn seeds(rounds: usize, budgets: &[usize]) -> Result<()> {
+    let model = articula_testkit::chain(300);
+    let s0 = seeded_state(&model, 1);
+    let list = force_list(&s0.f_ext);
+    let mut a0 = s0.clone();
+    a0.f_ext.clear();
+
+    // Full DCA: `n` steps, restarted every RUN (the restart untimed).
+    let mut data = Data::new(&model);
+    let mut s = s0.clone();
+    let mut dca_calls = 0u64;
+    let mut dca = |n: u64| -> Result<f64> {
+        let mut total = Duration::ZERO;
+        let mut t = Instant::now();
+        for _ in 0..n {
+            dca_calls += 1;
+            if dca_calls.is_multiple_of(RUN) {
+                total += t.elapsed();
+                s.clone_from(&s0);
+                t = Instant::now();
+            }
+            step(
+                &model,
+                &mut data,
+                &mut s,
+                Method::Dca,
+                Integrator::SemiImplicitEuler,
+                DT,
+            )?;
+            black_box(s.qd[0]);
+        }
+        Ok((total + t.elapsed()).as_secs_f64() * 1e6 / n as f64)
+    };
+    // Adaptive, per budget: its workspace, state and step count.
+    let mut runs: Vec<(Adaptive, State, u64)> = budgets
+        .iter()
+        .map(|&b| {
+            let settings = Settings {
+                budget: Some(b),
+                reselect_every: 10,
+                ..Settings::default()
+            };
+            (Adaptive::new(&model, settings), a0.clone(), 0)
+        })
+        .collect();
+    let mut adaptive = |k: usize, n: u64| -> Result<f64> {
+        let (ad, s, calls) = &mut runs[k];
+        let mut total = Duration::ZERO;
+        let mut t = Instant::now();
+        for _ in 0..n {
+            *calls += 1;
+            if calls.is_multiple_of(RUN) || *calls == 1 {
+                // Restart: untimed, with the whole-body re-selection that follows it.
+                total += t.elapsed();
+                s.q.copy_from_slice(&a0.q);
+                s.qd.copy_from_slice(&a0.qd);
+                ad.invalidate();
+                ad.step_with_forces(&model, s, DT, &list)?;
+                t = Instant::now();
+            }
+            ad.step_with_forces(&model, s, DT, &list)?;
+            black_box(s.qd[0]);
+        }
+        Ok((total + t.elapsed()).as_secs_f64() * 1e6 / n as f64)
+    };
+    // Warm-up.
+    dca(200)?;
+    for k in 0..budgets.len() {
+        adaptive(k, 2000)?;
+    }
+    let mut best_dca = f64::MAX;
+    let mut best = vec![f64::MAX; budgets.len()];
+    let mut ratios = vec![Vec::new(); budgets.len()];
+    for round in 0..rounds {
+        let d = dca(300)?;
+        best_dca = best_dca.min(d);
+        print!("round {round}: dca {d:.2} us");
+        for (k, &b) in budgets.iter().enumerate() {
+            // About as long a batch as the DCA one (0.1-1 ms per step class).
+            let n = if b <= 10 { 100_000 } else { 3_000 };
+            let a = adaptive(k, n)?;
+            best[k] = best[k].min(a);
+            ratios[k].push(d / a);
+            print!(", budget {b} {a:.3} us ({:.1}x)", d / a);
+        }
+        println!();
+    }
+    for (k, &b) in budgets.iter().enumerate() {
+        let r = &mut ratios[k];
+        r.sort_by(f64::total_cmp);
+        println!(
+            "budget {b} every 10: minima dca {best_dca:.2} us / adaptive {:.3} us = {:.1}x; median round ratio {:.1}x",
+            best[k],
+            best_dca / best[k],
+            r[r.len() / 2]
+        );
+    }
+    Ok(())
+}
+
+fn crowd(path: &Path, rounds: usize, steps: u64) -> Result<()> {
+    let scene = articula_view::load_scene(path)?;
+    let mut sim = SceneSim::new(&scene);
+    for _ in 0..20 {
+        sim.step()?;
+    }
+    let start: Vec<State> = sim.bodies.iter().map(|b| b.state.clone()).collect();
+    let models: Vec<usize> = sim.bodies.iter().map(|b| b.model).collect();
+    let mut data: Vec<Data> = scene
+        .models
+        .iter()
+        .map(|m| {
+            let mut d = Data::new(&m.model);
+            d.gravity = scene.gravity;
+            d
+        })
+        .collect();
+    let exact_steps = (steps / 10).max(1);
+    let (mut best_a, mut best_e) = (f64::MAX, f64::MAX);
+    let mut ratios = Vec::new();
+    for round in 0..rounds {
+        let mut sim = SceneSim::new(&scene);
+        let t = Instant::now();
+        for _ in 0..steps {
+            sim.step()?;
+        }
+        let a = t.elapsed().as_secs_f64() * 1e3 / steps as f64;
+        let mut states = start.clone();
+        let t = Instant::now();
+        for _ in 0..exact_steps {
+            for (s, &m) in states.iter_mut().zip(&models) {
+                let model = &scene.models[m].model;
+                step(
+                    model,
+                    &mut data[m],
+                    s,
+                    Method::Dca,
+                    Integrator::SemiImplicitEuler,
+                    scene.dt,
+                )?;
+            }
+        }
+        let e = t.elapsed().as_secs_f64() * 1e3 / exact_steps as f64;
+        best_a = best_a.min(a);
+        best_e = best_e.min(e);
+        ratios.push(e / a);
+        println!(
+            "round {round}: adaptive {a:.3} ms/step, exact DCA {e:.3} ms/step, ratio {:.2}",
+            e / a
+        );
+    }
+    ratios.sort_by(f64::total_cmp);
+    println!(
+        "minima: adaptive {best_a:.3} ms/step, exact DCA {best_e:.3} ms/step, ratio {:.2}; median round ratio {:.2}",
+        best_e / best_a,
+        ratios[ratios.len() / 2]
+    );
+    Ok(())
+}
