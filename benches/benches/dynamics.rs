@@ -2,7 +2,7 @@
 //! `cargo bench -p articula-benches --bench dynamics`
 
 use articula_benches::{bundled, chain};
-use articula_dca::{forward_dynamics, Data, Method, State};
+use articula_dca::{forward_dynamics_slices, Data, Method, State};
 use articula_model::Model;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use std::hint::black_box;
@@ -15,9 +15,16 @@ fn bench_model(c: &mut Criterion, group: &str, label: &str, model: &Model, metho
     for &m in methods {
         g.bench_with_input(BenchmarkId::new(m.name(), label), &m, |b, &m| {
             b.iter(|| {
-                let qdd =
-                    forward_dynamics(model, &mut data, &state.q, &state.qd, &state.tau, &[], m)
-                        .unwrap();
+                let qdd = forward_dynamics_slices(
+                    model,
+                    &mut data,
+                    &state.q,
+                    &state.qd,
+                    &state.tau,
+                    &[],
+                    m,
+                )
+                .unwrap();
                 black_box(qdd[0]);
             })
         });

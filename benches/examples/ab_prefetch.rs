@@ -7,7 +7,7 @@
 //! median of each and the median of the per-round ratios (on / off). On the shared 2-core
 //! host of session 12 the `same` runs read 0.94–1.05 (ratios of minima and per-round medians
 //! alike), so a setting's effect needs several runs alternated with `same` ones.
-use articula_dca::{forward_dynamics, Data, Method, State};
+use articula_dca::{forward_dynamics_slices, Data, Method, State};
 use std::time::Instant;
 
 fn main() {
@@ -25,9 +25,11 @@ fn main() {
     }
     let mut acc = 0.0;
     let mut time = |d: &mut Data| {
-        acc += forward_dynamics(&model, d, &s.q, &s.qd, &s.tau, &[], Method::Dca).unwrap()[0];
+        acc +=
+            forward_dynamics_slices(&model, d, &s.q, &s.qd, &s.tau, &[], Method::Dca).unwrap()[0];
         let t = Instant::now();
-        acc += forward_dynamics(&model, d, &s.q, &s.qd, &s.tau, &[], Method::Dca).unwrap()[0];
+        acc +=
+            forward_dynamics_slices(&model, d, &s.q, &s.qd, &s.tau, &[], Method::Dca).unwrap()[0];
         t.elapsed().as_secs_f64() * 1e6
     };
     let (mut t_on, mut t_off, mut ratio) = (Vec::new(), Vec::new(), Vec::new());

@@ -1,7 +1,7 @@
 //! DCA vs ABA on an n-link chain: `cargo run --release -p articula-benches --example agree -- 20000`
 //! prints the relative difference max|Δq̈| / max|q̈| on the straight chain (q = 0, moving) and at
 //! seeded random states.
-use articula_dca::{forward_dynamics, Data, Method, State};
+use articula_dca::{forward_dynamics_slices, Data, Method, State};
 fn main() {
     let n: usize = std::env::args()
         .nth(1)
@@ -20,7 +20,7 @@ fn main() {
             Some(k) => State::random(&model, k, 1.0),
         };
         let run = |m, data: &mut Data| {
-            forward_dynamics(&model, data, &s.q, &s.qd, &s.tau, &[], m).map(|x| x.to_vec())
+            forward_dynamics_slices(&model, data, &s.q, &s.qd, &s.tau, &[], m).map(|x| x.to_vec())
         };
         let aba = run(Method::Aba, &mut data).unwrap();
         match run(Method::Dca, &mut data) {

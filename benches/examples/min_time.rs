@@ -4,7 +4,7 @@
 //! wall-clock time per call over the batches. Instead of a chain length, a bundled model's
 //! name (`humanoid`, or `humanoid-floating` for its floating-base version) times that model.
 //! A fifth argument `portable` runs DCA's portable compilation instead of the fused one.
-use articula_dca::{forward_dynamics, Data, Method, State};
+use articula_dca::{forward_dynamics_slices, Data, Method, State};
 
 fn main() {
     let a: Vec<String> = std::env::args().collect();
@@ -26,7 +26,7 @@ fn main() {
     }
     let mut acc = 0.0;
     let mut run = |data: &mut Data| {
-        acc += forward_dynamics(&model, data, &s.q, &s.qd, &s.tau, &[], method).unwrap()[0];
+        acc += forward_dynamics_slices(&model, data, &s.q, &s.qd, &s.tau, &[], method).unwrap()[0];
     };
     for _ in 0..calls {
         run(&mut data);

@@ -2,7 +2,7 @@
 //! `cargo run --release -p articula-benches --example profile -- dca 300 2000`
 //! (method, chain length, calls). Prints wall-clock and CPU time per call; on a loaded machine
 //! the CPU time (from /proc, 10 ms resolution: use runs of a second or more) is the steadier.
-use articula_dca::{forward_dynamics, Data, Method, State};
+use articula_dca::{forward_dynamics_slices, Data, Method, State};
 
 /// User + system CPU time of this process in seconds (Linux; `None` elsewhere).
 fn cpu_seconds() -> Option<f64> {
@@ -26,7 +26,8 @@ fn main() {
     let t = std::time::Instant::now();
     let mut acc = 0.0;
     for _ in 0..reps {
-        acc += forward_dynamics(&model, &mut data, &s.q, &s.qd, &s.tau, &[], method).unwrap()[0];
+        acc += forward_dynamics_slices(&model, &mut data, &s.q, &s.qd, &s.tau, &[], method)
+            .unwrap()[0];
     }
     let wall = t.elapsed().as_secs_f64() * 1e6 / reps as f64;
     let cpu = match (c0, cpu_seconds()) {

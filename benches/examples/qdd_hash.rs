@@ -4,7 +4,7 @@
 //! compilation (fused where the CPU has AVX2 + FMA, and portable), solves DCA at seeded random
 //! states (external forces on odd seeds) and prints an FNV-1a hash of the bits of every q̈
 //! entry, with the largest relative difference from ABA as a sanity check.
-use articula_dca::{forward_dynamics, Data, Method, State};
+use articula_dca::{forward_dynamics_slices, Data, Method, State};
 use articula_model::Model;
 
 fn fnv(h: &mut u64, x: f64) {
@@ -44,7 +44,7 @@ fn main() {
                     s.randomize_forces(seed, 0.5);
                 }
                 let solve = |m, data: &mut Data| {
-                    forward_dynamics(model, data, &s.q, &s.qd, &s.tau, &s.f_ext, m)
+                    forward_dynamics_slices(model, data, &s.q, &s.qd, &s.tau, &s.f_ext, m)
                         .unwrap()
                         .to_vec()
                 };

@@ -13,7 +13,7 @@
 //! - the **per-round ratios** (long / short in the same round): their median is what a typical
 //!   minute of this host gives.
 
-use articula_dca::{forward_dynamics, Data, Method, State};
+use articula_dca::{forward_dynamics_slices, Data, Method, State};
 use std::time::Instant;
 
 /// One growth measurement (see the module documentation).
@@ -69,7 +69,7 @@ pub fn measure(
     let (ml, sl, mut dl) = setup(long);
     let mut sink = 0.0;
     let mut call = |m: &articula_model::Model, s: &State, d: &mut Data| {
-        let qdd = forward_dynamics(m, d, &s.q, &s.qd, &s.tau, &[], method)
+        let qdd = forward_dynamics_slices(m, d, &s.q, &s.qd, &s.tau, &[], method)
             .expect("a random chain state is valid");
         sink += qdd[0];
     };

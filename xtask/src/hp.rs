@@ -400,7 +400,7 @@ fn crf<T: Real>(v: &V6<T>, f: &V6<T>) -> V6<T> {
 mod tests {
     use super::*;
     use crate::dd::Dd;
-    use articula_dca::{forward_dynamics, Data, Method};
+    use articula_dca::{forward_dynamics_slices, Data, Method};
     use articula_model::LoadOptions;
 
     fn model(name: &str) -> Model {
@@ -433,7 +433,7 @@ mod tests {
             for seed in 0..3 {
                 let mut st = State::random(&m, seed, 2.0);
                 st.randomize_forces(seed, 0.5);
-                let lib = forward_dynamics(
+                let lib = forward_dynamics_slices(
                     &m,
                     &mut data,
                     &st.q,

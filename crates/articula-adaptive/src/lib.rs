@@ -25,14 +25,14 @@
 //!
 //! ```
 //! use articula_adaptive::{Adaptive, Settings};
-//! use articula_dca::{forward_dynamics, Data, Method, State};
+//! use articula_dca::{forward_dynamics_slices, Data, Method, State};
 //! use articula_model::{LoadOptions, Model};
 //!
 //! let model = Model::from_urdf_file("../../models/chain30.urdf", &LoadOptions::default()).unwrap();
 //! let state = State::random(&model, 7, 1.0);
 //! // Exact DCA for reference.
 //! let mut data = Data::new(&model);
-//! let exact = forward_dynamics(&model, &mut data, &state.q, &state.qd, &state.tau, &state.f_ext, Method::Dca)
+//! let exact = forward_dynamics_slices(&model, &mut data, &state.q, &state.qd, &state.tau, &state.f_ext, Method::Dca)
 //!     .unwrap().to_vec();
 //! // Ten joints, chosen by the acceleration metric.
 //! let mut adaptive = Adaptive::new(&model, Settings { budget: Some(10), ..Settings::default() });
@@ -840,9 +840,16 @@ pub(crate) fn solve_exact(
     // A metric steers the selection: ~1e-9 relative is plenty, so the floating-base
     // refinement of the exact solve (for long floating chains) is skipped here.
     let refine = std::mem::replace(&mut data.refine_floating, false);
-    let solved =
-        articula_dca::forward_dynamics(model, data, q, qd, tau, f_ext, articula_dca::Method::Aba)
-            .map(|x| qdd.copy_from_slice(x));
+    let solved = articula_dca::forward_dynamics_slices(
+        model,
+        data,
+        q,
+        qd,
+        tau,
+        f_ext,
+        articula_dca::Method::Aba,
+    )
+    .map(|x| qdd.copy_from_slice(x));
     data.refine_floating = refine;
     solved
 }

@@ -1,7 +1,7 @@
 //! Adaptive dynamics against exact DCA (articula-dca), direct metric sums and conservation laws.
 
 use articula_adaptive::{Adaptive, Settings};
-use articula_dca::{forward_dynamics, forward_kinematics, Data, Method, State};
+use articula_dca::{forward_dynamics_slices, forward_kinematics, Data, Method, State};
 use articula_model::{LoadOptions, Model, NodeKind};
 use articula_spatial::SpatialForce;
 
@@ -37,7 +37,7 @@ fn state(model: &Model, seed: u64) -> State {
 
 fn solve(model: &Model, s: &State, method: Method) -> Vec<f64> {
     let mut data = Data::new(model);
-    forward_dynamics(model, &mut data, &s.q, &s.qd, &s.tau, &s.f_ext, method)
+    forward_dynamics_slices(model, &mut data, &s.q, &s.qd, &s.tau, &s.f_ext, method)
         .unwrap()
         .to_vec()
 }

@@ -26,8 +26,7 @@
 //! let mut data = Data::new(&model);
 //! let mut state = State::neutral(&model);
 //! state.q[0] = 0.5; // 0.5 rad from hanging straight down
-//! let qdd = forward_dynamics(&model, &mut data, &state.q, &state.qd, &state.tau, &state.f_ext, Method::Dca)
-//!     .unwrap()[0];
+//! let qdd = forward_dynamics(&model, &mut data, &state, Method::Dca).unwrap()[0];
 //! // m l² q̈ = −m g l sin q, with the bob's own inertia I_yy = 1e-4 added.
 //! let expected = -9.81 * 0.5f64.sin() / (1.0 + 1e-4);
 //! assert!((qdd - expected).abs() < 1e-10 * expected.abs());
@@ -37,12 +36,19 @@
 #![allow(clippy::needless_range_loop)]
 
 mod aba;
+mod com;
 mod crba;
 mod data;
 mod dca;
+mod energy;
 mod error;
 mod integrate;
+mod inverse;
+mod jacobian;
 mod kinematics;
+mod link;
+mod mass_matrix;
+mod momentum;
 mod refine;
 mod small;
 mod state;
@@ -53,7 +59,10 @@ pub use dca::Fused;
 pub use dca::{fused_available, Arith, Portable};
 pub use error::DynamicsError;
 pub use integrate::{integrate_floating, integrate_q, step, Integrator};
+pub use inverse::{bias_forces, inverse_dynamics};
+pub use jacobian::ReferenceFrame;
 pub use kinematics::{body_kinematics, computation_origin, forward_kinematics};
+pub use mass_matrix::mass_matrix;
 pub use small::{cholesky, cholesky_into};
 pub use state::{SplitMix64, State};
 
@@ -95,10 +104,31 @@ impl Method {
     }
 }
 
-/// Checks the inputs, runs forward kinematics and the chosen algorithm, checks the result, and
-/// returns `q̈` (also left in `data.qdd`). `f_ext` may be empty (no external forces) or hold one
-/// world-frame wrench per body.
+/// Forward dynamics of a [`State`]: `q̈ = FD(q, q̇, τ, f_ext)` by `method`, with gravity
+/// (`Data::gravity`). Returns `q̈` (also left in `data.qdd`); `data` then holds the kinematics
+/// of `(q, q̇)`. [`forward_dynamics_slices`] with the state's vectors.
 pub fn forward_dynamics<'d>(
+    model: &Model,
+    data: &'d mut Data,
+    state: &State,
+    method: Method,
+) -> Result<&'d [f64], DynamicsError> {
+    forward_dynamics_slices(
+        model,
+        data,
+        &state.q,
+        &state.qd,
+        &state.tau,
+        &state.f_ext,
+        method,
+    )
+}
+
+/// Forward dynamics from slices: checks the inputs, runs forward kinematics and the chosen
+/// algorithm, checks the result, and returns `q̈` (also left in `data.qdd`). `f_ext` may be
+/// empty (no external forces) or hold one wrench per body, world coordinates about the world
+/// origin. DCA and ABA allocate nothing.
+pub fn forward_dynamics_slices<'d>(
     model: &Model,
     data: &'d mut Data,
     q: &[f64],
@@ -174,6 +204,7 @@ pub(crate) fn f_ext_of(f_ext: &[SpatialForce], i: usize) -> SpatialForce {
 
 /// Checks the inputs of a dynamics call: lengths of `q`, `qd`, `tau` (and `f_ext` when not
 /// empty), and that every number is finite — an error names the joint or body.
+#[inline]
 pub fn check_inputs(
     model: &Model,
     q: &[f64],
@@ -181,10 +212,22 @@ pub fn check_inputs(
     tau: &[f64],
     f_ext: &[SpatialForce],
 ) -> Result<(), DynamicsError> {
+    check_values(model, q, qd, ("tau", tau), f_ext)
+}
+
+/// [`check_inputs`] with the third per-degree-of-freedom vector named (`tau`, `qdd`).
+#[inline]
+pub(crate) fn check_values(
+    model: &Model,
+    q: &[f64],
+    qd: &[f64],
+    (third, tau): (&'static str, &[f64]),
+    f_ext: &[SpatialForce],
+) -> Result<(), DynamicsError> {
     for (what, len, expected) in [
         ("q", q.len(), model.nq),
         ("qd", qd.len(), model.nv),
-        ("tau", tau.len(), model.nv),
+        (third, tau.len(), model.nv),
     ] {
         if len != expected {
             return Err(DynamicsError::Dimension {
@@ -207,7 +250,7 @@ pub fn check_inputs(
         for (what, xs) in [
             ("q", &q[qo..qo + part.nq()]),
             ("qd", &qd[vo..vo + part.nv()]),
-            ("tau", &tau[vo..vo + part.nv()]),
+            (third, &tau[vo..vo + part.nv()]),
         ] {
             if xs.iter().any(|x| !x.is_finite()) {
                 return Err(DynamicsError::NonFinite {

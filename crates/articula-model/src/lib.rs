@@ -39,7 +39,7 @@ mod urdf;
 
 pub use assembly::{AssemblyNode, AssemblyTree, HandleLayout, NodeKind};
 pub use error::ModelError;
-pub use model::{Body, JointPart, LoadOptions, Model, FLOATING_BASE_JOINT};
+pub use model::{Body, JointPart, LinkFrame, LoadOptions, Model, FLOATING_BASE_JOINT};
 pub use urdf::{rpy_to_matrix, Geometry, GeometryRole, JointKind, Shape};
 
 impl Body {
