@@ -5,6 +5,7 @@ mod chart;
 mod dd;
 mod hp;
 mod models;
+mod pinocchio;
 mod snapshots;
 mod solver;
 mod stability;
@@ -25,6 +26,10 @@ subcommands:
                             --quick samples in-process (minutes), otherwise criterion;
                             --publish also copies the charts into docs/img/ and the
                             report to docs/bench-report.md
+    pinocchio               compare inverse dynamics, mass matrix, bias forces, centre of
+                            mass, energies, momentum, link poses and Jacobians with
+                            Pinocchio's on the humanoid (needs the peers' Python:
+                            ARTICULA_PEERS_PYTHON or target/peers-venv)
     models                  regenerate the URDF test/benchmark models in models/
     stability               accuracy of DCA, ABA, CRBA against a double-double reference
                             (chain length, mass ratio) and integrators' energy drift;
@@ -38,6 +43,7 @@ fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
         Some("models") => run(models::run(&workspace_root().join("models"))),
+        Some("pinocchio") => run(pinocchio::run(&workspace_root())),
         Some("bench") => run(bench::run(&workspace_root(), &args[1..])),
         Some("stability") => run(stability::run(&workspace_root(), &args[1..])),
         Some("snapshots") => run(snapshots::run(&workspace_root(), &args[1..])),

@@ -137,6 +137,35 @@ pub enum AdaptiveError {
     Dynamics(#[from] DynamicsError),
 }
 
+/// Advances `state` by `dt` with adaptive dynamics: the stepping call of
+/// [`articula_dca::step`] with the same argument order — model, workspace, state, integrator,
+/// time step — for code that switches between exact and adaptive dynamics:
+///
+/// ```text
+/// articula_dca::step(&model, &mut data, &mut state, Method::Dca, Integrator::SemiImplicitEuler, dt)?;
+/// articula_adaptive::step(&model, &mut adaptive, &mut state, Integrator::SemiImplicitEuler, dt)?;
+/// ```
+///
+/// Adaptive dynamics integrates with **semi-implicit Euler only** (`q̇ ← q̇ + h q̈`, then
+/// `q ← q ⊕ h q̇` on the active joints; see [`Adaptive::step`], which this calls):
+/// [`Integrator::Rk4`](articula_dca::Integrator::Rk4) is refused with
+/// [`AdaptiveError::Setting`] (its stages would move the joints a re-selection locked, and a
+/// re-selection's impulses have no Runge–Kutta form).
+pub fn step(
+    model: &Model,
+    adaptive: &mut Adaptive,
+    state: &mut State,
+    integrator: articula_dca::Integrator,
+    dt: f64,
+) -> Result<StepReport, AdaptiveError> {
+    match integrator {
+        articula_dca::Integrator::SemiImplicitEuler => adaptive.step(model, state, dt),
+        articula_dca::Integrator::Rk4 => Err(AdaptiveError::Setting(
+            "adaptive dynamics integrates with semi-implicit Euler only, not RK4".into(),
+        )),
+    }
+}
+
 /// What one adaptive step did.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct StepReport {
@@ -445,7 +474,8 @@ impl Adaptive {
         Ok(locked)
     }
 
-    /// One semi-implicit Euler step of the hybrid body. Every `reselect_every` steps (the first
+    /// One semi-implicit Euler step of the hybrid body (also [`step`], the free function with
+    /// the argument order of [`articula_dca::step`]). Every `reselect_every` steps (the first
     /// included) the joints are re-selected on the fully articulated coefficients and the
     /// joints leaving the hybrid body are locked by impulses. The first re-selection (and the
     /// next after [`Adaptive::invalidate`], a changed locked torque, or with a velocity
