@@ -7,6 +7,13 @@
 //! [`articula_model`]. A [`Data`] workspace holds every buffer; DCA and ABA calls and
 //! [`step`]s allocate nothing.
 //!
+//! Around forward dynamics: [`inverse_dynamics`] (RNEA), the [`mass_matrix`] (CRBA) and the
+//! [`bias_forces`], the centre of mass ([`Data::center_of_mass`], [`Data::com_jacobian`]),
+//! link poses ([`articula_model::Model::find_link`], [`Data::link_pose`]) and Jacobians
+//! ([`Data::link_jacobian`] in a [`ReferenceFrame`], [`Data::point_jacobian`]), energies
+//! ([`Data::kinetic_energy`], [`Data::potential_energy`]) and momentum ([`Data::momentum`],
+//! [`Data::centroidal_momentum`]); `examples/humanoid.rs` runs them on a floating humanoid.
+//!
 //! The DCA pass is compiled twice: portably, and with fused multiply–adds for x86-64 CPUs with
 //! AVX2 and FMA ([`fused_available`]), which `Data::new` picks when it can. The two agree to
 //! rounding (~1e-12 relative), so results may differ in their last bits between machines.
@@ -303,9 +310,7 @@ pub(crate) fn solve_portable_and_fused(
     }
     let mut solve = |fused: bool| {
         data.dca.fused = fused;
-        forward_dynamics(model, data, &s.q, &s.qd, &s.tau, &s.f_ext, method)
-            .unwrap()
-            .to_vec()
+        forward_dynamics(model, data, &s, method).unwrap().to_vec()
     };
     (solve(false), solve(dca::fused_available()))
 }

@@ -185,7 +185,7 @@ fn quantities_allocate_nothing_after_the_first_call() {
                 .find_link(&model.bodies[model.bodies.len() - 1].name)
                 .unwrap();
             let qdd = vec![0.25; model.nv];
-            let mut all = |data: &mut Data| {
+            let all = |data: &mut Data| {
                 articula_dca::forward_dynamics(&model, data, &s, Method::Dca).unwrap();
                 inverse_dynamics(&model, data, &s.q, &s.qd, &qdd, &s.f_ext).unwrap();
                 inverse_dynamics(&model, data, &s.q, &s.qd, &qdd, &[]).unwrap();
