@@ -1,7 +1,7 @@
 //! Forward dynamics: DCA, ABA and CRBA on chains of 10 … 10,000 links and on the humanoid.
 //! `cargo bench -p articula-benches --bench dynamics`
 
-use articula_dca::{forward_dynamics, Data, Method, State};
+use articula_dca::{forward_dynamics_slices, Data, Method, State};
 use articula_model::Model;
 use articula_testkit::{bundled, chain};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
@@ -15,9 +15,16 @@ fn bench_model(c: &mut Criterion, group: &str, label: &str, model: &Model, metho
     for &m in methods {
         g.bench_with_input(BenchmarkId::new(m.name(), label), &m, |b, &m| {
             b.iter(|| {
-                let qdd =
-                    forward_dynamics(model, &mut data, &state.q, &state.qd, &state.tau, &[], m)
-                        .unwrap();
+                let qdd = forward_dynamics_slices(
+                    model,
+                    &mut data,
+                    &state.q,
+                    &state.qd,
+                    &state.tau,
+                    &[],
+                    m,
+                )
+                .unwrap();
                 black_box(qdd[0]);
             })
         });

@@ -518,7 +518,7 @@ fn read_criterion(dir: &Path) -> Result<BTreeMap<(String, String), f64>> {
 const MUJOCO_MAX_DOF: usize = 1000;
 
 /// The Python that has the peers: `$ARTICULA_PEERS_PYTHON`, else `target/peers-venv`.
-fn peers_python(root: &Path) -> PathBuf {
+pub(crate) fn peers_python(root: &Path) -> PathBuf {
     if let Some(p) = std::env::var_os("ARTICULA_PEERS_PYTHON") {
         return PathBuf::from(p);
     }

@@ -22,7 +22,7 @@
 //! Pinocchio's `buildModelFromUrdf` does with its default `mimic=False`).
 
 use crate::timing::{self, median};
-use articula_dca::{forward_dynamics, Data, Method, State};
+use articula_dca::{forward_dynamics_slices, Data, Method, State};
 use articula_model::{InertiaPolicy, JointKind, JointPart, LoadOptions, Model};
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
@@ -488,7 +488,7 @@ fn solve(robot: usize, floating: bool, model: Model, seeds: &[u64]) -> Case {
         states
             .iter()
             .map(|s| {
-                forward_dynamics(&model, &mut data, &s.q, &s.qd, &s.tau, &s.f_ext, method)
+                forward_dynamics_slices(&model, &mut data, &s.q, &s.qd, &s.tau, &s.f_ext, method)
                     .map(|qdd| ours_by_joint(&model, &locked_parts, qdd))
                     .map_err(|e| format!("{}: {e}", method.name().to_uppercase()))
             })
@@ -714,7 +714,7 @@ fn time_ours(case: &mut Case, budget: Duration, min_batches: usize) {
             continue;
         }
         let sampled = timing::sample(budget, min_batches, || {
-            forward_dynamics(model, data, &s.q, &s.qd, &s.tau, &[], method).map(|qdd| {
+            forward_dynamics_slices(model, data, &s.q, &s.qd, &s.tau, &[], method).map(|qdd| {
                 black_box(qdd);
             })
         });

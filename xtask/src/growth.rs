@@ -19,7 +19,7 @@
 //! run's minima cannot escape them.
 
 use crate::args::Args;
-use articula_dca::{forward_dynamics, Data, Method, State};
+use articula_dca::{forward_dynamics_slices, Data, Method, State};
 use std::time::Instant;
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
@@ -108,7 +108,7 @@ pub fn measure(
     let (ml, sl, mut dl) = setup(long);
     let mut sink = 0.0;
     let mut call = |m: &articula_model::Model, s: &State, d: &mut Data| {
-        let qdd = forward_dynamics(m, d, &s.q, &s.qd, &s.tau, &[], method)
+        let qdd = forward_dynamics_slices(m, d, &s.q, &s.qd, &s.tau, &[], method)
             .expect("a random chain state is valid");
         sink += qdd[0];
     };

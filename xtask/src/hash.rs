@@ -12,7 +12,7 @@
 //!
 //! Both depend on the CPU's compilation (fused or not): compare hashes from one machine.
 
-use articula_dca::{forward_dynamics, Data, Method, State};
+use articula_dca::{forward_dynamics_slices, Data, Method, State};
 use articula_model::Model;
 use std::path::Path;
 
@@ -72,7 +72,7 @@ pub fn qdd_hash(verbose: bool) -> Result<u64> {
                     s.randomize_forces(seed, 0.5);
                 }
                 let mut solve = |m| {
-                    forward_dynamics(model, &mut data, &s.q, &s.qd, &s.tau, &s.f_ext, m)
+                    forward_dynamics_slices(model, &mut data, &s.q, &s.qd, &s.tau, &s.f_ext, m)
                         .map(<[f64]>::to_vec)
                         .map_err(|e| format!("{name}, seed {seed}, {}: {e}", m.name()))
                 };

@@ -7,6 +7,7 @@ mod corpus;
 mod growth;
 mod hash;
 mod models;
+mod pinocchio;
 mod profile;
 mod snapshots;
 mod solver;
@@ -35,6 +36,10 @@ subcommands:
                             base), compare DCA and ABA with Pinocchio's aba, time the
                             three; writes target/articula-corpus/report.md (needs the
                             venv of peers/corpus.py; exits 2 without it)
+    pinocchio               compare inverse dynamics, mass matrix, bias forces, centre of
+                            mass, energies, momentum, link poses and Jacobians with
+                            Pinocchio's on the humanoid (needs the peers' Python:
+                            ARTICULA_PEERS_PYTHON or target/peers-venv)
     models                  regenerate the URDF test/benchmark models in models/
     models --chain N        print the URDF of an N-link chain (the bodies of chainN.urdf)
     stability               accuracy of DCA, ABA, CRBA against a double-double reference
@@ -74,6 +79,7 @@ fn main() -> ExitCode {
         Some("growth") => run(growth::run(&args[1..])),
         Some("speedup") => run(speedup::run(&args[1..])),
         Some("profile") => run(profile::run(&args[1..])),
+        Some("pinocchio") => run(pinocchio::run(&workspace_root())),
         Some("bench") => run(bench::run(&workspace_root(), &args[1..])),
         Some("stability") => run(stability::run(&workspace_root(), &args[1..])),
         Some("snapshots") => run(snapshots::run(&workspace_root(), &args[1..])),

@@ -20,7 +20,7 @@
 
 use crate::args::{self, Args};
 use articula_adaptive::{Adaptive, Settings};
-use articula_dca::{forward_dynamics, step, Data, Integrator, Method, State};
+use articula_dca::{forward_dynamics_slices, step, Data, Integrator, Method, State};
 use articula_model::Model;
 use articula_spatial::SpatialForce;
 use std::hint::black_box;
@@ -119,7 +119,7 @@ fn dynamics(method: Method, name: &str, calls: usize) -> Result<()> {
     let c0 = cpu_seconds();
     let t = Instant::now();
     measured(calls, || {
-        acc += forward_dynamics(&model, &mut data, &s.q, &s.qd, &s.tau, &[], method)?[0];
+        acc += forward_dynamics_slices(&model, &mut data, &s.q, &s.qd, &s.tau, &[], method)?[0];
         Ok::<(), articula_dca::DynamicsError>(())
     })?;
     let wall = t.elapsed().as_secs_f64() * 1e6 / calls as f64;

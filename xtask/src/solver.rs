@@ -7,7 +7,7 @@
 //! semi-implicit Euler whatever integrator the caller asks for.
 
 use articula_adaptive::{Adaptive, Settings};
-use articula_dca::{forward_dynamics, step, Data, Integrator, Method, State};
+use articula_dca::{forward_dynamics_slices, step, Data, Integrator, Method, State};
 use articula_model::Model;
 
 /// A method of computing forward dynamics inside this process.
@@ -104,7 +104,7 @@ impl<'m> Runner<'m> {
     /// `q̈` of `state`.
     pub fn forward(&mut self, state: &State) -> Result<&[f64], String> {
         match self.solver {
-            Solver::Exact(m) => forward_dynamics(
+            Solver::Exact(m) => forward_dynamics_slices(
                 self.model,
                 &mut self.data,
                 &state.q,

@@ -7,7 +7,7 @@
 //! compilation instead of the fused (AVX2 + FMA) one.
 
 use crate::args::{self, Args};
-use articula_dca::{forward_dynamics, Data, Method, State};
+use articula_dca::{forward_dynamics_slices, Data, Method, State};
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
@@ -37,7 +37,7 @@ pub fn run(args: &[String]) -> Result<()> {
     }
     let mut acc = 0.0;
     let mut run = |data: &mut Data| -> Result<()> {
-        acc += forward_dynamics(&model, data, &s.q, &s.qd, &s.tau, &[], method)?[0];
+        acc += forward_dynamics_slices(&model, data, &s.q, &s.qd, &s.tau, &[], method)?[0];
         Ok(())
     };
     for _ in 0..calls {

@@ -2,7 +2,7 @@
 //! 300-link chain: `cargo run --release -p articula-adaptive --example budget_sweep`.
 
 use articula_adaptive::{Adaptive, Settings};
-use articula_dca::{forward_dynamics, Data, Method, State};
+use articula_dca::{forward_dynamics_slices, Data, Method, State};
 use articula_model::{LoadOptions, Model};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -10,7 +10,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let model = Model::from_urdf_file(&path, &LoadOptions::default())?;
     let state = State::random(&model, 1, 0.5);
     let mut data = Data::new(&model);
-    let exact = forward_dynamics(
+    let exact = forward_dynamics_slices(
         &model,
         &mut data,
         &state.q,

@@ -25,14 +25,14 @@
 //!
 //! ```
 //! use articula_adaptive::{Adaptive, Settings};
-//! use articula_dca::{forward_dynamics, Data, Method, State};
+//! use articula_dca::{forward_dynamics_slices, Data, Method, State};
 //! use articula_model::{LoadOptions, Model};
 //!
 //! let model = Model::from_urdf_file("../../models/chain30.urdf", &LoadOptions::default()).unwrap();
 //! let state = State::random(&model, 7, 1.0);
 //! // Exact DCA for reference.
 //! let mut data = Data::new(&model);
-//! let exact = forward_dynamics(&model, &mut data, &state.q, &state.qd, &state.tau, &state.f_ext, Method::Dca)
+//! let exact = forward_dynamics_slices(&model, &mut data, &state.q, &state.qd, &state.tau, &state.f_ext, Method::Dca)
 //!     .unwrap().to_vec();
 //! // Ten joints, chosen by the acceleration metric.
 //! let mut adaptive = Adaptive::new(&model, Settings { budget: Some(10), ..Settings::default() });
@@ -139,6 +139,35 @@ pub enum AdaptiveError {
     /// A dynamics error (dimension, non-finite value naming its joint, singular inertia).
     #[error(transparent)]
     Dynamics(#[from] DynamicsError),
+}
+
+/// Advances `state` by `dt` with adaptive dynamics: the stepping call of
+/// [`articula_dca::step`] with the same argument order — model, workspace, state, integrator,
+/// time step — for code that switches between exact and adaptive dynamics:
+///
+/// ```text
+/// articula_dca::step(&model, &mut data, &mut state, Method::Dca, Integrator::SemiImplicitEuler, dt)?;
+/// articula_adaptive::step(&model, &mut adaptive, &mut state, Integrator::SemiImplicitEuler, dt)?;
+/// ```
+///
+/// Adaptive dynamics integrates with **semi-implicit Euler only** (`q̇ ← q̇ + h q̈`, then
+/// `q ← q ⊕ h q̇` on the active joints; see [`Adaptive::step`], which this calls):
+/// [`Integrator::Rk4`](articula_dca::Integrator::Rk4) is refused with
+/// [`AdaptiveError::Setting`] (its stages would move the joints a re-selection locked, and a
+/// re-selection's impulses have no Runge–Kutta form).
+pub fn step(
+    model: &Model,
+    adaptive: &mut Adaptive,
+    state: &mut State,
+    integrator: articula_dca::Integrator,
+    dt: f64,
+) -> Result<StepReport, AdaptiveError> {
+    match integrator {
+        articula_dca::Integrator::SemiImplicitEuler => adaptive.step(model, state, dt),
+        articula_dca::Integrator::Rk4 => Err(AdaptiveError::Setting(
+            "adaptive dynamics integrates with semi-implicit Euler only, not RK4".into(),
+        )),
+    }
 }
 
 /// What one adaptive step did.
@@ -449,7 +478,8 @@ impl Adaptive {
         Ok(locked)
     }
 
-    /// One semi-implicit Euler step of the hybrid body. Every `reselect_every` steps (the first
+    /// One semi-implicit Euler step of the hybrid body (also [`step`], the free function with
+    /// the argument order of [`articula_dca::step`]). Every `reselect_every` steps (the first
     /// included) the joints are re-selected on the fully articulated coefficients and the
     /// joints leaving the hybrid body are locked by impulses. The first re-selection (and the
     /// next after [`Adaptive::invalidate`], a changed locked torque, or with a velocity
@@ -846,9 +876,16 @@ pub(crate) fn solve_exact(
     // A metric steers the selection: ~1e-9 relative is plenty, so the floating-base
     // refinement of the exact solve (for long floating chains) is skipped here.
     let refine = std::mem::replace(&mut data.refine_floating, false);
-    let solved =
-        articula_dca::forward_dynamics(model, data, q, qd, tau, f_ext, articula_dca::Method::Aba)
-            .map(|x| qdd.copy_from_slice(x));
+    let solved = articula_dca::forward_dynamics_slices(
+        model,
+        data,
+        q,
+        qd,
+        tau,
+        f_ext,
+        articula_dca::Method::Aba,
+    )
+    .map(|x| qdd.copy_from_slice(x));
     data.refine_floating = refine;
     solved
 }

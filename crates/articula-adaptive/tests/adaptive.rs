@@ -1,7 +1,7 @@
 //! Adaptive dynamics against exact DCA (articula-dca), direct metric sums and conservation laws.
 
 use articula_adaptive::{Adaptive, Settings};
-use articula_dca::{forward_dynamics, forward_kinematics, Data, Method, State};
+use articula_dca::{forward_dynamics_slices, forward_kinematics, Data, Method, State};
 use articula_model::{LoadOptions, Model, NodeKind};
 use articula_spatial::SpatialForce;
 
@@ -37,7 +37,7 @@ fn state(model: &Model, seed: u64) -> State {
 
 fn solve(model: &Model, s: &State, method: Method) -> Vec<f64> {
     let mut data = Data::new(model);
-    forward_dynamics(model, &mut data, &s.q, &s.qd, &s.tau, &s.f_ext, method)
+    forward_dynamics_slices(model, &mut data, &s.q, &s.qd, &s.tau, &s.f_ext, method)
         .unwrap()
         .to_vec()
 }
@@ -640,5 +640,56 @@ fn scaled_node_metrics_equal_set_weights_then_node_metrics() {
                 );
             }
         }
+    }
+}
+
+/// `articula_adaptive::step` takes the arguments of `articula_dca::step` (less the method):
+/// with every joint active it follows exact semi-implicit Euler, and it refuses RK4.
+#[test]
+fn the_uniform_step_follows_the_exact_step_and_refuses_rk4() {
+    use articula_dca::Integrator;
+    for (name, model) in [
+        ("chain30", load("chain30", false)),
+        ("humanoid", load("humanoid", false)),
+    ] {
+        let mut data = Data::new(&model);
+        let mut adaptive = Adaptive::new(&model, Settings::default());
+        let start = state(&model, 9);
+        let (mut a, mut e) = (start.clone(), start.clone());
+        let dt = 1e-3;
+        for _ in 0..20 {
+            articula_adaptive::step(
+                &model,
+                &mut adaptive,
+                &mut a,
+                Integrator::SemiImplicitEuler,
+                dt,
+            )
+            .unwrap();
+            articula_dca::step(
+                &model,
+                &mut data,
+                &mut e,
+                Method::Dca,
+                Integrator::SemiImplicitEuler,
+                dt,
+            )
+            .unwrap();
+        }
+        let dq = max_diff(&a.q, &e.q);
+        let dv = max_diff(&a.qd, &e.qd);
+        assert!(
+            dq < 1e-10 && dv < 1e-8,
+            "{name}: q off by {dq:e}, q̇ by {dv:e}"
+        );
+        assert_ne!(a.q, start.q);
+        let before = a.clone();
+        let err = articula_adaptive::step(&model, &mut adaptive, &mut a, Integrator::Rk4, dt)
+            .unwrap_err();
+        assert!(
+            err.to_string().contains("semi-implicit Euler only"),
+            "{err}"
+        );
+        assert_eq!(a, before, "{name}: a refused step changed the state");
     }
 }

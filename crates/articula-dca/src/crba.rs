@@ -38,33 +38,12 @@ pub(crate) fn crba(
         &mut r,
     );
     let mut rhs = Mat::<f64>::from_fn(nv, 1, |j, _| r[j]);
-    // Composite inertias Iᶜᵢ = Iᵢ + Σ Iᶜ_children; H_ij = Sᵢᵀ Iᶜᵢ Sⱼ for j = i and its ancestors.
     let mut ic = data.inertia.clone();
-    for i in (0..n).rev() {
-        if let Some(p) = model.bodies[i].parent {
-            let c = ic[i];
-            ic[p] += c;
-        }
-    }
     let mut h = Mat::<f64>::zeros(nv, nv);
-    for i in 0..n {
-        let body = &model.bodies[i];
-        for p in 0..body.nv {
-            let row = body.v_offset + p;
-            let fcol = ic[i].mul_motion(data.s[row]);
-            let mut j = Some(i);
-            while let Some(jj) = j {
-                let bj = &model.bodies[jj];
-                for q in 0..bj.nv {
-                    let col = bj.v_offset + q;
-                    let x = data.s[col].dot(fcol);
-                    h[(row, col)] = x;
-                    h[(col, row)] = x;
-                }
-                j = bj.parent;
-            }
-        }
-    }
+    crate::mass_matrix::composite_mass_matrix(model, &data.inertia, &data.s, &mut ic, |r, c, x| {
+        h[(r, c)] = x;
+        h[(c, r)] = x;
+    });
     // A locked joint's coordinates (after every body's) are no body's: H is the identity
     // there and the right-hand side zero, so their q̈ is 0.
     for l in &model.locked {

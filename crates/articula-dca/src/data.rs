@@ -34,19 +34,24 @@ pub struct Data {
     /// (`docs/loading.md`), where the joins of a body between two handles lose up to ~1e-5
     /// relative. Set in [`Data::new`].
     pub(crate) refine_dca: bool,
-    /// Origin of the computation frame in world coordinates (world axes). The world origin for a
-    /// fixed base; the floating base's position otherwise (for accuracy). Every spatial quantity
-    /// below is expressed in this frame.
+    /// Origin of the computation frame in world coordinates. The world origin for a fixed
+    /// base; the floating base's position otherwise (for accuracy). Every spatial quantity
+    /// below (`x`, `v`, `c`, `inertia`, `s`) is in this frame: world axes, taken **about
+    /// `origin`, not about the world origin** (a first moment `inertia[i].h` is `m (c − origin)`,
+    /// a linear velocity is that of the point at `origin`). [`Data::center_of_mass`],
+    /// [`Data::body_pose`], [`Data::momentum`] and the other accessors convert back to the world.
     pub origin: DVec3,
     /// Per body: the map from body coordinates to computation-frame coordinates.
     pub x: Vec<SpatialTransform>,
-    /// Per body: spatial velocity, world coordinates.
+    /// Per body: spatial velocity, computation frame (world axes, about `origin`).
     pub v: Vec<SpatialMotion>,
-    /// Per body: velocity-product term of its joint, `c = Σ_k v_{k-1} × s_k q̇_k` (world).
+    /// Per body: velocity-product term of its joint, `c = Σ_k v_{k-1} × s_k q̇_k`
+    /// (computation frame).
     pub c: Vec<SpatialMotion>,
-    /// Per body: spatial inertia in world coordinates.
+    /// Per body: spatial inertia, computation frame (world axes, about `origin`).
     pub inertia: Vec<SpatialInertia>,
-    /// Per degree of freedom: the motion-subspace column in world coordinates.
+    /// Per degree of freedom: the motion-subspace column, computation frame (world axes,
+    /// about `origin`).
     pub s: Vec<SpatialMotion>,
     /// The joint accelerations of the last solve (length `nv`).
     pub qdd: Vec<f64>,
@@ -67,6 +72,37 @@ pub struct Data {
     pub(crate) aba: AbaData,
     pub(crate) refine: crate::refine::RefineData,
     pub(crate) rk: RkData,
+    pub(crate) quant: QuantityData,
+}
+
+/// Buffers of the quantities around forward dynamics (inverse dynamics, bias forces, mass
+/// matrix, Jacobians): each is sized by the first call that needs it, so that a workspace that
+/// never asks (one of a crowd's) carries none of them (the mass matrix of a 1,000-link chain
+/// is 8 MB); later calls allocate nothing.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct QuantityData {
+    /// Joint forces of the last [`crate::inverse_dynamics`] or [`crate::bias_forces`] (`nv`).
+    pub tau: Vec<f64>,
+    /// `nv` zeros (a zero `τ` or `q̇` input).
+    pub zero: Vec<f64>,
+    /// Per body: RNEA accelerations and forces.
+    pub a: Vec<SpatialMotion>,
+    pub f: Vec<SpatialForce>,
+    /// Per body: composite (subtree) inertias.
+    pub ic: Vec<SpatialInertia>,
+    /// The joint-space mass matrix (`nv × nv`).
+    pub mass_matrix: Vec<f64>,
+    /// A link's spatial (`6 × nv`) or point (`3 × nv`) Jacobian.
+    pub jacobian: Vec<f64>,
+    /// The centre-of-mass Jacobian (`3 × nv`).
+    pub com_jacobian: Vec<f64>,
+}
+
+/// `v` with length `len` (new entries `fill`): allocates only when `v` has never been this
+/// long, so the first call of a quantity sizes its buffer and later calls reuse it.
+pub(crate) fn sized<T: Clone>(v: &mut Vec<T>, len: usize, fill: T) -> &mut [T] {
+    v.resize(len, fill);
+    v
 }
 
 /// A body's place in the recursions.
@@ -536,6 +572,7 @@ impl Data {
                 ka: vec![0.0; nv],
                 theta: vec![0.0; nv],
             },
+            quant: QuantityData::default(),
         }
     }
 
@@ -563,41 +600,6 @@ impl Data {
     /// residual is above rounding level (see `docs/algorithms.md`).
     pub fn refinement_count(&self) -> u64 {
         self.refine.corrections
-    }
-
-    /// Kinetic energy `Σ ½ vᵢ·Iᵢvᵢ` of the current kinematics.
-    pub fn kinetic_energy(&self) -> f64 {
-        self.v
-            .iter()
-            .zip(&self.inertia)
-            .map(|(v, i)| i.kinetic_energy(*v))
-            .sum()
-    }
-
-    /// Gravitational potential energy `-Σ mᵢ g·cᵢ` (world centres of mass) of the current
-    /// kinematics.
-    pub fn potential_energy(&self) -> f64 {
-        self.inertia
-            .iter()
-            .map(|i| -self.gravity.dot(i.h + self.origin * i.mass))
-            .sum()
-    }
-
-    /// Total spatial momentum `Σ Iᵢvᵢ`, in world coordinates about the world origin.
-    pub fn momentum(&self) -> SpatialForce {
-        let h = self
-            .v
-            .iter()
-            .zip(&self.inertia)
-            .fold(SpatialForce::ZERO, |acc, (v, i)| acc + i.mul_motion(*v));
-        // X*_{W←C} = xlt(−origin)*
-        SpatialTransform::xlt(-self.origin).apply_force(h)
-    }
-
-    /// World-frame pose of body `i`: its rotation and the position of its origin.
-    pub fn body_pose(&self, i: usize) -> (glam::DMat3, DVec3) {
-        let (r, p) = self.x[i].to_pose();
-        (r, p + self.origin)
     }
 }
 

@@ -1496,7 +1496,7 @@ fn back_node<A: Arith, const N: usize>(
 
 #[cfg(test)]
 mod tests {
-    use crate::{forward_dynamics, Data, Method, State};
+    use crate::{forward_dynamics_slices, Data, Method, State};
 
     /// The fused (AVX2 + FMA) and portable compilations of the pass agree to 1e-12 relative
     /// (max |difference| / max |q̈|) on every bundled model, fixed and floating base, with and
@@ -1556,7 +1556,7 @@ mod tests {
                 }
                 let mut solve = |at_leaves: bool| {
                     data.dca.leaf_kinematics = at_leaves;
-                    let qdd = forward_dynamics(
+                    let qdd = forward_dynamics_slices(
                         &model,
                         &mut data,
                         &s.q,

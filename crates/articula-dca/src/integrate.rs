@@ -1,7 +1,7 @@
 //! Time stepping: semi-implicit Euler (default) and RK4, on the configuration manifold
 //! (quaternions of floating joints are advanced by the exponential map and renormalised).
 
-use crate::{forward_dynamics, forward_kinematics, Data, DynamicsError, Method, State};
+use crate::{forward_dynamics_slices, forward_kinematics, Data, DynamicsError, Method, State};
 use articula_model::{JointKind, Model};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
 use glam::{DQuat, DVec3};
@@ -60,7 +60,8 @@ pub fn integrate_floating(q: &mut [f64], v: &[f64], h: f64) {
     let pv = phi.cross(v);
     let p = DVec3::new(q[0], q[1], q[2]) + rot * ((v + a * pv + b * phi.cross(pv)) * h);
     let angle = w.length() * h;
-    let dr = if angle > 0.0 {
+    // (A negative `h` turns backwards: any non-zero angle, with the axis of `w`.)
+    let dr = if angle != 0.0 {
         DQuat::from_axis_angle(w.normalize(), angle)
     } else {
         DQuat::IDENTITY
@@ -101,7 +102,7 @@ pub fn step(
     let mut start = None;
     match integrator {
         Integrator::SemiImplicitEuler => {
-            forward_dynamics(
+            forward_dynamics_slices(
                 model,
                 data,
                 &state.q,
@@ -130,7 +131,7 @@ pub fn step(
             let next = [0.5, 0.5, 1.0];
             let mut result = Ok(());
             for stage in 0..4 {
-                if let Err(e) = forward_dynamics(
+                if let Err(e) = forward_dynamics_slices(
                     model,
                     data,
                     &state.q,

@@ -7,6 +7,13 @@
 //! [`articula_model`]. A [`Data`] workspace holds every buffer; DCA and ABA calls and
 //! [`step`]s allocate nothing.
 //!
+//! Around forward dynamics: [`inverse_dynamics`] (RNEA), the [`mass_matrix`] (CRBA) and the
+//! [`bias_forces`], the centre of mass ([`Data::center_of_mass`], [`Data::com_jacobian`]),
+//! link poses ([`articula_model::Model::find_link`], [`Data::link_pose`]) and Jacobians
+//! ([`Data::link_jacobian`] in a [`ReferenceFrame`], [`Data::point_jacobian`]), energies
+//! ([`Data::kinetic_energy`], [`Data::potential_energy`]) and momentum ([`Data::momentum`],
+//! [`Data::centroidal_momentum`]); `examples/humanoid.rs` runs them on a floating humanoid.
+//!
 //! The DCA pass is compiled twice: portably, and with fused multiply–adds for x86-64 CPUs with
 //! AVX2 and FMA (detected at run time), which `Data::new` picks when it can. The two agree to
 //! rounding (~1e-12 relative), so results may differ in their last bits between machines.
@@ -27,8 +34,7 @@
 //! let mut data = Data::new(&model);
 //! let mut state = State::neutral(&model);
 //! state.q[0] = 0.5; // 0.5 rad from hanging straight down
-//! let qdd = forward_dynamics(&model, &mut data, &state.q, &state.qd, &state.tau, &state.f_ext, Method::Dca)
-//!     .unwrap()[0];
+//! let qdd = forward_dynamics(&model, &mut data, &state, Method::Dca).unwrap()[0];
 //! // m l² q̈ = −m g l sin q, with the bob's own inertia I_yy = 1e-4 added.
 //! let expected = -9.81 * 0.5f64.sin() / (1.0 + 1e-4);
 //! assert!((qdd - expected).abs() < 1e-10 * expected.abs());
@@ -38,13 +44,20 @@
 #![allow(clippy::needless_range_loop)]
 
 mod aba;
+mod com;
 mod crba;
 mod data;
 mod dca;
+mod energy;
 mod error;
 mod finite;
 mod integrate;
+mod inverse;
+mod jacobian;
 mod kinematics;
+mod link;
+mod mass_matrix;
+mod momentum;
 mod refine;
 mod small;
 mod state;
@@ -52,7 +65,10 @@ mod state;
 pub use data::Data;
 pub use error::DynamicsError;
 pub use integrate::{integrate_floating, integrate_q, step, Integrator};
+pub use inverse::{bias_forces, inverse_dynamics};
+pub use jacobian::ReferenceFrame;
 pub use kinematics::forward_kinematics;
+pub use mass_matrix::mass_matrix;
 pub use state::State;
 
 use finite::all_finite;
@@ -116,10 +132,31 @@ impl Method {
     }
 }
 
-/// Checks the inputs, runs forward kinematics and the chosen algorithm, checks the result, and
-/// returns `q̈` (also left in `data.qdd`). `f_ext` may be empty (no external forces) or hold one
-/// world-frame wrench per body.
+/// Forward dynamics of a [`State`]: `q̈ = FD(q, q̇, τ, f_ext)` by `method`, with gravity
+/// (`Data::gravity`). Returns `q̈` (also left in `data.qdd`); `data` then holds the kinematics
+/// of `(q, q̇)`. [`forward_dynamics_slices`] with the state's vectors.
 pub fn forward_dynamics<'d>(
+    model: &Model,
+    data: &'d mut Data,
+    state: &State,
+    method: Method,
+) -> Result<&'d [f64], DynamicsError> {
+    forward_dynamics_slices(
+        model,
+        data,
+        &state.q,
+        &state.qd,
+        &state.tau,
+        &state.f_ext,
+        method,
+    )
+}
+
+/// Forward dynamics from slices: checks the inputs, runs forward kinematics and the chosen
+/// algorithm, checks the result, and returns `q̈` (also left in `data.qdd`). `f_ext` may be
+/// empty (no external forces) or hold one wrench per body, world coordinates about the world
+/// origin. DCA and ABA allocate nothing.
+pub fn forward_dynamics_slices<'d>(
     model: &Model,
     data: &'d mut Data,
     q: &[f64],
@@ -176,6 +213,7 @@ pub(crate) fn f_ext_of(f_ext: &[SpatialForce], i: usize) -> SpatialForce {
 
 /// Checks the inputs of a dynamics call: lengths of `q`, `qd`, `tau` (and `f_ext` when not
 /// empty), and that every number is finite — an error names the joint or body.
+#[inline]
 pub fn check_inputs(
     model: &Model,
     q: &[f64],
@@ -183,10 +221,22 @@ pub fn check_inputs(
     tau: &[f64],
     f_ext: &[SpatialForce],
 ) -> Result<(), DynamicsError> {
+    check_values(model, q, qd, ("tau", tau), f_ext)
+}
+
+/// [`check_inputs`] with the third per-degree-of-freedom vector named (`tau`, `qdd`).
+#[inline]
+pub(crate) fn check_values(
+    model: &Model,
+    q: &[f64],
+    qd: &[f64],
+    (third, tau): (&'static str, &[f64]),
+    f_ext: &[SpatialForce],
+) -> Result<(), DynamicsError> {
     for (what, len, expected) in [
         ("q", q.len(), model.nq),
         ("qd", qd.len(), model.nv),
-        ("tau", tau.len(), model.nv),
+        (third, tau.len(), model.nv),
     ] {
         if len != expected {
             return Err(DynamicsError::Dimension {
@@ -209,7 +259,7 @@ pub fn check_inputs(
         for (what, xs) in [
             ("q", &q[qo..qo + part.nq()]),
             ("qd", &qd[vo..vo + part.nv()]),
-            ("tau", &tau[vo..vo + part.nv()]),
+            (third, &tau[vo..vo + part.nv()]),
         ] {
             if xs.iter().any(|x| !x.is_finite()) {
                 return Err(DynamicsError::NonFinite {
@@ -259,9 +309,7 @@ pub(crate) fn solve_portable_and_fused(
     }
     let mut solve = |fused: bool| {
         data.dca.fused = fused;
-        forward_dynamics(model, data, &s.q, &s.qd, &s.tau, &s.f_ext, method)
-            .unwrap()
-            .to_vec()
+        forward_dynamics(model, data, &s, method).unwrap().to_vec()
     };
     (solve(false), solve(dca::fused_available()))
 }

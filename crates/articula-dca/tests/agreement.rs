@@ -1,7 +1,7 @@
 //! DCA, ABA and CRBA agree on every bundled model, fixed and floating base, with joint torques
 //! and external forces, on seeded random states.
 
-use articula_dca::{forward_dynamics, Data, Method, State};
+use articula_dca::{forward_dynamics_slices, Data, Method, State};
 
 // Relative agreement (max |difference| / max |q̈|) demanded between DCA and ABA, and between
 // DCA and CRBA: 1e-10 (issue 3), on every bundled model, fixed and floating base, 20 seeded
@@ -34,7 +34,7 @@ fn check(name: &str, floating_base: bool, states: u64) -> u64 {
         if seed % 2 == 1 {
             s.randomize_forces(seed, 0.5);
         }
-        let dca = forward_dynamics(
+        let dca = forward_dynamics_slices(
             &model,
             &mut data,
             &s.q,
@@ -45,7 +45,7 @@ fn check(name: &str, floating_base: bool, states: u64) -> u64 {
         )
         .unwrap()
         .to_vec();
-        let aba = forward_dynamics(
+        let aba = forward_dynamics_slices(
             &model,
             &mut data,
             &s.q,
@@ -56,7 +56,7 @@ fn check(name: &str, floating_base: bool, states: u64) -> u64 {
         )
         .unwrap()
         .to_vec();
-        let crba = forward_dynamics(
+        let crba = forward_dynamics_slices(
             &model,
             &mut data,
             &s.q,
@@ -111,7 +111,7 @@ fn refinement_can_be_turned_off() {
     let model = articula_testkit::bundled_with("chain1000", true);
     let s = State::random(&model, 17, 1.0);
     let solve = |data: &mut Data, m| {
-        forward_dynamics(&model, data, &s.q, &s.qd, &s.tau, &s.f_ext, m)
+        forward_dynamics_slices(&model, data, &s.q, &s.qd, &s.tau, &s.f_ext, m)
             .unwrap()
             .to_vec()
     };

@@ -6,7 +6,7 @@
 //! add to a test's count. This file is its own test binary, so the allocator touches no other
 //! test.
 
-use articula_dca::{forward_dynamics, step, Data, Integrator, Method, State};
+use articula_dca::{forward_dynamics_slices, step, Data, Integrator, Method, State};
 use articula_testkit::{bundled_with as load, count_allocations, CountingAllocator};
 
 #[global_allocator]
@@ -27,7 +27,7 @@ fn dca_and_aba_allocate_nothing() {
             let label = format!("{name} floating={floating_base}");
             // Warm up once (every path that could lazily allocate runs before counting).
             for method in [Method::Dca, Method::Aba, Method::Crba] {
-                forward_dynamics(
+                forward_dynamics_slices(
                     &model,
                     &mut data,
                     &state.q,
@@ -46,7 +46,7 @@ fn dca_and_aba_allocate_nothing() {
             for method in [Method::Dca, Method::Aba] {
                 let n = count_allocations(|| {
                     for _ in 0..100 {
-                        forward_dynamics(
+                        forward_dynamics_slices(
                             &model,
                             &mut data,
                             &state.q,
@@ -63,7 +63,7 @@ fn dca_and_aba_allocate_nothing() {
                 // Without external forces too (an empty slice).
                 let n = count_allocations(|| {
                     for _ in 0..100 {
-                        forward_dynamics(
+                        forward_dynamics_slices(
                             &model,
                             &mut data,
                             &state.q,
@@ -93,7 +93,7 @@ fn dca_and_aba_allocate_nothing() {
 
             // CRBA is a reference and allocates: the counter sees it.
             let n = count_allocations(|| {
-                forward_dynamics(
+                forward_dynamics_slices(
                     &model,
                     &mut data,
                     &state.q,
@@ -106,6 +106,55 @@ fn dca_and_aba_allocate_nothing() {
             });
             eprintln!("{label}: 1 x forward_dynamics Crba: {n} allocations");
             assert!(n > 0, "{label}: CRBA should allocate (is the counter on?)");
+        }
+    }
+}
+
+#[test]
+fn quantities_allocate_nothing_after_the_first_call() {
+    use articula_dca::{bias_forces, inverse_dynamics, mass_matrix, ReferenceFrame};
+    for name in ["chain30", "humanoid", "rope"] {
+        for floating_base in [false, true] {
+            let model = load(name, floating_base);
+            let label = format!("{name} floating={floating_base}");
+            let mut data = Data::new(&model);
+            let mut s = State::random(&model, 5, 1.0);
+            s.randomize_forces(5, 0.1);
+            let link = model
+                .find_link(&model.bodies[model.bodies.len() - 1].name)
+                .unwrap();
+            let qdd = vec![0.25; model.nv];
+            let all = |data: &mut Data| {
+                articula_dca::forward_dynamics(&model, data, &s, Method::Dca).unwrap();
+                inverse_dynamics(&model, data, &s.q, &s.qd, &qdd, &s.f_ext).unwrap();
+                inverse_dynamics(&model, data, &s.q, &s.qd, &qdd, &[]).unwrap();
+                bias_forces(&model, data, &s.q, &s.qd).unwrap();
+                mass_matrix(&model, data, &s.q).unwrap();
+                std::hint::black_box(data.center_of_mass());
+                data.com_jacobian(&model);
+                std::hint::black_box(data.link_pose(&link));
+                for frame in [
+                    ReferenceFrame::World,
+                    ReferenceFrame::Local,
+                    ReferenceFrame::LocalWorldAligned,
+                ] {
+                    data.link_jacobian(&model, &link, frame);
+                }
+                data.point_jacobian(&model, &link, glam::DVec3::X);
+                std::hint::black_box((data.kinetic_energy(), data.potential_energy()));
+                std::hint::black_box((data.momentum(), data.centroidal_momentum()));
+            };
+            // The first call sizes the buffers ...
+            let first = count_allocations(|| all(&mut data));
+            assert!(first > 0, "{label}: the first call should size buffers");
+            // ... the next ones reuse them.
+            let n = count_allocations(|| {
+                for _ in 0..10 {
+                    all(&mut data);
+                }
+            });
+            eprintln!("{label}: first call {first} allocations, next 10: {n}");
+            assert_eq!(n, 0, "{label}: the quantities allocated");
         }
     }
 }

@@ -2,7 +2,7 @@
 //! file (single and double pendulum, a tilted slider, a free rigid body).
 
 use articula_dca::internals::SplitMix64;
-use articula_dca::{forward_dynamics, forward_kinematics, Data, Method, State};
+use articula_dca::{forward_dynamics_slices, forward_kinematics, Data, Method, State};
 use articula_model::{LoadOptions, Model};
 use glam::{DMat3, DQuat, DVec3};
 
@@ -19,7 +19,7 @@ fn rel_err(a: &[f64], e: &[f64]) -> f64 {
 }
 
 fn qdd(model: &Model, data: &mut Data, s: &State, method: Method) -> Vec<f64> {
-    forward_dynamics(model, data, &s.q, &s.qd, &s.tau, &s.f_ext, method)
+    forward_dynamics_slices(model, data, &s.q, &s.qd, &s.tau, &s.f_ext, method)
         .unwrap()
         .to_vec()
 }

@@ -3,7 +3,7 @@
 //! must give the q̈ that ABA gives on the uncomposed model — the same URDF with the two links
 //! given a negligible mass, so that nothing is composed.
 
-use articula_dca::{forward_dynamics, Data, Method, State};
+use articula_dca::{forward_dynamics_slices, Data, Method, State};
 use articula_model::{LoadOptions, Model};
 
 /// A leg on a pelvis: hip_z → hip_link1 → hip_x → hip_link2 → hip_y → thigh → knee → shank.
@@ -132,7 +132,7 @@ fn check(floating_base: bool, m: f64) -> f64 {
             s.randomize_forces(seed, 1.0);
         }
         let t = map_state(&composed, &full, &s);
-        let dca = forward_dynamics(
+        let dca = forward_dynamics_slices(
             &composed,
             &mut dc,
             &s.q,
@@ -143,7 +143,7 @@ fn check(floating_base: bool, m: f64) -> f64 {
         )
         .unwrap()
         .to_vec();
-        let aba_composed = forward_dynamics(
+        let aba_composed = forward_dynamics_slices(
             &composed,
             &mut dc,
             &s.q,
@@ -155,10 +155,12 @@ fn check(floating_base: bool, m: f64) -> f64 {
         .unwrap()
         .to_vec();
         let aba_full =
-            forward_dynamics(&full, &mut df, &t.q, &t.qd, &t.tau, &t.f_ext, Method::Aba).unwrap();
+            forward_dynamics_slices(&full, &mut df, &t.q, &t.qd, &t.tau, &t.f_ext, Method::Aba)
+                .unwrap();
         let aba_full = unmap_qdd(&composed, &full, aba_full);
         let dca_full =
-            forward_dynamics(&full, &mut df, &t.q, &t.qd, &t.tau, &t.f_ext, Method::Dca).unwrap();
+            forward_dynamics_slices(&full, &mut df, &t.q, &t.qd, &t.tau, &t.f_ext, Method::Dca)
+                .unwrap();
         let dca_full = unmap_qdd(&composed, &full, dca_full);
 
         let e = rel_diff(&dca, &aba_full);
@@ -216,14 +218,28 @@ fn dca_on_light_links_loses_digits_gracefully() {
         let mut worst = 0.0f64;
         for seed in 0..10 {
             let s = State::random(&full, seed, 2.0);
-            let aba =
-                forward_dynamics(&full, &mut data, &s.q, &s.qd, &s.tau, &s.f_ext, Method::Aba)
-                    .unwrap()
-                    .to_vec();
-            let dca =
-                forward_dynamics(&full, &mut data, &s.q, &s.qd, &s.tau, &s.f_ext, Method::Dca)
-                    .unwrap()
-                    .to_vec();
+            let aba = forward_dynamics_slices(
+                &full,
+                &mut data,
+                &s.q,
+                &s.qd,
+                &s.tau,
+                &s.f_ext,
+                Method::Aba,
+            )
+            .unwrap()
+            .to_vec();
+            let dca = forward_dynamics_slices(
+                &full,
+                &mut data,
+                &s.q,
+                &s.qd,
+                &s.tau,
+                &s.f_ext,
+                Method::Dca,
+            )
+            .unwrap()
+            .to_vec();
             worst = worst.max(rel_diff(&dca, &aba));
         }
         eprintln!(

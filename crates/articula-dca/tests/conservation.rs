@@ -2,7 +2,9 @@
 //! free-floating body — per step of the integrators, and exactly (to rounding) in the rate
 //! `dh/dt = Σ external wrenches` implied by the forward dynamics.
 
-use articula_dca::{forward_dynamics, forward_kinematics, step, Data, Integrator, Method, State};
+use articula_dca::{
+    forward_dynamics_slices, forward_kinematics, step, Data, Integrator, Method, State,
+};
 use articula_model::Model;
 use articula_spatial::{SpatialForce, SpatialMotion, SpatialTransform};
 use glam::DVec3;
@@ -190,7 +192,8 @@ fn momentum_rate_balances_external_wrenches() {
                 DVec3::new(0.0, 0.0, -9.81)
             };
             for (k, method) in methods.into_iter().enumerate() {
-                forward_dynamics(&model, &mut data, &s.q, &s.qd, &s.tau, &s.f_ext, method).unwrap();
+                forward_dynamics_slices(&model, &mut data, &s.q, &s.qd, &s.tau, &s.f_ext, method)
+                    .unwrap();
                 let (r, scale) = momentum_rate_residual(&model, &data, &s.tau, &s.f_ext);
                 worst[k] = worst[k].max(r / scale);
                 // And it can fail: a 1e-6 relative change of one joint acceleration breaks the
@@ -241,7 +244,7 @@ fn momentum_drift(name: &str, integrator: Integrator, method: Method, dt: f64) -
     let mut h = h0;
     let (mut per_step, mut rate) = (0.0f64, 0.0f64);
     for _ in 0..100 {
-        forward_dynamics(&model, &mut data, &s.q, &s.qd, &s.tau, &s.f_ext, method).unwrap();
+        forward_dynamics_slices(&model, &mut data, &s.q, &s.qd, &s.tau, &s.f_ext, method).unwrap();
         let (r, scale) = momentum_rate_residual(&model, &data, &s.tau, &s.f_ext);
         rate = rate.max(r / scale);
         step(&model, &mut data, &mut s, method, integrator, dt).unwrap();

@@ -1,7 +1,7 @@
 //! Bad inputs and blow-ups give the exact `DynamicsError`, naming the URDF joint (or the body,
 //! for external forces) — never a panic, never a silent NaN.
 
-use articula_dca::{forward_dynamics, step, Data, DynamicsError, Integrator, Method, State};
+use articula_dca::{forward_dynamics_slices, step, Data, DynamicsError, Integrator, Method, State};
 use articula_model::{LoadOptions, Model};
 use articula_spatial::SpatialForce;
 use glam::DVec3;
@@ -27,7 +27,7 @@ fn run(
     s: &State,
     method: Method,
 ) -> Result<Vec<f64>, DynamicsError> {
-    forward_dynamics(model, data, &s.q, &s.qd, &s.tau, &s.f_ext, method).map(<[f64]>::to_vec)
+    forward_dynamics_slices(model, data, &s.q, &s.qd, &s.tau, &s.f_ext, method).map(<[f64]>::to_vec)
 }
 
 fn non_finite(what: &'static str, name: &str) -> DynamicsError {

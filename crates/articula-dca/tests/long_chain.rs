@@ -20,14 +20,14 @@
 //! 1,000 links 1.9e-9, 2,000 8.1e-9, 4,000 4.6e-8; random states at 20,000 links 1.3e-10 and
 //! 8.0e-10.
 
-use articula_dca::{forward_dynamics, Data, Method, State};
+use articula_dca::{forward_dynamics_slices, Data, Method, State};
 use articula_model::Model;
 use articula_testkit::chain;
 
 /// max |DCA − ABA| / max |q̈| on `s`.
 fn difference(model: &Model, data: &mut Data, s: &State) -> f64 {
     let mut run = |m| {
-        forward_dynamics(model, data, &s.q, &s.qd, &s.tau, &[], m)
+        forward_dynamics_slices(model, data, &s.q, &s.qd, &s.tau, &[], m)
             .unwrap()
             .to_vec()
     };

@@ -56,7 +56,7 @@ mod warning;
 pub use assembly::{AssemblyNode, AssemblyTree, HandleLayout, NodeKind};
 pub use body_inertia::{InertiaChange, InertiaDefect, InertiaDefectKind};
 pub use error::ModelError;
-pub use model::{Body, JointPart, LockedJoint, Model, FLOATING_BASE_JOINT};
+pub use model::{Body, JointPart, LinkFrame, LockedJoint, Model, FLOATING_BASE_JOINT};
 pub use options::{InertiaPolicy, LoadOptions, MasslessLeafPolicy};
 pub use urdf::{
     read_limited, rpy_to_matrix, Geometry, GeometryRole, JointKind, Shape, MAX_URDF_BYTES,

@@ -148,6 +148,18 @@ pub struct Body {
     pub nv: usize,
 }
 
+/// Where a URDF link is in a [`Model`] ([`Model::find_link`]): rigidly attached to a body,
+/// or to the ground (the world frame).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LinkFrame {
+    /// The body the link is part of; `None` for a link welded to the world (a fixed base's
+    /// root link and the links welded to it).
+    pub body: Option<usize>,
+    /// The map from the link's frame to the body's frame (to the world frame when `body` is
+    /// `None`). The identity for the body's own link.
+    pub to_body: SpatialTransform,
+}
+
 /// An articulated model: immutable description, built once from a URDF.
 ///
 /// Bodies are stored parents before children (depth-first pre-order from the root); the
@@ -257,6 +269,30 @@ impl Model {
     /// Finds a movable joint by its URDF name.
     pub fn find_joint(&self, name: &str) -> Option<(usize, &JointPart)> {
         self.joint_parts().find(|(_, p)| p.name == name)
+    }
+
+    /// Finds a URDF link by name: the body it belongs to (or the ground) and the map from the
+    /// link's frame to that body's frame. Links welded to a body by fixed joints are found on
+    /// that body (`Body::links`); with a fixed base, the root link and the links welded to it
+    /// are on the ground (`Model::ground_links`, whose frame is the world). The massless links
+    /// folded into a composed joint (`Body::massless_links`) have no frame of their own here and
+    /// are not found.
+    pub fn find_link(&self, name: &str) -> Option<LinkFrame> {
+        let on = |links: &[(String, SpatialTransform)]| {
+            links.iter().find(|(n, _)| n == name).map(|(_, x)| *x)
+        };
+        if let Some(to_body) = on(&self.ground_links) {
+            return Some(LinkFrame {
+                body: None,
+                to_body,
+            });
+        }
+        self.bodies.iter().enumerate().find_map(|(i, b)| {
+            on(&b.links).map(|to_body| LinkFrame {
+                body: Some(i),
+                to_body,
+            })
+        })
     }
 
     /// The neutral configuration (all angles zero, identity orientations).

@@ -407,7 +407,7 @@ mod tests {
     use super::*;
     use crate::dd::Dd;
     use crate::fixtures::{bundled, bundled_with};
-    use articula_dca::{forward_dynamics, Data, Method, State};
+    use articula_dca::{forward_dynamics_slices, Data, Method, State};
 
     fn rel(a: &[f64], b: &[f64]) -> f64 {
         let num = a
@@ -431,7 +431,7 @@ mod tests {
             for seed in 0..3 {
                 let mut st = State::random(&m, seed, 2.0);
                 st.randomize_forces(seed, 0.5);
-                let lib = forward_dynamics(
+                let lib = forward_dynamics_slices(
                     &m,
                     &mut data,
                     &st.q,

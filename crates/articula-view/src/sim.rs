@@ -916,7 +916,7 @@ pub fn pose_springs(
         }
         let v = part.v_offset;
         tau[v] = 1.0;
-        let r = articula_dca::forward_dynamics(
+        let r = articula_dca::forward_dynamics_slices(
             model,
             &mut data,
             &q,

@@ -5,7 +5,7 @@
 //! with [`Instant`]. The reported figure is the median over batches of the time per call.
 
 use crate::{print_out, CliError, DynamicsArgs};
-use articula_dca::{forward_dynamics, State};
+use articula_dca::{forward_dynamics_slices, State};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
@@ -88,7 +88,7 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
     let mut call = || -> Result<Option<Duration>, CliError> {
         match (method.exact(), adaptive.as_mut()) {
             (Some(m), _) => {
-                let qdd = forward_dynamics(
+                let qdd = forward_dynamics_slices(
                     &model,
                     &mut data,
                     black_box(&state.q),

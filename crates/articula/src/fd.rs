@@ -1,7 +1,7 @@
 //! `articula fd`: the joint accelerations of one state, keyed by URDF joint name.
 
 use crate::{load_state, print_out, CliError, DynamicsArgs};
-use articula_dca::{forward_dynamics, Method};
+use articula_dca::{forward_dynamics_slices, Method};
 use articula_model::Model;
 use serde::ser::{SerializeMap, Serializer};
 use serde::Serialize;
@@ -90,7 +90,7 @@ pub fn run(args: &FdArgs) -> Result<(), CliError> {
             .flat_map(|(_, b)| b.joint.iter().map(|p| p.name.clone()))
             .collect();
         let actual_error = if args.compare {
-            let e = forward_dynamics(
+            let e = forward_dynamics_slices(
                 &model,
                 &mut data,
                 &state.q,
@@ -129,7 +129,7 @@ pub fn run(args: &FdArgs) -> Result<(), CliError> {
         };
         return print_out(&out.to_json()?);
     };
-    let qdd = forward_dynamics(
+    let qdd = forward_dynamics_slices(
         &model,
         &mut data,
         &state.q,

@@ -4,7 +4,7 @@
 //! same model without them, by DCA, ABA and CRBA), deep nesting and oversize inputs.
 
 use articula_dca::internals::SplitMix64;
-use articula_dca::{forward_dynamics, Data, Method};
+use articula_dca::{forward_dynamics_slices, Data, Method};
 use articula_model::{
     InertiaDefectKind, InertiaPolicy, LoadOptions, LoadWarning, MasslessLeafPolicy, Model,
     ModelError,
@@ -151,10 +151,10 @@ fn locked_joints_leave_the_rest_as_without_them() {
             for method in [Method::Dca, Method::Aba, Method::Crba] {
                 let mut d0 = Data::new(&without);
                 let mut d1 = Data::new(&with);
-                let a0 = forward_dynamics(&without, &mut d0, &q0, &v0, &t0, &[], method)
+                let a0 = forward_dynamics_slices(&without, &mut d0, &q0, &v0, &t0, &[], method)
                     .unwrap()
                     .to_vec();
-                let a1 = forward_dynamics(&with, &mut d1, &q1, &v1, &t1, &[], method)
+                let a1 = forward_dynamics_slices(&with, &mut d1, &q1, &v1, &t1, &[], method)
                     .unwrap()
                     .to_vec();
                 let scale = a0.iter().fold(1.0f64, |m, x| m.max(x.abs()));
@@ -244,10 +244,10 @@ fn round_off_never_refuses() {
     let q = [0.3, -0.4];
     let v = [1.0, -2.0];
     let t = [0.1, 0.05];
-    let dca = forward_dynamics(&m, &mut data, &q, &v, &t, &[], Method::Dca)
+    let dca = forward_dynamics_slices(&m, &mut data, &q, &v, &t, &[], Method::Dca)
         .unwrap()
         .to_vec();
-    let aba = forward_dynamics(&m, &mut data, &q, &v, &t, &[], Method::Aba)
+    let aba = forward_dynamics_slices(&m, &mut data, &q, &v, &t, &[], Method::Aba)
         .unwrap()
         .to_vec();
     for (a, b) in dca.iter().zip(&aba) {

@@ -2,7 +2,7 @@
 //! whole-body re-selection it replaces.
 
 use crate::{Adaptive, Settings};
-use articula_dca::{forward_dynamics, Data, Method, State};
+use articula_dca::{forward_dynamics_slices, Data, Method, State};
 use articula_model::Model;
 use articula_spatial::SpatialForce;
 
@@ -485,7 +485,7 @@ fn gravity_moves_a_free_body_without_changing_its_joint_accelerations() {
         let mut s = State::random(&model, 3, 1.0);
         s.randomize_forces(4, 0.01);
         let mut with = Data::new(&model);
-        let qa = forward_dynamics(
+        let qa = forward_dynamics_slices(
             &model,
             &mut with,
             &s.q,
@@ -498,7 +498,7 @@ fn gravity_moves_a_free_body_without_changing_its_joint_accelerations() {
         .to_vec();
         let mut without = Data::new(&model);
         without.gravity = glam::DVec3::ZERO;
-        let qb = forward_dynamics(
+        let qb = forward_dynamics_slices(
             &model,
             &mut without,
             &s.q,

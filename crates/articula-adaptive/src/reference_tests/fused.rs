@@ -7,7 +7,7 @@
 //! must differ somewhere, which shows that the fused one ran.
 
 use crate::{Adaptive, Settings};
-use articula_dca::{forward_dynamics, Data, Method, State};
+use articula_dca::{forward_dynamics_slices, Data, Method, State};
 
 use articula_testkit::bundled_with as load;
 
@@ -62,7 +62,7 @@ fn fused_and_portable_reduced_aba_agree() {
                     if budget >= n {
                         let mut data = Data::new(&model);
                         let b = &before;
-                        let exact = forward_dynamics(
+                        let exact = forward_dynamics_slices(
                             &model,
                             &mut data,
                             &b.q,
