@@ -61,7 +61,7 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
         std::fs::create_dir_all(dir)
             .map_err(|e| CliError(format!("cannot create {}: {e}", dir.display())))?;
     }
-    let mut sim = SceneSim::new(&scene);
+    let mut sim = SceneSim::new(&scene)?;
     let steps = args.steps;
     let bar = ProgressBar::with_draw_target(Some(steps), ProgressDrawTarget::hidden());
     bar.set_style(

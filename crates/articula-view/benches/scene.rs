@@ -24,7 +24,7 @@ fn timed_steps(scene: &articula_view::LoadedScene, iters: u64) -> Duration {
     let mut total = Duration::ZERO;
     let mut done = 0;
     while done < iters {
-        let mut sim = SceneSim::new(scene);
+        let mut sim = SceneSim::new(scene).unwrap();
         let n = (iters - done).min(500);
         let t = Instant::now();
         for _ in 0..n {
@@ -43,7 +43,7 @@ fn crowd200(c: &mut Criterion) {
     g.bench_function("adaptive_step", |b| {
         b.iter_custom(|iters| timed_steps(&scene, iters))
     });
-    let mut sim = SceneSim::new(&scene);
+    let mut sim = SceneSim::new(&scene).unwrap();
     for _ in 0..20 {
         sim.step().unwrap();
     }

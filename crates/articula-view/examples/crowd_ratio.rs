@@ -21,7 +21,7 @@ fn main() {
         std::process::exit(2)
     });
     let (rounds, steps): (usize, u64) = (args[2].parse().unwrap(), args[3].parse().unwrap());
-    let mut sim = SceneSim::new(&scene);
+    let mut sim = SceneSim::new(&scene).unwrap();
     for _ in 0..20 {
         sim.step().unwrap();
     }
@@ -40,7 +40,7 @@ fn main() {
     let (mut best_a, mut best_e) = (f64::MAX, f64::MAX);
     let mut ratios = Vec::new();
     for round in 0..rounds {
-        let mut sim = SceneSim::new(&scene);
+        let mut sim = SceneSim::new(&scene).unwrap();
         let t = Instant::now();
         for _ in 0..steps {
             sim.step().unwrap();

@@ -24,7 +24,7 @@ fn main() {
         std::process::exit(2)
     });
     let (warmup, steps): (u64, u64) = (args[2].parse().unwrap(), args[3].parse().unwrap());
-    let mut sim = SceneSim::new(&scene);
+    let mut sim = SceneSim::new(&scene).unwrap();
     for _ in 0..warmup {
         sim.step().unwrap();
     }

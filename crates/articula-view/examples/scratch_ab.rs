@@ -40,8 +40,8 @@ fn main() {
     let mut data = Data::new(model);
     data.gravity = scene.gravity;
     let new_pair = || {
-        let shared = SceneSim::new(&scene);
-        let mut own = SceneSim::new(&scene);
+        let shared = SceneSim::new(&scene).unwrap();
+        let mut own = SceneSim::new(&scene).unwrap();
         own.set_shared_scratch(false);
         (shared, own)
     };

@@ -25,7 +25,7 @@ fn main() {
         std::path::Path::new("models/scenes"),
     )
     .unwrap();
-    let mut sim = articula_view::SceneSim::new(&scene);
+    let mut sim = articula_view::SceneSim::new(&scene).unwrap();
     for k in 0..steps {
         if let Err(e) = sim.step() {
             println!("fail at {k}: {e}");

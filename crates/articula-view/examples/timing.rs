@@ -8,7 +8,7 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let scene = articula_view::load_scene(&args[1]).unwrap();
     let steps: u64 = args[2].parse().unwrap();
-    let mut sim = articula_view::SceneSim::new(&scene);
+    let mut sim = articula_view::SceneSim::new(&scene).unwrap();
     let (mut tr, mut nr, mut tn, mut nn) = (0.0, 0, 0.0, 0);
     for _ in 0..steps {
         let t = Instant::now();

@@ -1,8 +1,11 @@
 //! # articula-view
 //!
-//! View-dependent adaptive dynamics (DESIGN §7): a [`Camera`] and its frustum, per-body
+//! View-dependent adaptive dynamics (`docs/view.md`): a [`Camera`] and its frustum, per-body
 //! bounding [`volumes`], [`visibility`] classes (visible, occluded, invisible) turned into joint
-//! weights, and scenes of many articulated bodies.
+//! weights, and scenes of many articulated bodies under one joint budget — read from JSON
+//! files ([`load_scene`], feature `serde`) or built in code ([`SceneBuilder`]), then stepped
+//! by [`SceneSim`] and rendered to PNG frames ([`render`], feature `render`). Every invalid
+//! scene is a [`SceneError`] naming its field, never a panic.
 //!
 //! ```
 //! use articula_view::Camera;
@@ -19,6 +22,8 @@
 //! assert!((near / far - 2.0).abs() < 0.1);
 //! ```
 
+#![warn(missing_docs)]
+
 pub mod camera;
 pub mod render;
 pub mod scene_file;
@@ -27,8 +32,12 @@ pub mod visibility;
 pub mod volumes;
 
 pub use camera::{Camera, CameraPath, Frustum, Keyframe, Plane};
+#[cfg(feature = "serde")]
+pub use scene_file::{load_scene, parse_scene};
 pub use scene_file::{
-    load_scene, parse_scene, CameraRig, LoadedScene, Placement, Push, SceneError, SceneSpec,
+    BodySpec, CameraRig, CameraSpec, CrowdSpec, ImageSpec, KeySpec, LoadedScene, Placement,
+    Push, PushSpec, SceneBuilder, SceneError, SceneModel, SceneSpec, SpringSpec, Targets,
+    VelocitySpec, VisibilitySpec,
 };
 pub use sim::{global_selection, GlobalSelection, SceneSim, SceneSimError, SceneStep, SimBody};
 pub use visibility::{

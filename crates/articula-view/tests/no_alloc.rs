@@ -12,7 +12,7 @@ use std::path::Path;
 fn scene_steps_allocate_nothing_after_warm_up() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/scenes/crowd200.json");
     let scene = load_scene(path).unwrap();
-    let mut sim = SceneSim::new(&scene);
+    let mut sim = SceneSim::new(&scene).unwrap();
     // Warm-up: the first whole-body selection and a few re-selections size every buffer.
     for _ in 0..60 {
         sim.step().unwrap();

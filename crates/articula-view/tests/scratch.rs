@@ -14,8 +14,8 @@ fn same(a: &[f64], b: &[f64]) -> bool {
 fn crowd200_with_a_shared_scratch_follows_the_per_body_trajectory() {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../models/scenes/crowd200.json");
     let scene = articula_view::load_scene(path).unwrap();
-    let mut shared = SceneSim::new(&scene);
-    let mut own = SceneSim::new(&scene);
+    let mut shared = SceneSim::new(&scene).unwrap();
+    let mut own = SceneSim::new(&scene).unwrap();
     own.set_shared_scratch(false);
     let mut changed = 0;
     for k in 0..300 {
