@@ -17,7 +17,11 @@ use std::collections::HashMap;
 
 /// The motion a URDF joint allows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize), serde(rename_all = "snake_case"))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize),
+    serde(rename_all = "snake_case")
+)]
 pub enum JointKind {
     /// Rotation about the axis, with limits in the URDF (the limits are not enforced).
     Revolute,

@@ -35,9 +35,9 @@ pub use camera::{Camera, CameraPath, Frustum, Keyframe, Plane};
 #[cfg(feature = "serde")]
 pub use scene_file::{load_scene, parse_scene};
 pub use scene_file::{
-    BodySpec, CameraRig, CameraSpec, CrowdSpec, ImageSpec, KeySpec, LoadedScene, Placement,
-    Push, PushSpec, SceneBuilder, SceneError, SceneModel, SceneSpec, SpringSpec, Targets,
-    VelocitySpec, VisibilitySpec,
+    BodySpec, CameraRig, CameraSpec, CrowdSpec, ImageSpec, KeySpec, LoadedScene, Placement, Push,
+    PushSpec, SceneBuilder, SceneError, SceneModel, SceneSpec, SpringSpec, Targets, VelocitySpec,
+    VisibilitySpec,
 };
 pub use sim::{global_selection, GlobalSelection, SceneSim, SceneSimError, SceneStep, SimBody};
 pub use visibility::{
