@@ -22,8 +22,6 @@
 //! assert!((near / far - 2.0).abs() < 0.1);
 //! ```
 
-#![warn(missing_docs)]
-
 pub mod camera;
 pub mod render;
 pub mod scene_file;

@@ -62,8 +62,6 @@
 //! and `cargo run --release --example crowd` (a crowd built in code, frames written to a
 //! folder).
 
-#![warn(missing_docs)]
-
 pub use articula_adaptive as adaptive;
 pub use articula_dca as dca;
 pub use articula_model as model;
@@ -71,13 +69,14 @@ pub use articula_spatial as spatial;
 pub use articula_view as view;
 pub use glam;
 
-/// The names a program needs: `use articula::prelude::*;`.
-///
-/// Models ([`Model`], [`LoadOptions`]), exact dynamics ([`forward_dynamics`], [`step`],
-/// [`Data`], [`State`], [`Method`], [`Integrator`]), adaptive dynamics ([`Adaptive`],
-/// [`Settings`]), scenes ([`SceneBuilder`] and its specs, [`SceneSim`]), the spatial types,
-/// glam's `DVec3`, `DMat3`, `DQuat`, and every layer's error type.
 pub mod prelude {
+    //! The names a program needs: `use articula::prelude::*;`.
+    //!
+    //! Models ([`Model`], [`LoadOptions`]), exact dynamics ([`forward_dynamics`], [`step`],
+    //! [`Data`], [`State`], [`Method`], [`Integrator`]), adaptive dynamics ([`Adaptive`],
+    //! [`Settings`]), scenes ([`SceneBuilder`] and its specs, [`SceneSim`]), the spatial
+    //! types, glam's `DVec3`, `DMat3`, `DQuat`, and every layer's error type.
+
     pub use crate::adaptive::{Adaptive, AdaptiveError, Selection, Settings, StepReport};
     pub use crate::dca::{forward_dynamics, step, Data, DynamicsError, Integrator, Method, State};
     pub use crate::model::{JointKind, LoadOptions, Model, ModelError};
