@@ -10,6 +10,9 @@
 //! 1.5× from one minute to the next. The `seeds_ratio` example times the same steps
 //! interleaved in one process, for the ratio.
 
+// `criterion_group!` makes a public function without documentation.
+#![allow(missing_docs)]
+
 use articula_adaptive::{Adaptive, Settings};
 use articula_benches::{chain, force_list, seeded_state};
 use articula_dca::{step, Data, Integrator, Method, State};

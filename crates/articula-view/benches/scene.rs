@@ -7,6 +7,9 @@
 //!
 //! `cargo bench -p articula-view --bench scene` (add `-- --quick` for a short run).
 
+// `criterion_group!` makes a public function without documentation.
+#![allow(missing_docs)]
+
 use articula_dca::{step, Data, Integrator, Method};
 use articula_view::{load_scene, parse_scene, SceneSim};
 use criterion::{criterion_group, criterion_main, Criterion};

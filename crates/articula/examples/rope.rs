@@ -1,5 +1,7 @@
-//! A 1,000-link rope under adaptive dynamics: 100 of its 1,000 joints simulated, chosen again
-//! every 10 steps where the accelerations matter most; the rest move rigidly.
+//! A 1,000-link rope (20 m) swinging under adaptive dynamics: 100 of its 1,000 joints
+//! simulated, chosen again every 10 steps where the accelerations matter most; the rest move
+//! rigidly. The predicted error is the acceleration metric left out, `Σ q̈²` of the skipped
+//! joints, against exact dynamics.
 //! `cargo run --release --example rope`
 use articula::prelude::*;
 use std::time::Instant;
@@ -23,13 +25,7 @@ fn rope(n: usize) -> String {
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let model = Model::from_urdf_str(&rope(1000), &LoadOptions::default())?;
     let mut state = State::neutral(&model);
-    // Hanging straight, its top metre bent into a wave.
-    state
-        .q
-        .iter_mut()
-        .take(50)
-        .enumerate()
-        .for_each(|(i, q)| *q = 0.3 * (i as f64 * 0.2).sin());
+    state.q[0] = 0.3; // released straight, 0.3 rad from hanging
     let dt = 2e-4;
     // Exact DCA for reference: the time of one step.
     let (mut data, mut exact, t) = (Data::new(&model), state.clone(), Instant::now());
