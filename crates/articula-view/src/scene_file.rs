@@ -470,7 +470,7 @@ impl PushSpec {
 /// </robot>"#;
 /// let model = Model::from_urdf_str(urdf, &LoadOptions { floating_base: true })?;
 /// let scene = SceneBuilder::new()
-///     .model("bot", model)
+///     .model("bot", model.clone())
 ///     .crowd(CrowdSpec { origin: [5.0, -3.0, 1.0], ..CrowdSpec::new("bot", 3, 4) })
 ///     .camera(CameraSpec::look_at([0.0, 0.0, 1.5], [10.0, 0.0, 1.0]))
 ///     .budget(4)
@@ -481,7 +481,8 @@ impl PushSpec {
 /// assert!(step.active_total <= 4);
 ///
 /// // A crowd of a model nobody gave is an error, not a panic.
-/// let err = SceneBuilder::new().crowd(CrowdSpec::new("ghost", 1, 1)).build().unwrap_err();
+/// let ghosts = SceneBuilder::new().model("bot", model).crowd(CrowdSpec::new("ghost", 1, 1));
+/// let err = ghosts.build().unwrap_err();
 /// assert!(err.to_string().contains("crowds[0].model"), "{err}");
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
