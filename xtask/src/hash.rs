@@ -99,7 +99,7 @@ pub fn qdd_hash(verbose: bool) -> Result<u64> {
 /// The state fingerprint of the scene `path` after `steps` steps.
 pub fn scene_hash(path: &Path, steps: u64) -> Result<u64> {
     let scene = articula_view::load_scene(path)?;
-    let mut sim = articula_view::SceneSim::new(&scene);
+    let mut sim = articula_view::SceneSim::new(&scene).map_err(|e| e.to_string())?;
     for _ in 0..steps {
         sim.step()?;
     }

@@ -234,7 +234,7 @@ fn exact(model: &Model, mut s: State, n: usize, steps: usize) -> Result<()> {
 
 fn scene(path: &Path, warmup: u64, steps: u64) -> Result<()> {
     let scene = articula_view::load_scene(path)?;
-    let mut sim = articula_view::SceneSim::new(&scene);
+    let mut sim = articula_view::SceneSim::new(&scene).map_err(|e| e.to_string())?;
     for _ in 0..warmup {
         sim.step()?;
     }

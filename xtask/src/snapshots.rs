@@ -1,5 +1,5 @@
 //! `cargo xtask snapshots [--accept]`: the snapshot tests of `articula info`
-//! (`crates/articula/tests/snapshots.rs`, snapshots in `crates/articula/tests/snapshots/`).
+//! (`crates/articula-cli/tests/snapshots.rs`, snapshots in `crates/articula-cli/tests/snapshots/`).
 //!
 //! Without `--accept` the tests run with `INSTA_UPDATE=no`: nothing is written and any
 //! mismatch fails with its diff. With `--accept` they run with `INSTA_UPDATE=always`, which
@@ -14,7 +14,7 @@ use std::process::Command;
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
 /// Where the snapshot files live, relative to the workspace root.
-pub const SNAPSHOT_DIR: &str = "crates/articula/tests/snapshots";
+pub const SNAPSHOT_DIR: &str = "crates/articula-cli/tests/snapshots";
 
 /// Runs the task with its arguments (those after `snapshots`).
 pub fn run(root: &Path, args: &[String]) -> Result<()> {
@@ -32,7 +32,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     let update = if accept { "always" } else { "no" };
     let mut cmd = Command::new(&cargo);
     cmd.current_dir(root)
-        .args(["test", "-p", "articula", "--test", "snapshots"])
+        .args(["test", "-p", "articula-cli", "--test", "snapshots"])
         .env("INSTA_UPDATE", update)
         // A stray INSTA_FORCE_PASS would turn mismatches into passes.
         .env_remove("INSTA_FORCE_PASS");
@@ -41,7 +41,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
         // by the in-place rewrite.
         remove_pending(&root.join(SNAPSHOT_DIR))?;
     }
-    println!("running: INSTA_UPDATE={update} cargo test -p articula --test snapshots");
+    println!("running: INSTA_UPDATE={update} cargo test -p articula-cli --test snapshots");
     let status = cmd
         .status()
         .map_err(|e| format!("cannot run {}: {e}", cargo.to_string_lossy()))?;

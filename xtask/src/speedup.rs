@@ -157,7 +157,7 @@ fn seeds(rounds: usize, budgets: &[usize]) -> Result<()> {
 
 fn crowd(path: &Path, rounds: usize, steps: u64) -> Result<()> {
     let scene = articula_view::load_scene(path)?;
-    let mut sim = SceneSim::new(&scene);
+    let mut sim = SceneSim::new(&scene).map_err(|e| e.to_string())?;
     for _ in 0..20 {
         sim.step()?;
     }
@@ -176,7 +176,7 @@ fn crowd(path: &Path, rounds: usize, steps: u64) -> Result<()> {
     let (mut best_a, mut best_e) = (f64::MAX, f64::MAX);
     let mut ratios = Vec::new();
     for round in 0..rounds {
-        let mut sim = SceneSim::new(&scene);
+        let mut sim = SceneSim::new(&scene).map_err(|e| e.to_string())?;
         let t = Instant::now();
         for _ in 0..steps {
             sim.step()?;

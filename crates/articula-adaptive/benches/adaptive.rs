@@ -10,6 +10,9 @@
 //! 1.5× from one minute to the next. `cargo xtask speedup seeds` times the same steps
 //! interleaved in one process, for the ratio.
 
+// `criterion_group!` makes a public function without documentation.
+#![allow(missing_docs)]
+
 use articula_adaptive::{Adaptive, Settings};
 use articula_dca::{step, Data, Integrator, Method, State};
 use articula_testkit::chain;

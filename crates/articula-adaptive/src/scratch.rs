@@ -264,7 +264,15 @@ impl Adaptive {
     /// use articula_dca::State;
     /// use articula_model::{LoadOptions, Model};
     ///
-    /// let model = Model::from_urdf_file("../../models/chain30.urdf", &LoadOptions::default()).unwrap();
+    /// // A 30-link planar chain of 1 m, 1 kg rods.
+    /// let mut urdf = String::from(r#"<robot name="chain"><link name="l0"/>"#);
+    /// for i in 1..=30 {
+    ///     urdf += &format!(r#"<link name="l{i}"><inertial><origin xyz="0 0 -0.5"/><mass value="1"/>
+    ///         <inertia ixx="0.08" iyy="0.08" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>
+    ///         <joint name="j{i}" type="continuous"><parent link="l{}"/><child link="l{i}"/>
+    ///         <origin xyz="0 0 {}"/><axis xyz="0 1 0"/></joint>"#, i - 1, if i == 1 { 0 } else { -1 });
+    /// }
+    /// let model = Model::from_urdf_str(&(urdf + "</robot>"), &LoadOptions::default()).unwrap();
     /// let settings = Settings { budget: Some(5), reselect_every: 4, ..Settings::default() };
     /// let mut scratch = Scratch::new(&model);
     /// let (mut a, mut b) = (Adaptive::new(&model, settings.clone()), Adaptive::new(&model, settings.clone()));

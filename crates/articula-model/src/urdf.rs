@@ -16,8 +16,12 @@ use std::borrow::Cow;
 use std::collections::HashMap;
 
 /// The motion a URDF joint allows.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize),
+    serde(rename_all = "snake_case")
+)]
 pub enum JointKind {
     /// Rotation about the axis, with limits in the URDF (the limits are not enforced).
     Revolute,

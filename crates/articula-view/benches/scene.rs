@@ -7,6 +7,9 @@
 //!
 //! `cargo bench -p articula-view --bench scene` (add `-- --quick` for a short run).
 
+// `criterion_group!` makes a public function without documentation.
+#![allow(missing_docs)]
+
 use articula_dca::{step, Data, Integrator, Method};
 use articula_view::{load_scene, parse_scene, SceneSim};
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -24,7 +27,7 @@ fn timed_steps(scene: &articula_view::LoadedScene, iters: u64) -> Duration {
     let mut total = Duration::ZERO;
     let mut done = 0;
     while done < iters {
-        let mut sim = SceneSim::new(scene);
+        let mut sim = SceneSim::new(scene).unwrap();
         let n = (iters - done).min(500);
         let t = Instant::now();
         for _ in 0..n {
@@ -43,7 +46,7 @@ fn crowd200(c: &mut Criterion) {
     g.bench_function("adaptive_step", |b| {
         b.iter_custom(|iters| timed_steps(&scene, iters))
     });
-    let mut sim = SceneSim::new(&scene);
+    let mut sim = SceneSim::new(&scene).unwrap();
     for _ in 0..20 {
         sim.step().unwrap();
     }

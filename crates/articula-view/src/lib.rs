@@ -2,7 +2,10 @@
 //!
 //! View-dependent adaptive dynamics (docs/design.md#view): a [`Camera`] and its frustum, per-body
 //! bounding [`volumes`], [`visibility`] classes (visible, occluded, invisible) turned into joint
-//! weights, and scenes of many articulated bodies.
+//! weights, and scenes of many articulated bodies under one joint budget — read from JSON
+//! files ([`load_scene`], feature `serde`) or built in code ([`SceneBuilder`]), then stepped
+//! by [`SceneSim`] and rendered to PNG frames ([`render`], feature `render`). Every invalid
+//! scene is a [`ViewError`] naming its field, never a panic.
 //!
 //! ```
 //! use articula_view::Camera;
@@ -27,9 +30,12 @@ pub mod visibility;
 pub mod volumes;
 
 pub use camera::{Camera, CameraPath, Frustum, Keyframe, Plane};
+#[cfg(feature = "serde")]
+pub use scene_file::{load_scene, load_scene_with, parse_scene, parse_scene_with};
 pub use scene_file::{
-    load_scene, load_scene_with, parse_scene, parse_scene_with, CameraRig, LoadedScene, Placement,
-    Push, SceneSpec,
+    BodySpec, CameraRig, CameraSpec, CrowdSpec, ImageSpec, KeySpec, LoadedScene, Placement, Push,
+    PushSpec, SceneBuilder, SceneModel, SceneSpec, SpringSpec, Targets, VelocitySpec,
+    VisibilitySpec,
 };
 pub use sim::{global_selection, GlobalSelection, SceneSim, SceneStep, SimBody};
 pub use visibility::{
@@ -96,4 +102,16 @@ pub enum ViewError {
         /// The adaptive solver's error.
         error: articula_adaptive::AdaptiveError,
     },
+    /// A body whose state no longer fits its model (a `q`, `q̇` or `τ` of the wrong length, or
+    /// a model index out of range) when the scene steps.
+    #[error("body '{name}': {message}")]
+    BodyState {
+        /// The body's placement name.
+        name: String,
+        /// What does not fit.
+        message: String,
+    },
+    /// A frame that could not be rendered or written.
+    #[error("frame: {0}")]
+    Frame(String),
 }

@@ -1,11 +1,18 @@
 //! Software rendering (tiny-skia) of a scene: the camera's view, with every rigid subassembly
 //! of every body in its own colour, and a top-down map with the frustum and each body's
-//! active-joint count.
+//! active-joint count. The pixels ([`render_view`], [`render_map`], [`save_png`]) need the
+//! `render` feature (default on); [`FrameBody`], [`rigid_groups`] and [`colour`] do not.
 
+#[cfg(feature = "render")]
 use crate::camera::Camera;
 use crate::visibility::Visibility;
-use crate::volumes::{BodyVolumes, Volume};
-use glam::{DMat3, DVec2, DVec3};
+use crate::volumes::BodyVolumes;
+#[cfg(feature = "render")]
+use crate::volumes::Volume;
+#[cfg(feature = "render")]
+use glam::DVec2;
+use glam::{DMat3, DVec3};
+#[cfg(feature = "render")]
 use tiny_skia::{Color, FillRule, Paint, PathBuilder, Pixmap, Stroke, Transform};
 
 /// One body as the renderer needs it.
@@ -71,6 +78,7 @@ fn hsv(h: f64, s: f64, v: f64) -> [u8; 3] {
     ]
 }
 
+#[cfg(feature = "render")]
 fn paint(rgb: [u8; 3], a: u8) -> Paint<'static> {
     let mut p = Paint::default();
     p.set_color_rgba8(rgb[0], rgb[1], rgb[2], a);
@@ -80,6 +88,7 @@ fn paint(rgb: [u8; 3], a: u8) -> Paint<'static> {
 
 /// A capsule in camera space clipped to the near plane, projected: end points (pixels), radii
 /// (pixels), mean depth.
+#[cfg(feature = "render")]
 struct Projected {
     a: DVec2,
     b: DVec2,
@@ -89,6 +98,7 @@ struct Projected {
     rgb: [u8; 3],
 }
 
+#[cfg(feature = "render")]
 fn project_capsule(
     cam: &Camera,
     w: f64,
@@ -120,6 +130,7 @@ fn project_capsule(
     })
 }
 
+#[cfg(feature = "render")]
 fn draw_capsule(pix: &mut Pixmap, c: &Projected) {
     let mut pb = PathBuilder::new();
     let d = c.b - c.a;
@@ -161,6 +172,7 @@ fn draw_capsule(pix: &mut Pixmap, c: &Projected) {
     }
 }
 
+#[cfg(feature = "render")]
 fn new_pixmap(width: u32, height: u32) -> Result<Pixmap, String> {
     Pixmap::new(width, height).ok_or_else(|| format!("cannot make a {width}×{height} image"))
 }
@@ -168,6 +180,7 @@ fn new_pixmap(width: u32, height: u32) -> Result<Pixmap, String> {
 /// The camera's view: a ground grid (z = 0), then every skeleton capsule of every body,
 /// farthest first, each rigid subassembly in its own colour; a bar of digits in the corner
 /// (active joints of the frame).
+#[cfg(feature = "render")]
 pub fn render_view(
     cam: &Camera,
     width: u32,
@@ -238,6 +251,7 @@ pub fn render_view(
 
 /// The top-down map: the scene's extent in x and y, the frustum's footprint, each body as a
 /// disc (green visible, orange occluded, grey invisible) with its active-joint count.
+#[cfg(feature = "render")]
 pub fn render_map(cam: &Camera, size: u32, bodies: &[FrameBody]) -> Result<Pixmap, String> {
     let mut pix = new_pixmap(size, size)?;
     pix.fill(Color::from_rgba8(250, 250, 250, 255));
@@ -341,6 +355,7 @@ pub fn render_map(cam: &Camera, size: u32, bodies: &[FrameBody]) -> Result<Pixma
 }
 
 /// 3×5 bitmap digits, one row per `u8` (3 low bits, the leftmost column the highest bit).
+#[cfg(feature = "render")]
 const DIGITS: [[u8; 5]; 10] = [
     [7, 5, 5, 5, 7],
     [2, 6, 2, 2, 7],
@@ -355,6 +370,7 @@ const DIGITS: [[u8; 5]; 10] = [
 ];
 
 /// Draws `n` in bitmap digits with its top-left corner at (x, y), `cell` pixels per dot.
+#[cfg(feature = "render")]
 pub fn draw_number(pix: &mut Pixmap, x: f64, y: f64, cell: f64, n: usize, rgb: [u8; 3]) {
     let text = n.to_string();
     let p = paint(rgb, 255);
@@ -383,6 +399,7 @@ pub fn draw_number(pix: &mut Pixmap, x: f64, y: f64, cell: f64, n: usize, rgb: [
 }
 
 /// Writes a PNG.
+#[cfg(feature = "render")]
 pub fn save_png(pix: &Pixmap, path: &std::path::Path) -> Result<(), String> {
     pix.save_png(path)
         .map_err(|e| format!("cannot write {}: {e}", path.display()))

@@ -24,7 +24,6 @@ use crate::ViewError;
 use articula_dca::internals::SplitMix64;
 use articula_model::{InertiaPolicy, LoadOptions, Model};
 use glam::{DMat3, DQuat, DVec3};
-use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -32,46 +31,47 @@ use std::path::{Path, PathBuf};
 type V3 = [f64; 3];
 
 /// The top level of a scene file.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct SceneSpec {
     /// Model name → URDF path (relative to the scene file).
     pub models: BTreeMap<String, String>,
     /// Single bodies.
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub bodies: Vec<BodySpec>,
     /// Crowds: grids of bodies.
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub crowds: Vec<CrowdSpec>,
     /// The camera.
     pub camera: CameraSpec,
     /// Scene-wide budget of active joints per step (none: unlimited).
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub budget: Option<usize>,
     /// Scene-wide tolerance on the weighted acceleration metric left unsimulated.
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub tolerance: Option<f64>,
     /// Time step (s).
-    #[serde(default = "default_dt")]
+    #[cfg_attr(feature = "serde", serde(default = "default_dt"))]
     pub dt: f64,
     /// Visibility and joint selection are redone every this many steps.
-    #[serde(default = "one")]
+    #[cfg_attr(feature = "serde", serde(default = "one"))]
     pub reselect_every: usize,
     /// Gravity (m/s², world).
-    #[serde(default = "default_gravity")]
+    #[cfg_attr(feature = "serde", serde(default = "default_gravity"))]
     pub gravity: V3,
     /// How visibility becomes weights.
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub visibility: VisibilitySpec,
     /// Timed pushes.
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub pushes: Vec<PushSpec>,
     /// Rendered image size (pixels).
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub image: ImageSpec,
     /// Springs and dampers holding every internal joint near its neutral angle (none by
     /// default).
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub joint_springs: Option<SpringSpec>,
 }
 
@@ -80,8 +80,9 @@ pub struct SceneSpec {
 /// degree of freedom in the neutral pose: every joint oscillates near the same frequency, so
 /// light links are no stiffer for the integrator than heavy ones. Ragdolls without joint
 /// limits otherwise swing their composed 3-axis joints through gimbal lock.
-#[derive(Clone, Copy, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct SpringSpec {
     /// Natural frequency (Hz).
     pub frequency_hz: f64,
@@ -101,44 +102,47 @@ fn default_gravity() -> V3 {
 
 /// A body's initial velocity (world frame): its root link origin's linear velocity and its
 /// angular velocity.
-#[derive(Clone, Copy, Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Copy, Debug, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct VelocitySpec {
     /// m/s.
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub linear: V3,
     /// rad/s.
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub angular: V3,
 }
 
-/// One placed body.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+/// One placed body ([`BodySpec::new`]).
+#[derive(Clone, Debug)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct BodySpec {
     /// Its name (default `bodyN`, N its index among `bodies`).
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub name: Option<String>,
     /// A key of `models`.
     pub model: String,
     /// Root link position (world).
     pub position: V3,
     /// Root link orientation: roll, pitch, yaw (rad, URDF convention).
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub rpy: V3,
     /// Initial velocity.
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub velocity: VelocitySpec,
 }
 
 /// A grid of bodies: `rows` along the world x axis (away from a camera looking along +x),
 /// `columns` along y, each position jittered uniformly in a square of ±`jitter` (seeded), each
 /// yaw jittered by ±`yaw_jitter`. Bodies are named `NAME[r,c]`.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct CrowdSpec {
     /// Name (default `crowdN`).
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub name: Option<String>,
     /// A key of `models`.
     pub model: String,
@@ -151,25 +155,26 @@ pub struct CrowdSpec {
     /// Spacing between rows (x) and between columns (y), metres.
     pub spacing: [f64; 2],
     /// Half width of the uniform position jitter (m).
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub jitter: f64,
     /// Seed of the jitter.
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub seed: u64,
     /// Yaw of every body (rad).
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub yaw: f64,
     /// Half width of the uniform yaw jitter (rad).
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub yaw_jitter: f64,
     /// Initial velocity of every body.
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub velocity: VelocitySpec,
 }
 
 /// One keyframe of a camera path.
-#[derive(Clone, Copy, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Copy, Debug, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct KeySpec {
     /// Time (s).
     pub t: f64,
@@ -180,29 +185,30 @@ pub struct KeySpec {
 }
 
 /// The camera: fixed (`eye` and `target`) or moving (`path`).
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct CameraSpec {
     /// Fixed eye.
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub eye: Option<V3>,
     /// Fixed target.
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub target: Option<V3>,
     /// Keyframes of a moving camera.
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub path: Option<Vec<KeySpec>>,
     /// Up vector.
-    #[serde(default = "default_up")]
+    #[cfg_attr(feature = "serde", serde(default = "default_up"))]
     pub up: V3,
     /// Vertical field of view, degrees.
-    #[serde(default = "default_fov")]
+    #[cfg_attr(feature = "serde", serde(default = "default_fov"))]
     pub fov_y_deg: f64,
     /// Near plane (m).
-    #[serde(default = "default_near")]
+    #[cfg_attr(feature = "serde", serde(default = "default_near"))]
     pub near: f64,
     /// Far plane (m).
-    #[serde(default = "default_far")]
+    #[cfg_attr(feature = "serde", serde(default = "default_far"))]
     pub far: f64,
 }
 
@@ -220,8 +226,9 @@ fn default_far() -> f64 {
 }
 
 /// Visibility weights.
-#[derive(Clone, Copy, Debug, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields, default))]
 pub struct VisibilitySpec {
     /// Weight factor of occluded links.
     pub occluded_factor: f64,
@@ -243,8 +250,9 @@ impl Default for VisibilitySpec {
 }
 
 /// Image size of rendered frames (its ratio is the camera's aspect ratio).
-#[derive(Clone, Copy, Debug, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields, default))]
 pub struct ImageSpec {
     /// Pixels.
     pub width: u32,
@@ -262,8 +270,9 @@ impl Default for ImageSpec {
 }
 
 /// Which bodies a push acts on.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(untagged)]
+#[derive(Clone, Debug)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(untagged))]
 pub enum Targets {
     /// `"all"`.
     All(String),
@@ -272,15 +281,16 @@ pub enum Targets {
 }
 
 /// A force at a point of a link over `[t0, t1]`.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct PushSpec {
     /// `"all"` or a list of body or crowd names.
     pub bodies: Targets,
     /// URDF link name.
     pub link: String,
     /// Point of application in the link frame (m).
-    #[serde(default)]
+    #[cfg_attr(feature = "serde", serde(default))]
     pub point: V3,
     /// Force (N), world frame.
     pub force: V3,
@@ -288,6 +298,276 @@ pub struct PushSpec {
     pub t0: f64,
     /// End time (s).
     pub t1: f64,
+}
+
+impl Default for SceneSpec {
+    /// No model and no body yet, the default camera ([`CameraSpec::default`]), no budget, no
+    /// tolerance, 60 steps per second, re-selection every step, standard gravity along −z.
+    fn default() -> Self {
+        SceneSpec {
+            models: BTreeMap::new(),
+            bodies: Vec::new(),
+            crowds: Vec::new(),
+            camera: CameraSpec::default(),
+            budget: None,
+            tolerance: None,
+            dt: default_dt(),
+            reselect_every: one(),
+            gravity: default_gravity(),
+            visibility: VisibilitySpec::default(),
+            pushes: Vec::new(),
+            image: ImageSpec::default(),
+            joint_springs: None,
+        }
+    }
+}
+
+impl Default for CameraSpec {
+    /// A fixed camera at eye height (1.7 m) at the origin, looking along +x at a point 10 m
+    /// ahead and 1.2 m up; 60° vertical field of view, near 0.1 m, far 500 m.
+    fn default() -> Self {
+        CameraSpec::look_at([0.0, 0.0, 1.7], [10.0, 0.0, 1.2])
+    }
+}
+
+impl CameraSpec {
+    /// A fixed camera at `eye` looking at `target` (world, metres), z up, with the default
+    /// field of view and planes.
+    pub fn look_at(eye: [f64; 3], target: [f64; 3]) -> Self {
+        CameraSpec {
+            eye: Some(eye),
+            target: Some(target),
+            path: None,
+            up: default_up(),
+            fov_y_deg: default_fov(),
+            near: default_near(),
+            far: default_far(),
+        }
+    }
+
+    /// A camera moving through `keys` (times strictly increasing), z up, with the default
+    /// field of view and planes.
+    pub fn path(keys: Vec<KeySpec>) -> Self {
+        CameraSpec {
+            eye: None,
+            target: None,
+            path: Some(keys),
+            ..CameraSpec::look_at([0.0; 3], [1.0, 0.0, 0.0])
+        }
+    }
+}
+
+impl BodySpec {
+    /// One body of model `model` with its root link at `position`, upright, at rest.
+    pub fn new(model: &str, position: [f64; 3]) -> Self {
+        BodySpec {
+            name: None,
+            model: model.to_string(),
+            position,
+            rpy: [0.0; 3],
+            velocity: VelocitySpec::default(),
+        }
+    }
+}
+
+impl CrowdSpec {
+    /// A `rows × columns` grid of model `model` from the world origin, 2 m apart, upright,
+    /// facing +x, at rest, without jitter; set the other fields with struct update syntax
+    /// (`CrowdSpec { origin: [6.0, -19.0, 1.2], ..CrowdSpec::new("humanoid", 10, 20) }`).
+    pub fn new(model: &str, rows: usize, columns: usize) -> Self {
+        CrowdSpec {
+            name: None,
+            model: model.to_string(),
+            rows,
+            columns,
+            origin: [0.0; 3],
+            spacing: [2.0, 2.0],
+            jitter: 0.0,
+            seed: 0,
+            yaw: 0.0,
+            yaw_jitter: 0.0,
+            velocity: VelocitySpec::default(),
+        }
+    }
+}
+
+impl PushSpec {
+    /// Force `force` (N, world) on link `link` of every body, at the link's origin, over
+    /// `[t0, t1]` (s).
+    pub fn new(link: &str, force: [f64; 3], t0: f64, t1: f64) -> Self {
+        PushSpec {
+            bodies: Targets::All("all".into()),
+            link: link.to_string(),
+            point: [0.0; 3],
+            force,
+            t0,
+            t1,
+        }
+    }
+}
+
+/// Builds a scene in code: models (already loaded, or URDF files), bodies, crowds, camera,
+/// budget, pushes; [`SceneBuilder::build`] checks it all as a scene file is checked and
+/// returns the scene ready for [`crate::SceneSim`], or a [`ViewError`] naming the field —
+/// never a panic.
+///
+/// ```
+/// use articula_model::{LoadOptions, Model};
+/// use articula_view::{CameraSpec, CrowdSpec, SceneBuilder, SceneSim};
+///
+/// // A two-link body: a torso and an arm on a hinge.
+/// let urdf = r#"<robot name="bot">
+///   <link name="torso"><inertial><mass value="10"/>
+///     <inertia ixx="0.3" iyy="0.3" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+///   <link name="arm"><inertial><origin xyz="0 0 -0.3"/><mass value="2"/>
+///     <inertia ixx="0.02" iyy="0.02" izz="0.002" ixy="0" ixz="0" iyz="0"/></inertial></link>
+///   <joint name="shoulder" type="continuous"><parent link="torso"/><child link="arm"/>
+///     <origin xyz="0 0.2 0.3"/><axis xyz="0 1 0"/></joint>
+/// </robot>"#;
+/// let model = Model::from_urdf_str(urdf, &LoadOptions::default().with_floating_base(true))?;
+/// let scene = SceneBuilder::new()
+///     .model("bot", model.clone())
+///     .crowd(CrowdSpec { origin: [5.0, -3.0, 1.0], ..CrowdSpec::new("bot", 3, 4) })
+///     .camera(CameraSpec::look_at([0.0, 0.0, 1.5], [10.0, 0.0, 1.0]))
+///     .budget(4)
+///     .build()?;
+/// assert_eq!(scene.placements.len(), 12);
+/// let mut sim = SceneSim::new(&scene)?;
+/// let step = sim.step()?;
+/// assert!(step.active_total <= 4);
+///
+/// // A crowd of a model nobody gave is an error, not a panic.
+/// let ghosts = SceneBuilder::new().model("bot", model).crowd(CrowdSpec::new("ghost", 1, 1));
+/// let err = ghosts.build().unwrap_err();
+/// assert!(err.to_string().contains("crowds[0].model"), "{err}");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Clone, Debug, Default)]
+#[must_use]
+pub struct SceneBuilder {
+    spec: SceneSpec,
+    models: Vec<(String, Model)>,
+    base: PathBuf,
+}
+
+impl SceneBuilder {
+    /// An empty scene with the defaults of [`SceneSpec::default`].
+    pub fn new() -> Self {
+        SceneBuilder::default()
+    }
+
+    /// Starts from a spec (its model paths relative to the current directory, or to
+    /// [`SceneBuilder::base`]).
+    pub fn from_spec(spec: SceneSpec) -> Self {
+        SceneBuilder {
+            spec,
+            ..SceneBuilder::default()
+        }
+    }
+
+    /// Adds a loaded model under `name` (it needs a floating base:
+    /// `LoadOptions::default().with_floating_base(true)`).
+    pub fn model(mut self, name: &str, model: Model) -> Self {
+        self.models.push((name.to_string(), model));
+        self
+    }
+
+    /// Adds a model to load from a URDF file under `name` (loaded with a floating base by
+    /// [`SceneBuilder::build`]; a relative path is relative to [`SceneBuilder::base`]).
+    pub fn model_file(mut self, name: &str, path: impl AsRef<Path>) -> Self {
+        let path = path.as_ref().display().to_string();
+        self.spec.models.insert(name.to_string(), path);
+        self
+    }
+
+    /// The folder relative model paths start from (default: the current directory).
+    pub fn base(mut self, dir: impl AsRef<Path>) -> Self {
+        self.base = dir.as_ref().to_path_buf();
+        self
+    }
+
+    /// Adds one body.
+    pub fn body(mut self, body: BodySpec) -> Self {
+        self.spec.bodies.push(body);
+        self
+    }
+
+    /// Adds a crowd (a grid of bodies).
+    pub fn crowd(mut self, crowd: CrowdSpec) -> Self {
+        self.spec.crowds.push(crowd);
+        self
+    }
+
+    /// Sets the camera.
+    pub fn camera(mut self, camera: CameraSpec) -> Self {
+        self.spec.camera = camera;
+        self
+    }
+
+    /// Sets the scene-wide budget of active internal degrees of freedom per step.
+    pub fn budget(mut self, joints: usize) -> Self {
+        self.spec.budget = Some(joints);
+        self
+    }
+
+    /// Sets the scene-wide tolerance on the weighted acceleration metric left unsimulated.
+    pub fn tolerance(mut self, tolerance: f64) -> Self {
+        self.spec.tolerance = Some(tolerance);
+        self
+    }
+
+    /// Sets the time step (s).
+    pub fn dt(mut self, dt: f64) -> Self {
+        self.spec.dt = dt;
+        self
+    }
+
+    /// Re-selects visibility and joints every `steps` steps.
+    pub fn reselect_every(mut self, steps: usize) -> Self {
+        self.spec.reselect_every = steps;
+        self
+    }
+
+    /// Sets gravity (m/s², world).
+    pub fn gravity(mut self, gravity: [f64; 3]) -> Self {
+        self.spec.gravity = gravity;
+        self
+    }
+
+    /// Sets how visibility becomes weights.
+    pub fn visibility(mut self, visibility: VisibilitySpec) -> Self {
+        self.spec.visibility = visibility;
+        self
+    }
+
+    /// Adds a timed push.
+    pub fn push(mut self, push: PushSpec) -> Self {
+        self.spec.pushes.push(push);
+        self
+    }
+
+    /// Sets the rendered image size (pixels; its ratio is the camera's aspect ratio).
+    pub fn image(mut self, width: u32, height: u32) -> Self {
+        self.spec.image = ImageSpec { width, height };
+        self
+    }
+
+    /// Holds every internal joint near its neutral angle with pose springs.
+    pub fn joint_springs(mut self, springs: SpringSpec) -> Self {
+        self.spec.joint_springs = Some(springs);
+        self
+    }
+
+    /// Checks everything and loads the model files: the scene, or the first problem.
+    pub fn build(self) -> Result<LoadedScene, ViewError> {
+        resolve_in(
+            self.spec,
+            Path::new(""),
+            &self.base,
+            self.models,
+            InertiaPolicy::default(),
+        )
+    }
 }
 
 /// The camera of a scene.
@@ -321,7 +601,7 @@ impl CameraRig {
 pub struct SceneModel {
     /// Its key in `models`.
     pub name: String,
-    /// The URDF path as resolved.
+    /// The URDF path as resolved (empty for a model given in code).
     pub path: PathBuf,
     /// The model (floating base).
     pub model: Model,
@@ -394,11 +674,13 @@ pub struct LoadedScene {
 pub const MAX_SCENE_BYTES: u64 = 16 << 20;
 
 /// Reads and checks a scene file.
+#[cfg(feature = "serde")]
 pub fn load_scene(path: impl AsRef<Path>) -> Result<LoadedScene, ViewError> {
     load_scene_with(path, InertiaPolicy::default())
 }
 
 /// [`load_scene`] with the inertia policy its models are loaded with.
+#[cfg(feature = "serde")]
 pub fn load_scene_with(
     path: impl AsRef<Path>,
     inertia: InertiaPolicy,
@@ -417,11 +699,13 @@ pub fn load_scene_with(
 
 /// Parses and checks scene text; `path` names the file in errors and `base` is the folder model
 /// paths are relative to.
+#[cfg(feature = "serde")]
 pub fn parse_scene(text: &str, path: &Path, base: &Path) -> Result<LoadedScene, ViewError> {
     parse_scene_with(text, path, base, InertiaPolicy::default())
 }
 
 /// [`parse_scene`] with the inertia policy its models are loaded with.
+#[cfg(feature = "serde")]
 pub fn parse_scene_with(
     text: &str,
     path: &Path,
@@ -441,20 +725,48 @@ pub fn parse_scene_with(
             message: e.inner().to_string(),
         }
     })?;
-    resolve(spec, path, base, inertia)
+    resolve_in(spec, path, base, Vec::new(), inertia)
+}
+
+impl SceneSpec {
+    /// Checks the spec and loads its models (URDF paths relative to `base`, each with a
+    /// floating base): the scene ready to simulate, or the first problem as a
+    /// [`ViewError`] naming its field (`crowds[0].rows`, ...), never a panic. Errors name the
+    /// scene `<built in code>`; [`SceneBuilder`] adds models already in memory.
+    pub fn resolve(self, base: impl AsRef<Path>) -> Result<LoadedScene, ViewError> {
+        resolve_in(
+            self,
+            Path::new(""),
+            base.as_ref(),
+            Vec::new(),
+            InertiaPolicy::default(),
+        )
+    }
+}
+
+/// How errors name a scene: its file, or `<built in code>` for an empty path.
+fn scene_label(path: &Path) -> String {
+    if path.as_os_str().is_empty() {
+        "<built in code>".to_string()
+    } else {
+        path.display().to_string()
+    }
 }
 
 fn finite(v: &[f64]) -> bool {
     v.iter().all(|x| x.is_finite())
 }
 
-fn resolve(
+/// Checks `spec`, loads its model files (relative to `base`) and adds `code_models`; `path`
+/// names the scene in errors (empty: built in code).
+fn resolve_in(
     spec: SceneSpec,
     path: &Path,
     base: &Path,
+    code_models: Vec<(String, Model)>,
     inertia: InertiaPolicy,
 ) -> Result<LoadedScene, ViewError> {
-    let file = path.display().to_string();
+    let file = scene_label(path);
     let invalid = |field: String, message: String| ViewError::Invalid {
         path: file.clone(),
         field,
@@ -494,10 +806,7 @@ fn resolve(
             "must be a positive number".into(),
         ));
     }
-    if v.depth_buffer[0] == 0
-        || v.depth_buffer[1] == 0
-        || v.depth_buffer[0] * v.depth_buffer[1] > 1 << 22
-    {
+    if !depth_cells_ok(v.depth_buffer[0], v.depth_buffer[1]) {
         return Err(invalid(
             "visibility.depth_buffer".into(),
             "needs 1 to 4,194,304 cells, both sides at least 1".into(),
@@ -565,7 +874,7 @@ fn resolve(
         }
     };
     // Models.
-    if spec.models.is_empty() {
+    if spec.models.is_empty() && code_models.is_empty() {
         return Err(invalid("models".into(), "names no model".into()));
     }
     let mut models = Vec::new();
@@ -592,13 +901,34 @@ fn resolve(
             model,
         });
     }
+    for (name, model) in code_models {
+        let field = format!("models.{name}");
+        if model_index.contains_key(&name) {
+            return Err(invalid(field, format!("duplicate model name '{name}'")));
+        }
+        if !model.floating_base {
+            return Err(invalid(
+                field,
+                "a scene's models need a floating base (load them with \
+                 LoadOptions::default().with_floating_base(true))"
+                    .into(),
+            ));
+        }
+        model_index.insert(name.clone(), models.len());
+        models.push(SceneModel {
+            name,
+            path: PathBuf::new(),
+            volumes: body_volumes(&model),
+            model,
+        });
+    }
     let find_model = |field: String, name: &str| {
         model_index.get(name).copied().ok_or_else(|| {
             invalid(
                 field,
                 format!(
                     "no model named '{name}' (models: {})",
-                    spec.models.keys().cloned().collect::<Vec<_>>().join(", ")
+                    model_index.keys().cloned().collect::<Vec<_>>().join(", ")
                 ),
             )
         })
@@ -787,7 +1117,7 @@ fn resolve(
             });
         }
     }
-    Ok(LoadedScene {
+    let scene = LoadedScene {
         path: path.to_path_buf(),
         models,
         placements,
@@ -806,5 +1136,182 @@ fn resolve(
         },
         image: img,
         joint_springs: spec.joint_springs,
-    })
+    };
+    // What the spec's checks cannot see: placements that came out non-finite (a jitter or an
+    // origin so large that a position overflows).
+    scene.validate()?;
+    Ok(scene)
+}
+
+/// Whether a depth buffer of `w × h` cells is usable: both sides at least 1, at most 2²²
+/// cells (no overflow on the way).
+fn depth_cells_ok(w: usize, h: usize) -> bool {
+    w >= 1 && h >= 1 && w.checked_mul(h).is_some_and(|n| n <= 1 << 22)
+}
+
+impl LoadedScene {
+    /// Checks everything a [`crate::SceneSim`] relies on, for a scene whose public fields
+    /// were set or changed by hand (a scene from [`load_scene`], [`SceneSpec::resolve`] or
+    /// [`SceneBuilder::build`] passes): positive `dt`, a re-selection period of at least one
+    /// step, valid tolerance, gravity, visibility, image, springs and camera; every model
+    /// with a floating base and one bounding volume record per body; every placement naming a
+    /// model, its `q` of `nq` and `q̇` of `nv` finite numbers; every push naming a placement
+    /// and a body of its model, with finite point, force and `t0 ≤ t1`. Errors name the field
+    /// (`placements[3].q`, ...).
+    pub fn validate(&self) -> Result<(), ViewError> {
+        let invalid = |field: String, message: String| {
+            Err(ViewError::Invalid {
+                path: scene_label(&self.path),
+                field,
+                message,
+            })
+        };
+        let pos = |x: f64| x.is_finite() && x > 0.0;
+        let non_neg = |x: f64| x.is_finite() && x >= 0.0;
+        if !pos(self.dt) {
+            return invalid("dt".into(), "must be a positive number".into());
+        }
+        if self.reselect_every == 0 {
+            return invalid("reselect_every".into(), "must be at least 1".into());
+        }
+        if self.tolerance.is_some_and(|t| !non_neg(t)) {
+            return invalid("tolerance".into(), "must be a non-negative number".into());
+        }
+        if !self.gravity.is_finite() {
+            return invalid("gravity".into(), "must be finite".into());
+        }
+        let v = &self.visibility;
+        if !(non_neg(v.occluded_factor) && v.occluded_factor <= 1.0) {
+            return invalid(
+                "visibility.occluded_factor".into(),
+                "must lie in [0, 1]".into(),
+            );
+        }
+        if !pos(v.full_detail_size) {
+            return invalid(
+                "visibility.full_detail_size".into(),
+                "must be a positive number".into(),
+            );
+        }
+        if !depth_cells_ok(v.depth_width, v.depth_height) {
+            return invalid(
+                "visibility.depth_width".into(),
+                "the depth buffer needs 1 to 4,194,304 cells, both sides at least 1".into(),
+            );
+        }
+        let img = self.image;
+        if img.width == 0 || img.height == 0 || img.width > 8192 || img.height > 8192 {
+            return invalid(
+                "image".into(),
+                "width and height must lie in 1..=8192".into(),
+            );
+        }
+        if let Some(j) = self.joint_springs {
+            if !(non_neg(j.frequency_hz) && non_neg(j.damping_ratio)) {
+                return invalid(
+                    "joint_springs".into(),
+                    "frequency and damping ratio must be non-negative numbers".into(),
+                );
+            }
+        }
+        match &self.camera {
+            CameraRig::Fixed(c) => {
+                let ok = c.position.is_finite()
+                    && c.axes.is_finite()
+                    && c.fov_y > 0.0
+                    && c.fov_y < std::f64::consts::PI
+                    && pos(c.aspect)
+                    && pos(c.near)
+                    && c.far.is_finite()
+                    && c.far > c.near;
+                if !ok {
+                    return invalid(
+                        "camera".into(),
+                        "needs a finite pose, a field of view in (0, π), a positive aspect \
+                         ratio and 0 < near < far"
+                            .into(),
+                    );
+                }
+            }
+            CameraRig::Path(p) => {
+                let checked =
+                    CameraPath::new(p.keys.clone(), p.up, p.fov_y_deg, p.aspect, p.near, p.far);
+                if let Err(e) = checked {
+                    return invalid("camera.path".into(), e.to_string());
+                }
+            }
+        }
+        if self.models.is_empty() {
+            return invalid("models".into(), "names no model".into());
+        }
+        for (i, m) in self.models.iter().enumerate() {
+            if !m.model.floating_base {
+                return invalid(
+                    format!("models[{i}]"),
+                    format!("model '{}' has no floating base", m.name),
+                );
+            }
+            if m.volumes.len() != m.model.bodies.len() {
+                return invalid(
+                    format!("models[{i}].volumes"),
+                    format!(
+                        "{} bounding volume records for {} bodies",
+                        m.volumes.len(),
+                        m.model.bodies.len()
+                    ),
+                );
+            }
+        }
+        if self.placements.is_empty() {
+            return invalid("placements".into(), "the scene has no body".into());
+        }
+        for (i, p) in self.placements.iter().enumerate() {
+            let Some(m) = self.models.get(p.model) else {
+                return invalid(
+                    format!("placements[{i}].model"),
+                    format!("no model {} (the scene has {})", p.model, self.models.len()),
+                );
+            };
+            let (nq, nv) = (m.model.nq, m.model.nv);
+            for (what, xs, n) in [("q", &p.q, nq), ("qd", &p.qd, nv)] {
+                if xs.len() != n {
+                    return invalid(
+                        format!("placements[{i}].{what}"),
+                        format!(
+                            "body '{}': {} numbers for model '{}', which needs {n}",
+                            p.name,
+                            xs.len(),
+                            m.name
+                        ),
+                    );
+                }
+                if !finite(xs) {
+                    return invalid(
+                        format!("placements[{i}].{what}"),
+                        format!("body '{}': not finite", p.name),
+                    );
+                }
+            }
+        }
+        for (i, p) in self.pushes.iter().enumerate() {
+            let field = |f: &str| format!("pushes[{i}].{f}");
+            let Some(placement) = self.placements.get(p.body) else {
+                return invalid(field("body"), format!("no placement {}", p.body));
+            };
+            let bodies = self.models[placement.model].model.bodies.len();
+            if p.link_body >= bodies {
+                return invalid(
+                    field("link_body"),
+                    format!("no body {} in a model of {bodies}", p.link_body),
+                );
+            }
+            if !(p.point.is_finite() && p.force.is_finite()) {
+                return invalid(field("force"), "point and force must be finite".into());
+            }
+            if !(p.t0.is_finite() && p.t1.is_finite() && p.t0 <= p.t1) {
+                return invalid(field("t0"), "needs finite t0 ≤ t1".into());
+            }
+        }
+        Ok(())
+    }
 }

@@ -372,11 +372,16 @@ pub struct SceneSim<'s> {
     fdense: Vec<SpatialForce>,
     wanted: Vec<bool>,
     last: SceneStep,
+    /// Internal degrees of freedom active at the last step (0 before the first).
+    last_active: usize,
 }
 
 impl<'s> SceneSim<'s> {
-    /// Sets every body up in its initial state.
-    pub fn new(scene: &'s LoadedScene) -> SceneSim<'s> {
+    /// Sets every body up in its initial state, after checking the scene
+    /// ([`LoadedScene::validate`]: a scene whose public fields were changed by hand, a `q` one
+    /// number short, is an error, not a panic).
+    pub fn new(scene: &'s LoadedScene) -> Result<SceneSim<'s>, ViewError> {
+        scene.validate()?;
         let plans: Vec<PosePlan> = scene
             .models
             .iter()
@@ -459,7 +464,7 @@ impl<'s> SceneSim<'s> {
             .iter()
             .map(|m| whole_reach(&m.model, &m.volumes))
             .collect();
-        SceneSim {
+        Ok(SceneSim {
             reach,
             whole_reach,
             solved: Vec::new(),
@@ -484,7 +489,8 @@ impl<'s> SceneSim<'s> {
             steps: 0,
             scene,
             last: SceneStep::default(),
-        }
+            last_active: 0,
+        })
     }
 
     /// Whether the bodies' adaptive calls share one [`Scratch`] per model (default: on) or
@@ -575,9 +581,12 @@ impl<'s> SceneSim<'s> {
         .map_err(|e| body_error(scene, i, e))
     }
 
-    /// Advances the scene by one step.
+    /// Advances the scene by one step. The bodies' states are public: one whose model index,
+    /// `q`, `q̇` or `τ` length no longer fits its model is an error naming it (non-finite
+    /// numbers are the dynamics' errors), never a panic.
     pub fn step(&mut self) -> Result<SceneStep, ViewError> {
         let scene = self.scene;
+        self.check_bodies()?;
         let t = self.time();
         let reselect = self.steps.is_multiple_of(scene.reselect_every as u64);
         // Pushes acting now: world wrenches about the world origin.
@@ -771,19 +780,75 @@ impl<'s> SceneSim<'s> {
             };
         }
         self.steps += 1;
+        self.last_active = total;
         let mut out = self.last.clone();
         out.reselected = reselect;
         out.active_total = total;
         Ok(out)
     }
 
-    /// Everything the renderer needs, with the poses refreshed to the current state.
+    /// Checks what [`SceneSim::step`] indexes without checking: each body's model index and
+    /// the lengths of its state (O(bodies)).
+    fn check_bodies(&self) -> Result<(), ViewError> {
+        let scene = self.scene;
+        for (i, b) in self.bodies.iter().enumerate() {
+            let name = &scene.placements[i].name;
+            let Some(m) = scene.models.get(b.model) else {
+                return Err(ViewError::BodyState {
+                    name: name.clone(),
+                    message: format!(
+                        "no model {} (the scene has {})",
+                        b.model,
+                        scene.models.len()
+                    ),
+                });
+            };
+            let (m, s) = (&m.model, &b.state);
+            for (what, len, expected) in [
+                ("q", s.q.len(), m.nq),
+                ("qd", s.qd.len(), m.nv),
+                ("tau", s.tau.len(), m.nv),
+            ] {
+                if len != expected {
+                    return Err(ViewError::BodyState {
+                        name: name.clone(),
+                        message: format!("{what} has {len} numbers, its model needs {expected}"),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Renders the camera's view of the current state (each rigid subassembly in its own
+    /// colour, the active joints of the last step written in the corner) into a PNG file of
+    /// the scene's image size.
+    #[cfg(feature = "render")]
+    pub fn save_frame(&mut self, path: impl AsRef<std::path::Path>) -> Result<(), ViewError> {
+        let cam = self.scene.camera.at(self.time());
+        let (w, h) = (self.scene.image.width, self.scene.image.height);
+        let active = self.last_active;
+        let mut groups = Vec::new();
+        let bodies = self.frame(&mut groups);
+        let pix =
+            crate::render::render_view(&cam, w, h, &bodies, active).map_err(ViewError::Frame)?;
+        crate::render::save_png(&pix, path.as_ref()).map_err(ViewError::Frame)
+    }
+
+    /// Everything the renderer needs, with the poses refreshed to the current state (a body
+    /// whose `q` no longer fits its model keeps the poses it had: [`SceneSim::step`] reports
+    /// it).
     pub fn frame<'a>(&'a mut self, groups: &'a mut Vec<Vec<usize>>) -> Vec<FrameBody<'a>> {
         let scene = self.scene;
         groups.resize_with(self.bodies.len(), Vec::new);
         for (b, g) in self.bodies.iter_mut().zip(groups.iter_mut()) {
-            let model = &scene.models[b.model].model;
-            self.plans[b.model].poses(model, &b.state.q, &mut b.poses);
+            let Some(m) = scene.models.get(b.model) else {
+                continue;
+            };
+            let model = &m.model;
+            if b.state.q.len() == model.nq {
+                self.plans[b.model].poses(model, &b.state.q, &mut b.poses);
+            }
             let active: Vec<bool> = (0..model.bodies.len())
                 .map(|i| b.adaptive.is_active(model, i))
                 .collect();
@@ -792,16 +857,18 @@ impl<'s> SceneSim<'s> {
         self.bodies
             .iter()
             .enumerate()
-            .map(|(i, b)| FrameBody {
-                volumes: &scene.models[b.model].volumes,
-                poses: &b.poses,
-                groups: &groups[i],
-                seed: i as u64,
-                class: self
-                    .views
-                    .get(i)
-                    .map_or(Visibility::Invisible, BodyView::summary),
-                active_joints: b.active,
+            .filter_map(|(i, b)| {
+                Some(FrameBody {
+                    volumes: &scene.models.get(b.model)?.volumes,
+                    poses: &b.poses,
+                    groups: &groups[i],
+                    seed: i as u64,
+                    class: self
+                        .views
+                        .get(i)
+                        .map_or(Visibility::Invisible, BodyView::summary),
+                    active_joints: b.active,
+                })
             })
             .collect()
     }
@@ -1023,8 +1090,8 @@ mod tests {
             "/../../models/scenes/crowd200.json"
         );
         let scene = crate::load_scene(path).unwrap();
-        let mut shared = SceneSim::new(&scene);
-        let mut own = SceneSim::new(&scene);
+        let mut shared = SceneSim::new(&scene).unwrap();
+        let mut own = SceneSim::new(&scene).unwrap();
         own.set_shared_scratch(false);
         let mut changed = 0;
         for k in 0..300 {

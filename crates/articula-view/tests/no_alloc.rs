@@ -13,7 +13,7 @@ static ALLOCATOR: CountingAllocator = CountingAllocator;
 fn scene_steps_allocate_nothing_after_warm_up() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/scenes/crowd200.json");
     let scene = load_scene(path).unwrap();
-    let mut sim = SceneSim::new(&scene);
+    let mut sim = SceneSim::new(&scene).unwrap();
     // Warm-up: the first whole-body selection and a few re-selections size every buffer (the
     // counter counts them).
     let warm = count_allocations(|| {

@@ -117,7 +117,7 @@ fn invisible_case(gz: f64, fz: f64, wz: f64) -> f64 {
         DVec3::new(qd0[3], qd0[4], qd0[5]),
     );
 
-    let mut sim = SceneSim::new(&s);
+    let mut sim = SceneSim::new(&s).unwrap();
     let g = DVec3::new(0.0, 0.0, gz);
     let dt = s.dt;
     let mut worst: f64 = 0.0;
@@ -435,7 +435,7 @@ fn a_body_entering_the_view_regains_joints_within_one_reselection() {
             "budget": 20, "dt": 0.004, "reselect_every": 10, "gravity": [0, 0, 0]}"#,
     );
     let cam = s.camera.at(0.0);
-    let mut sim = SceneSim::new(&s);
+    let mut sim = SceneSim::new(&s).unwrap();
     let mut entered = None;
     let mut first_after = None;
     for k in 0..400u64 {
@@ -493,7 +493,7 @@ fn an_occluded_body_gets_fewer_joints_than_a_visible_one() {
         wall.display()
     );
     let s = scene(&text);
-    let mut sim = SceneSim::new(&s);
+    let mut sim = SceneSim::new(&s).unwrap();
     sim.step().unwrap();
     assert_eq!(
         sim.views[0].summary(),
@@ -525,7 +525,7 @@ fn an_occluded_body_gets_fewer_joints_than_a_visible_one() {
 fn crowd200_active_joints_snapshot() {
     let s = articula_view::load_scene(models().join("scenes/crowd200.json")).unwrap();
     assert_eq!(s.placements.len(), 200);
-    let mut sim = SceneSim::new(&s);
+    let mut sim = SceneSim::new(&s).unwrap();
     let mut out = String::new();
     for k in 0..(2 * s.reselect_every as u64 + 1) {
         let step = sim.step().unwrap();
@@ -556,7 +556,7 @@ fn crowd200_active_joints_snapshot() {
 #[test]
 fn reselection_poses_are_the_forward_kinematics_of_the_state() {
     let s = articula_view::load_scene(models().join("scenes/crowd200.json")).unwrap();
-    let mut sim = SceneSim::new(&s);
+    let mut sim = SceneSim::new(&s).unwrap();
     let mut checked = 0;
     for _ in 0..(3 * s.reselect_every) {
         let before: Vec<Vec<f64>> = sim.bodies.iter().map(|b| b.state.q.clone()).collect();
