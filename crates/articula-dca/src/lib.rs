@@ -171,7 +171,8 @@ pub fn forward_dynamics_slices<'d>(
     let f_ext = std::mem::take(&mut data.f_ext_c);
     let result = match method {
         Method::Dca => dca::forward(model, q, qd, tau, &f_ext, data).and_then(|()| {
-            if data.refine_dca && data.refine_floating {
+            // Regularised leaves always (see `refine`): their first solve is not exact.
+            if data.refine.regularised || (data.refine_dca && data.refine_floating) {
                 refine::refine_dca(model, tau, &f_ext, data)
             } else {
                 Ok(())

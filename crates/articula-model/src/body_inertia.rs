@@ -18,9 +18,13 @@ use std::fmt;
 pub const TOLERANCE: f64 = 1e-6;
 
 /// A body whose smallest principal moment is at most `SINGULAR · s` is a point or rod mass: its
-/// spatial inertia is singular to working precision, and the divide-and-conquer algorithm,
-/// which inverts every body's inertia, would lose every digit. Such a body's small moments are
-/// raised to `SINGULAR · s`: a change of the dynamics of relative size ~1e-9.
+/// spatial inertia is singular to working precision. [`InertiaPolicy::Accept`] loads it as
+/// written (with a warning): ABA and CRBA never invert a body's inertia, and the
+/// divide-and-conquer algorithm, which does, inverts a regularised copy and refines its result
+/// against the exact inertias (`articula-dca`, `docs/loading.md`), so dynamics stays exact.
+/// [`InertiaPolicy::Repair`] raises such a body's small moments to `SINGULAR · s` (a change of
+/// the dynamics of relative size ~1e-9 of the body's scale, more where a joint axis passes
+/// close to a point mass); [`InertiaPolicy::Strict`] refuses it.
 pub const SINGULAR: f64 = 1e-9;
 
 /// [`InertiaPolicy::Repair`] raises a mass of zero (a massless body with a rotational inertia)
@@ -293,30 +297,26 @@ impl BodyInertia<'_> {
                             })
                             .collect(),
                     )
-                } else if has(InertiaDefectKind::Singular) {
-                    // Only what the solver needs: the triangle excess (if any) stays as written.
-                    let (inertia, change) = self.repair(defects, max_mass, false);
-                    Verdict::Changed(inertia, change)
                 } else {
+                    // A point or rod mass too stays as written (see [`SINGULAR`]).
                     Verdict::Odd(defects)
                 }
             }
             InertiaPolicy::Repair => {
-                let (inertia, change) = self.repair(defects, max_mass, true);
+                let (inertia, change) = self.repair(defects, max_mass);
                 Verdict::Changed(inertia, change)
             }
         }
     }
 
     /// `boundmass` (a zero mass raised to `MASS_FLOOR · max_mass`), `boundinertia` (moments
-    /// raised to `SINGULAR · s`), and with `balance` `balanceinertia` (the two smaller moments
+    /// raised to `SINGULAR · s`) and `balanceinertia` (the two smaller moments
     /// raised by half the triangle excess each, so that `λ3 = λ1 + λ2`: the least change, where
     /// MuJoCo sets all three to their mean). Principal axes and centre of mass are kept.
     fn repair(
         &self,
         defects: Vec<InertiaDefect>,
         max_mass: f64,
-        balance: bool,
     ) -> (SpatialInertia, InertiaChange) {
         let mut fixes = Vec::new();
         let mut m = self.inertia.mass;
@@ -334,7 +334,7 @@ impl BodyInertia<'_> {
             fixes.push("boundinertia");
         }
         let excess = moments[2] - moments[0] - moments[1];
-        if balance && excess > 0.0 {
+        if excess > 0.0 {
             moments[0] += 0.5 * excess;
             moments[1] += 0.5 * excess;
             fixes.push("balanceinertia");
