@@ -1189,8 +1189,7 @@ mod tests {
             <inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
             <joint name="j" type="continuous"><parent link="base"/><child link="arm"/>
             <axis xyz="0 0 1"/></joint></robot>"#;
-        let model =
-            Model::from_urdf_str(urdf, &load_options(true, Inertia::Accept)).unwrap();
+        let model = Model::from_urdf_str(urdf, &load_options(true, Inertia::Accept)).unwrap();
         let mut s = State::neutral(&model);
         s.q = vec![1.0, 2.0, 3.0, 0.5, 0.5, 0.5, 0.5, 0.7];
         s.qd = (1..=7).map(f64::from).collect();
