@@ -168,8 +168,8 @@ const CONVERGED: f64 = 1e-10;
 
 /// ... or when the corrections stop shrinking (`ρ > ½`) below this fraction of `max |q̈|`:
 /// the rounding floor of the residual, amplified by `H⁻¹` (on icub, whose 1.3 kg head is 0.4 mm
-/// from its neck axis, `|q̈|` reaches 3e7 and the floor ~3e-10 of it). The error is then about
-/// `|Δ_k|`.
+/// from its neck axis, `|q̈|` reaches 5e8 on random states and the floor ~1e-8 of it: ABA and
+/// CRBA differ by as much). The error is then about `|Δ_k|`.
 const FLOOR: f64 = 1e-7;
 
 /// Iterative refinement to convergence, for a model whose DCA leaves invert a regularised

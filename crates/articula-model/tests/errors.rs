@@ -471,14 +471,21 @@ fn inertia_on_the_triangle_boundary_loads() {
 }
 
 #[test]
-fn point_mass_gets_the_smallest_invertible_inertia() {
+fn point_mass_loads_as_written_and_repair_bounds_it() {
     let text = one_link_on_a_joint(&link_raw("arm", "1", "0", "0", "0"));
     assert_eq!(
         refused_kinds(load_with(&text, InertiaPolicy::Strict).unwrap_err()),
         vec![(s("arm"), InertiaDefectKind::Singular)]
     );
+    // Accept: a point mass stays a point mass, with a warning.
     let m = load(&text).unwrap();
-    // Centre of mass at the link origin: the scale is m·(1 mm)², the moments 1e-9 of it.
+    assert_eq!(m.bodies[0].inertia.inertia_about_com(), DMat3::ZERO);
+    assert!(m.bodies[0].inertia.inverse().is_none());
+    assert!(matches!(&m.warnings[0], LoadWarning::OddInertia(d)
+        if d[0].kind == InertiaDefectKind::Singular));
+    // Repair: centre of mass at the link origin, so the scale is m·(1 mm)², the moments 1e-9
+    // of it.
+    let m = load_with(&text, InertiaPolicy::Repair).unwrap();
     let ic = m.bodies[0].inertia.inertia_about_com();
     assert_eq!(ic, DMat3::from_diagonal(DVec3::splat(1e-15)));
     assert!(m.bodies[0].inertia.inverse().is_some());
