@@ -536,7 +536,7 @@ fn point_mass_head_near_a_joint_axis() {
             let v: Vec<f64> = (0..m.nv).map(|_| rng.uniform(-1.0, 1.0)).collect();
             let t: Vec<f64> = (0..m.nv).map(|_| rng.uniform(-1.0, 1.0)).collect();
             let mut run = |method| {
-                forward_dynamics(&m, &mut data, &q, &v, &t, &[], method)
+                forward_dynamics_slices(&m, &mut data, &q, &v, &t, &[], method)
                     .unwrap()
                     .to_vec()
             };
