@@ -157,10 +157,8 @@ pub fn check_invariants(model: &Model) {
         assert_eq!(b.massless_links.is_empty(), b.joint.len() == 1);
         assert_eq!(b.links[0].0, b.name, "a body's own link comes first");
         assert!(b.inertia.is_finite(), "body {i} has a non-finite inertia");
-        assert!(
-            b.inertia.inverse().is_some(),
-            "body {i} has a singular inertia"
-        );
+        // A point mass (singular spatial inertia) loads as written; a body never lacks mass.
+        assert!(b.inertia.mass > 0.0, "body {i} has no mass");
         for p in &b.joint {
             assert!(
                 p.origin.e.is_finite() && p.origin.r.is_finite(),
