@@ -383,10 +383,13 @@ impl Model {
                 Verdict::Refused(defects) => refused.extend(defects),
             }
             // A point mass may pass (see `body_inertia::SINGULAR`), an overflowed one not.
-            if refused.last().is_none_or(|d| d.body != raw.links[l].name) && !merged[l].is_finite()
+            let (moments, _) =
+                crate::body_inertia::principal_moments(merged[l].inertia_about_com());
+            if refused.last().is_none_or(|d| d.body != raw.links[l].name)
+                && !(merged[l].is_finite()
+                    && merged[l].mass > 0.0
+                    && moments.iter().all(|x| x.is_finite()))
             {
-                let (moments, _) =
-                    crate::body_inertia::principal_moments(merged[l].inertia_about_com());
                 refused.push(InertiaDefect {
                     body: raw.links[l].name.clone(),
                     links: members[l].iter().map(|m| m.0.clone()).collect(),
