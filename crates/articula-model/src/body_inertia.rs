@@ -256,8 +256,11 @@ impl BodyInertia<'_> {
         };
         let mut out = Vec::new();
         if m == 0.0 {
-            if l3.abs() > 0.0 || l1.abs() > 0.0 {
-                out.push(defect(InertiaDefectKind::MasslessWithInertia, l3.abs()));
+            // On the entries: moments of a huge inertia may overflow to NaN.
+            let ic = self.inertia.inertia_about_com().to_cols_array();
+            let largest = ic.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+            if largest > 0.0 || ic.iter().any(|x| x.is_nan()) {
+                out.push(defect(InertiaDefectKind::MasslessWithInertia, largest));
             }
             return out;
         }

@@ -2,7 +2,7 @@
 //! one joint that may be composed of several single-axis URDF joints.
 
 use crate::assembly::AssemblyTree;
-use crate::body_inertia::{BodyInertia, InertiaDefect, Verdict};
+use crate::body_inertia::{BodyInertia, InertiaDefect, InertiaDefectKind, Verdict};
 use crate::urdf::{self, Geometry, JointKind, RawRobot};
 use crate::{LoadOptions, LoadWarning, MasslessLeafPolicy, ModelError};
 use articula_spatial::{SpatialInertia, SpatialMotion, SpatialTransform};
@@ -417,6 +417,24 @@ impl Model {
                     warnings.push(LoadWarning::InertiaChanged(change));
                 }
                 Verdict::Refused(defects) => refused.extend(defects),
+            }
+            // A point mass may pass (see `body_inertia::SINGULAR`), an overflowed one not.
+            let (moments, _) =
+                crate::body_inertia::principal_moments(merged[l].inertia_about_com());
+            if refused.last().is_none_or(|d| d.body != raw.links[l].name)
+                && !(merged[l].is_finite()
+                    && merged[l].mass > 0.0
+                    && moments.iter().all(|x| x.is_finite()))
+            {
+                refused.push(InertiaDefect {
+                    body: raw.links[l].name.clone(),
+                    links: members[l].iter().map(|m| m.0.clone()).collect(),
+                    mass: merged[l].mass,
+                    moments,
+                    kind: InertiaDefectKind::Singular,
+                    by: moments[0],
+                    tolerance: 0.0,
+                });
             }
         }
         if !refused.is_empty() {
