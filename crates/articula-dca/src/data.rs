@@ -23,16 +23,16 @@ pub(crate) enum Side {
 pub struct Data {
     /// Gravity acceleration in world coordinates (default `(0, 0, -9.81)`).
     pub gravity: DVec3,
-    /// With a floating base, check DCA's and ABA's `q̈` against the Newton–Euler residual and
-    /// refine it once when the residual is large (default `true`; see `docs/algorithms.md`).
-    /// It costs one Newton–Euler pass per floating-base solve and buys ~1e-11 instead of ~1e-9
-    /// on 1,000-link floating chains; turn it off where ~1e-9 relative is enough.
+    /// With a floating base, check ABA's `q̈` (and DCA's, from 100 bodies on) against the
+    /// Newton–Euler residual and refine it once when the residual is large (default `true`;
+    /// see `docs/algorithms.md`). It costs one Newton–Euler pass per such solve and buys ~1e-11
+    /// instead of ~1e-9 on 1,000-link floating chains; turn it off where ~1e-9 relative is
+    /// enough.
     pub refine_floating: bool,
     /// Whether DCA's `q̈` goes through that check (when `refine_floating` is set): with a
-    /// floating base, or when some body's rotational inertia is tiny for its mass and size —
-    /// a point mass given the smallest invertible inertia by the loader
-    /// (`docs/loading.md`), where the joins of a body between two handles lose up to ~1e-5
-    /// relative. Set in [`Data::new`].
+    /// floating base of at least `REFINE_MIN_BODIES` (100) bodies, or when some body's
+    /// rotational inertia is tiny for its mass and size (`docs/loading.md`), where the joins of
+    /// a body between two handles lose up to ~1e-5 relative. Set in [`Data::new`].
     pub(crate) refine_dca: bool,
     /// Origin of the computation frame in world coordinates. The world origin for a fixed
     /// base; the floating base's position otherwise (for accuracy). Every spatial quantity
@@ -373,10 +373,18 @@ fn conditioning(
     (l, axes, l[2].max(b.inertia.mass * size2))
 }
 
-/// Whether DCA's result needs the Newton–Euler check: a floating base, or a body whose rotational
-/// inertia is ill-conditioned ([`ILL_CONDITIONED`]).
+/// Floating bases with at least this many bodies go through the Newton–Euler check. The root
+/// join's rounding residue grows with the length of the body (~4e-10 relative on a floating
+/// 1,000-link chain); below this size DCA's floating-base `q̈` is within ~1e-13 of the
+/// reference without it (`cargo xtask corpus`: every floating robot of example-robot-data), and
+/// the check would cost a Newton–Euler pass per solve.
+pub(crate) const REFINE_MIN_BODIES: usize = 100;
+
+/// Whether DCA's result needs the Newton–Euler check: a floating base of at least
+/// [`REFINE_MIN_BODIES`] bodies, or a body whose rotational inertia is ill-conditioned
+/// ([`ILL_CONDITIONED`]).
 pub(crate) fn needs_refinement(model: &Model) -> bool {
-    model.floating_base
+    (model.floating_base && model.bodies.len() >= REFINE_MIN_BODIES)
         || model.bodies.iter().any(|b| {
             let (l, _, s) = conditioning(model, b, 0.0);
             l[0] < ILL_CONDITIONED * s
@@ -670,12 +678,13 @@ impl RkData {
 mod refinement_tests {
     use super::needs_refinement;
 
-    /// The check runs on floating bases only for every bundled model: their bodies are
+    /// The check runs on long floating bases only for every bundled model: their bodies are
     /// well-conditioned, so fixed-base DCA costs and gives what it did.
     #[test]
     fn bundled_fixed_bases_need_no_refinement() {
         for (name, floating_base, model) in crate::bundled_models() {
-            assert_eq!(needs_refinement(&model), floating_base, "{name}");
+            let long = model.bodies.len() >= super::REFINE_MIN_BODIES;
+            assert_eq!(needs_refinement(&model), floating_base && long, "{name}");
         }
     }
 }
