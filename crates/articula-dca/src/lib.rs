@@ -44,6 +44,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod aba;
+mod arith;
 mod com;
 mod crba;
 mod data;
@@ -86,8 +87,8 @@ use finite::all_finite;
 #[cfg(feature = "internals")]
 pub mod internals {
     #[cfg(target_arch = "x86_64")]
-    pub use crate::dca::Fused;
-    pub use crate::dca::{fused_available, Arith, Portable};
+    pub use crate::arith::Fused;
+    pub use crate::arith::{fused_available, Arith, Portable};
     pub use crate::finite::all_finite;
     pub use crate::kinematics::{body_kinematics, computation_origin};
     pub use crate::small::{cholesky, cholesky_into};
@@ -312,5 +313,5 @@ pub(crate) fn solve_portable_and_fused(
         data.dca.fused = fused;
         forward_dynamics(model, data, &s, method).unwrap().to_vec()
     };
-    (solve(false), solve(dca::fused_available()))
+    (solve(false), solve(arith::fused_available()))
 }
