@@ -86,7 +86,7 @@ pub(crate) fn rnea_residual(
         a[i] = ai;
         let (inertia, v) = (&k.inertia[i], k.v[i]);
         f[i] = inertia.mul_motion(ai) + v.cross_force(inertia.mul_motion(v))
-            - crate::f_ext_of(k.f_ext, i);
+            - crate::inputs::f_ext_of(k.f_ext, i);
     }
     let (mut scale, mut rmax) = (0.0f64, 0.0f64);
     for (i, body) in model.bodies.iter().enumerate().rev() {
