@@ -1,7 +1,7 @@
 //! # articula-view
 //!
 //! View-dependent adaptive dynamics (docs/design.md#view): a [`Camera`] and its frustum, per-body
-//! bounding [`volumes`], [`visibility`] classes (visible, occluded, invisible) turned into joint
+//! bounding [`BodyVolumes`], [`Visibility`] classes (visible, occluded, invisible) turned into joint
 //! weights, and scenes of many articulated bodies under one joint budget — read from JSON
 //! files ([`load_scene`], feature `serde`) or built in code ([`SceneBuilder`]), then stepped
 //! by [`SceneSim`] and rendered to PNG frames ([`render`], feature `render`). Every invalid
@@ -22,12 +22,12 @@
 //! assert!((near / far - 2.0).abs() < 0.1);
 //! ```
 
-pub mod camera;
+mod camera;
 pub mod render;
-pub mod scene_file;
-pub mod sim;
-pub mod visibility;
-pub mod volumes;
+mod scene_file;
+mod sim;
+mod visibility;
+mod volumes;
 
 pub use camera::{Camera, CameraPath, Frustum, Keyframe, Plane};
 #[cfg(feature = "serde")]
@@ -37,12 +37,9 @@ pub use scene_file::{
     PushSpec, SceneBuilder, SceneModel, SceneSpec, SpringSpec, Targets, VelocitySpec,
     VisibilitySpec,
 };
-pub use sim::{global_selection, GlobalSelection, SceneSim, SceneStep, SimBody};
-pub use visibility::{
-    body_pose, body_poses, BodyView, Classifier, DepthBuffer, Placed, PosePlan, Visibility,
-    VisibilitySettings,
-};
-pub use volumes::{body_volumes, inertia_box, symmetric_eigen, BodyVolumes, Volume};
+pub use sim::{SceneSim, SceneStep, SimBody};
+pub use visibility::{BodyView, Visibility, VisibilitySettings};
+pub use volumes::{BodyVolumes, Volume};
 
 /// Everything that can go wrong in the view layer: an unusable camera, a scene file that
 /// cannot be read or used, a body whose dynamics failed while a scene stepped.
