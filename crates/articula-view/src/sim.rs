@@ -25,11 +25,11 @@
 //! Nodes of metric 0 are never selected: invisible bodies (all weights 0) keep no joint even
 //! with budget to spare.
 
+use crate::error::ViewError;
 use crate::render::{rigid_groups, FrameBody};
 use crate::scene_file::LoadedScene;
 use crate::visibility::{BodyView, Classifier, Placed, PosePlan, Visibility};
 use crate::volumes::BodyVolumes;
-use crate::ViewError;
 use articula_adaptive::{Adaptive, AdaptiveError, Scratch, Settings};
 use articula_dca::{DynamicsError, State};
 use articula_model::{JointKind, Model, NodeKind};
