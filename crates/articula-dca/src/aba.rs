@@ -67,7 +67,7 @@ fn aba_with(
         let inertia = &data.inertia[i];
         let v = data.v[i];
         let mut ia = Sym6::from_inertia(inertia);
-        let mut pa_i = v.cross_force(inertia.mul_motion(v)) - crate::f_ext_of(f_ext, i);
+        let mut pa_i = v.cross_force(inertia.mul_motion(v)) - crate::inputs::f_ext_of(f_ext, i);
         let slot = aba.acc[i] as usize;
         if slot != u32::MAX as usize {
             ia.add_assign(&aba.ia[slot]);

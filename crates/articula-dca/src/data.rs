@@ -1,5 +1,6 @@
 //! The workspace beside the immutable model: every per-step buffer, allocated once.
 
+use crate::arith::fused_available;
 use crate::kinematics::FkPlan;
 use crate::small::{SmallSpd, Sym6, SymT};
 use articula_model::{JointKind, Model, NodeKind};
@@ -70,7 +71,7 @@ pub struct Data {
     pub(crate) topo: Vec<Topo>,
     pub(crate) dca: DcaData,
     pub(crate) aba: AbaData,
-    pub(crate) refine: crate::refine::RefineData,
+    pub(crate) refine: RefineData,
     pub(crate) rk: RkData,
     pub(crate) quant: QuantityData,
 }
@@ -128,7 +129,7 @@ pub(crate) struct DcaData {
     pub leaf_kinematics: bool,
     /// Whether the back-substitution prefetches what the join a few nodes ahead reads: set in
     /// [`Data::new`] when the per-join streams it reads (`rev` and the cross blocks) exceed
-    /// `dca::PREFETCH_ABOVE` bytes. Below that they stay in cache from the main pass, and the
+    /// [`PREFETCH_ABOVE`] bytes. Below that they stay in cache from the main pass, and the
     /// prefetches would only cost instructions.
     pub prefetch: bool,
     /// Per node, what the passes read of it, in one compact record (see [`DNode`]).
@@ -340,6 +341,43 @@ pub(crate) struct RkData {
     pub theta: Vec<f64>,
 }
 
+/// The size of the back-substitution's per-join streams (each join's `RevJoin` and cross
+/// block) above which it prefetches (see [`DcaData::prefetch`]): a quarter of a 1 MB L2.
+const PREFETCH_ABOVE: usize = 256 * 1024;
+
+/// Buffers of DCA's iterative refinement (`refine.rs`).
+#[derive(Clone, Debug)]
+pub(crate) struct RefineData {
+    pub(crate) a: Vec<SpatialMotion>,
+    pub(crate) f: Vec<SpatialForce>,
+    pub(crate) r: Vec<f64>,
+    pub(crate) qdd: Vec<f64>,
+    /// Zero velocities and velocity products, swapped in for the correction solve.
+    pub(crate) zv: Vec<SpatialMotion>,
+    pub(crate) zc: Vec<SpatialMotion>,
+    /// Solves whose residual was above rounding level (a counter for tests); with
+    /// `regularised`, every correction step.
+    pub(crate) corrections: u64,
+    /// Some body's DCA leaf inverts a regularised inertia: refine every solve to convergence.
+    pub(crate) regularised: bool,
+}
+
+impl RefineData {
+    pub(crate) fn new(model: &Model, regularised: bool) -> RefineData {
+        let n = model.bodies.len();
+        RefineData {
+            a: vec![SpatialMotion::ZERO; n],
+            f: vec![SpatialForce::ZERO; n],
+            r: vec![0.0; model.nv],
+            qdd: vec![0.0; model.nv],
+            zv: vec![SpatialMotion::ZERO; n],
+            zc: vec![SpatialMotion::ZERO; n],
+            corrections: 0,
+            regularised,
+        }
+    }
+}
+
 /// A body's rotational inertia about its centre of mass is ill-conditioned when its smallest
 /// principal moment is below this fraction of its scale (see [`conditioning`]).
 const ILL_CONDITIONED: f64 = 1e-6;
@@ -348,7 +386,7 @@ const ILL_CONDITIONED: f64 = 1e-6;
 /// most this fraction of its scale (a point or rod mass, loaded as written: `docs/loading.md`).
 /// DCA's leaf then inverts a regularised copy ([`regularised_inverse`]), and the Newton–Euler
 /// refinement, whose residual uses the exact inertia, brings `q̈` to the exact solution
-/// (`crate::refine`). Each refinement step shrinks the error by about the relative change of
+/// (`refine.rs`). Each refinement step shrinks the error by about the relative change of
 /// the dynamics, ~`REGULARISE · s / (m d²)` for a point mass at distance `d` from a joint axis;
 /// a smaller value costs digits in the joins instead (measured on icub, whose 1.3 kg head is
 /// 0.4 mm from its neck axis).
@@ -566,9 +604,9 @@ impl Data {
             qdd: vec![0.0; nv],
             momentum_projection: true,
             dca: DcaData {
-                fused: crate::dca::fused_available(),
+                fused: fused_available(),
                 prefetch: joins * (std::mem::size_of::<RevJoin>() + std::mem::size_of::<Mat6>())
-                    > crate::dca::PREFETCH_ABOVE,
+                    > PREFETCH_ABOVE,
                 leaf_kinematics,
                 node,
                 hj: tree
@@ -603,7 +641,7 @@ impl Data {
                     nv: b.nv,
                 })
                 .collect(),
-            refine: crate::refine::RefineData::new(model, regularised),
+            refine: RefineData::new(model, regularised),
             aba: AbaData {
                 ia: vec![Sym6::ZERO; acc_slots],
                 acc,
@@ -650,7 +688,7 @@ impl Data {
     /// `internals` feature.
     #[cfg(feature = "internals")]
     pub fn set_fused_dca(&mut self, fused: bool) -> bool {
-        self.dca.fused = fused && crate::dca::fused_available();
+        self.dca.fused = fused && fused_available();
         self.dca.fused
     }
 

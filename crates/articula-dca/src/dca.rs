@@ -6,6 +6,9 @@
 //! bottom-up over the assembly tree; the back-substitution computes each principal joint's
 //! `q̈` and constraint force top-down.
 
+#[cfg(target_arch = "x86_64")]
+use crate::arith::Fused;
+use crate::arith::{Arith, Portable};
 use crate::data::{DKind, LeafK, RevJoin, Side};
 use crate::small::{SymT, TILE};
 use crate::{Data, DynamicsError};
@@ -114,19 +117,6 @@ fn dca_fused(
     dca_with::<Fused>(model, tau, f_ext, data, bias)
 }
 
-/// Whether this CPU can run the fused (AVX2 + FMA) compilations: of the DCA pass here
-/// (checked once per `Data`), and of other crates' passes written over [`Arith`].
-pub fn fused_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
 #[inline(always)]
 fn dca_with<A: Arith>(
     model: &Model,
@@ -138,50 +128,6 @@ fn dca_with<A: Arith>(
     main_pass::<A>(model, tau, f_ext, data, bias, None)?;
     back_substitution::<A>(model, tau, data);
     Ok(())
-}
-
-/// How a pass forms `a·b + c`: rounded twice ([`Portable`]) or once ([`Fused`]). The two
-/// give the same solution to rounding. A pass written over `Arith` is compiled twice: with
-/// [`Portable`] for any CPU, and with [`Fused`] only inside a function compiled with
-/// `#[target_feature(enable = "avx2,fma")]` into which everything using it is inlined (here
-/// the DCA pass's `dca_fused`), called only when [`fused_available`].
-pub trait Arith {
-    /// `a·b + c`.
-    fn mul_add(a: f64, b: f64, c: f64) -> f64;
-
-    /// `c − a·b`.
-    #[inline(always)]
-    fn neg_mul_add(a: f64, b: f64, c: f64) -> f64 {
-        Self::mul_add(-a, b, c)
-    }
-}
-
-/// `a·b + c` as a product and a sum (any CPU).
-pub struct Portable;
-
-impl Arith for Portable {
-    #[inline(always)]
-    fn mul_add(a: f64, b: f64, c: f64) -> f64 {
-        a * b + c
-    }
-    #[inline(always)]
-    fn neg_mul_add(a: f64, b: f64, c: f64) -> f64 {
-        c - a * b
-    }
-}
-
-/// `a·b + c` rounded once: a `vfmadd` inside a function compiled for AVX2 + FMA such as
-/// the DCA pass's `dca_fused` (elsewhere `f64::mul_add` would call a slow library routine, so only such
-/// functions may use this type).
-#[cfg(target_arch = "x86_64")]
-pub struct Fused;
-
-#[cfg(target_arch = "x86_64")]
-impl Arith for Fused {
-    #[inline(always)]
-    fn mul_add(a: f64, b: f64, c: f64) -> f64 {
-        a.mul_add(b, c)
-    }
 }
 
 /// Index of the cross block Φ_hk (h < k) among a node's: only the blocks above the diagonal
@@ -1343,10 +1289,6 @@ fn gram_tiles<A: Arith, const I: usize, const R: usize>(
 /// How many nodes ahead the passes prefetch.
 const PREFETCH: usize = 8;
 
-/// The size of the back-substitution's per-join streams (each join's `RevJoin` and cross
-/// block) above which it prefetches (see `DcaData::prefetch`): a quarter of a 1 MB L2.
-pub(crate) const PREFETCH_ABOVE: usize = 256 * 1024;
-
 /// Asks for the cache line holding address `p` (a hint: no effect on results).
 #[inline(always)]
 fn prefetch_ptr(p: *const u8) {
@@ -1515,7 +1457,7 @@ mod tests {
                 1e-12
             };
             let mut data = Data::new(&model);
-            assert_eq!(data.dca.fused, super::fused_available());
+            assert_eq!(data.dca.fused, crate::arith::fused_available());
             for seed in 0..6 {
                 let (portable, fused) =
                     crate::solve_portable_and_fused(&model, &mut data, seed, Method::Dca);
@@ -1532,7 +1474,7 @@ mod tests {
                 differ |= portable != fused;
             }
         }
-        assert_eq!(differ, super::fused_available());
+        assert_eq!(differ, crate::arith::fused_available());
     }
 
     /// The kinematics at the leaves (`DcaData::leaf_kinematics`, set on every bundled model)

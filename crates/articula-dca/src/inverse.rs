@@ -1,8 +1,10 @@
 //! Inverse dynamics by the recursive Newton–Euler algorithm (RBDA ch. 5), and the bias forces.
 
 use crate::data::sized;
+use crate::finite::all_finite;
+use crate::inputs::check_values;
 use crate::refine::{rnea_residual, RneaInput};
-use crate::{all_finite, check_values, kinematics, Data, DynamicsError};
+use crate::{kinematics, Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::{SpatialForce, SpatialMotion};
 

@@ -44,6 +44,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod aba;
+mod arith;
 mod com;
 mod crba;
 mod data;
@@ -51,6 +52,8 @@ mod dca;
 mod energy;
 mod error;
 mod finite;
+mod forward;
+mod inputs;
 mod integrate;
 mod inverse;
 mod jacobian;
@@ -64,14 +67,14 @@ mod state;
 
 pub use data::Data;
 pub use error::DynamicsError;
+pub use forward::{forward_dynamics, forward_dynamics_slices, Method};
+pub use inputs::check_inputs;
 pub use integrate::{integrate_floating, integrate_q, step, Integrator};
 pub use inverse::{bias_forces, inverse_dynamics};
 pub use jacobian::ReferenceFrame;
 pub use kinematics::forward_kinematics;
 pub use mass_matrix::mass_matrix;
 pub use state::State;
-
-use finite::all_finite;
 
 /// Building blocks that the workspace's higher layers (articula-adaptive, articula-view,
 /// `cargo xtask`) share with this crate, behind the `internals` cargo feature: the two
@@ -86,200 +89,16 @@ use finite::all_finite;
 #[cfg(feature = "internals")]
 pub mod internals {
     #[cfg(target_arch = "x86_64")]
-    pub use crate::dca::Fused;
-    pub use crate::dca::{fused_available, Arith, Portable};
+    pub use crate::arith::Fused;
+    pub use crate::arith::{fused_available, Arith, Portable};
     pub use crate::finite::all_finite;
     pub use crate::kinematics::{body_kinematics, computation_origin};
     pub use crate::small::{cholesky, cholesky_into};
     pub use crate::state::SplitMix64;
 }
 
+#[cfg(test)]
 use articula_model::Model;
-use articula_spatial::SpatialForce;
-
-/// A forward-dynamics algorithm.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Method {
-    /// Featherstone's divide-and-conquer algorithm (the main solver).
-    #[default]
-    Dca,
-    /// The articulated-body algorithm (reference).
-    Aba,
-    /// Composite-rigid-body algorithm + Cholesky (reference; allocates).
-    Crba,
-}
-
-impl std::str::FromStr for Method {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "dca" => Ok(Method::Dca),
-            "aba" => Ok(Method::Aba),
-            "crba" => Ok(Method::Crba),
-            _ => Err(format!("unknown method '{s}' (expected dca, aba or crba)")),
-        }
-    }
-}
-
-impl Method {
-    /// The lowercase name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Method::Dca => "dca",
-            Method::Aba => "aba",
-            Method::Crba => "crba",
-        }
-    }
-}
-
-/// Forward dynamics of a [`State`]: `q̈ = FD(q, q̇, τ, f_ext)` by `method`, with gravity
-/// (`Data::gravity`). Returns `q̈` (also left in `data.qdd`); `data` then holds the kinematics
-/// of `(q, q̇)`. [`forward_dynamics_slices`] with the state's vectors.
-pub fn forward_dynamics<'d>(
-    model: &Model,
-    data: &'d mut Data,
-    state: &State,
-    method: Method,
-) -> Result<&'d [f64], DynamicsError> {
-    forward_dynamics_slices(
-        model,
-        data,
-        &state.q,
-        &state.qd,
-        &state.tau,
-        &state.f_ext,
-        method,
-    )
-}
-
-/// Forward dynamics from slices: checks the inputs, runs forward kinematics and the chosen
-/// algorithm, checks the result, and returns `q̈` (also left in `data.qdd`). `f_ext` may be
-/// empty (no external forces) or hold one wrench per body, world coordinates about the world
-/// origin. DCA and ABA allocate nothing.
-pub fn forward_dynamics_slices<'d>(
-    model: &Model,
-    data: &'d mut Data,
-    q: &[f64],
-    qd: &[f64],
-    tau: &[f64],
-    f_ext: &[SpatialForce],
-    method: Method,
-) -> Result<&'d [f64], DynamicsError> {
-    check_inputs(model, q, qd, tau, f_ext)?;
-    data.origin = kinematics::computation_origin(model, q);
-    kinematics::forces_to_computation_frame(f_ext, data);
-    let f_ext = std::mem::take(&mut data.f_ext_c);
-    let result = match method {
-        Method::Dca => dca::forward(model, q, qd, tau, &f_ext, data).and_then(|()| {
-            // Regularised leaves always (see `refine`): their first solve is not exact.
-            if data.refine.regularised || (data.refine_dca && data.refine_floating) {
-                refine::refine_dca(model, tau, &f_ext, data)
-            } else {
-                Ok(())
-            }
-        }),
-        Method::Aba => aba::forward(model, q, qd, tau, &f_ext, data).map(|()| {
-            if model.floating_base && data.refine_floating {
-                aba::refine(model, tau, &f_ext, data);
-            }
-        }),
-        Method::Crba => {
-            kinematics::kinematics(model, q, qd, data, |_, _| {});
-            crba::crba(model, tau, &f_ext, data)
-        }
-    };
-    data.f_ext_c = f_ext;
-    result?;
-    // A plain scan first; the per-joint search (for the name) only when something is wrong.
-    let all_finite = all_finite(&data.qdd);
-    for (_, part) in model.joint_parts().filter(|_| !all_finite) {
-        if data.qdd[part.v_offset..part.v_offset + part.nv()]
-            .iter()
-            .any(|x| !x.is_finite())
-        {
-            return Err(DynamicsError::NonFinite {
-                what: "qdd",
-                name: part.name.clone(),
-            });
-        }
-    }
-    Ok(&data.qdd)
-}
-
-/// External wrench on body `i`: an empty slice means none.
-#[inline]
-pub(crate) fn f_ext_of(f_ext: &[SpatialForce], i: usize) -> SpatialForce {
-    f_ext.get(i).copied().unwrap_or(SpatialForce::ZERO)
-}
-
-/// Checks the inputs of a dynamics call: lengths of `q`, `qd`, `tau` (and `f_ext` when not
-/// empty), and that every number is finite — an error names the joint or body.
-#[inline]
-pub fn check_inputs(
-    model: &Model,
-    q: &[f64],
-    qd: &[f64],
-    tau: &[f64],
-    f_ext: &[SpatialForce],
-) -> Result<(), DynamicsError> {
-    check_values(model, q, qd, ("tau", tau), f_ext)
-}
-
-/// [`check_inputs`] with the third per-degree-of-freedom vector named (`tau`, `qdd`).
-#[inline]
-pub(crate) fn check_values(
-    model: &Model,
-    q: &[f64],
-    qd: &[f64],
-    (third, tau): (&'static str, &[f64]),
-    f_ext: &[SpatialForce],
-) -> Result<(), DynamicsError> {
-    for (what, len, expected) in [
-        ("q", q.len(), model.nq),
-        ("qd", qd.len(), model.nv),
-        (third, tau.len(), model.nv),
-    ] {
-        if len != expected {
-            return Err(DynamicsError::Dimension {
-                what,
-                expected,
-                found: len,
-            });
-        }
-    }
-    if !f_ext.is_empty() && f_ext.len() != model.bodies.len() {
-        return Err(DynamicsError::Dimension {
-            what: "f_ext",
-            expected: model.bodies.len(),
-            found: f_ext.len(),
-        });
-    }
-    let all_finite = all_finite(q) && all_finite(qd) && all_finite(tau);
-    for (_, part) in model.joint_parts().filter(|_| !all_finite) {
-        let (qo, vo) = (part.q_offset, part.v_offset);
-        for (what, xs) in [
-            ("q", &q[qo..qo + part.nq()]),
-            ("qd", &qd[vo..vo + part.nv()]),
-            (third, &tau[vo..vo + part.nv()]),
-        ] {
-            if xs.iter().any(|x| !x.is_finite()) {
-                return Err(DynamicsError::NonFinite {
-                    what,
-                    name: part.name.clone(),
-                });
-            }
-        }
-    }
-    for (i, f) in f_ext.iter().enumerate() {
-        if !f.is_finite() {
-            return Err(DynamicsError::NonFinite {
-                what: "external force",
-                name: model.bodies[i].name.clone(),
-            });
-        }
-    }
-    Ok(())
-}
 
 /// Every bundled model (`models/*.urdf` of the workspace), fixed and floating base, for the
 /// crate's unit tests: `(name, floating_base, model)`.
@@ -312,5 +131,5 @@ pub(crate) fn solve_portable_and_fused(
         data.dca.fused = fused;
         forward_dynamics(model, data, &s, method).unwrap().to_vec()
     };
-    (solve(false), solve(dca::fused_available()))
+    (solve(false), solve(arith::fused_available()))
 }

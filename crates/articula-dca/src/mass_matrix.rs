@@ -1,7 +1,8 @@
 //! The joint-space mass matrix `M(q)` by the composite-rigid-body algorithm (RBDA ch. 6).
 
 use crate::data::sized;
-use crate::{check_inputs, kinematics, Data, DynamicsError};
+use crate::inputs::check_inputs;
+use crate::{kinematics, Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::{SpatialInertia, SpatialMotion};
 

@@ -19,39 +19,6 @@ use articula_model::Model;
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion};
 use glam::DVec3;
 
-/// Buffers of the refinement (allocated once with [`Data`]).
-#[derive(Clone, Debug)]
-pub(crate) struct RefineData {
-    a: Vec<SpatialMotion>,
-    f: Vec<SpatialForce>,
-    r: Vec<f64>,
-    pub(crate) qdd: Vec<f64>,
-    /// Zero velocities and velocity products, swapped in for the correction solve.
-    zv: Vec<SpatialMotion>,
-    zc: Vec<SpatialMotion>,
-    /// Solves whose residual was above rounding level (a counter for tests); with
-    /// `regularised`, every correction step.
-    pub corrections: u64,
-    /// Some body's DCA leaf inverts a regularised inertia: refine every solve to convergence.
-    pub regularised: bool,
-}
-
-impl RefineData {
-    pub(crate) fn new(model: &Model, regularised: bool) -> RefineData {
-        let n = model.bodies.len();
-        RefineData {
-            a: vec![SpatialMotion::ZERO; n],
-            f: vec![SpatialForce::ZERO; n],
-            r: vec![0.0; model.nv],
-            qdd: vec![0.0; model.nv],
-            zv: vec![SpatialMotion::ZERO; n],
-            zc: vec![SpatialMotion::ZERO; n],
-            corrections: 0,
-            regularised,
-        }
-    }
-}
-
 /// A correction runs when the largest residual exceeds this fraction of the largest joint force
 /// of the Newton–Euler pass. (H of a long chain is so badly conditioned that even an exact-to-
 /// rounding q̈ leaves residuals far above rounding level: measured maxima 1.6e-12 on the
@@ -119,7 +86,7 @@ pub(crate) fn rnea_residual(
         a[i] = ai;
         let (inertia, v) = (&k.inertia[i], k.v[i]);
         f[i] = inertia.mul_motion(ai) + v.cross_force(inertia.mul_motion(v))
-            - crate::f_ext_of(k.f_ext, i);
+            - crate::inputs::f_ext_of(k.f_ext, i);
     }
     let (mut scale, mut rmax) = (0.0f64, 0.0f64);
     for (i, body) in model.bodies.iter().enumerate().rev() {

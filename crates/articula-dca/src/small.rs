@@ -2,7 +2,7 @@
 //! matrices `D = Sᵀ V S` and `D = Sᵀ Iᴬ S` of multi-DOF joints, and DCA's 6×6
 //! `Φ^A_jj + Φ^B_jj`.
 
-use crate::dca::Arith;
+use crate::arith::Arith;
 
 /// Cholesky factor `L` (lower) of the leading k×k block of a symmetric positive definite
 /// matrix, `None` when a pivot is not positive.

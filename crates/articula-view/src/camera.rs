@@ -4,7 +4,7 @@
 //! direction (positive in front of the camera). The frustum is `near ≤ z ≤ far`,
 //! `|y| ≤ z tan(fov_y/2)`, `|x| ≤ z tan(fov_y/2) · aspect`.
 
-use crate::ViewError;
+use crate::error::ViewError;
 use glam::{DMat3, DVec2, DVec3};
 
 /// A pinhole camera: pose, vertical field of view, aspect ratio, near and far planes.

@@ -1,7 +1,8 @@
 //! Software rendering (tiny-skia) of a scene: the camera's view, with every rigid subassembly
 //! of every body in its own colour, and a top-down map with the frustum and each body's
 //! active-joint count. The pixels ([`render_view`], [`render_map`], [`save_png`]) need the
-//! `render` feature (default on); [`FrameBody`], [`rigid_groups`] and [`colour`] do not.
+//! `render` feature (default on); [`FrameBody`] (what [`SceneSim::frame`](crate::SceneSim::frame)
+//! gives) does not.
 
 #[cfg(feature = "render")]
 use crate::camera::Camera;
@@ -22,7 +23,8 @@ pub struct FrameBody<'a> {
     pub volumes: &'a [BodyVolumes],
     /// World pose of each model body.
     pub poses: &'a [(DMat3, DVec3)],
-    /// Rigid subassembly of each model body (see [`rigid_groups`]).
+    /// Rigid subassembly of each model body: the index of the top body of the subassembly that
+    /// inactive joints join it to.
     pub groups: &'a [usize],
     /// A number that makes this body's colours its own (its index in the scene).
     pub seed: u64,
@@ -36,7 +38,7 @@ pub struct FrameBody<'a> {
 /// active joint starts a new one. `active[i]` tells whether body `i`'s joint is active
 /// (`parents` as in the model; roots start their own group). Returns, per body, the index of
 /// the top body of its subassembly.
-pub fn rigid_groups(parents: &[Option<usize>], active: &[bool], out: &mut Vec<usize>) {
+pub(crate) fn rigid_groups(parents: &[Option<usize>], active: &[bool], out: &mut Vec<usize>) {
     out.clear();
     for (i, p) in parents.iter().enumerate() {
         let g = match p {
@@ -48,7 +50,7 @@ pub fn rigid_groups(parents: &[Option<usize>], active: &[bool], out: &mut Vec<us
 }
 
 /// A pleasant, well-separated colour for a key (golden-ratio hues).
-pub fn colour(key: u64) -> [u8; 3] {
+pub(crate) fn colour(key: u64) -> [u8; 3] {
     let mut z = key.wrapping_add(0x9e37_79b9_7f4a_7c15);
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
@@ -371,7 +373,7 @@ const DIGITS: [[u8; 5]; 10] = [
 
 /// Draws `n` in bitmap digits with its top-left corner at (x, y), `cell` pixels per dot.
 #[cfg(feature = "render")]
-pub fn draw_number(pix: &mut Pixmap, x: f64, y: f64, cell: f64, n: usize, rgb: [u8; 3]) {
+pub(crate) fn draw_number(pix: &mut Pixmap, x: f64, y: f64, cell: f64, n: usize, rgb: [u8; 3]) {
     let text = n.to_string();
     let p = paint(rgb, 255);
     let mut pb = PathBuilder::new();
@@ -404,3 +406,6 @@ pub fn save_png(pix: &Pixmap, path: &std::path::Path) -> Result<(), String> {
     pix.save_png(path)
         .map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
+
+#[cfg(all(test, feature = "render"))]
+mod tests;

@@ -18,9 +18,9 @@
 //! field.
 
 use crate::camera::{Camera, CameraPath, Keyframe};
+use crate::error::ViewError;
 use crate::visibility::VisibilitySettings;
 use crate::volumes::{body_volumes, BodyVolumes};
-use crate::ViewError;
 use articula_dca::internals::SplitMix64;
 use articula_model::{InertiaPolicy, LoadOptions, Model};
 use glam::{DMat3, DQuat, DVec3};

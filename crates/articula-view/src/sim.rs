@@ -25,11 +25,11 @@
 //! Nodes of metric 0 are never selected: invisible bodies (all weights 0) keep no joint even
 //! with budget to spare.
 
+use crate::error::ViewError;
 use crate::render::{rigid_groups, FrameBody};
 use crate::scene_file::LoadedScene;
 use crate::visibility::{BodyView, Classifier, Placed, PosePlan, Visibility};
 use crate::volumes::BodyVolumes;
-use crate::ViewError;
 use articula_adaptive::{Adaptive, AdaptiveError, Scratch, Settings};
 use articula_dca::{DynamicsError, State};
 use articula_model::{JointKind, Model, NodeKind};
@@ -69,7 +69,7 @@ impl Ord for Entry {
 
 /// What the global queue chose.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct GlobalSelection {
+pub(crate) struct GlobalSelection {
     /// Per body: internal degrees of freedom selected (its share of the budget).
     pub allocation: Vec<usize>,
     /// Per body: the metric mass left unselected (its error against exact dynamics).
@@ -87,7 +87,8 @@ pub struct GlobalSelection {
 /// Floating bases' root joints are free; every other join costs its degrees of freedom.
 /// Stops when the next node does not fit in `budget`, when the metric mass left is at most
 /// `tolerance` (0 or `None`: no tolerance stop), or when only nodes of metric ≤ 0 are left.
-pub fn global_selection(
+#[cfg(test)]
+pub(crate) fn global_selection(
     models: &[&Model],
     metrics: &[&[f64]],
     budget: Option<usize>,
@@ -960,7 +961,7 @@ fn spring_torques(springs: &SpringRuns, s: &mut State) {
 /// velocity): `τ = −k q − c q̇` alone would make it oscillate at ω with damping ratio ζ.
 /// (The subtree inertia `Mᵢᵢ` overestimates `mᵢ` tenfold on a floating body, and the
 /// explicit integrator then overshoots.)
-pub fn pose_springs(
+pub(crate) fn pose_springs(
     model: &Model,
     frequency_hz: f64,
     damping_ratio: f64,
@@ -1124,3 +1125,7 @@ mod tests {
             .all(|b| b.state.qd.iter().any(|x| *x != 0.0)));
     }
 }
+
+/// The scene-level tests: rigid motion of invisible bodies, the global queue, classified poses.
+#[cfg(all(test, feature = "serde"))]
+mod scene_tests;

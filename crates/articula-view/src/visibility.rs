@@ -90,7 +90,7 @@ impl Lens {
 
 /// A coarse depth buffer over the image (cells in rows, `f64::INFINITY` = empty).
 #[derive(Clone, Debug)]
-pub struct DepthBuffer {
+pub(crate) struct DepthBuffer {
     /// Width in cells.
     pub width: usize,
     /// Height in cells.
@@ -145,6 +145,7 @@ impl DepthBuffer {
 
     /// Writes a ball (world centre, radius) as an occluder: its far depth into every cell wholly
     /// inside its (under-estimated) projected disc.
+    #[cfg(test)]
     pub fn rasterize_ball(&mut self, cam: &Camera, center: DVec3, radius: f64) {
         let lens = self.lens(cam);
         self.raster(cam, &lens, center, radius);
@@ -319,6 +320,7 @@ impl DepthBuffer {
     /// projected disc's bounding rectangle touches holds a depth nearer than the ball's nearest
     /// point. A ball reaching the near plane, or partly off the image, is never hidden by
     /// cells outside the image (they count as empty).
+    #[cfg(test)]
     pub fn is_hidden(&self, cam: &Camera, center: DVec3, radius: f64) -> bool {
         self.hidden(cam, &self.lens(cam), center, radius)
     }
@@ -387,7 +389,7 @@ fn as_f64(i: usize) -> f64 {
 
 /// One articulated body placed in the world, as visibility sees it.
 #[derive(Clone, Copy, Debug)]
-pub struct Placed<'a> {
+pub(crate) struct Placed<'a> {
     /// Its model's volumes (per model body).
     pub volumes: &'a [BodyVolumes],
     /// World pose of each model body: rotation and origin.
@@ -423,7 +425,7 @@ impl BodyView {
 
 /// Scratch of [`Classifier::classify`], reused between calls.
 #[derive(Clone, Debug)]
-pub struct Classifier {
+pub(crate) struct Classifier {
     /// The depth buffer of the last call.
     pub buffer: DepthBuffer,
     world: Vec<Vec<(DVec3, f64)>>,
@@ -446,6 +448,7 @@ impl Classifier {
 
     /// Classifies every link of every body and computes the weights (into `out`, one entry a
     /// body).
+    #[cfg(test)]
     pub fn classify(
         &mut self,
         cam: &Camera,
@@ -580,14 +583,16 @@ fn enclosing_sphere(spheres: &[(DVec3, f64)]) -> (DVec3, f64) {
 /// World pose of body `i` of `model` at configuration `q` (rotation, origin): the pose-only
 /// part of forward kinematics along the path from the root to `i`. Prepares a [`PosePlan`]
 /// each call: for repeated calls keep one and use [`PosePlan::pose`].
-pub fn body_pose(model: &articula_model::Model, q: &[f64], i: usize) -> (DMat3, DVec3) {
+#[cfg(test)]
+pub(crate) fn body_pose(model: &articula_model::Model, q: &[f64], i: usize) -> (DMat3, DVec3) {
     PosePlan::new(model).pose(model, q, i)
 }
 
 /// World poses of every body of `model` at configuration `q` (rotation, origin), parents
 /// first: the pose-only part of forward kinematics. Prepares a [`PosePlan`] each call: for
 /// repeated calls keep one and use [`PosePlan::poses`].
-pub fn body_poses(model: &articula_model::Model, q: &[f64], out: &mut Vec<(DMat3, DVec3)>) {
+#[cfg(test)]
+pub(crate) fn body_poses(model: &articula_model::Model, q: &[f64], out: &mut Vec<(DMat3, DVec3)>) {
     PosePlan::new(model).poses(model, q, out);
 }
 
@@ -597,7 +602,7 @@ pub fn body_poses(model: &articula_model::Model, q: &[f64], out: &mut Vec<(DMat3
 /// Its [`PosePlan::pose`] and [`PosePlan::poses`] give the same numbers as composing each
 /// part's general transform (the products skipped are exact zeros and ones).
 #[derive(Clone, Debug)]
-pub struct PosePlan {
+pub(crate) struct PosePlan {
     /// Per model body: its parent and the range of its parts in `parts`.
     bodies: Vec<(Option<usize>, std::ops::Range<usize>)>,
     parts: Vec<PlanPart>,
@@ -818,37 +823,4 @@ impl PosePlan {
 const POSE_PATH: usize = 64;
 
 #[cfg(test)]
-mod tests {
-    use super::{ceil_index, floor_index};
-
-    #[test]
-    fn cell_indices_equal_floor_and_ceil() {
-        let mut xs = vec![
-            f64::NAN,
-            f64::NEG_INFINITY,
-            f64::INFINITY,
-            -0.0,
-            0.0,
-            1e300,
-            -1e300,
-            4503599627370495.5,
-            f64::EPSILON,
-        ];
-        for k in -400..=400 {
-            let x = k as f64 * 0.25;
-            xs.extend([x, x + 1e-12, x - 1e-12, f64::from_bits(x.to_bits() + 1)]);
-        }
-        // Above 2⁵² (where every f64 is an integer) the indices stop at the cap.
-        let cap = |i: usize| i.min(1 << 52);
-        for x in xs {
-            assert_eq!(
-                floor_index(x),
-                cap(x.floor().max(0.0) as usize),
-                "floor of {x}"
-            );
-            let c = ceil_index(x);
-            assert_eq!(cap(c), cap(x.ceil().max(0.0) as usize), "ceil of {x}");
-            assert!(c <= (1 << 52) + 1, "ceil of {x}");
-        }
-    }
-}
+mod tests;

@@ -160,7 +160,7 @@ pub struct BodyVolumes {
 
 /// Eigen-decomposition of a symmetric 3×3 matrix by cyclic Jacobi rotations: eigenvalues and
 /// the matrix whose columns are the unit eigenvectors (`m = V diag(λ) Vᵀ`).
-pub fn symmetric_eigen(m: DMat3) -> (DVec3, DMat3) {
+pub(crate) fn symmetric_eigen(m: DMat3) -> (DVec3, DMat3) {
     let mut a = [[0.0; 3]; 3];
     for (j, col) in [m.x_axis, m.y_axis, m.z_axis].iter().enumerate() {
         for (i, x) in col.to_array().iter().enumerate() {
@@ -213,7 +213,7 @@ pub fn symmetric_eigen(m: DMat3) -> (DVec3, DMat3) {
 /// The equivalent box of a body's inertia: centre (the centre of mass), principal axes and half
 /// extents of the uniform solid box with the same mass and central inertia. `None` for a
 /// massless body.
-pub fn inertia_box(inertia: &articula_spatial::SpatialInertia) -> Option<Volume> {
+pub(crate) fn inertia_box(inertia: &articula_spatial::SpatialInertia) -> Option<Volume> {
     let m = inertia.mass;
     if m.is_nan() || m <= 0.0 {
         return None;
@@ -233,7 +233,7 @@ pub fn inertia_box(inertia: &articula_spatial::SpatialInertia) -> Option<Volume>
 }
 
 /// The bounding volumes of every body of `model` (indexed like `model.bodies`).
-pub fn body_volumes(model: &Model) -> Vec<BodyVolumes> {
+pub(crate) fn body_volumes(model: &Model) -> Vec<BodyVolumes> {
     model
         .bodies
         .iter()
@@ -324,3 +324,6 @@ pub fn body_volumes(model: &Model) -> Vec<BodyVolumes> {
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests;

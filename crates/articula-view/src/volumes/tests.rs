@@ -1,8 +1,8 @@
 //! Bounding volumes: eigen-decomposition, equivalent inertia boxes, URDF primitives.
 
+use super::{body_volumes, inertia_box, symmetric_eigen, Volume};
 use articula_model::{LoadOptions, Model};
 use articula_spatial::SpatialInertia;
-use articula_view::{body_volumes, inertia_box, symmetric_eigen, Volume};
 use glam::{DMat3, DVec3, EulerRot};
 
 fn models() -> std::path::PathBuf {

@@ -1,8 +1,10 @@
 //! Frames: one colour per rigid subassembly, at the projected places of the bodies.
 
+use super::{colour, render_map, render_view, rigid_groups, FrameBody};
+use crate::visibility::body_poses;
+use crate::volumes::body_volumes;
+use crate::{Camera, Visibility};
 use articula_model::{LoadOptions, Model};
-use articula_view::render::{colour, render_map, render_view, rigid_groups, FrameBody};
-use articula_view::{body_poses, body_volumes, Camera, Visibility};
 use glam::DVec3;
 
 fn humanoid() -> Model {

@@ -1,11 +1,13 @@
 //! Visibility classes, the depth buffer's conservativeness, joint weights, body poses.
 
+use super::{
+    body_pose, body_poses, ceil_index, floor_index, Classifier, DepthBuffer, Placed, PosePlan,
+    Visibility, VisibilitySettings,
+};
+use crate::volumes::{body_volumes, BodyVolumes};
+use crate::Camera;
 use articula_dca::{forward_kinematics, Data, State};
 use articula_model::{LoadOptions, Model};
-use articula_view::{
-    body_pose, body_poses, body_volumes, BodyVolumes, Camera, Classifier, DepthBuffer, Placed,
-    PosePlan, Visibility, VisibilitySettings,
-};
 use glam::{DMat3, DVec3};
 
 fn models() -> std::path::PathBuf {
@@ -69,7 +71,7 @@ fn wall(size: DVec3) -> (Model, Vec<BodyVolumes>) {
 
 const ROOT: [Option<usize>; 1] = [None];
 
-fn classify(cam: &Camera, bodies: &[(&[BodyVolumes], DVec3, f64)]) -> Vec<articula_view::BodyView> {
+fn classify(cam: &Camera, bodies: &[(&[BodyVolumes], DVec3, f64)]) -> Vec<super::BodyView> {
     let settings = VisibilitySettings::default();
     let poses: Vec<Vec<(DMat3, DVec3)>> = bodies
         .iter()
@@ -145,8 +147,7 @@ fn a_wall_occludes_what_is_behind_it() {
     assert_eq!(v[3].summary(), Visibility::Visible);
     // Occluded weight = visible weight × factor at the same projected size; farther = smaller.
     let s = VisibilitySettings::default();
-    let size_w =
-        |view: &articula_view::BodyView| (view.projected_size / s.full_detail_size).min(1.0);
+    let size_w = |view: &super::BodyView| (view.projected_size / s.full_detail_size).min(1.0);
     assert!((v[1].joint_weights[0] - size_w(&v[1]) * s.occluded_factor).abs() < 1e-15);
     assert!((v[2].joint_weights[0] - size_w(&v[2])).abs() < 1e-15);
     assert!(v[1].joint_weights[0] < v[2].joint_weights[0]);
@@ -485,4 +486,35 @@ fn body_pose_of_one_body_equals_all_poses() {
     let (_, p) = body_pose(&deep, &q, deep.bodies.len() - 1);
     let p_all = poses.last().unwrap().1;
     assert!((p - p_all).length() < 1e-8 * (1.0 + p_all.length()));
+}
+
+#[test]
+fn cell_indices_equal_floor_and_ceil() {
+    let mut xs = vec![
+        f64::NAN,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        -0.0,
+        0.0,
+        1e300,
+        -1e300,
+        4503599627370495.5,
+        f64::EPSILON,
+    ];
+    for k in -400..=400 {
+        let x = k as f64 * 0.25;
+        xs.extend([x, x + 1e-12, x - 1e-12, f64::from_bits(x.to_bits() + 1)]);
+    }
+    // Above 2⁵² (where every f64 is an integer) the indices stop at the cap.
+    let cap = |i: usize| i.min(1 << 52);
+    for x in xs {
+        assert_eq!(
+            floor_index(x),
+            cap(x.floor().max(0.0) as usize),
+            "floor of {x}"
+        );
+        let c = ceil_index(x);
+        assert_eq!(cap(c), cap(x.ceil().max(0.0) as usize), "ceil of {x}");
+        assert!(c <= (1 << 52) + 1, "ceil of {x}");
+    }
 }
