@@ -441,7 +441,7 @@ fn trajectories(model: &Model) -> Result<Traj> {
     let mut points = Vec::new();
     for solver in Solver::all() {
         for integ in [Integrator::SemiImplicitEuler, Integrator::Rk4] {
-            // Adaptive steps are semi-implicit Euler only.
+            // The adaptive rows measure the semi-implicit Euler step (see solver.rs).
             if matches!(solver, Solver::Adaptive { .. }) && integ == Integrator::Rk4 {
                 continue;
             }

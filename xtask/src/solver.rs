@@ -4,7 +4,8 @@
 //! The adaptive solver (`articula-adaptive`) runs at every budget of [`ADAPTIVE_BUDGETS`]:
 //! `forward` is its one-state selection (selected joints exact, the others zero) and `step` a
 //! full adaptive step with re-selection every step (selection and rigidification included),
-//! semi-implicit Euler whatever integrator the caller asks for.
+//! semi-implicit Euler whatever integrator the caller asks for (the published tables measure
+//! that step; `Adaptive::step_rk4` is tested in articula-adaptive's `tests/rk4.rs`).
 
 use articula_adaptive::{Adaptive, Settings};
 use articula_dca::{forward_dynamics_slices, step, Data, Integrator, Method, State};

@@ -405,6 +405,8 @@ pub struct Adaptive {
     /// Record the bias maps of every join into `jm` (cache builds).
     pub(crate) record_maps: bool,
     pub(crate) jm: JoinMaps,
+    /// The RK4 step's start values and stage sums (`rk4.rs`), sized at its first call.
+    pub(crate) rk: crate::rk4::RkBuffers,
 }
 
 impl Adaptive {
@@ -506,6 +508,7 @@ impl Adaptive {
             use_cache: true,
             record_maps: false,
             jm: JoinMaps::default(),
+            rk: crate::rk4::RkBuffers::default(),
             last: Selection::default(),
             touched: 0,
         }

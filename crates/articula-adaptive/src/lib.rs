@@ -61,6 +61,7 @@ mod hierarchy;
 mod hybrid;
 mod metric;
 mod rigidify;
+mod rk4;
 mod scratch;
 mod trig;
 mod update;
@@ -151,18 +152,24 @@ pub enum AdaptiveError {
 
 /// Advances `state` by `dt` with adaptive dynamics: the stepping call of
 /// [`articula_dca::step`] with the same argument order — model, workspace, state, integrator,
-/// time step — for code that switches between exact and adaptive dynamics:
+/// time step — and the same integrators, for code that switches between exact and adaptive
+/// dynamics:
 ///
 /// ```text
-/// articula_dca::step(&model, &mut data, &mut state, Method::Dca, Integrator::SemiImplicitEuler, dt)?;
-/// articula_adaptive::step(&model, &mut adaptive, &mut state, Integrator::SemiImplicitEuler, dt)?;
+/// articula_dca::step(&model, &mut data, &mut state, Method::Dca, Integrator::Rk4, dt)?;
+/// articula_adaptive::step(&model, &mut adaptive, &mut state, Integrator::Rk4, dt)?;
 /// ```
 ///
-/// Adaptive dynamics integrates with **semi-implicit Euler only** (`q̇ ← q̇ + h q̈`, then
-/// `q ← q ⊕ h q̇` on the active joints; see [`Adaptive::step`], which this calls):
-/// [`Integrator::Rk4`](articula_dca::Integrator::Rk4) is refused with
-/// [`AdaptiveError::Setting`] (its stages would move the joints a re-selection locked, and a
-/// re-selection's impulses have no Runge–Kutta form).
+/// - [`Integrator::SemiImplicitEuler`](articula_dca::Integrator::SemiImplicitEuler):
+///   [`Adaptive::step`] (`q̇ ← q̇ + h q̈`, then `q ← q ⊕ h q̇` on the active joints).
+/// - [`Integrator::Rk4`](articula_dca::Integrator::Rk4): [`Adaptive::step_rk4`], classic
+///   fourth-order Runge–Kutta (Munthe-Kaas on a floating joint) on the active joints of the
+///   hybrid body chosen at the step's start.
+///
+/// Both re-select the hybrid body at the step's start every
+/// [`Settings::reselect_every`] steps. With every joint active they are articula-dca's steps
+/// of the same integrator to rounding (articula-dca's momentum projection of free-floating
+/// models, `Data::momentum_projection`, has no adaptive counterpart).
 pub fn step(
     model: &Model,
     adaptive: &mut Adaptive,
@@ -172,9 +179,7 @@ pub fn step(
 ) -> Result<StepReport, AdaptiveError> {
     match integrator {
         articula_dca::Integrator::SemiImplicitEuler => adaptive.step(model, state, dt),
-        articula_dca::Integrator::Rk4 => Err(AdaptiveError::Setting(
-            "adaptive dynamics integrates with semi-implicit Euler only, not RK4".into(),
-        )),
+        articula_dca::Integrator::Rk4 => adaptive.step_rk4(model, state, dt),
     }
 }
 
@@ -487,7 +492,7 @@ impl Adaptive {
     }
 
     /// One semi-implicit Euler step of the hybrid body (also [`step`], the free function with
-    /// the argument order of [`articula_dca::step`]). Every `reselect_every` steps (the first
+    /// the argument order of [`articula_dca::step`]; [`Adaptive::step_rk4`] is the RK4 step). Every `reselect_every` steps (the first
     /// included) the joints are re-selected on the fully articulated coefficients and the
     /// joints leaving the hybrid body are locked by impulses. The first re-selection (and the
     /// next after [`Adaptive::invalidate`], a changed locked torque, or with a velocity

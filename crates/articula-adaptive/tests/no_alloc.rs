@@ -56,3 +56,49 @@ fn cached_reselection_steps_allocate_nothing() {
         assert_eq!(steps, 0, "budget {budget}: allocations in 200 steps");
     }
 }
+
+/// The RK4 step too, its re-selections through the caches included, with forces on locked
+/// bodies, once its buffers exist (its first call).
+#[test]
+fn rk4_steps_allocate_nothing() {
+    use articula_dca::Integrator;
+    let model = articula_testkit::chain(300);
+    let mut s = State::random(&model, 43, 0.0);
+    for b in [17usize, 150, 290] {
+        s.f_ext[b] = SpatialForce::new(glam::DVec3::ZERO, glam::DVec3::new(0.5, 0.0, 1.0));
+    }
+    for (budget, every) in [(1usize, 1u64), (50, 1), (50, 4)] {
+        let mut ad = None;
+        let warm = count_allocations(|| {
+            let ad = ad.insert(Adaptive::new(
+                &model,
+                Settings {
+                    budget: Some(budget),
+                    reselect_every: every,
+                    ..Settings::default()
+                },
+            ));
+            for _ in 0..50 {
+                articula_adaptive::step(&model, ad, &mut s, Integrator::Rk4, 1e-4).unwrap();
+            }
+        });
+        assert!(warm > 10, "budget {budget}: {warm}");
+        let ad = ad.as_mut().unwrap();
+        let mut cached = 0;
+        let steps = count_allocations(|| {
+            for _ in 0..200 {
+                let r = articula_adaptive::step(&model, ad, &mut s, Integrator::Rk4, 1e-4).unwrap();
+                cached += usize::from(r.reselected && r.nodes_touched < model.assembly.nodes.len());
+            }
+        });
+        assert_eq!(
+            cached,
+            200 / every as usize,
+            "budget {budget} every {every}"
+        );
+        assert_eq!(
+            steps, 0,
+            "budget {budget} every {every}: allocations in 200 steps"
+        );
+    }
+}

@@ -181,11 +181,6 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     let mut state = load_state(args.state.as_deref(), &model)?;
     let method = args.dynamics.method;
     let integrator = args.integrator.integrator();
-    if method.exact().is_none() && integrator != Integrator::SemiImplicitEuler {
-        return Err(CliError(
-            "--method adaptive steps with semi-implicit Euler (--integrator euler)".to_string(),
-        ));
-    }
     // Adaptive: the hybrid body, and an exact DCA run beside it for the trajectory error.
     let mut adaptive = method.exact().is_none().then(|| {
         (
@@ -234,8 +229,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
                 dt,
             )
             .map_err(|e| e.to_string()),
-            Some((ad, _)) => ad
-                .step(&model, &mut state, dt)
+            Some((ad, _)) => articula_adaptive::step(&model, ad, &mut state, integrator, dt)
                 .map(|r| active.add(k, r.active_dofs, steps))
                 .map_err(|e| e.to_string()),
         };

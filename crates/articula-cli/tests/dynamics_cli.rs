@@ -559,17 +559,6 @@ fn adaptive_settings_are_checked() {
         vec!["fd", "--method", "adaptive", "--tolerance", "nan"],
         vec!["fd", "--method", "dca", "--budget", "3"],
         vec!["fd", "--method", "dca", "--compare"],
-        vec![
-            "simulate",
-            "--method",
-            "adaptive",
-            "--steps",
-            "2",
-            "--dt",
-            "1e-3",
-            "--integrator",
-            "rk4",
-        ],
     ] {
         let mut all: Vec<OsString> = args.iter().map(OsString::from).collect();
         all.push(model.clone().into_os_string());
@@ -577,4 +566,38 @@ fn adaptive_settings_are_checked() {
         assert_eq!(out.status.code(), Some(2), "{args:?}");
         assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"));
     }
+}
+
+/// `simulate --method adaptive` takes both integrators; with every joint active (no budget)
+/// the RK4 run follows the exact RK4 run beside it.
+#[test]
+fn adaptive_simulation_steps_with_rk4() {
+    let model = model_path("chain10.urdf");
+    let mut all: Vec<OsString> = [
+        "simulate",
+        "--method",
+        "adaptive",
+        "--steps",
+        "20",
+        "--dt",
+        "1e-3",
+        "--integrator",
+        "rk4",
+    ]
+    .iter()
+    .map(OsString::from)
+    .collect();
+    all.push(model.into_os_string());
+    let out = articula(&all);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{stdout}");
+    assert!(stdout.contains("rk4"), "{stdout}");
+    let err: f64 = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("traj error   max |q - q_exact| = "))
+        .and_then(|l| l.split_whitespace().next())
+        .expect("trajectory error line")
+        .parse()
+        .unwrap();
+    assert!(err < 1e-10, "{stdout}");
 }

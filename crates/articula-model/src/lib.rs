@@ -13,7 +13,7 @@
 //!   reported before/after). On the command line: `--inertia accept|strict|repair`.
 //! - Moving joints that carry no mass (romeo's fingers) are locked by default
 //!   ([`MasslessLeafPolicy`], [`Model::locked_joints`]): their `q̈` is 0, never a NaN.
-//! - With the feature `urdf-rs`, [`Model::from_urdf_robot`] builds the same model from a robot
+//! - With the feature `urdf-rs`, `Model::from_urdf_robot` builds the same model from a robot
 //!   read by the `urdf-rs` crate.
 //! - See `docs/loading.md` for what is validated, the tolerances and the limits. Visual and collision geometry, materials, limits, `<gazebo>` and `<transmission>`
 //!   tags are ignored by the strict pass, so sloppy geometry never stops a load. Collision (else

@@ -4,7 +4,7 @@
 //! - [`fixtures`]: the bundled models (embedded, so no test reads `models/` at run time) and
 //!   procedural chains of any length.
 //! - [`alloc`]: a counting global allocator for the "a step allocates nothing" tests.
-//! - [`dd`] and [`reference`]: double-double arithmetic and a high-precision articulated-body
+//! - [`dd`] and [`reference`](mod@reference): double-double arithmetic and a high-precision articulated-body
 //!   algorithm written independently of the library, the reference for accuracy tests.
 //! - With the `dca` feature, [`seeds`]: the adaptive benchmarks' state with external forces.
 //!

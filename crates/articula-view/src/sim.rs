@@ -1090,6 +1090,12 @@ mod tests {
             env!("CARGO_MANIFEST_DIR"),
             "/../../models/scenes/crowd200.json"
         );
+        if !std::path::Path::new(path).exists() {
+            // The crate as packaged: the workspace's models/ is not shipped (the workspace
+            // runs this test).
+            eprintln!("skipped: {path} is outside the packaged crate");
+            return;
+        }
         let scene = crate::load_scene(path).unwrap();
         let mut shared = SceneSim::new(&scene).unwrap();
         let mut own = SceneSim::new(&scene).unwrap();

@@ -73,12 +73,19 @@ pub mod prelude {
     //! The names a program needs: `use articula::prelude::*;`.
     //!
     //! Models ([`Model`], [`LoadOptions`]), exact dynamics ([`forward_dynamics`], [`step`],
-    //! [`Data`], [`State`], [`Method`], [`Integrator`]), adaptive dynamics ([`Adaptive`],
-    //! [`Settings`]), scenes ([`SceneBuilder`] and its specs, [`SceneSim`]), the spatial
-    //! types, glam's `DVec3`, `DMat3`, `DQuat`, and every layer's error type.
+    //! [`Data`], [`State`], [`Method`], [`Integrator`]), the quantities around it
+    //! ([`inverse_dynamics`], [`mass_matrix`], [`bias_forces`], [`forward_kinematics`] for
+    //! poses, Jacobians in a [`ReferenceFrame`], centre of mass, energies and momentum as
+    //! [`Data`] methods), adaptive dynamics ([`Adaptive`], [`Settings`]; its stepping call,
+    //! `articula::adaptive::step`, takes `articula_dca::step`'s arguments less the method),
+    //! scenes ([`SceneBuilder`] and its specs, [`SceneSim`]), the spatial types, glam's
+    //! `DVec3`, `DMat3`, `DQuat`, and every layer's error type.
 
     pub use crate::adaptive::{Adaptive, AdaptiveError, Selection, Settings, StepReport};
-    pub use crate::dca::{forward_dynamics, step, Data, DynamicsError, Integrator, Method, State};
+    pub use crate::dca::{
+        bias_forces, forward_dynamics, forward_kinematics, inverse_dynamics, mass_matrix, step,
+        Data, DynamicsError, Integrator, Method, ReferenceFrame, State,
+    };
     pub use crate::model::{JointKind, LoadOptions, Model, ModelError};
     pub use crate::spatial::{SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
     pub use crate::view::{

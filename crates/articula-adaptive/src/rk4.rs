@@ -1,0 +1,220 @@
+//! The classic fourth-order Runge–Kutta step of the hybrid body ([`Adaptive::step_rk4`]):
+//! the same scheme as articula-dca's [`Integrator::Rk4`](articula_dca::Integrator::Rk4), on
+//! the active joints of a hybrid body chosen once at the step's start.
+//!
+//! With `x = (q, q̇)` of the active joints and `f(x) = (q̇, q̈_hybrid(q, q̇))`:
+//!
+//! ```text
+//! k₁ = f(x₀),  k₂ = f(x₀ ⊕ ½h k₁),  k₃ = f(x₀ ⊕ ½h k₂),  k₄ = f(x₀ ⊕ h k₃)
+//! x₁ = x₀ ⊕ h (k₁ + 2k₂ + 2k₃ + k₄) / 6
+//! ```
+//!
+//! where `q ⊕ Δ` adds angles and displacements and moves a floating joint by the SE(3)
+//! exponential, whose stage slopes carry the `dexp⁻¹` correction (Runge–Kutta–Munthe-Kaas, so
+//! the floating base is fourth order too). The re-selection (and its locking impulse) happens
+//! before `k₁`, as in the semi-implicit Euler step; the four stages then keep that hybrid body:
+//! locked joints have `q̇ = 0` and `q̈ = 0` throughout and keep their `q`, so the rigid
+//! clusters' mass properties (in their top bodies' frames) hold for every stage, and each stage
+//! is one hybrid step (kinematics of the active joints at the stage's `(q, q̇)`, then the
+//! reduced tree's articulated-body pass): O(active region), four times the Euler step's
+//! dynamics between re-selections.
+
+use crate::hybrid::Adaptive;
+use crate::{finite, integrate_part, non_finite, AdaptiveError, StepReport};
+use articula_dca::State;
+use articula_model::{JointKind, Model};
+use articula_spatial::{SpatialForce, SpatialMotion};
+
+/// Start values and stage sums of the RK4 step, over all coordinates (only the active joints'
+/// entries are read and written). Empty until the first RK4 step: a workspace stepped by
+/// semi-implicit Euler holds none of it.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct RkBuffers {
+    /// `q`, `q̇` at the start of the step (after the re-selection's impulse).
+    q0: Vec<f64>,
+    qd0: Vec<f64>,
+    /// `Σ wᵢ` of the stages' position slopes and accelerations (`w = 1, 2, 2, 1`).
+    kv: Vec<f64>,
+    ka: Vec<f64>,
+    /// The Lie-algebra increment that made the current stage's floating pose from `q0`.
+    theta: Vec<f64>,
+}
+
+impl RkBuffers {
+    /// Sized for `model` (allocates at the first call only).
+    fn fit(&mut self, model: &Model) {
+        if self.q0.len() != model.nq || self.qd0.len() != model.nv {
+            self.q0 = vec![0.0; model.nq];
+            for v in [&mut self.qd0, &mut self.kv, &mut self.ka, &mut self.theta] {
+                *v = vec![0.0; model.nv];
+            }
+        }
+    }
+}
+
+/// The stage weights of classic RK4 and the fractions of `h` at which stages 2–4 are taken.
+const WEIGHTS: [f64; 4] = [1.0, 2.0, 2.0, 1.0];
+const NEXT: [f64; 3] = [0.5, 0.5, 1.0];
+
+impl Adaptive {
+    /// One classic fourth-order Runge–Kutta step of the hybrid body (also [`crate::step`] with
+    /// [`Integrator::Rk4`](articula_dca::Integrator::Rk4)). The re-selection is
+    /// [`Adaptive::step`]'s (every `reselect_every` steps, the first included, with its locking
+    /// impulses and caches); the hybrid body it leaves is kept for the four stages, each an
+    /// adaptive forward-dynamics evaluation of the active joints at the stage's state (see
+    /// the module `rk4.rs`): with every joint active this is articula-dca's RK4 step (without
+    /// its momentum projection, `Data::momentum_projection`), to rounding. Locked joints keep
+    /// `q̇ = 0` and their `q`. The external wrenches of `state.f_ext` are held constant over
+    /// the step (as in articula-dca).
+    ///
+    /// Costs four hybrid steps between re-selections (O(active region) each) plus the
+    /// re-selection when there is one; allocates nothing after its first call. On an error
+    /// in a later stage (a non-finite acceleration or result), the active joints' `q`, `q̇`
+    /// are put back to their values at the step's start (after the impulse, if any).
+    pub fn step_rk4(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+        dt: f64,
+    ) -> Result<StepReport, AdaptiveError> {
+        self.fsparse.clear();
+        for (i, f) in state.f_ext.iter().enumerate() {
+            if *f != SpatialForce::ZERO {
+                self.fsparse.push((i, *f));
+            }
+        }
+        self.settings.validate()?;
+        let mut report = StepReport {
+            reselected: !self.hier.valid || self.steps.is_multiple_of(self.settings.reselect_every),
+            ..StepReport::default()
+        };
+        // Stage 1 is the Euler step's dynamics: re-selection, impulse, q̈ of the active joints.
+        if report.reselected || self.full_passes {
+            self.step_passes(model, state, &mut report)?;
+        } else {
+            self.check_active_inputs(model, state)?;
+            self.hybrid_step(model, &state.q, &state.qd, &state.tau, false)?;
+        }
+        let mut rk = std::mem::take(&mut self.rk);
+        rk.fit(model);
+        let result = self.rk4_stages(model, state, dt, &mut rk);
+        if result.is_err() {
+            self.restore(model, state, &rk);
+        }
+        self.rk = rk;
+        let (dofs, touched) = result?;
+        self.steps += 1;
+        report.active_dofs = dofs;
+        report.predicted_error = self.last.predicted_error;
+        report.nodes_touched = touched;
+        Ok(report)
+    }
+
+    /// The four stages after `k₁`'s accelerations are in `qdd`, and the update of the active
+    /// joints. Returns the active degrees of freedom and the nodes the stages visited.
+    fn rk4_stages(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+        dt: f64,
+        rk: &mut RkBuffers,
+    ) -> Result<(usize, usize), AdaptiveError> {
+        for rec in &self.hier.rec {
+            let b = &model.bodies[rec.j()];
+            let (qr, vr) = (b.q_offset..b.q_offset + b.nq, b.v_offset..b.v_offset + b.nv);
+            rk.q0[qr.clone()].copy_from_slice(&state.q[qr]);
+            rk.qd0[vr.clone()].copy_from_slice(&state.qd[vr.clone()]);
+            rk.kv[vr.clone()].fill(0.0);
+            rk.ka[vr.clone()].fill(0.0);
+            rk.theta[vr].fill(0.0);
+        }
+        let mut touched = self.touched;
+        for stage in 0..4 {
+            if stage > 0 {
+                self.hybrid_step(model, &state.q, &state.qd, &state.tau, false)?;
+                touched += self.touched;
+            }
+            let w = WEIGHTS[stage];
+            for rec in &self.hier.rec {
+                let b = &model.bodies[rec.j()];
+                let vr = b.v_offset..b.v_offset + b.nv;
+                if !finite(&self.qdd[vr.clone()]) {
+                    return Err(non_finite(model, rec.j(), "qdd", &self.qdd).into());
+                }
+                // The position slope: q̇, but a floating joint's is dexp⁻¹_{−Θ}(ξ).
+                for part in &b.joint {
+                    if part.kind == JointKind::Floating {
+                        let r = part.v_offset..part.v_offset + 6;
+                        rkmk_slope(&rk.theta[r.clone()], &mut state.qd[r]);
+                    }
+                }
+                for v in vr.clone() {
+                    rk.kv[v] += w * state.qd[v];
+                    rk.ka[v] += w * self.qdd[v];
+                }
+                if stage < 3 {
+                    // The next stage's state: q0 ⊕ h k_v, q̇0 + h k_a with this stage's k.
+                    let h = NEXT[stage] * dt;
+                    let qr = b.q_offset..b.q_offset + b.nq;
+                    state.q[qr.clone()].copy_from_slice(&rk.q0[qr]);
+                    for part in &b.joint {
+                        integrate_part(part, &mut state.q, &state.qd, h);
+                    }
+                    for v in vr {
+                        rk.theta[v] = h * state.qd[v];
+                        state.qd[v] = rk.qd0[v] + h * self.qdd[v];
+                    }
+                }
+            }
+        }
+        let mut dofs = 0;
+        for rec in &self.hier.rec {
+            let b = &model.bodies[rec.j()];
+            let (qr, vr) = (b.q_offset..b.q_offset + b.nq, b.v_offset..b.v_offset + b.nv);
+            dofs += b.nv;
+            state.q[qr.clone()].copy_from_slice(&rk.q0[qr.clone()]);
+            for v in vr.clone() {
+                rk.kv[v] /= 6.0;
+                state.qd[v] = rk.qd0[v] + dt * rk.ka[v] / 6.0;
+            }
+            for part in &b.joint {
+                integrate_part(part, &mut state.q, &rk.kv, dt);
+            }
+            if !finite(&state.q[qr]) {
+                return Err(non_finite(model, rec.j(), "q after the step", &state.q).into());
+            }
+            if !finite(&state.qd[vr]) {
+                return Err(non_finite(model, rec.j(), "qd after the step", &state.qd).into());
+            }
+        }
+        Ok((dofs, touched))
+    }
+
+    /// Puts the active joints' `q`, `q̇` back to the step's start values.
+    fn restore(&self, model: &Model, state: &mut State, rk: &RkBuffers) {
+        if rk.q0.len() != model.nq {
+            return;
+        }
+        for rec in &self.hier.rec {
+            let b = &model.bodies[rec.j()];
+            let (qr, vr) = (b.q_offset..b.q_offset + b.nq, b.v_offset..b.v_offset + b.nv);
+            state.q[qr.clone()].copy_from_slice(&rk.q0[qr]);
+            state.qd[vr.clone()].copy_from_slice(&rk.qd0[vr]);
+        }
+    }
+}
+
+/// Replaces a floating joint's body twist `ξ` by the RKMK slope
+/// `dexp⁻¹_{−Θ}(ξ) = ξ + ½ [Θ, ξ] + ¹⁄₁₂ [Θ, [Θ, ξ]]` (enough for fourth order): with
+/// `q(t) = q0 exp(Θ(t))`, `Θ̇ = dexp⁻¹_{−Θ}(ξ)`; `[Θ, ξ]` is the se(3) bracket (the motion
+/// cross product). The same slope as articula-dca's RK4 step.
+fn rkmk_slope(theta: &[f64], xi: &mut [f64]) {
+    let t = SpatialMotion::from_array(std::array::from_fn(|i| theta[i]));
+    if t == SpatialMotion::ZERO {
+        return;
+    }
+    let x = SpatialMotion::from_array(std::array::from_fn(|i| xi[i]));
+    let b1 = t.cross_motion(x);
+    let b2 = t.cross_motion(b1);
+    xi.copy_from_slice(&(x + b1 * 0.5 + b2 * (1.0 / 12.0)).to_array());
+}
