@@ -204,17 +204,13 @@ impl Adaptive {
     }
 }
 
-/// Replaces a floating joint's body twist `ξ` by the RKMK slope
-/// `dexp⁻¹_{−Θ}(ξ) = ξ + ½ [Θ, ξ] + ¹⁄₁₂ [Θ, [Θ, ξ]]` (enough for fourth order): with
-/// `q(t) = q0 exp(Θ(t))`, `Θ̇ = dexp⁻¹_{−Θ}(ξ)`; `[Θ, ξ]` is the se(3) bracket (the motion
-/// cross product). The same slope as articula-dca's RK4 step.
+/// Replaces a floating joint's body twist `ξ` by the RKMK slope `dexp⁻¹_{−Θ}(ξ)`
+/// ([`SpatialMotion::dexp_inv_slope`], as articula-dca's RK4 step).
 fn rkmk_slope(theta: &[f64], xi: &mut [f64]) {
     let t = SpatialMotion::from_array(std::array::from_fn(|i| theta[i]));
     if t == SpatialMotion::ZERO {
         return;
     }
     let x = SpatialMotion::from_array(std::array::from_fn(|i| xi[i]));
-    let b1 = t.cross_motion(x);
-    let b2 = t.cross_motion(b1);
-    xi.copy_from_slice(&(x + b1 * 0.5 + b2 * (1.0 / 12.0)).to_array());
+    xi.copy_from_slice(&t.dexp_inv_slope(x).to_array());
 }

@@ -211,10 +211,7 @@ fn rkmk_slopes(model: &Model, qd: &mut [f64], theta: &[f64]) {
             continue;
         }
         let xi = SpatialMotion::from_array(std::array::from_fn(|i| qd[vo + i]));
-        let b1 = t.cross_motion(xi);
-        let b2 = t.cross_motion(b1);
-        let k = (xi + b1 * 0.5 + b2 * (1.0 / 12.0)).to_array();
-        qd[vo..vo + 6].copy_from_slice(&k);
+        qd[vo..vo + 6].copy_from_slice(&t.dexp_inv_slope(xi).to_array());
     }
 }
 

@@ -146,6 +146,16 @@ impl SpatialMotion {
         }
     }
 
+    /// The Runge–Kutta–Munthe-Kaas slope of a pose `q0 exp(Θ)` moving with body twist `xi`,
+    /// `Θ = self`: `Θ̇ = dexp⁻¹_{−Θ}(ξ) = ξ + ½ [Θ, ξ] + ¹⁄₁₂ [Θ, [Θ, ξ]]`, truncated where a
+    /// fourth-order integrator needs it (`[Θ, ξ]` is the se(3) bracket, [`Self::cross_motion`]).
+    #[inline]
+    pub fn dexp_inv_slope(self, xi: SpatialMotion) -> SpatialMotion {
+        let b1 = self.cross_motion(xi);
+        let b2 = self.cross_motion(b1);
+        xi + b1 * 0.5 + b2 * (1.0 / 12.0)
+    }
+
     /// Force cross product `self ×* f` (RBDA eq. 2.32): `[w × n + v × f; w × f]`.
     #[inline]
     pub fn cross_force(self, f: SpatialForce) -> SpatialForce {
