@@ -563,11 +563,13 @@ impl Adaptive {
         self.step_inner(model, state, dt)
     }
 
-    fn step_inner(
+    /// The dynamics of a step, before integration: re-selection (when due) with its locking
+    /// impulse, then the active joints' `q̈` of the hybrid body. Shared by the Euler step and
+    /// RK4's first stage.
+    fn step_dynamics(
         &mut self,
         model: &Model,
         state: &mut State,
-        dt: f64,
     ) -> Result<StepReport, AdaptiveError> {
         self.settings.validate()?;
         let mut report = StepReport {
@@ -580,6 +582,16 @@ impl Adaptive {
             self.check_active_inputs(model, state)?;
             self.hybrid_step(model, &state.q, &state.qd, &state.tau, false)?;
         }
+        Ok(report)
+    }
+
+    fn step_inner(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+        dt: f64,
+    ) -> Result<StepReport, AdaptiveError> {
+        let mut report = self.step_dynamics(model, state)?;
         let mut dofs = 0;
         for rec in &self.hier.rec {
             if rec.axis().is_some() {

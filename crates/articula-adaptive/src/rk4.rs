@@ -83,18 +83,8 @@ impl Adaptive {
                 self.fsparse.push((i, *f));
             }
         }
-        self.settings.validate()?;
-        let mut report = StepReport {
-            reselected: !self.hier.valid || self.steps.is_multiple_of(self.settings.reselect_every),
-            ..StepReport::default()
-        };
         // Stage 1 is the Euler step's dynamics: re-selection, impulse, q̈ of the active joints.
-        if report.reselected || self.full_passes {
-            self.step_passes(model, state, &mut report)?;
-        } else {
-            self.check_active_inputs(model, state)?;
-            self.hybrid_step(model, &state.q, &state.qd, &state.tau, false)?;
-        }
+        let mut report = self.step_dynamics(model, state)?;
         let mut rk = std::mem::take(&mut self.rk);
         rk.fit(model);
         let result = self.rk4_stages(model, state, dt, &mut rk);
