@@ -17,8 +17,9 @@ pub(crate) enum Side {
     B,
 }
 
-/// Per-step buffers of every algorithm. Build once with [`Data::new`]; a dynamics call or a
-/// step allocates nothing. `Data` also caches a few constants of the model's joints (their
+/// Per-step buffers of every algorithm. Build once with [`Data::new`] (DCA's own buffers are
+/// built by the first DCA call, [`Data::ensure_dca`]); a dynamics call or a step allocates
+/// nothing after that. `Data` also caches a few constants of the model's joints (their
 /// kinematic fast paths and offsets) and bodies (inverse inertias): build a new one for a
 /// changed model.
 #[derive(Clone, Debug)]
@@ -128,11 +129,12 @@ pub(crate) struct DcaData {
     /// Whether `forward_dynamics` runs the kinematics inside the main pass: each body's at its
     /// parent's leaf (the root bodies' at the ground's), which needs the ground first and every
     /// body's leaf after its parent's (true for the assembly trees of `articula-model`, whose
-    /// post-order visits a join's parent side first; checked in [`Data::new`]). The pose,
+    /// post-order visits a join's parent side first, and false with gather nodes; checked in
+    /// [`DcaData::build`]). The pose,
     /// velocity, `c` and `S` are then used while in cache instead of read back from memory.
     pub leaf_kinematics: bool,
     /// Whether the back-substitution prefetches what the join a few nodes ahead reads: set in
-    /// [`Data::new`] when the per-join streams it reads (`rev` and the cross blocks) exceed
+    /// [`DcaData::build`] when the per-join streams it reads (`rev` and the cross blocks) exceed
     /// [`PREFETCH_ABOVE`] bytes. Below that they stay in cache from the main pass, and the
     /// prefetches would only cost instructions.
     pub prefetch: bool,
@@ -198,7 +200,7 @@ pub(crate) struct DNode {
     pub nh: u32,
     /// Offset of its cross blocks in `phi`: the nh (nh − 1) / 2 blocks `Φ_hk`, h < k, row by
     /// row (`Φ_kh = Φ_hkᵀ`). A leaf's (the ground's) are in a slot like `dg`, ahead of the
-    /// joins' (see `Data::new`).
+    /// joins' (see `DcaData::build`).
     pub boff: u32,
     /// Offset of its handles in the slot arrays `dg`, `b` and `f`.
     pub slot: u32,

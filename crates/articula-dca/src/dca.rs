@@ -258,7 +258,7 @@ fn main_pass<A: Arith>(
             }
             DKind::Gather { body, first, count } => {
                 let g = crate::gather::Gather::of(body, first, count);
-                crate::gather::main(model, tau, f_ext, a_g, bias, data, n, g)?
+                crate::gather::main(model, tau, f_ext, bias, data, n, g)?
             }
         }
     }
@@ -537,7 +537,7 @@ fn sym3(u: &[f64; 6]) -> [[f64; 3]; 3] {
 
 /// `L⁻¹ b` (forward substitution; `l` from [`crate::small::cholesky6`], inverse diagonal).
 #[inline]
-fn solve_l(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
+pub(crate) fn solve_l(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
     let mut x = [0.0; 6];
     for i in 0..6 {
         let mut v = b[i];
@@ -551,7 +551,7 @@ fn solve_l(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
 
 /// `L⁻ᵀ b` (back substitution; inverse diagonal).
 #[inline]
-fn solve_lt(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
+pub(crate) fn solve_lt(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
     let mut x = [0.0; 6];
     for i in (0..6).rev() {
         let mut v = b[i];

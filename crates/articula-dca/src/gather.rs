@@ -19,6 +19,7 @@
 //! The ground as a hub does not move (`a = 0`). The back-substitution takes `a = Φ f + b` and
 //! gives each child's `q̈` and `f_c` by the first line.
 
+use crate::dca::{solve_l, solve_lt};
 use crate::small::{cholesky6, SmallSpd, SymT, TILE};
 use crate::{Data, DynamicsError};
 use articula_model::Model;
@@ -54,12 +55,12 @@ pub(crate) fn main(
     model: &Model,
     tau: &[f64],
     f_ext: &[SpatialForce],
-    a_g: SpatialMotion,
     bias: bool,
     data: &mut Data,
     n: usize,
     g: Gather,
 ) -> Result<(), DynamicsError> {
+    let a_g = SpatialMotion::new(DVec3::ZERO, data.gravity);
     let p_hub = g.hub.map_or(DVec3::ZERO, |h| data.dca.point[h]);
     let (mut ia, mut pa) = match g.hub {
         Some(h) => hub_inertia(model, h, f_ext, a_g, bias, data)?,
@@ -99,7 +100,9 @@ pub(crate) fn main(
             }
         }
         if !dm.invert() {
-            return Err(singular("Sᵀ K S is not positive definite at a gathered hub"));
+            return Err(singular(
+                "Sᵀ K S is not positive definite at a gathered hub",
+            ));
         }
         d.dinv[joint] = dm;
         // f_c at a = 0: K u₀ + K S D⁻¹ (τ − (K S)ᵀ u₀), u₀ = c_j − b_c.
@@ -174,10 +177,7 @@ pub(crate) fn back(tau: &[f64], data: &mut Data, n: usize, g: Gather) {
         }
         None => ([0.0; 6], DVec3::ZERO),
     };
-    let (aw, av) = (
-        DVec3::new(a[0], a[1], a[2]),
-        DVec3::new(a[3], a[4], a[5]),
-    );
+    let (aw, av) = (DVec3::new(a[0], a[1], a[2]), DVec3::new(a[3], a[4], a[5]));
     for k in g.first..g.first + g.count {
         let nd = d.node[d.gathered[k] as usize];
         let joint = d.hj[nd.hoff as usize] as usize;
@@ -363,30 +363,4 @@ fn inverse(l: &M6) -> M6 {
         }
     }
     inv
-}
-
-/// `L⁻¹ b` (inverse diagonal, as [`cholesky6`] stores it).
-fn solve_l(l: &M6, b: &[f64; 6]) -> [f64; 6] {
-    let mut x = [0.0; 6];
-    for i in 0..6 {
-        let mut v = b[i];
-        for p in 0..i {
-            v -= l[i][p] * x[p];
-        }
-        x[i] = v * l[i][i];
-    }
-    x
-}
-
-/// `L⁻ᵀ b` (inverse diagonal).
-fn solve_lt(l: &M6, b: &[f64; 6]) -> [f64; 6] {
-    let mut x = [0.0; 6];
-    for i in (0..6).rev() {
-        let mut v = b[i];
-        for p in i + 1..6 {
-            v -= l[p][i] * x[p];
-        }
-        x[i] = v * l[i][i];
-    }
-    x
 }

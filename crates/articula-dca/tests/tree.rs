@@ -9,8 +9,11 @@ use articula_model::{LoadOptions, Model, NodeKind};
 use articula_testkit::{hair_urdf, star_urdf, Dd, ReferenceModel};
 
 fn load(urdf: &str, floating_base: bool) -> Model {
-    Model::from_urdf_str(urdf, &LoadOptions::default().with_floating_base(floating_base))
-        .expect("the tree loads")
+    Model::from_urdf_str(
+        urdf,
+        &LoadOptions::default().with_floating_base(floating_base),
+    )
+    .expect("the tree loads")
 }
 
 /// A hub of 18 links, each with 18 children of its own on revolute joints (343 bodies with a
@@ -133,8 +136,14 @@ fn dca_agrees_on_trees_with_many_children() {
             });
             eprintln!("{label} seed {seed}: ABA {e_aba:.1e}, CRBA {e_crba:.1e}, ref {e_ref:.1e}");
             assert!(e_aba < 1e-10, "{label} seed {seed}: DCA vs ABA {e_aba:e}");
-            assert!(e_crba < 1e-10, "{label} seed {seed}: DCA vs CRBA {e_crba:e}");
-            assert!(e_ref < 1e-10, "{label} seed {seed}: DCA vs reference {e_ref:e}");
+            assert!(
+                e_crba < 1e-10,
+                "{label} seed {seed}: DCA vs CRBA {e_crba:e}"
+            );
+            assert!(
+                e_ref < 1e-10,
+                "{label} seed {seed}: DCA vs reference {e_ref:e}"
+            );
         }
     }
 }

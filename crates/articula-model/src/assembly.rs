@@ -336,8 +336,7 @@ impl AssemblyTree {
                 },
                 NodeKind::Gather { body, count, .. } => {
                     let first = tree.gathered.len();
-                    tree
-                        .gathered
+                    tree.gathered
                         .extend(tmp[t].children.iter().map(|&c| new_index[c]));
                     NodeKind::Gather { body, first, count }
                 }

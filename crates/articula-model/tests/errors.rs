@@ -1747,14 +1747,25 @@ fn many_children_are_gathered() {
     let k = articula_model::GATHER_ABOVE;
     let star = |children: usize| robot(&(link("hub", 1.0) + &star_parts("hub", children)));
     for floating_base in [false, true] {
-        let ld = |t: &str| if floating_base { load_floating(t) } else { load(t) }.unwrap();
+        let ld = |t: &str| {
+            if floating_base {
+                load_floating(t)
+            } else {
+                load(t)
+            }
+            .unwrap()
+        };
         let m = ld(&star(k));
         check_invariants(&m);
         assert!(!m.assembly.has_gather());
         let m = ld(&star(40 * k));
         check_invariants(&m);
         assert!(m.assembly.has_gather());
-        assert!(m.assembly.max_handles() <= 2, "{}", m.assembly.max_handles());
+        assert!(
+            m.assembly.max_handles() <= 2,
+            "{}",
+            m.assembly.max_handles()
+        );
         // A hub of hubs: every child of the hub has k + 1 children.
         let mut text = link("hub", 1.0) + &star_parts("hub", k + 1);
         for i in 0..=k {
@@ -1769,7 +1780,11 @@ fn many_children_are_gathered() {
             .filter(|n| matches!(n.kind, articula_model::NodeKind::Gather { .. }))
             .count();
         assert_eq!(gathers, k + 2, "the hub and each of its children");
-        assert!(m.assembly.max_handles() <= 2, "{}", m.assembly.max_handles());
+        assert!(
+            m.assembly.max_handles() <= 2,
+            "{}",
+            m.assembly.max_handles()
+        );
         assert!(m.assembly.depth() <= 4, "depth {}", m.assembly.depth());
     }
 }
