@@ -627,6 +627,9 @@ impl Adaptive {
             c.xp[side][..rows * NW].fill(0.0);
             c.xe[side].fill(0.0);
             match tree.nodes[x].kind {
+                NodeKind::Gather { .. } => {
+                    unreachable!("adaptive refuses models with gather nodes (`load_state`)")
+                }
                 NodeKind::Ground => {}
                 NodeKind::Body(_) => {
                     self.leaf_columns(model, x, &xn, &xx, grounded, side);

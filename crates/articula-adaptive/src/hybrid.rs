@@ -540,6 +540,9 @@ impl Adaptive {
         let tree = &model.assembly;
         for (n, node) in tree.nodes.iter().enumerate() {
             match node.kind {
+                NodeKind::Gather { .. } => {
+                    unreachable!("adaptive refuses models with gather nodes (`load_state`)")
+                }
                 NodeKind::Ground => {
                     self.comp[n] = Rigid::default();
                     self.grounded[n] = true;

@@ -148,6 +148,10 @@ pub enum AdaptiveError {
     /// A dynamics error (dimension, non-finite value naming its joint, singular inertia).
     #[error(transparent)]
     Dynamics(#[from] DynamicsError),
+    /// A model adaptive dynamics cannot simulate: one whose assembly tree has a gather node (a
+    /// body with more than `articula_model::GATHER_ABOVE` children, docs/design.md#assembly-tree).
+    #[error("adaptive dynamics does not support this model: {0}")]
+    Unsupported(String),
 }
 
 /// Advances `state` by `dt` with adaptive dynamics: the stepping call of
@@ -306,6 +310,9 @@ impl Adaptive {
         tau: &[f64],
         f_ext: &[SpatialForce],
     ) -> Result<(), AdaptiveError> {
+        if model.assembly.has_gather() {
+            return Err(unsupported_tree(model));
+        }
         check_inputs(model, q, qd, tau, f_ext)?;
         // Kinematics left by node_metrics for this very state are reused (the same bits:
         // compared by `memcmp`, much cheaper than `f64` equality; a `-0.0` for a
@@ -1006,4 +1013,24 @@ fn check_qdd(model: &Model, qdd: &[f64]) -> Result<(), DynamicsError> {
         }
     }
     Ok(())
+}
+
+/// The error for a model whose assembly tree has a gather node (see
+/// [`AdaptiveError::Unsupported`]).
+#[cold]
+fn unsupported_tree(model: &Model) -> AdaptiveError {
+    let tree = &model.assembly;
+    let hub = tree.nodes.iter().find_map(|n| match n.kind {
+        NodeKind::Gather { body, count, .. } => Some((body, count)),
+        _ => None,
+    });
+    let (name, count) = match hub {
+        Some((Some(b), count)) => (format!("link {}", model.bodies[b].name), count),
+        Some((None, count)) => ("the fixed base".to_string(), count),
+        None => (String::new(), 0),
+    };
+    AdaptiveError::Unsupported(format!(
+        "{name} has {count} children (more than {}); use the exact methods (dca, aba, crba)",
+        articula_model::GATHER_ABOVE
+    ))
 }

@@ -109,6 +109,9 @@ impl Adaptive {
             touched += 1;
             self.cache.stamp[f] = ep;
             match tree.nodes[f].kind {
+                NodeKind::Gather { .. } => {
+                    unreachable!("adaptive refuses models with gather nodes (`load_state`)")
+                }
                 NodeKind::Ground => self.ground_coefficients(f),
                 NodeKind::Body(i) => {
                     let x = self.data.x[i];
@@ -372,6 +375,9 @@ impl Adaptive {
                 continue;
             }
             match tree.nodes[d].kind {
+                NodeKind::Gather { .. } => {
+                    unreachable!("adaptive refuses models with gather nodes (`load_state`)")
+                }
                 NodeKind::Ground => {}
                 NodeKind::Body(_) => self.leaf_delta(model, d, self.fsum[d]),
                 NodeKind::Join { .. } => self.dirty_delta(model, d),

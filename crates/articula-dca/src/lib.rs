@@ -53,6 +53,7 @@ mod energy;
 mod error;
 mod finite;
 mod forward;
+mod gather;
 mod inputs;
 mod integrate;
 mod inverse;

@@ -53,7 +53,7 @@ mod urdf;
 mod urdf_rs_interop;
 mod warning;
 
-pub use assembly::{AssemblyNode, AssemblyTree, HandleLayout, NodeKind};
+pub use assembly::{AssemblyNode, AssemblyTree, HandleLayout, NodeKind, GATHER_ABOVE};
 pub use body_inertia::{InertiaChange, InertiaDefect, InertiaDefectKind};
 pub use error::ModelError;
 pub use model::{Body, JointPart, LinkFrame, LockedJoint, Model, FLOATING_BASE_JOINT};
