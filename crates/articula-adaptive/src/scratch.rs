@@ -48,8 +48,11 @@
 //! unchanged; untouched memory costs no cache) and are re-fitted to the reduced tree after each
 //! `_with` call, so plain calls keep working before and after `_with` calls, in any mix.
 
-use crate::hybrid::{Adaptive, Rigid};
-use crate::{AdaptiveError, StepReport};
+use crate::adaptive::Adaptive;
+use crate::error::AdaptiveError;
+use crate::parts::composites::Rigid;
+use crate::parts::hierarchy::Sym6;
+use crate::report::StepReport;
 use articula_dca::{Data, State};
 use articula_model::Model;
 use articula_spatial::SpatialForce;
@@ -65,7 +68,7 @@ pub struct Scratch {
     /// The whole `data` of [`Adaptive::node_metrics_with`]; its kinematics (`x`, `v`, `c`,
     /// `s`, `inertia`) for the other calls.
     data: Data,
-    ia: Vec<crate::hierarchy::Sym6>,
+    ia: Vec<Sym6>,
     pa: Vec<[f64; 6]>,
     acc: Vec<[f64; 6]>,
     dinv: Vec<f64>,
@@ -112,8 +115,8 @@ impl Scratch {
         let own = [
             ad.data.x.len(),
             ad.data.s.len(),
-            ad.fresh_q.len(),
-            ad.nh.len(),
+            ad.fresh.q.len(),
+            ad.body.active.len(),
         ];
         if own == self.sizes {
             Ok(())
@@ -155,13 +158,13 @@ impl Adaptive {
         swap(&mut h.u, &mut s.u);
         swap(&mut h.uu, &mut s.uu);
         swap(&mut h.sc, &mut s.sc);
-        swap(&mut self.fsum, &mut s.fsum);
+        swap(&mut self.forces.node_sums, &mut s.fsum);
         if !step {
-            swap(&mut self.comp, &mut s.comp);
-            swap(&mut self.hsub, &mut s.hsub);
-            swap(&mut self.gmom, &mut s.gmom);
-            swap(&mut self.fext_c, &mut s.fext_c);
-            swap(&mut self.fdense, &mut s.fdense);
+            swap(&mut self.composites.rigid, &mut s.comp);
+            swap(&mut self.impulse.subtree, &mut s.hsub);
+            swap(&mut self.impulse.momenta, &mut s.gmom);
+            swap(&mut self.forces.computation, &mut s.fext_c);
+            swap(&mut self.forces.dense, &mut s.fdense);
         }
         if kin {
             let (d, sd) = (&mut self.data, &mut s.data);
@@ -181,7 +184,7 @@ impl Adaptive {
     #[inline]
     fn between_reselections(&self) -> bool {
         self.hier.valid
-            && !self.full_passes
+            && !self.switches.full_passes
             && !self.steps.is_multiple_of(self.settings.reselect_every)
     }
 
@@ -238,7 +241,7 @@ impl Adaptive {
         s.check(self)?;
         // Kinematics left by `node_metrics` for its state are read by the next load: they
         // stay where they are.
-        let kin = !self.fresh;
+        let kin = !self.fresh.valid;
         let full = [s.sizes[0], s.sizes[1]];
         self.swap_scratch(s, kin, step);
         self.fit_reduced(full);
@@ -247,7 +250,7 @@ impl Adaptive {
         self.fit_reduced(full);
         if kin {
             // (No call but `node_metrics` sets it; its kinematics would be in the scratch.)
-            self.fresh = false;
+            self.fresh.valid = false;
         }
         r
     }
@@ -342,7 +345,13 @@ impl Adaptive {
         out: &mut [f64],
     ) -> Result<(), AdaptiveError> {
         self.exact_solve_with(scratch, model, q, qd, tau, f_ext)?;
-        crate::metric::subtree_quadratic(model, &self.aw, &self.woff, &self.qdd, out);
+        crate::metric::subtree_quadratic(
+            model,
+            &self.metric.accel_weights,
+            &self.metric.weight_at,
+            &self.body.qdd,
+            out,
+        );
         Ok(())
     }
 
@@ -365,7 +374,7 @@ impl Adaptive {
         sd.gravity = d.gravity;
         sd.refine_floating = d.refine_floating;
         sd.momentum_projection = d.momentum_projection;
-        let r = crate::solve_exact(model, sd, &mut self.qdd, q, qd, tau, f_ext);
+        let r = crate::metric::solve_exact(model, sd, &mut self.body.qdd, q, qd, tau, f_ext);
         if r.is_ok() {
             self.mark_fresh(q, qd);
             // The exact solve's kinematics into the workspace, for the next load of this state
@@ -382,7 +391,7 @@ impl Adaptive {
             swap(&mut d.s, &mut sd.s);
             swap(&mut d.inertia, &mut sd.inertia);
         } else {
-            self.fresh = false;
+            self.fresh.valid = false;
         }
         Ok(r?)
     }
