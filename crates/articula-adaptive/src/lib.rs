@@ -139,31 +139,19 @@ impl Adaptive {
     /// a weight that changes marks them stale, so the next re-selection runs whole-body passes
     /// (an unchanged weight keeps them).
     pub fn set_weight(&mut self, model: &Model, body: usize, scale: f64) {
-        let k = model.bodies[body].nv;
-        let w = &mut self.metric.accel_weights
-            [self.metric.weight_at[body]..self.metric.weight_at[body] + k * k];
-        let same = (0..k).all(|i| (0..k).all(|j| w[i * k + j] == if i == j { scale } else { 0.0 }));
-        if !same {
-            scaled_identity(w, k, scale);
+        if self.metric.set_accel_weight(model, body, scale) {
             self.cache.ready = false;
         }
     }
 
     /// Velocity-metric weight of body `body`'s joint: `V = scale · 1` (scale ≥ 0).
     pub fn set_velocity_weight(&mut self, model: &Model, body: usize, scale: f64) {
-        let k = model.bodies[body].nv;
-        scaled_identity(
-            &mut self.metric.velocity_weights
-                [self.metric.weight_at[body]..self.metric.weight_at[body] + k * k],
-            k,
-            scale,
-        );
+        self.metric.set_velocity_weight(model, body, scale);
     }
 
     /// The acceleration-metric weight matrix `A_i` (k × k, row-major) of body `body`'s joint.
     pub fn weight(&self, model: &Model, body: usize) -> &[f64] {
-        let k = model.bodies[body].nv;
-        &self.metric.accel_weights[self.metric.weight_at[body]..self.metric.weight_at[body] + k * k]
+        self.metric.accel_weight(model, body)
     }
 
     /// The last selection.
@@ -286,13 +274,7 @@ impl Adaptive {
         out: &mut [f64],
     ) -> Result<(), AdaptiveError> {
         self.exact_solve(model, q, qd, tau, f_ext)?;
-        crate::metric::subtree_quadratic(
-            model,
-            &self.metric.accel_weights,
-            &self.metric.weight_at,
-            &self.body.qdd,
-            out,
-        );
+        self.exact_node_metrics(model, out);
         Ok(())
     }
 
@@ -881,15 +863,6 @@ fn integrate_part(part: &articula_model::JointPart, q: &mut [f64], qd: &[f64], h
             articula_dca::integrate_floating(&mut q[qo..qo + 7], &qd[vo..vo + 6], h);
         }
         _ => q[part.q_offset] += qd[part.v_offset] * h,
-    }
-}
-
-/// `w = scale · 1` (k × k, row-major).
-fn scaled_identity(w: &mut [f64], k: usize, scale: f64) {
-    for p in 0..k {
-        for q in 0..k {
-            w[p * k + q] = if p == q { scale } else { 0.0 };
-        }
     }
 }
 

@@ -315,6 +315,17 @@ impl Adaptive {
         sel
     }
 
+    /// `A(C)` of every node at the joint accelerations in `body.qdd` (an exact solve's).
+    pub(crate) fn exact_node_metrics(&self, model: &Model, out: &mut [f64]) {
+        subtree_quadratic(
+            model,
+            &self.metric.accel_weights,
+            &self.metric.weight_at,
+            &self.body.qdd,
+            out,
+        );
+    }
+
     /// `V(C)` of every node from the velocities `qd`, bottom-up.
     pub(crate) fn velocity_metric(&mut self, model: &Model, qd: &[f64]) {
         subtree_quadratic(

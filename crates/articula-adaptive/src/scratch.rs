@@ -130,17 +130,6 @@ impl Scratch {
     }
 }
 
-/// Grows `v` to at least `need` elements, reserving `full` at the first growth (a later one
-/// then allocates nothing).
-fn grow<T: Clone>(v: &mut Vec<T>, need: usize, full: usize, x: T) {
-    if v.len() < need {
-        if v.capacity() < full {
-            v.reserve_exact(full - v.len());
-        }
-        v.resize(need, x);
-    }
-}
-
 impl Adaptive {
     /// Exchanges the per-call buffers with `s`'s (the kinematics in `data` too when `kin`).
     /// With `step` (a hybrid step between re-selections, [`Adaptive::between_reselections`]),
@@ -188,46 +177,6 @@ impl Adaptive {
             && !self.steps.is_multiple_of(self.settings.reselect_every)
     }
 
-    /// The reduced tree's workspace in `hier` at least as long as its records need (the
-    /// articulated-body passes index it by record and degree of freedom): a shared buffer may
-    /// have been sized for another body's reduced tree, and the workspace's own buffers for an
-    /// older one of this body.
-    #[inline]
-    fn fit_reduced(&mut self, full: [usize; 2]) {
-        let h = &self.hier;
-        let na = h.rec.len();
-        let dof = h.rec.last().map_or(0, |r| r.dof() + r.k());
-        let fits = [
-            h.ia.len(),
-            h.pa.len(),
-            h.acc.len(),
-            h.dinv.len(),
-            h.chol.len(),
-        ]
-        .iter()
-        .all(|&l| l >= na)
-            && h.u.len() >= dof
-            && h.uu.len() >= dof
-            && h.sc.len() >= h.ang.len();
-        if !fits {
-            self.grow_reduced(na, dof, full);
-        }
-    }
-
-    #[cold]
-    #[inline(never)]
-    fn grow_reduced(&mut self, na: usize, dof: usize, [nb, nv]: [usize; 2]) {
-        let h = &mut self.hier;
-        grow(&mut h.ia, na, nb, [[0.0; 6]; 6]);
-        grow(&mut h.pa, na, nb, [0.0; 6]);
-        grow(&mut h.acc, na, nb, [0.0; 6]);
-        grow(&mut h.dinv, na, nb, 0.0);
-        grow(&mut h.chol, na, nb, [[0.0; 6]; 6]);
-        grow(&mut h.u, dof, nv, [0.0; 6]);
-        grow(&mut h.uu, dof, nv, 0.0);
-        grow(&mut h.sc, h.ang.len(), nv, (0.0, 1.0));
-    }
-
     /// Runs `call` on this workspace with `s`'s per-call buffers in place of its own (with
     /// `step`, those of a hybrid step between re-selections only: see
     /// [`Adaptive::swap_scratch`]).
@@ -244,10 +193,10 @@ impl Adaptive {
         let kin = !self.fresh.valid;
         let full = [s.sizes[0], s.sizes[1]];
         self.swap_scratch(s, kin, step);
-        self.fit_reduced(full);
+        self.hier.fit_reduced(full);
         let r = call(self);
         self.swap_scratch(s, kin, step);
-        self.fit_reduced(full);
+        self.hier.fit_reduced(full);
         if kin {
             // (No call but `node_metrics` sets it; its kinematics would be in the scratch.)
             self.fresh.valid = false;
@@ -345,13 +294,7 @@ impl Adaptive {
         out: &mut [f64],
     ) -> Result<(), AdaptiveError> {
         self.exact_solve_with(scratch, model, q, qd, tau, f_ext)?;
-        crate::metric::subtree_quadratic(
-            model,
-            &self.metric.accel_weights,
-            &self.metric.weight_at,
-            &self.body.qdd,
-            out,
-        );
+        self.exact_node_metrics(model, out);
         Ok(())
     }
 

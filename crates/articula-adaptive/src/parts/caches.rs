@@ -52,7 +52,7 @@ pub(crate) struct Caches {
     /// Per node: the join's bias maps κ, ν (cache-frame axes; a dirty path's join).
     pub jm: Vec<BiasMaps>,
     /// The joint torques the caches were built with, and whether each re-selection compares
-    /// them (O(n)) with the state's (see [`Adaptive::set_check_locked_torques`]).
+    /// them (O(n)) with the state's (see `Adaptive::set_check_locked_torques`).
     pub tau: Vec<f64>,
     pub check_tau: bool,
     /// Whether the model's handle points are fixed in their rigid nodes (see the module doc).
@@ -79,7 +79,7 @@ pub(crate) struct Caches {
     pub dn: Vec<[f64; 6]>,
     pub deta: Vec<f64>,
     pub dk: Vec<f64>,
-    /// Forced paths as linear maps of one leaf's wrench ([`Adaptive::join_map`]): per node
+    /// Forced paths as linear maps of one leaf's wrench (`Adaptive::join_map`): per node
     /// the number of forced leaves below it on this re-selection's dirty paths (saturating at
     /// 2), the one leaf when there is one, whether its map is valid, and the re-selection
     /// that evaluated its deltas.
@@ -91,7 +91,7 @@ pub(crate) struct Caches {
     /// valid while it is younger than its node's cache and its dirty child's map.
     pub clock: u64,
     pub cgen: Vec<u64>,
-    /// Off: every dirty node by [`Adaptive::dirty_delta`] (the reference for tests).
+    /// Off: every dirty node by `Adaptive::dirty_delta` (the reference for tests).
     pub no_maps: bool,
     /// The maps (allocated at the first re-selection with external forces), per node: the
     /// leaf they are for, their record's time, whether built, the leaf's frame in the node's

@@ -8,7 +8,7 @@ use articula_spatial::SpatialTransform;
 use glam::DVec3;
 
 /// Lists and frames of the current hybrid body. (`repr(C)`: the fields a step between
-/// re-selections reads come first, in a few cache lines; see [`Adaptive`]'s.)
+/// re-selections reads come first, in a few cache lines; see `Adaptive`'s.)
 #[derive(Clone, Debug, Default)]
 #[repr(C)]
 pub(crate) struct Hierarchy {
@@ -30,7 +30,7 @@ pub(crate) struct Hierarchy {
     /// Per angle of the reduced tree — a closed-form revolute joint's, then each part of a
     /// joint of [`RevoluteParts`], in record order (the kinematics take them in turn) —
     /// its coordinate and sign (`ang`, built with the records) and the `sin`, `cos` of its
-    /// signed value (`sc`), computed in a first sweep of [`Adaptive::active_kinematics`], four
+    /// signed value (`sc`), computed in a first sweep of `Adaptive::active_kinematics`, four
     /// at a time, so that its main loop makes no call (every vector register is
     /// caller-saved). (`ang` in 8 bytes an angle, the sign `±1` exact in `f32`: a crowd's
     /// bodies run through more data than the 1 MB L2 holds, every byte read per step counts;
@@ -47,7 +47,7 @@ pub(crate) struct Hierarchy {
     /// with the build it was found in (`(gen, node)`, found on the first force after a build).
     pub gen: u64,
     pub fcl: Vec<(u64, usize)>,
-    /// The records' degrees of freedom, `Σ k` (what [`Adaptive::active_dofs`] reports while
+    /// The records' degrees of freedom, `Σ k` (what `Adaptive::active_dofs` reports while
     /// `valid`, read once per step by a scene).
     pub dofs: usize,
     /// Built for the current hybrid body (cleared by a re-selection).
@@ -79,6 +79,59 @@ pub(crate) struct Hierarchy {
     pub axis: Vec<Option<(usize, f64)>>,
     /// Per body: its record while building them (valid for the active bodies).
     pub ridx: Vec<usize>,
+}
+
+impl Hierarchy {
+    /// The reduced tree's workspace at least as long as its records need (the
+    /// articulated-body passes index it by record and degree of freedom): a shared buffer may
+    /// have been sized for another body's reduced tree, and the workspace's own buffers for an
+    /// older one of this body.
+    #[inline]
+    pub(crate) fn fit_reduced(&mut self, full: [usize; 2]) {
+        let h = &*self;
+        let na = h.rec.len();
+        let dof = h.rec.last().map_or(0, |r| r.dof() + r.k());
+        let fits = [
+            h.ia.len(),
+            h.pa.len(),
+            h.acc.len(),
+            h.dinv.len(),
+            h.chol.len(),
+        ]
+        .iter()
+        .all(|&l| l >= na)
+            && h.u.len() >= dof
+            && h.uu.len() >= dof
+            && h.sc.len() >= h.ang.len();
+        if !fits {
+            self.grow_reduced(na, dof, full);
+        }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn grow_reduced(&mut self, na: usize, dof: usize, [nb, nv]: [usize; 2]) {
+        let h = self;
+        grow(&mut h.ia, na, nb, [[0.0; 6]; 6]);
+        grow(&mut h.pa, na, nb, [0.0; 6]);
+        grow(&mut h.acc, na, nb, [0.0; 6]);
+        grow(&mut h.dinv, na, nb, 0.0);
+        grow(&mut h.chol, na, nb, [[0.0; 6]; 6]);
+        grow(&mut h.u, dof, nv, [0.0; 6]);
+        grow(&mut h.uu, dof, nv, 0.0);
+        grow(&mut h.sc, h.ang.len(), nv, (0.0, 1.0));
+    }
+}
+
+/// Grows `v` to at least `need` elements, reserving `full` at the first growth (a later one
+/// then allocates nothing).
+fn grow<T: Clone>(v: &mut Vec<T>, need: usize, full: usize, x: T) {
+    if v.len() < need {
+        if v.capacity() < full {
+            v.reserve_exact(full - v.len());
+        }
+        v.resize(need, x);
+    }
 }
 
 /// Where an active joint's parent body is. (Body indices as `u32`: eight bytes, not 16.)

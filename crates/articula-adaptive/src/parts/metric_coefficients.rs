@@ -59,3 +59,37 @@ impl MetricCoefficients {
         }
     }
 }
+
+impl MetricCoefficients {
+    /// `A_i` of body `body`'s joint (k × k, row-major).
+    pub(crate) fn accel_weight(&self, model: &Model, body: usize) -> &[f64] {
+        let (wo, k) = (self.weight_at[body], model.bodies[body].nv);
+        &self.accel_weights[wo..wo + k * k]
+    }
+
+    /// `A_i = scale · 1` for body `body`'s joint; whether it changed.
+    pub(crate) fn set_accel_weight(&mut self, model: &Model, body: usize, scale: f64) -> bool {
+        let (wo, k) = (self.weight_at[body], model.bodies[body].nv);
+        let w = &mut self.accel_weights[wo..wo + k * k];
+        let same = (0..k).all(|i| (0..k).all(|j| w[i * k + j] == if i == j { scale } else { 0.0 }));
+        if !same {
+            scaled_identity(w, k, scale);
+        }
+        !same
+    }
+
+    /// `V_i = scale · 1` for body `body`'s joint.
+    pub(crate) fn set_velocity_weight(&mut self, model: &Model, body: usize, scale: f64) {
+        let (wo, k) = (self.weight_at[body], model.bodies[body].nv);
+        scaled_identity(&mut self.velocity_weights[wo..wo + k * k], k, scale);
+    }
+}
+
+/// `w = scale · 1` (k × k, row-major).
+fn scaled_identity(w: &mut [f64], k: usize, scale: f64) {
+    for p in 0..k {
+        for q in 0..k {
+            w[p * k + q] = if p == q { scale } else { 0.0 };
+        }
+    }
+}

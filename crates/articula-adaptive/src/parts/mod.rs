@@ -1,4 +1,4 @@
-//! The named parts of an [`Adaptive`](crate::Adaptive) workspace, one module each: what each
+//! The named parts of an `Adaptive` workspace, one module each: what each
 //! holds, which equation of docs/design.md#adaptive it stores, how it is sized for a model.
 //! The passes that read and write them are `impl Adaptive` blocks in the crate's other modules;
 //! a part never names the workspace, so the parts sit below every pass (no module cycle).
