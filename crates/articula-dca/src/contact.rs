@@ -18,8 +18,9 @@
 //!    position change only, so it adds no kinetic energy.
 //!
 //! Targets: a row whose gap `φ > 0` may close it but not cross it (`u ≥ −φ/dt`, speculative
-//! contact: no impact is missed and none is early); a touching contact (`φ ≤ slop`)
-//! approaching faster than `restitution_velocity` leaves at `e` times its approach speed.
+//! contact: no impact is missed); a contact whose gap closes within the step at its
+//! start-of-step approach speed `u⁻`, faster than `restitution_velocity`, leaves at `−e u⁻`
+//! (the bounce starts up to `|u⁻| dt` early: the ball turns a little above the floor).
 
 use crate::contact_solver::{self, Block};
 use crate::{forward_dynamics_slices, integrate_q, Data, DynamicsError, Method, State};
@@ -268,7 +269,10 @@ fn check(settings: &ContactSettings, dt: f64) -> Result<Option<(Ground, DVec3)>,
         return bad("friction", format!("{} must be finite and ≥ 0", g.friction));
     }
     if !(0.0..=1.0).contains(&g.restitution) {
-        return bad("restitution", format!("{} must be in [0, 1]", g.restitution));
+        return bad(
+            "restitution",
+            format!("{} must be in [0, 1]", g.restitution),
+        );
     }
     Ok(Some((g, g.normal / len)))
 }
@@ -356,10 +360,12 @@ pub fn step_with_contact(
                 row,
                 mu: g.friction,
             });
-            let bounce = phi <= settings.slop && pre < -settings.restitution_velocity;
-            let target = if phi > settings.slop {
-                -phi / dt
-            } else if bounce {
+            // An impact in this step (the gap closes at the start-of-step speed) fast enough
+            // to bounce leaves at e times that speed; otherwise the gap may close, not cross.
+            let bounce = g.restitution > 0.0
+                && pre < -settings.restitution_velocity
+                && phi + dt * pre <= settings.slop;
+            let target = if bounce {
                 -g.restitution * pre
             } else {
                 -phi.max(0.0) / dt
@@ -383,7 +389,11 @@ pub fn step_with_contact(
             cd.blocks.push(Block::Unilateral { row });
             cd.wrench.push(SpatialForce::ZERO);
             cd.phi.push(phi);
-            cd.target.push(if phi > settings.slop { -phi / dt } else { -phi.max(0.0) / dt });
+            cd.target.push(if phi > settings.slop {
+                -phi / dt
+            } else {
+                -phi.max(0.0) / dt
+            });
         }
     }
     let k = cd.phi.len();
@@ -561,9 +571,8 @@ fn responses(
             for m in 0..6 {
                 cd.tau.iter_mut().for_each(|x| *x = 0.0);
                 path_dofs(model, body, |j| cd.tau[j] = data.s[j].to_array()[m]);
-                let qdd = forward_dynamics_slices(
-                    model, data, &state.q, &cd.zero, &cd.tau, &[], method,
-                )?;
+                let qdd =
+                    forward_dynamics_slices(model, data, &state.q, &cd.zero, &cd.tau, &[], method)?;
                 cd.basis[m * nv..(m + 1) * nv].copy_from_slice(qdd);
                 cd.stats.response_solves += 1;
             }

@@ -63,7 +63,12 @@ pub(crate) fn solve(
     // u = u_free + W λ
     for i in 0..k {
         let row = &w[i * k..(i + 1) * k];
-        u[i] = u_free[i] + row.iter().zip(lambda.iter()).map(|(a, b)| a * b).sum::<f64>();
+        u[i] = u_free[i]
+            + row
+                .iter()
+                .zip(lambda.iter())
+                .map(|(a, b)| a * b)
+                .sum::<f64>();
     }
     // Adds W[:, i] δ to u (W is symmetric: its row i).
     let apply = |u: &mut [f64], i: usize, d: f64| {
@@ -151,18 +156,48 @@ mod tests {
         let blocks = [Block::Contact { row: 0, mu: 0.5 }];
         // Approaching at 2 m/s, sliding at (3, 4) m/s: λ_n = 2, |λ_t| = 1 against (3, 4)/5.
         let (mut l, mut u) = ([0.0; 3], [0.0; 3]);
-        let s = solve(&w, &blocks, &[-2.0, 3.0, 4.0], &[0.0; 3], &mut l, &mut u, 50, 1e-12);
+        let s = solve(
+            &w,
+            &blocks,
+            &[-2.0, 3.0, 4.0],
+            &[0.0; 3],
+            &mut l,
+            &mut u,
+            50,
+            1e-12,
+        );
         assert!(s.iterations <= 3, "{s:?}");
         for (got, want) in l.iter().zip([2.0, -0.6, -0.8]) {
             assert!((got - want).abs() < 1e-14, "{l:?}");
         }
         // Slow slip (0.3, 0.4) inside the cone: stuck, u_t = 0.
         let (mut l, mut u) = ([0.0; 3], [0.0; 3]);
-        solve(&w, &blocks, &[-2.0, 0.3, 0.4], &[0.0; 3], &mut l, &mut u, 50, 1e-12);
-        assert!(u[1].abs() < 1e-14 && u[2].abs() < 1e-14 && u[0].abs() < 1e-14, "{u:?}");
+        solve(
+            &w,
+            &blocks,
+            &[-2.0, 0.3, 0.4],
+            &[0.0; 3],
+            &mut l,
+            &mut u,
+            50,
+            1e-12,
+        );
+        assert!(
+            u[1].abs() < 1e-14 && u[2].abs() < 1e-14 && u[0].abs() < 1e-14,
+            "{u:?}"
+        );
         // Separating: no impulse at all.
         let (mut l, mut u) = ([0.0; 3], [0.0; 3]);
-        solve(&w, &blocks, &[1.0, 3.0, 4.0], &[0.0; 3], &mut l, &mut u, 50, 1e-12);
+        solve(
+            &w,
+            &blocks,
+            &[1.0, 3.0, 4.0],
+            &[0.0; 3],
+            &mut l,
+            &mut u,
+            50,
+            1e-12,
+        );
         assert_eq!(l, [0.0; 3]);
     }
 
@@ -173,12 +208,33 @@ mod tests {
         let blocks = [Block::Unilateral { row: 0 }, Block::Unilateral { row: 1 }];
         // u = u_free + W λ ≥ 0, λ ≥ 0: u_free = (−3, 1) → λ = (1.5, 0), u = (0, 2.5).
         let (mut l, mut u) = ([0.0; 2], [0.0; 2]);
-        solve(&w, &blocks, &[-3.0, 1.0], &[0.0; 2], &mut l, &mut u, 100, 1e-14);
+        solve(
+            &w,
+            &blocks,
+            &[-3.0, 1.0],
+            &[0.0; 2],
+            &mut l,
+            &mut u,
+            100,
+            1e-14,
+        );
         assert!((l[0] - 1.5).abs() < 1e-13 && l[1] == 0.0, "{l:?}");
         assert!(u[0].abs() < 1e-13 && (u[1] - 2.5).abs() < 1e-13, "{u:?}");
         // Both active: u_free = (−3, −3) → λ = (1, 1).
         let (mut l, mut u) = ([0.0; 2], [0.0; 2]);
-        solve(&w, &blocks, &[-3.0, -3.0], &[0.0; 2], &mut l, &mut u, 100, 1e-14);
-        assert!((l[0] - 1.0).abs() < 1e-12 && (l[1] - 1.0).abs() < 1e-12, "{l:?}");
+        solve(
+            &w,
+            &blocks,
+            &[-3.0, -3.0],
+            &[0.0; 2],
+            &mut l,
+            &mut u,
+            100,
+            1e-14,
+        );
+        assert!(
+            (l[0] - 1.0).abs() < 1e-12 && (l[1] - 1.0).abs() < 1e-12,
+            "{l:?}"
+        );
     }
 }

@@ -98,7 +98,10 @@ impl CollisionModel {
             self.spheres.len()
         );
         if self.mesh_bodies > 0 {
-            s += &format!(" ({} bodies with meshes use their inertia box)", self.mesh_bodies);
+            s += &format!(
+                " ({} bodies with meshes use their inertia box)",
+                self.mesh_bodies
+            );
         }
         s
     }
@@ -190,7 +193,10 @@ mod tests {
         let extent = (r * DVec3::X * size.x).abs()
             + (r * DVec3::Y * size.y).abs()
             + (r * DVec3::Z * size.z).abs();
-        assert!((extent - DVec3::new(a, b, c)).abs().max_element() < 1e-12, "{extent}");
+        assert!(
+            (extent - DVec3::new(a, b, c)).abs().max_element() < 1e-12,
+            "{extent}"
+        );
     }
 
     /// Cylinder rim points lie on the rim; capsule ends at ±l/2 with the radius.
@@ -210,7 +216,13 @@ mod tests {
             radius: 0.1,
             length: 0.4,
         });
-        assert_eq!(caps, vec![(DVec3::new(0.0, 0.0, -0.2), 0.1), (DVec3::new(0.0, 0.0, 0.2), 0.1)]);
+        assert_eq!(
+            caps,
+            vec![
+                (DVec3::new(0.0, 0.0, -0.2), 0.1),
+                (DVec3::new(0.0, 0.0, 0.2), 0.1)
+            ]
+        );
         assert_eq!(shape_points(&Shape::Mesh), vec![]);
         assert_eq!(box_corners(DVec3::ZERO), vec![DVec3::ZERO]);
     }

@@ -55,8 +55,8 @@ mod urdf_rs_interop;
 mod warning;
 
 pub use assembly::{AssemblyNode, AssemblyTree, HandleLayout, NodeKind};
-pub use collision::{inertia_box, shape_points, CollisionModel, ContactSphere};
 pub use body_inertia::{InertiaChange, InertiaDefect, InertiaDefectKind};
+pub use collision::{inertia_box, shape_points, CollisionModel, ContactSphere};
 pub use error::ModelError;
 pub use model::{Body, JointPart, LinkFrame, LockedJoint, Model, FLOATING_BASE_JOINT};
 pub use options::{InertiaPolicy, LoadOptions, MasslessLeafPolicy};
