@@ -4,8 +4,8 @@
 //! types, origins, parents, children and axes — strictly, so that errors name the offending
 //! link or joint, and skips everything else (visual and collision geometry, materials, limits,
 //! `<gazebo>`, `<transmission>`, unknown tags), so sloppy geometry never makes loading fail.
-//! Collision and visual primitives (box, cylinder, sphere, mesh) are read leniently on the side:
-//! a malformed one is dropped, never an error.
+//! Collision and visual primitives (box, cylinder, sphere, capsule, mesh) and joint limits are
+//! read leniently on the side: a malformed one is dropped, never an error.
 //! The values read are then validated (finite, positive semidefinite inertia, triangle
 //! inequality, unit axes, one root, no cycles).
 
