@@ -22,7 +22,7 @@
 //! start-of-step approach speed `u⁻`, faster than `restitution_velocity`, leaves at `−e u⁻`
 //! (the bounce starts up to `|u⁻| dt` early: the ball turns a little above the floor).
 
-use crate::contact_solver::{self, Block};
+use crate::contact_solver::{self, Block, Stop};
 use crate::{forward_dynamics_slices, integrate_q, Data, DynamicsError, Method, State};
 use articula_model::{CollisionModel, Model};
 use articula_spatial::SpatialForce;
@@ -262,7 +262,7 @@ fn check(settings: &ContactSettings, dt: f64) -> Result<Option<(Ground, DVec3)>,
         return Ok(None);
     };
     let len = g.normal.length();
-    if !(len > 0.0 && len.is_finite()) || !g.point.is_finite() {
+    if !(len > 0.0 && len.is_finite() && g.point.is_finite()) {
         return bad("ground", format!("normal {} at {}", g.normal, g.point));
     }
     if !(g.friction >= 0.0 && g.friction.is_finite()) {
@@ -469,8 +469,10 @@ pub fn step_with_contact(
         &cd.target,
         &mut cd.lambda,
         &mut cd.u,
-        settings.max_iterations,
-        settings.tolerance,
+        Stop {
+            max_iterations: settings.max_iterations,
+            tolerance: settings.tolerance,
+        },
     );
     cd.stats.iterations = solve.iterations;
     cd.stats.converged = solve.change <= settings.tolerance;
@@ -521,8 +523,10 @@ pub fn step_with_contact(
             &cd.target,
             &mut cd.lambda,
             &mut cd.u,
-            settings.max_iterations,
-            settings.tolerance * dt,
+            Stop {
+                max_iterations: settings.max_iterations,
+                tolerance: settings.tolerance * dt,
+            },
         );
         cd.delta.iter_mut().for_each(|x| *x = 0.0);
         for i in 0..k {

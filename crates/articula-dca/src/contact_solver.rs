@@ -37,6 +37,16 @@ pub(crate) enum Block {
     },
 }
 
+/// When [`solve`] stops: after `max_iterations` sweeps, or after a sweep that changed no row
+/// velocity by more than `tolerance`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Stop {
+    /// Sweeps at most.
+    pub max_iterations: usize,
+    /// Largest row-velocity change of a final sweep (m/s or rad/s).
+    pub tolerance: f64,
+}
+
 /// Outcome of [`solve`].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(crate) struct Solve {
@@ -56,9 +66,12 @@ pub(crate) fn solve(
     target: &[f64],
     lambda: &mut [f64],
     u: &mut [f64],
-    max_iterations: usize,
-    tolerance: f64,
+    stop: Stop,
 ) -> Solve {
+    let Stop {
+        max_iterations,
+        tolerance,
+    } = stop;
     let k = u_free.len();
     // u = u_free + W λ
     for i in 0..k {
@@ -163,8 +176,10 @@ mod tests {
             &[0.0; 3],
             &mut l,
             &mut u,
-            50,
-            1e-12,
+            Stop {
+                max_iterations: 50,
+                tolerance: 1e-12,
+            },
         );
         assert!(s.iterations <= 3, "{s:?}");
         for (got, want) in l.iter().zip([2.0, -0.6, -0.8]) {
@@ -179,8 +194,10 @@ mod tests {
             &[0.0; 3],
             &mut l,
             &mut u,
-            50,
-            1e-12,
+            Stop {
+                max_iterations: 50,
+                tolerance: 1e-12,
+            },
         );
         assert!(
             u[1].abs() < 1e-14 && u[2].abs() < 1e-14 && u[0].abs() < 1e-14,
@@ -195,8 +212,10 @@ mod tests {
             &[0.0; 3],
             &mut l,
             &mut u,
-            50,
-            1e-12,
+            Stop {
+                max_iterations: 50,
+                tolerance: 1e-12,
+            },
         );
         assert_eq!(l, [0.0; 3]);
     }
@@ -215,8 +234,10 @@ mod tests {
             &[0.0; 2],
             &mut l,
             &mut u,
-            100,
-            1e-14,
+            Stop {
+                max_iterations: 100,
+                tolerance: 1e-14,
+            },
         );
         assert!((l[0] - 1.5).abs() < 1e-13 && l[1] == 0.0, "{l:?}");
         assert!(u[0].abs() < 1e-13 && (u[1] - 2.5).abs() < 1e-13, "{u:?}");
@@ -229,8 +250,10 @@ mod tests {
             &[0.0; 2],
             &mut l,
             &mut u,
-            100,
-            1e-14,
+            Stop {
+                max_iterations: 100,
+                tolerance: 1e-14,
+            },
         );
         assert!(
             (l[0] - 1.0).abs() < 1e-12 && (l[1] - 1.0).abs() < 1e-12,
