@@ -23,7 +23,10 @@
 //! (the bounce starts up to `|u⁻| dt` early: the ball turns a little above the floor).
 
 use crate::contact_solver::{self, Block, Stop};
-use crate::{forward_dynamics_slices, integrate_q, Data, DynamicsError, Method, State};
+use crate::integrate::check_step_result;
+use crate::{
+    forward_dynamics, forward_dynamics_slices, integrate_q, Data, DynamicsError, Method, State,
+};
 use articula_model::{CollisionModel, Model};
 use articula_spatial::SpatialForce;
 use glam::DVec3;
@@ -318,15 +321,7 @@ pub fn step_with_contact(
     let cd = contact;
     cd.stats = ContactStats::default();
     // 1. Free motion.
-    forward_dynamics_slices(
-        model,
-        data,
-        &state.q,
-        &state.qd,
-        &state.tau,
-        &state.f_ext,
-        method,
-    )?;
+    forward_dynamics(model, data, state, method)?;
     for ((f, v), a) in cd.qd_free.iter_mut().zip(&state.qd).zip(&data.qdd) {
         *f = v + dt * a;
     }
@@ -493,14 +488,7 @@ pub fn step_with_contact(
     }
     // 6. q̇⁺ = v_free + R λ, q⁺ = q ⊕ dt q̇⁺.
     state.qd.copy_from_slice(&cd.qd_free);
-    for i in 0..k {
-        let l = cd.lambda[i];
-        if l != 0.0 {
-            for (v, r) in state.qd.iter_mut().zip(&cd.resp[i * nv..(i + 1) * nv]) {
-                *v += r * l;
-            }
-        }
-    }
+    add_responses(&mut state.qd, &cd.resp, &cd.lambda);
     integrate_q(model, &mut state.q, &state.qd, dt);
     // 7. Post-stabilisation of what penetrates deeper than the slop.
     if cd.phi.iter().any(|&p| p < -settings.slop) {
@@ -529,14 +517,7 @@ pub fn step_with_contact(
             },
         );
         cd.delta.iter_mut().for_each(|x| *x = 0.0);
-        for i in 0..k {
-            let l = cd.lambda[i];
-            if l != 0.0 {
-                for (d, r) in cd.delta.iter_mut().zip(&cd.resp[i * nv..(i + 1) * nv]) {
-                    *d += r * l;
-                }
-            }
-        }
+        add_responses(&mut cd.delta, &cd.resp, &cd.lambda);
         integrate_q(model, &mut state.q, &cd.delta, 1.0);
     }
     finish(model, state)
@@ -603,20 +584,19 @@ fn responses(
     Ok(())
 }
 
-/// The end-of-step check: no NaN or infinity in `q` or `q̇`.
-fn finish(model: &Model, state: &State) -> Result<(), ContactError> {
-    for (_, part) in model.joint_parts() {
-        let q = &state.q[part.q_offset..part.q_offset + part.nq()];
-        let qd = &state.qd[part.v_offset..part.v_offset + part.nv()];
-        for (what, xs) in [("q after the step", q), ("qd after the step", qd)] {
-            if xs.iter().any(|x| !x.is_finite()) {
-                return Err(DynamicsError::NonFinite {
-                    what,
-                    name: part.name.clone(),
-                }
-                .into());
+/// `out += R λ`: the responses (rows of `resp`, each `out.len()` long) weighted by `lambda`.
+fn add_responses(out: &mut [f64], resp: &[f64], lambda: &[f64]) {
+    let nv = out.len();
+    for (l, r) in lambda.iter().zip(resp.chunks_exact(nv)) {
+        if *l != 0.0 {
+            for (x, ri) in out.iter_mut().zip(r) {
+                *x += ri * l;
             }
         }
     }
-    Ok(())
+}
+
+/// The end-of-step check: no NaN or infinity in `q` or `q̇`.
+fn finish(model: &Model, state: &State) -> Result<(), ContactError> {
+    Ok(check_step_result(model, state)?)
 }

@@ -91,26 +91,23 @@ pub(crate) fn solve(
             }
         }
     };
+    // A unilateral row's exact update (its 1-D minimiser, clamped at 0): the velocity change.
+    let unilateral = |lambda: &mut [f64], u: &mut [f64], i: usize| {
+        let wii = w[i * k + i];
+        let new = (lambda[i] - (u[i] - target[i]) / wii).max(0.0);
+        let d = new - lambda[i];
+        lambda[i] = new;
+        apply(u, i, d);
+        (d * wii).abs()
+    };
     let mut out = Solve::default();
     for it in 0..max_iterations {
         let mut change = 0.0f64;
         for block in blocks {
             match *block {
-                Block::Unilateral { row: i } => {
-                    let wii = w[i * k + i];
-                    let new = (lambda[i] - (u[i] - target[i]) / wii).max(0.0);
-                    let d = new - lambda[i];
-                    lambda[i] = new;
-                    apply(u, i, d);
-                    change = change.max((d * wii).abs());
-                }
+                Block::Unilateral { row } => change = change.max(unilateral(lambda, u, row)),
                 Block::Contact { row: n, mu } => {
-                    let wnn = w[n * k + n];
-                    let new = (lambda[n] - (u[n] - target[n]) / wnn).max(0.0);
-                    let d = new - lambda[n];
-                    lambda[n] = new;
-                    apply(u, n, d);
-                    change = change.max((d * wnn).abs());
+                    change = change.max(unilateral(lambda, u, n));
                     // Tangents: the 2 × 2 solve for zero slip when it lies in the disc
                     // (sticking); else a projected gradient step of length 1/L (L the larger
                     // eigenvalue of the 2 × 2 block), whose fixed point on the rim opposes
