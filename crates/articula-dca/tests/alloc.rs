@@ -228,3 +228,43 @@ fn a_star_allocates_linearly_in_its_children() {
         );
     }
 }
+
+/// The contact step allocates nothing once its buffers have met the largest contact problem:
+/// the floating humanoid standing on the floor 0.9 m below its base, 600 steps to settle,
+/// then 50 more steps counted, with DCA and ABA.
+#[test]
+fn contact_step_allocates_nothing_after_warm_up() {
+    use articula_dca::{step_with_contact, ContactData, ContactSettings, Ground};
+    let model = load("humanoid", true);
+    let settings = ContactSettings {
+        ground: Some(Ground::horizontal(-0.9)),
+        ..ContactSettings::default()
+    };
+    for method in [Method::Dca, Method::Aba] {
+        let mut data = Data::new(&model);
+        let mut contact = ContactData::new(&model);
+        let mut state = State::neutral(&model);
+        let mut run = |state: &mut State, steps: usize| {
+            for _ in 0..steps {
+                step_with_contact(
+                    &model,
+                    &mut data,
+                    &mut contact,
+                    state,
+                    method,
+                    1e-3,
+                    &settings,
+                )
+                .unwrap();
+            }
+        };
+        run(&mut state, 600);
+        let n = count_allocations(|| run(&mut state, 50));
+        assert_eq!(n, 0, "{method:?}: the contact step allocated");
+        assert!(
+            contact.stats.contacts >= 4,
+            "{method:?}: {:?}",
+            contact.stats
+        );
+    }
+}
