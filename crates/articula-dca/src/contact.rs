@@ -287,12 +287,104 @@ fn tangents(n: DVec3) -> (DVec3, DVec3) {
     (t1, n.cross(t1))
 }
 
-/// The degrees of freedom between the root and body `b`, visited leaf to root.
-fn path_dofs(model: &Model, b: usize, mut f: impl FnMut(usize)) {
+/// The dynamics under a contact step ([`step_with_dynamics`]): the free motion, the
+/// kinematics the rows are read from, and the response `M⁻¹ τ` of the system at rest. Exact
+/// dynamics ([`ExactDynamics`]: DCA, ABA or CRBA) and articula-adaptive's hybrid body (its
+/// locked joints stay locked, a rigid cluster moves as one) implement it; detection, the
+/// rows, the solve and the position correction are shared.
+pub trait ContactDynamics {
+    /// The free-motion accelerations `q̈ = M⁻¹(τ − C)` of `state` into `qdd` (every entry
+    /// written; 0 for a joint that does not move). May change `state.qd` first (a hybrid
+    /// body's locking impulse); [`ContactDynamics::kinematics`] then holds the kinematics of
+    /// the state as it is on return.
+    fn free_motion(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+        qdd: &mut [f64],
+    ) -> Result<(), DynamicsError>;
+
+    /// The kinematics of the step's start (after [`ContactDynamics::free_motion`]): `x`, `v`,
+    /// `s` and `origin` of every body that carries a contact sphere and of its root path.
+    fn kinematics(&self) -> &Data;
+
+    /// Whether body `body`'s joint moves in this step (its columns of `J` are used; default
+    /// every joint).
+    fn moves(&self, _model: &Model, _body: usize) -> bool {
+        true
+    }
+
+    /// The response to the generalised impulse `tau` of the system at rest without gravity,
+    /// `out = M⁻¹ τ` (every entry written; 0 for a joint that does not move). Called after
+    /// every row has read [`ContactDynamics::kinematics`] (it may overwrite them).
+    fn response(
+        &mut self,
+        model: &Model,
+        state: &State,
+        tau: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), DynamicsError>;
+
+    /// `q ← q ⊕ h v` over the joints that move (default: all, [`integrate_q`]).
+    fn integrate(&self, model: &Model, q: &mut [f64], v: &[f64], h: f64) {
+        integrate_q(model, q, v, h);
+    }
+}
+
+/// Exact forward dynamics under a contact step: `free_motion` and every response are one
+/// forward-dynamics solve by `method` (O(n) with DCA or ABA), in the workspace `data`.
+struct ExactDynamics<'a> {
+    data: &'a mut Data,
+    method: Method,
+    /// `nv` zeros (the velocities of the system at rest).
+    zero: &'a [f64],
+}
+
+impl ContactDynamics for ExactDynamics<'_> {
+    fn free_motion(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+        qdd: &mut [f64],
+    ) -> Result<(), DynamicsError> {
+        qdd.copy_from_slice(forward_dynamics(model, self.data, state, self.method)?);
+        Ok(())
+    }
+
+    fn kinematics(&self) -> &Data {
+        self.data
+    }
+
+    fn response(
+        &mut self,
+        model: &Model,
+        state: &State,
+        tau: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), DynamicsError> {
+        let gravity = std::mem::replace(&mut self.data.gravity, DVec3::ZERO);
+        let r =
+            forward_dynamics_slices(model, self.data, &state.q, self.zero, tau, &[], self.method)
+                .map(|qdd| out.copy_from_slice(qdd));
+        self.data.gravity = gravity;
+        r
+    }
+}
+
+/// The degrees of freedom between the root and body `b` whose joints move, visited leaf to
+/// root.
+fn path_dofs<D: ContactDynamics + ?Sized>(
+    model: &Model,
+    dynamics: &D,
+    b: usize,
+    mut f: impl FnMut(usize),
+) {
     let mut body = Some(b);
     while let Some(i) = body {
         let bd = &model.bodies[i];
-        (bd.v_offset..bd.v_offset + bd.nv).for_each(&mut f);
+        if dynamics.moves(model, i) {
+            (bd.v_offset..bd.v_offset + bd.nv).for_each(&mut f);
+        }
         body = bd.parent;
     }
 }
@@ -316,15 +408,39 @@ pub fn step_with_contact(
     dt: f64,
     settings: &ContactSettings,
 ) -> Result<(), ContactError> {
+    // (The zeros lent out and back: no allocation.)
+    let zero = std::mem::take(&mut contact.zero);
+    let mut dynamics = ExactDynamics {
+        data,
+        method,
+        zero: &zero,
+    };
+    let r = step_with_dynamics(model, &mut dynamics, contact, state, dt, settings);
+    contact.zero = zero;
+    r
+}
+
+/// [`step_with_contact`] on any [`ContactDynamics`]: the free motion, the rows' kinematics,
+/// the responses and the integration come from `dynamics`; detection, the rows, the
+/// Gauss–Seidel solve and the position correction are the same for every dynamics.
+pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
+    model: &Model,
+    dynamics: &mut D,
+    contact: &mut ContactData,
+    state: &mut State,
+    dt: f64,
+    settings: &ContactSettings,
+) -> Result<(), ContactError> {
     let ground = check(settings, dt)?;
     let nv = model.nv;
     let cd = contact;
     cd.stats = ContactStats::default();
     // 1. Free motion.
-    forward_dynamics(model, data, state, method)?;
-    for ((f, v), a) in cd.qd_free.iter_mut().zip(&state.qd).zip(&data.qdd) {
+    dynamics.free_motion(model, state, &mut cd.delta)?;
+    for ((f, v), a) in cd.qd_free.iter_mut().zip(&state.qd).zip(&cd.delta) {
         *f = v + dt * a;
     }
+    let data = dynamics.kinematics();
     // 2. Candidates, from the kinematics of the start of the step.
     cd.sources.clear();
     cd.blocks.clear();
@@ -400,7 +516,7 @@ pub fn step_with_contact(
         .count();
     if k == 0 {
         state.qd.copy_from_slice(&cd.qd_free);
-        integrate_q(model, &mut state.q, &state.qd, dt);
+        dynamics.integrate(model, &mut state.q, &state.qd, dt);
         cd.stats.converged = true;
         return finish(model, state);
     }
@@ -413,7 +529,7 @@ pub fn step_with_contact(
                 for i in row..row + 3 {
                     let w = cd.wrench[i];
                     let jrow = &mut cd.jac[i * nv..(i + 1) * nv];
-                    path_dofs(model, body, |j| jrow[j] = data.s[j].dot(w));
+                    path_dofs(model, dynamics, body, |j| jrow[j] = data.s[j].dot(w));
                 }
             }
             Source::Limit { limit } => {
@@ -426,10 +542,7 @@ pub fn step_with_contact(
     //    gravity, under the generalised force Jᵢᵀ.
     cd.resp.clear();
     cd.resp.resize(k * nv, 0.0);
-    let gravity = std::mem::replace(&mut data.gravity, DVec3::ZERO);
-    let result = responses(model, data, cd, state, method);
-    data.gravity = gravity;
-    result?;
+    responses(model, dynamics, cd, state)?;
     // 5. W = J R (symmetric), u_free = J v_free, warm start.
     cd.w.clear();
     cd.w.resize(k * k, 0.0);
@@ -489,7 +602,7 @@ pub fn step_with_contact(
     // 6. q̇⁺ = v_free + R λ, q⁺ = q ⊕ dt q̇⁺.
     state.qd.copy_from_slice(&cd.qd_free);
     add_responses(&mut state.qd, &cd.resp, &cd.lambda);
-    integrate_q(model, &mut state.q, &state.qd, dt);
+    dynamics.integrate(model, &mut state.q, &state.qd, dt);
     // 7. Post-stabilisation of what penetrates deeper than the slop.
     if cd.phi.iter().any(|&p| p < -settings.slop) {
         // Normal and limit rows only: friction is off (tangent rows' targets are ignored and
@@ -518,7 +631,7 @@ pub fn step_with_contact(
         );
         cd.delta.iter_mut().for_each(|x| *x = 0.0);
         add_responses(&mut cd.delta, &cd.resp, &cd.lambda);
-        integrate_q(model, &mut state.q, &cd.delta, 1.0);
+        dynamics.integrate(model, &mut state.q, &cd.delta, 1.0);
     }
     finish(model, state)
 }
@@ -526,12 +639,11 @@ pub fn step_with_contact(
 /// Fills `contact.resp` (row i: `M⁻¹ Jᵢᵀ`) by forward-dynamics solves at rest (`data.gravity`
 /// is zero here): per body with 6 or more rows, the 6 unit wrenches in the computation frame
 /// (`τ_j = s_j[m]` along its path) combined by each row's wrench; one solve per row otherwise.
-fn responses(
+fn responses<D: ContactDynamics + ?Sized>(
     model: &Model,
-    data: &mut Data,
+    dynamics: &mut D,
     cd: &mut ContactData,
     state: &State,
-    method: Method,
 ) -> Result<(), DynamicsError> {
     let nv = model.nv;
     let mut b = 0;
@@ -555,10 +667,10 @@ fn responses(
             cd.basis.resize(6 * nv, 0.0);
             for m in 0..6 {
                 cd.tau.iter_mut().for_each(|x| *x = 0.0);
-                path_dofs(model, body, |j| cd.tau[j] = data.s[j].to_array()[m]);
-                let qdd =
-                    forward_dynamics_slices(model, data, &state.q, &cd.zero, &cd.tau, &[], method)?;
-                cd.basis[m * nv..(m + 1) * nv].copy_from_slice(qdd);
+                let s = &dynamics.kinematics().s;
+                path_dofs(model, &*dynamics, body, |j| cd.tau[j] = s[j].to_array()[m]);
+                let out = &mut cd.basis[m * nv..(m + 1) * nv];
+                dynamics.response(model, state, &cd.tau, out)?;
                 cd.stats.response_solves += 1;
             }
             for i in rows {
@@ -572,10 +684,8 @@ fn responses(
             }
         } else {
             for i in rows {
-                cd.tau.copy_from_slice(&cd.jac[i * nv..(i + 1) * nv]);
-                let qdd =
-                    forward_dynamics_slices(model, data, &state.q, &cd.zero, &cd.tau, &[], method)?;
-                cd.resp[i * nv..(i + 1) * nv].copy_from_slice(qdd);
+                let tau = &cd.jac[i * nv..(i + 1) * nv];
+                dynamics.response(model, state, tau, &mut cd.resp[i * nv..(i + 1) * nv])?;
                 cd.stats.response_solves += 1;
             }
         }

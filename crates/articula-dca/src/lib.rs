@@ -69,7 +69,8 @@ mod small;
 mod state;
 
 pub use contact::{
-    step_with_contact, ContactData, ContactError, ContactSettings, ContactStats, Ground,
+    step_with_contact, step_with_dynamics, ContactData, ContactDynamics, ContactError,
+    ContactSettings, ContactStats, Ground,
 };
 pub use data::Data;
 pub use error::DynamicsError;
