@@ -57,6 +57,7 @@
 
 mod adaptive;
 mod cache;
+mod contact;
 mod dense;
 mod error;
 mod hierarchy;
@@ -75,6 +76,7 @@ mod update;
 mod reference_tests;
 
 pub use adaptive::Adaptive;
+pub use contact::HybridContact;
 pub use error::AdaptiveError;
 pub use parts::selection_queue::Selection;
 pub use report::StepReport;
@@ -452,6 +454,17 @@ impl Adaptive {
         dt: f64,
         forces: &[(usize, SpatialForce)],
     ) -> Result<StepReport, AdaptiveError> {
+        self.set_forces(model, state, forces)?;
+        self.step_inner(model, state, dt)
+    }
+
+    /// The external wrenches of a step given as a list (checked; `state.f_ext` must be empty).
+    pub(crate) fn set_forces(
+        &mut self,
+        model: &Model,
+        state: &State,
+        forces: &[(usize, SpatialForce)],
+    ) -> Result<(), AdaptiveError> {
         if !state.f_ext.is_empty() {
             return Err(AdaptiveError::Setting(
                 "give the external forces either in state.f_ext or as a list, not both".into(),
@@ -476,7 +489,7 @@ impl Adaptive {
             }
             self.forces.sparse.push((i, f));
         }
-        self.step_inner(model, state, dt)
+        Ok(())
     }
 
     /// The dynamics of a step, before integration: re-selection (when due) with its locking
