@@ -87,6 +87,7 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
     let mut active_sum = 0usize;
     let mut active_max = 0usize;
     let mut frames = 0u64;
+    let (mut contacts_sum, mut max_penetration) = (0usize, 0.0f64);
     let mut last = None;
     for k in 0..steps {
         if let (Some(dir), true) = (&args.out, k % args.frame_every == 0) {
@@ -112,6 +113,8 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
         };
         active_sum += s.active_total;
         active_max = active_max.max(s.active_total);
+        contacts_sum += s.contacts;
+        max_penetration = max_penetration.max(s.max_penetration);
         bar.set_message(format!("{} active joints", s.active_total));
         bar.set_position(k + 1);
         last = Some(s);
@@ -122,7 +125,7 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
         write_frame(&mut sim, dir, steps, last.active_total)?;
         frames += 1;
     }
-    let summary = serde_json::json!({
+    let mut summary = serde_json::json!({
         "scene": args.scene.display().to_string(),
         "steps": steps,
         "dt": scene.dt,
@@ -147,5 +150,9 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
         "frames": frames,
         "out": args.out.as_ref().map(|d| d.display().to_string()),
     });
+    if scene.ground.is_some() {
+        summary["max_penetration_m"] = max_penetration.into();
+        summary["contacts_mean"] = (contacts_sum as f64 / steps as f64).into();
+    }
     print_out(&format!("{summary}\n"))
 }

@@ -35,7 +35,8 @@ pub use error::ViewError;
 #[cfg(feature = "serde")]
 pub use scene_file::{load_scene, load_scene_with, parse_scene, parse_scene_with};
 pub use scene_file::{
-    BodySpec, CameraRig, CameraSpec, CrowdSpec, ImageSpec, KeySpec, LoadedScene, Placement, Push,
+    BodySpec, CameraRig, CameraSpec, CrowdSpec, GroundSpec, ImageSpec, KeySpec, LoadedScene,
+    Placement, Push,
     PushSpec, SceneBuilder, SceneModel, SceneSpec, SpringSpec, Targets, VelocitySpec,
     VisibilitySpec,
 };

@@ -22,6 +22,7 @@ use crate::error::ViewError;
 use crate::visibility::VisibilitySettings;
 use crate::volumes::{body_volumes, BodyVolumes};
 use articula_dca::internals::SplitMix64;
+use articula_dca::Ground;
 use articula_model::{InertiaPolicy, LoadOptions, Model};
 use glam::{DMat3, DQuat, DVec3};
 use std::collections::BTreeMap;
@@ -73,6 +74,54 @@ pub struct SceneSpec {
     /// default).
     #[cfg_attr(feature = "serde", serde(default))]
     pub joint_springs: Option<SpringSpec>,
+    /// A horizontal floor the bodies stand on and fall to (none by default: no contact).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub ground: Option<GroundSpec>,
+}
+
+/// The floor `z = height` (`docs/contact.md`): hard, unilateral contact of every body's
+/// contact spheres with Coulomb friction; the models' URDF joint limits are enforced with it.
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct GroundSpec {
+    /// Height of the floor (m, world z).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub height: f64,
+    /// Coulomb friction coefficient μ ≥ 0 (default 1).
+    #[cfg_attr(feature = "serde", serde(default = "unit"))]
+    pub friction: f64,
+    /// Restitution 0 ≤ e ≤ 1 (default 0: inelastic impacts).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub restitution: f64,
+}
+
+impl GroundSpec {
+    /// The floor as articula-dca's [`Ground`].
+    pub fn ground(&self) -> Ground {
+        Ground {
+            friction: self.friction,
+            restitution: self.restitution,
+            ..Ground::horizontal(self.height)
+        }
+    }
+
+    /// The first field out of its range, and why.
+    fn problem(&self) -> Option<(&'static str, &'static str)> {
+        if !self.height.is_finite() {
+            Some(("height", "must be finite"))
+        } else if !(self.friction.is_finite() && self.friction >= 0.0) {
+            Some(("friction", "must be a non-negative number"))
+        } else if !(0.0..=1.0).contains(&self.restitution) {
+            Some(("restitution", "must lie in [0, 1]"))
+        } else {
+            None
+        }
+    }
+}
+
+fn unit() -> f64 {
+    1.0
 }
 
 /// Pose springs: each internal degree of freedom `i` gets `τᵢ = −kᵢ qᵢ − cᵢ q̇ᵢ` with
@@ -318,6 +367,7 @@ impl Default for SceneSpec {
             pushes: Vec::new(),
             image: ImageSpec::default(),
             joint_springs: None,
+            ground: None,
         }
     }
 }
@@ -558,6 +608,12 @@ impl SceneBuilder {
         self
     }
 
+    /// Puts a floor under the bodies.
+    pub fn ground(mut self, ground: GroundSpec) -> Self {
+        self.spec.ground = Some(ground);
+        self
+    }
+
     /// Checks everything and loads the model files: the scene, or the first problem.
     pub fn build(self) -> Result<LoadedScene, ViewError> {
         resolve_in(
@@ -668,6 +724,8 @@ pub struct LoadedScene {
     pub image: ImageSpec,
     /// Pose springs.
     pub joint_springs: Option<SpringSpec>,
+    /// The floor, if any.
+    pub ground: Option<GroundSpec>,
 }
 
 /// The largest scene file read, in bytes.
@@ -831,6 +889,9 @@ fn resolve_in(
                 ));
             }
         }
+    }
+    if let Some((f, why)) = spec.ground.as_ref().and_then(GroundSpec::problem) {
+        return Err(invalid(format!("ground.{f}"), why.into()));
     }
     // Camera.
     let c = &spec.camera;
@@ -1136,6 +1197,7 @@ fn resolve_in(
         },
         image: img,
         joint_springs: spec.joint_springs,
+        ground: spec.ground,
     };
     // What the spec's checks cannot see: placements that came out non-finite (a jitter or an
     // origin so large that a position overflows).
@@ -1213,6 +1275,9 @@ impl LoadedScene {
                     "frequency and damping ratio must be non-negative numbers".into(),
                 );
             }
+        }
+        if let Some((f, why)) = self.ground.as_ref().and_then(GroundSpec::problem) {
+            return invalid(format!("ground.{f}"), why.into());
         }
         match &self.camera {
             CameraRig::Fixed(c) => {

@@ -30,8 +30,8 @@ use crate::render::{rigid_groups, FrameBody};
 use crate::scene_file::LoadedScene;
 use crate::visibility::{BodyView, Classifier, Placed, PosePlan, Visibility};
 use crate::volumes::BodyVolumes;
-use articula_adaptive::{Adaptive, AdaptiveError, Scratch, Settings};
-use articula_dca::{DynamicsError, State};
+use articula_adaptive::{Adaptive, AdaptiveError, HybridContact, Scratch, Settings};
+use articula_dca::{ContactSettings, DynamicsError, State};
 use articula_model::{JointKind, Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SymMat6};
 use glam::{DMat3, DQuat, DVec3};
@@ -230,6 +230,9 @@ pub struct SimBody {
     pub rigid: Option<(SpatialInertia, SymMat6)>,
     /// Whether its hybrid body was set at this step's re-selection.
     changed: bool,
+    /// With a floor: its contact workspace (the last step's figures in
+    /// `contact.contact.stats`).
+    pub contact: Option<HybridContact>,
 }
 
 impl SimBody {
@@ -331,6 +334,10 @@ pub struct SceneStep {
     pub link_classes: [usize; 3],
     /// The scene's total weighted error at the last re-selection.
     pub total_error: f64,
+    /// With a floor: contact points pushed by it, summed over bodies.
+    pub contacts: usize,
+    /// With a floor: the deepest penetration at the start of the step over every body (m).
+    pub max_penetration: f64,
 }
 
 /// A scene being simulated.
@@ -421,6 +428,7 @@ impl<'s> SceneSim<'s> {
                     unweighted: false,
                     rigid: None,
                     changed: false,
+                    contact: scene.ground.map(|_| HybridContact::new(model)),
                 }
             })
             .collect();
@@ -739,9 +747,15 @@ impl<'s> SceneSim<'s> {
                 classes,
                 link_classes,
                 total_error: sel.total_error,
+                ..SceneStep::default()
             };
         }
         let mut total = 0;
+        let (mut contacts, mut penetration) = (0, 0.0f64);
+        let contact_settings = ContactSettings {
+            ground: scene.ground.map(|g| g.ground()),
+            ..ContactSettings::default()
+        };
         for (i, b) in self.bodies.iter_mut().enumerate() {
             let model = &scene.models[b.model].model;
             if !reselect {
@@ -754,7 +768,13 @@ impl<'s> SceneSim<'s> {
                 continue;
             }
             let (ad, state, forces) = (&mut b.adaptive, &mut b.state, &b.forces);
-            if self.shared {
+            if let Some(hc) = &mut b.contact {
+                // On the floor: the hybrid body's contact step (its own buffers).
+                let r = ad.step_with_contact(model, state, scene.dt, forces, hc, &contact_settings);
+                contacts += hc.contact.stats.contacts;
+                penetration = penetration.max(hc.contact.stats.max_penetration);
+                r
+            } else if self.shared {
                 let scratch = &mut self.scratch[b.model];
                 ad.step_with_forces_and_scratch(scratch, model, state, scene.dt, forces)
             } else {
@@ -766,8 +786,10 @@ impl<'s> SceneSim<'s> {
                 .active_dofs(model)
                 .saturating_sub(if model.floating_base { 6 } else { 0 });
             total += b.active;
-            // Every internal joint locked (at zero velocity): from now on, one rigid body.
-            b.rigid = if b.active == 0
+            // Every internal joint locked (at zero velocity): from now on, one rigid body
+            // (without a floor: the rigid step knows no contact).
+            b.rigid = if b.contact.is_none()
+                && b.active == 0
                 && b.state.qd[6.min(b.state.qd.len())..]
                     .iter()
                     .all(|x| *x == 0.0)
@@ -785,6 +807,8 @@ impl<'s> SceneSim<'s> {
         let mut out = self.last.clone();
         out.reselected = reselect;
         out.active_total = total;
+        out.contacts = contacts;
+        out.max_penetration = penetration;
         Ok(out)
     }
 
