@@ -36,9 +36,8 @@ pub use error::ViewError;
 pub use scene_file::{load_scene, load_scene_with, parse_scene, parse_scene_with};
 pub use scene_file::{
     BodySpec, CameraRig, CameraSpec, CrowdSpec, GroundSpec, ImageSpec, KeySpec, LoadedScene,
-    Placement, Push,
-    PushSpec, SceneBuilder, SceneModel, SceneSpec, SpringSpec, Targets, VelocitySpec,
-    VisibilitySpec,
+    Placement, Push, PushSpec, SceneBuilder, SceneModel, SceneSpec, SpringSpec, Targets,
+    VelocitySpec, VisibilitySpec,
 };
 pub use sim::{SceneSim, SceneStep, SimBody};
 pub use visibility::{BodyView, Visibility, VisibilitySettings};

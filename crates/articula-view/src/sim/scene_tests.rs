@@ -445,3 +445,67 @@ fn reselection_poses_are_the_forward_kinematics_of_the_state() {
         "{checked} poses checked"
     );
 }
+
+// ---------------------------------------------------------------------------------------------
+// 5. A floor: an invisible, fully rigid character lands on it; a visible one stands on it.
+
+#[test]
+fn characters_land_and_stand_on_the_floor() {
+    // The humanoid's lowest contact point is 1.02 m below its root in the neutral pose:
+    // one behind the camera dropped from 0.3 m above its standing height, one in view with
+    // its feet 1 mm above the floor.
+    let s = scene(
+        r#"{"models": {"h": "humanoid.urdf"},
+            "bodies": [{"name": "hidden", "model": "h", "position": [-6, 0.5, 1.32]},
+                       {"name": "seen", "model": "h", "position": [5, 0, 1.021], "rpy": [0, 0, 3.14]}],
+            "camera": {"eye": [0, 0, 1.5], "target": [10, 0, 1]},
+            "budget": 34, "dt": 0.002, "reselect_every": 5,
+            "joint_springs": {"frequency_hz": 2.0, "damping_ratio": 0.5},
+            "ground": {"height": 0, "friction": 1}}"#,
+    );
+    let mut sim = SceneSim::new(&s).unwrap();
+    let mut worst = 0.0f64;
+    for _ in 0..500 {
+        let step = sim.step().unwrap();
+        worst = worst.max(step.max_penetration);
+    }
+    // The hidden body: every internal joint locked, one rigid body at rest on the floor, its
+    // root down by the 0.3 m gap (the slop of the position correction aside).
+    let hidden = &sim.bodies[0];
+    assert_eq!(sim.views[0].summary(), Visibility::Invisible);
+    assert_eq!(hidden.active, 0);
+    let (q, qd) = (&hidden.state.q, &hidden.state.qd);
+    assert!((q[2] - 1.02).abs() < 2e-4, "hidden root at {} m", q[2]);
+    assert!(qd.iter().all(|v| v.abs() < 1e-6), "hidden body moves");
+    let hc = hidden.contact.as_ref().unwrap();
+    assert!(hc.contact.stats.contacts >= 3);
+    // The visible one stands: on the floor (contacts), pelvis near its standing height.
+    let seen = &sim.bodies[1];
+    let sc = seen.contact.as_ref().unwrap();
+    eprintln!(
+        "floor: hidden root {:.6} m, seen root {:.4} m with {} contacts, worst penetration {worst:.2e} m",
+        q[2], seen.state.q[2], sc.contact.stats.contacts
+    );
+    assert!(sc.contact.stats.contacts >= 3);
+    assert!(
+        seen.state.q[2] > 0.8,
+        "the seen body fell: root at {}",
+        seen.state.q[2]
+    );
+    assert!(worst < 5e-3, "penetration {worst} m");
+}
+
+#[test]
+fn a_bad_ground_names_its_field() {
+    for (ground, field) in [
+        (r#"{"friction": -1}"#, "ground.friction"),
+        (r#"{"restitution": 2}"#, "ground.restitution"),
+    ] {
+        let text = format!(
+            r#"{{"models": {{"h": "humanoid.urdf"}}, "camera": {{"eye": [0, 0, 1.5], "target": [10, 0, 1]}},
+                "ground": {ground}}}"#
+        );
+        let e = parse_scene(&text, Path::new("test.json"), &models()).unwrap_err();
+        assert!(e.to_string().contains(field), "{e}");
+    }
+}
