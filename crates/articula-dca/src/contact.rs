@@ -154,6 +154,8 @@ enum Source {
 /// A joint bound: `sign (q[qi] − bound) ≥ 0` with velocity `sign q̇[vi]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Bound {
+    /// The body whose joint it bounds.
+    body: usize,
     qi: usize,
     vi: usize,
     bound: f64,
@@ -202,10 +204,11 @@ impl ContactData {
     /// The workspace for `model` with the given contact spheres.
     pub fn with_collision(model: &Model, collision: CollisionModel) -> ContactData {
         let mut bounds = Vec::new();
-        for (_, p) in model.joint_parts() {
+        for (body, p) in model.joint_parts() {
             if let Some([lo, hi]) = p.limits {
                 for (bound, sign) in [(lo, 1.0), (hi, -1.0)] {
                     bounds.push(Bound {
+                        body,
                         qi: p.q_offset,
                         vi: p.v_offset,
                         bound,
@@ -490,6 +493,10 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     }
     if settings.joint_limits {
         for (li, b) in cd.bounds.iter().enumerate() {
+            // A joint that does not move in this step (locked in a hybrid body) has no row.
+            if !dynamics.moves(model, b.body) {
+                continue;
+            }
             let phi = b.sign * (state.q[b.qi] - b.bound);
             let pre = b.sign * state.qd[b.vi];
             if phi >= settings.margin + dt * (-pre).max(0.0) {

@@ -94,6 +94,10 @@ pub(crate) fn solve(
     // A unilateral row's exact update (its 1-D minimiser, clamped at 0): the velocity change.
     let unilateral = |lambda: &mut [f64], u: &mut [f64], i: usize| {
         let wii = w[i * k + i];
+        if wii.is_nan() || wii <= 0.0 {
+            // A row no impulse can move (its body's joints are all locked or welded).
+            return 0.0;
+        }
         let new = (lambda[i] - (u[i] - target[i]) / wii).max(0.0);
         let d = new - lambda[i];
         lambda[i] = new;
@@ -125,6 +129,10 @@ pub(crate) fn solve(
                         .filter(|&(l1, l2)| l1.hypot(l2) <= bound);
                     let (l1, l2) = stick.unwrap_or_else(|| {
                         let l = 0.5 * (a + c) + (0.25 * (a - c) * (a - c) + b * b).sqrt();
+                        if l.is_nan() || l <= 0.0 {
+                            // Tangents no impulse can move.
+                            return (lambda[t1], lambda[t2]);
+                        }
                         let (l1, l2) = (lambda[t1] + r1 / l, lambda[t2] + r2 / l);
                         let norm = l1.hypot(l2);
                         if norm > bound {
