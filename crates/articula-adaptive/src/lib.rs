@@ -492,13 +492,58 @@ impl Adaptive {
             reselected: !self.hier.valid || self.steps.is_multiple_of(self.settings.reselect_every),
             ..StepReport::default()
         };
-        if report.reselected || self.switches.full_passes {
+        if report.reselected && !self.switches.full_passes && self.selects_everything(model) {
+            // Every joint would be selected and none locked: the step is the exact solve of
+            // the whole body (reduced-tree ABA over every joint), no metric, no queue, no
+            // caches (docs/adaptive.md#cost).
+            self.whole_body_step(model, state)?;
+        } else if report.reselected || self.switches.full_passes {
             self.step_passes(model, state, &mut report)?;
         } else {
             self.check_active_inputs(model, state)?;
             self.hybrid_step(model, &state.q, &state.qd, &state.tau, false)?;
         }
         Ok(report)
+    }
+
+    /// Whether the settings select every joint whatever the metric: no budget or one that
+    /// covers every internal degree of freedom, no tolerance stop.
+    fn selects_everything(&self, model: &Model) -> bool {
+        let internal = model.nv - if model.floating_base { 6 } else { 0 };
+        self.settings.budget.is_none_or(|b| b >= internal)
+            && self.settings.tolerance.is_none_or(|t| t <= 0.0)
+    }
+
+    /// The dynamics of a step whose selection would keep every joint: the whole body as the
+    /// hybrid body (installed once, as [`Adaptive::set_active`] does, with nothing to lock),
+    /// then the reduced-tree step over every joint. The selection reports every degree of
+    /// freedom, a predicted error of 0 and the total metric `Σ q̈ᵢᵀ Aᵢ q̈ᵢ` of the exact
+    /// accelerations.
+    fn whole_body_step(&mut self, model: &Model, state: &mut State) -> Result<(), AdaptiveError> {
+        if !(self.hier.valid && self.hier.dofs == model.nv) {
+            let steps = self.steps;
+            self.set_active(model, state, |_| true)?;
+            self.steps = steps;
+        }
+        self.check_active_inputs(model, state)?;
+        self.hybrid_step(model, &state.q, &state.qd, &state.tau, false)?;
+        let mut total = 0.0;
+        for (j, body) in model.bodies.iter().enumerate() {
+            let a = &self.body.qdd[body.v_offset..body.v_offset + body.nv];
+            let w = self.metric.accel_weight(model, j);
+            for r in 0..body.nv {
+                for c in 0..body.nv {
+                    total += a[r] * w[r * body.nv + c] * a[c];
+                }
+            }
+        }
+        self.last = Selection {
+            active_dofs: model.nv,
+            budget_used: model.nv - if model.floating_base { 6 } else { 0 },
+            predicted_error: 0.0,
+            total_metric: total,
+        };
+        Ok(())
     }
 
     fn step_inner(

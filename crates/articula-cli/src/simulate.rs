@@ -230,6 +230,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
 
     let start = Instant::now();
     let mut in_steps = Duration::ZERO;
+    let mut first_step = Duration::ZERO;
     for k in 1..=steps {
         let t0 = Instant::now();
         let result = match (adaptive.as_mut(), ground.as_mut()) {
@@ -253,7 +254,11 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
                 .map(|r| active.add(k, r.active_dofs, steps))
                 .map_err(|e| e.to_string()),
         };
-        in_steps += t0.elapsed();
+        let took = t0.elapsed();
+        in_steps += took;
+        if k == 1 {
+            first_step = took;
+        }
         let result = result.and_then(|()| match adaptive.as_mut() {
             Some((_, exact)) => {
                 let r = step(&model, &mut data, exact, Method::Dca, integrator, dt)
@@ -312,6 +317,15 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
             in_steps.as_secs_f64() * 1e3,
             start.elapsed().as_secs_f64() * 1e3
         ),
+        if steps > 1 {
+            format!(
+                "first step   {:.3} ms, steady {:.3} µs per step (steps 2..{steps})",
+                first_step.as_secs_f64() * 1e3,
+                (in_steps - first_step).as_secs_f64() * 1e6 / (steps - 1) as f64
+            )
+        } else {
+            format!("first step   {:.3} ms", first_step.as_secs_f64() * 1e3)
+        },
         format!("energy start {e0:.9e} J (kinetic {k0:.6e}, potential {p0:.6e})"),
         format!("energy end   {e1:.9e} J (kinetic {k1:.6e}, potential {p1:.6e})"),
     ];
