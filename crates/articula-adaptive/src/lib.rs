@@ -79,7 +79,7 @@ pub use error::AdaptiveError;
 pub use parts::selection_queue::Selection;
 pub use report::StepReport;
 pub use scratch::Scratch;
-pub use settings::Settings;
+pub use settings::{Reselection, Settings};
 
 use articula_dca::internals::all_finite;
 use articula_dca::{check_inputs, forward_kinematics, DynamicsError, State};
@@ -497,6 +497,14 @@ impl Adaptive {
             // the whole body (reduced-tree ABA over every joint), no metric, no queue, no
             // caches (docs/adaptive.md#cost).
             self.whole_body_step(model, state)?;
+        } else if report.reselected
+            && self.switches.reselection == Reselection::ExactSolve
+            && !self.switches.full_passes
+            && self.settings.velocity_tolerance.is_none()
+        {
+            report.rigidified = self.exact_reselect(model, state)?;
+            self.check_active_inputs(model, state)?;
+            self.hybrid_step(model, &state.q, &state.qd, &state.tau, false)?;
         } else if report.reselected || self.switches.full_passes {
             self.step_passes(model, state, &mut report)?;
         } else {
@@ -544,6 +552,57 @@ impl Adaptive {
             total_metric: total,
         };
         Ok(())
+    }
+
+    /// How a due re-selection finds the new hybrid body (default
+    /// [`Reselection::Caches`]); the selection is the same either way.
+    pub fn set_reselection(&mut self, how: Reselection) {
+        self.switches.reselection = how;
+    }
+
+    /// How a due re-selection finds the new hybrid body.
+    pub fn reselection(&self) -> Reselection {
+        self.switches.reselection
+    }
+
+    /// The re-selection of [`Reselection::ExactSolve`]: one exact solve of the whole body
+    /// (articula-dca's ABA), the metric of every node at the exact handle forces summed
+    /// bottom-up (`A(C) = Σ_{i∈C} q̈ᵢᵀ Aᵢ q̈ᵢ`, what the top-down queue evaluates from Ψ, p, η),
+    /// the same top-down queue on those numbers, then the new hybrid body installed as by
+    /// [`Adaptive::set_active`] (locking impulses). Returns whether joints were locked.
+    fn exact_reselect(&mut self, model: &Model, state: &mut State) -> Result<bool, AdaptiveError> {
+        let mut fdense = std::mem::take(&mut self.forces.dense);
+        fdense.fill(SpatialForce::ZERO);
+        for &(i, f) in &self.forces.sparse {
+            fdense[i] += f;
+        }
+        // (Its whole-body kinematics stay in `data` for `load_state` below.)
+        let solved = self
+            .exact_solve(model, &state.q, &state.qd, &state.tau, &fdense)
+            .and_then(|()| Ok(check_qdd(model, &self.body.qdd)?));
+        if let Err(e) = solved {
+            self.forces.dense = fdense;
+            return Err(e);
+        }
+        let mut m = std::mem::take(&mut self.queue.exact_metric);
+        self.exact_node_metrics(model, &mut m);
+        self.queue.selected.fill(false);
+        let tree = &model.assembly;
+        let sel = self.run_queue(
+            model,
+            m[tree.root()],
+            |_, _| true,
+            |_, _, c| matches!(tree.nodes[c].kind, NodeKind::Join { .. }).then(|| m[c]),
+        );
+        self.queue.exact_metric = m;
+        let steps = self.steps;
+        let r = self.load_state(model, &state.q, &state.qd, &state.tau, &fdense);
+        self.forces.dense = fdense;
+        r?;
+        let locked = self.install_selected(model, state)?;
+        self.steps = steps;
+        self.last = sel;
+        Ok(locked)
     }
 
     fn step_inner(
@@ -698,6 +757,13 @@ impl Adaptive {
                 _ => false,
             };
         }
+        self.install_selected(model, state)
+    }
+
+    /// The hybrid body of the joints flagged in `queue.selected` (kinematics loaded): the
+    /// rigid composites, the locking impulses, `q̈ = 0`, the step count from a re-selection.
+    fn install_selected(&mut self, model: &Model, state: &mut State) -> Result<bool, AdaptiveError> {
+        let tree = &model.assembly;
         // The active region now (as `rebuild_hybrid` closes it, with no velocity tolerance),
         // so that only the composites outside it are formed.
         self.body.active.copy_from_slice(&self.queue.selected);

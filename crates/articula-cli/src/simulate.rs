@@ -35,9 +35,11 @@ pub struct SimulateArgs {
     /// every step (steps + 1 rows).
     #[arg(long, value_name = "traj.csv")]
     pub out: Option<PathBuf>,
-    /// `--method adaptive`: re-select the hybrid body every this many steps.
-    #[arg(long, value_name = "N", default_value_t = 1, value_parser = parse_steps)]
-    pub reselect_every: u64,
+    /// `--method adaptive`: re-select the hybrid body every this many steps. Default: the
+    /// balanced period ⌈internal DOFs / budget⌉, at most 50 (as long re-selecting as stepping;
+    /// docs/adaptive.md#defaults).
+    #[arg(long, value_name = "N", value_parser = parse_steps)]
+    pub reselect_every: Option<u64>,
 }
 
 /// `--integrator`.
@@ -184,12 +186,13 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     let method = args.dynamics.method;
     let integrator = args.integrator.integrator();
     // Adaptive: the hybrid body, and an exact DCA run beside it for the trajectory error.
-    let mut adaptive = method.exact().is_none().then(|| {
-        (
-            args.dynamics.adaptive(&model, args.reselect_every),
-            state.clone(),
-        )
+    let every = args.reselect_every.unwrap_or_else(|| {
+        articula_adaptive::Settings::balanced_period(&model, args.dynamics.budget)
     });
+    let mut adaptive = method
+        .exact()
+        .is_none()
+        .then(|| (args.dynamics.adaptive(&model, every), state.clone()));
     let mut active = ActiveStats::default();
     let (steps, dt) = (args.steps, args.dt);
     let mut ground = args.contact.run(&model)?;
@@ -345,7 +348,9 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
         lines.extend(active.lines(
             args.dynamics.budget,
             args.dynamics.tolerance,
-            args.reselect_every,
+            every,
+            args.reselect_every.is_none(),
+            args.dynamics.reselection,
         ));
     }
     if state.tau.iter().any(|&x| x != 0.0) {
@@ -405,7 +410,14 @@ impl ActiveStats {
         self.err_end = e;
     }
 
-    fn lines(&self, budget: Option<usize>, tolerance: Option<f64>, every: u64) -> Vec<String> {
+    fn lines(
+        &self,
+        budget: Option<usize>,
+        tolerance: Option<f64>,
+        every: u64,
+        balanced: bool,
+        how: crate::ReselectionArg,
+    ) -> Vec<String> {
         let mean = self.sum as f64 / self.n.max(1) as f64;
         let limit = match (budget, tolerance) {
             (Some(b), Some(t)) => format!("budget {b} DOF, tolerance {t:e}"),
@@ -419,7 +431,14 @@ impl ActiveStats {
             .map(|(k, a)| format!("{k}:{a}"))
             .collect();
         vec![
-            format!("adaptive     {limit}, re-selection every {every} step(s)"),
+            format!(
+                "adaptive     {limit}, re-selection every {every} step(s){} by {}",
+                if balanced { " (balanced default)" } else { "" },
+                match how {
+                    crate::ReselectionArg::Exact => "exact solve",
+                    crate::ReselectionArg::Caches => "caches",
+                }
+            ),
             format!(
                 "active DOFs  mean {mean:.2}, min {}, max {} (step:active {})",
                 self.min.unwrap_or(0),
