@@ -35,17 +35,18 @@ impl Settings {
     /// The longest re-selection period of [`Settings::balanced_period`].
     pub const MAX_BALANCED_PERIOD: u64 = 50;
 
-    /// A re-selection period that spends about as long re-selecting as stepping: a
+    /// A re-selection period that keeps re-selecting to a fraction of the time: a
     /// re-selection by [`crate::Reselection::ExactSolve`] costs about one exact solve of the
-    /// whole body (O(n) for n internal degrees of freedom) and a step between re-selections
-    /// one solve over the `budget` active ones, so the period is `⌈n / budget⌉` (at most
-    /// [`Settings::MAX_BALANCED_PERIOD`]; 1 when the budget covers every joint, which
+    /// whole body and its locking impulses (O(n) for n internal degrees of freedom, most of a
+    /// DCA step), a step between re-selections one solve over the `budget` active joints, so
+    /// the period grows like `n / budget`: `⌈2n / budget⌉`, at most
+    /// [`Settings::MAX_BALANCED_PERIOD`] (1 when the budget covers every joint, which
     /// re-selects nothing). The command line's default (docs/adaptive.md#defaults).
     pub fn balanced_period(model: &Model, budget: Option<usize>) -> u64 {
         let internal = model.nv - if model.floating_base { 6 } else { 0 };
         match budget {
             Some(b) if b < internal => {
-                (internal.div_ceil(b.max(1)) as u64).clamp(1, Self::MAX_BALANCED_PERIOD)
+                ((2 * internal).div_ceil(b.max(1)) as u64).clamp(1, Self::MAX_BALANCED_PERIOD)
             }
             _ => 1,
         }

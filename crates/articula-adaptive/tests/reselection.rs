@@ -106,3 +106,26 @@ fn exact_solve_reselection_equals_cached_reselection() {
         }
     }
 }
+
+/// The balanced period: `⌈2n / budget⌉` internal DOFs, at most 50, 1 when nothing is locked.
+#[test]
+fn balanced_period_follows_the_budget() {
+    let chain = load("chain300", false);
+    assert_eq!(Settings::balanced_period(&chain, Some(50)), 12);
+    assert_eq!(Settings::balanced_period(&chain, Some(10)), 50);
+    assert_eq!(Settings::balanced_period(&chain, Some(0)), 50);
+    assert_eq!(Settings::balanced_period(&chain, Some(300)), 1);
+    assert_eq!(Settings::balanced_period(&chain, None), 1);
+    // A floating base's six DOFs are free: the humanoid's internal ones count.
+    let humanoid = load("humanoid", true);
+    let internal = humanoid.nv - 6;
+    assert_eq!(
+        Settings::balanced_period(&humanoid, Some(internal)),
+        1,
+        "every internal DOF"
+    );
+    assert_eq!(
+        Settings::balanced_period(&humanoid, Some(4)),
+        (2 * internal).div_ceil(4) as u64
+    );
+}

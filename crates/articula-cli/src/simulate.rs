@@ -36,7 +36,7 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "traj.csv")]
     pub out: Option<PathBuf>,
     /// `--method adaptive`: re-select the hybrid body every this many steps. Default: the
-    /// balanced period ⌈internal DOFs / budget⌉, at most 50 (as long re-selecting as stepping;
+    /// balanced period ⌈2 · internal DOFs / budget⌉, at most 50 (re-selection a fraction of the time;
     /// docs/adaptive.md#defaults).
     #[arg(long, value_name = "N", value_parser = parse_steps)]
     pub reselect_every: Option<u64>,
