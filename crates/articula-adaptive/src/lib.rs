@@ -762,7 +762,11 @@ impl Adaptive {
 
     /// The hybrid body of the joints flagged in `queue.selected` (kinematics loaded): the
     /// rigid composites, the locking impulses, `q̈ = 0`, the step count from a re-selection.
-    fn install_selected(&mut self, model: &Model, state: &mut State) -> Result<bool, AdaptiveError> {
+    fn install_selected(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+    ) -> Result<bool, AdaptiveError> {
         let tree = &model.assembly;
         // The active region now (as `rebuild_hybrid` closes it, with no velocity tolerance),
         // so that only the composites outside it are formed.

@@ -34,7 +34,13 @@ fn full_budget_steps_are_exact_dca_steps() {
         let mut ad_short = Adaptive::new(&model, settings(internal - 1));
         for k in 0..20 {
             let exact = forward_dynamics_slices(
-                &model, &mut data, &e.q, &e.qd, &e.tau, &e.f_ext, Method::Dca,
+                &model,
+                &mut data,
+                &e.q,
+                &e.qd,
+                &e.tau,
+                &e.f_ext,
+                Method::Dca,
             )
             .unwrap()
             .to_vec();
@@ -92,7 +98,10 @@ fn exact_solve_reselection_equals_cached_reselection() {
             for k in 0..60 {
                 let ra = cached.step(&model, &mut a, 1e-3).unwrap();
                 let rb = exact.step(&model, &mut b, 1e-3).unwrap();
-                assert_eq!(ra.active_dofs, rb.active_dofs, "{name} every {every} step {k}");
+                assert_eq!(
+                    ra.active_dofs, rb.active_dofs,
+                    "{name} every {every} step {k}"
+                );
                 assert_eq!(ra.reselected, rb.reselected);
                 let (pa, pb) = (ra.predicted_error, rb.predicted_error);
                 let scale = cached.selection().total_metric.max(1e-300);
