@@ -505,6 +505,8 @@ impl Adaptive {
             report.rigidified = self.exact_reselect(model, state)?;
             self.check_active_inputs(model, state)?;
             self.hybrid_step(model, &state.q, &state.qd, &state.tau, false)?;
+            // The exact solve and the metric sums visited every node.
+            self.touched += model.assembly.nodes.len();
         } else if report.reselected || self.switches.full_passes {
             self.step_passes(model, state, &mut report)?;
         } else {
