@@ -120,8 +120,8 @@ pub(crate) struct Topo {
 #[derive(Clone, Debug)]
 pub(crate) struct DcaData {
     /// Run the passes compiled for AVX2 + FMA (`fma_dispatch!` in `dca.rs`, `aba.rs`): set in
-    /// [`Data::new`] when the
-    /// CPU has both (x86-64 only); tests clear it to check the portable compilation.
+    /// [`Data::new`] when the CPU has both (x86-64 only); tests clear it to check the portable
+    /// compilation.
     pub fused: bool,
     /// Whether `forward_dynamics` runs the kinematics inside the main pass: each body's at its
     /// parent's leaf (the root bodies' at the ground's), which needs the ground first and every

@@ -1411,7 +1411,7 @@ mod tests {
                 1e-12
             };
             let mut data = Data::new(&model);
-            assert_eq!(data.dca.fused, crate::arith::fused_available());
+            assert_eq!(data.dca.fused, articula_spatial::internals::fused_available());
             for seed in 0..6 {
                 let (portable, fused) =
                     crate::solve_portable_and_fused(&model, &mut data, seed, Method::Dca);
@@ -1428,7 +1428,7 @@ mod tests {
                 differ |= portable != fused;
             }
         }
-        assert_eq!(differ, crate::arith::fused_available());
+        assert_eq!(differ, articula_spatial::internals::fused_available());
     }
 
     /// The kinematics at the leaves (`DcaData::leaf_kinematics`, set on every bundled model)
