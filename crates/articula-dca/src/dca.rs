@@ -1106,16 +1106,10 @@ fn y_all<A: Arith>(
             let g = &d.phi[bo + ub(nh, j, i)].0;
             y_reduced::<A>(&mut d.y[h], &mut d.u[h], g, pq, l);
         } else {
-            let g = transpose6(&d.phi[bo + ub(nh, i, j)].0);
+            let g = d.phi[bo + ub(nh, i, j)].transpose().0;
             y_reduced::<A>(&mut d.y[h], &mut d.u[h], &g, pq, l);
         }
     }
-}
-
-/// The transpose of a 6×6 block.
-#[inline(always)]
-fn transpose6(b: &[[f64; 6]; 6]) -> [[f64; 6]; 6] {
-    std::array::from_fn(|r| std::array::from_fn(|c| b[c][r]))
 }
 
 /// `Z = L⁻¹ Tᵀ G` and `U = D⁻¹ Z` (5 rows each; `L D Lᵀ = TᵀKT` packed by rows in `l`, `1/d`

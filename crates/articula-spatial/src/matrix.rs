@@ -80,7 +80,7 @@ impl Mat6 {
     }
 
     /// The transpose.
-    #[inline]
+    #[inline(always)]
     pub fn transpose(&self) -> Mat6 {
         let mut t = [[0.0; 6]; 6];
         for (i, row) in self.0.iter().enumerate() {
