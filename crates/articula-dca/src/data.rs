@@ -2,9 +2,9 @@
 
 use crate::kinematics::FkPlan;
 use crate::small::{SmallSpd, SymT};
+use articula_model::{JointKind, Model, NodeKind};
 use articula_spatial::internals::fused_available;
 use articula_spatial::PackedSymMat6;
-use articula_model::{JointKind, Model, NodeKind};
 use articula_spatial::{Mat6, SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
 use glam::DVec3;
 

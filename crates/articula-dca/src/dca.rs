@@ -1405,7 +1405,10 @@ mod tests {
                 1e-12
             };
             let mut data = Data::new(&model);
-            assert_eq!(data.dca.fused, articula_spatial::internals::fused_available());
+            assert_eq!(
+                data.dca.fused,
+                articula_spatial::internals::fused_available()
+            );
             for seed in 0..6 {
                 let (portable, fused) =
                     crate::solve_portable_and_fused(&model, &mut data, seed, Method::Dca);

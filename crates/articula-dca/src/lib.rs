@@ -134,5 +134,8 @@ pub(crate) fn solve_portable_and_fused(
         data.dca.fused = fused;
         forward_dynamics(model, data, &s, method).unwrap().to_vec()
     };
-    (solve(false), solve(articula_spatial::internals::fused_available()))
+    (
+        solve(false),
+        solve(articula_spatial::internals::fused_available()),
+    )
 }

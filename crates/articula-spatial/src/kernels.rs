@@ -6,6 +6,9 @@
 //! A pass's results depend on the order of its sums to the last bit, so each order it uses
 //! is one named function here rather than a private copy in the pass.
 
+// Index loops mirror the equations (rows i, columns j, sums over p).
+#![allow(clippy::needless_range_loop)]
+
 use crate::arith::Arith;
 
 /// `a · b` summed left to right, `(((a₀b₀ + a₁b₁) + a₂b₂) + …) + a₅b₅`, each step one
@@ -148,7 +151,8 @@ mod tests {
         assert_eq!(dot6_pairs::<Portable>(&a, &b), exact);
         let x = [0.1, 0.7, -0.3, 1e-9, 2.5, -1.3];
         let y = [0.3, -0.11, 0.9, 3e7, 0.17, 0.6];
-        let plain = x[0] * y[0] + x[1] * y[1] + x[2] * y[2] + x[3] * y[3] + x[4] * y[4] + x[5] * y[5];
+        let plain =
+            x[0] * y[0] + x[1] * y[1] + x[2] * y[2] + x[3] * y[3] + x[4] * y[4] + x[5] * y[5];
         assert_eq!(dot6::<Portable>(&x, &y).to_bits(), plain.to_bits());
     }
 
@@ -177,7 +181,10 @@ mod tests {
         for i in 0..4 {
             for j in 0..4 {
                 let e: f64 = (0..4).map(|p| a[i][p] * ai[p][j]).sum();
-                assert!((e - f64::from(u8::from(i == j))).abs() < 1e-14, "({i}, {j})");
+                assert!(
+                    (e - f64::from(u8::from(i == j))).abs() < 1e-14,
+                    "({i}, {j})"
+                );
                 assert_eq!(ai[i][j].to_bits(), ai[j][i].to_bits());
             }
         }

@@ -14,8 +14,8 @@
 #![allow(clippy::needless_range_loop)]
 
 use articula_spatial::{
-    DMat3, DQuat, DVec3, Mat6, SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform,
-    PackedSymMat6, SymMat6,
+    DMat3, DQuat, DVec3, Mat6, PackedSymMat6, SpatialForce, SpatialInertia, SpatialMotion,
+    SpatialTransform, SymMat6,
 };
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
