@@ -16,6 +16,8 @@ use std::time::{Duration, Instant};
 pub struct SimulateArgs {
     #[command(flatten)]
     pub dynamics: DynamicsArgs,
+    #[command(flatten)]
+    pub contact: crate::ground::GroundArgs,
     /// Number of time steps (at least 1).
     #[arg(long, value_parser = parse_steps, allow_hyphen_values = true)]
     pub steps: u64,
@@ -190,6 +192,17 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     });
     let mut active = ActiveStats::default();
     let (steps, dt) = (args.steps, args.dt);
+    let mut ground = args.contact.run(&model)?;
+    if let Some(g) = &ground {
+        if integrator != Integrator::SemiImplicitEuler || adaptive.is_some() {
+            return Err(CliError(
+                "--ground needs --integrator euler and an exact method (dca, aba, crba)".into(),
+            ));
+        }
+        if let Some(h) = args.contact.drop {
+            g.drop(&model, &mut data, &mut state, h)?;
+        }
+    }
 
     let mut csv = match &args.out {
         Some(path) => Some(Csv::create(path, &model)?),
@@ -219,8 +232,15 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     let mut in_steps = Duration::ZERO;
     for k in 1..=steps {
         let t0 = Instant::now();
-        let result = match adaptive.as_mut() {
-            None => step(
+        let result = match (adaptive.as_mut(), ground.as_mut()) {
+            (None, Some(g)) => g.step(
+                &model,
+                &mut data,
+                &mut state,
+                method.exact().unwrap_or_default(),
+                dt,
+            ),
+            (None, None) => step(
                 &model,
                 &mut data,
                 &mut state,
@@ -229,7 +249,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
                 dt,
             )
             .map_err(|e| e.to_string()),
-            Some((ad, _)) => articula_adaptive::step(&model, ad, &mut state, integrator, dt)
+            (Some((ad, _)), _) => articula_adaptive::step(&model, ad, &mut state, integrator, dt)
                 .map(|r| active.add(k, r.active_dofs, steps))
                 .map_err(|e| e.to_string()),
         };
@@ -304,6 +324,9 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     } else {
         format!("energy drift n/a relative (start energy is 0), {drift:.3e} J absolute")
     });
+    if let Some(g) = &ground {
+        lines.extend(g.lines(k1));
+    }
     if adaptive.is_some() {
         lines.extend(active.lines(
             args.dynamics.budget,

@@ -33,4 +33,14 @@ pub enum DynamicsError {
         /// What failed.
         detail: &'static str,
     },
+    /// A model too large for a workspace's indices (DCA stores 32-bit ones).
+    #[error("{what} needs {size} entries, above the limit of {limit}")]
+    TooLarge {
+        /// What is too large.
+        what: &'static str,
+        /// Its size.
+        size: usize,
+        /// The largest size supported.
+        limit: usize,
+    },
 }

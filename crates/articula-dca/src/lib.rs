@@ -45,6 +45,8 @@
 
 mod aba;
 mod com;
+mod contact;
+mod contact_solver;
 mod crba;
 mod data;
 mod dca;
@@ -52,6 +54,7 @@ mod energy;
 mod error;
 mod finite;
 mod forward;
+mod gather;
 mod inputs;
 mod integrate;
 mod inverse;
@@ -64,6 +67,9 @@ mod refine;
 mod small;
 mod state;
 
+pub use contact::{
+    step_with_contact, ContactData, ContactError, ContactSettings, ContactStats, Ground,
+};
 pub use data::Data;
 pub use error::DynamicsError;
 pub use forward::{forward_dynamics, forward_dynamics_slices, Method};
