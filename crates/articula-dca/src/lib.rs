@@ -66,7 +66,7 @@ mod small;
 mod state;
 
 pub use data::Data;
-pub use error::DynamicsError;
+pub use error::{DynamicsError, MAX_DENSE_MATRIX_BYTES};
 pub use forward::{forward_dynamics, forward_dynamics_slices, Method};
 pub use inputs::check_inputs;
 pub use integrate::{integrate_floating, integrate_q, step, Integrator};
@@ -91,6 +91,7 @@ pub mod internals {
     #[cfg(target_arch = "x86_64")]
     pub use crate::arith::Fused;
     pub use crate::arith::{fused_available, Arith, Portable};
+    pub use crate::error::human_bytes;
     pub use crate::finite::all_finite;
     pub use crate::kinematics::{body_kinematics, computation_origin};
     pub use crate::small::{cholesky, cholesky_into};
