@@ -691,30 +691,28 @@ pub const DEFAULT_SCENE_MEMORY_LIMIT: u64 = 4 << 30;
 /// An estimate of the heap one body of `model` takes in a running scene ([`crate::SceneSim`]):
 /// its placement and state, its adaptive workspace (the exact DCA workspace inside it, whose
 /// articulated-body blocks grow with the handles of every assembly-tree node, the hybrid
-/// body's caches), its poses, metrics and share of the global queue. A linear model in the
-/// model's sizes — bodies, degrees of freedom, assembly-tree nodes, `Σ handles` and
-/// `Σ handles²` over the nodes — fitted to what the allocator reports; a test keeps it between
-/// 1 and 3 times the measured heap on a humanoid, chains and a hub with many children.
+/// body's caches), its poses, metrics and share of the global queue:
+/// `16 KiB + 4 KiB × bodies + 2,100 B × Σ handles²` over the assembly-tree nodes, fitted to
+/// what the allocator reports (a humanoid body takes ~350 KB); a test keeps it between 1 and 3
+/// times the measured heap on a humanoid, chains and a hub with many children.
 pub fn body_memory_estimate(model: &Model) -> u64 {
-    let nodes = &model.assembly.nodes;
-    let handles: u64 = nodes.iter().map(|n| n.handles.len() as u64).sum();
-    let blocks: u64 = nodes.iter().map(|n| (n.handles.len() as u64).pow(2)).sum();
-    let (nb, nv, nn) = (
-        model.bodies.len() as u64,
-        model.nv as u64,
-        nodes.len() as u64,
-    );
-    (MEM_BASE + MEM_BODY * nb + MEM_DOF * nv + MEM_NODE * nn + MEM_HANDLE * handles)
+    let blocks: u64 = model
+        .assembly
+        .nodes
+        .iter()
+        .map(|n| (n.handles.len() as u64).pow(2))
+        .sum();
+    MEM_BASE
+        .saturating_add(MEM_BODY.saturating_mul(model.bodies.len() as u64))
         .saturating_add(MEM_BLOCK.saturating_mul(blocks))
 }
 
-/// Coefficients of [`body_memory_estimate`] (bytes).
-const MEM_BASE: u64 = 8192;
-const MEM_BODY: u64 = 2000;
-const MEM_DOF: u64 = 200;
-const MEM_NODE: u64 = 500;
-const MEM_HANDLE: u64 = 300;
-const MEM_BLOCK: u64 = 300;
+/// Coefficients of [`body_memory_estimate`] (bytes): per body of the scene, per body of its
+/// model, per pair of handles of an assembly-tree node (the articulated-body blocks of DCA and
+/// of the hybrid body's caches).
+const MEM_BASE: u64 = 16 << 10;
+const MEM_BODY: u64 = 4 << 10;
+const MEM_BLOCK: u64 = 2100;
 
 /// Reads and checks a scene file.
 #[cfg(feature = "serde")]
