@@ -119,7 +119,7 @@ impl GimbalWatch {
                 if v < GIMBAL_WARNING {
                     *warned = true;
                     eprintln!(
-                        "warning: {}: {who}composed joint {} (body {}) is near gimbal lock: its \
+                        "warning: {}: {who}composed joint {} (moving link {}) is near gimbal lock: its \
                          axes span {v:.3} (|cos| of the middle angle; 0 is singular), where its \
                          coordinates' velocities grow like 1/cos and the integration loses \
                          accuracy (a smaller --dt; joint limits or springs keep it away)",

@@ -78,7 +78,11 @@ pub fn human_bytes(bytes: u64) -> String {
 pub const MAX_DENSE_MATRIX_BYTES: u64 = 2 << 30;
 
 /// Checks that a dense `rows × cols` matrix of `f64` fits in [`MAX_DENSE_MATRIX_BYTES`].
-pub(crate) fn check_dense(what: &'static str, rows: usize, cols: usize) -> Result<(), DynamicsError> {
+pub(crate) fn check_dense(
+    what: &'static str,
+    rows: usize,
+    cols: usize,
+) -> Result<(), DynamicsError> {
     let bytes = (rows as u128 * cols as u128 * 8).min(u64::MAX as u128) as u64;
     if bytes > MAX_DENSE_MATRIX_BYTES {
         return Err(DynamicsError::TooLarge {

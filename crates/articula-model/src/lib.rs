@@ -83,7 +83,8 @@ impl Body {
     /// velocities grow like `1 / cos q₂` for a bounded angular velocity). `None` for any other
     /// joint or a `q` too short.
     pub fn euler_axes_volume(&self, q: &[f64]) -> Option<f64> {
-        let rotational = |p: &JointPart| matches!(p.kind, JointKind::Revolute | JointKind::Continuous);
+        let rotational =
+            |p: &JointPart| matches!(p.kind, JointKind::Revolute | JointKind::Continuous);
         if self.joint.len() != 3 || !self.joint.iter().all(rotational) {
             return None;
         }

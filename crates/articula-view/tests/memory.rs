@@ -60,7 +60,9 @@ fn scene_bytes(model: &Model, n: usize) -> isize {
 
 fn star_urdf(children: usize) -> String {
     let mut s = String::from("<robot name=\"star\">\n");
-    let inertial = |m: f64| format!("<inertial><mass value=\"{m}\"/><inertia ixx=\"0.01\" iyy=\"0.01\" izz=\"0.01\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial>");
+    let inertial = |m: f64| {
+        format!("<inertial><mass value=\"{m}\"/><inertia ixx=\"0.01\" iyy=\"0.01\" izz=\"0.01\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial>")
+    };
     s += &format!("<link name=\"hub\">{}</link>\n", inertial(5.0));
     for i in 0..children {
         s += &format!("<link name=\"c{i}\">{}</link>\n", inertial(0.1));
