@@ -69,7 +69,7 @@ impl EnergyWatch {
         let e = t + v;
         self.last = e;
         if !e.is_finite() {
-            return Err(format!("the energy is not finite ({e})"));
+            return Err(format!("non-finite energy ({e} J)"));
         }
         self.scale = self.scale.max(t).max((v - self.v0).abs()).max(w.abs());
         let drift = e - self.start - w;
@@ -81,7 +81,7 @@ impl EnergyWatch {
             return Err(format!(
                 "the energy grew by {drift:.3e} J (E - E0 - work of the applied forces), more \
                  than --max-energy-growth {} × {:.3e} J, the largest energy in play: the \
-                 integration diverges (a smaller --dt, or --integrator rk4)",
+                 integration diverges",
                 self.bound, self.scale
             ));
         }
@@ -170,6 +170,6 @@ mod tests {
         let err = EnergyWatch::new(1.0, 1.0, 0.5)
             .check(1, f64::INFINITY, 0.0, 0.0)
             .unwrap_err();
-        assert!(err.contains("not finite"), "{err}");
+        assert!(err.contains("non-finite energy"), "{err}");
     }
 }

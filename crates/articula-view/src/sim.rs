@@ -1189,6 +1189,61 @@ mod tests {
         }
     }
 
+    /// Every coordinate of a composed joint gets the stiffness and damping of its heaviest
+    /// one (so that none rings slower than the set frequency in any configuration of the
+    /// joint): on the humanoid's shoulders, the twist axis along the hanging arm, whose own
+    /// effective inertia is tens of times smaller, is as stiff as the swing axes; single-axis
+    /// joints keep their own `k = ω² / (M⁻¹)ᵢᵢ`.
+    #[test]
+    fn composed_joint_coordinates_share_their_heaviest_stiffness() {
+        let model = articula_testkit::bundled_with("humanoid", true);
+        let (f, zeta) = (2.0, 0.2);
+        let w = 2.0 * std::f64::consts::PI * f;
+        let springs = pose_springs(&model, f, zeta);
+        let spring = |v: usize| *springs.iter().find(|s| s.1 == v).unwrap();
+        // The effective inertia of each coordinate alone, from exact DCA (no gravity).
+        let mut data = articula_dca::Data::new(&model);
+        data.gravity = glam::DVec3::ZERO;
+        let q = model.neutral_q();
+        let mut own = |v: usize| {
+            let mut tau = vec![0.0; model.nv];
+            tau[v] = 1.0;
+            let qdd = articula_dca::forward_dynamics_slices(
+                &model,
+                &mut data,
+                &q,
+                &vec![0.0; model.nv],
+                &tau,
+                &[],
+                articula_dca::Method::Dca,
+            )
+            .unwrap();
+            1.0 / qdd[v]
+        };
+        for body in &model.bodies[1..] {
+            let m: Vec<f64> = body.joint.iter().map(|p| own(p.v_offset)).collect();
+            let heaviest = m.iter().copied().fold(0.0, f64::max);
+            for (p, m) in body.joint.iter().zip(&m) {
+                let (_, _, k, c) = spring(p.v_offset);
+                let expected = if body.joint.len() > 1 { heaviest } else { *m };
+                assert!((k - w * w * expected).abs() <= 1e-12 * k, "{}", p.name);
+                assert!(
+                    (c - 2.0 * zeta * w * expected).abs() <= 1e-12 * c,
+                    "{}",
+                    p.name
+                );
+            }
+        }
+        let arm = model
+            .bodies
+            .iter()
+            .find(|b| b.name == "l_upper_arm")
+            .unwrap();
+        let twist = own(arm.joint[1].v_offset);
+        let swing = own(arm.joint[2].v_offset);
+        assert!(swing > 20.0 * twist, "{swing} against {twist}");
+    }
+
     fn same(a: &[f64], b: &[f64]) -> bool {
         a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
     }
