@@ -35,7 +35,7 @@ fn euler_axes_volume_is_the_cosine_of_the_middle_angle() {
         for (a, b, c) in [
             (0.3, 1.1, -0.7),
             (-2.0, -0.4, 2.5),
-            (0.0, 1.5707963267948966, 0.9),
+            (0.0, std::f64::consts::FRAC_PI_2, 0.9),
         ] {
             q[body.joint[0].q_offset] = a;
             q[body.joint[1].q_offset] = b;
