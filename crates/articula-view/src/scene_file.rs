@@ -1011,6 +1011,10 @@ fn resolve_in(
     for (i, c) in spec.crowds.iter().enumerate() {
         let m = find_model(format!("crowds[{i}].model"), &c.model)?;
         let n = (c.rows as u64).saturating_mul(c.columns as u64);
+        if n == 0 || n > 1_000_000 {
+            // Refused below, naming its field.
+            continue;
+        }
         bodies = bodies.saturating_add(n);
         estimate =
             estimate.saturating_add(n.saturating_mul(body_memory_estimate(&models[m].model)));
