@@ -1219,6 +1219,7 @@ mod tests {
             axis: glam::DVec3::Z,
             q_offset: 8,
             v_offset: 7,
+            limits: None,
         };
         s.q.push(0.0);
         s.qd.push(0.5);

@@ -31,16 +31,14 @@
 //! whose parts after the first have no offset — every bundled model); otherwise the caches are
 //! not used and every re-selection runs whole-body passes.
 
-use crate::hybrid::{Adaptive, Rigid};
+use crate::adaptive::Adaptive;
+use crate::hybrid::rigid_phi;
+use crate::parts::caches::{Caches, CONST, M6, NW};
+use crate::parts::composites::Rigid;
 use articula_dca::DynamicsError;
-use articula_model::{JointKind, Model, NodeKind};
-use articula_spatial::{Mat6, SpatialForce, SpatialMotion, SpatialTransform};
+use articula_model::{Model, NodeKind};
+use articula_spatial::{SpatialForce, SpatialMotion, SpatialTransform};
 use glam::{DMat3, DVec3};
-
-/// Number of monomials: 21 quadratic `u_a u_b` and the constant.
-pub(crate) const NW: usize = 22;
-/// Index of the constant monomial.
-pub(crate) const CONST: usize = 21;
 
 /// The monomial index of `u_a u_b`, `a ≤ b`.
 const fn mono(a: usize, b: usize) -> usize {
@@ -252,9 +250,6 @@ fn mul(a: &[f64], b: &[f64], m: usize, r: usize, n: usize, c: &mut [f64]) {
     crate::dense::a_b(a, b, m, r, n, c);
 }
 
-/// A 6 × 6 matrix, row-major `[row][col]`.
-pub(crate) type M6 = [[f64; 6]; 6];
-
 /// `a b`.
 #[inline(always)]
 fn m6_mul(a: &M6, b: &M6) -> M6 {
@@ -342,208 +337,19 @@ struct DirtyJoin {
     xdirty: [bool; 2],
 }
 
-/// Per-node caches (layouts of the workspace's slots, cache-frame axes) and the scratch of the
-/// cached re-selection.
-#[derive(Clone, Debug, Default)]
-pub(crate) struct Caches {
-    /// Allocated for the model.
-    pub alloc: bool,
-    /// Every rigid node's cache is valid for the current hybrid body.
-    pub ready: bool,
-    /// Per node: cache valid (its configuration is frozen as cached).
-    pub valid: Vec<bool>,
-    /// Per node: composite inertia in its cache frame.
-    pub rig: Vec<Rigid>,
-    /// Per node: its top frame's pose in its parent's cache frame (valid while the parent's
-    /// cache is).
-    pub rel: Vec<SpatialTransform>,
-    /// Per handle: pose of the handle joint's parent body in the node's cache frame (when
-    /// that body is in the node).
-    pub hpose: Vec<SpatialTransform>,
-    pub phi: Vec<Mat6>,
-    /// Per handle: `B_h` (6 × NW).
-    pub bw: Vec<f64>,
-    pub kmat: Vec<f64>,
-    /// Per degree of freedom: a row of `K_w` (NW).
-    pub kw: Vec<f64>,
-    pub nmat: Vec<f64>,
-    /// Per node: `N_w` (6 × NW).
-    pub nw: Vec<f64>,
-    pub psi: Vec<f64>,
-    /// Per handle: 6 rows of `P` (NW each).
-    pub pw: Vec<f64>,
-    /// Per node: `E` (NW × NW, symmetric).
-    pub e: Vec<f64>,
-    /// Per node: the join's bias maps κ, ν (cache-frame axes; a dirty path's join).
-    pub jm: Vec<crate::hybrid::JoinMaps>,
-    /// The joint torques the caches were built with, and whether each re-selection compares
-    /// them (O(n)) with the state's (see [`Adaptive::set_check_locked_torques`]).
-    pub tau: Vec<f64>,
-    pub check_tau: bool,
-    /// Whether the model's handle points are fixed in their rigid nodes (see the module doc).
-    pub supported: bool,
-    // Scratch of a re-selection: per node, the pose of its cache frame and its top body's
-    // velocity in it (own coordinates), and the re-selection that evaluated its slots.
-    pub cx: Vec<SpatialTransform>,
-    pub cu: Vec<SpatialMotion>,
-    pub stamp: Vec<u64>,
-    pub epoch: u64,
-    /// The nodes of the last selection (ascending), the joints leaving the active region, and
-    /// per node a spatial momentum (the locking impulse).
-    pub sel: Vec<usize>,
-    pub leaving: Vec<usize>,
-    /// Per node: the re-selection whose external forces made it dirty (on the path from a
-    /// forced body up to its cluster); the dirty nodes of this one.
-    pub dstamp: Vec<u64>,
-    pub dirty: Vec<usize>,
-    /// Per dirty node, what the external forces add to its force-free (cached) values:
-    /// per handle `Δb` and `Δp` (6 rows), per node `Δn` and `Δη` (all in its cache frame's
-    /// axes), per degree of freedom `Δk`.
-    pub db: Vec<[f64; 6]>,
-    pub dp: Vec<f64>,
-    pub dn: Vec<[f64; 6]>,
-    pub deta: Vec<f64>,
-    pub dk: Vec<f64>,
-    /// Forced paths as linear maps of one leaf's wrench ([`Adaptive::join_map`]): per node
-    /// the number of forced leaves below it on this re-selection's dirty paths (saturating at
-    /// 2), the one leaf when there is one, whether its map is valid, and the re-selection
-    /// that evaluated its deltas.
-    pub nforced: Vec<u8>,
-    pub fleaf: Vec<usize>,
-    pub mok: Vec<bool>,
-    pub dvstamp: Vec<u64>,
-    /// A clock stamping cache builds (`cgen`, per node) and map builds (`mtime`): a map is
-    /// valid while it is younger than its node's cache and its dirty child's map.
-    pub clock: u64,
-    pub cgen: Vec<u64>,
-    /// Off: every dirty node by [`Adaptive::dirty_delta`] (the reference for tests).
-    pub no_maps: bool,
-    /// The maps (allocated at the first re-selection with external forces), per node: the
-    /// leaf they are for, their record's time, whether built, the leaf's frame in the node's
-    /// (`mpose`), `G_n`, `H`, `J`; per handle `G_b`, `G_p`; per degree of freedom a row of
-    /// `G_k`.
-    pub malloc: bool,
-    pub mleaf: Vec<usize>,
-    pub mtime: Vec<u64>,
-    pub mbuilt: Vec<bool>,
-    pub mpose: Vec<SpatialTransform>,
-    pub mgn: Vec<M6>,
-    pub mhq: Vec<M6>,
-    pub mjw: Vec<[[f64; NW]; 6]>,
-    pub mgb: Vec<M6>,
-    pub mgp: Vec<M6>,
-    pub mgk: Vec<[f64; 6]>,
-    /// Maps built and evaluated (for tests: the maps are used).
-    pub map_builds: u64,
-    pub map_evals: u64,
-    /// Per node: the re-selection whose computation-axes metric slots (Ψ, p, η) it holds;
-    /// its metric `A` at the exact handle forces and the re-selection that computed it.
-    pub pstamp: Vec<u64>,
-    pub amet: Vec<f64>,
-    pub astamp: Vec<u64>,
-    pub hm: Vec<articula_spatial::SpatialForce>,
-    // Scratch of a build: the children's tensors over the parent's monomials (computation
-    // axes), the results, a monomial map and a product.
-    pub xb: [Vec<f64>; 2],
-    pub xp: [Vec<f64>; 2],
-    pub xe: [Vec<f64>; 2],
-    pub ob: Vec<f64>,
-    pub op: Vec<f64>,
-    pub oe: Vec<f64>,
-    pub okw: Vec<f64>,
-    pub onw: Vec<f64>,
-    pub mm: Vec<f64>,
-    pub tmp: Vec<f64>,
-    /// Scratch of a joint transform (`X_J(q)` alone): zero velocities and subspace columns
-    /// (length nv).
-    pub qd0: Vec<f64>,
-    pub s0: Vec<SpatialMotion>,
-}
-
 impl Adaptive {
     /// Allocates the caches (first use).
     pub(crate) fn cache_alloc(&mut self, model: &Model) {
         if self.cache.alloc {
             return;
         }
-        let tree = &model.assembly;
-        let nn = tree.nodes.len();
-        let lay = &self.lay;
-        let c = &mut self.cache;
-        c.valid = vec![false; nn];
-        c.rig = vec![Rigid::default(); nn];
-        c.rel = vec![SpatialTransform::IDENTITY; nn];
-        c.hpose = vec![SpatialTransform::IDENTITY; lay.handles];
-        c.phi = vec![Mat6::ZERO; lay.blocks];
-        c.bw = vec![0.0; 6 * NW * lay.handles];
-        c.kmat = vec![0.0; self.kmat.len()];
-        c.kw = vec![0.0; NW * model.nv];
-        c.nmat = vec![0.0; self.nmat.len()];
-        c.nw = vec![0.0; 6 * NW * nn];
-        c.psi = vec![0.0; self.psi.len()];
-        c.pw = vec![0.0; 6 * NW * lay.handles];
-        c.e = vec![0.0; NW * NW * nn];
-        c.jm = vec![crate::hybrid::JoinMaps::default(); nn];
-        c.tau = vec![0.0; model.nv];
-        c.cx = vec![SpatialTransform::IDENTITY; nn];
-        c.cu = vec![SpatialMotion::ZERO; nn];
-        c.stamp = vec![0; nn];
-        c.hm = vec![articula_spatial::SpatialForce::ZERO; nn];
-        c.sel = Vec::with_capacity(nn);
-        c.dstamp = vec![0; nn];
-        c.pstamp = vec![0; nn];
-        c.amet = vec![0.0; nn];
-        c.astamp = vec![0; nn];
-        c.dirty = Vec::with_capacity(nn);
-        c.db = vec![[0.0; 6]; lay.handles];
-        c.dp = vec![0.0; 6 * lay.handles];
-        c.dn = vec![[0.0; 6]; nn];
-        c.deta = vec![0.0; nn];
-        c.dk = vec![0.0; model.nv];
-        c.nforced = vec![0; nn];
-        c.fleaf = vec![0; nn];
-        c.mok = vec![false; nn];
-        c.dvstamp = vec![0; nn];
-        c.cgen = vec![0; nn];
-        c.leaving = Vec::with_capacity(model.bodies.len());
-        let mh = 6 * tree.max_handles().max(1);
-        for s in 0..2 {
-            c.xb[s] = vec![0.0; mh * NW];
-            c.xp[s] = vec![0.0; mh * NW];
-            c.xe[s] = vec![0.0; NW * NW];
-        }
-        c.ob = vec![0.0; mh * NW];
-        c.op = vec![0.0; mh * NW];
-        c.oe = vec![0.0; NW * NW];
-        c.okw = vec![0.0; 6 * NW];
-        c.onw = vec![0.0; 6 * NW];
-        c.mm = vec![0.0; NW * NW];
-        c.tmp = vec![0.0; (mh * NW).max(NW * NW)];
-        c.qd0 = vec![0.0; model.nv];
-        c.s0 = vec![SpatialMotion::ZERO; model.nv];
-        // Leaves: a body's composite in its own frame.
-        for (n, node) in tree.nodes.iter().enumerate() {
-            if let NodeKind::Body(i) = node.kind {
-                let bi = &model.bodies[i].inertia;
-                c.rig[n] = Rigid {
-                    m: bi.mass,
-                    c: bi.com(),
-                    ic: bi.inertia_about_com(),
-                };
-            }
-        }
-        // Handle points fixed in their rigid nodes: every joint below the root is revolute,
-        // continuous or fixed, and its parts after the first carry no offset.
-        c.supported = model.bodies.iter().all(|b| {
-            b.parent.is_none()
-                || b.joint.iter().enumerate().all(|(k, p)| {
-                    matches!(
-                        p.kind,
-                        JointKind::Revolute | JointKind::Continuous | JointKind::Fixed
-                    ) && (k == 0 || p.origin.r == DVec3::ZERO)
-                })
-        });
-        c.alloc = true;
+        let sizes = [
+            self.maps.qdd_gain.len(),
+            self.maps.force_gain.len(),
+            self.metric.quad.len(),
+        ];
+        self.cache.allocate(model, &self.coef.layout, sizes);
+        let nn = model.assembly.nodes.len();
         // The hierarchy's lists, rebuilt by every cached re-selection, never reallocate.
         let h = &mut self.hier;
         h.hnodes.reserve(nn.saturating_sub(h.hnodes.len()));
@@ -555,10 +361,10 @@ impl Adaptive {
     /// The pose of node `n`'s cache frame in the computation frame from the kinematics in
     /// `data` (its top body's; the computation frame for a node holding the ground).
     pub(crate) fn cache_frame(&self, n: usize) -> SpatialTransform {
-        if self.grounded[n] {
+        if self.composites.grounded[n] {
             SpatialTransform::xlt(self.data.origin)
         } else {
-            self.data.x[self.top[n]]
+            self.data.x[self.composites.top[n]]
         }
     }
 
@@ -582,14 +388,14 @@ impl Adaptive {
         else {
             return Ok(());
         };
-        self.record_maps = true;
+        self.maps.record = true;
         let r = self.join(model, n, tau, crate::hybrid::Level::Acceleration);
-        self.record_maps = false;
+        self.maps.record = false;
         r?;
         // Ψ of n and of its children in computation axes (the metric's bias part reads them).
         self.world_metric(model, n);
         let xn = self.cache_frame(n);
-        let grounded = self.grounded[n];
+        let grounded = self.composites.grounded[n];
         let a_g = self.data.gravity;
         // The children's frames in n's, from the cached poses and the joint's q alone (never
         // from world poses, which would feed the rounding of every rebuild into the next):
@@ -597,7 +403,9 @@ impl Adaptive {
         // and B's top body is the joint's child, at `hpose_A[ja] · X_J(q)`.
         self.cache.rel[a] = SpatialTransform::IDENTITY;
         let pa = match tree.nodes[a].kind {
-            NodeKind::Join { .. } => self.cache.hpose[self.lay.hoff[a] + self.lay.ja[n]],
+            NodeKind::Join { .. } => {
+                self.cache.hpose[self.coef.layout.hoff[a] + self.coef.layout.ja[n]]
+            }
             _ => SpatialTransform::IDENTITY,
         };
         let (xj, _, _) = articula_dca::internals::body_kinematics(
@@ -611,7 +419,7 @@ impl Adaptive {
         self.cache.rel[b] = pa * xj;
         // Children's tensors over n's monomials, computation axes.
         for (side, x) in [(0usize, a), (1, b)] {
-            let nhx = self.nh[x];
+            let nhx = self.coef.handles[x];
             let rows = 6 * nhx;
             let rel = self.cache.rel[x];
             let same = x == a && !grounded;
@@ -627,13 +435,16 @@ impl Adaptive {
             c.xp[side][..rows * NW].fill(0.0);
             c.xe[side].fill(0.0);
             match tree.nodes[x].kind {
+                NodeKind::Gather { .. } => {
+                    unreachable!("adaptive refuses models with gather nodes (`load_state`)")
+                }
                 NodeKind::Ground => {}
                 NodeKind::Body(_) => {
                     self.leaf_columns(model, x, &xn, &xx, grounded, side);
                 }
                 NodeKind::Join { .. } => {
                     let identity = same;
-                    let (ho, rx) = (self.lay.hoff[x], rows3(&xx.e));
+                    let (ho, rx) = (self.coef.layout.hoff[x], rows3(&xx.e));
                     let c = &mut self.cache;
                     let (bw, pw) = (
                         &c.bw[ho * 6 * NW..(ho * 6 + rows) * NW],
@@ -654,7 +465,7 @@ impl Adaptive {
                     }
                     left_rot(&mut c.xb[side], rows, NW, &rx);
                     left_rot(&mut c.xp[side], rows, NW, &rx);
-                    if grounded && !self.grounded[x] {
+                    if grounded && !self.composites.grounded[x] {
                         // A child not holding the ground left a_g out of its tensors.
                         for h in 0..nhx {
                             for r in 0..3 {
@@ -668,25 +479,30 @@ impl Adaptive {
         self.join_columns(model, n, NW, tau);
         // Store in n's cache frame: Φ, K, N, Ψ from the slots, the tensors from the results.
         let rt = tr3(&rows3(&xn.e));
-        let (nh, hc, bc) = (self.nh[n], self.lay.hoff[n], self.lay.boff[n]);
+        let (nh, hc, bc) = (
+            self.coef.handles[n],
+            self.coef.layout.hoff[n],
+            self.coef.layout.boff[n],
+        );
         let nc = 6 * nh;
         let k = model.bodies[joint].nv;
         let vo = model.bodies[joint].v_offset;
         let c = &mut self.cache;
         for blk in 0..nh * nh {
-            let mut m = self.phi[bc + blk];
+            let mut m = self.coef.phi[bc + blk];
             left_rot(m.0.as_flattened_mut(), 6, 6, &rt);
             right_rot(m.0.as_flattened_mut(), 6, 6, &rt);
             c.phi[bc + blk] = m;
         }
-        let ko = self.koff[n];
-        c.kmat[ko..ko + k * nc].copy_from_slice(&self.kmat[ko..ko + k * nc]);
+        let ko = self.maps.qdd_gain_at[n];
+        c.kmat[ko..ko + k * nc].copy_from_slice(&self.maps.qdd_gain[ko..ko + k * nc]);
         right_rot(&mut c.kmat[ko..ko + k * nc], k, nc, &rt);
-        c.nmat[36 * hc..36 * hc + 6 * nc].copy_from_slice(&self.nmat[36 * hc..36 * hc + 6 * nc]);
+        c.nmat[36 * hc..36 * hc + 6 * nc]
+            .copy_from_slice(&self.maps.force_gain[36 * hc..36 * hc + 6 * nc]);
         left_rot(&mut c.nmat[36 * hc..36 * hc + 6 * nc], 6, nc, &rt);
         right_rot(&mut c.nmat[36 * hc..36 * hc + 6 * nc], 6, nc, &rt);
-        let po = self.poff[n];
-        c.psi[po..po + nc * nc].copy_from_slice(&self.psi[po..po + nc * nc]);
+        let po = self.metric.quad_at[n];
+        c.psi[po..po + nc * nc].copy_from_slice(&self.metric.quad[po..po + nc * nc]);
         left_rot(&mut c.psi[po..po + nc * nc], nc, nc, &rt);
         right_rot(&mut c.psi[po..po + nc * nc], nc, nc, &rt);
         left_rot(&mut c.ob[..nc * NW], nc, NW, &rt);
@@ -698,7 +514,7 @@ impl Adaptive {
         c.kw[vo * NW..(vo + k) * NW].copy_from_slice(&c.okw[..k * NW]);
         c.e[n * NW * NW..(n + 1) * NW * NW].copy_from_slice(&c.oe);
         // κ_β R, κ_Q, Rᵀ ν_β R, Rᵀ ν_Q: the maps from cache-frame β to k and n.
-        let mut jm = self.jm;
+        let mut jm = self.maps.recorded;
         right_rot(jm.kb.as_flattened_mut(), 6, 6, &rt);
         left_rot(jm.nb.as_flattened_mut(), 6, 6, &rt);
         right_rot(jm.nb.as_flattened_mut(), 6, 6, &rt);
@@ -715,10 +531,10 @@ impl Adaptive {
         let rb = into(&c.rig[b], &c.rel[b]);
         c.rig[n] = ra.combine(&rb);
         for h in 0..nh {
-            let (from_a, i) = self.lay.from[hc + h];
+            let (from_a, i) = self.coef.layout.from[hc + h];
             let x = if from_a { a } else { b };
             c.hpose[hc + h] = match tree.nodes[x].kind {
-                NodeKind::Join { .. } => c.rel[x] * c.hpose[self.lay.hoff[x] + i],
+                NodeKind::Join { .. } => c.rel[x] * c.hpose[self.coef.layout.hoff[x] + i],
                 _ => c.rel[x],
             };
         }
@@ -776,7 +592,7 @@ impl Adaptive {
                 let aw = j * nc;
                 let ac = f / m;
                 for (h, &jh) in handles.iter().enumerate() {
-                    let lin = ac + aw.cross(self.point[jh] - c);
+                    let lin = ac + aw.cross(self.coef.point[jh] - c);
                     let col = mono(a, bb);
                     for r in 0..3 {
                         out[(6 * h + r) * NW + col] = aw[r];
@@ -797,7 +613,8 @@ impl Adaptive {
     /// The bias part of the join of node `n` and of its metric, on `nc` columns at once
     /// (computation axes): the children's bias columns in `xb[0]` (A), `xb[1]` (B), their `P`
     /// columns in `xp`, their `E` in `xe`; the joint torques enter the last column. With the
-    /// join's maps `jm`, `G_F` (`gf`), `K`, `N` and the children's Ψ from the slots:
+    /// join's maps `maps.recorded`, `G_F` (`scratch.g_force`), `K`, `N` and the children's Ψ
+    /// from the slots:
     /// `β = B^A_j − B^B_j`, `k = κ_β β + κ_Q Q`, `n = ν_β β + ν_Q Q`,
     /// `B^C_h = B^X_h − G_F,hᵀ n` (into `ob`, `okw`, `onw`),
     /// `P^C = 2 Kᵀ A k + Σ_X [Nᵀ s u_jx + u_i on the shared handles]` with
@@ -815,10 +632,10 @@ impl Adaptive {
         };
         let body = &model.bodies[joint];
         let (vo, k) = (body.v_offset, body.nv);
-        let (ja, jb) = (self.lay.ja[n], self.lay.jb[n]);
-        let (nhc, hc) = (self.nh[n], self.lay.hoff[n]);
+        let (ja, jb) = (self.coef.layout.ja[n], self.coef.layout.jb[n]);
+        let (nhc, hc) = (self.coef.handles[n], self.coef.layout.hoff[n]);
         let ncc = 6 * nhc;
-        let jm = self.jm;
+        let jm = self.maps.recorded;
         let c = &mut self.cache;
         // β, k, n per column.
         for col in 0..nc {
@@ -855,9 +672,9 @@ impl Adaptive {
         }
         // B^C_h = B^X_i − G_F,hᵀ n.
         for h in 0..nhc {
-            let (from_a, i) = self.lay.from[hc + h];
+            let (from_a, i) = self.coef.layout.from[hc + h];
             let side = usize::from(!from_a);
-            let g = &self.gf[h].0;
+            let g = &self.scratch.g_force[h].0;
             for r in 0..6 {
                 for col in 0..nc {
                     let mut x = c.xb[side][(6 * i + r) * nc + col];
@@ -869,9 +686,9 @@ impl Adaptive {
             }
         }
         // P^C: own joint 2 Kᵀ A k.
-        let (ko, wo) = (self.koff[n], self.woff[joint]);
-        let kmat = &self.kmat[ko..ko + k * ncc];
-        let aw = &self.aw[wo..wo + k * k];
+        let (ko, wo) = (self.maps.qdd_gain_at[n], self.metric.weight_at[joint]);
+        let kmat = &self.maps.qdd_gain[ko..ko + k * ncc];
+        let aw = &self.metric.accel_weights[wo..wo + k * k];
         let mut akw = [[0.0; NW]; 6];
         for p in 0..k {
             for col in 0..nc {
@@ -890,11 +707,11 @@ impl Adaptive {
                 c.oe[r * nc + col] = (0..k).map(|p| c.okw[p * nc + r] * akw[p][col]).sum();
             }
         }
-        let nm = &self.nmat[36 * hc..36 * hc + 6 * ncc];
+        let nm = &self.maps.force_gain[36 * hc..36 * hc + 6 * ncc];
         for (side, x, jx, sign) in [(0usize, a, ja, -1.0), (1, b, jb, 1.0)] {
-            let nx = 6 * self.nh[x];
-            let po = self.poff[x];
-            let psix = &self.psi[po..po + nx * nx];
+            let nx = 6 * self.coef.handles[x];
+            let po = self.metric.quad_at[x];
+            let psix = &self.metric.quad[po..po + nx * nx];
             let ps = |r: usize, t: usize| psix[r * nx + t];
             // ψn = Ψ_X[jx,jx] n (6 × nc)
             let mut psin = [[0.0; NW]; 6];
@@ -919,7 +736,7 @@ impl Adaptive {
             }
             // Shared handles: u_i = P_X,i + 2 s Ψ_X[i,jx] n.
             for h in 0..nhc {
-                let (from_a, i) = self.lay.from[hc + h];
+                let (from_a, i) = self.coef.layout.from[hc + h];
                 if usize::from(!from_a) != side {
                     continue;
                 }
@@ -964,7 +781,7 @@ impl Adaptive {
         part: Part,
     ) {
         #[cfg(target_arch = "x86_64")]
-        if self.fused {
+        if self.switches.fused {
             // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.eval_cache_wide(model, n, x, u, part) };
@@ -998,7 +815,11 @@ impl Adaptive {
     ) {
         let w = monomials(u);
         let r = rows3(&x.e);
-        let (nh, hc, bc) = (self.nh[n], self.lay.hoff[n], self.lay.boff[n]);
+        let (nh, hc, bc) = (
+            self.coef.handles[n],
+            self.coef.layout.hoff[n],
+            self.coef.layout.boff[n],
+        );
         let nc = 6 * nh;
         let c = &self.cache;
         let wdot = |row: &[f64]| wdot(row, &w);
@@ -1008,9 +829,9 @@ impl Adaptive {
                     let mut m = c.phi[bc + blk];
                     left_rot(m.0.as_flattened_mut(), 6, 6, &r);
                     right_rot(m.0.as_flattened_mut(), 6, 6, &r);
-                    self.phi[bc + blk] = m;
+                    self.coef.phi[bc + blk] = m;
                 }
-                let a_g = if self.grounded[n] {
+                let a_g = if self.composites.grounded[n] {
                     DVec3::ZERO
                 } else {
                     self.data.gravity
@@ -1019,24 +840,24 @@ impl Adaptive {
                     let o = (hc + h) * 6 * NW;
                     let mut v = wdot6(&c.bw[o..o + 6 * NW], &w);
                     left_rot(&mut v, 6, 1, &r);
-                    self.b[hc + h] =
+                    self.coef.bias[hc + h] =
                         SpatialMotion::from_array(v) + SpatialMotion::new(DVec3::ZERO, a_g);
                 }
             }
             Part::Metric => {
-                let po = self.poff[n];
-                let psi = &mut self.psi[po..po + nc * nc];
+                let po = self.metric.quad_at[n];
+                let psi = &mut self.metric.quad[po..po + nc * nc];
                 psi.copy_from_slice(&c.psi[po..po + nc * nc]);
                 left_rot(psi, nc, nc, &r);
                 right_rot(psi, nc, nc, &r);
-                let pv = &mut self.pvec[6 * hc..6 * hc + nc];
+                let pv = &mut self.metric.linear[6 * hc..6 * hc + nc];
                 let o = hc * 6 * NW;
                 for (row, p) in pv.iter_mut().enumerate() {
                     *p = wdot(&c.pw[o + row * NW..o + row * NW + NW]);
                 }
                 left_rot(pv, nc, 1, &r);
                 let e = &c.e[n * NW * NW..(n + 1) * NW * NW];
-                self.eta[n] = quad_w(e, &w, self.fused);
+                self.metric.constant[n] = quad_w(e, &w, self.switches.fused);
                 self.cache.pstamp[n] = self.cache.epoch;
             }
             Part::Maps => {
@@ -1045,20 +866,20 @@ impl Adaptive {
                 };
                 let body = &model.bodies[joint];
                 let (vo, k) = (body.v_offset, body.nv);
-                let ko = self.koff[n];
-                let km = &mut self.kmat[ko..ko + k * nc];
+                let ko = self.maps.qdd_gain_at[n];
+                let km = &mut self.maps.qdd_gain[ko..ko + k * nc];
                 km.copy_from_slice(&c.kmat[ko..ko + k * nc]);
                 right_rot(km, k, nc, &r);
                 for p in 0..k {
-                    self.kvec[vo + p] = wdot(&c.kw[(vo + p) * NW..(vo + p + 1) * NW]);
+                    self.maps.qdd_bias[vo + p] = wdot(&c.kw[(vo + p) * NW..(vo + p + 1) * NW]);
                 }
-                let nm = &mut self.nmat[36 * hc..36 * hc + 6 * nc];
+                let nm = &mut self.maps.force_gain[36 * hc..36 * hc + 6 * nc];
                 nm.copy_from_slice(&c.nmat[36 * hc..36 * hc + 6 * nc]);
                 left_rot(nm, 6, nc, &r);
                 right_rot(nm, 6, nc, &r);
                 let mut nv = wdot6(&c.nw[n * 6 * NW..(n + 1) * 6 * NW], &w);
                 left_rot(&mut nv, 6, 1, &r);
-                self.nvec[n] = nv;
+                self.maps.force_bias[n] = nv;
             }
         }
     }
@@ -1075,9 +896,9 @@ impl Adaptive {
         let alpha = ic.inverse() * (fe.n - c.cross(fe.f));
         let a_c = fe.f / r.m;
         let rt = tr3(&rows3(&x.e));
-        let ho = self.lay.hoff[n];
+        let ho = self.coef.layout.hoff[n];
         for (h, &jh) in model.assembly.nodes[n].handles.iter().enumerate() {
-            let bh = SpatialMotion::new(alpha, a_c + alpha.cross(self.point[jh] - c));
+            let bh = SpatialMotion::new(alpha, a_c + alpha.cross(self.coef.point[jh] - c));
             self.cache.db[ho + h] = rot6(&rt, &bh.to_array());
         }
     }
@@ -1092,12 +913,12 @@ impl Adaptive {
         let r = self.cache.rig[x];
         let ic = xf.e * r.ic * xf.e.transpose();
         let hs = &model.assembly.nodes[x].handles;
-        let g = crate::hybrid::rigid_phi(
+        let g = rigid_phi(
             r.m,
             xf.apply_point(r.c),
             ic.inverse(),
-            self.point[hs[jx]],
-            self.point[hs[i]],
+            self.coef.point[hs[jx]],
+            self.coef.point[hs[i]],
         );
         std::array::from_fn(|col| (0..6).map(|s| g.0[s][col] * v[s]).sum())
     }
@@ -1117,8 +938,8 @@ impl Adaptive {
             return None;
         };
         let ep = self.cache.epoch;
-        let (hc, nhc) = (self.lay.hoff[n], self.nh[n]);
-        let (ja, jb) = (self.lay.ja[n], self.lay.jb[n]);
+        let (hc, nhc) = (self.coef.layout.hoff[n], self.coef.handles[n]);
+        let (ja, jb) = (self.coef.layout.ja[n], self.coef.layout.jb[n]);
         Some(DirtyJoin {
             joint,
             a,
@@ -1167,7 +988,7 @@ impl Adaptive {
         let mut beta = [0.0; 6];
         for (side, &(x, jx, sign)) in children.iter().enumerate() {
             if xdirty[side] {
-                let d = rot6(&rel[side], &self.cache.db[self.lay.hoff[x] + jx]);
+                let d = rot6(&rel[side], &self.cache.db[self.coef.layout.hoff[x] + jx]);
                 for (bv, dv) in beta.iter_mut().zip(d) {
                     *bv -= sign * dv;
                 }
@@ -1189,15 +1010,15 @@ impl Adaptive {
         for p in 0..k {
             k0[p] = wdot(&self.cache.kw[(vo + p) * NW..][..NW], &wd);
         }
-        let wo = self.woff[joint];
-        let aw = &self.aw[wo..wo + k * k];
+        let wo = self.metric.weight_at[joint];
+        let aw = &self.metric.accel_weights[wo..wo + k * k];
         let (mut adk, mut ak0) = ([0.0; 6], [0.0; 6]);
         crate::dense::a_x(aw, &dk[..k], k, k, &mut adk);
         crate::dense::a_x(aw, &k0[..k], k, k, &mut ak0);
         let mut deta: f64 = (0..k)
             .map(|p| (k0[p] + dk[p]) * adk[p] + dk[p] * ak0[p])
             .sum();
-        let ko = self.koff[n];
+        let ko = self.maps.qdd_gain_at[n];
         let km = &self.cache.kmat[ko..ko + k * nc];
         let dp = &mut self.cache.dp[6 * hc..6 * hc + nc];
         for (i, d) in dp.iter_mut().enumerate() {
@@ -1214,7 +1035,7 @@ impl Adaptive {
         };
         let mut sdu = [0.0; 6];
         for (side, &(x, jx, sign)) in children.iter().enumerate() {
-            let hx = self.lay.hoff[x];
+            let hx = self.coef.layout.hoff[x];
             let r = &rel[side];
             let NodeKind::Join { .. } = model.assembly.nodes[x].kind else {
                 // A leaf (Ψ, p, η are 0): its shared handles' Δb through its rigid block,
@@ -1222,7 +1043,7 @@ impl Adaptive {
                 let rd = rows3(&self.cache.cx[n].e);
                 let dnw = rot6(&rd, &dn);
                 for h in 0..nhc {
-                    let (from_a, i) = self.lay.from[hc + h];
+                    let (from_a, i) = self.coef.layout.from[hc + h];
                     if from_a != (side == 0) {
                         continue;
                     }
@@ -1245,8 +1066,8 @@ impl Adaptive {
             let dnx = rot6(&rt, &dn);
             let n0x = rot6(&rt, &n0);
             let wx = monomials(self.cache.cu[x]);
-            let nx = 6 * self.nh[x];
-            let po = self.poff[x];
+            let nx = 6 * self.coef.handles[x];
+            let po = self.metric.quad_at[x];
             let c = &self.cache;
             let psi = &c.psi[po..po + nx * nx];
             // Ψ_X[i,jx] Δn for every handle i of X (6 each).
@@ -1279,7 +1100,7 @@ impl Adaptive {
             // Shared handles i → h: Δp_h += Δp_X,i + 2 s Ψ_X[i,jx] Δn,
             // Δb_h = Δb^X_i + s Φ^X_{jx,i}ᵀ Δn (s = −1 for A: `G_F = ±Φ^X_j·`).
             for h in 0..nhc {
-                let (from_a, i) = self.lay.from[hc + h];
+                let (from_a, i) = self.coef.layout.from[hc + h];
                 if from_a != (side == 0) {
                     continue;
                 }
@@ -1289,7 +1110,7 @@ impl Adaptive {
                     let row = &psi[(6 * i + r) * nx + 6 * jx..][..6];
                     dot6(row.try_into().expect("6"), &dnx)
                 });
-                let g = &c.phi[self.lay.boff[x] + jx * self.nh[x] + i];
+                let g = &c.phi[self.coef.layout.boff[x] + jx * self.coef.handles[x] + i];
                 let mut u = [0.0; 6];
                 let mut bh: [f64; 6] = std::array::from_fn(|col| {
                     sign * (0..6).map(|s| g.0[s][col] * dnx[s]).sum::<f64>()
@@ -1336,8 +1157,8 @@ impl Adaptive {
         c.mgn = vec![[[0.0; 6]; 6]; nn];
         c.mhq = vec![[[0.0; 6]; 6]; nn];
         c.mjw = vec![[[0.0; NW]; 6]; nn];
-        c.mgb = vec![[[0.0; 6]; 6]; self.lay.handles];
-        c.mgp = vec![[[0.0; 6]; 6]; self.lay.handles];
+        c.mgb = vec![[[0.0; 6]; 6]; self.coef.layout.handles];
+        c.mgp = vec![[[0.0; 6]; 6]; self.coef.layout.handles];
         c.mgk = vec![[0.0; 6]; model.nv];
         c.malloc = true;
     }
@@ -1378,7 +1199,7 @@ impl Adaptive {
     /// (about its origin), the columns of [`Adaptive::leaf_delta`] at the unit wrenches.
     pub(crate) fn leaf_map(&mut self, model: &Model, n: usize) {
         let x = self.cache.cx[n];
-        let (ho, nh) = (self.lay.hoff[n], self.nh[n]);
+        let (ho, nh) = (self.coef.layout.hoff[n], self.coef.handles[n]);
         for col in 0..6 {
             let mut e = [0.0; 6];
             e[col] = 1.0;
@@ -1412,7 +1233,7 @@ impl Adaptive {
     /// [`Adaptive::dirty_delta`] with `n₀ = N_w w`, `k₀ = K_w w`, `p_X₀ = P_X w_X`.
     pub(crate) fn join_map(&mut self, model: &Model, n: usize) {
         #[cfg(target_arch = "x86_64")]
-        if self.fused {
+        if self.switches.fused {
             // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.join_map_wide(model, n) };
@@ -1451,7 +1272,7 @@ impl Adaptive {
         let mut gbeta = [[0.0; 6]; 6];
         for (side, &(x, jx, sign)) in children.iter().enumerate() {
             if xdirty[side] {
-                let d = m6_rot(&rel[side], &self.cache.mgb[self.lay.hoff[x] + jx]);
+                let d = m6_rot(&rel[side], &self.cache.mgb[self.coef.layout.hoff[x] + jx]);
                 for (br, dr) in gbeta.iter_mut().zip(&d) {
                     for (bv, dv) in br.iter_mut().zip(dr) {
                         *bv -= sign * dv;
@@ -1465,8 +1286,8 @@ impl Adaptive {
         let gdn = m6_mul(&jm.nb, &gbeta);
         let gdk = m6_mul(&jm.kb, &gbeta);
         // Own joint: A G_k, Aᵀ G_k (rows p < k).
-        let wo = self.woff[joint];
-        let aw = &self.aw[wo..wo + k * k];
+        let wo = self.metric.weight_at[joint];
+        let aw = &self.metric.accel_weights[wo..wo + k * k];
         let mut adk = [[0.0; 6]; 6];
         let mut atdk = [[0.0; 6]; 6];
         for p in 0..k {
@@ -1495,7 +1316,7 @@ impl Adaptive {
                 }
             }
         }
-        let ko = self.koff[n];
+        let ko = self.maps.qdd_gain_at[n];
         for i in 0..nc {
             for col in 0..6 {
                 self.cache.mgp[hc + i / 6][i % 6][col] = 2.0
@@ -1511,14 +1332,14 @@ impl Adaptive {
         }
         let mut gsdu = [[0.0; 6]; 6];
         for (side, &(x, jx, sign)) in children.iter().enumerate() {
-            let hx = self.lay.hoff[x];
+            let hx = self.coef.layout.hoff[x];
             let r = &rel[side];
             let NodeKind::Join { .. } = model.assembly.nodes[x].kind else {
                 // A leaf: its shared handles' Δb through its rigid block (computation axes,
                 // turned into n's).
                 let rd = rows3(&self.cache.cx[n].e);
                 for h in 0..nhc {
-                    let (from_a, i) = self.lay.from[hc + h];
+                    let (from_a, i) = self.coef.layout.from[hc + h];
                     if from_a != (side == 0) {
                         continue;
                     }
@@ -1548,13 +1369,13 @@ impl Adaptive {
             left_rot(n0x.as_flattened_mut(), 6, NW, &rt);
             // M_X: w_X = M_X w (u_X = rel⁻¹ u); a node holding the ground does not move
             // (`w = e_CONST`): only the constant column matters, which M_X keeps.
-            let still = self.grounded[n];
+            let still = self.composites.grounded[n];
             if !still {
                 let t = inv_motion_matrix(&self.cache.rel[x]);
                 monomial_map(&t, &mut self.cache.mm);
             }
-            let nx = 6 * self.nh[x];
-            let po = self.poff[x];
+            let nx = 6 * self.coef.handles[x];
+            let po = self.metric.quad_at[x];
             let psi_at = |c: &Caches, i: usize| -> M6 {
                 let mut m = [[0.0; 6]; 6];
                 for (r, mr) in m.iter_mut().enumerate() {
@@ -1622,13 +1443,13 @@ impl Adaptive {
             // Shared handles i → h: G_p,h += R (G_p,i + 2 s Ψ_X[i,jx] G_nx),
             // G_b,h = R (G_b,i + s Φ^X_{jx,i}ᵀ G_nx).
             for h in 0..nhc {
-                let (from_a, i) = self.lay.from[hc + h];
+                let (from_a, i) = self.coef.layout.from[hc + h];
                 if from_a != (side == 0) {
                     continue;
                 }
                 let c = &self.cache;
                 let pd = m6_mul(&psi_at(c, i), &gdnx);
-                let g = &c.phi[self.lay.boff[x] + jx * self.nh[x] + i];
+                let g = &c.phi[self.coef.layout.boff[x] + jx * self.coef.handles[x] + i];
                 let mut bh = m6_tmul(&g.0, &gdnx);
                 let mut u = [[0.0; 6]; 6];
                 for rr in 0..6 {
@@ -1676,7 +1497,7 @@ impl Adaptive {
     /// `Δn = G_n f`, `Δη = fᵀ H f + fᵀ J w`.
     pub(crate) fn eval_map(&mut self, model: &Model, n: usize) {
         #[cfg(target_arch = "x86_64")]
-        if self.fused {
+        if self.switches.fused {
             // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.eval_map_wide(model, n) };
@@ -1697,8 +1518,8 @@ impl Adaptive {
         let c = &mut self.cache;
         let l = c.mleaf[n];
         let xl = c.cx[n] * c.mpose[n];
-        let f = xl.inv_apply_force(self.fsum[l]).to_array();
-        let (hc, nh) = (self.lay.hoff[n], self.nh[n]);
+        let f = xl.inv_apply_force(self.forces.node_sums[l]).to_array();
+        let (hc, nh) = (self.coef.layout.hoff[n], self.coef.handles[n]);
         for h in 0..nh {
             c.db[hc + h] = m6_x(&c.mgb[hc + h], &f);
         }
@@ -1732,9 +1553,9 @@ impl Adaptive {
     /// What the forces add to a dirty node's metric at the handle forces whose cache-frame
     /// components [`Adaptive::metric_local`] left in `fx`: `F⁰ᵀ Δp + Δη`.
     pub(crate) fn metric_delta(&self, n: usize) -> f64 {
-        let nc = 6 * self.nh[n];
-        let o = 6 * self.lay.hoff[n];
-        self.fx[..nc]
+        let nc = 6 * self.coef.handles[n];
+        let o = 6 * self.coef.layout.hoff[n];
+        self.scratch.handle_forces[..nc]
             .iter()
             .zip(&self.cache.dp[o..o + nc])
             .map(|(f, d)| f * d)
@@ -1775,7 +1596,7 @@ impl Adaptive {
     /// frame (`F⁰ = Rᵀ F`; `p = P w`, `η = wᵀ E w` at its velocity `u`): no rotation of Ψ.
     pub(crate) fn metric_local(&mut self, n: usize, x: &SpatialTransform, u: SpatialMotion) -> f64 {
         #[cfg(target_arch = "x86_64")]
-        if self.fused {
+        if self.switches.fused {
             // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.metric_local_wide(n, x, u) };
@@ -1795,22 +1616,23 @@ impl Adaptive {
     fn metric_local_with(&mut self, n: usize, x: &SpatialTransform, u: SpatialMotion) -> f64 {
         let w = monomials(u);
         let rt = tr3(&rows3(&x.e));
-        let (nh, hc) = (self.nh[n], self.lay.hoff[n]);
+        let (nh, hc) = (self.coef.handles[n], self.coef.layout.hoff[n]);
         let nc = 6 * nh;
         for h in 0..nh {
-            self.fx[6 * h..6 * h + 6].copy_from_slice(&self.f[hc + h].to_array());
+            self.scratch.handle_forces[6 * h..6 * h + 6]
+                .copy_from_slice(&self.coef.force[hc + h].to_array());
         }
-        left_rot(&mut self.fx[..nc], nc, 1, &rt);
+        left_rot(&mut self.scratch.handle_forces[..nc], nc, 1, &rt);
         let c = &self.cache;
-        let fx = &self.fx[..nc];
-        let po = self.poff[n];
+        let fx = &self.scratch.handle_forces[..nc];
+        let po = self.metric.quad_at[n];
         let o = hc * 6 * NW;
         let mut a = crate::dense::quad(&c.psi[po..po + nc * nc], fx, nc);
         // Fᵀ P w = (Σ_row F_row P_row) · w.
-        let pf = comb_rows(&c.pw[o..o + nc * NW], fx, true, self.fused);
+        let pf = comb_rows(&c.pw[o..o + nc * NW], fx, true, self.switches.fused);
         a += wdot(&pf, &w);
         let e = &c.e[n * NW * NW..(n + 1) * NW * NW];
-        a + quad_w(e, &w, self.fused)
+        a + quad_w(e, &w, self.switches.fused)
     }
 
     /// Builds the caches of every join node that is not selected, bottom-up, from the
@@ -1832,7 +1654,9 @@ impl Adaptive {
         self.cache.pstamp.fill(self.cache.epoch);
         for n in 0..model.assembly.nodes.len() {
             self.cache.valid[n] = false;
-            if !self.selected[n] && matches!(model.assembly.nodes[n].kind, NodeKind::Join { .. }) {
+            if !self.queue.selected[n]
+                && matches!(model.assembly.nodes[n].kind, NodeKind::Join { .. })
+            {
                 self.build_cache(model, n, q, tau)?;
             }
         }

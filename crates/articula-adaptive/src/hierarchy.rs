@@ -7,7 +7,13 @@
 //! active joint sits at a constant pose in its rigid cluster (`prel`), and every body of a
 //! cluster shares the cluster's spatial velocity.
 
-use crate::hybrid::{Adaptive, Level, Rigid};
+use crate::adaptive::Adaptive;
+use crate::hybrid::Level;
+use crate::parts::composites::Rigid;
+use crate::parts::hierarchy::{
+    coordinate_axis, revolute_parts, ActiveJoint, Hierarchy, Parent, RevoluteParts, Sym6, AX_PARTS,
+    NO_PARENT,
+};
 #[cfg(target_arch = "x86_64")]
 use articula_dca::internals::Fused;
 use articula_dca::internals::{Arith, Portable};
@@ -16,202 +22,14 @@ use articula_model::{Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialMotion, SpatialTransform};
 use glam::DVec3;
 
-/// Lists and frames of the current hybrid body. (`repr(C)`: the fields a step between
-/// re-selections reads come first, in a few cache lines; see [`Adaptive`]'s.)
-#[derive(Clone, Debug, Default)]
-#[repr(C)]
-pub(crate) struct Hierarchy {
-    /// The reduced tree, one record per active joint in the order of `ajoints` (parents
-    /// first): what its kinematics and articulated-body passes read, contiguous.
-    pub rec: Vec<ActiveJoint>,
-    /// Articulated-body workspace of the reduced tree (one rigid cluster per active joint),
-    /// indexed like `rec`: `Iᴬ`, `pᴬ`, the cluster's acceleration, `D⁻¹` (one DOF) or the
-    /// Cholesky factor of `D` (several); per degree of freedom (at `rec.dof()`) `U = Iᴬ s` and
-    /// `u = τ − sᵀ pᴬ`. `Iᴬ` is symmetric, stored whole with both halves equal to the bit
-    /// ([`Sym6`]): its rows are contiguous vectors.
-    pub ia: Vec<Sym6>,
-    pub pa: Vec<[f64; 6]>,
-    pub acc: Vec<[f64; 6]>,
-    pub dinv: Vec<f64>,
-    pub chol: Vec<[[f64; 6]; 6]>,
-    pub u: Vec<[f64; 6]>,
-    pub uu: Vec<f64>,
-    /// Per angle of the reduced tree — a closed-form revolute joint's, then each part of a
-    /// joint of [`RevoluteParts`], in record order (the kinematics take them in turn) —
-    /// its coordinate and sign (`ang`, built with the records) and the `sin`, `cos` of its
-    /// signed value (`sc`), computed in a first sweep of [`Adaptive::active_kinematics`], four
-    /// at a time, so that its main loop makes no call (every vector register is
-    /// caller-saved). (`ang` in 8 bytes an angle, the sign `±1` exact in `f32`: a crowd's
-    /// bodies run through more data than the 1 MB L2 holds, every byte read per step counts;
-    /// `sc` is written and read within one call: a `_with` call takes the scratch's.)
-    pub ang: Vec<(u32, f32)>,
-    pub sc: Vec<(f64, f64)>,
-    /// Active join nodes, then frontier nodes, each ascending (post-order).
-    pub hnodes: Vec<usize>,
-    pub fnodes: Vec<usize>,
-    /// Per body: its joint's [`RevoluteParts`] (built with `axis`).
-    pub parts: Vec<Option<RevoluteParts>>,
-    /// Builds of the records so far (the reduced tree and the active flags change only with
-    /// them), and per body the rigid cluster (frontier node) an external force on it goes to,
-    /// with the build it was found in (`(gen, node)`, found on the first force after a build).
-    pub gen: u64,
-    pub fcl: Vec<(u64, usize)>,
-    /// The records' degrees of freedom, `Σ k` (what [`Adaptive::active_dofs`] reports while
-    /// `valid`, read once per step by a scene).
-    pub dofs: usize,
-    /// Built for the current hybrid body (cleared by a re-selection).
-    pub valid: bool,
-    /// Built by the cached re-selection (lists, clusters' mass properties and parent poses
-    /// from the caches).
-    pub from_cache: bool,
-    /// The active bodies' kinematics in `data` are those of the coming hybrid step's state
-    /// (set by a cached re-selection that kept the hybrid body, taken by the step).
-    pub kin_fresh: bool,
-    /// Per frontier node (rigid cluster): mass properties in its top body's frame.
-    pub rig: Vec<Rigid>,
-    /// Bodies whose joints are active, ascending (parents first).
-    pub ajoints: Vec<usize>,
-    /// Per body: its joint is active.
-    pub abody: Vec<bool>,
-    /// Per active body: the rigid cluster (frontier node) holding its parent body, or
-    /// `usize::MAX` when the parent is an active body or the world; and the parent's pose in the
-    /// cluster's top-body frame.
-    pub pcl: Vec<usize>,
-    pub prel: Vec<SpatialTransform>,
-    /// Per active body: its rigid cluster (the frontier node whose top body it is), and the
-    /// active body topping the cluster that holds its parent (`usize::MAX`: the world or a
-    /// cluster welded to the ground).
-    pub cl: Vec<usize>,
-    pub par: Vec<usize>,
-    /// Per body: `(i, ±1)` for a joint of one revolute part about the coordinate axis `±e_i`
-    /// (the usual URDF case, kinematics in closed form), else `None`. Built once per model.
-    pub axis: Vec<Option<(usize, f64)>>,
-    /// Per body: its record while building them (valid for the active bodies).
-    pub ridx: Vec<usize>,
-}
-
-/// Where an active joint's parent body is. (Body indices as `u32`: eight bytes, not 16.)
-#[derive(Clone, Copy, Debug)]
-pub(crate) enum Parent {
-    /// The world (no parent body): the computation frame.
-    World,
-    /// An active body.
-    Active(u32),
-    /// A rigid cluster topped by this body, at the record's constant pose in its frame.
-    Cluster(u32),
-    /// A cluster welded to the ground, at the record's constant pose in the world.
-    Ground,
-}
-
-/// [`ActiveJoint::pidx`] of a joint whose parent is the world or a cluster welded to it.
-pub(crate) const NO_PARENT: usize = u32::MAX as usize;
-
-/// One active joint of the reduced tree. Narrow and line-aligned: indices as `u32`, the
-/// axis index as `u8`, so that a record is four 64-byte lines (was 304 bytes, five or six
-/// lines) — the indices, parent, flags and axis (all passes 2 and 3 read) in its first line,
-/// `x0` (the kinematics) in the first three, `rig` (pass 1) in the last two.
-#[derive(Clone, Copy, Debug)]
-#[repr(C, align(64))]
-pub(crate) struct ActiveJoint {
-    /// Body, offsets of its coordinates, degrees of freedom, first slot in `u`/`uu` (read
-    /// through the methods of the same names).
-    j: u32,
-    qo: u32,
-    vo: u32,
-    k: u32,
-    dof: u32,
-    /// Index (in `rec`) of the active joint topping the cluster that holds the parent body
-    /// ([`NO_PARENT`]: none).
-    pidx: u32,
-    /// The cluster this joint tops (frontier node).
-    f: u32,
-    pub parent: Parent,
-    /// `x0` is not the identity.
-    pub mulx: bool,
-    /// `x0`'s rotation is the identity (a joint origin that only translates, the usual URDF
-    /// link): the composition `X x0 = (E, r₀ + r)` costs three additions. (The full product's
-    /// `E · 1` and `1ᵀ r` are the same numbers; only the sign of an exact zero may differ.)
-    pub shift: bool,
-    /// The number of parts of a joint of one or more revolute parts about coordinate axes
-    /// ([`RevoluteParts`]) whose coordinates are contiguous (part `p` at `qo + p`, `vo + p`):
-    /// the integration updates them as one-axis coordinates. 0 for any other joint.
-    pub revs: u8,
-    /// `(i, ±1)` of a closed-form revolute joint ([`ActiveJoint::axis`]; an `Option` of the
-    /// pair would take 24 bytes). `ax` is [`AX_PARTS`] for a joint of [`RevoluteParts`]
-    /// (then in `rp`), `u8::MAX` for any other joint.
-    ax: u8,
-    sign: f64,
-    pub rp: RevoluteParts,
-    /// Constant pose that follows the parent frame: for a closed-form revolute joint its
-    /// origin, composed with the parent body's pose in its cluster; for other joints that pose
-    /// alone (their origins are applied by the general kinematics).
-    pub x0: SpatialTransform,
-    /// The cluster's mass properties in this body's frame.
-    pub rig: Rigid,
-}
-
-const _: () = assert!(std::mem::size_of::<ActiveJoint>() == 256);
-
-/// [`ActiveJoint::ax`] of a joint of [`RevoluteParts`].
-const AX_PARTS: u8 = 0xfe;
-
-impl ActiveJoint {
-    #[inline(always)]
-    pub fn j(&self) -> usize {
-        self.j as usize
-    }
-    #[inline(always)]
-    pub fn qo(&self) -> usize {
-        self.qo as usize
-    }
-    #[inline(always)]
-    pub fn vo(&self) -> usize {
-        self.vo as usize
-    }
-    #[inline(always)]
-    pub fn k(&self) -> usize {
-        self.k as usize
-    }
-    #[inline(always)]
-    pub fn dof(&self) -> usize {
-        self.dof as usize
-    }
-    #[inline(always)]
-    pub fn pidx(&self) -> usize {
-        self.pidx as usize
-    }
-    #[inline(always)]
-    pub fn f(&self) -> usize {
-        self.f as usize
-    }
-    /// `(i, ±1)` of a closed-form revolute joint about `±e_i`.
-    #[inline(always)]
-    pub fn axis(&self) -> Option<(usize, f64)> {
-        (self.ax < 3).then_some((self.ax as usize, self.sign))
-    }
-    /// The joint's [`RevoluteParts`], if it is made of them.
-    #[inline(always)]
-    pub fn parts(&self) -> Option<&RevoluteParts> {
-        (self.ax == AX_PARTS).then_some(&self.rp)
-    }
-}
-
-/// `(i, ±1)` when `body`'s joint is one revolute part about the coordinate axis `±e_i`.
-fn coordinate_axis(body: &articula_model::Body) -> Option<(usize, f64)> {
-    let [part] = body.joint.as_slice() else {
-        return None;
-    };
-    part.coordinate_axis()
-}
-
 impl Adaptive {
     /// The frame of node `n`'s top body in the computation frame (the computation frame itself
     /// for a grounded node) — from the kinematics in `data`.
     fn top_frame(&self, n: usize) -> SpatialTransform {
-        if self.grounded[n] {
+        if self.composites.grounded[n] {
             SpatialTransform::xlt(self.data.origin)
         } else {
-            self.data.x[self.top[n]]
+            self.data.x[self.composites.top[n]]
         }
     }
 
@@ -247,19 +65,19 @@ impl Adaptive {
         for n in 0..nn {
             let node = &tree.nodes[n];
             if let NodeKind::Join { joint, .. } = node.kind {
-                if self.active[n] {
+                if self.body.active[n] {
                     self.hier.hnodes.push(n);
                     self.hier.abody[joint] = true;
                     continue;
                 }
             }
-            if node.parent.is_none_or(|p| self.active[p]) {
+            if node.parent.is_none_or(|p| self.body.active[p]) {
                 self.hier.fnodes.push(n);
-                if !self.grounded[n] {
+                if !self.composites.grounded[n] {
                     // The composite (computation frame) carried into the top body's frame.
-                    let x = self.data.x[self.top[n]];
+                    let x = self.data.x[self.composites.top[n]];
                     let (r, _) = x.to_pose();
-                    let c = self.comp[n];
+                    let c = self.composites.rigid[n];
                     self.hier.rig[n] = Rigid {
                         m: c.m,
                         c: x.inverse().apply_point(c.c),
@@ -279,15 +97,15 @@ impl Adaptive {
                 if !self.hier.abody[p] {
                     // Walk up from the parent's leaf to the frontier node holding it.
                     let mut n = tree.body_leaf[p];
-                    while let Some(par) = tree.nodes[n].parent.filter(|&q| !self.active[q]) {
+                    while let Some(par) = tree.nodes[n].parent.filter(|&q| !self.body.active[q]) {
                         n = par;
                     }
                     self.hier.pcl[j] = n;
                     self.hier.prel[j] = self.top_frame(n).inverse() * self.data.x[p];
-                    if !self.grounded[n] {
+                    if !self.composites.grounded[n] {
                         // The cluster's top body: its joint is one of the cluster's handles,
                         // all of which are active.
-                        self.hier.par[j] = self.top[n];
+                        self.hier.par[j] = self.composites.top[n];
                     }
                 } else {
                     self.hier.par[j] = p;
@@ -295,7 +113,7 @@ impl Adaptive {
             }
             // The cluster j tops: the frontier node above j's leaf.
             let mut n = tree.body_leaf[j];
-            while let Some(par) = tree.nodes[n].parent.filter(|&q| !self.active[q]) {
+            while let Some(par) = tree.nodes[n].parent.filter(|&q| !self.body.active[q]) {
                 n = par;
             }
             self.hier.cl[j] = n;
@@ -343,8 +161,8 @@ impl Adaptive {
             let parent = match body.parent {
                 None => Parent::World,
                 Some(p) if h.abody[p] => Parent::Active(narrow(p)),
-                Some(_) if self.grounded[h.pcl[j]] => Parent::Ground,
-                Some(_) => Parent::Cluster(narrow(self.top[h.pcl[j]])),
+                Some(_) if self.composites.grounded[h.pcl[j]] => Parent::Ground,
+                Some(_) => Parent::Cluster(narrow(self.composites.top[h.pcl[j]])),
             };
             let mut x0 = match parent {
                 Parent::World | Parent::Active(_) => SpatialTransform::IDENTITY,
@@ -429,7 +247,7 @@ impl Adaptive {
     #[inline]
     pub(crate) fn active_kinematics(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
         #[cfg(target_arch = "x86_64")]
-        if self.fused {
+        if self.switches.fused {
             // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.active_kinematics_wide(model, q, qd) };
@@ -447,7 +265,7 @@ impl Adaptive {
 
     #[inline(always)]
     fn active_kinematics_with(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
-        let wide = self.fused;
+        let wide = self.switches.fused;
         let x_cw = SpatialTransform::xlt(self.data.origin);
         // The angles' sines and cosines first (the loop below then makes no call), four
         // records at a time in AVX2 lanes when `wide` (the same bits).
@@ -534,7 +352,7 @@ impl Adaptive {
     /// hybrid body's forward dynamics over its reduced tree — one rigid cluster (frontier node)
     /// per active joint, with the cluster's composite inertia from the hierarchical state — by
     /// the articulated-body algorithm (Featherstone, RBDA Table 7.1) in the computation frame,
-    /// with the external wrenches of `fsparse` gathered per cluster. The hybrid body is the
+    /// with the external wrenches of `forces.sparse` gathered per cluster. The hybrid body is the
     /// same mechanical system the DCA main pass and back-substitution solve
     /// ([`Adaptive::set_full_passes`] runs those; tested equal to 1e-10), at a fraction of the
     /// cost per joint: the clusters' handle blocks are never formed. Writes `qdd` (zero outside
@@ -554,32 +372,32 @@ impl Adaptive {
             self.active_kinematics(model, q, qd);
         }
         // (Through disjoint borrows, so that the vectors' pointers stay in registers.)
-        let (fnodes, fsum) = (&self.hier.fnodes, &mut self.fsum);
+        let (fnodes, fsum) = (&self.hier.fnodes, &mut self.forces.node_sums);
         for &f in fnodes {
             fsum[f] = SpatialForce::ZERO;
         }
         // An external force on a rigid part goes to its cluster: a walk up the tree, once per
         // body and hybrid body.
-        if !self.fsparse.is_empty() {
+        if !self.forces.sparse.is_empty() {
             let x_cw = SpatialTransform::xlt(self.data.origin);
             let gen = self.hier.gen;
-            for k in 0..self.fsparse.len() {
-                let (i, fe) = self.fsparse[k];
+            for k in 0..self.forces.sparse.len() {
+                let (i, fe) = self.forces.sparse[k];
                 let n = match self.hier.fcl[i] {
                     (g, n) if g == gen => n,
                     _ => {
                         let mut n = tree.body_leaf[i];
-                        while let Some(p) = tree.nodes[n].parent.filter(|&p| !self.active[p]) {
+                        while let Some(p) = tree.nodes[n].parent.filter(|&p| !self.body.active[p]) {
                             n = p;
                         }
                         self.hier.fcl[i] = (gen, n);
                         n
                     }
                 };
-                self.fsum[n] += x_cw.apply_force(fe);
+                self.forces.node_sums[n] += x_cw.apply_force(fe);
             }
         }
-        self.fresh = false;
+        self.fresh.valid = false;
         self.reduced_aba(model, tau, Level::Acceleration)
     }
 
@@ -605,7 +423,7 @@ impl Adaptive {
             }
         }
         #[cfg(target_arch = "x86_64")]
-        if self.fused {
+        if self.switches.fused {
             // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.reduced_aba_fused(model, tau, level) };
@@ -623,7 +441,7 @@ impl Adaptive {
     /// from the general passes' (tests compare both with exact DCA).
     fn one_joint(&mut self, model: &Model, tau: &[f64], level: Level) -> Result<(), DynamicsError> {
         #[cfg(target_arch = "x86_64")]
-        if self.fused {
+        if self.switches.fused {
             // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.one_joint_wide(model, tau, level) };
@@ -677,14 +495,14 @@ impl Adaptive {
         let (pa, ap) = if accel {
             let v = d.v[r.j()];
             (
-                v.cross_force(body.inertia(v)) - self.fsum[r.f()],
+                v.cross_force(body.inertia(v)) - self.forces.node_sums[r.f()],
                 SpatialMotion::new(DVec3::ZERO, -d.gravity) + d.c[r.j()],
             )
         } else {
             (SpatialForce::ZERO, SpatialMotion::ZERO)
         };
         let uu = tau[r.vo()] - s.dot(pa);
-        self.qdd[r.vo()] = (1.0 / dd) * (uu - ap.dot(u));
+        self.body.qdd[r.vo()] = (1.0 / dd) * (uu - ap.dot(u));
         Ok(())
     }
 
@@ -709,7 +527,7 @@ impl Adaptive {
         level: Level,
     ) -> Result<(), DynamicsError> {
         let accel = level == Level::Acceleration;
-        let wide = self.fused;
+        let wide = self.switches.fused;
         // The nodes this stands for: the active joins and the rigid frontier.
         self.touched = self.hier.hnodes.len() + self.hier.fnodes.len();
         let h = &mut self.hier;
@@ -778,7 +596,7 @@ impl Adaptive {
                     + DVec3::new(i01, i11, i12) * v.w.y
                     + DVec3::new(i02, i12, i22) * v.w.z;
                 let iv = SpatialForce::new(ibw + hv.cross(v.v), v.v * m - hv.cross(v.w));
-                (v.cross_force(iv) - self.fsum[r.f()]).to_array()
+                (v.cross_force(iv) - self.forces.node_sums[r.f()]).to_array()
             } else {
                 [0.0; 6]
             };
@@ -895,7 +713,7 @@ impl Adaptive {
             u,
             uu,
             s: &d.s[..],
-            qdd: &mut self.qdd[..],
+            qdd: &mut self.body.qdd[..],
         };
         // The previous record when it is a one-degree-of-freedom joint (`usize::MAX`
         // otherwise, which no `pidx` equals: [`NO_PARENT`] is `u32::MAX`): its index, a', S and q̈, kept in locals for a child that follows it
@@ -1262,49 +1080,6 @@ fn accelerate_multi_with<const K: usize>(
     a
 }
 
-/// The parts of a joint made of revolute parts about coordinate axes (`±x`, `±y`, `±z`, the
-/// usual URDF case): per part `(i, ±1)` of its axis `±e_i`, and a bit per part whose origin is
-/// not the identity (the massless links of a composed joint often are). `None` for any other
-/// joint. (Eight bytes: a copy sits in each composed joint's record, in its first line;
-/// per part `i` in bits 0–1 and the sign in bit 7 of one byte.)
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C)]
-pub(crate) struct RevoluteParts {
-    moved: u8,
-    /// A bit per moved part whose origin's rotation is the identity (it only translates).
-    shift: u8,
-    axes: [u8; 6],
-}
-
-impl RevoluteParts {
-    /// `(i, ±1)` of part `k`'s axis `±e_i` (the sign `±1.0` chosen by the byte's bit 7).
-    #[inline(always)]
-    fn axis(&self, k: usize) -> (usize, f64) {
-        const SIGNS: [f64; 2] = [1.0, -1.0];
-        let b = self.axes[k];
-        ((b & 3) as usize, SIGNS[usize::from(b >> 7)])
-    }
-}
-
-fn revolute_parts(body: &articula_model::Body) -> Option<RevoluteParts> {
-    let mut axes = [0u8; 6];
-    let (mut moved, mut shift) = (0u8, 0u8);
-    for (k, part) in body.joint.iter().enumerate() {
-        if k >= 6 {
-            return None;
-        }
-        let (i, sign) = part.coordinate_axis()?;
-        axes[k] = i as u8 | if sign < 0.0 { 0x80 } else { 0 };
-        if part.origin.e != glam::DMat3::IDENTITY || part.origin.r != DVec3::ZERO {
-            moved |= 1 << k;
-            if part.origin.e == glam::DMat3::IDENTITY {
-                shift |= 1 << k;
-            }
-        }
-    }
-    Some(RevoluteParts { axes, moved, shift })
-}
-
 /// [`revolute_kinematics`], compiled for AVX2 + FMA when `wide` (the same arithmetic).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
@@ -1555,10 +1330,6 @@ fn sym_mul6(a: &Sym6, x: &[f64; 6]) -> [f64; 6] {
     }
     y
 }
-
-/// A symmetric 6 × 6 matrix stored whole, rows `[r][c]`, both halves equal to the bit
-/// (each pair computed once and written twice): its rows are contiguous vectors.
-pub(crate) type Sym6 = [[f64; 6]; 6];
 
 /// `s += a − α u uᵀ` on symmetric 6 × 6 matrices, row by row: entry `(i, j)` is
 /// `s_ij + (a_ij − α (u_i u_j))` (`u_i u_j = u_j u_i` to the bit, so the result stays

@@ -1,28 +1,24 @@
-//! The hybrid body (docs/design.md#adaptive): the workspace, articulated coefficients of active
-//! nodes, the rigid coefficients of rigidified ones, and the back-substitution.
+//! The main pass of the hybrid body (docs/design.md#adaptive): articulated coefficients of
+//! active nodes, the rigid coefficients of rigidified ones, composites, and the back-substitution.
 //!
 //! Conventions follow `articula-dca`: every spatial quantity is in the computation frame (world
 //! axes, origin at the floating base for a floating model), and each handle's vectors are taken
 //! about the origin of the handle joint's child body (`point`), so that long bodies keep their
 //! digits. A force array is `[n; f]`, a motion array `[ω; v]`.
 
+use crate::adaptive::Adaptive;
 use crate::dense;
-use crate::Settings;
-use articula_dca::{Data, DynamicsError};
-use articula_model::{HandleLayout, JointKind, Model, NodeKind};
+use crate::parts::composites::Rigid;
+use crate::parts::join_maps::BiasMaps;
+use articula_dca::DynamicsError;
+use articula_model::{JointKind, Model, NodeKind};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::{DMat3, DVec3};
-use std::collections::BinaryHeap;
 
 #[inline]
 fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
 }
-
-/// Five rows of a one-axis join's `Ỹ_h`, each padded to eight lanes (the last two zero).
-#[repr(C, align(64))]
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Rows5(pub [[f64; 8]; 5]);
 
 /// `Σ_p a[p][r] b[p][c]` (p < 5, ascending) for `r, c < 6`, the sums started with their first
 /// product: a row at a time over all eight lanes of `b`'s rows (two 4-wide vectors).
@@ -216,17 +212,6 @@ impl AxisBasis {
     }
 }
 
-/// The bias maps of one join (docs/design.md#dca), recorded by [`Adaptive::join`] when
-/// `record_maps` is set (cache builds): `k = κ_β β + κ_Q Q` (`kb`: nv × 6, `kq`: nv × nv) and
-/// `n = γ = ν_β β + ν_Q Q` (`nb`: 6 × 6, `nq`: 6 × nv), computation-frame axes.
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct JoinMaps {
-    pub kb: [[f64; 6]; 6],
-    pub kq: [[f64; 6]; 6],
-    pub nb: [[f64; 6]; 6],
-    pub nq: [[f64; 6]; 6],
-}
-
 /// Which terms the main pass includes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Level {
@@ -236,290 +221,7 @@ pub(crate) enum Level {
     Impulse,
 }
 
-/// A rigid body's mass properties: mass, centre of mass and rotational inertia about it
-/// (computation frame).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub(crate) struct Rigid {
-    pub m: f64,
-    pub c: DVec3,
-    pub ic: DMat3,
-}
-
-impl Rigid {
-    /// The composite of two rigid bodies welded together (parallel-axis theorem about the
-    /// common centre of mass).
-    pub fn combine(&self, o: &Rigid) -> Rigid {
-        let m = self.m + o.m;
-        if m <= 0.0 {
-            return Rigid::default();
-        }
-        let c = (self.c * self.m + o.c * o.m) / m;
-        let shift = |r: &Rigid| {
-            let d = r.c - c;
-            (DMat3::from_diagonal(DVec3::splat(d.length_squared())) - outer(d, d)) * r.m
-        };
-        Rigid {
-            m,
-            c,
-            ic: self.ic + o.ic + shift(self) + shift(o),
-        }
-    }
-}
-
-fn outer(a: DVec3, b: DVec3) -> DMat3 {
-    DMat3::from_cols(a * b.x, a * b.y, a * b.z)
-}
-
-/// A node waiting in the selection queue, ordered by its acceleration metric.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Entry {
-    pub metric: f64,
-    pub node: usize,
-}
-
-impl PartialEq for Entry {
-    fn eq(&self, o: &Self) -> bool {
-        self.metric.total_cmp(&o.metric).is_eq() && self.node == o.node
-    }
-}
-impl Eq for Entry {}
-impl PartialOrd for Entry {
-    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(o))
-    }
-}
-impl Ord for Entry {
-    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
-        self.metric
-            .total_cmp(&o.metric)
-            .then_with(|| o.node.cmp(&self.node))
-    }
-}
-
-/// What the last joint selection chose.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Selection {
-    /// Degrees of freedom whose accelerations were computed (the floating base's six included).
-    pub active_dofs: usize,
-    /// Internal degrees of freedom selected (what the budget counts; the floating base is free).
-    pub budget_used: usize,
-    /// The acceleration-metric mass left in the queue: `Σ q̈ᵀ A q̈` over every joint whose
-    /// acceleration was set to zero — the error of this selection against exact DCA.
-    pub predicted_error: f64,
-    /// The acceleration metric of the whole body, `A(root)`.
-    pub total_metric: f64,
-}
-
-/// The adaptive-dynamics workspace of one articulated body: the hybrid-body state (which
-/// joints are active) and every buffer, beside the immutable [`Model`].
-#[derive(Clone, Debug)]
-#[repr(C)]
-pub struct Adaptive {
-    pub(crate) settings: Settings,
-    // The fields a step between re-selections reads come first, in this order (`repr(C)`):
-    // a crowd's step then touches a few cache lines of each workspace, not seventeen.
-    /// Steps counted from the last re-selection (the next at a multiple of `reselect_every`).
-    pub(crate) steps: u64,
-    /// Nodes visited by the passes of the last call (the cost measure of adaptive updates).
-    pub(crate) touched: usize,
-    /// The last selection.
-    pub(crate) last: Selection,
-    /// Per node: the sum of the external wrenches on its bodies (see `comp`).
-    pub(crate) fsum: Vec<SpatialForce>,
-    /// External wrenches of the current step, sparse `(body, world wrench)`.
-    pub(crate) fsparse: Vec<(usize, SpatialForce)>,
-    /// Per node: in the hybrid body's active region (its principal joint moves).
-    pub(crate) active: Vec<bool>,
-    /// The joint accelerations of the last call (zero outside the active region).
-    pub(crate) qdd: Vec<f64>,
-    /// Per node: its handles' count.
-    pub(crate) nh: Vec<usize>,
-    pub(crate) full_passes: bool,
-    /// `data` holds the whole-body kinematics of `(fresh_q, fresh_qd)` (set by
-    /// [`Adaptive::node_metrics`], cleared by every other writer of `data`).
-    pub(crate) fresh: bool,
-    /// Run the reduced ABA compiled with fused multiply–adds, and the other hot passes (join,
-    /// kinematics, rigid coefficients, back-substitution, cache evaluations) compiled for
-    /// AVX2 + FMA with the same arithmetic as their portable versions (set in
-    /// [`Adaptive::new`] where the CPU has AVX2 and FMA: `articula_dca::internals::fused_available`).
-    pub(crate) fused: bool,
-    pub(crate) fresh_q: Vec<f64>,
-    pub(crate) fresh_qd: Vec<f64>,
-    pub(crate) hier: crate::hierarchy::Hierarchy,
-    /// Kinematics of the last call (poses, velocities, subspaces, world inertias).
-    pub data: Data,
-    pub(crate) lay: HandleLayout,
-    pub(crate) point: Vec<DVec3>,
-    pub(crate) phi: Vec<Mat6>,
-    pub(crate) b: Vec<SpatialMotion>,
-    pub(crate) f: Vec<SpatialForce>,
-    /// Per join node: `q̈ = K F + k` and the joint force on B `f = N F + n` in terms of the
-    /// node's handle forces F (`K`: nv × 6nh at `koff`, `k` per DOF; `N`: 6 × 6nh at `36 hoff`).
-    pub(crate) kmat: Vec<f64>,
-    pub(crate) koff: Vec<usize>,
-    pub(crate) kvec: Vec<f64>,
-    pub(crate) nmat: Vec<f64>,
-    pub(crate) nvec: Vec<[f64; 6]>,
-    /// Acceleration-metric coefficients `A(C) = Fᵀ Ψ F + Fᵀ p + η` (Ψ at `poff`, p at `6 hoff`).
-    pub(crate) psi: Vec<f64>,
-    pub(crate) poff: Vec<usize>,
-    pub(crate) pvec: Vec<f64>,
-    pub(crate) eta: Vec<f64>,
-    /// Per body joint: the metric weights `A_i` and `V_i` (k × k, row-major, at `woff`).
-    pub(crate) aw: Vec<f64>,
-    pub(crate) vw: Vec<f64>,
-    pub(crate) woff: Vec<usize>,
-    /// Per node: composite inertia, whether it holds the ground, its top body, the sum of the
-    /// external wrenches on its bodies.
-    pub(crate) comp: Vec<Rigid>,
-    pub(crate) grounded: Vec<bool>,
-    pub(crate) top: Vec<usize>,
-    pub(crate) fext_c: Vec<SpatialForce>,
-    /// The external wrenches of a whole-body pass, one per body.
-    pub(crate) fdense: Vec<SpatialForce>,
-    /// Per node: selected by the last acceleration-metric selection.
-    pub(crate) selected: Vec<bool>,
-    /// Per node: velocity metric of its subassembly.
-    pub(crate) vmetric: Vec<f64>,
-    pub(crate) gmom: Vec<f64>,
-    pub(crate) hsub: Vec<SpatialForce>,
-    pub(crate) heap: BinaryHeap<Entry>,
-    pub(crate) s1: Vec<f64>,
-    pub(crate) s2: Vec<f64>,
-    pub(crate) s3: Vec<f64>,
-    pub(crate) fx: Vec<f64>,
-    /// Scratch: a child's handle → the joined node's handle.
-    pub(crate) map: Vec<usize>,
-    /// Scratch of the join being computed, per handle: the columns of `Y_h` and `U_h`.
-    pub(crate) yc: Vec<[[f64; 6]; 6]>,
-    pub(crate) uc: Vec<[[f64; 6]; 6]>,
-    /// Scratch of the one-axis join, per handle: the five rows of `Ỹ_h`, each padded to eight
-    /// (lanes 6, 7 stay zero) so that its Gram products run on whole 4-wide vectors.
-    pub(crate) yt: Vec<Rows5>,
-    /// Scratch of the one-axis join, per handle: `G_F,h`.
-    pub(crate) gf: Vec<Mat6>,
-    /// Caches of the rigid subassemblies (adaptive update mechanism, `cache.rs`).
-    pub(crate) cache: crate::cache::Caches,
-    /// Re-select through the caches (O(active region)); off: whole-body passes (reference).
-    pub(crate) use_cache: bool,
-    /// Record the bias maps of every join into `jm` (cache builds).
-    pub(crate) record_maps: bool,
-    pub(crate) jm: JoinMaps,
-    /// The RK4 step's start values and stage sums (`rk4.rs`), sized at its first call.
-    pub(crate) rk: crate::rk4::RkBuffers,
-}
-
 impl Adaptive {
-    /// Allocates the workspace for `model`. Every joint starts active.
-    pub fn new(model: &Model, settings: Settings) -> Adaptive {
-        let tree = &model.assembly;
-        let lay = tree.handle_layout();
-        let nn = tree.nodes.len();
-        let nh: Vec<usize> = tree.nodes.iter().map(|n| n.handles.len()).collect();
-        let (mut koff, mut poff) = (Vec::with_capacity(nn), Vec::with_capacity(nn));
-        let (mut ko, mut po) = (0, 0);
-        for (i, node) in tree.nodes.iter().enumerate() {
-            koff.push(ko);
-            poff.push(po);
-            if let NodeKind::Join { joint, .. } = node.kind {
-                ko += model.bodies[joint].nv * 6 * nh[i];
-            }
-            po += 36 * nh[i] * nh[i];
-        }
-        let mut woff = Vec::with_capacity(model.bodies.len());
-        let mut wo = 0;
-        for body in &model.bodies {
-            woff.push(wo);
-            wo += body.nv * body.nv;
-        }
-        let mut aw = vec![0.0; wo];
-        for (i, body) in model.bodies.iter().enumerate() {
-            for p in 0..body.nv {
-                aw[woff[i] + p * body.nv + p] = 1.0;
-            }
-        }
-        let maxh = 6 * tree.max_handles().max(1);
-        let scratch = 4 * maxh * maxh;
-        let mut active = vec![false; nn];
-        for (i, node) in tree.nodes.iter().enumerate() {
-            active[i] = matches!(node.kind, NodeKind::Join { .. });
-        }
-        Adaptive {
-            settings,
-            data: Data::new(model),
-            nh,
-            point: vec![DVec3::ZERO; model.bodies.len()],
-            phi: vec![Mat6::ZERO; lay.blocks],
-            b: vec![SpatialMotion::ZERO; lay.handles],
-            f: vec![SpatialForce::ZERO; lay.handles],
-            kmat: vec![0.0; ko],
-            koff,
-            kvec: vec![0.0; model.nv],
-            nmat: vec![0.0; 36 * lay.handles],
-            nvec: vec![[0.0; 6]; nn],
-            psi: vec![0.0; po],
-            poff,
-            pvec: vec![0.0; 6 * lay.handles],
-            eta: vec![0.0; nn],
-            vw: aw.clone(),
-            aw,
-            woff,
-            comp: vec![Rigid::default(); nn],
-            grounded: vec![false; nn],
-            top: vec![usize::MAX; nn],
-            fsum: vec![SpatialForce::ZERO; nn],
-            fext_c: Vec::with_capacity(model.bodies.len()),
-            fsparse: Vec::new(),
-            fdense: vec![SpatialForce::ZERO; model.bodies.len()],
-            active,
-            selected: vec![false; nn],
-            vmetric: vec![0.0; nn],
-            qdd: vec![0.0; model.nv],
-            gmom: vec![0.0; model.nv],
-            hsub: vec![SpatialForce::ZERO; model.bodies.len()],
-            heap: BinaryHeap::with_capacity(nn),
-            s1: vec![0.0; scratch],
-            s2: vec![0.0; scratch],
-            s3: vec![0.0; scratch],
-            fx: vec![0.0; maxh],
-            map: vec![usize::MAX; tree.max_handles().max(1)],
-            yc: vec![[[0.0; 6]; 6]; tree.max_handles().max(1)],
-            uc: vec![[[0.0; 6]; 6]; tree.max_handles().max(1)],
-            yt: vec![Rows5([[0.0; 8]; 5]); tree.max_handles().max(1)],
-            gf: vec![Mat6::ZERO; tree.max_handles().max(1)],
-            lay,
-            steps: 0,
-            full_passes: false,
-            fresh: false,
-            fused: articula_dca::internals::fused_available(),
-            fresh_q: vec![0.0; model.nq],
-            fresh_qd: vec![0.0; model.nv],
-            // The angles' sines and cosines at full size now: a `_with` call exchanges them
-            // with a scratch's, and a body whose first hybrid bodies turn no angle would
-            // otherwise grow its own in a later step.
-            hier: crate::hierarchy::Hierarchy {
-                sc: Vec::with_capacity(model.nv),
-                ..Default::default()
-            },
-            cache: crate::cache::Caches {
-                check_tau: true,
-                ..Default::default()
-            },
-            use_cache: true,
-            record_maps: false,
-            jm: JoinMaps::default(),
-            rk: crate::rk4::RkBuffers::default(),
-            last: Selection::default(),
-            touched: 0,
-        }
-    }
-
-    /// Φ_hk of node `n`.
-    #[inline]
-    pub(crate) fn phi_at(&self, n: usize, h: usize, k: usize) -> &Mat6 {
-        &self.phi[self.lay.boff[n] + h * self.nh[n] + k]
-    }
-
     /// Composite inertia, ground flag, top body and external-force sum of every node, bottom-up.
     pub(crate) fn composites(&mut self, model: &Model) {
         self.composites_with(model, true);
@@ -540,27 +242,35 @@ impl Adaptive {
         let tree = &model.assembly;
         for (n, node) in tree.nodes.iter().enumerate() {
             match node.kind {
+                NodeKind::Gather { .. } => {
+                    unreachable!("adaptive refuses models with gather nodes (`load_state`)")
+                }
                 NodeKind::Ground => {
-                    self.comp[n] = Rigid::default();
-                    self.grounded[n] = true;
-                    self.top[n] = usize::MAX;
+                    self.composites.rigid[n] = Rigid::default();
+                    self.composites.grounded[n] = true;
+                    self.composites.top[n] = usize::MAX;
                     if all {
-                        self.fsum[n] = SpatialForce::ZERO;
+                        self.forces.node_sums[n] = SpatialForce::ZERO;
                     }
                 }
                 NodeKind::Body(i) => {
                     // From the body-frame inertia: about a far origin, I_c would lose digits.
                     let (rot, _) = self.data.x[i].to_pose();
                     let bi = &model.bodies[i].inertia;
-                    self.comp[n] = Rigid {
+                    self.composites.rigid[n] = Rigid {
                         m: bi.mass,
                         c: self.data.x[i].apply_point(bi.com()),
                         ic: rot * bi.inertia_about_com() * rot.transpose(),
                     };
-                    self.grounded[n] = false;
-                    self.top[n] = i;
+                    self.composites.grounded[n] = false;
+                    self.composites.top[n] = i;
                     if all {
-                        self.fsum[n] = self.fext_c.get(i).copied().unwrap_or(SpatialForce::ZERO);
+                        self.forces.node_sums[n] = self
+                            .forces
+                            .computation
+                            .get(i)
+                            .copied()
+                            .unwrap_or(SpatialForce::ZERO);
                     }
                 }
                 NodeKind::Join {
@@ -568,13 +278,16 @@ impl Adaptive {
                     child_side: b,
                     ..
                 } => {
-                    if all || !self.active[n] {
-                        self.comp[n] = self.comp[a].combine(&self.comp[b]);
+                    if all || !self.body.active[n] {
+                        self.composites.rigid[n] =
+                            self.composites.rigid[a].combine(&self.composites.rigid[b]);
                     }
-                    self.grounded[n] = self.grounded[a] || self.grounded[b];
-                    self.top[n] = self.top[a].min(self.top[b]);
+                    self.composites.grounded[n] =
+                        self.composites.grounded[a] || self.composites.grounded[b];
+                    self.composites.top[n] = self.composites.top[a].min(self.composites.top[b]);
                     if all {
-                        self.fsum[n] = self.fsum[a] + self.fsum[b];
+                        self.forces.node_sums[n] =
+                            self.forces.node_sums[a] + self.forces.node_sums[b];
                     }
                 }
             }
@@ -597,7 +310,7 @@ impl Adaptive {
         level: Level,
     ) -> Result<(), DynamicsError> {
         #[cfg(target_arch = "x86_64")]
-        if self.fused {
+        if self.switches.fused {
             // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.rigid_coefficients_wide(model, n, inertia, v, fe, level) };
@@ -632,10 +345,14 @@ impl Adaptive {
         level: Level,
     ) -> Result<(), DynamicsError> {
         let node = &model.assembly.nodes[n];
-        let (ho, bo, nh) = (self.lay.hoff[n], self.lay.boff[n], self.nh[n]);
+        let (ho, bo, nh) = (
+            self.coef.layout.hoff[n],
+            self.coef.layout.boff[n],
+            self.coef.handles[n],
+        );
         let (m, ic, c) = (inertia.m, inertia.ic, inertia.c);
         if m.is_nan() || m <= 0.0 || ic.determinant() <= 0.0 {
-            let body = self.top[n].min(model.bodies.len() - 1);
+            let body = self.composites.top[n].min(model.bodies.len() - 1);
             return Err(DynamicsError::Singular {
                 joint: model.bodies[body].joint_name(),
                 detail: "a rigid subassembly's spatial inertia is not positive definite",
@@ -656,26 +373,30 @@ impl Adaptive {
             Level::Impulse => SpatialMotion::ZERO,
         };
         for (h, &jh) in node.handles.iter().enumerate() {
-            let ah = c - self.point[jh];
+            let ah = c - self.coef.point[jh];
             // Φ is symmetric (`Φ_kh = Φ_hkᵀ`): the blocks on and above the diagonal, mirrored.
             for (k, &jk) in node.handles.iter().enumerate().skip(h) {
-                let blk = rigid_phi(m, c, j, self.point[jh], self.point[jk]);
+                let blk = rigid_phi(m, c, j, self.coef.point[jh], self.coef.point[jk]);
                 if k > h {
-                    self.phi[bo + k * nh + h] = blk.transpose();
+                    self.coef.phi[bo + k * nh + h] = blk.transpose();
                 }
-                self.phi[bo + h * nh + k] = blk;
+                self.coef.phi[bo + h * nh + k] = blk;
             }
             // b at P_h: [α; a_c + α × (P_h − c)] + a_g
-            self.b[ho + h] = a_g + SpatialMotion::new(acc_w, acc_c + acc_w.cross(-ah));
+            self.coef.bias[ho + h] = a_g + SpatialMotion::new(acc_w, acc_c + acc_w.cross(-ah));
         }
         Ok(())
     }
 
     /// Coefficients of the ground or of a subassembly welded to it: Φ = 0, b = 0.
     pub(crate) fn ground_coefficients(&mut self, n: usize) {
-        let (ho, bo, nh) = (self.lay.hoff[n], self.lay.boff[n], self.nh[n]);
-        self.phi[bo..bo + nh * nh].fill(Mat6::ZERO);
-        self.b[ho..ho + nh].fill(SpatialMotion::ZERO);
+        let (ho, bo, nh) = (
+            self.coef.layout.hoff[n],
+            self.coef.layout.boff[n],
+            self.coef.handles[n],
+        );
+        self.coef.phi[bo..bo + nh * nh].fill(Mat6::ZERO);
+        self.coef.bias[ho..ho + nh].fill(SpatialMotion::ZERO);
     }
 
     /// Joins A and B at node `n`'s principal joint (docs/design.md#dca), records the affine maps
@@ -694,7 +415,7 @@ impl Adaptive {
         level: Level,
     ) -> Result<(), DynamicsError> {
         #[cfg(target_arch = "x86_64")]
-        if self.fused {
+        if self.switches.fused {
             // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.join_wide(model, n, tau, level) };
@@ -734,22 +455,26 @@ impl Adaptive {
             unreachable!("join() on a leaf")
         };
         let body = &model.bodies[joint];
-        let (ja, jb) = (self.lay.ja[n], self.lay.jb[n]);
-        let (nhc, hc) = (self.nh[n], self.lay.hoff[n]);
-        let g = add6(&self.phi_at(a, ja, ja).0, &self.phi_at(b, jb, jb).0);
+        let (ja, jb) = (self.coef.layout.ja[n], self.coef.layout.jb[n]);
+        let (nhc, hc) = (self.coef.handles[n], self.coef.layout.hoff[n]);
+        let g = add6(
+            &self.coef.phi_at(a, ja, ja).0,
+            &self.coef.phi_at(b, jb, jb).0,
+        );
         // S, c at the joint's point P_j; β = b^A_j − b^B_j + c (no velocity product at impulse
         // level); G_F,h per handle of C.
-        let pj = self.point[joint];
+        let pj = self.coef.point[joint];
         let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj)).to_array();
-        let mut beta = self.b[self.lay.hoff[a] + ja] - self.b[self.lay.hoff[b] + jb];
+        let mut beta = self.coef.bias[self.coef.layout.hoff[a] + ja]
+            - self.coef.bias[self.coef.layout.hoff[b] + jb];
         if level == Level::Acceleration {
             beta += SpatialMotion::from_array(shift(self.data.c[joint]));
         }
         let beta = beta.to_array();
         for h in 0..nhc {
-            self.gf[h] = match self.lay.from[hc + h] {
-                (true, i) => *self.phi_at(a, ja, i),
-                (false, i) => -*self.phi_at(b, jb, i),
+            self.scratch.g_force[h] = match self.coef.layout.from[hc + h] {
+                (true, i) => *self.coef.phi_at(a, ja, i),
+                (false, i) => -*self.coef.phi_at(b, jb, i),
             };
         }
         let (vo, k) = (body.v_offset, body.nv);
@@ -783,9 +508,9 @@ impl Adaptive {
             joint: body.joint_name(),
             detail: "Sᵀ V S is not positive definite",
         })?;
-        if self.record_maps {
+        if self.maps.record {
             // κ_β = −D⁻¹ Zᵀ L⁻¹, ν_β = L⁻ᵀ (L⁻¹ + Z κ_β), κ_Q = D⁻¹, ν_Q = L⁻ᵀ Z D⁻¹.
-            let mut jm = JoinMaps::default();
+            let mut jm = BiasMaps::default();
             for r in 0..6 {
                 let mut e = [0.0; 6];
                 e[r] = 1.0;
@@ -818,7 +543,7 @@ impl Adaptive {
                     jm.nq[s][q] = nc[s];
                 }
             }
-            self.jm = jm;
+            self.maps.recorded = jm;
         }
         // w = L⁻¹ β
         let mut w = dense::solve_l(&l, &beta);
@@ -828,22 +553,22 @@ impl Adaptive {
             t[p] = tau[vo + p] - dot6(&z[p], &w);
         }
         for p in 0..k {
-            self.kvec[vo + p] = (0..k).map(|q| dinv[p][q] * t[q]).sum();
+            self.maps.qdd_bias[vo + p] = (0..k).map(|q| dinv[p][q] * t[q]).sum();
         }
         for p in 0..k {
-            let kp = self.kvec[vo + p];
+            let kp = self.maps.qdd_bias[vo + p];
             for r in 0..6 {
                 w[r] += z[p][r] * kp;
             }
         }
         let nv = dense::solve_lt(&l, &w);
-        self.nvec[n] = nv;
+        self.maps.force_bias[n] = nv;
         // Per handle h of C: Y_h = L⁻¹ G_F,h (G_F,h = +Φ^A_jh from A, −Φ^B_jh from B),
         // K_h = −D⁻¹ Zᵀ Y_h, U_h = Y_h + Z K_h, N_h = L⁻ᵀ U_h. Stored column-wise in `y`/`u`.
-        let ko = self.koff[n];
+        let ko = self.maps.qdd_gain_at[n];
         let wd = 6 * nhc;
         for h in 0..nhc {
-            let gt = self.gf[h].transpose(); // row c = column c of G_F,h
+            let gt = self.scratch.g_force[h].transpose(); // row c = column c of G_F,h
             let mut yc = [[0.0; 6]; 6];
             let mut uc = [[0.0; 6]; 6];
             for c in 0..6 {
@@ -852,13 +577,13 @@ impl Adaptive {
             for p in 0..k {
                 for c in 0..6 {
                     let zy: f64 = (0..k).map(|q| dinv[p][q] * dot6(&z[q], &yc[c])).sum();
-                    self.kmat[ko + p * wd + 6 * h + c] = -zy;
+                    self.maps.qdd_gain[ko + p * wd + 6 * h + c] = -zy;
                 }
             }
             for c in 0..6 {
                 let mut col = yc[c];
                 for p in 0..k {
-                    let kp = self.kmat[ko + p * wd + 6 * h + c];
+                    let kp = self.maps.qdd_gain[ko + p * wd + 6 * h + c];
                     for r in 0..6 {
                         col[r] += z[p][r] * kp;
                     }
@@ -866,42 +591,49 @@ impl Adaptive {
                 uc[c] = col;
                 let ncol = dense::solve_lt(&l, &col);
                 for r in 0..6 {
-                    self.nmat[36 * hc + r * wd + 6 * h + c] = ncol[r];
+                    self.maps.force_gain[36 * hc + r * wd + 6 * h + c] = ncol[r];
                 }
             }
-            self.yc[h] = yc;
-            self.uc[h] = uc;
+            self.scratch.y_cols[h] = yc;
+            self.scratch.u_cols[h] = uc;
         }
         self.assemble(n, a, b, false);
         Ok(())
     }
 
-    /// `Φ^C_hk = Φ^X_hk [same side] − Y_hᵀ U_k` (columns of Y_h and U_k in `yc`, `uc`) and
-    /// `b^C_h = b^X_h − G_F,hᵀ γ` (`G_F,h` in `gf`, γ = `nvec[n]`) for the joined node `n`.
-    /// `gram`: U = Y with five rows (the one-axis join, `yt[h]` holding the rows of Ỹ_h), so
+    /// `Φ^C_hk = Φ^X_hk [same side] − Y_hᵀ U_k` (columns of Y_h and U_k in `scratch.y_cols`,
+    /// `scratch.u_cols`) and `b^C_h = b^X_h − G_F,hᵀ γ` (`G_F,h` in `scratch.g_force`,
+    /// γ = `maps.force_bias[n]`) for the joined node `n`. `gram`: U = Y with five rows (the
+    /// one-axis join, `scratch.y_rows[h]` holding the rows of Ỹ_h), so
     /// `Y_hᵀ Y_h` is symmetric to the bit.
     #[inline(always)]
     fn assemble(&mut self, n: usize, a: usize, b: usize, gram: bool) {
-        let (nhc, hc, bc) = (self.nh[n], self.lay.hoff[n], self.lay.boff[n]);
+        let (nhc, hc, bc) = (
+            self.coef.handles[n],
+            self.coef.layout.hoff[n],
+            self.coef.layout.boff[n],
+        );
         for h in 0..nhc {
-            let (ah, ih) = self.lay.from[hc + h];
+            let (ah, ih) = self.coef.layout.from[hc + h];
             let x = if ah { a } else { b };
             for kk in h..nhc {
-                let (ak, ik) = self.lay.from[hc + kk];
+                let (ak, ik) = self.coef.layout.from[hc + kk];
                 // Y_hᵀ U_k.
                 let yu: [[f64; 6]; 6] = if gram {
                     // The five rows of Ỹ_h, Ỹ_k in yt: Σ_p Ỹ_h[p][r] Ỹ_k[p][c], p ascending (the
                     // products commute, so a diagonal block is symmetric to the bit).
-                    gram8(&self.yt[h].0, &self.yt[kk].0)
+                    gram8(&self.scratch.y_rows[h].0, &self.scratch.y_rows[kk].0)
                 } else {
                     std::array::from_fn(|r| {
-                        std::array::from_fn(|c| dot6(&self.yc[h][r], &self.uc[kk][c]))
+                        std::array::from_fn(|c| {
+                            dot6(&self.scratch.y_cols[h][r], &self.scratch.u_cols[kk][c])
+                        })
                     })
                 };
                 // Φ^X_hk − Y_hᵀ U_k on the same side, −Y_hᵀ U_k across.
                 let mut blk = Mat6(yu);
                 if ah == ak {
-                    let phi = &self.phi_at(x, ih, ik).0;
+                    let phi = &self.coef.phi_at(x, ih, ik).0;
                     for r in 0..6 {
                         for c in 0..6 {
                             blk.0[r][c] = phi[r][c] - yu[r][c];
@@ -916,14 +648,15 @@ impl Adaptive {
                 }
                 if h == kk {
                     blk = *blk.symmetric_part().as_mat6();
-                    self.phi[bc + h * nhc + h] = blk;
+                    self.coef.phi[bc + h * nhc + h] = blk;
                 } else {
-                    self.phi[bc + h * nhc + kk] = blk;
-                    self.phi[bc + kk * nhc + h] = blk.transpose();
+                    self.coef.phi[bc + h * nhc + kk] = blk;
+                    self.coef.phi[bc + kk * nhc + h] = blk.transpose();
                 }
             }
-            let db = tr_mul_vec(&self.gf[h], &self.nvec[n]);
-            self.b[hc + h] = self.b[self.lay.hoff[x] + ih] - SpatialMotion::from_array(db);
+            let db = tr_mul_vec(&self.scratch.g_force[h], &self.maps.force_bias[n]);
+            self.coef.bias[hc + h] =
+                self.coef.bias[self.coef.layout.hoff[x] + ih] - SpatialMotion::from_array(db);
         }
     }
 
@@ -956,7 +689,7 @@ impl Adaptive {
             unreachable!("join() on a leaf")
         };
         let body = &model.bodies[joint];
-        let (nhc, hc) = (self.nh[n], self.lay.hoff[n]);
+        let (nhc, hc) = (self.coef.handles[n], self.coef.layout.hoff[n]);
         let vo = body.v_offset;
         // The axis passes through P_j: the other half is rounding.
         let off = if prismatic { 3 } else { 0 };
@@ -1000,11 +733,11 @@ impl Adaptive {
         let gft = Mat6(*g).mul_vec(&ft);
         let qt = dot6(&sv, &gft) / ss;
         let q = tau[vo];
-        self.kvec[vo] = dot6(&gv, beta) / ss + qt * q;
+        self.maps.qdd_bias[vo] = dot6(&gv, beta) / ss + qt * q;
         let nv: [f64; 6] = std::array::from_fn(|i| wb[i] + ft[i] * q);
-        if self.record_maps {
+        if self.maps.record {
             // κ_β = gᵀ / sᵀs, κ_Q = q̈_τ, ν_β = W, ν_Q = f_τ.
-            let mut jm = JoinMaps::default();
+            let mut jm = BiasMaps::default();
             for r in 0..6 {
                 jm.kb[0][r] = gv[r] / ss;
                 let mut e = [0.0; 6];
@@ -1016,10 +749,10 @@ impl Adaptive {
                 jm.nq[r][0] = ft[r];
             }
             jm.kq[0][0] = qt;
-            self.jm = jm;
+            self.maps.recorded = jm;
         }
-        self.nvec[n] = nv;
-        let ko = self.koff[n];
+        self.maps.force_bias[n] = nv;
+        let ko = self.maps.qdd_gain_at[n];
         let wd = 6 * nhc;
         // The substitutions below multiply by reciprocals (`ldinv` from the factorisation: a
         // division's latency would sit on their critical path).
@@ -1028,12 +761,12 @@ impl Adaptive {
         // the order of one column at a time): K_h = gᵀ G_F,h / sᵀs, Ỹ_h = L⁻¹ Tᵀ G_F,h
         // (5 × 6, its rows kept in yc[h][0..5]), N_h = T L⁻ᵀ Ỹ_h.
         for h in 0..nhc {
-            let gfm = &self.gf[h].0;
+            let gfm = &self.scratch.g_force[h].0;
             let mut kr = row_scaled(&gfm[0], gv[0]);
             for r in 1..6 {
                 row_add_scaled(&mut kr, gv[r], &gfm[r]);
             }
-            let krow: &mut [f64; 6] = (&mut self.kmat[ko + 6 * h..ko + 6 * h + 6])
+            let krow: &mut [f64; 6] = (&mut self.maps.qdd_gain[ko + 6 * h..ko + 6 * h + 6])
                 .try_into()
                 .expect("a row of 6");
             *krow = row_scaled(&kr, ssinv);
@@ -1074,14 +807,14 @@ impl Adaptive {
             nr[t.keep[2]] = z[4];
             // N's six rows of width 6·nhc, this handle's six columns of each (one range
             // check for the node's block, then fixed-size row slices).
-            let blk = &mut self.nmat[36 * hc..36 * hc + 6 * wd];
+            let blk = &mut self.maps.force_gain[36 * hc..36 * hc + 6 * wd];
             for (dst, row) in blk.chunks_exact_mut(wd).zip(&nr) {
                 let dst: &mut [f64; 6] = (&mut dst[6 * h..6 * h + 6])
                     .try_into()
                     .expect("six columns per handle");
                 *dst = *row;
             }
-            for (dst, src) in self.yt[h].0.iter_mut().zip(&y) {
+            for (dst, src) in self.scratch.y_rows[h].0.iter_mut().zip(&y) {
                 dst[..6].copy_from_slice(src);
             }
         }
@@ -1094,7 +827,7 @@ impl Adaptive {
     /// `q̈ = K F + k` into `qdd` and its children's handle forces.
     pub(crate) fn expand(&mut self, model: &Model, n: usize) {
         #[cfg(target_arch = "x86_64")]
-        if self.fused {
+        if self.switches.fused {
             // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.expand_wide(model, n) };
@@ -1123,14 +856,17 @@ impl Adaptive {
         };
         let body = &model.bodies[joint];
         let (vo, k) = (body.v_offset, body.nv);
-        let (nhc, hc) = (self.nh[n], self.lay.hoff[n]);
+        let (nhc, hc) = (self.coef.handles[n], self.coef.layout.hoff[n]);
         let w = 6 * nhc;
-        let ko = self.koff[n];
-        let mut fj = self.nvec[n];
+        let ko = self.maps.qdd_gain_at[n];
+        let mut fj = self.maps.force_bias[n];
         if nhc == 2 {
             // Two handles (a chain's inner nodes): fixed-length rows, the same sums in the
             // same order (from the first product on, as `Iterator::sum` from −0).
-            let (f0, f1) = (self.f[hc].to_array(), self.f[hc + 1].to_array());
+            let (f0, f1) = (
+                self.coef.force[hc].to_array(),
+                self.coef.force[hc + 1].to_array(),
+            );
             let fx: [f64; 12] = std::array::from_fn(|c| if c < 6 { f0[c] } else { f1[c - 6] });
             let dot12 = |row: &[f64; 12]| {
                 let mut acc = row[0] * fx[0];
@@ -1139,12 +875,12 @@ impl Adaptive {
                 }
                 acc
             };
-            let kr = &self.kmat[ko..ko + 12 * k];
+            let kr = &self.maps.qdd_gain[ko..ko + 12 * k];
             for p in 0..k {
                 let row: &[f64; 12] = kr[12 * p..12 * p + 12].try_into().expect("a row of 12");
-                self.qdd[vo + p] = self.kvec[vo + p] + dot12(row);
+                self.body.qdd[vo + p] = self.maps.qdd_bias[vo + p] + dot12(row);
             }
-            let nm: &[f64; 72] = self.nmat[36 * hc..36 * hc + 72]
+            let nm: &[f64; 72] = self.maps.force_gain[36 * hc..36 * hc + 72]
                 .try_into()
                 .expect("six rows of 12");
             for (r, x) in fj.iter_mut().enumerate() {
@@ -1153,29 +889,38 @@ impl Adaptive {
             }
         } else {
             for h in 0..nhc {
-                self.fx[6 * h..6 * h + 6].copy_from_slice(&self.f[hc + h].to_array());
+                self.scratch.handle_forces[6 * h..6 * h + 6]
+                    .copy_from_slice(&self.coef.force[hc + h].to_array());
             }
             for p in 0..k {
-                let row = &self.kmat[ko + p * w..ko + p * w + w];
-                self.qdd[vo + p] =
-                    self.kvec[vo + p] + row.iter().zip(&self.fx).map(|(x, y)| x * y).sum::<f64>();
+                let row = &self.maps.qdd_gain[ko + p * w..ko + p * w + w];
+                self.body.qdd[vo + p] = self.maps.qdd_bias[vo + p]
+                    + row
+                        .iter()
+                        .zip(&self.scratch.handle_forces)
+                        .map(|(x, y)| x * y)
+                        .sum::<f64>();
             }
             for (r, x) in fj.iter_mut().enumerate() {
-                let row = &self.nmat[36 * hc + r * w..36 * hc + r * w + w];
-                *x += row.iter().zip(&self.fx).map(|(x, y)| x * y).sum::<f64>();
+                let row = &self.maps.force_gain[36 * hc + r * w..36 * hc + r * w + w];
+                *x += row
+                    .iter()
+                    .zip(&self.scratch.handle_forces)
+                    .map(|(x, y)| x * y)
+                    .sum::<f64>();
             }
         }
         let fj = SpatialForce::from_array(fj);
-        let (hoa, hob) = (self.lay.hoff[a], self.lay.hoff[b]);
+        let (hoa, hob) = (self.coef.layout.hoff[a], self.coef.layout.hoff[b]);
         for h in 0..nhc {
-            let fh = self.f[hc + h];
-            match self.lay.from[hc + h] {
-                (true, i) => self.f[hoa + i] = fh,
-                (false, i) => self.f[hob + i] = fh,
+            let fh = self.coef.force[hc + h];
+            match self.coef.layout.from[hc + h] {
+                (true, i) => self.coef.force[hoa + i] = fh,
+                (false, i) => self.coef.force[hob + i] = fh,
             }
         }
-        self.f[hoa + self.lay.ja[n]] = -fj;
-        self.f[hob + self.lay.jb[n]] = fj;
+        self.coef.force[hoa + self.coef.layout.ja[n]] = -fj;
+        self.coef.force[hob + self.coef.layout.jb[n]] = fj;
     }
 
     /// Main pass over the hybrid body: active joins are joined, the frontier (children of
@@ -1190,29 +935,32 @@ impl Adaptive {
     ) -> Result<(), DynamicsError> {
         let tree = &model.assembly;
         for (h, x) in self.data.x.iter().enumerate() {
-            self.point[h] = x.apply_point(DVec3::ZERO);
+            self.coef.point[h] = x.apply_point(DVec3::ZERO);
         }
         self.touched = 0;
         for n in 0..tree.nodes.len() {
             let node = &tree.nodes[n];
             let is_join = matches!(node.kind, NodeKind::Join { .. });
-            let active = is_join && (all_active || self.active[n]);
-            let frontier = !active && node.parent.is_none_or(|p| all_active || self.active[p]);
+            let active = is_join && (all_active || self.body.active[n]);
+            let frontier = !active
+                && node
+                    .parent
+                    .is_none_or(|p| all_active || self.body.active[p]);
             if !active && !frontier {
                 continue;
             }
             self.touched += 1;
             if active {
                 self.join(model, n, tau, level)?;
-            } else if self.grounded[n] {
+            } else if self.composites.grounded[n] {
                 self.ground_coefficients(n);
             } else {
                 let v = match level {
-                    Level::Acceleration => self.data.v[self.top[n]],
+                    Level::Acceleration => self.data.v[self.composites.top[n]],
                     Level::Impulse => SpatialMotion::ZERO,
                 };
-                let r = self.comp[n];
-                self.rigid_coefficients(model, n, &r, v, self.fsum[n], level)?;
+                let r = self.composites.rigid[n];
+                self.rigid_coefficients(model, n, &r, v, self.forces.node_sums[n], level)?;
             }
         }
         Ok(())
@@ -1222,12 +970,12 @@ impl Adaptive {
     /// every other joint gets `q̈ = 0`.
     pub(crate) fn back_substitution(&mut self, model: &Model, all_active: bool) {
         let tree = &model.assembly;
-        self.qdd.fill(0.0);
+        self.body.qdd.fill(0.0);
         let root = tree.root();
-        let (ho, nh) = (self.lay.hoff[root], self.nh[root]);
-        self.f[ho..ho + nh].fill(SpatialForce::ZERO);
+        let (ho, nh) = (self.coef.layout.hoff[root], self.coef.handles[root]);
+        self.coef.force[ho..ho + nh].fill(SpatialForce::ZERO);
         for n in (0..tree.nodes.len()).rev() {
-            if all_active || self.active[n] {
+            if all_active || self.body.active[n] {
                 self.expand(model, n);
             }
         }

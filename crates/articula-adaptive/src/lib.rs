@@ -55,100 +55,37 @@
 // Index loops over joint columns and handles mirror the equations (S columns p, q; handles h, k).
 #![allow(clippy::needless_range_loop)]
 
+mod adaptive;
 mod cache;
 mod dense;
+mod error;
 mod hierarchy;
 mod hybrid;
 mod metric;
+mod parts;
+mod report;
 mod rigidify;
 mod rk4;
 mod scratch;
+mod settings;
 mod trig;
 mod update;
 
 #[cfg(test)]
 mod reference_tests;
 
-pub use hybrid::{Adaptive, Selection};
+pub use adaptive::Adaptive;
+pub use error::AdaptiveError;
+pub use parts::selection_queue::Selection;
+pub use report::StepReport;
 pub use scratch::Scratch;
+pub use settings::Settings;
 
 use articula_dca::internals::all_finite;
 use articula_dca::{check_inputs, forward_kinematics, DynamicsError, State};
 use articula_model::{Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialTransform};
 use hybrid::Level;
-
-/// How the adaptive solver chooses its joints.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Settings {
-    /// Maximum number of internal degrees of freedom simulated (a floating base's six are free);
-    /// `Some(0)` moves the body as one rigid body. `None`: no limit.
-    pub budget: Option<usize>,
-    /// Stop selecting when the acceleration-metric mass left in the queue is at most this.
-    /// `None` or `Some(0.0)`: no tolerance stop.
-    pub tolerance: Option<f64>,
-    /// Re-select the hybrid body every this many steps (at least 1).
-    pub reselect_every: u64,
-    /// At re-selection, a joint not selected is locked unless this is set and the velocity
-    /// metric `V(C)` of its subassembly exceeds it (it then stays in the hybrid body, counted
-    /// as active). `None`: every joint not selected is locked.
-    pub velocity_tolerance: Option<f64>,
-}
-
-impl Default for Settings {
-    fn default() -> Self {
-        Settings {
-            budget: None,
-            tolerance: None,
-            reselect_every: 1,
-            velocity_tolerance: None,
-        }
-    }
-}
-
-impl Settings {
-    /// Checks the values: a finite non-negative tolerance and velocity tolerance, a re-selection
-    /// period of at least one step.
-    ///
-    /// Every step checks them (a workspace may have been built with any settings), so the
-    /// check is a few inlined comparisons and the messages are built out of line.
-    #[inline]
-    pub fn validate(&self) -> Result<(), AdaptiveError> {
-        let ok = |t: Option<f64>| t.is_none_or(|t| t >= 0.0 && t.is_finite());
-        if ok(self.tolerance) && ok(self.velocity_tolerance) && self.reselect_every != 0 {
-            Ok(())
-        } else {
-            Err(self.invalid())
-        }
-    }
-
-    /// The error naming the first invalid setting (see [`Settings::validate`]).
-    #[cold]
-    #[inline(never)]
-    fn invalid(&self) -> AdaptiveError {
-        let bad = |t: Option<f64>| t.filter(|t| !(*t >= 0.0 && t.is_finite()));
-        if let Some(t) = bad(self.tolerance) {
-            AdaptiveError::Setting(format!("tolerance must be a finite number ≥ 0, got {t}"))
-        } else if let Some(t) = bad(self.velocity_tolerance) {
-            AdaptiveError::Setting(format!(
-                "velocity tolerance must be a finite number ≥ 0, got {t}"
-            ))
-        } else {
-            AdaptiveError::Setting("reselect_every must be at least 1".into())
-        }
-    }
-}
-
-/// What can go wrong in an adaptive call.
-#[derive(Debug, thiserror::Error)]
-pub enum AdaptiveError {
-    /// An invalid setting.
-    #[error("invalid adaptive setting: {0}")]
-    Setting(String),
-    /// A dynamics error (dimension, non-finite value naming its joint, singular inertia).
-    #[error(transparent)]
-    Dynamics(#[from] DynamicsError),
-}
 
 /// Advances `state` by `dt` with adaptive dynamics: the stepping call of
 /// [`articula_dca::step`] with the same argument order — model, workspace, state, integrator,
@@ -183,21 +120,6 @@ pub fn step(
     }
 }
 
-/// What one adaptive step did.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct StepReport {
-    /// Whether the hybrid body was re-selected this step.
-    pub reselected: bool,
-    /// Whether joints were locked (rigidified) this step.
-    pub rigidified: bool,
-    /// Degrees of freedom in the hybrid body's active region (simulated this step).
-    pub active_dofs: usize,
-    /// The last selection's predicted acceleration-metric error.
-    pub predicted_error: f64,
-    /// Assembly-tree nodes the step's passes visited (the cost of adaptive updates).
-    pub nodes_touched: usize,
-}
-
 impl Adaptive {
     /// The settings.
     pub fn settings(&self) -> &Settings {
@@ -217,29 +139,19 @@ impl Adaptive {
     /// a weight that changes marks them stale, so the next re-selection runs whole-body passes
     /// (an unchanged weight keeps them).
     pub fn set_weight(&mut self, model: &Model, body: usize, scale: f64) {
-        let k = model.bodies[body].nv;
-        let w = &mut self.aw[self.woff[body]..self.woff[body] + k * k];
-        let same = (0..k).all(|i| (0..k).all(|j| w[i * k + j] == if i == j { scale } else { 0.0 }));
-        if !same {
-            scaled_identity(w, k, scale);
+        if self.metric.set_accel_weight(model, body, scale) {
             self.cache.ready = false;
         }
     }
 
     /// Velocity-metric weight of body `body`'s joint: `V = scale · 1` (scale ≥ 0).
     pub fn set_velocity_weight(&mut self, model: &Model, body: usize, scale: f64) {
-        let k = model.bodies[body].nv;
-        scaled_identity(
-            &mut self.vw[self.woff[body]..self.woff[body] + k * k],
-            k,
-            scale,
-        );
+        self.metric.set_velocity_weight(model, body, scale);
     }
 
     /// The acceleration-metric weight matrix `A_i` (k × k, row-major) of body `body`'s joint.
     pub fn weight(&self, model: &Model, body: usize) -> &[f64] {
-        let k = model.bodies[body].nv;
-        &self.aw[self.woff[body]..self.woff[body] + k * k]
+        self.metric.accel_weight(model, body)
     }
 
     /// The last selection.
@@ -249,12 +161,12 @@ impl Adaptive {
 
     /// Whether body `body`'s joint was selected by the last selection.
     pub fn is_selected(&self, model: &Model, body: usize) -> bool {
-        self.selected[model.assembly.joint_node[body]]
+        self.queue.selected[model.assembly.joint_node[body]]
     }
 
     /// Whether body `body`'s joint is in the hybrid body's active region (it moves).
     pub fn is_active(&self, model: &Model, body: usize) -> bool {
-        self.active[model.assembly.joint_node[body]]
+        self.body.active[model.assembly.joint_node[body]]
     }
 
     /// Degrees of freedom in the hybrid body's active region.
@@ -268,7 +180,7 @@ impl Adaptive {
             .nodes
             .iter()
             .enumerate()
-            .filter(|(n, _)| self.active[*n])
+            .filter(|(n, _)| self.body.active[*n])
             .map(|(_, node)| match node.kind {
                 NodeKind::Join { joint, .. } => model.bodies[joint].nv,
                 _ => 0,
@@ -290,8 +202,9 @@ impl Adaptive {
         // The external wrenches in the computation frame, `X*_{c←w} f` (only the composites'
         // force sums read them: not built for `set_active`'s impulse).
         let x_cw = SpatialTransform::xlt(self.data.origin);
-        self.fext_c.clear();
-        self.fext_c
+        self.forces.computation.clear();
+        self.forces
+            .computation
             .extend(f_ext.iter().map(|f| x_cw.apply_force(*f)));
         self.composites(model);
         Ok(())
@@ -306,17 +219,20 @@ impl Adaptive {
         tau: &[f64],
         f_ext: &[SpatialForce],
     ) -> Result<(), AdaptiveError> {
+        if model.assembly.has_gather() {
+            return Err(unsupported_tree(model));
+        }
         check_inputs(model, q, qd, tau, f_ext)?;
         // Kinematics left by node_metrics for this very state are reused (the same bits:
         // compared by `memcmp`, much cheaper than `f64` equality; a `-0.0` for a
         // `0.0` now recomputes them).
-        if !(self.fresh
-            && update::same_bits(&self.fresh_q, q)
-            && update::same_bits(&self.fresh_qd, qd))
+        if !(self.fresh.valid
+            && update::same_bits(&self.fresh.q, q)
+            && update::same_bits(&self.fresh.qd, qd))
         {
             forward_kinematics(model, q, qd, &mut self.data);
         }
-        self.fresh = false;
+        self.fresh.valid = false;
         Ok(())
     }
 
@@ -338,8 +254,8 @@ impl Adaptive {
         self.main_pass(model, tau, Level::Acceleration, true)?;
         self.metric_pass(model);
         self.last = self.select(model);
-        check_qdd(model, &self.qdd)?;
-        Ok(&self.qdd)
+        check_qdd(model, &self.body.qdd)?;
+        Ok(&self.body.qdd)
     }
 
     /// The acceleration metric `A(C)` of every node of the assembly tree at its handle forces in
@@ -361,7 +277,7 @@ impl Adaptive {
         out: &mut [f64],
     ) -> Result<(), AdaptiveError> {
         self.exact_solve(model, q, qd, tau, f_ext)?;
-        crate::metric::subtree_quadratic(model, &self.aw, &self.woff, &self.qdd, out);
+        self.exact_node_metrics(model, out);
         Ok(())
     }
 
@@ -381,7 +297,7 @@ impl Adaptive {
         tau: &[f64],
         f_ext: &[SpatialForce],
     ) -> Result<(), AdaptiveError> {
-        solve_exact(model, &mut self.data, &mut self.qdd, q, qd, tau, f_ext)?;
+        metric::solve_exact(model, &mut self.data, &mut self.body.qdd, q, qd, tau, f_ext)?;
         self.mark_fresh(q, qd);
         Ok(())
     }
@@ -389,9 +305,9 @@ impl Adaptive {
     /// Records that `data` holds the whole-body kinematics of `(q, q̇)` (an exact solve's),
     /// for the next load of the same state to reuse.
     pub(crate) fn mark_fresh(&mut self, q: &[f64], qd: &[f64]) {
-        self.fresh = true;
-        self.fresh_q.copy_from_slice(q);
-        self.fresh_qd.copy_from_slice(qd);
+        self.fresh.valid = true;
+        self.fresh.q.copy_from_slice(q);
+        self.fresh.qd.copy_from_slice(qd);
     }
 
     /// The node metrics of the last exact solve ([`Adaptive::exact_solve`],
@@ -401,7 +317,7 @@ impl Adaptive {
     /// body followed by [`Adaptive::node_metrics`] (the products and sums in the same order),
     /// without writing the weight matrices.
     pub fn scaled_node_metrics(&self, model: &Model, weights: &[f64], out: &mut [f64]) {
-        crate::metric::subtree_scaled_quadratic(model, weights, &self.qdd, out);
+        crate::metric::subtree_scaled_quadratic(model, weights, &self.body.qdd, out);
     }
 
     /// The metric `A(C) = Fᵀ Ψ F + Fᵀ p + η` predicted at every node of the assembly tree from
@@ -422,10 +338,10 @@ impl Adaptive {
         self.main_pass(model, tau, Level::Acceleration, true)?;
         self.metric_pass(model);
         let tree = &model.assembly;
-        self.qdd.fill(0.0);
+        self.body.qdd.fill(0.0);
         let root = tree.root();
-        let (ho, nh) = (self.lay.hoff[root], self.nh[root]);
-        self.f[ho..ho + nh].fill(SpatialForce::ZERO);
+        let (ho, nh) = (self.coef.layout.hoff[root], self.coef.handles[root]);
+        self.coef.force[ho..ho + nh].fill(SpatialForce::ZERO);
         for n in (0..tree.nodes.len()).rev() {
             out[n] = self.metric_at(n);
             self.expand(model, n);
@@ -435,7 +351,7 @@ impl Adaptive {
 
     /// The joint accelerations of the last call.
     pub fn qdd(&self) -> &[f64] {
-        &self.qdd
+        &self.body.qdd
     }
 
     /// Re-selects the hybrid body of `state` now: the joints chosen by the acceleration metric
@@ -479,10 +395,10 @@ impl Adaptive {
             // stale; the selection's nodes for the next cached one.
             self.cache.sel.clear();
             for (n, node) in model.assembly.nodes.iter().enumerate() {
-                if self.active[n] {
+                if self.body.active[n] {
                     self.cache.valid[n] = false;
                 }
-                if self.selected[n] && matches!(node.kind, NodeKind::Join { .. }) {
+                if self.queue.selected[n] && matches!(node.kind, NodeKind::Join { .. }) {
                     self.cache.sel.push(n);
                 }
             }
@@ -516,10 +432,10 @@ impl Adaptive {
         state: &mut State,
         dt: f64,
     ) -> Result<StepReport, AdaptiveError> {
-        self.fsparse.clear();
+        self.forces.sparse.clear();
         for (i, f) in state.f_ext.iter().enumerate() {
             if *f != SpatialForce::ZERO {
-                self.fsparse.push((i, *f));
+                self.forces.sparse.push((i, *f));
             }
         }
         self.step_inner(model, state, dt)
@@ -541,7 +457,7 @@ impl Adaptive {
                 "give the external forces either in state.f_ext or as a list, not both".into(),
             ));
         }
-        self.fsparse.clear();
+        self.forces.sparse.clear();
         for &(i, f) in forces {
             let Some(body) = model.bodies.get(i) else {
                 return Err(DynamicsError::Dimension {
@@ -558,7 +474,7 @@ impl Adaptive {
                 }
                 .into());
             }
-            self.fsparse.push((i, f));
+            self.forces.sparse.push((i, f));
         }
         self.step_inner(model, state, dt)
     }
@@ -576,7 +492,7 @@ impl Adaptive {
             reselected: !self.hier.valid || self.steps.is_multiple_of(self.settings.reselect_every),
             ..StepReport::default()
         };
-        if report.reselected || self.full_passes {
+        if report.reselected || self.switches.full_passes {
             self.step_passes(model, state, &mut report)?;
         } else {
             self.check_active_inputs(model, state)?;
@@ -598,7 +514,7 @@ impl Adaptive {
                 // One revolute coordinate: the same semi-implicit Euler update, written back
                 // only when finite (otherwise the general path below reports it).
                 let (vo, qo) = (rec.vo(), rec.qo());
-                let a = self.qdd[vo];
+                let a = self.body.qdd[vo];
                 let v = state.qd[vo] + dt * a;
                 let q = state.q[qo] + v * dt;
                 if all_finite(&[a, v, q]) {
@@ -614,7 +530,7 @@ impl Adaptive {
                 // nine numbers are finite.
                 let (vo, qo) = (rec.vo(), rec.qo());
                 let (qdd, qd, q) = (
-                    &self.qdd[vo..vo + 3],
+                    &self.body.qdd[vo..vo + 3],
                     &mut state.qd[vo..vo + 3],
                     &mut state.q[qo..qo + 3],
                 );
@@ -635,10 +551,10 @@ impl Adaptive {
             let body = &model.bodies[rec.j()];
             dofs += body.nv;
             let r = body.v_offset..body.v_offset + body.nv;
-            if !finite(&self.qdd[r.clone()]) {
-                return Err(non_finite(model, rec.j(), "qdd", &self.qdd).into());
+            if !finite(&self.body.qdd[r.clone()]) {
+                return Err(non_finite(model, rec.j(), "qdd", &self.body.qdd).into());
             }
-            for (v, a) in state.qd[r.clone()].iter_mut().zip(&self.qdd[r]) {
+            for (v, a) in state.qd[r.clone()].iter_mut().zip(&self.body.qdd[r]) {
                 *v += dt * a;
             }
             for part in &body.joint {
@@ -673,16 +589,16 @@ impl Adaptive {
         report: &mut StepReport,
     ) -> Result<(), AdaptiveError> {
         let cached = report.reselected && self.can_reselect_cached(model, state);
-        let full = (report.reselected && !cached) || self.full_passes;
+        let full = (report.reselected && !cached) || self.switches.full_passes;
         if full {
             // Whole-body passes read the forces as one wrench per body.
-            let mut fdense = std::mem::take(&mut self.fdense);
+            let mut fdense = std::mem::take(&mut self.forces.dense);
             fdense.fill(SpatialForce::ZERO);
-            for &(i, f) in &self.fsparse {
+            for &(i, f) in &self.forces.sparse {
                 fdense[i] += f;
             }
             let r = self.load(model, &state.q, &state.qd, &state.tau, &fdense);
-            self.fdense = fdense;
+            self.forces.dense = fdense;
             r?;
         }
         if cached {
@@ -701,14 +617,14 @@ impl Adaptive {
             self.touched += touched;
         } else if report.reselected {
             self.hier.valid = false;
-            let build = self.use_cache && !self.full_passes;
+            let build = self.switches.use_cache && !self.switches.full_passes;
             report.rigidified = self.reselect_loaded(model, state, build)?;
             let mut touched = self.touched;
             self.main_pass(model, &state.tau, Level::Acceleration, false)?;
             touched += self.touched;
             self.back_substitution(model, false);
             self.touched = touched;
-        } else if self.full_passes {
+        } else if self.switches.full_passes {
             // Reference path: whole-body kinematics and composites, same hybrid body.
             self.main_pass(model, &state.tau, Level::Acceleration, false)?;
             self.back_substitution(model, false);
@@ -730,7 +646,7 @@ impl Adaptive {
         self.load_state(model, &state.q, &state.qd, &state.tau, &state.f_ext)?;
         let tree = &model.assembly;
         for (n, node) in tree.nodes.iter().enumerate() {
-            self.selected[n] = match node.kind {
+            self.queue.selected[n] = match node.kind {
                 NodeKind::Join { joint, .. } => {
                     active(joint) || n == tree.root() && model.floating_base
                 }
@@ -739,10 +655,10 @@ impl Adaptive {
         }
         // The active region now (as `rebuild_hybrid` closes it, with no velocity tolerance),
         // so that only the composites outside it are formed.
-        self.active.copy_from_slice(&self.selected);
+        self.body.active.copy_from_slice(&self.queue.selected);
         for (n, node) in tree.nodes.iter().enumerate() {
-            if let (true, Some(p)) = (self.active[n], node.parent) {
-                self.active[p] = true;
+            if let (true, Some(p)) = (self.body.active[n], node.parent) {
+                self.body.active[p] = true;
             }
         }
         self.rigid_composites(model);
@@ -752,7 +668,7 @@ impl Adaptive {
         self.settings.velocity_tolerance = vtol;
         let locked = locked?;
         // Joints outside the hybrid body have q̈ = 0 until the next re-selection.
-        self.qdd.fill(0.0);
+        self.body.qdd.fill(0.0);
         // The steps count on from a re-selection.
         self.steps = 1;
         Ok(locked)
@@ -783,7 +699,7 @@ impl Adaptive {
     /// by whole-body passes (off: the reference, O(n)). For the tests that compare the two.
     #[cfg(test)]
     pub(crate) fn set_cached_reselection(&mut self, on: bool) {
-        self.use_cache = on;
+        self.switches.use_cache = on;
         self.cache.ready = false;
     }
 
@@ -794,7 +710,7 @@ impl Adaptive {
     /// it on a CPU without them keeps it off. For the tests that compare the two.
     #[cfg(test)]
     pub(crate) fn set_fused(&mut self, on: bool) {
-        self.fused = on && articula_dca::internals::fused_available();
+        self.switches.fused = on && articula_dca::internals::fused_available();
     }
 
     /// Take a forced path's deltas from its linear maps of the leaf's wrench (default) or
@@ -816,7 +732,7 @@ impl Adaptive {
     /// compare the two.
     #[cfg(test)]
     pub(crate) fn set_full_passes(&mut self, on: bool) {
-        self.full_passes = on;
+        self.switches.full_passes = on;
     }
 
     /// Checks the inputs a step between re-selections reads: the active joints' `q`, `q̇`, `τ`
@@ -837,7 +753,7 @@ impl Adaptive {
         if !swept {
             self.check_active_records(model, state)?;
         }
-        if let Some(&(i, _)) = self.fsparse.iter().find(|(_, f)| !f.is_finite()) {
+        if let Some(&(i, _)) = self.forces.sparse.iter().find(|(_, f)| !f.is_finite()) {
             return Err(DynamicsError::NonFinite {
                 what: "external force",
                 name: model.bodies[i].name.clone(),
@@ -885,34 +801,6 @@ impl Adaptive {
         }
         Ok(())
     }
-}
-
-/// The exact solve of [`Adaptive::exact_solve`] on `data`'s buffers (the workspace's own or
-/// a scratch's): `q̈` into `qdd`.
-pub(crate) fn solve_exact(
-    model: &Model,
-    data: &mut articula_dca::Data,
-    qdd: &mut [f64],
-    q: &[f64],
-    qd: &[f64],
-    tau: &[f64],
-    f_ext: &[SpatialForce],
-) -> Result<(), DynamicsError> {
-    // A metric steers the selection: ~1e-9 relative is plenty, so the floating-base
-    // refinement of the exact solve (for long floating chains) is skipped here.
-    let refine = std::mem::replace(&mut data.refine_floating, false);
-    let solved = articula_dca::forward_dynamics_slices(
-        model,
-        data,
-        q,
-        qd,
-        tau,
-        f_ext,
-        articula_dca::Method::Aba,
-    )
-    .map(|x| qdd.copy_from_slice(x));
-    data.refine_floating = refine;
-    solved
 }
 
 /// The most degrees of freedom of a body whose step between re-selections checks all of its
@@ -981,15 +869,6 @@ fn integrate_part(part: &articula_model::JointPart, q: &mut [f64], qd: &[f64], h
     }
 }
 
-/// `w = scale · 1` (k × k, row-major).
-fn scaled_identity(w: &mut [f64], k: usize, scale: f64) {
-    for p in 0..k {
-        for q in 0..k {
-            w[p * k + q] = if p == q { scale } else { 0.0 };
-        }
-    }
-}
-
 fn check_qdd(model: &Model, qdd: &[f64]) -> Result<(), DynamicsError> {
     if qdd.iter().all(|x| x.is_finite()) {
         return Ok(());
@@ -1006,4 +885,24 @@ fn check_qdd(model: &Model, qdd: &[f64]) -> Result<(), DynamicsError> {
         }
     }
     Ok(())
+}
+
+/// The error for a model whose assembly tree has a gather node (see
+/// [`AdaptiveError::Unsupported`]).
+#[cold]
+fn unsupported_tree(model: &Model) -> AdaptiveError {
+    let tree = &model.assembly;
+    let hub = tree.nodes.iter().find_map(|n| match n.kind {
+        NodeKind::Gather { body, count, .. } => Some((body, count)),
+        _ => None,
+    });
+    let (name, count) = match hub {
+        Some((Some(b), count)) => (format!("link {}", model.bodies[b].name), count),
+        Some((None, count)) => ("the fixed base".to_string(), count),
+        None => (String::new(), 0),
+    };
+    AdaptiveError::Unsupported(format!(
+        "{name} has {count} children (more than {}); use the exact methods (dca, aba, crba)",
+        articula_model::GATHER_ABOVE
+    ))
 }

@@ -1,10 +1,12 @@
 //! Motion metrics (docs/design.md#adaptive): acceleration metric `A(C) = Σ_{i∈C} q̈ᵢᵀ Aᵢ q̈ᵢ` as a
 //! quadratic function of C's handle forces, `A(C) = Fᵀ Ψ F + Fᵀ p + η` (the theorem: known
 //! before C's joint accelerations), the max-priority joint selection it drives, and the
-//! velocity metric `V(C) = Σ_{i∈C} q̇ᵢᵀ Vᵢ q̇ᵢ`.
+//! velocity metric `V(C) = Σ_{i∈C} q̇ᵢᵀ Vᵢ q̇ᵢ`, and the exact solve of a metric query.
 
+use crate::adaptive::Adaptive;
 use crate::dense;
-use crate::hybrid::{Adaptive, Entry, Selection};
+use crate::parts::selection_queue::{Entry, Selection};
+use articula_dca::DynamicsError;
 use articula_model::{Model, NodeKind};
 use articula_spatial::SpatialForce;
 
@@ -25,33 +27,46 @@ impl Adaptive {
     pub(crate) fn metric_node(&mut self, model: &Model, n: usize) {
         let tree = &model.assembly;
         {
-            let nc = 6 * self.nh[n];
-            let (po, pv) = (self.poff[n], 6 * self.lay.hoff[n]);
+            let nc = 6 * self.coef.handles[n];
+            let (po, pv) = (self.metric.quad_at[n], 6 * self.coef.layout.hoff[n]);
             let NodeKind::Join {
                 joint,
                 parent_side: a,
                 child_side: b,
             } = tree.nodes[n].kind
             else {
-                self.psi[po..po + nc * nc].fill(0.0);
-                self.pvec[pv..pv + nc].fill(0.0);
-                self.eta[n] = 0.0;
+                self.metric.quad[po..po + nc * nc].fill(0.0);
+                self.metric.linear[pv..pv + nc].fill(0.0);
+                self.metric.constant[n] = 0.0;
                 return;
             };
             let body = &model.bodies[joint];
             let (vo, k) = (body.v_offset, body.nv);
-            let (ko, wo) = (self.koff[n], self.woff[joint]);
+            let (ko, wo) = (self.maps.qdd_gain_at[n], self.metric.weight_at[joint]);
             // Own joint: AK = A_C K (k × nc), Ψ = Kᵀ A K, p = 2 Kᵀ A k, η = kᵀ A k.
-            let (s1, s2) = (&mut self.s1, &mut self.s2);
-            let kmat = &self.kmat[ko..ko + k * nc];
-            dense::a_b(&self.aw[wo..wo + k * k], kmat, k, k, nc, s1);
-            let psi = &mut self.psi[po..po + nc * nc];
+            let (s1, s2) = (&mut self.scratch.metric_ak, &mut self.scratch.metric_g);
+            let kmat = &self.maps.qdd_gain[ko..ko + k * nc];
+            dense::a_b(
+                &self.metric.accel_weights[wo..wo + k * k],
+                kmat,
+                k,
+                k,
+                nc,
+                s1,
+            );
+            let psi = &mut self.metric.quad[po..po + nc * nc];
             dense::at_b(kmat, &s1[..k * nc], k, nc, nc, psi);
-            let kv = &self.kvec[vo..vo + k];
+            let kv = &self.maps.qdd_bias[vo..vo + k];
             let mut ak = [0.0; 6];
-            dense::a_x(&self.aw[wo..wo + k * k], kv, k, k, &mut ak);
+            dense::a_x(
+                &self.metric.accel_weights[wo..wo + k * k],
+                kv,
+                k,
+                k,
+                &mut ak,
+            );
             dense::at_x(kmat, &ak[..k], k, nc, &mut s2[..nc]);
-            for (p, x) in self.pvec[pv..pv + nc].iter_mut().zip(&s2[..nc]) {
+            for (p, x) in self.metric.linear[pv..pv + nc].iter_mut().zip(&s2[..nc]) {
                 *p = 2.0 * x;
             }
             let mut eta: f64 = kv.iter().zip(&ak).map(|(x, y)| x * y).sum();
@@ -59,31 +74,34 @@ impl Adaptive {
             // s·(N F + n) on X's principal-joint handle jx (s = −1 for A, +1 for B), so with
             // Ψ_X in handle blocks: Ψ_C gets Ψ_X[i,l] at (h_i, h_l), s·Ψ_X[i,jx] N on rows
             // h_i (and its transpose), and Nᵀ Ψ_X[jx,jx] N.
-            let hc = self.lay.hoff[n];
-            let nhc = self.nh[n];
-            for (x, jx, sign) in [(a, self.lay.ja[n], -1.0), (b, self.lay.jb[n], 1.0)] {
-                let nx = 6 * self.nh[x];
-                let (pox, pvx) = (self.poff[x], 6 * self.lay.hoff[x]);
+            let hc = self.coef.layout.hoff[n];
+            let nhc = self.coef.handles[n];
+            for (x, jx, sign) in [
+                (a, self.coef.layout.ja[n], -1.0),
+                (b, self.coef.layout.jb[n], 1.0),
+            ] {
+                let nx = 6 * self.coef.handles[x];
+                let (pox, pvx) = (self.metric.quad_at[x], 6 * self.coef.layout.hoff[x]);
                 // X handle i → C handle (usize::MAX for jx).
-                let map = &mut self.map;
+                let map = &mut self.scratch.handle_map;
                 map.fill(usize::MAX);
                 for h in 0..nhc {
-                    let (from_a, i) = self.lay.from[hc + h];
+                    let (from_a, i) = self.coef.layout.from[hc + h];
                     if from_a == (sign < 0.0) {
                         map[i] = h;
                     }
                 }
                 // Children precede their parent in post-order: X's blocks lie below C's.
-                let (psi_lo, psi_hi) = self.psi.split_at_mut(po);
+                let (psi_lo, psi_hi) = self.metric.quad.split_at_mut(po);
                 let psix = &psi_lo[pox..pox + nx * nx];
                 let psic = &mut psi_hi[..nc * nc];
-                let (p_lo, p_hi) = self.pvec.split_at_mut(pv);
+                let (p_lo, p_hi) = self.metric.linear.split_at_mut(pv);
                 let px = &p_lo[pvx..pvx + nx];
                 let pc = &mut p_hi[..nc];
-                let nm = &self.nmat[36 * hc..36 * hc + 6 * nc];
-                let nvec = self.nvec[n];
+                let nm = &self.maps.force_gain[36 * hc..36 * hc + 6 * nc];
+                let nvec = self.maps.force_bias[n];
                 // G = Ψ_X[jx,jx] N (6 × nc) in s2.
-                let g = &mut self.s2[..6 * nc];
+                let g = &mut self.scratch.metric_g[..6 * nc];
                 g.fill(0.0);
                 for r in 0..6 {
                     for t in 0..6 {
@@ -111,7 +129,7 @@ impl Adaptive {
                 }
                 // u_jx = 2 Ψ_X[jx,jx] m + p_X,jx with m = s n; η terms.
                 let mut ujx = [0.0; 6];
-                let mut eta_x = self.eta[x];
+                let mut eta_x = self.metric.constant[x];
                 for r in 0..6 {
                     let mut psim = 0.0;
                     for t in 0..6 {
@@ -128,13 +146,13 @@ impl Adaptive {
                         *dst += w * nv;
                     }
                 }
-                for i in 0..self.nh[x] {
+                for i in 0..self.coef.handles[x] {
                     let hi = map[i];
                     if hi == usize::MAX {
                         continue;
                     }
                     // Ψ_X[i,l] blocks for shared handles l.
-                    for l in 0..self.nh[x] {
+                    for l in 0..self.coef.handles[x] {
                         let hl = map[l];
                         if hl == usize::MAX {
                             continue;
@@ -151,7 +169,7 @@ impl Adaptive {
                     // C = s Ψ_X[i,jx] N (6 × nc): rows 6 hi.., and columns 6 hi.. (transpose).
                     for r in 0..6 {
                         let row = 6 * hi + r;
-                        let crow = &mut self.s3[..nc];
+                        let crow = &mut self.scratch.metric_row[..nc];
                         crow.fill(0.0);
                         for t in 0..6 {
                             let w = sign * psix[(6 * i + r) * nx + 6 * jx + t];
@@ -174,25 +192,26 @@ impl Adaptive {
                     }
                 }
             }
-            self.eta[n] = eta;
+            self.metric.constant[n] = eta;
         }
     }
 
     /// `A(n)` at the handle forces currently in `f`.
     pub(crate) fn metric_at(&mut self, n: usize) -> f64 {
-        let nc = 6 * self.nh[n];
-        let hc = self.lay.hoff[n];
-        for h in 0..self.nh[n] {
-            self.fx[6 * h..6 * h + 6].copy_from_slice(&self.f[hc + h].to_array());
+        let nc = 6 * self.coef.handles[n];
+        let hc = self.coef.layout.hoff[n];
+        for h in 0..self.coef.handles[n] {
+            self.scratch.handle_forces[6 * h..6 * h + 6]
+                .copy_from_slice(&self.coef.force[hc + h].to_array());
         }
-        let (po, pv) = (self.poff[n], 6 * hc);
-        let fx = &self.fx[..nc];
-        dense::quad(&self.psi[po..po + nc * nc], fx, nc)
+        let (po, pv) = (self.metric.quad_at[n], 6 * hc);
+        let fx = &self.scratch.handle_forces[..nc];
+        dense::quad(&self.metric.quad[po..po + nc * nc], fx, nc)
             + fx.iter()
-                .zip(&self.pvec[pv..pv + nc])
+                .zip(&self.metric.linear[pv..pv + nc])
                 .map(|(x, y)| x * y)
                 .sum::<f64>()
-            + self.eta[n]
+            + self.metric.constant[n]
     }
 
     /// Joint selection (docs/design.md#adaptive) on the articulated coefficients and metric of the
@@ -202,8 +221,8 @@ impl Adaptive {
     /// at most the tolerance (tolerance 0 or no limit: until the queue is empty). A floating
     /// base's joint (the root) is always selected and free. Unselected joints get `q̈ = 0`.
     pub(crate) fn select(&mut self, model: &Model) -> Selection {
-        self.selected.fill(false);
-        self.qdd.fill(0.0);
+        self.queue.selected.fill(false);
+        self.body.qdd.fill(0.0);
         let total = self.metric_at(model.assembly.root());
         self.run_queue(
             model,
@@ -231,10 +250,10 @@ impl Adaptive {
         mut child: impl FnMut(&mut Self, usize, usize) -> Option<f64>,
     ) -> Selection {
         let tree = &model.assembly;
-        self.heap.clear();
+        self.queue.heap.clear();
         let root = tree.root();
-        let (ho, nh) = (self.lay.hoff[root], self.nh[root]);
-        self.f[ho..ho + nh].fill(SpatialForce::ZERO);
+        let (ho, nh) = (self.coef.layout.hoff[root], self.coef.handles[root]);
+        self.coef.force[ho..ho + nh].fill(SpatialForce::ZERO);
         let mut sel = Selection {
             total_metric: total,
             ..Selection::default()
@@ -242,7 +261,7 @@ impl Adaptive {
         if !matches!(tree.nodes[root].kind, NodeKind::Join { .. }) {
             return sel;
         }
-        self.heap.push(Entry {
+        self.queue.heap.push(Entry {
             metric: total,
             node: root,
         });
@@ -250,7 +269,7 @@ impl Adaptive {
         let budget = self.settings.budget;
         let tol = self.settings.tolerance.filter(|t| *t > 0.0);
         let mut first = true;
-        while let Some(&top) = self.heap.peek() {
+        while let Some(&top) = self.queue.heap.peek() {
             let NodeKind::Join {
                 joint,
                 parent_side: a,
@@ -271,10 +290,10 @@ impl Adaptive {
                 }
                 sel.budget_used += cost;
             }
-            self.heap.pop();
+            self.queue.heap.pop();
             remaining -= top.metric;
             let n = top.node;
-            self.selected[n] = true;
+            self.queue.selected[n] = true;
             sel.active_dofs += cost;
             if !on_pop(self, n) {
                 self.expand(model, n);
@@ -282,17 +301,40 @@ impl Adaptive {
             for c in [a, b] {
                 if let Some(metric) = child(self, n, c) {
                     remaining += metric;
-                    self.heap.push(Entry { metric, node: c });
+                    self.queue.heap.push(Entry { metric, node: c });
                 }
             }
         }
-        sel.predicted_error = self.heap.iter().map(|e| e.metric).sum::<f64>().max(0.0);
+        sel.predicted_error = self
+            .queue
+            .heap
+            .iter()
+            .map(|e| e.metric)
+            .sum::<f64>()
+            .max(0.0);
         sel
+    }
+
+    /// `A(C)` of every node at the joint accelerations in `body.qdd` (an exact solve's).
+    pub(crate) fn exact_node_metrics(&self, model: &Model, out: &mut [f64]) {
+        subtree_quadratic(
+            model,
+            &self.metric.accel_weights,
+            &self.metric.weight_at,
+            &self.body.qdd,
+            out,
+        );
     }
 
     /// `V(C)` of every node from the velocities `qd`, bottom-up.
     pub(crate) fn velocity_metric(&mut self, model: &Model, qd: &[f64]) {
-        subtree_quadratic(model, &self.vw, &self.woff, qd, &mut self.vmetric);
+        subtree_quadratic(
+            model,
+            &self.metric.velocity_weights,
+            &self.metric.weight_at,
+            qd,
+            &mut self.queue.velocity_metric,
+        );
     }
 }
 
@@ -347,4 +389,32 @@ pub(crate) fn subtree_scaled_quadratic(model: &Model, w: &[f64], x: &[f64], out:
         }
         s
     });
+}
+
+/// The exact solve of [`Adaptive::exact_solve`] on `data`'s buffers (the workspace's own or
+/// a scratch's): `q̈` into `qdd`.
+pub(crate) fn solve_exact(
+    model: &Model,
+    data: &mut articula_dca::Data,
+    qdd: &mut [f64],
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+) -> Result<(), DynamicsError> {
+    // A metric steers the selection: ~1e-9 relative is plenty, so the floating-base
+    // refinement of the exact solve (for long floating chains) is skipped here.
+    let refine = std::mem::replace(&mut data.refine_floating, false);
+    let solved = articula_dca::forward_dynamics_slices(
+        model,
+        data,
+        q,
+        qd,
+        tau,
+        f_ext,
+        articula_dca::Method::Aba,
+    )
+    .map(|x| qdd.copy_from_slice(x));
+    data.refine_floating = refine;
+    solved
 }

@@ -8,7 +8,8 @@
 //! through the same main pass and back-substitution as the accelerations ([`Level::Impulse`]).
 //! This is the `M⁻¹` projection `q̇' = q̇ − M⁻¹Jᵀ(J M⁻¹ Jᵀ)⁻¹ J q̇` of the locked rows `J`.
 
-use crate::hybrid::{Adaptive, Level};
+use crate::adaptive::Adaptive;
+use crate::hybrid::Level;
 use articula_dca::{forward_kinematics, DynamicsError, State};
 use articula_model::{Model, NodeKind};
 
@@ -31,18 +32,19 @@ impl Adaptive {
         if let Some(vtol) = self.settings.velocity_tolerance {
             self.velocity_metric(model, &state.qd);
             for n in 0..tree.nodes.len() {
-                self.active[n] = self.selected[n] || (self.active[n] && self.vmetric[n] > vtol);
+                self.body.active[n] = self.queue.selected[n]
+                    || (self.body.active[n] && self.queue.velocity_metric[n] > vtol);
             }
         } else if !closed {
-            self.active.copy_from_slice(&self.selected);
+            self.body.active.copy_from_slice(&self.queue.selected);
         }
         // Close upward (post-order: a child comes before its parent); with `closed` and no
         // velocity tolerance, `active` is already `selected` closed ([`Adaptive::set_active`]).
         if !closed || self.settings.velocity_tolerance.is_some() {
             for n in 0..tree.nodes.len() {
-                if self.active[n] {
+                if self.body.active[n] {
                     if let Some(p) = tree.nodes[n].parent {
-                        self.active[p] = true;
+                        self.body.active[p] = true;
                     }
                 }
             }
@@ -52,7 +54,7 @@ impl Adaptive {
         for (n, node) in tree.nodes.iter().enumerate() {
             if let NodeKind::Join { joint, .. } = node.kind {
                 let body = &model.bodies[joint];
-                if !self.active[n]
+                if !self.body.active[n]
                     && state.qd[body.v_offset..body.v_offset + body.nv]
                         .iter()
                         .any(|x| *x != 0.0)
@@ -79,27 +81,28 @@ impl Adaptive {
     ) -> Result<(), DynamicsError> {
         // h_i = Σ over the kinematic subtree of body i of I v (children after parents).
         for i in 0..model.bodies.len() {
-            self.hsub[i] = self.data.inertia[i].mul_motion(self.data.v[i]);
+            self.impulse.subtree[i] = self.data.inertia[i].mul_motion(self.data.v[i]);
         }
         for i in (0..model.bodies.len()).rev() {
             if let Some(p) = model.bodies[i].parent {
-                let h = self.hsub[i];
-                self.hsub[p] += h;
+                let h = self.impulse.subtree[i];
+                self.impulse.subtree[p] += h;
             }
         }
         for &i in &self.hier.ajoints {
             let body = &model.bodies[i];
             for p in 0..body.nv {
-                self.gmom[body.v_offset + p] = self.data.s[body.v_offset + p].dot(self.hsub[i]);
+                self.impulse.momenta[body.v_offset + p] =
+                    self.data.s[body.v_offset + p].dot(self.impulse.subtree[i]);
             }
         }
-        self.qdd.fill(0.0);
-        let gmom = std::mem::take(&mut self.gmom);
+        self.body.qdd.fill(0.0);
+        let gmom = std::mem::take(&mut self.impulse.momenta);
         let r = self.reduced_aba(model, &gmom, Level::Impulse);
-        self.gmom = gmom;
+        self.impulse.momenta = gmom;
         r?;
-        state.qd.copy_from_slice(&self.qdd);
-        self.fresh = false;
+        state.qd.copy_from_slice(&self.body.qdd);
+        self.fresh.valid = false;
         if refresh {
             forward_kinematics(model, &state.q, &state.qd, &mut self.data);
         }

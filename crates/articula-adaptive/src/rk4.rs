@@ -19,38 +19,14 @@
 //! reduced tree's articulated-body pass): O(active region), four times the Euler step's
 //! dynamics between re-selections.
 
-use crate::hybrid::Adaptive;
-use crate::{finite, integrate_part, non_finite, AdaptiveError, StepReport};
+use crate::adaptive::Adaptive;
+use crate::error::AdaptiveError;
+use crate::parts::rk_buffers::RkBuffers;
+use crate::report::StepReport;
+use crate::{finite, integrate_part, non_finite};
 use articula_dca::State;
 use articula_model::{JointKind, Model};
 use articula_spatial::{SpatialForce, SpatialMotion};
-
-/// Start values and stage sums of the RK4 step, over all coordinates (only the active joints'
-/// entries are read and written). Empty until the first RK4 step: a workspace stepped by
-/// semi-implicit Euler holds none of it.
-#[derive(Clone, Debug, Default)]
-pub(crate) struct RkBuffers {
-    /// `q`, `q̇` at the start of the step (after the re-selection's impulse).
-    q0: Vec<f64>,
-    qd0: Vec<f64>,
-    /// `Σ wᵢ` of the stages' position slopes and accelerations (`w = 1, 2, 2, 1`).
-    kv: Vec<f64>,
-    ka: Vec<f64>,
-    /// The Lie-algebra increment that made the current stage's floating pose from `q0`.
-    theta: Vec<f64>,
-}
-
-impl RkBuffers {
-    /// Sized for `model` (allocates at the first call only).
-    fn fit(&mut self, model: &Model) {
-        if self.q0.len() != model.nq || self.qd0.len() != model.nv {
-            self.q0 = vec![0.0; model.nq];
-            for v in [&mut self.qd0, &mut self.kv, &mut self.ka, &mut self.theta] {
-                *v = vec![0.0; model.nv];
-            }
-        }
-    }
-}
 
 /// The stage weights of classic RK4 and the fractions of `h` at which stages 2–4 are taken.
 const WEIGHTS: [f64; 4] = [1.0, 2.0, 2.0, 1.0];
@@ -77,10 +53,10 @@ impl Adaptive {
         state: &mut State,
         dt: f64,
     ) -> Result<StepReport, AdaptiveError> {
-        self.fsparse.clear();
+        self.forces.sparse.clear();
         for (i, f) in state.f_ext.iter().enumerate() {
             if *f != SpatialForce::ZERO {
-                self.fsparse.push((i, *f));
+                self.forces.sparse.push((i, *f));
             }
         }
         // Stage 1 is the Euler step's dynamics: re-selection, impulse, q̈ of the active joints.
@@ -128,8 +104,8 @@ impl Adaptive {
             for rec in &self.hier.rec {
                 let b = &model.bodies[rec.j()];
                 let vr = b.v_offset..b.v_offset + b.nv;
-                if !finite(&self.qdd[vr.clone()]) {
-                    return Err(non_finite(model, rec.j(), "qdd", &self.qdd).into());
+                if !finite(&self.body.qdd[vr.clone()]) {
+                    return Err(non_finite(model, rec.j(), "qdd", &self.body.qdd).into());
                 }
                 // The position slope: q̇, but a floating joint's is dexp⁻¹_{−Θ}(ξ).
                 for part in &b.joint {
@@ -140,7 +116,7 @@ impl Adaptive {
                 }
                 for v in vr.clone() {
                     rk.kv[v] += w * state.qd[v];
-                    rk.ka[v] += w * self.qdd[v];
+                    rk.ka[v] += w * self.body.qdd[v];
                 }
                 if stage < 3 {
                     // The next stage's state: q0 ⊕ h k_v, q̇0 + h k_a with this stage's k.
@@ -152,7 +128,7 @@ impl Adaptive {
                     }
                     for v in vr {
                         rk.theta[v] = h * state.qd[v];
-                        state.qd[v] = rk.qd0[v] + h * self.qdd[v];
+                        state.qd[v] = rk.qd0[v] + h * self.body.qdd[v];
                     }
                 }
             }

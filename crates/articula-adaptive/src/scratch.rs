@@ -48,8 +48,11 @@
 //! unchanged; untouched memory costs no cache) and are re-fitted to the reduced tree after each
 //! `_with` call, so plain calls keep working before and after `_with` calls, in any mix.
 
-use crate::hybrid::{Adaptive, Rigid};
-use crate::{AdaptiveError, StepReport};
+use crate::adaptive::Adaptive;
+use crate::error::AdaptiveError;
+use crate::parts::composites::Rigid;
+use crate::parts::hierarchy::Sym6;
+use crate::report::StepReport;
 use articula_dca::{Data, State};
 use articula_model::Model;
 use articula_spatial::SpatialForce;
@@ -65,7 +68,7 @@ pub struct Scratch {
     /// The whole `data` of [`Adaptive::node_metrics_with`]; its kinematics (`x`, `v`, `c`,
     /// `s`, `inertia`) for the other calls.
     data: Data,
-    ia: Vec<crate::hierarchy::Sym6>,
+    ia: Vec<Sym6>,
     pa: Vec<[f64; 6]>,
     acc: Vec<[f64; 6]>,
     dinv: Vec<f64>,
@@ -112,8 +115,8 @@ impl Scratch {
         let own = [
             ad.data.x.len(),
             ad.data.s.len(),
-            ad.fresh_q.len(),
-            ad.nh.len(),
+            ad.fresh.q.len(),
+            ad.body.active.len(),
         ];
         if own == self.sizes {
             Ok(())
@@ -124,17 +127,6 @@ impl Scratch {
                 self.sizes
             )))
         }
-    }
-}
-
-/// Grows `v` to at least `need` elements, reserving `full` at the first growth (a later one
-/// then allocates nothing).
-fn grow<T: Clone>(v: &mut Vec<T>, need: usize, full: usize, x: T) {
-    if v.len() < need {
-        if v.capacity() < full {
-            v.reserve_exact(full - v.len());
-        }
-        v.resize(need, x);
     }
 }
 
@@ -155,13 +147,13 @@ impl Adaptive {
         swap(&mut h.u, &mut s.u);
         swap(&mut h.uu, &mut s.uu);
         swap(&mut h.sc, &mut s.sc);
-        swap(&mut self.fsum, &mut s.fsum);
+        swap(&mut self.forces.node_sums, &mut s.fsum);
         if !step {
-            swap(&mut self.comp, &mut s.comp);
-            swap(&mut self.hsub, &mut s.hsub);
-            swap(&mut self.gmom, &mut s.gmom);
-            swap(&mut self.fext_c, &mut s.fext_c);
-            swap(&mut self.fdense, &mut s.fdense);
+            swap(&mut self.composites.rigid, &mut s.comp);
+            swap(&mut self.impulse.subtree, &mut s.hsub);
+            swap(&mut self.impulse.momenta, &mut s.gmom);
+            swap(&mut self.forces.computation, &mut s.fext_c);
+            swap(&mut self.forces.dense, &mut s.fdense);
         }
         if kin {
             let (d, sd) = (&mut self.data, &mut s.data);
@@ -181,48 +173,8 @@ impl Adaptive {
     #[inline]
     fn between_reselections(&self) -> bool {
         self.hier.valid
-            && !self.full_passes
+            && !self.switches.full_passes
             && !self.steps.is_multiple_of(self.settings.reselect_every)
-    }
-
-    /// The reduced tree's workspace in `hier` at least as long as its records need (the
-    /// articulated-body passes index it by record and degree of freedom): a shared buffer may
-    /// have been sized for another body's reduced tree, and the workspace's own buffers for an
-    /// older one of this body.
-    #[inline]
-    fn fit_reduced(&mut self, full: [usize; 2]) {
-        let h = &self.hier;
-        let na = h.rec.len();
-        let dof = h.rec.last().map_or(0, |r| r.dof() + r.k());
-        let fits = [
-            h.ia.len(),
-            h.pa.len(),
-            h.acc.len(),
-            h.dinv.len(),
-            h.chol.len(),
-        ]
-        .iter()
-        .all(|&l| l >= na)
-            && h.u.len() >= dof
-            && h.uu.len() >= dof
-            && h.sc.len() >= h.ang.len();
-        if !fits {
-            self.grow_reduced(na, dof, full);
-        }
-    }
-
-    #[cold]
-    #[inline(never)]
-    fn grow_reduced(&mut self, na: usize, dof: usize, [nb, nv]: [usize; 2]) {
-        let h = &mut self.hier;
-        grow(&mut h.ia, na, nb, [[0.0; 6]; 6]);
-        grow(&mut h.pa, na, nb, [0.0; 6]);
-        grow(&mut h.acc, na, nb, [0.0; 6]);
-        grow(&mut h.dinv, na, nb, 0.0);
-        grow(&mut h.chol, na, nb, [[0.0; 6]; 6]);
-        grow(&mut h.u, dof, nv, [0.0; 6]);
-        grow(&mut h.uu, dof, nv, 0.0);
-        grow(&mut h.sc, h.ang.len(), nv, (0.0, 1.0));
     }
 
     /// Runs `call` on this workspace with `s`'s per-call buffers in place of its own (with
@@ -238,16 +190,16 @@ impl Adaptive {
         s.check(self)?;
         // Kinematics left by `node_metrics` for its state are read by the next load: they
         // stay where they are.
-        let kin = !self.fresh;
+        let kin = !self.fresh.valid;
         let full = [s.sizes[0], s.sizes[1]];
         self.swap_scratch(s, kin, step);
-        self.fit_reduced(full);
+        self.hier.fit_reduced(full);
         let r = call(self);
         self.swap_scratch(s, kin, step);
-        self.fit_reduced(full);
+        self.hier.fit_reduced(full);
         if kin {
             // (No call but `node_metrics` sets it; its kinematics would be in the scratch.)
-            self.fresh = false;
+            self.fresh.valid = false;
         }
         r
     }
@@ -342,7 +294,7 @@ impl Adaptive {
         out: &mut [f64],
     ) -> Result<(), AdaptiveError> {
         self.exact_solve_with(scratch, model, q, qd, tau, f_ext)?;
-        crate::metric::subtree_quadratic(model, &self.aw, &self.woff, &self.qdd, out);
+        self.exact_node_metrics(model, out);
         Ok(())
     }
 
@@ -365,7 +317,7 @@ impl Adaptive {
         sd.gravity = d.gravity;
         sd.refine_floating = d.refine_floating;
         sd.momentum_projection = d.momentum_projection;
-        let r = crate::solve_exact(model, sd, &mut self.qdd, q, qd, tau, f_ext);
+        let r = crate::metric::solve_exact(model, sd, &mut self.body.qdd, q, qd, tau, f_ext);
         if r.is_ok() {
             self.mark_fresh(q, qd);
             // The exact solve's kinematics into the workspace, for the next load of this state
@@ -382,7 +334,7 @@ impl Adaptive {
             swap(&mut d.s, &mut sd.s);
             swap(&mut d.inertia, &mut sd.inertia);
         } else {
-            self.fresh = false;
+            self.fresh.valid = false;
         }
         Ok(r?)
     }

@@ -13,9 +13,12 @@
 //! 6. The new hierarchical state and the locking impulse over the new reduced tree, with each
 //!    new cluster's momentum from the old clusters' (or its cache when it was rigid).
 
+use crate::adaptive::Adaptive;
 use crate::cache::{rot6, rows3, Part};
-use crate::hierarchy::NO_PARENT;
-use crate::hybrid::{Adaptive, Level, Rigid, Selection};
+use crate::hybrid::Level;
+use crate::parts::composites::Rigid;
+use crate::parts::hierarchy::NO_PARENT;
+use crate::parts::selection_queue::Selection;
 use articula_dca::{DynamicsError, State};
 use articula_model::{Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
@@ -28,10 +31,10 @@ impl Adaptive {
     /// bitwise by `memcmp` (`same_bits`), much cheaper than `==` on `f64`s when nothing
     /// changed).
     pub(crate) fn can_reselect_cached(&mut self, model: &Model, state: &State) -> bool {
-        if !(self.use_cache
+        if !(self.switches.use_cache
             && self.cache.ready
             && self.hier.valid
-            && !self.full_passes
+            && !self.switches.full_passes
             && self.settings.velocity_tolerance.is_none()
             && state.tau.len() == model.nv)
         {
@@ -58,7 +61,7 @@ impl Adaptive {
         state: &mut State,
     ) -> Result<bool, DynamicsError> {
         #[cfg(target_arch = "x86_64")]
-        if self.fused {
+        if self.switches.fused {
             // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
             // has AVX2 and FMA).
             return unsafe { self.cached_reselect_wide(model, state) };
@@ -93,14 +96,14 @@ impl Adaptive {
         self.active_kinematics(model, &state.q, &state.qd);
         for idx in 0..self.hier.ajoints.len() {
             let j = self.hier.ajoints[idx];
-            self.point[j] = self.data.x[j].apply_point(DVec3::ZERO);
+            self.coef.point[j] = self.data.x[j].apply_point(DVec3::ZERO);
         }
         let mut touched = 0;
         // External forces: on a frontier leaf they enter its rigid coefficients; on a body
         // inside a cached cluster they make its path up to the cluster dirty.
         for idx in 0..self.hier.fnodes.len() {
             let f = self.hier.fnodes[idx];
-            self.fsum[f] = SpatialForce::ZERO;
+            self.forces.node_sums[f] = SpatialForce::ZERO;
         }
         touched += self.dirty_paths(model, ep);
         // 2. The frontier from the caches.
@@ -109,6 +112,9 @@ impl Adaptive {
             touched += 1;
             self.cache.stamp[f] = ep;
             match tree.nodes[f].kind {
+                NodeKind::Gather { .. } => {
+                    unreachable!("adaptive refuses models with gather nodes (`load_state`)")
+                }
                 NodeKind::Ground => self.ground_coefficients(f),
                 NodeKind::Body(i) => {
                     let x = self.data.x[i];
@@ -120,25 +126,25 @@ impl Adaptive {
                     };
                     self.cache.cx[f] = x;
                     self.cache.cu[f] = x.inv_apply_motion(self.data.v[i]);
-                    let (v, fe) = (self.data.v[i], self.fsum[f]);
+                    let (v, fe) = (self.data.v[i], self.forces.node_sums[f]);
                     self.rigid_coefficients(model, f, &world, v, fe, Level::Acceleration)?;
                 }
                 NodeKind::Join { .. } => {
                     let x = self.cache_frame(f);
-                    let u = if self.grounded[f] {
+                    let u = if self.composites.grounded[f] {
                         SpatialMotion::ZERO
                     } else {
-                        x.inv_apply_motion(self.data.v[self.top[f]])
+                        x.inv_apply_motion(self.data.v[self.composites.top[f]])
                     };
                     self.cache.cx[f] = x;
                     self.cache.cu[f] = u;
                     self.eval_cache(model, f, &x, u, Part::Coefficients);
                     if self.cache.dstamp[f] == ep {
                         // Plus what the forces on its dirty paths add.
-                        let (hc, r) = (self.lay.hoff[f], rows3(&x.e));
-                        for h in 0..self.nh[f] {
+                        let (hc, r) = (self.coef.layout.hoff[f], rows3(&x.e));
+                        for h in 0..self.coef.handles[f] {
                             let db = rot6(&r, &self.cache.db[hc + h]);
-                            self.b[hc + h] += SpatialMotion::from_array(db);
+                            self.coef.bias[hc + h] += SpatialMotion::from_array(db);
                         }
                     }
                 }
@@ -161,7 +167,7 @@ impl Adaptive {
         // 5. Caches of the nodes leaving the active region, bottom-up.
         for idx in 0..self.hier.hnodes.len() {
             let n = self.hier.hnodes[idx];
-            if !self.selected[n] {
+            if !self.queue.selected[n] {
                 self.build_cache(model, n, &state.q, &state.tau)?;
                 touched += 1;
             }
@@ -174,7 +180,7 @@ impl Adaptive {
         let mut moving = false;
         for &j in &self.hier.ajoints {
             let body = &model.bodies[j];
-            if !self.selected[tree.joint_node[j]]
+            if !self.queue.selected[tree.joint_node[j]]
                 && state.qd[body.v_offset..body.v_offset + body.nv]
                     .iter()
                     .any(|x| *x != 0.0)
@@ -188,7 +194,7 @@ impl Adaptive {
         let mut leaving = std::mem::take(&mut self.cache.leaving);
         leaving.clear();
         for &j in &self.hier.ajoints {
-            if !self.selected[tree.joint_node[j]] {
+            if !self.queue.selected[tree.joint_node[j]] {
                 leaving.push(j);
             }
         }
@@ -198,24 +204,24 @@ impl Adaptive {
         self.hier.kin_fresh = same && !moving;
         if moving {
             self.active_kinematics(model, &state.q, &state.qd);
-            let mut gm = std::mem::take(&mut self.gmom);
+            let mut gm = std::mem::take(&mut self.impulse.momenta);
             self.reduced_momenta(&mut gm);
             let r = self.reduced_aba(model, &gm, Level::Impulse);
-            self.gmom = gm;
+            self.impulse.momenta = gm;
             r?;
             for &j in &self.hier.ajoints {
                 let b = &model.bodies[j];
                 let r = b.v_offset..b.v_offset + b.nv;
-                state.qd[r.clone()].copy_from_slice(&self.qdd[r]);
+                state.qd[r.clone()].copy_from_slice(&self.body.qdd[r]);
             }
         }
         for &j in &leaving {
             let b = &model.bodies[j];
             state.qd[b.v_offset..b.v_offset + b.nv].fill(0.0);
-            self.qdd[b.v_offset..b.v_offset + b.nv].fill(0.0);
+            self.body.qdd[b.v_offset..b.v_offset + b.nv].fill(0.0);
         }
         self.cache.leaving = leaving;
-        self.fresh = false;
+        self.fresh.valid = false;
         self.touched = touched;
         Ok(moving)
     }
@@ -237,24 +243,24 @@ impl Adaptive {
     fn dirty_paths(&mut self, model: &Model, ep: u64) -> usize {
         let tree = &model.assembly;
         self.cache.dirty.clear();
-        if !self.fsparse.is_empty() && !self.cache.no_maps {
+        if !self.forces.sparse.is_empty() && !self.cache.no_maps {
             // The maps' storage, at the first re-selection with external forces.
             self.map_alloc(model);
         }
         let x_cw = SpatialTransform::xlt(self.data.origin);
-        for k in 0..self.fsparse.len() {
-            let (i, fe) = self.fsparse[k];
+        for k in 0..self.forces.sparse.len() {
+            let (i, fe) = self.forces.sparse[k];
             let leaf = tree.body_leaf[i];
-            if tree.nodes[leaf].parent.is_none_or(|p| self.active[p]) {
+            if tree.nodes[leaf].parent.is_none_or(|p| self.body.active[p]) {
                 // A frontier leaf: its own rigid coefficients take the force.
-                self.fsum[leaf] += x_cw.apply_force(fe);
+                self.forces.node_sums[leaf] += x_cw.apply_force(fe);
                 continue;
             }
             let fresh = self.cache.dstamp[leaf] != ep;
             if fresh {
-                self.fsum[leaf] = SpatialForce::ZERO;
+                self.forces.node_sums[leaf] = SpatialForce::ZERO;
             }
-            self.fsum[leaf] += x_cw.apply_force(fe);
+            self.forces.node_sums[leaf] += x_cw.apply_force(fe);
             if !fresh {
                 // Its path is marked (and counted) already.
                 continue;
@@ -270,7 +276,7 @@ impl Adaptive {
                     self.cache.nforced[n] = if self.cache.no_maps { 2 } else { 1 };
                     self.cache.fleaf[n] = leaf;
                 }
-                match tree.nodes[n].parent.filter(|&p| !self.active[p]) {
+                match tree.nodes[n].parent.filter(|&p| !self.body.active[p]) {
                     Some(p) => n = p,
                     None => break,
                 }
@@ -319,10 +325,10 @@ impl Adaptive {
                 // The cluster: its frame from its top body.
                 let x = self.cache_frame(d);
                 self.cache.cx[d] = x;
-                self.cache.cu[d] = if self.grounded[d] {
+                self.cache.cu[d] = if self.composites.grounded[d] {
                     SpatialMotion::ZERO
                 } else {
-                    x.inv_apply_motion(self.data.v[self.top[d]])
+                    x.inv_apply_motion(self.data.v[self.composites.top[d]])
                 };
             }
             self.cache.stamp[d] = ep;
@@ -353,7 +359,7 @@ impl Adaptive {
                 }
             }
             // The joint's point (its child body's origin, B's top body: a leaf's handle).
-            self.point[joint] = self.cache.cx[b].apply_point(DVec3::ZERO);
+            self.coef.point[joint] = self.cache.cx[b].apply_point(DVec3::ZERO);
         }
         // Bottom-up: what the forces add, from the forced leaves up — maps (re)built where
         // invalid and evaluated at the tops, the nodes with several leaves by `dirty_delta`.
@@ -372,8 +378,11 @@ impl Adaptive {
                 continue;
             }
             match tree.nodes[d].kind {
+                NodeKind::Gather { .. } => {
+                    unreachable!("adaptive refuses models with gather nodes (`load_state`)")
+                }
                 NodeKind::Ground => {}
-                NodeKind::Body(_) => self.leaf_delta(model, d, self.fsum[d]),
+                NodeKind::Body(_) => self.leaf_delta(model, d, self.forces.node_sums[d]),
                 NodeKind::Join { .. } => self.dirty_delta(model, d),
             }
             self.cache.dvstamp[d] = ep;
@@ -386,8 +395,8 @@ impl Adaptive {
     fn active_metrics(&mut self, model: &Model, ep: u64) {
         let tree = &model.assembly;
         let root = tree.root();
-        let (ho, nh) = (self.lay.hoff[root], self.nh[root]);
-        self.f[ho..ho + nh].fill(SpatialForce::ZERO);
+        let (ho, nh) = (self.coef.layout.hoff[root], self.coef.handles[root]);
+        self.coef.force[ho..ho + nh].fill(SpatialForce::ZERO);
         for idx in (0..self.hier.hnodes.len()).rev() {
             let n = self.hier.hnodes[idx];
             self.expand(model, n);
@@ -419,8 +428,12 @@ impl Adaptive {
                 continue;
             };
             let body = &model.bodies[joint];
-            let (vo, k, wo) = (body.v_offset, body.nv, self.woff[joint]);
-            let own = crate::dense::quad(&self.aw[wo..wo + k * k], &self.qdd[vo..vo + k], k);
+            let (vo, k, wo) = (body.v_offset, body.nv, self.metric.weight_at[joint]);
+            let own = crate::dense::quad(
+                &self.metric.accel_weights[wo..wo + k * k],
+                &self.body.qdd[vo..vo + k],
+                k,
+            );
             self.cache.amet[n] = own + self.cache.amet[a] + self.cache.amet[b];
             self.cache.astamp[n] = ep;
         }
@@ -433,7 +446,7 @@ impl Adaptive {
         let tree = &model.assembly;
         for idx in 0..self.cache.sel.len() {
             let n = self.cache.sel[idx];
-            self.selected[n] = false;
+            self.queue.selected[n] = false;
         }
         self.cache.sel.clear();
         let total = self.cache.amet[tree.root()];
@@ -442,7 +455,7 @@ impl Adaptive {
             total,
             |ad, n| {
                 ad.cache.sel.push(n);
-                if !ad.active[n] {
+                if !ad.body.active[n] {
                     let (x, u) = (ad.cache.cx[n], ad.cache.cu[n]);
                     ad.eval_cache(model, n, &x, u, Part::Maps);
                     if ad.cache.dstamp[n] == ep {
@@ -451,23 +464,23 @@ impl Adaptive {
                         if let NodeKind::Join { joint, .. } = tree.nodes[n].kind {
                             let body = &model.bodies[joint];
                             let r = body.v_offset..body.v_offset + body.nv;
-                            ad.kvec[r.clone()]
+                            ad.maps.qdd_bias[r.clone()]
                                 .iter_mut()
                                 .zip(&ad.cache.dk[r])
                                 .for_each(|(k, d)| *k += d);
                         }
                         let dn = rot6(&rows3(&x.e), &ad.cache.dn[n]);
-                        for (v, d) in ad.nvec[n].iter_mut().zip(dn) {
+                        for (v, d) in ad.maps.force_bias[n].iter_mut().zip(dn) {
                             *v += d;
                         }
                     }
                 }
                 // The old active region was back-substituted by `active_metrics` (the same
                 // forces from the same maps).
-                ad.active[n]
+                ad.body.active[n]
             },
             |ad, n, c| {
-                if !ad.active[n] && ad.cache.stamp[c] != ep {
+                if !ad.body.active[n] && ad.cache.stamp[c] != ep {
                     // Below the old frontier: the child's frame and velocity from n's.
                     let rel = ad.cache.rel[c];
                     ad.cache.cx[c] = ad.cache.cx[n] * rel;
@@ -510,7 +523,7 @@ impl Adaptive {
         };
         for idx in 0..self.hier.fnodes.len() {
             let f = self.hier.fnodes[idx];
-            self.cache.hm[f] = if self.grounded[f] {
+            self.cache.hm[f] = if self.composites.grounded[f] {
                 SpatialForce::ZERO
             } else {
                 momentum(&self.hier.rig[f], &self.cache.cx[f], self.cache.cu[f])
@@ -529,7 +542,7 @@ impl Adaptive {
         }
         for idx in 0..self.cache.sel.len() {
             let n = self.cache.sel[idx];
-            if self.active[n] {
+            if self.body.active[n] {
                 continue;
             }
             if let NodeKind::Join {
@@ -539,8 +552,8 @@ impl Adaptive {
             } = tree.nodes[n].kind
             {
                 for c in [a, b] {
-                    if !self.selected[c] {
-                        self.cache.hm[c] = if self.grounded[c] {
+                    if !self.queue.selected[c] {
+                        self.cache.hm[c] = if self.composites.grounded[c] {
                             SpatialForce::ZERO
                         } else {
                             momentum(&self.cache.rig[c], &self.cache.cx[c], self.cache.cu[c])
@@ -585,7 +598,7 @@ impl Adaptive {
             return;
         }
         for &n in &h.hnodes {
-            self.active[n] = false;
+            self.body.active[n] = false;
         }
         for &j in &h.ajoints {
             h.abody[j] = false;
@@ -594,7 +607,7 @@ impl Adaptive {
         h.fnodes.clear();
         h.ajoints.clear();
         for &n in &self.cache.sel {
-            self.active[n] = true;
+            self.body.active[n] = true;
             h.hnodes.push(n);
         }
         for &n in &self.cache.sel {
@@ -607,7 +620,7 @@ impl Adaptive {
                 h.abody[joint] = true;
                 h.ajoints.push(joint);
                 for c in [a, b] {
-                    if !self.active[c] {
+                    if !self.body.active[c] {
                         h.fnodes.push(c);
                     }
                 }
@@ -619,7 +632,7 @@ impl Adaptive {
         h.fnodes.sort_unstable();
         h.ajoints.sort_unstable();
         for &f in &h.fnodes {
-            if !self.grounded[f] {
+            if !self.composites.grounded[f] {
                 h.rig[f] = self.cache.rig[f];
             }
         }
@@ -637,7 +650,7 @@ impl Adaptive {
                 if h.abody[p] {
                     h.par[j] = p;
                 } else {
-                    let f = cluster(tree.body_leaf[p], &self.active);
+                    let f = cluster(tree.body_leaf[p], &self.body.active);
                     h.pcl[j] = f;
                     h.prel[j] = match tree.nodes[f].kind {
                         NodeKind::Join { .. } => {
@@ -646,16 +659,16 @@ impl Adaptive {
                                 .iter()
                                 .position(|&x| x == j)
                                 .expect("an active joint on a cluster is one of its handles");
-                            self.cache.hpose[self.lay.hoff[f] + k]
+                            self.cache.hpose[self.coef.layout.hoff[f] + k]
                         }
                         _ => SpatialTransform::IDENTITY,
                     };
-                    if !self.grounded[f] {
-                        h.par[j] = self.top[f];
+                    if !self.composites.grounded[f] {
+                        h.par[j] = self.composites.top[f];
                     }
                 }
             }
-            h.cl[j] = cluster(tree.body_leaf[j], &self.active);
+            h.cl[j] = cluster(tree.body_leaf[j], &self.body.active);
         }
         self.build_records(model);
         self.hier.valid = true;

@@ -686,3 +686,43 @@ fn the_uniform_step_follows_the_exact_euler_step() {
         assert_ne!(a.q, start.q);
     }
 }
+
+/// A model whose assembly tree has a gather node (a hub with more than `GATHER_ABOVE`
+/// children) is refused with `AdaptiveError::Unsupported` naming the hub, by every call that
+/// computes (adaptive dynamics has no gather node), while the exact methods solve it.
+#[test]
+fn gather_trees_are_refused_cleanly() {
+    use articula_adaptive::AdaptiveError;
+    let k = articula_model::GATHER_ABOVE + 4;
+    let urdf = articula_testkit::star_urdf(k);
+    let model =
+        Model::from_urdf_str(&urdf, &LoadOptions::default().with_floating_base(true)).unwrap();
+    assert!(model.assembly.has_gather());
+    let mut s = State::random(&model, 3, 1.0);
+    let mut adaptive = Adaptive::new(&model, Settings::default());
+    let check = |r: Result<(), AdaptiveError>| match r {
+        Err(AdaptiveError::Unsupported(msg)) => {
+            assert!(msg.contains("link hub has 20 children"), "{msg}");
+        }
+        other => panic!("expected Unsupported, got {other:?}"),
+    };
+    check(
+        adaptive
+            .forward_dynamics(&model, &s.q, &s.qd, &s.tau, &s.f_ext)
+            .map(|_| ()),
+    );
+    check(adaptive.step(&model, &mut s, 1e-3).map(|_| ()));
+    check(adaptive.step_rk4(&model, &mut s, 1e-3).map(|_| ()));
+    check(adaptive.reselect(&model, &mut s).map(|_| ()));
+    // The exact solvers take it.
+    let (dca, aba) = (
+        solve(&model, &s, Method::Dca),
+        solve(&model, &s, Method::Aba),
+    );
+    let scale = aba.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let diff = dca
+        .iter()
+        .zip(&aba)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(diff <= 1e-10 * scale, "{:e}", diff / scale);
+}

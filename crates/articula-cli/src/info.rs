@@ -186,6 +186,16 @@ pub fn run(path: &Path, options: &LoadOptions, json: bool, tree: bool) -> Result
         "assembly     {} nodes, depth {}, at most {} handles per node",
         info.assembly.nodes, info.assembly.depth, info.assembly.max_handles
     )?;
+    writeln!(
+        out,
+        "collision    {}",
+        articula_model::CollisionModel::new(&model).summary()
+    )?;
+    let limited = model
+        .joint_parts()
+        .filter(|(_, p)| p.limits.is_some())
+        .count();
+    writeln!(out, "limits       {limited} joints with URDF limits")?;
     if !info.composed_joints.is_empty() {
         writeln!(out, "composed joints (through massless links):")?;
         for c in &info.composed_joints {

@@ -5,6 +5,7 @@
 
 mod bench;
 mod fd;
+mod ground;
 mod info;
 mod scene;
 mod simulate;

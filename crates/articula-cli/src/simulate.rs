@@ -17,6 +17,8 @@ use std::time::{Duration, Instant};
 pub struct SimulateArgs {
     #[command(flatten)]
     pub dynamics: DynamicsArgs,
+    #[command(flatten)]
+    pub contact: crate::ground::GroundArgs,
     /// Number of time steps (at least 1).
     #[arg(long, value_parser = parse_steps, allow_hyphen_values = true)]
     pub steps: u64,
@@ -200,6 +202,17 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     });
     let mut active = ActiveStats::default();
     let (steps, dt) = (args.steps, args.dt);
+    let mut ground = args.contact.run(&model)?;
+    if let Some(g) = &ground {
+        if integrator != Integrator::SemiImplicitEuler || adaptive.is_some() {
+            return Err(CliError(
+                "--ground needs --integrator euler and an exact method (dca, aba, crba)".into(),
+            ));
+        }
+        if let Some(h) = args.contact.drop {
+            g.drop(&model, &mut data, &mut state, h)?;
+        }
+    }
 
     let mut csv = match &args.out {
         Some(path) => Some(Csv::create(path, &model)?),
@@ -240,8 +253,15 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
             qd_before.copy_from_slice(&state.qd);
         }
         let t0 = Instant::now();
-        let result = match adaptive.as_mut() {
-            None => step(
+        let result = match (adaptive.as_mut(), ground.as_mut()) {
+            (None, Some(g)) => g.step(
+                &model,
+                &mut data,
+                &mut state,
+                method.exact().unwrap_or_default(),
+                dt,
+            ),
+            (None, None) => step(
                 &model,
                 &mut data,
                 &mut state,
@@ -250,7 +270,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
                 dt,
             )
             .map_err(|e| e.to_string()),
-            Some((ad, _)) => articula_adaptive::step(&model, ad, &mut state, integrator, dt)
+            (Some((ad, _)), _) => articula_adaptive::step(&model, ad, &mut state, integrator, dt)
                 .map(|r| active.add(k, r.active_dofs, steps))
                 .map_err(|e| e.to_string()),
         };
@@ -340,6 +360,9 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
         if stop.is_none() {
             j["kinetic_end"] = serde_json::json!(k1);
         }
+        if let Some(g) = &ground {
+            g.add_json(&mut j);
+        }
         if adaptive.is_some() {
             j["active_dofs_mean"] = serde_json::json!(active.sum as f64 / active.n.max(1) as f64);
             j["trajectory_error_max"] = serde_json::json!(active.err_max);
@@ -394,6 +417,9 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
             watch.max_drift_relative(),
             watch.scale
         ));
+        if let Some(g) = &ground {
+            lines.extend(g.lines(k1));
+        }
         if adaptive.is_some() {
             lines.extend(active.lines(
                 args.dynamics.budget,

@@ -717,3 +717,59 @@ fn crba_beyond_the_dense_limit_is_refused() {
         "{stderr}"
     );
 }
+
+/// `simulate --ground`: the floating humanoid dropped 5 cm lands; the summary has the contact
+/// figures, the penetration below 5 mm.
+#[test]
+fn simulate_with_a_ground_reports_contact() {
+    let humanoid = model_path("humanoid.urdf");
+    let out = stdout(&articula(&[
+        OsStr::new("simulate"),
+        humanoid.as_os_str(),
+        OsStr::new("--floating-base"),
+        OsStr::new("--ground"),
+        OsStr::new("0"),
+        OsStr::new("--drop"),
+        OsStr::new("0.05"),
+        OsStr::new("--steps"),
+        OsStr::new("200"),
+        OsStr::new("--dt"),
+        OsStr::new("1e-3"),
+    ]));
+    let field = |name: &str| -> f64 {
+        let line = out
+            .lines()
+            .find(|l| l.starts_with(name))
+            .unwrap_or_else(|| panic!("no {name} in:\n{out}"));
+        line[name.len()..]
+            .split_whitespace()
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    let penetration = field("max_penetration_m");
+    assert!((0.0..5e-3).contains(&penetration), "{out}");
+    assert!(field("contacts") > 0.0, "{out}");
+    assert!(field("kinetic end").is_finite(), "{out}");
+    assert!(out.contains("joint limits on"), "{out}");
+}
+
+/// `--ground` refuses RK4 and bad values with exit code 2; contact options need `--ground`.
+#[test]
+fn simulate_ground_bad_input_exits_2() {
+    let chain = model_path("chain10.urdf");
+    let chain = chain.to_str().unwrap();
+    for args in [
+        &["--ground", "0", "--integrator", "rk4"][..],
+        &["--ground", "0", "--restitution", "2"],
+        &["--ground", "0", "--friction", "-1"],
+        &["--ground", "0", "--drop", "1"],
+        &["--friction", "0.5"],
+        &["--no-joint-limits"],
+    ] {
+        let mut all = vec!["simulate", chain, "--steps", "2", "--dt", "1e-3"];
+        all.extend_from_slice(args);
+        assert_bad_input(&articula(&all), &args.join(" "));
+    }
+}

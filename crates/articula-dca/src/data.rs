@@ -3,6 +3,7 @@
 use crate::arith::fused_available;
 use crate::kinematics::FkPlan;
 use crate::small::{SmallSpd, Sym6, SymT};
+use crate::DynamicsError;
 use articula_model::{JointKind, Model, NodeKind};
 use articula_spatial::{Mat6, SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
 use glam::DVec3;
@@ -16,8 +17,9 @@ pub(crate) enum Side {
     B,
 }
 
-/// Per-step buffers of every algorithm. Build once with [`Data::new`]; a dynamics call or a
-/// step allocates nothing. `Data` also caches a few constants of the model's joints (their
+/// Per-step buffers of every algorithm. Build once with [`Data::new`] (DCA's own buffers are
+/// built by the first DCA call, [`Data::ensure_dca`]); a dynamics call or a step allocates
+/// nothing after that. `Data` also caches a few constants of the model's joints (their
 /// kinematic fast paths and offsets) and bodies (inverse inertias): build a new one for a
 /// changed model.
 #[derive(Clone, Debug)]
@@ -118,17 +120,21 @@ pub(crate) struct Topo {
 /// DCA buffers (docs/design.md#dca), laid out over the assembly tree.
 #[derive(Clone, Debug)]
 pub(crate) struct DcaData {
+    /// Whether the buffers below are allocated: [`Data::new`] leaves them empty, the first
+    /// DCA call builds them ([`Data::ensure_dca`]).
+    pub built: bool,
     /// Run the pass compiled for AVX2 + FMA (`dca::dca_fused`): set in [`Data::new`] when the
     /// CPU has both (x86-64 only); tests clear it to check the portable compilation.
     pub fused: bool,
     /// Whether `forward_dynamics` runs the kinematics inside the main pass: each body's at its
     /// parent's leaf (the root bodies' at the ground's), which needs the ground first and every
     /// body's leaf after its parent's (true for the assembly trees of `articula-model`, whose
-    /// post-order visits a join's parent side first; checked in [`Data::new`]). The pose,
+    /// post-order visits a join's parent side first, and false with gather nodes; checked in
+    /// [`DcaData::build`]). The pose,
     /// velocity, `c` and `S` are then used while in cache instead of read back from memory.
     pub leaf_kinematics: bool,
     /// Whether the back-substitution prefetches what the join a few nodes ahead reads: set in
-    /// [`Data::new`] when the per-join streams it reads (`rev` and the cross blocks) exceed
+    /// [`DcaData::build`] when the per-join streams it reads (`rev` and the cross blocks) exceed
     /// [`PREFETCH_ABOVE`] bytes. Below that they stay in cache from the main pass, and the
     /// prefetches would only cost instructions.
     pub prefetch: bool,
@@ -139,6 +145,10 @@ pub(crate) struct DcaData {
     /// Per handle of a join node (flat, `DNode::hoff`): the side it comes from and its index
     /// there.
     pub from: Vec<(Side, u32)>,
+    /// The gather nodes' children (node indices, `DKind::Gather::first`), and per child `K =
+    /// Φ_jj⁻¹`, its articulated inertia at its joint to the hub (`gather.rs`).
+    pub gathered: Vec<u32>,
+    pub gk: Vec<Mat6>,
     /// Φ's cross blocks.
     pub phi: Vec<Mat6>,
     /// Φ's diagonal blocks `Φ_hh` (symmetric, upper 2×2 tiles) and the bias accelerations `b_h`: only the
@@ -190,7 +200,7 @@ pub(crate) struct DNode {
     pub nh: u32,
     /// Offset of its cross blocks in `phi`: the nh (nh − 1) / 2 blocks `Φ_hk`, h < k, row by
     /// row (`Φ_kh = Φ_hkᵀ`). A leaf's (the ground's) are in a slot like `dg`, ahead of the
-    /// joins' (see `Data::new`).
+    /// joins' (see `DcaData::build`).
     pub boff: u32,
     /// Offset of its handles in the slot arrays `dg`, `b` and `f`.
     pub slot: u32,
@@ -213,6 +223,12 @@ pub(crate) enum DKind {
         joint: u32,
         a: u32,
         b: u32,
+    },
+    /// Hub body (`u32::MAX`: the ground), its children at `gathered[first..first + count]`.
+    Gather {
+        body: u32,
+        first: u32,
+        count: u32,
     },
 }
 
@@ -273,7 +289,8 @@ impl LeafConst {
                 None => up(ic.inverse()),
             };
             full.push([u, inverse]);
-            u32::try_from(full.len() - 1).expect("too many bodies for 32-bit indices")
+            // (At most one per body: `DcaData::build` checked the body count.)
+            u32::try_from(full.len() - 1).expect("body count checked in DcaData::build")
         };
         LeafConst {
             com: inertia.com().to_array(),
@@ -443,20 +460,12 @@ fn regularised_inverse(model: &Model, b: &articula_model::Body) -> Option<glam::
 }
 
 impl Data {
-    /// Allocates every buffer for `model`.
+    /// Allocates the buffers every method shares and ABA's; DCA's are built by the first DCA
+    /// call (see [`Data::ensure_dca`]), so a workspace used only with ABA or CRBA never holds
+    /// them.
     pub fn new(model: &Model) -> Data {
         let n = model.bodies.len();
         let nv = model.nv;
-        let tree = &model.assembly;
-        let nn = tree.nodes.len();
-        // The shared layout (articula-model), with DCA's sentinel and side type.
-        let layout = tree.handle_layout();
-        let u = |x: usize| u32::try_from(x).expect("assembly tree too large for 32-bit indices");
-        let from: Vec<(Side, u32)> = layout
-            .from
-            .iter()
-            .map(|&(a, i)| (if a { Side::A } else { Side::B }, u(i)))
-            .collect();
         // ABA's slots for children's sums: in pass 2's order (reverse index), a body's slot is
         // taken when its first child is reached and freed when the body is (its sums are read
         // before its parent's are written, so the parent may take the freed slot).
@@ -496,92 +505,10 @@ impl Data {
                 free.push(aslot[i]);
             }
         }
-        let max_h = tree.max_handles().max(1);
-        // Slots of the diagonal blocks and b (see `DcaData::dg`): node x at depth δ, the
-        // parent side (0) or child side (1) of its parent's join, has max_h handles at
-        // (2 δ + side) max_h.
-        let mut side = vec![0usize; nn];
-        for node in &tree.nodes {
-            if let NodeKind::Join { child_side, .. } = node.kind {
-                side[child_side] = 1;
-            }
-        }
-        let slots = (2 * tree.depth() + 2) * max_h;
-        // Φ: the nh (nh − 1) / 2 cross blocks above the diagonal of each node (the diagonal ones
-        // in the slots). A join's stay for the back-substitution, in post-order after the leaves'
-        // slots (a leaf's are read by its parent join only: the back-substitution multiplies by
-        // a leaf's Φ in closed form, `LeafK`).
-        let mb = max_h * (max_h - 1) / 2;
-        let mut blk = (2 * tree.depth() + 2) * mb;
-        let mut joins = 0;
-        let mut node = Vec::with_capacity(nn);
-        for (i, (nd, s)) in tree.nodes.iter().zip(&side).enumerate() {
-            let nh = nd.handles.len();
-            let slot = u((2 * nd.depth + s) * max_h);
-            let u16_of = |x: usize| u16::try_from(x).expect("more than 65535 handles on a node");
-            let (kind, boff, jix, one_dof) = match nd.kind {
-                NodeKind::Join {
-                    joint,
-                    parent_side,
-                    child_side,
-                } => {
-                    let at = (blk, joins);
-                    blk += nh * nh.saturating_sub(1) / 2;
-                    joins += 1;
-                    let one_dof = matches!(
-                        model.bodies[joint].joint.as_slice(),
-                        [p] if matches!(p.kind, JointKind::Revolute | JointKind::Continuous)
-                    );
-                    let kind = DKind::Join {
-                        joint: u(joint),
-                        a: u(parent_side),
-                        b: u(child_side),
-                    };
-                    (kind, at.0, at.1, one_dof)
-                }
-                NodeKind::Body(b) => (DKind::Body(u(b)), (2 * nd.depth + s) * mb, 0, false),
-                NodeKind::Ground => (DKind::Ground, (2 * nd.depth + s) * mb, 0, false),
-            };
-            node.push(DNode {
-                kind,
-                hoff: u(layout.hoff[i]),
-                nh: u(nh),
-                boff: u(boff),
-                slot,
-                jix: u(jix),
-                ja: u16_of(layout.ja[i]),
-                jb: u16_of(layout.jb[i]),
-                one_dof,
-            });
-        }
-        // Whether the main pass can run each body's kinematics at its parent's leaf (the
-        // roots' at the ground's) before anything reads it (see `DcaData::leaf_kinematics`).
-        let mut done = vec![false; n];
-        let leaf_kinematics = tree.nodes.iter().all(|nd| match nd.kind {
-            NodeKind::Ground => nd.handles.iter().all(|&h| {
-                done[h] = true;
-                model.bodies[h].parent.is_none()
-            }),
-            NodeKind::Body(b) => {
-                let ok = done[b];
-                for &h in nd.handles.iter().filter(|&&h| h != b) {
-                    done[h] = true;
-                }
-                ok
-            }
-            NodeKind::Join { joint, .. } => done[joint],
-        }) && done.iter().all(|&x| x);
-        let mut leaf_full = Vec::new();
-        let mut regularised = false;
-        let leaf = model
+        let regularised = model
             .bodies
             .iter()
-            .map(|b| {
-                let j = regularised_inverse(model, b);
-                regularised |= j.is_some();
-                LeafConst::of(&b.inertia, j, &mut leaf_full)
-            })
-            .collect();
+            .any(|b| regularised_inverse(model, b).is_some());
         Data {
             gravity: DVec3::new(0.0, 0.0, -9.81),
             refine_floating: true,
@@ -603,34 +530,7 @@ impl Data {
             s: vec![SpatialMotion::ZERO; nv],
             qdd: vec![0.0; nv],
             momentum_projection: true,
-            dca: DcaData {
-                fused: fused_available(),
-                prefetch: joins * (std::mem::size_of::<RevJoin>() + std::mem::size_of::<Mat6>())
-                    > PREFETCH_ABOVE,
-                leaf_kinematics,
-                node,
-                hj: tree
-                    .nodes
-                    .iter()
-                    .flat_map(|node| node.handles.iter().map(|&h| u(h)))
-                    .collect(),
-                from,
-                phi: vec![Mat6::ZERO; blk],
-                dg: vec![SymT::ZERO; slots],
-                b: vec![SpatialMotion::ZERO; slots],
-                leafk: vec![LeafK::default(); n],
-                f: vec![SpatialForce::ZERO; slots],
-                l: vec![[[0.0; 6]; 6]; nn],
-                beta: vec![SpatialMotion::ZERO; nn],
-                z: vec![[0.0; 6]; nv],
-                dinv: vec![SmallSpd::default(); n],
-                point: vec![DVec3::ZERO; n],
-                rev: vec![RevJoin::default(); joins],
-                y: vec![[[0.0; 6]; 6]; max_h],
-                u: vec![[[0.0; 6]; 6]; max_h],
-                leaf,
-                leaf_full,
-            },
+            dca: DcaData::empty(fused_available()),
             fk_plan: model.bodies.iter().map(FkPlan::of).collect(),
             topo: model
                 .bodies
@@ -673,6 +573,17 @@ impl Data {
         }
     }
 
+    /// Builds DCA's buffers if this workspace has not yet run DCA (the first DCA call does it:
+    /// [`Data::new`] allocates only what every method shares and ABA's). Calls after the first
+    /// allocate nothing. Fails with [`DynamicsError::TooLarge`] when the model's assembly tree
+    /// needs indices beyond 32 bits.
+    pub fn ensure_dca(&mut self, model: &Model) -> Result<(), DynamicsError> {
+        if !self.dca.built {
+            self.dca = DcaData::build(model, self.dca.fused)?;
+        }
+        Ok(())
+    }
+
     /// The world wrench (about the world origin) of a force `force` (world coordinates) applied
     /// at the point `point` given in body `body`'s coordinates. Needs the kinematics of the
     /// current state (any dynamics call, or [`crate::forward_kinematics`]).
@@ -697,6 +608,211 @@ impl Data {
     /// residual is above rounding level (see `docs/algorithms.md`).
     pub fn refinement_count(&self) -> u64 {
         self.refine.corrections
+    }
+}
+
+impl DcaData {
+    /// DCA's buffers before the first DCA call: none (see [`Data::ensure_dca`]).
+    fn empty(fused: bool) -> DcaData {
+        DcaData {
+            built: false,
+            fused,
+            leaf_kinematics: false,
+            prefetch: false,
+            node: Vec::new(),
+            hj: Vec::new(),
+            from: Vec::new(),
+            gathered: Vec::new(),
+            gk: Vec::new(),
+            phi: Vec::new(),
+            dg: Vec::new(),
+            b: Vec::new(),
+            leafk: Vec::new(),
+            f: Vec::new(),
+            l: Vec::new(),
+            beta: Vec::new(),
+            z: Vec::new(),
+            dinv: Vec::new(),
+            point: Vec::new(),
+            rev: Vec::new(),
+            y: Vec::new(),
+            u: Vec::new(),
+            leaf: Vec::new(),
+            leaf_full: Vec::new(),
+        }
+    }
+
+    /// Every DCA buffer for `model`, laid out over its assembly tree; `fused` as in
+    /// [`DcaData::fused`]. Every index DCA stores is 32-bit: a model whose tree needs more is
+    /// refused with [`DynamicsError::TooLarge`].
+    fn build(model: &Model, fused: bool) -> Result<DcaData, DynamicsError> {
+        let n = model.bodies.len();
+        let nv = model.nv;
+        let tree = &model.assembly;
+        let nn = tree.nodes.len();
+        // The shared layout (articula-model), with DCA's sentinel and side type.
+        let layout = tree.handle_layout();
+        let u = |x: usize| u32::try_from(x).expect("checked against u32::MAX above");
+        let from: Vec<(Side, u32)> = layout
+            .from
+            .iter()
+            .map(|&(a, i)| (if a { Side::A } else { Side::B }, u(i)))
+            .collect();
+        let max_h = tree.max_handles().max(1);
+        // Slots of the diagonal blocks and b (see `DcaData::dg`): node x at depth δ, the
+        // parent side (0) or child side (1) of its parent's join, has max_h handles at
+        // (2 δ + side) max_h.
+        let mut side = vec![0usize; nn];
+        for node in &tree.nodes {
+            if let NodeKind::Join { child_side, .. } = node.kind {
+                side[child_side] = 1;
+            }
+        }
+        // A gather's children wait in a slot each (all of them are at one depth and side),
+        // ahead of the per-depth slots (a join's slot lies below its children's, which
+        // `dca::c_blocks` relies on); `gslot`: their index among the gathered children.
+        let mut gslot = vec![usize::MAX; nn];
+        for (k, &c) in tree.gathered.iter().enumerate() {
+            gslot[c] = k;
+        }
+        let gathered = tree.gathered.len();
+        let slots = gathered + (2 * tree.depth() + 2) * max_h;
+        // Every index DCA stores is 32-bit; this bounds them all (node and handle indices and
+        // offsets, slots, cross-block offsets).
+        let mb = max_h * (max_h - 1) / 2;
+        let largest = [
+            nn,
+            layout.handles,
+            n + 1,
+            nv,
+            slots,
+            (2 * tree.depth() + 2) * mb + layout.blocks,
+        ]
+        .into_iter()
+        .max()
+        .unwrap_or(0);
+        if largest >= u32::MAX as usize {
+            return Err(DynamicsError::TooLarge {
+                what: "DCA's workspace (assembly-tree nodes, handles, slots or blocks)",
+                size: largest,
+                limit: u32::MAX as usize - 1,
+            });
+        }
+        // Φ: the nh (nh − 1) / 2 cross blocks above the diagonal of each node (the diagonal ones
+        // in the slots). A join's stay for the back-substitution, in post-order after the leaves'
+        // slots (a leaf's are read by its parent join only: the back-substitution multiplies by
+        // a leaf's Φ in closed form, `LeafK`).
+        let mut blk = (2 * tree.depth() + 2) * mb;
+        let mut joins = 0;
+        let mut node = Vec::with_capacity(nn);
+        for (i, (nd, s)) in tree.nodes.iter().zip(&side).enumerate() {
+            let nh = nd.handles.len();
+            let slot = u(if gslot[i] != usize::MAX {
+                gslot[i]
+            } else {
+                gathered + (2 * nd.depth + s) * max_h
+            });
+            let u16_of = |x: usize| u16::try_from(x).expect("more than 65535 handles on a node");
+            let (kind, boff, jix, one_dof) = match nd.kind {
+                NodeKind::Join {
+                    joint,
+                    parent_side,
+                    child_side,
+                } => {
+                    let at = (blk, joins);
+                    blk += nh * nh.saturating_sub(1) / 2;
+                    joins += 1;
+                    let one_dof = matches!(
+                        model.bodies[joint].joint.as_slice(),
+                        [p] if matches!(p.kind, JointKind::Revolute | JointKind::Continuous)
+                    );
+                    let kind = DKind::Join {
+                        joint: u(joint),
+                        a: u(parent_side),
+                        b: u(child_side),
+                    };
+                    (kind, at.0, at.1, one_dof)
+                }
+                NodeKind::Body(b) => (DKind::Body(u(b)), (2 * nd.depth + s) * mb, 0, false),
+                NodeKind::Ground => (DKind::Ground, (2 * nd.depth + s) * mb, 0, false),
+                // One handle: no cross blocks.
+                NodeKind::Gather { body, first, count } => {
+                    let kind = DKind::Gather {
+                        body: body.map_or(u32::MAX, u),
+                        first: u(first),
+                        count: u(count),
+                    };
+                    (kind, 0, 0, false)
+                }
+            };
+            node.push(DNode {
+                kind,
+                hoff: u(layout.hoff[i]),
+                nh: u(nh),
+                boff: u(boff),
+                slot,
+                jix: u(jix),
+                ja: u16_of(layout.ja[i]),
+                jb: u16_of(layout.jb[i]),
+                one_dof,
+            });
+        }
+        // Whether the main pass can run each body's kinematics at its parent's leaf (the
+        // roots' at the ground's) before anything reads it (see `DcaData::leaf_kinematics`).
+        let mut done = vec![false; n];
+        let leaf_kinematics = tree.nodes.iter().all(|nd| match nd.kind {
+            NodeKind::Ground => nd.handles.iter().all(|&h| {
+                done[h] = true;
+                model.bodies[h].parent.is_none()
+            }),
+            NodeKind::Body(b) => {
+                let ok = done[b];
+                for &h in nd.handles.iter().filter(|&&h| h != b) {
+                    done[h] = true;
+                }
+                ok
+            }
+            NodeKind::Join { joint, .. } => done[joint],
+            // A gather's children come before its hub (whose pose they need).
+            NodeKind::Gather { .. } => false,
+        }) && done.iter().all(|&x| x);
+        let mut leaf_full = Vec::new();
+        let leaf = model
+            .bodies
+            .iter()
+            .map(|b| LeafConst::of(&b.inertia, regularised_inverse(model, b), &mut leaf_full))
+            .collect();
+        Ok(DcaData {
+            built: true,
+            fused,
+            prefetch: joins * (std::mem::size_of::<RevJoin>() + std::mem::size_of::<Mat6>())
+                > PREFETCH_ABOVE,
+            leaf_kinematics,
+            node,
+            hj: tree
+                .nodes
+                .iter()
+                .flat_map(|node| node.handles.iter().map(|&h| u(h)))
+                .collect(),
+            from,
+            gathered: tree.gathered.iter().map(|&c| u(c)).collect(),
+            gk: vec![Mat6::ZERO; tree.gathered.len()],
+            phi: vec![Mat6::ZERO; blk],
+            dg: vec![SymT::ZERO; slots],
+            b: vec![SpatialMotion::ZERO; slots],
+            leafk: vec![LeafK::default(); n],
+            f: vec![SpatialForce::ZERO; slots],
+            l: vec![[[0.0; 6]; 6]; nn],
+            beta: vec![SpatialMotion::ZERO; nn],
+            z: vec![[0.0; 6]; nv],
+            dinv: vec![SmallSpd::default(); n],
+            point: vec![DVec3::ZERO; n],
+            rev: vec![RevJoin::default(); joins],
+            y: vec![[[0.0; 6]; 6]; max_h],
+            u: vec![[[0.0; 6]; 6]; max_h],
+            leaf,
+            leaf_full,
+        })
     }
 }
 

@@ -35,6 +35,7 @@ pub(crate) fn forward(
     f_ext: &[SpatialForce],
     data: &mut Data,
 ) -> Result<(), DynamicsError> {
+    data.ensure_dca(model)?;
     // (`fused` is never set on other CPUs.)
     if data.dca.fused {
         #[cfg(target_arch = "x86_64")]
@@ -94,6 +95,7 @@ pub(crate) fn dca(
     data: &mut Data,
     bias: bool,
 ) -> Result<(), DynamicsError> {
+    data.ensure_dca(model)?;
     if data.dca.fused {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: `fused` is true only when the CPU running us has AVX2 and FMA
@@ -157,6 +159,7 @@ fn phi_jh_mul<A: Arith>(
         DKind::Join { .. } => {}
         DKind::Body(i) => return leaf_mul::<A>(d, i as usize, n, j, h, f),
         DKind::Ground => return SpatialMotion::ZERO,
+        DKind::Gather { .. } => unreachable!("a gather node has one handle: no cross block"),
     }
     let f = f.to_array();
     SpatialMotion::from_array(if j < h {
@@ -252,6 +255,10 @@ fn main_pass<A: Arith>(
             }
             DKind::Join { joint, a, b } => {
                 join::<A>(model, tau, data, n, joint as usize, a as usize, b as usize)?
+            }
+            DKind::Gather { body, first, count } => {
+                let g = crate::gather::Gather::of(body, first, count);
+                crate::gather::main(model, tau, f_ext, bias, data, n, g)?
             }
         }
     }
@@ -530,7 +537,7 @@ fn sym3(u: &[f64; 6]) -> [[f64; 3]; 3] {
 
 /// `L⁻¹ b` (forward substitution; `l` from [`crate::small::cholesky6`], inverse diagonal).
 #[inline]
-fn solve_l(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
+pub(crate) fn solve_l(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
     let mut x = [0.0; 6];
     for i in 0..6 {
         let mut v = b[i];
@@ -544,7 +551,7 @@ fn solve_l(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
 
 /// `L⁻ᵀ b` (back substitution; inverse diagonal).
 #[inline]
-fn solve_lt(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
+pub(crate) fn solve_lt(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
     let mut x = [0.0; 6];
     for i in (0..6).rev() {
         let mut v = b[i];
@@ -1350,7 +1357,7 @@ fn back_substitution<A: Arith>(model: &Model, tau: &[f64], data: &mut Data) {
                                 prefetch_ptr(lk.wrapping_add(std::mem::size_of::<LeafK>() - 1));
                                 prefetch_ptr((&d.point[i as usize] as *const DVec3).cast());
                             }
-                            DKind::Ground => {}
+                            DKind::Ground | DKind::Gather { .. } => {}
                         }
                     }
                     prefetch_ptr((&data.topo[joint as usize] as *const crate::data::Topo).cast());
@@ -1358,6 +1365,10 @@ fn back_substitution<A: Arith>(model: &Model, tau: &[f64], data: &mut Data) {
             }
         }
         let nc = data.dca.node[n];
+        if let DKind::Gather { body, first, count } = nc.kind {
+            crate::gather::back(tau, data, n, crate::gather::Gather::of(body, first, count));
+            continue;
+        }
         let DKind::Join { joint, a, b } = nc.kind else {
             continue;
         };
@@ -1490,6 +1501,7 @@ mod tests {
                 1e-12
             };
             let mut data = Data::new(&model);
+            data.ensure_dca(&model).unwrap();
             assert!(data.dca.leaf_kinematics, "{name}");
             for seed in 0..4 {
                 let mut s = State::random(&model, seed, 1.0);

@@ -41,7 +41,7 @@ pub enum DynamicsError {
         human_bytes(*bytes),
         human_bytes(*limit)
     )]
-    TooLarge {
+    MatrixTooLarge {
         /// Which matrix (`joint-space inertia matrix`).
         what: &'static str,
         /// Its rows.
@@ -52,6 +52,16 @@ pub enum DynamicsError {
         bytes: u64,
         /// The limit in bytes.
         limit: u64,
+    },
+    /// A model too large for a workspace's indices (DCA stores 32-bit ones).
+    #[error("{what} needs {size} entries, above the limit of {limit}")]
+    TooLarge {
+        /// What is too large.
+        what: &'static str,
+        /// Its size.
+        size: usize,
+        /// The largest size supported.
+        limit: usize,
     },
 }
 
@@ -73,7 +83,7 @@ pub fn human_bytes(bytes: u64) -> String {
 
 /// The largest dense `f64` matrix the dynamics layer allocates: 2 GiB, a 16,384 × 16,384
 /// joint-space inertia matrix ([`crate::Method::Crba`], [`crate::mass_matrix`]). Larger ones
-/// are refused with [`DynamicsError::TooLarge`] before any allocation (DCA and ABA need memory
+/// are refused with [`DynamicsError::MatrixTooLarge`] before any allocation (DCA and ABA need memory
 /// linear in the size of the model).
 pub const MAX_DENSE_MATRIX_BYTES: u64 = 2 << 30;
 
@@ -85,7 +95,7 @@ pub(crate) fn check_dense(
 ) -> Result<(), DynamicsError> {
     let bytes = (rows as u128 * cols as u128 * 8).min(u64::MAX as u128) as u64;
     if bytes > MAX_DENSE_MATRIX_BYTES {
-        return Err(DynamicsError::TooLarge {
+        return Err(DynamicsError::MatrixTooLarge {
             what,
             rows,
             cols,

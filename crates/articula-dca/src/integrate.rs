@@ -181,6 +181,11 @@ pub fn step(
     if let Some(start) = start {
         project_momentum(model, data, state, &start, dt);
     }
+    check_step_result(model, state)
+}
+
+/// The end of a step: no NaN or infinity in `q` or `q̇` (the error names the joint).
+pub(crate) fn check_step_result(model: &Model, state: &State) -> Result<(), DynamicsError> {
     for (_, part) in model.joint_parts() {
         let q = &state.q[part.q_offset..part.q_offset + part.nq()];
         let qd = &state.qd[part.v_offset..part.v_offset + part.nv()];

@@ -46,6 +46,8 @@
 mod aba;
 mod arith;
 mod com;
+mod contact;
+mod contact_solver;
 mod crba;
 mod data;
 mod dca;
@@ -53,6 +55,7 @@ mod energy;
 mod error;
 mod finite;
 mod forward;
+mod gather;
 mod inputs;
 mod integrate;
 mod inverse;
@@ -65,6 +68,9 @@ mod refine;
 mod small;
 mod state;
 
+pub use contact::{
+    step_with_contact, ContactData, ContactError, ContactSettings, ContactStats, Ground,
+};
 pub use data::Data;
 pub use error::{DynamicsError, MAX_DENSE_MATRIX_BYTES};
 pub use forward::{forward_dynamics, forward_dynamics_slices, Method};

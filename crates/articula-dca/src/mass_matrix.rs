@@ -16,7 +16,7 @@ use articula_spatial::{SpatialInertia, SpatialMotion};
 ///
 /// Runs forward kinematics at `(q, 0)` (`data` then holds it: zero velocities); sizes its
 /// buffers on the first call, then allocates nothing. A matrix larger than
-/// [`crate::MAX_DENSE_MATRIX_BYTES`] is refused ([`DynamicsError::TooLarge`]) before any
+/// [`crate::MAX_DENSE_MATRIX_BYTES`] is refused ([`DynamicsError::MatrixTooLarge`]) before any
 /// allocation.
 pub fn mass_matrix<'d>(
     model: &Model,

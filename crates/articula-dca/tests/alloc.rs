@@ -170,7 +170,7 @@ fn dense_matrices_beyond_the_limit_are_refused_before_allocating() {
     let model = articula_testkit::chain(n);
     let mut data = Data::new(&model);
     let state = State::neutral(&model);
-    let expected = DynamicsError::TooLarge {
+    let expected = DynamicsError::MatrixTooLarge {
         what: "joint-space inertia matrix",
         rows: n,
         cols: n,
@@ -212,4 +212,114 @@ fn dense_matrices_beyond_the_limit_are_refused_before_allocating() {
         Method::Dca,
     )
     .unwrap();
+}
+
+/// `Data::new` leaves DCA's buffers out: ABA and CRBA never build them, the first DCA call
+/// does (it allocates), and the DCA calls after it allocate nothing.
+#[test]
+fn dca_buffers_are_built_by_the_first_dca_call() {
+    use articula_dca::forward_dynamics;
+    let model = load("humanoid", true);
+    let mut data = Data::new(&model);
+    let state = State::random(&model, 4, 0.01 * model.moving_mass());
+    let aba = forward_dynamics(&model, &mut data, &state, Method::Aba)
+        .unwrap()
+        .to_vec();
+    let mut solve = |method, times| {
+        count_allocations(|| {
+            for _ in 0..times {
+                forward_dynamics(&model, &mut data, &state, method).unwrap();
+            }
+        })
+    };
+    assert_eq!(solve(Method::Aba, 10), 0, "ABA allocated");
+    assert!(
+        solve(Method::Dca, 1) > 0,
+        "the first DCA call should build DCA's buffers"
+    );
+    assert_eq!(
+        solve(Method::Dca, 10),
+        0,
+        "DCA allocated after its first call"
+    );
+    let dca = forward_dynamics(&model, &mut data, &state, Method::Dca).unwrap();
+    let scale = aba.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let diff = aba
+        .iter()
+        .zip(dca)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(diff <= 1e-10 * scale, "DCA vs ABA: {:e}", diff / scale);
+}
+
+/// A star of K links: the model (its assembly tree) and DCA's workspace grow linearly in K.
+/// 40 times the children take less than 60 times the bytes (a node with a handle per child,
+/// and 36 nh² numbers per node, would take ~64,000 times).
+#[test]
+fn a_star_allocates_linearly_in_its_children() {
+    use articula_model::{LoadOptions, Model};
+    use articula_testkit::count_allocated_bytes;
+    for floating_base in [false, true] {
+        let bytes = |k: usize| {
+            let urdf = articula_testkit::star_urdf(k);
+            let options = LoadOptions::default().with_floating_base(floating_base);
+            let mut model = None;
+            let load = count_allocated_bytes(|| {
+                model = Some(Model::from_urdf_str(&urdf, &options).unwrap());
+            });
+            let model = model.unwrap();
+            let state = State::random(&model, 2, 1.0);
+            let dca = count_allocated_bytes(|| {
+                let mut data = Data::new(&model);
+                articula_dca::forward_dynamics(&model, &mut data, &state, Method::Dca).unwrap();
+            });
+            (load, dca)
+        };
+        let (small, large) = (bytes(50), bytes(2000));
+        eprintln!("star floating={floating_base}: K = 50 {small:?} bytes, K = 2000 {large:?}");
+        assert!(large.0 < 60 * small.0, "model: {small:?} → {large:?}");
+        assert!(
+            large.1 < 60 * small.1,
+            "DCA workspace: {small:?} → {large:?}"
+        );
+    }
+}
+
+/// The contact step allocates nothing once its buffers have met the largest contact problem:
+/// the floating humanoid standing on the floor 0.9 m below its base, 600 steps to settle,
+/// then 50 more steps counted, with DCA and ABA.
+#[test]
+fn contact_step_allocates_nothing_after_warm_up() {
+    use articula_dca::{step_with_contact, ContactData, ContactSettings, Ground};
+    let model = load("humanoid", true);
+    let settings = ContactSettings {
+        ground: Some(Ground::horizontal(-0.9)),
+        ..ContactSettings::default()
+    };
+    for method in [Method::Dca, Method::Aba] {
+        let mut data = Data::new(&model);
+        let mut contact = ContactData::new(&model);
+        let mut state = State::neutral(&model);
+        let mut run = |state: &mut State, steps: usize| {
+            for _ in 0..steps {
+                step_with_contact(
+                    &model,
+                    &mut data,
+                    &mut contact,
+                    state,
+                    method,
+                    1e-3,
+                    &settings,
+                )
+                .unwrap();
+            }
+        };
+        run(&mut state, 600);
+        let n = count_allocations(|| run(&mut state, 50));
+        assert_eq!(n, 0, "{method:?}: the contact step allocated");
+        assert!(
+            contact.stats.contacts >= 4,
+            "{method:?}: {:?}",
+            contact.stats
+        );
+    }
 }

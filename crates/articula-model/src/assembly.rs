@@ -6,8 +6,19 @@
 //! is built by cutting, recursively, the joint that best balances the two sides (ties go to the
 //! cut whose sides have fewer handles), so a chain of n links gets depth ⌈log2(n + 1)⌉ and two
 //! handles per node at most.
+//!
+//! A body (or the ground) with more than [`GATHER_ABOVE`] children is a *gather* node instead:
+//! each child's whole subtree is built first (by the same cuts, one handle: its joint to the
+//! hub), then one node absorbs them all into the hub, so no node carries a handle per child
+//! (docs/design.md#assembly-tree).
 
 use crate::Model;
+
+/// A body (or the ground) with more than this many children becomes a [`NodeKind::Gather`]
+/// node. Below it, balanced cuts give the hub's nodes at most this many handles; above it their
+/// `nh²` blocks would grow as the cube of the child count. (Every bundled model and every robot
+/// of example-robot-data has at most a handful of children per body, so none has a gather node.)
+pub const GATHER_ABOVE: usize = 16;
 
 /// What a node of the assembly tree is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -24,6 +35,18 @@ pub enum NodeKind {
         parent_side: usize,
         /// The node holding the principal joint's child body ("B" in docs/design.md#assembly-tree).
         child_side: usize,
+    },
+    /// A hub with more than [`GATHER_ABOVE`] children and all its descendants: the hub's body
+    /// (`None`: the ground) and the subassemblies of its children's subtrees, each with one
+    /// handle (its joint to the hub), at `AssemblyTree::gathered[first..first + count]` in the
+    /// order of the hub's children. Its one handle is the hub's own joint (none for the ground).
+    Gather {
+        /// The hub's body, `None` for the ground.
+        body: Option<usize>,
+        /// Where its children's nodes start in [`AssemblyTree::gathered`].
+        first: usize,
+        /// How many children.
+        count: usize,
     },
 }
 
@@ -52,8 +75,10 @@ pub struct AssemblyTree {
     pub body_leaf: Vec<usize>,
     /// For each joint (= body), the node whose principal joint it is.
     pub joint_node: Vec<usize>,
-    /// The ground's leaf node.
+    /// The ground's leaf node (or the gather node whose hub it is).
     pub ground_leaf: usize,
+    /// The children of the gather nodes (see [`NodeKind::Gather`]), flat.
+    pub gathered: Vec<usize>,
 }
 
 impl AssemblyTree {
@@ -65,6 +90,19 @@ impl AssemblyTree {
     /// Height of the tree: the largest node depth.
     pub fn depth(&self) -> usize {
         self.nodes.iter().map(|n| n.depth).max().unwrap_or(0)
+    }
+
+    /// The subassemblies a gather node absorbs (empty for any other node).
+    pub fn gather_children(&self, n: usize) -> &[usize] {
+        match self.nodes[n].kind {
+            NodeKind::Gather { first, count, .. } => &self.gathered[first..first + count],
+            _ => &[],
+        }
+    }
+
+    /// Whether some node is a [`NodeKind::Gather`].
+    pub fn has_gather(&self) -> bool {
+        !self.gathered.is_empty()
     }
 
     /// The largest handle count of any node.
@@ -93,8 +131,15 @@ impl AssemblyTree {
             kind: NodeKind,
             handles: Vec<usize>,
             size: usize,
-            children: Option<(usize, usize)>,
+            /// A join's two sides (A, B) or a gather's subassemblies.
+            children: Vec<usize>,
         }
+        let empty = || Tmp {
+            kind: NodeKind::Ground,
+            handles: Vec::new(),
+            size: 0,
+            children: Vec::new(),
+        };
         let mut tmp: Vec<Tmp> = Vec::with_capacity(2 * n + 1);
         // Scratch indexed by vertex: membership stamp, subtree size, handles inside subtree.
         let mut stamp = vec![usize::MAX; n + 1];
@@ -104,34 +149,57 @@ impl AssemblyTree {
         for v in 0..n {
             children[vparent(v).unwrap()].push(v);
         }
-
-        // Components keep their vertices in this order: the ground first, then the bodies
-        // (stored parents first), so a forward loop visits parents before children.
-        let mut all: Vec<usize> = Vec::with_capacity(n + 1);
-        all.push(ground);
-        all.extend(0..n);
-        // Work items: (component vertices sorted by key, index of its Tmp node).
-        tmp.push(Tmp {
-            kind: NodeKind::Ground,
-            handles: Vec::new(),
-            size: n + 1,
-            children: None,
-        });
-        let mut work = vec![(all, 0usize)];
+        // Hubs, the gather nodes' vertices: in its parent's component a hub stands for its
+        // whole subtree (its weight), and its children are no handles there.
+        let hub: Vec<bool> = children.iter().map(|c| c.len() > GATHER_ABOVE).collect();
+        let mut weight = vec![1usize; n + 1];
+        if hub.contains(&true) {
+            let mut full = vec![1usize; n + 1];
+            for v in (0..n).rev() {
+                full[vparent(v).unwrap()] += full[v];
+            }
+            for v in 0..=n {
+                if hub[v] {
+                    weight[v] = full[v];
+                }
+            }
+        }
+        // The component of `root`'s subtree, down to the hubs (included): `root` first, then
+        // the bodies in stored order (parents first), so a forward loop visits parents before
+        // children. Without hubs, the ground's is the ground then every body.
+        let component = |root: usize| -> Vec<usize> {
+            let mut out = vec![root];
+            let mut i = 0;
+            while i < out.len() {
+                let v = out[i];
+                i += 1;
+                if !hub[v] {
+                    out.extend_from_slice(&children[v]);
+                }
+            }
+            out[1..].sort_unstable();
+            out
+        };
+        // Work items: (component vertices, index of its Tmp node).
+        tmp.push(empty());
+        let mut work = vec![(component(ground), 0usize)];
         while let Some((comp, id)) = work.pop() {
             for &v in &comp {
                 stamp[v] = id;
             }
             // Handles: the top vertex's own joint if its parent is outside, plus joints to
-            // children outside.
+            // children outside (a hub's are inside its gather node).
             let mut handles = Vec::new();
             for &v in &comp {
                 hsub[v] = 0;
-                sub[v] = 1;
+                sub[v] = weight[v];
                 if let Some(p) = vparent(v) {
                     if stamp[p] != id {
                         handles.push(v);
                     }
+                }
+                if hub[v] {
+                    continue;
                 }
                 for &ch in &children[v] {
                     if stamp[ch] != id {
@@ -142,14 +210,30 @@ impl AssemblyTree {
             }
             handles.sort_unstable();
             tmp[id].handles = handles;
-            tmp[id].size = comp.len();
+            let m: usize = comp.iter().map(|&v| weight[v]).sum();
+            tmp[id].size = m;
             if comp.len() == 1 {
                 let v = comp[0];
-                tmp[id].kind = if v == ground {
-                    NodeKind::Ground
+                if hub[v] {
+                    // A gather node: each child's subtree is a subassembly of its own.
+                    let first = tmp.len();
+                    for &c in &children[v] {
+                        work.push((component(c), tmp.len()));
+                        tmp.push(empty());
+                    }
+                    tmp[id].kind = NodeKind::Gather {
+                        body: (v != ground).then_some(v),
+                        first: 0,
+                        count: children[v].len(),
+                    };
+                    tmp[id].children = (first..tmp.len()).collect();
                 } else {
-                    NodeKind::Body(v)
-                };
+                    tmp[id].kind = if v == ground {
+                        NodeKind::Ground
+                    } else {
+                        NodeKind::Body(v)
+                    };
+                }
                 continue;
             }
             // Subtree sizes within the component, children before parents.
@@ -161,7 +245,6 @@ impl AssemblyTree {
                     }
                 }
             }
-            let m = comp.len();
             let total_h = tmp[id].handles.len();
             let mut best: Option<((usize, usize), usize)> = None;
             for &v in &comp {
@@ -206,20 +289,14 @@ impl AssemblyTree {
             }
             let a = tmp.len();
             let b = a + 1;
-            for _ in 0..2 {
-                tmp.push(Tmp {
-                    kind: NodeKind::Ground,
-                    handles: Vec::new(),
-                    size: 0,
-                    children: None,
-                });
-            }
+            tmp.push(empty());
+            tmp.push(empty());
             tmp[id].kind = NodeKind::Join {
                 joint: cut,
                 parent_side: a,
                 child_side: b,
             };
-            tmp[id].children = Some((a, b));
+            tmp[id].children = vec![a, b];
             work.push((parent_side, a));
             work.push((in_child, b));
         }
@@ -229,16 +306,14 @@ impl AssemblyTree {
         let mut post = Vec::with_capacity(tmp.len());
         let mut stack = vec![(0usize, false)];
         while let Some((t, expanded)) = stack.pop() {
-            match (tmp[t].children, expanded) {
-                (Some((a, b)), false) => {
-                    stack.push((t, true));
-                    stack.push((b, false));
-                    stack.push((a, false));
+            if !expanded && !tmp[t].children.is_empty() {
+                stack.push((t, true));
+                for &c in tmp[t].children.iter().rev() {
+                    stack.push((c, false));
                 }
-                _ => {
-                    new_index[t] = post.len();
-                    post.push(t);
-                }
+            } else {
+                new_index[t] = post.len();
+                post.push(t);
             }
         }
         let mut tree = AssemblyTree {
@@ -246,6 +321,7 @@ impl AssemblyTree {
             body_leaf: vec![0; n],
             joint_node: vec![0; n],
             ground_leaf: 0,
+            gathered: Vec::new(),
         };
         for &t in &post {
             let kind = match tmp[t].kind {
@@ -258,6 +334,12 @@ impl AssemblyTree {
                     parent_side: new_index[parent_side],
                     child_side: new_index[child_side],
                 },
+                NodeKind::Gather { body, count, .. } => {
+                    let first = tree.gathered.len();
+                    tree.gathered
+                        .extend(tmp[t].children.iter().map(|&c| new_index[c]));
+                    NodeKind::Gather { body, first, count }
+                }
                 k => k,
             };
             tree.nodes.push(AssemblyNode {
@@ -280,6 +362,20 @@ impl AssemblyTree {
                     for c in [parent_side, child_side] {
                         tree.nodes[c].parent = Some(i);
                         tree.nodes[c].depth = depth + 1;
+                    }
+                }
+                NodeKind::Gather { body, first, count } => {
+                    match body {
+                        Some(b) => tree.body_leaf[b] = i,
+                        None => tree.ground_leaf = i,
+                    }
+                    for k in first..first + count {
+                        let c = tree.gathered[k];
+                        tree.nodes[c].parent = Some(i);
+                        tree.nodes[c].depth = depth + 1;
+                        // The child's one handle, its joint to the hub, is absorbed here.
+                        let joint = tree.nodes[c].handles[0];
+                        tree.joint_node[joint] = i;
                     }
                 }
                 NodeKind::Body(b) => tree.body_leaf[b] = i,
@@ -311,6 +407,15 @@ impl AssemblyTree {
                     stack.push((child_side, indent + 1));
                     stack.push((parent_side, indent + 1));
                     format!("join {}", model.bodies[joint].joint_name())
+                }
+                NodeKind::Gather { body, first, count } => {
+                    for &c in self.gathered[first..first + count].iter().rev() {
+                        stack.push((c, indent + 1));
+                    }
+                    match body {
+                        Some(b) => format!("gather body {}", model.bodies[b].name),
+                        None => "gather ground".to_string(),
+                    }
                 }
             };
             out.push_str(&"  ".repeat(indent));

@@ -15,7 +15,7 @@
 //!   ([`MasslessLeafPolicy`], [`Model::locked_joints`]): their `q̈` is 0, never a NaN.
 //! - With the feature `urdf-rs`, `Model::from_urdf_robot` builds the same model from a robot
 //!   read by the `urdf-rs` crate.
-//! - See `docs/loading.md` for what is validated, the tolerances and the limits. Visual and collision geometry, materials, limits, `<gazebo>` and `<transmission>`
+//! - See `docs/loading.md` for what is validated, the tolerances and the limits. Visual and collision geometry, materials, `<gazebo>` and `<transmission>`
 //!   tags are ignored by the strict pass, so sloppy geometry never stops a load. Collision (else
 //!   visual) primitives are read leniently on the side into [`Body::geometry`]; malformed ones
 //!   are dropped.
@@ -45,6 +45,7 @@
 
 mod assembly;
 pub mod body_inertia;
+mod collision;
 mod error;
 mod model;
 mod options;
@@ -53,8 +54,9 @@ mod urdf;
 mod urdf_rs_interop;
 mod warning;
 
-pub use assembly::{AssemblyNode, AssemblyTree, HandleLayout, NodeKind};
+pub use assembly::{AssemblyNode, AssemblyTree, HandleLayout, NodeKind, GATHER_ABOVE};
 pub use body_inertia::{InertiaChange, InertiaDefect, InertiaDefectKind};
+pub use collision::{inertia_box, shape_points, CollisionModel, ContactSphere};
 pub use error::ModelError;
 pub use model::{Body, JointPart, LinkFrame, LockedJoint, Model, FLOATING_BASE_JOINT};
 pub use options::{InertiaPolicy, LoadOptions, MasslessLeafPolicy};

@@ -32,6 +32,9 @@ pub struct JointPart {
     pub q_offset: usize,
     /// Offset of this part's velocity coordinates in the model's `qd`.
     pub v_offset: usize,
+    /// `[lower, upper]` from the URDF's `<limit>` (revolute and prismatic joints with
+    /// `lower < upper`; rad or m), enforced by the contact step (`docs/contact.md`).
+    pub limits: Option<[f64; 2]>,
 }
 
 impl JointPart {
@@ -470,6 +473,7 @@ impl Model {
             axis,
             q_offset: 0,
             v_offset: 0,
+            limits: None,
         };
         // Locks the massless subtree moved by `first` (which moves `link`), its links welded at
         // the neutral position to `weld`: `Some((body or None for the ground, the map from the
@@ -647,6 +651,16 @@ impl Model {
             model.nq += l.joint.nq();
             model.nv += l.joint.nv();
         }
+        // URDF joint limits, by joint name (names are unique).
+        let limits: std::collections::HashMap<&str, [f64; 2]> = raw
+            .joints
+            .iter()
+            .filter_map(|j| Some((j.name.as_str(), j.limits?)))
+            .collect();
+        let parts = model.bodies.iter_mut().flat_map(|b| b.joint.iter_mut());
+        for p in parts.chain(model.locked.iter_mut().map(|l| &mut l.joint)) {
+            p.limits = limits.get(p.name.as_str()).copied();
+        }
         model.assembly = AssemblyTree::build(&model);
         Ok(model)
     }
@@ -680,6 +694,7 @@ mod tests {
                             axis: DVec3::new(x, y, z),
                             q_offset: 0,
                             v_offset: 0,
+                            limits: None,
                         };
                         let rotates = matches!(kind, JointKind::Revolute | JointKind::Continuous);
                         let expected =

@@ -4,8 +4,8 @@
 //! types, origins, parents, children and axes — strictly, so that errors name the offending
 //! link or joint, and skips everything else (visual and collision geometry, materials, limits,
 //! `<gazebo>`, `<transmission>`, unknown tags), so sloppy geometry never makes loading fail.
-//! Collision and visual primitives (box, cylinder, sphere, mesh) are read leniently on the side:
-//! a malformed one is dropped, never an error.
+//! Collision and visual primitives (box, cylinder, sphere, capsule, mesh) and joint limits are
+//! read leniently on the side: a malformed one is dropped, never an error.
 //! The values read are then validated (finite, positive semidefinite inertia, triangle
 //! inequality, unit axes, one root, no cycles).
 
@@ -23,7 +23,7 @@ use std::collections::HashMap;
     serde(rename_all = "snake_case")
 )]
 pub enum JointKind {
-    /// Rotation about the axis, with limits in the URDF (the limits are not enforced).
+    /// Rotation about the axis, with limits in the URDF ([`crate::JointPart::limits`]).
     Revolute,
     /// Rotation about the axis without limits.
     Continuous,
@@ -74,6 +74,8 @@ pub(crate) struct RawJoint {
     pub origin: SpatialTransform,
     /// Unit axis in the joint frame.
     pub axis: DVec3,
+    /// `<limit lower upper>` of a revolute or prismatic joint (see [`read_limits`]).
+    pub limits: Option<[f64; 2]>,
     pub parent: usize,
     pub child: usize,
 }
@@ -506,6 +508,14 @@ pub enum Shape {
         /// Radius.
         radius: f64,
     },
+    /// `<capsule radius length>` (not in the URDF specification, written by some exporters):
+    /// a cylinder of `length` along z, centred on the origin, capped by two hemispheres.
+    Capsule {
+        /// Radius of the cylinder and of the end spheres.
+        radius: f64,
+        /// Distance between the end spheres' centres, along z.
+        length: f64,
+    },
     /// `<mesh>`: its extent is unknown without reading the mesh file (users fall back to the
     /// link's inertia).
     Mesh,
@@ -564,6 +574,10 @@ fn read_geometry(el: roxmltree::Node, role: GeometryRole, quat: bool) -> Option<
                     "sphere" => Shape::Sphere {
                         radius: num("radius")?,
                     },
+                    "capsule" => Shape::Capsule {
+                        radius: num("radius")?,
+                        length: num("length")?,
+                    },
                     "mesh" => Shape::Mesh,
                     _ => return None,
                 });
@@ -587,6 +601,21 @@ pub(crate) struct JointData<'a> {
     pub(crate) parent: Cow<'a, str>,
     pub(crate) child: Cow<'a, str>,
     pub(crate) axis: DVec3,
+    /// `<limit lower upper>`, read leniently ([`read_limits`]).
+    pub(crate) limits: Option<[f64; 2]>,
+}
+
+/// Reads `<limit lower="..." upper="...">` leniently: `Some([lower, upper])` when both are
+/// finite numbers with `lower < upper`; `None` otherwise (a missing attribute, which URDF
+/// defaults to 0, included: a range `[0, 0]` is read as "no limit", never as a locked joint).
+/// Used for revolute and prismatic joints only (continuous joints have no limits).
+pub(crate) fn read_limits(el: roxmltree::Node) -> Option<[f64; 2]> {
+    let get = |a: &str| -> Option<f64> {
+        let [x] = numbers::<1>(el.attribute(a)?)?;
+        x.is_finite().then_some(x)
+    };
+    let (lower, upper) = (get("lower")?, get("upper")?);
+    (lower < upper).then_some([lower, upper])
 }
 
 /// The robot as read, before validation.
@@ -704,6 +733,7 @@ fn read_joint<'input>(
         child: Cow::Borrowed(""),
         // URDF's default axis.
         axis: DVec3::X,
+        limits: None,
     };
     let (mut origin, mut axis, mut parent, mut child) = (None, None, None, None);
     for c in el.children().filter(|n| n.is_element()) {
@@ -713,6 +743,10 @@ fn read_joint<'input>(
             "axis" => &mut axis,
             "parent" => &mut parent,
             "child" => &mut child,
+            "limit" => {
+                joint.limits = read_limits(c);
+                continue;
+            }
             "mimic" => {
                 warnings.push(LoadWarning::Mimic {
                     joint: name.to_string(),
@@ -925,6 +959,10 @@ pub(crate) fn validate(robot: RobotData) -> Result<RawRobot, ModelError> {
             kind,
             origin,
             axis,
+            limits: match kind {
+                JointKind::Revolute | JointKind::Prismatic => j.limits,
+                _ => None,
+            },
             parent,
             child,
         });

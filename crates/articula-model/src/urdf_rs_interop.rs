@@ -91,6 +91,11 @@ pub(crate) fn robot_data(robot: &u::Robot) -> Result<RobotData<'_>, ModelError> 
                 parent: Cow::Borrowed(j.parent.link.as_str()),
                 child: Cow::Borrowed(j.child.link.as_str()),
                 axis: DVec3::from_array(j.axis.xyz.0),
+                // As `read_limits`: finite with lower < upper, else none.
+                limits: (j.limit.lower.is_finite()
+                    && j.limit.upper.is_finite()
+                    && j.limit.lower < j.limit.upper)
+                    .then_some([j.limit.lower, j.limit.upper]),
             }
         })
         .collect();

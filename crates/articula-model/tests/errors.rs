@@ -1728,3 +1728,63 @@ fn hand_made_trees_have_valid_assembly_trees() {
         check_invariants(&load_floating(&text).unwrap());
     }
 }
+
+/// A hub `hub` with `k` children `{hub}_c{i}` on revolute joints (the link elements too).
+fn star_parts(hub: &str, k: usize) -> String {
+    (0..k)
+        .map(|i| {
+            let child = format!("{hub}_c{i}");
+            link(&child, 0.1) + &joint(&format!("j_{child}"), "revolute", hub, &child)
+        })
+        .collect()
+}
+
+/// Hubs with more than `GATHER_ABOVE` children become gather nodes (nested ones too, and the
+/// ground of a fixed base), every node then has at most two handles, and the tree keeps its
+/// invariants; a hub with exactly `GATHER_ABOVE` children stays a balanced-cut tree.
+#[test]
+fn many_children_are_gathered() {
+    let k = articula_model::GATHER_ABOVE;
+    let star = |children: usize| robot(&(link("hub", 1.0) + &star_parts("hub", children)));
+    for floating_base in [false, true] {
+        let ld = |t: &str| {
+            if floating_base {
+                load_floating(t)
+            } else {
+                load(t)
+            }
+            .unwrap()
+        };
+        let m = ld(&star(k));
+        check_invariants(&m);
+        assert!(!m.assembly.has_gather());
+        let m = ld(&star(40 * k));
+        check_invariants(&m);
+        assert!(m.assembly.has_gather());
+        assert!(
+            m.assembly.max_handles() <= 2,
+            "{}",
+            m.assembly.max_handles()
+        );
+        // A hub of hubs: every child of the hub has k + 1 children.
+        let mut text = link("hub", 1.0) + &star_parts("hub", k + 1);
+        for i in 0..=k {
+            text += &star_parts(&format!("hub_c{i}"), k + 1);
+        }
+        let m = ld(&robot(&text));
+        check_invariants(&m);
+        let gathers = m
+            .assembly
+            .nodes
+            .iter()
+            .filter(|n| matches!(n.kind, articula_model::NodeKind::Gather { .. }))
+            .count();
+        assert_eq!(gathers, k + 2, "the hub and each of its children");
+        assert!(
+            m.assembly.max_handles() <= 2,
+            "{}",
+            m.assembly.max_handles()
+        );
+        assert!(m.assembly.depth() <= 4, "depth {}", m.assembly.depth());
+    }
+}

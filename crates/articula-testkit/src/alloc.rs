@@ -28,12 +28,14 @@ pub struct CountingAllocator;
 thread_local! {
     static ENABLED: Cell<bool> = const { Cell::new(false) };
     static COUNT: Cell<usize> = const { Cell::new(0) };
+    static BYTES: Cell<usize> = const { Cell::new(0) };
 }
 
-fn note() {
+fn note(bytes: usize) {
     // `try_with`: the allocator may run while a thread's locals are being torn down.
     if ENABLED.try_with(Cell::get).unwrap_or(false) {
         let _ = COUNT.try_with(|c| c.set(c.get() + 1));
+        let _ = BYTES.try_with(|c| c.set(c.get() + bytes));
     }
 }
 
@@ -41,15 +43,15 @@ fn note() {
 // thread-local cells, which allocate nothing.
 unsafe impl GlobalAlloc for CountingAllocator {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        note();
+        note(layout.size());
         unsafe { System.alloc(layout) }
     }
     unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        note();
+        note(layout.size());
         unsafe { System.alloc_zeroed(layout) }
     }
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        note();
+        note(new_size);
         unsafe { System.realloc(ptr, layout, new_size) }
     }
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
@@ -69,4 +71,14 @@ pub fn count_allocations(f: impl FnOnce()) -> usize {
     let n = COUNT.with(Cell::get);
     COUNT.with(|c| c.set(outer + if was_on { n } else { 0 }));
     n
+}
+
+/// Runs `f` with counting on (this thread only) and returns the bytes it asked for: the sum of
+/// the sizes of its `alloc`, `alloc_zeroed` and `realloc` calls (frees not subtracted), for
+/// tests of how a workspace grows with the model. Counts only in a binary whose global
+/// allocator is [`CountingAllocator`]; do not nest it in [`count_allocations`].
+pub fn count_allocated_bytes(f: impl FnOnce()) -> usize {
+    BYTES.with(|c| c.set(0));
+    count_allocations(f);
+    BYTES.with(Cell::get)
 }

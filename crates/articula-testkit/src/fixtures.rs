@@ -69,6 +69,72 @@ pub fn chain(n: usize) -> Model {
     Model::from_urdf_str(&chain_urdf(n), &LoadOptions::default()).expect("chain loads")
 }
 
+/// A star: a hub link (2 kg) with `k` rod links (0.1 kg, 0.1 m) on revolute joints around it,
+/// their axes alternating between x and y, 0.1 m from the hub's centre. With a fixed base the hub
+/// is the ground; with a floating base it is a body with `k` children.
+pub fn star_urdf(k: usize) -> String {
+    let mut s = String::from("<robot name=\"star\">\n");
+    s += &hub_link("hub");
+    for i in 0..k {
+        let a = std::f64::consts::TAU * i as f64 / k as f64;
+        let axis = if i % 2 == 0 { "1 0 0" } else { "0 1 0" };
+        s += &rod_link(&format!("l{i}"), 0.1, 0.1);
+        s += &revolute(
+            &format!("j{i}"),
+            "hub",
+            &format!("l{i}"),
+            [0.1 * a.cos(), 0.1 * a.sin(), 0.0],
+            axis,
+        );
+    }
+    s + "</robot>\n"
+}
+
+/// A "hair head": a base, a head on a revolute neck, and `strands` chains of `segments` rod
+/// links (10 g, 2 cm) hanging from points around the head, their joints alternating between y
+/// and x. With a fixed base the head is a body with `strands` children.
+pub fn hair_urdf(strands: usize, segments: usize) -> String {
+    let mut s = String::from("<robot name=\"hair\">\n");
+    s += &hub_link("base");
+    s += &hub_link("head");
+    s += &revolute("neck", "base", "head", [0.0, 0.0, 0.2], "0 0 1");
+    for i in 0..strands {
+        let a = std::f64::consts::TAU * i as f64 / strands as f64;
+        let z = 0.1 * (0.37 * i as f64).cos();
+        let mut parent = "head".to_string();
+        for k in 0..segments {
+            let name = format!("s{i}_{k}");
+            let at = if k == 0 {
+                [0.1 * a.cos(), 0.1 * a.sin(), z]
+            } else {
+                [0.0, 0.0, -0.02]
+            };
+            let axis = if k % 2 == 0 { "0 1 0" } else { "1 0 0" };
+            s += &rod_link(&name, 0.01, 0.02);
+            s += &revolute(&format!("j{i}_{k}"), &parent, &name, at, axis);
+            parent = name;
+        }
+    }
+    s + "</robot>\n"
+}
+
+/// A 2 kg link with a 0.02 kg m² isotropic rotational inertia.
+fn hub_link(name: &str) -> String {
+    format!("<link name=\"{name}\"><inertial><mass value=\"2\"/><inertia ixx=\"0.02\" iyy=\"0.02\" izz=\"0.02\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>\n")
+}
+
+/// A rod of mass `m` and length `l` (radius 1 cm) hanging along −z from its joint.
+fn rod_link(name: &str, m: f64, l: f64) -> String {
+    let ixx = m * (3.0 * 0.01 * 0.01 + l * l) / 12.0;
+    let izz = m * 0.01 * 0.01 / 2.0;
+    let z = -l / 2.0;
+    format!("<link name=\"{name}\"><inertial><origin xyz=\"0 0 {z}\"/><mass value=\"{m}\"/><inertia ixx=\"{ixx}\" iyy=\"{ixx}\" izz=\"{izz}\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>\n")
+}
+
+fn revolute(name: &str, parent: &str, child: &str, at: [f64; 3], axis: &str) -> String {
+    format!("<joint name=\"{name}\" type=\"revolute\"><parent link=\"{parent}\"/><child link=\"{child}\"/><origin xyz=\"{} {} {}\"/><axis xyz=\"{axis}\"/><limit lower=\"-3\" upper=\"3\" effort=\"10\" velocity=\"10\"/></joint>\n", at[0], at[1], at[2])
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -24,7 +24,9 @@ pub mod reference;
 #[cfg(feature = "dca")]
 pub mod seeds;
 
-pub use alloc::{count_allocations, CountingAllocator};
+pub use alloc::{count_allocated_bytes, count_allocations, CountingAllocator};
 pub use dd::{Dd, Real};
-pub use fixtures::{bundled, bundled_urdf, bundled_with, chain, chain_urdf, BUNDLED};
+pub use fixtures::{
+    bundled, bundled_urdf, bundled_with, chain, chain_urdf, hair_urdf, star_urdf, BUNDLED,
+};
 pub use reference::ReferenceModel;

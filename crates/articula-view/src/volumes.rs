@@ -252,11 +252,13 @@ pub(crate) fn body_volumes(model: &Model) -> Vec<BodyVolumes> {
                         center: DVec3::ZERO,
                         radius,
                     },
-                    Shape::Cylinder { radius, length } => Volume::Capsule {
-                        a: DVec3::new(0.0, 0.0, -0.5 * length),
-                        b: DVec3::new(0.0, 0.0, 0.5 * length),
-                        radius,
-                    },
+                    Shape::Cylinder { radius, length } | Shape::Capsule { radius, length } => {
+                        Volume::Capsule {
+                            a: DVec3::new(0.0, 0.0, -0.5 * length),
+                            b: DVec3::new(0.0, 0.0, 0.5 * length),
+                            radius,
+                        }
+                    }
                     Shape::Mesh => {
                         has_mesh = true;
                         continue;

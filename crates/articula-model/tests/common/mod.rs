@@ -120,6 +120,14 @@ fn vertex_sets(model: &Model) -> Vec<BTreeSet<usize>> {
                 assert!(a.is_disjoint(b), "the two sides of a join overlap");
                 a.union(b).copied().collect()
             }
+            NodeKind::Gather { body, first, count } => {
+                let mut set = BTreeSet::from([body.unwrap_or(n)]);
+                for &c in &tree.gathered[first..first + count] {
+                    assert!(set.is_disjoint(&sets[c]), "a gather's children overlap");
+                    set.extend(sets[c].iter().copied());
+                }
+                set
+            }
         };
         sets.push(set);
     }
@@ -204,8 +212,15 @@ pub fn check_invariants(model: &Model) {
     let ground = n;
     let vparent = |v: usize| model.bodies[v].parent.unwrap_or(ground);
 
-    // A full binary tree over n + 1 leaves.
-    assert_eq!(tree.nodes.len(), 2 * (n + 1) - 1, "node count");
+    // A full binary tree over n + 1 leaves (without gather nodes); otherwise one node per body
+    // and the ground (a leaf or a gather) plus one join per joint no gather absorbs.
+    let gathered_joints = tree.gathered.len();
+    assert_eq!(
+        tree.nodes.len(),
+        (n + 1) + (n - gathered_joints),
+        "node count"
+    );
+    assert_eq!(tree.has_gather(), gathered_joints > 0);
     assert_eq!(tree.body_leaf.len(), n);
     assert_eq!(tree.joint_node.len(), n);
 
@@ -239,6 +254,12 @@ pub fn check_invariants(model: &Model) {
             assert_eq!(tree.nodes[parent_side].parent, Some(i));
             assert_eq!(tree.nodes[child_side].parent, Some(i));
         }
+        if let NodeKind::Gather { .. } = node.kind {
+            for &c in tree.gather_children(i) {
+                assert!(c < i, "gather {i}: child after it");
+                assert_eq!(tree.nodes[c].parent, Some(i));
+            }
+        }
     }
 
     // Each body in exactly one leaf, the ground in exactly one; each joint principal once.
@@ -259,6 +280,19 @@ pub fn check_invariants(model: &Model) {
                 assert!(joint < n);
                 principal_count[joint] += 1;
                 assert_eq!(tree.joint_node[joint], i);
+            }
+            NodeKind::Gather { body, .. } => {
+                leaf_count[body.unwrap_or(ground)] += 1;
+                match body {
+                    Some(b) => assert_eq!(tree.body_leaf[b], i),
+                    None => assert_eq!(tree.ground_leaf, i),
+                }
+                // Each child's one handle, its joint to the hub, is absorbed here.
+                for &c in tree.gather_children(i) {
+                    let joint = tree.nodes[c].handles[0];
+                    principal_count[joint] += 1;
+                    assert_eq!(tree.joint_node[joint], i);
+                }
             }
         }
     }
@@ -339,6 +373,17 @@ pub fn check_invariants(model: &Model) {
                     sets[child_side].contains(&joint),
                     "join {i}: principal joint's child body not in child_side"
                 );
+            }
+            NodeKind::Gather { body, .. } => {
+                let hub = body.unwrap_or(ground);
+                let children: Vec<usize> = (0..n).filter(|&b| vparent(b) == hub).collect();
+                assert!(children.len() > articula_model::GATHER_ABOVE, "gather {i}");
+                let kids = tree.gather_children(i);
+                assert_eq!(kids.len(), children.len(), "gather {i}: one node per child");
+                for (&c, &b) in kids.iter().zip(&children) {
+                    assert_eq!(tree.nodes[c].handles, vec![b], "gather {i}: child {b}");
+                    assert!(sets[c].contains(&b), "gather {i}: child {b}");
+                }
             }
         }
     }

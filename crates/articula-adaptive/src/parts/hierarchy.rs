@@ -1,0 +1,297 @@
+//! The hierarchical state of the hybrid body (docs/design.md#adaptive): the reduced tree of
+//! active joints, its articulated-body workspace and the rigid clusters' frames, which a step
+//! between re-selections reads instead of the whole assembly tree. The passes that build and
+//! read it are in `hierarchy.rs`.
+
+use crate::parts::composites::Rigid;
+use articula_spatial::SpatialTransform;
+use glam::DVec3;
+
+/// Lists and frames of the current hybrid body. (`repr(C)`: the fields a step between
+/// re-selections reads come first, in a few cache lines; see `Adaptive`'s.)
+#[derive(Clone, Debug, Default)]
+#[repr(C)]
+pub(crate) struct Hierarchy {
+    /// The reduced tree, one record per active joint in the order of `ajoints` (parents
+    /// first): what its kinematics and articulated-body passes read, contiguous.
+    pub rec: Vec<ActiveJoint>,
+    /// Articulated-body workspace of the reduced tree (one rigid cluster per active joint),
+    /// indexed like `rec`: `Iᴬ`, `pᴬ`, the cluster's acceleration, `D⁻¹` (one DOF) or the
+    /// Cholesky factor of `D` (several); per degree of freedom (at `rec.dof()`) `U = Iᴬ s` and
+    /// `u = τ − sᵀ pᴬ`. `Iᴬ` is symmetric, stored whole with both halves equal to the bit
+    /// ([`Sym6`]): its rows are contiguous vectors.
+    pub ia: Vec<Sym6>,
+    pub pa: Vec<[f64; 6]>,
+    pub acc: Vec<[f64; 6]>,
+    pub dinv: Vec<f64>,
+    pub chol: Vec<[[f64; 6]; 6]>,
+    pub u: Vec<[f64; 6]>,
+    pub uu: Vec<f64>,
+    /// Per angle of the reduced tree — a closed-form revolute joint's, then each part of a
+    /// joint of [`RevoluteParts`], in record order (the kinematics take them in turn) —
+    /// its coordinate and sign (`ang`, built with the records) and the `sin`, `cos` of its
+    /// signed value (`sc`), computed in a first sweep of `Adaptive::active_kinematics`, four
+    /// at a time, so that its main loop makes no call (every vector register is
+    /// caller-saved). (`ang` in 8 bytes an angle, the sign `±1` exact in `f32`: a crowd's
+    /// bodies run through more data than the 1 MB L2 holds, every byte read per step counts;
+    /// `sc` is written and read within one call: a `_with` call takes the scratch's.)
+    pub ang: Vec<(u32, f32)>,
+    pub sc: Vec<(f64, f64)>,
+    /// Active join nodes, then frontier nodes, each ascending (post-order).
+    pub hnodes: Vec<usize>,
+    pub fnodes: Vec<usize>,
+    /// Per body: its joint's [`RevoluteParts`] (built with `axis`).
+    pub parts: Vec<Option<RevoluteParts>>,
+    /// Builds of the records so far (the reduced tree and the active flags change only with
+    /// them), and per body the rigid cluster (frontier node) an external force on it goes to,
+    /// with the build it was found in (`(gen, node)`, found on the first force after a build).
+    pub gen: u64,
+    pub fcl: Vec<(u64, usize)>,
+    /// The records' degrees of freedom, `Σ k` (what `Adaptive::active_dofs` reports while
+    /// `valid`, read once per step by a scene).
+    pub dofs: usize,
+    /// Built for the current hybrid body (cleared by a re-selection).
+    pub valid: bool,
+    /// Built by the cached re-selection (lists, clusters' mass properties and parent poses
+    /// from the caches).
+    pub from_cache: bool,
+    /// The active bodies' kinematics in `data` are those of the coming hybrid step's state
+    /// (set by a cached re-selection that kept the hybrid body, taken by the step).
+    pub kin_fresh: bool,
+    /// Per frontier node (rigid cluster): mass properties in its top body's frame.
+    pub rig: Vec<Rigid>,
+    /// Bodies whose joints are active, ascending (parents first).
+    pub ajoints: Vec<usize>,
+    /// Per body: its joint is active.
+    pub abody: Vec<bool>,
+    /// Per active body: the rigid cluster (frontier node) holding its parent body, or
+    /// `usize::MAX` when the parent is an active body or the world; and the parent's pose in the
+    /// cluster's top-body frame.
+    pub pcl: Vec<usize>,
+    pub prel: Vec<SpatialTransform>,
+    /// Per active body: its rigid cluster (the frontier node whose top body it is), and the
+    /// active body topping the cluster that holds its parent (`usize::MAX`: the world or a
+    /// cluster welded to the ground).
+    pub cl: Vec<usize>,
+    pub par: Vec<usize>,
+    /// Per body: `(i, ±1)` for a joint of one revolute part about the coordinate axis `±e_i`
+    /// (the usual URDF case, kinematics in closed form), else `None`. Built once per model.
+    pub axis: Vec<Option<(usize, f64)>>,
+    /// Per body: its record while building them (valid for the active bodies).
+    pub ridx: Vec<usize>,
+}
+
+impl Hierarchy {
+    /// The reduced tree's workspace at least as long as its records need (the
+    /// articulated-body passes index it by record and degree of freedom): a shared buffer may
+    /// have been sized for another body's reduced tree, and the workspace's own buffers for an
+    /// older one of this body.
+    #[inline]
+    pub(crate) fn fit_reduced(&mut self, full: [usize; 2]) {
+        let h = &*self;
+        let na = h.rec.len();
+        let dof = h.rec.last().map_or(0, |r| r.dof() + r.k());
+        let fits = [
+            h.ia.len(),
+            h.pa.len(),
+            h.acc.len(),
+            h.dinv.len(),
+            h.chol.len(),
+        ]
+        .iter()
+        .all(|&l| l >= na)
+            && h.u.len() >= dof
+            && h.uu.len() >= dof
+            && h.sc.len() >= h.ang.len();
+        if !fits {
+            self.grow_reduced(na, dof, full);
+        }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn grow_reduced(&mut self, na: usize, dof: usize, [nb, nv]: [usize; 2]) {
+        let h = self;
+        grow(&mut h.ia, na, nb, [[0.0; 6]; 6]);
+        grow(&mut h.pa, na, nb, [0.0; 6]);
+        grow(&mut h.acc, na, nb, [0.0; 6]);
+        grow(&mut h.dinv, na, nb, 0.0);
+        grow(&mut h.chol, na, nb, [[0.0; 6]; 6]);
+        grow(&mut h.u, dof, nv, [0.0; 6]);
+        grow(&mut h.uu, dof, nv, 0.0);
+        grow(&mut h.sc, h.ang.len(), nv, (0.0, 1.0));
+    }
+}
+
+/// Grows `v` to at least `need` elements, reserving `full` at the first growth (a later one
+/// then allocates nothing).
+fn grow<T: Clone>(v: &mut Vec<T>, need: usize, full: usize, x: T) {
+    if v.len() < need {
+        if v.capacity() < full {
+            v.reserve_exact(full - v.len());
+        }
+        v.resize(need, x);
+    }
+}
+
+/// Where an active joint's parent body is. (Body indices as `u32`: eight bytes, not 16.)
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Parent {
+    /// The world (no parent body): the computation frame.
+    World,
+    /// An active body.
+    Active(u32),
+    /// A rigid cluster topped by this body, at the record's constant pose in its frame.
+    Cluster(u32),
+    /// A cluster welded to the ground, at the record's constant pose in the world.
+    Ground,
+}
+
+/// [`ActiveJoint::pidx`] of a joint whose parent is the world or a cluster welded to it.
+pub(crate) const NO_PARENT: usize = u32::MAX as usize;
+
+/// One active joint of the reduced tree. Narrow and line-aligned: indices as `u32`, the
+/// axis index as `u8`, so that a record is four 64-byte lines (was 304 bytes, five or six
+/// lines) — the indices, parent, flags and axis (all passes 2 and 3 read) in its first line,
+/// `x0` (the kinematics) in the first three, `rig` (pass 1) in the last two.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+pub(crate) struct ActiveJoint {
+    /// Body, offsets of its coordinates, degrees of freedom, first slot in `u`/`uu` (written by
+    /// `Adaptive::build_records`, read through the methods of the same names).
+    pub(crate) j: u32,
+    pub(crate) qo: u32,
+    pub(crate) vo: u32,
+    pub(crate) k: u32,
+    pub(crate) dof: u32,
+    /// Index (in `rec`) of the active joint topping the cluster that holds the parent body
+    /// ([`NO_PARENT`]: none).
+    pub(crate) pidx: u32,
+    /// The cluster this joint tops (frontier node).
+    pub(crate) f: u32,
+    pub parent: Parent,
+    /// `x0` is not the identity.
+    pub mulx: bool,
+    /// `x0`'s rotation is the identity (a joint origin that only translates, the usual URDF
+    /// link): the composition `X x0 = (E, r₀ + r)` costs three additions. (The full product's
+    /// `E · 1` and `1ᵀ r` are the same numbers; only the sign of an exact zero may differ.)
+    pub shift: bool,
+    /// The number of parts of a joint of one or more revolute parts about coordinate axes
+    /// ([`RevoluteParts`]) whose coordinates are contiguous (part `p` at `qo + p`, `vo + p`):
+    /// the integration updates them as one-axis coordinates. 0 for any other joint.
+    pub revs: u8,
+    /// `(i, ±1)` of a closed-form revolute joint ([`ActiveJoint::axis`]; an `Option` of the
+    /// pair would take 24 bytes). `ax` is [`AX_PARTS`] for a joint of [`RevoluteParts`]
+    /// (then in `rp`), `u8::MAX` for any other joint.
+    pub(crate) ax: u8,
+    pub(crate) sign: f64,
+    pub rp: RevoluteParts,
+    /// Constant pose that follows the parent frame: for a closed-form revolute joint its
+    /// origin, composed with the parent body's pose in its cluster; for other joints that pose
+    /// alone (their origins are applied by the general kinematics).
+    pub x0: SpatialTransform,
+    /// The cluster's mass properties in this body's frame.
+    pub rig: Rigid,
+}
+
+const _: () = assert!(std::mem::size_of::<ActiveJoint>() == 256);
+
+/// [`ActiveJoint::ax`] of a joint of [`RevoluteParts`].
+pub(crate) const AX_PARTS: u8 = 0xfe;
+
+impl ActiveJoint {
+    #[inline(always)]
+    pub fn j(&self) -> usize {
+        self.j as usize
+    }
+    #[inline(always)]
+    pub fn qo(&self) -> usize {
+        self.qo as usize
+    }
+    #[inline(always)]
+    pub fn vo(&self) -> usize {
+        self.vo as usize
+    }
+    #[inline(always)]
+    pub fn k(&self) -> usize {
+        self.k as usize
+    }
+    #[inline(always)]
+    pub fn dof(&self) -> usize {
+        self.dof as usize
+    }
+    #[inline(always)]
+    pub fn pidx(&self) -> usize {
+        self.pidx as usize
+    }
+    #[inline(always)]
+    pub fn f(&self) -> usize {
+        self.f as usize
+    }
+    /// `(i, ±1)` of a closed-form revolute joint about `±e_i`.
+    #[inline(always)]
+    pub fn axis(&self) -> Option<(usize, f64)> {
+        (self.ax < 3).then_some((self.ax as usize, self.sign))
+    }
+    /// The joint's [`RevoluteParts`], if it is made of them.
+    #[inline(always)]
+    pub fn parts(&self) -> Option<&RevoluteParts> {
+        (self.ax == AX_PARTS).then_some(&self.rp)
+    }
+}
+
+/// `(i, ±1)` when `body`'s joint is one revolute part about the coordinate axis `±e_i`.
+pub(crate) fn coordinate_axis(body: &articula_model::Body) -> Option<(usize, f64)> {
+    let [part] = body.joint.as_slice() else {
+        return None;
+    };
+    part.coordinate_axis()
+}
+
+/// The parts of a joint made of revolute parts about coordinate axes (`±x`, `±y`, `±z`, the
+/// usual URDF case): per part `(i, ±1)` of its axis `±e_i`, and a bit per part whose origin is
+/// not the identity (the massless links of a composed joint often are). `None` for any other
+/// joint. (Eight bytes: a copy sits in each composed joint's record, in its first line;
+/// per part `i` in bits 0–1 and the sign in bit 7 of one byte.)
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C)]
+pub(crate) struct RevoluteParts {
+    pub(crate) moved: u8,
+    /// A bit per moved part whose origin's rotation is the identity (it only translates).
+    pub(crate) shift: u8,
+    pub(crate) axes: [u8; 6],
+}
+
+impl RevoluteParts {
+    /// `(i, ±1)` of part `k`'s axis `±e_i` (the sign `±1.0` chosen by the byte's bit 7).
+    #[inline(always)]
+    pub(crate) fn axis(&self, k: usize) -> (usize, f64) {
+        const SIGNS: [f64; 2] = [1.0, -1.0];
+        let b = self.axes[k];
+        ((b & 3) as usize, SIGNS[usize::from(b >> 7)])
+    }
+}
+
+/// `body`'s joint as [`RevoluteParts`], when it is made of them.
+pub(crate) fn revolute_parts(body: &articula_model::Body) -> Option<RevoluteParts> {
+    let mut axes = [0u8; 6];
+    let (mut moved, mut shift) = (0u8, 0u8);
+    for (k, part) in body.joint.iter().enumerate() {
+        if k >= 6 {
+            return None;
+        }
+        let (i, sign) = part.coordinate_axis()?;
+        axes[k] = i as u8 | if sign < 0.0 { 0x80 } else { 0 };
+        if part.origin.e != glam::DMat3::IDENTITY || part.origin.r != DVec3::ZERO {
+            moved |= 1 << k;
+            if part.origin.e == glam::DMat3::IDENTITY {
+                shift |= 1 << k;
+            }
+        }
+    }
+    Some(RevoluteParts { axes, moved, shift })
+}
+
+/// A symmetric 6 × 6 matrix stored whole, rows `[r][c]`, both halves equal to the bit
+/// (each pair computed once and written twice): its rows are contiguous vectors.
+pub(crate) type Sym6 = [[f64; 6]; 6];

@@ -1,0 +1,31 @@
+//! The buffers of the fourth-order Runge–Kutta step of the hybrid body (the step is
+//! `Adaptive::step_rk4` in `rk4.rs`).
+
+use articula_model::Model;
+
+/// Start values and stage sums of the RK4 step, over all coordinates (only the active joints'
+/// entries are read and written). Empty until the first RK4 step: a workspace stepped by
+/// semi-implicit Euler holds none of it.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct RkBuffers {
+    /// `q`, `q̇` at the start of the step (after the re-selection's impulse).
+    pub(crate) q0: Vec<f64>,
+    pub(crate) qd0: Vec<f64>,
+    /// `Σ wᵢ` of the stages' position slopes and accelerations (`w = 1, 2, 2, 1`).
+    pub(crate) kv: Vec<f64>,
+    pub(crate) ka: Vec<f64>,
+    /// The Lie-algebra increment that made the current stage's floating pose from `q0`.
+    pub(crate) theta: Vec<f64>,
+}
+
+impl RkBuffers {
+    /// Sized for `model` (allocates at the first call only).
+    pub(crate) fn fit(&mut self, model: &Model) {
+        if self.q0.len() != model.nq || self.qd0.len() != model.nv {
+            self.q0 = vec![0.0; model.nq];
+            for v in [&mut self.qd0, &mut self.kv, &mut self.ka, &mut self.theta] {
+                *v = vec![0.0; model.nv];
+            }
+        }
+    }
+}

@@ -1,0 +1,183 @@
+//! `articula simulate --ground Z`: ground contact and joint limits in the step
+//! (`docs/contact.md`), and the figures the summary adds.
+
+use crate::CliError;
+use articula_dca::{
+    forward_kinematics, step_with_contact, ContactData, ContactSettings, Data, Ground, Method,
+    State,
+};
+use articula_model::Model;
+
+/// The contact options of `articula simulate`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct GroundArgs {
+    /// A horizontal ground plane at height Z (m): hard contact with Coulomb friction, and the
+    /// URDF joint limits enforced (docs/contact.md). Semi-implicit Euler, exact methods only.
+    #[arg(long, value_name = "Z", allow_hyphen_values = true)]
+    pub ground: Option<f64>,
+    /// `--ground`: Coulomb friction coefficient μ ≥ 0.
+    #[arg(long, value_name = "MU", default_value_t = 1.0, requires = "ground")]
+    pub friction: f64,
+    /// `--ground`: restitution 0 ≤ e ≤ 1.
+    #[arg(long, value_name = "E", default_value_t = 0.0, requires = "ground")]
+    pub restitution: f64,
+    /// `--ground`: do not enforce the URDF joint limits.
+    #[arg(long, requires = "ground")]
+    pub no_joint_limits: bool,
+    /// `--ground`: before the run, raise a floating base so that the lowest contact point is H
+    /// metres above the ground.
+    #[arg(long, value_name = "H", requires = "ground")]
+    pub drop: Option<f64>,
+}
+
+/// The contact run: settings, workspace and the figures gathered over the steps.
+pub struct GroundRun {
+    settings: ContactSettings,
+    contact: ContactData,
+    steps: u64,
+    contacts: u64,
+    rows: u64,
+    solves: u64,
+    not_converged: u64,
+    max_penetration: f64,
+}
+
+impl GroundArgs {
+    /// The contact run when `--ground` is given (after checking the values), else `None`.
+    pub fn run(&self, model: &Model) -> Result<Option<GroundRun>, CliError> {
+        let Some(z) = self.ground else {
+            return Ok(None);
+        };
+        if !z.is_finite() {
+            return Err(CliError(format!("--ground must be finite, got {z}")));
+        }
+        if !(self.friction >= 0.0 && self.friction.is_finite()) {
+            return Err(CliError(format!(
+                "--friction must be a finite number ≥ 0, got {}",
+                self.friction
+            )));
+        }
+        if !(0.0..=1.0).contains(&self.restitution) {
+            return Err(CliError(format!(
+                "--restitution must be in [0, 1], got {}",
+                self.restitution
+            )));
+        }
+        let mut ground = Ground::horizontal(z);
+        ground.friction = self.friction;
+        ground.restitution = self.restitution;
+        Ok(Some(GroundRun {
+            settings: ContactSettings {
+                ground: Some(ground),
+                joint_limits: !self.no_joint_limits,
+                ..ContactSettings::default()
+            },
+            contact: ContactData::new(model),
+            steps: 0,
+            contacts: 0,
+            rows: 0,
+            solves: 0,
+            not_converged: 0,
+            max_penetration: 0.0,
+        }))
+    }
+}
+
+impl GroundRun {
+    /// `--drop H`: raises the floating base so that the lowest contact point is `h` above the
+    /// ground.
+    pub fn drop(
+        &self,
+        model: &Model,
+        data: &mut Data,
+        state: &mut State,
+        h: f64,
+    ) -> Result<(), CliError> {
+        if !model.floating_base {
+            return Err(CliError(
+                "--drop needs a floating base (--floating-base)".into(),
+            ));
+        }
+        if !h.is_finite() {
+            return Err(CliError(format!("--drop must be finite, got {h}")));
+        }
+        let ground = self.settings.ground.expect("a ground");
+        forward_kinematics(model, &state.q, &state.qd, data);
+        let lowest = self
+            .contact
+            .collision
+            .spheres
+            .iter()
+            .map(|s| (data.x[s.body].apply_point(s.center) + data.origin).z - s.radius)
+            .fold(f64::INFINITY, f64::min);
+        if lowest.is_finite() {
+            state.q[2] += ground.point.z + h - lowest;
+        }
+        Ok(())
+    }
+
+    /// One contact step.
+    pub fn step(
+        &mut self,
+        model: &Model,
+        data: &mut Data,
+        state: &mut State,
+        method: Method,
+        dt: f64,
+    ) -> Result<(), String> {
+        step_with_contact(
+            model,
+            data,
+            &mut self.contact,
+            state,
+            method,
+            dt,
+            &self.settings,
+        )
+        .map_err(|e| e.to_string())?;
+        let s = &self.contact.stats;
+        self.steps += 1;
+        self.contacts += s.contacts as u64;
+        self.rows += s.rows as u64;
+        self.solves += s.response_solves as u64;
+        self.not_converged += (!s.converged) as u64;
+        self.max_penetration = self.max_penetration.max(s.max_penetration);
+        Ok(())
+    }
+
+    /// The summary lines: ground, penetration, contacts, kinetic energy at the end.
+    /// The contact figures as keys of the `--json` summary.
+    pub fn add_json(&self, j: &mut serde_json::Value) {
+        let per = |x: u64| x as f64 / self.steps.max(1) as f64;
+        j["max_penetration_m"] = serde_json::json!(self.max_penetration);
+        j["contacts_mean"] = serde_json::json!(per(self.contacts));
+        j["contact_rows_mean"] = serde_json::json!(per(self.rows));
+        j["response_solves_mean"] = serde_json::json!(per(self.solves));
+        j["steps_not_converged"] = serde_json::json!(self.not_converged);
+    }
+
+    /// The contact figures as lines of the text summary.
+    pub fn lines(&self, kinetic_end: f64) -> Vec<String> {
+        let g = self.settings.ground.expect("a ground");
+        let per = |x: u64| x as f64 / self.steps.max(1) as f64;
+        vec![
+            format!(
+                "ground       z = {} m, friction {}, restitution {}, joint limits {} ({})",
+                g.point.z,
+                g.friction,
+                g.restitution,
+                if self.settings.joint_limits { "on" } else { "off" },
+                self.contact.collision.summary()
+            ),
+            format!("max_penetration_m {:.3e}", self.max_penetration),
+            format!(
+                "contacts     {:.2} per step (mean), {:.2} rows, {:.2} response solves; {} step(s) not converged",
+                per(self.contacts),
+                per(self.rows),
+                per(self.solves),
+                self.not_converged
+            ),
+            format!("kinetic end  {kinetic_end:.6e} J"),
+        ]
+    }
+}

@@ -1,0 +1,260 @@
+//! The contact problem at velocity level, solved by projected Gauss–Seidel on the Delassus
+//! operator `W = J M⁻¹ Jᵀ` (`docs/contact.md#solver`, `docs/design.md#contact`).
+//!
+//! Rows `u = J v⁺` (contact normals and tangents, joint-limit rows) with
+//! `u = u_free + W λ`; the impulses `λ` satisfy, per block,
+//!
+//! - a **unilateral row** (a contact normal, a joint limit): `λ ≥ 0`, `u ≥ b`, `λ (u − b) = 0`
+//!   (`b` the row's target velocity: `−φ/dt` for a gap `φ > 0` not yet closed, else 0, or the
+//!   restitution velocity);
+//! - a **friction pair** (the two tangents of a contact): `|λ_t| ≤ μ λ_n` (the Coulomb disc),
+//!   and where it slides, `λ_t` opposes the tangential velocity.
+//!
+//! Gauss–Seidel sweeps the blocks in order: a unilateral row takes its exact 1-D minimiser
+//! clamped at 0; a friction pair its 2 × 2 solve for zero slip when that lies in the disc,
+//! else a projected-gradient step onto the disc (whose fixed point opposes the slip: maximal
+//! dissipation). Every update lowers `½ λᵀWλ + λᵀ(u_free − b)` for the current bounds.
+//! Each update changes `u` by a column of `W`, so a sweep costs O(k²) for `k` rows. The
+//! sweeps stop when no impulse changes the velocity of its row by more than `tolerance` (m/s)
+//! or after `max_iterations`; the last iterate is used either way (it is always inside the
+//! cone and non-negative: a non-converged solve leaves some residual slip or approach
+//! velocity, never a pulling normal force).
+
+/// One block of rows of the contact problem.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Block {
+    /// A unilateral row (`λ ≥ 0`, `u ≥ b`) at `row`.
+    Unilateral {
+        /// Its row.
+        row: usize,
+    },
+    /// A contact: its normal at `row`, its two tangents at `row + 1`, `row + 2`, friction `mu`.
+    Contact {
+        /// The normal's row.
+        row: usize,
+        /// Coulomb friction coefficient.
+        mu: f64,
+    },
+}
+
+/// When [`solve`] stops: after `max_iterations` sweeps, or after a sweep that changed no row
+/// velocity by more than `tolerance`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Stop {
+    /// Sweeps at most.
+    pub max_iterations: usize,
+    /// Largest row-velocity change of a final sweep (m/s or rad/s).
+    pub tolerance: f64,
+}
+
+/// Outcome of [`solve`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct Solve {
+    /// Sweeps made.
+    pub iterations: usize,
+    /// The largest velocity change of the last sweep (m/s or rad/s).
+    pub change: f64,
+}
+
+/// Projected Gauss–Seidel: `lambda` (the warm start on entry, the impulses on return) for the
+/// `k × k` row-major `w`, free velocities `u_free` and targets `target` (tangent rows' targets
+/// are unused). `u` is the workspace for the row velocities (`u_free + W λ` on return).
+pub(crate) fn solve(
+    w: &[f64],
+    blocks: &[Block],
+    u_free: &[f64],
+    target: &[f64],
+    lambda: &mut [f64],
+    u: &mut [f64],
+    stop: Stop,
+) -> Solve {
+    let Stop {
+        max_iterations,
+        tolerance,
+    } = stop;
+    let k = u_free.len();
+    // u = u_free + W λ
+    for i in 0..k {
+        let row = &w[i * k..(i + 1) * k];
+        u[i] = u_free[i]
+            + row
+                .iter()
+                .zip(lambda.iter())
+                .map(|(a, b)| a * b)
+                .sum::<f64>();
+    }
+    // Adds W[:, i] δ to u (W is symmetric: its row i).
+    let apply = |u: &mut [f64], i: usize, d: f64| {
+        if d != 0.0 {
+            for (x, wij) in u.iter_mut().zip(&w[i * k..(i + 1) * k]) {
+                *x += wij * d;
+            }
+        }
+    };
+    // A unilateral row's exact update (its 1-D minimiser, clamped at 0): the velocity change.
+    let unilateral = |lambda: &mut [f64], u: &mut [f64], i: usize| {
+        let wii = w[i * k + i];
+        let new = (lambda[i] - (u[i] - target[i]) / wii).max(0.0);
+        let d = new - lambda[i];
+        lambda[i] = new;
+        apply(u, i, d);
+        (d * wii).abs()
+    };
+    let mut out = Solve::default();
+    for it in 0..max_iterations {
+        let mut change = 0.0f64;
+        for block in blocks {
+            match *block {
+                Block::Unilateral { row } => change = change.max(unilateral(lambda, u, row)),
+                Block::Contact { row: n, mu } => {
+                    change = change.max(unilateral(lambda, u, n));
+                    // Tangents: the 2 × 2 solve for zero slip when it lies in the disc
+                    // (sticking); else a projected gradient step of length 1/L (L the larger
+                    // eigenvalue of the 2 × 2 block), whose fixed point on the rim opposes
+                    // the slip (maximal dissipation) and which never raises the objective.
+                    let (t1, t2) = (n + 1, n + 2);
+                    let (a, b, c) = (w[t1 * k + t1], w[t1 * k + t2], w[t2 * k + t2]);
+                    let det = a * c - b * b;
+                    let bound = mu * lambda[n];
+                    let (r1, r2) = (-u[t1], -u[t2]);
+                    let stick = (det > 1e-12 * a * c)
+                        .then(|| {
+                            let (d1, d2) = ((c * r1 - b * r2) / det, (a * r2 - b * r1) / det);
+                            (lambda[t1] + d1, lambda[t2] + d2)
+                        })
+                        .filter(|&(l1, l2)| l1.hypot(l2) <= bound);
+                    let (l1, l2) = stick.unwrap_or_else(|| {
+                        let l = 0.5 * (a + c) + (0.25 * (a - c) * (a - c) + b * b).sqrt();
+                        let (l1, l2) = (lambda[t1] + r1 / l, lambda[t2] + r2 / l);
+                        let norm = l1.hypot(l2);
+                        if norm > bound {
+                            let s = if norm > 0.0 { bound / norm } else { 0.0 };
+                            (l1 * s, l2 * s)
+                        } else {
+                            (l1, l2)
+                        }
+                    });
+                    let (d1, d2) = (l1 - lambda[t1], l2 - lambda[t2]);
+                    lambda[t1] = l1;
+                    lambda[t2] = l2;
+                    apply(u, t1, d1);
+                    apply(u, t2, d2);
+                    change = change.max((d1 * a).abs()).max((d2 * c).abs());
+                }
+            }
+        }
+        out = Solve {
+            iterations: it + 1,
+            change,
+        };
+        if change <= tolerance {
+            break;
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One contact on a unit point mass (W = identity): the normal impulse cancels the
+    /// approach, friction is capped by μ λ_n and opposes the slip; against the closed form.
+    #[test]
+    fn point_mass_contact_matches_the_closed_form() {
+        let w = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+        let blocks = [Block::Contact { row: 0, mu: 0.5 }];
+        // Approaching at 2 m/s, sliding at (3, 4) m/s: λ_n = 2, |λ_t| = 1 against (3, 4)/5.
+        let (mut l, mut u) = ([0.0; 3], [0.0; 3]);
+        let s = solve(
+            &w,
+            &blocks,
+            &[-2.0, 3.0, 4.0],
+            &[0.0; 3],
+            &mut l,
+            &mut u,
+            Stop {
+                max_iterations: 50,
+                tolerance: 1e-12,
+            },
+        );
+        assert!(s.iterations <= 3, "{s:?}");
+        for (got, want) in l.iter().zip([2.0, -0.6, -0.8]) {
+            assert!((got - want).abs() < 1e-14, "{l:?}");
+        }
+        // Slow slip (0.3, 0.4) inside the cone: stuck, u_t = 0.
+        let (mut l, mut u) = ([0.0; 3], [0.0; 3]);
+        solve(
+            &w,
+            &blocks,
+            &[-2.0, 0.3, 0.4],
+            &[0.0; 3],
+            &mut l,
+            &mut u,
+            Stop {
+                max_iterations: 50,
+                tolerance: 1e-12,
+            },
+        );
+        assert!(
+            u[1].abs() < 1e-14 && u[2].abs() < 1e-14 && u[0].abs() < 1e-14,
+            "{u:?}"
+        );
+        // Separating: no impulse at all.
+        let (mut l, mut u) = ([0.0; 3], [0.0; 3]);
+        solve(
+            &w,
+            &blocks,
+            &[1.0, 3.0, 4.0],
+            &[0.0; 3],
+            &mut l,
+            &mut u,
+            Stop {
+                max_iterations: 50,
+                tolerance: 1e-12,
+            },
+        );
+        assert_eq!(l, [0.0; 3]);
+    }
+
+    /// Two coupled unilateral rows against the exact LCP solution (found by enumeration).
+    #[test]
+    fn coupled_rows_solve_the_lcp() {
+        let w = [2.0, 1.0, 1.0, 2.0];
+        let blocks = [Block::Unilateral { row: 0 }, Block::Unilateral { row: 1 }];
+        // u = u_free + W λ ≥ 0, λ ≥ 0: u_free = (−3, 1) → λ = (1.5, 0), u = (0, 2.5).
+        let (mut l, mut u) = ([0.0; 2], [0.0; 2]);
+        solve(
+            &w,
+            &blocks,
+            &[-3.0, 1.0],
+            &[0.0; 2],
+            &mut l,
+            &mut u,
+            Stop {
+                max_iterations: 100,
+                tolerance: 1e-14,
+            },
+        );
+        assert!((l[0] - 1.5).abs() < 1e-13 && l[1] == 0.0, "{l:?}");
+        assert!(u[0].abs() < 1e-13 && (u[1] - 2.5).abs() < 1e-13, "{u:?}");
+        // Both active: u_free = (−3, −3) → λ = (1, 1).
+        let (mut l, mut u) = ([0.0; 2], [0.0; 2]);
+        solve(
+            &w,
+            &blocks,
+            &[-3.0, -3.0],
+            &[0.0; 2],
+            &mut l,
+            &mut u,
+            Stop {
+                max_iterations: 100,
+                tolerance: 1e-14,
+            },
+        );
+        assert!(
+            (l[0] - 1.0).abs() < 1e-12 && (l[1] - 1.0).abs() < 1e-12,
+            "{l:?}"
+        );
+    }
+}
