@@ -71,7 +71,7 @@ pub use contact::{
     step_with_contact, ContactData, ContactError, ContactSettings, ContactStats, Ground,
 };
 pub use data::Data;
-pub use error::DynamicsError;
+pub use error::{DynamicsError, MAX_DENSE_MATRIX_BYTES};
 pub use forward::{forward_dynamics, forward_dynamics_slices, Method};
 pub use inputs::check_inputs;
 pub use integrate::{integrate_floating, integrate_q, step, Integrator};
@@ -96,6 +96,7 @@ pub use state::State;
 #[cfg(feature = "internals")]
 pub mod internals {
     pub use crate::aba::{articulate_multi, MultiArgs};
+    pub use crate::error::human_bytes;
     pub use crate::finite::all_finite;
     pub use crate::kinematics::{body_kinematics, computation_origin};
     pub use crate::state::SplitMix64;
