@@ -7,7 +7,7 @@
 //! `q̈` and constraint force top-down.
 
 use crate::data::{DKind, LeafK, RevJoin, Side};
-use crate::small::{SymT, TILE};
+use crate::small::{solve_l, solve_lt, SymT, TILE};
 use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::internals::{dot6_even_odd as dot6, Arith};
@@ -500,34 +500,6 @@ fn rotate_diagonal_pair<A: Arith>(
 #[inline(always)]
 fn sym3(u: &[f64; 6]) -> [[f64; 3]; 3] {
     [[u[0], u[1], u[2]], [u[1], u[3], u[4]], [u[2], u[4], u[5]]]
-}
-
-/// `L⁻¹ b` (forward substitution; `l` from [`crate::small::cholesky6_inv_diag`], inverse diagonal).
-#[inline]
-pub(crate) fn solve_l(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
-    let mut x = [0.0; 6];
-    for i in 0..6 {
-        let mut v = b[i];
-        for p in 0..i {
-            v -= l[i][p] * x[p];
-        }
-        x[i] = v * l[i][i];
-    }
-    x
-}
-
-/// `L⁻ᵀ b` (back substitution; inverse diagonal).
-#[inline]
-pub(crate) fn solve_lt(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
-    let mut x = [0.0; 6];
-    for i in (0..6).rev() {
-        let mut v = b[i];
-        for p in (i + 1)..6 {
-            v -= l[p][i] * x[p];
-        }
-        x[i] = v * l[i][i];
-    }
-    x
 }
 
 /// Joins A and B at `joint` into node `n` (docs/design.md#dca, any handle count); V and W never

@@ -19,8 +19,7 @@
 //! The ground as a hub does not move (`a = 0`). The back-substitution takes `a = Φ f + b` and
 //! gives each child's `q̈` and `f_c` by the first line.
 
-use crate::dca::{solve_l, solve_lt};
-use crate::small::{cholesky6_inv_diag, SmallSpd, SymT, TILE};
+use crate::small::{cholesky6_inv_diag, solve_l, solve_lt, SmallSpd, SymT, TILE};
 use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
