@@ -10,6 +10,7 @@ mod info;
 mod scene;
 mod simulate;
 mod state_json;
+mod watch;
 
 use articula_dca::{Data, Method, State};
 use articula_model::{InertiaPolicy, LoadOptions, Model};
