@@ -37,6 +37,7 @@ use crate::parts::caches::{Caches, CONST, M6, NW};
 use crate::parts::composites::Rigid;
 use articula_dca::DynamicsError;
 use articula_model::{Model, NodeKind};
+use articula_spatial::internals::{dot6, Portable};
 use articula_spatial::{SpatialForce, SpatialMotion, SpatialTransform};
 use glam::{DMat3, DVec3};
 
@@ -192,10 +193,6 @@ pub(crate) fn rot6(r: &[[f64; 3]; 3], v: &[f64; 6]) -> [f64; 6] {
     })
 }
 
-#[inline]
-fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
 
 #[inline]
 pub(crate) fn tr3(r: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
@@ -297,7 +294,7 @@ fn m6_rot(r: &[[f64; 3]; 3], m: &M6) -> M6 {
 /// `m v`.
 #[inline]
 fn m6_x(m: &M6, v: &[f64; 6]) -> [f64; 6] {
-    std::array::from_fn(|r| dot6(&m[r], v))
+    std::array::from_fn(|r| dot6::<Portable>(&m[r], v))
 }
 
 /// `J += s aᵀ B` for `a` 6 × 6 and `B` 6 × NW.
@@ -997,10 +994,10 @@ impl Adaptive {
         let body = &model.bodies[joint];
         let (vo, k) = (body.v_offset, body.nv);
         let jm = &self.cache.jm[n];
-        let dn: [f64; 6] = std::array::from_fn(|s| dot6(&jm.nb[s], &beta));
+        let dn: [f64; 6] = std::array::from_fn(|s| dot6::<Portable>(&jm.nb[s], &beta));
         let mut dk = [0.0; 6];
         for p in 0..k {
-            dk[p] = dot6(&jm.kb[p], &beta);
+            dk[p] = dot6::<Portable>(&jm.kb[p], &beta);
         }
         self.cache.dk[vo..vo + k].copy_from_slice(&dk[..k]);
         self.cache.dn[n] = dn;
@@ -1074,7 +1071,7 @@ impl Adaptive {
             let psidn = |i: usize| -> [f64; 6] {
                 std::array::from_fn(|r| {
                     let row = &psi[(6 * i + r) * nx + 6 * jx..][..6];
-                    dot6(row.try_into().expect("6"), &dnx)
+                    dot6::<Portable>(row.try_into().expect("6"), &dnx)
                 })
             };
             let g = psidn(jx);
@@ -1108,7 +1105,7 @@ impl Adaptive {
                 let psi = &c.psi[po..po + nx * nx];
                 let pd: [f64; 6] = std::array::from_fn(|r| {
                     let row = &psi[(6 * i + r) * nx + 6 * jx..][..6];
-                    dot6(row.try_into().expect("6"), &dnx)
+                    dot6::<Portable>(row.try_into().expect("6"), &dnx)
                 });
                 let g = &c.phi[self.coef.layout.boff[x] + jx * self.coef.handles[x] + i];
                 let mut u = [0.0; 6];
@@ -1531,7 +1528,7 @@ impl Adaptive {
             c.dn[n] = m6_x(&c.mgn[n], &f);
             let body = &model.bodies[joint];
             for p in body.v_offset..body.v_offset + body.nv {
-                c.dk[p] = dot6(&c.mgk[p], &f);
+                c.dk[p] = dot6::<Portable>(&c.mgk[p], &f);
             }
             let w = monomials(c.cu[n]);
             let hf = m6_x(&c.mhq[n], &f);

@@ -103,7 +103,7 @@ pub(crate) fn spd_cholesky(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
 /// Cholesky factor (lower) of the leading k×k block of a symmetric positive definite matrix
 /// (k ≤ 6); `None` when a pivot is not positive — articula-dca's. (A Jacobi-scaled variant
 /// turned the join of a 40,000-link chain's halves indefinite where this one does not.)
-pub(crate) use articula_dca::internals::cholesky as cholesky_k;
+pub(crate) use articula_spatial::internals::cholesky as cholesky_k;
 
 /// `(L Lᵀ)⁻¹ u` for the leading k×k factor `L`.
 #[inline(always)]

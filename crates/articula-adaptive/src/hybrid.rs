@@ -13,12 +13,9 @@ use crate::parts::join_maps::BiasMaps;
 use articula_dca::DynamicsError;
 use articula_model::{JointKind, Model, NodeKind};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
+use articula_spatial::internals::{dot6, Portable};
 use glam::{DMat3, DVec3};
 
-#[inline]
-fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
-}
 
 /// `Σ_p a[p][r] b[p][c]` (p < 5, ascending) for `r, c < 6`, the sums started with their first
 /// product: a row at a time over all eight lanes of `b`'s rows (two 4-wide vectors).
@@ -501,7 +498,7 @@ impl Adaptive {
         let mut d = [[0.0; 6]; 6];
         for p in 0..k {
             for q in 0..k {
-                d[p][q] = dot6(&z[p], &z[q]);
+                d[p][q] = dot6::<Portable>(&z[p], &z[q]);
             }
         }
         let dinv = dense::spd_inverse(&d, k).ok_or_else(|| DynamicsError::Singular {
@@ -516,7 +513,7 @@ impl Adaptive {
                 e[r] = 1.0;
                 let wr = dense::solve_l(&l, &e);
                 let zw: [f64; 6] =
-                    std::array::from_fn(|p| if p < k { dot6(&z[p], &wr) } else { 0.0 });
+                    std::array::from_fn(|p| if p < k { dot6::<Portable>(&z[p], &wr) } else { 0.0 });
                 let mut col = wr;
                 for p in 0..k {
                     let x: f64 = -(0..k).map(|q| dinv[p][q] * zw[q]).sum::<f64>();
@@ -550,7 +547,7 @@ impl Adaptive {
         // k = D⁻¹ (Q − Zᵀ w);  w ← w + Z k;  n = γ = L⁻ᵀ w
         let mut t = [0.0; 6];
         for p in 0..k {
-            t[p] = tau[vo + p] - dot6(&z[p], &w);
+            t[p] = tau[vo + p] - dot6::<Portable>(&z[p], &w);
         }
         for p in 0..k {
             self.maps.qdd_bias[vo + p] = (0..k).map(|q| dinv[p][q] * t[q]).sum();
@@ -576,7 +573,7 @@ impl Adaptive {
             }
             for p in 0..k {
                 for c in 0..6 {
-                    let zy: f64 = (0..k).map(|q| dinv[p][q] * dot6(&z[q], &yc[c])).sum();
+                    let zy: f64 = (0..k).map(|q| dinv[p][q] * dot6::<Portable>(&z[q], &yc[c])).sum();
                     self.maps.qdd_gain[ko + p * wd + 6 * h + c] = -zy;
                 }
             }
@@ -626,7 +623,7 @@ impl Adaptive {
                 } else {
                     std::array::from_fn(|r| {
                         std::array::from_fn(|c| {
-                            dot6(&self.scratch.y_cols[h][r], &self.scratch.u_cols[kk][c])
+                            dot6::<Portable>(&self.scratch.y_cols[h][r], &self.scratch.u_cols[kk][c])
                         })
                     })
                 };
@@ -731,9 +728,9 @@ impl Adaptive {
         let gv: [f64; 6] = std::array::from_fn(|i| wgs[i] - sv[i]);
         let ft: [f64; 6] = std::array::from_fn(|i| f0[i] - wgf0[i]);
         let gft = Mat6(*g).mul_vec(&ft);
-        let qt = dot6(&sv, &gft) / ss;
+        let qt = dot6::<Portable>(&sv, &gft) / ss;
         let q = tau[vo];
-        self.maps.qdd_bias[vo] = dot6(&gv, beta) / ss + qt * q;
+        self.maps.qdd_bias[vo] = dot6::<Portable>(&gv, beta) / ss + qt * q;
         let nv: [f64; 6] = std::array::from_fn(|i| wb[i] + ft[i] * q);
         if self.maps.record {
             // κ_β = gᵀ / sᵀs, κ_Q = q̈_τ, ν_β = W, ν_Q = f_τ.
