@@ -13,7 +13,7 @@ use crate::parts::join_maps::BiasMaps;
 use articula_dca::DynamicsError;
 use articula_model::{JointKind, Model, NodeKind};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
-use articula_spatial::internals::{dot6, Portable};
+use articula_spatial::internals::{cholesky_into, dot6, Portable};
 use glam::{DMat3, DVec3};
 
 
@@ -63,37 +63,6 @@ fn row_sub_scaled(v: &mut [f64; 6], s: f64, x: &[f64; 6]) {
     for c in 0..6 {
         v[c] -= s * x[c];
     }
-}
-
-/// Cholesky factor `L` (lower) of the leading 5×5 block of a symmetric positive definite
-/// matrix (its lower triangle is read) and the reciprocals `1 / L_jj` of its diagonal, `None`
-/// when a pivot is not positive: articula-dca's `cholesky` with the size fixed (the same
-/// operations in the same order, unrolled).
-#[inline(always)]
-fn cholesky5(a: &[[f64; 6]; 6]) -> Option<([[f64; 6]; 6], [f64; 5])> {
-    let mut l = [[0.0f64; 6]; 6];
-    let mut linv = [0.0f64; 5];
-    for j in 0..5 {
-        let mut d = a[j][j];
-        for p in 0..j {
-            d -= l[j][p] * l[j][p];
-        }
-        if d.is_nan() || d <= 0.0 {
-            return None;
-        }
-        let ljj = d.sqrt();
-        l[j][j] = ljj;
-        let inv = 1.0 / ljj;
-        linv[j] = inv;
-        for i in (j + 1)..5 {
-            let mut x = a[i][j];
-            for p in 0..j {
-                x -= l[i][p] * l[j][p];
-            }
-            l[i][j] = x * inv;
-        }
-    }
-    Some((l, linv))
 }
 
 /// `W yₖ = T (L Lᵀ)⁻¹ Tᵀ yₖ` for three right-hand sides side by side (lanes of four, the last
@@ -709,10 +678,14 @@ impl Adaptive {
                 m5[i][c] = r[i];
             }
         }
-        let (l5, ldinv) = cholesky5(&m5).ok_or_else(|| DynamicsError::Singular {
-            joint: body.joint_name(),
-            detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
-        })?;
+        // L Lᵀ of the leading 5×5 block and the reciprocals 1 / L_jj of its diagonal.
+        let (mut l5, mut ldinv) = ([[0.0f64; 6]; 6], [0.0f64; 5]);
+        if !cholesky_into(&m5, 5, &mut l5, &mut ldinv) {
+            return Err(DynamicsError::Singular {
+                joint: body.joint_name(),
+                detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
+            });
+        }
         let w_apply = |y: &[f64; 6]| -> [f64; 6] {
             let u = t.tr(y);
             let lam = dense::solve_llt_k(&l5, &u, 5);
