@@ -193,7 +193,6 @@ pub(crate) fn rot6(r: &[[f64; 3]; 3], v: &[f64; 6]) -> [f64; 6] {
     })
 }
 
-
 #[inline]
 pub(crate) fn tr3(r: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
     std::array::from_fn(|i| std::array::from_fn(|j| r[j][i]))
@@ -777,28 +776,13 @@ impl Adaptive {
         u: SpatialMotion,
         part: Part,
     ) {
-        #[cfg(target_arch = "x86_64")]
-        if self.switches.fused {
-            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
-            // has AVX2 and FMA).
-            return unsafe { self.eval_cache_wide(model, n, x, u, part) };
+        // Also compiled for AVX2 + FMA (the same bits, wider vectors), run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, model: &Model, n: usize, x: &SpatialTransform, u: SpatialMotion, part: Part);
+            avx2_fma: this.switches.fused, Portable;
+            |A| this.eval_cache_with(model, n, x, u, part)
         }
-        self.eval_cache_with(model, n, x, u, part)
-    }
-
-    /// [`Adaptive::eval_cache`] compiled for AVX2 + FMA: the same arithmetic (no fused
-    /// multiply–adds) in wider, three-operand instructions, so the same results to the bit.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn eval_cache_wide(
-        &mut self,
-        model: &Model,
-        n: usize,
-        x: &SpatialTransform,
-        u: SpatialMotion,
-        part: Part,
-    ) {
-        self.eval_cache_with(model, n, x, u, part)
+        run(self, model, n, x, u, part)
     }
 
     #[inline(always)]
@@ -1229,24 +1213,13 @@ impl Adaptive {
     /// `J += s G_p,jxᵀ N⁰_x + J_X M_X`, `H += s G_nxᵀ G_p,jx + H_X` — the terms of `Δη` in
     /// [`Adaptive::dirty_delta`] with `n₀ = N_w w`, `k₀ = K_w w`, `p_X₀ = P_X w_X`.
     pub(crate) fn join_map(&mut self, model: &Model, n: usize) {
-        #[cfg(target_arch = "x86_64")]
-        if self.switches.fused {
-            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
-            // has AVX2 and FMA).
-            return unsafe { self.join_map_wide(model, n) };
+        // Also compiled for AVX2 + FMA (the same bits, wider vectors), run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, model: &Model, n: usize);
+            avx2_fma: this.switches.fused, Portable;
+            |A| this.join_map_with(model, n)
         }
-        self.join_map_with(model, n)
-    }
-
-    /// [`Adaptive::join_map`] compiled for AVX2 + FMA: the same arithmetic (no fused
-    /// multiply–adds) in wider instructions, so the same results to the bit. A map is built
-    /// once per forced path and hybrid body — in the benches' pattern (runs of 1,000 steps,
-    /// each starting from a whole-body re-selection) once per run, where it is most of what
-    /// a run's forced path costs.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn join_map_wide(&mut self, model: &Model, n: usize) {
-        self.join_map_with(model, n)
+        run(self, model, n)
     }
 
     #[inline(always)]
@@ -1493,21 +1466,13 @@ impl Adaptive {
     /// `cx[n] · mpose`) and n's velocity: `Δb_h = G_b,h f`, `Δp = G_p f`, `Δk = G_k f`,
     /// `Δn = G_n f`, `Δη = fᵀ H f + fᵀ J w`.
     pub(crate) fn eval_map(&mut self, model: &Model, n: usize) {
-        #[cfg(target_arch = "x86_64")]
-        if self.switches.fused {
-            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
-            // has AVX2 and FMA).
-            return unsafe { self.eval_map_wide(model, n) };
+        // Also compiled for AVX2 + FMA (the same bits, wider vectors), run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, model: &Model, n: usize);
+            avx2_fma: this.switches.fused, Portable;
+            |A| this.eval_map_with(model, n)
         }
-        self.eval_map_with(model, n)
-    }
-
-    /// [`Adaptive::eval_map`] compiled for AVX2 + FMA: the same arithmetic (no fused
-    /// multiply–adds) in wider instructions, so the same results to the bit.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn eval_map_wide(&mut self, model: &Model, n: usize) {
-        self.eval_map_with(model, n)
+        run(self, model, n)
     }
 
     #[inline(always)]
@@ -1592,21 +1557,13 @@ impl Adaptive {
     /// `A(n) = Fᵀ Ψ F + Fᵀ p + η` of a cached node at the handle forces in `f`, in its cache
     /// frame (`F⁰ = Rᵀ F`; `p = P w`, `η = wᵀ E w` at its velocity `u`): no rotation of Ψ.
     pub(crate) fn metric_local(&mut self, n: usize, x: &SpatialTransform, u: SpatialMotion) -> f64 {
-        #[cfg(target_arch = "x86_64")]
-        if self.switches.fused {
-            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
-            // has AVX2 and FMA).
-            return unsafe { self.metric_local_wide(n, x, u) };
+        // Also compiled for AVX2 + FMA (the same bits, wider vectors), run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, n: usize, x: &SpatialTransform, u: SpatialMotion) -> f64;
+            avx2_fma: this.switches.fused, Portable;
+            |A| this.metric_local_with(n, x, u)
         }
-        self.metric_local_with(n, x, u)
-    }
-
-    /// [`Adaptive::metric_local`] compiled for AVX2 + FMA: the same arithmetic (no fused
-    /// multiply–adds) in wider, three-operand instructions, so the same results to the bit.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn metric_local_wide(&mut self, n: usize, x: &SpatialTransform, u: SpatialMotion) -> f64 {
-        self.metric_local_with(n, x, u)
+        run(self, n, x, u)
     }
 
     #[inline(always)]

@@ -16,8 +16,6 @@ use crate::parts::hierarchy::{
 };
 use articula_dca::DynamicsError;
 use articula_model::{Model, NodeKind};
-#[cfg(target_arch = "x86_64")]
-use articula_spatial::internals::Fused;
 use articula_spatial::internals::{cholesky_into, dot6_pairs, Arith, Portable};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion, SpatialTransform};
 use glam::DVec3;
@@ -246,21 +244,13 @@ impl Adaptive {
     /// origin.
     #[inline]
     pub(crate) fn active_kinematics(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
-        #[cfg(target_arch = "x86_64")]
-        if self.switches.fused {
-            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
-            // has AVX2 and FMA).
-            return unsafe { self.active_kinematics_wide(model, q, qd) };
+        // Also compiled for AVX2 + FMA (the same bits, wider vectors), run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, model: &Model, q: &[f64], qd: &[f64]);
+            avx2_fma: this.switches.fused, Portable;
+            |A| this.active_kinematics_with(model, q, qd)
         }
-        self.active_kinematics_with(model, q, qd)
-    }
-
-    /// [`Adaptive::active_kinematics`] compiled for AVX2 + FMA: the same arithmetic (no
-    /// fused multiply–adds) in three-operand vector instructions, the same results to the bit.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn active_kinematics_wide(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
-        self.active_kinematics_with(model, q, qd)
+        run(self, model, q, qd)
     }
 
     #[inline(always)]
@@ -422,13 +412,13 @@ impl Adaptive {
                 return self.one_joint(model, tau, level);
             }
         }
-        #[cfg(target_arch = "x86_64")]
-        if self.switches.fused {
-            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
-            // has AVX2 and FMA).
-            return unsafe { self.reduced_aba_fused(model, tau, level) };
+        // Also compiled for AVX2 + FMA with fused multiply–adds, run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, model: &Model, tau: &[f64], level: Level) -> Result<(), DynamicsError>;
+            avx2_fma: this.switches.fused, Fused;
+            |A| this.reduced_aba_with::<A>(model, tau, level)
         }
-        self.reduced_aba_with::<Portable>(model, tau, level)
+        run(self, model, tau, level)
     }
 
     /// [`Adaptive::reduced_aba`] for a reduced tree of one single-DOF joint on the world or
@@ -440,26 +430,13 @@ impl Adaptive {
     /// of forming the 6 × 6 matrix and sweeping it. The same solution; the rounding differs
     /// from the general passes' (tests compare both with exact DCA).
     fn one_joint(&mut self, model: &Model, tau: &[f64], level: Level) -> Result<(), DynamicsError> {
-        #[cfg(target_arch = "x86_64")]
-        if self.switches.fused {
-            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
-            // has AVX2 and FMA).
-            return unsafe { self.one_joint_wide(model, tau, level) };
+        // Also compiled for AVX2 + FMA (the same bits, wider vectors), run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, model: &Model, tau: &[f64], level: Level) -> Result<(), DynamicsError>;
+            avx2_fma: this.switches.fused, Portable;
+            |A| this.one_joint_with(model, tau, level)
         }
-        self.one_joint_with(model, tau, level)
-    }
-
-    /// [`Adaptive::one_joint`] compiled for AVX2 + FMA (no fused multiply–adds: the same
-    /// bits as the portable compilation).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn one_joint_wide(
-        &mut self,
-        model: &Model,
-        tau: &[f64],
-        level: Level,
-    ) -> Result<(), DynamicsError> {
-        self.one_joint_with(model, tau, level)
+        run(self, model, tau, level)
     }
 
     #[inline(always)]
@@ -504,19 +481,6 @@ impl Adaptive {
         let uu = tau[r.vo()] - s.dot(pa);
         self.body.qdd[r.vo()] = (1.0 / dd) * (uu - ap.dot(u));
         Ok(())
-    }
-
-    /// [`Adaptive::reduced_aba`] compiled for AVX2 + FMA (everything using [`Fused`] below it
-    /// is inlined).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn reduced_aba_fused(
-        &mut self,
-        model: &Model,
-        tau: &[f64],
-        level: Level,
-    ) -> Result<(), DynamicsError> {
-        self.reduced_aba_with::<Fused>(model, tau, level)
     }
 
     #[inline(always)]
@@ -744,7 +708,8 @@ impl Adaptive {
                         }
                     }
                     let sig = dot6_pairs::<A>(ud, &ps);
-                    let x = dinv[idx] * A::neg_mul_add(sig, px, io.uu[dof] - dot6_pairs::<A>(&base, ud));
+                    let x = dinv[idx]
+                        * A::neg_mul_add(sig, px, io.uu[dof] - dot6_pairs::<A>(&base, ud));
                     (ap, x)
                 } else {
                     let mut ap = if r.pidx() == NO_PARENT {
@@ -842,66 +807,27 @@ struct Art<'a> {
     chol: &'a mut [[[f64; 6]; 6]],
 }
 
-/// [`articulate_multi_with`] out of line (the one-degree-of-freedom path of the passes keeps
-/// its registers), compiled for AVX2 + FMA when `wide` (the same arithmetic: no fused
-/// multiply–adds, the same results to the bit).
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn articulate<const K: usize>(
-    wide: bool,
-    r: &ActiveJoint,
-    w: &mut Art,
-    s: &[SpatialMotion],
-    tau: &[f64],
-    idx: usize,
-    k: usize,
-    c: &[f64; 6],
-) -> bool {
-    #[cfg(target_arch = "x86_64")]
-    if wide {
-        // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
-        return unsafe { articulate_multi_wide::<K>(r, w, s, tau, idx, k, c) };
-    }
-    articulate_multi::<K>(r, w, s, tau, idx, k, c)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline(never)]
-#[allow(clippy::too_many_arguments)]
-fn articulate_multi_wide<const K: usize>(
-    r: &ActiveJoint,
-    w: &mut Art,
-    s: &[SpatialMotion],
-    tau: &[f64],
-    idx: usize,
-    k: usize,
-    c: &[f64; 6],
-) -> bool {
-    articulate_multi_with::<K>(r, w, s, tau, idx, k, c)
-}
-
-#[inline(never)]
-#[allow(clippy::too_many_arguments)]
-fn articulate_multi<const K: usize>(
-    r: &ActiveJoint,
-    w: &mut Art,
-    s: &[SpatialMotion],
-    tau: &[f64],
-    idx: usize,
-    k: usize,
-    c: &[f64; 6],
-) -> bool {
-    articulate_multi_with::<K>(r, w, s, tau, idx, k, c)
+articula_spatial::fma_dispatch! {
+    /// [`articulate_through_factor`] out of line (the one-degree-of-freedom path of the passes keeps
+    /// its registers), compiled for AVX2 + FMA when `wide` (the same arithmetic: no fused
+    /// multiply–adds, the same results to the bit).
+    #[inline(never)]
+    fn articulate<const K: usize>(wide: bool, r: &ActiveJoint, w: &mut Art, s: &[SpatialMotion], tau: &[f64], idx: usize, k: usize, c: &[f64; 6]) -> bool;
+    avx2_fma: wide, Portable;
+    |A| articulate_through_factor::<K>(r, w, s, tau, idx, k, c)
 }
 
 /// Pass 2 of the reduced ABA at record `idx` for a joint of several degrees of freedom:
 /// `U = Iᴬ S`, `D = Sᵀ U = L Lᵀ`, `u = τ − Sᵀ pᴬ`, and the parent's `Iᵃ`, `pᵃ`. `K`: the
 /// degrees of freedom when known at compile time (loops unrolled; the same sums), 0: `k`.
 /// False when `D` is not positive definite.
+///
+/// Not `articula_dca::internals::articulate_multi`'s computation: that one inverts `D` and
+/// forms `U D⁻¹ Uᵀ`; this one keeps the factor `L` (pass 3 solves with it) and works through
+/// `Y = U L⁻ᵀ`, `z = L⁻¹ u`: `Iᵃ = Iᴬ − Y Yᵀ`, `pᵃ = pᴬ + Iᵃ c + Y z`.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn articulate_multi_with<const K: usize>(
+fn articulate_through_factor<const K: usize>(
     r: &ActiveJoint,
     h: &mut Art,
     s: &[SpatialMotion],
@@ -995,54 +921,20 @@ struct Accel<'a> {
     qdd: &'a mut [f64],
 }
 
-/// [`accelerate_multi_with`] out of line, compiled for AVX2 + FMA when `wide` (the same
-/// arithmetic).
-#[inline(always)]
-fn accelerate<const K: usize>(
-    wide: bool,
-    r: &ActiveJoint,
-    w: &mut Accel,
-    idx: usize,
-    k: usize,
-    ap: &[f64; 6],
-) -> [f64; 6] {
-    #[cfg(target_arch = "x86_64")]
-    if wide {
-        // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
-        return unsafe { accelerate_multi_wide::<K>(r, w, idx, k, ap) };
-    }
-    accelerate_multi::<K>(r, w, idx, k, ap)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline(never)]
-fn accelerate_multi_wide<const K: usize>(
-    r: &ActiveJoint,
-    w: &mut Accel,
-    idx: usize,
-    k: usize,
-    ap: &[f64; 6],
-) -> [f64; 6] {
-    accelerate_multi_with::<K>(r, w, idx, k, ap)
-}
-
-#[inline(never)]
-fn accelerate_multi<const K: usize>(
-    r: &ActiveJoint,
-    w: &mut Accel,
-    idx: usize,
-    k: usize,
-    ap: &[f64; 6],
-) -> [f64; 6] {
-    accelerate_multi_with::<K>(r, w, idx, k, ap)
+articula_spatial::fma_dispatch! {
+    /// [`accelerate_through_factor`] out of line, compiled for AVX2 + FMA when `wide` (the same
+    /// arithmetic).
+    #[inline(never)]
+    fn accelerate<const K: usize>(wide: bool, r: &ActiveJoint, w: &mut Accel, idx: usize, k: usize, ap: &[f64; 6]) -> [f64; 6];
+    avx2_fma: wide, Portable;
+    |A| accelerate_through_factor::<K>(r, w, idx, k, ap)
 }
 
 /// Pass 3 of the reduced ABA at record `r` for a joint of several degrees of freedom, from
 /// `a' = a_parent + c`: `q̈ = L⁻ᵀ L⁻¹ (u − Uᵀ a')`, returns `a = a' + S q̈`. `K` as in
-/// [`articulate_multi`].
+/// [`articulate`].
 #[inline(always)]
-fn accelerate_multi_with<const K: usize>(
+fn accelerate_through_factor<const K: usize>(
     r: &ActiveJoint,
     w: &mut Accel,
     idx: usize,
@@ -1080,58 +972,12 @@ fn accelerate_multi_with<const K: usize>(
     a
 }
 
-/// [`revolute_kinematics`], compiled for AVX2 + FMA when `wide` (the same arithmetic).
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn revolute(
-    wide: bool,
-    body: &articula_model::Body,
-    parts: &RevoluteParts,
-    x0: &SpatialTransform,
-    v0: &SpatialMotion,
-    sc: &[(f64, f64)],
-    qd: &[f64],
-    s: &mut [SpatialMotion],
-    out: KinOut,
-) {
-    #[cfg(target_arch = "x86_64")]
-    if wide {
-        // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
-        return unsafe { revolute_kinematics_wide(body, parts, x0, v0, sc, qd, s, out) };
-    }
-    revolute_kinematics(body, parts, x0, v0, sc, qd, s, out)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline(never)]
-#[allow(clippy::too_many_arguments)]
-fn revolute_kinematics_wide(
-    body: &articula_model::Body,
-    parts: &RevoluteParts,
-    x0: &SpatialTransform,
-    v0: &SpatialMotion,
-    sc: &[(f64, f64)],
-    qd: &[f64],
-    s: &mut [SpatialMotion],
-    out: KinOut,
-) {
-    revolute_kinematics_with(body, parts, x0, v0, sc, qd, s, out)
-}
-
-#[inline(never)]
-#[allow(clippy::too_many_arguments)]
-fn revolute_kinematics(
-    body: &articula_model::Body,
-    parts: &RevoluteParts,
-    x0: &SpatialTransform,
-    v0: &SpatialMotion,
-    sc: &[(f64, f64)],
-    qd: &[f64],
-    s: &mut [SpatialMotion],
-    out: KinOut,
-) {
-    revolute_kinematics_with(body, parts, x0, v0, sc, qd, s, out)
+articula_spatial::fma_dispatch! {
+    /// [`revolute_kinematics`], compiled for AVX2 + FMA when `wide` (the same arithmetic).
+    #[inline(never)]
+    fn revolute(wide: bool, body: &articula_model::Body, parts: &RevoluteParts, x0: &SpatialTransform, v0: &SpatialMotion, sc: &[(f64, f64)], qd: &[f64], s: &mut [SpatialMotion], out: KinOut);
+    avx2_fma: wide, Portable;
+    |A| revolute_kinematics_with(body, parts, x0, v0, sc, qd, s, out)
 }
 
 /// [`articula_dca::internals::body_kinematics`] for a joint of [`RevoluteParts`]: the rotation by `q`
@@ -1184,53 +1030,12 @@ fn revolute_kinematics_with(
     *out.2 = c;
 }
 
-/// [`floating_kinematics`], compiled for AVX2 + FMA when `wide` (the same arithmetic).
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn floating(
-    wide: bool,
-    part: &articula_model::JointPart,
-    x0: &SpatialTransform,
-    v0: &SpatialMotion,
-    q: &[f64],
-    qd: &[f64],
-    s: &mut [SpatialMotion],
-    out: KinOut,
-) {
-    #[cfg(target_arch = "x86_64")]
-    if wide {
-        // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
-        return unsafe { floating_kinematics_wide(part, x0, v0, q, qd, s, out) };
-    }
-    floating_kinematics(part, x0, v0, q, qd, s, out)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline(never)]
-fn floating_kinematics_wide(
-    part: &articula_model::JointPart,
-    x0: &SpatialTransform,
-    v0: &SpatialMotion,
-    q: &[f64],
-    qd: &[f64],
-    s: &mut [SpatialMotion],
-    out: KinOut,
-) {
-    floating_kinematics_with(part, x0, v0, q, qd, s, out)
-}
-
-#[inline(never)]
-fn floating_kinematics(
-    part: &articula_model::JointPart,
-    x0: &SpatialTransform,
-    v0: &SpatialMotion,
-    q: &[f64],
-    qd: &[f64],
-    s: &mut [SpatialMotion],
-    out: KinOut,
-) {
-    floating_kinematics_with(part, x0, v0, q, qd, s, out)
+articula_spatial::fma_dispatch! {
+    /// [`floating_kinematics`], compiled for AVX2 + FMA when `wide` (the same arithmetic).
+    #[inline(never)]
+    fn floating(wide: bool, part: &articula_model::JointPart, x0: &SpatialTransform, v0: &SpatialMotion, q: &[f64], qd: &[f64], s: &mut [SpatialMotion], out: KinOut);
+    avx2_fma: wide, Portable;
+    |A| floating_kinematics_with(part, x0, v0, q, qd, s, out)
 }
 
 /// [`articula_dca::internals::body_kinematics`] for a joint of one floating part (a floating base):

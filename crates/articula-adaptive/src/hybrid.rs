@@ -12,10 +12,9 @@ use crate::parts::composites::Rigid;
 use crate::parts::join_maps::BiasMaps;
 use articula_dca::DynamicsError;
 use articula_model::{JointKind, Model, NodeKind};
-use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use articula_spatial::internals::{cholesky_into, dot6, Portable};
+use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::{DMat3, DVec3};
-
 
 /// `Σ_p a[p][r] b[p][c]` (p < 5, ascending) for `r, c < 6`, the sums started with their first
 /// product: a row at a time over all eight lanes of `b`'s rows (two 4-wide vectors).
@@ -275,29 +274,13 @@ impl Adaptive {
         fe: SpatialForce,
         level: Level,
     ) -> Result<(), DynamicsError> {
-        #[cfg(target_arch = "x86_64")]
-        if self.switches.fused {
-            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
-            // has AVX2 and FMA).
-            return unsafe { self.rigid_coefficients_wide(model, n, inertia, v, fe, level) };
+        // Also compiled for AVX2 + FMA (the same bits, wider vectors), run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, model: &Model, n: usize, inertia: &Rigid, v: SpatialMotion, fe: SpatialForce, level: Level) -> Result<(), DynamicsError>;
+            avx2_fma: this.switches.fused, Portable;
+            |A| this.rigid_coefficients_with(model, n, inertia, v, fe, level)
         }
-        self.rigid_coefficients_with(model, n, inertia, v, fe, level)
-    }
-
-    /// [`Adaptive::rigid_coefficients`] compiled for AVX2 + FMA: the same arithmetic (no fused
-    /// multiply–adds) in wider, three-operand instructions, so the same results to the bit.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn rigid_coefficients_wide(
-        &mut self,
-        model: &Model,
-        n: usize,
-        inertia: &Rigid,
-        v: SpatialMotion,
-        fe: SpatialForce,
-        level: Level,
-    ) -> Result<(), DynamicsError> {
-        self.rigid_coefficients_with(model, n, inertia, v, fe, level)
+        run(self, model, n, inertia, v, fe, level)
     }
 
     #[inline(always)]
@@ -380,27 +363,13 @@ impl Adaptive {
         tau: &[f64],
         level: Level,
     ) -> Result<(), DynamicsError> {
-        #[cfg(target_arch = "x86_64")]
-        if self.switches.fused {
-            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
-            // has AVX2 and FMA).
-            return unsafe { self.join_wide(model, n, tau, level) };
+        // Also compiled for AVX2 + FMA (the same bits, wider vectors), run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, model: &Model, n: usize, tau: &[f64], level: Level) -> Result<(), DynamicsError>;
+            avx2_fma: this.switches.fused, Portable;
+            |A| this.join_with(model, n, tau, level)
         }
-        self.join_with(model, n, tau, level)
-    }
-
-    /// [`Adaptive::join`] compiled for AVX2 + FMA: wider vector instructions for the same
-    /// arithmetic (no fused multiply–adds), so the same results to the bit.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn join_wide(
-        &mut self,
-        model: &Model,
-        n: usize,
-        tau: &[f64],
-        level: Level,
-    ) -> Result<(), DynamicsError> {
-        self.join_with(model, n, tau, level)
+        run(self, model, n, tau, level)
     }
 
     #[inline(always)]
@@ -481,8 +450,13 @@ impl Adaptive {
                 let mut e = [0.0; 6];
                 e[r] = 1.0;
                 let wr = dense::solve_l(&l, &e);
-                let zw: [f64; 6] =
-                    std::array::from_fn(|p| if p < k { dot6::<Portable>(&z[p], &wr) } else { 0.0 });
+                let zw: [f64; 6] = std::array::from_fn(|p| {
+                    if p < k {
+                        dot6::<Portable>(&z[p], &wr)
+                    } else {
+                        0.0
+                    }
+                });
                 let mut col = wr;
                 for p in 0..k {
                     let x: f64 = -(0..k).map(|q| dinv[p][q] * zw[q]).sum::<f64>();
@@ -542,7 +516,9 @@ impl Adaptive {
             }
             for p in 0..k {
                 for c in 0..6 {
-                    let zy: f64 = (0..k).map(|q| dinv[p][q] * dot6::<Portable>(&z[q], &yc[c])).sum();
+                    let zy: f64 = (0..k)
+                        .map(|q| dinv[p][q] * dot6::<Portable>(&z[q], &yc[c]))
+                        .sum();
                     self.maps.qdd_gain[ko + p * wd + 6 * h + c] = -zy;
                 }
             }
@@ -592,7 +568,10 @@ impl Adaptive {
                 } else {
                     std::array::from_fn(|r| {
                         std::array::from_fn(|c| {
-                            dot6::<Portable>(&self.scratch.y_cols[h][r], &self.scratch.u_cols[kk][c])
+                            dot6::<Portable>(
+                                &self.scratch.y_cols[h][r],
+                                &self.scratch.u_cols[kk][c],
+                            )
                         })
                     })
                 };
@@ -796,21 +775,13 @@ impl Adaptive {
     /// Back-substitution at join node `n` with its handle forces in `f`: writes its joint's
     /// `q̈ = K F + k` into `qdd` and its children's handle forces.
     pub(crate) fn expand(&mut self, model: &Model, n: usize) {
-        #[cfg(target_arch = "x86_64")]
-        if self.switches.fused {
-            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
-            // has AVX2 and FMA).
-            return unsafe { self.expand_wide(model, n) };
+        // Also compiled for AVX2 + FMA (the same bits, wider vectors), run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, model: &Model, n: usize);
+            avx2_fma: this.switches.fused, Portable;
+            |A| this.expand_with(model, n)
         }
-        self.expand_with(model, n)
-    }
-
-    /// [`Adaptive::expand`] compiled for AVX2 + FMA: the same arithmetic (no fused
-    /// multiply–adds) in wider, three-operand instructions, so the same results to the bit.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn expand_wide(&mut self, model: &Model, n: usize) {
-        self.expand_with(model, n)
+        run(self, model, n)
     }
 
     #[inline(always)]
