@@ -37,6 +37,7 @@ use crate::parts::caches::{Caches, CONST, M6, NW};
 use crate::parts::composites::Rigid;
 use articula_dca::DynamicsError;
 use articula_model::{Model, NodeKind};
+use articula_spatial::internals::{dot6, Portable};
 use articula_spatial::{SpatialForce, SpatialMotion, SpatialTransform};
 use glam::{DMat3, DVec3};
 
@@ -193,11 +194,6 @@ pub(crate) fn rot6(r: &[[f64; 3]; 3], v: &[f64; 6]) -> [f64; 6] {
 }
 
 #[inline]
-fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-#[inline]
 pub(crate) fn tr3(r: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
     std::array::from_fn(|i| std::array::from_fn(|j| r[j][i]))
 }
@@ -297,7 +293,7 @@ fn m6_rot(r: &[[f64; 3]; 3], m: &M6) -> M6 {
 /// `m v`.
 #[inline]
 fn m6_x(m: &M6, v: &[f64; 6]) -> [f64; 6] {
-    std::array::from_fn(|r| dot6(&m[r], v))
+    std::array::from_fn(|r| dot6::<Portable>(&m[r], v))
 }
 
 /// `J += s aᵀ B` for `a` 6 × 6 and `B` 6 × NW.
@@ -780,28 +776,13 @@ impl Adaptive {
         u: SpatialMotion,
         part: Part,
     ) {
-        #[cfg(target_arch = "x86_64")]
-        if self.switches.fused {
-            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
-            // has AVX2 and FMA).
-            return unsafe { self.eval_cache_wide(model, n, x, u, part) };
+        // Also compiled for AVX2 + FMA (the same bits, wider vectors), run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, model: &Model, n: usize, x: &SpatialTransform, u: SpatialMotion, part: Part);
+            avx2_fma: this.switches.fused, Portable;
+            |A| this.eval_cache_with(model, n, x, u, part)
         }
-        self.eval_cache_with(model, n, x, u, part)
-    }
-
-    /// [`Adaptive::eval_cache`] compiled for AVX2 + FMA: the same arithmetic (no fused
-    /// multiply–adds) in wider, three-operand instructions, so the same results to the bit.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn eval_cache_wide(
-        &mut self,
-        model: &Model,
-        n: usize,
-        x: &SpatialTransform,
-        u: SpatialMotion,
-        part: Part,
-    ) {
-        self.eval_cache_with(model, n, x, u, part)
+        run(self, model, n, x, u, part)
     }
 
     #[inline(always)]
@@ -997,10 +978,10 @@ impl Adaptive {
         let body = &model.bodies[joint];
         let (vo, k) = (body.v_offset, body.nv);
         let jm = &self.cache.jm[n];
-        let dn: [f64; 6] = std::array::from_fn(|s| dot6(&jm.nb[s], &beta));
+        let dn: [f64; 6] = std::array::from_fn(|s| dot6::<Portable>(&jm.nb[s], &beta));
         let mut dk = [0.0; 6];
         for p in 0..k {
-            dk[p] = dot6(&jm.kb[p], &beta);
+            dk[p] = dot6::<Portable>(&jm.kb[p], &beta);
         }
         self.cache.dk[vo..vo + k].copy_from_slice(&dk[..k]);
         self.cache.dn[n] = dn;
@@ -1074,7 +1055,7 @@ impl Adaptive {
             let psidn = |i: usize| -> [f64; 6] {
                 std::array::from_fn(|r| {
                     let row = &psi[(6 * i + r) * nx + 6 * jx..][..6];
-                    dot6(row.try_into().expect("6"), &dnx)
+                    dot6::<Portable>(row.try_into().expect("6"), &dnx)
                 })
             };
             let g = psidn(jx);
@@ -1108,7 +1089,7 @@ impl Adaptive {
                 let psi = &c.psi[po..po + nx * nx];
                 let pd: [f64; 6] = std::array::from_fn(|r| {
                     let row = &psi[(6 * i + r) * nx + 6 * jx..][..6];
-                    dot6(row.try_into().expect("6"), &dnx)
+                    dot6::<Portable>(row.try_into().expect("6"), &dnx)
                 });
                 let g = &c.phi[self.coef.layout.boff[x] + jx * self.coef.handles[x] + i];
                 let mut u = [0.0; 6];
@@ -1232,24 +1213,13 @@ impl Adaptive {
     /// `J += s G_p,jxᵀ N⁰_x + J_X M_X`, `H += s G_nxᵀ G_p,jx + H_X` — the terms of `Δη` in
     /// [`Adaptive::dirty_delta`] with `n₀ = N_w w`, `k₀ = K_w w`, `p_X₀ = P_X w_X`.
     pub(crate) fn join_map(&mut self, model: &Model, n: usize) {
-        #[cfg(target_arch = "x86_64")]
-        if self.switches.fused {
-            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
-            // has AVX2 and FMA).
-            return unsafe { self.join_map_wide(model, n) };
+        // Also compiled for AVX2 + FMA (the same bits, wider vectors), run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, model: &Model, n: usize);
+            avx2_fma: this.switches.fused, Portable;
+            |A| this.join_map_with(model, n)
         }
-        self.join_map_with(model, n)
-    }
-
-    /// [`Adaptive::join_map`] compiled for AVX2 + FMA: the same arithmetic (no fused
-    /// multiply–adds) in wider instructions, so the same results to the bit. A map is built
-    /// once per forced path and hybrid body — in the benches' pattern (runs of 1,000 steps,
-    /// each starting from a whole-body re-selection) once per run, where it is most of what
-    /// a run's forced path costs.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn join_map_wide(&mut self, model: &Model, n: usize) {
-        self.join_map_with(model, n)
+        run(self, model, n)
     }
 
     #[inline(always)]
@@ -1496,21 +1466,13 @@ impl Adaptive {
     /// `cx[n] · mpose`) and n's velocity: `Δb_h = G_b,h f`, `Δp = G_p f`, `Δk = G_k f`,
     /// `Δn = G_n f`, `Δη = fᵀ H f + fᵀ J w`.
     pub(crate) fn eval_map(&mut self, model: &Model, n: usize) {
-        #[cfg(target_arch = "x86_64")]
-        if self.switches.fused {
-            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
-            // has AVX2 and FMA).
-            return unsafe { self.eval_map_wide(model, n) };
+        // Also compiled for AVX2 + FMA (the same bits, wider vectors), run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, model: &Model, n: usize);
+            avx2_fma: this.switches.fused, Portable;
+            |A| this.eval_map_with(model, n)
         }
-        self.eval_map_with(model, n)
-    }
-
-    /// [`Adaptive::eval_map`] compiled for AVX2 + FMA: the same arithmetic (no fused
-    /// multiply–adds) in wider instructions, so the same results to the bit.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn eval_map_wide(&mut self, model: &Model, n: usize) {
-        self.eval_map_with(model, n)
+        run(self, model, n)
     }
 
     #[inline(always)]
@@ -1531,7 +1493,7 @@ impl Adaptive {
             c.dn[n] = m6_x(&c.mgn[n], &f);
             let body = &model.bodies[joint];
             for p in body.v_offset..body.v_offset + body.nv {
-                c.dk[p] = dot6(&c.mgk[p], &f);
+                c.dk[p] = dot6::<Portable>(&c.mgk[p], &f);
             }
             let w = monomials(c.cu[n]);
             let hf = m6_x(&c.mhq[n], &f);
@@ -1595,21 +1557,13 @@ impl Adaptive {
     /// `A(n) = Fᵀ Ψ F + Fᵀ p + η` of a cached node at the handle forces in `f`, in its cache
     /// frame (`F⁰ = Rᵀ F`; `p = P w`, `η = wᵀ E w` at its velocity `u`): no rotation of Ψ.
     pub(crate) fn metric_local(&mut self, n: usize, x: &SpatialTransform, u: SpatialMotion) -> f64 {
-        #[cfg(target_arch = "x86_64")]
-        if self.switches.fused {
-            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
-            // has AVX2 and FMA).
-            return unsafe { self.metric_local_wide(n, x, u) };
+        // Also compiled for AVX2 + FMA (the same bits, wider vectors), run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, n: usize, x: &SpatialTransform, u: SpatialMotion) -> f64;
+            avx2_fma: this.switches.fused, Portable;
+            |A| this.metric_local_with(n, x, u)
         }
-        self.metric_local_with(n, x, u)
-    }
-
-    /// [`Adaptive::metric_local`] compiled for AVX2 + FMA: the same arithmetic (no fused
-    /// multiply–adds) in wider, three-operand instructions, so the same results to the bit.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn metric_local_wide(&mut self, n: usize, x: &SpatialTransform, u: SpatialMotion) -> f64 {
-        self.metric_local_with(n, x, u)
+        run(self, n, x, u)
     }
 
     #[inline(always)]

@@ -70,29 +70,11 @@ pub(crate) fn quad(a: &[f64], x: &[f64], n: usize) -> f64 {
 }
 
 /// Inverse of the leading k×k block of a symmetric positive definite matrix (k ≤ 6), through
-/// its Cholesky factor: `A⁻¹ = L⁻ᵀ L⁻¹`. `None` when not positive definite.
+/// its Cholesky factor: `A⁻¹ = L⁻ᵀ L⁻¹` (articula-spatial's `invert_spd_into`). `None` when not
+/// positive definite.
 pub(crate) fn spd_inverse(a: &[[f64; 6]; 6], k: usize) -> Option<[[f64; 6]; 6]> {
-    let l = cholesky_k(a, k)?;
-    // M = L⁻¹ (lower), then A⁻¹ = Mᵀ M.
-    let mut m = [[0.0f64; 6]; 6];
-    for c in 0..k {
-        for i in c..k {
-            let mut x = if i == c { 1.0 } else { 0.0 };
-            for p in c..i {
-                x -= l[i][p] * m[p][c];
-            }
-            m[i][c] = x / l[i][i];
-        }
-    }
     let mut inv = [[0.0f64; 6]; 6];
-    for i in 0..k {
-        for j in 0..=i {
-            let v: f64 = (i..k).map(|p| m[p][i] * m[p][j]).sum();
-            inv[i][j] = v;
-            inv[j][i] = v;
-        }
-    }
-    Some(inv)
+    invert_spd_into(a, k, &mut inv).then_some(inv)
 }
 
 /// Cholesky factor `L` of a 6×6 symmetric positive definite matrix (see [`cholesky_k`]).
@@ -103,7 +85,8 @@ pub(crate) fn spd_cholesky(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
 /// Cholesky factor (lower) of the leading k×k block of a symmetric positive definite matrix
 /// (k ≤ 6); `None` when a pivot is not positive — articula-dca's. (A Jacobi-scaled variant
 /// turned the join of a 40,000-link chain's halves indefinite where this one does not.)
-pub(crate) use articula_dca::internals::cholesky as cholesky_k;
+pub(crate) use articula_spatial::internals::cholesky as cholesky_k;
+use articula_spatial::internals::invert_spd_into;
 
 /// `(L Lᵀ)⁻¹ u` for the leading k×k factor `L`.
 #[inline(always)]

@@ -11,15 +11,13 @@ use crate::adaptive::Adaptive;
 use crate::hybrid::Level;
 use crate::parts::composites::Rigid;
 use crate::parts::hierarchy::{
-    coordinate_axis, revolute_parts, ActiveJoint, Hierarchy, Parent, RevoluteParts, Sym6, AX_PARTS,
+    coordinate_axis, revolute_parts, ActiveJoint, Hierarchy, Parent, RevoluteParts, AX_PARTS,
     NO_PARENT,
 };
-#[cfg(target_arch = "x86_64")]
-use articula_dca::internals::Fused;
-use articula_dca::internals::{Arith, Portable};
 use articula_dca::DynamicsError;
 use articula_model::{Model, NodeKind};
-use articula_spatial::{SpatialForce, SpatialMotion, SpatialTransform};
+use articula_spatial::internals::{cholesky_into, dot6_pairs, Arith, Portable};
+use articula_spatial::{Mat6, SpatialForce, SpatialMotion, SpatialTransform};
 use glam::DVec3;
 
 impl Adaptive {
@@ -228,7 +226,7 @@ impl Adaptive {
         }
         h.dofs = dof;
         let na = h.rec.len();
-        h.ia.resize(na, [[0.0; 6]; 6]);
+        h.ia.resize(na, Mat6::ZERO);
         h.pa.resize(na, [0.0; 6]);
         h.acc.resize(na, [0.0; 6]);
         h.dinv.resize(na, 0.0);
@@ -246,21 +244,13 @@ impl Adaptive {
     /// origin.
     #[inline]
     pub(crate) fn active_kinematics(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
-        #[cfg(target_arch = "x86_64")]
-        if self.switches.fused {
-            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
-            // has AVX2 and FMA).
-            return unsafe { self.active_kinematics_wide(model, q, qd) };
+        // Also compiled for AVX2 + FMA (the same bits, wider vectors), run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, model: &Model, q: &[f64], qd: &[f64]);
+            avx2_fma: this.switches.fused, Portable;
+            |A| this.active_kinematics_with(model, q, qd)
         }
-        self.active_kinematics_with(model, q, qd)
-    }
-
-    /// [`Adaptive::active_kinematics`] compiled for AVX2 + FMA: the same arithmetic (no
-    /// fused multiply–adds) in three-operand vector instructions, the same results to the bit.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn active_kinematics_wide(&mut self, model: &Model, q: &[f64], qd: &[f64]) {
-        self.active_kinematics_with(model, q, qd)
+        run(self, model, q, qd)
     }
 
     #[inline(always)]
@@ -422,13 +412,13 @@ impl Adaptive {
                 return self.one_joint(model, tau, level);
             }
         }
-        #[cfg(target_arch = "x86_64")]
-        if self.switches.fused {
-            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
-            // has AVX2 and FMA).
-            return unsafe { self.reduced_aba_fused(model, tau, level) };
+        // Also compiled for AVX2 + FMA with fused multiply–adds, run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, model: &Model, tau: &[f64], level: Level) -> Result<(), DynamicsError>;
+            avx2_fma: this.switches.fused, Fused;
+            |A| this.reduced_aba_with::<A>(model, tau, level)
         }
-        self.reduced_aba_with::<Portable>(model, tau, level)
+        run(self, model, tau, level)
     }
 
     /// [`Adaptive::reduced_aba`] for a reduced tree of one single-DOF joint on the world or
@@ -440,26 +430,13 @@ impl Adaptive {
     /// of forming the 6 × 6 matrix and sweeping it. The same solution; the rounding differs
     /// from the general passes' (tests compare both with exact DCA).
     fn one_joint(&mut self, model: &Model, tau: &[f64], level: Level) -> Result<(), DynamicsError> {
-        #[cfg(target_arch = "x86_64")]
-        if self.switches.fused {
-            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
-            // has AVX2 and FMA).
-            return unsafe { self.one_joint_wide(model, tau, level) };
+        // Also compiled for AVX2 + FMA (the same bits, wider vectors), run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, model: &Model, tau: &[f64], level: Level) -> Result<(), DynamicsError>;
+            avx2_fma: this.switches.fused, Portable;
+            |A| this.one_joint_with(model, tau, level)
         }
-        self.one_joint_with(model, tau, level)
-    }
-
-    /// [`Adaptive::one_joint`] compiled for AVX2 + FMA (no fused multiply–adds: the same
-    /// bits as the portable compilation).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn one_joint_wide(
-        &mut self,
-        model: &Model,
-        tau: &[f64],
-        level: Level,
-    ) -> Result<(), DynamicsError> {
-        self.one_joint_with(model, tau, level)
+        run(self, model, tau, level)
     }
 
     #[inline(always)]
@@ -504,19 +481,6 @@ impl Adaptive {
         let uu = tau[r.vo()] - s.dot(pa);
         self.body.qdd[r.vo()] = (1.0 / dd) * (uu - ap.dot(u));
         Ok(())
-    }
-
-    /// [`Adaptive::reduced_aba`] compiled for AVX2 + FMA (everything using [`Fused`] below it
-    /// is inlined).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn reduced_aba_fused(
-        &mut self,
-        model: &Model,
-        tau: &[f64],
-        level: Level,
-    ) -> Result<(), DynamicsError> {
-        self.reduced_aba_with::<Fused>(model, tau, level)
     }
 
     #[inline(always)]
@@ -582,14 +546,14 @@ impl Adaptive {
             );
             let hv = DVec3::new(cwl[0] * m, cwl[1] * m, cwl[2] * m);
             // [Ī, h×; h×ᵀ, m 1].
-            *ia = [
+            *ia = Mat6([
                 [i00, i01, i02, 0.0, -hv.z, hv.y],
                 [i01, i11, i12, hv.z, 0.0, -hv.x],
                 [i02, i12, i22, -hv.y, hv.x, 0.0],
                 [0.0, hv.z, -hv.y, m, 0.0, 0.0],
                 [-hv.z, 0.0, hv.x, 0.0, m, 0.0],
                 [hv.y, -hv.x, 0.0, 0.0, 0.0, m],
-            ];
+            ]);
             *pa = if accel {
                 let v = d.v[r.j()];
                 let ibw = DVec3::new(i00, i01, i02) * v.w.x
@@ -637,7 +601,7 @@ impl Adaptive {
                 [0.0; 6]
             };
             if k == 1 {
-                let ia = &w.ia[idx];
+                let ia = &w.ia[idx].0;
                 let s = d.s[vo].to_array();
                 // U = Iᴬ s (Iᴬ symmetric: a sum of its rows).
                 // In two halves of three rows, then summed: the chain from a joint's Iᴬ to
@@ -653,9 +617,9 @@ impl Adaptive {
                 for rr in 0..6 {
                     u[rr] = ua[rr] + ub[rr];
                 }
-                let dd = dot6::<A>(&s, &u);
+                let dd = dot6_pairs::<A>(&s, &u);
                 let dinv = 1.0 / dd;
-                let uu = tau[vo] - dot6::<A>(&s, &pa);
+                let uu = tau[vo] - dot6_pairs::<A>(&s, &pa);
                 w.u[dof] = u;
                 w.uu[dof] = uu;
                 dinvs[idx] = dinv;
@@ -668,7 +632,7 @@ impl Adaptive {
                             ic[rr] = A::mul_add(row[rr], cc, ic[rr]);
                         }
                     }
-                    let g = dinv * (uu - dot6::<A>(&c, &u));
+                    let g = dinv * (uu - dot6_pairs::<A>(&c, &u));
                     let pp = &mut w.pa[parent];
                     for rr in 0..6 {
                         pp[rr] += pa[rr] + A::mul_add(u[rr], g, ic[rr]);
@@ -743,8 +707,9 @@ impl Adaptive {
                             ap[rr] += c[rr];
                         }
                     }
-                    let sig = dot6::<A>(ud, &ps);
-                    let x = dinv[idx] * A::neg_mul_add(sig, px, io.uu[dof] - dot6::<A>(&base, ud));
+                    let sig = dot6_pairs::<A>(ud, &ps);
+                    let x = dinv[idx]
+                        * A::neg_mul_add(sig, px, io.uu[dof] - dot6_pairs::<A>(&base, ud));
                     (ap, x)
                 } else {
                     let mut ap = if r.pidx() == NO_PARENT {
@@ -757,7 +722,7 @@ impl Adaptive {
                             ap[rr] += c[rr];
                         }
                     }
-                    (ap, dinv[idx] * (io.uu[dof] - dot6::<A>(&ap, ud)))
+                    (ap, dinv[idx] * (io.uu[dof] - dot6_pairs::<A>(&ap, ud)))
                 };
                 io.qdd[vo] = x;
                 acc[idx] = std::array::from_fn(|rr| A::mul_add(s[rr], x, ap[rr]));
@@ -835,73 +800,34 @@ impl Parts {
 
 /// What pass 2 writes: `Iᴬ`, `pᴬ` (the parents'), `U`, `u` and the Cholesky factors.
 struct Art<'a> {
-    ia: &'a mut [Sym6],
+    ia: &'a mut [Mat6],
     pa: &'a mut [[f64; 6]],
     u: &'a mut [[f64; 6]],
     uu: &'a mut [f64],
     chol: &'a mut [[[f64; 6]; 6]],
 }
 
-/// [`articulate_multi_with`] out of line (the one-degree-of-freedom path of the passes keeps
-/// its registers), compiled for AVX2 + FMA when `wide` (the same arithmetic: no fused
-/// multiply–adds, the same results to the bit).
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn articulate<const K: usize>(
-    wide: bool,
-    r: &ActiveJoint,
-    w: &mut Art,
-    s: &[SpatialMotion],
-    tau: &[f64],
-    idx: usize,
-    k: usize,
-    c: &[f64; 6],
-) -> bool {
-    #[cfg(target_arch = "x86_64")]
-    if wide {
-        // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
-        return unsafe { articulate_multi_wide::<K>(r, w, s, tau, idx, k, c) };
-    }
-    articulate_multi::<K>(r, w, s, tau, idx, k, c)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline(never)]
-#[allow(clippy::too_many_arguments)]
-fn articulate_multi_wide<const K: usize>(
-    r: &ActiveJoint,
-    w: &mut Art,
-    s: &[SpatialMotion],
-    tau: &[f64],
-    idx: usize,
-    k: usize,
-    c: &[f64; 6],
-) -> bool {
-    articulate_multi_with::<K>(r, w, s, tau, idx, k, c)
-}
-
-#[inline(never)]
-#[allow(clippy::too_many_arguments)]
-fn articulate_multi<const K: usize>(
-    r: &ActiveJoint,
-    w: &mut Art,
-    s: &[SpatialMotion],
-    tau: &[f64],
-    idx: usize,
-    k: usize,
-    c: &[f64; 6],
-) -> bool {
-    articulate_multi_with::<K>(r, w, s, tau, idx, k, c)
+articula_spatial::fma_dispatch! {
+    /// [`articulate_through_factor`] out of line (the one-degree-of-freedom path of the passes keeps
+    /// its registers), compiled for AVX2 + FMA when `wide` (the same arithmetic: no fused
+    /// multiply–adds, the same results to the bit).
+    #[inline(never)]
+    fn articulate<const K: usize>(wide: bool, r: &ActiveJoint, w: &mut Art, s: &[SpatialMotion], tau: &[f64], idx: usize, k: usize, c: &[f64; 6]) -> bool;
+    avx2_fma: wide, Portable;
+    |A| articulate_through_factor::<K>(r, w, s, tau, idx, k, c)
 }
 
 /// Pass 2 of the reduced ABA at record `idx` for a joint of several degrees of freedom:
 /// `U = Iᴬ S`, `D = Sᵀ U = L Lᵀ`, `u = τ − Sᵀ pᴬ`, and the parent's `Iᵃ`, `pᵃ`. `K`: the
 /// degrees of freedom when known at compile time (loops unrolled; the same sums), 0: `k`.
 /// False when `D` is not positive definite.
+///
+/// Not `articula_dca::internals::articulate_multi`'s computation: that one inverts `D` and
+/// forms `U D⁻¹ Uᵀ`; this one keeps the factor `L` (pass 3 solves with it) and works through
+/// `Y = U L⁻ᵀ`, `z = L⁻¹ u`: `Iᵃ = Iᴬ − Y Yᵀ`, `pᵃ = pᴬ + Iᵃ c + Y z`.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn articulate_multi_with<const K: usize>(
+fn articulate_through_factor<const K: usize>(
     r: &ActiveJoint,
     h: &mut Art,
     s: &[SpatialMotion],
@@ -917,14 +843,14 @@ fn articulate_multi_with<const K: usize>(
     let ia = &hi[0];
     let mut dm = [[0.0; 6]; 6];
     for p in 0..k {
-        let u = sym_mul6(ia, &s[vo + p].to_array());
+        let u = ia.sym_mul_vec(&s[vo + p].to_array());
         h.u[dof + p] = u;
         for qq in 0..=p {
-            let x = dot6::<Portable>(&s[vo + qq].to_array(), &u);
+            let x = dot6_pairs::<Portable>(&s[vo + qq].to_array(), &u);
             dm[p][qq] = x;
             dm[qq][p] = x;
         }
-        h.uu[dof + p] = tau[vo + p] - dot6::<Portable>(&s[vo + p].to_array(), &pa);
+        h.uu[dof + p] = tau[vo + p] - dot6_pairs::<Portable>(&s[vo + p].to_array(), &pa);
     }
     // D = L Lᵀ. With Y = U L⁻ᵀ (columns y_p) and z = L⁻¹ u: U D⁻¹ Uᵀ = Y Yᵀ and
     // U D⁻¹ u = Y z.
@@ -932,7 +858,7 @@ fn articulate_multi_with<const K: usize>(
     // dividing again (the same numbers). The factor goes straight into `chol` (the lower
     // triangle of the leading k × k block: all that passes 2 and 3 read).
     let mut invs = [0.0; 6];
-    if !articula_dca::internals::cholesky_into(&dm, k, &mut h.chol[idx], &mut invs) {
+    if !cholesky_into(&dm, k, &mut h.chol[idx], &mut invs) {
         return false;
     }
     if parent == NO_PARENT {
@@ -960,9 +886,9 @@ fn articulate_multi_with<const K: usize>(
     }
     // Iᵃ = Iᴬ − Y Yᵀ, pᵃ = pᴬ + Iᵃ c + Y z (Iᵃ c = Iᴬ c − Y (Yᵀ c)).
     let target = &mut lo[parent];
-    let mut add = sym_mul6(ia, c);
+    let mut add = ia.sym_mul_vec(c);
     for p in 0..k {
-        let g = z[p] - dot6::<Portable>(&y[p], c);
+        let g = z[p] - dot6_pairs::<Portable>(&y[p], c);
         for rr in 0..6 {
             add[rr] += y[p][rr] * g;
         }
@@ -974,13 +900,13 @@ fn articulate_multi_with<const K: usize>(
     // Whole rows: entry (c, r) has the same sums as (r, c) (Iᴬ symmetric, the products
     // commute), so the result stays symmetric to the bit.
     for rr in 0..6 {
-        let mut x: [f64; 6] = std::array::from_fn(|cc| target[rr][cc] + ia[rr][cc]);
+        let mut x: [f64; 6] = std::array::from_fn(|cc| target.0[rr][cc] + ia.0[rr][cc]);
         for p in 0..k {
             for cc in 0..6 {
                 x[cc] -= y[p][rr] * y[p][cc];
             }
         }
-        target[rr] = x;
+        target.0[rr] = x;
     }
     true
 }
@@ -995,54 +921,20 @@ struct Accel<'a> {
     qdd: &'a mut [f64],
 }
 
-/// [`accelerate_multi_with`] out of line, compiled for AVX2 + FMA when `wide` (the same
-/// arithmetic).
-#[inline(always)]
-fn accelerate<const K: usize>(
-    wide: bool,
-    r: &ActiveJoint,
-    w: &mut Accel,
-    idx: usize,
-    k: usize,
-    ap: &[f64; 6],
-) -> [f64; 6] {
-    #[cfg(target_arch = "x86_64")]
-    if wide {
-        // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
-        return unsafe { accelerate_multi_wide::<K>(r, w, idx, k, ap) };
-    }
-    accelerate_multi::<K>(r, w, idx, k, ap)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline(never)]
-fn accelerate_multi_wide<const K: usize>(
-    r: &ActiveJoint,
-    w: &mut Accel,
-    idx: usize,
-    k: usize,
-    ap: &[f64; 6],
-) -> [f64; 6] {
-    accelerate_multi_with::<K>(r, w, idx, k, ap)
-}
-
-#[inline(never)]
-fn accelerate_multi<const K: usize>(
-    r: &ActiveJoint,
-    w: &mut Accel,
-    idx: usize,
-    k: usize,
-    ap: &[f64; 6],
-) -> [f64; 6] {
-    accelerate_multi_with::<K>(r, w, idx, k, ap)
+articula_spatial::fma_dispatch! {
+    /// [`accelerate_through_factor`] out of line, compiled for AVX2 + FMA when `wide` (the same
+    /// arithmetic).
+    #[inline(never)]
+    fn accelerate<const K: usize>(wide: bool, r: &ActiveJoint, w: &mut Accel, idx: usize, k: usize, ap: &[f64; 6]) -> [f64; 6];
+    avx2_fma: wide, Portable;
+    |A| accelerate_through_factor::<K>(r, w, idx, k, ap)
 }
 
 /// Pass 3 of the reduced ABA at record `r` for a joint of several degrees of freedom, from
 /// `a' = a_parent + c`: `q̈ = L⁻ᵀ L⁻¹ (u − Uᵀ a')`, returns `a = a' + S q̈`. `K` as in
-/// [`articulate_multi`].
+/// [`articulate`].
 #[inline(always)]
-fn accelerate_multi_with<const K: usize>(
+fn accelerate_through_factor<const K: usize>(
     r: &ActiveJoint,
     w: &mut Accel,
     idx: usize,
@@ -1056,7 +948,7 @@ fn accelerate_multi_with<const K: usize>(
     // q̈ = L⁻ᵀ L⁻¹ r.
     let mut x = [0.0; 6];
     for p in 0..k {
-        let mut v = uu[dof + p] - dot6::<Portable>(&ap, &u[dof + p]);
+        let mut v = uu[dof + p] - dot6_pairs::<Portable>(&ap, &u[dof + p]);
         for qq in 0..p {
             v -= l[p][qq] * x[qq];
         }
@@ -1080,58 +972,12 @@ fn accelerate_multi_with<const K: usize>(
     a
 }
 
-/// [`revolute_kinematics`], compiled for AVX2 + FMA when `wide` (the same arithmetic).
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn revolute(
-    wide: bool,
-    body: &articula_model::Body,
-    parts: &RevoluteParts,
-    x0: &SpatialTransform,
-    v0: &SpatialMotion,
-    sc: &[(f64, f64)],
-    qd: &[f64],
-    s: &mut [SpatialMotion],
-    out: KinOut,
-) {
-    #[cfg(target_arch = "x86_64")]
-    if wide {
-        // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
-        return unsafe { revolute_kinematics_wide(body, parts, x0, v0, sc, qd, s, out) };
-    }
-    revolute_kinematics(body, parts, x0, v0, sc, qd, s, out)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline(never)]
-#[allow(clippy::too_many_arguments)]
-fn revolute_kinematics_wide(
-    body: &articula_model::Body,
-    parts: &RevoluteParts,
-    x0: &SpatialTransform,
-    v0: &SpatialMotion,
-    sc: &[(f64, f64)],
-    qd: &[f64],
-    s: &mut [SpatialMotion],
-    out: KinOut,
-) {
-    revolute_kinematics_with(body, parts, x0, v0, sc, qd, s, out)
-}
-
-#[inline(never)]
-#[allow(clippy::too_many_arguments)]
-fn revolute_kinematics(
-    body: &articula_model::Body,
-    parts: &RevoluteParts,
-    x0: &SpatialTransform,
-    v0: &SpatialMotion,
-    sc: &[(f64, f64)],
-    qd: &[f64],
-    s: &mut [SpatialMotion],
-    out: KinOut,
-) {
-    revolute_kinematics_with(body, parts, x0, v0, sc, qd, s, out)
+articula_spatial::fma_dispatch! {
+    /// [`revolute_kinematics`], compiled for AVX2 + FMA when `wide` (the same arithmetic).
+    #[inline(never)]
+    fn revolute(wide: bool, body: &articula_model::Body, parts: &RevoluteParts, x0: &SpatialTransform, v0: &SpatialMotion, sc: &[(f64, f64)], qd: &[f64], s: &mut [SpatialMotion], out: KinOut);
+    avx2_fma: wide, Portable;
+    |A| revolute_kinematics_with(body, parts, x0, v0, sc, qd, s, out)
 }
 
 /// [`articula_dca::internals::body_kinematics`] for a joint of [`RevoluteParts`]: the rotation by `q`
@@ -1184,53 +1030,12 @@ fn revolute_kinematics_with(
     *out.2 = c;
 }
 
-/// [`floating_kinematics`], compiled for AVX2 + FMA when `wide` (the same arithmetic).
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn floating(
-    wide: bool,
-    part: &articula_model::JointPart,
-    x0: &SpatialTransform,
-    v0: &SpatialMotion,
-    q: &[f64],
-    qd: &[f64],
-    s: &mut [SpatialMotion],
-    out: KinOut,
-) {
-    #[cfg(target_arch = "x86_64")]
-    if wide {
-        // SAFETY: `wide` is `Adaptive::fused`, set only where the CPU has AVX2 and FMA.
-        return unsafe { floating_kinematics_wide(part, x0, v0, q, qd, s, out) };
-    }
-    floating_kinematics(part, x0, v0, q, qd, s, out)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline(never)]
-fn floating_kinematics_wide(
-    part: &articula_model::JointPart,
-    x0: &SpatialTransform,
-    v0: &SpatialMotion,
-    q: &[f64],
-    qd: &[f64],
-    s: &mut [SpatialMotion],
-    out: KinOut,
-) {
-    floating_kinematics_with(part, x0, v0, q, qd, s, out)
-}
-
-#[inline(never)]
-fn floating_kinematics(
-    part: &articula_model::JointPart,
-    x0: &SpatialTransform,
-    v0: &SpatialMotion,
-    q: &[f64],
-    qd: &[f64],
-    s: &mut [SpatialMotion],
-    out: KinOut,
-) {
-    floating_kinematics_with(part, x0, v0, q, qd, s, out)
+articula_spatial::fma_dispatch! {
+    /// [`floating_kinematics`], compiled for AVX2 + FMA when `wide` (the same arithmetic).
+    #[inline(never)]
+    fn floating(wide: bool, part: &articula_model::JointPart, x0: &SpatialTransform, v0: &SpatialMotion, q: &[f64], qd: &[f64], s: &mut [SpatialMotion], out: KinOut);
+    avx2_fma: wide, Portable;
+    |A| floating_kinematics_with(part, x0, v0, q, qd, s, out)
 }
 
 /// [`articula_dca::internals::body_kinematics`] for a joint of one floating part (a floating base):
@@ -1318,26 +1123,13 @@ fn lanes3(v: DVec3) -> [f64; 4] {
     [v.x, v.y, v.z, 0.0]
 }
 
-/// `a x` for a symmetric 6 × 6 matrix as a sum of its rows (= columns) scaled by `x`: per
-/// entry the same sums, in the same order, as the rows' dot products with `x`.
-#[inline(always)]
-fn sym_mul6(a: &Sym6, x: &[f64; 6]) -> [f64; 6] {
-    let mut y = a[0].map(|v| v * x[0]);
-    for c in 1..6 {
-        for r in 0..6 {
-            y[r] += a[c][r] * x[c];
-        }
-    }
-    y
-}
-
 /// `s += a − α u uᵀ` on symmetric 6 × 6 matrices, row by row: entry `(i, j)` is
 /// `s_ij + (a_ij − α (u_i u_j))` (`u_i u_j = u_j u_i` to the bit, so the result stays
 /// symmetric to the bit; a product, a multiply–add and an addition per lane, no shuffles, and
 /// from `α` to the result a multiply–add and an addition).
 #[inline(always)]
-fn add_sub_outer<A: Arith>(s: &mut Sym6, a: &Sym6, u: &[f64; 6], alpha: f64) {
-    for ((srow, arow), &ui) in s.iter_mut().zip(a).zip(u) {
+fn add_sub_outer<A: Arith>(s: &mut Mat6, a: &Mat6, u: &[f64; 6], alpha: f64) {
+    for ((srow, arow), &ui) in s.0.iter_mut().zip(&a.0).zip(u) {
         let (lo, hi) = srow.split_at_mut(4);
         for j in 0..4 {
             lo[j] += A::neg_mul_add(alpha, ui * u[j], arow[j]);
@@ -1346,19 +1138,6 @@ fn add_sub_outer<A: Arith>(s: &mut Sym6, a: &Sym6, u: &[f64; 6], alpha: f64) {
             hi[j] += A::neg_mul_add(alpha, ui * u[j + 4], arow[j + 4]);
         }
     }
-}
-
-#[inline(always)]
-fn dot6<A: Arith>(a: &[f64; 6], b: &[f64; 6]) -> f64 {
-    // Three pairs summed (a dependency chain of a product, a multiply–add and two additions
-    // instead of six multiply–adds: pass 2's `D = sᵀ U` and pass 3's `Uᵀ a'` sit on the
-    // chain from joint to joint).
-    let p = [
-        A::mul_add(a[1], b[1], a[0] * b[0]),
-        A::mul_add(a[3], b[3], a[2] * b[2]),
-        A::mul_add(a[5], b[5], a[4] * b[4]),
-    ];
-    (p[0] + p[1]) + p[2]
 }
 
 /// The error of a joint whose `Sᵀ Iᴬ S` is not positive definite.

@@ -12,13 +12,9 @@ use crate::parts::composites::Rigid;
 use crate::parts::join_maps::BiasMaps;
 use articula_dca::DynamicsError;
 use articula_model::{JointKind, Model, NodeKind};
+use articula_spatial::internals::{cholesky_into, dot6, Portable};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::{DMat3, DVec3};
-
-#[inline]
-fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
-}
 
 /// `Σ_p a[p][r] b[p][c]` (p < 5, ascending) for `r, c < 6`, the sums started with their first
 /// product: a row at a time over all eight lanes of `b`'s rows (two 4-wide vectors).
@@ -66,37 +62,6 @@ fn row_sub_scaled(v: &mut [f64; 6], s: f64, x: &[f64; 6]) {
     for c in 0..6 {
         v[c] -= s * x[c];
     }
-}
-
-/// Cholesky factor `L` (lower) of the leading 5×5 block of a symmetric positive definite
-/// matrix (its lower triangle is read) and the reciprocals `1 / L_jj` of its diagonal, `None`
-/// when a pivot is not positive: articula-dca's `cholesky` with the size fixed (the same
-/// operations in the same order, unrolled).
-#[inline(always)]
-fn cholesky5(a: &[[f64; 6]; 6]) -> Option<([[f64; 6]; 6], [f64; 5])> {
-    let mut l = [[0.0f64; 6]; 6];
-    let mut linv = [0.0f64; 5];
-    for j in 0..5 {
-        let mut d = a[j][j];
-        for p in 0..j {
-            d -= l[j][p] * l[j][p];
-        }
-        if d.is_nan() || d <= 0.0 {
-            return None;
-        }
-        let ljj = d.sqrt();
-        l[j][j] = ljj;
-        let inv = 1.0 / ljj;
-        linv[j] = inv;
-        for i in (j + 1)..5 {
-            let mut x = a[i][j];
-            for p in 0..j {
-                x -= l[i][p] * l[j][p];
-            }
-            l[i][j] = x * inv;
-        }
-    }
-    Some((l, linv))
 }
 
 /// `W yₖ = T (L Lᵀ)⁻¹ Tᵀ yₖ` for three right-hand sides side by side (lanes of four, the last
@@ -309,29 +274,13 @@ impl Adaptive {
         fe: SpatialForce,
         level: Level,
     ) -> Result<(), DynamicsError> {
-        #[cfg(target_arch = "x86_64")]
-        if self.switches.fused {
-            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
-            // has AVX2 and FMA).
-            return unsafe { self.rigid_coefficients_wide(model, n, inertia, v, fe, level) };
+        // Also compiled for AVX2 + FMA (the same bits, wider vectors), run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, model: &Model, n: usize, inertia: &Rigid, v: SpatialMotion, fe: SpatialForce, level: Level) -> Result<(), DynamicsError>;
+            avx2_fma: this.switches.fused, Portable;
+            |A| this.rigid_coefficients_with(model, n, inertia, v, fe, level)
         }
-        self.rigid_coefficients_with(model, n, inertia, v, fe, level)
-    }
-
-    /// [`Adaptive::rigid_coefficients`] compiled for AVX2 + FMA: the same arithmetic (no fused
-    /// multiply–adds) in wider, three-operand instructions, so the same results to the bit.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn rigid_coefficients_wide(
-        &mut self,
-        model: &Model,
-        n: usize,
-        inertia: &Rigid,
-        v: SpatialMotion,
-        fe: SpatialForce,
-        level: Level,
-    ) -> Result<(), DynamicsError> {
-        self.rigid_coefficients_with(model, n, inertia, v, fe, level)
+        run(self, model, n, inertia, v, fe, level)
     }
 
     #[inline(always)]
@@ -414,27 +363,13 @@ impl Adaptive {
         tau: &[f64],
         level: Level,
     ) -> Result<(), DynamicsError> {
-        #[cfg(target_arch = "x86_64")]
-        if self.switches.fused {
-            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
-            // has AVX2 and FMA).
-            return unsafe { self.join_wide(model, n, tau, level) };
+        // Also compiled for AVX2 + FMA (the same bits, wider vectors), run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, model: &Model, n: usize, tau: &[f64], level: Level) -> Result<(), DynamicsError>;
+            avx2_fma: this.switches.fused, Portable;
+            |A| this.join_with(model, n, tau, level)
         }
-        self.join_with(model, n, tau, level)
-    }
-
-    /// [`Adaptive::join`] compiled for AVX2 + FMA: wider vector instructions for the same
-    /// arithmetic (no fused multiply–adds), so the same results to the bit.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn join_wide(
-        &mut self,
-        model: &Model,
-        n: usize,
-        tau: &[f64],
-        level: Level,
-    ) -> Result<(), DynamicsError> {
-        self.join_with(model, n, tau, level)
+        run(self, model, n, tau, level)
     }
 
     #[inline(always)]
@@ -501,7 +436,7 @@ impl Adaptive {
         let mut d = [[0.0; 6]; 6];
         for p in 0..k {
             for q in 0..k {
-                d[p][q] = dot6(&z[p], &z[q]);
+                d[p][q] = dot6::<Portable>(&z[p], &z[q]);
             }
         }
         let dinv = dense::spd_inverse(&d, k).ok_or_else(|| DynamicsError::Singular {
@@ -515,8 +450,13 @@ impl Adaptive {
                 let mut e = [0.0; 6];
                 e[r] = 1.0;
                 let wr = dense::solve_l(&l, &e);
-                let zw: [f64; 6] =
-                    std::array::from_fn(|p| if p < k { dot6(&z[p], &wr) } else { 0.0 });
+                let zw: [f64; 6] = std::array::from_fn(|p| {
+                    if p < k {
+                        dot6::<Portable>(&z[p], &wr)
+                    } else {
+                        0.0
+                    }
+                });
                 let mut col = wr;
                 for p in 0..k {
                     let x: f64 = -(0..k).map(|q| dinv[p][q] * zw[q]).sum::<f64>();
@@ -550,7 +490,7 @@ impl Adaptive {
         // k = D⁻¹ (Q − Zᵀ w);  w ← w + Z k;  n = γ = L⁻ᵀ w
         let mut t = [0.0; 6];
         for p in 0..k {
-            t[p] = tau[vo + p] - dot6(&z[p], &w);
+            t[p] = tau[vo + p] - dot6::<Portable>(&z[p], &w);
         }
         for p in 0..k {
             self.maps.qdd_bias[vo + p] = (0..k).map(|q| dinv[p][q] * t[q]).sum();
@@ -576,7 +516,9 @@ impl Adaptive {
             }
             for p in 0..k {
                 for c in 0..6 {
-                    let zy: f64 = (0..k).map(|q| dinv[p][q] * dot6(&z[q], &yc[c])).sum();
+                    let zy: f64 = (0..k)
+                        .map(|q| dinv[p][q] * dot6::<Portable>(&z[q], &yc[c]))
+                        .sum();
                     self.maps.qdd_gain[ko + p * wd + 6 * h + c] = -zy;
                 }
             }
@@ -626,7 +568,10 @@ impl Adaptive {
                 } else {
                     std::array::from_fn(|r| {
                         std::array::from_fn(|c| {
-                            dot6(&self.scratch.y_cols[h][r], &self.scratch.u_cols[kk][c])
+                            dot6::<Portable>(
+                                &self.scratch.y_cols[h][r],
+                                &self.scratch.u_cols[kk][c],
+                            )
                         })
                     })
                 };
@@ -712,10 +657,14 @@ impl Adaptive {
                 m5[i][c] = r[i];
             }
         }
-        let (l5, ldinv) = cholesky5(&m5).ok_or_else(|| DynamicsError::Singular {
-            joint: body.joint_name(),
-            detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
-        })?;
+        // L Lᵀ of the leading 5×5 block and the reciprocals 1 / L_jj of its diagonal.
+        let (mut l5, mut ldinv) = ([[0.0f64; 6]; 6], [0.0f64; 5]);
+        if !cholesky_into(&m5, 5, &mut l5, &mut ldinv) {
+            return Err(DynamicsError::Singular {
+                joint: body.joint_name(),
+                detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
+            });
+        }
         let w_apply = |y: &[f64; 6]| -> [f64; 6] {
             let u = t.tr(y);
             let lam = dense::solve_llt_k(&l5, &u, 5);
@@ -731,9 +680,9 @@ impl Adaptive {
         let gv: [f64; 6] = std::array::from_fn(|i| wgs[i] - sv[i]);
         let ft: [f64; 6] = std::array::from_fn(|i| f0[i] - wgf0[i]);
         let gft = Mat6(*g).mul_vec(&ft);
-        let qt = dot6(&sv, &gft) / ss;
+        let qt = dot6::<Portable>(&sv, &gft) / ss;
         let q = tau[vo];
-        self.maps.qdd_bias[vo] = dot6(&gv, beta) / ss + qt * q;
+        self.maps.qdd_bias[vo] = dot6::<Portable>(&gv, beta) / ss + qt * q;
         let nv: [f64; 6] = std::array::from_fn(|i| wb[i] + ft[i] * q);
         if self.maps.record {
             // κ_β = gᵀ / sᵀs, κ_Q = q̈_τ, ν_β = W, ν_Q = f_τ.
@@ -826,21 +775,13 @@ impl Adaptive {
     /// Back-substitution at join node `n` with its handle forces in `f`: writes its joint's
     /// `q̈ = K F + k` into `qdd` and its children's handle forces.
     pub(crate) fn expand(&mut self, model: &Model, n: usize) {
-        #[cfg(target_arch = "x86_64")]
-        if self.switches.fused {
-            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
-            // has AVX2 and FMA).
-            return unsafe { self.expand_wide(model, n) };
+        // Also compiled for AVX2 + FMA (the same bits, wider vectors), run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, model: &Model, n: usize);
+            avx2_fma: this.switches.fused, Portable;
+            |A| this.expand_with(model, n)
         }
-        self.expand_with(model, n)
-    }
-
-    /// [`Adaptive::expand`] compiled for AVX2 + FMA: the same arithmetic (no fused
-    /// multiply–adds) in wider, three-operand instructions, so the same results to the bit.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn expand_wide(&mut self, model: &Model, n: usize) {
-        self.expand_with(model, n)
+        run(self, model, n)
     }
 
     #[inline(always)]

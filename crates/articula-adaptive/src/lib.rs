@@ -81,7 +81,7 @@ pub use error::AdaptiveError;
 pub use parts::selection_queue::Selection;
 pub use report::StepReport;
 pub use scratch::Scratch;
-pub use settings::Settings;
+pub use settings::{Reselection, Settings};
 
 use articula_dca::internals::all_finite;
 use articula_dca::{check_inputs, forward_kinematics, DynamicsError, State};
@@ -505,13 +505,119 @@ impl Adaptive {
             reselected: !self.hier.valid || self.steps.is_multiple_of(self.settings.reselect_every),
             ..StepReport::default()
         };
-        if report.reselected || self.switches.full_passes {
+        if report.reselected && !self.switches.full_passes && self.selects_everything(model) {
+            // Every joint would be selected and none locked: the step is the exact solve of
+            // the whole body (reduced-tree ABA over every joint), no metric, no queue, no
+            // caches (docs/adaptive.md#cost).
+            self.whole_body_step(model, state)?;
+        } else if report.reselected
+            && self.switches.reselection == Reselection::ExactSolve
+            && !self.switches.full_passes
+            && self.settings.velocity_tolerance.is_none()
+        {
+            report.rigidified = self.exact_reselect(model, state)?;
+            self.check_active_inputs(model, state)?;
+            self.hybrid_step(model, &state.q, &state.qd, &state.tau, false)?;
+            // The exact solve and the metric sums visited every node.
+            self.touched += model.assembly.nodes.len();
+        } else if report.reselected || self.switches.full_passes {
             self.step_passes(model, state, &mut report)?;
         } else {
             self.check_active_inputs(model, state)?;
             self.hybrid_step(model, &state.q, &state.qd, &state.tau, false)?;
         }
         Ok(report)
+    }
+
+    /// Whether the settings select every joint whatever the metric: no budget or one that
+    /// covers every internal degree of freedom, no tolerance stop.
+    fn selects_everything(&self, model: &Model) -> bool {
+        let internal = model.nv - if model.floating_base { 6 } else { 0 };
+        self.settings.budget.is_none_or(|b| b >= internal)
+            && self.settings.tolerance.is_none_or(|t| t <= 0.0)
+    }
+
+    /// The dynamics of a step whose selection would keep every joint: the whole body as the
+    /// hybrid body (installed once, as [`Adaptive::set_active`] does, with nothing to lock),
+    /// then the reduced-tree step over every joint. The selection reports every degree of
+    /// freedom, a predicted error of 0 and the total metric `Σ q̈ᵢᵀ Aᵢ q̈ᵢ` of the exact
+    /// accelerations.
+    fn whole_body_step(&mut self, model: &Model, state: &mut State) -> Result<(), AdaptiveError> {
+        if !(self.hier.valid && self.hier.dofs == model.nv) {
+            let steps = self.steps;
+            self.set_active(model, state, |_| true)?;
+            self.steps = steps;
+        }
+        self.check_active_inputs(model, state)?;
+        self.hybrid_step(model, &state.q, &state.qd, &state.tau, false)?;
+        let mut total = 0.0;
+        for (j, body) in model.bodies.iter().enumerate() {
+            let a = &self.body.qdd[body.v_offset..body.v_offset + body.nv];
+            let w = self.metric.accel_weight(model, j);
+            for r in 0..body.nv {
+                for c in 0..body.nv {
+                    total += a[r] * w[r * body.nv + c] * a[c];
+                }
+            }
+        }
+        self.last = Selection {
+            active_dofs: model.nv,
+            budget_used: model.nv - if model.floating_base { 6 } else { 0 },
+            predicted_error: 0.0,
+            total_metric: total,
+        };
+        Ok(())
+    }
+
+    /// How a due re-selection finds the new hybrid body (default
+    /// [`Reselection::Caches`]); the selection is the same either way.
+    pub fn set_reselection(&mut self, how: Reselection) {
+        self.switches.reselection = how;
+    }
+
+    /// How a due re-selection finds the new hybrid body.
+    pub fn reselection(&self) -> Reselection {
+        self.switches.reselection
+    }
+
+    /// The re-selection of [`Reselection::ExactSolve`]: one exact solve of the whole body
+    /// (articula-dca's ABA), the metric of every node at the exact handle forces summed
+    /// bottom-up (`A(C) = Σ_{i∈C} q̈ᵢᵀ Aᵢ q̈ᵢ`, what the top-down queue evaluates from Ψ, p, η),
+    /// the same top-down queue on those numbers, then the new hybrid body installed as by
+    /// [`Adaptive::set_active`] (locking impulses). Returns whether joints were locked.
+    fn exact_reselect(&mut self, model: &Model, state: &mut State) -> Result<bool, AdaptiveError> {
+        let mut fdense = std::mem::take(&mut self.forces.dense);
+        fdense.fill(SpatialForce::ZERO);
+        for &(i, f) in &self.forces.sparse {
+            fdense[i] += f;
+        }
+        // (Its whole-body kinematics stay in `data` for `load_state` below.)
+        let solved = self
+            .exact_solve(model, &state.q, &state.qd, &state.tau, &fdense)
+            .and_then(|()| Ok(check_qdd(model, &self.body.qdd)?));
+        if let Err(e) = solved {
+            self.forces.dense = fdense;
+            return Err(e);
+        }
+        let mut m = std::mem::take(&mut self.queue.exact_metric);
+        self.exact_node_metrics(model, &mut m);
+        self.queue.selected.fill(false);
+        let tree = &model.assembly;
+        let sel = self.run_queue(
+            model,
+            m[tree.root()],
+            |_, _| true,
+            |_, _, c| matches!(tree.nodes[c].kind, NodeKind::Join { .. }).then(|| m[c]),
+        );
+        self.queue.exact_metric = m;
+        let steps = self.steps;
+        let r = self.load_state(model, &state.q, &state.qd, &state.tau, &fdense);
+        self.forces.dense = fdense;
+        r?;
+        let locked = self.install_selected(model, state)?;
+        self.steps = steps;
+        self.last = sel;
+        Ok(locked)
     }
 
     fn step_inner(
@@ -666,6 +772,17 @@ impl Adaptive {
                 _ => false,
             };
         }
+        self.install_selected(model, state)
+    }
+
+    /// The hybrid body of the joints flagged in `queue.selected` (kinematics loaded): the
+    /// rigid composites, the locking impulses, `q̈ = 0`, the step count from a re-selection.
+    fn install_selected(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+    ) -> Result<bool, AdaptiveError> {
+        let tree = &model.assembly;
         // The active region now (as `rebuild_hybrid` closes it, with no velocity tolerance),
         // so that only the composites outside it are formed.
         self.body.active.copy_from_slice(&self.queue.selected);

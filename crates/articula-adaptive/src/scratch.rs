@@ -51,11 +51,10 @@
 use crate::adaptive::Adaptive;
 use crate::error::AdaptiveError;
 use crate::parts::composites::Rigid;
-use crate::parts::hierarchy::Sym6;
 use crate::report::StepReport;
 use articula_dca::{Data, State};
 use articula_model::Model;
-use articula_spatial::SpatialForce;
+use articula_spatial::{Mat6, SpatialForce};
 use std::mem::swap;
 
 /// The per-call buffers of [`Adaptive`] for one model, shared by every workspace of that model
@@ -68,7 +67,7 @@ pub struct Scratch {
     /// The whole `data` of [`Adaptive::node_metrics_with`]; its kinematics (`x`, `v`, `c`,
     /// `s`, `inertia`) for the other calls.
     data: Data,
-    ia: Vec<Sym6>,
+    ia: Vec<Mat6>,
     pa: Vec<[f64; 6]>,
     acc: Vec<[f64; 6]>,
     dinv: Vec<f64>,
@@ -93,7 +92,7 @@ impl Scratch {
         Scratch {
             sizes: [nb, nv, model.nq, nn],
             data: Data::new(model),
-            ia: vec![[[0.0; 6]; 6]; nb],
+            ia: vec![Mat6::ZERO; nb],
             pa: vec![[0.0; 6]; nb],
             acc: vec![[0.0; 6]; nb],
             dinv: vec![0.0; nb],

@@ -1,6 +1,7 @@
 //! How the adaptive solver chooses its joints ([`Settings`]).
 
 use crate::error::AdaptiveError;
+use articula_model::Model;
 
 /// How the adaptive solver chooses its joints.
 #[derive(Clone, Debug, PartialEq)]
@@ -31,6 +32,26 @@ impl Default for Settings {
 }
 
 impl Settings {
+    /// The longest re-selection period of [`Settings::balanced_period`].
+    pub const MAX_BALANCED_PERIOD: u64 = 50;
+
+    /// A re-selection period that keeps re-selecting to a fraction of the time: a
+    /// re-selection by [`crate::Reselection::ExactSolve`] costs about one exact solve of the
+    /// whole body and its locking impulses (O(n) for n internal degrees of freedom, most of a
+    /// DCA step), a step between re-selections one solve over the `budget` active joints, so
+    /// the period grows like `n / budget`: `⌈2n / budget⌉`, at most
+    /// [`Settings::MAX_BALANCED_PERIOD`] (1 when the budget covers every joint, which
+    /// re-selects nothing). The command line's default (docs/adaptive.md#defaults).
+    pub fn balanced_period(model: &Model, budget: Option<usize>) -> u64 {
+        let internal = model.nv - if model.floating_base { 6 } else { 0 };
+        match budget {
+            Some(b) if b < internal => {
+                ((2 * internal).div_ceil(b.max(1)) as u64).clamp(1, Self::MAX_BALANCED_PERIOD)
+            }
+            _ => 1,
+        }
+    }
+
     /// Checks the values: a finite non-negative tolerance and velocity tolerance, a re-selection
     /// period of at least one step.
     ///
@@ -61,4 +82,21 @@ impl Settings {
             AdaptiveError::Setting("reselect_every must be at least 1".into())
         }
     }
+}
+
+/// How a due re-selection finds the new hybrid body ([`crate::Adaptive::set_reselection`]).
+/// Both give the same selection (the metric of a node at its exact handle forces); they differ
+/// in cost (docs/adaptive.md#cost).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Reselection {
+    /// Through the caches of the rigid subassemblies: O(active region) plus a cache rebuild,
+    /// a few hundred times a DCA join, for every node leaving the active region; the first
+    /// re-selection builds every cache (O(n)).
+    #[default]
+    Caches,
+    /// One exact solve of the whole body (articula-dca's ABA), every node's metric summed
+    /// bottom-up, the queue, and the locking impulses: O(n) with the constant of an ABA pass,
+    /// nothing cached — cheaper when the selection changes a lot between re-selections
+    /// (a falling or swinging body) and on the first step.
+    ExactSolve,
 }

@@ -60,26 +60,13 @@ impl Adaptive {
         model: &Model,
         state: &mut State,
     ) -> Result<bool, DynamicsError> {
-        #[cfg(target_arch = "x86_64")]
-        if self.switches.fused {
-            // SAFETY: `fused` is set only where `articula_dca::internals::fused_available()` (the CPU
-            // has AVX2 and FMA).
-            return unsafe { self.cached_reselect_wide(model, state) };
+        // Also compiled for AVX2 + FMA (the same bits, wider vectors), run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, model: &Model, state: &mut State) -> Result<bool, DynamicsError>;
+            avx2_fma: this.switches.fused, Portable;
+            |A| this.cached_reselect_with(model, state)
         }
-        self.cached_reselect_with(model, state)
-    }
-
-    /// [`Adaptive::cached_reselect`] compiled for AVX2 + FMA (its own arithmetic — the
-    /// frontier leaves' world inertias, the frames — in wider instructions; no fused
-    /// multiply–adds, so the same results to the bit).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn cached_reselect_wide(
-        &mut self,
-        model: &Model,
-        state: &mut State,
-    ) -> Result<bool, DynamicsError> {
-        self.cached_reselect_with(model, state)
+        run(self, model, state)
     }
 
     #[inline(always)]

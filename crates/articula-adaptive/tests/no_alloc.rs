@@ -102,3 +102,37 @@ fn rk4_steps_allocate_nothing() {
         );
     }
 }
+
+/// The exact-solve re-selection and the whole-body step of a full budget allocate nothing
+/// once warm either, with forces on locked bodies.
+#[test]
+fn exact_solve_and_full_budget_steps_allocate_nothing() {
+    let model = articula_testkit::chain(300);
+    let mut s = State::random(&model, 42, 0.0);
+    s.f_ext.clear();
+    let forces = [(
+        150usize,
+        SpatialForce::new(glam::DVec3::ZERO, glam::DVec3::new(0.5, 0.0, 1.0)),
+    )];
+    for budget in [10usize, 300] {
+        let mut ad = Adaptive::new(
+            &model,
+            Settings {
+                budget: Some(budget),
+                reselect_every: 1,
+                ..Settings::default()
+            },
+        );
+        ad.set_reselection(articula_adaptive::Reselection::ExactSolve);
+        for _ in 0..20 {
+            ad.step_with_forces(&model, &mut s, 1e-4, &forces).unwrap();
+        }
+        let steps = count_allocations(|| {
+            for _ in 0..100 {
+                let r = ad.step_with_forces(&model, &mut s, 1e-4, &forces).unwrap();
+                assert_eq!(r.active_dofs, budget);
+            }
+        });
+        assert_eq!(steps, 0, "budget {budget}: allocations in 100 steps");
+    }
+}

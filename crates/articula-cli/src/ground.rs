@@ -146,6 +146,17 @@ impl GroundRun {
     }
 
     /// The summary lines: ground, penetration, contacts, kinetic energy at the end.
+    /// The contact figures as keys of the `--json` summary.
+    pub fn add_json(&self, j: &mut serde_json::Value) {
+        let per = |x: u64| x as f64 / self.steps.max(1) as f64;
+        j["max_penetration_m"] = serde_json::json!(self.max_penetration);
+        j["contacts_mean"] = serde_json::json!(per(self.contacts));
+        j["contact_rows_mean"] = serde_json::json!(per(self.rows));
+        j["response_solves_mean"] = serde_json::json!(per(self.solves));
+        j["steps_not_converged"] = serde_json::json!(self.not_converged);
+    }
+
+    /// The contact figures as lines of the text summary.
     pub fn lines(&self, kinetic_end: f64) -> Vec<String> {
         let g = self.settings.ground.expect("a ground");
         let per = |x: u64| x as f64 / self.steps.max(1) as f64;

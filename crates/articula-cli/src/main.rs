@@ -10,6 +10,7 @@ mod info;
 mod scene;
 mod simulate;
 mod state_json;
+mod watch;
 
 use articula_dca::{Data, Method, State};
 use articula_model::{InertiaPolicy, LoadOptions, Model};
@@ -83,6 +84,9 @@ pub struct DynamicsArgs {
     /// `--method adaptive`: the most internal degrees of freedom simulated (0 = one rigid body).
     #[arg(long, value_name = "K", value_parser = parse_budget, allow_hyphen_values = true)]
     pub budget: Option<usize>,
+    /// `--method adaptive`: how a re-selection finds the new hybrid body.
+    #[arg(long, value_enum, default_value_t = ReselectionArg::Exact)]
+    pub reselection: ReselectionArg,
     /// `--method adaptive`: stop selecting joints once the acceleration-metric error left is at
     /// most E (0 = exact).
     #[arg(long, value_name = "E", value_parser = parse_tolerance, allow_hyphen_values = true)]
@@ -142,6 +146,27 @@ impl MethodArg {
     }
 }
 
+/// `--reselection`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ReselectionArg {
+    /// One exact solve of the whole body, every node's metric, the queue, the locking
+    /// impulses: O(n) at the cost of an ABA pass, nothing cached (the fastest when the
+    /// selection changes, as on a falling or swinging body).
+    Exact,
+    /// Through the caches of the rigid subassemblies: O(active region) plus a cache rebuild
+    /// per node leaving it; the first step builds every cache.
+    Caches,
+}
+
+impl From<ReselectionArg> for articula_adaptive::Reselection {
+    fn from(r: ReselectionArg) -> Self {
+        match r {
+            ReselectionArg::Exact => articula_adaptive::Reselection::ExactSolve,
+            ReselectionArg::Caches => articula_adaptive::Reselection::Caches,
+        }
+    }
+}
+
 /// Parses `--budget`: a whole number ≥ 0.
 fn parse_budget(s: &str) -> Result<usize, String> {
     s.trim()
@@ -195,6 +220,7 @@ impl DynamicsArgs {
         };
         let mut ad = articula_adaptive::Adaptive::new(model, settings);
         ad.data.gravity = self.gravity;
+        ad.set_reselection(self.reselection.into());
         ad
     }
 

@@ -3,9 +3,10 @@
 //! stdout, and with `--out` PNG frames from the camera and top-down maps.
 
 use crate::simulate::parse_count;
+use crate::watch::{parse_growth, EnergyWatch, GimbalWatch, DEFAULT_MAX_ENERGY_GROWTH};
 use crate::{print_out, CliError};
 use articula_view::render::{render_map, render_view, save_png};
-use articula_view::{load_scene_with, SceneSim};
+use articula_view::{load_scene_limited, SceneSim};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -31,6 +32,50 @@ pub struct SceneArgs {
     /// (docs/loading.md).
     #[arg(long, value_enum, default_value_t = crate::InertiaArg::Accept)]
     pub inertia: crate::InertiaArg,
+    /// Stop (exit 2, after the summary of the steps done) once the scene's energy (kinetic,
+    /// gravity, pose springs) has grown, beyond the work of the pushes, by more than this
+    /// fraction of the largest energy in play; checked at every re-selection. `inf`: no bound.
+    #[arg(long, value_name = "FRACTION", default_value_t = DEFAULT_MAX_ENERGY_GROWTH,
+          value_parser = parse_growth)]
+    pub max_energy_growth: f64,
+    /// Refuse (exit 2) a scene whose estimated memory exceeds this (bytes, or with a unit:
+    /// `512MiB`, `8GiB`, `2GB`); the estimate is made before any body is placed.
+    #[arg(long, value_name = "SIZE", default_value = "4GiB", value_parser = parse_size)]
+    pub memory_limit: u64,
+}
+
+/// Parses a memory size: a whole number of bytes, or a number with a unit (`KiB`, `MiB`, `GiB`,
+/// `TiB` powers of 1,024; `KB`, `MB`, `GB`, `TB` powers of 1,000).
+pub fn parse_size(s: &str) -> Result<u64, String> {
+    let t = s.trim();
+    let split = t.find(|c: char| c.is_ascii_alphabetic()).unwrap_or(t.len());
+    let (num, unit) = (t[..split].trim(), t[split..].trim());
+    let scale: f64 = match unit.to_ascii_lowercase().as_str() {
+        "" | "b" => 1.0,
+        "kib" => 1024.0,
+        "mib" => 1024f64.powi(2),
+        "gib" => 1024f64.powi(3),
+        "tib" => 1024f64.powi(4),
+        "kb" => 1e3,
+        "mb" => 1e6,
+        "gb" => 1e9,
+        "tb" => 1e12,
+        _ => {
+            return Err(format!(
+                "unknown unit '{unit}' in '{s}' (KiB, MiB, GiB, TiB, KB, MB, GB, TB)"
+            ))
+        }
+    };
+    let x: f64 = num
+        .parse()
+        .map_err(|_| format!("'{s}' is not a size (a number of bytes, or 512MiB, 8GiB, ...)"))?;
+    let bytes = x * scale;
+    if !(bytes.is_finite() && bytes >= 1.0 && bytes < u64::MAX as f64) {
+        return Err(format!(
+            "the memory limit must be at least 1 byte, got '{s}'"
+        ));
+    }
+    Ok(bytes as u64)
 }
 
 fn parse_steps(s: &str) -> Result<u64, String> {
@@ -60,7 +105,7 @@ fn write_frame(
 
 /// Runs `articula scene`.
 pub fn run(args: &SceneArgs) -> Result<(), CliError> {
-    let scene = load_scene_with(&args.scene, args.inertia.into())?;
+    let scene = load_scene_limited(&args.scene, args.inertia.into(), args.memory_limit)?;
     for m in &scene.models {
         for w in &m.model.warnings {
             eprintln!("warning: {}: {w}", m.name);
@@ -83,12 +128,18 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
     if std::io::stderr().is_terminal() {
         bar.set_draw_target(ProgressDrawTarget::stderr());
     }
+    let e0 = sim.energy();
+    let mut watch = EnergyWatch::new(e0.kinetic, e0.gravity + e0.springs, args.max_energy_growth);
+    let mut gimbal = vec![GimbalWatch::default(); scene.models.len()];
+    let check_every = scene.reselect_every as u64;
     let mut in_steps = Duration::ZERO;
     let mut active_sum = 0usize;
     let mut active_max = 0usize;
     let mut frames = 0u64;
     let (mut contacts_sum, mut max_penetration) = (0usize, 0.0f64);
     let mut last = None;
+    let mut done = 0u64;
+    let mut stop: Option<String> = None;
     for k in 0..steps {
         if let (Some(dir), true) = (&args.out, k % args.frame_every == 0) {
             let active = last
@@ -100,44 +151,55 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
         let t0 = Instant::now();
         let result = sim.step();
         in_steps += t0.elapsed();
-        let s = match result {
-            Ok(s) => s,
-            Err(e) => {
-                bar.finish_and_clear();
-                return Err(CliError(format!(
-                    "step {} of {steps} (t = {:?} s): {e}",
-                    k + 1,
-                    sim.time()
-                )));
+        let checked = match result {
+            Ok(s) => {
+                active_sum += s.active_total;
+                active_max = active_max.max(s.active_total);
+                contacts_sum += s.contacts;
+                max_penetration = max_penetration.max(s.max_penetration);
+                bar.set_message(format!("{} active joints", s.active_total));
+                bar.set_position(k + 1);
+                last = Some(s);
+                if (k + 1) % check_every == 0 || k + 1 == steps {
+                    check_scene(&mut sim, &mut watch, &mut gimbal, k + 1)
+                } else {
+                    Ok(())
+                }
             }
+            Err(e) => Err(e.to_string()),
         };
-        active_sum += s.active_total;
-        active_max = active_max.max(s.active_total);
-        contacts_sum += s.contacts;
-        max_penetration = max_penetration.max(s.max_penetration);
-        bar.set_message(format!("{} active joints", s.active_total));
-        bar.set_position(k + 1);
-        last = Some(s);
+        if let Err(e) = checked {
+            stop = Some(format!(
+                "step {} of {steps} (t = {:?} s): {e}",
+                k + 1,
+                (k + 1) as f64 * scene.dt
+            ));
+            break;
+        }
+        done = k + 1;
     }
     bar.finish_and_clear();
-    let last = last.expect("at least one step");
-    if let Some(dir) = &args.out {
-        write_frame(&mut sim, dir, steps, last.active_total)?;
+    if let (Some(dir), None) = (&args.out, &stop) {
+        let active = last.as_ref().map_or(0, |s| s.active_total);
+        write_frame(&mut sim, dir, steps, active)?;
         frames += 1;
     }
+    let last = last.unwrap_or_default();
+    let e_end = watch.last;
     let mut summary = serde_json::json!({
         "scene": args.scene.display().to_string(),
-        "steps": steps,
+        "steps": done,
+        "steps_requested": steps,
         "dt": scene.dt,
         "bodies": sim.bodies.len(),
         "dof_total": sim.dof_total(),
         "budget": scene.budget,
         "tolerance": scene.tolerance,
         "reselect_every": scene.reselect_every,
-        "active_joints_mean": active_sum as f64 / steps as f64,
+        "active_joints_mean": active_sum as f64 / done.max(1) as f64,
         "active_joints_max": active_max,
         "active_joints_last": last.active_total,
-        "ms_per_step": in_steps.as_secs_f64() * 1e3 / steps as f64,
+        "ms_per_step": in_steps.as_secs_f64() * 1e3 / done.max(1) as f64,
         "visible": last.classes[0],
         "occluded": last.classes[1],
         "invisible": last.classes[2],
@@ -147,12 +209,62 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
             "invisible": last.link_classes[2],
         },
         "weighted_error": last.total_error,
+        "energy_start": watch.start,
+        "energy_end": e_end,
+        "energy_drift_max": watch.max_drift,
+        "energy_drift_max_step": watch.max_drift_step,
+        "energy_drift_max_relative": watch.max_drift_relative(),
         "frames": frames,
         "out": args.out.as_ref().map(|d| d.display().to_string()),
+        "stop_reason": stop,
     });
     if scene.ground.is_some() {
         summary["max_penetration_m"] = max_penetration.into();
-        summary["contacts_mean"] = (contacts_sum as f64 / steps as f64).into();
+        summary["contacts_mean"] = (contacts_sum as f64 / done.max(1) as f64).into();
     }
-    print_out(&format!("{summary}\n"))
+    print_out(&format!("{summary}\n"))?;
+    match stop {
+        Some(s) => Err(CliError(s)),
+        None => Ok(()),
+    }
+}
+
+/// The checks of a re-selection step: the energy balance, and every character's composed
+/// joints against gimbal lock (one warning per joint of each model, naming the first character
+/// that neared it).
+fn check_scene(
+    sim: &mut SceneSim,
+    watch: &mut EnergyWatch,
+    gimbal: &mut [GimbalWatch],
+    k: u64,
+) -> Result<(), String> {
+    let e = sim.energy();
+    let t = sim.time();
+    for (b, placement) in sim.bodies.iter().zip(&sim.scene.placements) {
+        let model = &sim.scene.models[b.model].model;
+        let who = format!("body '{}': ", placement.name);
+        gimbal[b.model].check(model, &b.state.q, &who, || {
+            format!("step {k} (t = {t:?} s)")
+        });
+    }
+    watch.check(k, e.kinetic, e.gravity + e.springs, e.push_work)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_size;
+    use articula_view::DEFAULT_SCENE_MEMORY_LIMIT;
+
+    #[test]
+    fn sizes_take_binary_and_decimal_units() {
+        // The default of --memory-limit is the library's.
+        assert_eq!(parse_size("4GiB"), Ok(DEFAULT_SCENE_MEMORY_LIMIT));
+        assert_eq!(parse_size("512 MiB"), Ok(512 << 20));
+        assert_eq!(parse_size("2GB"), Ok(2_000_000_000));
+        assert_eq!(parse_size("1000"), Ok(1000));
+        assert_eq!(parse_size("1.5KiB"), Ok(1536));
+        for bad in ["", "0", "-1GiB", "4 parsecs", "GiB", "inf"] {
+            assert!(parse_size(bad).is_err(), "{bad}");
+        }
+    }
 }

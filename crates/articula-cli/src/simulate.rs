@@ -1,6 +1,7 @@
 //! `articula simulate`: integrate the motion for a number of steps, report time per step and
 //! energy drift, and optionally write the trajectory as CSV (`docs/state-format.md`).
 
+use crate::watch::{parse_growth, EnergyWatch, GimbalWatch, DEFAULT_MAX_ENERGY_GROWTH};
 use crate::{load_state, print_out, CliError, DynamicsArgs};
 use articula_dca::{forward_kinematics, step, Data, Integrator, Method, State};
 use articula_model::Model;
@@ -35,9 +36,20 @@ pub struct SimulateArgs {
     /// every step (steps + 1 rows).
     #[arg(long, value_name = "traj.csv")]
     pub out: Option<PathBuf>,
-    /// `--method adaptive`: re-select the hybrid body every this many steps.
-    #[arg(long, value_name = "N", default_value_t = 1, value_parser = parse_steps)]
-    pub reselect_every: u64,
+    /// `--method adaptive`: re-select the hybrid body every this many steps. Default: the
+    /// balanced period ⌈2 · internal DOFs / budget⌉, at most 50 (re-selection a fraction of the time;
+    /// docs/adaptive.md#defaults).
+    #[arg(long, value_name = "N", value_parser = parse_steps)]
+    pub reselect_every: Option<u64>,
+    /// Stop (exit 2) once the energy has grown, beyond the work of the joint forces, by more
+    /// than this fraction of the largest energy in play (initial, kinetic, potential change,
+    /// work): the integration diverges. `inf`: no bound. A non-finite state always stops.
+    #[arg(long, value_name = "FRACTION", default_value_t = DEFAULT_MAX_ENERGY_GROWTH,
+          value_parser = parse_growth)]
+    pub max_energy_growth: f64,
+    /// Print the summary as one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `--integrator`.
@@ -184,12 +196,13 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     let method = args.dynamics.method;
     let integrator = args.integrator.integrator();
     // Adaptive: the hybrid body, and an exact DCA run beside it for the trajectory error.
-    let mut adaptive = method.exact().is_none().then(|| {
-        (
-            args.dynamics.adaptive(&model, args.reselect_every),
-            state.clone(),
-        )
+    let every = args.reselect_every.unwrap_or_else(|| {
+        articula_adaptive::Settings::balanced_period(&model, args.dynamics.budget)
     });
+    let mut adaptive = method
+        .exact()
+        .is_none()
+        .then(|| (args.dynamics.adaptive(&model, every), state.clone()));
     let mut active = ActiveStats::default();
     let (steps, dt) = (args.steps, args.dt);
     let mut ground = args.contact.run(&model)?;
@@ -212,7 +225,13 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
         csv.row(0.0, &state)?;
     }
     let (k0, p0) = energy(&model, &mut data, &state);
-    let e0 = k0 + p0;
+    let mut watch = EnergyWatch::new(k0, p0, args.max_energy_growth);
+    let mut gimbal = GimbalWatch::default();
+    gimbal.check(&model, &state.q, "", || "at t = 0".to_string());
+    // The work of the constant joint forces, ∫ τ·q̇ dt (trapezoidal over each step).
+    let torques = state.tau.iter().any(|&x| x != 0.0);
+    let mut work = 0.0;
+    let mut qd_before = state.qd.clone();
 
     // The bar appears only on a terminal, and only once the run has lasted long enough to be
     // worth watching.
@@ -230,7 +249,13 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
 
     let start = Instant::now();
     let mut in_steps = Duration::ZERO;
+    let mut first_step = Duration::ZERO;
+    let mut done = 0;
+    let mut stop: Option<(u64, String)> = None;
     for k in 1..=steps {
+        if torques {
+            qd_before.copy_from_slice(&state.qd);
+        }
         let t0 = Instant::now();
         let result = match (adaptive.as_mut(), ground.as_mut()) {
             (None, Some(g)) => g.step(
@@ -253,7 +278,11 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
                 .map(|r| active.add(k, r.active_dofs, steps))
                 .map_err(|e| e.to_string()),
         };
-        in_steps += t0.elapsed();
+        let took = t0.elapsed();
+        in_steps += took;
+        if k == 1 {
+            first_step = took;
+        }
         let result = result.and_then(|()| match adaptive.as_mut() {
             Some((_, exact)) => {
                 let r = step(&model, &mut data, exact, Method::Dca, integrator, dt)
@@ -263,17 +292,28 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
             }
             None => Ok(()),
         });
+        let result = result.and_then(|()| {
+            if !state.q.iter().chain(&state.qd).all(|x| x.is_finite()) {
+                return Err("the state is not finite".to_string());
+            }
+            if torques {
+                work += state
+                    .tau
+                    .iter()
+                    .zip(qd_before.iter().zip(&state.qd))
+                    .map(|(t, (a, b))| t * 0.5 * (a + b) * dt)
+                    .sum::<f64>();
+            }
+            let (kk, pp) = energy(&model, &mut data, &state);
+            watch.check(k, kk, pp, work)
+        });
         let t = k as f64 * dt;
         if let Err(e) = result {
-            bar.finish_and_clear();
-            if let Some(csv) = csv {
-                csv.finish()?;
-            }
-            return Err(CliError(format!(
-                "step {k} of {steps} (from t = {:?} s): {e}",
-                (k - 1) as f64 * dt
-            )));
+            stop = Some((k, e));
+            break;
         }
+        done = k;
+        gimbal.check(&model, &state.q, "", || format!("step {k} (t = {t:?} s)"));
         if let Some(csv) = &mut csv {
             csv.row(t, &state)?;
         }
@@ -289,67 +329,160 @@ pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     if let Some(csv) = csv {
         csv.finish()?;
     }
-    let (k1, p1) = energy(&model, &mut data, &state);
-    let e1 = k1 + p1;
-
-    let per_step_us = in_steps.as_secs_f64() * 1e6 / steps as f64;
-    let base = if model.floating_base {
-        "floating"
+    let (k1, p1) = if stop.is_some() {
+        (f64::NAN, watch.last)
     } else {
-        "fixed"
+        energy(&model, &mut data, &state)
     };
-    let mut lines = vec![
+    let e1 = if stop.is_some() { watch.last } else { k1 + p1 };
+    let per_step_us = in_steps.as_secs_f64() * 1e6 / done.max(1) as f64;
+    let drift = e1 - watch.start - work;
+    let stopped = stop.as_ref().map(|(k, e)| {
         format!(
-            "model        {} ({} DOF, nq = {}, {base} base)",
-            model.name, model.nv, model.nq
-        ),
-        format!("method       {}", method.name()),
-        format!("integrator   {}", args.integrator.name()),
-        format!("steps        {steps}"),
-        format!("dt           {dt:?} s (t_end = {:?} s)", steps as f64 * dt),
-        format!(
-            "wall time    {per_step_us:.3} µs per step ({:.3} ms in steps, {:.3} ms in all)",
-            in_steps.as_secs_f64() * 1e3,
-            start.elapsed().as_secs_f64() * 1e3
-        ),
-        format!("energy start {e0:.9e} J (kinetic {k0:.6e}, potential {p0:.6e})"),
-        format!("energy end   {e1:.9e} J (kinetic {k1:.6e}, potential {p1:.6e})"),
-    ];
-    let drift = e1 - e0;
-    lines.push(if e0 != 0.0 {
-        format!(
-            "energy drift {:.3e} relative ((end - start) / |start|), {drift:.3e} J absolute",
-            drift / e0.abs()
+            "step {k} of {steps} (from t = {:?} s): {e}",
+            (k - 1) as f64 * dt
         )
-    } else {
-        format!("energy drift n/a relative (start energy is 0), {drift:.3e} J absolute")
     });
-    if let Some(g) = &ground {
-        lines.extend(g.lines(k1));
-    }
-    if adaptive.is_some() {
-        lines.extend(active.lines(
-            args.dynamics.budget,
-            args.dynamics.tolerance,
-            args.reselect_every,
-        ));
-    }
-    if state.tau.iter().any(|&x| x != 0.0) {
-        lines.push(
-            "note         tau is not zero: the joint forces do work, energy need not be conserved"
-                .to_string(),
-        );
-    }
-    if let Some(path) = &args.out {
+
+    // The first step apart (adaptive dynamics' whole-body selection), then the steady state.
+    let steady_us =
+        (in_steps - first_step).as_secs_f64() * 1e6 / done.saturating_sub(1).max(1) as f64;
+    let out = if args.json {
+        let mut j = serde_json::json!({
+            "model": model.name,
+            "dof": model.nv,
+            "method": method.name(),
+            "integrator": args.integrator.name(),
+            "dt": dt,
+            "steps": steps,
+            "steps_done": done,
+            "us_per_step": per_step_us,
+            "first_step_ms": first_step.as_secs_f64() * 1e3,
+            "steady_us_per_step": steady_us,
+            "energy_start": watch.start,
+            "energy_end": e1,
+            "energy_drift": drift,
+            "energy_drift_max": watch.max_drift,
+            "energy_drift_max_step": watch.max_drift_step,
+            "energy_drift_max_relative": watch.max_drift_relative(),
+            "energy_scale": watch.scale,
+            "work": work,
+            "max_energy_growth": finite_or_null(args.max_energy_growth),
+            "stop_reason": stopped,
+        });
+        if stop.is_none() {
+            j["kinetic_end"] = serde_json::json!(k1);
+        }
+        if let Some(g) = &ground {
+            g.add_json(&mut j);
+        }
+        if adaptive.is_some() {
+            j["active_dofs_mean"] = serde_json::json!(active.sum as f64 / active.n.max(1) as f64);
+            j["trajectory_error_max"] = serde_json::json!(active.err_max);
+        }
+        format!("{j}\n")
+    } else {
+        let base = if model.floating_base {
+            "floating"
+        } else {
+            "fixed"
+        };
+        let e0 = watch.start;
+        let mut lines = vec![
+            format!(
+                "model        {} ({} DOF, nq = {}, {base} base)",
+                model.name, model.nv, model.nq
+            ),
+            format!("method       {}", method.name()),
+            format!("integrator   {}", args.integrator.name()),
+            match &stop {
+                None => format!("steps        {steps}"),
+                Some((k, _)) => format!("steps        {done} of {steps} (stopped at step {k})"),
+            },
+            format!("dt           {dt:?} s (t_end = {:?} s)", done as f64 * dt),
+            format!(
+                "wall time    {per_step_us:.3} µs per step ({:.3} ms in steps, {:.3} ms in all)",
+                in_steps.as_secs_f64() * 1e3,
+                start.elapsed().as_secs_f64() * 1e3
+            ),
+            if done > 1 {
+                format!(
+                    "first step   {:.3} ms, steady {steady_us:.3} µs per step (steps 2..{done})",
+                    first_step.as_secs_f64() * 1e3,
+                )
+            } else {
+                format!("first step   {:.3} ms", first_step.as_secs_f64() * 1e3)
+            },
+            format!("energy start {e0:.9e} J (kinetic {k0:.6e}, potential {p0:.6e})"),
+            if stop.is_none() {
+                format!("energy end   {e1:.9e} J (kinetic {k1:.6e}, potential {p1:.6e})")
+            } else {
+                format!("energy end   {e1:.9e} J (at the step that stopped the run)")
+            },
+        ];
+        let rel = |x: f64| {
+            if e0 != 0.0 {
+                format!("{:.3e} relative to |start|", x / e0.abs())
+            } else {
+                "n/a relative (start energy is 0)".to_string()
+            }
+        };
         lines.push(format!(
-            "trajectory   {} ({} rows after the header: t = 0 and one per step)",
-            path.display(),
-            steps + 1
+            "energy drift {drift:.3e} J at the end (E - E0 - work), {}",
+            rel(drift)
         ));
+        lines.push(format!(
+            "max drift    {:.3e} J at step {} ({:.3e} of the largest energy in play, {:.3e} J)",
+            watch.max_drift,
+            watch.max_drift_step,
+            watch.max_drift_relative(),
+            watch.scale
+        ));
+        if let Some(g) = &ground {
+            lines.extend(g.lines(k1));
+        }
+        if adaptive.is_some() {
+            lines.extend(active.lines(
+                args.dynamics.budget,
+                args.dynamics.tolerance,
+                every,
+                args.reselect_every.is_none(),
+                args.dynamics.reselection,
+            ));
+        }
+        if torques {
+            lines.push(format!(
+                "work         {work:.6e} J by the joint forces tau (held constant), not counted as drift"
+            ));
+        }
+        if let Some(path) = &args.out {
+            lines.push(format!(
+                "trajectory   {} ({} rows after the header: t = 0 and one per step done)",
+                path.display(),
+                done + 1
+            ));
+        }
+        if let Some(s) = &stopped {
+            lines.push(format!("stopped      {s}"));
+        }
+        let mut out = lines.join("\n");
+        out.push('\n');
+        out
+    };
+    print_out(&out)?;
+    match stopped {
+        Some(s) => Err(CliError(s)),
+        None => Ok(()),
     }
-    let mut out = lines.join("\n");
-    out.push('\n');
-    print_out(&out)
+}
+
+/// `x` as JSON, `null` for an infinite bound.
+fn finite_or_null(x: f64) -> serde_json::Value {
+    if x.is_finite() {
+        serde_json::json!(x)
+    } else {
+        serde_json::Value::Null
+    }
 }
 
 /// Active joints over time and the distance to the exact run (`--method adaptive`).
@@ -391,7 +524,14 @@ impl ActiveStats {
         self.err_end = e;
     }
 
-    fn lines(&self, budget: Option<usize>, tolerance: Option<f64>, every: u64) -> Vec<String> {
+    fn lines(
+        &self,
+        budget: Option<usize>,
+        tolerance: Option<f64>,
+        every: u64,
+        balanced: bool,
+        how: crate::ReselectionArg,
+    ) -> Vec<String> {
         let mean = self.sum as f64 / self.n.max(1) as f64;
         let limit = match (budget, tolerance) {
             (Some(b), Some(t)) => format!("budget {b} DOF, tolerance {t:e}"),
@@ -405,7 +545,14 @@ impl ActiveStats {
             .map(|(k, a)| format!("{k}:{a}"))
             .collect();
         vec![
-            format!("adaptive     {limit}, re-selection every {every} step(s)"),
+            format!(
+                "adaptive     {limit}, re-selection every {every} step(s){} by {}",
+                if balanced { " (balanced default)" } else { "" },
+                match how {
+                    crate::ReselectionArg::Exact => "exact solve",
+                    crate::ReselectionArg::Caches => "caches",
+                }
+            ),
             format!(
                 "active DOFs  mean {mean:.2}, min {}, max {} (step:active {})",
                 self.min.unwrap_or(0),

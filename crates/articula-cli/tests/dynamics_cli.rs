@@ -602,6 +602,122 @@ fn adaptive_simulation_steps_with_rk4() {
     assert!(err < 1e-10, "{stdout}");
 }
 
+/// The floating humanoid at `dt = 0.05` diverges: the run stops with exit 2 at the step where
+/// its energy has grown beyond half of the largest energy in play, after the summary of the
+/// steps done (which reports the drift at its maximum, at that step).
+#[test]
+fn simulate_stops_when_the_energy_grows_beyond_the_bound() {
+    let humanoid = model_path("humanoid.urdf");
+    let run = |extra: &[&str]| {
+        let mut args: Vec<&OsStr> = vec![
+            "simulate".as_ref(),
+            humanoid.as_os_str(),
+            "--floating-base".as_ref(),
+            "--steps".as_ref(),
+            "200".as_ref(),
+            "--dt".as_ref(),
+            "0.05".as_ref(),
+        ];
+        args.extend(extra.iter().map(OsStr::new));
+        articula(&args)
+    };
+    let out = run(&[]);
+    let stderr = assert_bad_input(&out, "diverging humanoid");
+    assert!(stderr.contains(" of 200") && stderr.contains("--max-energy-growth 0.5"));
+    let summary = String::from_utf8_lossy(&out.stdout);
+    assert!(summary.contains("(stopped at step "), "{summary}");
+    assert!(summary.contains("max drift"), "{summary}");
+    // The same run as JSON: the stop, and the drift at its maximum where it stopped.
+    let out = run(&["--json"]);
+    assert_bad_input(&out, "diverging humanoid, JSON");
+    let j: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let done = j["steps_done"].as_u64().unwrap();
+    assert!((1..200).contains(&done), "{j}");
+    assert_eq!(j["energy_drift_max_step"].as_u64(), Some(done + 1), "{j}");
+    assert!(
+        j["energy_drift_max_relative"].as_f64().unwrap() > 0.5,
+        "{j}"
+    );
+    assert!(
+        j["stop_reason"].as_str().unwrap().contains("energy grew"),
+        "{j}"
+    );
+    // A looser bound lets it run longer: on to a non-finite state or the end.
+    let out = run(&["--json", "--max-energy-growth", "inf"]);
+    let j2: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(j2["steps_done"].as_u64().unwrap() > done, "{j2}");
+}
+
+/// `simulate --json` on a conservative run: the energy balance in numbers that agree with an
+/// independent evaluation (the energy at the start from the library), time per step, steps
+/// done, and no stop.
+#[test]
+fn simulate_json_reports_energy_and_time() {
+    let chain = model_path("chain10.urdf");
+    let scratch = Scratch::new("simulate-json");
+    let state = scratch.file("state.json", r#"{"q": {"joint1": [0.5]}}"#);
+    let out = articula(&[
+        "simulate".as_ref(),
+        chain.as_os_str(),
+        "--steps".as_ref(),
+        "200".as_ref(),
+        "--dt".as_ref(),
+        "1e-3".as_ref(),
+        "--integrator".as_ref(),
+        "rk4".as_ref(),
+        "--state".as_ref(),
+        state.as_os_str(),
+        "--json".as_ref(),
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let j: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(j["steps_done"], 200);
+    assert!(j["stop_reason"].is_null());
+    assert!(j["us_per_step"].as_f64().unwrap() > 0.0);
+    // E₀ = V₀ at rest: −Σ m g·c from the library's kinematics.
+    let model = load(&chain, false);
+    let mut data = articula_dca::Data::new(&model);
+    let mut q = model.neutral_q();
+    q[0] = 0.5;
+    articula_dca::forward_kinematics(&model, &q, &vec![0.0; model.nv], &mut data);
+    let e0 = data.potential_energy();
+    assert!((j["energy_start"].as_f64().unwrap() - e0).abs() <= 1e-12 * e0.abs());
+    // RK4 at 1 ms conserves it to well below a microjoule on this chain; the largest drift
+    // seen bounds the drift at the end.
+    let (end, max) = (
+        j["energy_drift"].as_f64().unwrap(),
+        j["energy_drift_max"].as_f64().unwrap(),
+    );
+    assert!(end.abs() <= max && max < 1e-6, "{j}");
+    assert!(j["kinetic_end"].as_f64().unwrap() > 0.0);
+}
+
+/// CRBA's dense joint-space inertia matrix of a 17,000-link chain would take 2.2 GB: refused
+/// with exit 2 naming its size and the 2 GiB limit, before it is allocated.
+#[test]
+fn crba_beyond_the_dense_limit_is_refused() {
+    let scratch = Scratch::new("crba-size");
+    let chain = scratch.file("chain17k.urdf", &articula_testkit::chain_urdf(17_000));
+    let out = articula(&[
+        "fd".as_ref(),
+        chain.as_os_str(),
+        "--method".as_ref(),
+        "crba".as_ref(),
+    ]);
+    let stderr = assert_bad_input(&out, "crba on 17,000 DOF");
+    assert!(
+        stderr.contains("17000 × 17000")
+            && stderr.contains("2.2 GiB (2312000000 bytes)")
+            && stderr.contains("limit of 2.0 GiB (2147483648 bytes)"),
+        "{stderr}"
+    );
+}
+
 /// `simulate --ground`: the floating humanoid dropped 5 cm lands; the summary has the contact
 /// figures, the penetration below 5 mm.
 #[test]

@@ -134,3 +134,93 @@ fn summary_and_frames() {
         assert!(out_dir.join(format!("map_{k:05}.png")).exists());
     }
 }
+
+/// A crowd of a million humanoids is refused before any body is placed: the estimate and the
+/// limit are named. A small scene under a smaller `--memory-limit` is refused too.
+#[test]
+fn a_scene_beyond_the_memory_limit_is_refused() {
+    let scratch = Scratch::new("memory");
+    let models = models_dir().display().to_string();
+    let huge = scratch.file(
+        "huge.json",
+        &format!(
+            r#"{{"models": {{"h": "{models}/humanoid.urdf"}},
+                "crowds": [{{"model": "h", "rows": 1000, "columns": 1000, "origin": [5, 0, 1], "spacing": [1, 1]}}],
+                "camera": {{"eye": [0, 0, 1], "target": [10, 0, 1]}}}}"#
+        ),
+    );
+    let out = articula(&["scene", &huge, "--steps", "1"]);
+    bad(
+        &out,
+        &[
+            "1000000 bodies would take about",
+            "GiB",
+            "memory limit of 4.0 GiB",
+        ],
+    );
+    let small = scratch.file("small.json", &two_bodies(&models));
+    let out = articula(&["scene", &small, "--steps", "1", "--memory-limit", "100KiB"]);
+    bad(
+        &out,
+        &["2 bodies", "memory limit of 100.0 KiB (102400 bytes)"],
+    );
+    let out = articula(&[
+        "scene",
+        &small,
+        "--steps",
+        "1",
+        "--memory-limit",
+        "4 parsecs",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("unknown unit"));
+}
+
+/// A diverging scene (pose springs far too stiff for its time step) stops with exit 2 at the
+/// re-selection where its energy has grown beyond the bound, after printing the summary of
+/// the steps done; `--max-energy-growth inf` lets it run on until the state is not finite,
+/// which stops it too, with its summary.
+#[test]
+fn a_diverging_scene_stops_with_its_summary() {
+    let scratch = Scratch::new("diverge");
+    let models = models_dir().display().to_string();
+    let text = two_bodies(&models).replace(
+        r#""dt": 0.002,"#,
+        r#""dt": 0.01, "reselect_every": 2, "joint_springs": {"frequency_hz": 60, "damping_ratio": 0.1},"#,
+    );
+    let path = scratch.file("diverge.json", &text);
+    let summary = |out: &Output| -> serde_json::Value {
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        serde_json::from_str(stdout.lines().last().expect("a summary")).unwrap()
+    };
+    let out = articula(&["scene", &path, "--steps", "400"]);
+    bad(&out, &["step ", " of 400", "--max-energy-growth 0.5"]);
+    let s = summary(&out);
+    let done = s["steps"].as_u64().unwrap();
+    assert!(done < 400, "{s}");
+    assert_eq!(s["steps_requested"], 400);
+    assert!(
+        s["stop_reason"].as_str().unwrap().contains("energy grew"),
+        "{s}"
+    );
+    assert!(
+        s["energy_drift_max_relative"].as_f64().unwrap() > 0.5,
+        "{s}"
+    );
+    // Without the bound: on until the dynamics fails on a non-finite state.
+    let out = articula(&[
+        "scene",
+        &path,
+        "--steps",
+        "400",
+        "--max-energy-growth",
+        "inf",
+    ]);
+    bad(&out, &["step ", "non-finite"]);
+    let s = summary(&out);
+    assert!(s["steps"].as_u64().unwrap() >= done, "{s}");
+    assert!(
+        s["stop_reason"].as_str().unwrap().contains("non-finite"),
+        "{s}"
+    );
+}

@@ -1,52 +1,35 @@
 //! Reference 1: the articulated-body algorithm (Featherstone, RBDA ch. 7, Table 7.1), run in
 //! world coordinates, so no coordinate transforms appear between bodies. Articulated inertias
-//! are kept packed (21 entries, [`Sym6`]) and 1-DOF joints take a rank-1 fast path.
+//! are kept packed (21 entries, [`PackedSymMat6`]) and 1-DOF joints take a rank-1 fast path.
 
-use crate::small::Sym6;
 use crate::{Data, DynamicsError};
 use articula_model::Model;
-use articula_spatial::{SpatialForce, SpatialMotion};
+use articula_spatial::internals::{dot6, invert_spd_into, Arith, Portable};
+use articula_spatial::{PackedSymMat6, SpatialForce, SpatialMotion};
 
-/// `forward_dynamics`' ABA call: the kinematics loop (pass 1) then [`aba_with`], compiled for
-/// AVX2 + FMA when `data.dca.fused` (see [`aba_with`]).
-pub(crate) fn forward(
-    model: &Model,
-    q: &[f64],
-    qd: &[f64],
-    tau: &[f64],
-    f_ext: &[SpatialForce],
-    data: &mut Data,
-) -> Result<(), DynamicsError> {
-    #[cfg(target_arch = "x86_64")]
-    if data.dca.fused {
-        // SAFETY: `fused` is set only where the CPU has AVX2 and FMA (`Data::new`).
-        return unsafe { forward_avx2(model, q, qd, tau, f_ext, data) };
+articula_spatial::fma_dispatch! {
+    /// `forward_dynamics`' ABA call: the kinematics loop (pass 1) then [`aba_with`]. On an
+    /// x86-64 CPU with AVX2 and FMA (`data.dca.fused`, as for the DCA pass) compiled for those
+    /// features with the same arithmetic in the same order ([`Portable`]: no fused
+    /// multiply–adds), so the same bits, with wider vectors and three-operand instructions.
+    pub(crate) fn forward(
+        model: &Model,
+        q: &[f64],
+        qd: &[f64],
+        tau: &[f64],
+        f_ext: &[SpatialForce],
+        data: &mut Data,
+    ) -> Result<(), DynamicsError>;
+    avx2_fma: data.dca.fused, Portable;
+    |A| {
+        crate::kinematics::kinematics(model, q, qd, data, |_, _| {});
+        aba_with::<A>(model, tau, f_ext, data)
     }
-    crate::kinematics::kinematics(model, q, qd, data, |_, _| {});
-    aba_with(model, tau, f_ext, data)
-}
-
-/// [`forward`] compiled for AVX2 + FMA.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn forward_avx2(
-    model: &Model,
-    q: &[f64],
-    qd: &[f64],
-    tau: &[f64],
-    f_ext: &[SpatialForce],
-    data: &mut Data,
-) -> Result<(), DynamicsError> {
-    crate::kinematics::kinematics(model, q, qd, data, |_, _| {});
-    aba_with(model, tau, f_ext, data)
 }
 
 /// Runs ABA on the kinematics in `data` (pass 1 is the kinematics loop); writes `data.qdd`.
-/// Through [`forward`]: on an x86-64 CPU with AVX2 and FMA (`data.dca.fused`, as for the DCA
-/// pass) compiled for those features with the same arithmetic in the same order (no fused
-/// multiply–adds), so the same bits, with wider vectors and three-operand instructions.
 #[inline(always)]
-fn aba_with(
+fn aba_with<A: Arith>(
     model: &Model,
     tau: &[f64],
     f_ext: &[SpatialForce],
@@ -66,7 +49,7 @@ fn aba_with(
         let (vo, k, doff) = (t.vo, t.nv, aba.doff[i]);
         let inertia = &data.inertia[i];
         let v = data.v[i];
-        let mut ia = Sym6::from_inertia(inertia);
+        let mut ia = PackedSymMat6::from_inertia(inertia);
         let mut pa_i = v.cross_force(inertia.mul_motion(v)) - crate::inputs::f_ext_of(f_ext, i);
         let slot = aba.acc[i] as usize;
         if slot != u32::MAX as usize {
@@ -78,7 +61,7 @@ fn aba_with(
             // One DOF (the common case): U = Iᴬ s, D = sᵀU scalar.
             let s = data.s[vo].to_array();
             let u = ia.mul_vec(&s);
-            let d = dot6(&s, &u);
+            let d = dot6::<A>(&s, &u);
             if d.is_nan() || d <= 0.0 {
                 return Err(DynamicsError::Singular {
                     joint: model.bodies[i].joint_name(),
@@ -98,7 +81,7 @@ fn aba_with(
             // pᵃ = pᴬ + Iᵃ c + U D⁻¹ u with Iᵃ c = Iᴬ c − U (Uᵀc) / D
             let c = data.c[i].to_array();
             let ic = ia.mul_vec(&c);
-            let g = dinv * (uu - dot6(&c, &u));
+            let g = dinv * (uu - dot6::<A>(&c, &u));
             let add = SpatialForce::from_array(std::array::from_fn(|r| ic[r] + u[r] * g));
             if first {
                 aba.pa[ps] = pa_i + add;
@@ -128,12 +111,12 @@ fn aba_with(
             Some((&mut aba.ia[ps], &mut aba.pa[ps], first))
         };
         let ok = match k {
-            0 => articulate_multi::<0>(args, to_parent),
-            2 => articulate_multi::<2>(args, to_parent),
-            3 => articulate_multi::<3>(args, to_parent),
-            4 => articulate_multi::<4>(args, to_parent),
-            5 => articulate_multi::<5>(args, to_parent),
-            _ => articulate_multi::<6>(args, to_parent),
+            0 => articulate_multi::<A, 0>(args, to_parent),
+            2 => articulate_multi::<A, 2>(args, to_parent),
+            3 => articulate_multi::<A, 3>(args, to_parent),
+            4 => articulate_multi::<A, 4>(args, to_parent),
+            5 => articulate_multi::<A, 5>(args, to_parent),
+            _ => articulate_multi::<A, 6>(args, to_parent),
         };
         if !ok {
             return Err(DynamicsError::Singular {
@@ -143,14 +126,14 @@ fn aba_with(
         }
     }
     let a0 = SpatialMotion::new(glam::DVec3::ZERO, -data.gravity);
-    accelerations(topo, aba, &data.s, Some(&data.c), a0, &mut data.qdd);
+    accelerations::<A>(topo, aba, &data.s, Some(&data.c), a0, &mut data.qdd);
     Ok(())
 }
 
 /// Pass 3, root to leaves: `a' = a_parent + c`, `q̈ = D⁻¹ (u − Uᵀ a')`, `a = a' + S q̈`, on
 /// the `U`, `u`, `D⁻¹` of `aba` (`c = None`: no velocity products), writing `qdd`.
 #[inline(always)]
-fn accelerations(
+fn accelerations<A: Arith>(
     topo: &[crate::data::Topo],
     aba: &mut crate::data::AbaData,
     s: &[SpatialMotion],
@@ -171,7 +154,7 @@ fn accelerations(
         }
         let apa = ap.to_array();
         if k == 1 {
-            let x = aba.dinv[doff] * (aba.uu[vo] - dot6(&apa, &aba.u[vo]));
+            let x = aba.dinv[doff] * (aba.uu[vo] - dot6::<A>(&apa, &aba.u[vo]));
             qdd[vo] = x;
             aba.a[slot] = ap + s[vo] * x;
             continue;
@@ -184,41 +167,50 @@ fn accelerations(
             &mut qdd[vo..vo + k],
         );
         aba.a[slot] = match k {
-            0 => accelerate_multi::<0>(args, ap),
-            2 => accelerate_multi::<2>(args, ap),
-            3 => accelerate_multi::<3>(args, ap),
-            4 => accelerate_multi::<4>(args, ap),
-            5 => accelerate_multi::<5>(args, ap),
-            _ => accelerate_multi::<6>(args, ap),
+            0 => accelerate_multi::<A, 0>(args, ap),
+            2 => accelerate_multi::<A, 2>(args, ap),
+            3 => accelerate_multi::<A, 3>(args, ap),
+            4 => accelerate_multi::<A, 4>(args, ap),
+            5 => accelerate_multi::<A, 5>(args, ap),
+            _ => accelerate_multi::<A, 6>(args, ap),
         };
     }
 }
 
-/// What pass 2 reads and writes at a joint of several degrees of freedom: its subspace
-/// columns, torques and velocity product, `Iᴬ` and `pᴬ`, and its `U`, `u`, `D⁻¹` (k×k).
-struct MultiArgs<'a> {
-    s: &'a [SpatialMotion],
-    tau: &'a [f64],
-    c: SpatialMotion,
-    ia: Sym6,
-    pa_i: SpatialForce,
-    u: &'a mut [[f64; 6]],
-    uu: &'a mut [f64],
-    dinv: &'a mut [f64],
+/// What ABA's pass 2 reads and writes at a joint of `k` > 1 degrees of freedom (see
+/// [`articulate_multi`]).
+pub struct MultiArgs<'a> {
+    /// The joint's subspace columns `S` (`k`).
+    pub s: &'a [SpatialMotion],
+    /// Its joint forces `τ` (`k`).
+    pub tau: &'a [f64],
+    /// The velocity product `c` of its body.
+    pub c: SpatialMotion,
+    /// The articulated inertia `Iᴬ` of its body.
+    pub ia: PackedSymMat6,
+    /// The articulated bias force `pᴬ` of its body.
+    pub pa_i: SpatialForce,
+    /// Written: `U = Iᴬ S` (`k` columns).
+    pub u: &'a mut [[f64; 6]],
+    /// Written: `u = τ − Sᵀ pᴬ` (`k`).
+    pub uu: &'a mut [f64],
+    /// Written: `D⁻¹` (`k × k`, row-major).
+    pub dinv: &'a mut [f64],
 }
 
-/// Pass 2 at a joint of `K` > 1 degrees of freedom: `U = Iᴬ S`, `D = Sᵀ U`, `u = τ − Sᵀ pᴬ`,
-/// `D⁻¹`; with a parent (`to_parent`: its sums and whether this is its first child), also
-/// `Iᵃ = Iᴬ − Σ_p U_p w_pᵀ` (`w_p = Σ_q D⁻¹_pq U_q`) and `pᵃ = pᴬ + Iᵃ c + Σ_p U_p (D⁻¹u)_p`,
-/// set into or added to the parent's sums. The operations of the loops over `k` it replaces
-/// (`SmallSpd::invert` and its products), in their order, on K×K arrays: no 6×6 copies, the
-/// factor's reciprocal pivots reused for `L⁻¹`'s diagonal (the same numbers), `Iᴬ S` on `Iᴬ`
-/// unpacked once (by columns: the same sums), and the rank-K update entry by entry.
-/// `false`: `D` is not positive definite.
+/// ABA's pass 2 (RBDA Table 7.1) at a joint of `K` > 1 degrees of freedom (`K = 0`: none,
+/// nothing is factored): `U = Iᴬ S`, `D = Sᵀ U`, `u = τ − Sᵀ pᴬ`, `D⁻¹` (Cholesky,
+/// [`invert_spd_into`]); with a parent (`to_parent`: its articulated inertia and bias sums,
+/// and whether this is its first child, whose terms set the sums instead of adding to them),
+/// also `Iᵃ = Iᴬ − Σ_p U_p w_pᵀ` (`w_p = Σ_q D⁻¹_pq U_q`) and
+/// `pᵃ = pᴬ + Iᵃ c + Σ_p U_p (D⁻¹u)_p`, set into or added to the parent's sums. On K×K
+/// arrays, `Iᴬ S` on `Iᴬ` unpacked once ([`Mat6::sym_mul_vec`](articula_spatial::Mat6)), the
+/// rank-K update entry by entry; `A` is the arithmetic of its dot products. `false`: `D` is
+/// not positive definite.
 #[inline(always)]
-fn articulate_multi<const K: usize>(
+pub fn articulate_multi<A: Arith, const K: usize>(
     m: MultiArgs,
-    to_parent: Option<(&mut Sym6, &mut SpatialForce, bool)>,
+    to_parent: Option<(&mut PackedSymMat6, &mut SpatialForce, bool)>,
 ) -> bool {
     let s: &[SpatialMotion; K] = m.s.try_into().expect("K columns");
     let tau: &[f64; K] = m.tau.try_into().expect("K torques");
@@ -226,46 +218,20 @@ fn articulate_multi<const K: usize>(
     let uu: &mut [f64; K] = m.uu.try_into().expect("K entries");
     let dinv: &mut [f64] = m.dinv;
     let (ia, pa_i) = (&m.ia, m.pa_i);
-    let dense = ia.dense();
+    let dense = ia.to_mat6();
     // D's lower triangle (all the factorisation reads): D_pq = s_qᵀ U_p, q ≤ p.
     let mut dm = [[0.0; K]; K];
     for p in 0..K {
-        let u = Sym6::dense_mul(&dense, &s[p].to_array());
+        let u = dense.sym_mul_vec(&s[p].to_array());
         u_out[p] = u;
         for q in 0..=p {
-            dm[p][q] = dot6(&s[q].to_array(), &u);
+            dm[p][q] = dot6::<A>(&s[q].to_array(), &u);
         }
         uu[p] = tau[p] - s[p].dot(pa_i);
     }
-    // D = L Lᵀ (`cholesky`'s operations), keeping 1 / L_jj.
-    let mut l = [[0.0; K]; K];
-    let mut inv = [0.0; K];
-    if !crate::small::cholesky_into(&dm, K, &mut l, &mut inv) {
-        return false;
-    }
-    // L⁻¹ (`invert_fixed`'s operations: its diagonal `1.0 / l[i][i]` is `inv`), then
-    // D⁻¹ = L⁻ᵀ L⁻¹.
-    let mut li = [[0.0; K]; K];
-    for i in 0..K {
-        li[i][i] = inv[i];
-        for j in 0..i {
-            let mut x = 0.0;
-            for p in j..i {
-                x -= l[i][p] * li[p][j];
-            }
-            li[i][j] = x / l[i][i];
-        }
-    }
     let mut di = [[0.0; K]; K];
-    for i in 0..K {
-        for j in i..K {
-            let mut x = 0.0;
-            for p in j..K {
-                x += li[p][i] * li[p][j];
-            }
-            di[i][j] = x;
-            di[j][i] = x;
-        }
+    if !invert_spd_into(&dm, K, &mut di) {
+        return false;
     }
     for p in 0..K {
         for q in 0..K {
@@ -293,7 +259,7 @@ fn articulate_multi<const K: usize>(
         }
     }
     // Iᵃ = Iᴬ − Σ_p U_p w_pᵀ on the upper triangle, entry by entry (p in order).
-    let mut ia_a = Sym6::ZERO;
+    let mut ia_a = PackedSymMat6::ZERO;
     let mut k = 0;
     for i in 0..6 {
         for j in i..6 {
@@ -334,7 +300,7 @@ type AccelArgs<'a> = (
 /// `a = a' + S q̈` (arguments: `u`, `U`, `D⁻¹`, `S`, and `q̈` written). Unrolled, the same
 /// operations as the loops over `k` it replaces.
 #[inline(always)]
-fn accelerate_multi<const K: usize>(args: AccelArgs, ap: SpatialMotion) -> SpatialMotion {
+fn accelerate_multi<A: Arith, const K: usize>(args: AccelArgs, ap: SpatialMotion) -> SpatialMotion {
     let (uu, u, dinv, s, qdd) = args;
     let uu: &[f64; K] = uu.try_into().expect("K entries");
     let u: &[[f64; 6]; K] = u.try_into().expect("K columns");
@@ -343,7 +309,7 @@ fn accelerate_multi<const K: usize>(args: AccelArgs, ap: SpatialMotion) -> Spati
     let apa = ap.to_array();
     let mut r = [0.0; K];
     for p in 0..K {
-        r[p] = uu[p] - dot6(&apa, &u[p]);
+        r[p] = uu[p] - dot6::<A>(&apa, &u[p]);
     }
     let mut a = ap;
     for p in 0..K {
@@ -355,11 +321,6 @@ fn accelerate_multi<const K: usize>(args: AccelArgs, ap: SpatialMotion) -> Spati
         a += s[p] * x;
     }
     a
-}
-
-#[inline(always)]
-fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
 }
 
 /// The residual, relative to the largest joint force, above which [`refine`] corrects q̈.
@@ -422,7 +383,7 @@ pub(crate) fn refine(model: &Model, tau: &[f64], f_ext: &[SpatialForce], data: &
     }
     // Pass 3 on the correction (a_0 = 0, no velocity products): Δq̈, then q̈ += Δq̈.
     data.refine.qdd.copy_from_slice(&data.qdd);
-    accelerations(topo, aba, &data.s, None, SpatialMotion::ZERO, &mut data.qdd);
+    accelerations::<Portable>(topo, aba, &data.s, None, SpatialMotion::ZERO, &mut data.qdd);
     for (q, q0) in data.qdd.iter_mut().zip(&data.refine.qdd) {
         *q += q0;
     }

@@ -1,10 +1,11 @@
 //! The workspace beside the immutable model: every per-step buffer, allocated once.
 
-use crate::arith::fused_available;
 use crate::kinematics::FkPlan;
-use crate::small::{SmallSpd, Sym6, SymT};
+use crate::small::{SmallSpd, SymT};
 use crate::DynamicsError;
 use articula_model::{JointKind, Model, NodeKind};
+use articula_spatial::internals::fused_available;
+use articula_spatial::PackedSymMat6;
 use articula_spatial::{Mat6, SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
 use glam::DVec3;
 
@@ -123,8 +124,9 @@ pub(crate) struct DcaData {
     /// Whether the buffers below are allocated: [`Data::new`] leaves them empty, the first
     /// DCA call builds them ([`Data::ensure_dca`]).
     pub built: bool,
-    /// Run the pass compiled for AVX2 + FMA (`dca::dca_fused`): set in [`Data::new`] when the
-    /// CPU has both (x86-64 only); tests clear it to check the portable compilation.
+    /// Run the passes compiled for AVX2 + FMA (`fma_dispatch!` in `dca.rs`, `aba.rs`): set in
+    /// [`Data::new`] when the CPU has both (x86-64 only); tests clear it to check the portable
+    /// compilation.
     pub fused: bool,
     /// Whether `forward_dynamics` runs the kinematics inside the main pass: each body's at its
     /// parent's leaf (the root bodies' at the ground's), which needs the ground first and every
@@ -165,7 +167,7 @@ pub(crate) struct DcaData {
     /// waits while its sibling's subtree is solved).
     pub f: Vec<SpatialForce>,
     /// Per join node off the one-axis path: the Cholesky factor L of `Φ^A_jj + Φ^B_jj = V⁻¹`
-    /// (its diagonal stored inverted, see [`crate::small::cholesky6`]), and β.
+    /// (its diagonal stored inverted, see [`crate::small::cholesky6_inv_diag`]), and β.
     pub l: Vec<[[f64; 6]; 6]>,
     pub beta: Vec<SpatialMotion>,
     /// Per degree of freedom: the column of `Z = L⁻¹ S`.
@@ -327,7 +329,7 @@ pub(crate) struct AbaData {
     /// The children's articulated inertias `Σ Iᵃ` (packed) and bias forces `Σ pᵃ` of the bodies
     /// pass 2 has reached a child of but not the body itself, by slot (`acc`); `pa` is also
     /// per-body scratch for the floating-base refinement.
-    pub ia: Vec<Sym6>,
+    pub ia: Vec<PackedSymMat6>,
     pub pa: Vec<SpatialForce>,
     /// Per body: the slot of its children's sums (`u32::MAX` without children), and whether it
     /// is the first of its parent's children that pass 2 reaches (the highest index: it sets
@@ -543,7 +545,7 @@ impl Data {
                 .collect(),
             refine: RefineData::new(model, regularised),
             aba: AbaData {
-                ia: vec![Sym6::ZERO; acc_slots],
+                ia: vec![PackedSymMat6::ZERO; acc_slots],
                 acc,
                 first,
                 pa: vec![SpatialForce::ZERO; n],

@@ -6,13 +6,11 @@
 //! bottom-up over the assembly tree; the back-substitution computes each principal joint's
 //! `q̈` and constraint force top-down.
 
-#[cfg(target_arch = "x86_64")]
-use crate::arith::Fused;
-use crate::arith::{Arith, Portable};
 use crate::data::{DKind, LeafK, RevJoin, Side};
-use crate::small::{SymT, TILE};
+use crate::small::{solve_l, solve_lt, SymT, TILE};
 use crate::{Data, DynamicsError};
 use articula_model::Model;
+use articula_spatial::internals::{dot6_even_odd as dot6, Arith};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::DVec3;
 
@@ -24,39 +22,23 @@ pub(crate) fn init_body(i: usize, data: &mut Data) {
     data.dca.point[i] = data.x[i].apply_point(DVec3::ZERO);
 }
 
-/// `forward_dynamics`' DCA call: the kinematics (at the leaves, or in a loop of its own with
-/// [`init_body`]) and [`dca`] with the leaves' bias accelerations, both in the compilation
-/// [`dca`] picks.
-pub(crate) fn forward(
-    model: &Model,
-    q: &[f64],
-    qd: &[f64],
-    tau: &[f64],
-    f_ext: &[SpatialForce],
-    data: &mut Data,
-) -> Result<(), DynamicsError> {
-    data.ensure_dca(model)?;
-    // (`fused` is never set on other CPUs.)
-    if data.dca.fused {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: as in `dca`: `fused` means the CPU has AVX2 and FMA.
-        return unsafe { forward_fused(model, q, qd, tau, f_ext, data) };
+articula_spatial::fma_dispatch! {
+    /// `forward_dynamics`' DCA call: the kinematics (at the leaves, or in a loop of its own with
+    /// [`init_body`]) and [`dca`]'s pass with the leaves' bias accelerations, in the compilation
+    /// `data.dca.fused` picks (see [`dca`]).
+    pub(crate) fn forward(
+        model: &Model,
+        q: &[f64],
+        qd: &[f64],
+        tau: &[f64],
+        f_ext: &[SpatialForce],
+        data: &mut Data,
+    ) -> Result<(), DynamicsError>;
+    avx2_fma: data.dca.fused, Fused;
+    |A| {
+        data.ensure_dca(model)?;
+        forward_with::<A>(model, q, qd, tau, f_ext, data)
     }
-    forward_with::<Portable>(model, q, qd, tau, f_ext, data)
-}
-
-/// [`forward`] compiled for AVX2 + FMA (see [`dca_fused`]).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn forward_fused(
-    model: &Model,
-    q: &[f64],
-    qd: &[f64],
-    tau: &[f64],
-    f_ext: &[SpatialForce],
-    data: &mut Data,
-) -> Result<(), DynamicsError> {
-    forward_with::<Fused>(model, q, qd, tau, f_ext, data)
 }
 
 #[inline(always)]
@@ -79,44 +61,29 @@ fn forward_with<A: Arith>(
     dca_with::<A>(model, tau, f_ext, data, true)
 }
 
-/// Runs DCA on the kinematics already in `data` (see [`crate::forward_kinematics`], with
-/// [`init_body`] run per body) and the external forces `f_ext` (computation frame, empty for
-/// none); writes `data.qdd`. Without `bias` the leaves' accelerations (velocity products,
-/// external forces) are left out, and with `data.gravity` and `data.c` zero this solves
-/// `H q̈ = τ`.
-///
-/// The pass runs in one of two compilations of the same code: with fused multiply–adds
-/// ([`Fused`], on an x86-64 CPU with AVX2 and FMA, chosen once in `Data::new`: see
-/// `DcaData::fused`) or the portable one ([`Portable`]).
-pub(crate) fn dca(
-    model: &Model,
-    tau: &[f64],
-    f_ext: &[SpatialForce],
-    data: &mut Data,
-    bias: bool,
-) -> Result<(), DynamicsError> {
-    data.ensure_dca(model)?;
-    if data.dca.fused {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: `fused` is true only when the CPU running us has AVX2 and FMA
-        // (`is_x86_feature_detected!` in `Data::new`).
-        return unsafe { dca_fused(model, tau, f_ext, data, bias) };
+articula_spatial::fma_dispatch! {
+    /// Runs DCA on the kinematics already in `data` (see [`crate::forward_kinematics`], with
+    /// [`init_body`] run per body) and the external forces `f_ext` (computation frame, empty for
+    /// none); writes `data.qdd`. Without `bias` the leaves' accelerations (velocity products,
+    /// external forces) are left out, and with `data.gravity` and `data.c` zero this solves
+    /// `H q̈ = τ`.
+    ///
+    /// The pass runs in one of two compilations of the same code: with fused multiply–adds
+    /// (`Fused`, on an x86-64 CPU with AVX2 and FMA, chosen once in `Data::new`: see
+    /// `DcaData::fused`) or the portable one (`Portable`); everything below is inlined into
+    /// each.
+    pub(crate) fn dca(
+        model: &Model,
+        tau: &[f64],
+        f_ext: &[SpatialForce],
+        data: &mut Data,
+        bias: bool,
+    ) -> Result<(), DynamicsError>;
+    avx2_fma: data.dca.fused, Fused;
+    |A| {
+        data.ensure_dca(model)?;
+        dca_with::<A>(model, tau, f_ext, data, bias)
     }
-    dca_with::<Portable>(model, tau, f_ext, data, bias)
-}
-
-/// [`dca`] compiled for AVX2 + FMA: everything below is inlined into it, so it is all built
-/// with these features, and [`Fused::mul_add`] becomes one instruction.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn dca_fused(
-    model: &Model,
-    tau: &[f64],
-    f_ext: &[SpatialForce],
-    data: &mut Data,
-    bias: bool,
-) -> Result<(), DynamicsError> {
-    dca_with::<Fused>(model, tau, f_ext, data, bias)
 }
 
 #[inline(always)]
@@ -535,43 +502,6 @@ fn sym3(u: &[f64; 6]) -> [[f64; 3]; 3] {
     [[u[0], u[1], u[2]], [u[1], u[3], u[4]], [u[2], u[4], u[5]]]
 }
 
-/// `L⁻¹ b` (forward substitution; `l` from [`crate::small::cholesky6`], inverse diagonal).
-#[inline]
-pub(crate) fn solve_l(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
-    let mut x = [0.0; 6];
-    for i in 0..6 {
-        let mut v = b[i];
-        for p in 0..i {
-            v -= l[i][p] * x[p];
-        }
-        x[i] = v * l[i][i];
-    }
-    x
-}
-
-/// `L⁻ᵀ b` (back substitution; inverse diagonal).
-#[inline]
-pub(crate) fn solve_lt(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
-    let mut x = [0.0; 6];
-    for i in (0..6).rev() {
-        let mut v = b[i];
-        for p in (i + 1)..6 {
-            v -= l[p][i] * x[p];
-        }
-        x[i] = v * l[i][i];
-    }
-    x
-}
-
-/// `a · b`, summed as even + odd entries: two-lane vector products and sums instead of one
-/// serial chain of six.
-#[inline(always)]
-fn dot6<A: Arith>(a: &[f64; 6], b: &[f64; 6]) -> f64 {
-    let even = A::mul_add(a[4], b[4], A::mul_add(a[2], b[2], a[0] * b[0]));
-    let odd = A::mul_add(a[5], b[5], A::mul_add(a[3], b[3], a[1] * b[1]));
-    even + odd
-}
-
 /// Joins A and B at `joint` into node `n` (docs/design.md#dca, any handle count); V and W never
 /// appear explicitly. With `K = Φ^A_jj + Φ^B_jj = V⁻¹`, W is the same for every basis `T` of
 /// the forces that do no work along S: `W = V − V S (SᵀVS)⁻¹ SᵀV = T (TᵀKT)⁻¹ Tᵀ`.
@@ -702,7 +632,7 @@ fn join<A: Arith>(
         }
         d.beta[n] = beta;
         // L Lᵀ = Φ^A_jj + Φ^B_jj
-        let l = crate::small::cholesky6(&sum).ok_or_else(|| DynamicsError::Singular {
+        let l = crate::small::cholesky6_inv_diag(&sum).ok_or_else(|| DynamicsError::Singular {
             joint: body.joint_name(),
             detail: "Φ_jj^A + Φ_jj^B is not positive definite",
         })?;
@@ -1159,16 +1089,10 @@ fn y_all<A: Arith>(
             let g = &d.phi[bo + ub(nh, j, i)].0;
             y_reduced::<A>(&mut d.y[h], &mut d.u[h], g, pq, l);
         } else {
-            let g = transpose6(&d.phi[bo + ub(nh, i, j)].0);
+            let g = d.phi[bo + ub(nh, i, j)].transpose().0;
             y_reduced::<A>(&mut d.y[h], &mut d.u[h], &g, pq, l);
         }
     }
-}
-
-/// The transpose of a 6×6 block.
-#[inline(always)]
-fn transpose6(b: &[[f64; 6]; 6]) -> [[f64; 6]; 6] {
-    std::array::from_fn(|r| std::array::from_fn(|c| b[c][r]))
 }
 
 /// `Z = L⁻¹ Tᵀ G` and `U = D⁻¹ Z` (5 rows each; `L D Lᵀ = TᵀKT` packed by rows in `l`, `1/d`
@@ -1468,7 +1392,10 @@ mod tests {
                 1e-12
             };
             let mut data = Data::new(&model);
-            assert_eq!(data.dca.fused, crate::arith::fused_available());
+            assert_eq!(
+                data.dca.fused,
+                articula_spatial::internals::fused_available()
+            );
             for seed in 0..6 {
                 let (portable, fused) =
                     crate::solve_portable_and_fused(&model, &mut data, seed, Method::Dca);
@@ -1485,7 +1412,7 @@ mod tests {
                 differ |= portable != fused;
             }
         }
-        assert_eq!(differ, crate::arith::fused_available());
+        assert_eq!(differ, articula_spatial::internals::fused_available());
     }
 
     /// The kinematics at the leaves (`DcaData::leaf_kinematics`, set on every bundled model)

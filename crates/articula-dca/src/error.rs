@@ -33,6 +33,26 @@ pub enum DynamicsError {
         /// What failed.
         detail: &'static str,
     },
+    /// A dense matrix the call would allocate is larger than its limit
+    /// ([`crate::MAX_DENSE_MATRIX_BYTES`]); checked before anything is allocated.
+    #[error(
+        "the {what} of {rows} × {cols} numbers would take {} ({bytes} bytes), more than the \
+         limit of {} ({limit} bytes); DCA and ABA need memory linear in the size of the model",
+        human_bytes(*bytes),
+        human_bytes(*limit)
+    )]
+    MatrixTooLarge {
+        /// Which matrix (`joint-space inertia matrix`).
+        what: &'static str,
+        /// Its rows.
+        rows: usize,
+        /// Its columns.
+        cols: usize,
+        /// Its size in bytes (`rows × cols × 8`, saturating).
+        bytes: u64,
+        /// The limit in bytes.
+        limit: u64,
+    },
     /// A model too large for a workspace's indices (DCA stores 32-bit ones).
     #[error("{what} needs {size} entries, above the limit of {limit}")]
     TooLarge {
@@ -43,4 +63,45 @@ pub enum DynamicsError {
         /// The largest size supported.
         limit: usize,
     },
+}
+
+/// `bytes` in binary units, three significant digits (`80.0 GiB`).
+pub fn human_bytes(bytes: u64) -> String {
+    const UNITS: [&str; 5] = ["bytes", "KiB", "MiB", "GiB", "TiB"];
+    let mut x = bytes as f64;
+    let mut u = 0;
+    while x >= 1024.0 && u + 1 < UNITS.len() {
+        x /= 1024.0;
+        u += 1;
+    }
+    if u == 0 {
+        format!("{bytes} bytes")
+    } else {
+        format!("{x:.1} {}", UNITS[u])
+    }
+}
+
+/// The largest dense `f64` matrix the dynamics layer allocates: 2 GiB, a 16,384 × 16,384
+/// joint-space inertia matrix ([`crate::Method::Crba`], [`crate::mass_matrix`]). Larger ones
+/// are refused with [`DynamicsError::MatrixTooLarge`] before any allocation (DCA and ABA need memory
+/// linear in the size of the model).
+pub const MAX_DENSE_MATRIX_BYTES: u64 = 2 << 30;
+
+/// Checks that a dense `rows × cols` matrix of `f64` fits in [`MAX_DENSE_MATRIX_BYTES`].
+pub(crate) fn check_dense(
+    what: &'static str,
+    rows: usize,
+    cols: usize,
+) -> Result<(), DynamicsError> {
+    let bytes = (rows as u128 * cols as u128 * 8).min(u64::MAX as u128) as u64;
+    if bytes > MAX_DENSE_MATRIX_BYTES {
+        return Err(DynamicsError::MatrixTooLarge {
+            what,
+            rows,
+            cols,
+            bytes,
+            limit: MAX_DENSE_MATRIX_BYTES,
+        });
+    }
+    Ok(())
 }

@@ -77,6 +77,9 @@ pub fn forward_dynamics_slices<'d>(
     method: Method,
 ) -> Result<&'d [f64], DynamicsError> {
     check_inputs(model, q, qd, tau, f_ext)?;
+    if method == Method::Crba {
+        crate::error::check_dense("joint-space inertia matrix", model.nv, model.nv)?;
+    }
     data.origin = kinematics::computation_origin(model, q);
     kinematics::forces_to_computation_frame(f_ext, data);
     let f_ext = std::mem::take(&mut data.f_ext_c);

@@ -19,8 +19,7 @@
 //! The ground as a hub does not move (`a = 0`). The back-substitution takes `a = Φ f + b` and
 //! gives each child's `q̈` and `f_c` by the first line.
 
-use crate::dca::{solve_l, solve_lt};
-use crate::small::{cholesky6, SmallSpd, SymT, TILE};
+use crate::small::{cholesky6_inv_diag, solve_l, solve_lt, SmallSpd, SymT, TILE};
 use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
@@ -75,7 +74,7 @@ pub(crate) fn main(
             joint: model.bodies[joint].joint_name(),
             detail,
         };
-        let l = cholesky6(&dense(&d.dg[slot])).ok_or_else(|| {
+        let l = cholesky6_inv_diag(&dense(&d.dg[slot])).ok_or_else(|| {
             singular("Φ_jj of the subassembly on a gathered hub is not positive definite")
         })?;
         let km = inverse(&l);
@@ -147,7 +146,7 @@ pub(crate) fn main(
     let Some(h) = g.hub else {
         return Ok(());
     };
-    let l = cholesky6(&ia).ok_or_else(|| DynamicsError::Singular {
+    let l = cholesky6_inv_diag(&ia).ok_or_else(|| DynamicsError::Singular {
         joint: model.bodies[h].joint_name(),
         detail: "the articulated inertia of a gathered hub is not positive definite",
     })?;
@@ -344,7 +343,7 @@ fn sym_tiles(m: &M6) -> SymT {
     t
 }
 
-/// `A⁻¹ = L⁻ᵀ L⁻¹` from the Cholesky factor of [`cholesky6`] (inverse diagonal), symmetrised.
+/// `A⁻¹ = L⁻ᵀ L⁻¹` from the Cholesky factor of [`cholesky6_inv_diag`] (inverse diagonal), symmetrised.
 fn inverse(l: &M6) -> M6 {
     let mut inv = [[0.0; 6]; 6];
     for c in 0..6 {

@@ -44,7 +44,6 @@
 #![allow(clippy::needless_range_loop)]
 
 mod aba;
-mod arith;
 mod com;
 mod contact;
 mod contact_solver;
@@ -73,7 +72,7 @@ pub use contact::{
     ContactSettings, ContactStats, Ground,
 };
 pub use data::Data;
-pub use error::DynamicsError;
+pub use error::{DynamicsError, MAX_DENSE_MATRIX_BYTES};
 pub use forward::{forward_dynamics, forward_dynamics_slices, Method};
 pub use inputs::check_inputs;
 pub use integrate::{integrate_floating, integrate_q, step, Integrator};
@@ -84,24 +83,29 @@ pub use mass_matrix::mass_matrix;
 pub use state::State;
 
 /// Building blocks that the workspace's higher layers (articula-adaptive, articula-view,
-/// `cargo xtask`) share with this crate, behind the `internals` cargo feature: the two
-/// compilations of the DCA pass (portable, and AVX2 + FMA where [`fused_available`]) as the
-/// [`Arith`] strategy, the small Cholesky kernels, per-body kinematics, the random-number
-/// generator of [`State::random`](crate::State::random), and the workspace's switch between the
-/// two compilations ([`Data::set_fused_dca`](crate::Data::set_fused_dca)). Not a stable API:
-/// users need none of it.
+/// `cargo xtask`) share with this crate, behind the `internals` cargo feature: ABA's pass 2 at
+/// a multi-DOF joint ([`articulate_multi`](internals::articulate_multi)), per-body kinematics,
+/// the random-number generator of [`State::random`](crate::State::random), and, re-exported
+/// from `articula_spatial::internals` where they live, the [`Arith`] strategy the two
+/// compilations of the DCA pass are written over (portable, and AVX2 + FMA where
+/// [`fused_available`]; the workspace's switch between them is
+/// [`Data::set_fused_dca`](crate::Data::set_fused_dca)) and the small Cholesky kernels. Not a
+/// stable API: users need none of it.
 ///
 /// [`fused_available`]: internals::fused_available
 /// [`Arith`]: internals::Arith
 #[cfg(feature = "internals")]
 pub mod internals {
-    #[cfg(target_arch = "x86_64")]
-    pub use crate::arith::Fused;
-    pub use crate::arith::{fused_available, Arith, Portable};
+    pub use crate::aba::{articulate_multi, MultiArgs};
+    pub use crate::error::human_bytes;
     pub use crate::finite::all_finite;
     pub use crate::kinematics::{body_kinematics, computation_origin};
-    pub use crate::small::{cholesky, cholesky_into};
     pub use crate::state::SplitMix64;
+    #[cfg(target_arch = "x86_64")]
+    pub use articula_spatial::internals::Fused;
+    pub use articula_spatial::internals::{
+        cholesky, cholesky_into, fused_available, Arith, Portable,
+    };
 }
 
 #[cfg(test)]
@@ -138,5 +142,8 @@ pub(crate) fn solve_portable_and_fused(
         data.dca.fused = fused;
         forward_dynamics(model, data, &s, method).unwrap().to_vec()
     };
-    (solve(false), solve(arith::fused_available()))
+    (
+        solve(false),
+        solve(articula_spatial::internals::fused_available()),
+    )
 }

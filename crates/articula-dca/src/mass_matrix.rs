@@ -15,13 +15,16 @@ use articula_spatial::{SpatialInertia, SpatialMotion};
 /// (`docs/conventions.md`: a floating joint's `[ω; v]` in its own frame).
 ///
 /// Runs forward kinematics at `(q, 0)` (`data` then holds it: zero velocities); sizes its
-/// buffers on the first call, then allocates nothing.
+/// buffers on the first call, then allocates nothing. A matrix larger than
+/// [`crate::MAX_DENSE_MATRIX_BYTES`] is refused ([`DynamicsError::MatrixTooLarge`]) before any
+/// allocation.
 pub fn mass_matrix<'d>(
     model: &Model,
     data: &'d mut Data,
     q: &[f64],
 ) -> Result<&'d [f64], DynamicsError> {
     let nv = model.nv;
+    crate::error::check_dense("joint-space inertia matrix", nv, nv)?;
     let mut zero = std::mem::take(&mut data.quant.zero);
     sized(&mut zero, nv, 0.0);
     let checked = check_inputs(model, q, &zero, &zero, &[]);

@@ -159,6 +159,61 @@ fn quantities_allocate_nothing_after_the_first_call() {
     }
 }
 
+/// A joint-space inertia matrix beyond `MAX_DENSE_MATRIX_BYTES` (a 17,000-link chain's would
+/// take 17,000² × 8 bytes = 2.3 GB) is refused — by CRBA and by `mass_matrix` — with its size
+/// and the limit, before anything is allocated; one just within the limit's side (16,384²
+/// × 8 bytes is exactly 2 GiB) passes the check.
+#[test]
+fn dense_matrices_beyond_the_limit_are_refused_before_allocating() {
+    use articula_dca::{mass_matrix, DynamicsError, MAX_DENSE_MATRIX_BYTES};
+    let n = 17_000;
+    let model = articula_testkit::chain(n);
+    let mut data = Data::new(&model);
+    let state = State::neutral(&model);
+    let expected = DynamicsError::MatrixTooLarge {
+        what: "joint-space inertia matrix",
+        rows: n,
+        cols: n,
+        bytes: (n * n * 8) as u64,
+        limit: MAX_DENSE_MATRIX_BYTES,
+    };
+    let mut result = None;
+    let allocations = count_allocations(|| {
+        result = Some(
+            forward_dynamics_slices(
+                &model,
+                &mut data,
+                &state.q,
+                &state.qd,
+                &state.tau,
+                &[],
+                Method::Crba,
+            )
+            .map(|_| ()),
+        );
+    });
+    assert_eq!(result, Some(Err(expected.clone())));
+    assert_eq!(allocations, 0);
+    let mut result = None;
+    let allocations = count_allocations(|| {
+        result = Some(mass_matrix(&model, &mut data, &state.q).map(|_| ()));
+    });
+    assert_eq!(result, Some(Err(expected)));
+    assert_eq!(allocations, 0);
+    assert_eq!(MAX_DENSE_MATRIX_BYTES, 16_384 * 16_384 * 8);
+    // DCA solves the same chain (memory linear in its length).
+    forward_dynamics_slices(
+        &model,
+        &mut data,
+        &state.q,
+        &state.qd,
+        &state.tau,
+        &[],
+        Method::Dca,
+    )
+    .unwrap();
+}
+
 /// `Data::new` leaves DCA's buffers out: ABA and CRBA never build them, the first DCA call
 /// does (it allocates), and the DCA calls after it allocate nothing.
 #[test]

@@ -75,4 +75,37 @@ impl Body {
         let names: Vec<&str> = self.joint.iter().map(|p| p.name.as_str()).collect();
         names.join("+")
     }
+
+    /// How far a composed joint of three rotations (an Euler-angle joint, such as a hip
+    /// `z + x + y`) is from gimbal lock at the coordinates `q` (the model's whole `q`):
+    /// `|det[a₁ a₂ a₃]|`, the volume spanned by its three unit axes expressed in one frame.
+    /// For orthogonal axes it is `|cos q₂|`, the cosine of the middle angle: 1 in the neutral
+    /// pose, 0 when the first and third axes align and the three coordinates move the body
+    /// about two axes only (there the joint-space inertia is singular and the coordinates'
+    /// velocities grow like `1 / cos q₂` for a bounded angular velocity). `None` for any other
+    /// joint or a `q` too short.
+    pub fn euler_axes_volume(&self, q: &[f64]) -> Option<f64> {
+        let rotational =
+            |p: &JointPart| matches!(p.kind, JointKind::Revolute | JointKind::Continuous);
+        if self.joint.len() != 3 || !self.joint.iter().all(rotational) {
+            return None;
+        }
+        // Rotation part of a frame map: v ↦ E v.
+        let rot = |t: &articula_spatial::SpatialTransform, v: articula_spatial::DVec3| {
+            t.apply_point(v) - t.apply_point(articula_spatial::DVec3::ZERO)
+        };
+        let mut axes = [articula_spatial::DVec3::ZERO; 3];
+        for (k, part) in self.joint.iter().enumerate() {
+            // Part k's axis (the same in its joint and moving frames), carried back to the first
+            // part's joint frame through the earlier parts' origins and motions.
+            let mut v = part.axis;
+            for j in (0..k).rev() {
+                v = rot(&self.joint[j + 1].origin, v);
+                let p = &self.joint[j];
+                v = rot(&p.motion_transform(q.get(p.q_offset..p.q_offset + 1)?), v);
+            }
+            axes[k] = v;
+        }
+        Some(axes[0].dot(axes[1].cross(axes[2])).abs())
+    }
 }

@@ -8,7 +8,8 @@
 //! - [`SpatialTransform`] is a Plücker transform `rot(E) xlt(r)`; it maps motions, forces and
 //!   inertias between frames.
 //! - [`SpatialInertia`] is a rigid body's inertia (mass, first moment, rotational inertia).
-//! - [`Mat6`] and [`SymMat6`] are the dense 6×6 blocks of the divide-and-conquer algorithm.
+//! - [`Mat6`] and [`SymMat6`] are the dense 6×6 blocks of the divide-and-conquer algorithm;
+//!   [`PackedSymMat6`] is a symmetric 6×6 stored as its upper triangle.
 //!
 //! ```
 //! use articula_spatial::*;
@@ -28,13 +29,35 @@
 //! assert!((p0 - p1).abs() < 1e-12);
 //! ```
 
+// Shared with the higher layers through `internals`; without that feature only what this
+// crate uses itself is compiled in.
+#[cfg_attr(not(feature = "internals"), allow(dead_code))]
+mod arith;
 mod inertia;
+#[cfg_attr(not(feature = "internals"), allow(dead_code))]
+mod kernels;
 mod matrix;
 mod transform;
 mod vector;
 
 pub use glam::{DMat3, DQuat, DVec3};
 pub use inertia::{skew, SpatialInertia};
-pub use matrix::{Mat6, SymMat6};
+pub use matrix::{Mat6, PackedSymMat6, SymMat6};
 pub use transform::SpatialTransform;
 pub use vector::{SpatialForce, SpatialMotion};
+
+/// Building blocks that the workspace's higher layers (articula-dca, articula-adaptive) share,
+/// behind the `internals` cargo feature (docs/design.md#numerics): the arithmetic strategy
+/// [`Arith`](internals::Arith) a pass is written over, the [`fma_dispatch!`] macro that
+/// compiles such a pass for any CPU and for AVX2 + FMA, and the raw-array kernels (scalar
+/// products of 6-vectors, the small Cholesky factorisation and SPD inverse). Not a stable
+/// API: users need none of it.
+#[cfg(feature = "internals")]
+pub mod internals {
+    #[cfg(target_arch = "x86_64")]
+    pub use crate::arith::Fused;
+    pub use crate::arith::{fused_available, Arith, Portable};
+    pub use crate::kernels::{
+        cholesky, cholesky_into, dot6, dot6_even_odd, dot6_pairs, invert_spd_into,
+    };
+}

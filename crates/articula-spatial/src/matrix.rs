@@ -1,5 +1,7 @@
 //! Dense 6×6 matrices: [`Mat6`] (general, e.g. cross-inertia blocks Φ12) and [`SymMat6`]
-//! (symmetric, e.g. inverse-inertia blocks Φ11, Φ22 and the DCA matrices V and W).
+//! (symmetric, e.g. inverse-inertia blocks Φ11, Φ22 and the DCA matrices V and W), with
+//! [`PackedSymMat6`], a symmetric 6×6 stored as its upper triangle (the articulated inertias
+//! of ABA): the same matrix in 168 bytes instead of 288.
 //!
 //! A matrix that maps forces to motions (an inverse inertia) is applied with
 //! [`Mat6::force_to_motion`]; one that maps motions to forces (an inertia) with
@@ -8,7 +10,9 @@
 // Dense index arithmetic reads clearer with explicit indices.
 #![allow(clippy::needless_range_loop)]
 
-use crate::{SpatialForce, SpatialMotion};
+use crate::arith::Portable;
+use crate::kernels::{dot6, invert_spd_into};
+use crate::{SpatialForce, SpatialInertia, SpatialMotion};
 use glam::DMat3;
 use std::ops::{Add, AddAssign, Mul, Neg, Sub, SubAssign};
 
@@ -31,12 +35,12 @@ impl Default for SymMat6 {
     }
 }
 
+/// `m · x`: each row's scalar product with `x`, left to right.
 #[inline]
 fn mv(m: &[[f64; 6]; 6], x: &[f64; 6]) -> [f64; 6] {
     let mut y = [0.0; 6];
     for i in 0..6 {
-        let r = &m[i];
-        y[i] = r[0] * x[0] + r[1] * x[1] + r[2] * x[2] + r[3] * x[3] + r[4] * x[4] + r[5] * x[5];
+        y[i] = dot6::<Portable>(&m[i], x);
     }
     y
 }
@@ -76,7 +80,7 @@ impl Mat6 {
     }
 
     /// The transpose.
-    #[inline]
+    #[inline(always)]
     pub fn transpose(&self) -> Mat6 {
         let mut t = [[0.0; 6]; 6];
         for (i, row) in self.0.iter().enumerate() {
@@ -116,6 +120,27 @@ impl Mat6 {
             }
         }
         y
+    }
+
+    /// `self · x` for a symmetric `self` stored whole, as `Σ_j x_j (row j)` (its rows are its
+    /// columns): whole rows, which vectorise, the sums started with their first term. Each
+    /// entry is the same sum in the same order as [`Mat6::mul_vec`]'s and
+    /// [`PackedSymMat6::mul_vec`]'s, so the same bits (but for the sign of a zero).
+    #[inline(always)]
+    pub fn sym_mul_vec(&self, x: &[f64; 6]) -> [f64; 6] {
+        let d = &self.0;
+        // Rows 0–3 and 4–5 apart: one 4-wide and one 2-wide vector per column.
+        let mut lo: [f64; 4] = std::array::from_fn(|r| d[0][r] * x[0]);
+        let mut hi: [f64; 2] = std::array::from_fn(|r| d[0][4 + r] * x[0]);
+        for j in 1..6 {
+            for r in 0..4 {
+                lo[r] += d[j][r] * x[j];
+            }
+            for r in 0..2 {
+                hi[r] += d[j][4 + r] * x[j];
+            }
+        }
+        [lo[0], lo[1], lo[2], lo[3], hi[0], hi[1]]
     }
 
     /// Applies a force→motion matrix (an inverse inertia or cross-inertia block).
@@ -160,13 +185,7 @@ impl Mat6 {
         let mut c = [[0.0; 6]; 6];
         for i in 0..6 {
             for j in 0..6 {
-                let (a, bb) = (&self.0[i], &b.0[j]);
-                c[i][j] = a[0] * bb[0]
-                    + a[1] * bb[1]
-                    + a[2] * bb[2]
-                    + a[3] * bb[3]
-                    + a[4] * bb[4]
-                    + a[5] * bb[5];
+                c[i][j] = dot6::<Portable>(&self.0[i], &b.0[j]);
             }
         }
         Mat6(c)
@@ -309,13 +328,7 @@ impl SymMat6 {
         let mut c = [[0.0; 6]; 6];
         for i in 0..6 {
             for j in i..6 {
-                let (x, y) = (&t.0[i], &a.0[j]);
-                let s = x[0] * y[0]
-                    + x[1] * y[1]
-                    + x[2] * y[2]
-                    + x[3] * y[3]
-                    + x[4] * y[4]
-                    + x[5] * y[5];
+                let s = dot6::<Portable>(&t.0[i], &a.0[j]);
                 c[i][j] = s;
                 c[j][i] = s;
             }
@@ -323,92 +336,12 @@ impl SymMat6 {
         SymMat6(Mat6(c))
     }
 
-    /// `self - alpha · u uᵀ` (a symmetric rank-1 update).
-    #[inline]
-    pub fn sub_outer(&self, u: &[f64; 6], alpha: f64) -> SymMat6 {
-        let mut m = self.0 .0;
-        for i in 0..6 {
-            let aui = alpha * u[i];
-            // Upper triangle only, mirrored: `(α u_i) u_j` and `(α u_j) u_i` round differently.
-            for j in i..6 {
-                let s = m[i][j] - aui * u[j];
-                m[i][j] = s;
-                m[j][i] = s;
-            }
-        }
-        SymMat6(Mat6(m))
-    }
-
-    /// `self += a − alpha · u uᵀ` in place (the articulated-inertia update of a 1-DOF joint).
-    #[inline]
-    pub fn add_sub_outer(&mut self, a: &SymMat6, u: &[f64; 6], alpha: f64) {
-        let (s, a) = (&mut self.0 .0, &a.0 .0);
-        for i in 0..6 {
-            let aui = alpha * u[i];
-            for j in i..6 {
-                let x = s[i][j] + a[i][j] - aui * u[j];
-                s[i][j] = x;
-                s[j][i] = x;
-            }
-        }
-    }
-
-    /// `self += a` in place.
-    #[inline]
-    pub fn add_assign(&mut self, a: &SymMat6) {
-        self.0 += a.0;
-    }
-
-    /// Inverse of a symmetric positive definite matrix by Cholesky factorisation.
-    /// Returns `None` when a pivot is not positive (the matrix is not SPD to working precision).
+    /// Inverse of a symmetric positive definite matrix by Cholesky factorisation
+    /// ([`invert_spd_into`]), exactly symmetric. Returns `None` when a pivot is not positive
+    /// (the matrix is not SPD to working precision).
     pub fn inverse_spd(&self) -> Option<SymMat6> {
-        let a = &self.0 .0;
-        // L Lᵀ = A.
-        let mut l = [[0.0f64; 6]; 6];
-        for j in 0..6 {
-            let mut d = a[j][j];
-            for k in 0..j {
-                d -= l[j][k] * l[j][k];
-            }
-            if d.is_nan() || d <= 0.0 {
-                return None;
-            }
-            let djj = d.sqrt();
-            l[j][j] = djj;
-            let inv = 1.0 / djj;
-            for i in (j + 1)..6 {
-                let mut s = a[i][j];
-                for k in 0..j {
-                    s -= l[i][k] * l[j][k];
-                }
-                l[i][j] = s * inv;
-            }
-        }
-        // Linv = L⁻¹ (lower triangular).
-        let mut li = [[0.0f64; 6]; 6];
-        for i in 0..6 {
-            li[i][i] = 1.0 / l[i][i];
-            for j in 0..i {
-                let mut s = 0.0;
-                for k in j..i {
-                    s -= l[i][k] * li[k][j];
-                }
-                li[i][j] = s / l[i][i];
-            }
-        }
-        // A⁻¹ = L⁻ᵀ L⁻¹.
         let mut inv = [[0.0f64; 6]; 6];
-        for i in 0..6 {
-            for j in i..6 {
-                let mut s = 0.0;
-                for k in j..6 {
-                    s += li[k][i] * li[k][j];
-                }
-                inv[i][j] = s;
-                inv[j][i] = s;
-            }
-        }
-        Some(SymMat6(Mat6(inv)))
+        invert_spd_into(&self.0 .0, 6, &mut inv).then_some(SymMat6(Mat6(inv)))
     }
 
     /// True when every entry is finite.
@@ -448,5 +381,198 @@ impl Mul<f64> for SymMat6 {
 impl From<SymMat6> for Mat6 {
     fn from(s: SymMat6) -> Mat6 {
         s.0
+    }
+}
+
+/// The packed index of every `(i, j)` (both triangles) in [`PackedSymMat6`].
+const PIDX: [[usize; 6]; 6] = {
+    let mut t = [[0; 6]; 6];
+    let mut k = 0;
+    let mut i = 0;
+    while i < 6 {
+        let mut j = i;
+        while j < 6 {
+            t[i][j] = k;
+            t[j][i] = k;
+            k += 1;
+            j += 1;
+        }
+        i += 1;
+    }
+    t
+};
+
+/// A [`SymMat6`] stored as its 21 upper-triangle entries, row by row (`(i, j)`, `i ≤ j`, at
+/// `6i − i(i−1)/2 + (j − i)`): the articulated inertias of ABA, arrays of which take 168
+/// bytes an entry instead of 288, with the operations the articulated-body recursion applies
+/// to them (`Iᴬ x`, `Iᴬ + Iᵃ − α u uᵀ`). Converts to and from [`SymMat6`] without rounding.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PackedSymMat6(pub [f64; 21]);
+
+impl PackedSymMat6 {
+    /// The zero matrix.
+    pub const ZERO: PackedSymMat6 = PackedSymMat6([0.0; 21]);
+
+    /// Entry `(i, j)`.
+    #[inline]
+    pub fn get(&self, i: usize, j: usize) -> f64 {
+        self.0[PIDX[i][j]]
+    }
+
+    /// The spatial inertia `[Ī, h×; h×ᵀ, m 1]` (`Ī`'s upper triangle).
+    #[inline]
+    pub fn from_inertia(i: &SpatialInertia) -> PackedSymMat6 {
+        let (b, h, m) = (&i.ibar, i.h, i.mass);
+        // Column-major glam: b.col(j)[i] = Ī_ij.
+        PackedSymMat6([
+            b.x_axis.x, b.y_axis.x, b.z_axis.x, 0.0, -h.z, h.y, // row 0
+            b.y_axis.y, b.z_axis.y, h.z, 0.0, -h.x, // row 1
+            b.z_axis.z, -h.y, h.x, 0.0, // row 2
+            m, 0.0, 0.0, // row 3
+            m, 0.0, // row 4
+            m,   // row 5
+        ])
+    }
+
+    /// `self · x`, each row's sum left to right.
+    #[inline(always)]
+    pub fn mul_vec(&self, x: &[f64; 6]) -> [f64; 6] {
+        let a = &self.0;
+        [
+            a[0] * x[0] + a[1] * x[1] + a[2] * x[2] + a[3] * x[3] + a[4] * x[4] + a[5] * x[5],
+            a[1] * x[0] + a[6] * x[1] + a[7] * x[2] + a[8] * x[3] + a[9] * x[4] + a[10] * x[5],
+            a[2] * x[0] + a[7] * x[1] + a[11] * x[2] + a[12] * x[3] + a[13] * x[4] + a[14] * x[5],
+            a[3] * x[0] + a[8] * x[1] + a[12] * x[2] + a[15] * x[3] + a[16] * x[4] + a[17] * x[5],
+            a[4] * x[0] + a[9] * x[1] + a[13] * x[2] + a[16] * x[3] + a[18] * x[4] + a[19] * x[5],
+            a[5] * x[0] + a[10] * x[1] + a[14] * x[2] + a[17] * x[3] + a[19] * x[4] + a[20] * x[5],
+        ]
+    }
+
+    /// The whole matrix (for [`Mat6::sym_mul_vec`] on several vectors).
+    #[inline(always)]
+    pub fn to_mat6(&self) -> Mat6 {
+        let a = &self.0;
+        Mat6([
+            [a[0], a[1], a[2], a[3], a[4], a[5]],
+            [a[1], a[6], a[7], a[8], a[9], a[10]],
+            [a[2], a[7], a[11], a[12], a[13], a[14]],
+            [a[3], a[8], a[12], a[15], a[16], a[17]],
+            [a[4], a[9], a[13], a[16], a[18], a[19]],
+            [a[5], a[10], a[14], a[17], a[19], a[20]],
+        ])
+    }
+
+    /// `self += a − alpha · u uᵀ` (the articulated-inertia update of a 1-DOF joint): entry
+    /// `(i, j)` is `s_ij + (a_ij − (α u_i) u_j)`.
+    #[inline(always)]
+    pub fn add_sub_outer(&mut self, a: &PackedSymMat6, u: &[f64; 6], alpha: f64) {
+        let (s, a) = (&mut self.0, &a.0);
+        let au = u.map(|x| alpha * x);
+        // Written out: the hot loop of ABA's pass 2.
+        s[0] += a[0] - au[0] * u[0];
+        s[1] += a[1] - au[0] * u[1];
+        s[2] += a[2] - au[0] * u[2];
+        s[3] += a[3] - au[0] * u[3];
+        s[4] += a[4] - au[0] * u[4];
+        s[5] += a[5] - au[0] * u[5];
+        s[6] += a[6] - au[1] * u[1];
+        s[7] += a[7] - au[1] * u[2];
+        s[8] += a[8] - au[1] * u[3];
+        s[9] += a[9] - au[1] * u[4];
+        s[10] += a[10] - au[1] * u[5];
+        s[11] += a[11] - au[2] * u[2];
+        s[12] += a[12] - au[2] * u[3];
+        s[13] += a[13] - au[2] * u[4];
+        s[14] += a[14] - au[2] * u[5];
+        s[15] += a[15] - au[3] * u[3];
+        s[16] += a[16] - au[3] * u[4];
+        s[17] += a[17] - au[3] * u[5];
+        s[18] += a[18] - au[4] * u[4];
+        s[19] += a[19] - au[4] * u[5];
+        s[20] += a[20] - au[5] * u[5];
+    }
+
+    /// `self − alpha · u uᵀ`: entry `(i, j)` is `s_ij − (α u_i) u_j`.
+    #[inline(always)]
+    pub fn sub_outer(&self, u: &[f64; 6], alpha: f64) -> PackedSymMat6 {
+        let au = u.map(|x| alpha * x);
+        let mut s = PackedSymMat6::ZERO;
+        let mut k = 0;
+        for i in 0..6 {
+            for j in i..6 {
+                s.0[k] = self.0[k] - au[i] * u[j];
+                k += 1;
+            }
+        }
+        s
+    }
+
+    /// `self += a`.
+    #[inline(always)]
+    pub fn add_assign(&mut self, a: &PackedSymMat6) {
+        for k in 0..21 {
+            self.0[k] += a.0[k];
+        }
+    }
+}
+
+impl From<SymMat6> for PackedSymMat6 {
+    fn from(m: SymMat6) -> PackedSymMat6 {
+        let mut p = PackedSymMat6::ZERO;
+        for i in 0..6 {
+            for j in i..6 {
+                p.0[PIDX[i][j]] = m.get(i, j);
+            }
+        }
+        p
+    }
+}
+
+impl From<PackedSymMat6> for SymMat6 {
+    fn from(p: PackedSymMat6) -> SymMat6 {
+        SymMat6(p.to_mat6())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec3;
+
+    /// The packed layout: `get` reads the entry of the matrix it was packed from, and the
+    /// spatial inertia packs to `SpatialInertia::to_mat6` entry for entry.
+    #[test]
+    fn packed_layout_matches_the_whole_matrix() {
+        let mut dense = [[0.0; 6]; 6];
+        for i in 0..6 {
+            for j in i..6 {
+                let x = 1.0 + (i * 7 + j * 3) as f64 * 0.37;
+                dense[i][j] = x;
+                dense[j][i] = x;
+            }
+        }
+        let p = PackedSymMat6::from(SymMat6::from_mat6(&Mat6(dense)));
+        let mut k = 0;
+        for i in 0..6 {
+            for j in 0..6 {
+                assert_eq!(p.get(i, j), dense[i][j]);
+                if j >= i {
+                    assert_eq!(p.0[k], dense[i][j], "({i}, {j}) at {k}");
+                    k += 1;
+                }
+            }
+        }
+        let inertia = SpatialInertia::new(
+            2.0,
+            DVec3::new(0.1, -0.2, 0.3),
+            DMat3::from_diagonal(DVec3::new(1.0, 2.0, 3.0)),
+        );
+        let p = PackedSymMat6::from_inertia(&inertia);
+        let full = inertia.to_mat6();
+        for i in 0..6 {
+            for j in 0..6 {
+                assert_eq!(p.get(i, j), full.get(i, j), "({i}, {j})");
+            }
+        }
     }
 }

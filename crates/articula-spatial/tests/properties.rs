@@ -14,8 +14,8 @@
 #![allow(clippy::needless_range_loop)]
 
 use articula_spatial::{
-    DMat3, DQuat, DVec3, Mat6, SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform,
-    SymMat6,
+    DMat3, DQuat, DVec3, Mat6, PackedSymMat6, SpatialForce, SpatialInertia, SpatialMotion,
+    SpatialTransform, SymMat6,
 };
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
@@ -956,20 +956,40 @@ proptest! {
         check_m6("congruence", &got, &want, max_abs6(&a).powi(2) * max_abs6(&s) * 36.0, TOL)?;
     }
 
-    /// `sub_outer` is `S - α u uᵀ` and keeps the matrix exactly symmetric.
+    /// `PackedSymMat6`: `sub_outer` is `S − α u uᵀ`, `add_sub_outer` is `T + S − α u uᵀ`,
+    /// `mul_vec` (and `Mat6::sym_mul_vec` on the unpacked matrix, to the bit) is `S x`, and
+    /// the conversions to and from `SymMat6` are exact.
     #[test]
-    fn sym_sub_outer(b in mat6(), u in vec6(), alpha in -10.0f64..=10.0) {
-        let s = sym_from(&b);
+    fn packed_sym(b in mat6(), c in mat6(), u in vec6(), x in vec6(), alpha in -10.0f64..=10.0) {
+        let (s, t) = (sym_from(&b), sym_from(&c));
         let mut want = s;
         for i in 0..6 {
             for j in 0..6 {
                 want[i][j] -= alpha * u[i] * u[j];
             }
         }
-        let got = sym6_arr(&SymMat6::from_mat6(&Mat6(s)).sub_outer(&u, alpha));
+        let ps = PackedSymMat6::from(SymMat6::from_mat6(&Mat6(s)));
+        prop_assert_eq!(SymMat6::from(ps), SymMat6::from_mat6(&Mat6(s)));
+        let got = ps.sub_outer(&u, alpha).to_mat6().0;
         prop_assert!(is_exactly_symmetric(&got), "sub_outer broke symmetry: {:?}", got);
         let scale = max_abs6(&s) + alpha.abs() * max_abs_v6(&u).powi(2);
         check_m6("sub_outer", &got, &want, scale, TOL)?;
+        let mut acc = PackedSymMat6::from(SymMat6::from_mat6(&Mat6(t)));
+        acc.add_sub_outer(&ps, &u, alpha);
+        let want2: M6 = std::array::from_fn(|i| std::array::from_fn(|j| want[i][j] + t[i][j]));
+        check_m6("add_sub_outer", &acc.to_mat6().0, &want2, scale + max_abs6(&t), TOL)?;
+        for i in 0..6 {
+            for j in 0..6 {
+                prop_assert_eq!(acc.get(i, j), acc.to_mat6().0[i][j]);
+            }
+        }
+        let y = mv6(&s, &x);
+        let sc = max_abs6(&s) * max_abs_v6(&x) * 6.0;
+        check_v6("packed mul_vec", &ps.mul_vec(&x), &y, sc, TOL)?;
+        let dense = ps.to_mat6().sym_mul_vec(&x);
+        for (a, b) in ps.mul_vec(&x).iter().zip(&dense) {
+            prop_assert!(a == b, "sym_mul_vec {} vs mul_vec {}", b, a);
+        }
     }
 
     /// `from_mat6` is the symmetric part; `mul_vec`, `force_to_motion`, `motion_to_force`

@@ -11,7 +11,7 @@
 
 use crate::dd::Real;
 use articula_model::{JointKind, Model};
-use articula_spatial::SpatialForce;
+use articula_spatial::{Mat6, SpatialForce};
 
 type V6<T> = [T; 6];
 type M6<T> = [[T; 6]; 6];
@@ -26,7 +26,7 @@ struct RefBody {
     prismatic: bool,
     axis: [f64; 3],
     /// Spatial inertia in the moving frame `[Ī, h×; h×ᵀ, m 1]`, zero for a massless link.
-    inertia: [[f64; 6]; 6],
+    inertia: Mat6,
     /// Index of the joint coordinate in `q` and of its velocity in `qd`.
     q_index: usize,
     v_index: usize,
@@ -59,7 +59,7 @@ impl ReferenceModel {
                 };
                 let (r, p) = part.origin.to_pose();
                 let last = pi + 1 == body.joint.len();
-                let mut inertia = [[0.0; 6]; 6];
+                let mut inertia = Mat6::ZERO;
                 if last {
                     let i = &body.inertia;
                     let ib = i.ibar.to_cols_array_2d(); // [col][row]
@@ -67,11 +67,11 @@ impl ReferenceModel {
                     let hx = [[0.0, -h.z, h.y], [h.z, 0.0, -h.x], [-h.y, h.x, 0.0]];
                     for a in 0..3 {
                         for b in 0..3 {
-                            inertia[a][b] = ib[b][a];
-                            inertia[a][3 + b] = hx[a][b];
-                            inertia[3 + a][b] = hx[b][a];
+                            inertia.0[a][b] = ib[b][a];
+                            inertia.0[a][3 + b] = hx[a][b];
+                            inertia.0[3 + a][b] = hx[b][a];
                         }
-                        inertia[3 + a][3 + a] = i.mass;
+                        inertia.0[3 + a][3 + a] = i.mass;
                     }
                 }
                 let rc = r.to_cols_array_2d();
@@ -159,7 +159,7 @@ impl ReferenceModel {
             };
             v[i] = add6(vp, vj);
             c[i] = crm(&v[i], &vj);
-            ia[i] = b.inertia.map(|row| row.map(f));
+            ia[i] = b.inertia.0.map(|row| row.map(f));
             let iv = mat6_vec(&ia[i], &v[i]);
             pa[i] = crf(&v[i], &iv);
             let (pr, pp) = match b.parent {

@@ -68,6 +68,25 @@ pub enum ViewError {
         /// What does not fit.
         message: String,
     },
+    /// A scene whose running memory, estimated before any body is placed
+    /// ([`crate::body_memory_estimate`] per body), exceeds the limit
+    /// ([`crate::DEFAULT_SCENE_MEMORY_LIMIT`] unless set).
+    #[error(
+        "scene file {path}: {bodies} bodies would take about {} ({estimate} bytes), more than \
+         the memory limit of {} ({limit} bytes)",
+        articula_dca::internals::human_bytes(*estimate),
+        articula_dca::internals::human_bytes(*limit)
+    )]
+    TooLarge {
+        /// The scene file.
+        path: String,
+        /// Bodies in the scene.
+        bodies: u64,
+        /// The estimate (bytes).
+        estimate: u64,
+        /// The limit (bytes).
+        limit: u64,
+    },
     /// A frame that could not be rendered or written.
     #[error("frame: {0}")]
     Frame(String),

@@ -32,13 +32,15 @@ mod volumes;
 
 pub use camera::{Camera, CameraPath, Frustum, Keyframe, Plane};
 pub use error::ViewError;
-#[cfg(feature = "serde")]
-pub use scene_file::{load_scene, load_scene_with, parse_scene, parse_scene_with};
 pub use scene_file::{
-    BodySpec, CameraRig, CameraSpec, CrowdSpec, GroundSpec, ImageSpec, KeySpec, LoadedScene,
-    Placement, Push, PushSpec, SceneBuilder, SceneModel, SceneSpec, SpringSpec, Targets,
-    VelocitySpec, VisibilitySpec,
+    body_memory_estimate, BodySpec, CameraRig, CameraSpec, CrowdSpec, GroundSpec, ImageSpec,
+    KeySpec, LoadedScene, Placement, Push, PushSpec, SceneBuilder, SceneModel, SceneSpec,
+    SpringSpec, Targets, VelocitySpec, VisibilitySpec, DEFAULT_SCENE_MEMORY_LIMIT,
 };
-pub use sim::{SceneSim, SceneStep, SimBody};
+#[cfg(feature = "serde")]
+pub use scene_file::{
+    load_scene, load_scene_limited, load_scene_with, parse_scene, parse_scene_with,
+};
+pub use sim::{SceneEnergy, SceneSim, SceneStep, SimBody};
 pub use visibility::{BodyView, Visibility, VisibilitySettings};
 pub use volumes::{BodyVolumes, Volume};

@@ -498,6 +498,7 @@ pub struct SceneBuilder {
     spec: SceneSpec,
     models: Vec<(String, Model)>,
     base: PathBuf,
+    memory_limit: Option<u64>,
 }
 
 impl SceneBuilder {
@@ -614,6 +615,14 @@ impl SceneBuilder {
         self
     }
 
+    /// The largest estimated memory of the running scene ([`body_memory_estimate`] summed
+    /// over its bodies) that [`SceneBuilder::build`] accepts; default
+    /// [`DEFAULT_SCENE_MEMORY_LIMIT`].
+    pub fn memory_limit(mut self, bytes: u64) -> Self {
+        self.memory_limit = Some(bytes);
+        self
+    }
+
     /// Checks everything and loads the model files: the scene, or the first problem.
     pub fn build(self) -> Result<LoadedScene, ViewError> {
         resolve_in(
@@ -622,6 +631,7 @@ impl SceneBuilder {
             &self.base,
             self.models,
             InertiaPolicy::default(),
+            self.memory_limit.unwrap_or(DEFAULT_SCENE_MEMORY_LIMIT),
         )
     }
 }
@@ -731,6 +741,37 @@ pub struct LoadedScene {
 /// The largest scene file read, in bytes.
 pub const MAX_SCENE_BYTES: u64 = 16 << 20;
 
+/// The largest estimated memory of a running scene accepted by default: 4 GiB
+/// ([`body_memory_estimate`] summed over the bodies; [`load_scene_limited`],
+/// [`SceneBuilder::memory_limit`] set another).
+pub const DEFAULT_SCENE_MEMORY_LIMIT: u64 = 4 << 30;
+
+/// An estimate of the heap one body of `model` takes in a running scene ([`crate::SceneSim`]):
+/// its placement and state, its adaptive workspace (the exact DCA workspace inside it, whose
+/// articulated-body blocks grow with the handles of every assembly-tree node, the hybrid
+/// body's caches), its poses, metrics and share of the global queue:
+/// `16 KiB + 4 KiB × bodies + 2,100 B × Σ handles²` over the assembly-tree nodes, fitted to
+/// what the allocator reports (a humanoid body takes ~350 KB); a test keeps it between 1 and 3
+/// times the measured heap on a humanoid, chains and a hub with many children.
+pub fn body_memory_estimate(model: &Model) -> u64 {
+    let blocks: u64 = model
+        .assembly
+        .nodes
+        .iter()
+        .map(|n| (n.handles.len() as u64).pow(2))
+        .sum();
+    MEM_BASE
+        .saturating_add(MEM_BODY.saturating_mul(model.bodies.len() as u64))
+        .saturating_add(MEM_BLOCK.saturating_mul(blocks))
+}
+
+/// Coefficients of [`body_memory_estimate`] (bytes): per body of the scene, per body of its
+/// model, per pair of handles of an assembly-tree node (the articulated-body blocks of DCA and
+/// of the hybrid body's caches).
+const MEM_BASE: u64 = 16 << 10;
+const MEM_BODY: u64 = 4 << 10;
+const MEM_BLOCK: u64 = 2100;
+
 /// Reads and checks a scene file.
 #[cfg(feature = "serde")]
 pub fn load_scene(path: impl AsRef<Path>) -> Result<LoadedScene, ViewError> {
@@ -743,6 +784,18 @@ pub fn load_scene_with(
     path: impl AsRef<Path>,
     inertia: InertiaPolicy,
 ) -> Result<LoadedScene, ViewError> {
+    load_scene_limited(path, inertia, DEFAULT_SCENE_MEMORY_LIMIT)
+}
+
+/// [`load_scene_with`] with the largest estimated memory of the running scene it accepts
+/// (bytes; [`body_memory_estimate`] summed over the bodies, checked before any body is
+/// placed): a larger scene is [`ViewError::TooLarge`].
+#[cfg(feature = "serde")]
+pub fn load_scene_limited(
+    path: impl AsRef<Path>,
+    inertia: InertiaPolicy,
+    memory_limit: u64,
+) -> Result<LoadedScene, ViewError> {
     let path = path.as_ref();
     let io = |message: String| ViewError::Io {
         path: path.display().to_string(),
@@ -752,7 +805,8 @@ pub fn load_scene_with(
         articula_model::read_limited(path, MAX_SCENE_BYTES).map_err(|e| io(e.to_string()))?;
     let text = String::from_utf8(bytes).map_err(|e| io(e.to_string()))?;
     let base = path.parent().unwrap_or(Path::new("."));
-    parse_scene_with(&text, path, base, inertia)
+    let spec = parse_spec(&text, path)?;
+    resolve_in(spec, path, base, Vec::new(), inertia, memory_limit)
 }
 
 /// Parses and checks scene text; `path` names the file in errors and `base` is the folder model
@@ -770,20 +824,32 @@ pub fn parse_scene_with(
     base: &Path,
     inertia: InertiaPolicy,
 ) -> Result<LoadedScene, ViewError> {
-    let file = path.display().to_string();
+    let spec = parse_spec(text, path)?;
+    resolve_in(
+        spec,
+        path,
+        base,
+        Vec::new(),
+        inertia,
+        DEFAULT_SCENE_MEMORY_LIMIT,
+    )
+}
+
+/// The spec in scene text (`path` names the file in errors).
+#[cfg(feature = "serde")]
+fn parse_spec(text: &str, path: &Path) -> Result<SceneSpec, ViewError> {
     let de = &mut serde_json::Deserializer::from_str(text);
-    let spec: SceneSpec = serde_path_to_error::deserialize(de).map_err(|e| {
+    serde_path_to_error::deserialize(de).map_err(|e| {
         let field = match e.path().to_string() {
             f if f == "." => "top level".to_string(),
             f => f,
         };
         ViewError::Json {
-            path: file.clone(),
+            path: path.display().to_string(),
             field,
             message: e.inner().to_string(),
         }
-    })?;
-    resolve_in(spec, path, base, Vec::new(), inertia)
+    })
 }
 
 impl SceneSpec {
@@ -798,6 +864,7 @@ impl SceneSpec {
             base.as_ref(),
             Vec::new(),
             InertiaPolicy::default(),
+            DEFAULT_SCENE_MEMORY_LIMIT,
         )
     }
 }
@@ -823,6 +890,7 @@ fn resolve_in(
     base: &Path,
     code_models: Vec<(String, Model)>,
     inertia: InertiaPolicy,
+    memory_limit: u64,
 ) -> Result<LoadedScene, ViewError> {
     let file = scene_label(path);
     let invalid = |field: String, message: String| ViewError::Invalid {
@@ -994,6 +1062,32 @@ fn resolve_in(
             )
         })
     };
+    // The memory of the running scene, before any body is placed.
+    let mut bodies = spec.bodies.len() as u64;
+    let mut estimate = 0u64;
+    for (i, b) in spec.bodies.iter().enumerate() {
+        let m = find_model(format!("bodies[{i}].model"), &b.model)?;
+        estimate = estimate.saturating_add(body_memory_estimate(&models[m].model));
+    }
+    for (i, c) in spec.crowds.iter().enumerate() {
+        let m = find_model(format!("crowds[{i}].model"), &c.model)?;
+        let n = (c.rows as u64).saturating_mul(c.columns as u64);
+        if n == 0 || n > 1_000_000 {
+            // Refused below, naming its field.
+            continue;
+        }
+        bodies = bodies.saturating_add(n);
+        estimate =
+            estimate.saturating_add(n.saturating_mul(body_memory_estimate(&models[m].model)));
+    }
+    if estimate > memory_limit {
+        return Err(ViewError::TooLarge {
+            path: file.clone(),
+            bodies,
+            estimate,
+            limit: memory_limit,
+        });
+    }
     // Placements.
     let mut placements = Vec::new();
     let mut groups: BTreeMap<String, Vec<usize>> = BTreeMap::new();

@@ -382,6 +382,33 @@ pub struct SceneSim<'s> {
     last: SceneStep,
     /// Internal degrees of freedom active at the last step (0 before the first).
     last_active: usize,
+    /// Per model: a workspace for [`SceneSim::energy`] (the bodies' own stay untouched).
+    energy_data: Vec<articula_dca::Data>,
+    /// Work done by the pushes on the bodies up to the last step they acted, `Σ f · Δx` (J).
+    push_work: f64,
+    /// Per push: where its point was when it last acted (the work of that step is added once
+    /// the point has moved).
+    push_from: Vec<Option<DVec3>>,
+}
+
+/// The mechanical energy of a scene ([`SceneSim::energy`]), in joules.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SceneEnergy {
+    /// `Σ ½ vᵢ·Iᵢvᵢ` over every link of every body.
+    pub kinetic: f64,
+    /// Gravity's potential `−Σ mᵢ g·cᵢ` (zero at the world origin).
+    pub gravity: f64,
+    /// The pose springs' potential `Σ ½ k q²`.
+    pub springs: f64,
+    /// The work the pushes have done on the bodies so far, `Σ ∫ f · dx` at their points.
+    pub push_work: f64,
+}
+
+impl SceneEnergy {
+    /// `kinetic + gravity + springs`.
+    pub fn total(&self) -> f64 {
+        self.kinetic + self.gravity + self.springs
+    }
 }
 
 impl<'s> SceneSim<'s> {
@@ -499,6 +526,17 @@ impl<'s> SceneSim<'s> {
             scene,
             last: SceneStep::default(),
             last_active: 0,
+            energy_data: scene
+                .models
+                .iter()
+                .map(|m| {
+                    let mut data = articula_dca::Data::new(&m.model);
+                    data.gravity = scene.gravity;
+                    data
+                })
+                .collect(),
+            push_work: 0.0,
+            push_from: vec![None; scene.pushes.len()],
         })
     }
 
@@ -608,11 +646,23 @@ impl<'s> SceneSim<'s> {
                 spring_torques(&self.springs[b.model], &mut b.state);
             }
         }
-        for p in scene.pushes.iter().filter(|p| p.t0 <= t && t < p.t1) {
+        for (j, p) in scene.pushes.iter().enumerate() {
+            let acts = p.t0 <= t && t < p.t1;
+            if !acts && self.push_from[j].is_none() {
+                continue;
+            }
             let b = &mut self.bodies[p.body];
             let model = &scene.models[b.model].model;
             // The pushed point alone (carried up its link's root path).
             let at = self.plans[b.model].point(model, &b.state.q, p.link_body, p.point);
+            // The work of the last step it acted: its force times its point's displacement.
+            if let Some(from) = self.push_from[j].take() {
+                self.push_work += p.force.dot(at - from);
+            }
+            if !acts {
+                continue;
+            }
+            self.push_from[j] = Some(at);
             let w = SpatialForce::new(at.cross(p.force), p.force);
             // One entry per link, in link order (as a scan of a dense array would list them).
             match b.forces.binary_search_by_key(&p.link_body, |e| e.0) {
@@ -812,6 +862,52 @@ impl<'s> SceneSim<'s> {
         Ok(out)
     }
 
+    /// The mechanical energy of the scene's current state: kinetic, gravity's and the pose
+    /// springs' potential, and the pushes' work so far — with pose-spring damping the only
+    /// loss, `total() − push_work` never grows in exact arithmetic, so its growth measures the
+    /// integrator's error (`articula scene` stops a run whose energy grows beyond a bound).
+    /// One forward-kinematics pass per body (O(n)), in a workspace of its own: the bodies'
+    /// adaptive workspaces are not touched. Bodies whose state no longer fits its model are
+    /// skipped ([`SceneSim::step`] reports them).
+    pub fn energy(&mut self) -> SceneEnergy {
+        let scene = self.scene;
+        let mut e = SceneEnergy::default();
+        for b in &self.bodies {
+            let Some(m) = scene.models.get(b.model) else {
+                continue;
+            };
+            let (model, s) = (&m.model, &b.state);
+            if s.q.len() != model.nq || s.qd.len() != model.nv {
+                continue;
+            }
+            let data = &mut self.energy_data[b.model];
+            articula_dca::forward_kinematics(model, &s.q, &s.qd, data);
+            e.kinetic += data.kinetic_energy();
+            e.gravity += data.potential_energy();
+            let springs = &self.springs[b.model];
+            for (q0, _, r) in &springs.runs {
+                let q = &s.q[*q0..q0 + r.len()];
+                e.springs += q
+                    .iter()
+                    .zip(&springs.k[r.clone()])
+                    .map(|(q, k)| 0.5 * k * q * q)
+                    .sum::<f64>();
+            }
+        }
+        // The work of pushes that acted at the last step (their points have moved since).
+        e.push_work = self.push_work;
+        for (p, from) in scene.pushes.iter().zip(&self.push_from) {
+            if let (Some(from), Some(b)) = (from, self.bodies.get(p.body)) {
+                let model = &scene.models[b.model].model;
+                if b.state.q.len() == model.nq {
+                    let at = self.plans[b.model].point(model, &b.state.q, p.link_body, p.point);
+                    e.push_work += p.force.dot(at - *from);
+                }
+            }
+        }
+        e
+    }
+
     /// Checks what [`SceneSim::step`] indexes without checking: each body's model index and
     /// the lengths of its state (O(bodies)).
     fn check_bodies(&self) -> Result<(), ViewError> {
@@ -996,7 +1092,10 @@ pub(crate) fn pose_springs(
     let qd = vec![0.0; model.nv];
     let mut tau = vec![0.0; model.nv];
     let w = 2.0 * std::f64::consts::PI * frequency_hz;
-    let mut out = Vec::new();
+    let mut out: Vec<(usize, usize, f64, f64)> = Vec::new();
+    // Per body: the largest effective inertia of its joint's coordinates.
+    let mut joint_max = vec![0.0f64; model.bodies.len()];
+    let mut body_of = Vec::new();
     for (b, part) in model.joint_parts() {
         if part.nq() != 1
             || part.nv() != 1
@@ -1022,8 +1121,22 @@ pub(crate) fn pose_springs(
         if let Ok(minv) = r {
             if minv > 0.0 && minv.is_finite() {
                 let m = 1.0 / minv;
+                joint_max[b] = joint_max[b].max(m);
+                body_of.push(b);
                 out.push((part.q_offset, v, w * w * m, 2.0 * damping_ratio * w * m));
             }
+        }
+    }
+    // A composed joint's coordinates all get the stiffness of its heaviest one: the effective
+    // inertia of an Euler-angle coordinate changes with the joint's other angles (a shoulder's
+    // twist axis, along the hanging arm in the neutral pose, swings the whole arm once the arm
+    // is raised), and a spring scaled by the light neutral value lets that coordinate drift to
+    // gimbal lock, where the dynamics is singular.
+    for (spring, &b) in out.iter_mut().zip(&body_of) {
+        if model.bodies[b].joint.len() > 1 {
+            let m = joint_max[b];
+            spring.2 = w * w * m;
+            spring.3 = 2.0 * damping_ratio * w * m;
         }
     }
     out
@@ -1098,6 +1211,65 @@ mod tests {
                 assert_eq!(s.tau[vi].to_bits(), (-k * s.q[qi] - c * s.qd[vi]).to_bits());
             }
         }
+    }
+
+    /// Every coordinate of a composed joint gets the stiffness and damping of its heaviest
+    /// one (so that none rings slower than the set frequency in any configuration of the
+    /// joint): on the humanoid's shoulders, the twist axis along the hanging arm, whose own
+    /// effective inertia is over 50 times smaller, is as stiff as the heaviest axis; single-axis
+    /// joints keep their own `k = ω² / (M⁻¹)ᵢᵢ`.
+    #[test]
+    fn composed_joint_coordinates_share_their_heaviest_stiffness() {
+        let model = articula_testkit::bundled_with("humanoid", true);
+        let (f, zeta) = (2.0, 0.2);
+        let w = 2.0 * std::f64::consts::PI * f;
+        let springs = pose_springs(&model, f, zeta);
+        let spring = |v: usize| *springs.iter().find(|s| s.1 == v).unwrap();
+        // The effective inertia of each coordinate alone, from exact DCA (no gravity).
+        let mut data = articula_dca::Data::new(&model);
+        data.gravity = glam::DVec3::ZERO;
+        let q = model.neutral_q();
+        let mut own = |v: usize| {
+            let mut tau = vec![0.0; model.nv];
+            tau[v] = 1.0;
+            let qdd = articula_dca::forward_dynamics_slices(
+                &model,
+                &mut data,
+                &q,
+                &vec![0.0; model.nv],
+                &tau,
+                &[],
+                articula_dca::Method::Dca,
+            )
+            .unwrap();
+            1.0 / qdd[v]
+        };
+        for body in &model.bodies[1..] {
+            let m: Vec<f64> = body.joint.iter().map(|p| own(p.v_offset)).collect();
+            let heaviest = m.iter().copied().fold(0.0, f64::max);
+            for (p, m) in body.joint.iter().zip(&m) {
+                let (_, _, k, c) = spring(p.v_offset);
+                let expected = if body.joint.len() > 1 { heaviest } else { *m };
+                assert!((k - w * w * expected).abs() <= 1e-12 * k, "{}", p.name);
+                assert!(
+                    (c - 2.0 * zeta * w * expected).abs() <= 1e-12 * c,
+                    "{}",
+                    p.name
+                );
+            }
+        }
+        let arm = model
+            .bodies
+            .iter()
+            .find(|b| b.name == "l_upper_arm")
+            .unwrap();
+        let twist = own(arm.joint[1].v_offset);
+        let heaviest = arm
+            .joint
+            .iter()
+            .map(|p| own(p.v_offset))
+            .fold(0.0, f64::max);
+        assert!(heaviest > 50.0 * twist, "{heaviest} against {twist}");
     }
 
     fn same(a: &[f64], b: &[f64]) -> bool {

@@ -4,7 +4,7 @@
 //! read it are in `hierarchy.rs`.
 
 use crate::parts::composites::Rigid;
-use articula_spatial::SpatialTransform;
+use articula_spatial::{Mat6, SpatialTransform};
 use glam::DVec3;
 
 /// Lists and frames of the current hybrid body. (`repr(C)`: the fields a step between
@@ -19,8 +19,8 @@ pub(crate) struct Hierarchy {
     /// indexed like `rec`: `Iᴬ`, `pᴬ`, the cluster's acceleration, `D⁻¹` (one DOF) or the
     /// Cholesky factor of `D` (several); per degree of freedom (at `rec.dof()`) `U = Iᴬ s` and
     /// `u = τ − sᵀ pᴬ`. `Iᴬ` is symmetric, stored whole with both halves equal to the bit
-    /// ([`Sym6`]): its rows are contiguous vectors.
-    pub ia: Vec<Sym6>,
+    /// (a [`Mat6`] whose rows are contiguous vectors).
+    pub ia: Vec<Mat6>,
     pub pa: Vec<[f64; 6]>,
     pub acc: Vec<[f64; 6]>,
     pub dinv: Vec<f64>,
@@ -112,7 +112,7 @@ impl Hierarchy {
     #[inline(never)]
     fn grow_reduced(&mut self, na: usize, dof: usize, [nb, nv]: [usize; 2]) {
         let h = self;
-        grow(&mut h.ia, na, nb, [[0.0; 6]; 6]);
+        grow(&mut h.ia, na, nb, Mat6::ZERO);
         grow(&mut h.pa, na, nb, [0.0; 6]);
         grow(&mut h.acc, na, nb, [0.0; 6]);
         grow(&mut h.dinv, na, nb, 0.0);
@@ -291,7 +291,3 @@ pub(crate) fn revolute_parts(body: &articula_model::Body) -> Option<RevolutePart
     }
     Some(RevoluteParts { axes, moved, shift })
 }
-
-/// A symmetric 6 × 6 matrix stored whole, rows `[r][c]`, both halves equal to the bit
-/// (each pair computed once and written twice): its rows are contiguous vectors.
-pub(crate) type Sym6 = [[f64; 6]; 6];

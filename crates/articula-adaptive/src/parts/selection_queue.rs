@@ -52,6 +52,9 @@ pub(crate) struct SelectionQueue {
     pub selected: Vec<bool>,
     /// Per node: the velocity metric `V(C) = Σ q̇ᵢᵀ Vᵢ q̇ᵢ` of its subassembly.
     pub velocity_metric: Vec<f64>,
+    /// Per node: the acceleration metric `A(C)` at the exact handle forces (the exact-solve
+    /// re-selection, [`crate::Reselection::ExactSolve`]).
+    pub exact_metric: Vec<f64>,
     /// The nodes waiting, by their acceleration metric `A(C)` (top-down).
     pub heap: BinaryHeap<Entry>,
 }
@@ -63,6 +66,7 @@ impl SelectionQueue {
         SelectionQueue {
             selected: vec![false; nn],
             velocity_metric: vec![0.0; nn],
+            exact_metric: vec![0.0; nn],
             heap: BinaryHeap::with_capacity(nn),
         }
     }

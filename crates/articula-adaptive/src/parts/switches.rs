@@ -12,6 +12,8 @@ pub(crate) struct Switches {
     pub fused: bool,
     /// Re-select through the caches (O(active region)); off: whole-body passes (reference).
     pub use_cache: bool,
+    /// How a due re-selection finds the new hybrid body ([`crate::Reselection`]).
+    pub reselection: crate::Reselection,
 }
 
 impl Default for Switches {
@@ -21,6 +23,7 @@ impl Default for Switches {
             full_passes: false,
             fused: articula_dca::internals::fused_available(),
             use_cache: true,
+            reselection: crate::Reselection::Caches,
         }
     }
 }
