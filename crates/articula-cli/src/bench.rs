@@ -3,9 +3,12 @@
 //! A warm-up (at least 10 calls and 0.2 s) estimates the cost of a call; then `reps` calls
 //! (default: about one second's worth, at least 100) run in up to 30 near-equal batches, each timed
 //! with [`Instant`]. The reported figure is the median over batches of the time per call.
+//!
+//! `--states N` times [`Batch::forward_dynamics`] of `N` seeded states instead (seeds
+//! `SEED..SEED+N`), spread over `--threads`: one call solves all of them.
 
 use crate::{print_out, CliError, DynamicsArgs};
-use articula_dca::{forward_dynamics_slices, State};
+use articula_dca::{forward_dynamics_slices, Batch, State};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
@@ -21,6 +24,10 @@ pub struct BenchArgs {
     /// includes the selection).
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = parse_reps)]
     pub reselect_every: u64,
+    /// Time the batch API instead: forward dynamics of N seeded states per call, spread over
+    /// `--threads` (exact methods only).
+    #[arg(long, value_name = "N", value_parser = parse_reps, allow_hyphen_values = true)]
+    pub states: Option<u64>,
 }
 
 /// The seed of the benchmarked state (`State::random(model, SEED, 1.0)`).
@@ -64,6 +71,22 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
     // Adaptive: one full step (with the default re-selection every step, selection included),
     // continuing the same simulation call after call — from the seeded state without joint
     // torques, which would otherwise pump energy into a long run.
+    let threads = crate::threads(args.dynamics.threads)?;
+    let mut batch = match (args.states, method.exact()) {
+        (None, _) => None,
+        (Some(_), None) => {
+            return Err(CliError(
+                "--states needs an exact method (dca, aba or crba)".to_string(),
+            ))
+        }
+        (Some(n), Some(_)) => {
+            let states: Vec<State> = (0..n)
+                .map(|i| State::random(&model, SEED + i, 1.0))
+                .collect();
+            let qdd = vec![0.0; states.len() * model.nv];
+            Some((Batch::with_data(&data, threads.clone()), states, qdd))
+        }
+    };
     let mut adaptive = method.exact().is_none().then(|| {
         let mut sim = state.clone();
         sim.tau.fill(0.0);
@@ -87,6 +110,12 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
     // with the whole-body re-selection and cache build of the step that follows it.
     let mut call = || -> Result<Option<Duration>, CliError> {
         match (method.exact(), adaptive.as_mut()) {
+            (Some(m), _) if batch.is_some() => {
+                let (b, states, qdd) = batch.as_mut().expect("batch checked above");
+                b.forward_dynamics(&model, black_box(states), m, qdd)?;
+                black_box(qdd);
+                Ok(None)
+            }
             (Some(m), _) => {
                 let qdd = forward_dynamics_slices(
                     &model,
@@ -162,12 +191,20 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
         ),
         None => String::new(),
     };
+    let extra = match args.states {
+        Some(n) => format!(
+            "{extra} states={n} us_per_state={:.3}",
+            med / n.max(1) as f64
+        ),
+        None => extra,
+    };
     print_out(&format!(
-        "model={} method={} dof={} reps={reps} batches={} us_per_call={med:.3} min_us={min:.3} max_us={max:.3}{extra}\n",
+        "model={} method={} dof={} reps={reps} batches={} us_per_call={med:.3} min_us={min:.3} max_us={max:.3} threads={}{extra}\n",
         model.name,
         method.name(),
         model.nv,
         sizes.len(),
+        threads.count(),
     ))
 }
 

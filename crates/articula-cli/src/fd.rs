@@ -68,8 +68,13 @@ impl Serialize for ByJoint<'_> {
     }
 }
 
-/// Runs `articula fd`.
+/// Runs `articula fd` on the pool of `--threads`.
 pub fn run(args: &FdArgs) -> Result<(), CliError> {
+    crate::threads(args.dynamics.threads)?.install(|| run_here(args))
+}
+
+/// Runs `articula fd` on the current thread (or pool).
+fn run_here(args: &FdArgs) -> Result<(), CliError> {
     let (model, mut data) = args.dynamics.load()?;
     let state = load_state(args.state.as_deref(), &model)?;
     let method = args.dynamics.method;

@@ -12,7 +12,7 @@ mod simulate;
 mod state_json;
 mod watch;
 
-use articula_dca::{Data, Method, State};
+use articula_dca::{Data, Method, State, Threads};
 use articula_model::{InertiaPolicy, LoadOptions, Model};
 use articula_spatial::DVec3;
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -91,6 +91,28 @@ pub struct DynamicsArgs {
     /// most E (0 = exact).
     #[arg(long, value_name = "E", value_parser = parse_tolerance, allow_hyphen_values = true)]
     pub tolerance: Option<f64>,
+    /// Threads for work across states (`bench --states`; default: one per core). One body's
+    /// solve runs on one thread. Results are the same bits for any count.
+    #[arg(long, value_name = "N", value_parser = parse_threads, allow_hyphen_values = true)]
+    pub threads: Option<usize>,
+}
+
+/// `--threads N`: at least 1.
+pub fn parse_threads(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err(format!(
+            "the thread count must be a whole number of at least 1, got '{s}'"
+        )),
+    }
+}
+
+/// The pool of `--threads` (default: one thread per core).
+pub fn threads(count: Option<usize>) -> Result<Threads, CliError> {
+    Ok(match count {
+        Some(n) => Threads::new(n)?,
+        None => Threads::all()?,
+    })
 }
 
 /// `--inertia`.

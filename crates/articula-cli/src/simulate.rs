@@ -189,8 +189,13 @@ impl Csv {
     }
 }
 
-/// Runs `articula simulate`.
+/// Runs `articula simulate` on the pool of `--threads`.
 pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
+    crate::threads(args.dynamics.threads)?.install(|| run_here(args))
+}
+
+/// Runs `articula simulate` on the current thread (or pool).
+fn run_here(args: &SimulateArgs) -> Result<(), CliError> {
     let (model, mut data) = args.dynamics.load()?;
     let mut state = load_state(args.state.as_deref(), &model)?;
     let method = args.dynamics.method;

@@ -773,3 +773,46 @@ fn simulate_ground_bad_input_exits_2() {
         assert_bad_input(&articula(&all), &args.join(" "));
     }
 }
+
+/// `bench --states N --threads T` times the batch API on T threads and says so; a thread count
+/// of 0, or `--states` with the adaptive method, is bad input.
+#[test]
+fn bench_reports_its_thread_count_and_batch() {
+    let chain = model_path("chain10.urdf");
+    let chain = chain.to_str().unwrap();
+    for threads in ["1", "2"] {
+        let out = stdout(&articula(&[
+            "bench",
+            chain,
+            "--states",
+            "8",
+            "--threads",
+            threads,
+            "--reps",
+            "20",
+        ]));
+        assert!(out.contains(&format!("threads={threads}")), "{out}");
+        let field = |name: &str| -> f64 {
+            out.split_whitespace()
+                .find_map(|w| w.strip_prefix(name))
+                .unwrap_or_else(|| panic!("no {name} in {out}"))
+                .parse()
+                .unwrap()
+        };
+        assert_eq!(field("states="), 8.0, "{out}");
+        let per_state = field("us_per_state=");
+        let per_call = field("us_per_call=");
+        assert!(
+            (per_state * 8.0 - per_call).abs() <= 1e-3 * 8.0 + 1e-9 * per_call,
+            "{out}"
+        );
+    }
+    assert_bad_input(
+        &articula(&["bench", chain, "--threads", "0"]),
+        "--threads 0",
+    );
+    assert_bad_input(
+        &articula(&["bench", chain, "--method", "adaptive", "--states", "4"]),
+        "--states with adaptive",
+    );
+}

@@ -44,6 +44,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod aba;
+mod batch;
 mod com;
 mod contact;
 mod contact_solver;
@@ -66,7 +67,9 @@ mod momentum;
 mod refine;
 mod small;
 mod state;
+mod threads;
 
+pub use batch::{Batch, BatchError};
 pub use contact::{
     step_with_contact, step_with_dynamics, ContactData, ContactDynamics, ContactError,
     ContactSettings, ContactStats, Ground,
@@ -81,6 +84,7 @@ pub use jacobian::ReferenceFrame;
 pub use kinematics::forward_kinematics;
 pub use mass_matrix::mass_matrix;
 pub use state::State;
+pub use threads::{Threads, ThreadsError};
 
 /// Building blocks that the workspace's higher layers (articula-adaptive, articula-view,
 /// `cargo xtask`) share with this crate, behind the `internals` cargo feature: ABA's pass 2 at

@@ -1,0 +1,130 @@
+//! How many cores the parallel entry points use: [`Threads`], a thread count and the rayon
+//! pool that runs it (feature `parallel`).
+
+use thiserror::Error;
+
+/// A thread count, and with the `parallel` feature the work-stealing pool (rayon) of that many
+/// threads that [`crate::Batch`] and articula-view's scenes run on.
+///
+/// `Threads::new(1)` runs everything on the calling thread, with no pool. Results never depend
+/// on the count: work is split into a fixed partition and reduced in a fixed order, so one
+/// thread and eight give the same bits. Without the `parallel` feature every count runs on
+/// the calling thread ([`Threads::count`] is then 1).
+///
+/// Cloning shares the pool.
+#[derive(Clone, Debug)]
+pub struct Threads {
+    count: usize,
+    #[cfg(feature = "parallel")]
+    pool: Option<std::sync::Arc<rayon::ThreadPool>>,
+}
+
+/// Why a [`Threads`] could not be made.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+pub enum ThreadsError {
+    /// A count of zero threads.
+    #[error("a thread count must be at least 1")]
+    Zero,
+    /// The operating system refused to start the pool's threads.
+    #[error("could not start {count} threads: {reason}")]
+    Spawn {
+        /// The count asked for.
+        count: usize,
+        /// The system's reason.
+        reason: String,
+    },
+}
+
+impl Threads {
+    /// `count` threads (at least 1). With the `parallel` feature and `count > 1`, starts a pool
+    /// of `count` threads; without it, the count is 1 whatever is asked.
+    pub fn new(count: usize) -> Result<Threads, ThreadsError> {
+        if count == 0 {
+            return Err(ThreadsError::Zero);
+        }
+        #[cfg(feature = "parallel")]
+        {
+            if count == 1 {
+                return Ok(Threads::serial());
+            }
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(count)
+                .thread_name(|i| format!("articula-{i}"))
+                .build()
+                .map_err(|e| ThreadsError::Spawn {
+                    count,
+                    reason: e.to_string(),
+                })?;
+            Ok(Threads {
+                count,
+                pool: Some(std::sync::Arc::new(pool)),
+            })
+        }
+        #[cfg(not(feature = "parallel"))]
+        Ok(Threads::serial())
+    }
+
+    /// One thread: the calling one.
+    pub fn serial() -> Threads {
+        Threads {
+            count: 1,
+            #[cfg(feature = "parallel")]
+            pool: None,
+        }
+    }
+
+    /// One thread per core (`std::thread::available_parallelism`; 1 when unknown, or without
+    /// the `parallel` feature).
+    pub fn all() -> Result<Threads, ThreadsError> {
+        Threads::new(std::thread::available_parallelism().map_or(1, |n| n.get()))
+    }
+
+    /// The number of threads work is spread over.
+    pub fn count(&self) -> usize {
+        self.count
+    }
+
+    /// Runs `f` inside the pool (so that rayon's parallel iterators and `join` in `f` use its
+    /// threads), or on the calling thread for a serial count.
+    pub fn install<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
+        #[cfg(feature = "parallel")]
+        if let Some(pool) = &self.pool {
+            return pool.install(f);
+        }
+        f()
+    }
+
+    /// `f(i, item)` for each item of `items`, the items split into [`Threads::count`]
+    /// contiguous runs of near-equal length, one run per thread. The partition depends only on
+    /// `items.len()` and the count, and each call sees only its own item, so results are the
+    /// same for any count.
+    pub fn for_each_mut<T: Send>(&self, items: &mut [T], f: impl Fn(usize, &mut T) + Sync) {
+        #[cfg(feature = "parallel")]
+        if self.pool.is_some() && items.len() > 1 {
+            use rayon::prelude::*;
+            let run = items.len().div_ceil(self.count);
+            let f = &f;
+            self.install(|| {
+                items
+                    .par_chunks_mut(run)
+                    .enumerate()
+                    .for_each(|(c, chunk)| {
+                        for (j, item) in chunk.iter_mut().enumerate() {
+                            f(c * run + j, item);
+                        }
+                    })
+            });
+            return;
+        }
+        for (i, item) in items.iter_mut().enumerate() {
+            f(i, item);
+        }
+    }
+}
+
+impl Default for Threads {
+    /// [`Threads::all`], or one thread when the pool cannot start.
+    fn default() -> Threads {
+        Threads::all().unwrap_or_else(|_| Threads::serial())
+    }
+}
