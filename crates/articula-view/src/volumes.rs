@@ -158,77 +158,17 @@ pub struct BodyVolumes {
     pub balls: Vec<(DVec3, f64)>,
 }
 
-/// Eigen-decomposition of a symmetric 3×3 matrix by cyclic Jacobi rotations: eigenvalues and
-/// the matrix whose columns are the unit eigenvectors (`m = V diag(λ) Vᵀ`).
-pub(crate) fn symmetric_eigen(m: DMat3) -> (DVec3, DMat3) {
-    let mut a = [[0.0; 3]; 3];
-    for (j, col) in [m.x_axis, m.y_axis, m.z_axis].iter().enumerate() {
-        for (i, x) in col.to_array().iter().enumerate() {
-            a[i][j] = *x;
-        }
-    }
-    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    for _sweep in 0..32 {
-        let off = a[0][1].abs() + a[0][2].abs() + a[1][2].abs();
-        let scale = a[0][0].abs() + a[1][1].abs() + a[2][2].abs();
-        if off <= 1e-15 * scale || off == 0.0 {
-            break;
-        }
-        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
-            if a[p][q] == 0.0 {
-                continue;
-            }
-            let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
-            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
-            let t = if theta == 0.0 { 1.0 } else { t };
-            let c = 1.0 / (t * t + 1.0).sqrt();
-            let s = t * c;
-            // A ← Jᵀ A J with the rotation J in the (p, q) plane.
-            for row in a.iter_mut() {
-                let (akp, akq) = (row[p], row[q]);
-                row[p] = c * akp - s * akq;
-                row[q] = s * akp + c * akq;
-            }
-            #[allow(clippy::needless_range_loop)]
-            for k in 0..3 {
-                let (apk, aqk) = (a[p][k], a[q][k]);
-                a[p][k] = c * apk - s * aqk;
-                a[q][k] = s * apk + c * aqk;
-            }
-            for row in v.iter_mut() {
-                let (vp, vq) = (row[p], row[q]);
-                row[p] = c * vp - s * vq;
-                row[q] = s * vp + c * vq;
-            }
-        }
-    }
-    let vecs = DMat3::from_cols(
-        DVec3::new(v[0][0], v[1][0], v[2][0]),
-        DVec3::new(v[0][1], v[1][1], v[2][1]),
-        DVec3::new(v[0][2], v[1][2], v[2][2]),
-    );
-    (DVec3::new(a[0][0], a[1][1], a[2][2]), vecs)
-}
-
 /// The equivalent box of a body's inertia: centre (the centre of mass), principal axes and half
 /// extents of the uniform solid box with the same mass and central inertia. `None` for a
 /// massless body.
 pub(crate) fn inertia_box(inertia: &articula_spatial::SpatialInertia) -> Option<Volume> {
-    let m = inertia.mass;
-    if m.is_nan() || m <= 0.0 {
-        return None;
-    }
-    let (l, axes) = symmetric_eigen(inertia.inertia_about_com());
-    let half = |i: f64, j: f64, k: f64| (1.5 * (j + k - i) / m).max(0.0).sqrt();
-    let half = DVec3::new(
-        half(l.x, l.y, l.z),
-        half(l.y, l.z, l.x),
-        half(l.z, l.x, l.y),
-    );
+    // The same box as the contact spheres' fallback (`articula_model::inertia_box`).
+    let (pose, size) = articula_model::inertia_box(inertia)?;
+    let (axes, center) = pose.to_pose();
     Some(Volume::Box {
-        center: inertia.com(),
+        center,
         axes,
-        half,
+        half: 0.5 * size,
     })
 }
 

@@ -1,39 +1,12 @@
-//! Bounding volumes: eigen-decomposition, equivalent inertia boxes, URDF primitives.
+//! Bounding volumes: equivalent inertia boxes, URDF primitives.
 
-use super::{body_volumes, inertia_box, symmetric_eigen, Volume};
+use super::{body_volumes, inertia_box, Volume};
 use articula_model::{LoadOptions, Model};
 use articula_spatial::SpatialInertia;
 use glam::{DMat3, DVec3, EulerRot};
 
 fn models() -> std::path::PathBuf {
     std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../models")
-}
-
-fn max_abs(m: DMat3) -> f64 {
-    m.to_cols_array().iter().fold(0.0, |a, x| a.max(x.abs()))
-}
-
-#[test]
-fn eigen_decomposition_reconstructs() {
-    let mut seed = 1u64;
-    let mut rnd = || {
-        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
-        (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
-    for _ in 0..200 {
-        let a = DMat3::from_cols_array(&[0.0; 9].map(|_| rnd()));
-        let m = a + a.transpose();
-        let (l, v) = symmetric_eigen(m);
-        let back = v * DMat3::from_diagonal(l) * v.transpose();
-        assert!(max_abs(back - m) < 1e-12, "{}", max_abs(back - m));
-        assert!(max_abs(v.transpose() * v - DMat3::IDENTITY) < 1e-12);
-    }
-    // Already diagonal, and repeated eigenvalues.
-    let (l, _) = symmetric_eigen(DMat3::from_diagonal(DVec3::new(3.0, 1.0, 2.0)));
-    assert_eq!(l, DVec3::new(3.0, 1.0, 2.0));
-    let (l, v) = symmetric_eigen(DMat3::IDENTITY * 2.0);
-    assert_eq!(l, DVec3::splat(2.0));
-    assert_eq!(v, DMat3::IDENTITY);
 }
 
 #[test]
