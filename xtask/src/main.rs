@@ -15,6 +15,7 @@ mod speedup;
 mod stability;
 mod time;
 mod timing;
+mod trajectory;
 
 use std::path::PathBuf;
 use std::process::ExitCode;

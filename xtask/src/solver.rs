@@ -3,11 +3,12 @@
 //!
 //! The adaptive solver (`articula-adaptive`) runs at every budget of [`ADAPTIVE_BUDGETS`]:
 //! `forward` is its one-state selection (selected joints exact, the others zero) and `step` a
-//! full adaptive step with re-selection every step (selection and rigidification included),
-//! semi-implicit Euler whatever integrator the caller asks for (the published tables measure
-//! that step; `Adaptive::step_rk4` is tested in articula-adaptive's `tests/rk4.rs`).
+//! full adaptive step re-selecting every `every` steps (1: selection and rigidification at
+//! every step; `Settings::BALANCED`: the library's default period), semi-implicit Euler
+//! whatever integrator the caller asks for (the published tables measure that step;
+//! `Adaptive::step_rk4` is tested in articula-adaptive's `tests/rk4.rs`).
 
-use articula_adaptive::{Adaptive, Settings};
+use articula_adaptive::{Adaptive, Reselection, Settings};
 use articula_dca::{forward_dynamics_slices, step, Data, Integrator, Method, State};
 use articula_model::Model;
 
@@ -20,6 +21,12 @@ pub enum Solver {
     Adaptive {
         /// The budget.
         budget: usize,
+        /// Re-selection period of `step` (`Settings::reselect_every`; `Settings::BALANCED`
+        /// for the library's default).
+        every: u64,
+        /// Re-select through the caches (`Reselection::Caches`) instead of the default exact
+        /// solve.
+        caches: bool,
     },
 }
 
@@ -28,9 +35,13 @@ pub enum Solver {
 pub const ADAPTIVE_BUDGETS: [usize; 7] = [1, 50, 100, 150, 200, 250, 300];
 
 impl Solver {
-    /// The adaptive solver at `budget` active joints.
+    /// The adaptive solver at `budget` active joints, re-selecting at every step.
     pub fn adaptive(budget: usize) -> Option<Solver> {
-        Some(Solver::Adaptive { budget })
+        Some(Solver::Adaptive {
+            budget,
+            every: 1,
+            caches: false,
+        })
     }
 
     /// Every solver the benchmarks run: the exact ones, then the adaptive budgets that exist.
@@ -59,7 +70,18 @@ impl Solver {
     pub fn label(self) -> String {
         match self {
             Solver::Exact(m) => m.name().to_uppercase(),
-            Solver::Adaptive { budget } => format!("adaptive b={budget}"),
+            Solver::Adaptive {
+                budget,
+                every,
+                caches,
+            } => {
+                let route = if caches { " caches" } else { "" };
+                match every {
+                    1 => format!("adaptive b={budget}{route}"),
+                    Settings::BALANCED => format!("adaptive b={budget} balanced{route}"),
+                    _ => format!("adaptive b={budget} every {every}{route}"),
+                }
+            }
         }
     }
 
@@ -85,13 +107,24 @@ pub struct Runner<'m> {
 impl<'m> Runner<'m> {
     pub fn new(model: &'m Model, solver: Solver) -> Runner<'m> {
         let adaptive = match solver {
-            Solver::Adaptive { budget } => Some(Adaptive::new(
-                model,
-                Settings {
-                    budget: Some(budget),
-                    ..Settings::default()
-                },
-            )),
+            Solver::Adaptive {
+                budget,
+                every,
+                caches,
+            } => {
+                let mut ad = Adaptive::new(
+                    model,
+                    Settings {
+                        budget: Some(budget),
+                        reselect_every: every,
+                        ..Settings::default()
+                    },
+                );
+                if caches {
+                    ad.set_reselection(Reselection::Caches);
+                }
+                Some(ad)
+            }
             Solver::Exact(_) => None,
         };
         Runner {
@@ -142,5 +175,11 @@ impl<'m> Runner<'m> {
                 .map(|_| ())
                 .map_err(|e| e.to_string()),
         }
+    }
+
+    /// The adaptive solver's `q̈` of its last step (selected joints exact, the others zero);
+    /// `None` for an exact solver.
+    pub fn adaptive_qdd(&self) -> Option<&[f64]> {
+        self.adaptive.as_ref().map(|ad| ad.qdd())
     }
 }

@@ -15,7 +15,7 @@
 //!   states after 20 scene steps, one shared workspace per model (as `exact_dca_step`).
 
 use crate::args::Args;
-use articula_adaptive::{Adaptive, Settings};
+use articula_adaptive::{Adaptive, Reselection, Settings};
 use articula_dca::{step, Data, Integrator, Method, State};
 use articula_testkit::seeds::{force_list, seeded_state};
 use articula_view::SceneSim;
@@ -97,7 +97,12 @@ fn seeds(rounds: usize, budgets: &[usize]) -> Result<()> {
                 reselect_every: 10,
                 ..Settings::default()
             };
-            (Adaptive::new(&model, settings), a0.clone(), 0)
+            {
+                // Re-selections through the caches, as the seeds table's criterion bench.
+                let mut ad = Adaptive::new(&model, settings);
+                ad.set_reselection(Reselection::Caches);
+                (ad, a0.clone(), 0)
+            }
         })
         .collect();
     let mut adaptive = |k: usize, n: u64| -> Result<f64> {

@@ -3,14 +3,6 @@
 
 use std::time::{Duration, Instant};
 
-/// A timing: median time per call over `samples` batches of `batch` calls.
-#[derive(Clone, Copy, Debug)]
-pub struct Timing {
-    pub median_us: f64,
-    pub samples: usize,
-    pub batch: usize,
-}
-
 /// Median of a non-empty slice (sorted in place).
 pub fn median(xs: &mut [f64]) -> f64 {
     xs.sort_by(f64::total_cmp);
@@ -22,7 +14,7 @@ pub fn median(xs: &mut [f64]) -> f64 {
     }
 }
 
-/// The fewest batches [`time`] times (a cell timed in `P` passes takes `MIN_BATCHES / P`
+/// The fewest batches a cell is timed in (a cell timed in `P` passes takes `MIN_BATCHES / P`
 /// rounded up in each).
 pub const MIN_BATCHES: usize = 11;
 
@@ -30,7 +22,6 @@ pub const MIN_BATCHES: usize = 11;
 #[derive(Clone, Debug)]
 pub struct Samples {
     pub times_us: Vec<f64>,
-    pub batch: usize,
 }
 
 /// Times `call` for about `budget`: a warm-up of at least 3 calls and a tenth of the budget
@@ -60,17 +51,7 @@ pub fn sample<E>(
         }
         times_us.push(t.elapsed().as_secs_f64() * 1e6 / batch as f64);
     }
-    Ok(Samples { times_us, batch })
-}
-
-/// [`sample`] with at least [`MIN_BATCHES`] batches, and their median time per call.
-pub fn time<E>(budget: Duration, call: impl FnMut() -> Result<(), E>) -> Result<Timing, E> {
-    let mut s = sample(budget, MIN_BATCHES, call)?;
-    Ok(Timing {
-        median_us: median(&mut s.times_us),
-        samples: s.times_us.len(),
-        batch: s.batch,
-    })
+    Ok(Samples { times_us })
 }
 
 #[cfg(test)]
@@ -84,14 +65,15 @@ mod tests {
     }
 
     #[test]
-    fn time_measures_a_sleep() {
-        let t = time(Duration::from_millis(30), || {
+    fn sample_measures_a_sleep() {
+        let mut s = sample(Duration::from_millis(30), MIN_BATCHES, || {
             std::thread::sleep(Duration::from_micros(300));
             Ok::<(), ()>(())
         })
         .unwrap();
-        assert!(t.median_us >= 300.0 && t.median_us < 5000.0, "{t:?}");
-        assert!(t.samples >= 11);
+        assert!(s.times_us.len() >= MIN_BATCHES);
+        let t = median(&mut s.times_us);
+        assert!((300.0..5000.0).contains(&t), "{t}");
     }
 
     #[test]
@@ -103,7 +85,6 @@ mod tests {
         })
         .unwrap();
         assert_eq!(s.times_us.len(), 5);
-        assert_eq!(s.batch, 1);
         assert!(s.times_us.iter().all(|&t| t >= 300.0), "{s:?}");
     }
 }

@@ -13,7 +13,7 @@
 // `criterion_group!` makes a public function without documentation.
 #![allow(missing_docs)]
 
-use articula_adaptive::{Adaptive, Settings};
+use articula_adaptive::{Adaptive, Reselection, Settings};
 use articula_dca::{step, Data, Integrator, Method, State};
 use articula_testkit::chain;
 use articula_testkit::seeds::{force_list, seeded_state};
@@ -102,6 +102,7 @@ fn seeds_table(c: &mut Criterion) {
                         // The first step (a whole-body re-selection building every cache)
                         // outside the timing, as after each restart.
                         let mut ad = Adaptive::new(&model, settings.clone());
+                        ad.set_reselection(Reselection::Caches);
                         let mut s = a0.clone();
                         ad.step_with_forces(&model, &mut s, 1e-4, &list).unwrap();
                         calls = 1;
@@ -154,6 +155,7 @@ fn scaling(c: &mut Criterion) {
                         },
                     );
                     ad.set_check_locked_torques(check);
+                    ad.set_reselection(Reselection::Caches);
                     let mut s0 = State::random(model, 42, 0.0);
                     s0.qd.fill(0.0);
                     s0.f_ext.clear();

@@ -30,7 +30,7 @@ pub struct Adaptive {
     pub(crate) settings: Settings,
     // The fields a step between re-selections reads come first, in this order (`repr(C)`):
     // a crowd's step then touches a few cache lines of each workspace, not seventeen.
-    /// Steps counted from the last re-selection (the next at a multiple of `reselect_every`).
+    /// Steps counted from the last re-selection (the next at a multiple of the period).
     pub(crate) steps: u64,
     /// Nodes visited by the passes of the last call (the cost measure of adaptive updates).
     pub(crate) touched: usize,
@@ -66,6 +66,9 @@ pub struct Adaptive {
     pub(crate) cache: Caches,
     /// The RK4 step's start values and stage sums (`rk4.rs`), sized at its first call.
     pub(crate) rk: RkBuffers,
+    /// The model's internal degrees of freedom (a floating base's six left out): what
+    /// [`Settings::BALANCED`] resolves against.
+    pub(crate) internal: usize,
 }
 
 impl Adaptive {
@@ -101,6 +104,7 @@ impl Adaptive {
                 ..Default::default()
             },
             rk: RkBuffers::default(),
+            internal: model.nv - if model.floating_base { 6 } else { 0 },
         }
     }
 }

@@ -412,12 +412,13 @@ impl Adaptive {
     /// One semi-implicit Euler step of the hybrid body (also [`step`], the free function with
     /// the argument order of [`articula_dca::step`]; [`Adaptive::step_rk4`] is the RK4 step). Every `reselect_every` steps (the first
     /// included) the joints are re-selected on the fully articulated coefficients and the
-    /// joints leaving the hybrid body are locked by impulses. The first re-selection (and the
-    /// next after [`Adaptive::invalidate`], a changed locked torque, or with a velocity
-    /// tolerance) visits the whole body and builds the caches of the rigid subassemblies; the
-    /// others go through those caches and visit the old and new active regions, their
-    /// frontiers, the nodes the selection reaches and the paths of external forces on rigid
-    /// parts only. The steps in between visit the active region and its rigid frontier only
+    /// joints leaving the hybrid body are locked by impulses. A re-selection is one exact
+    /// whole-body solve ([`Reselection::ExactSolve`], the default); with
+    /// [`Reselection::Caches`] the first re-selection (and the next after
+    /// [`Adaptive::invalidate`], a changed locked torque, or with a velocity tolerance) visits
+    /// the whole body and builds the caches of the rigid subassemblies, and the others go
+    /// through those caches and visit the old and new active regions, their frontiers, the
+    /// nodes the selection reaches and the paths of external forces on rigid parts only. The steps in between visit the active region and its rigid frontier only
     /// (hierarchical state). Then `q̇ ← q̇ + h q̈`, `q ← q ⊕ h q̇` on the active joints (locked
     /// joints keep `q̇ = 0` and their `q`).
     ///
@@ -502,7 +503,10 @@ impl Adaptive {
     ) -> Result<StepReport, AdaptiveError> {
         self.settings.validate()?;
         let mut report = StepReport {
-            reselected: !self.hier.valid || self.steps.is_multiple_of(self.settings.reselect_every),
+            reselected: !self.hier.valid
+                || self
+                    .steps
+                    .is_multiple_of(self.settings.period(self.internal)),
             ..StepReport::default()
         };
         if report.reselected && !self.switches.full_passes && self.selects_everything(model) {
@@ -570,7 +574,7 @@ impl Adaptive {
     }
 
     /// How a due re-selection finds the new hybrid body (default
-    /// [`Reselection::Caches`]); the selection is the same either way.
+    /// [`Reselection::ExactSolve`]); the selection is the same either way.
     pub fn set_reselection(&mut self, how: Reselection) {
         self.switches.reselection = how;
     }

@@ -173,7 +173,9 @@ impl Adaptive {
     fn between_reselections(&self) -> bool {
         self.hier.valid
             && !self.switches.full_passes
-            && !self.steps.is_multiple_of(self.settings.reselect_every)
+            && !self
+                .steps
+                .is_multiple_of(self.settings.period(self.internal))
     }
 
     /// Runs `call` on this workspace with `s`'s per-call buffers in place of its own (with

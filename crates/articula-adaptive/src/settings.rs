@@ -12,7 +12,8 @@ pub struct Settings {
     /// Stop selecting when the acceleration-metric mass left in the queue is at most this.
     /// `None` or `Some(0.0)`: no tolerance stop.
     pub tolerance: Option<f64>,
-    /// Re-select the hybrid body every this many steps (at least 1).
+    /// Re-select the hybrid body every this many steps; [`Settings::BALANCED`] (0, the
+    /// default) picks [`Settings::balanced_period`] of the model and the budget.
     pub reselect_every: u64,
     /// At re-selection, a joint not selected is locked unless this is set and the velocity
     /// metric `V(C)` of its subassembly exceeds it (it then stays in the hybrid body, counted
@@ -25,7 +26,7 @@ impl Default for Settings {
         Settings {
             budget: None,
             tolerance: None,
-            reselect_every: 1,
+            reselect_every: Settings::BALANCED,
             velocity_tolerance: None,
         }
     }
@@ -35,6 +36,11 @@ impl Settings {
     /// The longest re-selection period of [`Settings::balanced_period`].
     pub const MAX_BALANCED_PERIOD: u64 = 50;
 
+    /// `reselect_every` for the balanced period ([`Settings::balanced_period`] of the
+    /// workspace's model and the budget): the default, what `articula simulate` uses unless
+    /// `--reselect-every` is given (docs/adaptive.md#defaults).
+    pub const BALANCED: u64 = 0;
+
     /// A re-selection period that keeps re-selecting to a fraction of the time: a
     /// re-selection by [`crate::Reselection::ExactSolve`] costs about one exact solve of the
     /// whole body and its locking impulses (O(n) for n internal degrees of freedom, most of a
@@ -43,7 +49,11 @@ impl Settings {
     /// [`Settings::MAX_BALANCED_PERIOD`] (1 when the budget covers every joint, which
     /// re-selects nothing). The command line's default (docs/adaptive.md#defaults).
     pub fn balanced_period(model: &Model, budget: Option<usize>) -> u64 {
-        let internal = model.nv - if model.floating_base { 6 } else { 0 };
+        Self::balanced_for(model.nv - if model.floating_base { 6 } else { 0 }, budget)
+    }
+
+    /// [`Settings::balanced_period`] of a body of `internal` internal degrees of freedom.
+    fn balanced_for(internal: usize, budget: Option<usize>) -> u64 {
         match budget {
             Some(b) if b < internal => {
                 ((2 * internal).div_ceil(b.max(1)) as u64).clamp(1, Self::MAX_BALANCED_PERIOD)
@@ -52,15 +62,25 @@ impl Settings {
         }
     }
 
-    /// Checks the values: a finite non-negative tolerance and velocity tolerance, a re-selection
-    /// period of at least one step.
+    /// The re-selection period on a body of `internal` internal degrees of freedom:
+    /// `reselect_every`, or the balanced period for [`Settings::BALANCED`].
+    #[inline]
+    pub(crate) fn period(&self, internal: usize) -> u64 {
+        if self.reselect_every == Self::BALANCED {
+            Self::balanced_for(internal, self.budget)
+        } else {
+            self.reselect_every
+        }
+    }
+
+    /// Checks the values: a finite non-negative tolerance and velocity tolerance.
     ///
     /// Every step checks them (a workspace may have been built with any settings), so the
     /// check is a few inlined comparisons and the messages are built out of line.
     #[inline]
     pub fn validate(&self) -> Result<(), AdaptiveError> {
         let ok = |t: Option<f64>| t.is_none_or(|t| t >= 0.0 && t.is_finite());
-        if ok(self.tolerance) && ok(self.velocity_tolerance) && self.reselect_every != 0 {
+        if ok(self.tolerance) && ok(self.velocity_tolerance) {
             Ok(())
         } else {
             Err(self.invalid())
@@ -74,12 +94,11 @@ impl Settings {
         let bad = |t: Option<f64>| t.filter(|t| !(*t >= 0.0 && t.is_finite()));
         if let Some(t) = bad(self.tolerance) {
             AdaptiveError::Setting(format!("tolerance must be a finite number ≥ 0, got {t}"))
-        } else if let Some(t) = bad(self.velocity_tolerance) {
+        } else {
+            let t = self.velocity_tolerance.unwrap_or(f64::NAN);
             AdaptiveError::Setting(format!(
                 "velocity tolerance must be a finite number ≥ 0, got {t}"
             ))
-        } else {
-            AdaptiveError::Setting("reselect_every must be at least 1".into())
         }
     }
 }
@@ -91,12 +110,13 @@ impl Settings {
 pub enum Reselection {
     /// Through the caches of the rigid subassemblies: O(active region) plus a cache rebuild,
     /// a few hundred times a DCA join, for every node leaving the active region; the first
-    /// re-selection builds every cache (O(n)).
-    #[default]
+    /// re-selection builds every cache (O(n), tens of DCA steps). Cheaper only when the
+    /// selection barely changes between re-selections.
     Caches,
-    /// One exact solve of the whole body (articula-dca's ABA), every node's metric summed
-    /// bottom-up, the queue, and the locking impulses: O(n) with the constant of an ABA pass,
-    /// nothing cached — cheaper when the selection changes a lot between re-selections
-    /// (a falling or swinging body) and on the first step.
+    /// The default: one exact solve of the whole body (articula-dca's ABA), every node's
+    /// metric summed bottom-up, the queue, and the locking impulses: O(n) with the constant
+    /// of an ABA pass, nothing cached — cheaper when the selection changes between
+    /// re-selections (a falling or swinging body), and a first step of about one DCA step.
+    #[default]
     ExactSolve,
 }

@@ -5,6 +5,13 @@ use articula_dca::{forward_dynamics_slices, forward_kinematics, Data, Method, St
 use articula_model::{LoadOptions, Model, NodeKind};
 use articula_spatial::SpatialForce;
 
+/// A workspace re-selecting through the caches (what these tests exercise; the library's
+/// default route is `Reselection::ExactSolve`).
+fn caches(mut ad: Adaptive) -> Adaptive {
+    ad.set_reselection(articula_adaptive::Reselection::Caches);
+    ad
+}
+
 const MODELS: [&str; 8] = [
     "chain10",
     "chain30",
@@ -78,7 +85,7 @@ fn unlimited_budget_and_zero_tolerance_give_exact_dca() {
                     ..Settings::default()
                 },
             ] {
-                let mut ad = Adaptive::new(&model, settings);
+                let mut ad = caches(Adaptive::new(&model, settings));
                 let qdd = ad
                     .forward_dynamics(&model, &s.q, &s.qd, &s.tau, &s.f_ext)
                     .unwrap();
@@ -104,7 +111,7 @@ fn predicted_metric_at_every_node_equals_the_direct_sum() {
             let s = state(&model, 100 + seed);
             // The exact solve: articula-dca's DCA.
             let e = exact(&model, &s);
-            let mut ad = Adaptive::new(&model, Settings::default());
+            let mut ad = caches(Adaptive::new(&model, Settings::default()));
             let mut predicted = vec![0.0; tree.nodes.len()];
             ad.predicted_node_metrics(&model, &s.q, &s.qd, &s.tau, &s.f_ext, &mut predicted)
                 .unwrap();
@@ -158,13 +165,13 @@ fn error_falls_as_the_budget_grows_and_matches_the_prediction() {
                 let mut last = f64::INFINITY;
                 let free = if floating { 6 } else { 0 };
                 for budget in 0..=(model.nv - free) {
-                    let mut ad = Adaptive::new(
+                    let mut ad = caches(Adaptive::new(
                         &model,
                         Settings {
                             budget: Some(budget),
                             ..Settings::default()
                         },
-                    );
+                    ));
                     let qdd = ad
                         .forward_dynamics(&model, &s.q, &s.qd, &s.tau, &s.f_ext)
                         .unwrap()
@@ -204,19 +211,19 @@ fn error_falls_as_the_budget_grows_and_matches_the_prediction() {
 fn tolerance_stops_when_the_metric_mass_left_is_small_enough() {
     let model = load("chain100", false);
     let s = state(&model, 7);
-    let mut ad = Adaptive::new(&model, Settings::default());
+    let mut ad = caches(Adaptive::new(&model, Settings::default()));
     ad.forward_dynamics(&model, &s.q, &s.qd, &s.tau, &s.f_ext)
         .unwrap();
     let total = ad.selection().total_metric;
     for frac in [0.5, 0.1, 1e-2, 1e-4] {
         let tol = frac * total;
-        let mut ad = Adaptive::new(
+        let mut ad = caches(Adaptive::new(
             &model,
             Settings {
                 tolerance: Some(tol),
                 ..Settings::default()
             },
-        );
+        ));
         ad.forward_dynamics(&model, &s.q, &s.qd, &s.tau, &s.f_ext)
             .unwrap();
         let sel = ad.selection();
@@ -249,13 +256,13 @@ fn rigidification_locks_joints_keeps_momentum_and_never_adds_energy() {
             let mut s = State::random(&model, 300 + budget as u64, 0.0);
             let h0 = momentum(&model, &s);
             let k0 = kinetic(&model, &s);
-            let mut ad = Adaptive::new(
+            let mut ad = caches(Adaptive::new(
                 &model,
                 Settings {
                     budget: Some(budget),
                     ..Settings::default()
                 },
-            );
+            ));
             assert!(ad.reselect(&model, &mut s).unwrap());
             // Locked joints: exactly zero.
             for (i, b) in model.bodies.iter().enumerate() {
@@ -288,13 +295,13 @@ fn rigidification_locks_joints_keeps_momentum_and_never_adds_energy() {
 fn budget_zero_moves_a_floating_body_as_one_rigid_body() {
     let model = load("humanoid", true);
     let mut s = State::random(&model, 11, 0.0);
-    let mut ad = Adaptive::new(
+    let mut ad = caches(Adaptive::new(
         &model,
         Settings {
             budget: Some(0),
             ..Settings::default()
         },
-    );
+    ));
     let mut data = Data::new(&model);
     data.gravity = glam::DVec3::ZERO;
     ad.data.gravity = glam::DVec3::ZERO;
@@ -333,12 +340,8 @@ fn invalid_settings_are_errors() {
             velocity_tolerance: Some(f64::INFINITY),
             ..Settings::default()
         },
-        Settings {
-            reselect_every: 0,
-            ..Settings::default()
-        },
     ] {
-        let mut ad = Adaptive::new(&model, settings.clone());
+        let mut ad = caches(Adaptive::new(&model, settings.clone()));
         assert!(ad
             .forward_dynamics(&model, &s.q, &s.qd, &s.tau, &s.f_ext)
             .is_err());
@@ -349,10 +352,8 @@ fn invalid_settings_are_errors() {
             .to_string();
         let named = if settings.velocity_tolerance.is_some() {
             "velocity tolerance"
-        } else if settings.tolerance.is_some() {
-            "tolerance"
         } else {
-            "reselect_every"
+            "tolerance"
         };
         assert!(e.contains(named), "{e}");
         assert!(settings.validate().is_err());
@@ -378,14 +379,14 @@ fn a_hybrid_step_visits_the_active_region_and_its_frontier_only() {
     for n in ["chain100", "chain1000"] {
         let model = load(n, false);
         let mut s = State::random(&model, 5, 0.0);
-        let mut ad = Adaptive::new(
+        let mut ad = caches(Adaptive::new(
             &model,
             Settings {
                 budget: Some(20),
                 reselect_every: 1000,
                 ..Settings::default()
             },
-        );
+        ));
         let first = ad.step(&model, &mut s, 1e-3).unwrap();
         assert!(first.reselected);
         let joins = first.active_dofs;
@@ -408,14 +409,14 @@ fn velocity_tolerance_keeps_fast_subassemblies_moving() {
     for j in 20..30 {
         s.qd[j] = 3.0; // joints 21..30 move fast, the rest are at rest
     }
-    let mut ad = Adaptive::new(
+    let mut ad = caches(Adaptive::new(
         &model,
         Settings {
             budget: Some(0),
             velocity_tolerance: Some(1.0),
             ..Settings::default()
         },
-    );
+    ));
     let before = s.qd.clone();
     let locked = ad.reselect(&model, &mut s).unwrap();
     assert!(
@@ -463,8 +464,8 @@ fn a_force_list_steps_like_dense_forces() {
         ..Settings::default()
     };
     let (mut a, mut b) = (
-        Adaptive::new(&model, settings.clone()),
-        Adaptive::new(&model, settings),
+        caches(Adaptive::new(&model, settings.clone())),
+        caches(Adaptive::new(&model, settings)),
     );
     for _ in 0..12 {
         a.step(&model, &mut dense, 1e-3).unwrap();
@@ -504,13 +505,13 @@ fn hybrid_body_equals_the_model_with_its_locked_joints_welded() {
             // The final active set (closed upward) first, then a state with the locked joints
             // at q = 0, q̇ = 0 so that welding them at zero is the same body.
             let mut probe = State::random(&model, seed, 0.5);
-            let mut ad = Adaptive::new(
+            let mut ad = caches(Adaptive::new(
                 &model,
                 Settings {
                     reselect_every: u64::MAX,
                     ..Settings::default()
                 },
-            );
+            ));
             ad.set_active(&model, &mut probe, pick).unwrap();
             let active: Vec<bool> = (0..model.bodies.len())
                 .map(|i| ad.is_active(&model, i))
@@ -594,8 +595,8 @@ fn scaled_node_metrics_equal_set_weights_then_node_metrics() {
     for (name, model) in models() {
         let nodes = model.assembly.nodes.len();
         let (mut a, mut b) = (
-            Adaptive::new(&model, Settings::default()),
-            Adaptive::new(&model, Settings::default()),
+            caches(Adaptive::new(&model, Settings::default())),
+            caches(Adaptive::new(&model, Settings::default())),
         );
         for seed in 0..6u64 {
             let s = state(&model, seed);
@@ -654,7 +655,7 @@ fn the_uniform_step_follows_the_exact_euler_step() {
         ("humanoid", load("humanoid", false)),
     ] {
         let mut data = Data::new(&model);
-        let mut adaptive = Adaptive::new(&model, Settings::default());
+        let mut adaptive = caches(Adaptive::new(&model, Settings::default()));
         let start = state(&model, 9);
         let (mut a, mut e) = (start.clone(), start.clone());
         let dt = 1e-3;
@@ -699,7 +700,7 @@ fn gather_trees_are_refused_cleanly() {
         Model::from_urdf_str(&urdf, &LoadOptions::default().with_floating_base(true)).unwrap();
     assert!(model.assembly.has_gather());
     let mut s = State::random(&model, 3, 1.0);
-    let mut adaptive = Adaptive::new(&model, Settings::default());
+    let mut adaptive = caches(Adaptive::new(&model, Settings::default()));
     let check = |r: Result<(), AdaptiveError>| match r {
         Err(AdaptiveError::Unsupported(msg)) => {
             assert!(msg.contains("link hub has 20 children"), "{msg}");

@@ -9,6 +9,13 @@ use articula_dca::{
 };
 use articula_model::Model;
 
+/// A workspace re-selecting through the caches (what these tests exercise; the library's
+/// default route is `Reselection::ExactSolve`).
+fn caches(mut ad: Adaptive) -> Adaptive {
+    ad.set_reselection(articula_adaptive::Reselection::Caches);
+    ad
+}
+
 const DT: f64 = 1e-3;
 
 /// The height of the lowest point of `model`'s contact spheres at `q`.
@@ -40,13 +47,13 @@ fn rigid_humanoid_lands_on_its_lowest_point() {
     let drop = 0.5;
     state.q[2] += drop - start;
     let q0 = state.q.clone();
-    let mut ad = Adaptive::new(
+    let mut ad = caches(Adaptive::new(
         &model,
         Settings {
             budget: Some(0),
             ..Settings::default()
         },
-    );
+    ));
     let mut worst = 0.0f64;
     let mut contacts = 0;
     for _ in 0..1500 {
@@ -93,7 +100,7 @@ fn full_budget_matches_exact_contact_step() {
     exact.q[2] += 1e-3 - low;
     let mut adaptive = exact.clone();
     let mut hc = HybridContact::new(&model);
-    let mut ad = Adaptive::new(&model, Settings::default());
+    let mut ad = caches(Adaptive::new(&model, Settings::default()));
     let mut worst = 0.0f64;
     let mut rows = 0;
     for _ in 0..20 {

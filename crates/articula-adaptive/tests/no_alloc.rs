@@ -5,6 +5,13 @@ use articula_dca::State;
 use articula_spatial::SpatialForce;
 use articula_testkit::{count_allocations, CountingAllocator};
 
+/// A workspace re-selecting through the caches (what these tests exercise; the library's
+/// default route is `Reselection::ExactSolve`).
+fn caches(mut ad: Adaptive) -> Adaptive {
+    ad.set_reselection(articula_adaptive::Reselection::Caches);
+    ad
+}
+
 #[global_allocator]
 static ALLOCATOR: CountingAllocator = CountingAllocator;
 
@@ -26,14 +33,14 @@ fn cached_reselection_steps_allocate_nothing() {
     for budget in [1usize, 50] {
         let mut ad = None;
         let warm = count_allocations(|| {
-            let ad = ad.insert(Adaptive::new(
+            let ad = ad.insert(caches(Adaptive::new(
                 &model,
                 Settings {
                     budget: Some(budget),
                     reselect_every: 1,
                     ..Settings::default()
                 },
-            ));
+            )));
             for _ in 0..50 {
                 ad.step_with_forces(&model, &mut s, 1e-4, &forces).unwrap();
             }
@@ -70,14 +77,14 @@ fn rk4_steps_allocate_nothing() {
     for (budget, every) in [(1usize, 1u64), (50, 1), (50, 4)] {
         let mut ad = None;
         let warm = count_allocations(|| {
-            let ad = ad.insert(Adaptive::new(
+            let ad = ad.insert(caches(Adaptive::new(
                 &model,
                 Settings {
                     budget: Some(budget),
                     reselect_every: every,
                     ..Settings::default()
                 },
-            ));
+            )));
             for _ in 0..50 {
                 articula_adaptive::step(&model, ad, &mut s, Integrator::Rk4, 1e-4).unwrap();
             }
@@ -115,14 +122,14 @@ fn exact_solve_and_full_budget_steps_allocate_nothing() {
         SpatialForce::new(glam::DVec3::ZERO, glam::DVec3::new(0.5, 0.0, 1.0)),
     )];
     for budget in [10usize, 300] {
-        let mut ad = Adaptive::new(
+        let mut ad = caches(Adaptive::new(
             &model,
             Settings {
                 budget: Some(budget),
                 reselect_every: 1,
                 ..Settings::default()
             },
-        );
+        ));
         ad.set_reselection(articula_adaptive::Reselection::ExactSolve);
         for _ in 0..20 {
             ad.step_with_forces(&model, &mut s, 1e-4, &forces).unwrap();

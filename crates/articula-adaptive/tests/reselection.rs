@@ -5,6 +5,13 @@ use articula_adaptive::{Adaptive, Reselection, Settings};
 use articula_dca::{forward_dynamics_slices, Data, Integrator, Method, State};
 use articula_testkit::bundled_with as load;
 
+/// A workspace re-selecting through the caches (what these tests exercise; the library's
+/// default route is `Reselection::ExactSolve`).
+fn caches(mut ad: Adaptive) -> Adaptive {
+    ad.set_reselection(articula_adaptive::Reselection::Caches);
+    ad
+}
+
 fn max_diff(a: &[f64], b: &[f64]) -> f64 {
     a.iter()
         .zip(b)
@@ -30,8 +37,8 @@ fn full_budget_steps_are_exact_dca_steps() {
             budget: Some(b),
             ..Settings::default()
         };
-        let mut ad = Adaptive::new(&model, settings(internal));
-        let mut ad_short = Adaptive::new(&model, settings(internal - 1));
+        let mut ad = caches(Adaptive::new(&model, settings(internal)));
+        let mut ad_short = caches(Adaptive::new(&model, settings(internal - 1)));
         for k in 0..20 {
             let exact = forward_dynamics_slices(
                 &model,
@@ -90,8 +97,8 @@ fn exact_solve_reselection_equals_cached_reselection() {
                 reselect_every: every,
                 ..Settings::default()
             };
-            let mut cached = Adaptive::new(&model, settings.clone());
-            let mut exact = Adaptive::new(&model, settings);
+            let mut cached = caches(Adaptive::new(&model, settings.clone()));
+            let mut exact = caches(Adaptive::new(&model, settings));
             exact.set_reselection(Reselection::ExactSolve);
             assert_eq!(cached.reselection(), Reselection::Caches);
             let (mut a, mut b) = (start.clone(), start.clone());
@@ -137,4 +144,38 @@ fn balanced_period_follows_the_budget() {
         Settings::balanced_period(&humanoid, Some(4)),
         (2 * internal).div_ceil(4) as u64
     );
+}
+
+/// `Settings::default()` re-selects at the balanced period of the workspace's model and budget
+/// (`Settings::BALANCED`), what `articula simulate` does without `--reselect-every`: on the
+/// 300-link chain at budget 50 the steps that re-select are 0, 12, 24, …; an explicit
+/// `reselect_every` still wins.
+#[test]
+fn default_settings_reselect_at_the_balanced_period() {
+    let model = load("chain300", false);
+    assert_eq!(Settings::default().reselect_every, Settings::BALANCED);
+    // The route of the command line too: one exact solve per re-selection.
+    assert_eq!(
+        Adaptive::new(&model, Settings::default()).reselection(),
+        Reselection::ExactSolve
+    );
+    let mut s = State::random(&model, 9, 0.3);
+    s.f_ext.clear();
+    let run = |settings: Settings, s: &mut State| -> Vec<u64> {
+        let mut ad = caches(Adaptive::new(&model, settings));
+        (0..40u64)
+            .filter(|_| ad.step(&model, s, 1e-4).unwrap().reselected)
+            .collect()
+    };
+    let balanced = Settings {
+        budget: Some(50),
+        ..Settings::default()
+    };
+    assert_eq!(run(balanced, &mut s.clone()), [0, 12, 24, 36]);
+    let every7 = Settings {
+        budget: Some(50),
+        reselect_every: 7,
+        ..Settings::default()
+    };
+    assert_eq!(run(every7, &mut s.clone()), [0, 7, 14, 21, 28, 35]);
 }

@@ -7,6 +7,13 @@ use articula_dca::{forward_kinematics, Data, Integrator, Method, State};
 use articula_model::{LoadOptions, Model};
 use articula_testkit::bundled_with as load;
 
+/// A workspace re-selecting through the caches (what these tests exercise; the library's
+/// default route is `Reselection::ExactSolve`).
+fn caches(mut ad: Adaptive) -> Adaptive {
+    ad.set_reselection(articula_adaptive::Reselection::Caches);
+    ad
+}
+
 fn max_diff(a: &[f64], b: &[f64]) -> f64 {
     a.iter()
         .zip(b)
@@ -39,13 +46,13 @@ fn full_budget_rk4_equals_exact_rk4() {
         let dt = 1e-3;
         let mut e = start.clone();
         exact_rk4(&model, &mut e, 20, dt);
-        let mut ad = Adaptive::new(&model, Settings::default());
+        let mut ad = caches(Adaptive::new(&model, Settings::default()));
         let (mut a, mut euler) = (start.clone(), start.clone());
         for _ in 0..20 {
             let r = articula_adaptive::step(&model, &mut ad, &mut a, Integrator::Rk4, dt).unwrap();
             assert_eq!(r.active_dofs, model.nv);
         }
-        let mut ad_euler = Adaptive::new(&model, Settings::default());
+        let mut ad_euler = caches(Adaptive::new(&model, Settings::default()));
         for _ in 0..20 {
             ad_euler.step(&model, &mut euler, dt).unwrap();
         }
@@ -72,13 +79,13 @@ fn rk4_of_a_hybrid_body_equals_rk4_of_the_welded_model() {
         let pick = |b: usize| !(b * 7 + 1).is_multiple_of(3);
         let mut s = State::random(&model, 5, 0.5);
         s.randomize_forces(8, 1.0);
-        let mut ad = Adaptive::new(
+        let mut ad = caches(Adaptive::new(
             &model,
             Settings {
                 reselect_every: u64::MAX,
                 ..Settings::default()
             },
-        );
+        ));
         // The active set (closed upward), then the locked joints at rest at zero.
         ad.set_active(&model, &mut s.clone(), pick).unwrap();
         let active: Vec<bool> = (0..model.bodies.len())
@@ -169,7 +176,7 @@ fn energy_drift(model: &Model, start: &State, integrator: Integrator, dt: f64) -
         reselect_every: u64::MAX,
         ..Settings::default()
     };
-    let mut ad = Adaptive::new(model, settings);
+    let mut ad = caches(Adaptive::new(model, settings));
     let mut s = start.clone();
     let r = articula_adaptive::step(model, &mut ad, &mut s, integrator, dt).unwrap();
     assert!(r.rigidified && r.active_dofs == 10, "{r:?}");
@@ -207,7 +214,7 @@ fn rk4_drifts_less_in_energy_than_euler_under_a_budget() {
 fn a_failing_rk4_step_is_an_error() {
     let model = load("chain30", false);
     let mut s = State::random(&model, 2, 0.5);
-    let mut ad = Adaptive::new(&model, Settings::default());
+    let mut ad = caches(Adaptive::new(&model, Settings::default()));
     // A huge time step makes the stages' velocities overflow.
     s.qd[3] = 1e300;
     let before = s.clone();

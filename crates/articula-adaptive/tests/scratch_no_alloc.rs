@@ -5,6 +5,13 @@ use articula_adaptive::{Adaptive, Scratch, Settings};
 use articula_dca::State;
 use articula_testkit::{count_allocations, CountingAllocator};
 
+/// A workspace re-selecting through the caches (what these tests exercise; the library's
+/// default route is `Reselection::ExactSolve`).
+fn caches(mut ad: Adaptive) -> Adaptive {
+    ad.set_reselection(articula_adaptive::Reselection::Caches);
+    ad
+}
+
 #[global_allocator]
 static ALLOCATOR: CountingAllocator = CountingAllocator;
 
@@ -19,14 +26,14 @@ fn shared_scratch_steps_allocate_nothing() {
         scratch = Some(Scratch::new(&model));
         ads = (0..n)
             .map(|i| {
-                Adaptive::new(
+                caches(Adaptive::new(
                     &model,
                     Settings {
                         budget: Some(6 + 3 * i),
                         reselect_every: 4,
                         ..Settings::default()
                     },
-                )
+                ))
             })
             .collect();
     });

@@ -21,9 +21,10 @@ pub struct BenchArgs {
     #[arg(long, value_name = "N", value_parser = parse_reps, allow_hyphen_values = true)]
     pub reps: Option<u64>,
     /// `--method adaptive`: re-select the hybrid body every N steps (1: every timed step
-    /// includes the selection).
-    #[arg(long, value_name = "N", default_value_t = 1, value_parser = parse_reps)]
-    pub reselect_every: u64,
+    /// includes the selection). Default: the balanced period ⌈2 · internal DOFs / budget⌉, at
+    /// most 50, as `articula simulate` (docs/adaptive.md#defaults).
+    #[arg(long, value_name = "N", value_parser = parse_reps)]
+    pub reselect_every: Option<u64>,
     /// Time the batch API instead: forward dynamics of N seeded states per call, spread over
     /// `--threads` (exact methods only).
     #[arg(long, value_name = "N", value_parser = parse_reps, allow_hyphen_values = true)]
@@ -68,7 +69,7 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
     let (model, mut data) = args.dynamics.load()?;
     let method = args.dynamics.method;
     let state = State::random(&model, SEED, 1.0);
-    // Adaptive: one full step (with the default re-selection every step, selection included),
+    // Adaptive: one full step (re-selecting at the balanced period unless --reselect-every),
     // continuing the same simulation call after call — from the seeded state without joint
     // torques, which would otherwise pump energy into a long run.
     let threads = crate::threads(args.dynamics.threads)?;
@@ -87,6 +88,9 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
             Some((Batch::with_data(&data, threads.clone()), states, qdd))
         }
     };
+    let every = args.reselect_every.unwrap_or_else(|| {
+        articula_adaptive::Settings::balanced_period(&model, args.dynamics.budget)
+    });
     let mut adaptive = method.exact().is_none().then(|| {
         let mut sim = state.clone();
         sim.tau.fill(0.0);
@@ -100,7 +104,7 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
             sim.f_ext.clear();
         }
         (
-            args.dynamics.adaptive(&model, args.reselect_every),
+            args.dynamics.adaptive(&model, every),
             sim.clone(),
             sim,
             0u64,
@@ -186,7 +190,7 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
             args.dynamics
                 .budget
                 .map_or("none".to_string(), |b| b.to_string()),
-            args.reselect_every,
+            every,
             ad.active_dofs(&model)
         ),
         None => String::new(),

@@ -23,7 +23,7 @@ impl Default for Switches {
             full_passes: false,
             fused: articula_dca::internals::fused_available(),
             use_cache: true,
-            reselection: crate::Reselection::Caches,
+            reselection: crate::Reselection::ExactSolve,
         }
     }
 }

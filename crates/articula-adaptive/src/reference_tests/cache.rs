@@ -8,6 +8,13 @@ use articula_spatial::SpatialForce;
 
 use articula_testkit::bundled_with as load;
 
+/// A workspace re-selecting through the caches (what these tests exercise; the library's
+/// default route is `Reselection::ExactSolve`).
+fn caches(mut ad: Adaptive) -> Adaptive {
+    ad.set_reselection(crate::Reselection::Caches);
+    ad
+}
+
 /// Relative agreement required of q̈, predicted error and q̇ after the locking impulses.
 const TOL: f64 = 1e-9;
 
@@ -54,8 +61,8 @@ fn compare(
         ..Settings::default()
     };
     let (mut fast, mut slow) = (
-        Adaptive::new(model, settings.clone()),
-        Adaptive::new(model, settings),
+        caches(Adaptive::new(model, settings.clone())),
+        caches(Adaptive::new(model, settings)),
     );
     slow.set_cached_reselection(false);
     let (mut a, mut b) = (s0.clone(), s0);
@@ -325,8 +332,8 @@ fn forced_path_maps_equal_the_recomputed_paths() {
             ..Settings::default()
         };
         let (mut on, mut off) = (
-            Adaptive::new(&model, settings.clone()),
-            Adaptive::new(&model, settings),
+            caches(Adaptive::new(&model, settings.clone())),
+            caches(Adaptive::new(&model, settings)),
         );
         off.set_path_maps(false);
         let (mut a, mut b) = (s0.clone(), s0);
@@ -391,8 +398,8 @@ fn a_changed_locked_torque_is_detected() {
             ..Settings::default()
         };
         let (mut fast, mut slow) = (
-            Adaptive::new(&model, settings.clone()),
-            Adaptive::new(&model, settings),
+            caches(Adaptive::new(&model, settings.clone())),
+            caches(Adaptive::new(&model, settings)),
         );
         fast.set_check_locked_torques(check);
         slow.set_cached_reselection(false);
@@ -440,8 +447,8 @@ fn a_changed_weight_is_not_read_from_stale_caches() {
         ..Settings::default()
     };
     let (mut fast, mut slow) = (
-        Adaptive::new(&model, settings.clone()),
-        Adaptive::new(&model, settings),
+        caches(Adaptive::new(&model, settings.clone())),
+        caches(Adaptive::new(&model, settings)),
     );
     slow.set_cached_reselection(false);
     let mut a = start(&model, 7, 1.0);
@@ -515,7 +522,7 @@ fn gravity_moves_a_free_body_without_changing_its_joint_accelerations() {
         // The base itself does feel it.
         assert!(max_diff(&qa[..base], &qb[..base]) > 1.0, "{name}");
         // The same through the adaptive solver (articulated coefficients with a_g).
-        let mut ad = Adaptive::new(&model, Settings::default());
+        let mut ad = caches(Adaptive::new(&model, Settings::default()));
         let x = ad
             .forward_dynamics(&model, &s.q, &s.qd, &s.tau, &s.f_ext)
             .unwrap()
@@ -540,14 +547,14 @@ fn a_cached_reselection_touches_the_active_region_only() {
         let mut s = State::random(&model, 42, 0.0);
         s.qd.fill(0.0);
         s.f_ext.clear();
-        let mut ad = Adaptive::new(
+        let mut ad = caches(Adaptive::new(
             &model,
             Settings {
                 budget: Some(50),
                 reselect_every: 1,
                 ..Settings::default()
             },
-        );
+        ));
         let first = ad.step(&model, &mut s, 1e-4).unwrap();
         // The first re-selection builds every cache: O(n).
         assert!(first.nodes_touched > n, "{n}: {}", first.nodes_touched);

@@ -11,6 +11,13 @@ use articula_dca::{forward_dynamics_slices, Data, Method, State};
 
 use articula_testkit::bundled_with as load;
 
+/// A workspace re-selecting through the caches (what these tests exercise; the library's
+/// default route is `Reselection::ExactSolve`).
+fn caches(mut ad: Adaptive) -> Adaptive {
+    ad.set_reselection(crate::Reselection::Caches);
+    ad
+}
+
 /// max |x − y| / max(1, max |x|).
 fn rel(x: &[f64], y: &[f64]) -> f64 {
     let scale = x.iter().fold(1.0f64, |m, v| m.max(v.abs()));
@@ -38,14 +45,14 @@ fn fused_and_portable_reduced_aba_agree() {
                         s.randomize_forces(seed, 0.5);
                     }
                     let run = |fused: bool| {
-                        let mut ad = Adaptive::new(
+                        let mut ad = caches(Adaptive::new(
                             &model,
                             Settings {
                                 budget: Some(budget),
                                 reselect_every: 10,
                                 ..Settings::default()
                             },
-                        );
+                        ));
                         ad.set_fused(fused);
                         let mut st = s.clone();
                         ad.step(&model, &mut st, 1e-4).unwrap();

@@ -5,6 +5,13 @@ use crate::{Adaptive, Settings};
 use articula_dca::State;
 use articula_testkit::bundled_with as load;
 
+/// A workspace re-selecting through the caches (what these tests exercise; the library's
+/// default route is `Reselection::ExactSolve`).
+fn caches(mut ad: Adaptive) -> Adaptive {
+    ad.set_reselection(crate::Reselection::Caches);
+    ad
+}
+
 fn max_diff(a: &[f64], b: &[f64]) -> f64 {
     a.iter()
         .zip(b)
@@ -37,8 +44,8 @@ fn hierarchical_steps_match_whole_body_passes() {
             ..Settings::default()
         };
         let (mut fast, mut slow) = (
-            Adaptive::new(&model, settings.clone()),
-            Adaptive::new(&model, settings),
+            caches(Adaptive::new(&model, settings.clone())),
+            caches(Adaptive::new(&model, settings)),
         );
         slow.set_full_passes(true);
         // The same (whole-body) re-selections on both sides: this compares the steps between

@@ -14,6 +14,13 @@ use glam::DVec3;
 
 use articula_testkit::bundled_with as load;
 
+/// A workspace re-selecting through the caches (what these tests exercise; the library's
+/// default route is `Reselection::ExactSolve`).
+fn caches(mut ad: Adaptive) -> Adaptive {
+    ad.set_reselection(crate::Reselection::Caches);
+    ad
+}
+
 /// Bitwise equality of two float slices (`==` would take −0 for 0 and reject NaN).
 fn same(a: &[f64], b: &[f64]) -> bool {
     a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
@@ -63,7 +70,7 @@ impl Side {
             metrics: vec![vec![0.0; model.assembly.nodes.len()]; n],
         };
         for i in 0..n {
-            let mut ad = Adaptive::new(model, settings(i, budget));
+            let mut ad = caches(Adaptive::new(model, settings(i, budget)));
             if i % 3 == 2 {
                 // Whole-body re-selections without caches.
                 ad.set_cached_reselection(false);
@@ -219,7 +226,7 @@ fn branching_trees_through_one_scratch_step_as_alone() {
 #[test]
 fn a_scratch_of_another_model_is_an_error() {
     let (a, b) = (load("chain30", false), load("chain100", false));
-    let mut ad = Adaptive::new(&a, Settings::default());
+    let mut ad = caches(Adaptive::new(&a, Settings::default()));
     let mut s = State::random(&a, 1, 1.0);
     let before = s.clone();
     let mut wrong = Scratch::new(&b);
