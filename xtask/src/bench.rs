@@ -735,7 +735,11 @@ fn study_series(traj: &Study, y: impl Fn(&trajectory::Run) -> Option<f64>) -> Ve
         let Some(e) = y(r) else { continue };
         let (name, label) = match &r.policy {
             Some(p) => (
-                format!("adaptive, {}", p.split(" (").next().unwrap_or(p)),
+                if p.starts_with("balanced") {
+                    "adaptive, balanced".to_string()
+                } else {
+                    format!("adaptive, {p}")
+                },
                 r.method.trim_start_matches("adaptive ").to_string(),
             ),
             None => (
@@ -879,7 +883,7 @@ fn study_words(traj: &Study) -> String {
         .collect();
     let front = on_front(&pts);
     let name = |r: &trajectory::Run| match &r.policy {
-        Some(p) => format!("{} ({p})", r.method),
+        Some(p) => format!("{} {p}", r.method),
         None => format!(
             "{} {} dt {} ms",
             r.method,
@@ -903,7 +907,7 @@ fn study_words(traj: &Study) -> String {
     };
     format!(
         "**Where adaptive dynamics is on the front (trajectories).** Runs on the front of \
-         deviation against steady time per step: adaptive {}; exact {}. Adaptive runs not on \
+         deviation against steady time per step: {}; exact methods: {}. Adaptive runs not on \
          it (an exact run is both faster and closer to the reference, or another adaptive \
          run is): {}.",
         list(true, true),

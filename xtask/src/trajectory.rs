@@ -84,7 +84,8 @@ pub fn steady_time(
 pub struct Run {
     /// Method as in the tables (`DCA`, `adaptive b=50`, …).
     pub method: String,
-    /// Re-selection policy of an adaptive run (`every step`, `balanced (every 12)`).
+    /// Re-selection policy of an adaptive run (`every step`, `every step (caches)`,
+    /// `balanced (every 12)`).
     pub policy: Option<String>,
     pub integrator: Integrator,
     pub dt: f64,
@@ -140,7 +141,7 @@ fn norm_diff(a: &[f64], b: &[f64]) -> f64 {
 /// The label of a re-selection policy on `model` at `budget`.
 pub fn policy_label(model: &Model, budget: usize, every: u64, caches: bool) -> String {
     if caches {
-        format!("{}, caches", policy_label(model, budget, every, false))
+        format!("{} (caches)", policy_label(model, budget, every, false))
     } else if every == Settings::BALANCED {
         format!(
             "balanced (every {})",
