@@ -314,8 +314,16 @@ fn sci(x: Option<f64>) -> String {
 }
 
 pub fn run(root: &Path, args: &[String]) -> Result<()> {
-    if !args.is_empty() {
-        return Err(format!("unexpected arguments {args:?}; usage: cargo xtask stability").into());
+    match args {
+        [] => {}
+        [c] if c == "cases" => return crate::stress::print(false),
+        [c, f] if c == "cases" && f == "--full" => return crate::stress::print(true),
+        _ => {
+            return Err(format!(
+                "unexpected arguments {args:?}; usage: cargo xtask stability [cases [--full]]"
+            )
+            .into())
+        }
     }
     let started = Instant::now();
     let img = root.join("docs/img");

@@ -347,6 +347,12 @@ pub(crate) struct AbaData {
     /// by slot (`aslot`; a chain needs one); also per-body scratch for the refinement.
     pub a: Vec<SpatialMotion>,
     pub aslot: Vec<u32>,
+    /// Per body: the arm `pᵢ − p_parent` from its parent's origin to its own (the computation
+    /// origin for a root), and its velocity product `c` about its origin; per degree of
+    /// freedom: `S` about the body's origin (pass 2 writes them, pass 3 reads them).
+    pub arm: Vec<glam::DVec3>,
+    pub cl: Vec<SpatialMotion>,
+    pub sl: Vec<SpatialMotion>,
 }
 
 /// Integrator buffers.
@@ -563,6 +569,9 @@ impl Data {
                     .collect(),
                 a: vec![SpatialMotion::ZERO; n.max(a_slots as usize)],
                 aslot,
+                arm: vec![glam::DVec3::ZERO; n],
+                cl: vec![SpatialMotion::ZERO; n],
+                sl: vec![SpatialMotion::ZERO; nv],
             },
             rk: RkData {
                 q0: vec![0.0; model.nq],
