@@ -177,6 +177,10 @@ pub(crate) struct DcaData {
     /// Per joint h: the point P_h (origin of body h, computation frame) about which every
     /// handle-h vector is taken.
     pub point: Vec<DVec3>,
+    /// Per joint h: the arm `P_h − P_parent` from its parent's origin
+    /// ([`kinematics::arm`](crate::kinematics::arm)): the leaves take their handle lever arms
+    /// from it, not from the difference of two far points.
+    pub arm: Vec<DVec3>,
     /// Per join (`DNode::jix`): what a one-axis join keeps for the back-substitution, dense in
     /// post-order (a back-substitution stream without the leaves' gaps).
     pub rev: Vec<RevJoin>,
@@ -236,7 +240,7 @@ pub(crate) enum DKind {
 
 /// A leaf's `Φ = I⁻¹` in closed form, written by its leaf for the back-substitution (see
 /// `dca::leaf`): the computation-frame `J = R I_c⁻¹ Rᵀ` (upper triangle, row by row), the
-/// centre of mass `c` and `1/m`.
+/// centre of mass `c` relative to the body's origin `P_i` (computation-frame axes) and `1/m`.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct LeafK {
     pub j: [f64; 6],
@@ -645,6 +649,7 @@ impl DcaData {
             z: Vec::new(),
             dinv: Vec::new(),
             point: Vec::new(),
+            arm: Vec::new(),
             rev: Vec::new(),
             y: Vec::new(),
             u: Vec::new(),
@@ -818,6 +823,7 @@ impl DcaData {
             z: vec![[0.0; 6]; nv],
             dinv: vec![SmallSpd::default(); n],
             point: vec![DVec3::ZERO; n],
+            arm: vec![DVec3::ZERO; n],
             rev: vec![RevJoin::default(); joins],
             y: vec![[[0.0; 6]; 6]; max_h],
             u: vec![[[0.0; 6]; 6]; max_h],
