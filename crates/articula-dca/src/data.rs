@@ -181,6 +181,9 @@ pub(crate) struct DcaData {
     /// ([`kinematics::arm`](crate::kinematics::arm)): the leaves take their handle lever arms
     /// from it, not from the difference of two far points.
     pub arm: Vec<DVec3>,
+    /// Joins of the last pass whose constraint factorisation met a pivot that rounding had
+    /// made non-positive ([`crate::small::ldl5`]); reset by each pass.
+    pub clamped: u32,
     /// Per join (`DNode::jix`): what a one-axis join keeps for the back-substitution, dense in
     /// post-order (a back-substitution stream without the leaves' gaps).
     pub rev: Vec<RevJoin>,
@@ -389,6 +392,23 @@ pub(crate) struct RefineData {
     pub(crate) corrections: u64,
     /// Some body's DCA leaf inverts a regularised inertia: refine every solve to convergence.
     pub(crate) regularised: bool,
+    /// Some body's mass differs from its parent's by more than [`MASS_RATIO`]: the same.
+    pub(crate) mass_ratio: bool,
+}
+
+/// The neighbour mass ratio above which DCA refines every solve to convergence (see
+/// `refine.rs`): at 1e4 the join's cancellation costs ~4 digits.
+pub(crate) const MASS_RATIO: f64 = 1e4;
+
+/// Whether some body's mass and its parent's differ by more than [`MASS_RATIO`] (massless
+/// bodies do not count).
+fn large_mass_ratio(model: &Model) -> bool {
+    model.bodies.iter().any(|b| {
+        b.parent.is_some_and(|p| {
+            let (m, mp) = (b.inertia.mass, model.bodies[p].inertia.mass);
+            m > 0.0 && mp > 0.0 && (m > MASS_RATIO * mp || mp > MASS_RATIO * m)
+        })
+    })
 }
 
 impl RefineData {
@@ -403,6 +423,7 @@ impl RefineData {
             zc: vec![SpatialMotion::ZERO; n],
             corrections: 0,
             regularised,
+            mass_ratio: large_mass_ratio(model),
         }
     }
 }
@@ -650,6 +671,7 @@ impl DcaData {
             dinv: Vec::new(),
             point: Vec::new(),
             arm: Vec::new(),
+            clamped: 0,
             rev: Vec::new(),
             y: Vec::new(),
             u: Vec::new(),
@@ -824,6 +846,7 @@ impl DcaData {
             dinv: vec![SmallSpd::default(); n],
             point: vec![DVec3::ZERO; n],
             arm: vec![DVec3::ZERO; n],
+            clamped: 0,
             rev: vec![RevJoin::default(); joins],
             y: vec![[[0.0; 6]; 6]; max_h],
             u: vec![[[0.0; 6]; 6]; max_h],

@@ -190,6 +190,7 @@ fn main_pass<A: Arith>(
     kinematics: Option<(&[f64], &[f64])>,
 ) -> Result<(), DynamicsError> {
     let tree = &model.assembly;
+    data.dca.clamped = 0;
     let a_g = SpatialMotion::new(DVec3::ZERO, data.gravity);
     // X_{C←W} = xlt(origin), for the kinematics at the leaves.
     let x_cw = articula_spatial::SpatialTransform::xlt(data.origin);
@@ -611,12 +612,14 @@ fn join<A: Arith>(
             _ => kf(r + 1, c + 1),
         };
         // Its L D Lᵀ factors (L packed by rows, 1/d on the diagonal).
-        let Some(l) = crate::small::ldl5::<A>(tkt) else {
+        let Some((l, clamped)) = crate::small::ldl5::<A>(tkt) else {
             return Err(DynamicsError::Singular {
                 joint: body.joint_name(),
-                detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
+                detail: "Φ_jj^A + Φ_jj^B is not a number on the constraint forces",
             });
         };
+        // A pivot lost to rounding: this solve is refined (`refine::refine_dca`).
+        d.clamped += u32::from(clamped);
         let rj = &mut d.rev[nc.jix as usize];
         rj.p = p;
         rj.q = q;
