@@ -10,7 +10,7 @@ use articula_testkit::{Dd, ReferenceModel};
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
 /// How a case's joint angles are set.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Pose {
     /// Every joint at 0: the chain hangs straight down.
     Straight,

@@ -128,7 +128,10 @@ fn ldl_col<A: Arith, const J: usize>(
     if !(d > 0.0) {
         *ok &= !d.is_nan();
         *clamped = true;
-        d = d.abs().max(f64::EPSILON * a(J, J).abs()).max(f64::MIN_POSITIVE);
+        d = d
+            .abs()
+            .max(f64::EPSILON * a(J, J).abs())
+            .max(f64::MIN_POSITIVE);
     }
     let inv = 1.0 / d;
     l[J][J] = inv;

@@ -579,6 +579,41 @@ mod tests {
     use super::*;
     use glam::DVec3;
 
+    /// `shifted(r)` moves an inertia to the point `r` behind: a rigid body's is its inertia
+    /// about that point (centre of mass `c + r`), and as the shift is a congruence
+    /// `Xᵀ I X`, an articulated-like `I − u uᵀ` goes to `shifted(I) − (Xᵀu)(Xᵀu)ᵀ` with
+    /// `Xᵀ [n; f] = [n + r × f; f]`.
+    #[test]
+    fn shifted_is_the_parallel_axis_theorem() {
+        let ic = DMat3::from_cols(
+            DVec3::new(0.3, 0.01, -0.02),
+            DVec3::new(0.01, 0.2, 0.03),
+            DVec3::new(-0.02, 0.03, 0.4),
+        );
+        let (m, c, r) = (2.5, DVec3::new(0.1, -0.2, 0.3), DVec3::new(-0.7, 0.4, 1.1));
+        let here = PackedSymMat6::from_inertia(&SpatialInertia::new(m, c, ic));
+        let there = PackedSymMat6::from_inertia(&SpatialInertia::new(m, c + r, ic));
+        let u = [0.3, -1.2, 0.5, 2.0, -0.4, 0.9];
+        let f = DVec3::new(u[3], u[4], u[5]);
+        let n = DVec3::new(u[0], u[1], u[2]) + r.cross(f);
+        let xu = [n.x, n.y, n.z, f.x, f.y, f.z];
+        let got = [
+            here.shifted(r.to_array()),
+            here.sub_outer(&u, 0.7).shifted(r.to_array()),
+        ];
+        let want = [there, there.sub_outer(&xu, 0.7)];
+        for (g, w) in got.iter().zip(&want) {
+            for k in 0..21 {
+                assert!(
+                    (g.0[k] - w.0[k]).abs() < 1e-13,
+                    "entry {k}: {} vs {}",
+                    g.0[k],
+                    w.0[k]
+                );
+            }
+        }
+    }
+
     /// The packed layout: `get` reads the entry of the matrix it was packed from, and the
     /// spatial inertia packs to `SpatialInertia::to_mat6` entry for entry.
     #[test]
