@@ -467,7 +467,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
                     .iter()
                     .filter(|o| o.case.pose == crate::stress::Pose::Tilted)
                     .filter_map(|o| match o.case.shape {
-                        crate::stress::Shape::Chain { links, ratio } if ratio == 1.0 => {
+                        crate::stress::Shape::Chain { links, ratio: 1.0 } => {
                             let e = if dca { &o.dca } else { &o.aba };
                             e.as_ref().ok().map(|&e| (links as f64, e.max(1e-17)))
                         }

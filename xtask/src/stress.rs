@@ -55,7 +55,7 @@ pub struct Case {
 impl Case {
     pub fn label(&self) -> String {
         let what = match self.shape {
-            Shape::Chain { links, ratio } if ratio == 1.0 => format!("chain {links}"),
+            Shape::Chain { links, ratio: 1.0 } => format!("chain {links}"),
             Shape::Chain { links, ratio } => format!("chain {links}, mass ratio {ratio:e}"),
             Shape::Star { children } => format!("hub with {children} children"),
         };
@@ -65,7 +65,7 @@ impl Case {
 
     pub fn model(&self) -> Result<Model> {
         Ok(match self.shape {
-            Shape::Chain { links, ratio } if ratio == 1.0 => articula_testkit::chain(links),
+            Shape::Chain { links, ratio: 1.0 } => articula_testkit::chain(links),
             Shape::Chain { links, ratio } => {
                 Model::from_urdf_str(&ratio_chain_urdf(links, ratio), &LoadOptions::default())?
             }

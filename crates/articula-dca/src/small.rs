@@ -124,8 +124,8 @@ fn ldl_col<A: Arith, const J: usize>(
     for p in 0..J {
         d = A::neg_mul_add(c[J][p] * c[J][p], l[p][p], d);
     }
-    // `!(d > 0)` also catches NaN, which fails.
-    if !(d > 0.0) {
+    // Not positive (or NaN, which fails).
+    if d <= 0.0 || d.is_nan() {
         *ok &= !d.is_nan();
         *clamped = true;
         d = d
