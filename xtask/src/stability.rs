@@ -563,7 +563,7 @@ fn document(
         "**The reference.** `crates/articula-testkit/src/reference.rs` runs the articulated-body algorithm in body \
          coordinates (RBDA Table 7.1, explicit 6×6 Plücker transforms) in double-double \
          arithmetic (`crates/articula-testkit/src/dd.rs`, ~32 significant digits). It shares no code or \
-         formulation with the library's f64 solvers, which work in world coordinates, and it \
+         formulation with the library's f64 solvers, which work with the world's axes, and it \
          reads the model's f64 numbers as exact. Its q̈ is therefore exact to far below f64 \
          rounding, and every error below is the f64 method's own. Errors are relative, \
          `max_i |q̈_i − q̈_i,ref| / max_i |q̈_i,ref|`, the worst over {} random states \
@@ -887,14 +887,22 @@ fn hard_cases(s: &mut String, hard: &[crate::stress::Outcome]) {
          error returned instead of q̈. Reproduce the table alone with \
          `cargo xtask stability cases --full`.\n"
     );
-    let _ = writeln!(s, "| case | DCA | ABA |\n|---|---:|---:|");
+    let _ = writeln!(
+        s,
+        "Pinocchio's `pin.aba` (default convention, local frames; `peers/pin_qdd.py` with \
+         `target/peers-venv`) runs up to {} links: its `Data` takes 1.8 GiB at 300 \
+         (— where not run).\n",
+        crate::stress::PIN_MAX_LINKS
+    );
+    let _ = writeln!(s, "| case | DCA | ABA | Pinocchio |\n|---|---:|---:|---:|");
     for o in hard {
         let _ = writeln!(
             s,
-            "| {} | {} | {} |",
+            "| {} | {} | {} | {} |",
             o.case.label(),
             crate::stress::cell(&o.dca),
-            crate::stress::cell(&o.aba)
+            crate::stress::cell(&o.aba),
+            o.pin.as_ref().map_or("—".into(), crate::stress::cell)
         );
     }
     let _ = writeln!(

@@ -63,17 +63,13 @@ impl Case {
         format!("{what}, {}{tau}", self.pose.label())
     }
 
-    pub fn model(&self) -> Result<Model> {
-        Ok(match self.shape {
-            Shape::Chain { links, ratio: 1.0 } => articula_testkit::chain(links),
-            Shape::Chain { links, ratio } => {
-                Model::from_urdf_str(&ratio_chain_urdf(links, ratio), &LoadOptions::default())?
-            }
-            Shape::Star { children } => Model::from_urdf_str(
-                &articula_testkit::star_urdf(children),
-                &LoadOptions::default(),
-            )?,
-        })
+    /// The case's model as URDF (fixed base).
+    pub fn urdf(&self) -> String {
+        match self.shape {
+            Shape::Chain { links, ratio: 1.0 } => articula_testkit::chain_urdf(links),
+            Shape::Chain { links, ratio } => ratio_chain_urdf(links, ratio),
+            Shape::Star { children } => articula_testkit::star_urdf(children),
+        }
     }
 
     pub fn state(&self, model: &Model) -> State {
@@ -112,6 +108,7 @@ const fn chain(links: usize, ratio: f64, pose: Pose) -> Case {
 /// The cases of issue 24 (items 1, 2, 7): `full` adds the 100,000-link ones.
 pub fn cases(full: bool) -> Vec<Case> {
     let mut v = vec![
+        chain(300, 1.0, Pose::Tilted),
         chain(500, 1.0, Pose::Tilted),
         chain(1_000, 1.0, Pose::Tilted),
         chain(8_000, 1.0, Pose::Tilted),
@@ -146,16 +143,61 @@ pub fn cases(full: bool) -> Vec<Case> {
     v
 }
 
-/// A case's errors: DCA's and ABA's (`Err`: the message of a refusal).
+/// A case's errors: DCA's and ABA's (`Err`: the message of a refusal), and Pinocchio's where
+/// it ran (`None`: not run — larger than [`PIN_MAX_LINKS`] or no peers Python).
 pub struct Outcome {
     pub case: Case,
     pub dca: std::result::Result<f64, String>,
     pub aba: std::result::Result<f64, String>,
+    pub pin: Option<std::result::Result<f64, String>>,
+}
+
+/// The largest model Pinocchio is run on: its `Data` for a 300-link chain takes 1.8 GiB
+/// (docs/performance.md), and 1,000 links fail under 4 GiB.
+pub const PIN_MAX_LINKS: usize = 300;
+
+/// Pinocchio's `pin.aba` on `urdf` at `state` (`peers/pin_qdd.py` with the peers' Python);
+/// `None` without that Python.
+fn pinocchio_qdd(urdf: &str, state: &State) -> Option<std::result::Result<Vec<f64>, String>> {
+    let root = crate::workspace_root();
+    let python = crate::bench::peers_python(&root);
+    if !python.exists() {
+        return None;
+    }
+    let run = || -> std::result::Result<Vec<f64>, String> {
+        let dir = root.join("target/articula-stability");
+        std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+        let path = dir.join("pin_case.urdf");
+        std::fs::write(&path, urdf).map_err(|e| e.to_string())?;
+        let mut child = std::process::Command::new(&python)
+            .arg(root.join("peers/pin_qdd.py"))
+            .arg(&path)
+            .stdin(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .map_err(|e| e.to_string())?;
+        let input = serde_json::json!({"q": state.q, "qd": state.qd, "tau": state.tau});
+        {
+            use std::io::Write;
+            let mut stdin = child.stdin.take().ok_or("no stdin")?;
+            stdin
+                .write_all(input.to_string().as_bytes())
+                .map_err(|e| e.to_string())?;
+        }
+        let out = child.wait_with_output().map_err(|e| e.to_string())?;
+        if !out.status.success() {
+            return Err(String::from_utf8_lossy(&out.stderr).into_owned());
+        }
+        serde_json::from_slice(&out.stdout).map_err(|e| e.to_string())
+    };
+    Some(run())
 }
 
 /// Runs `case`: DCA and ABA against the double-double reference.
 pub fn run_case(case: Case) -> Result<Outcome> {
-    let model = case.model()?;
+    let urdf = case.urdf();
+    let model = Model::from_urdf_str(&urdf, &LoadOptions::default())?;
     let state = case.state(&model);
     let reference = ReferenceModel::new(&model)?;
     let exact: Vec<f64> = reference
@@ -171,7 +213,16 @@ pub fn run_case(case: Case) -> Result<Outcome> {
     };
     let dca = err(Method::Dca);
     let aba = err(Method::Aba);
-    Ok(Outcome { case, dca, aba })
+    let pin = (model.bodies.len() <= PIN_MAX_LINKS)
+        .then(|| pinocchio_qdd(&urdf, &state))
+        .flatten()
+        .map(|r| r.map(|q| rel_error(&q, &exact)));
+    Ok(Outcome {
+        case,
+        dca,
+        aba,
+        pin,
+    })
 }
 
 pub fn cell(r: &std::result::Result<f64, String>) -> String {
@@ -187,10 +238,11 @@ pub fn print(full: bool) -> Result<()> {
         let t = std::time::Instant::now();
         let o = run_case(case)?;
         println!(
-            "  {:<52} DCA {:>8}  ABA {:>8}  ({:.1} s){}",
+            "  {:<52} DCA {:>8}  ABA {:>8}  Pinocchio {:>8}  ({:.1} s){}",
             case.label(),
             cell(&o.dca),
             cell(&o.aba),
+            o.pin.as_ref().map_or("—".into(), cell),
             t.elapsed().as_secs_f64(),
             match (&o.dca, &o.aba) {
                 (Err(e), _) | (_, Err(e)) => format!("  [{e}]"),

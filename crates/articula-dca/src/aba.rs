@@ -1,7 +1,7 @@
 //! Reference 1: the articulated-body algorithm (Featherstone, RBDA ch. 7, Table 7.1) with the
 //! world's axes about each body's own origin, so that the only transform between bodies is a
 //! translation by the (short) arm from the parent's origin, and no quantity carries a lever arm
-//! to a far point (docs/design.md). Articulated inertias
+//! to a far point (docs/algorithms.md, ABA). Articulated inertias
 //! are kept packed (21 entries, [`PackedSymMat6`]) and 1-DOF joints take a rank-1 fast path.
 
 use crate::{Data, DynamicsError};
