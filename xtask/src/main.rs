@@ -13,6 +13,7 @@ mod snapshots;
 mod solver;
 mod speedup;
 mod stability;
+mod stress;
 mod time;
 mod timing;
 mod trajectory;

@@ -1,11 +1,14 @@
-//! Reference 1: the articulated-body algorithm (Featherstone, RBDA ch. 7, Table 7.1), run in
-//! world coordinates, so no coordinate transforms appear between bodies. Articulated inertias
+//! Reference 1: the articulated-body algorithm (Featherstone, RBDA ch. 7, Table 7.1) with the
+//! world's axes about each body's own origin, so that the only transform between bodies is a
+//! translation by the (short) arm from the parent's origin, and no quantity carries a lever arm
+//! to a far point (docs/algorithms.md, ABA). Articulated inertias
 //! are kept packed (21 entries, [`PackedSymMat6`]) and 1-DOF joints take a rank-1 fast path.
 
 use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::internals::{dot6, invert_spd_into, Arith, Portable};
-use articula_spatial::{PackedSymMat6, SpatialForce, SpatialMotion};
+use articula_spatial::{PackedSymMat6, SpatialForce, SpatialInertia, SpatialMotion};
+use glam::DVec3;
 
 articula_spatial::fma_dispatch! {
     /// `forward_dynamics`' ABA call: the kinematics loop (pass 1) then [`aba_with`]. On an
@@ -27,7 +30,37 @@ articula_spatial::fma_dispatch! {
     }
 }
 
+/// `m` (about the computation origin) about the point `p`: `[ω; v + ω × p]`.
+#[inline(always)]
+fn motion_at(m: SpatialMotion, p: DVec3) -> SpatialMotion {
+    SpatialMotion::new(m.w, m.v + m.w.cross(p))
+}
+
+/// `f` (about one point) about the point `r` before it: `[n + r × f; f]`.
+#[inline(always)]
+fn force_back(f: SpatialForce, r: DVec3) -> SpatialForce {
+    SpatialForce::new(f.n + r.cross(f.f), f.f)
+}
+
+/// The body inertia `i` (body frame, about the body origin) with the computation frame's axes,
+/// still about the body origin: `[E Ī Eᵀ, (E h)×; ·, m]` (no lever arm to any far point).
+#[inline(always)]
+fn rotated_inertia(e: &glam::DMat3, i: &SpatialInertia) -> SpatialInertia {
+    SpatialInertia {
+        mass: i.mass,
+        h: *e * i.h,
+        ibar: *e * i.ibar * e.transpose(),
+    }
+}
+
 /// Runs ABA on the kinematics in `data` (pass 1 is the kinematics loop); writes `data.qdd`.
+///
+/// Every body's quantities are taken about its own origin `pᵢ` (the computation frame's axes):
+/// `Iᵢ` is the body inertia rotated, `S`, `vᵢ`, `cᵢ` are moved there from the computation
+/// origin (`[ω; v + ω × pᵢ]`), and a child's `Iᵃ`, `pᵃ` are moved to its parent's origin by
+/// the arm `rᵢ = pᵢ − p_parent` ([`PackedSymMat6::shifted`]), as pass 3 moves `a_parent`
+/// forward. About the world origin instead, `Iᴬ` of a body 1 km away holds entries ~`M·(1 km)²`
+/// of which `D = Sᵀ Iᴬ S` is a tiny difference: a tilted 100,000-link chain lost 11 digits.
 #[inline(always)]
 fn aba_with<A: Arith>(
     model: &Model,
@@ -39,7 +72,7 @@ fn aba_with<A: Arith>(
     let aba = &mut data.aba;
     // Pass 2, leaves to root: Iᴬᵢ = Iᵢ + Σ_children Iᵃ, pᴬᵢ = vᵢ ×* Iᵢ vᵢ − f_ext,i + Σ pᵃ
     // (gravity enters as a_0 = −a_g); U = Iᴬ S, D = Sᵀ U, u = τ − Sᵀ pᴬ,
-    // Iᵃ = Iᴬ − U D⁻¹ Uᵀ, pᵃ = pᴬ + Iᵃ c + U D⁻¹ u, passed to the parent (same frame).
+    // Iᵃ = Iᴬ − U D⁻¹ Uᵀ, pᵃ = pᴬ + Iᵃ c + U D⁻¹ u, moved to the parent's origin.
     // Pass 1's part (Iᵢ, vᵢ ×* Iᵢ vᵢ) is formed here, where it is first used: `ia`, `pa` hold
     // only the children's sums, set by the first child processed (`first`), so that no per-body
     // array is written in the kinematics loop and read back a whole chain later.
@@ -47,19 +80,29 @@ fn aba_with<A: Arith>(
     for i in (0..n).rev() {
         let t = topo[i];
         let (vo, k, doff) = (t.vo, t.nv, aba.doff[i]);
-        let inertia = &data.inertia[i];
-        let v = data.v[i];
-        let mut ia = PackedSymMat6::from_inertia(inertia);
-        let mut pa_i = v.cross_force(inertia.mul_motion(v)) - crate::inputs::f_ext_of(f_ext, i);
+        let x = &data.x[i];
+        let p = -(x.e * x.r);
+        let parent = t.parent;
+        let arm = crate::kinematics::arm(data.fk_plan[i], &data.x, parent, p);
+        aba.arm[i] = arm;
+        let inertia = rotated_inertia(&x.e, &model.bodies[i].inertia);
+        let v = motion_at(data.v[i], p);
+        let fe = crate::inputs::f_ext_of(f_ext, i);
+        let mut ia = PackedSymMat6::from_inertia(&inertia);
+        let mut pa_i = v.cross_force(inertia.mul_motion(v)) - force_back(fe, -p);
         let slot = aba.acc[i] as usize;
         if slot != u32::MAX as usize {
             ia.add_assign(&aba.ia[slot]);
             pa_i += aba.pa[slot];
         }
+        let c = motion_at(data.c[i], p);
+        aba.cl[i] = c;
         let first = aba.first[i];
         if k == 1 {
             // One DOF (the common case): U = Iᴬ s, D = sᵀU scalar.
-            let s = data.s[vo].to_array();
+            let sm = motion_at(data.s[vo], p);
+            aba.sl[vo] = sm;
+            let s = sm.to_array();
             let u = ia.mul_vec(&s);
             let d = dot6::<A>(&s, &u);
             if d.is_nan() || d <= 0.0 {
@@ -69,47 +112,46 @@ fn aba_with<A: Arith>(
                 });
             }
             let dinv = 1.0 / d;
-            let uu = tau[vo] - data.s[vo].dot(pa_i);
+            let uu = tau[vo] - sm.dot(pa_i);
             aba.u[vo] = u;
             aba.uu[vo] = uu;
             aba.dinv[doff] = dinv;
-            let parent = t.parent;
             if parent == usize::MAX {
                 continue;
             }
             let ps = aba.acc[parent] as usize;
             // pᵃ = pᴬ + Iᵃ c + U D⁻¹ u with Iᵃ c = Iᴬ c − U (Uᵀc) / D
-            let c = data.c[i].to_array();
+            let c = c.to_array();
             let ic = ia.mul_vec(&c);
             let g = dinv * (uu - dot6::<A>(&c, &u));
             let add = SpatialForce::from_array(std::array::from_fn(|r| ic[r] + u[r] * g));
+            let pa = force_back(pa_i + add, arm);
+            let ia_a = ia.sub_outer(&u, dinv).shifted(arm.to_array());
             if first {
-                aba.pa[ps] = pa_i + add;
-                aba.ia[ps] = ia.sub_outer(&u, dinv);
+                aba.pa[ps] = pa;
+                aba.ia[ps] = ia_a;
             } else {
-                aba.pa[ps] += pa_i + add;
-                aba.ia[ps].add_sub_outer(&ia, &u, dinv);
+                aba.pa[ps] += pa;
+                aba.ia[ps].add_assign(&ia_a);
             }
             continue;
         }
         // Several DOF: the same equations with k×k `D`, its loops of fixed length.
+        for p_ in 0..k {
+            aba.sl[vo + p_] = motion_at(data.s[vo + p_], p);
+        }
+        let (mut ia_a, mut pa_a) = (PackedSymMat6::ZERO, SpatialForce::ZERO);
         let args = MultiArgs {
-            s: &data.s[vo..vo + k],
+            s: &aba.sl[vo..vo + k],
             tau: &tau[vo..vo + k],
-            c: data.c[i],
+            c,
             ia,
             pa_i,
             u: &mut aba.u[vo..vo + k],
             uu: &mut aba.uu[vo..vo + k],
             dinv: &mut aba.dinv[doff..doff + k * k],
         };
-        let parent = t.parent;
-        let to_parent = if parent == usize::MAX {
-            None
-        } else {
-            let ps = aba.acc[parent] as usize;
-            Some((&mut aba.ia[ps], &mut aba.pa[ps], first))
-        };
+        let to_parent = (parent != usize::MAX).then_some((&mut ia_a, &mut pa_a, true));
         let ok = match k {
             0 => articulate_multi::<A, 0>(args, to_parent),
             2 => articulate_multi::<A, 2>(args, to_parent),
@@ -124,35 +166,50 @@ fn aba_with<A: Arith>(
                 detail: "Sᵀ Iᴬ S is not positive definite",
             });
         }
+        if parent != usize::MAX {
+            let ps = aba.acc[parent] as usize;
+            let pa = force_back(pa_a, arm);
+            let ia_a = ia_a.shifted(arm.to_array());
+            if first {
+                aba.pa[ps] = pa;
+                aba.ia[ps] = ia_a;
+            } else {
+                aba.pa[ps] += pa;
+                aba.ia[ps].add_assign(&ia_a);
+            }
+        }
     }
     let a0 = SpatialMotion::new(glam::DVec3::ZERO, -data.gravity);
-    accelerations::<A>(topo, aba, &data.s, Some(&data.c), a0, &mut data.qdd);
+    accelerations::<A>(topo, aba, true, a0, &mut data.qdd);
     Ok(())
 }
 
-/// Pass 3, root to leaves: `a' = a_parent + c`, `q̈ = D⁻¹ (u − Uᵀ a')`, `a = a' + S q̈`, on
-/// the `U`, `u`, `D⁻¹` of `aba` (`c = None`: no velocity products), writing `qdd`.
+/// Pass 3, root to leaves, about each body's origin: `a' = X a_parent + c` (`a_parent` moved
+/// forward by the arm, `[α; a + α × r]`), `q̈ = D⁻¹ (u − Uᵀ a')`, `a = a' + S q̈`, on the
+/// `U`, `u`, `D⁻¹`, local `S`, `c` and arms of `aba` (`with_c = false`: no velocity
+/// products), writing `qdd`.
 #[inline(always)]
 fn accelerations<A: Arith>(
     topo: &[crate::data::Topo],
     aba: &mut crate::data::AbaData,
-    s: &[SpatialMotion],
-    c: Option<&[SpatialMotion]>,
+    with_c: bool,
     a0: SpatialMotion,
     qdd: &mut [f64],
 ) {
     for (i, t) in topo.iter().enumerate() {
         let (vo, k, doff) = (t.vo, t.nv, aba.doff[i]);
-        let mut ap = if t.parent == usize::MAX {
+        let a_parent = if t.parent == usize::MAX {
             a0
         } else {
             aba.a[aba.aslot[t.parent] as usize]
         };
+        let mut ap = motion_at(a_parent, aba.arm[i]);
         let slot = aba.aslot[i] as usize;
-        if let Some(c) = c {
-            ap += c[i];
+        if with_c {
+            ap += aba.cl[i];
         }
         let apa = ap.to_array();
+        let s = &aba.sl;
         if k == 1 {
             let x = aba.dinv[doff] * (aba.uu[vo] - dot6::<A>(&apa, &aba.u[vo]));
             qdd[vo] = x;
@@ -366,7 +423,7 @@ pub(crate) fn refine(model: &Model, tau: &[f64], f_ext: &[SpatialForce], data: &
         let (vo, k, doff) = (t.vo, t.nv, aba.doff[i]);
         let pa_i = aba.pa[i];
         for p in 0..k {
-            aba.uu[vo + p] -= data.s[vo + p].dot(pa_i);
+            aba.uu[vo + p] -= aba.sl[vo + p].dot(pa_i);
         }
         if t.parent == usize::MAX {
             continue;
@@ -379,11 +436,11 @@ pub(crate) fn refine(model: &Model, tau: &[f64], f_ext: &[SpatialForce], data: &
             }
             pa += SpatialForce::from_array(aba.u[vo + p]) * du;
         }
-        aba.pa[t.parent] += pa;
+        aba.pa[t.parent] += force_back(pa, aba.arm[i]);
     }
     // Pass 3 on the correction (a_0 = 0, no velocity products): Δq̈, then q̈ += Δq̈.
     data.refine.qdd.copy_from_slice(&data.qdd);
-    accelerations::<Portable>(topo, aba, &data.s, None, SpatialMotion::ZERO, &mut data.qdd);
+    accelerations::<Portable>(topo, aba, false, SpatialMotion::ZERO, &mut data.qdd);
     for (q, q0) in data.qdd.iter_mut().zip(&data.refine.qdd) {
         *q += q0;
     }

@@ -177,6 +177,13 @@ pub(crate) struct DcaData {
     /// Per joint h: the point P_h (origin of body h, computation frame) about which every
     /// handle-h vector is taken.
     pub point: Vec<DVec3>,
+    /// Per joint h: the arm `P_h − P_parent` from its parent's origin
+    /// ([`kinematics::arm`](crate::kinematics::arm)): the leaves take their handle lever arms
+    /// from it, not from the difference of two far points.
+    pub arm: Vec<DVec3>,
+    /// Joins of the last pass whose constraint factorisation met a pivot that rounding had
+    /// made non-positive ([`crate::small::ldl5`]); reset by each pass.
+    pub clamped: u32,
     /// Per join (`DNode::jix`): what a one-axis join keeps for the back-substitution, dense in
     /// post-order (a back-substitution stream without the leaves' gaps).
     pub rev: Vec<RevJoin>,
@@ -236,7 +243,7 @@ pub(crate) enum DKind {
 
 /// A leaf's `Φ = I⁻¹` in closed form, written by its leaf for the back-substitution (see
 /// `dca::leaf`): the computation-frame `J = R I_c⁻¹ Rᵀ` (upper triangle, row by row), the
-/// centre of mass `c` and `1/m`.
+/// centre of mass `c` relative to the body's origin `P_i` (computation-frame axes) and `1/m`.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct LeafK {
     pub j: [f64; 6],
@@ -347,6 +354,12 @@ pub(crate) struct AbaData {
     /// by slot (`aslot`; a chain needs one); also per-body scratch for the refinement.
     pub a: Vec<SpatialMotion>,
     pub aslot: Vec<u32>,
+    /// Per body: the arm `pᵢ − p_parent` from its parent's origin to its own (the computation
+    /// origin for a root), and its velocity product `c` about its origin; per degree of
+    /// freedom: `S` about the body's origin (pass 2 writes them, pass 3 reads them).
+    pub arm: Vec<glam::DVec3>,
+    pub cl: Vec<SpatialMotion>,
+    pub sl: Vec<SpatialMotion>,
 }
 
 /// Integrator buffers.
@@ -379,6 +392,23 @@ pub(crate) struct RefineData {
     pub(crate) corrections: u64,
     /// Some body's DCA leaf inverts a regularised inertia: refine every solve to convergence.
     pub(crate) regularised: bool,
+    /// Some body's mass differs from its parent's by more than [`MASS_RATIO`]: the same.
+    pub(crate) mass_ratio: bool,
+}
+
+/// The neighbour mass ratio above which DCA refines every solve to convergence (see
+/// `refine.rs`): at 1e4 the join's cancellation costs ~4 digits.
+pub(crate) const MASS_RATIO: f64 = 1e4;
+
+/// Whether some body's mass and its parent's differ by more than [`MASS_RATIO`] (massless
+/// bodies do not count).
+fn large_mass_ratio(model: &Model) -> bool {
+    model.bodies.iter().any(|b| {
+        b.parent.is_some_and(|p| {
+            let (m, mp) = (b.inertia.mass, model.bodies[p].inertia.mass);
+            m > 0.0 && mp > 0.0 && (m > MASS_RATIO * mp || mp > MASS_RATIO * m)
+        })
+    })
 }
 
 impl RefineData {
@@ -393,6 +423,7 @@ impl RefineData {
             zc: vec![SpatialMotion::ZERO; n],
             corrections: 0,
             regularised,
+            mass_ratio: large_mass_ratio(model),
         }
     }
 }
@@ -563,6 +594,9 @@ impl Data {
                     .collect(),
                 a: vec![SpatialMotion::ZERO; n.max(a_slots as usize)],
                 aslot,
+                arm: vec![glam::DVec3::ZERO; n],
+                cl: vec![SpatialMotion::ZERO; n],
+                sl: vec![SpatialMotion::ZERO; nv],
             },
             rk: RkData {
                 q0: vec![0.0; model.nq],
@@ -636,6 +670,8 @@ impl DcaData {
             z: Vec::new(),
             dinv: Vec::new(),
             point: Vec::new(),
+            arm: Vec::new(),
+            clamped: 0,
             rev: Vec::new(),
             y: Vec::new(),
             u: Vec::new(),
@@ -809,6 +845,8 @@ impl DcaData {
             z: vec![[0.0; 6]; nv],
             dinv: vec![SmallSpd::default(); n],
             point: vec![DVec3::ZERO; n],
+            arm: vec![DVec3::ZERO; n],
+            clamped: 0,
             rev: vec![RevJoin::default(); joins],
             y: vec![[[0.0; 6]; 6]; max_h],
             u: vec![[[0.0; 6]; 6]; max_h],

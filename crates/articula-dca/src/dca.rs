@@ -19,7 +19,20 @@ use glam::DVec3;
 /// blocks would otherwise lose digits: a 100,000-link chain reaches 10 km).
 #[inline(always)]
 pub(crate) fn init_body(i: usize, data: &mut Data) {
-    data.dca.point[i] = data.x[i].apply_point(DVec3::ZERO);
+    let p = data.x[i].apply_point(DVec3::ZERO);
+    data.dca.point[i] = p;
+    data.dca.arm[i] = crate::kinematics::arm(data.fk_plan[i], &data.x, data.topo[i].parent, p);
+}
+
+/// `P_h − P_i` for a handle `h` of leaf body `i`: 0 for its own joint, else the arm of the
+/// child joint `h` (whose parent is `i`).
+#[inline(always)]
+fn handle_offset(d: &crate::data::DcaData, i: usize, h: usize) -> [f64; 3] {
+    if h == i {
+        [0.0; 3]
+    } else {
+        d.arm[h].to_array()
+    }
 }
 
 articula_spatial::fma_dispatch! {
@@ -136,7 +149,7 @@ fn phi_jh_mul<A: Arith>(
     })
 }
 
-/// `Φ_jh f` of leaf node `n` (body `i`), in closed form (see [`leaf`]): with `a_h = c − P_h`,
+/// `Φ_jh f` of leaf node `n` (body `i`), in closed form (see [`leaf`]): with `a_h = c − P_h` (from the body origin and the arms),
 /// the moment about c `n_c = n − a_h × f`, `α = J n_c`, and at P_j `[α; f/m + a_j × α]`.
 #[inline(always)]
 fn leaf_mul<A: Arith>(
@@ -151,8 +164,8 @@ fn leaf_mul<A: Arith>(
     let ho = d.node[n].hoff as usize;
     let c = lk.c;
     let (ph, pj) = (
-        d.point[d.hj[ho + h] as usize].to_array(),
-        d.point[d.hj[ho + j] as usize].to_array(),
+        handle_offset(d, i, d.hj[ho + h] as usize),
+        handle_offset(d, i, d.hj[ho + j] as usize),
     );
     let (fn_, ff) = (f.n.to_array(), f.f.to_array());
     let nc = sub3(fn_, cross3::<A>(sub3(c, ph), ff));
@@ -177,6 +190,7 @@ fn main_pass<A: Arith>(
     kinematics: Option<(&[f64], &[f64])>,
 ) -> Result<(), DynamicsError> {
     let tree = &model.assembly;
+    data.dca.clamped = 0;
     let a_g = SpatialMotion::new(DVec3::ZERO, data.gravity);
     // X_{C←W} = xlt(origin), for the kinematics at the leaves.
     let x_cw = articula_spatial::SpatialTransform::xlt(data.origin);
@@ -302,6 +316,8 @@ fn leaf<A: Arith>(
         ([0.0; 3], [0.0; 3])
     };
     let c = cv.to_array();
+    // The centre of mass from the body's origin, `E c_body`: the handles' arms start there.
+    let c_rel = (x.e * DVec3::from_array(lc.com)).to_array();
     // The body's world inertia by parallel axes: `Ī_O = I_c + m (c·c 1 − c cᵀ)`, `h = m c`
     // (its mass set once, in `Data::new`).
     let wi = &mut data.inertia[i];
@@ -319,13 +335,13 @@ fn leaf<A: Arith>(
     let d = &mut data.dca;
     d.leafk[i] = LeafK {
         j: [jc[0][0], jc[0][1], jc[0][2], jc[1][1], jc[1][2], jc[2][2]],
-        c,
+        c: c_rel,
         im,
     };
     let acc = add3(acc_c, a_g.v.to_array());
     let alpha_g = add3(alpha, a_g.w.to_array());
     let lh = LeafHandles {
-        c,
+        c: c_rel,
         jc: &jc,
         im,
         alpha,
@@ -334,14 +350,14 @@ fn leaf<A: Arith>(
     };
     // Two handles (a chain's bodies) unrolled.
     if nh == 2 {
-        leaf_handles::<A, 2>(d, &lh, ho, bo, top, 2);
+        leaf_handles::<A, 2>(d, &lh, i, ho, bo, top, 2);
     } else {
-        leaf_handles::<A, 0>(d, &lh, ho, bo, top, nh);
+        leaf_handles::<A, 0>(d, &lh, i, ho, bo, top, nh);
     }
     Ok(())
 }
 
-/// What [`leaf_handles`] needs of its leaf: the centre of mass `c`, `J`, `1/m`, α, and the
+/// What [`leaf_handles`] needs of its leaf: the centre of mass `c` (from the body origin), `J`, `1/m`, α, and the
 /// bias acceleration's parts `α + a_g^ω` and `a_c + a_g^v`.
 struct LeafHandles<'a> {
     c: [f64; 3],
@@ -360,6 +376,7 @@ struct LeafHandles<'a> {
 fn leaf_handles<A: Arith, const N: usize>(
     d: &mut crate::data::DcaData,
     lh: &LeafHandles,
+    i: usize,
     ho: usize,
     bo: usize,
     top: usize,
@@ -371,12 +388,17 @@ fn leaf_handles<A: Arith, const N: usize>(
     }
     let (c, jc, im) = (lh.c, lh.jc, lh.im);
     // The leaf's slots and handles, bounds checked once.
-    let (hj, point) = (&d.hj[ho..ho + nh], &d.point);
+    let (hj, arms) = (&d.hj[ho..ho + nh], &d.arm);
     let (bs, dgs) = (&mut d.b[top..top + nh], &mut d.dg[top..top + nh]);
     let phi = &mut d.phi;
     // Handle h's a_h and A_h's columns a_h × (column r of J).
     let arm = |h: usize| {
-        let ah = sub3(c, point[hj[h] as usize].to_array());
+        let hh = hj[h] as usize;
+        let ah = if hh == i {
+            c
+        } else {
+            sub3(c, arms[hh].to_array())
+        };
         let col = [
             cross3::<A>(ah, jc[0]),
             cross3::<A>(ah, jc[1]),
@@ -590,12 +612,14 @@ fn join<A: Arith>(
             _ => kf(r + 1, c + 1),
         };
         // Its L D Lᵀ factors (L packed by rows, 1/d on the diagonal).
-        let Some(l) = crate::small::ldl5::<A>(tkt) else {
+        let Some((l, clamped)) = crate::small::ldl5::<A>(tkt) else {
             return Err(DynamicsError::Singular {
                 joint: body.joint_name(),
-                detail: "Φ_jj^A + Φ_jj^B is not positive definite on the constraint forces",
+                detail: "Φ_jj^A + Φ_jj^B is not a number on the constraint forces",
             });
         };
+        // A pivot lost to rounding: this solve is refined (`refine::refine_dca`).
+        d.clamped += u32::from(clamped);
         let rj = &mut d.rev[nc.jix as usize];
         rj.p = p;
         rj.q = q;

@@ -86,7 +86,13 @@ pub fn forward_dynamics_slices<'d>(
     let result = match method {
         Method::Dca => dca::forward(model, q, qd, tau, &f_ext, data).and_then(|()| {
             // Regularised leaves always (see `refine`): their first solve is not exact.
-            if data.refine.regularised || (data.refine_dca && data.refine_floating) {
+            // ... and solves whose join factorisation lost a pivot to rounding, and models
+            // whose neighbouring bodies differ greatly in mass (`refine`).
+            if data.refine.regularised
+                || data.refine.mass_ratio
+                || data.dca.clamped > 0
+                || (data.refine_dca && data.refine_floating)
+            {
                 refine::refine_dca(model, tau, &f_ext, data)
             } else {
                 Ok(())

@@ -82,20 +82,30 @@ fn col<const J: usize>(a: &[[f64; 6]; 6], l: &mut [[f64; 6]; 6], ok: &mut bool) 
 /// multiply–subtracts go through `A` (fused in DCA's fused compilation, which halves their
 /// latency).
 #[inline(always)]
-pub(crate) fn ldl5<A: Arith>(a: impl Fn(usize, usize) -> f64) -> Option<[f64; 15]> {
+///
+/// A pivot that rounding has made zero or negative (the matrix is positive semidefinite in
+/// exact arithmetic; its smallest eigenvalues can drown in the rounding of the largest) is
+/// replaced by its magnitude (at least ε times its diagonal entry): the factors are then those
+/// of a nearby positive definite matrix, and the second value is `true` — the caller must
+/// refine the solution against the exact equations. `None`: a NaN.
+pub(crate) fn ldl5<A: Arith>(a: impl Fn(usize, usize) -> f64) -> Option<([f64; 15], bool)> {
     // l: L below the diagonal, 1/d_j on it; c_ij = L_ij d_j (i > j).
     let mut l = [[0.0f64; 5]; 5];
     let mut c = [[0.0f64; 5]; 5];
     let mut ok = true;
-    ldl_col::<A, 0>(&a, &mut l, &mut c, &mut ok);
-    ldl_col::<A, 1>(&a, &mut l, &mut c, &mut ok);
-    ldl_col::<A, 2>(&a, &mut l, &mut c, &mut ok);
-    ldl_col::<A, 3>(&a, &mut l, &mut c, &mut ok);
-    ldl_col::<A, 4>(&a, &mut l, &mut c, &mut ok);
-    ok.then_some([
-        l[0][0], l[1][0], l[1][1], l[2][0], l[2][1], l[2][2], l[3][0], l[3][1], l[3][2], l[3][3],
-        l[4][0], l[4][1], l[4][2], l[4][3], l[4][4],
-    ])
+    let mut clamped = false;
+    ldl_col::<A, 0>(&a, &mut l, &mut c, &mut ok, &mut clamped);
+    ldl_col::<A, 1>(&a, &mut l, &mut c, &mut ok, &mut clamped);
+    ldl_col::<A, 2>(&a, &mut l, &mut c, &mut ok, &mut clamped);
+    ldl_col::<A, 3>(&a, &mut l, &mut c, &mut ok, &mut clamped);
+    ldl_col::<A, 4>(&a, &mut l, &mut c, &mut ok, &mut clamped);
+    ok.then_some((
+        [
+            l[0][0], l[1][0], l[1][1], l[2][0], l[2][1], l[2][2], l[3][0], l[3][1], l[3][2],
+            l[3][3], l[4][0], l[4][1], l[4][2], l[4][3], l[4][4],
+        ],
+        clamped,
+    ))
 }
 
 /// Column `J` of [`ldl5`]: `d_J = a_JJ − Σ_p c_Jp² (1/d_p)`, `c_iJ = a_iJ − Σ_p L_ip c_Jp`,
@@ -108,13 +118,21 @@ fn ldl_col<A: Arith, const J: usize>(
     l: &mut [[f64; 5]; 5],
     c: &mut [[f64; 5]; 5],
     ok: &mut bool,
+    clamped: &mut bool,
 ) {
     let mut d = a(J, J);
     for p in 0..J {
         d = A::neg_mul_add(c[J][p] * c[J][p], l[p][p], d);
     }
-    // `!(d > 0)` also catches NaN.
-    *ok &= d > 0.0;
+    // Not positive (or NaN, which fails).
+    if d <= 0.0 || d.is_nan() {
+        *ok &= !d.is_nan();
+        *clamped = true;
+        d = d
+            .abs()
+            .max(f64::EPSILON * a(J, J).abs())
+            .max(f64::MIN_POSITIVE);
+    }
     let inv = 1.0 / d;
     l[J][J] = inv;
     for i in (J + 1)..5 {

@@ -507,6 +507,46 @@ impl PackedSymMat6 {
         s
     }
 
+    /// The same inertia about a point `r` behind this one (`Xᵀ I X` with
+    /// `X = [1, 0; −r×, 1]`, the motion transform from the new point to this one): with
+    /// `I = [A, B; Bᵀ, C]` (angular rows first), `C' = C`, `B' = B + r× C` and
+    /// `A' = A + Tᵀ + r× B'ᵀ` where `T = r× Bᵀ` (so `A' = A + T + Tᵀ − r× C r×`, the parallel
+    /// axis theorem of a general symmetric 6×6). ABA moves a child's articulated inertia from
+    /// its joint to its parent's with it (`r` = child origin − parent origin).
+    #[inline(always)]
+    pub fn shifted(&self, r: [f64; 3]) -> PackedSymMat6 {
+        let cross = |a: [f64; 3], b: [f64; 3]| {
+            [
+                a[1] * b[2] - a[2] * b[1],
+                a[2] * b[0] - a[0] * b[2],
+                a[0] * b[1] - a[1] * b[0],
+            ]
+        };
+        let g = |i: usize, j: usize| self.get(i, j);
+        // Columns of C and rows of B.
+        let ccol: [[f64; 3]; 3] = std::array::from_fn(|j| [g(3, 3 + j), g(4, 3 + j), g(5, 3 + j)]);
+        let brow: [[f64; 3]; 3] = std::array::from_fn(|i| [g(i, 3), g(i, 4), g(i, 5)]);
+        // Column j of r× C, and of T = r× Bᵀ (column j of Bᵀ is row j of B).
+        let rc: [[f64; 3]; 3] = std::array::from_fn(|j| cross(r, ccol[j]));
+        let t: [[f64; 3]; 3] = std::array::from_fn(|j| cross(r, brow[j]));
+        // B' = B + r× C, by rows: B'_ij = B_ij + (r× C)_ij = brow[i][j] + rc[j][i].
+        let b2: [[f64; 3]; 3] =
+            std::array::from_fn(|i| std::array::from_fn(|j| brow[i][j] + rc[j][i]));
+        // Column j of r× B'ᵀ.
+        let rb: [[f64; 3]; 3] = std::array::from_fn(|j| cross(r, b2[j]));
+        let mut out = *self;
+        for i in 0..3 {
+            for j in i..3 {
+                // A'_ij = A_ij + T_ji + (r× B'ᵀ)_ij
+                out.0[PIDX[i][j]] = g(i, j) + t[i][j] + rb[j][i];
+            }
+            for j in 0..3 {
+                out.0[PIDX[i][3 + j]] = b2[i][j];
+            }
+        }
+        out
+    }
+
     /// `self += a`.
     #[inline(always)]
     pub fn add_assign(&mut self, a: &PackedSymMat6) {
@@ -538,6 +578,41 @@ impl From<PackedSymMat6> for SymMat6 {
 mod tests {
     use super::*;
     use glam::DVec3;
+
+    /// `shifted(r)` moves an inertia to the point `r` behind: a rigid body's is its inertia
+    /// about that point (centre of mass `c + r`), and as the shift is a congruence
+    /// `Xᵀ I X`, an articulated-like `I − u uᵀ` goes to `shifted(I) − (Xᵀu)(Xᵀu)ᵀ` with
+    /// `Xᵀ [n; f] = [n + r × f; f]`.
+    #[test]
+    fn shifted_is_the_parallel_axis_theorem() {
+        let ic = DMat3::from_cols(
+            DVec3::new(0.3, 0.01, -0.02),
+            DVec3::new(0.01, 0.2, 0.03),
+            DVec3::new(-0.02, 0.03, 0.4),
+        );
+        let (m, c, r) = (2.5, DVec3::new(0.1, -0.2, 0.3), DVec3::new(-0.7, 0.4, 1.1));
+        let here = PackedSymMat6::from_inertia(&SpatialInertia::new(m, c, ic));
+        let there = PackedSymMat6::from_inertia(&SpatialInertia::new(m, c + r, ic));
+        let u = [0.3, -1.2, 0.5, 2.0, -0.4, 0.9];
+        let f = DVec3::new(u[3], u[4], u[5]);
+        let n = DVec3::new(u[0], u[1], u[2]) + r.cross(f);
+        let xu = [n.x, n.y, n.z, f.x, f.y, f.z];
+        let got = [
+            here.shifted(r.to_array()),
+            here.sub_outer(&u, 0.7).shifted(r.to_array()),
+        ];
+        let want = [there, there.sub_outer(&xu, 0.7)];
+        for (g, w) in got.iter().zip(&want) {
+            for k in 0..21 {
+                assert!(
+                    (g.0[k] - w.0[k]).abs() < 1e-13,
+                    "entry {k}: {} vs {}",
+                    g.0[k],
+                    w.0[k]
+                );
+            }
+        }
+    }
 
     /// The packed layout: `get` reads the entry of the matrix it was packed from, and the
     /// spatial inertia packs to `SpatialInertia::to_mat6` entry for entry.

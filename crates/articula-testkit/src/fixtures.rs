@@ -135,6 +135,37 @@ fn revolute(name: &str, parent: &str, child: &str, at: [f64; 3], axis: &str) -> 
     format!("<joint name=\"{name}\" type=\"revolute\"><parent link=\"{parent}\"/><child link=\"{child}\"/><origin xyz=\"{} {} {}\"/><axis xyz=\"{axis}\"/><limit lower=\"-3\" upper=\"3\" effort=\"10\" velocity=\"10\"/></joint>\n", at[0], at[1], at[2])
 }
 
+/// A pendulum chain of `n` rods (0.1 m long) whose odd links have mass 0.1 kg and even links
+/// `0.1 ratio` kg, with inertias scaled alike (same shape, density ratio `ratio`).
+pub fn ratio_chain_urdf(n: usize, ratio: f64) -> String {
+    let mut s = String::from(
+        "<robot name=\"ratio_chain\"><link name=\"base\"><inertial><mass value=\"1\"/>\
+         <inertia ixx=\"0.01\" iyy=\"0.01\" izz=\"0.01\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/>\
+         </inertial></link>\n",
+    );
+    for i in 1..=n {
+        let k = if i % 2 == 0 { ratio } else { 1.0 };
+        let parent = if i == 1 {
+            "base".to_string()
+        } else {
+            format!("link{}", i - 1)
+        };
+        let z = if i == 1 { -0.05 } else { -0.1 };
+        let (m, ixx, izz) = (0.1 * k, 8.5833e-5 * k, 5e-6 * k);
+        let _ = std::fmt::Write::write_fmt(
+            &mut s,
+            format_args!(
+            "<link name=\"link{i}\"><inertial><origin xyz=\"0 0 -0.05\"/><mass value=\"{m:e}\"/>\
+             <inertia ixx=\"{ixx:e}\" iyy=\"{ixx:e}\" izz=\"{izz:e}\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/>\
+             </inertial></link>\n<joint name=\"joint{i}\" type=\"revolute\"><parent link=\"{parent}\"/>\
+             <child link=\"link{i}\"/><origin xyz=\"0 0 {z}\"/><axis xyz=\"0 1 0\"/>\
+             <limit lower=\"-3.14\" upper=\"3.14\" effort=\"100\" velocity=\"10\"/></joint>\n"
+            ),
+        );
+    }
+    s + "</robot>"
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
