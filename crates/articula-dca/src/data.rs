@@ -151,6 +151,17 @@ pub(crate) struct DcaData {
     /// Φ_jj⁻¹`, its articulated inertia at its joint to the hub (`gather.rs`).
     pub gathered: Vec<u32>,
     pub gk: Vec<Mat6>,
+    /// The bodies the cluster nodes absorb (`DKind::Cluster::first`), parents first.
+    pub clustered: Vec<u32>,
+    /// Per body of a cluster (empty without clusters): whether its ABA terms set its parent's
+    /// sums (the first of its siblings in the main pass's order) rather than add to them, and
+    /// whether it has sums (absorbed children); the sums `Iᵃ`, `pᵃ` of its absorbed children;
+    /// its acceleration relative to gravity (the back-substitution's `a'`).
+    pub cfirst: Vec<bool>,
+    pub csums: Vec<bool>,
+    pub cia: Vec<PackedSymMat6>,
+    pub cpa: Vec<SpatialForce>,
+    pub ca: Vec<SpatialMotion>,
     /// Φ's cross blocks.
     pub phi: Vec<Mat6>,
     /// Φ's diagonal blocks `Φ_hh` (symmetric, upper 2×2 tiles) and the bias accelerations `b_h`: only the
@@ -228,6 +239,13 @@ pub(crate) enum DKind {
     },
     /// Hub body (`u32::MAX`: the ground), its children at `gathered[first..first + count]`.
     Gather {
+        body: u32,
+        first: u32,
+        count: u32,
+    },
+    /// A leaf cluster's body (`u32::MAX`: the ground), its absorbed bodies at
+    /// `clustered[first..first + count]`.
+    Cluster {
         body: u32,
         first: u32,
         count: u32,
@@ -440,12 +458,22 @@ pub(crate) const REFINE_MIN_BODIES: usize = 100;
 /// Whether DCA's result needs the Newton–Euler check: a floating base of at least
 /// [`REFINE_MIN_BODIES`] bodies, or a body whose rotational inertia is ill-conditioned
 /// ([`ILL_CONDITIONED`]).
+/// A body of a leaf cluster is left out: DCA never inverts its inertia (`cluster.rs`).
 pub(crate) fn needs_refinement(model: &Model) -> bool {
+    let absorbed = crate::cluster::absorbed(model);
     (model.floating_base && model.bodies.len() >= REFINE_MIN_BODIES)
-        || model.bodies.iter().any(|b| {
-            let (l, _, s) = conditioning(model, b, 0.0);
-            l[0] < ILL_CONDITIONED * s
-        })
+        || model
+            .bodies
+            .iter()
+            .zip(&absorbed)
+            .any(|(b, &a)| !a && !well_conditioned(model, b))
+}
+
+/// Whether a body's mass is positive and its rotational inertia not ill-conditioned
+/// ([`ILL_CONDITIONED`]).
+pub(crate) fn well_conditioned(model: &Model, b: &articula_model::Body) -> bool {
+    let (l, _, s) = conditioning(model, b, 0.0);
+    b.inertia.mass > 0.0 && l[0] >= ILL_CONDITIONED * s
 }
 
 /// For a body whose smallest principal moment is at most [`REGULARISE`] times its scale `s`
@@ -507,10 +535,13 @@ impl Data {
                 free.push(aslot[i]);
             }
         }
+        // A body of a leaf cluster has no leaf of its own (`cluster.rs`).
+        let absorbed = crate::cluster::absorbed(model);
         let regularised = model
             .bodies
             .iter()
-            .any(|b| regularised_inverse(model, b).is_some());
+            .zip(&absorbed)
+            .any(|(b, &a)| !a && regularised_inverse(model, b).is_some());
         Data {
             gravity: DVec3::new(0.0, 0.0, -9.81),
             refine_floating: true,
@@ -626,6 +657,12 @@ impl DcaData {
             from: Vec::new(),
             gathered: Vec::new(),
             gk: Vec::new(),
+            clustered: Vec::new(),
+            cfirst: Vec::new(),
+            csums: Vec::new(),
+            cia: Vec::new(),
+            cpa: Vec::new(),
+            ca: Vec::new(),
             phi: Vec::new(),
             dg: Vec::new(),
             b: Vec::new(),
@@ -650,7 +687,14 @@ impl DcaData {
     fn build(model: &Model, fused: bool) -> Result<DcaData, DynamicsError> {
         let n = model.bodies.len();
         let nv = model.nv;
-        let tree = &model.assembly;
+        // DCA's own tree, with leaf clusters (`cluster.rs`).
+        let absorbed = crate::cluster::absorbed(model);
+        let own = if absorbed.contains(&true) {
+            articula_model::AssemblyTree::build_clustered(model, &absorbed)
+        } else {
+            model.assembly.clone()
+        };
+        let tree = &own;
         let nn = tree.nodes.len();
         // The shared layout (articula-model), with DCA's sentinel and side type.
         let layout = tree.handle_layout();
@@ -746,6 +790,14 @@ impl DcaData {
                     };
                     (kind, 0, 0, false)
                 }
+                NodeKind::Cluster { body, first, count } => {
+                    let kind = DKind::Cluster {
+                        body: body.map_or(u32::MAX, u),
+                        first: u(first),
+                        count: u(count),
+                    };
+                    (kind, (2 * nd.depth + s) * mb, 0, false)
+                }
             };
             node.push(DNode {
                 kind,
@@ -776,8 +828,21 @@ impl DcaData {
             }
             NodeKind::Join { joint, .. } => done[joint],
             // A gather's children come before its hub (whose pose they need).
-            NodeKind::Gather { .. } => false,
+            NodeKind::Gather { .. } | NodeKind::Cluster { .. } => false,
         }) && done.iter().all(|&x| x);
+        // A cluster body's ABA sums (see `DcaData::cfirst`): the main pass visits a cluster's
+        // bodies in reverse index order, so the first of a parent's absorbed children is its
+        // last in index order.
+        let clustered = !tree.clustered.is_empty();
+        let per_body = if clustered { n } else { 0 };
+        let mut cfirst = vec![false; per_body];
+        let mut csums = vec![false; per_body];
+        for &i in tree.clustered.iter().rev() {
+            if let Some(p) = model.bodies[i].parent {
+                cfirst[i] = !csums[p];
+                csums[p] = true;
+            }
+        }
         let mut leaf_full = Vec::new();
         let leaf = model
             .bodies
@@ -799,6 +864,12 @@ impl DcaData {
             from,
             gathered: tree.gathered.iter().map(|&c| u(c)).collect(),
             gk: vec![Mat6::ZERO; tree.gathered.len()],
+            clustered: tree.clustered.iter().map(|&c| u(c)).collect(),
+            cfirst,
+            csums,
+            cia: vec![PackedSymMat6::ZERO; per_body],
+            cpa: vec![SpatialForce::ZERO; per_body],
+            ca: vec![SpatialMotion::ZERO; per_body],
             phi: vec![Mat6::ZERO; blk],
             dg: vec![SymT::ZERO; slots],
             b: vec![SpatialMotion::ZERO; slots],
