@@ -582,3 +582,73 @@ impl AssemblyTree {
         l
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{AssemblyTree, NodeKind};
+    use crate::{LoadOptions, Model};
+
+    /// A torso on a revolute joint with three limbs: two arms of two links and a tail of four.
+    fn torso() -> Model {
+        let link = |n: &str| format!("<link name=\"{n}\"><inertial><mass value=\"1\"/><inertia ixx=\"0.01\" iyy=\"0.01\" izz=\"0.01\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>");
+        let joint = |n: &str, p: &str, c: &str| format!("<joint name=\"{n}\" type=\"revolute\"><parent link=\"{p}\"/><child link=\"{c}\"/><origin xyz=\"0 0 0.1\"/><axis xyz=\"0 1 0\"/><limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1\"/></joint>");
+        let mut s = String::from("<robot name=\"t\">") + &link("base") + &link("torso");
+        s += &joint("jt", "base", "torso");
+        for (limb, len) in [("l", 2), ("r", 2), ("tail", 4)] {
+            let mut parent = "torso".to_string();
+            for k in 0..len {
+                let name = format!("{limb}{k}");
+                s += &link(&name);
+                s += &joint(&format!("j{name}"), &parent, &name);
+                parent = name;
+            }
+        }
+        Model::from_urdf_str(&(s + "</robot>"), &LoadOptions::default()).unwrap()
+    }
+
+    /// Absorbing the two arms into the torso: one cluster node holds the torso and the arms'
+    /// four bodies, their joints are handles of no node, the tail is cut by joins as before,
+    /// every body is in exactly one leaf, and the root holds every body and the ground.
+    #[test]
+    fn clusters_absorb_subtrees_into_their_parents_leaf() {
+        let model = torso();
+        let n = model.bodies.len();
+        let name = |i: usize| model.bodies[i].name.as_str();
+        let absorbed: Vec<bool> = (0..n).map(|i| name(i).starts_with(['l', 'r'])).collect();
+        let tree = AssemblyTree::build_clustered(&model, &absorbed);
+        let clusters: Vec<usize> = (0..tree.nodes.len())
+            .filter(|&x| matches!(tree.nodes[x].kind, NodeKind::Cluster { .. }))
+            .collect();
+        assert_eq!(clusters.len(), 1);
+        let c = clusters[0];
+        let torso = (0..n).find(|&i| name(i) == "torso").unwrap();
+        assert_eq!(
+            tree.nodes[c].kind,
+            NodeKind::Cluster {
+                body: Some(torso),
+                first: 0,
+                count: 4
+            }
+        );
+        let mut inside: Vec<&str> = tree.cluster_bodies(c).iter().map(|&i| name(i)).collect();
+        inside.sort_unstable();
+        assert_eq!(inside, ["l0", "l1", "r0", "r1"]);
+        // Its handles: the torso's joint and the tail's first joint.
+        let tail0 = (0..n).find(|&i| name(i) == "tail0").unwrap();
+        assert_eq!(tree.nodes[c].handles, vec![torso.min(tail0), torso.max(tail0)]);
+        for i in 0..n {
+            if absorbed[i] {
+                assert_eq!(tree.body_leaf[i], c);
+                assert_eq!(tree.joint_node[i], c);
+                assert!(tree.nodes.iter().all(|nd| !nd.handles.contains(&i)));
+            } else if i != torso {
+                assert_eq!(tree.nodes[tree.body_leaf[i]].kind, NodeKind::Body(i));
+            }
+        }
+        assert_eq!(tree.nodes[tree.root()].size, n + 1);
+        assert_eq!(tree.nodes.len(), 2 * (n - 4) + 1);
+        // Without clusters: the model's own tree.
+        assert_eq!(AssemblyTree::build_clustered(&model, &[]), model.assembly);
+        assert!(tree.outline(&model).contains("cluster body torso (+4 bodies)"));
+    }
+}
