@@ -43,14 +43,23 @@ type M6 = [[f64; 6]; 6];
 /// The largest subtree (in bodies) a leaf cluster absorbs.
 pub(crate) const CLUSTER_MAX: usize = 16;
 
-/// Per body, whether it belongs to a leaf cluster: DCA absorbs a body's subtree into its
-/// parent's leaf (the ground's for a root body) when the parent is a branch point (2 to [`GATHER_ABOVE`] children; more make a
-/// gather node), the subtree has at most [`CLUSTER_MAX`] bodies, and the parent is the ground
-/// or a body whose own inertia is well-conditioned (so that the cluster's articulated inertia,
-/// which DCA inverts, is positive definite). Chains have no branch point: their trees, and
-/// their bits, are as without clusters.
-pub(crate) fn absorbed(model: &Model) -> Vec<bool> {
+/// Per body, whether it belongs to a leaf cluster. DCA absorbs a body's subtree (at most
+/// [`CLUSTER_MAX`] bodies) into its parent's leaf (the ground's for a root body) when
+///
+/// - the parent is a branch point (2 to [`GATHER_ABOVE`] children; more make a gather node),
+///   or the subtree is branched itself and as large as it can be (its parent is the ground or
+///   heads a subtree of more than [`CLUSTER_MAX`] bodies): a small branched robot such as an
+///   arm with a two-finger gripper is then one cluster, solved as ABA solves it;
+/// - and the parent is the ground or a body whose own inertia is well-conditioned (so that
+///   the cluster's articulated inertia, which DCA inverts, is positive definite).
+///
+/// Chains have no branch point: their trees, and their bits, are as without clusters. Without
+/// `clusters` (`Data::set_leaf_clusters`), none.
+pub(crate) fn absorbed(model: &Model, clusters: bool) -> Vec<bool> {
     let n = model.bodies.len();
+    if !clusters {
+        return vec![false; n];
+    }
     let ground = n;
     let parent = |i: usize| model.bodies[i].parent.unwrap_or(ground);
     let mut kids = vec![0usize; n + 1];
@@ -58,17 +67,22 @@ pub(crate) fn absorbed(model: &Model) -> Vec<bool> {
     for i in 0..n {
         kids[parent(i)] += 1;
     }
+    // Whether a body's subtree has a branch point.
+    let mut branched: Vec<bool> = (0..n).map(|i| kids[i] >= 2).collect();
     for i in (0..n).rev() {
         if let Some(p) = model.bodies[i].parent {
             size[p] += size[i];
+            branched[p] |= branched[i];
         }
     }
     let mut out = vec![false; n];
     for i in 0..n {
         let p = parent(i);
+        let largest = p == ground || size[p] > CLUSTER_MAX;
         out[i] = (p != ground && out[p])
-            || ((2..=GATHER_ABOVE).contains(&kids[p])
-                && size[i] <= CLUSTER_MAX
+            || (size[i] <= CLUSTER_MAX
+                && kids[p] <= GATHER_ABOVE
+                && (kids[p] >= 2 || (branched[i] && largest))
                 && (p == ground || crate::data::well_conditioned(model, &model.bodies[p])));
     }
     out
@@ -436,7 +450,7 @@ mod tests {
     #[test]
     fn clusters_agree_with_aba_crba_and_the_reference() {
         for (label, model) in branched() {
-            assert!(super::absorbed(&model).contains(&true), "{label}: no cluster");
+            assert!(super::absorbed(&model, true).contains(&true), "{label}: no cluster");
             let reference = (!model.floating_base).then(|| ReferenceModel::new(&model).unwrap());
             let mut data = Data::new(&model);
             for seed in 0..4u64 {
@@ -484,7 +498,7 @@ mod tests {
     fn point_masses_in_clusters_need_no_refinement() {
         for floating in [false, true] {
             let model = load(&point_mass_humanoid_urdf(), floating);
-            let absorbed = super::absorbed(&model);
+            let absorbed = super::absorbed(&model, true);
             let singular: Vec<usize> = (0..model.bodies.len())
                 .filter(|&i| !crate::data::well_conditioned(&model, &model.bodies[i]))
                 .collect();
@@ -495,13 +509,41 @@ mod tests {
         }
     }
 
+    /// `Data::set_leaf_clusters(false)` runs DCA on the model's own tree: no cluster, the same
+    /// q̈ to 1e-12, and on the point-mass humanoid the regularised leaves and the refinement
+    /// again; back on, the clusters again.
+    #[test]
+    fn clusters_can_be_turned_off() {
+        for (label, model) in branched() {
+            let s = State::random(&model, 5, 1.0);
+            let mut data = Data::new(&model);
+            let solve = |data: &mut Data| {
+                forward_dynamics_slices(&model, data, &s.q, &s.qd, &s.tau, &[], Method::Dca)
+                    .unwrap()
+                    .to_vec()
+            };
+            let with = solve(&mut data);
+            assert!(!data.dca.clustered.is_empty(), "{label}");
+            data.set_leaf_clusters(&model, false);
+            let without = solve(&mut data);
+            assert!(data.dca.clustered.is_empty(), "{label}");
+            assert!(rel(&with, &without) <= 1e-12, "{label}");
+            if label.starts_with("point-mass") {
+                assert!(data.refine_dca && data.refine.regularised, "{label}");
+            }
+            data.set_leaf_clusters(&model, true);
+            assert_eq!(solve(&mut data), with, "{label}");
+            assert!(!data.dca.clustered.is_empty(), "{label}");
+        }
+    }
+
     /// A chain has no branch point, so no cluster: DCA's tree (and its bits) are the model's.
     #[test]
     fn chains_have_no_clusters() {
         for floating in [false, true] {
             for name in ["chain10", "chain300"] {
                 let model = bundled_with(name, floating);
-                assert!(!super::absorbed(&model).contains(&true), "{name}");
+                assert!(!super::absorbed(&model, true).contains(&true), "{name}");
             }
         }
     }

@@ -128,6 +128,8 @@ pub(crate) struct DcaData {
     /// [`Data::new`] when the CPU has both (x86-64 only); tests clear it to check the portable
     /// compilation.
     pub fused: bool,
+    /// Whether DCA's tree has leaf clusters (`Data::set_leaf_clusters`).
+    pub clusters: bool,
     /// Whether `forward_dynamics` runs the kinematics inside the main pass: each body's at its
     /// parent's leaf (the root bodies' at the ground's), which needs the ground first and every
     /// body's leaf after its parent's (true for the assembly trees of `articula-model`, whose
@@ -458,9 +460,10 @@ pub(crate) const REFINE_MIN_BODIES: usize = 100;
 /// Whether DCA's result needs the Newton–Euler check: a floating base of at least
 /// [`REFINE_MIN_BODIES`] bodies, or a body whose rotational inertia is ill-conditioned
 /// ([`ILL_CONDITIONED`]).
-/// A body of a leaf cluster is left out: DCA never inverts its inertia (`cluster.rs`).
-pub(crate) fn needs_refinement(model: &Model) -> bool {
-    let absorbed = crate::cluster::absorbed(model);
+/// A body of a leaf cluster (with `clusters`) is left out: DCA never inverts its inertia
+/// (`cluster.rs`).
+pub(crate) fn needs_refinement(model: &Model, clusters: bool) -> bool {
+    let absorbed = crate::cluster::absorbed(model, clusters);
     (model.floating_base && model.bodies.len() >= REFINE_MIN_BODIES)
         || model
             .bodies
@@ -487,6 +490,17 @@ fn regularised_inverse(model: &Model, b: &articula_model::Body) -> Option<glam::
     }
     let d = glam::DVec3::from_array(l.map(|x| 1.0 / x.max(floor)));
     Some(axes * glam::DMat3::from_diagonal(d) * axes.transpose())
+}
+
+/// Whether some body's DCA leaf inverts a regularised inertia ([`regularised_inverse`]); a
+/// body of a leaf cluster (with `clusters`) has no leaf of its own (`cluster.rs`).
+fn regularised(model: &Model, clusters: bool) -> bool {
+    let absorbed = crate::cluster::absorbed(model, clusters);
+    model
+        .bodies
+        .iter()
+        .zip(&absorbed)
+        .any(|(b, &a)| !a && regularised_inverse(model, b).is_some())
 }
 
 impl Data {
@@ -535,17 +549,11 @@ impl Data {
                 free.push(aslot[i]);
             }
         }
-        // A body of a leaf cluster has no leaf of its own (`cluster.rs`).
-        let absorbed = crate::cluster::absorbed(model);
-        let regularised = model
-            .bodies
-            .iter()
-            .zip(&absorbed)
-            .any(|(b, &a)| !a && regularised_inverse(model, b).is_some());
+        let regularised = regularised(model, true);
         Data {
             gravity: DVec3::new(0.0, 0.0, -9.81),
             refine_floating: true,
-            refine_dca: needs_refinement(model),
+            refine_dca: needs_refinement(model, true),
             origin: DVec3::ZERO,
             f_ext_c: Vec::with_capacity(n),
             x: vec![SpatialTransform::IDENTITY; n],
@@ -612,7 +620,7 @@ impl Data {
     /// needs indices beyond 32 bits.
     pub fn ensure_dca(&mut self, model: &Model) -> Result<(), DynamicsError> {
         if !self.dca.built {
-            self.dca = DcaData::build(model, self.dca.fused)?;
+            self.dca = DcaData::build(model, self.dca.fused, self.dca.clusters)?;
         }
         Ok(())
     }
@@ -636,6 +644,20 @@ impl Data {
         self.dca.fused
     }
 
+    /// Whether DCA folds the small subtrees below branch points into leaf clusters, solved in
+    /// inertia form as ABA solves them (`true`, the default; see `docs/algorithms.md`, *Leaf
+    /// clusters*), or runs on the model's own assembly tree (`false`: the same `q̈` to
+    /// rounding, with other bits, at the speed DCA had without clusters). DCA's buffers are
+    /// rebuilt by the next DCA call.
+    pub fn set_leaf_clusters(&mut self, model: &Model, on: bool) {
+        if self.dca.clusters != on {
+            self.dca = DcaData::empty(self.dca.fused);
+            self.dca.clusters = on;
+        }
+        self.refine_dca = needs_refinement(model, on);
+        self.refine.regularised = regularised(model, on);
+    }
+
     /// How many DCA solves on this workspace took a refinement step: with a floating base,
     /// DCA checks its `q̈` against the Newton–Euler residual and corrects it once when the
     /// residual is above rounding level (see `docs/algorithms.md`).
@@ -650,6 +672,7 @@ impl DcaData {
         DcaData {
             built: false,
             fused,
+            clusters: true,
             leaf_kinematics: false,
             prefetch: false,
             node: Vec::new(),
@@ -684,11 +707,11 @@ impl DcaData {
     /// Every DCA buffer for `model`, laid out over its assembly tree; `fused` as in
     /// [`DcaData::fused`]. Every index DCA stores is 32-bit: a model whose tree needs more is
     /// refused with [`DynamicsError::TooLarge`].
-    fn build(model: &Model, fused: bool) -> Result<DcaData, DynamicsError> {
+    fn build(model: &Model, fused: bool, clusters: bool) -> Result<DcaData, DynamicsError> {
         let n = model.bodies.len();
         let nv = model.nv;
         // DCA's own tree, with leaf clusters (`cluster.rs`).
-        let absorbed = crate::cluster::absorbed(model);
+        let absorbed = crate::cluster::absorbed(model, clusters);
         let own = if absorbed.contains(&true) {
             articula_model::AssemblyTree::build_clustered(model, &absorbed)
         } else {
@@ -852,6 +875,7 @@ impl DcaData {
         Ok(DcaData {
             built: true,
             fused,
+            clusters,
             prefetch: joins * (std::mem::size_of::<RevJoin>() + std::mem::size_of::<Mat6>())
                 > PREFETCH_ABOVE,
             leaf_kinematics,
@@ -911,7 +935,7 @@ mod refinement_tests {
     fn bundled_fixed_bases_need_no_refinement() {
         for (name, floating_base, model) in crate::bundled_models() {
             let long = model.bodies.len() >= super::REFINE_MIN_BODIES;
-            assert_eq!(needs_refinement(&model), floating_base && long, "{name}");
+            assert_eq!(needs_refinement(&model, true), floating_base && long, "{name}");
         }
     }
 }
