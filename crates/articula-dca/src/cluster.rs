@@ -510,8 +510,8 @@ mod tests {
     }
 
     /// `Data::set_leaf_clusters(false)` runs DCA on the model's own tree: no cluster, the same
-    /// q̈ to 1e-12, and on the point-mass humanoid the regularised leaves and the refinement
-    /// again; back on, the clusters again.
+    /// q̈ to 1e-10 (the agreement test's bound; the point-mass humanoid then goes through the
+    /// regularised leaves and the refinement), and back on, the same bits as before.
     #[test]
     fn clusters_can_be_turned_off() {
         for (label, model) in branched() {
@@ -527,7 +527,8 @@ mod tests {
             data.set_leaf_clusters(&model, false);
             let without = solve(&mut data);
             assert!(data.dca.clustered.is_empty(), "{label}");
-            assert!(rel(&with, &without) <= 1e-12, "{label}");
+            let e = rel(&with, &without);
+            assert!(e <= 1e-10, "{label}: {e:.1e}");
             if label.starts_with("point-mass") {
                 assert!(data.refine_dca && data.refine.regularised, "{label}");
             }

@@ -35,8 +35,9 @@ pub struct Data {
     pub refine_floating: bool,
     /// Whether DCA's `q̈` goes through that check (when `refine_floating` is set): with a
     /// floating base of at least `REFINE_MIN_BODIES` (100) bodies, or when some body's
-    /// rotational inertia is tiny for its mass and size (`docs/loading.md`), where the joins of
-    /// a body between two handles lose up to ~1e-5 relative. Set in [`Data::new`].
+    /// rotational inertia is tiny for its mass and size (`docs/loading.md`) and the body is in
+    /// no leaf cluster (`cluster.rs`), where the joins of a body between two handles lose up to
+    /// ~1e-5 relative. Set in [`Data::new`] and [`Data::set_leaf_clusters`].
     pub(crate) refine_dca: bool,
     /// Origin of the computation frame in world coordinates. The world origin for a fixed
     /// base; the floating base's position otherwise (for accuracy). Every spatial quantity
@@ -133,7 +134,8 @@ pub(crate) struct DcaData {
     /// Whether `forward_dynamics` runs the kinematics inside the main pass: each body's at its
     /// parent's leaf (the root bodies' at the ground's), which needs the ground first and every
     /// body's leaf after its parent's (true for the assembly trees of `articula-model`, whose
-    /// post-order visits a join's parent side first, and false with gather nodes; checked in
+    /// post-order visits a join's parent side first, and false with gather nodes and leaf
+    /// clusters; checked in
     /// [`DcaData::build`]). The pose,
     /// velocity, `c` and `S` are then used while in cache instead of read back from memory.
     pub leaf_kinematics: bool,

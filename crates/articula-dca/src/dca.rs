@@ -1428,10 +1428,10 @@ mod tests {
         assert_eq!(differ, articula_spatial::internals::fused_available());
     }
 
-    /// The kinematics at the leaves (`DcaData::leaf_kinematics`, set on every bundled model)
-    /// and in a loop of its own give the same q̈ to rounding: the handle points differ only
-    /// in rounding (a child's origin from its own pose instead of its parent's), fixed and
-    /// floating base, with and without external forces.
+    /// The kinematics at the leaves (`DcaData::leaf_kinematics`, set on every bundled model's
+    /// tree without leaf clusters) and in a loop of its own give the same q̈ to rounding: the
+    /// handle points differ only in rounding (a child's origin from its own pose instead of its
+    /// parent's), fixed and floating base, with and without external forces.
     #[test]
     fn leaf_kinematics_agrees() {
         for (name, floating_base, model) in crate::bundled_models() {
@@ -1441,6 +1441,7 @@ mod tests {
                 1e-12
             };
             let mut data = Data::new(&model);
+            data.set_leaf_clusters(&model, false);
             data.ensure_dca(&model).unwrap();
             assert!(data.dca.leaf_kinematics, "{name}");
             for seed in 0..4 {
