@@ -300,7 +300,10 @@ pub(crate) type AccelArgs<'a> = (
 /// `a = a' + S q̈` (arguments: `u`, `U`, `D⁻¹`, `S`, and `q̈` written). Unrolled, the same
 /// operations as the loops over `k` it replaces.
 #[inline(always)]
-pub(crate) fn accelerate_multi<A: Arith, const K: usize>(args: AccelArgs, ap: SpatialMotion) -> SpatialMotion {
+pub(crate) fn accelerate_multi<A: Arith, const K: usize>(
+    args: AccelArgs,
+    ap: SpatialMotion,
+) -> SpatialMotion {
     let (uu, u, dinv, s, qdd) = args;
     let uu: &[f64; K] = uu.try_into().expect("K entries");
     let u: &[[f64; 6]; K] = u.try_into().expect("K columns");

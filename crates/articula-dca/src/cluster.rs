@@ -412,8 +412,11 @@ mod tests {
     };
 
     fn load(urdf: &str, floating_base: bool) -> Model {
-        Model::from_urdf_str(urdf, &LoadOptions::default().with_floating_base(floating_base))
-            .expect("the model loads")
+        Model::from_urdf_str(
+            urdf,
+            &LoadOptions::default().with_floating_base(floating_base),
+        )
+        .expect("the model loads")
     }
 
     /// Branched models, fixed and floating base: the bundled humanoid, the point-mass humanoid
@@ -421,7 +424,10 @@ mod tests {
     fn branched() -> Vec<(String, Model)> {
         let mut out = Vec::new();
         for floating in [false, true] {
-            out.push((format!("humanoid floating={floating}"), bundled_with("humanoid", floating)));
+            out.push((
+                format!("humanoid floating={floating}"),
+                bundled_with("humanoid", floating),
+            ));
             out.push((
                 format!("point-mass humanoid floating={floating}"),
                 load(&point_mass_humanoid_urdf(), floating),
@@ -439,7 +445,10 @@ mod tests {
     /// `max |a − b| / max(1, max |b|)`.
     fn rel(a: &[f64], b: &[f64]) -> f64 {
         let scale = b.iter().fold(1.0f64, |m, x| m.max(x.abs()));
-        a.iter().zip(b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs())) / scale
+        a.iter()
+            .zip(b)
+            .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+            / scale
     }
 
     /// DCA with leaf clusters gives ABA's and CRBA's q̈ to 1e-10 (relative to the largest
@@ -450,7 +459,10 @@ mod tests {
     #[test]
     fn clusters_agree_with_aba_crba_and_the_reference() {
         for (label, model) in branched() {
-            assert!(super::absorbed(&model, true).contains(&true), "{label}: no cluster");
+            assert!(
+                super::absorbed(&model, true).contains(&true),
+                "{label}: no cluster"
+            );
             let reference = (!model.floating_base).then(|| ReferenceModel::new(&model).unwrap());
             let mut data = Data::new(&model);
             for seed in 0..4u64 {
@@ -488,7 +500,10 @@ mod tests {
                     );
                 }
             }
-            assert!(!data.dca.clustered.is_empty(), "{label}: DCA's tree has no cluster");
+            assert!(
+                !data.dca.clustered.is_empty(),
+                "{label}: DCA's tree has no cluster"
+            );
         }
     }
 
@@ -505,7 +520,10 @@ mod tests {
             assert_eq!(singular.len(), 6, "floating={floating}");
             assert!(singular.iter().all(|&i| absorbed[i]), "floating={floating}");
             let data = Data::new(&model);
-            assert!(!data.refine_dca && !data.refine.regularised, "floating={floating}");
+            assert!(
+                !data.refine_dca && !data.refine.regularised,
+                "floating={floating}"
+            );
         }
     }
 

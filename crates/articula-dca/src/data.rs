@@ -937,7 +937,11 @@ mod refinement_tests {
     fn bundled_fixed_bases_need_no_refinement() {
         for (name, floating_base, model) in crate::bundled_models() {
             let long = model.bodies.len() >= super::REFINE_MIN_BODIES;
-            assert_eq!(needs_refinement(&model, true), floating_base && long, "{name}");
+            assert_eq!(
+                needs_refinement(&model, true),
+                floating_base && long,
+                "{name}"
+            );
         }
     }
 }

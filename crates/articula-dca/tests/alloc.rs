@@ -116,7 +116,10 @@ fn dca_and_aba_allocate_nothing() {
 fn leaf_clusters_allocate_nothing() {
     use articula_model::{LoadOptions, Model};
     let urdfs = [
-        ("point-mass humanoid", articula_testkit::point_mass_humanoid_urdf()),
+        (
+            "point-mass humanoid",
+            articula_testkit::point_mass_humanoid_urdf(),
+        ),
         ("random tree", articula_testkit::random_tree_urdf(40, 7)),
     ];
     for (name, urdf) in urdfs {
@@ -141,12 +144,27 @@ fn leaf_clusters_allocate_nothing() {
                 .unwrap();
             };
             solve(&mut data, &state);
-            step(&model, &mut data, &mut state, Method::Dca, Integrator::Rk4, 1e-5).unwrap();
+            step(
+                &model,
+                &mut data,
+                &mut state,
+                Method::Dca,
+                Integrator::Rk4,
+                1e-5,
+            )
+            .unwrap();
             let n = count_allocations(|| {
                 for _ in 0..10 {
                     solve(&mut data, &state);
-                    step(&model, &mut data, &mut state, Method::Dca, Integrator::Rk4, 1e-5)
-                        .unwrap();
+                    step(
+                        &model,
+                        &mut data,
+                        &mut state,
+                        Method::Dca,
+                        Integrator::Rk4,
+                        1e-5,
+                    )
+                    .unwrap();
                 }
             });
             eprintln!("{label}: 10 x (DCA solve + RK4 step): {n} allocations");

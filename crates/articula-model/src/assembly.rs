@@ -590,8 +590,12 @@ mod tests {
 
     /// A torso on a revolute joint with three limbs: two arms of two links and a tail of four.
     fn torso() -> Model {
-        let link = |n: &str| format!("<link name=\"{n}\"><inertial><mass value=\"1\"/><inertia ixx=\"0.01\" iyy=\"0.01\" izz=\"0.01\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>");
-        let joint = |n: &str, p: &str, c: &str| format!("<joint name=\"{n}\" type=\"revolute\"><parent link=\"{p}\"/><child link=\"{c}\"/><origin xyz=\"0 0 0.1\"/><axis xyz=\"0 1 0\"/><limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1\"/></joint>");
+        let link = |n: &str| {
+            format!("<link name=\"{n}\"><inertial><mass value=\"1\"/><inertia ixx=\"0.01\" iyy=\"0.01\" izz=\"0.01\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>")
+        };
+        let joint = |n: &str, p: &str, c: &str| {
+            format!("<joint name=\"{n}\" type=\"revolute\"><parent link=\"{p}\"/><child link=\"{c}\"/><origin xyz=\"0 0 0.1\"/><axis xyz=\"0 1 0\"/><limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1\"/></joint>")
+        };
         let mut s = String::from("<robot name=\"t\">") + &link("base") + &link("torso");
         s += &joint("jt", "base", "torso");
         for (limb, len) in [("l", 2), ("r", 2), ("tail", 4)] {
@@ -635,9 +639,12 @@ mod tests {
         assert_eq!(inside, ["l0", "l1", "r0", "r1"]);
         // Its handles: the torso's joint and the tail's first joint.
         let tail0 = (0..n).find(|&i| name(i) == "tail0").unwrap();
-        assert_eq!(tree.nodes[c].handles, vec![torso.min(tail0), torso.max(tail0)]);
-        for i in 0..n {
-            if absorbed[i] {
+        assert_eq!(
+            tree.nodes[c].handles,
+            vec![torso.min(tail0), torso.max(tail0)]
+        );
+        for (i, &a) in absorbed.iter().enumerate() {
+            if a {
                 assert_eq!(tree.body_leaf[i], c);
                 assert_eq!(tree.joint_node[i], c);
                 assert!(tree.nodes.iter().all(|nd| !nd.handles.contains(&i)));
@@ -649,6 +656,8 @@ mod tests {
         assert_eq!(tree.nodes.len(), 2 * (n - 4) + 1);
         // Without clusters: the model's own tree.
         assert_eq!(AssemblyTree::build_clustered(&model, &[]), model.assembly);
-        assert!(tree.outline(&model).contains("cluster body torso (+4 bodies)"));
+        assert!(tree
+            .outline(&model)
+            .contains("cluster body torso (+4 bodies)"));
     }
 }

@@ -135,45 +135,6 @@ fn revolute(name: &str, parent: &str, child: &str, at: [f64; 3], axis: &str) -> 
     format!("<joint name=\"{name}\" type=\"revolute\"><parent link=\"{parent}\"/><child link=\"{child}\"/><origin xyz=\"{} {} {}\"/><axis xyz=\"{axis}\"/><limit lower=\"-3\" upper=\"3\" effort=\"10\" velocity=\"10\"/></joint>\n", at[0], at[1], at[2])
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Every bundled name loads, and the procedural chain is the bundled one: the same joints
-    /// and masses to the bit, the rotational inertias to their written digits.
-    #[test]
-    fn procedural_chains_are_the_bundled_ones() {
-        for name in BUNDLED {
-            assert!(!bundled(name).bodies.is_empty(), "{name}");
-        }
-        for n in [10, 30, 100, 300, 1000] {
-            let (a, b) = (chain(n), bundled(&format!("chain{n}")));
-            assert_eq!(a.bodies.len(), b.bodies.len());
-            for (x, y) in a.bodies.iter().zip(&b.bodies) {
-                let label = format!("chain{n} body {}", x.name);
-                assert_eq!(x.joint[0].origin, y.joint[0].origin, "{label}");
-                assert_eq!(x.joint[0].axis, y.joint[0].axis, "{label}");
-                assert_eq!(x.inertia.mass, y.inertia.mass, "{label}");
-                assert_eq!(x.inertia.h, y.inertia.h, "{label}");
-                let (i, j) = (x.inertia.ibar, y.inertia.ibar);
-                let rel = (i - j)
-                    .abs()
-                    .to_cols_array()
-                    .into_iter()
-                    .fold(0.0, f64::max)
-                    / j.abs().to_cols_array().into_iter().fold(0.0, f64::max);
-                assert!(rel < 1e-5, "{label}: {rel:e}");
-            }
-        }
-    }
-
-    #[test]
-    #[should_panic(expected = "no bundled model")]
-    fn an_unknown_name_panics() {
-        bundled_urdf("chain7");
-    }
-}
-
 /// An icub-like humanoid with point masses (zero rotational inertia, as icub's URDF has): a
 /// base (5 kg) with two legs of two links, a torso on a yaw joint with two arms of three links
 /// and a neck of three links (pitch, roll, yaw) whose last is a 1.3 kg point-mass head 0.4 mm
@@ -199,20 +160,65 @@ pub fn point_mass_humanoid_urdf() -> String {
     s += &link("base", 5.0, [0.05, 0.04, 0.03], [0.0, 0.0, 0.0]);
     for (side, y) in [("l", 0.1), ("r", -0.1)] {
         s += &link(&format!("{side}_thigh"), 2.0, point, [0.0, 0.01, -0.15]);
-        s += &joint(&format!("{side}_hip"), "base", &format!("{side}_thigh"), [0.0, y, -0.05], "0 1 0");
+        s += &joint(
+            &format!("{side}_hip"),
+            "base",
+            &format!("{side}_thigh"),
+            [0.0, y, -0.05],
+            "0 1 0",
+        );
         s += &link(&format!("{side}_shin"), 1.2, solid, [0.01, 0.0, -0.15]);
-        s += &joint(&format!("{side}_knee"), &format!("{side}_thigh"), &format!("{side}_shin"), [0.0, 0.0, -0.3], "0 1 0");
+        s += &joint(
+            &format!("{side}_knee"),
+            &format!("{side}_thigh"),
+            &format!("{side}_shin"),
+            [0.0, 0.0, -0.3],
+            "0 1 0",
+        );
     }
     s += &link("torso", 4.0, [0.06, 0.05, 0.03], [0.0, 0.0, 0.15]);
     s += &joint("torso_yaw", "base", "torso", [0.0, 0.0, 0.1], "0 0 1");
     for (side, y) in [("l", 0.15), ("r", -0.15)] {
         let fore = if side == "r" { point } else { solid };
-        s += &link(&format!("{side}_upper"), 0.8, [0.004, 0.004, 0.001], [0.0, 0.0, -0.1]);
-        s += &joint(&format!("{side}_shoulder"), "torso", &format!("{side}_upper"), [0.0, y, 0.3], "1 0 0");
-        s += &link(&format!("{side}_fore"), 0.5, fore.map(|x| x * 0.1), [0.02, 0.0, -0.1]);
-        s += &joint(&format!("{side}_elbow"), &format!("{side}_upper"), &format!("{side}_fore"), [0.0, 0.0, -0.2], "0 1 0");
-        s += &link(&format!("{side}_hand"), 0.2, [2e-4, 2e-4, 1e-4], [0.0, 0.0, -0.04]);
-        s += &joint(&format!("{side}_wrist"), &format!("{side}_fore"), &format!("{side}_hand"), [0.0, 0.0, -0.2], "0 0 1");
+        s += &link(
+            &format!("{side}_upper"),
+            0.8,
+            [0.004, 0.004, 0.001],
+            [0.0, 0.0, -0.1],
+        );
+        s += &joint(
+            &format!("{side}_shoulder"),
+            "torso",
+            &format!("{side}_upper"),
+            [0.0, y, 0.3],
+            "1 0 0",
+        );
+        s += &link(
+            &format!("{side}_fore"),
+            0.5,
+            fore.map(|x| x * 0.1),
+            [0.02, 0.0, -0.1],
+        );
+        s += &joint(
+            &format!("{side}_elbow"),
+            &format!("{side}_upper"),
+            &format!("{side}_fore"),
+            [0.0, 0.0, -0.2],
+            "0 1 0",
+        );
+        s += &link(
+            &format!("{side}_hand"),
+            0.2,
+            [2e-4, 2e-4, 1e-4],
+            [0.0, 0.0, -0.04],
+        );
+        s += &joint(
+            &format!("{side}_wrist"),
+            &format!("{side}_fore"),
+            &format!("{side}_hand"),
+            [0.0, 0.0, -0.2],
+            "0 0 1",
+        );
     }
     s += &link("neck_1", 0.1, point, [0.0, 0.0, 0.0]);
     s += &joint("neck_pitch", "torso", "neck_1", [0.0, 0.0, 0.35], "0 1 0");
@@ -251,7 +257,13 @@ pub fn random_tree_urdf(n: usize, seed: u64) -> String {
         let m = 0.2 + 1.8 * next();
         let (a, b) = (0.002 + 0.01 * next(), 0.002 + 0.01 * next());
         let c = (a + b) * (0.3 + 0.6 * next());
-        let name = |k: usize| if k == 0 { "root".to_string() } else { format!("t{k}") };
+        let name = |k: usize| {
+            if k == 0 {
+                "root".to_string()
+            } else {
+                format!("t{k}")
+            }
+        };
         s += &format!(
             "<link name=\"{}\"><inertial><origin xyz=\"{} {} {}\" rpy=\"{} {} {}\"/><mass value=\"{m}\"/><inertia ixx=\"{a}\" iyy=\"{b}\" izz=\"{c}\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>\n",
             name(i),
@@ -264,7 +276,11 @@ pub fn random_tree_urdf(n: usize, seed: u64) -> String {
         );
         let axis = [next() - 0.5, next() - 0.5, next() - 0.5];
         let norm = axis.iter().map(|x| x * x).sum::<f64>().sqrt().max(1e-3);
-        let kind = if next() < 0.2 { "prismatic" } else { "revolute" };
+        let kind = if next() < 0.2 {
+            "prismatic"
+        } else {
+            "revolute"
+        };
         s += &format!(
             "<joint name=\"j{i}\" type=\"{kind}\"><parent link=\"{}\"/><child link=\"{}\"/><origin xyz=\"{} {} {}\" rpy=\"{} 0 {}\"/><axis xyz=\"{} {} {}\"/><limit lower=\"-3\" upper=\"3\" effort=\"50\" velocity=\"10\"/></joint>\n",
             name(parent),
@@ -280,4 +296,43 @@ pub fn random_tree_urdf(n: usize, seed: u64) -> String {
         );
     }
     s + "</robot>\n"
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every bundled name loads, and the procedural chain is the bundled one: the same joints
+    /// and masses to the bit, the rotational inertias to their written digits.
+    #[test]
+    fn procedural_chains_are_the_bundled_ones() {
+        for name in BUNDLED {
+            assert!(!bundled(name).bodies.is_empty(), "{name}");
+        }
+        for n in [10, 30, 100, 300, 1000] {
+            let (a, b) = (chain(n), bundled(&format!("chain{n}")));
+            assert_eq!(a.bodies.len(), b.bodies.len());
+            for (x, y) in a.bodies.iter().zip(&b.bodies) {
+                let label = format!("chain{n} body {}", x.name);
+                assert_eq!(x.joint[0].origin, y.joint[0].origin, "{label}");
+                assert_eq!(x.joint[0].axis, y.joint[0].axis, "{label}");
+                assert_eq!(x.inertia.mass, y.inertia.mass, "{label}");
+                assert_eq!(x.inertia.h, y.inertia.h, "{label}");
+                let (i, j) = (x.inertia.ibar, y.inertia.ibar);
+                let rel = (i - j)
+                    .abs()
+                    .to_cols_array()
+                    .into_iter()
+                    .fold(0.0, f64::max)
+                    / j.abs().to_cols_array().into_iter().fold(0.0, f64::max);
+                assert!(rel < 1e-5, "{label}: {rel:e}");
+            }
+        }
+    }
+
+    #[test]
+    #[should_panic(expected = "no bundled model")]
+    fn an_unknown_name_panics() {
+        bundled_urdf("chain7");
+    }
 }
