@@ -431,8 +431,8 @@ impl Adaptive {
             c.xp[side][..rows * NW].fill(0.0);
             c.xe[side].fill(0.0);
             match tree.nodes[x].kind {
-                NodeKind::Gather { .. } => {
-                    unreachable!("adaptive refuses models with gather nodes (`load_state`)")
+                NodeKind::Gather { .. } | NodeKind::Cluster { .. } => {
+                    unreachable!("adaptive refuses models with gather nodes (`load_state`); `Model::assembly` has no leaf clusters")
                 }
                 NodeKind::Ground => {}
                 NodeKind::Body(_) => {

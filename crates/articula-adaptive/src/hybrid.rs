@@ -207,8 +207,8 @@ impl Adaptive {
         let tree = &model.assembly;
         for (n, node) in tree.nodes.iter().enumerate() {
             match node.kind {
-                NodeKind::Gather { .. } => {
-                    unreachable!("adaptive refuses models with gather nodes (`load_state`)")
+                NodeKind::Gather { .. } | NodeKind::Cluster { .. } => {
+                    unreachable!("adaptive refuses models with gather nodes (`load_state`); `Model::assembly` has no leaf clusters")
                 }
                 NodeKind::Ground => {
                     self.composites.rigid[n] = Rigid::default();

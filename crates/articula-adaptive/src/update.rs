@@ -99,8 +99,8 @@ impl Adaptive {
             touched += 1;
             self.cache.stamp[f] = ep;
             match tree.nodes[f].kind {
-                NodeKind::Gather { .. } => {
-                    unreachable!("adaptive refuses models with gather nodes (`load_state`)")
+                NodeKind::Gather { .. } | NodeKind::Cluster { .. } => {
+                    unreachable!("adaptive refuses models with gather nodes (`load_state`); `Model::assembly` has no leaf clusters")
                 }
                 NodeKind::Ground => self.ground_coefficients(f),
                 NodeKind::Body(i) => {
@@ -365,8 +365,8 @@ impl Adaptive {
                 continue;
             }
             match tree.nodes[d].kind {
-                NodeKind::Gather { .. } => {
-                    unreachable!("adaptive refuses models with gather nodes (`load_state`)")
+                NodeKind::Gather { .. } | NodeKind::Cluster { .. } => {
+                    unreachable!("adaptive refuses models with gather nodes (`load_state`); `Model::assembly` has no leaf clusters")
                 }
                 NodeKind::Ground => {}
                 NodeKind::Body(_) => self.leaf_delta(model, d, self.forces.node_sums[d]),

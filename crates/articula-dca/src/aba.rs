@@ -345,7 +345,7 @@ pub fn articulate_multi<A: Arith, const K: usize>(
 
 /// What pass 3 reads and writes at a joint of several degrees of freedom: its `u`, `U`,
 /// `D⁻¹` (k×k), `S`, and its `q̈` (written).
-type AccelArgs<'a> = (
+pub(crate) type AccelArgs<'a> = (
     &'a [f64],
     &'a [[f64; 6]],
     &'a [f64],
@@ -357,7 +357,10 @@ type AccelArgs<'a> = (
 /// `a = a' + S q̈` (arguments: `u`, `U`, `D⁻¹`, `S`, and `q̈` written). Unrolled, the same
 /// operations as the loops over `k` it replaces.
 #[inline(always)]
-fn accelerate_multi<A: Arith, const K: usize>(args: AccelArgs, ap: SpatialMotion) -> SpatialMotion {
+pub(crate) fn accelerate_multi<A: Arith, const K: usize>(
+    args: AccelArgs,
+    ap: SpatialMotion,
+) -> SpatialMotion {
     let (uu, u, dinv, s, qdd) = args;
     let uu: &[f64; K] = uu.try_into().expect("K entries");
     let u: &[[f64; 6]; K] = u.try_into().expect("K columns");

@@ -35,8 +35,9 @@ pub struct Data {
     pub refine_floating: bool,
     /// Whether DCA's `q̈` goes through that check (when `refine_floating` is set): with a
     /// floating base of at least `REFINE_MIN_BODIES` (100) bodies, or when some body's
-    /// rotational inertia is tiny for its mass and size (`docs/loading.md`), where the joins of
-    /// a body between two handles lose up to ~1e-5 relative. Set in [`Data::new`].
+    /// rotational inertia is tiny for its mass and size (`docs/loading.md`) and the body is in
+    /// no leaf cluster (`cluster.rs`), where the joins of a body between two handles lose up to
+    /// ~1e-5 relative. Set in [`Data::new`] and [`Data::set_leaf_clusters`].
     pub(crate) refine_dca: bool,
     /// Origin of the computation frame in world coordinates. The world origin for a fixed
     /// base; the floating base's position otherwise (for accuracy). Every spatial quantity
@@ -128,10 +129,13 @@ pub(crate) struct DcaData {
     /// [`Data::new`] when the CPU has both (x86-64 only); tests clear it to check the portable
     /// compilation.
     pub fused: bool,
+    /// Whether DCA's tree has leaf clusters (`Data::set_leaf_clusters`).
+    pub clusters: bool,
     /// Whether `forward_dynamics` runs the kinematics inside the main pass: each body's at its
     /// parent's leaf (the root bodies' at the ground's), which needs the ground first and every
     /// body's leaf after its parent's (true for the assembly trees of `articula-model`, whose
-    /// post-order visits a join's parent side first, and false with gather nodes; checked in
+    /// post-order visits a join's parent side first, and false with gather nodes and leaf
+    /// clusters; checked in
     /// [`DcaData::build`]). The pose,
     /// velocity, `c` and `S` are then used while in cache instead of read back from memory.
     pub leaf_kinematics: bool,
@@ -151,6 +155,17 @@ pub(crate) struct DcaData {
     /// Φ_jj⁻¹`, its articulated inertia at its joint to the hub (`gather.rs`).
     pub gathered: Vec<u32>,
     pub gk: Vec<Mat6>,
+    /// The bodies the cluster nodes absorb (`DKind::Cluster::first`), parents first.
+    pub clustered: Vec<u32>,
+    /// Per body of a cluster (empty without clusters): whether its ABA terms set its parent's
+    /// sums (the first of its siblings in the main pass's order) rather than add to them, and
+    /// whether it has sums (absorbed children); the sums `Iᵃ`, `pᵃ` of its absorbed children;
+    /// its acceleration relative to gravity (the back-substitution's `a'`).
+    pub cfirst: Vec<bool>,
+    pub csums: Vec<bool>,
+    pub cia: Vec<PackedSymMat6>,
+    pub cpa: Vec<SpatialForce>,
+    pub ca: Vec<SpatialMotion>,
     /// Φ's cross blocks.
     pub phi: Vec<Mat6>,
     /// Φ's diagonal blocks `Φ_hh` (symmetric, upper 2×2 tiles) and the bias accelerations `b_h`: only the
@@ -235,6 +250,13 @@ pub(crate) enum DKind {
     },
     /// Hub body (`u32::MAX`: the ground), its children at `gathered[first..first + count]`.
     Gather {
+        body: u32,
+        first: u32,
+        count: u32,
+    },
+    /// A leaf cluster's body (`u32::MAX`: the ground), its absorbed bodies at
+    /// `clustered[first..first + count]`.
+    Cluster {
         body: u32,
         first: u32,
         count: u32,
@@ -471,12 +493,23 @@ pub(crate) const REFINE_MIN_BODIES: usize = 100;
 /// Whether DCA's result needs the Newton–Euler check: a floating base of at least
 /// [`REFINE_MIN_BODIES`] bodies, or a body whose rotational inertia is ill-conditioned
 /// ([`ILL_CONDITIONED`]).
-pub(crate) fn needs_refinement(model: &Model) -> bool {
+/// A body of a leaf cluster (with `clusters`) is left out: DCA never inverts its inertia
+/// (`cluster.rs`).
+pub(crate) fn needs_refinement(model: &Model, clusters: bool) -> bool {
+    let absorbed = crate::cluster::absorbed(model, clusters);
     (model.floating_base && model.bodies.len() >= REFINE_MIN_BODIES)
-        || model.bodies.iter().any(|b| {
-            let (l, _, s) = conditioning(model, b, 0.0);
-            l[0] < ILL_CONDITIONED * s
-        })
+        || model
+            .bodies
+            .iter()
+            .zip(&absorbed)
+            .any(|(b, &a)| !a && !well_conditioned(model, b))
+}
+
+/// Whether a body's mass is positive and its rotational inertia not ill-conditioned
+/// ([`ILL_CONDITIONED`]).
+pub(crate) fn well_conditioned(model: &Model, b: &articula_model::Body) -> bool {
+    let (l, _, s) = conditioning(model, b, 0.0);
+    b.inertia.mass > 0.0 && l[0] >= ILL_CONDITIONED * s
 }
 
 /// For a body whose smallest principal moment is at most [`REGULARISE`] times its scale `s`
@@ -490,6 +523,17 @@ fn regularised_inverse(model: &Model, b: &articula_model::Body) -> Option<glam::
     }
     let d = glam::DVec3::from_array(l.map(|x| 1.0 / x.max(floor)));
     Some(axes * glam::DMat3::from_diagonal(d) * axes.transpose())
+}
+
+/// Whether some body's DCA leaf inverts a regularised inertia ([`regularised_inverse`]); a
+/// body of a leaf cluster (with `clusters`) has no leaf of its own (`cluster.rs`).
+fn regularised(model: &Model, clusters: bool) -> bool {
+    let absorbed = crate::cluster::absorbed(model, clusters);
+    model
+        .bodies
+        .iter()
+        .zip(&absorbed)
+        .any(|(b, &a)| !a && regularised_inverse(model, b).is_some())
 }
 
 impl Data {
@@ -538,14 +582,11 @@ impl Data {
                 free.push(aslot[i]);
             }
         }
-        let regularised = model
-            .bodies
-            .iter()
-            .any(|b| regularised_inverse(model, b).is_some());
+        let regularised = regularised(model, true);
         Data {
             gravity: DVec3::new(0.0, 0.0, -9.81),
             refine_floating: true,
-            refine_dca: needs_refinement(model),
+            refine_dca: needs_refinement(model, true),
             origin: DVec3::ZERO,
             f_ext_c: Vec::with_capacity(n),
             x: vec![SpatialTransform::IDENTITY; n],
@@ -615,7 +656,7 @@ impl Data {
     /// needs indices beyond 32 bits.
     pub fn ensure_dca(&mut self, model: &Model) -> Result<(), DynamicsError> {
         if !self.dca.built {
-            self.dca = DcaData::build(model, self.dca.fused)?;
+            self.dca = DcaData::build(model, self.dca.fused, self.dca.clusters)?;
         }
         Ok(())
     }
@@ -639,6 +680,20 @@ impl Data {
         self.dca.fused
     }
 
+    /// Whether DCA folds the small subtrees below branch points into leaf clusters, solved in
+    /// inertia form as ABA solves them (`true`, the default; see `docs/algorithms.md`, *Leaf
+    /// clusters*), or runs on the model's own assembly tree (`false`: the same `q̈` to
+    /// rounding, with other bits, at the speed DCA had without clusters). DCA's buffers are
+    /// rebuilt by the next DCA call.
+    pub fn set_leaf_clusters(&mut self, model: &Model, on: bool) {
+        if self.dca.clusters != on {
+            self.dca = DcaData::empty(self.dca.fused);
+            self.dca.clusters = on;
+        }
+        self.refine_dca = needs_refinement(model, on);
+        self.refine.regularised = regularised(model, on);
+    }
+
     /// How many DCA solves on this workspace took a refinement step: with a floating base,
     /// DCA checks its `q̈` against the Newton–Euler residual and corrects it once when the
     /// residual is above rounding level (see `docs/algorithms.md`).
@@ -653,6 +708,7 @@ impl DcaData {
         DcaData {
             built: false,
             fused,
+            clusters: true,
             leaf_kinematics: false,
             prefetch: false,
             node: Vec::new(),
@@ -660,6 +716,12 @@ impl DcaData {
             from: Vec::new(),
             gathered: Vec::new(),
             gk: Vec::new(),
+            clustered: Vec::new(),
+            cfirst: Vec::new(),
+            csums: Vec::new(),
+            cia: Vec::new(),
+            cpa: Vec::new(),
+            ca: Vec::new(),
             phi: Vec::new(),
             dg: Vec::new(),
             b: Vec::new(),
@@ -683,10 +745,17 @@ impl DcaData {
     /// Every DCA buffer for `model`, laid out over its assembly tree; `fused` as in
     /// [`DcaData::fused`]. Every index DCA stores is 32-bit: a model whose tree needs more is
     /// refused with [`DynamicsError::TooLarge`].
-    fn build(model: &Model, fused: bool) -> Result<DcaData, DynamicsError> {
+    fn build(model: &Model, fused: bool, clusters: bool) -> Result<DcaData, DynamicsError> {
         let n = model.bodies.len();
         let nv = model.nv;
-        let tree = &model.assembly;
+        // DCA's own tree, with leaf clusters (`cluster.rs`).
+        let absorbed = crate::cluster::absorbed(model, clusters);
+        let own = if absorbed.contains(&true) {
+            articula_model::AssemblyTree::build_clustered(model, &absorbed)
+        } else {
+            model.assembly.clone()
+        };
+        let tree = &own;
         let nn = tree.nodes.len();
         // The shared layout (articula-model), with DCA's sentinel and side type.
         let layout = tree.handle_layout();
@@ -782,6 +851,14 @@ impl DcaData {
                     };
                     (kind, 0, 0, false)
                 }
+                NodeKind::Cluster { body, first, count } => {
+                    let kind = DKind::Cluster {
+                        body: body.map_or(u32::MAX, u),
+                        first: u(first),
+                        count: u(count),
+                    };
+                    (kind, (2 * nd.depth + s) * mb, 0, false)
+                }
             };
             node.push(DNode {
                 kind,
@@ -812,8 +889,21 @@ impl DcaData {
             }
             NodeKind::Join { joint, .. } => done[joint],
             // A gather's children come before its hub (whose pose they need).
-            NodeKind::Gather { .. } => false,
+            NodeKind::Gather { .. } | NodeKind::Cluster { .. } => false,
         }) && done.iter().all(|&x| x);
+        // A cluster body's ABA sums (see `DcaData::cfirst`): the main pass visits a cluster's
+        // bodies in reverse index order, so the first of a parent's absorbed children is its
+        // last in index order.
+        let clustered = !tree.clustered.is_empty();
+        let per_body = if clustered { n } else { 0 };
+        let mut cfirst = vec![false; per_body];
+        let mut csums = vec![false; per_body];
+        for &i in tree.clustered.iter().rev() {
+            if let Some(p) = model.bodies[i].parent {
+                cfirst[i] = !csums[p];
+                csums[p] = true;
+            }
+        }
         let mut leaf_full = Vec::new();
         let leaf = model
             .bodies
@@ -823,6 +913,7 @@ impl DcaData {
         Ok(DcaData {
             built: true,
             fused,
+            clusters,
             prefetch: joins * (std::mem::size_of::<RevJoin>() + std::mem::size_of::<Mat6>())
                 > PREFETCH_ABOVE,
             leaf_kinematics,
@@ -835,6 +926,12 @@ impl DcaData {
             from,
             gathered: tree.gathered.iter().map(|&c| u(c)).collect(),
             gk: vec![Mat6::ZERO; tree.gathered.len()],
+            clustered: tree.clustered.iter().map(|&c| u(c)).collect(),
+            cfirst,
+            csums,
+            cia: vec![PackedSymMat6::ZERO; per_body],
+            cpa: vec![SpatialForce::ZERO; per_body],
+            ca: vec![SpatialMotion::ZERO; per_body],
             phi: vec![Mat6::ZERO; blk],
             dg: vec![SymT::ZERO; slots],
             b: vec![SpatialMotion::ZERO; slots],
@@ -878,7 +975,11 @@ mod refinement_tests {
     fn bundled_fixed_bases_need_no_refinement() {
         for (name, floating_base, model) in crate::bundled_models() {
             let long = model.bodies.len() >= super::REFINE_MIN_BODIES;
-            assert_eq!(needs_refinement(&model), floating_base && long, "{name}");
+            assert_eq!(
+                needs_refinement(&model, true),
+                floating_base && long,
+                "{name}"
+            );
         }
     }
 }

@@ -66,7 +66,7 @@ fn forward_with<A: Arith>(
     if data.dca.leaf_kinematics {
         // Each body's kinematics at its leaf (see `DcaData::leaf_kinematics`).
         main_pass::<A>(model, tau, f_ext, data, true, Some((q, qd)))?;
-        back_substitution::<A>(model, tau, data);
+        back_substitution::<A>(tau, data);
         return Ok(());
     }
     // DCA's leaves set the world inertias themselves.
@@ -108,14 +108,14 @@ fn dca_with<A: Arith>(
     bias: bool,
 ) -> Result<(), DynamicsError> {
     main_pass::<A>(model, tau, f_ext, data, bias, None)?;
-    back_substitution::<A>(model, tau, data);
+    back_substitution::<A>(tau, data);
     Ok(())
 }
 
 /// Index of the cross block Φ_hk (h < k) among a node's: only the blocks above the diagonal
 /// are stored, row by row (`Φ_kh = Φ_hkᵀ`); the diagonal ones are packed per handle (`dg`).
 #[inline(always)]
-fn ub(nh: usize, h: usize, k: usize) -> usize {
+pub(crate) fn ub(nh: usize, h: usize, k: usize) -> usize {
     debug_assert!(h < k && k < nh);
     // Two handles (a chain's nodes): the one block.
     if nh == 2 {
@@ -140,6 +140,10 @@ fn phi_jh_mul<A: Arith>(
         DKind::Body(i) => return leaf_mul::<A>(d, i as usize, n, j, h, f),
         DKind::Ground => return SpatialMotion::ZERO,
         DKind::Gather { .. } => unreachable!("a gather node has one handle: no cross block"),
+        DKind::Cluster { body, .. } => {
+            let ho = d.node[n].hoff as usize;
+            return crate::cluster::phi_mul(d, body, n, ho, j, h, f);
+        }
     }
     let f = f.to_array();
     SpatialMotion::from_array(if j < h {
@@ -189,12 +193,12 @@ fn main_pass<A: Arith>(
     bias: bool,
     kinematics: Option<(&[f64], &[f64])>,
 ) -> Result<(), DynamicsError> {
-    let tree = &model.assembly;
     data.dca.clamped = 0;
     let a_g = SpatialMotion::new(DVec3::ZERO, data.gravity);
     // X_{C←W} = xlt(origin), for the kinematics at the leaves.
     let x_cw = articula_spatial::SpatialTransform::xlt(data.origin);
-    for n in 0..tree.nodes.len() {
+    // DCA's own tree (`DcaData::tree`: the model's, with leaf clusters), one record per node.
+    for n in 0..data.dca.node.len() {
         // Φ's diagonal blocks and b, read only by the parent join, go to the node's slot.
         let nd = data.dca.node[n];
         let (ho, nh) = (nd.hoff as usize, nd.nh as usize);
@@ -240,6 +244,10 @@ fn main_pass<A: Arith>(
             DKind::Gather { body, first, count } => {
                 let g = crate::gather::Gather::of(body, first, count);
                 crate::gather::main(model, tau, f_ext, bias, data, n, g)?
+            }
+            DKind::Cluster { body, first, count } => {
+                let g = crate::cluster::Cluster::of(body, first, count);
+                crate::cluster::main::<A>(model, tau, f_ext, bias, data, n, g, (ho, nh, bo, top))?
             }
         }
     }
@@ -1271,9 +1279,8 @@ fn prefetch_span<T: ?Sized>(x: &T) {
 /// and `w = L⁻¹ y`: `q̈ = D⁻¹ (Q − Zᵀ w)` (= `D⁻¹ (Q − Sᵀ V y)`) and the joint force
 /// `f = L⁻ᵀ (w + Z q̈)` (= `W y + V S D⁻¹ Q`).
 #[inline(always)]
-fn back_substitution<A: Arith>(model: &Model, tau: &[f64], data: &mut Data) {
-    let tree = &model.assembly;
-    for n in (0..tree.nodes.len()).rev() {
+fn back_substitution<A: Arith>(tau: &[f64], data: &mut Data) {
+    for n in (0..data.dca.node.len()).rev() {
         // What the join PREFETCH nodes ahead reads, on its way from memory meanwhile (only
         // where those streams outgrow the caches: `DcaData::prefetch`). Its node record and
         // its children's are read here to find the rest, so they are asked for PREFETCH nodes
@@ -1305,7 +1312,7 @@ fn back_substitution<A: Arith>(model: &Model, tau: &[f64], data: &mut Data) {
                                 prefetch_ptr(lk.wrapping_add(std::mem::size_of::<LeafK>() - 1));
                                 prefetch_ptr((&d.point[i as usize] as *const DVec3).cast());
                             }
-                            DKind::Ground | DKind::Gather { .. } => {}
+                            DKind::Ground | DKind::Gather { .. } | DKind::Cluster { .. } => {}
                         }
                     }
                     prefetch_ptr((&data.topo[joint as usize] as *const crate::data::Topo).cast());
@@ -1315,6 +1322,12 @@ fn back_substitution<A: Arith>(model: &Model, tau: &[f64], data: &mut Data) {
         let nc = data.dca.node[n];
         if let DKind::Gather { body, first, count } = nc.kind {
             crate::gather::back(tau, data, n, crate::gather::Gather::of(body, first, count));
+            continue;
+        }
+        if let DKind::Cluster { body, first, count } = nc.kind {
+            let g = crate::cluster::Cluster::of(body, first, count);
+            let at = (nc.hoff as usize, nc.nh as usize, nc.slot as usize);
+            crate::cluster::back::<A>(data, n, g, at);
             continue;
         }
         let DKind::Join { joint, a, b } = nc.kind else {
@@ -1439,10 +1452,10 @@ mod tests {
         assert_eq!(differ, articula_spatial::internals::fused_available());
     }
 
-    /// The kinematics at the leaves (`DcaData::leaf_kinematics`, set on every bundled model)
-    /// and in a loop of its own give the same q̈ to rounding: the handle points differ only
-    /// in rounding (a child's origin from its own pose instead of its parent's), fixed and
-    /// floating base, with and without external forces.
+    /// The kinematics at the leaves (`DcaData::leaf_kinematics`, set on every bundled model's
+    /// tree without leaf clusters) and in a loop of its own give the same q̈ to rounding: the
+    /// handle points differ only in rounding (a child's origin from its own pose instead of its
+    /// parent's), fixed and floating base, with and without external forces.
     #[test]
     fn leaf_kinematics_agrees() {
         for (name, floating_base, model) in crate::bundled_models() {
@@ -1452,6 +1465,7 @@ mod tests {
                 1e-12
             };
             let mut data = Data::new(&model);
+            data.set_leaf_clusters(&model, false);
             data.ensure_dca(&model).unwrap();
             assert!(data.dca.leaf_kinematics, "{name}");
             for seed in 0..4 {

@@ -274,7 +274,7 @@ fn hub_inertia(
 /// `M += Xᵀ P X` for `X` the motion transform by `arm` (`[ω; v] ↦ [ω; v + ω × arm]`, i.e.
 /// `X = [1, 0; −R, 1]` with `R = arm×`): `Xᵀ P X = [A − B R + R Bᵀ − R C R, B + R C; Bᵀ − C R, C]`
 /// for `P = [A, B; Bᵀ, C]`, written as the two products.
-fn add_moved(m: &mut M6, p: &M6, arm: DVec3) {
+pub(crate) fn add_moved(m: &mut M6, p: &M6, arm: DVec3) {
     let x = transform(arm);
     let mut px = [[0.0; 6]; 6];
     for i in 0..6 {
@@ -290,7 +290,7 @@ fn add_moved(m: &mut M6, p: &M6, arm: DVec3) {
 }
 
 /// `X = [1, 0; −arm×, 1]`.
-fn transform(arm: DVec3) -> M6 {
+pub(crate) fn transform(arm: DVec3) -> M6 {
     let mut x = [[0.0; 6]; 6];
     let r = skew(arm);
     for i in 0..6 {
@@ -332,7 +332,7 @@ fn dense(t: &SymT) -> M6 {
 }
 
 /// A symmetric dense matrix as a [`SymT`] (its upper tiles).
-fn sym_tiles(m: &M6) -> SymT {
+pub(crate) fn sym_tiles(m: &M6) -> SymT {
     let mut t = SymT::ZERO;
     for (i, row) in TILE.iter().enumerate() {
         for j in i..3 {
@@ -344,7 +344,7 @@ fn sym_tiles(m: &M6) -> SymT {
 }
 
 /// `A⁻¹ = L⁻ᵀ L⁻¹` from the Cholesky factor of [`cholesky6_inv_diag`] (inverse diagonal), symmetrised.
-fn inverse(l: &M6) -> M6 {
+pub(crate) fn inverse(l: &M6) -> M6 {
     let mut inv = [[0.0; 6]; 6];
     for c in 0..6 {
         let mut e = [0.0; 6];

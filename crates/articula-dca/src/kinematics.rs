@@ -219,7 +219,7 @@ fn axis_revolute<const K: usize, const A: usize, const B: usize>(
 /// `Ī_O = E Ī Eᵀ − h_P pᵀ − p h_Pᵀ − m p pᵀ + (2 p·h_P + m p·p) 1` (parallel axes),
 /// `h_O = h_P + m p`; `E Ī Eᵀ` on its upper triangle only.
 #[inline(always)]
-fn world_inertia(
+pub(crate) fn world_inertia(
     x: &SpatialTransform,
     i: &articula_spatial::SpatialInertia,
 ) -> articula_spatial::SpatialInertia {

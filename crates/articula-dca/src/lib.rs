@@ -45,6 +45,7 @@
 
 mod aba;
 mod batch;
+mod cluster;
 mod com;
 mod contact;
 mod contact_solver;

@@ -110,6 +110,69 @@ fn dca_and_aba_allocate_nothing() {
     }
 }
 
+/// DCA through leaf clusters (branched models: the point-mass humanoid, a random tree; the
+/// humanoid above has clusters too) allocates nothing either, in a solve or a step.
+#[test]
+fn leaf_clusters_allocate_nothing() {
+    use articula_model::{LoadOptions, Model};
+    let urdfs = [
+        (
+            "point-mass humanoid",
+            articula_testkit::point_mass_humanoid_urdf(),
+        ),
+        ("random tree", articula_testkit::random_tree_urdf(40, 7)),
+    ];
+    for (name, urdf) in urdfs {
+        for floating_base in [false, true] {
+            let options = LoadOptions::default().with_floating_base(floating_base);
+            let model = Model::from_urdf_str(&urdf, &options).unwrap();
+            let label = format!("{name} floating={floating_base}");
+            let mut data = Data::new(&model);
+            let mut state = State::random(&model, 3, 0.1);
+            state.randomize_forces(3, 0.1);
+            let solve = |data: &mut Data, state: &State| {
+                forward_dynamics_slices(
+                    &model,
+                    data,
+                    &state.q,
+                    &state.qd,
+                    &state.tau,
+                    &state.f_ext,
+                    Method::Dca,
+                )
+                .map(|_| ())
+                .unwrap();
+            };
+            solve(&mut data, &state);
+            step(
+                &model,
+                &mut data,
+                &mut state,
+                Method::Dca,
+                Integrator::Rk4,
+                1e-5,
+            )
+            .unwrap();
+            let n = count_allocations(|| {
+                for _ in 0..10 {
+                    solve(&mut data, &state);
+                    step(
+                        &model,
+                        &mut data,
+                        &mut state,
+                        Method::Dca,
+                        Integrator::Rk4,
+                        1e-5,
+                    )
+                    .unwrap();
+                }
+            });
+            eprintln!("{label}: 10 x (DCA solve + RK4 step): {n} allocations");
+            assert_eq!(n, 0, "{label}: DCA with leaf clusters allocated");
+        }
+    }
+}
+
 #[test]
 fn quantities_allocate_nothing_after_the_first_call() {
     use articula_dca::{bias_forces, inverse_dynamics, mass_matrix, ReferenceFrame};

@@ -11,6 +11,11 @@
 //! each child's whole subtree is built first (by the same cuts, one handle: its joint to the
 //! hub), then one node absorbs them all into the hub, so no node carries a handle per child
 //! (docs/design.md#assembly-tree).
+//!
+//! [`AssemblyTree::build_clustered`] builds DCA's own tree, in which chosen small subtrees are
+//! *leaf clusters*: absorbed into their parent body's leaf, which solves them in inertia form
+//! as ABA does ([`NodeKind::Cluster`]), so that the joins see only the coarse tree
+//! (docs/algorithms.md#leaf-clusters). [`Model::assembly`](crate::Model) has none.
 
 use crate::Model;
 
@@ -48,6 +53,18 @@ pub enum NodeKind {
         /// How many children.
         count: usize,
     },
+    /// A body (`None`: the ground) with the subtrees of some of its children absorbed: those
+    /// bodies are at `AssemblyTree::clustered[first..first + count]`, in index order (parents
+    /// first), and their joints are no handles. Its handles are the body's own joint and its
+    /// other children's, as a [`NodeKind::Body`]'s (the ground's: its other root bodies').
+    Cluster {
+        /// The body that absorbs them, `None` for the ground.
+        body: Option<usize>,
+        /// Where its absorbed bodies start in [`AssemblyTree::clustered`].
+        first: usize,
+        /// How many absorbed bodies.
+        count: usize,
+    },
 }
 
 /// A node of the assembly tree.
@@ -79,6 +96,8 @@ pub struct AssemblyTree {
     pub ground_leaf: usize,
     /// The children of the gather nodes (see [`NodeKind::Gather`]), flat.
     pub gathered: Vec<usize>,
+    /// The bodies the cluster nodes absorb (see [`NodeKind::Cluster`]), flat.
+    pub clustered: Vec<usize>,
 }
 
 impl AssemblyTree {
@@ -100,6 +119,14 @@ impl AssemblyTree {
         }
     }
 
+    /// The bodies a cluster node absorbs, parents first (empty for any other node).
+    pub fn cluster_bodies(&self, n: usize) -> &[usize] {
+        match self.nodes[n].kind {
+            NodeKind::Cluster { first, count, .. } => &self.clustered[first..first + count],
+            _ => &[],
+        }
+    }
+
     /// Whether some node is a [`NodeKind::Gather`].
     pub fn has_gather(&self) -> bool {
         !self.gathered.is_empty()
@@ -116,7 +143,17 @@ impl AssemblyTree {
 
     /// Builds the tree by balanced cuts.
     pub fn build(model: &Model) -> AssemblyTree {
+        Self::build_clustered(model, &[])
+    }
+
+    /// Builds the tree by balanced cuts with leaf clusters: each body `i` with `absorbed[i]`
+    /// belongs, with its whole subtree, to its parent's leaf (or the ground's, for a root
+    /// body), which becomes a [`NodeKind::Cluster`]. An empty `absorbed` (or one of all
+    /// `false`) gives [`AssemblyTree::build`]'s tree. A hub with more than [`GATHER_ABOVE`]
+    /// children must absorb none of them.
+    pub fn build_clustered(model: &Model, absorbed: &[bool]) -> AssemblyTree {
         let n = model.bodies.len();
+        let absorbed = |v: usize| absorbed.get(v).copied().unwrap_or(false);
         let ground = n;
         // Vertex parent (ground for the root bodies); the ground has none.
         let vparent = |v: usize| -> Option<usize> {
@@ -133,12 +170,15 @@ impl AssemblyTree {
             size: usize,
             /// A join's two sides (A, B) or a gather's subassemblies.
             children: Vec<usize>,
+            /// A cluster's absorbed bodies.
+            cluster: Vec<usize>,
         }
         let empty = || Tmp {
             kind: NodeKind::Ground,
             handles: Vec::new(),
             size: 0,
             children: Vec::new(),
+            cluster: Vec::new(),
         };
         let mut tmp: Vec<Tmp> = Vec::with_capacity(2 * n + 1);
         // Scratch indexed by vertex: membership stamp, subtree size, handles inside subtree.
@@ -146,17 +186,34 @@ impl AssemblyTree {
         let mut sub = vec![0usize; n + 1];
         let mut hsub = vec![0usize; n + 1];
         let mut children: Vec<Vec<usize>> = vec![Vec::new(); n + 1];
+        // Per vertex, the bodies of the subtrees it absorbs (leaf clusters), in index order;
+        // an absorbed body is no vertex of the coarse tree.
+        let mut cluster: Vec<Vec<usize>> = vec![Vec::new(); n + 1];
+        let mut owner = vec![usize::MAX; n];
         for v in 0..n {
-            children[vparent(v).unwrap()].push(v);
+            let p = vparent(v).unwrap();
+            if absorbed(v) || (p != ground && owner[p] != usize::MAX) {
+                let o = if p != ground && owner[p] != usize::MAX {
+                    owner[p]
+                } else {
+                    p
+                };
+                owner[v] = o;
+                cluster[o].push(v);
+            } else {
+                children[p].push(v);
+            }
         }
         // Hubs, the gather nodes' vertices: in its parent's component a hub stands for its
         // whole subtree (its weight), and its children are no handles there.
         let hub: Vec<bool> = children.iter().map(|c| c.len() > GATHER_ABOVE).collect();
-        let mut weight = vec![1usize; n + 1];
+        let mut weight: Vec<usize> = cluster.iter().map(|c| 1 + c.len()).collect();
         if hub.contains(&true) {
-            let mut full = vec![1usize; n + 1];
+            let mut full = weight.clone();
             for v in (0..n).rev() {
-                full[vparent(v).unwrap()] += full[v];
+                if owner[v] == usize::MAX {
+                    full[vparent(v).unwrap()] += full[v];
+                }
             }
             for v in 0..=n {
                 if hub[v] {
@@ -227,6 +284,13 @@ impl AssemblyTree {
                         count: children[v].len(),
                     };
                     tmp[id].children = (first..tmp.len()).collect();
+                } else if !cluster[v].is_empty() {
+                    tmp[id].kind = NodeKind::Cluster {
+                        body: (v != ground).then_some(v),
+                        first: 0,
+                        count: cluster[v].len(),
+                    };
+                    tmp[id].cluster = std::mem::take(&mut cluster[v]);
                 } else {
                     tmp[id].kind = if v == ground {
                         NodeKind::Ground
@@ -322,6 +386,7 @@ impl AssemblyTree {
             joint_node: vec![0; n],
             ground_leaf: 0,
             gathered: Vec::new(),
+            clustered: Vec::new(),
         };
         for &t in &post {
             let kind = match tmp[t].kind {
@@ -339,6 +404,11 @@ impl AssemblyTree {
                     tree.gathered
                         .extend(tmp[t].children.iter().map(|&c| new_index[c]));
                     NodeKind::Gather { body, first, count }
+                }
+                NodeKind::Cluster { body, count, .. } => {
+                    let first = tree.clustered.len();
+                    tree.clustered.extend_from_slice(&tmp[t].cluster);
+                    NodeKind::Cluster { body, first, count }
                 }
                 k => k,
             };
@@ -376,6 +446,16 @@ impl AssemblyTree {
                         // The child's one handle, its joint to the hub, is absorbed here.
                         let joint = tree.nodes[c].handles[0];
                         tree.joint_node[joint] = i;
+                    }
+                }
+                NodeKind::Cluster { body, first, count } => {
+                    match body {
+                        Some(b) => tree.body_leaf[b] = i,
+                        None => tree.ground_leaf = i,
+                    }
+                    for &c in &tree.clustered[first..first + count] {
+                        tree.body_leaf[c] = i;
+                        tree.joint_node[c] = i;
                     }
                 }
                 NodeKind::Body(b) => tree.body_leaf[b] = i,
@@ -416,6 +496,12 @@ impl AssemblyTree {
                         Some(b) => format!("gather body {}", model.bodies[b].name),
                         None => "gather ground".to_string(),
                     }
+                }
+                NodeKind::Cluster { body, count, .. } => {
+                    let at = body.map_or("ground".to_string(), |b| {
+                        format!("body {}", model.bodies[b].name)
+                    });
+                    format!("cluster {at} (+{count} bodies)")
                 }
             };
             out.push_str(&"  ".repeat(indent));
@@ -494,5 +580,84 @@ impl AssemblyTree {
             }
         }
         l
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{AssemblyTree, NodeKind};
+    use crate::{LoadOptions, Model};
+
+    /// A torso on a revolute joint with three limbs: two arms of two links and a tail of four.
+    fn torso() -> Model {
+        let link = |n: &str| {
+            format!("<link name=\"{n}\"><inertial><mass value=\"1\"/><inertia ixx=\"0.01\" iyy=\"0.01\" izz=\"0.01\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>")
+        };
+        let joint = |n: &str, p: &str, c: &str| {
+            format!("<joint name=\"{n}\" type=\"revolute\"><parent link=\"{p}\"/><child link=\"{c}\"/><origin xyz=\"0 0 0.1\"/><axis xyz=\"0 1 0\"/><limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1\"/></joint>")
+        };
+        let mut s = String::from("<robot name=\"t\">") + &link("base") + &link("torso");
+        s += &joint("jt", "base", "torso");
+        for (limb, len) in [("l", 2), ("r", 2), ("tail", 4)] {
+            let mut parent = "torso".to_string();
+            for k in 0..len {
+                let name = format!("{limb}{k}");
+                s += &link(&name);
+                s += &joint(&format!("j{name}"), &parent, &name);
+                parent = name;
+            }
+        }
+        Model::from_urdf_str(&(s + "</robot>"), &LoadOptions::default()).unwrap()
+    }
+
+    /// Absorbing the two arms into the torso: one cluster node holds the torso and the arms'
+    /// four bodies, their joints are handles of no node, the tail is cut by joins as before,
+    /// every body is in exactly one leaf, and the root holds every body and the ground.
+    #[test]
+    fn clusters_absorb_subtrees_into_their_parents_leaf() {
+        let model = torso();
+        let n = model.bodies.len();
+        let name = |i: usize| model.bodies[i].name.as_str();
+        let absorbed: Vec<bool> = (0..n).map(|i| name(i).starts_with(['l', 'r'])).collect();
+        let tree = AssemblyTree::build_clustered(&model, &absorbed);
+        let clusters: Vec<usize> = (0..tree.nodes.len())
+            .filter(|&x| matches!(tree.nodes[x].kind, NodeKind::Cluster { .. }))
+            .collect();
+        assert_eq!(clusters.len(), 1);
+        let c = clusters[0];
+        let torso = (0..n).find(|&i| name(i) == "torso").unwrap();
+        assert_eq!(
+            tree.nodes[c].kind,
+            NodeKind::Cluster {
+                body: Some(torso),
+                first: 0,
+                count: 4
+            }
+        );
+        let mut inside: Vec<&str> = tree.cluster_bodies(c).iter().map(|&i| name(i)).collect();
+        inside.sort_unstable();
+        assert_eq!(inside, ["l0", "l1", "r0", "r1"]);
+        // Its handles: the torso's joint and the tail's first joint.
+        let tail0 = (0..n).find(|&i| name(i) == "tail0").unwrap();
+        assert_eq!(
+            tree.nodes[c].handles,
+            vec![torso.min(tail0), torso.max(tail0)]
+        );
+        for (i, &a) in absorbed.iter().enumerate() {
+            if a {
+                assert_eq!(tree.body_leaf[i], c);
+                assert_eq!(tree.joint_node[i], c);
+                assert!(tree.nodes.iter().all(|nd| !nd.handles.contains(&i)));
+            } else if i != torso {
+                assert_eq!(tree.nodes[tree.body_leaf[i]].kind, NodeKind::Body(i));
+            }
+        }
+        assert_eq!(tree.nodes[tree.root()].size, n + 1);
+        assert_eq!(tree.nodes.len(), 2 * (n - 4) + 1);
+        // Without clusters: the model's own tree.
+        assert_eq!(AssemblyTree::build_clustered(&model, &[]), model.assembly);
+        assert!(tree
+            .outline(&model)
+            .contains("cluster body torso (+4 bodies)"));
     }
 }

@@ -164,6 +164,167 @@ pub fn ratio_chain_urdf(n: usize, ratio: f64) -> String {
         );
     }
     s + "</robot>"
+/// An icub-like humanoid with point masses (zero rotational inertia, as icub's URDF has): a
+/// base (5 kg) with two legs of two links, a torso on a yaw joint with two arms of three links
+/// and a neck of three links (pitch, roll, yaw) whose last is a 1.3 kg point-mass head 0.4 mm
+/// from the yaw axis. The point masses: each leg's thigh, the right arm's forearm, the whole
+/// neck. Every point mass hangs below a branch point (the base, the torso), so DCA's leaf
+/// clusters hold them all.
+pub fn point_mass_humanoid_urdf() -> String {
+    let mut s = String::from("<robot name=\"point_mass_humanoid\">\n");
+    let link = |name: &str, m: f64, i: [f64; 3], com: [f64; 3]| {
+        format!(
+            "<link name=\"{name}\"><inertial><origin xyz=\"{} {} {}\"/><mass value=\"{m}\"/><inertia ixx=\"{}\" iyy=\"{}\" izz=\"{}\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>\n",
+            com[0], com[1], com[2], i[0], i[1], i[2]
+        )
+    };
+    let joint = |name: &str, parent: &str, child: &str, at: [f64; 3], axis: &str| {
+        format!(
+            "<joint name=\"{name}\" type=\"revolute\"><parent link=\"{parent}\"/><child link=\"{child}\"/><origin xyz=\"{} {} {}\"/><axis xyz=\"{axis}\"/><limit lower=\"-3\" upper=\"3\" effort=\"50\" velocity=\"10\"/></joint>\n",
+            at[0], at[1], at[2]
+        )
+    };
+    let solid = [0.02, 0.025, 0.012];
+    let point = [0.0; 3];
+    s += &link("base", 5.0, [0.05, 0.04, 0.03], [0.0, 0.0, 0.0]);
+    for (side, y) in [("l", 0.1), ("r", -0.1)] {
+        s += &link(&format!("{side}_thigh"), 2.0, point, [0.0, 0.01, -0.15]);
+        s += &joint(
+            &format!("{side}_hip"),
+            "base",
+            &format!("{side}_thigh"),
+            [0.0, y, -0.05],
+            "0 1 0",
+        );
+        s += &link(&format!("{side}_shin"), 1.2, solid, [0.01, 0.0, -0.15]);
+        s += &joint(
+            &format!("{side}_knee"),
+            &format!("{side}_thigh"),
+            &format!("{side}_shin"),
+            [0.0, 0.0, -0.3],
+            "0 1 0",
+        );
+    }
+    s += &link("torso", 4.0, [0.06, 0.05, 0.03], [0.0, 0.0, 0.15]);
+    s += &joint("torso_yaw", "base", "torso", [0.0, 0.0, 0.1], "0 0 1");
+    for (side, y) in [("l", 0.15), ("r", -0.15)] {
+        let fore = if side == "r" { point } else { solid };
+        s += &link(
+            &format!("{side}_upper"),
+            0.8,
+            [0.004, 0.004, 0.001],
+            [0.0, 0.0, -0.1],
+        );
+        s += &joint(
+            &format!("{side}_shoulder"),
+            "torso",
+            &format!("{side}_upper"),
+            [0.0, y, 0.3],
+            "1 0 0",
+        );
+        s += &link(
+            &format!("{side}_fore"),
+            0.5,
+            fore.map(|x| x * 0.1),
+            [0.02, 0.0, -0.1],
+        );
+        s += &joint(
+            &format!("{side}_elbow"),
+            &format!("{side}_upper"),
+            &format!("{side}_fore"),
+            [0.0, 0.0, -0.2],
+            "0 1 0",
+        );
+        s += &link(
+            &format!("{side}_hand"),
+            0.2,
+            [2e-4, 2e-4, 1e-4],
+            [0.0, 0.0, -0.04],
+        );
+        s += &joint(
+            &format!("{side}_wrist"),
+            &format!("{side}_fore"),
+            &format!("{side}_hand"),
+            [0.0, 0.0, -0.2],
+            "0 0 1",
+        );
+    }
+    s += &link("neck_1", 0.1, point, [0.0, 0.0, 0.0]);
+    s += &joint("neck_pitch", "torso", "neck_1", [0.0, 0.0, 0.35], "0 1 0");
+    s += &link("neck_2", 0.3, point, [0.03, 0.02, 0.02]);
+    s += &joint("neck_roll", "neck_1", "neck_2", [0.0, 0.0, 0.03], "1 0 0");
+    s += &link("head", 1.3, point, [0.04, 0.0, 0.1]);
+    s += &joint("neck_yaw", "neck_2", "head", [0.0, 0.0, 0.03], "0 0 1");
+    s + "</robot>\n"
+}
+
+/// A random tree of `n` links below a root link, seeded: each link's parent is one of the
+/// links before it (a fresh link has a one-in-three chance of starting a new branch off an
+/// earlier link, so the tree has branch points with subtrees of every size), its joint
+/// revolute about a random unit axis or, one time in five, prismatic; masses 0.2–2 kg, random
+/// centres of mass and principal moments (triangle inequality kept) in a random frame.
+pub fn random_tree_urdf(n: usize, seed: u64) -> String {
+    let mut state = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ 0x2545_f491_4f6c_dd1d;
+    let mut next = move || {
+        // SplitMix64
+        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        (z ^ (z >> 31)) as f64 / u64::MAX as f64
+    };
+    let mut s = String::from("<robot name=\"random_tree\">\n");
+    s += &hub_link("root");
+    let mut last = 0usize; // the link a fresh link continues, 0 the root
+    for i in 1..=n {
+        let parent = if i == 1 || next() < 0.34 {
+            (next() * i as f64) as usize % i
+        } else {
+            last
+        };
+        last = i;
+        let m = 0.2 + 1.8 * next();
+        let (a, b) = (0.002 + 0.01 * next(), 0.002 + 0.01 * next());
+        let c = (a + b) * (0.3 + 0.6 * next());
+        let name = |k: usize| {
+            if k == 0 {
+                "root".to_string()
+            } else {
+                format!("t{k}")
+            }
+        };
+        s += &format!(
+            "<link name=\"{}\"><inertial><origin xyz=\"{} {} {}\" rpy=\"{} {} {}\"/><mass value=\"{m}\"/><inertia ixx=\"{a}\" iyy=\"{b}\" izz=\"{c}\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>\n",
+            name(i),
+            0.1 * next() - 0.05,
+            0.1 * next() - 0.05,
+            -0.1 * next(),
+            3.0 * next(),
+            3.0 * next(),
+            3.0 * next(),
+        );
+        let axis = [next() - 0.5, next() - 0.5, next() - 0.5];
+        let norm = axis.iter().map(|x| x * x).sum::<f64>().sqrt().max(1e-3);
+        let kind = if next() < 0.2 {
+            "prismatic"
+        } else {
+            "revolute"
+        };
+        s += &format!(
+            "<joint name=\"j{i}\" type=\"{kind}\"><parent link=\"{}\"/><child link=\"{}\"/><origin xyz=\"{} {} {}\" rpy=\"{} 0 {}\"/><axis xyz=\"{} {} {}\"/><limit lower=\"-3\" upper=\"3\" effort=\"50\" velocity=\"10\"/></joint>\n",
+            name(parent),
+            name(i),
+            0.1 * next() - 0.05,
+            0.1 * next() - 0.05,
+            -0.1 - 0.1 * next(),
+            next(),
+            next(),
+            axis[0] / norm,
+            axis[1] / norm,
+            axis[2] / norm,
+        );
+    }
+    s + "</robot>\n"
 }
 
 #[cfg(test)]

@@ -1089,6 +1089,9 @@ pub(crate) fn pose_springs(
     let q = model.neutral_q();
     let mut data = articula_dca::Data::new(model);
     data.gravity = DVec3::ZERO;
+    // DCA on the model's own tree, as the springs were first computed: leaf clusters give the
+    // same stiffnesses to rounding but other bits, and every scene's trajectory with them.
+    data.set_leaf_clusters(model, false);
     let qd = vec![0.0; model.nv];
     let mut tau = vec![0.0; model.nv];
     let w = 2.0 * std::f64::consts::PI * frequency_hz;

@@ -109,6 +109,7 @@ fn vertex_sets(model: &Model) -> Vec<BTreeSet<usize>> {
     let mut sets: Vec<BTreeSet<usize>> = Vec::with_capacity(tree.nodes.len());
     for node in &tree.nodes {
         let set = match node.kind {
+            NodeKind::Cluster { .. } => panic!("`Model::assembly` has no leaf clusters"),
             NodeKind::Ground => BTreeSet::from([n]),
             NodeKind::Body(b) => BTreeSet::from([b]),
             NodeKind::Join {
@@ -267,6 +268,7 @@ pub fn check_invariants(model: &Model) {
     let mut principal_count = vec![0usize; n];
     for (i, node) in tree.nodes.iter().enumerate() {
         match node.kind {
+            NodeKind::Cluster { .. } => panic!("`Model::assembly` has no leaf clusters"),
             NodeKind::Ground => {
                 leaf_count[ground] += 1;
                 assert_eq!(tree.ground_leaf, i);
@@ -331,6 +333,7 @@ pub fn check_invariants(model: &Model) {
             .collect();
         assert_eq!(node.handles, crossing, "handles of node {i}");
         match node.kind {
+            NodeKind::Cluster { .. } => panic!("`Model::assembly` has no leaf clusters"),
             NodeKind::Body(b) => {
                 let mut expect: Vec<usize> = model.bodies[b].children.clone();
                 expect.push(b);
