@@ -33,7 +33,7 @@ use crate::scene_file::LoadedScene;
 use crate::visibility::{BodyView, Classifier, Placed, PosePlan, Visibility};
 use crate::volumes::BodyVolumes;
 use articula_adaptive::{Adaptive, AdaptiveError, HybridContact, Scratch, Settings};
-use articula_dca::{ContactSettings, DynamicsError, State};
+use articula_dca::{DynamicsError, State};
 use articula_model::{JointKind, Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SymMat6};
 use glam::{DMat3, DQuat, DVec3};
@@ -809,10 +809,7 @@ impl<'s> SceneSim<'s> {
         }
         let mut total = 0;
         let (mut contacts, mut penetration) = (0, 0.0f64);
-        let contact_settings = ContactSettings {
-            ground: scene.ground.map(|g| g.ground()),
-            ..ContactSettings::default()
-        };
+        let contact_settings = scene.contact_settings();
         for (i, b) in self.bodies.iter_mut().enumerate() {
             let model = &scene.models[b.model].model;
             if !reselect {

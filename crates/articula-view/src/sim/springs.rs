@@ -206,10 +206,7 @@ mod tests {
             false
         };
         for (name, feet_side) in [("l_ankle_y", true), ("r_knee", true), ("l_elbow", false)] {
-            let (jb, part) = model
-                .joint_parts()
-                .find(|(_, p)| p.name == name)
-                .unwrap();
+            let (jb, part) = model.joint_parts().find(|(_, p)| p.name == name).unwrap();
             let s = data.s[part.v_offset];
             let w = s.w;
             // A point on the axis (world): v = a × ω for a rotation about a.
@@ -227,7 +224,10 @@ mod tests {
                     + w.dot(r * i.inertia_about_com() * r.transpose() * w);
             }
             let m = got[part.v_offset];
-            assert!((m - expected).abs() <= 1e-9 * expected, "{name}: {m} vs {expected}");
+            assert!(
+                (m - expected).abs() <= 1e-9 * expected,
+                "{name}: {m} vs {expected}"
+            );
             eprintln!("stance inertia of {name}: {m:.4} kg m²");
         }
     }
