@@ -12,11 +12,14 @@
 //! - `crowd SCENE.json [ROUNDS] [STEPS]` (defaults 8 and 500): each round times `STEPS` scene
 //!   steps from a fresh scene (re-selections, pushes and all, as the criterion bench
 //!   `adaptive_step`), then `STEPS / 10` exact semi-implicit DCA steps of every body from the
-//!   states after 20 scene steps, one shared workspace per model (as `exact_dca_step`).
+//!   states after 20 scene steps, one shared workspace per model (as `exact_dca_step`). A
+//!   scene with a `ground` steps the exact bodies with the floor too ([`step_with_contact`]
+//!   with the scene's [`articula_view::LoadedScene::contact_settings`], one contact workspace
+//!   per body), so both sides pay for contact.
 
 use crate::args::Args;
 use articula_adaptive::{Adaptive, Reselection, Settings};
-use articula_dca::{step, Data, Integrator, Method, State};
+use articula_dca::{step, step_with_contact, ContactData, Data, Integrator, Method, State};
 use articula_testkit::seeds::{force_list, seeded_state};
 use articula_view::SceneSim;
 use std::hint::black_box;
@@ -178,6 +181,7 @@ fn crowd(path: &Path, rounds: usize, steps: u64) -> Result<()> {
         })
         .collect();
     let exact_steps = (steps / 10).max(1);
+    let settings = scene.contact_settings();
     let (mut best_a, mut best_e) = (f64::MAX, f64::MAX);
     let mut ratios = Vec::new();
     for round in 0..rounds {
@@ -188,19 +192,35 @@ fn crowd(path: &Path, rounds: usize, steps: u64) -> Result<()> {
         }
         let a = t.elapsed().as_secs_f64() * 1e3 / steps as f64;
         let mut states = start.clone();
+        // With a floor: exact DCA with the scene's contact step on every body (each its own
+        // contact workspace and warm starts, sized by one untimed step).
+        let mut contacts: Vec<ContactData> = models
+            .iter()
+            .map(|&m| ContactData::new(&scene.models[m].model))
+            .collect();
+        let exact = |states: &mut [State], data: &mut [Data], contacts: &mut [ContactData]| {
+            for ((s, &m), c) in states.iter_mut().zip(&models).zip(contacts.iter_mut()) {
+                let model = &scene.models[m].model;
+                if settings.ground.is_some() {
+                    step_with_contact(model, &mut data[m], c, s, Method::Dca, scene.dt, &settings)
+                        .map_err(|e| e.to_string())?;
+                } else {
+                    step(
+                        model,
+                        &mut data[m],
+                        s,
+                        Method::Dca,
+                        Integrator::SemiImplicitEuler,
+                        scene.dt,
+                    )?;
+                }
+            }
+            Ok::<(), Box<dyn std::error::Error>>(())
+        };
+        exact(&mut start.clone(), &mut data, &mut contacts)?;
         let t = Instant::now();
         for _ in 0..exact_steps {
-            for (s, &m) in states.iter_mut().zip(&models) {
-                let model = &scene.models[m].model;
-                step(
-                    model,
-                    &mut data[m],
-                    s,
-                    Method::Dca,
-                    Integrator::SemiImplicitEuler,
-                    scene.dt,
-                )?;
-            }
+            exact(&mut states, &mut data, &mut contacts)?;
         }
         let e = t.elapsed().as_secs_f64() * 1e3 / exact_steps as f64;
         best_a = best_a.min(a);

@@ -193,6 +193,9 @@ pub struct ContactData {
     tau: Vec<f64>,
     basis: Vec<f64>,
     delta: Vec<f64>,
+    /// The coordinates some response moves, and `J`, `R` packed on them (`W = J R`).
+    cols: Vec<usize>,
+    packed: Vec<f64>,
 }
 
 impl ContactData {
@@ -240,6 +243,8 @@ impl ContactData {
             tau: vec![0.0; nv],
             basis: Vec::new(),
             delta: vec![0.0; nv],
+            cols: Vec::with_capacity(nv),
+            packed: Vec::new(),
         }
     }
 
@@ -551,12 +556,28 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     cd.resp.resize(k * nv, 0.0);
     responses(model, dynamics, cd, state)?;
     // 5. W = J R (symmetric), u_free = J v_free, warm start.
+    //    Only the coordinates some response moves enter the products (the active ones of a
+    //    hybrid body, the contacting bodies' paths): the others add exact zeros, so the sums
+    //    are the full ones to the bit.
+    cd.cols.clear();
+    cd.cols
+        .extend((0..nv).filter(|&c| (0..k).any(|i| cd.resp[i * nv + c] != 0.0)));
+    let m = cd.cols.len();
+    cd.packed.clear();
+    cd.packed.resize(2 * k * m, 0.0);
+    let (pj, pr) = cd.packed.split_at_mut(k * m);
+    for i in 0..k {
+        for (x, &c) in cd.cols.iter().enumerate() {
+            pj[i * m + x] = cd.jac[i * nv + c];
+            pr[i * m + x] = cd.resp[i * nv + c];
+        }
+    }
     cd.w.clear();
     cd.w.resize(k * k, 0.0);
     for i in 0..k {
-        let ji = &cd.jac[i * nv..(i + 1) * nv];
+        let ji = &pj[i * m..(i + 1) * m];
         for j in i..k {
-            let rj = &cd.resp[j * nv..(j + 1) * nv];
+            let rj = &pr[j * m..(j + 1) * m];
             let x: f64 = ji.iter().zip(rj).map(|(a, b)| a * b).sum();
             cd.w[i * k + j] = x;
             cd.w[j * k + i] = x;

@@ -126,7 +126,7 @@ pub(crate) fn solve(
                             let (d1, d2) = ((c * r1 - b * r2) / det, (a * r2 - b * r1) / det);
                             (lambda[t1] + d1, lambda[t2] + d2)
                         })
-                        .filter(|&(l1, l2)| l1.hypot(l2) <= bound);
+                        .filter(|&(l1, l2)| l1 * l1 + l2 * l2 <= bound * bound);
                     let (l1, l2) = stick.unwrap_or_else(|| {
                         let l = 0.5 * (a + c) + (0.25 * (a - c) * (a - c) + b * b).sqrt();
                         if l.is_nan() || l <= 0.0 {
@@ -134,7 +134,9 @@ pub(crate) fn solve(
                             return (lambda[t1], lambda[t2]);
                         }
                         let (l1, l2) = (lambda[t1] + r1 / l, lambda[t2] + r2 / l);
-                        let norm = l1.hypot(l2);
+                        // (√(l1² + l2²): `hypot`'s overflow guard costs more than the
+                        // rest of the sweep, and impulses are far from overflowing.)
+                        let norm = (l1 * l1 + l2 * l2).sqrt();
                         if norm > bound {
                             let s = if norm > 0.0 { bound / norm } else { 0.0 };
                             (l1 * s, l2 * s)

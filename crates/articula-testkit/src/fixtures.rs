@@ -164,6 +164,8 @@ pub fn ratio_chain_urdf(n: usize, ratio: f64) -> String {
         );
     }
     s + "</robot>"
+}
+
 /// An icub-like humanoid with point masses (zero rotational inertia, as icub's URDF has): a
 /// base (5 kg) with two legs of two links, a torso on a yaw joint with two arms of three links
 /// and a neck of three links (pitch, roll, yaw) whose last is a 1.3 kg point-mass head 0.4 mm

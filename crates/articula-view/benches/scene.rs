@@ -94,7 +94,7 @@ pub fn crowd2000_text() -> String {
     .unwrap();
     v["crowds"][0]["rows"] = 40.into();
     v["crowds"][0]["columns"] = 50.into();
-    v["crowds"][0]["origin"] = serde_json::json!([4.0, -22.05, 1.0]);
+    v["crowds"][0]["origin"] = serde_json::json!([4.0, -22.05, 1.021]);
     v["budget"] = 4000.into();
     v["models"]["humanoid"] = models().join("humanoid.urdf").display().to_string().into();
     v.to_string()

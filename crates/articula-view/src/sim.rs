@@ -25,16 +25,19 @@
 //! Nodes of metric 0 are never selected: invisible bodies (all weights 0) keep no joint even
 //! with budget to spare.
 
+mod springs;
+
 use crate::error::ViewError;
 use crate::render::{rigid_groups, FrameBody};
 use crate::scene_file::LoadedScene;
 use crate::visibility::{BodyView, Classifier, Placed, PosePlan, Visibility};
 use crate::volumes::BodyVolumes;
 use articula_adaptive::{Adaptive, AdaptiveError, HybridContact, Scratch, Settings};
-use articula_dca::{ContactSettings, DynamicsError, State};
+use articula_dca::{DynamicsError, State};
 use articula_model::{JointKind, Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SymMat6};
 use glam::{DMat3, DQuat, DVec3};
+use springs::pose_springs;
 use std::collections::BinaryHeap;
 
 /// A node of some body in the global queue.
@@ -468,9 +471,13 @@ impl<'s> SceneSim<'s> {
             .models
             .iter()
             .map(|m| match scene.joint_springs {
-                Some(sp) => {
-                    SpringRuns::new(&pose_springs(&m.model, sp.frequency_hz, sp.damping_ratio))
-                }
+                Some(sp) => SpringRuns::new(&pose_springs(
+                    &m.model,
+                    sp.frequency_hz,
+                    sp.damping_ratio,
+                    scene.dt,
+                    scene.ground.is_some(),
+                )),
                 None => SpringRuns::default(),
             })
             .collect();
@@ -802,10 +809,7 @@ impl<'s> SceneSim<'s> {
         }
         let mut total = 0;
         let (mut contacts, mut penetration) = (0, 0.0f64);
-        let contact_settings = ContactSettings {
-            ground: scene.ground.map(|g| g.ground()),
-            ..ContactSettings::default()
-        };
+        let contact_settings = scene.contact_settings();
         for (i, b) in self.bodies.iter_mut().enumerate() {
             let model = &scene.models[b.model].model;
             if !reselect {
@@ -1074,77 +1078,6 @@ fn spring_torques(springs: &SpringRuns, s: &mut State) {
     }
 }
 
-/// Pose springs of every internal one-coordinate degree of freedom of `model`:
-/// `(q index, v index, k, c)` with `k = ω² mᵢ`, `c = 2ζω mᵢ`, `ω = 2π f`, and
-/// `mᵢ = 1 / (M⁻¹)ᵢᵢ` the effective inertia of the degree of freedom in the neutral pose (the
-/// response `q̈ᵢ` to a unit `τᵢ` with everything else free, from exact DCA without gravity or
-/// velocity): `τ = −k q − c q̇` alone would make it oscillate at ω with damping ratio ζ.
-/// (The subtree inertia `Mᵢᵢ` overestimates `mᵢ` tenfold on a floating body, and the
-/// explicit integrator then overshoots.)
-pub(crate) fn pose_springs(
-    model: &Model,
-    frequency_hz: f64,
-    damping_ratio: f64,
-) -> Vec<(usize, usize, f64, f64)> {
-    let q = model.neutral_q();
-    let mut data = articula_dca::Data::new(model);
-    data.gravity = DVec3::ZERO;
-    // DCA on the model's own tree, as the springs were first computed: leaf clusters give the
-    // same stiffnesses to rounding but other bits, and every scene's trajectory with them.
-    data.set_leaf_clusters(model, false);
-    let qd = vec![0.0; model.nv];
-    let mut tau = vec![0.0; model.nv];
-    let w = 2.0 * std::f64::consts::PI * frequency_hz;
-    let mut out: Vec<(usize, usize, f64, f64)> = Vec::new();
-    // Per body: the largest effective inertia of its joint's coordinates.
-    let mut joint_max = vec![0.0f64; model.bodies.len()];
-    let mut body_of = Vec::new();
-    for (b, part) in model.joint_parts() {
-        if part.nq() != 1
-            || part.nv() != 1
-            || model.bodies[b].parent.is_none()
-                && model.floating_base
-                && part.kind == articula_model::JointKind::Floating
-        {
-            continue;
-        }
-        let v = part.v_offset;
-        tau[v] = 1.0;
-        let r = articula_dca::forward_dynamics_slices(
-            model,
-            &mut data,
-            &q,
-            &qd,
-            &tau,
-            &[],
-            articula_dca::Method::Dca,
-        )
-        .map(|qdd| qdd[v]);
-        tau[v] = 0.0;
-        if let Ok(minv) = r {
-            if minv > 0.0 && minv.is_finite() {
-                let m = 1.0 / minv;
-                joint_max[b] = joint_max[b].max(m);
-                body_of.push(b);
-                out.push((part.q_offset, v, w * w * m, 2.0 * damping_ratio * w * m));
-            }
-        }
-    }
-    // A composed joint's coordinates all get the stiffness of its heaviest one: the effective
-    // inertia of an Euler-angle coordinate changes with the joint's other angles (a shoulder's
-    // twist axis, along the hanging arm in the neutral pose, swings the whole arm once the arm
-    // is raised), and a spring scaled by the light neutral value lets that coordinate drift to
-    // gimbal lock, where the dynamics is singular.
-    for (spring, &b) in out.iter_mut().zip(&body_of) {
-        if model.bodies[b].joint.len() > 1 {
-            let m = joint_max[b];
-            spring.2 = w * w * m;
-            spring.3 = 2.0 * damping_ratio * w * m;
-        }
-    }
-    out
-}
-
 /// A dynamics failure of model `model`'s shared workspace, naming the model.
 fn model_error(scene: &LoadedScene, model: usize, error: AdaptiveError) -> ViewError {
     ViewError::Dynamics {
@@ -1199,7 +1132,7 @@ mod tests {
     #[test]
     fn spring_runs_equal_one_spring_at_a_time() {
         let model = articula_testkit::bundled_with("humanoid", true);
-        let springs = pose_springs(&model, 2.0, 0.2);
+        let springs = pose_springs(&model, 2.0, 0.2, 1.0 / 600.0, false);
         assert_eq!(springs.len(), model.nv - 6);
         assert_eq!(SpringRuns::new(&springs).runs.len(), 1);
         let mut gapped: Vec<_> = springs.iter().copied().step_by(3).collect();
@@ -1220,13 +1153,16 @@ mod tests {
     /// one (so that none rings slower than the set frequency in any configuration of the
     /// joint): on the humanoid's shoulders, the twist axis along the hanging arm, whose own
     /// effective inertia is over 50 times smaller, is as stiff as the heaviest axis; single-axis
-    /// joints keep their own `k = ω² / (M⁻¹)ᵢᵢ`.
+    /// joints keep their own `k = ω² / (M⁻¹)ᵢᵢ`. The damper is the coordinate's own
+    /// backward-Euler one, `c = d m / (m + dt d)` with `d = 2ζω m_heaviest` and `m` a quarter
+    /// of its own inertia.
     #[test]
     fn composed_joint_coordinates_share_their_heaviest_stiffness() {
         let model = articula_testkit::bundled_with("humanoid", true);
         let (f, zeta) = (2.0, 0.2);
         let w = 2.0 * std::f64::consts::PI * f;
-        let springs = pose_springs(&model, f, zeta);
+        let dt = 1.0 / 600.0;
+        let springs = pose_springs(&model, f, zeta, dt, false);
         let spring = |v: usize| *springs.iter().find(|s| s.1 == v).unwrap();
         // The effective inertia of each coordinate alone, from exact DCA (no gravity).
         let mut data = articula_dca::Data::new(&model);
@@ -1253,9 +1189,14 @@ mod tests {
             for (p, m) in body.joint.iter().zip(&m) {
                 let (_, _, k, c) = spring(p.v_offset);
                 let expected = if body.joint.len() > 1 { heaviest } else { *m };
+                // The integrator's share of its own inertia: at 2 Hz no spring reaches the
+                // bound ω dt = ½ on it.
+                let own = m / 4.0;
+                assert!(w * w * expected < own / (dt * dt), "{}", p.name);
                 assert!((k - w * w * expected).abs() <= 1e-12 * k, "{}", p.name);
+                let d = 2.0 * zeta * w * expected;
                 assert!(
-                    (c - 2.0 * zeta * w * expected).abs() <= 1e-12 * c,
+                    (c - d * own / (own + dt * d)).abs() <= 1e-12 * c,
                     "{}",
                     p.name
                 );

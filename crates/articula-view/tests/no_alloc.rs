@@ -1,19 +1,36 @@
 //! A scene step allocates nothing once its buffers have grown: the bundled crowd200 scene
-//! (pushes, re-selections every 10 steps, bodies changing their hybrid bodies and turning
-//! rigid) stepped with the system allocator counting.
+//! (pushes, re-selections every 10 steps, bodies changing their hybrid bodies) stepped with
+//! the system allocator counting, in zero gravity without its floor (bodies turning rigid and
+//! back), and on its floor, where a step allocates only when some body meets more contact rows
+//! than at any step before (its contact workspace grows to them).
 
 use articula_testkit::{count_allocations, CountingAllocator};
-use articula_view::{load_scene, SceneSim};
+use articula_view::{load_scene, LoadedScene, SceneSim};
 use std::path::Path;
 
 #[global_allocator]
 static ALLOCATOR: CountingAllocator = CountingAllocator;
 
-#[test]
-fn scene_steps_allocate_nothing_after_warm_up() {
+fn crowd200() -> LoadedScene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/scenes/crowd200.json");
-    let scene = load_scene(path).unwrap();
-    let mut sim = SceneSim::new(&scene).unwrap();
+    load_scene(path).unwrap()
+}
+
+/// Per step after a 60-step warm-up, 60 steps: the allocations, and whether some body met
+/// more contact rows than ever before.
+fn count(scene: &LoadedScene) -> (Vec<usize>, Vec<bool>, usize) {
+    let mut sim = SceneSim::new(scene).unwrap();
+    let mut most = vec![0; sim.bodies.len()];
+    let rows = |sim: &SceneSim, most: &mut [usize]| {
+        let mut grew = false;
+        for (m, b) in most.iter_mut().zip(&sim.bodies) {
+            if let Some(c) = &b.contact {
+                grew |= c.contact.stats.rows > *m;
+                *m = (*m).max(c.contact.stats.rows);
+            }
+        }
+        grew
+    };
     // Warm-up: the first whole-body selection and a few re-selections size every buffer (the
     // counter counts them).
     let warm = count_allocations(|| {
@@ -22,18 +39,41 @@ fn scene_steps_allocate_nothing_after_warm_up() {
         }
     });
     assert!(warm > 0, "the warm-up allocates");
-    let mut per_step = Vec::new();
+    rows(&sim, &mut most);
+    let (mut per_step, mut grew) = (Vec::new(), Vec::new());
     let mut reselections = 0;
     for _ in 0..60 {
         let mut reselected = false;
         per_step.push(count_allocations(|| {
             reselected = sim.step().unwrap().reselected;
         }));
+        grew.push(rows(&sim, &mut most));
         reselections += usize::from(reselected);
     }
+    (per_step, grew, reselections)
+}
+
+#[test]
+fn scene_steps_allocate_nothing_after_warm_up() {
+    let mut scene = crowd200();
+    scene.gravity = glam::DVec3::ZERO;
+    scene.ground = None;
+    let (per_step, _, reselections) = count(&scene);
     assert!(reselections >= 5, "the window must hold re-selections");
     assert!(
         per_step.iter().all(|&n| n == 0),
         "allocations per step: {per_step:?}"
+    );
+}
+
+#[test]
+fn floor_steps_allocate_only_when_contact_rows_grow() {
+    let (per_step, grew, reselections) = count(&crowd200());
+    assert!(reselections >= 5, "the window must hold re-selections");
+    let quiet = per_step.iter().zip(&grew).filter(|(_, g)| !**g).count();
+    assert!(quiet >= 30, "{quiet} steps without new rows");
+    assert!(
+        per_step.iter().zip(&grew).all(|(&n, &g)| n == 0 || g),
+        "allocations per step: {per_step:?}, rows grew: {grew:?}"
     );
 }

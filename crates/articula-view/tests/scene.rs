@@ -164,14 +164,17 @@ fn crowd200_active_joints_snapshot() {
 // ---------------------------------------------------------------------------------------------
 // 4. The bundled crowd stays finite and away from gimbal lock.
 
-/// The bundled crowd for 2,000 steps (past step 1,448, where a shoulder used to reach gimbal
-/// lock and the run diverged; its 10,000-step run is in docs/view.md): every state finite, every composed joint of every character well away from
+/// The bundled crowd in zero gravity and without its floor (so without joint limits) for
+/// 2,000 steps (past step 1,448, where a shoulder used to reach gimbal lock and the run
+/// diverged): every state finite, every composed joint of every character well away from
 /// gimbal lock (its axes span more than 0.5, a middle angle within 60°), and the scene's
 /// energy never above its start plus the pushes' work by more than 1% of that work (pose
 /// springs' damping and the rigidification only remove energy).
 #[test]
 fn crowd200_stays_finite_and_away_from_gimbal_lock() {
-    let s = articula_view::load_scene(models().join("scenes/crowd200.json")).unwrap();
+    let mut s = articula_view::load_scene(models().join("scenes/crowd200.json")).unwrap();
+    s.gravity = DVec3::ZERO;
+    s.ground = None;
     let mut sim = SceneSim::new(&s).unwrap();
     let e0 = sim.energy();
     let mut min_volume = f64::INFINITY;
@@ -197,3 +200,62 @@ fn crowd200_stays_finite_and_away_from_gimbal_lock() {
 
 /// Steps of [`crowd200_stays_finite_and_away_from_gimbal_lock`].
 const STEPS: usize = 2_000;
+
+// ---------------------------------------------------------------------------------------------
+// 5. On the floor: characters stand on their pose springs, the strongly pushed fall.
+
+/// The bundled crowd's settings (gravity, floor, 2 Hz pose springs, dt = 1/600 s, 10 joints
+/// a character) on a 3 × 4 grid for 1.2 s: every character gets the light push (30 N at the
+/// chest for 0.5 s), four also the strong one (120 N). Every lightly pushed character stays
+/// on its feet (pelvis above 0.95 m at every step: it stands 1.02 m high), every strongly
+/// pushed one falls (pelvis below 0.5 m at the end), nothing sinks more than 5 mm into the
+/// floor, and the scene's energy never exceeds its start plus the pushes' work (contact
+/// impulses, the position correction and the springs' damping only remove energy).
+#[test]
+fn the_crowd_stands_and_the_strongly_pushed_fall() {
+    let strong = ["crowd[0,0]", "crowd[0,3]", "crowd[1,1]", "crowd[2,2]"];
+    let text = format!(
+        r#"{{"models": {{"humanoid": "humanoid.urdf"}},
+            "crowds": [{{"name": "crowd", "model": "humanoid", "rows": 3, "columns": 4,
+                         "origin": [4.0, -1.35, 1.021], "spacing": [1.2, 0.9], "jitter": 0.3,
+                         "seed": 2005, "yaw": 3.141592653589793, "yaw_jitter": 0.6}}],
+            "camera": {{"eye": [0, 0, 1.4], "target": [12, 0, 1.1]}},
+            "budget": 120, "dt": 0.0016666666666666668, "reselect_every": 10,
+            "pushes": [
+              {{"bodies": "all", "link": "chest", "point": [0, 0, 0.2], "force": [30, 0, 0], "t0": 0, "t1": 0.5}},
+              {{"bodies": {strong:?}, "link": "chest", "point": [0, 0, 0.2], "force": [120, 0, 0], "t0": 0, "t1": 0.5}}],
+            "joint_springs": {{"frequency_hz": 2.0, "damping_ratio": 0.2}},
+            "ground": {{"height": 0, "friction": 1}}}}"#
+    );
+    let s = scene(&text);
+    let mut sim = SceneSim::new(&s).unwrap();
+    let e0 = sim.energy().total();
+    let n = s.placements.len();
+    let mut lowest = vec![f64::INFINITY; n];
+    let (mut worst, mut growth) = (0.0f64, f64::NEG_INFINITY);
+    for _ in 0..720 {
+        let step = sim.step().unwrap();
+        worst = worst.max(step.max_penetration);
+        let e = sim.energy();
+        growth = growth.max(e.total() - e0 - e.push_work);
+        for (l, b) in lowest.iter_mut().zip(&sim.bodies) {
+            *l = l.min(b.state.q[2]);
+        }
+    }
+    eprintln!("floor crowd: lowest pelvis {lowest:.3?}, worst penetration {worst:.2e} m, largest energy growth {growth:.3e} J");
+    for (i, p) in s.placements.iter().enumerate() {
+        let end = sim.bodies[i].state.q[2];
+        if strong.contains(&p.name.as_str()) {
+            assert!(end < 0.5, "{} still up: pelvis at {end} m", p.name);
+        } else {
+            assert!(
+                lowest[i] > 0.95,
+                "{} fell: pelvis down to {} m",
+                p.name,
+                lowest[i]
+            );
+        }
+    }
+    assert!(worst < 5e-3, "penetration {worst} m");
+    assert!(growth < 1e-6 * e0, "energy grew by {growth} J");
+}
