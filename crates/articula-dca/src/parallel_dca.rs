@@ -254,7 +254,14 @@ impl Split<'_> {
     fn main(&self, n: usize) -> Result<(), DynamicsError> {
         let (model, tau, f_ext) = (self.model, self.tau, self.f_ext);
         let Some((x, y)) = self.sides(n) else {
-            return crate::dca::main_range(model, tau, f_ext, self.data(), true, self.first(n)..n + 1);
+            return crate::dca::main_range(
+                model,
+                tau,
+                f_ext,
+                self.data(),
+                true,
+                self.first(n)..n + 1,
+            );
         };
         let (rx, ry) = rayon::join(|| self.main(x), || self.main(y));
         rx?;
@@ -365,13 +372,25 @@ mod tests {
             let mut serial = Data::new(&model);
             serial.ensure_dca(&model).unwrap();
             let leaves = forward_dynamics_slices(
-                &model, &mut serial, &s.q, &s.qd, &s.tau, &s.f_ext, Method::Dca,
+                &model,
+                &mut serial,
+                &s.q,
+                &s.qd,
+                &s.tau,
+                &s.f_ext,
+                Method::Dca,
             )
             .unwrap()
             .to_vec();
             serial.dca.leaf_kinematics = false;
             let looped = forward_dynamics_slices(
-                &model, &mut serial, &s.q, &s.qd, &s.tau, &s.f_ext, Method::Dca,
+                &model,
+                &mut serial,
+                &s.q,
+                &s.qd,
+                &s.tau,
+                &s.f_ext,
+                Method::Dca,
             )
             .unwrap()
             .to_vec();
@@ -381,7 +400,11 @@ mod tests {
                 .iter()
                 .zip(&split)
                 .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
-            assert!(diff <= 1e-11 * scale, "floating={floating}: {:e}", diff / scale);
+            assert!(
+                diff <= 1e-11 * scale,
+                "floating={floating}: {:e}",
+                diff / scale
+            );
         }
     }
 }

@@ -602,7 +602,8 @@ impl<'s> SceneSim<'s> {
     /// any thread count**.
     pub fn set_threads(&mut self, threads: Threads) {
         let scene = self.scene;
-        self.workers.resize_with(threads.count(), || Worker::new(scene));
+        self.workers
+            .resize_with(threads.count(), || Worker::new(scene));
         self.threads = threads;
     }
 
@@ -996,8 +997,8 @@ fn apply_selection(
         w.wanted[n] = true;
     }
     let wanted = &w.wanted;
-    let same =
-        (0..model.bodies.len()).all(|j| b.adaptive.is_active(model, j) == wanted[tree.joint_node[j]]);
+    let same = (0..model.bodies.len())
+        .all(|j| b.adaptive.is_active(model, j) == wanted[tree.joint_node[j]]);
     let needed = first_step || !same;
     b.changed = needed;
     if !needed {

@@ -233,7 +233,10 @@ fn crowd_steps_are_the_same_bits_on_any_thread_count() {
         assert!(one.0.iter().filter(|s| s.reselected).count() >= 3);
         for threads in [2, 3] {
             let other = run(threads);
-            assert_eq!(other.0, one.0, "{file} on {threads} threads: step summaries");
+            assert_eq!(
+                other.0, one.0,
+                "{file} on {threads} threads: step summaries"
+            );
             assert!(other.1 == one.1, "{file} on {threads} threads: body states");
         }
     }
