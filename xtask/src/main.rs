@@ -7,6 +7,7 @@ mod corpus;
 mod growth;
 mod hash;
 mod models;
+mod parallel;
 mod pinocchio;
 mod profile;
 mod snapshots;
@@ -57,6 +58,9 @@ subcommands:
                             chain length, a bundled model, or NAME-floating)
     growth [METHOD] [SHORT] [LONG] [ROUNDS]
                             time per call from a short to a long chain, the two interleaved
+    parallel [THREADS] [ROUNDS] [LENGTH...]
+                            one body's DCA split across threads against the serial DCA,
+                            by chain length (the crossover, the long-chain speed-up)
     speedup seeds [ROUNDS] [BUDGET...] | speedup crowd SCENE.json [ROUNDS] [STEPS]
                             adaptive against exact DCA steps, interleaved in one process
     profile dynamics|adaptive|exact|scene ...
@@ -80,6 +84,7 @@ fn main() -> ExitCode {
         Some("time") => run(time::run(&args[1..])),
         Some("growth") => run(growth::run(&args[1..])),
         Some("speedup") => run(speedup::run(&args[1..])),
+        Some("parallel") => run(parallel::run(&args[1..])),
         Some("profile") => run(profile::run(&args[1..])),
         Some("pinocchio") => run(pinocchio::run(&workspace_root())),
         Some("bench") => run(bench::run(&workspace_root(), &args[1..])),

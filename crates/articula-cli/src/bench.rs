@@ -4,11 +4,13 @@
 //! (default: about one second's worth, at least 100) run in up to 30 near-equal batches, each timed
 //! with [`Instant`]. The reported figure is the median over batches of the time per call.
 //!
+//! `--threads T` spreads one body's DCA solve over T threads from
+//! [`articula_dca::PARALLEL_DCA_MIN_BODIES`] bodies (serial below: the same bits for any T).
 //! `--states N` times [`Batch::forward_dynamics`] of `N` seeded states instead (seeds
 //! `SEED..SEED+N`), spread over `--threads`: one call solves all of them.
 
 use crate::{print_out, CliError, DynamicsArgs};
-use articula_dca::{forward_dynamics_slices, Batch, State};
+use articula_dca::{forward_dynamics_threads, Batch, State};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
@@ -121,7 +123,8 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
                 Ok(None)
             }
             (Some(m), _) => {
-                let qdd = forward_dynamics_slices(
+                // One body: DCA split over the threads from PARALLEL_DCA_MIN_BODIES bodies.
+                let qdd = forward_dynamics_threads(
                     &model,
                     &mut data,
                     black_box(&state.q),
@@ -129,6 +132,7 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
                     black_box(&state.tau),
                     &state.f_ext,
                     m,
+                    &threads,
                 )?;
                 black_box(qdd);
                 Ok(None)

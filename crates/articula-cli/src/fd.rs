@@ -70,11 +70,13 @@ impl Serialize for ByJoint<'_> {
 
 /// Runs `articula fd` on the pool of `--threads`.
 pub fn run(args: &FdArgs) -> Result<(), CliError> {
-    crate::threads(args.dynamics.threads)?.install(|| run_here(args))
+    let threads = crate::threads(args.dynamics.threads)?;
+    threads.install(|| run_here(args, &threads))
 }
 
-/// Runs `articula fd` on the current thread (or pool).
-fn run_here(args: &FdArgs) -> Result<(), CliError> {
+/// Runs `articula fd` on the current thread (or pool); one body's DCA split over `threads`
+/// from [`articula_dca::PARALLEL_DCA_MIN_BODIES`] bodies.
+fn run_here(args: &FdArgs, threads: &articula_dca::Threads) -> Result<(), CliError> {
     let (model, mut data) = args.dynamics.load()?;
     let state = load_state(args.state.as_deref(), &model)?;
     let method = args.dynamics.method;
@@ -134,7 +136,7 @@ fn run_here(args: &FdArgs) -> Result<(), CliError> {
         };
         return print_out(&out.to_json()?);
     };
-    let qdd = forward_dynamics_slices(
+    let qdd = articula_dca::forward_dynamics_threads(
         &model,
         &mut data,
         &state.q,
@@ -142,6 +144,7 @@ fn run_here(args: &FdArgs) -> Result<(), CliError> {
         &state.tau,
         &state.f_ext,
         exact,
+        threads,
     )?;
     let out = FdOutput {
         method: exact.name(),

@@ -144,6 +144,12 @@ pub(crate) struct DcaData {
     /// [`PREFETCH_ABOVE`] bytes. Below that they stay in cache from the main pass, and the
     /// prefetches would only cost instructions.
     pub prefetch: bool,
+    /// Whether the slots and the join scratch are laid out in banks for the parallel driver
+    /// (`parallel_dca.rs`): each subtree that one task solves has slots and scratch of its own
+    /// (see [`DcaData::build`]). The arithmetic is the same either way.
+    pub banked: bool,
+    /// Handles per scratch bank in `y` and `u` (the largest handle count of a node).
+    pub max_h: usize,
     /// Per node, what the passes read of it, in one compact record (see [`DNode`]).
     pub node: Vec<DNode>,
     /// Per handle (flat, `DNode::hoff`): its joint.
@@ -235,6 +241,9 @@ pub(crate) struct DNode {
     pub ja: u16,
     pub jb: u16,
     pub one_dof: bool,
+    /// A join: its scratch bank, at `ys · max_h` in `y` and `u` (0 unless
+    /// [`DcaData::banked`]).
+    pub ys: u16,
 }
 
 /// [`articula_model::NodeKind`] with 32-bit indices.
@@ -656,9 +665,25 @@ impl Data {
     /// needs indices beyond 32 bits.
     pub fn ensure_dca(&mut self, model: &Model) -> Result<(), DynamicsError> {
         if !self.dca.built {
-            self.dca = DcaData::build(model, self.dca.fused, self.dca.clusters)?;
+            self.dca = DcaData::build(model, self.dca.fused, self.dca.clusters, false)?;
         }
         Ok(())
+    }
+
+    /// [`Data::ensure_dca`] with the banked layout of the parallel driver (`parallel_dca.rs`):
+    /// rebuilds DCA's buffers once if they were laid out for the serial passes only. Returns
+    /// whether the layout is banked (a tree with gather nodes or leaf clusters never is).
+    pub(crate) fn ensure_dca_banked(&mut self, model: &Model) -> Result<bool, DynamicsError> {
+        let bankable = !model.assembly.has_gather() && self.dca.clustered.is_empty();
+        if !self.dca.built || (!self.dca.banked && bankable) {
+            self.dca = DcaData::build(
+                model,
+                self.dca.fused,
+                self.dca.clusters,
+                !model.assembly.has_gather(),
+            )?;
+        }
+        Ok(self.dca.banked)
     }
 
     /// The world wrench (about the world origin) of a force `force` (world coordinates) applied
@@ -711,6 +736,8 @@ impl DcaData {
             clusters: true,
             leaf_kinematics: false,
             prefetch: false,
+            banked: false,
+            max_h: 0,
             node: Vec::new(),
             hj: Vec::new(),
             from: Vec::new(),
@@ -744,8 +771,16 @@ impl DcaData {
 
     /// Every DCA buffer for `model`, laid out over its assembly tree; `fused` as in
     /// [`DcaData::fused`]. Every index DCA stores is 32-bit: a model whose tree needs more is
-    /// refused with [`DynamicsError::TooLarge`].
-    fn build(model: &Model, fused: bool, clusters: bool) -> Result<DcaData, DynamicsError> {
+    /// refused with [`DynamicsError::TooLarge`]. With `clusters`, DCA's tree folds small
+    /// subtrees into leaf clusters (`cluster.rs`). With `banked` (a tree without gather nodes
+    /// or leaf clusters: the model's own), the slots and the join scratch are laid out for the
+    /// parallel driver ([`crate::parallel_dca::banked_slots`]).
+    fn build(
+        model: &Model,
+        fused: bool,
+        clusters: bool,
+        banked: bool,
+    ) -> Result<DcaData, DynamicsError> {
         let n = model.bodies.len();
         let nv = model.nv;
         // DCA's own tree, with leaf clusters (`cluster.rs`).
@@ -783,7 +818,17 @@ impl DcaData {
             gslot[c] = k;
         }
         let gathered = tree.gathered.len();
-        let slots = gathered + (2 * tree.depth() + 2) * max_h;
+        // Per node its slot index (`2 δ + side`, or the banked one), their count, and per node
+        // its join scratch bank and the bank count.
+        // The parallel driver walks the model's assembly tree: not DCA's own with clusters.
+        let banked = banked && !tree.has_gather() && !absorbed.contains(&true);
+        let (si, nsi, ys, nys) = if banked {
+            crate::parallel_dca::banked_slots(tree, &side)
+        } else {
+            let si = tree.nodes.iter().zip(&side).map(|(nd, s)| 2 * nd.depth + s);
+            (si.collect(), 2 * tree.depth() + 2, vec![0; nn], 1)
+        };
+        let slots = gathered + nsi * max_h;
         // Every index DCA stores is 32-bit; this bounds them all (node and handle indices and
         // offsets, slots, cross-block offsets).
         let mb = max_h * (max_h - 1) / 2;
@@ -793,7 +838,8 @@ impl DcaData {
             n + 1,
             nv,
             slots,
-            (2 * tree.depth() + 2) * mb + layout.blocks,
+            nsi * mb + layout.blocks,
+            nys * max_h,
         ]
         .into_iter()
         .max()
@@ -809,15 +855,15 @@ impl DcaData {
         // in the slots). A join's stay for the back-substitution, in post-order after the leaves'
         // slots (a leaf's are read by its parent join only: the back-substitution multiplies by
         // a leaf's Φ in closed form, `LeafK`).
-        let mut blk = (2 * tree.depth() + 2) * mb;
+        let mut blk = nsi * mb;
         let mut joins = 0;
         let mut node = Vec::with_capacity(nn);
-        for (i, (nd, s)) in tree.nodes.iter().zip(&side).enumerate() {
+        for (i, nd) in tree.nodes.iter().enumerate() {
             let nh = nd.handles.len();
             let slot = u(if gslot[i] != usize::MAX {
                 gslot[i]
             } else {
-                gathered + (2 * nd.depth + s) * max_h
+                gathered + si[i] * max_h
             });
             let u16_of = |x: usize| u16::try_from(x).expect("more than 65535 handles on a node");
             let (kind, boff, jix, one_dof) = match nd.kind {
@@ -840,8 +886,8 @@ impl DcaData {
                     };
                     (kind, at.0, at.1, one_dof)
                 }
-                NodeKind::Body(b) => (DKind::Body(u(b)), (2 * nd.depth + s) * mb, 0, false),
-                NodeKind::Ground => (DKind::Ground, (2 * nd.depth + s) * mb, 0, false),
+                NodeKind::Body(b) => (DKind::Body(u(b)), si[i] * mb, 0, false),
+                NodeKind::Ground => (DKind::Ground, si[i] * mb, 0, false),
                 // One handle: no cross blocks.
                 NodeKind::Gather { body, first, count } => {
                     let kind = DKind::Gather {
@@ -857,7 +903,7 @@ impl DcaData {
                         first: u(first),
                         count: u(count),
                     };
-                    (kind, (2 * nd.depth + s) * mb, 0, false)
+                    (kind, si[i] * mb, 0, false)
                 }
             };
             node.push(DNode {
@@ -870,6 +916,7 @@ impl DcaData {
                 ja: u16_of(layout.ja[i]),
                 jb: u16_of(layout.jb[i]),
                 one_dof,
+                ys: u16_of(ys[i]),
             });
         }
         // Whether the main pass can run each body's kinematics at its parent's leaf (the
@@ -917,6 +964,8 @@ impl DcaData {
             prefetch: joins * (std::mem::size_of::<RevJoin>() + std::mem::size_of::<Mat6>())
                 > PREFETCH_ABOVE,
             leaf_kinematics,
+            banked,
+            max_h,
             node,
             hj: tree
                 .nodes
@@ -945,8 +994,8 @@ impl DcaData {
             arm: vec![DVec3::ZERO; n],
             clamped: 0,
             rev: vec![RevJoin::default(); joins],
-            y: vec![[[0.0; 6]; 6]; max_h],
-            u: vec![[[0.0; 6]; 6]; max_h],
+            y: vec![[[0.0; 6]; 6]; nys * max_h],
+            u: vec![[[0.0; 6]; 6]; nys * max_h],
             leaf,
             leaf_full,
         })

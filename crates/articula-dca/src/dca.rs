@@ -65,8 +65,9 @@ fn forward_with<A: Arith>(
 ) -> Result<(), DynamicsError> {
     if data.dca.leaf_kinematics {
         // Each body's kinematics at its leaf (see `DcaData::leaf_kinematics`).
-        main_pass::<A>(model, tau, f_ext, data, true, Some((q, qd)))?;
-        back_substitution::<A>(tau, data);
+        let nodes = 0..data.dca.node.len();
+        main_pass::<A>(model, tau, f_ext, data, true, Some((q, qd)), nodes.clone())?;
+        back_substitution::<A>(tau, data, nodes);
         return Ok(());
     }
     // DCA's leaves set the world inertias themselves.
@@ -107,9 +108,44 @@ fn dca_with<A: Arith>(
     data: &mut Data,
     bias: bool,
 ) -> Result<(), DynamicsError> {
-    main_pass::<A>(model, tau, f_ext, data, bias, None)?;
-    back_substitution::<A>(tau, data);
+    let nodes = 0..data.dca.node.len();
+    main_pass::<A>(model, tau, f_ext, data, bias, None, nodes.clone())?;
+    back_substitution::<A>(tau, data, nodes);
     Ok(())
+}
+
+articula_spatial::fma_dispatch! {
+    /// The kinematics loop of [`forward`] without the leaves' (the kinematics in a loop of
+    /// its own, with [`init_body`]), in the compilation `data.dca.fused` picks: what the
+    /// parallel driver (`parallel_dca.rs`) runs before its passes.
+    pub(crate) fn kinematics_loop(model: &Model, q: &[f64], qd: &[f64], data: &mut Data);
+    avx2_fma: data.dca.fused, Fused;
+    |A| crate::kinematics::kinematics_with(model, q, qd, data, false, init_body)
+}
+
+articula_spatial::fma_dispatch! {
+    /// [`dca`]'s main pass over the nodes `nodes` only (a post-order range whose children
+    /// outside it are done), on the kinematics already in `data` and with the buffers built:
+    /// the parallel driver's unit of work (`parallel_dca.rs`). Each node's arithmetic is the
+    /// same as in the whole pass.
+    pub(crate) fn main_range(
+        model: &Model,
+        tau: &[f64],
+        f_ext: &[SpatialForce],
+        data: &mut Data,
+        bias: bool,
+        nodes: std::ops::Range<usize>,
+    ) -> Result<(), DynamicsError>;
+    avx2_fma: data.dca.fused, Fused;
+    |A| main_pass::<A>(model, tau, f_ext, data, bias, None, nodes)
+}
+
+articula_spatial::fma_dispatch! {
+    /// [`dca`]'s back-substitution over the nodes `nodes` only, last to first (their parents
+    /// outside the range done): the parallel driver's unit of work (`parallel_dca.rs`).
+    pub(crate) fn back_range(tau: &[f64], data: &mut Data, nodes: std::ops::Range<usize>);
+    avx2_fma: data.dca.fused, Fused;
+    |A| back_substitution::<A>(tau, data, nodes)
 }
 
 /// Index of the cross block Φ_hk (h < k) among a node's: only the blocks above the diagonal
@@ -192,13 +228,17 @@ fn main_pass<A: Arith>(
     data: &mut Data,
     bias: bool,
     kinematics: Option<(&[f64], &[f64])>,
+    nodes: std::ops::Range<usize>,
 ) -> Result<(), DynamicsError> {
-    data.dca.clamped = 0;
+    if nodes.start == 0 && nodes.end == data.dca.node.len() {
+        // A whole pass (the parallel driver resets the count before its split passes).
+        data.dca.clamped = 0;
+    }
     let a_g = SpatialMotion::new(DVec3::ZERO, data.gravity);
     // X_{C←W} = xlt(origin), for the kinematics at the leaves.
     let x_cw = articula_spatial::SpatialTransform::xlt(data.origin);
     // DCA's own tree (`DcaData::tree`: the model's, with leaf clusters), one record per node.
-    for n in 0..data.dca.node.len() {
+    for n in nodes {
         // Φ's diagonal blocks and b, read only by the parent join, go to the node's slot.
         let nd = data.dca.node[n];
         let (ho, nh) = (nd.hoff as usize, nd.nh as usize);
@@ -566,6 +606,7 @@ fn join<A: Arith>(
     let (ja, jb) = (nc.ja as usize, nc.jb as usize);
     let (boa, bob, bc) = (na.boff as usize, nb.boff as usize, nc.boff as usize);
     let at = JoinAt {
+        ys: nc.ys as usize * d.max_h,
         hc,
         nha,
         nhb,
@@ -715,7 +756,7 @@ fn join<A: Arith>(
         for h in 0..nhc {
             let (bo, nh, j, i) = at.from(d, h);
             let g = cross_rows(&d.phi, bo, nh, j, i);
-            y_tilde(&mut d.y[h], &g, &l, &d.z[vo..vo + k], &zd);
+            y_tilde(&mut d.y[at.ys + h], &g, &l, &d.z[vo..vo + k], &zd);
         }
         rows = 6;
     }
@@ -732,6 +773,8 @@ fn join<A: Arith>(
 /// handle offset `hc`, A's and B's handle counts, the slots of A, B and C, the principal
 /// joint's index among A's and B's handles, and the block offsets of A, B and C.
 struct JoinAt {
+    /// Where its scratch starts in `y` and `u` (see `DNode::ys`).
+    ys: usize,
     hc: usize,
     nha: usize,
     nhb: usize,
@@ -778,16 +821,20 @@ fn c_blocks<A: Arith, const R: usize>(
         let (sh, ih) = d.from[at.hc + h];
         let ih = ih as usize;
         // The Gram products' left factor: U_h (one axis) or Ỹ_h.
-        let xh = if R == 5 { &d.u[h] } else { &d.y[h] };
+        let xh = if R == 5 {
+            &d.u[at.ys + h]
+        } else {
+            &d.y[at.ys + h]
+        };
         let old = match sh {
             Side::A => &dsrc[hoa - mid + ih],
             Side::B => &dsrc[hob - mid + ih],
         };
-        gram_sym_into::<A, R>(&mut ddst[top + h], xh, &d.y[h], old);
+        gram_sym_into::<A, R>(&mut ddst[top + h], xh, &d.y[at.ys + h], old);
         for kk in h + 1..nhc {
             let (sk, ik) = d.from[at.hc + kk];
             let ik = ik as usize;
-            let yk = &d.y[kk];
+            let yk = &d.y[at.ys + kk];
             let old = match (sh, sk) {
                 (Side::A, Side::A) => Some(&src[at.boa + ub(at.nha, ih, ik)].0),
                 (Side::B, Side::B) => Some(&src[at.bob + ub(at.nhb, ih, ik)].0),
@@ -1119,10 +1166,12 @@ fn y_all<A: Arith>(
         // Φ_jh by rows: the stored block's, or the stored Φ_hj's columns (a transpose).
         if j < i {
             let g = &d.phi[bo + ub(nh, j, i)].0;
-            y_reduced::<A>(&mut d.y[h], &mut d.u[h], g, pq, l);
+            let s = at.ys + h;
+            y_reduced::<A>(&mut d.y[s], &mut d.u[s], g, pq, l);
         } else {
             let g = d.phi[bo + ub(nh, i, j)].transpose().0;
-            y_reduced::<A>(&mut d.y[h], &mut d.u[h], &g, pq, l);
+            let s = at.ys + h;
+            y_reduced::<A>(&mut d.y[s], &mut d.u[s], &g, pq, l);
         }
     }
 }
@@ -1279,8 +1328,8 @@ fn prefetch_span<T: ?Sized>(x: &T) {
 /// and `w = L⁻¹ y`: `q̈ = D⁻¹ (Q − Zᵀ w)` (= `D⁻¹ (Q − Sᵀ V y)`) and the joint force
 /// `f = L⁻ᵀ (w + Z q̈)` (= `W y + V S D⁻¹ Q`).
 #[inline(always)]
-fn back_substitution<A: Arith>(tau: &[f64], data: &mut Data) {
-    for n in (0..data.dca.node.len()).rev() {
+fn back_substitution<A: Arith>(tau: &[f64], data: &mut Data, nodes: std::ops::Range<usize>) {
+    for n in nodes.rev() {
         // What the join PREFETCH nodes ahead reads, on its way from memory meanwhile (only
         // where those streams outgrow the caches: `DcaData::prefetch`). Its node record and
         // its children's are read here to find the rest, so they are asked for PREFETCH nodes

@@ -110,6 +110,13 @@ pub fn forward_dynamics_slices<'d>(
     };
     data.f_ext_c = f_ext;
     result?;
+    check_qdd(model, data)?;
+    Ok(&data.qdd)
+}
+
+/// `Ok` when every `q̈` in `data.qdd` is finite, else the error naming the first joint with
+/// one that is not.
+pub(crate) fn check_qdd(model: &Model, data: &Data) -> Result<(), DynamicsError> {
     // A plain scan first; the per-joint search (for the name) only when something is wrong.
     let all_finite = all_finite(&data.qdd);
     for (_, part) in model.joint_parts().filter(|_| !all_finite) {
@@ -123,5 +130,5 @@ pub fn forward_dynamics_slices<'d>(
             });
         }
     }
-    Ok(&data.qdd)
+    Ok(())
 }

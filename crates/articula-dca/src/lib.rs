@@ -65,6 +65,7 @@ mod kinematics;
 mod link;
 mod mass_matrix;
 mod momentum;
+mod parallel_dca;
 mod refine;
 mod small;
 mod state;
@@ -84,6 +85,7 @@ pub use inverse::{bias_forces, inverse_dynamics};
 pub use jacobian::ReferenceFrame;
 pub use kinematics::forward_kinematics;
 pub use mass_matrix::mass_matrix;
+pub use parallel_dca::{forward_dynamics_threads, PARALLEL_DCA_MIN_BODIES};
 pub use state::State;
 pub use threads::{Threads, ThreadsError};
 
@@ -105,6 +107,9 @@ pub mod internals {
     pub use crate::error::human_bytes;
     pub use crate::finite::all_finite;
     pub use crate::kinematics::{body_kinematics, computation_origin};
+    /// [`crate::forward_dynamics_threads`]' split DCA solve whatever the model's size (for
+    /// measuring the crossover: `cargo xtask parallel`).
+    pub use crate::parallel_dca::forward_split as forward_dynamics_split;
     pub use crate::state::SplitMix64;
     #[cfg(target_arch = "x86_64")]
     pub use articula_spatial::internals::Fused;

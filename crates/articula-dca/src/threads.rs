@@ -120,6 +120,40 @@ impl Threads {
             f(i, item);
         }
     }
+
+    /// `f(worker, first, run)` for contiguous runs of `items`, one per worker state of
+    /// `workers` (at most [`Threads::count`] runs, `⌈len / runs⌉` items each; `first` is the
+    /// index of the run's first item). For work that needs a scratch of its own per thread:
+    /// each run has its own worker, and with one thread (or one item) `workers[0]` takes every
+    /// item in one call. The partition depends only on `items.len()`, the count and
+    /// `workers.len()`; what a run computes must not depend on its worker's scratch contents
+    /// for the result to be the same for any count. Panics when `workers` is empty.
+    pub fn for_each_run<T: Send, W: Send>(
+        &self,
+        items: &mut [T],
+        workers: &mut [W],
+        f: impl Fn(&mut W, usize, &mut [T]) + Sync,
+    ) {
+        assert!(!workers.is_empty(), "for_each_run needs a worker");
+        #[cfg(feature = "parallel")]
+        {
+            let runs = self.count.min(workers.len());
+            if self.pool.is_some() && runs > 1 && items.len() > 1 {
+                use rayon::prelude::*;
+                let run = items.len().div_ceil(runs);
+                let f = &f;
+                self.install(|| {
+                    workers[..runs]
+                        .par_iter_mut()
+                        .zip(items.par_chunks_mut(run))
+                        .enumerate()
+                        .for_each(|(c, (w, chunk))| f(w, c * run, chunk))
+                });
+                return;
+            }
+        }
+        f(&mut workers[0], 0, items);
+    }
 }
 
 impl Default for Threads {

@@ -113,3 +113,69 @@ fn batch_reports_the_lowest_failing_state_and_solves_the_others() {
         articula_dca::ThreadsError::Zero
     );
 }
+
+/// One body's DCA split across threads (`forward_dynamics_threads`): a chain long enough to
+/// be split (fixed base; floating base, where the refinement runs too; a branched tree), the
+/// same bits on 1, 2 and 3 threads and on a reused workspace, and within rounding of the
+/// serial DCA and of ABA.
+#[test]
+fn one_body_dca_is_the_same_bits_on_any_thread_count() {
+    use articula_dca::{forward_dynamics_threads, PARALLEL_DCA_MIN_BODIES};
+    use articula_model::{LoadOptions, Model};
+    let n = PARALLEL_DCA_MIN_BODIES + 77;
+    let chain = articula_testkit::chain_urdf(n);
+    let models = [
+        articula_testkit::chain(n),
+        Model::from_urdf_str(&chain, &LoadOptions::default().with_floating_base(true)).unwrap(),
+    ];
+    for model in &models {
+        assert!(model.bodies.len() >= PARALLEL_DCA_MIN_BODIES);
+        for seed in [5, 6] {
+            let mut s = State::random(model, seed, 1.0);
+            if seed % 2 == 0 {
+                s.randomize_forces(seed, 0.5);
+            }
+            let solve = |threads: usize, data: &mut Data| {
+                forward_dynamics_threads(
+                    model,
+                    data,
+                    &s.q,
+                    &s.qd,
+                    &s.tau,
+                    &s.f_ext,
+                    Method::Dca,
+                    &Threads::new(threads).unwrap(),
+                )
+                .unwrap()
+                .to_vec()
+            };
+            let mut data = Data::new(model);
+            let one = solve(1, &mut data);
+            for threads in [2, 3, 1, 2] {
+                assert_eq!(
+                    bits(&solve(threads, &mut data)),
+                    bits(&one),
+                    "floating={} seed {seed} on {threads} threads",
+                    model.floating_base
+                );
+            }
+            assert_eq!(bits(&solve(2, &mut Data::new(model))), bits(&one));
+            for method in [Method::Dca, Method::Aba] {
+                let reference = forward_dynamics(model, &mut Data::new(model), &s, method)
+                    .unwrap()
+                    .to_vec();
+                let scale = reference.iter().fold(1.0f64, |m, x| m.max(x.abs()));
+                let diff = reference
+                    .iter()
+                    .zip(&one)
+                    .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+                assert!(
+                    diff <= 1e-9 * scale,
+                    "floating={} {method:?}: {:e}",
+                    model.floating_base,
+                    diff / scale
+                );
+            }
+        }
+    }
+}

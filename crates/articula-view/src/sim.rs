@@ -33,7 +33,7 @@ use crate::scene_file::LoadedScene;
 use crate::visibility::{BodyView, Classifier, Placed, PosePlan, Visibility};
 use crate::volumes::BodyVolumes;
 use articula_adaptive::{Adaptive, AdaptiveError, HybridContact, Scratch, Settings};
-use articula_dca::{DynamicsError, State};
+use articula_dca::{ContactSettings, DynamicsError, State, Threads};
 use articula_model::{JointKind, Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SymMat6};
 use glam::{DMat3, DQuat, DVec3};
@@ -233,6 +233,11 @@ pub struct SimBody {
     pub rigid: Option<(SpatialInertia, SymMat6)>,
     /// Whether its hybrid body was set at this step's re-selection.
     changed: bool,
+    /// Whether this re-selection's exact solve ran (a body surely outside the view skips it:
+    /// its weights are all 0).
+    solved: bool,
+    /// Its assembly tree's node metrics at the last re-selection (empty when unweighted).
+    metrics: Vec<f64>,
     /// With a floor: its contact workspace (the last step's figures in
     /// `contact.contact.stats`).
     pub contact: Option<HybridContact>,
@@ -362,26 +367,21 @@ pub struct SceneSim<'s> {
     /// Per model: a bound on the distance from the root body's origin to any point of any
     /// link's bounding sphere in every configuration ([`whole_reach`]).
     whole_reach: Vec<Option<f64>>,
-    /// Per body: whether this re-selection's exact solve ran (bodies surely outside the view
-    /// skip it: their weights are all 0).
-    solved: Vec<bool>,
     /// Per model: the pose springs, in runs of consecutive coordinates.
     springs: Vec<SpringRuns>,
     classifier: Classifier,
-    /// Per model: the per-call buffers every body's adaptive workspace shares
-    /// ([`Adaptive::step_with`]: one copy stays in the processor's caches, not one per body).
-    scratch: Vec<Scratch>,
-    /// Whether the bodies use `scratch` (default) or their own buffers (the reference).
+    /// The threads the bodies' steps run on ([`SceneSim::set_threads`]; one by default).
+    threads: Threads,
+    /// One per thread: its buffers (see [`Worker`]).
+    workers: Vec<Worker>,
+    /// Whether the bodies use their worker's `scratch` (default) or their own buffers (the
+    /// reference).
     shared: bool,
-    metrics: Vec<Vec<f64>>,
     /// The last re-selection's global queue and its heap (buffers reused).
     selection: GlobalSelection,
     heap: BinaryHeap<Entry>,
     /// Per body: how far it can move before the next re-selection (classification margins).
     margins: Vec<f64>,
-    /// The dense external wrenches of one body's exact solve (its metrics).
-    fdense: Vec<SpatialForce>,
-    wanted: Vec<bool>,
     last: SceneStep,
     /// Internal degrees of freedom active at the last step (0 before the first).
     last_active: usize,
@@ -392,6 +392,58 @@ pub struct SceneSim<'s> {
     /// Per push: where its point was when it last acted (the work of that step is added once
     /// the point has moved).
     push_from: Vec<Option<DVec3>>,
+}
+
+/// What one thread needs to step its share of the bodies (a contiguous run of them): the
+/// per-call buffers the adaptive workspaces of its bodies share, per model
+/// ([`Adaptive::step_with`]: one copy stays in the core's caches, not one per body), the dense
+/// external wrenches of an exact solve, the re-selection's wanted nodes, and this step's sums
+/// over its bodies with its first error.
+struct Worker {
+    scratch: Vec<Scratch>,
+    fdense: Vec<SpatialForce>,
+    wanted: Vec<bool>,
+    active: usize,
+    contacts: usize,
+    penetration: f64,
+    error: Option<(usize, ViewError)>,
+}
+
+impl Worker {
+    fn new(scene: &LoadedScene) -> Worker {
+        Worker {
+            scratch: scene
+                .models
+                .iter()
+                .map(|m| Scratch::new(&m.model))
+                .collect(),
+            fdense: Vec::new(),
+            wanted: Vec::new(),
+            active: 0,
+            contacts: 0,
+            penetration: 0.0,
+            error: None,
+        }
+    }
+
+    /// Records body `i`'s error unless the run had one already (runs go in body order).
+    fn fail(&mut self, i: usize, e: ViewError) {
+        self.error.get_or_insert((i, e));
+    }
+}
+
+/// The error of the lowest-numbered body among the workers' (the same for any thread
+/// count: every body is processed and each run keeps its first), clearing them all.
+fn first_error(workers: &mut [Worker]) -> Result<(), ViewError> {
+    let mut first: Option<(usize, ViewError)> = None;
+    for w in workers {
+        if let Some((i, e)) = w.error.take() {
+            if first.as_ref().is_none_or(|(j, _)| i < *j) {
+                first = Some((i, e));
+            }
+        }
+    }
+    first.map_or(Ok(()), |(_, e)| Err(e))
 }
 
 /// The mechanical energy of a scene ([`SceneSim::energy`]), in joules.
@@ -458,6 +510,8 @@ impl<'s> SceneSim<'s> {
                     unweighted: false,
                     rigid: None,
                     changed: false,
+                    solved: false,
+                    metrics: Vec::new(),
                     contact: scene.ground.map(|_| HybridContact::new(model)),
                 }
             })
@@ -510,20 +564,13 @@ impl<'s> SceneSim<'s> {
         Ok(SceneSim {
             reach,
             whole_reach,
-            solved: Vec::new(),
             springs,
-            scratch: scene
-                .models
-                .iter()
-                .map(|m| Scratch::new(&m.model))
-                .collect(),
+            threads: Threads::serial(),
+            workers: vec![Worker::new(scene)],
             shared: true,
-            metrics: vec![Vec::new(); bodies.len()],
-            fdense: Vec::new(),
             selection,
             heap,
             margins: Vec::new(),
-            wanted: Vec::new(),
             views: Vec::new(),
             classifier: Classifier::new(&scene.visibility),
             bodies,
@@ -553,6 +600,23 @@ impl<'s> SceneSim<'s> {
     #[cfg(test)]
     pub(crate) fn set_shared_scratch(&mut self, on: bool) {
         self.shared = on;
+    }
+
+    /// Steps the bodies on `threads` (default: one thread). The bodies are split into one
+    /// contiguous run per thread, each with buffers of its own; the global joint budget stays
+    /// one choice over every body, made on the calling thread. Every body's step does the
+    /// same arithmetic whatever the run it is in, so **the scene's state is the same bits for
+    /// any thread count**.
+    pub fn set_threads(&mut self, threads: Threads) {
+        let scene = self.scene;
+        self.workers
+            .resize_with(threads.count(), || Worker::new(scene));
+        self.threads = threads;
+    }
+
+    /// The threads the bodies are stepped on.
+    pub fn threads(&self) -> &Threads {
+        &self.threads
     }
 
     /// Simulated time (s).
@@ -610,31 +674,6 @@ impl<'s> SceneSim<'s> {
         );
     }
 
-    /// Body `i`'s exact solve at its current state and forces (the metrics' accelerations and
-    /// the kinematics the classification and the next hybrid body reuse).
-    fn exact_solve(&mut self, i: usize) -> Result<(), ViewError> {
-        let scene = self.scene;
-        let b = &mut self.bodies[i];
-        let model = &scene.models[b.model].model;
-        let (s, ad) = (&b.state, &mut b.adaptive);
-        // The exact solve takes the wrenches as a dense array (empty: none).
-        self.fdense.clear();
-        if !b.forces.is_empty() {
-            self.fdense.resize(model.bodies.len(), SpatialForce::ZERO);
-            for &(i, f) in &b.forces {
-                self.fdense[i] = f;
-            }
-        }
-        let f_ext = &self.fdense;
-        if self.shared {
-            let scratch = &mut self.scratch[b.model];
-            ad.exact_solve_with(scratch, model, &s.q, &s.qd, &s.tau, f_ext)
-        } else {
-            ad.exact_solve(model, &s.q, &s.qd, &s.tau, f_ext)
-        }
-        .map_err(|e| body_error(scene, i, e))
-    }
-
     /// Advances the scene by one step. The bodies' states are public: one whose model index,
     /// `q`, `q̇` or `τ` length no longer fits its model is an error naming it (non-finite
     /// numbers are the dynamics' errors), never a panic.
@@ -677,6 +716,7 @@ impl<'s> SceneSim<'s> {
                 Err(k) => b.forces.insert(k, (p.link_body, w)),
             }
         }
+        let (threads, shared) = (self.threads.clone(), self.shared);
         if reselect {
             // Every body's exact solve first: its accelerations give the metrics once the
             // weights are known, and its kinematics the link poses the camera classifies (no
@@ -687,117 +727,83 @@ impl<'s> SceneSim<'s> {
             // kinematics give the classifier its poses.
             self.set_margins();
             let frustum = scene.camera.at(t).frustum();
-            self.solved.clear();
-            for i in 0..self.bodies.len() {
-                let b = &self.bodies[i];
-                let (plan, model) = (&self.plans[b.model], &scene.models[b.model].model);
-                let outside = self.whole_reach[b.model].is_some_and(|r| {
-                    let root = plan.pose(model, &b.state.q, 0).1;
-                    frustum.nearest_plane_distance(root) < -(r + self.margins[i])
-                });
-                if outside {
-                    let b = &mut self.bodies[i];
-                    plan.poses(model, &b.state.q, &mut b.poses);
-                } else {
-                    self.exact_solve(i)?;
-                    // The solve's kinematics left in the workspace: each body's world pose.
-                    let b = &mut self.bodies[i];
-                    let data = &b.adaptive.data;
-                    b.poses.clear();
-                    b.poses.extend((0..data.x.len()).map(|j| data.body_pose(j)));
+            let (plans, whole_reach, margins) = (&self.plans, &self.whole_reach, &self.margins);
+            threads.for_each_run(&mut self.bodies, &mut self.workers, |w, first, run| {
+                for (j, b) in run.iter_mut().enumerate() {
+                    let i = first + j;
+                    let (plan, model) = (&plans[b.model], &scene.models[b.model].model);
+                    let outside = whole_reach[b.model].is_some_and(|r| {
+                        let root = plan.pose(model, &b.state.q, 0).1;
+                        frustum.nearest_plane_distance(root) < -(r + margins[i])
+                    });
+                    b.solved = !outside;
+                    if outside {
+                        plan.poses(model, &b.state.q, &mut b.poses);
+                    } else if let Err(e) = exact_solve(scene, shared, b, i, w) {
+                        w.fail(i, e);
+                    } else {
+                        // The solve's kinematics left in the workspace: each body's world pose.
+                        let data = &b.adaptive.data;
+                        b.poses.clear();
+                        b.poses.extend((0..data.x.len()).map(|j| data.body_pose(j)));
+                    }
                 }
-                self.solved.push(!outside);
-            }
+            });
+            first_error(&mut self.workers)?;
             self.classify();
             let mut link_classes = [0; 3];
             let mut classes = [0; 3];
-            for ((b, view), metrics) in self
-                .bodies
-                .iter_mut()
-                .zip(&self.views)
-                .zip(&mut self.metrics)
-            {
-                let model = &scene.models[b.model].model;
+            for (b, view) in self.bodies.iter_mut().zip(&self.views) {
                 b.unweighted = view.joint_weights.iter().all(|w| *w == 0.0);
                 for c in &view.links {
                     link_classes[*c as usize] += 1;
                 }
                 classes[view.summary() as usize] += 1;
-                metrics.clear();
-                if b.unweighted {
-                    continue;
-                }
-                metrics.resize(model.assembly.nodes.len(), 0.0);
             }
-            for i in 0..self.bodies.len() {
-                if self.bodies[i].unweighted {
-                    continue;
+            let views = &self.views;
+            threads.for_each_run(&mut self.bodies, &mut self.workers, |w, first, run| {
+                for (j, b) in run.iter_mut().enumerate() {
+                    let i = first + j;
+                    b.metrics.clear();
+                    if b.unweighted {
+                        continue;
+                    }
+                    let model = &scene.models[b.model].model;
+                    b.metrics.resize(model.assembly.nodes.len(), 0.0);
+                    if !b.solved {
+                        // (Not reached: a body outside the view classifies invisible; a
+                        // safeguard against rounding at the frustum's edge.)
+                        if let Err(e) = exact_solve(scene, shared, b, i, w) {
+                            w.fail(i, e);
+                            continue;
+                        }
+                    }
+                    let weights = &views[i].joint_weights;
+                    b.adaptive
+                        .scaled_node_metrics(model, weights, &mut b.metrics);
                 }
-                if !self.solved[i] {
-                    // (Not reached: a body outside the view classifies invisible; a safeguard
-                    // against rounding at the frustum's edge.)
-                    self.exact_solve(i)?;
-                }
-                let b = &self.bodies[i];
-                let model = &scene.models[b.model].model;
-                b.adaptive.scaled_node_metrics(
-                    model,
-                    &self.views[i].joint_weights,
-                    &mut self.metrics[i],
-                );
-            }
-            let (bodies, metrics) = (&self.bodies, &self.metrics);
+            });
+            first_error(&mut self.workers)?;
+            let bodies = &self.bodies;
             global_selection_into(
                 &mut self.selection,
                 &mut self.heap,
                 bodies.len(),
                 |b| &scene.models[bodies[b].model].model,
-                |b| metrics[b].as_slice(),
+                |b| bodies[b].metrics.as_slice(),
                 scene.budget,
                 scene.tolerance,
             );
-            let sel = &self.selection;
-            for (i, b) in self.bodies.iter_mut().enumerate() {
-                b.allocation = sel.allocation[i];
-                b.error = sel.error[i];
-                // Re-select only when the hybrid body must change: the joints the queue chose
-                // are not exactly the active ones (the first step always re-selects). An
-                // unchanged hybrid body has its other joints locked at zero velocity already.
-                let model = &scene.models[b.model].model;
-                let tree = &model.assembly;
-                self.wanted.clear();
-                self.wanted.resize(tree.nodes.len(), false);
-                for &n in &sel.popped[i] {
-                    self.wanted[n] = true;
-                }
-                let same = (0..model.bodies.len())
-                    .all(|j| b.adaptive.is_active(model, j) == self.wanted[tree.joint_node[j]]);
-                let needed = self.steps == 0 || !same;
-                if needed {
-                    // (Its own re-selection, should the workspace ever run one, keeps the share.)
-                    let settings = Settings {
-                        budget: Some(b.allocation),
-                        tolerance: None,
-                        reselect_every: u64::MAX,
-                        velocity_tolerance: None,
-                    };
-                    b.adaptive
-                        .set_settings(settings)
-                        .map_err(|e| model_error(scene, b.model, e))?;
-                    // Exactly the chosen joints stay free; the others are locked by
-                    // momentum-keeping impulses (no second articulated pass).
-                    let wanted = |j: usize| self.wanted[tree.joint_node[j]];
-                    let (ad, state) = (&mut b.adaptive, &mut b.state);
-                    if self.shared {
-                        ad.set_active_with(&mut self.scratch[b.model], model, state, wanted)
-                    } else {
-                        ad.set_active(model, state, wanted)
+            let (sel, first_step) = (&self.selection, self.steps == 0);
+            threads.for_each_run(&mut self.bodies, &mut self.workers, |w, first, run| {
+                for (j, b) in run.iter_mut().enumerate() {
+                    let i = first + j;
+                    if let Err(e) = apply_selection(scene, shared, sel, first_step, b, i, w) {
+                        w.fail(i, e);
                     }
-                    .map_err(|e| body_error(scene, i, e))?;
-                    b.rigid = None;
                 }
-                b.changed = needed;
-            }
+            });
+            first_error(&mut self.workers)?;
             self.last = SceneStep {
                 reselected: true,
                 active_total: 0,
@@ -807,55 +813,26 @@ impl<'s> SceneSim<'s> {
                 ..SceneStep::default()
             };
         }
-        let mut total = 0;
-        let (mut contacts, mut penetration) = (0, 0.0f64);
         let contact_settings = scene.contact_settings();
-        for (i, b) in self.bodies.iter_mut().enumerate() {
-            let model = &scene.models[b.model].model;
-            if !reselect {
-                spring_torques(&self.springs[b.model], &mut b.state);
-            }
-            let reselects = std::mem::take(&mut b.changed);
-            if !reselects && b.rigid.is_some() {
-                b.rigid_step(model, scene.gravity, scene.dt)
-                    .map_err(|e| body_error(scene, i, e.into()))?;
-                continue;
-            }
-            let (ad, state, forces) = (&mut b.adaptive, &mut b.state, &b.forces);
-            if let Some(hc) = &mut b.contact {
-                // On the floor: the hybrid body's contact step (its own buffers).
-                let r = ad.step_with_contact(model, state, scene.dt, forces, hc, &contact_settings);
-                contacts += hc.contact.stats.contacts;
-                penetration = penetration.max(hc.contact.stats.max_penetration);
-                r
-            } else if self.shared {
-                let scratch = &mut self.scratch[b.model];
-                ad.step_with_forces_and_scratch(scratch, model, state, scene.dt, forces)
-            } else {
-                ad.step_with_forces(model, state, scene.dt, forces)
-            }
-            .map_err(|e| body_error(scene, i, e))?;
-            b.active = b
-                .adaptive
-                .active_dofs(model)
-                .saturating_sub(if model.floating_base { 6 } else { 0 });
-            total += b.active;
-            // Every internal joint locked (at zero velocity): from now on, one rigid body
-            // (without a floor: the rigid step knows no contact).
-            b.rigid = if b.contact.is_none()
-                && b.active == 0
-                && b.state.qd[6.min(b.state.qd.len())..]
-                    .iter()
-                    .all(|x| *x == 0.0)
-            {
-                match b.rigid {
-                    Some(r) if !reselects => Some(r),
-                    _ => b.composite_in_root(model, &self.plans[b.model]),
+        let (springs, plans) = (&self.springs, &self.plans);
+        threads.for_each_run(&mut self.bodies, &mut self.workers, |w, first, run| {
+            for (j, b) in run.iter_mut().enumerate() {
+                let i = first + j;
+                if !reselect {
+                    spring_torques(&springs[b.model], &mut b.state);
                 }
-            } else {
-                None
-            };
+                if let Err(e) = step_body(scene, shared, plans, &contact_settings, b, i, w) {
+                    w.fail(i, e);
+                }
+            }
+        });
+        let (mut total, mut contacts, mut penetration) = (0, 0, 0.0f64);
+        for w in &mut self.workers {
+            total += std::mem::take(&mut w.active);
+            contacts += std::mem::take(&mut w.contacts);
+            penetration = penetration.max(std::mem::take(&mut w.penetration));
         }
+        first_error(&mut self.workers)?;
         self.steps += 1;
         self.last_active = total;
         let mut out = self.last.clone();
@@ -997,6 +974,148 @@ impl<'s> SceneSim<'s> {
             })
             .collect()
     }
+}
+
+/// Body `i`'s (`b`) share of the global selection `sel`: its allocation and error, and,
+/// when the joints the queue chose are not exactly its active ones (or at the first step), its
+/// new hybrid body (the joints leaving it locked by momentum-keeping impulses).
+fn apply_selection(
+    scene: &LoadedScene,
+    shared: bool,
+    sel: &GlobalSelection,
+    first_step: bool,
+    b: &mut SimBody,
+    i: usize,
+    w: &mut Worker,
+) -> Result<(), ViewError> {
+    b.allocation = sel.allocation[i];
+    b.error = sel.error[i];
+    // Re-select only when the hybrid body must change: the joints the queue chose are not
+    // exactly the active ones (the first step always re-selects). An unchanged hybrid body has
+    // its other joints locked at zero velocity already.
+    let model = &scene.models[b.model].model;
+    let tree = &model.assembly;
+    w.wanted.clear();
+    w.wanted.resize(tree.nodes.len(), false);
+    for &n in &sel.popped[i] {
+        w.wanted[n] = true;
+    }
+    let wanted = &w.wanted;
+    let same = (0..model.bodies.len())
+        .all(|j| b.adaptive.is_active(model, j) == wanted[tree.joint_node[j]]);
+    let needed = first_step || !same;
+    b.changed = needed;
+    if !needed {
+        return Ok(());
+    }
+    // (Its own re-selection, should the workspace ever run one, keeps the share.)
+    let settings = Settings {
+        budget: Some(b.allocation),
+        tolerance: None,
+        reselect_every: u64::MAX,
+        velocity_tolerance: None,
+    };
+    b.adaptive
+        .set_settings(settings)
+        .map_err(|e| model_error(scene, b.model, e))?;
+    // Exactly the chosen joints stay free; the others are locked by momentum-keeping
+    // impulses (no second articulated pass).
+    let wanted = |j: usize| wanted[tree.joint_node[j]];
+    let (ad, state) = (&mut b.adaptive, &mut b.state);
+    if shared {
+        ad.set_active_with(&mut w.scratch[b.model], model, state, wanted)
+    } else {
+        ad.set_active(model, state, wanted)
+    }
+    .map_err(|e| body_error(scene, i, e))?;
+    b.rigid = None;
+    Ok(())
+}
+
+/// One step of body `i` (`b`, its pose springs' torques set): as one rigid body while every
+/// internal joint stays locked, else its hybrid step (with a floor, its contact step); adds
+/// its active joints and contacts to worker `w`'s sums.
+fn step_body(
+    scene: &LoadedScene,
+    shared: bool,
+    plans: &[PosePlan],
+    contact_settings: &ContactSettings,
+    b: &mut SimBody,
+    i: usize,
+    w: &mut Worker,
+) -> Result<(), ViewError> {
+    let model = &scene.models[b.model].model;
+    let reselects = std::mem::take(&mut b.changed);
+    if !reselects && b.rigid.is_some() {
+        return b
+            .rigid_step(model, scene.gravity, scene.dt)
+            .map_err(|e| body_error(scene, i, e.into()));
+    }
+    let (ad, state, forces) = (&mut b.adaptive, &mut b.state, &b.forces);
+    if let Some(hc) = &mut b.contact {
+        // On the floor: the hybrid body's contact step (its own buffers).
+        let r = ad.step_with_contact(model, state, scene.dt, forces, hc, contact_settings);
+        w.contacts += hc.contact.stats.contacts;
+        w.penetration = w.penetration.max(hc.contact.stats.max_penetration);
+        r
+    } else if shared {
+        let scratch = &mut w.scratch[b.model];
+        ad.step_with_forces_and_scratch(scratch, model, state, scene.dt, forces)
+    } else {
+        ad.step_with_forces(model, state, scene.dt, forces)
+    }
+    .map_err(|e| body_error(scene, i, e))?;
+    b.active = b
+        .adaptive
+        .active_dofs(model)
+        .saturating_sub(if model.floating_base { 6 } else { 0 });
+    w.active += b.active;
+    // Every internal joint locked (at zero velocity): from now on, one rigid body (without a
+    // floor: the rigid step knows no contact).
+    b.rigid = if b.contact.is_none()
+        && b.active == 0
+        && b.state.qd[6.min(b.state.qd.len())..]
+            .iter()
+            .all(|x| *x == 0.0)
+    {
+        match b.rigid {
+            Some(r) if !reselects => Some(r),
+            _ => b.composite_in_root(model, &plans[b.model]),
+        }
+    } else {
+        None
+    };
+    Ok(())
+}
+
+/// Body `i`'s (`b`) exact solve at its current state and forces (the metrics' accelerations
+/// and the kinematics the classification and the next hybrid body reuse), with the buffers
+/// of worker `w` (`shared`) or its own.
+fn exact_solve(
+    scene: &LoadedScene,
+    shared: bool,
+    b: &mut SimBody,
+    i: usize,
+    w: &mut Worker,
+) -> Result<(), ViewError> {
+    let model = &scene.models[b.model].model;
+    let (s, ad) = (&b.state, &mut b.adaptive);
+    // The exact solve takes the wrenches as a dense array (empty: none).
+    w.fdense.clear();
+    if !b.forces.is_empty() {
+        w.fdense.resize(model.bodies.len(), SpatialForce::ZERO);
+        for &(i, f) in &b.forces {
+            w.fdense[i] = f;
+        }
+    }
+    let f_ext = &w.fdense;
+    if shared {
+        let scratch = &mut w.scratch[b.model];
+        ad.exact_solve_with(scratch, model, &s.q, &s.qd, &s.tau, f_ext)
+    } else {
+        ad.exact_solve(model, &s.q, &s.qd, &s.tau, f_ext)
+    }
+    .map_err(|e| body_error(scene, i, e))
 }
 
 /// An upper bound on the distance from the root body's origin to any point of any link's

@@ -1,0 +1,418 @@
+//! One body's DCA across cores (docs/design.md#dca, docs/scaling.md): the two sides of a join
+//! are independent subassemblies, so the main pass builds them on two threads and joins them
+//! on one, and the back-substitution hands each side its handle forces and solves the two
+//! sides on two threads.
+//!
+//! The driver splits the assembly tree's top [`SPLIT_DEPTH`] levels with `rayon::join`; each
+//! node at depth [`SPLIT_DEPTH`] (or a leaf above it) is the root of a subtree that one task
+//! solves serially, by the same per-node code as the serial passes ([`crate::dca`]'s
+//! `main_range` and `back_range`). In post-order a subtree is a contiguous node range. Every
+//! node's arithmetic is the one of the serial pass, reading only its children's outputs (main
+//! pass) or its parent's (back-substitution), so the result is the same bits for any thread
+//! count and any schedule.
+//!
+//! The serial passes keep the slots of the diagonal blocks, biases and handle forces per
+//! (depth, side), reused from one subtree to the next; tasks running side by side need their
+//! own. The banked layout ([`banked_slots`]) gives each of the top nodes a slot and a join
+//! scratch of its own, and each subtree below them a bank of per-(depth, side) slots and a
+//! scratch; it is built by the first parallel call on a workspace ([`Data::ensure_dca_banked`]).
+
+use crate::{Data, DynamicsError, Threads};
+use articula_model::{AssemblyTree, Model};
+use articula_spatial::SpatialForce;
+
+/// Levels of the assembly tree split across tasks: up to `2^SPLIT_DEPTH` subtrees, each solved
+/// serially by one task (the grain), so that up to 8 threads have work and the work-stealing
+/// pool evens out unequal subtrees.
+pub(crate) const SPLIT_DEPTH: usize = 3;
+
+/// The smallest model (bodies) whose DCA [`forward_dynamics_threads`] splits across threads:
+/// below it the split's cost (waking a thread, a few µs, and the banked slots' wider working
+/// set) outweighs half the solve, and the serial DCA of [`crate::forward_dynamics`] runs
+/// whatever the thread count. Measured by `cargo xtask parallel` (docs/scaling.md).
+pub const PARALLEL_DCA_MIN_BODIES: usize = 2_000;
+
+/// The banked slot layout of `tree` (no gather node; `side[n]`: 0 for a join's parent side,
+/// 1 for its child side): per node its slot index (its handles' slots are at `index · max_h`),
+/// the index count, per node its join scratch bank, and the bank count.
+///
+/// The top nodes (depth below [`SPLIT_DEPTH`]) each get a slot and a scratch bank of their
+/// own, numbered in reverse post-order (a parent before its children, so a join's slot lies
+/// below its children's, as `dca::c_blocks` needs); below them, subtree `t` (rooted at depth
+/// [`SPLIT_DEPTH`]) has slots `top + t · (2 D + 2) + 2 δ + side` (D the tree's depth) and
+/// scratch bank `top + t`.
+pub(crate) fn banked_slots(
+    tree: &AssemblyTree,
+    side: &[usize],
+) -> (Vec<usize>, usize, Vec<usize>, usize) {
+    let nn = tree.nodes.len();
+    let per = 2 * tree.depth() + 2;
+    let (mut si, mut ys) = (vec![0; nn], vec![0; nn]);
+    let mut top = 0;
+    for n in (0..nn).rev() {
+        if tree.nodes[n].depth < SPLIT_DEPTH {
+            si[n] = top;
+            ys[n] = top;
+            top += 1;
+        }
+    }
+    // Reverse post-order: a node after its parent, whose bank is then known.
+    let mut bank = vec![0; nn];
+    let mut banks = 0;
+    for n in (0..nn).rev() {
+        let nd = &tree.nodes[n];
+        if nd.depth < SPLIT_DEPTH {
+            continue;
+        }
+        bank[n] = if nd.depth == SPLIT_DEPTH {
+            banks += 1;
+            banks - 1
+        } else {
+            bank[nd.parent.expect("a node below the root has a parent")]
+        };
+        si[n] = top + bank[n] * per + 2 * nd.depth + side[n];
+        ys[n] = top + bank[n];
+    }
+    (si, top + banks * per, ys, top + banks)
+}
+
+/// Forward dynamics of one body, DCA split across the threads of `threads` when the model has
+/// at least [`PARALLEL_DCA_MIN_BODIES`] bodies (and no gather node); otherwise, or for another
+/// `method`, exactly [`crate::forward_dynamics_slices`]. Returns `q̈` (also in `data.qdd`).
+///
+/// Whether the solve is split depends only on the model and the method, never on the thread
+/// count, and a split solve does every node's arithmetic as the serial pass does: **the result
+/// is the same bits for any thread count** (1 included). A split solve runs the kinematics in a
+/// loop of their own before the passes (the serial DCA runs each body's at its parent's leaf),
+/// so it may differ from [`crate::forward_dynamics_slices`] in the last bits. The first split
+/// call on a workspace lays its DCA buffers out for the split (once); later calls allocate
+/// nothing but the pool's bookkeeping.
+#[allow(clippy::too_many_arguments)]
+pub fn forward_dynamics_threads<'d>(
+    model: &Model,
+    data: &'d mut Data,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+    method: crate::Method,
+    threads: &Threads,
+) -> Result<&'d [f64], DynamicsError> {
+    let split = method == crate::Method::Dca
+        && model.bodies.len() >= PARALLEL_DCA_MIN_BODIES
+        && !model.assembly.has_gather();
+    if !split {
+        return crate::forward_dynamics_slices(model, data, q, qd, tau, f_ext, method);
+    }
+    forward_split(model, data, q, qd, tau, f_ext, threads)
+}
+
+/// [`forward_dynamics_threads`]' split solve whatever the model's size (a tree with gather
+/// nodes runs the serial passes on the kinematics loop).
+pub fn forward_split<'d>(
+    model: &Model,
+    data: &'d mut Data,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+    threads: &Threads,
+) -> Result<&'d [f64], DynamicsError> {
+    crate::check_inputs(model, q, qd, tau, f_ext)?;
+    data.origin = crate::kinematics::computation_origin(model, q);
+    crate::kinematics::forces_to_computation_frame(f_ext, data);
+    let f_ext = std::mem::take(&mut data.f_ext_c);
+    let result = solve(model, q, qd, tau, &f_ext, data, threads);
+    data.f_ext_c = f_ext;
+    result?;
+    crate::forward::check_qdd(model, data)?;
+    Ok(&data.qdd)
+}
+
+/// The kinematics, the split passes and, where the serial DCA takes it, the refinement.
+fn solve(
+    model: &Model,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+    data: &mut Data,
+    threads: &Threads,
+) -> Result<(), DynamicsError> {
+    let banked = data.ensure_dca_banked(model)?;
+    crate::dca::kinematics_loop(model, q, qd, data);
+    data.dca.clamped = 0;
+    // DCA's own tree: the model's assembly tree whenever the layout is banked (a tree with
+    // leaf clusters or gather nodes never is, and runs the serial passes).
+    let nodes = data.dca.node.len();
+    if banked && threads.count() > 1 && nodes > 1 {
+        passes(model, tau, f_ext, data, threads)?;
+    } else {
+        // One thread: the same nodes in the same order as the split (each node's arithmetic
+        // does not depend on the order).
+        crate::dca::main_range(model, tau, f_ext, data, true, 0..nodes)?;
+        crate::dca::back_range(tau, data, 0..nodes);
+    }
+    // The serial DCA's refinement rule (`forward.rs`).
+    if data.refine.regularised
+        || data.refine.mass_ratio
+        || data.dca.clamped > 0
+        || (data.refine_dca && data.refine_floating)
+    {
+        crate::refine::refine_dca(model, tau, f_ext, data)?;
+    }
+    Ok(())
+}
+
+/// The main pass and the back-substitution split over `threads` (banked layout, several
+/// threads).
+#[cfg(feature = "parallel")]
+fn passes(
+    model: &Model,
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+    data: &mut Data,
+    threads: &Threads,
+) -> Result<(), DynamicsError> {
+    let root = model.assembly.root();
+    let shared = Shared(data as *mut Data);
+    let at = Split {
+        tree: &model.assembly,
+        model,
+        tau,
+        f_ext,
+        data: &shared,
+    };
+    threads.install(|| at.main(root))?;
+    threads.install(|| at.back(root));
+    Ok(())
+}
+
+/// Without the `parallel` feature: the serial passes.
+#[cfg(not(feature = "parallel"))]
+fn passes(
+    model: &Model,
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+    data: &mut Data,
+    _threads: &Threads,
+) -> Result<(), DynamicsError> {
+    let nodes = data.dca.node.len();
+    crate::dca::main_range(model, tau, f_ext, data, true, 0..nodes)?;
+    crate::dca::back_range(tau, data, 0..nodes);
+    Ok(())
+}
+
+/// The workspace the tasks share. Each task writes only what belongs to the nodes of its own
+/// range — their bodies' and joints' entries, their nodes' blocks, their slots and their
+/// scratch bank of the banked layout — and reads what its children (main pass) or its parent
+/// (back-substitution) wrote before the task began; no buffer is resized while tasks run.
+#[cfg(feature = "parallel")]
+struct Shared(*mut Data);
+
+// SAFETY: see `Shared`: the tasks touch disjoint entries, and `rayon::join` orders a node's
+// work after (main pass) or before (back-substitution) its subtrees'.
+#[cfg(feature = "parallel")]
+unsafe impl Sync for Shared {}
+
+/// What every task of one split solve reads.
+#[cfg(feature = "parallel")]
+struct Split<'a> {
+    tree: &'a AssemblyTree,
+    model: &'a Model,
+    tau: &'a [f64],
+    f_ext: &'a [SpatialForce],
+    data: &'a Shared,
+}
+
+#[cfg(feature = "parallel")]
+impl Split<'_> {
+    /// The first node of `n`'s subtree (post-order: the subtree is `first..=n`). A tree
+    /// without gather nodes is binary: a subtree of `size` leaves has `2 size − 1` nodes.
+    fn first(&self, n: usize) -> usize {
+        n + 2 - 2 * self.tree.nodes[n].size
+    }
+
+    /// A join above the split depth: its two sides, the one first in post-order first.
+    fn sides(&self, n: usize) -> Option<(usize, usize)> {
+        let nd = &self.tree.nodes[n];
+        match nd.kind {
+            articula_model::NodeKind::Join {
+                parent_side,
+                child_side,
+                ..
+            } if nd.depth < SPLIT_DEPTH => Some(if parent_side < child_side {
+                (parent_side, child_side)
+            } else {
+                (child_side, parent_side)
+            }),
+            _ => None,
+        }
+    }
+
+    /// The workspace, for the nodes of one task.
+    #[allow(clippy::mut_from_ref)]
+    fn data(&self) -> &mut Data {
+        // SAFETY: see `Shared`: each caller touches only its own nodes' entries.
+        unsafe { &mut *self.data.0 }
+    }
+
+    /// Main pass of `n`'s subtree: its two sides on two tasks above the split depth, then `n`;
+    /// the subtree serially below. The error is the serial pass's (the first in post-order).
+    fn main(&self, n: usize) -> Result<(), DynamicsError> {
+        let (model, tau, f_ext) = (self.model, self.tau, self.f_ext);
+        let Some((x, y)) = self.sides(n) else {
+            return crate::dca::main_range(
+                model,
+                tau,
+                f_ext,
+                self.data(),
+                true,
+                self.first(n)..n + 1,
+            );
+        };
+        let (rx, ry) = rayon::join(|| self.main(x), || self.main(y));
+        rx?;
+        ry?;
+        crate::dca::main_range(model, tau, f_ext, self.data(), true, n..n + 1)
+    }
+
+    /// Back-substitution of `n`'s subtree: `n`, then its two sides on two tasks above the
+    /// split depth; the subtree serially below.
+    fn back(&self, n: usize) {
+        let Some((x, y)) = self.sides(n) else {
+            return crate::dca::back_range(self.tau, self.data(), self.first(n)..n + 1);
+        };
+        crate::dca::back_range(self.tau, self.data(), n..n + 1);
+        rayon::join(|| self.back(x), || self.back(y));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{forward_dynamics_slices, Method, State};
+    use articula_model::NodeKind;
+
+    /// The banked layout keeps every slot a join reads below its own (`c_blocks`) and gives
+    /// subtrees solved side by side disjoint slots and scratch.
+    #[test]
+    fn banked_slots_are_disjoint_across_subtrees() {
+        let model = articula_testkit::chain(300);
+        let tree = &model.assembly;
+        let mut side = vec![0; tree.nodes.len()];
+        for nd in &tree.nodes {
+            if let NodeKind::Join { child_side, .. } = nd.kind {
+                side[child_side] = 1;
+            }
+        }
+        let (si, nsi, ys, nys) = banked_slots(tree, &side);
+        assert!(si.iter().all(|&s| s < nsi) && ys.iter().all(|&s| s < nys));
+        for (n, nd) in tree.nodes.iter().enumerate() {
+            if let NodeKind::Join {
+                parent_side,
+                child_side,
+                ..
+            } = nd.kind
+            {
+                assert!(si[n] < si[parent_side] && si[n] < si[child_side]);
+            }
+        }
+        // Two nodes of different subtrees (or a top node and any other) never share a slot
+        // or a scratch bank.
+        let root_of = |mut n: usize| {
+            while tree.nodes[n].depth > SPLIT_DEPTH {
+                n = tree.nodes[n].parent.unwrap();
+            }
+            n
+        };
+        for a in 0..tree.nodes.len() {
+            for b in a + 1..tree.nodes.len() {
+                let (ra, rb) = (root_of(a), root_of(b));
+                let top = tree.nodes[a].depth < SPLIT_DEPTH || tree.nodes[b].depth < SPLIT_DEPTH;
+                if top || ra != rb {
+                    assert_ne!(si[a], si[b], "slots of nodes {a} and {b}");
+                    assert_ne!(ys[a], ys[b], "scratch of nodes {a} and {b}");
+                }
+            }
+        }
+        // In post-order a subtree is `first..=n`.
+        for (n, nd) in tree.nodes.iter().enumerate() {
+            let first = n + 2 - 2 * nd.size;
+            let inside = (first..=n).filter(|&m| {
+                let mut k = m;
+                loop {
+                    if k == n {
+                        return true;
+                    }
+                    match tree.nodes[k].parent {
+                        Some(p) => k = p,
+                        None => return false,
+                    }
+                }
+            });
+            assert_eq!(inside.count(), n + 1 - first);
+        }
+    }
+
+    /// The split solve on one thread is the serial DCA on the kinematics loop, bit for bit,
+    /// and within rounding of the serial DCA with the leaves' kinematics (fixed and floating
+    /// base, with external forces).
+    #[test]
+    fn split_on_one_thread_is_the_serial_pass() {
+        for floating in [false, true] {
+            let model = articula_testkit::bundled_with("chain300", floating);
+            let mut s = State::random(&model, 3, 1.0);
+            s.randomize_forces(3, 0.5);
+            let mut data = Data::new(&model);
+            let split = forward_split(
+                &model,
+                &mut data,
+                &s.q,
+                &s.qd,
+                &s.tau,
+                &s.f_ext,
+                &Threads::serial(),
+            )
+            .unwrap()
+            .to_vec();
+            assert!(data.dca.banked);
+            let mut serial = Data::new(&model);
+            serial.ensure_dca(&model).unwrap();
+            let leaves = forward_dynamics_slices(
+                &model,
+                &mut serial,
+                &s.q,
+                &s.qd,
+                &s.tau,
+                &s.f_ext,
+                Method::Dca,
+            )
+            .unwrap()
+            .to_vec();
+            serial.dca.leaf_kinematics = false;
+            let looped = forward_dynamics_slices(
+                &model,
+                &mut serial,
+                &s.q,
+                &s.qd,
+                &s.tau,
+                &s.f_ext,
+                Method::Dca,
+            )
+            .unwrap()
+            .to_vec();
+            assert_eq!(split, looped, "floating={floating}");
+            let scale = leaves.iter().fold(1.0f64, |m, x| m.max(x.abs()));
+            let diff = leaves
+                .iter()
+                .zip(&split)
+                .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+            assert!(
+                diff <= 1e-11 * scale,
+                "floating={floating}: {:e}",
+                diff / scale
+            );
+        }
+    }
+}
