@@ -50,6 +50,7 @@ pub(crate) fn rigid_groups(parents: &[Option<usize>], active: &[bool], out: &mut
 }
 
 /// A pleasant, well-separated colour for a key (golden-ratio hues).
+#[cfg(feature = "render")]
 pub(crate) fn colour(key: u64) -> [u8; 3] {
     let mut z = key.wrapping_add(0x9e37_79b9_7f4a_7c15);
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
@@ -61,6 +62,7 @@ pub(crate) fn colour(key: u64) -> [u8; 3] {
     hsv(h, s, v)
 }
 
+#[cfg(feature = "render")]
 fn hsv(h: f64, s: f64, v: f64) -> [u8; 3] {
     let c = v * s;
     let x = c * (1.0 - ((h / 60.0) % 2.0 - 1.0).abs());
