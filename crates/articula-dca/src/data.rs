@@ -997,7 +997,11 @@ impl DcaData {
             dinv: vec![SmallSpd::default(); n],
             point: vec![DVec3::ZERO; n],
             arm: vec![DVec3::ZERO; n],
-            trig: if banked { vec![(0.0, 1.0); n] } else { Vec::new() },
+            trig: if banked {
+                vec![(0.0, 1.0); n]
+            } else {
+                Vec::new()
+            },
             clamped: 0,
             rev: vec![RevJoin::default(); joins],
             y: vec![[[0.0; 6]; 6]; nys * max_h],

@@ -140,8 +140,8 @@ fn solve(
     threads: &Threads,
 ) -> Result<(), DynamicsError> {
     let banked = data.ensure_dca_banked(model)?;
-    if banked && threads.count() > 1 {
-        kinematics(model, q, qd, data, threads);
+    if banked && threads.count() > 1 && model.bodies.len() >= PARALLEL_KINEMATICS_MIN_BODIES {
+        kinematics(model, q, qd, data, threads, KINEMATICS_GRAIN);
     } else {
         // The same bits as the split kinematics, in one loop.
         crate::dca::kinematics_loop(model, q, qd, data);
@@ -171,23 +171,35 @@ fn solve(
 
 /// Bodies per task of the kinematics' per-body parts: enough to amortise a task's
 /// scheduling, few enough for the work-stealing pool to even out the threads.
-#[cfg(feature = "parallel")]
 const KINEMATICS_GRAIN: usize = 4096;
+
+/// The smallest model (bodies) whose split solve runs the kinematics' per-body parts across
+/// threads: below it the two extra rounds of waking the pool cost about what they save
+/// (`articula bench` on a 2,000-link chain, 2 threads: ~20 µs slower across threads), and
+/// the kinematics run in one loop (the same bits).
+const PARALLEL_KINEMATICS_MIN_BODIES: usize = 4 * KINEMATICS_GRAIN;
 
 /// The kinematics loop of the serial DCA ([`crate::dca::kinematics_loop`]), with what does not
 /// need the parent's pose across threads (banked layout, several threads): the joints' sines
 /// and cosines ([`crate::kinematics::joint_trig`]) on all threads, then the pose chain
 /// `X_{C←i}`, `S`, `vᵢ` serially ([`crate::dca::pose_loop`]), then the bias terms `cᵢ`, the
 /// points and arms ([`crate::dca::bias_range`]) on all threads. Each body's arithmetic is the
-/// loop's, so the result is its bits for any thread count.
+/// loop's, so the result is its bits for any thread count and any `grain` (bodies per task).
 #[cfg(feature = "parallel")]
-fn kinematics(model: &Model, q: &[f64], qd: &[f64], data: &mut Data, threads: &Threads) {
+fn kinematics(
+    model: &Model,
+    q: &[f64],
+    qd: &[f64],
+    data: &mut Data,
+    threads: &Threads,
+    grain: usize,
+) {
     use rayon::prelude::*;
     let n = model.bodies.len();
     let (plans, trig) = (&data.fk_plan, &mut data.dca.trig);
     threads.install(|| {
-        trig.par_chunks_mut(KINEMATICS_GRAIN)
-            .zip(plans.par_chunks(KINEMATICS_GRAIN))
+        trig.par_chunks_mut(grain)
+            .zip(plans.par_chunks(grain))
             .for_each(|(t, p)| {
                 for (t, &p) in t.iter_mut().zip(p) {
                     *t = crate::kinematics::joint_trig(p, q);
@@ -198,20 +210,25 @@ fn kinematics(model: &Model, q: &[f64], qd: &[f64], data: &mut Data, threads: &T
     let shared = Shared(data as *mut Data);
     let shared = &shared;
     threads.install(|| {
-        (0..n.div_ceil(KINEMATICS_GRAIN))
-            .into_par_iter()
-            .for_each(|t| {
-                let bodies = t * KINEMATICS_GRAIN..n.min((t + 1) * KINEMATICS_GRAIN);
-                // SAFETY: see `Shared`: each task writes only its own bodies' entries (`c`,
-                // `dca.point`, `dca.arm`) and reads the poses and velocities, done before.
-                crate::dca::bias_range(qd, unsafe { &mut *shared.0 }, bodies);
-            })
+        (0..n.div_ceil(grain)).into_par_iter().for_each(|t| {
+            let bodies = t * grain..n.min((t + 1) * grain);
+            // SAFETY: see `Shared`: each task writes only its own bodies' entries (`c`,
+            // `dca.point`, `dca.arm`) and reads the poses and velocities, done before.
+            crate::dca::bias_range(qd, unsafe { &mut *shared.0 }, bodies);
+        })
     });
 }
 
 /// Without the `parallel` feature: the kinematics loop.
 #[cfg(not(feature = "parallel"))]
-fn kinematics(model: &Model, q: &[f64], qd: &[f64], data: &mut Data, _threads: &Threads) {
+fn kinematics(
+    model: &Model,
+    q: &[f64],
+    qd: &[f64],
+    data: &mut Data,
+    _threads: &Threads,
+    _grain: usize,
+) {
     crate::dca::kinematics_loop(model, q, qd, data);
 }
 
@@ -472,6 +489,33 @@ mod tests {
                 .to_vec();
                 assert!(data.dca.banked, "model {k}");
                 assert_eq!(split, looped, "model {k} on {threads} threads");
+            }
+            // The kinematics across threads, in small tasks, against the loop.
+            let fresh = || {
+                let mut d = workspace();
+                d.ensure_dca_banked(model).unwrap();
+                d.origin = serial.origin;
+                d
+            };
+            for threads in [2, 3] {
+                let mut split = fresh();
+                kinematics(
+                    model,
+                    &s.q,
+                    &s.qd,
+                    &mut split,
+                    &Threads::new(threads).unwrap(),
+                    7,
+                );
+                let mut one = fresh();
+                crate::dca::kinematics_loop(model, &s.q, &s.qd, &mut one);
+                let m = format!("model {k} on {threads} threads");
+                assert_eq!(format!("{:?}", split.x), format!("{:?}", one.x), "{m}");
+                assert_eq!(format!("{:?}", split.v), format!("{:?}", one.v), "{m}");
+                assert_eq!(format!("{:?}", split.c), format!("{:?}", one.c), "{m}");
+                assert_eq!(format!("{:?}", split.s), format!("{:?}", one.s), "{m}");
+                assert_eq!(split.dca.point, one.dca.point, "{m}");
+                assert_eq!(split.dca.arm, one.dca.arm, "{m}");
             }
             let scale = leaves.iter().fold(1.0f64, |m, x| m.max(x.abs()));
             let diff = leaves
