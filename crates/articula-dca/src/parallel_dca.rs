@@ -219,7 +219,7 @@ fn kinematics(
     });
 }
 
-/// Without the `parallel` feature: the kinematics loop.
+/// Without the `parallel` feature: the same parts on the calling thread.
 #[cfg(not(feature = "parallel"))]
 fn kinematics(
     model: &Model,
@@ -229,7 +229,11 @@ fn kinematics(
     _threads: &Threads,
     _grain: usize,
 ) {
-    crate::dca::kinematics_loop(model, q, qd, data);
+    for (t, &p) in data.dca.trig.iter_mut().zip(&data.fk_plan) {
+        *t = crate::kinematics::joint_trig(p, q);
+    }
+    crate::dca::pose_loop(model, q, qd, data);
+    crate::dca::bias_range(qd, data, 0..model.bodies.len());
 }
 
 /// The main pass and the back-substitution split over `threads` (banked layout, several
