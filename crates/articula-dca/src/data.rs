@@ -202,6 +202,10 @@ pub(crate) struct DcaData {
     /// ([`kinematics::arm`](crate::kinematics::arm)): the leaves take their handle lever arms
     /// from it, not from the difference of two far points.
     pub arm: Vec<DVec3>,
+    /// Per body of a banked layout (empty otherwise): `(sin θ, cos θ)` of its joint angle on
+    /// the one-axis revolute fast path, computed on all threads before the pose chain of the
+    /// parallel driver (`parallel_dca.rs`).
+    pub trig: Vec<(f64, f64)>,
     /// Joins of the last pass whose constraint factorisation met a pivot that rounding had
     /// made non-positive ([`crate::small::ldl5`]); reset by each pass.
     pub clamped: u32,
@@ -760,6 +764,7 @@ impl DcaData {
             dinv: Vec::new(),
             point: Vec::new(),
             arm: Vec::new(),
+            trig: Vec::new(),
             clamped: 0,
             rev: Vec::new(),
             y: Vec::new(),
@@ -992,6 +997,11 @@ impl DcaData {
             dinv: vec![SmallSpd::default(); n],
             point: vec![DVec3::ZERO; n],
             arm: vec![DVec3::ZERO; n],
+            trig: if banked {
+                vec![(0.0, 1.0); n]
+            } else {
+                Vec::new()
+            },
             clamped: 0,
             rev: vec![RevJoin::default(); joins],
             y: vec![[[0.0; 6]; 6]; nys * max_h],

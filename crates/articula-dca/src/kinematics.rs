@@ -145,9 +145,9 @@ pub(crate) fn kinematics_body(
         } => {
             let qi = sign * q[qo];
             let (x, s) = match k {
-                0 => axis_revolute::<0, 1, 2>(x0, origin_r, qi, sign),
-                1 => axis_revolute::<1, 2, 0>(x0, origin_r, qi, sign),
-                _ => axis_revolute::<2, 0, 1>(x0, origin_r, qi, sign),
+                0 => axis_revolute::<0, 1, 2>(x0, origin_r, qi.sin_cos(), sign),
+                1 => axis_revolute::<1, 2, 0>(x0, origin_r, qi.sin_cos(), sign),
+                _ => axis_revolute::<2, 0, 1>(x0, origin_r, qi.sin_cos(), sign),
             };
             data.s[vo] = s;
             let vj = s * qd[vo];
@@ -182,19 +182,84 @@ pub(crate) fn arm(plan: FkPlan, x: &[SpatialTransform], parent: usize, p: DVec3)
     }
 }
 
+/// `(sin θ, cos θ)` of body `i`'s joint angle `θ = sign · q` on the one-axis revolute fast
+/// path (anything else: unused), apart from the pose chain ([`kinematics_pose`]) so that the
+/// parallel DCA driver computes them on all threads (`parallel_dca.rs`).
+#[inline(always)]
+pub(crate) fn joint_trig(plan: FkPlan, q: &[f64]) -> (f64, f64) {
+    match plan {
+        FkPlan::AxisRevolute { sign, qo, .. } => (sign * q[qo]).sin_cos(),
+        FkPlan::General => (0.0, 1.0),
+    }
+}
+
+/// The part of [`kinematics_body`] (without the world inertia) that needs the parent's pose
+/// and velocity, with body `i`'s [`joint_trig`] given: `X_{C←i}`, its columns of `S` and `vᵢ`;
+/// on the one-axis revolute fast path `cᵢ` is left to [`kinematics_bias`]. The same
+/// arithmetic as [`kinematics_body`]: the same bits.
+#[inline(always)]
+pub(crate) fn kinematics_pose(
+    model: &Model,
+    i: usize,
+    q: &[f64],
+    qd: &[f64],
+    data: &mut Data,
+    x_cw: SpatialTransform,
+    trig: (f64, f64),
+) {
+    let FkPlan::AxisRevolute {
+        k,
+        sign,
+        origin_r,
+        vo,
+        ..
+    } = data.fk_plan[i]
+    else {
+        return kinematics_body(model, i, q, qd, data, x_cw, false);
+    };
+    let parent = data.topo[i].parent;
+    let (x0, v0) = if parent == usize::MAX {
+        (x_cw, SpatialMotion::ZERO)
+    } else {
+        (data.x[parent], data.v[parent])
+    };
+    let (x, s) = match k {
+        0 => axis_revolute::<0, 1, 2>(x0, origin_r, trig, sign),
+        1 => axis_revolute::<1, 2, 0>(x0, origin_r, trig, sign),
+        _ => axis_revolute::<2, 0, 1>(x0, origin_r, trig, sign),
+    };
+    data.s[vo] = s;
+    data.x[i] = x;
+    data.v[i] = v0 + s * qd[vo];
+}
+
+/// `cᵢ = v_parent × s q̇` of a one-axis revolute body after its [`kinematics_pose`] (and its
+/// parent's), as [`kinematics_body`] computes it; nothing for another joint (its pose did it).
+#[inline(always)]
+pub(crate) fn kinematics_bias(i: usize, qd: &[f64], data: &mut Data) {
+    if let FkPlan::AxisRevolute { vo, .. } = data.fk_plan[i] {
+        let parent = data.topo[i].parent;
+        let v0 = if parent == usize::MAX {
+            SpatialMotion::ZERO
+        } else {
+            data.v[parent]
+        };
+        data.c[i] = v0.cross_motion(data.s[vo] * qd[vo]);
+    }
+}
+
 /// `X_{W←i} = X_{W←parent} · xlt(origin) · rot(R_θ)` for a rotation by `θ` about `e_K`, and
 /// the joint's world subspace column `s = [ω; p × ω]` (`ω = sign · E e_K`, `p = −E r` the body
-/// origin): the pure-translation origin adds to `r`, and the rotation mixes columns `A`, `B`
-/// of `E` and entries `A`, `B` of `r` (`(K, A, B)` cyclic).
+/// origin), given `(sin θ, cos θ)`: the pure-translation origin adds to `r`, and the rotation
+/// mixes columns `A`, `B` of `E` and entries `A`, `B` of `r` (`(K, A, B)` cyclic).
 #[inline(always)]
 fn axis_revolute<const K: usize, const A: usize, const B: usize>(
     x0: SpatialTransform,
     origin_r: DVec3,
-    theta: f64,
+    (sn, cs): (f64, f64),
     sign: f64,
 ) -> (SpatialTransform, SpatialMotion) {
     let mut r = (origin_r + x0.r).to_array();
-    let (sn, cs) = theta.sin_cos();
     let mut e = x0.e.to_cols_array_2d();
     let (ca, cb) = (e[A], e[B]);
     for j in 0..3 {
@@ -303,9 +368,9 @@ pub fn body_kinematics(
             // to add: the origin is applied above).
             let qi = sign * q[part.q_offset];
             let (xk, sk) = match k {
-                0 => axis_revolute::<0, 1, 2>(x, DVec3::ZERO, qi, sign),
-                1 => axis_revolute::<1, 2, 0>(x, DVec3::ZERO, qi, sign),
-                _ => axis_revolute::<2, 0, 1>(x, DVec3::ZERO, qi, sign),
+                0 => axis_revolute::<0, 1, 2>(x, DVec3::ZERO, qi.sin_cos(), sign),
+                1 => axis_revolute::<1, 2, 0>(x, DVec3::ZERO, qi.sin_cos(), sign),
+                _ => axis_revolute::<2, 0, 1>(x, DVec3::ZERO, qi.sin_cos(), sign),
             };
             x = xk;
             s[part.v_offset] = sk;

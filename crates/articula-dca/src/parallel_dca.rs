@@ -140,7 +140,12 @@ fn solve(
     threads: &Threads,
 ) -> Result<(), DynamicsError> {
     let banked = data.ensure_dca_banked(model)?;
-    crate::dca::kinematics_loop(model, q, qd, data);
+    if banked && threads.count() > 1 && model.bodies.len() >= PARALLEL_KINEMATICS_MIN_BODIES {
+        kinematics(model, q, qd, data, threads, KINEMATICS_GRAIN);
+    } else {
+        // The same bits as the split kinematics, in one loop.
+        crate::dca::kinematics_loop(model, q, qd, data);
+    }
     data.dca.clamped = 0;
     // DCA's own tree: the model's assembly tree whenever the layout is banked (a tree with
     // leaf clusters or gather nodes never is, and runs the serial passes).
@@ -162,6 +167,73 @@ fn solve(
         crate::refine::refine_dca(model, tau, f_ext, data)?;
     }
     Ok(())
+}
+
+/// Bodies per task of the kinematics' per-body parts: enough to amortise a task's
+/// scheduling, few enough for the work-stealing pool to even out the threads.
+const KINEMATICS_GRAIN: usize = 4096;
+
+/// The smallest model (bodies) whose split solve runs the kinematics' per-body parts across
+/// threads: below it the two extra rounds of waking the pool cost about what they save
+/// (`articula bench` on a 2,000-link chain, 2 threads: ~20 µs slower across threads), and
+/// the kinematics run in one loop (the same bits).
+const PARALLEL_KINEMATICS_MIN_BODIES: usize = 4 * KINEMATICS_GRAIN;
+
+/// The kinematics loop of the serial DCA ([`crate::dca::kinematics_loop`]), with what does not
+/// need the parent's pose across threads (banked layout, several threads): the joints' sines
+/// and cosines ([`crate::kinematics::joint_trig`]) on all threads, then the pose chain
+/// `X_{C←i}`, `S`, `vᵢ` serially ([`crate::dca::pose_loop`]), then the bias terms `cᵢ`, the
+/// points and arms ([`crate::dca::bias_range`]) on all threads. Each body's arithmetic is the
+/// loop's, so the result is its bits for any thread count and any `grain` (bodies per task).
+#[cfg(feature = "parallel")]
+fn kinematics(
+    model: &Model,
+    q: &[f64],
+    qd: &[f64],
+    data: &mut Data,
+    threads: &Threads,
+    grain: usize,
+) {
+    use rayon::prelude::*;
+    let n = model.bodies.len();
+    let (plans, trig) = (&data.fk_plan, &mut data.dca.trig);
+    threads.install(|| {
+        trig.par_chunks_mut(grain)
+            .zip(plans.par_chunks(grain))
+            .for_each(|(t, p)| {
+                for (t, &p) in t.iter_mut().zip(p) {
+                    *t = crate::kinematics::joint_trig(p, q);
+                }
+            })
+    });
+    crate::dca::pose_loop(model, q, qd, data);
+    let shared = Shared(data as *mut Data);
+    let shared = &shared;
+    threads.install(|| {
+        (0..n.div_ceil(grain)).into_par_iter().for_each(|t| {
+            let bodies = t * grain..n.min((t + 1) * grain);
+            // SAFETY: see `Shared`: each task writes only its own bodies' entries (`c`,
+            // `dca.point`, `dca.arm`) and reads the poses and velocities, done before.
+            crate::dca::bias_range(qd, unsafe { &mut *shared.0 }, bodies);
+        })
+    });
+}
+
+/// Without the `parallel` feature: the same parts on the calling thread.
+#[cfg(not(feature = "parallel"))]
+fn kinematics(
+    model: &Model,
+    q: &[f64],
+    qd: &[f64],
+    data: &mut Data,
+    _threads: &Threads,
+    _grain: usize,
+) {
+    for (t, &p) in data.dca.trig.iter_mut().zip(&data.fk_plan) {
+        *t = crate::kinematics::joint_trig(p, q);
+    }
+    crate::dca::pose_loop(model, q, qd, data);
+    crate::dca::bias_range(qd, data, 0..model.bodies.len());
 }
 
 /// The main pass and the back-substitution split over `threads` (banked layout, several
@@ -203,7 +275,8 @@ fn passes(
     Ok(())
 }
 
-/// The workspace the tasks share. Each task writes only what belongs to the nodes of its own
+/// The workspace the tasks share. Each task of the kinematics writes only its own bodies'
+/// entries; each task of the passes writes only what belongs to the nodes of its own
 /// range — their bodies' and joints' entries, their nodes' blocks, their slots and their
 /// scratch bank of the banked layout — and reads what its children (main pass) or its parent
 /// (back-substitution) wrote before the task began; no buffer is resized while tasks run.
@@ -211,7 +284,8 @@ fn passes(
 struct Shared(*mut Data);
 
 // SAFETY: see `Shared`: the tasks touch disjoint entries, and `rayon::join` orders a node's
-// work after (main pass) or before (back-substitution) its subtrees'.
+// work after (main pass) or before (back-substitution) its subtrees'; the kinematics' tasks
+// read only what the serial pose chain wrote before they began.
 #[cfg(feature = "parallel")]
 unsafe impl Sync for Shared {}
 
@@ -355,32 +429,34 @@ mod tests {
         }
     }
 
-    /// The split solve on one thread is the serial DCA on the kinematics loop, bit for bit,
-    /// and within rounding of the serial DCA with the leaves' kinematics (fixed and floating
-    /// base, with external forces).
+    /// The split solve on one, two and three threads (kinematics and passes across threads)
+    /// is the serial DCA on the kinematics loop, bit for bit, and within rounding of the
+    /// serial DCA with the leaves' kinematics (a chain with fixed and floating base, and a
+    /// branched tree of general joints on DCA's plain assembly tree, with external forces).
     #[test]
-    fn split_on_one_thread_is_the_serial_pass() {
-        for floating in [false, true] {
-            let model = articula_testkit::bundled_with("chain300", floating);
-            let mut s = State::random(&model, 3, 1.0);
+    fn split_on_any_thread_count_is_the_serial_pass() {
+        let tree = articula_model::Model::from_urdf_str(
+            &articula_testkit::random_tree_urdf(300, 3),
+            &articula_model::LoadOptions::default(),
+        )
+        .unwrap();
+        let models = [
+            (articula_testkit::bundled_with("chain300", false), true),
+            (articula_testkit::bundled_with("chain300", true), true),
+            (tree, false),
+        ];
+        for (k, (model, clusters)) in models.iter().enumerate() {
+            let mut s = State::random(model, 3, 1.0);
             s.randomize_forces(3, 0.5);
-            let mut data = Data::new(&model);
-            let split = forward_split(
-                &model,
-                &mut data,
-                &s.q,
-                &s.qd,
-                &s.tau,
-                &s.f_ext,
-                &Threads::serial(),
-            )
-            .unwrap()
-            .to_vec();
-            assert!(data.dca.banked);
-            let mut serial = Data::new(&model);
-            serial.ensure_dca(&model).unwrap();
+            let workspace = || {
+                let mut data = Data::new(model);
+                data.set_leaf_clusters(model, *clusters);
+                data
+            };
+            let mut serial = workspace();
+            serial.ensure_dca(model).unwrap();
             let leaves = forward_dynamics_slices(
-                &model,
+                model,
                 &mut serial,
                 &s.q,
                 &s.qd,
@@ -392,7 +468,7 @@ mod tests {
             .to_vec();
             serial.dca.leaf_kinematics = false;
             let looped = forward_dynamics_slices(
-                &model,
+                model,
                 &mut serial,
                 &s.q,
                 &s.qd,
@@ -402,17 +478,55 @@ mod tests {
             )
             .unwrap()
             .to_vec();
-            assert_eq!(split, looped, "floating={floating}");
+            let mut data = workspace();
+            for threads in [1, 2, 3] {
+                let split = forward_split(
+                    model,
+                    &mut data,
+                    &s.q,
+                    &s.qd,
+                    &s.tau,
+                    &s.f_ext,
+                    &Threads::new(threads).unwrap(),
+                )
+                .unwrap()
+                .to_vec();
+                assert!(data.dca.banked, "model {k}");
+                assert_eq!(split, looped, "model {k} on {threads} threads");
+            }
+            // The kinematics across threads, in small tasks, against the loop.
+            let fresh = || {
+                let mut d = workspace();
+                d.ensure_dca_banked(model).unwrap();
+                d.origin = serial.origin;
+                d
+            };
+            for threads in [2, 3] {
+                let mut split = fresh();
+                kinematics(
+                    model,
+                    &s.q,
+                    &s.qd,
+                    &mut split,
+                    &Threads::new(threads).unwrap(),
+                    7,
+                );
+                let mut one = fresh();
+                crate::dca::kinematics_loop(model, &s.q, &s.qd, &mut one);
+                let m = format!("model {k} on {threads} threads");
+                assert_eq!(format!("{:?}", split.x), format!("{:?}", one.x), "{m}");
+                assert_eq!(format!("{:?}", split.v), format!("{:?}", one.v), "{m}");
+                assert_eq!(format!("{:?}", split.c), format!("{:?}", one.c), "{m}");
+                assert_eq!(format!("{:?}", split.s), format!("{:?}", one.s), "{m}");
+                assert_eq!(split.dca.point, one.dca.point, "{m}");
+                assert_eq!(split.dca.arm, one.dca.arm, "{m}");
+            }
             let scale = leaves.iter().fold(1.0f64, |m, x| m.max(x.abs()));
             let diff = leaves
                 .iter()
-                .zip(&split)
+                .zip(&looped)
                 .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
-            assert!(
-                diff <= 1e-11 * scale,
-                "floating={floating}: {:e}",
-                diff / scale
-            );
+            assert!(diff <= 1e-11 * scale, "model {k}: {:e}", diff / scale);
         }
     }
 }

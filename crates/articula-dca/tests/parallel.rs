@@ -115,20 +115,29 @@ fn batch_reports_the_lowest_failing_state_and_solves_the_others() {
 }
 
 /// One body's DCA split across threads (`forward_dynamics_threads`): a chain long enough to
-/// be split (fixed base; floating base, where the refinement runs too; a branched tree), the
-/// same bits on 1, 2 and 3 threads and on a reused workspace, and within rounding of the
-/// serial DCA and of ABA.
+/// be split (fixed base; floating base, where the refinement runs too) and a branched tree of
+/// general joints (revolute about random axes, prismatic) on DCA's plain assembly tree (no
+/// leaf clusters, so that the split solve takes it), the same bits on 1, 2 and 3 threads and
+/// on a reused workspace, and within rounding of the serial DCA and of ABA.
 #[test]
 fn one_body_dca_is_the_same_bits_on_any_thread_count() {
     use articula_dca::{forward_dynamics_threads, PARALLEL_DCA_MIN_BODIES};
     use articula_model::{LoadOptions, Model};
     let n = PARALLEL_DCA_MIN_BODIES + 77;
     let chain = articula_testkit::chain_urdf(n);
+    let tree = articula_testkit::random_tree_urdf(n, 7);
     let models = [
         articula_testkit::chain(n),
         Model::from_urdf_str(&chain, &LoadOptions::default().with_floating_base(true)).unwrap(),
+        Model::from_urdf_str(&tree, &LoadOptions::default()).unwrap(),
     ];
-    for model in &models {
+    for (k, model) in models.iter().enumerate() {
+        let clusters = k < 2;
+        let workspace = || {
+            let mut data = Data::new(model);
+            data.set_leaf_clusters(model, clusters);
+            data
+        };
         assert!(model.bodies.len() >= PARALLEL_DCA_MIN_BODIES);
         for seed in [5, 6] {
             let mut s = State::random(model, seed, 1.0);
@@ -149,19 +158,18 @@ fn one_body_dca_is_the_same_bits_on_any_thread_count() {
                 .unwrap()
                 .to_vec()
             };
-            let mut data = Data::new(model);
+            let mut data = workspace();
             let one = solve(1, &mut data);
             for threads in [2, 3, 1, 2] {
                 assert_eq!(
                     bits(&solve(threads, &mut data)),
                     bits(&one),
-                    "floating={} seed {seed} on {threads} threads",
-                    model.floating_base
+                    "model {k} seed {seed} on {threads} threads"
                 );
             }
-            assert_eq!(bits(&solve(2, &mut Data::new(model))), bits(&one));
+            assert_eq!(bits(&solve(2, &mut workspace())), bits(&one));
             for method in [Method::Dca, Method::Aba] {
-                let reference = forward_dynamics(model, &mut Data::new(model), &s, method)
+                let reference = forward_dynamics(model, &mut workspace(), &s, method)
                     .unwrap()
                     .to_vec();
                 let scale = reference.iter().fold(1.0f64, |m, x| m.max(x.abs()));
@@ -171,8 +179,7 @@ fn one_body_dca_is_the_same_bits_on_any_thread_count() {
                     .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
                 assert!(
                     diff <= 1e-9 * scale,
-                    "floating={} {method:?}: {:e}",
-                    model.floating_base,
+                    "model {k} {method:?}: {:e}",
                     diff / scale
                 );
             }
