@@ -29,8 +29,9 @@ pub(crate) const SPLIT_DEPTH: usize = 3;
 /// The smallest model (bodies) whose DCA [`forward_dynamics_threads`] splits across threads:
 /// below it the split's cost (waking a thread, a few µs, and the banked slots' wider working
 /// set) outweighs half the solve, and the serial DCA of [`crate::forward_dynamics`] runs
-/// whatever the thread count. Measured by `cargo xtask parallel` (docs/scaling.md).
-pub const PARALLEL_DCA_MIN_BODIES: usize = 2_000;
+/// whatever the thread count. Measured by `cargo xtask parallel` on two cores: the split on
+/// two threads loses at 2,000 bodies and is about even to 1.2× at 5,000 (docs/scaling.md).
+pub const PARALLEL_DCA_MIN_BODIES: usize = 5_000;
 
 /// The banked slot layout of `tree` (no gather node; `side[n]`: 0 for a join's parent side,
 /// 1 for its child side): per node its slot index (its handles' slots are at `index · max_h`),
