@@ -19,7 +19,7 @@
 use crate::chart::{self, HeatMap, LogLogPlot, Series};
 use crate::solver::{Runner, Solver, ADAPTIVE_BUDGETS};
 use crate::timing;
-use crate::trajectory::{self, Study};
+use crate::trajectory::{self, metric_error, Study};
 use articula_dca::internals::SplitMix64;
 use articula_dca::{Integrator, State};
 use articula_model::{LoadOptions, Model};
@@ -377,11 +377,6 @@ fn speed_of(rows: &[SpeedRow], model: &str, label: &str) -> f64 {
         .find(|r| r.model == model)
         .and_then(|r| r.times.get(label).copied())
         .unwrap_or(f64::NAN)
-}
-
-/// `Σ (a − b)²`: the acceleration metric (identity weights) of the difference.
-pub fn metric_error(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum()
 }
 
 /// The seeds' table: per row (label), per number of forces, µs per step (`None`: pending).

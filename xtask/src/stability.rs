@@ -12,6 +12,7 @@
 
 use crate::chart::{self, LogLogPlot, Series};
 use crate::solver::{Runner, Solver};
+use crate::stress::rel_error;
 use articula_adaptive::{Adaptive, Settings};
 use articula_dca::{forward_kinematics, step, Data, Integrator, Method, State};
 use articula_model::{LoadOptions, Model};
@@ -183,17 +184,6 @@ fn adaptive_study(model: &Model) -> Result<Vec<AdRun>> {
 
 /// The worst relative error of each method (`None` where it failed or was not run).
 type Errors = Vec<(Solver, Option<f64>)>;
-
-/// Relative error `max |a − b| / max |b|`.
-pub fn rel_error(a: &[f64], b: &[f64]) -> f64 {
-    let num = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max);
-    let den = b.iter().map(|x| x.abs()).fold(0.0, f64::max);
-    num / den
-}
 
 pub use articula_testkit::ratio_chain_urdf;
 

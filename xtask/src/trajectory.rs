@@ -12,7 +12,6 @@
 //!   `∫ Σᵢ (q̈ᵢ − q̈ᵢ,exact)² dt`, `q̈_exact` the exact DCA solve at the state each step used
 //!   (after its locking impulse). The exact methods' is zero by construction.
 
-use crate::bench::metric_error;
 use crate::solver::{Runner, Solver};
 use articula_adaptive::Settings;
 use articula_dca::internals::SplitMix64;
@@ -224,4 +223,9 @@ pub fn study(model: &Model) -> Result<Study> {
         reference_dt,
         reference_check: norm_diff(&q_ref2, &q_ref),
     })
+}
+
+/// `Σ (a − b)²`: the acceleration metric (identity weights) of the difference.
+pub fn metric_error(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum()
 }

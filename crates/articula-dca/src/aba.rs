@@ -398,7 +398,7 @@ const ABA_TRIGGER: f64 = 1e-11;
 /// again) runs only when the residual is large ([`ABA_TRIGGER`]: never on the humanoid).
 pub(crate) fn refine(model: &Model, tau: &[f64], f_ext: &[SpatialForce], data: &mut Data) {
     let n = model.bodies.len();
-    let input = crate::refine::RneaInput {
+    let input = crate::residual::RneaInput {
         inertia: &data.inertia,
         v: &data.v,
         c: &data.c,
@@ -411,7 +411,7 @@ pub(crate) fn refine(model: &Model, tau: &[f64], f_ext: &[SpatialForce], data: &
     // r = τ − ID(q̈) into uu (aba.a, aba.pa as scratch).
     let aba = &mut data.aba;
     let (scale, rmax) =
-        crate::refine::rnea_residual(model, &input, &mut aba.a, &mut aba.pa, &mut aba.uu);
+        crate::residual::rnea_residual(model, &input, &mut aba.a, &mut aba.pa, &mut aba.uu);
     // Small residual: q̈ kept. ABA's floating-base error shows in the residual at a lower
     // level than DCA's (1e-8 of the largest joint force would leave 2.2e-10 on chain300):
     // 1e-11, still above the humanoid's 1.6e-12.

@@ -23,7 +23,7 @@
 //! a leaf's equations with a general `Φ₀` in place of a rigid body's `I⁻¹`. Only `Iᴬ_P` is
 //! inverted, never a single body's inertia: a point-mass body inside a cluster needs no
 //! regularisation (its joint's `D > 0` as long as the joint moves its mass), and `Iᴬ_P ⪰ I_v`
-//! is positive definite when `v`'s own inertia is ([`absorbed`] asks that). The ground as a
+//! is positive definite when `v`'s own inertia is ([`crate::data::absorbed`] asks that). The ground as a
 //! cluster does not move (`a'_v = −a_g`); its handles' `Φ` and `b` are zero, as the ground's.
 //!
 //! The back-substitution takes the handle forces the joins above found, `a_v = Φ₀ Σ_h T_hᵀ f_h
@@ -33,60 +33,12 @@
 use crate::gather::{add_moved, inverse, sym_tiles, transform};
 use crate::small::{cholesky6_inv_diag, solve_l, solve_lt};
 use crate::{Data, DynamicsError};
-use articula_model::{Model, GATHER_ABOVE};
+use articula_model::Model;
 use articula_spatial::internals::{dot6, Arith};
 use articula_spatial::{Mat6, PackedSymMat6, SpatialForce, SpatialMotion};
 use glam::DVec3;
 
 type M6 = [[f64; 6]; 6];
-
-/// The largest subtree (in bodies) a leaf cluster absorbs.
-pub(crate) const CLUSTER_MAX: usize = 16;
-
-/// Per body, whether it belongs to a leaf cluster. DCA absorbs a body's subtree (at most
-/// [`CLUSTER_MAX`] bodies) into its parent's leaf (the ground's for a root body) when
-///
-/// - the parent is a branch point (2 to [`GATHER_ABOVE`] children; more make a gather node),
-///   or the subtree is branched itself and as large as it can be (its parent is the ground or
-///   heads a subtree of more than [`CLUSTER_MAX`] bodies): a small branched robot such as an
-///   arm with a two-finger gripper is then one cluster, solved as ABA solves it;
-/// - and the parent is the ground or a body whose own inertia is well-conditioned (so that
-///   the cluster's articulated inertia, which DCA inverts, is positive definite).
-///
-/// Chains have no branch point: their trees, and their bits, are as without clusters. Without
-/// `clusters` (`Data::set_leaf_clusters`), none.
-pub(crate) fn absorbed(model: &Model, clusters: bool) -> Vec<bool> {
-    let n = model.bodies.len();
-    if !clusters {
-        return vec![false; n];
-    }
-    let ground = n;
-    let parent = |i: usize| model.bodies[i].parent.unwrap_or(ground);
-    let mut kids = vec![0usize; n + 1];
-    let mut size = vec![1usize; n];
-    for i in 0..n {
-        kids[parent(i)] += 1;
-    }
-    // Whether a body's subtree has a branch point.
-    let mut branched: Vec<bool> = (0..n).map(|i| kids[i] >= 2).collect();
-    for i in (0..n).rev() {
-        if let Some(p) = model.bodies[i].parent {
-            size[p] += size[i];
-            branched[p] |= branched[i];
-        }
-    }
-    let mut out = vec![false; n];
-    for i in 0..n {
-        let p = parent(i);
-        let largest = p == ground || size[p] > CLUSTER_MAX;
-        out[i] = (p != ground && out[p])
-            || (size[i] <= CLUSTER_MAX
-                && kids[p] <= GATHER_ABOVE
-                && (kids[p] >= 2 || (branched[i] && largest))
-                && (p == ground || crate::data::well_conditioned(model, &model.bodies[p])));
-    }
-    out
-}
 
 /// What a cluster node is made of: its body (`None`: the ground) and where its absorbed bodies
 /// are in `DcaData::clustered`.
@@ -180,7 +132,7 @@ pub(crate) fn main<A: Arith>(
         for k in h + 1..nh {
             let pk = d.point[d.hj[ho + k] as usize] - p;
             let blk = mat_mul_tr(&tp, &transform(pk));
-            d.phi[bo + crate::dca::ub(nh, h, k)] = Mat6(blk);
+            d.phi[bo + crate::data::ub(nh, h, k)] = Mat6(blk);
         }
     }
     Ok(())
@@ -460,7 +412,7 @@ mod tests {
     fn clusters_agree_with_aba_crba_and_the_reference() {
         for (label, model) in branched() {
             assert!(
-                super::absorbed(&model, true).contains(&true),
+                crate::data::absorbed(&model, true).contains(&true),
                 "{label}: no cluster"
             );
             let reference = (!model.floating_base).then(|| ReferenceModel::new(&model).unwrap());
@@ -513,7 +465,7 @@ mod tests {
     fn point_masses_in_clusters_need_no_refinement() {
         for floating in [false, true] {
             let model = load(&point_mass_humanoid_urdf(), floating);
-            let absorbed = super::absorbed(&model, true);
+            let absorbed = crate::data::absorbed(&model, true);
             let singular: Vec<usize> = (0..model.bodies.len())
                 .filter(|&i| !crate::data::well_conditioned(&model, &model.bodies[i]))
                 .collect();
@@ -562,7 +514,10 @@ mod tests {
         for floating in [false, true] {
             for name in ["chain10", "chain300"] {
                 let model = bundled_with(name, floating);
-                assert!(!super::absorbed(&model, true).contains(&true), "{name}");
+                assert!(
+                    !crate::data::absorbed(&model, true).contains(&true),
+                    "{name}"
+                );
             }
         }
     }

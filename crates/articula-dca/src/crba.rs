@@ -10,7 +10,7 @@
 //! factor (Wilkinson's iterative refinement; RBDA §6.4 notes the same use of RNEA). A few steps
 //! bring CRBA to the accuracy of the recursive algorithms.
 
-use crate::refine::{rnea_residual, RneaInput};
+use crate::residual::{rnea_residual, RneaInput};
 use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::{SpatialForce, SpatialMotion};

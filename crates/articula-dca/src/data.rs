@@ -509,13 +509,61 @@ pub(crate) const REFINE_MIN_BODIES: usize = 100;
 /// A body of a leaf cluster (with `clusters`) is left out: DCA never inverts its inertia
 /// (`cluster.rs`).
 pub(crate) fn needs_refinement(model: &Model, clusters: bool) -> bool {
-    let absorbed = crate::cluster::absorbed(model, clusters);
+    let absorbed = absorbed(model, clusters);
     (model.floating_base && model.bodies.len() >= REFINE_MIN_BODIES)
         || model
             .bodies
             .iter()
             .zip(&absorbed)
             .any(|(b, &a)| !a && !well_conditioned(model, b))
+}
+
+/// The largest subtree (in bodies) a leaf cluster absorbs.
+pub(crate) const CLUSTER_MAX: usize = 16;
+
+/// Per body, whether it belongs to a leaf cluster. DCA absorbs a body's subtree (at most
+/// [`CLUSTER_MAX`] bodies) into its parent's leaf (the ground's for a root body) when
+///
+/// - the parent is a branch point (2 to [`articula_model::GATHER_ABOVE`] children; more make a gather node),
+///   or the subtree is branched itself and as large as it can be (its parent is the ground or
+///   heads a subtree of more than [`CLUSTER_MAX`] bodies): a small branched robot such as an
+///   arm with a two-finger gripper is then one cluster, solved as ABA solves it;
+/// - and the parent is the ground or a body whose own inertia is well-conditioned (so that
+///   the cluster's articulated inertia, which DCA inverts, is positive definite).
+///
+/// Chains have no branch point: their trees, and their bits, are as without clusters. Without
+/// `clusters` (`Data::set_leaf_clusters`), none.
+pub(crate) fn absorbed(model: &Model, clusters: bool) -> Vec<bool> {
+    let n = model.bodies.len();
+    if !clusters {
+        return vec![false; n];
+    }
+    let ground = n;
+    let parent = |i: usize| model.bodies[i].parent.unwrap_or(ground);
+    let mut kids = vec![0usize; n + 1];
+    let mut size = vec![1usize; n];
+    for i in 0..n {
+        kids[parent(i)] += 1;
+    }
+    // Whether a body's subtree has a branch point.
+    let mut branched: Vec<bool> = (0..n).map(|i| kids[i] >= 2).collect();
+    for i in (0..n).rev() {
+        if let Some(p) = model.bodies[i].parent {
+            size[p] += size[i];
+            branched[p] |= branched[i];
+        }
+    }
+    let mut out = vec![false; n];
+    for i in 0..n {
+        let p = parent(i);
+        let largest = p == ground || size[p] > CLUSTER_MAX;
+        out[i] = (p != ground && out[p])
+            || (size[i] <= CLUSTER_MAX
+                && kids[p] <= articula_model::GATHER_ABOVE
+                && (kids[p] >= 2 || (branched[i] && largest))
+                && (p == ground || well_conditioned(model, &model.bodies[p])));
+    }
+    out
 }
 
 /// Whether a body's mass is positive and its rotational inertia not ill-conditioned
@@ -541,7 +589,7 @@ fn regularised_inverse(model: &Model, b: &articula_model::Body) -> Option<glam::
 /// Whether some body's DCA leaf inverts a regularised inertia ([`regularised_inverse`]); a
 /// body of a leaf cluster (with `clusters`) has no leaf of its own (`cluster.rs`).
 fn regularised(model: &Model, clusters: bool) -> bool {
-    let absorbed = crate::cluster::absorbed(model, clusters);
+    let absorbed = absorbed(model, clusters);
     model
         .bodies
         .iter()
@@ -779,7 +827,7 @@ impl DcaData {
     /// refused with [`DynamicsError::TooLarge`]. With `clusters`, DCA's tree folds small
     /// subtrees into leaf clusters (`cluster.rs`). With `banked` (a tree without gather nodes
     /// or leaf clusters: the model's own), the slots and the join scratch are laid out for the
-    /// parallel driver ([`crate::parallel_dca::banked_slots`]).
+    /// parallel driver ([`crate::banked::banked_slots`]).
     fn build(
         model: &Model,
         fused: bool,
@@ -789,7 +837,7 @@ impl DcaData {
         let n = model.bodies.len();
         let nv = model.nv;
         // DCA's own tree, with leaf clusters (`cluster.rs`).
-        let absorbed = crate::cluster::absorbed(model, clusters);
+        let absorbed = absorbed(model, clusters);
         let own = if absorbed.contains(&true) {
             articula_model::AssemblyTree::build_clustered(model, &absorbed)
         } else {
@@ -828,7 +876,7 @@ impl DcaData {
         // The parallel driver walks the model's assembly tree: not DCA's own with clusters.
         let banked = banked && !tree.has_gather() && !absorbed.contains(&true);
         let (si, nsi, ys, nys) = if banked {
-            crate::parallel_dca::banked_slots(tree, &side)
+            crate::banked::banked_slots(tree, &side)
         } else {
             let si = tree.nodes.iter().zip(&side).map(|(nd, s)| 2 * nd.depth + s);
             (si.collect(), 2 * tree.depth() + 2, vec![0; nn], 1)
@@ -1022,6 +1070,18 @@ impl RkData {
             theta: Vec::new(),
         }
     }
+}
+
+/// Index of the cross block Φ_hk (h < k) among a node's: only the blocks above the diagonal
+/// are stored, row by row (`Φ_kh = Φ_hkᵀ`); the diagonal ones are packed per handle (`dg`).
+#[inline(always)]
+pub(crate) fn ub(nh: usize, h: usize, k: usize) -> usize {
+    debug_assert!(h < k && k < nh);
+    // Two handles (a chain's nodes): the one block.
+    if nh == 2 {
+        return 0;
+    }
+    h * nh - h * (h + 1) / 2 + (k - h - 1)
 }
 
 #[cfg(test)]

@@ -6,6 +6,7 @@
 //! bottom-up over the assembly tree; the back-substitution computes each principal joint's
 //! `q̈` and constraint force top-down.
 
+use crate::data::ub;
 use crate::data::{DKind, LeafK, RevJoin, Side};
 use crate::small::{solve_l, solve_lt, SymT, TILE};
 use crate::{Data, DynamicsError};
@@ -175,18 +176,6 @@ articula_spatial::fma_dispatch! {
     pub(crate) fn back_range(tau: &[f64], data: &mut Data, nodes: std::ops::Range<usize>);
     avx2_fma: data.dca.fused, Fused;
     |A| back_substitution::<A>(tau, data, nodes)
-}
-
-/// Index of the cross block Φ_hk (h < k) among a node's: only the blocks above the diagonal
-/// are stored, row by row (`Φ_kh = Φ_hkᵀ`); the diagonal ones are packed per handle (`dg`).
-#[inline(always)]
-pub(crate) fn ub(nh: usize, h: usize, k: usize) -> usize {
-    debug_assert!(h < k && k < nh);
-    // Two handles (a chain's nodes): the one block.
-    if nh == 2 {
-        return 0;
-    }
-    h * nh - h * (h + 1) / 2 + (k - h - 1)
 }
 
 /// `Φ_jh f` (j ≠ h) of node `n` (nh × nh blocks, those with j ≤ h stored, `Φ_hj = Φ_jhᵀ`).

@@ -3,7 +3,7 @@
 use crate::data::sized;
 use crate::finite::all_finite;
 use crate::inputs::check_values;
-use crate::refine::{rnea_residual, RneaInput};
+use crate::residual::{rnea_residual, RneaInput};
 use crate::{kinematics, Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::{SpatialForce, SpatialMotion};

@@ -44,6 +44,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod aba;
+mod banked;
 mod batch;
 mod cluster;
 mod com;
@@ -67,6 +68,7 @@ mod mass_matrix;
 mod momentum;
 mod parallel_dca;
 mod refine;
+mod residual;
 mod small;
 mod state;
 mod threads;

@@ -3,8 +3,8 @@
 //! on one, and the back-substitution hands each side its handle forces and solves the two
 //! sides on two threads.
 //!
-//! The driver splits the assembly tree's top [`SPLIT_DEPTH`] levels with `rayon::join`; each
-//! node at depth [`SPLIT_DEPTH`] (or a leaf above it) is the root of a subtree that one task
+//! The driver splits the assembly tree's top [`SPLIT_DEPTH`](crate::banked::SPLIT_DEPTH) levels with `rayon::join`; each
+//! node at depth [`SPLIT_DEPTH`](crate::banked::SPLIT_DEPTH) (or a leaf above it) is the root of a subtree that one task
 //! solves serially, by the same per-node code as the serial passes ([`crate::dca`]'s
 //! `main_range` and `back_range`). In post-order a subtree is a contiguous node range. Every
 //! node's arithmetic is the one of the serial pass, reading only its children's outputs (main
@@ -13,18 +13,17 @@
 //!
 //! The serial passes keep the slots of the diagonal blocks, biases and handle forces per
 //! (depth, side), reused from one subtree to the next; tasks running side by side need their
-//! own. The banked layout ([`banked_slots`]) gives each of the top nodes a slot and a join
+//! own. The banked layout ([`crate::banked::banked_slots`]) gives each of the top nodes a slot and a join
 //! scratch of its own, and each subtree below them a bank of per-(depth, side) slots and a
 //! scratch; it is built by the first parallel call on a workspace ([`Data::ensure_dca_banked`]).
 
+#[cfg(any(test, feature = "parallel"))]
+use crate::banked::SPLIT_DEPTH;
 use crate::{Data, DynamicsError, Threads};
-use articula_model::{AssemblyTree, Model};
+#[cfg(feature = "parallel")]
+use articula_model::AssemblyTree;
+use articula_model::Model;
 use articula_spatial::SpatialForce;
-
-/// Levels of the assembly tree split across tasks: up to `2^SPLIT_DEPTH` subtrees, each solved
-/// serially by one task (the grain), so that up to 8 threads have work and the work-stealing
-/// pool evens out unequal subtrees.
-pub(crate) const SPLIT_DEPTH: usize = 3;
 
 /// The smallest model (bodies) whose DCA [`forward_dynamics_threads`] splits across threads:
 /// below it the split's cost (waking a thread, a few µs, and the banked slots' wider working
@@ -32,50 +31,6 @@ pub(crate) const SPLIT_DEPTH: usize = 3;
 /// whatever the thread count. Measured by `cargo xtask parallel` on two cores: the split on
 /// two threads loses at 2,000 bodies and is about even to 1.2× at 5,000 (docs/scaling.md).
 pub const PARALLEL_DCA_MIN_BODIES: usize = 5_000;
-
-/// The banked slot layout of `tree` (no gather node; `side[n]`: 0 for a join's parent side,
-/// 1 for its child side): per node its slot index (its handles' slots are at `index · max_h`),
-/// the index count, per node its join scratch bank, and the bank count.
-///
-/// The top nodes (depth below [`SPLIT_DEPTH`]) each get a slot and a scratch bank of their
-/// own, numbered in reverse post-order (a parent before its children, so a join's slot lies
-/// below its children's, as `dca::c_blocks` needs); below them, subtree `t` (rooted at depth
-/// [`SPLIT_DEPTH`]) has slots `top + t · (2 D + 2) + 2 δ + side` (D the tree's depth) and
-/// scratch bank `top + t`.
-pub(crate) fn banked_slots(
-    tree: &AssemblyTree,
-    side: &[usize],
-) -> (Vec<usize>, usize, Vec<usize>, usize) {
-    let nn = tree.nodes.len();
-    let per = 2 * tree.depth() + 2;
-    let (mut si, mut ys) = (vec![0; nn], vec![0; nn]);
-    let mut top = 0;
-    for n in (0..nn).rev() {
-        if tree.nodes[n].depth < SPLIT_DEPTH {
-            si[n] = top;
-            ys[n] = top;
-            top += 1;
-        }
-    }
-    // Reverse post-order: a node after its parent, whose bank is then known.
-    let mut bank = vec![0; nn];
-    let mut banks = 0;
-    for n in (0..nn).rev() {
-        let nd = &tree.nodes[n];
-        if nd.depth < SPLIT_DEPTH {
-            continue;
-        }
-        bank[n] = if nd.depth == SPLIT_DEPTH {
-            banks += 1;
-            banks - 1
-        } else {
-            bank[nd.parent.expect("a node below the root has a parent")]
-        };
-        si[n] = top + bank[n] * per + 2 * nd.depth + side[n];
-        ys[n] = top + bank[n];
-    }
-    (si, top + banks * per, ys, top + banks)
-}
 
 /// Forward dynamics of one body, DCA split across the threads of `threads` when the model has
 /// at least [`PARALLEL_DCA_MIN_BODIES`] bodies (and no gather node); otherwise, or for another
@@ -366,6 +321,7 @@ impl Split<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::banked::banked_slots;
     use crate::{forward_dynamics_slices, Method, State};
     use articula_model::NodeKind;
 
