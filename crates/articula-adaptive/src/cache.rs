@@ -309,6 +309,28 @@ fn add_at_b(j: &mut [[f64; NW]; 6], s: f64, a: &M6, b: &[[f64; NW]; 6]) {
     }
 }
 
+/// Row `i` (NW long) of a row-major matrix of NW columns.
+#[inline(always)]
+fn row(m: &[f64], i: usize) -> &[f64; NW] {
+    m[i * NW..(i + 1) * NW].try_into().expect("a row of NW")
+}
+
+/// Row `i` of a row-major matrix of NW columns, mutable.
+#[inline(always)]
+fn row_mut(m: &mut [f64], i: usize) -> &mut [f64; NW] {
+    (&mut m[i * NW..(i + 1) * NW])
+        .try_into()
+        .expect("a row of NW")
+}
+
+/// `y += a x` over NW entries.
+#[inline(always)]
+fn axpy(y: &mut [f64; NW], a: f64, x: &[f64; NW]) {
+    for (y, &x) in y.iter_mut().zip(x) {
+        *y += a * x;
+    }
+}
+
 /// Which parts of a cached node an evaluation writes into the workspace's slots.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Part {
@@ -369,6 +391,23 @@ impl Adaptive {
     /// passes (`n`'s own Φ, K, N, Ψ and its children's Φ, Ψ, computation axes): the join is
     /// repeated to record its bias maps, then the 22 bias columns go through it.
     pub(crate) fn build_cache(
+        &mut self,
+        model: &Model,
+        n: usize,
+        q: &[f64],
+        tau: &[f64],
+    ) -> Result<(), DynamicsError> {
+        // Also compiled for AVX2 + FMA (the same bits, wider vectors), run when `fused`.
+        articula_spatial::fma_dispatch! {
+            fn run(this: &mut Adaptive, model: &Model, n: usize, q: &[f64], tau: &[f64]) -> Result<(), DynamicsError>;
+            avx2_fma: this.switches.fused, Portable;
+            |A| this.build_cache_with(model, n, q, tau)
+        }
+        run(self, model, n, q, tau)
+    }
+
+    #[inline(always)]
+    fn build_cache_with(
         &mut self,
         model: &Model,
         n: usize,
@@ -472,7 +511,7 @@ impl Adaptive {
                 }
             }
         }
-        self.join_columns(model, n, NW, tau);
+        self.join_columns(model, n, tau);
         // Store in n's cache frame: Φ, K, N, Ψ from the slots, the tensors from the results.
         let rt = tr3(&rows3(&xn.e));
         let (nh, hc, bc) = (
@@ -606,17 +645,22 @@ impl Adaptive {
         }
     }
 
-    /// The bias part of the join of node `n` and of its metric, on `nc` columns at once
-    /// (computation axes): the children's bias columns in `xb[0]` (A), `xb[1]` (B), their `P`
-    /// columns in `xp`, their `E` in `xe`; the joint torques enter the last column. With the
-    /// join's maps `maps.recorded`, `G_F` (`scratch.g_force`), `K`, `N` and the children's Ψ
-    /// from the slots:
+    /// The bias part of the join of node `n` and of its metric, on the NW monomial columns at
+    /// once (computation axes): the children's bias columns in `xb[0]` (A), `xb[1]` (B), their
+    /// `P` columns in `xp`, their `E` in `xe`; the joint torques enter the constant column. With
+    /// the join's maps `maps.recorded`, `G_F` (`scratch.g_force`), `K`, `N` and the children's
+    /// Ψ from the slots:
     /// `β = B^A_j − B^B_j`, `k = κ_β β + κ_Q Q`, `n = ν_β β + ν_Q Q`,
     /// `B^C_h = B^X_h − G_F,hᵀ n` (into `ob`, `okw`, `onw`),
     /// `P^C = 2 Kᵀ A k + Σ_X [Nᵀ s u_jx + u_i on the shared handles]` with
     /// `u_jx = 2 s Ψ_X[jx,jx] n + P_X,jx`, `u_i = P_X,i + 2 s Ψ_X[i,jx] n` (into `op`), and
     /// `E^C = k_wᵀ A k_w + Σ_X [E_X + n_wᵀ Ψ_X[jx,jx] n_w + s sym(n_wᵀ P_X,jx)]` (into `oe`).
-    pub(crate) fn join_columns(&mut self, model: &Model, n: usize, nc: usize, tau: &[f64]) {
+    ///
+    /// Every product is a sum of rank-one updates of whole NW-long rows (`axpy`), which the
+    /// compiler vectorises along the columns (in AVX2 lanes within `build_cache`'s AVX2
+    /// compilation).
+    #[inline(always)]
+    fn join_columns(&mut self, model: &Model, n: usize, tau: &[f64]) {
         let tree = &model.assembly;
         let NodeKind::Join {
             joint,
@@ -633,38 +677,33 @@ impl Adaptive {
         let ncc = 6 * nhc;
         let jm = self.maps.recorded;
         let c = &mut self.cache;
-        // β, k, n per column.
-        for col in 0..nc {
-            let beta: [f64; 6] = std::array::from_fn(|r| {
-                c.xb[0][(6 * ja + r) * nc + col] - c.xb[1][(6 * jb + r) * nc + col]
-            });
-            let q: [f64; 6] = std::array::from_fn(|p| {
-                if p < k && col == nc - 1 {
-                    tau[vo + p]
-                } else {
-                    0.0
-                }
-            });
-            for p in 0..k {
-                let mut x = 0.0;
-                for r in 0..6 {
-                    x += jm.kb[p][r] * beta[r];
-                }
-                for qq in 0..k {
-                    x += jm.kq[p][qq] * q[qq];
-                }
-                c.okw[p * nc + col] = x;
+        // β, then k_w = κ_β β (+ κ_Q τ in the constant column), n_w likewise.
+        let mut beta = [[0.0; NW]; 6];
+        for (r, br) in beta.iter_mut().enumerate() {
+            let (xa, xb) = (row(&c.xb[0], 6 * ja + r), row(&c.xb[1], 6 * jb + r));
+            for ((x, &p), &q) in br.iter_mut().zip(xa).zip(xb) {
+                *x = p - q;
             }
-            for s in 0..6 {
-                let mut x = 0.0;
-                for r in 0..6 {
-                    x += jm.nb[s][r] * beta[r];
-                }
-                for qq in 0..k {
-                    x += jm.nq[s][qq] * q[qq];
-                }
-                c.onw[s * nc + col] = x;
+        }
+        let mut kw = [[0.0; NW]; 6];
+        for p in 0..k {
+            for r in 0..6 {
+                axpy(&mut kw[p], jm.kb[p][r], &beta[r]);
             }
+            for qq in 0..k {
+                kw[p][CONST] += jm.kq[p][qq] * tau[vo + qq];
+            }
+            row_mut(&mut c.okw, p).copy_from_slice(&kw[p]);
+        }
+        let mut nw = [[0.0; NW]; 6];
+        for s in 0..6 {
+            for r in 0..6 {
+                axpy(&mut nw[s], jm.nb[s][r], &beta[r]);
+            }
+            for qq in 0..k {
+                nw[s][CONST] += jm.nq[s][qq] * tau[vo + qq];
+            }
+            row_mut(&mut c.onw, s).copy_from_slice(&nw[s]);
         }
         // B^C_h = B^X_i − G_F,hᵀ n.
         for h in 0..nhc {
@@ -672,36 +711,36 @@ impl Adaptive {
             let side = usize::from(!from_a);
             let g = &self.scratch.g_force[h].0;
             for r in 0..6 {
-                for col in 0..nc {
-                    let mut x = c.xb[side][(6 * i + r) * nc + col];
-                    for s in 0..6 {
-                        x -= g[s][r] * c.onw[s * nc + col];
-                    }
-                    c.ob[(6 * h + r) * nc + col] = x;
+                let mut x = *row(&c.xb[side], 6 * i + r);
+                for s in 0..6 {
+                    axpy(&mut x, -g[s][r], &nw[s]);
                 }
+                *row_mut(&mut c.ob, 6 * h + r) = x;
             }
         }
-        // P^C: own joint 2 Kᵀ A k.
+        // P^C: own joint 2 Kᵀ A k; E^C: own joint k_wᵀ A k_w.
         let (ko, wo) = (self.maps.qdd_gain_at[n], self.metric.weight_at[joint]);
         let kmat = &self.maps.qdd_gain[ko..ko + k * ncc];
         let aw = &self.metric.accel_weights[wo..wo + k * k];
         let mut akw = [[0.0; NW]; 6];
         for p in 0..k {
-            for col in 0..nc {
-                akw[p][col] = (0..k).map(|q| aw[p * k + q] * c.okw[q * nc + col]).sum();
+            for q in 0..k {
+                axpy(&mut akw[p], aw[p * k + q], &kw[q]);
             }
         }
         for i in 0..ncc {
-            for col in 0..nc {
-                c.op[i * nc + col] =
-                    2.0 * (0..k).map(|p| kmat[p * ncc + i] * akw[p][col]).sum::<f64>();
+            let mut x = [0.0; NW];
+            for p in 0..k {
+                axpy(&mut x, 2.0 * kmat[p * ncc + i], &akw[p]);
             }
+            *row_mut(&mut c.op, i) = x;
         }
-        // E^C: own joint k_wᵀ A k_w.
-        for r in 0..nc {
-            for col in 0..nc {
-                c.oe[r * nc + col] = (0..k).map(|p| c.okw[p * nc + r] * akw[p][col]).sum();
+        for r in 0..NW {
+            let mut x = [0.0; NW];
+            for p in 0..k {
+                axpy(&mut x, kw[p][r], &akw[p]);
             }
+            *row_mut(&mut c.oe, r) = x;
         }
         let nm = &self.maps.force_gain[36 * hc..36 * hc + 6 * ncc];
         for (side, x, jx, sign) in [(0usize, a, ja, -1.0), (1, b, jb, 1.0)] {
@@ -709,25 +748,23 @@ impl Adaptive {
             let po = self.metric.quad_at[x];
             let psix = &self.metric.quad[po..po + nx * nx];
             let ps = |r: usize, t: usize| psix[r * nx + t];
-            // ψn = Ψ_X[jx,jx] n (6 × nc)
+            // ψn = Ψ_X[jx,jx] n (6 × NW), P_X,jx (6 × NW).
             let mut psin = [[0.0; NW]; 6];
+            let mut pj = [[0.0; NW]; 6];
             for r in 0..6 {
-                for col in 0..nc {
-                    psin[r][col] = (0..6)
-                        .map(|t| ps(6 * jx + r, 6 * jx + t) * c.onw[t * nc + col])
-                        .sum();
+                for t in 0..6 {
+                    axpy(&mut psin[r], ps(6 * jx + r, 6 * jx + t), &nw[t]);
                 }
+                pj[r] = *row(&c.xp[side], 6 * jx + r);
             }
             // P^C += Nᵀ (s u_jx), u_jx = 2 s ψn + P_X,jx.
             for t in 0..6 {
-                for col in 0..nc {
-                    let u = 2.0 * sign * psin[t][col] + c.xp[side][(6 * jx + t) * nc + col];
-                    let su = sign * u;
-                    if su != 0.0 {
-                        for i in 0..ncc {
-                            c.op[i * nc + col] += nm[t * ncc + i] * su;
-                        }
-                    }
+                let mut su = [0.0; NW];
+                for ((v, &p), &q) in su.iter_mut().zip(&psin[t]).zip(&pj[t]) {
+                    *v = sign * (2.0 * sign * p + q);
+                }
+                for i in 0..ncc {
+                    axpy(row_mut(&mut c.op, i), nm[t * ncc + i], &su);
                 }
             }
             // Shared handles: u_i = P_X,i + 2 s Ψ_X[i,jx] n.
@@ -737,27 +774,33 @@ impl Adaptive {
                     continue;
                 }
                 for r in 0..6 {
-                    for col in 0..nc {
-                        let mut u = c.xp[side][(6 * i + r) * nc + col];
-                        for t in 0..6 {
-                            u += 2.0 * sign * ps(6 * i + r, 6 * jx + t) * c.onw[t * nc + col];
-                        }
-                        c.op[(6 * h + r) * nc + col] += u;
+                    let mut u = *row(&c.xp[side], 6 * i + r);
+                    for t in 0..6 {
+                        axpy(&mut u, 2.0 * sign * ps(6 * i + r, 6 * jx + t), &nw[t]);
+                    }
+                    let o = row_mut(&mut c.op, 6 * h + r);
+                    for (y, v) in o.iter_mut().zip(u) {
+                        *y += v;
                     }
                 }
             }
-            // E^C += E_X + n_wᵀ Ψ_X[jx,jx] n_w + s sym(n_wᵀ P_X,jx).
-            for r in 0..nc {
-                for col in 0..nc {
-                    let mut x = c.xe[side][r * nc + col];
-                    for t in 0..6 {
-                        x += c.onw[t * nc + r] * psin[t][col];
-                        x += 0.5
-                            * sign
-                            * (c.onw[t * nc + r] * c.xp[side][(6 * jx + t) * nc + col]
-                                + c.onw[t * nc + col] * c.xp[side][(6 * jx + t) * nc + r]);
-                    }
-                    c.oe[r * nc + col] += x;
+            // E^C += E_X + n_wᵀ Ψ_X[jx,jx] n_w + s sym(n_wᵀ P_X,jx): row r gets
+            // Σ_t n_w[t][r] (ψn_t + s/2 P_t) + (s/2) P_t[r] n_w[t].
+            let mut g = [[0.0; NW]; 6];
+            for t in 0..6 {
+                for ((v, &p), &q) in g[t].iter_mut().zip(&psin[t]).zip(&pj[t]) {
+                    *v = p + 0.5 * sign * q;
+                }
+            }
+            for r in 0..NW {
+                let mut x = *row(&c.xe[side], r);
+                for t in 0..6 {
+                    axpy(&mut x, nw[t][r], &g[t]);
+                    axpy(&mut x, 0.5 * sign * pj[t][r], &nw[t]);
+                }
+                let o = row_mut(&mut c.oe, r);
+                for (y, v) in o.iter_mut().zip(x) {
+                    *y += v;
                 }
             }
         }

@@ -2,6 +2,7 @@
 //! matrices of the acceleration metric (Ψ, K, N, M) are a few tens of rows at most.
 
 /// `c = aᵀ b` with `a` (r × m), `b` (r × n), `c` (m × n), all row-major; `c` is overwritten.
+#[inline]
 pub(crate) fn at_b(a: &[f64], b: &[f64], r: usize, m: usize, n: usize, c: &mut [f64]) {
     c[..m * n].iter_mut().for_each(|x| *x = 0.0);
     for k in 0..r {
@@ -19,6 +20,7 @@ pub(crate) fn at_b(a: &[f64], b: &[f64], r: usize, m: usize, n: usize, c: &mut [
 }
 
 /// `c = a b` with `a` (m × r), `b` (r × n), `c` (m × n); `c` is overwritten.
+#[inline]
 pub(crate) fn a_b(a: &[f64], b: &[f64], m: usize, r: usize, n: usize, c: &mut [f64]) {
     c[..m * n].iter_mut().for_each(|x| *x = 0.0);
     for i in 0..m {
