@@ -668,9 +668,11 @@ fn document(
                 "  Here DCA loses: its error grows with the ratio while ABA's does not. Where a \
                  light body is joined to a heavy one, the compliance of the pair in the \
                  directions the joint holds rigid is the small difference of the light body's \
-                 large compliances, so the join loses about log10(r) digits; models with a \
-                 neighbour mass ratio above 1e4 are refined against the Newton–Euler residual \
-                 (`docs/algorithms.md`), which is what the rows from 1e4 up show."
+                 large compliances, so the join loses about log10(r) digits; on models with a \
+                 neighbour mass ratio above 1e4 DCA's leaves of light bodies between heavy ones \
+                 invert an inertia 1e4 below their neighbours' and the solve is refined against \
+                 the Newton–Euler residual with the exact inertias \
+                 (`docs/algorithms.md#mass-ratio`), which is what the rows from 1e4 up show."
             );
         }
         for m in [Method::Dca, Method::Aba, Method::Crba] {
@@ -915,8 +917,11 @@ fn hard_cases(s: &mut String, hard: &[crate::stress::Outcome]) {
          joint origins (`docs/algorithms.md`), so a chain's tilt in the world costs no digits: \
          the errors of the tilted chains grow about linearly with n, not as n².\n\
          - Where a light link is joined to a heavy one DCA's join loses about log10(ratio) \
-         digits; models with a neighbour mass ratio above 1e4 are refined to convergence \
-         against the Newton–Euler residual, and a join pivot that rounding made non-positive is \
+         digits. On models with a neighbour mass ratio above 1e4 the leaf of a light link \
+         between heavy ones inverts an inertia 1e4 below its neighbours' (the joins then lose \
+         at most 4 digits) and the solve is refined to convergence against the Newton–Euler \
+         residual with the exact inertias: two steps, each shrinking the error ~5,000-fold \
+         (`docs/algorithms.md#mass-ratio`). A join pivot that rounding made non-positive is \
          taken by magnitude and the solve refined.\n\
          - DCA still returns an error on: {}.\n",
         if refused.is_empty() {

@@ -209,6 +209,10 @@ pub(crate) struct DcaData {
     /// Joins of the last pass whose constraint factorisation met a pivot that rounding had
     /// made non-positive ([`crate::small::ldl5`]); reset by each pass.
     pub clamped: u32,
+    /// Whether a six-axis (floating) joint's join factors the identity instead of
+    /// `K = Φ^A_jj + Φ^B_jj` (`mass_ratio.rs`): set for models with a neighbour mass ratio above
+    /// [`MASS_RATIO`], where a light base's `K` loses its rigid directions to rounding.
+    pub free_identity: bool,
     /// Per join (`DNode::jix`): what a one-axis join keeps for the back-substitution, dense in
     /// post-order (a back-substitution stream without the leaves' gaps).
     pub rev: Vec<RevJoin>,
@@ -308,10 +312,13 @@ impl LeafConst {
     /// `full` (`I_c` and its inverse: upper triangles, row by row, `xx, xy, xz, yy, yz, zz`).
     /// With `regularised` (a singular body, see [`regularised_inverse`]) the inverse is that
     /// matrix instead of `I_c⁻¹`, and the body goes to `full` too: `I_c` stays exact for the
-    /// bias forces and the world inertia.
+    /// bias forces and the world inertia. With `scale` `σ ≠ 1` (a light body between heavy
+    /// neighbours, see `mass_ratio.rs`) the leaf inverts `σ I`: `1/(σ m)` and `I_c⁻¹ / σ`, in
+    /// `full` with the exact `I_c`.
     fn of(
         inertia: &SpatialInertia,
         regularised: Option<glam::DMat3>,
+        scale: f64,
         full: &mut Vec<[[f64; 6]; 2]>,
     ) -> LeafConst {
         let ic = inertia.inertia_about_com();
@@ -323,13 +330,15 @@ impl LeafConst {
             ]
         };
         let u = up(ic);
-        let diagonal = regularised.is_none() && u[1] == 0.0 && u[2] == 0.0 && u[4] == 0.0;
+        let diagonal =
+            regularised.is_none() && scale == 1.0 && u[1] == 0.0 && u[2] == 0.0 && u[4] == 0.0;
         let index = if diagonal {
             u32::MAX
         } else {
             let inverse = match regularised {
                 _ if !ok => [f64::NAN; 6],
-                Some(j) => up(j),
+                Some(j) => up(j * scale.recip()),
+                None if scale != 1.0 => up(ic.inverse() * scale.recip()),
                 None => up(ic.inverse()),
             };
             full.push([u, inverse]);
@@ -338,7 +347,7 @@ impl LeafConst {
         };
         LeafConst {
             com: inertia.com().to_array(),
-            im: if ok { 1.0 / m } else { f64::NAN },
+            im: if ok { 1.0 / (scale * m) } else { f64::NAN },
             ic: [u[0], u[3], u[5]],
             full: index,
         }
@@ -814,6 +823,7 @@ impl DcaData {
             arm: Vec::new(),
             trig: Vec::new(),
             clamped: 0,
+            free_identity: false,
             rev: Vec::new(),
             y: Vec::new(),
             u: Vec::new(),
@@ -1005,10 +1015,20 @@ impl DcaData {
             }
         }
         let mut leaf_full = Vec::new();
+        // Light bodies between heavy neighbours: a heavier leaf (`mass_ratio.rs`).
+        let scales = crate::mass_ratio::leaf_scales(model);
         let leaf = model
             .bodies
             .iter()
-            .map(|b| LeafConst::of(&b.inertia, regularised_inverse(model, b), &mut leaf_full))
+            .zip(&scales)
+            .map(|(b, &scale)| {
+                LeafConst::of(
+                    &b.inertia,
+                    regularised_inverse(model, b),
+                    scale,
+                    &mut leaf_full,
+                )
+            })
             .collect();
         Ok(DcaData {
             built: true,
@@ -1051,6 +1071,7 @@ impl DcaData {
                 Vec::new()
             },
             clamped: 0,
+            free_identity: large_mass_ratio(model),
             rev: vec![RevJoin::default(); joins],
             y: vec![[[0.0; 6]; 6]; nys * max_h],
             u: vec![[[0.0; 6]; 6]; nys * max_h],

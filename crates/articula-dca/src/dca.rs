@@ -722,11 +722,15 @@ fn join<A: Arith>(
             }
         }
         d.beta[n] = beta;
-        // L Lᵀ = Φ^A_jj + Φ^B_jj
-        let l = crate::small::cholesky6_inv_diag(&sum).ok_or_else(|| DynamicsError::Singular {
-            joint: body.joint_name(),
-            detail: "Φ_jj^A + Φ_jj^B is not positive definite",
-        })?;
+        // L Lᵀ = Φ^A_jj + Φ^B_jj; a free joint's W is zero for any K (`mass_ratio.rs`).
+        let l = if k == 6 && d.free_identity {
+            crate::mass_ratio::IDENTITY
+        } else {
+            crate::small::cholesky6_inv_diag(&sum).ok_or_else(|| DynamicsError::Singular {
+                joint: body.joint_name(),
+                detail: "Φ_jj^A + Φ_jj^B is not positive definite",
+            })?
+        };
         // Z = L⁻¹ S, D = Zᵀ Z.
         let mut dm = crate::small::SmallSpd {
             k,
@@ -759,6 +763,10 @@ fn join<A: Arith>(
                     zd[p][i] += x * zq[i];
                 }
             }
+        }
+        if k == 6 && d.free_identity {
+            // The back-substitution's q̈ with L = 1 (`mass_ratio.rs`).
+            d.beta[n] = crate::mass_ratio::free_beta(&sum, &zd, &tau[vo..vo + 6], beta);
         }
         // γ = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − Q)),  w = L⁻¹ β
         let mut w = solve_l(&l, &beta.to_array());

@@ -65,6 +65,7 @@ mod jacobian;
 mod kinematics;
 mod link;
 mod mass_matrix;
+mod mass_ratio;
 mod momentum;
 mod parallel_dca;
 mod refine;

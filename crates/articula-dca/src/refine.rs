@@ -23,6 +23,9 @@
 //! is a nearby positive definite system, and the iteration corrects it. (2) Models whose
 //! neighbouring bodies differ in mass by more than [`MASS_RATIO`](crate::data::MASS_RATIO)
 //! (the same cancellation, short of a lost pivot: 4e-8 on a 1,000-link chain of ratio 1e6).
+//! There DCA's leaves of light bodies between heavy ones invert a heavier inertia
+//! (`mass_ratio.rs`): each solve then loses at most 4 digits, and each step shrinks the error
+//! ~5,000-fold.
 
 use crate::residual::{rnea_residual, RneaInput};
 use crate::{Data, DynamicsError};
