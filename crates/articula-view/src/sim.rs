@@ -12,11 +12,13 @@
 //!    exact handle forces from its solve ([`Adaptive::scaled_node_metrics`], the same numbers
 //!    as [`Adaptive::node_metrics`] with those weights) — the values its own queue would see,
 //!    since a queued node's ancestors are all expanded exactly;
-//! 3. [`global_selection`] runs the queue over all bodies' roots: pop the node with the largest
-//!    metric in the whole scene, push its children, until the budget of internal degrees of
-//!    freedom (the floating bases' six are free) or the tolerance is reached. Each body's
-//!    popped nodes are a prefix of its own pop order (its share, as its own budget, would make
-//!    its own queue choose exactly them);
+//! 3. the global queue runs over all bodies' roots: pop the node with the largest metric in the
+//!    whole scene, push its children, until the budget of internal degrees of freedom (the
+//!    floating bases' six are free) or the tolerance is reached. Each body's popped nodes are a
+//!    prefix of its own pop order (its share, as its own budget, would make its own queue
+//!    choose exactly them), so each body runs its own queue to its end across threads
+//!    ([`OwnQueue`]) and one merge of their pop sequences makes the global choice
+//!    ([`merge_own_queues`]: the same pops as one queue over every node);
 //! 4. each body whose active joints are not exactly the ones the queue chose gets them
 //!    ([`Adaptive::set_active`]: the joints that leave the hybrid body are locked by
 //!    momentum-keeping impulses); the others keep their hybrid body as it is. A body whose joints are all locked moves as one
