@@ -125,22 +125,7 @@ articula_spatial::fma_dispatch! {
 }
 
 articula_spatial::fma_dispatch! {
-    /// The serial part of the parallel driver's kinematics (`parallel_dca.rs`): every body's
-    /// [`crate::kinematics::kinematics_pose`], parents first, from the joint sines and cosines
-    /// in `data.dca.trig`.
-    pub(crate) fn pose_loop(model: &Model, q: &[f64], qd: &[f64], data: &mut Data);
-    avx2_fma: data.dca.fused, Fused;
-    |A| {
-        let x_cw = articula_spatial::SpatialTransform::xlt(data.origin);
-        for i in 0..model.bodies.len() {
-            let trig = data.dca.trig[i];
-            crate::kinematics::kinematics_pose(model, i, q, qd, data, x_cw, trig);
-        }
-    }
-}
-
-articula_spatial::fma_dispatch! {
-    /// The per-body part of the parallel driver's kinematics after [`pose_loop`], for the
+    /// The per-body part of the parallel driver's kinematics after its pose chain, for the
     /// bodies `bodies`: [`crate::kinematics::kinematics_bias`] and [`init_body`]. Each body
     /// reads only poses and velocities and writes only its own entries.
     pub(crate) fn bias_range(qd: &[f64], data: &mut Data, bodies: std::ops::Range<usize>);

@@ -138,9 +138,11 @@ const PARALLEL_KINEMATICS_MIN_BODIES: usize = 4 * KINEMATICS_GRAIN;
 /// The kinematics loop of the serial DCA ([`crate::dca::kinematics_loop`]), with what does not
 /// need the parent's pose across threads (banked layout, several threads): the joints' sines
 /// and cosines ([`crate::kinematics::joint_trig`]) on all threads, then the pose chain
-/// `X_{C←i}`, `S`, `vᵢ` serially ([`crate::dca::pose_loop`]), then the bias terms `cᵢ`, the
-/// points and arms ([`crate::dca::bias_range`]) on all threads. Each body's arithmetic is the
-/// loop's, so the result is its bits for any thread count and any `grain` (bodies per task).
+/// `X_{C←i}`, `S`, `vᵢ` on one thread ([`pose_range`], in blocks of `grain / 4` bodies) while
+/// the others follow it with the bias terms `cᵢ`, the points and arms
+/// ([`crate::dca::bias_range`], in blocks of `grain` bodies whose poses are done); the chain's
+/// thread joins them on the blocks left once it is through. Each body's arithmetic is the
+/// loop's, so the result is its bits for any thread count and any `grain`.
 #[cfg(feature = "parallel")]
 fn kinematics(
     model: &Model,
@@ -151,6 +153,7 @@ fn kinematics(
     grain: usize,
 ) {
     use rayon::prelude::*;
+    use std::sync::atomic::{AtomicUsize, Ordering};
     let n = model.bodies.len();
     let (plans, trig) = (&data.fk_plan, &mut data.dca.trig);
     threads.install(|| {
@@ -162,17 +165,70 @@ fn kinematics(
                 }
             })
     });
-    crate::dca::pose_loop(model, q, qd, data);
+    // `posed`: the bodies whose poses are done (a prefix: parents come first); `next`: the
+    // next block of bias terms to take.
+    let (posed, next) = (AtomicUsize::new(0), AtomicUsize::new(0));
     let shared = Shared(data as *mut Data);
     let shared = &shared;
+    let bias_blocks = || loop {
+        let t = next.fetch_add(1, Ordering::Relaxed);
+        let bodies = t * grain..n.min((t + 1) * grain);
+        if bodies.is_empty() {
+            return;
+        }
+        let mut spins = 0u32;
+        while posed.load(Ordering::Acquire) < bodies.end {
+            spins += 1;
+            if spins < 64 {
+                std::hint::spin_loop();
+            } else {
+                std::thread::yield_now();
+            }
+        }
+        // SAFETY: see `Shared`: each block writes only its own bodies' entries (`c`,
+        // `dca.point`, `dca.arm`) and reads the poses and velocities of bodies the chain has
+        // done (released by `posed`), never those it is writing.
+        crate::dca::bias_range(qd, unsafe { &mut *shared.0 }, bodies);
+    };
+    let block = (grain / 4).max(1);
     threads.install(|| {
-        (0..n.div_ceil(grain)).into_par_iter().for_each(|t| {
-            let bodies = t * grain..n.min((t + 1) * grain);
-            // SAFETY: see `Shared`: each task writes only its own bodies' entries (`c`,
-            // `dca.point`, `dca.arm`) and reads the poses and velocities, done before.
-            crate::dca::bias_range(qd, unsafe { &mut *shared.0 }, bodies);
-        })
+        rayon::join(
+            || {
+                for start in (0..n).step_by(block) {
+                    let bodies = start..n.min(start + block);
+                    let end = bodies.end;
+                    // SAFETY: see `Shared`: the chain alone writes poses, joint columns and
+                    // velocities (and `c` of bodies off the one-axis fast path, which the bias
+                    // blocks leave alone); the bias blocks read them only once released.
+                    pose_range(model, q, qd, unsafe { &mut *shared.0 }, bodies);
+                    posed.store(end, Ordering::Release);
+                }
+                bias_blocks();
+            },
+            bias_blocks,
+        )
     });
+}
+
+articula_spatial::fma_dispatch! {
+    /// The part of the kinematics loop that needs the parent's pose, for the bodies `bodies`
+    /// (their parents done before): each body's [`crate::kinematics::kinematics_pose`], from
+    /// the joint sines and cosines in `data.dca.trig`.
+    fn pose_range(
+        model: &Model,
+        q: &[f64],
+        qd: &[f64],
+        data: &mut Data,
+        bodies: std::ops::Range<usize>,
+    );
+    avx2_fma: data.dca.fused, Fused;
+    |A| {
+        let x_cw = articula_spatial::SpatialTransform::xlt(data.origin);
+        for i in bodies {
+            let trig = data.dca.trig[i];
+            crate::kinematics::kinematics_pose(model, i, q, qd, data, x_cw, trig);
+        }
+    }
 }
 
 /// Without the `parallel` feature: the same parts on the calling thread.
@@ -188,7 +244,7 @@ fn kinematics(
     for (t, &p) in data.dca.trig.iter_mut().zip(&data.fk_plan) {
         *t = crate::kinematics::joint_trig(p, q);
     }
-    crate::dca::pose_loop(model, q, qd, data);
+    pose_range(model, q, qd, data, 0..model.bodies.len());
     crate::dca::bias_range(qd, data, 0..model.bodies.len());
 }
 

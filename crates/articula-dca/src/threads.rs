@@ -154,6 +154,70 @@ impl Threads {
         }
         f(&mut workers[0], 0, items);
     }
+
+    /// `f(worker, first, chunk)` for the chunks of `chunk` items of `items` (the last one
+    /// shorter; `first` is the index of a chunk's first item), handed to the threads as they
+    /// come free: a thread that finishes its chunks early takes others (rayon's work
+    /// stealing), so runs of unequal cost — characters near the camera with many joints, far
+    /// ones with none — and a thread that the system deschedules for a while do not leave
+    /// the other threads idle. Each call holds a worker state of `workers` that no other
+    /// running call holds (the one of its thread when free); with one thread (or one item)
+    /// `workers[0]` takes every item in one call.
+    ///
+    /// Which worker and which thread get a chunk depends on timing: what a call computes must
+    /// depend only on its items, not on its worker's scratch contents or on the other chunks,
+    /// for the result to be the same for any count. `f` must not wait for work on this pool
+    /// (a nested `join` could hand its thread a second chunk while it holds a worker).
+    /// Panics when `workers` is empty or `chunk` is 0.
+    pub fn for_each_chunk<T: Send, W: Send>(
+        &self,
+        items: &mut [T],
+        workers: &[std::sync::Mutex<W>],
+        chunk: usize,
+        f: impl Fn(&mut W, usize, &mut [T]) + Sync,
+    ) {
+        assert!(!workers.is_empty(), "for_each_chunk needs a worker");
+        assert!(
+            chunk > 0,
+            "for_each_chunk needs chunks of at least one item"
+        );
+        #[cfg(feature = "parallel")]
+        if self.pool.is_some() && workers.len() > 1 && items.len() > chunk {
+            use rayon::prelude::*;
+            let f = &f;
+            self.install(|| {
+                items
+                    .par_chunks_mut(chunk)
+                    .with_max_len(1)
+                    .enumerate()
+                    .for_each(|(c, run)| f(&mut acquire(workers), c * chunk, run))
+            });
+            return;
+        }
+        f(&mut acquire(workers), 0, items);
+    }
+}
+
+/// A worker state no other running call holds: its own thread's first (the pool's threads are
+/// numbered from 0), else the first free one, waiting while every one is held (a thread
+/// preempted inside its chunk).
+fn acquire<W>(workers: &[std::sync::Mutex<W>]) -> std::sync::MutexGuard<'_, W> {
+    use std::sync::TryLockError;
+    #[cfg(feature = "parallel")]
+    let start = rayon::current_thread_index().unwrap_or(0);
+    #[cfg(not(feature = "parallel"))]
+    let start = 0;
+    loop {
+        for k in 0..workers.len() {
+            match workers[(start + k) % workers.len()].try_lock() {
+                Ok(g) => return g,
+                // A call that panicked left it: the panic reaches the caller anyway.
+                Err(TryLockError::Poisoned(p)) => return p.into_inner(),
+                Err(TryLockError::WouldBlock) => {}
+            }
+        }
+        std::thread::yield_now();
+    }
 }
 
 impl Default for Threads {

@@ -186,3 +186,52 @@ fn one_body_dca_is_the_same_bits_on_any_thread_count() {
         }
     }
 }
+
+/// `Threads::for_each_chunk` hands every item to exactly one call, at its index, in chunks of
+/// the given length (the last shorter), each call holding a worker no other running call
+/// holds: every item is seen once with its own index, the workers' counts add up to the
+/// items, and on a pool the chunks spread over more than one worker.
+#[test]
+fn for_each_chunk_visits_every_item_once_with_a_worker_of_its_own() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::Mutex;
+    for threads in [1, 2, 3] {
+        let pool = Threads::new(threads).unwrap();
+        for (n, chunk) in [(0, 4), (1, 4), (7, 3), (1000, 8), (1000, 1000)] {
+            let mut items = vec![usize::MAX; n];
+            let workers: Vec<Mutex<(usize, bool)>> =
+                (0..threads).map(|_| Mutex::new((0, false))).collect();
+            let calls = AtomicUsize::new(0);
+            pool.for_each_chunk(&mut items, &workers, chunk, |w, first, run| {
+                // No other running call holds this worker.
+                assert!(!w.1, "worker held twice");
+                w.1 = true;
+                calls.fetch_add(1, Ordering::Relaxed);
+                if threads > 1 && n > chunk {
+                    assert!(run.len() <= chunk && first % chunk == 0);
+                }
+                for (j, x) in run.iter_mut().enumerate() {
+                    assert_eq!(*x, usize::MAX, "item {} seen twice", first + j);
+                    *x = first + j;
+                    // Long enough for the other threads to take chunks meanwhile.
+                    std::hint::black_box((0..200).sum::<usize>());
+                }
+                w.0 += run.len();
+                w.1 = false;
+            });
+            assert!(items.iter().enumerate().all(|(i, x)| *x == i));
+            let counts: Vec<usize> = workers.iter().map(|w| w.lock().unwrap().0).collect();
+            assert_eq!(
+                counts.iter().sum::<usize>(),
+                n,
+                "{threads} threads, {n} items"
+            );
+            let expected_calls = if threads > 1 && n > chunk {
+                n.div_ceil(chunk)
+            } else {
+                1
+            };
+            assert_eq!(calls.load(Ordering::Relaxed), expected_calls);
+        }
+    }
+}

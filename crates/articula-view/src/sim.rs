@@ -12,11 +12,13 @@
 //!    exact handle forces from its solve ([`Adaptive::scaled_node_metrics`], the same numbers
 //!    as [`Adaptive::node_metrics`] with those weights) — the values its own queue would see,
 //!    since a queued node's ancestors are all expanded exactly;
-//! 3. [`global_selection`] runs the queue over all bodies' roots: pop the node with the largest
-//!    metric in the whole scene, push its children, until the budget of internal degrees of
-//!    freedom (the floating bases' six are free) or the tolerance is reached. Each body's
-//!    popped nodes are a prefix of its own pop order (its share, as its own budget, would make
-//!    its own queue choose exactly them);
+//! 3. the global queue runs over all bodies' roots: pop the node with the largest metric in the
+//!    whole scene, push its children, until the budget of internal degrees of freedom (the
+//!    floating bases' six are free) or the tolerance is reached. Each body's popped nodes are a
+//!    prefix of its own pop order (its share, as its own budget, would make its own queue
+//!    choose exactly them), so each body runs its own queue to its end across threads
+//!    ([`OwnQueue`]) and one merge of their pop sequences makes the global choice
+//!    ([`merge_own_queues`]: the same pops as one queue over every node);
 //! 4. each body whose active joints are not exactly the ones the queue chose gets them
 //!    ([`Adaptive::set_active`]: the joints that leave the hybrid body are locked by
 //!    momentum-keeping impulses); the others keep their hybrid body as it is. A body whose joints are all locked moves as one
@@ -39,6 +41,7 @@ use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SymMat6};
 use glam::{DMat3, DQuat, DVec3};
 use springs::pose_springs;
 use std::collections::BinaryHeap;
+use std::sync::Mutex;
 
 /// A node of some body in the global queue.
 #[derive(Clone, Copy, Debug)]
@@ -97,29 +100,151 @@ pub(crate) fn global_selection(
     budget: Option<usize>,
     tolerance: Option<f64>,
 ) -> GlobalSelection {
-    let mut sel = GlobalSelection::default();
     let mut heap = BinaryHeap::new();
-    global_selection_into(
+    let own: Vec<OwnQueue> = models
+        .iter()
+        .zip(metrics)
+        .map(|(m, x)| {
+            let mut q = OwnQueue::default();
+            q.run(m, x, &mut heap);
+            q
+        })
+        .collect();
+    let mut sel = GlobalSelection::default();
+    merge_own_queues(
         &mut sel,
         &mut heap,
-        models.len(),
-        |b| models[b],
-        |b| metrics[b],
+        own.len(),
+        |b| &own[b],
         budget,
         tolerance,
     );
+    for b in 0..models.len() {
+        let mut chosen = vec![false; models[b].assembly.nodes.len()];
+        for &n in &sel.popped[b] {
+            chosen[n] = true;
+        }
+        sel.error[b] = frontier_error(models[b], metrics[b], &sel.popped[b], &chosen);
+    }
+    sel.total_error = sel.error.iter().sum();
     sel
 }
 
-/// [`global_selection`] into `sel`, with `heap` as the queue (both cleared first: their
-/// buffers are reused, so that a scene's re-selection allocates nothing once they have
-/// grown); bodies `0..n`, body `b`'s model `model(b)` and node metrics `metrics(b)`.
-fn global_selection_into<'m>(
+/// One body's own queue over its assembly tree, run to its end: the nodes it pops in order,
+/// each with its metric, its cost and the metrics of the children it queues — what the
+/// global queue needs of this body. The global queue's top is always the largest of the
+/// bodies' own tops (the same order: largest metric, ties to the smaller body, then node),
+/// and a body's own queue changes only when one of its nodes is popped, so the global pops
+/// are exactly a merge of the bodies' own pop sequences, each taken as a prefix
+/// ([`merge_own_queues`]). Each body's run is independent of the others: the bodies' runs go
+/// across threads.
+#[derive(Clone, Debug, Default)]
+struct OwnQueue {
+    /// Whether the root is a join (else the body has nothing to select).
+    joined: bool,
+    /// A floating base's root: popped for free, first.
+    free_root: Option<usize>,
+    /// Its root's contribution to the metric mass left: the root's metric, or for a floating
+    /// base (whose root is free) the sum of its children's.
+    init: f64,
+    /// Its pops, in order (only nodes of metric > 0, or NaN).
+    pops: Vec<OwnPop>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct OwnPop {
+    metric: f64,
+    node: usize,
+    /// Its joint's degrees of freedom.
+    cost: usize,
+    /// The sum of its join children's metrics (queued or not: the mass they add).
+    added: f64,
+}
+
+impl OwnQueue {
+    /// The queue of one body of `model` with node metrics `metrics` (empty: all 0), `heap` its
+    /// scratch (cleared first).
+    fn run(&mut self, model: &Model, metrics: &[f64], heap: &mut BinaryHeap<Entry>) {
+        self.pops.clear();
+        self.init = 0.0;
+        self.free_root = None;
+        heap.clear();
+        let tree = &model.assembly;
+        let root = tree.root();
+        self.joined = matches!(tree.nodes[root].kind, NodeKind::Join { .. });
+        if !self.joined {
+            return;
+        }
+        // Queues a node; returns its metric (for the mass left). A node of metric ≤ 0 is never
+        // popped (the queue stops at the first one) and adds nothing to the error: it is
+        // counted in the mass left but not queued (a NaN is queued).
+        let push = |heap: &mut BinaryHeap<Entry>, node: usize| -> f64 {
+            let metric = metrics.get(node).copied().unwrap_or(0.0);
+            if metric > 0.0 || metric.is_nan() {
+                heap.push(Entry {
+                    metric,
+                    body: 0,
+                    node,
+                });
+            }
+            metric
+        };
+        // Queues a join's children that are joins; returns the sum of their metrics.
+        let push_children = |heap: &mut BinaryHeap<Entry>, node: usize| -> f64 {
+            let mut added = 0.0;
+            if let NodeKind::Join {
+                parent_side,
+                child_side,
+                ..
+            } = tree.nodes[node].kind
+            {
+                for c in [parent_side, child_side] {
+                    if matches!(tree.nodes[c].kind, NodeKind::Join { .. }) {
+                        added += push(heap, c);
+                    }
+                }
+            }
+            added
+        };
+        self.init = if model.floating_base {
+            // Free: expanded at once.
+            self.free_root = Some(root);
+            push_children(heap, root)
+        } else {
+            push(heap, root)
+        };
+        while let Some(top) = heap.peek().copied() {
+            if top.metric <= 0.0 {
+                break;
+            }
+            heap.pop();
+            let NodeKind::Join { joint, .. } = tree.nodes[top.node].kind else {
+                unreachable!("only joins are queued")
+            };
+            let added = push_children(heap, top.node);
+            self.pops.push(OwnPop {
+                metric: top.metric,
+                node: top.node,
+                cost: model.bodies[joint].nv,
+                added,
+            });
+        }
+    }
+}
+
+/// The global queue over bodies `0..n` from their own queues `own(b)` ([`OwnQueue`]), into
+/// `sel` (its allocation, popped nodes and budget used; `heads` holds each body's next pop).
+/// Pops the largest head in the scene, until the next one does not fit in `budget`, the mass
+/// left is at most `tolerance` (0 or `None`: no tolerance stop), or no body has a pop left
+/// (only nodes of metric ≤ 0 are left). The mass left is summed in the order the one global
+/// queue sums it (each body's root, then per pop its metric out and its children's in), so
+/// the tolerance stops at the same pop. Both buffers are cleared first and reused, so that a
+/// scene's re-selection allocates nothing once they have grown.
+fn merge_own_queues<'q>(
     sel: &mut GlobalSelection,
-    heap: &mut BinaryHeap<Entry>,
+    heads: &mut BinaryHeap<Entry>,
     n: usize,
-    model: impl Fn(usize) -> &'m Model,
-    metrics: impl Fn(usize) -> &'m [f64],
+    own: impl Fn(usize) -> &'q OwnQueue,
     budget: Option<usize>,
     tolerance: Option<f64>,
 ) {
@@ -132,78 +257,79 @@ fn global_selection_into<'m>(
     sel.popped.resize_with(n, Vec::new);
     sel.total_error = 0.0;
     sel.used = 0;
-    heap.clear();
-    // Queues a node; returns its metric (for the mass left). A node of metric ≤ 0 is never
-    // popped (the loop stops at the first one) and adds nothing to the error: it is counted in
-    // the mass left but not queued (a NaN is queued, as before).
-    let push = |heap: &mut BinaryHeap<Entry>, b: usize, node: usize| -> f64 {
-        let metric = metrics(b).get(node).copied().unwrap_or(0.0);
-        if metric > 0.0 || metric.is_nan() {
-            heap.push(Entry {
-                metric,
-                body: b,
-                node,
-            });
-        }
-        metric
+    heads.clear();
+    let head = |b: usize, k: usize| {
+        own(b).pops.get(k).map(|p| Entry {
+            metric: p.metric,
+            body: b,
+            node: p.node,
+        })
     };
-    // Queues a join's children that are joins; returns the sum of their metrics.
-    let push_children = |heap: &mut BinaryHeap<Entry>, b: usize, node: usize| -> f64 {
-        let mut added = 0.0;
+    let mut remaining = 0.0;
+    for b in 0..n {
+        let q = own(b);
+        if !q.joined {
+            continue;
+        }
+        if let Some(root) = q.free_root {
+            sel.popped[b].push(root);
+        }
+        remaining += q.init;
+        heads.extend(head(b, 0));
+    }
+    let tol = tolerance.filter(|t| *t > 0.0);
+    while let Some(&top) = heads.peek() {
+        if top.metric <= 0.0 || tol.is_some_and(|t| remaining <= t) {
+            break;
+        }
+        // The body's pops taken so far (after its free root).
+        let q = own(top.body);
+        let k = sel.popped[top.body].len() - usize::from(q.free_root.is_some());
+        let pop = q.pops[k];
+        if budget.is_some_and(|b| sel.used + pop.cost > b) {
+            break;
+        }
+        heads.pop();
+        remaining -= top.metric;
+        sel.used += pop.cost;
+        sel.allocation[top.body] += pop.cost;
+        sel.popped[top.body].push(top.node);
+        remaining += pop.added;
+        heads.extend(head(top.body, k + 1));
+    }
+}
+
+/// Body `model`'s error after the global queue popped `popped` (`chosen`: the popped nodes,
+/// marked per node): the metric mass of its frontier — the root when unpopped, and each popped
+/// join's children that are joins not popped — `Σ max(metric, 0)` in the order of `popped`
+/// (`metrics` empty: all 0). The mass the global queue leaves in its heap for this body.
+fn frontier_error(model: &Model, metrics: &[f64], popped: &[usize], chosen: &[bool]) -> f64 {
+    let tree = &model.assembly;
+    let metric = |n: usize| metrics.get(n).copied().unwrap_or(0.0).max(0.0);
+    let root = tree.root();
+    let mut error = 0.0;
+    if !matches!(tree.nodes[root].kind, NodeKind::Join { .. }) {
+        return error;
+    }
+    if popped.is_empty() {
+        error += metric(root);
+    }
+    for &n in popped {
         if let NodeKind::Join {
             parent_side,
             child_side,
             ..
-        } = model(b).assembly.nodes[node].kind
+        } = tree.nodes[n].kind
         {
             for c in [parent_side, child_side] {
-                if matches!(model(b).assembly.nodes[c].kind, NodeKind::Join { .. }) {
-                    added += push(heap, b, c);
+                if matches!(tree.nodes[c].kind, NodeKind::Join { .. }) && !chosen[c] {
+                    error += metric(c);
                 }
             }
         }
-        added
-    };
-    let mut remaining = 0.0;
-    for b in 0..n {
-        let m = model(b);
-        let root = m.assembly.root();
-        if !matches!(m.assembly.nodes[root].kind, NodeKind::Join { .. }) {
-            continue;
-        }
-        if m.floating_base {
-            // Free: expanded at once.
-            sel.popped[b].push(root);
-            remaining += push_children(heap, b, root);
-        } else {
-            remaining += push(heap, b, root);
-        }
     }
-    let tol = tolerance.filter(|t| *t > 0.0);
-    while let Some(&top) = heap.peek() {
-        if top.metric <= 0.0 || tol.is_some_and(|t| remaining <= t) {
-            break;
-        }
-        let NodeKind::Join { joint, .. } = model(top.body).assembly.nodes[top.node].kind else {
-            unreachable!("only joins are queued")
-        };
-        let cost = model(top.body).bodies[joint].nv;
-        if budget.is_some_and(|k| sel.used + cost > k) {
-            break;
-        }
-        heap.pop();
-        remaining -= top.metric;
-        sel.used += cost;
-        sel.allocation[top.body] += cost;
-        sel.popped[top.body].push(top.node);
-        remaining += push_children(heap, top.body, top.node);
-    }
-    for e in heap.iter() {
-        sel.error[e.body] += e.metric.max(0.0);
-    }
-    sel.total_error = sel.error.iter().sum();
+    error
 }
-
 /// One body of a running scene.
 #[derive(Clone, Debug)]
 pub struct SimBody {
@@ -238,12 +364,57 @@ pub struct SimBody {
     solved: bool,
     /// Its assembly tree's node metrics at the last re-selection (empty when unweighted).
     metrics: Vec<f64>,
+    /// The scene's pushes on this body, in the scene's order.
+    pushes: Vec<PushSlot>,
+    /// Its own queue at the last re-selection (its share of the global queue's work).
+    own: OwnQueue,
     /// With a floor: its contact workspace (the last step's figures in
     /// `contact.contact.stats`).
     pub contact: Option<HybridContact>,
 }
 
+/// One of the scene's pushes on a body: where its point was when it last acted (the work of
+/// that step is added once the point has moved) and the work found at this step.
+#[derive(Clone, Debug)]
+struct PushSlot {
+    /// Its index in the scene's pushes.
+    push: usize,
+    from: Option<DVec3>,
+    work: Option<f64>,
+}
+
 impl SimBody {
+    /// This step's external wrenches (`forces`) from the pushes acting at time `t`, and the
+    /// work of the pushes that acted at the last step, into their slots (`plan`: its model's
+    /// pose plan).
+    fn set_pushes(&mut self, scene: &LoadedScene, plan: &PosePlan, t: f64) {
+        self.forces.clear();
+        let model = &scene.models[self.model].model;
+        for slot in &mut self.pushes {
+            let p = &scene.pushes[slot.push];
+            let acts = p.t0 <= t && t < p.t1;
+            if !acts && slot.from.is_none() {
+                continue;
+            }
+            // The pushed point alone (carried up its link's root path).
+            let at = plan.point(model, &self.state.q, p.link_body, p.point);
+            // The work of the last step it acted: its force times its point's displacement.
+            if let Some(from) = slot.from.take() {
+                slot.work = Some(p.force.dot(at - from));
+            }
+            if !acts {
+                continue;
+            }
+            slot.from = Some(at);
+            let w = SpatialForce::new(at.cross(p.force), p.force);
+            // One entry per link, in link order (as a scan of a dense array would list them).
+            match self.forces.binary_search_by_key(&p.link_body, |e| e.0) {
+                Ok(k) => self.forces[k].1 += w,
+                Err(k) => self.forces.insert(k, (p.link_body, w)),
+            }
+        }
+    }
+
     /// The composite spatial inertia of the whole body in its root frame, in its current
     /// configuration.
     fn composite_in_root(
@@ -372,8 +543,8 @@ pub struct SceneSim<'s> {
     classifier: Classifier,
     /// The threads the bodies' steps run on ([`SceneSim::set_threads`]; one by default).
     threads: Threads,
-    /// One per thread: its buffers (see [`Worker`]).
-    workers: Vec<Worker>,
+    /// One per thread: its buffers (see [`Worker`]), held by one chunk of bodies at a time.
+    workers: Vec<Mutex<Worker>>,
     /// Whether the bodies use their worker's `scratch` (default) or their own buffers (the
     /// reference).
     shared: bool,
@@ -389,12 +560,16 @@ pub struct SceneSim<'s> {
     energy_data: Vec<articula_dca::Data>,
     /// Work done by the pushes on the bodies up to the last step they acted, `Σ f · Δx` (J).
     push_work: f64,
-    /// Per push: where its point was when it last acted (the work of that step is added once
-    /// the point has moved).
-    push_from: Vec<Option<DVec3>>,
+    /// Per push: its body and its slot in that body's `pushes`.
+    push_slots: Vec<(usize, usize)>,
 }
 
-/// What one thread needs to step its share of the bodies (a contiguous run of them): the
+/// Bodies per chunk handed to a thread: about this many chunks per thread, so that threads
+/// that finish early take the chunks left (the bodies' costs differ by far: see
+/// [`Threads::for_each_chunk`]).
+const CHUNKS_PER_THREAD: usize = 32;
+
+/// What one thread needs to step a chunk of the bodies (a contiguous run of them): the
 /// per-call buffers the adaptive workspaces of its bodies share, per model
 /// ([`Adaptive::step_with`]: one copy stays in the core's caches, not one per body), the dense
 /// external wrenches of an exact solve, the re-selection's wanted nodes, and this step's sums
@@ -403,6 +578,7 @@ struct Worker {
     scratch: Vec<Scratch>,
     fdense: Vec<SpatialForce>,
     wanted: Vec<bool>,
+    heap: BinaryHeap<Entry>,
     active: usize,
     contacts: usize,
     penetration: f64,
@@ -419,6 +595,15 @@ impl Worker {
                 .collect(),
             fdense: Vec::new(),
             wanted: Vec::new(),
+            // At most every node of a body is queued at once.
+            heap: BinaryHeap::with_capacity(
+                scene
+                    .models
+                    .iter()
+                    .map(|m| m.model.assembly.nodes.len())
+                    .max()
+                    .unwrap_or(0),
+            ),
             active: 0,
             contacts: 0,
             penetration: 0.0,
@@ -426,17 +611,20 @@ impl Worker {
         }
     }
 
-    /// Records body `i`'s error unless the run had one already (runs go in body order).
+    /// Records body `i`'s error unless it has one of a lower-numbered body already.
     fn fail(&mut self, i: usize, e: ViewError) {
-        self.error.get_or_insert((i, e));
+        if self.error.as_ref().is_none_or(|(j, _)| i < *j) {
+            self.error = Some((i, e));
+        }
     }
 }
 
 /// The error of the lowest-numbered body among the workers' (the same for any thread
-/// count: every body is processed and each run keeps its first), clearing them all.
-fn first_error(workers: &mut [Worker]) -> Result<(), ViewError> {
+/// count: every body is processed and each worker keeps its lowest), clearing them all.
+fn first_error(workers: &mut [Mutex<Worker>]) -> Result<(), ViewError> {
     let mut first: Option<(usize, ViewError)> = None;
     for w in workers {
+        let w = w.get_mut().unwrap_or_else(|p| p.into_inner());
         if let Some((i, e)) = w.error.take() {
             if first.as_ref().is_none_or(|(j, _)| i < *j) {
                 first = Some((i, e));
@@ -477,7 +665,7 @@ impl<'s> SceneSim<'s> {
             .iter()
             .map(|m| PosePlan::new(&m.model))
             .collect();
-        let bodies: Vec<SimBody> = scene
+        let mut bodies: Vec<SimBody> = scene
             .placements
             .iter()
             .map(|p| {
@@ -512,10 +700,25 @@ impl<'s> SceneSim<'s> {
                     changed: false,
                     solved: false,
                     metrics: Vec::new(),
+                    pushes: Vec::new(),
+                    own: OwnQueue {
+                        pops: Vec::with_capacity(model.assembly.nodes.len()),
+                        ..OwnQueue::default()
+                    },
                     contact: scene.ground.map(|_| HybridContact::new(model)),
                 }
             })
             .collect();
+        let mut push_slots = Vec::with_capacity(scene.pushes.len());
+        for (j, p) in scene.pushes.iter().enumerate() {
+            let slots = &mut bodies[p.body].pushes;
+            push_slots.push((p.body, slots.len()));
+            slots.push(PushSlot {
+                push: j,
+                from: None,
+                work: None,
+            });
+        }
         let parents = scene
             .models
             .iter()
@@ -536,7 +739,8 @@ impl<'s> SceneSim<'s> {
             })
             .collect();
         // The global queue's buffers at their largest: a body pops at most its nodes, the heap
-        // holds at most every node (so that no re-selection grows them).
+        // of the bodies' next pops holds at most one a body (so that no re-selection grows
+        // them).
         let nodes = |b: &SimBody| scene.models[b.model].model.assembly.nodes.len();
         let selection = GlobalSelection {
             popped: bodies
@@ -545,7 +749,7 @@ impl<'s> SceneSim<'s> {
                 .collect(),
             ..GlobalSelection::default()
         };
-        let heap = BinaryHeap::with_capacity(bodies.iter().map(nodes).sum());
+        let heap = BinaryHeap::with_capacity(bodies.len());
         let reach = scene
             .models
             .iter()
@@ -566,7 +770,7 @@ impl<'s> SceneSim<'s> {
             whole_reach,
             springs,
             threads: Threads::serial(),
-            workers: vec![Worker::new(scene)],
+            workers: vec![Mutex::new(Worker::new(scene))],
             shared: true,
             selection,
             heap,
@@ -590,7 +794,7 @@ impl<'s> SceneSim<'s> {
                 })
                 .collect(),
             push_work: 0.0,
-            push_from: vec![None; scene.pushes.len()],
+            push_slots,
         })
     }
 
@@ -602,15 +806,16 @@ impl<'s> SceneSim<'s> {
         self.shared = on;
     }
 
-    /// Steps the bodies on `threads` (default: one thread). The bodies are split into one
-    /// contiguous run per thread, each with buffers of its own; the global joint budget stays
-    /// one choice over every body, made on the calling thread. Every body's step does the
-    /// same arithmetic whatever the run it is in, so **the scene's state is the same bits for
-    /// any thread count**.
+    /// Steps the bodies on `threads` (default: one thread). The bodies are split into chunks
+    /// of contiguous bodies that the threads take as they come free, each thread with buffers
+    /// of its own; the global joint budget stays one choice over every body. Every body's
+    /// step does the same arithmetic whatever the chunk and the thread it falls to, and every
+    /// sum over bodies runs in body order, so **the scene's state is the same bits for any
+    /// thread count**.
     pub fn set_threads(&mut self, threads: Threads) {
         let scene = self.scene;
         self.workers
-            .resize_with(threads.count(), || Worker::new(scene));
+            .resize_with(threads.count(), || Mutex::new(Worker::new(scene)));
         self.threads = threads;
     }
 
@@ -650,6 +855,14 @@ impl<'s> SceneSim<'s> {
         }));
     }
 
+    /// Bodies per chunk handed to a thread ([`CHUNKS_PER_THREAD`]).
+    fn chunk(&self) -> usize {
+        self.bodies
+            .len()
+            .div_ceil(self.threads.count() * CHUNKS_PER_THREAD)
+            .max(1)
+    }
+
     /// Classifies what the camera sees now (from the bodies' `poses`, which must be those of
     /// their current states, and the `margins`) and sets every joint's weight.
     fn classify(&mut self) {
@@ -665,9 +878,12 @@ impl<'s> SceneSim<'s> {
                 margin: margins[i],
             }
         };
+        let chunk = self.chunk();
         self.classifier.classify_with(
             &cam,
             &scene.visibility,
+            &self.threads,
+            chunk,
             bodies.len(),
             placed,
             &mut self.views,
@@ -682,41 +898,14 @@ impl<'s> SceneSim<'s> {
         self.check_bodies()?;
         let t = self.time();
         let reselect = self.steps.is_multiple_of(scene.reselect_every as u64);
-        // Pushes acting now: world wrenches about the world origin.
-        for b in &mut self.bodies {
-            b.forces.clear();
-            // The pose springs' torques: here when the re-selection reads them, else just
-            // before the body's step (the same values: nothing moves the body in between),
-            // while its state is in the caches anyway.
-            if reselect {
-                spring_torques(&self.springs[b.model], &mut b.state);
-            }
-        }
-        for (j, p) in scene.pushes.iter().enumerate() {
-            let acts = p.t0 <= t && t < p.t1;
-            if !acts && self.push_from[j].is_none() {
-                continue;
-            }
-            let b = &mut self.bodies[p.body];
-            let model = &scene.models[b.model].model;
-            // The pushed point alone (carried up its link's root path).
-            let at = self.plans[b.model].point(model, &b.state.q, p.link_body, p.point);
-            // The work of the last step it acted: its force times its point's displacement.
-            if let Some(from) = self.push_from[j].take() {
-                self.push_work += p.force.dot(at - from);
-            }
-            if !acts {
-                continue;
-            }
-            self.push_from[j] = Some(at);
-            let w = SpatialForce::new(at.cross(p.force), p.force);
-            // One entry per link, in link order (as a scan of a dense array would list them).
-            match b.forces.binary_search_by_key(&p.link_body, |e| e.0) {
-                Ok(k) => b.forces[k].1 += w,
-                Err(k) => b.forces.insert(k, (p.link_body, w)),
-            }
-        }
         let (threads, shared) = (self.threads.clone(), self.shared);
+        let chunk = self.chunk();
+        // Each body first, in the step's first pass over the bodies: the pushes acting now
+        // (world wrenches about the world origin) and the pose springs' torques.
+        let prepare = |b: &mut SimBody, springs: &[SpringRuns], plans: &[PosePlan]| {
+            b.set_pushes(scene, &plans[b.model], t);
+            spring_torques(&springs[b.model], &mut b.state);
+        };
         if reselect {
             // Every body's exact solve first: its accelerations give the metrics once the
             // weights are known, and its kinematics the link poses the camera classifies (no
@@ -728,9 +917,11 @@ impl<'s> SceneSim<'s> {
             self.set_margins();
             let frustum = scene.camera.at(t).frustum();
             let (plans, whole_reach, margins) = (&self.plans, &self.whole_reach, &self.margins);
-            threads.for_each_run(&mut self.bodies, &mut self.workers, |w, first, run| {
+            let springs = &self.springs;
+            threads.for_each_chunk(&mut self.bodies, &self.workers, chunk, |w, first, run| {
                 for (j, b) in run.iter_mut().enumerate() {
                     let i = first + j;
+                    prepare(b, springs, plans);
                     let (plan, model) = (&plans[b.model], &scene.models[b.model].model);
                     let outside = whole_reach[b.model].is_some_and(|r| {
                         let root = plan.pose(model, &b.state.q, 0).1;
@@ -749,6 +940,7 @@ impl<'s> SceneSim<'s> {
                     }
                 }
             });
+            self.add_push_work();
             first_error(&mut self.workers)?;
             self.classify();
             let mut link_classes = [0; 3];
@@ -761,41 +953,45 @@ impl<'s> SceneSim<'s> {
                 classes[view.summary() as usize] += 1;
             }
             let views = &self.views;
-            threads.for_each_run(&mut self.bodies, &mut self.workers, |w, first, run| {
+            threads.for_each_chunk(&mut self.bodies, &self.workers, chunk, |w, first, run| {
                 for (j, b) in run.iter_mut().enumerate() {
                     let i = first + j;
                     b.metrics.clear();
-                    if b.unweighted {
-                        continue;
-                    }
                     let model = &scene.models[b.model].model;
-                    b.metrics.resize(model.assembly.nodes.len(), 0.0);
-                    if !b.solved {
-                        // (Not reached: a body outside the view classifies invisible; a
-                        // safeguard against rounding at the frustum's edge.)
-                        if let Err(e) = exact_solve(scene, shared, b, i, w) {
-                            w.fail(i, e);
-                            continue;
+                    if !b.unweighted {
+                        b.metrics.resize(model.assembly.nodes.len(), 0.0);
+                        if !b.solved {
+                            // (Not reached: a body outside the view classifies invisible; a
+                            // safeguard against rounding at the frustum's edge.)
+                            if let Err(e) = exact_solve(scene, shared, b, i, w) {
+                                w.fail(i, e);
+                                b.metrics.clear();
+                            }
+                        }
+                        if !b.metrics.is_empty() {
+                            let weights = &views[i].joint_weights;
+                            b.adaptive
+                                .scaled_node_metrics(model, weights, &mut b.metrics);
                         }
                     }
-                    let weights = &views[i].joint_weights;
-                    b.adaptive
-                        .scaled_node_metrics(model, weights, &mut b.metrics);
+                    // Its own queue, for the global one.
+                    b.own.run(model, &b.metrics, &mut w.heap);
                 }
             });
             first_error(&mut self.workers)?;
+            // The global queue: a merge of the bodies' own queues (the same pops as one
+            // queue over every body's nodes).
             let bodies = &self.bodies;
-            global_selection_into(
+            merge_own_queues(
                 &mut self.selection,
                 &mut self.heap,
                 bodies.len(),
-                |b| &scene.models[bodies[b].model].model,
-                |b| bodies[b].metrics.as_slice(),
+                |b| &bodies[b].own,
                 scene.budget,
                 scene.tolerance,
             );
             let (sel, first_step) = (&self.selection, self.steps == 0);
-            threads.for_each_run(&mut self.bodies, &mut self.workers, |w, first, run| {
+            threads.for_each_chunk(&mut self.bodies, &self.workers, chunk, |w, first, run| {
                 for (j, b) in run.iter_mut().enumerate() {
                     let i = first + j;
                     if let Err(e) = apply_selection(scene, shared, sel, first_step, b, i, w) {
@@ -804,22 +1000,24 @@ impl<'s> SceneSim<'s> {
                 }
             });
             first_error(&mut self.workers)?;
+            // The scene's error, summed in body order.
+            self.selection.total_error = self.bodies.iter().map(|b| b.error).sum();
             self.last = SceneStep {
                 reselected: true,
                 active_total: 0,
                 classes,
                 link_classes,
-                total_error: sel.total_error,
+                total_error: self.selection.total_error,
                 ..SceneStep::default()
             };
         }
         let contact_settings = scene.contact_settings();
         let (springs, plans) = (&self.springs, &self.plans);
-        threads.for_each_run(&mut self.bodies, &mut self.workers, |w, first, run| {
+        threads.for_each_chunk(&mut self.bodies, &self.workers, chunk, |w, first, run| {
             for (j, b) in run.iter_mut().enumerate() {
                 let i = first + j;
                 if !reselect {
-                    spring_torques(&springs[b.model], &mut b.state);
+                    prepare(b, springs, plans);
                 }
                 if let Err(e) = step_body(scene, shared, plans, &contact_settings, b, i, w) {
                     w.fail(i, e);
@@ -828,9 +1026,13 @@ impl<'s> SceneSim<'s> {
         });
         let (mut total, mut contacts, mut penetration) = (0, 0, 0.0f64);
         for w in &mut self.workers {
+            let w = w.get_mut().unwrap_or_else(|p| p.into_inner());
             total += std::mem::take(&mut w.active);
             contacts += std::mem::take(&mut w.contacts);
             penetration = penetration.max(std::mem::take(&mut w.penetration));
+        }
+        if !reselect {
+            self.add_push_work();
         }
         first_error(&mut self.workers)?;
         self.steps += 1;
@@ -841,6 +1043,17 @@ impl<'s> SceneSim<'s> {
         out.contacts = contacts;
         out.max_penetration = penetration;
         Ok(out)
+    }
+
+    /// Adds the work of the pushes found at this step's first pass to `push_work`, in the
+    /// scene's order of the pushes (whatever thread found each).
+    fn add_push_work(&mut self) {
+        for &(b, k) in &self.push_slots {
+            let slot = self.bodies.get_mut(b).and_then(|b| b.pushes.get_mut(k));
+            if let Some(work) = slot.and_then(|s| s.work.take()) {
+                self.push_work += work;
+            }
+        }
     }
 
     /// The mechanical energy of the scene's current state: kinetic, gravity's and the pose
@@ -877,12 +1090,15 @@ impl<'s> SceneSim<'s> {
         }
         // The work of pushes that acted at the last step (their points have moved since).
         e.push_work = self.push_work;
-        for (p, from) in scene.pushes.iter().zip(&self.push_from) {
-            if let (Some(from), Some(b)) = (from, self.bodies.get(p.body)) {
+        for (p, &(b, k)) in scene.pushes.iter().zip(&self.push_slots) {
+            let Some(b) = self.bodies.get(b) else {
+                continue;
+            };
+            if let Some(from) = b.pushes.get(k).and_then(|s| s.from) {
                 let model = &scene.models[b.model].model;
                 if b.state.q.len() == model.nq {
                     let at = self.plans[b.model].point(model, &b.state.q, p.link_body, p.point);
-                    e.push_work += p.force.dot(at - *from);
+                    e.push_work += p.force.dot(at - from);
                 }
             }
         }
@@ -989,7 +1205,6 @@ fn apply_selection(
     w: &mut Worker,
 ) -> Result<(), ViewError> {
     b.allocation = sel.allocation[i];
-    b.error = sel.error[i];
     // Re-select only when the hybrid body must change: the joints the queue chose are not
     // exactly the active ones (the first step always re-selects). An unchanged hybrid body has
     // its other joints locked at zero velocity already.
@@ -1001,6 +1216,7 @@ fn apply_selection(
         w.wanted[n] = true;
     }
     let wanted = &w.wanted;
+    b.error = frontier_error(model, &b.metrics, &sel.popped[i], wanted);
     let same = (0..model.bodies.len())
         .all(|j| b.adaptive.is_active(model, j) == wanted[tree.joint_node[j]]);
     let needed = first_step || !same;

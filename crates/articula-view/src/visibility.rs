@@ -24,7 +24,9 @@
 
 use crate::camera::Camera;
 use crate::volumes::BodyVolumes;
+use articula_dca::Threads;
 use glam::{DMat3, DVec3};
+use std::sync::Mutex;
 
 /// How visibility turns into weights.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -424,25 +426,35 @@ impl BodyView {
 }
 
 /// Scratch of [`Classifier::classify`], reused between calls.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub(crate) struct Classifier {
-    /// The depth buffer of the last call.
+    /// The depth buffer of the last call (every thread's occluders).
     pub buffer: DepthBuffer,
-    world: Vec<Vec<(DVec3, f64)>>,
-    /// Each body's enclosing sphere of its links' spheres.
-    whole: Vec<(DVec3, f64)>,
-    /// Per link of the body being classified: whether it is an occluder (in the frustum).
+    /// One per thread: see [`ClassWorker`].
+    workers: Vec<Mutex<ClassWorker>>,
+}
+
+/// What one thread of a classification needs: the depth buffer its bodies' occluders are
+/// rasterised into (the threads' buffers are merged cell by cell afterwards), the world
+/// spheres of the body at hand and which of its links occlude.
+#[derive(Debug)]
+struct ClassWorker {
+    buffer: DepthBuffer,
+    world: Vec<(DVec3, f64)>,
     occluder: Vec<bool>,
 }
 
 impl Classifier {
     /// Scratch for the given settings.
     pub fn new(settings: &VisibilitySettings) -> Classifier {
+        let buffer = DepthBuffer::new(settings.depth_width, settings.depth_height);
         Classifier {
-            buffer: DepthBuffer::new(settings.depth_width, settings.depth_height),
-            world: Vec::new(),
-            whole: Vec::new(),
-            occluder: Vec::new(),
+            workers: vec![Mutex::new(ClassWorker {
+                buffer: buffer.clone(),
+                world: Vec::new(),
+                occluder: Vec::new(),
+            })],
+            buffer,
         }
     }
 
@@ -456,116 +468,161 @@ impl Classifier {
         bodies: &[Placed],
         out: &mut Vec<BodyView>,
     ) {
-        self.classify_with(cam, settings, bodies.len(), |b| bodies[b], out);
+        let threads = Threads::serial();
+        self.classify_with(cam, settings, &threads, 1, bodies.len(), |b| bodies[b], out);
     }
 
     /// [`Classifier::classify`] of bodies `0..n`, body `b` given by `body(b)` (called twice per
-    /// body): no list of the bodies to build.
+    /// body): no list of the bodies to build. The bodies are classified on `threads`, in
+    /// chunks of `chunk` bodies ([`Threads::for_each_chunk`]): each thread rasterises its
+    /// bodies' occluders into a depth buffer of its own, and the buffers are merged cell by
+    /// cell, keeping the nearest depth — a minimum, which is the same whatever the order the
+    /// balls were written in, so the buffer, and every class and weight, are the same bits
+    /// for any thread count.
+    #[allow(clippy::too_many_arguments)]
     pub fn classify_with<'a>(
         &mut self,
         cam: &Camera,
         settings: &VisibilitySettings,
+        threads: &Threads,
+        chunk: usize,
         n: usize,
-        body: impl Fn(usize) -> Placed<'a>,
+        body: impl Fn(usize) -> Placed<'a> + Sync,
         out: &mut Vec<BodyView>,
     ) {
         let frustum = cam.frustum();
-        self.buffer.clear();
         let lens = self.buffer.lens(cam);
         // Depth-buffer cells per unit length at depth 1 (the larger of the two axes' scales,
         // so that the skip below is conservative).
         let t = cam.tan_half_fov();
         let cells_per_unit = (self.buffer.height as f64 / (2.0 * t))
             .max(self.buffer.width as f64 / (2.0 * t * cam.aspect));
+        let (width, height) = (self.buffer.width, self.buffer.height);
+        self.workers.resize_with(threads.count(), || {
+            Mutex::new(ClassWorker {
+                buffer: DepthBuffer::new(width, height),
+                world: Vec::new(),
+                occluder: Vec::new(),
+            })
+        });
+        for w in &mut self.workers {
+            unlocked(w).buffer.clear();
+        }
         out.resize_with(n, BodyView::default);
-        self.world.resize_with(n, Vec::new);
-        // 1. Frustum culling on world bounding spheres; occluders into the depth buffer.
-        self.whole.clear();
-        for (b, (view, world)) in out.iter_mut().zip(&mut self.world).take(n).enumerate() {
-            let placed = &body(b);
-            world.clear();
-            view.links.clear();
-            world.extend(
-                placed
+        let out = &mut out[..n];
+        let body = &body;
+        // 1. Frustum culling on world bounding spheres; occluders into the depth buffers.
+        threads.for_each_chunk(out, &self.workers, chunk, |w, first, views| {
+            for (j, view) in views.iter_mut().enumerate() {
+                let placed = &body(first + j);
+                let world = &mut w.world;
+                world_spheres(placed, world);
+                view.links.clear();
+                // The whole body's sphere (also its projected size). When it lies well
+                // inside every plane (`Frustum::holds_sphere`), so does each link's centre:
+                // its least plane distance is at least 0, so both tests below pass for a link
+                // of radius ≥ 0 and a margin ≥ 0 (NaN fails them) without the six plane
+                // distances. (A link's centre is within `|c − centre| ≤ (its rounded value +
+                // r)(1 + 1e-15)` of the body's centre, inside `radius (1 + 1e-12)`.)
+                let (center, radius) = enclosing_sphere(world);
+                view.projected_size = cam.projected_size(center, radius);
+                let inside = placed.margin >= 0.0 && frustum.holds_sphere(center, radius);
+                let occluder = &mut w.occluder;
+                occluder.clear();
+                for &(center, r) in world.iter() {
+                    // Frustum::sphere with the margin and without, from one pass over the
+                    // planes.
+                    let (visible, occludes) = if inside && r >= 0.0 {
+                        (true, true)
+                    } else {
+                        let d = frustum.nearest_plane_distance(center);
+                        (d >= -(r + placed.margin), d >= -r)
+                    };
+                    view.links.push(if visible {
+                        Visibility::Visible
+                    } else {
+                        Visibility::Invisible
+                    });
+                    occluder.push(visible && occludes);
+                }
+                for (((vol, &(rot, pos)), &(center, r)), _) in placed
                     .volumes
                     .iter()
                     .zip(placed.poses)
-                    .map(|(vol, &(rot, pos))| (rot * vol.bound.0 + pos, vol.bound.1)),
-            );
-            // The whole body's sphere (also its projected size, below). When it lies well
-            // inside every plane (`Frustum::holds_sphere`), so does each link's centre: its
-            // least plane distance is at least 0, so both tests below pass for a link of
-            // radius ≥ 0 and a margin ≥ 0 (NaN fails them) without the six plane distances.
-            // (A link's centre is within `|c − centre| ≤ (its rounded value + r)(1 + 1e-15)`
-            // of the body's centre, inside `radius (1 + 1e-12)`.)
-            let (center, radius) = enclosing_sphere(world);
-            self.whole.push((center, radius));
-            let inside = placed.margin >= 0.0 && frustum.holds_sphere(center, radius);
-            let occluder = &mut self.occluder;
-            occluder.clear();
-            for &(center, r) in world.iter() {
-                // Frustum::sphere with the margin and without, from one pass over the planes.
-                let (visible, occludes) = if inside && r >= 0.0 {
-                    (true, true)
-                } else {
-                    let d = frustum.nearest_plane_distance(center);
-                    (d >= -(r + placed.margin), d >= -r)
-                };
-                view.links.push(if visible {
-                    Visibility::Visible
-                } else {
-                    Visibility::Invisible
-                });
-                occluder.push(visible && occludes);
-            }
-            for (((vol, &(rot, pos)), &(center, r)), _) in placed
-                .volumes
-                .iter()
-                .zip(placed.poses)
-                .zip(world.iter())
-                .zip(occluder.iter())
-                .filter(|(_, occludes)| **occludes)
-            {
-                // Balls whose projected disc cannot hold a whole cell write nothing: skip
-                // volumes that thin at this distance (depth ≥ distance − r).
-                let depth = (cam.to_camera(center).z - r).max(cam.near);
-                let min_radius = 0.7 * depth / cells_per_unit;
-                for (inner, range) in &vol.inner {
-                    if *inner >= min_radius {
-                        for &(c, r) in &vol.balls[range.clone()] {
-                            self.buffer.raster(cam, &lens, rot * c + pos, r);
+                    .zip(world.iter())
+                    .zip(occluder.iter())
+                    .filter(|(_, occludes)| **occludes)
+                {
+                    // Balls whose projected disc cannot hold a whole cell write nothing: skip
+                    // volumes that thin at this distance (depth ≥ distance − r).
+                    let depth = (cam.to_camera(center).z - r).max(cam.near);
+                    let min_radius = 0.7 * depth / cells_per_unit;
+                    for (inner, range) in &vol.inner {
+                        if *inner >= min_radius {
+                            for &(c, r) in &vol.balls[range.clone()] {
+                                w.buffer.raster(cam, &lens, rot * c + pos, r);
+                            }
                         }
                     }
                 }
             }
-        }
-        // 2. Occlusion, projected size, weights.
-        for (b, (view, world)) in out.iter_mut().zip(&self.world).take(n).enumerate() {
-            let placed = &body(b);
-            for (l, &(c, r)) in world.iter().enumerate() {
-                if view.links[l] == Visibility::Visible && self.buffer.hidden(cam, &lens, c, r) {
-                    view.links[l] = Visibility::Occluded;
-                }
-            }
-            view.class = view.links.iter().copied().min();
-            let (center, radius) = self.whole[b];
-            view.projected_size = cam.projected_size(center, radius);
-            let s = (view.projected_size / settings.full_detail_size).min(1.0);
-            view.link_weights.clear();
-            view.link_weights.extend(view.links.iter().map(|c| match c {
-                Visibility::Visible => s,
-                Visibility::Occluded => s * settings.occluded_factor,
-                Visibility::Invisible => 0.0,
-            }));
-            view.joint_weights.clear();
-            view.joint_weights.extend_from_slice(&view.link_weights);
-            for i in (0..placed.parents.len()).rev() {
-                if let Some(p) = placed.parents[i] {
-                    view.joint_weights[p] = view.joint_weights[p].max(view.joint_weights[i]);
-                }
+        });
+        // The threads' buffers into one: per cell the nearest depth (no depth is NaN: the
+        // raster never writes one).
+        let (first, rest) = self.workers.split_first_mut().expect("one worker at least");
+        std::mem::swap(&mut self.buffer, &mut unlocked(first).buffer);
+        for w in rest {
+            for (d, e) in self.buffer.depth.iter_mut().zip(&unlocked(w).buffer.depth) {
+                *d = if *e < *d { *e } else { *d };
             }
         }
+        // 2. Occlusion, weights.
+        let buffer = &self.buffer;
+        threads.for_each_chunk(out, &self.workers, chunk, |w, first, views| {
+            for (j, view) in views.iter_mut().enumerate() {
+                let placed = &body(first + j);
+                let world = &mut w.world;
+                world_spheres(placed, world);
+                for (l, &(c, r)) in world.iter().enumerate() {
+                    if view.links[l] == Visibility::Visible && buffer.hidden(cam, &lens, c, r) {
+                        view.links[l] = Visibility::Occluded;
+                    }
+                }
+                view.class = view.links.iter().copied().min();
+                let s = (view.projected_size / settings.full_detail_size).min(1.0);
+                view.link_weights.clear();
+                view.link_weights.extend(view.links.iter().map(|c| match c {
+                    Visibility::Visible => s,
+                    Visibility::Occluded => s * settings.occluded_factor,
+                    Visibility::Invisible => 0.0,
+                }));
+                view.joint_weights.clear();
+                view.joint_weights.extend_from_slice(&view.link_weights);
+                for i in (0..placed.parents.len()).rev() {
+                    if let Some(p) = placed.parents[i] {
+                        view.joint_weights[p] = view.joint_weights[p].max(view.joint_weights[i]);
+                    }
+                }
+            }
+        });
     }
+}
+
+/// A worker of a classifier held by nobody else (`&mut`: no call is running).
+fn unlocked(w: &mut Mutex<ClassWorker>) -> &mut ClassWorker {
+    w.get_mut().unwrap_or_else(|p| p.into_inner())
+}
+
+/// Each link's bounding sphere in the world (centre, radius), into `world`.
+fn world_spheres(placed: &Placed, world: &mut Vec<(DVec3, f64)>) {
+    world.clear();
+    world.extend(
+        placed
+            .volumes
+            .iter()
+            .zip(placed.poses)
+            .map(|(vol, &(rot, pos))| (rot * vol.bound.0 + pos, vol.bound.1)),
+    );
 }
 
 /// A sphere enclosing the spheres `(centre, radius)`: centred on their mean, the radius the
