@@ -4,6 +4,7 @@
 //! to a far point (docs/algorithms.md, ABA). Articulated inertias
 //! are kept packed (21 entries, [`PackedSymMat6`]) and 1-DOF joints take a rank-1 fast path.
 
+use crate::kinematics::FkPlan;
 use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::internals::{dot6, invert_spd_into, Arith, Portable};
@@ -94,11 +95,21 @@ fn aba_with<A: Arith>(
         let first = aba.first[i];
         if k == 1 {
             // One DOF (the common case): U = Iᴬ s, D = sᵀU scalar.
-            let sm = motion_at(data.s[vo], p);
+            let (u, d, sm) = if let FkPlan::AxisRevolute { .. } = data.fk_plan[i] {
+                // A revolute axis through pᵢ: s = [ω; 0] there (`motion_at` gives
+                // `p × ω + ω × p`, exactly zero), so U takes Iᴬ's first three columns only and
+                // D three products (the same values as the six with zeros).
+                let w = data.s[vo].w;
+                let u = ia.mul_angular(&w.to_array());
+                let d = A::mul_add(w.z, u[2], A::mul_add(w.y, u[1], w.x * u[0]));
+                (u, d, SpatialMotion::new(w, DVec3::ZERO))
+            } else {
+                let sm = motion_at(data.s[vo], p);
+                let s = sm.to_array();
+                let u = ia.mul_vec(&s);
+                (u, dot6::<A>(&s, &u), sm)
+            };
             aba.sl[vo] = sm;
-            let s = sm.to_array();
-            let u = ia.mul_vec(&s);
-            let d = dot6::<A>(&s, &u);
             if d.is_nan() || d <= 0.0 {
                 return Err(DynamicsError::Singular {
                     joint: model.bodies[i].joint_name(),

@@ -448,6 +448,21 @@ impl PackedSymMat6 {
         ]
     }
 
+    /// `self · [w; 0]`: [`PackedSymMat6::mul_vec`] of a vector whose last three entries are
+    /// zero, without them (the same sums to their last nonzero term, so the same values).
+    #[inline(always)]
+    pub fn mul_angular(&self, w: &[f64; 3]) -> [f64; 6] {
+        let a = &self.0;
+        [
+            a[0] * w[0] + a[1] * w[1] + a[2] * w[2],
+            a[1] * w[0] + a[6] * w[1] + a[7] * w[2],
+            a[2] * w[0] + a[7] * w[1] + a[11] * w[2],
+            a[3] * w[0] + a[8] * w[1] + a[12] * w[2],
+            a[4] * w[0] + a[9] * w[1] + a[13] * w[2],
+            a[5] * w[0] + a[10] * w[1] + a[14] * w[2],
+        ]
+    }
+
     /// The whole matrix (for [`Mat6::sym_mul_vec`] on several vectors).
     #[inline(always)]
     pub fn to_mat6(&self) -> Mat6 {
