@@ -289,7 +289,10 @@ fn axis_revolute<const K: usize, const A: usize, const B: usize>(
 pub(crate) fn rotated_and_world_inertia(
     x: &SpatialTransform,
     i: &articula_spatial::SpatialInertia,
-) -> (articula_spatial::SpatialInertia, articula_spatial::SpatialInertia) {
+) -> (
+    articula_spatial::SpatialInertia,
+    articula_spatial::SpatialInertia,
+) {
     let e = x.e.to_cols_array_2d();
     let ib = i.ibar.to_cols_array_2d();
     // T = E Ī: T_aj = Σ_k E_ak Ī_kj, Ī_kj = ib[j][k].

@@ -126,6 +126,8 @@ fn clamp_pivot(d: f64, a_jj: f64, ok: &mut bool, clamped: &mut bool) -> f64 {
 /// the division `1/d_p`, so from one pivot's division to the next there is one multiply–add,
 /// not a multiply and then a multiply–add.)
 #[inline(always)]
+// `!(d > 0.0)`: one comparison that also catches NaN.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 fn ldl_col<A: Arith, const J: usize>(
     a: &impl Fn(usize, usize) -> f64,
     l: &mut [[f64; 5]; 5],
