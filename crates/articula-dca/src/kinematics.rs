@@ -451,3 +451,44 @@ pub fn body_kinematics(
     }
     (x, v, c)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{rotated_and_world_inertia, world_inertia};
+    use crate::{Data, State};
+
+    /// ABA's inertias from one `E Ī Eᵀ`: the world inertia is [`world_inertia`]'s to the bit
+    /// (so `data.inertia` is the same whichever method ran), and the rotated one is glam's
+    /// `E Ī Eᵀ` and `E h` to the bit, on every body of every bundled model in random poses.
+    #[test]
+    fn rotated_and_world_inertias_match_their_separate_forms() {
+        let bits = |i: &articula_spatial::SpatialInertia| {
+            let mut v = vec![i.mass.to_bits()];
+            v.extend(i.h.to_array().map(f64::to_bits));
+            v.extend(i.ibar.to_cols_array().map(f64::to_bits));
+            v
+        };
+        for (name, _, model) in crate::bundled_models() {
+            let mut data = Data::new(&model);
+            for seed in 0..3 {
+                let s = State::random(&model, seed, 1.0);
+                crate::forward_kinematics(&model, &s.q, &s.qd, &mut data);
+                for (i, body) in model.bodies.iter().enumerate() {
+                    let x = &data.x[i];
+                    let (rotated, world) = rotated_and_world_inertia(x, &body.inertia);
+                    assert_eq!(
+                        bits(&world),
+                        bits(&world_inertia(x, &body.inertia)),
+                        "{name} {i}"
+                    );
+                    let glam = articula_spatial::SpatialInertia {
+                        mass: body.inertia.mass,
+                        h: x.e * body.inertia.h,
+                        ibar: x.e * body.inertia.ibar * x.e.transpose(),
+                    };
+                    assert_eq!(bits(&rotated), bits(&glam), "{name} {i}");
+                }
+            }
+        }
+    }
+}

@@ -629,6 +629,19 @@ mod tests {
         }
     }
 
+    /// `mul_angular(w)` is `mul_vec([w; 0])` to the bit.
+    #[test]
+    fn mul_angular_is_mul_vec_with_zero_linear_part() {
+        let mut p = PackedSymMat6::ZERO;
+        for k in 0..21 {
+            p.0[k] = (k as f64 * 0.731).sin() * 3.0 + 0.1;
+        }
+        for w in [[0.3, -1.2, 0.5], [1e-9, 2.0, -7.5], [0.0, 0.0, 1.0]] {
+            let full = p.mul_vec(&[w[0], w[1], w[2], 0.0, 0.0, 0.0]);
+            assert_eq!(p.mul_angular(&w).map(f64::to_bits), full.map(f64::to_bits));
+        }
+    }
+
     /// The packed layout: `get` reads the entry of the matrix it was packed from, and the
     /// spatial inertia packs to `SpatialInertia::to_mat6` entry for entry.
     #[test]
