@@ -4,10 +4,11 @@
 //! to a far point (docs/algorithms.md, ABA). Articulated inertias
 //! are kept packed (21 entries, [`PackedSymMat6`]) and 1-DOF joints take a rank-1 fast path.
 
+use crate::kinematics::FkPlan;
 use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::internals::{dot6, invert_spd_into, Arith, Portable};
-use articula_spatial::{PackedSymMat6, SpatialForce, SpatialInertia, SpatialMotion};
+use articula_spatial::{PackedSymMat6, SpatialForce, SpatialMotion};
 use glam::DVec3;
 
 articula_spatial::fma_dispatch! {
@@ -25,7 +26,8 @@ articula_spatial::fma_dispatch! {
     ) -> Result<(), DynamicsError>;
     avx2_fma: data.dca.fused, Portable;
     |A| {
-        crate::kinematics::kinematics(model, q, qd, data, |_, _| {});
+        // Pass 2 sets the world inertias, from the rotated ones it needs itself.
+        crate::kinematics::kinematics_with(model, q, qd, data, false, |_, _| {});
         aba_with::<A>(model, tau, f_ext, data)
     }
 }
@@ -40,17 +42,6 @@ fn motion_at(m: SpatialMotion, p: DVec3) -> SpatialMotion {
 #[inline(always)]
 fn force_back(f: SpatialForce, r: DVec3) -> SpatialForce {
     SpatialForce::new(f.n + r.cross(f.f), f.f)
-}
-
-/// The body inertia `i` (body frame, about the body origin) with the computation frame's axes,
-/// still about the body origin: `[E Ī Eᵀ, (E h)×; ·, m]` (no lever arm to any far point).
-#[inline(always)]
-fn rotated_inertia(e: &glam::DMat3, i: &SpatialInertia) -> SpatialInertia {
-    SpatialInertia {
-        mass: i.mass,
-        h: *e * i.h,
-        ibar: *e * i.ibar * e.transpose(),
-    }
 }
 
 /// Runs ABA on the kinematics in `data` (pass 1 is the kinematics loop); writes `data.qdd`.
@@ -85,7 +76,11 @@ fn aba_with<A: Arith>(
         let parent = t.parent;
         let arm = crate::kinematics::arm(data.fk_plan[i], &data.x, parent, p);
         aba.arm[i] = arm;
-        let inertia = rotated_inertia(&x.e, &model.bodies[i].inertia);
+        // The body inertia with the computation frame's axes about pᵢ (no lever arm to any far
+        // point), and about the computation origin for `data.inertia`, from one `E Ī Eᵀ`.
+        let (inertia, world) =
+            crate::kinematics::rotated_and_world_inertia(x, &model.bodies[i].inertia);
+        data.inertia[i] = world;
         let v = motion_at(data.v[i], p);
         let fe = crate::inputs::f_ext_of(f_ext, i);
         let mut ia = PackedSymMat6::from_inertia(&inertia);
@@ -100,11 +95,21 @@ fn aba_with<A: Arith>(
         let first = aba.first[i];
         if k == 1 {
             // One DOF (the common case): U = Iᴬ s, D = sᵀU scalar.
-            let sm = motion_at(data.s[vo], p);
+            let (u, d, sm) = if let FkPlan::AxisRevolute { .. } = data.fk_plan[i] {
+                // A revolute axis through pᵢ: s = [ω; 0] there (`motion_at` gives
+                // `p × ω + ω × p`, exactly zero), so U takes Iᴬ's first three columns only and
+                // D three products (the same values as the six with zeros).
+                let w = data.s[vo].w;
+                let u = ia.mul_angular(&w.to_array());
+                let d = A::mul_add(w.z, u[2], A::mul_add(w.y, u[1], w.x * u[0]));
+                (u, d, SpatialMotion::new(w, DVec3::ZERO))
+            } else {
+                let sm = motion_at(data.s[vo], p);
+                let s = sm.to_array();
+                let u = ia.mul_vec(&s);
+                (u, dot6::<A>(&s, &u), sm)
+            };
             aba.sl[vo] = sm;
-            let s = sm.to_array();
-            let u = ia.mul_vec(&s);
-            let d = dot6::<A>(&s, &u);
             if d.is_nan() || d <= 0.0 {
                 return Err(DynamicsError::Singular {
                     joint: model.bodies[i].joint_name(),

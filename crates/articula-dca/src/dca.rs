@@ -284,17 +284,62 @@ fn main_pass<A: Arith>(
             DKind::Join { joint, a, b } => {
                 join::<A>(model, tau, data, n, joint as usize, a as usize, b as usize)?
             }
-            DKind::Gather { body, first, count } => {
-                let g = crate::gather::Gather::of(body, first, count);
-                crate::gather::main(model, tau, f_ext, bias, data, n, g)?
-            }
-            DKind::Cluster { body, first, count } => {
-                let g = crate::cluster::Cluster::of(body, first, count);
-                crate::cluster::main::<A>(model, tau, f_ext, bias, data, n, g, (ho, nh, bo, top))?
+            DKind::Gather { .. } | DKind::Cluster { .. } => {
+                rare_main(model, tau, f_ext, bias, data, n, (ho, nh, bo, top))?
             }
         }
     }
     Ok(())
+}
+
+articula_spatial::fma_dispatch! {
+    /// The main pass at a gather or cluster node `n` (handle offset, handle count, cross-block
+    /// offset and slot `at`), out of line: inlined, their code would share the chain's hot
+    /// loop (its registers and its unrolling) with the leaves and joins.
+    #[inline(never)]
+    fn rare_main(
+        model: &Model,
+        tau: &[f64],
+        f_ext: &[SpatialForce],
+        bias: bool,
+        data: &mut Data,
+        n: usize,
+        at: (usize, usize, usize, usize),
+    ) -> Result<(), DynamicsError>;
+    avx2_fma: data.dca.fused, Fused;
+    |A| match data.dca.node[n].kind {
+        DKind::Gather { body, first, count } => {
+            let g = crate::gather::Gather::of(body, first, count);
+            crate::gather::main(model, tau, f_ext, bias, data, n, g)
+        }
+        DKind::Cluster { body, first, count } => {
+            let g = crate::cluster::Cluster::of(body, first, count);
+            crate::cluster::main::<A>(model, tau, f_ext, bias, data, n, g, at)
+        }
+        _ => unreachable!("rare_main runs at gather and cluster nodes only"),
+    }
+}
+
+articula_spatial::fma_dispatch! {
+    /// The back-substitution at a gather or cluster node `n`, out of line (see [`rare_main`]).
+    #[inline(never)]
+    fn rare_back(tau: &[f64], data: &mut Data, n: usize);
+    avx2_fma: data.dca.fused, Fused;
+    |A| {
+        let nc = data.dca.node[n];
+        match nc.kind {
+            DKind::Gather { body, first, count } => {
+                let g = crate::gather::Gather::of(body, first, count);
+                crate::gather::back(tau, data, n, g)
+            }
+            DKind::Cluster { body, first, count } => {
+                let g = crate::cluster::Cluster::of(body, first, count);
+                let at = (nc.hoff as usize, nc.nh as usize, nc.slot as usize);
+                crate::cluster::back::<A>(data, n, g, at)
+            }
+            _ => unreachable!("rare_back runs at gather and cluster nodes only"),
+        }
+    }
 }
 
 /// Leaf (docs/design.md#dca): `Φ_hk = I⁻¹` for all handle pairs, `b_h = a_g + I⁻¹ (f_ext − v ×* I v)`,
@@ -1380,17 +1425,10 @@ fn back_substitution<A: Arith>(tau: &[f64], data: &mut Data, nodes: std::ops::Ra
             }
         }
         let nc = data.dca.node[n];
-        if let DKind::Gather { body, first, count } = nc.kind {
-            crate::gather::back(tau, data, n, crate::gather::Gather::of(body, first, count));
-            continue;
-        }
-        if let DKind::Cluster { body, first, count } = nc.kind {
-            let g = crate::cluster::Cluster::of(body, first, count);
-            let at = (nc.hoff as usize, nc.nh as usize, nc.slot as usize);
-            crate::cluster::back::<A>(data, n, g, at);
-            continue;
-        }
         let DKind::Join { joint, a, b } = nc.kind else {
+            if let DKind::Gather { .. } | DKind::Cluster { .. } = nc.kind {
+                rare_back(tau, data, n);
+            }
             continue;
         };
         let (joint, a, b) = (joint as usize, a as usize, b as usize);

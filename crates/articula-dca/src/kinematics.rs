@@ -279,6 +279,40 @@ fn axis_revolute<const K: usize, const A: usize, const B: usize>(
     )
 }
 
+/// The body inertia `i` (body frame, about the body origin) with the computation frame's axes:
+/// about the body origin, `[E Ī Eᵀ, (E h)×; ·, m]` (ABA's, whose quantities are taken about
+/// each body's own origin), and about the computation origin ([`world_inertia`]'s, to the
+/// bit), from one `E Ī Eᵀ`. `E Ī Eᵀ` whole, entry `(a, b)` as `(E Ī) Eᵀ` with `E Ī` by the
+/// columns of `Ī` (glam's `e * ibar * e.transpose()`, the same bits); the world inertia reads
+/// its upper triangle.
+#[inline(always)]
+pub(crate) fn rotated_and_world_inertia(
+    x: &SpatialTransform,
+    i: &articula_spatial::SpatialInertia,
+) -> (
+    articula_spatial::SpatialInertia,
+    articula_spatial::SpatialInertia,
+) {
+    let e = x.e.to_cols_array_2d();
+    let ib = i.ibar.to_cols_array_2d();
+    // T = E Ī: T_aj = Σ_k E_ak Ī_kj, Ī_kj = ib[j][k].
+    let t: [[f64; 3]; 3] = std::array::from_fn(|a| {
+        std::array::from_fn(|j| e[0][a] * ib[j][0] + e[1][a] * ib[j][1] + e[2][a] * ib[j][2])
+    });
+    let te = |a: usize, b: usize| t[a][0] * e[0][b] + t[a][1] * e[1][b] + t[a][2] * e[2][b];
+    let r: [[f64; 3]; 3] = std::array::from_fn(|a| std::array::from_fn(|b| te(a, b)));
+    let rotated = articula_spatial::SpatialInertia {
+        mass: i.mass,
+        h: x.e * i.h,
+        ibar: DMat3::from_cols(
+            DVec3::new(r[0][0], r[1][0], r[2][0]),
+            DVec3::new(r[0][1], r[1][1], r[2][1]),
+            DVec3::new(r[0][2], r[1][2], r[2][2]),
+        ),
+    };
+    (rotated, parallel_axes(x, i.mass, rotated.h.to_array(), &r))
+}
+
 /// `X* I X⁻¹` for `x = X_{C←body}` (the same as [`SpatialTransform::apply_inertia`], fewer
 /// products): with `p = −E r` the body origin and `h_P = E h` the first moment about it,
 /// `Ī_O = E Ī Eᵀ − h_P pᵀ − p h_Pᵀ − m p pᵀ + (2 p·h_P + m p·p) 1` (parallel axes),
@@ -290,20 +324,40 @@ pub(crate) fn world_inertia(
 ) -> articula_spatial::SpatialInertia {
     // E by columns (e[k] = E e_k) and Ī by rows (symmetric).
     let e = x.e.to_cols_array_2d();
-    let r = x.r.to_array();
     let m = i.mass;
     let ib = i.ibar.to_cols_array_2d();
     let ev = |u: [f64; 3]| -> [f64; 3] {
         std::array::from_fn(|k| e[0][k] * u[0] + e[1][k] * u[1] + e[2][k] * u[2])
     };
-    let er = ev(r);
-    let p = [-er[0], -er[1], -er[2]];
     let hp = ev(i.h.to_array());
     // T = E Ī: row a is Σ_k E_ak (row k of Ī); then (T Eᵀ)_ab = row a of T · row b of E.
     let t: [[f64; 3]; 3] = std::array::from_fn(|a| {
         std::array::from_fn(|c| e[0][a] * ib[0][c] + e[1][a] * ib[1][c] + e[2][a] * ib[2][c])
     });
     let te = |a: usize, b: usize| t[a][0] * e[0][b] + t[a][1] * e[1][b] + t[a][2] * e[2][b];
+    let upper = [
+        [te(0, 0), te(0, 1), te(0, 2)],
+        [0.0, te(1, 1), te(1, 2)],
+        [0.0, 0.0, te(2, 2)],
+    ];
+    parallel_axes(x, m, hp, &upper)
+}
+
+/// The inertia about the computation origin from the one about the body origin `p = −E r`
+/// with the computation frame's axes (`E Ī Eᵀ`'s upper triangle in `te`, first moment
+/// `h_P = E h`): [`world_inertia`]'s parallel axes.
+#[inline(always)]
+fn parallel_axes(
+    x: &SpatialTransform,
+    m: f64,
+    hp: [f64; 3],
+    te: &[[f64; 3]; 3],
+) -> articula_spatial::SpatialInertia {
+    let e = x.e.to_cols_array_2d();
+    let r = x.r.to_array();
+    let er: [f64; 3] = std::array::from_fn(|k| e[0][k] * r[0] + e[1][k] * r[1] + e[2][k] * r[2]);
+    let p = [-er[0], -er[1], -er[2]];
+    let te = |a: usize, b: usize| te[a][b];
     let dot = |u: &[f64; 3], v: &[f64; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
     let d = 2.0 * dot(&p, &hp) + m * dot(&p, &p);
     let mp = [p[0] * m, p[1] * m, p[2] * m];
@@ -396,4 +450,45 @@ pub fn body_kinematics(
         v += vj;
     }
     (x, v, c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{rotated_and_world_inertia, world_inertia};
+    use crate::{Data, State};
+
+    /// ABA's inertias from one `E Ī Eᵀ`: the world inertia is [`world_inertia`]'s to the bit
+    /// (so `data.inertia` is the same whichever method ran), and the rotated one is glam's
+    /// `E Ī Eᵀ` and `E h` to the bit, on every body of every bundled model in random poses.
+    #[test]
+    fn rotated_and_world_inertias_match_their_separate_forms() {
+        let bits = |i: &articula_spatial::SpatialInertia| {
+            let mut v = vec![i.mass.to_bits()];
+            v.extend(i.h.to_array().map(f64::to_bits));
+            v.extend(i.ibar.to_cols_array().map(f64::to_bits));
+            v
+        };
+        for (name, _, model) in crate::bundled_models() {
+            let mut data = Data::new(&model);
+            for seed in 0..3 {
+                let s = State::random(&model, seed, 1.0);
+                crate::forward_kinematics(&model, &s.q, &s.qd, &mut data);
+                for (i, body) in model.bodies.iter().enumerate() {
+                    let x = &data.x[i];
+                    let (rotated, world) = rotated_and_world_inertia(x, &body.inertia);
+                    assert_eq!(
+                        bits(&world),
+                        bits(&world_inertia(x, &body.inertia)),
+                        "{name} {i}"
+                    );
+                    let glam = articula_spatial::SpatialInertia {
+                        mass: body.inertia.mass,
+                        h: x.e * body.inertia.h,
+                        ibar: x.e * body.inertia.ibar * x.e.transpose(),
+                    };
+                    assert_eq!(bits(&rotated), bits(&glam), "{name} {i}");
+                }
+            }
+        }
+    }
 }

@@ -108,11 +108,26 @@ pub(crate) fn ldl5<A: Arith>(a: impl Fn(usize, usize) -> f64) -> Option<([f64; 1
     ))
 }
 
+/// [`ldl5`]'s replacement for a pivot `d` that is not positive (`a_jj` its diagonal entry):
+/// `|d|`, at least `ε |a_jj|` and the smallest normal number; marks the factorisation clamped,
+/// and failed for a NaN.
+#[cold]
+#[inline(never)]
+fn clamp_pivot(d: f64, a_jj: f64, ok: &mut bool, clamped: &mut bool) -> f64 {
+    *ok &= !d.is_nan();
+    *clamped = true;
+    d.abs()
+        .max(f64::EPSILON * a_jj.abs())
+        .max(f64::MIN_POSITIVE)
+}
+
 /// Column `J` of [`ldl5`]: `d_J = a_JJ − Σ_p c_Jp² (1/d_p)`, `c_iJ = a_iJ − Σ_p L_ip c_Jp`,
 /// `L_iJ = c_iJ / d_J`. (`c_Jp² · 1/d_p` rather than `L_Jp c_Jp`: the square is ready before
 /// the division `1/d_p`, so from one pivot's division to the next there is one multiply–add,
 /// not a multiply and then a multiply–add.)
 #[inline(always)]
+// `!(d > 0.0)`: one comparison that also catches NaN.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 fn ldl_col<A: Arith, const J: usize>(
     a: &impl Fn(usize, usize) -> f64,
     l: &mut [[f64; 5]; 5],
@@ -124,14 +139,9 @@ fn ldl_col<A: Arith, const J: usize>(
     for p in 0..J {
         d = A::neg_mul_add(c[J][p] * c[J][p], l[p][p], d);
     }
-    // Not positive (or NaN, which fails).
-    if d <= 0.0 || d.is_nan() {
-        *ok &= !d.is_nan();
-        *clamped = true;
-        d = d
-            .abs()
-            .max(f64::EPSILON * a(J, J).abs())
-            .max(f64::MIN_POSITIVE);
+    // Not positive (or NaN, which fails): one comparison on the common path.
+    if !(d > 0.0) {
+        d = clamp_pivot(d, a(J, J), ok, clamped);
     }
     let inv = 1.0 / d;
     l[J][J] = inv;

@@ -448,6 +448,21 @@ impl PackedSymMat6 {
         ]
     }
 
+    /// `self · [w; 0]`: [`PackedSymMat6::mul_vec`] of a vector whose last three entries are
+    /// zero, without them (the same sums to their last nonzero term, so the same values).
+    #[inline(always)]
+    pub fn mul_angular(&self, w: &[f64; 3]) -> [f64; 6] {
+        let a = &self.0;
+        [
+            a[0] * w[0] + a[1] * w[1] + a[2] * w[2],
+            a[1] * w[0] + a[6] * w[1] + a[7] * w[2],
+            a[2] * w[0] + a[7] * w[1] + a[11] * w[2],
+            a[3] * w[0] + a[8] * w[1] + a[12] * w[2],
+            a[4] * w[0] + a[9] * w[1] + a[13] * w[2],
+            a[5] * w[0] + a[10] * w[1] + a[14] * w[2],
+        ]
+    }
+
     /// The whole matrix (for [`Mat6::sym_mul_vec`] on several vectors).
     #[inline(always)]
     pub fn to_mat6(&self) -> Mat6 {
@@ -611,6 +626,19 @@ mod tests {
                     w.0[k]
                 );
             }
+        }
+    }
+
+    /// `mul_angular(w)` is `mul_vec([w; 0])` to the bit.
+    #[test]
+    fn mul_angular_is_mul_vec_with_zero_linear_part() {
+        let mut p = PackedSymMat6::ZERO;
+        for k in 0..21 {
+            p.0[k] = (k as f64 * 0.731).sin() * 3.0 + 0.1;
+        }
+        for w in [[0.3, -1.2, 0.5], [1e-9, 2.0, -7.5], [0.0, 0.0, 1.0]] {
+            let full = p.mul_vec(&[w[0], w[1], w[2], 0.0, 0.0, 0.0]);
+            assert_eq!(p.mul_angular(&w).map(f64::to_bits), full.map(f64::to_bits));
         }
     }
 
