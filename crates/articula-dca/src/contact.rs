@@ -22,7 +22,7 @@
 //! start-of-step approach speed `u⁻`, faster than `restitution_velocity`, leaves at `−e u⁻`
 //! (the bounce starts up to `|u⁻| dt` early: the ball turns a little above the floor).
 
-use crate::contact_solver::{self, Block, Stop};
+use crate::contact_solver::{self, ActiveSet, Block, Stop};
 use crate::delassus::{Load, Tree, NONE};
 use crate::integrate::check_step_result;
 use crate::{forward_dynamics, integrate_q, Data, DynamicsError, Method, State};
@@ -184,6 +184,11 @@ pub struct ContactData {
     /// Response columns of the last step, and per node the impulses' wrench.
     columns: usize,
     node_wrench: Vec<[f64; 6]>,
+    /// Per node: its contact rows (zero between steps); per row: its column of `W` done.
+    node_rows: Vec<usize>,
+    done: Vec<bool>,
+    /// The solver's active-set buffers.
+    active: ActiveSet,
     w: Vec<f64>,
     u_free: Vec<f64>,
     target: Vec<f64>,
@@ -236,6 +241,9 @@ impl ContactData {
             row_bound: Vec::new(),
             columns: 0,
             node_wrench: Vec::new(),
+            node_rows: Vec::new(),
+            done: Vec::new(),
+            active: ActiveSet::default(),
             w: Vec::new(),
             u_free: Vec::new(),
             target: Vec::new(),
@@ -520,7 +528,7 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     }
     cd.u.clear();
     cd.u.resize(k, 0.0);
-    let solve = contact_solver::solve(
+    let solve = contact_solver::solve_active(
         &cd.w,
         &cd.blocks,
         &cd.u_free,
@@ -531,9 +539,10 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
             max_iterations: settings.max_iterations,
             tolerance: settings.tolerance,
         },
+        &mut cd.active,
     );
     cd.stats.iterations = solve.iterations;
-    cd.stats.converged = solve.change <= settings.tolerance;
+    cd.stats.converged = solve.converged;
     // Warm starts for the next step: these rows' impulses, zero elsewhere.
     cd.warm_spheres.iter_mut().for_each(|x| *x = [0.0; 3]);
     cd.warm_bounds.iter_mut().for_each(|x| *x = 0.0);
@@ -570,7 +579,7 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
             cd.target[i] = -cd.phi[i] - settings.slop;
             cd.lambda[i] = 0.0;
         }
-        contact_solver::solve(
+        contact_solver::solve_active(
             &cd.w,
             &cd.blocks,
             &cd.u_free,
@@ -581,6 +590,7 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
                 max_iterations: settings.max_iterations,
                 tolerance: settings.tolerance * dt,
             },
+            &mut cd.active,
         );
         impulse_response(cd, nv);
         dynamics.integrate(model, &mut state.q, &cd.delta, 1.0);
@@ -606,78 +616,98 @@ fn row_value(
 }
 
 /// Fills `cd.w` (`k × k`, row-major, symmetric) with `W = J M⁻¹ Jᵀ` from one response
-/// column of the tree per load: per body with 6 or more rows its 6 unit wrenches, whose
-/// responses each row of the body combines by its wrench; else each row's own wrench or
-/// joint impulse. A column costs O(its body's depth + the rows' paths) and reading it O(k).
+/// column of the tree per load: per node (a moving joint with the bodies welded to it) with
+/// 6 or more contact rows, its 6 unit wrenches, whose responses each contact row on it
+/// combines by its wrench — a rigid character (one node) takes 6 columns whatever its
+/// contacts; else each row's own wrench or joint impulse. A column costs O(its node's depth
+/// + the rows' paths), reading it O(k).
 fn delassus(cd: &mut ContactData) {
     let k = cd.phi.len();
-    cd.w.clear();
-    cd.w.resize(k * k, 0.0);
-    cd.columns = 0;
-    let mut b = 0;
-    while b < cd.sources.len() {
-        let (src, row) = cd.sources[b];
-        let body = match src {
-            Source::Sphere { body, .. } => Some(body),
-            Source::Limit { .. } => None,
-        };
-        // This body's run of blocks (spheres are grouped by body).
-        let mut end = b + 1;
-        while end < cd.sources.len()
-            && body.is_some()
-            && matches!(cd.sources[end].0, Source::Sphere { body: o, .. } if Some(o) == body)
-        {
-            end += 1;
-        }
-        let rows = row..cd.sources.get(end).map_or(k, |s| s.1);
-        let node = cd.row_node[row];
-        if body.is_some() && rows.len() >= 6 {
-            // cd.basis[m * k + i]: row i's response to unit wrench m on this body.
-            cd.basis.clear();
-            cd.basis.resize(6 * k, 0.0);
-            for m in 0..6 {
-                let mut e = [0.0; 6];
-                e[m] = 1.0;
-                cd.tree
-                    .column(node, Load::Wrench(SpatialForce::from_array(e)));
-                cd.columns += 1;
-                for i in 0..k {
-                    cd.basis[m * k + i] = column_value(cd, i);
-                }
-            }
-            for j in rows {
-                let w = cd.wrench[j].to_array();
-                for i in 0..k {
-                    cd.w[i * k + j] = (0..6).map(|m| w[m] * cd.basis[m * k + i]).sum();
-                }
-            }
-        } else {
-            for j in rows {
-                let load = match cd.row_bound[j] {
-                    usize::MAX => Load::Wrench(cd.wrench[j]),
-                    li => {
-                        let bd = cd.bounds[li];
-                        let dof = if node == NONE {
-                            0
-                        } else {
-                            bd.vi - cd.tree.v_offset(node)
-                        };
-                        Load::Tau {
-                            dof,
-                            value: bd.sign,
-                        }
-                    }
-                };
-                cd.tree.column(node, load);
-                cd.columns += 1;
-                for i in 0..k {
-                    cd.w[i * k + j] = column_value(cd, i);
-                }
-            }
-        }
-        b = end;
+    // Every entry is written below (no zeroing).
+    if cd.w.len() < k * k {
+        cd.w.resize(k * k, 0.0);
     }
-    // Symmetric to rounding: make it so exactly (the solver reads row i as column i).
+    cd.w.truncate(k * k);
+    cd.columns = 0;
+    // Contact rows per node (`node_rows`, reset after use).
+    cd.node_rows.resize(cd.tree.len(), 0);
+    for i in 0..k {
+        if cd.row_bound[i] == usize::MAX && cd.row_node[i] != NONE {
+            cd.node_rows[cd.row_node[i]] += 1;
+        }
+    }
+    // Column j of W done (by its node's basis).
+    cd.done.clear();
+    cd.done.resize(k, false);
+    for first in 0..k {
+        let node = cd.row_node[first];
+        if cd.done[first]
+            || cd.row_bound[first] != usize::MAX
+            || node == NONE
+            || cd.node_rows[node] < 6
+        {
+            continue;
+        }
+        // cd.basis[m * k + i]: row i's response to unit wrench m on this node.
+        if cd.basis.len() < 6 * k {
+            cd.basis.resize(6 * k, 0.0);
+        }
+        for m in 0..6 {
+            let mut e = [0.0; 6];
+            e[m] = 1.0;
+            cd.tree
+                .column(node, Load::Wrench(SpatialForce::from_array(e)));
+            cd.columns += 1;
+            for i in 0..k {
+                cd.basis[m * k + i] = column_value(cd, i);
+            }
+        }
+        for j in first..k {
+            if cd.row_node[j] != node || cd.row_bound[j] != usize::MAX {
+                continue;
+            }
+            cd.done[j] = true;
+            // Row j of W (its column to rounding: W is symmetric), contiguous.
+            let w = cd.wrench[j].to_array();
+            let wj = &mut cd.w[j * k..(j + 1) * k];
+            for (x, b) in wj.iter_mut().zip(&cd.basis[..k]) {
+                *x = w[0] * b;
+            }
+            for (m, wm) in w.iter().enumerate().skip(1) {
+                for (x, b) in wj.iter_mut().zip(&cd.basis[m * k..(m + 1) * k]) {
+                    *x += wm * b;
+                }
+            }
+        }
+    }
+    for j in 0..k {
+        if cd.done[j] {
+            continue;
+        }
+        let node = cd.row_node[j];
+        let load = match cd.row_bound[j] {
+            usize::MAX => Load::Wrench(cd.wrench[j]),
+            li => {
+                let bd = cd.bounds[li];
+                Load::Tau {
+                    dof: bd.vi - cd.tree.v_offset(node),
+                    value: bd.sign,
+                }
+            }
+        };
+        cd.tree.column(node, load);
+        cd.columns += 1;
+        for i in 0..k {
+            cd.w[j * k + i] = column_value(cd, i);
+        }
+    }
+    for i in 0..k {
+        if cd.row_node[i] != NONE {
+            cd.node_rows[cd.row_node[i]] = 0;
+        }
+    }
+    // Rows of W, symmetric to rounding: make it so exactly (the solver reads row i as
+    // column i).
     for i in 0..k {
         for j in i + 1..k {
             let x = 0.5 * (cd.w[i * k + j] + cd.w[j * k + i]);

@@ -72,6 +72,8 @@ pub(crate) struct Tree {
     /// Per body: the node it moves with ([`NONE`]: welded to the world).
     pub body_node: Vec<usize>,
     nodes: Vec<Node>,
+    /// This step's nodes (the first `len` of `nodes`).
+    len: usize,
     /// Per node: a bias force, a `g = D⁻¹ u`, an acceleration (or velocity), its `q̈`.
     p: Vec<V6>,
     g: Vec<V6>,
@@ -103,47 +105,50 @@ impl Tree {
         let nb = model.bodies.len();
         self.body_node.clear();
         self.body_node.resize(nb, NONE);
-        self.nodes.clear();
+        // Nodes are overwritten in place (only their first `k` columns and rows are read):
+        // `len` counts this step's.
+        let mut len = 0;
         for (b, body) in model.bodies.iter().enumerate() {
             let parent = body.parent.map_or(NONE, |p| {
                 debug_assert!(p < b, "bodies are stored parents first");
                 self.body_node[p]
             });
             let m = world_inertia(&kin.x[b], &body.inertia).to_mat6();
-            let mut ia = [[0.0; 6]; 6];
-            for (r, row) in ia.iter_mut().enumerate() {
-                for (c, x) in row.iter_mut().enumerate() {
-                    *x = m.get(r, c);
-                }
-            }
             if body.nv > 0 && dynamics.moves(model, b) {
-                let mut node = Node {
-                    parent,
-                    vo: body.v_offset,
-                    k: body.nv,
-                    ia,
-                    ..Node::default()
-                };
+                if len == self.nodes.len() {
+                    self.nodes.push(Node::default());
+                }
+                let node = &mut self.nodes[len];
+                node.parent = parent;
+                node.vo = body.v_offset;
+                node.k = body.nv;
+                for (r, row) in node.ia.iter_mut().enumerate() {
+                    for (c, x) in row.iter_mut().enumerate() {
+                        *x = m.get(r, c);
+                    }
+                }
                 for d in 0..body.nv {
                     node.s[d] = kin.s[body.v_offset + d].to_array();
                 }
-                self.body_node[b] = self.nodes.len();
-                self.nodes.push(node);
+                self.body_node[b] = len;
+                len += 1;
             } else {
                 self.body_node[b] = parent;
                 if parent != NONE {
                     let pia = &mut self.nodes[parent].ia;
-                    for r in 0..6 {
-                        for c in 0..6 {
-                            pia[r][c] += ia[r][c];
+                    for (r, row) in pia.iter_mut().enumerate() {
+                        for (c, x) in row.iter_mut().enumerate() {
+                            *x += m.get(r, c);
                         }
                     }
                 }
             }
         }
+        self.len = len;
         // Leaves to root: U = Iᴬ S, D = Sᵀ U, D⁻¹, and the parent's Iᴬ += Iᴬ − U D⁻¹ Uᵀ.
-        for i in (0..self.nodes.len()).rev() {
-            let node = &mut self.nodes[i];
+        for i in (0..len).rev() {
+            let (before, rest) = self.nodes.split_at_mut(i);
+            let node = &mut rest[0];
             let k = node.k;
             for d in 0..k {
                 node.u[d] = std::array::from_fn(|r| dot(&node.ia[r], &node.s[d]));
@@ -155,8 +160,12 @@ impl Tree {
                 }
             }
             if !spd_inverse(&mut dm, k, &mut node.dinv) {
+                let vo = node.vo;
+                let body = (0..model.bodies.len())
+                    .find(|&b| model.bodies[b].v_offset == vo && model.bodies[b].nv > 0)
+                    .unwrap_or(0);
                 return Err(DynamicsError::Singular {
-                    joint: model.bodies[self.body_of(model, i)].joint_name(),
+                    joint: model.bodies[body].joint_name(),
                     detail: "Sᵀ Iᴬ S of the contact step's tree is not positive definite",
                 });
             }
@@ -164,10 +173,8 @@ impl Tree {
                 node.dut[a] =
                     std::array::from_fn(|r| (0..k).map(|b| node.dinv[a][b] * node.u[b][r]).sum());
             }
-            let parent = node.parent;
-            if parent != NONE {
-                let node = self.nodes[i];
-                let pia = &mut self.nodes[parent].ia;
+            if node.parent != NONE {
+                let pia = &mut before[node.parent].ia;
                 for r in 0..6 {
                     for c in 0..6 {
                         let ud: f64 = (0..k).map(|d| node.u[d][r] * node.dut[d][c]).sum();
@@ -176,7 +183,7 @@ impl Tree {
                 }
             }
         }
-        let n = self.nodes.len();
+        let n = len;
         for v in [&mut self.p, &mut self.g, &mut self.acc, &mut self.qdd] {
             v.clear();
             v.resize(n, [0.0; 6]);
@@ -188,13 +195,6 @@ impl Tree {
         self.needed.clear();
         self.column = 0;
         Ok(())
-    }
-
-    /// The body whose joint is node `i` (for an error message).
-    fn body_of(&self, model: &Model, i: usize) -> usize {
-        (0..model.bodies.len())
-            .find(|&b| self.body_node[b] == i && model.bodies[b].v_offset == self.nodes[i].vo)
-            .unwrap_or(0)
     }
 
     /// The first degree of freedom of node `i`.
@@ -214,8 +214,7 @@ impl Tree {
     /// Orders the marked nodes (after every [`Tree::mark_read`]).
     pub(crate) fn finish_marks(&mut self) {
         self.needed.clear();
-        self.needed
-            .extend((0..self.nodes.len()).filter(|&i| self.read[i]));
+        self.needed.extend((0..self.len).filter(|&i| self.read[i]));
     }
 
     /// The response of the system at rest to `load` on node `at` ([`NONE`]: nothing moves):
@@ -309,7 +308,7 @@ impl Tree {
     /// `wrenches` (per node, computation frame); 0 for a joint that does not move. O(n).
     pub(crate) fn solve(&mut self, tau: &[f64], wrenches: &[V6], out: &mut [f64]) {
         out.fill(0.0);
-        let n = self.nodes.len();
+        let n = self.len;
         for i in 0..n {
             let f = wrenches[i];
             self.p[i] = std::array::from_fn(|r| -f[r]);
@@ -368,7 +367,7 @@ impl Tree {
     /// The spatial velocity (computation frame) of every node for joint velocities `qd`,
     /// read back by [`Tree::velocity`]. O(n).
     pub(crate) fn velocities(&mut self, qd: &[f64]) {
-        for i in 0..self.nodes.len() {
+        for i in 0..self.len {
             let node = &self.nodes[i];
             let mut v = if node.parent == NONE {
                 [0.0; 6]
@@ -391,7 +390,7 @@ impl Tree {
 
     /// The number of nodes.
     pub(crate) fn len(&self) -> usize {
-        self.nodes.len()
+        self.len
     }
 }
 
