@@ -208,6 +208,20 @@ pub(crate) fn solve_active(
     set: &mut ActiveSet,
 ) -> Solve {
     let k = u_free.len();
+    // Sized for every block active: the buffers grow only with `k`.
+    set.w.reserve((k * k).saturating_sub(set.w.len()));
+    for v in [
+        &mut set.u_free,
+        &mut set.target,
+        &mut set.lambda,
+        &mut set.u,
+    ] {
+        v.reserve(k.saturating_sub(v.len()));
+    }
+    set.rows.reserve(k.saturating_sub(set.rows.len()));
+    set.blocks
+        .reserve(blocks.len().saturating_sub(set.blocks.len()));
+    set.on.reserve(blocks.len().saturating_sub(set.on.len()));
     // u at the warm start.
     for i in 0..k {
         let row = &w[i * k..(i + 1) * k];

@@ -67,7 +67,7 @@ pub(crate) enum Load {
 
 /// The articulated tree of one step and its per-column workspace (grown, never shrunk: a
 /// step allocates only when it meets a larger tree or more rows than any before).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub(crate) struct Tree {
     /// Per body: the node it moves with ([`NONE`]: welded to the world).
     pub body_node: Vec<usize>,
@@ -93,6 +93,25 @@ fn dot(a: &V6, b: &V6) -> f64 {
 }
 
 impl Tree {
+    /// The workspace for `model`, sized for every joint moving (a step then allocates
+    /// nothing here, whatever joints move).
+    pub(crate) fn new(model: &Model) -> Tree {
+        let n = model.bodies.iter().filter(|b| b.nv > 0).count();
+        Tree {
+            body_node: Vec::with_capacity(model.bodies.len()),
+            nodes: Vec::with_capacity(n),
+            len: 0,
+            p: Vec::with_capacity(n),
+            g: Vec::with_capacity(n),
+            acc: Vec::with_capacity(n),
+            qdd: Vec::with_capacity(n),
+            stamp: Vec::with_capacity(n),
+            read: Vec::with_capacity(n),
+            needed: Vec::with_capacity(n),
+            column: 0,
+        }
+    }
+
     /// Builds and articulates the tree of `dynamics` at its kinematics (the start of the
     /// step): one node per moving joint, the other bodies' inertias welded to their parent's
     /// node. O(n).
