@@ -131,7 +131,8 @@ pub struct ContactStats {
     pub limits: usize,
     /// Rows of the contact problem (`k`).
     pub rows: usize,
-    /// Forward-dynamics solves for `M⁻¹ Jᵀ` (each O(n)).
+    /// Response columns of `W` (each a walk along one node's path of the articulated tree,
+    /// not a forward-dynamics solve).
     pub response_solves: usize,
     /// Gauss–Seidel sweeps.
     pub iterations: usize,
