@@ -194,8 +194,9 @@ pub(crate) struct ActiveSet {
 /// computed (O(k a)) and any that falls short by more than `tolerance` joins the set and the
 /// solve resumes from the current impulses. On return every block meets the conditions of
 /// [`solve`]'s stop (the active ones by the compacted solve, the inactive ones with `λ = 0`
-/// and `u ≥ b − tolerance`) unless `max_iterations` sweeps (over all rounds) ran out. `u` holds
-/// `u_free + W λ` for every row.
+/// and `u ≥ b − tolerance`) unless `max_iterations` sweeps (over all rounds) ran out; blocks
+/// that join after the last of those get one more sweep. `u` holds `u_free + W λ` for every
+/// row.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn solve_active(
     w: &[f64],
@@ -296,7 +297,9 @@ pub(crate) fn solve_active(
             &mut set.lambda,
             &mut set.u,
             Stop {
-                max_iterations: stop.max_iterations - total.iterations,
+                // (Blocks that joined after the last allowed sweep get one more: a contact
+                // approaching with no impulse is never left out.)
+                max_iterations: stop.max_iterations.saturating_sub(total.iterations).max(1),
                 tolerance: stop.tolerance,
             },
         );
@@ -323,7 +326,7 @@ pub(crate) fn solve_active(
             return total;
         }
         total.converged = false;
-        if total.iterations >= stop.max_iterations {
+        if total.iterations > stop.max_iterations {
             return total;
         }
     }
