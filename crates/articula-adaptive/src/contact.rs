@@ -5,15 +5,15 @@
 //! generalised coordinates are the active joints', a locked joint keeps `q̇ = 0` and a rigid
 //! cluster moves as one. A contact row's Jacobian is the exact one restricted to the active
 //! columns (a point on a locked body moves with the active joints above it), the hybrid mass
-//! matrix `M_h` is `M` restricted to them, and the response to a unit impulse is
-//! `M_h⁻¹ J_hᵀ` — one velocity-level solve of the reduced tree (the articulated-body
-//! algorithm over the active joints and their rigid clusters, the pass the locking impulse
-//! runs): O(active) per column. articula-dca's contact step ([`step_with_dynamics`]) does the
-//! rest: detection on the whole body's kinematics (a rigidified part still collides), the
-//! rows, the Gauss–Seidel solve and the position correction. With every joint active this is
-//! articula-dca's exact contact step to rounding.
+//! matrix `M_h` is `M` restricted to them, and `M_h⁻¹` is applied by articula-dca's contact
+//! step ([`step_with_dynamics`]) on the reduced tree it articulates from [`ContactDynamics::moves`]:
+//! one node per active joint, each locked body's inertia welded to its parent's node (the
+//! rigid cluster), a body welded to the world in none — so a response column walks only the
+//! active joints on a contact body's path. That step also does detection on the whole body's
+//! kinematics (a rigidified part still collides), the rows, the Gauss–Seidel solve and the
+//! position correction. With every joint active this is articula-dca's exact contact step to
+//! rounding.
 
-use crate::hybrid::Level;
 use crate::{integrate_part, Adaptive, AdaptiveError, StepReport};
 use articula_dca::{
     forward_kinematics, step_with_dynamics, ContactData, ContactDynamics, ContactError,
@@ -48,7 +48,7 @@ impl HybridContact {
 
 /// The hybrid body under articula-dca's contact step.
 struct Hybrid<'a> {
-    ad: &'a mut Adaptive,
+    ad: &'a Adaptive,
     kin: &'a Data,
     qdd: &'a [f64],
 }
@@ -73,24 +73,6 @@ impl ContactDynamics for Hybrid<'_> {
         self.ad.is_active(model, body)
     }
 
-    fn response(
-        &mut self,
-        model: &Model,
-        _state: &State,
-        tau: &[f64],
-        out: &mut [f64],
-    ) -> Result<(), DynamicsError> {
-        // The reduced tree's velocity-level solve: q̇ = M_h⁻¹ τ on the active joints.
-        self.ad.reduced_aba(model, tau, Level::Impulse)?;
-        out.fill(0.0);
-        for &j in &self.ad.hier.ajoints {
-            let b = &model.bodies[j];
-            let r = b.v_offset..b.v_offset + b.nv;
-            out[r.clone()].copy_from_slice(&self.ad.body.qdd[r]);
-        }
-        Ok(())
-    }
-
     fn integrate(&self, model: &Model, q: &mut [f64], v: &[f64], h: f64) {
         // The active joints only: a locked joint keeps its coordinates to the bit.
         for &j in &self.ad.hier.ajoints {
@@ -109,9 +91,10 @@ impl Adaptive {
     /// (module documentation). A body with no active joint (budget 0) moves as one rigid body
     /// and still lands. `contact.contact.stats` holds the step's contact figures.
     ///
-    /// Cost: the hybrid step, whole-body kinematics O(n) for the contact spheres, one
-    /// reduced-tree solve O(active) per response column, O(k² n) for `W` and O(k²) per
-    /// Gauss–Seidel sweep (`k` rows).
+    /// Cost: the hybrid step, whole-body kinematics O(n) for the contact spheres and the
+    /// reduced tree's inertias, per response column a walk along the active joints of one
+    /// contact body's path and the rows' paths, O(k²) for `W` and per Gauss–Seidel sweep
+    /// (`k` rows).
     pub fn step_with_contact(
         &mut self,
         model: &Model,

@@ -171,7 +171,7 @@ impl GroundRun {
             ),
             format!("max_penetration_m {:.3e}", self.max_penetration),
             format!(
-                "contacts     {:.2} per step (mean), {:.2} rows, {:.2} response solves; {} step(s) not converged",
+                "contacts     {:.2} per step (mean), {:.2} rows, {:.2} response columns; {} step(s) not converged",
                 per(self.contacts),
                 per(self.rows),
                 per(self.solves),

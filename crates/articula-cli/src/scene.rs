@@ -46,6 +46,21 @@ pub struct SceneArgs {
     /// budget stays one choice. The scene's state is the same bits for any count.
     #[arg(long, value_name = "N", value_parser = crate::parse_threads, allow_hyphen_values = true)]
     pub threads: Option<usize>,
+    /// Put a floor at height Z (m) under every character (friction 1, no restitution),
+    /// replacing the scene's `ground` block (docs/contact.md#scenes).
+    #[arg(long, value_name = "Z", allow_hyphen_values = true, value_parser = parse_finite)]
+    pub ground: Option<f64>,
+    /// Replace the scene's gravity by (0, 0, GZ) m/s² (with `--ground`: `--gravity -9.81`
+    /// stands a zero-gravity crowd on the floor).
+    #[arg(long, value_name = "GZ", allow_hyphen_values = true, value_parser = parse_finite)]
+    pub gravity: Option<f64>,
+}
+
+fn parse_finite(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(x) if x.is_finite() => Ok(x),
+        _ => Err(format!("{s} is not a finite number")),
+    }
 }
 
 /// Parses a memory size: a whole number of bytes, or a number with a unit (`KiB`, `MiB`, `GiB`,
@@ -109,7 +124,17 @@ fn write_frame(
 
 /// Runs `articula scene`.
 pub fn run(args: &SceneArgs) -> Result<(), CliError> {
-    let scene = load_scene_limited(&args.scene, args.inertia.into(), args.memory_limit)?;
+    let mut scene = load_scene_limited(&args.scene, args.inertia.into(), args.memory_limit)?;
+    if let Some(height) = args.ground {
+        scene.ground = Some(articula_view::GroundSpec {
+            height,
+            friction: 1.0,
+            restitution: 0.0,
+        });
+    }
+    if let Some(gz) = args.gravity {
+        scene.gravity = articula_spatial::DVec3::new(0.0, 0.0, gz);
+    }
     for m in &scene.models {
         for w in &m.model.warnings {
             eprintln!("warning: {}: {w}", m.name);

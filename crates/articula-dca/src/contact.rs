@@ -22,13 +22,12 @@
 //! start-of-step approach speed `u⁻`, faster than `restitution_velocity`, leaves at `−e u⁻`
 //! (the bounce starts up to `|u⁻| dt` early: the ball turns a little above the floor).
 
-use crate::contact_solver::{self, Block, Stop};
+use crate::contact_solver::{self, ActiveSet, Block, Stop};
+use crate::delassus::{Load, Tree, NONE};
 use crate::integrate::check_step_result;
-use crate::{
-    forward_dynamics, forward_dynamics_slices, integrate_q, Data, DynamicsError, Method, State,
-};
+use crate::{forward_dynamics, integrate_q, Data, DynamicsError, Method, State};
 use articula_model::{CollisionModel, Model};
-use articula_spatial::SpatialForce;
+use articula_spatial::{SpatialForce, SpatialMotion};
 use glam::DVec3;
 use thiserror::Error;
 
@@ -132,7 +131,8 @@ pub struct ContactStats {
     pub limits: usize,
     /// Rows of the contact problem (`k`).
     pub rows: usize,
-    /// Forward-dynamics solves for `M⁻¹ Jᵀ` (each O(n)).
+    /// Response columns of `W` (each a walk along one node's path of the articulated tree,
+    /// not a forward-dynamics solve).
     pub response_solves: usize,
     /// Gauss–Seidel sweeps.
     pub iterations: usize,
@@ -178,8 +178,18 @@ pub struct ContactData {
     phi: Vec<f64>,
     /// Per row: the wrench (contact rows, computation frame) whose power is the row velocity.
     wrench: Vec<SpatialForce>,
-    jac: Vec<f64>,
-    resp: Vec<f64>,
+    /// The articulated tree of the step, and per row its node and (joint-bound rows) bound.
+    tree: Tree,
+    row_node: Vec<usize>,
+    row_bound: Vec<usize>,
+    /// Response columns of the last step, and per node the impulses' wrench.
+    columns: usize,
+    node_wrench: Vec<[f64; 6]>,
+    /// Per node: its contact rows (zero between steps); per row: its column of `W` done.
+    node_rows: Vec<usize>,
+    done: Vec<bool>,
+    /// The solver's active-set buffers.
+    active: ActiveSet,
     w: Vec<f64>,
     u_free: Vec<f64>,
     target: Vec<f64>,
@@ -189,13 +199,9 @@ pub struct ContactData {
     warm_spheres: Vec<[f64; 3]>,
     warm_bounds: Vec<f64>,
     qd_free: Vec<f64>,
-    zero: Vec<f64>,
     tau: Vec<f64>,
     basis: Vec<f64>,
     delta: Vec<f64>,
-    /// The coordinates some response moves, and `J`, `R` packed on them (`W = J R`).
-    cols: Vec<usize>,
-    packed: Vec<f64>,
 }
 
 impl ContactData {
@@ -231,20 +237,23 @@ impl ContactData {
             blocks: Vec::new(),
             phi: Vec::new(),
             wrench: Vec::new(),
-            jac: Vec::new(),
-            resp: Vec::new(),
+            tree: Tree::new(model),
+            row_node: Vec::new(),
+            row_bound: Vec::new(),
+            columns: 0,
+            node_wrench: Vec::with_capacity(model.bodies.len()),
+            node_rows: Vec::with_capacity(model.bodies.len()),
+            done: Vec::new(),
+            active: ActiveSet::default(),
             w: Vec::new(),
             u_free: Vec::new(),
             target: Vec::new(),
             lambda: Vec::new(),
             u: Vec::new(),
             qd_free: vec![0.0; nv],
-            zero: vec![0.0; nv],
             tau: vec![0.0; nv],
             basis: Vec::new(),
             delta: vec![0.0; nv],
-            cols: Vec::with_capacity(nv),
-            packed: Vec::new(),
         }
     }
 
@@ -322,30 +331,17 @@ pub trait ContactDynamics {
         true
     }
 
-    /// The response to the generalised impulse `tau` of the system at rest without gravity,
-    /// `out = M⁻¹ τ` (every entry written; 0 for a joint that does not move). Called after
-    /// every row has read [`ContactDynamics::kinematics`] (it may overwrite them).
-    fn response(
-        &mut self,
-        model: &Model,
-        state: &State,
-        tau: &[f64],
-        out: &mut [f64],
-    ) -> Result<(), DynamicsError>;
-
     /// `q ← q ⊕ h v` over the joints that move (default: all, [`integrate_q`]).
     fn integrate(&self, model: &Model, q: &mut [f64], v: &[f64], h: f64) {
         integrate_q(model, q, v, h);
     }
 }
 
-/// Exact forward dynamics under a contact step: `free_motion` and every response are one
-/// forward-dynamics solve by `method` (O(n) with DCA or ABA), in the workspace `data`.
+/// Exact forward dynamics under a contact step: the free motion is one forward-dynamics
+/// solve by `method` in the workspace `data`, every joint moves.
 struct ExactDynamics<'a> {
     data: &'a mut Data,
     method: Method,
-    /// `nv` zeros (the velocities of the system at rest).
-    zero: &'a [f64],
 }
 
 impl ContactDynamics for ExactDynamics<'_> {
@@ -362,51 +358,18 @@ impl ContactDynamics for ExactDynamics<'_> {
     fn kinematics(&self) -> &Data {
         self.data
     }
-
-    fn response(
-        &mut self,
-        model: &Model,
-        state: &State,
-        tau: &[f64],
-        out: &mut [f64],
-    ) -> Result<(), DynamicsError> {
-        let gravity = std::mem::replace(&mut self.data.gravity, DVec3::ZERO);
-        let r =
-            forward_dynamics_slices(model, self.data, &state.q, self.zero, tau, &[], self.method)
-                .map(|qdd| out.copy_from_slice(qdd));
-        self.data.gravity = gravity;
-        r
-    }
-}
-
-/// The degrees of freedom between the root and body `b` whose joints move, visited leaf to
-/// root.
-fn path_dofs<D: ContactDynamics + ?Sized>(
-    model: &Model,
-    dynamics: &D,
-    b: usize,
-    mut f: impl FnMut(usize),
-) {
-    let mut body = Some(b);
-    while let Some(i) = body {
-        let bd = &model.bodies[i];
-        if dynamics.moves(model, i) {
-            (bd.v_offset..bd.v_offset + bd.nv).for_each(&mut f);
-        }
-        body = bd.parent;
-    }
 }
 
 /// Advances `state` by `dt` with semi-implicit Euler, forward dynamics by `method`, and the
 /// ground contact and joint limits of `settings` (module documentation). Without a ground and
 /// with `joint_limits` off this is the plain semi-implicit Euler step (without the momentum
 /// projection of [`crate::step`]: contact impulses are external). On return, `contact.stats`
-/// holds the step's figures and `data` the kinematics of the last response solve (at the
-/// start-of-step `q`).
+/// holds the step's figures and `data` the kinematics of the start-of-step `q`.
 ///
-/// Cost: one forward dynamics for the free motion, then one per column of `M⁻¹ Jᵀ` — per
-/// contacting body `min(6, its rows)`, per active limit 1 — each O(n); `W` costs O(k² n) and a
-/// Gauss–Seidel sweep O(k²) for `k` rows.
+/// Cost: one forward dynamics for the free motion, the articulated tree at rest O(n), one
+/// response column per contacting body's unit wrench (`min(6, its rows)`) and per active
+/// limit, each O(depth + the rows' paths), `W` O(k²) from them, O(k²) per Gauss–Seidel sweep
+/// for `k` rows, and O(n) to apply the impulses.
 pub fn step_with_contact(
     model: &Model,
     data: &mut Data,
@@ -416,20 +379,12 @@ pub fn step_with_contact(
     dt: f64,
     settings: &ContactSettings,
 ) -> Result<(), ContactError> {
-    // (The zeros lent out and back: no allocation.)
-    let zero = std::mem::take(&mut contact.zero);
-    let mut dynamics = ExactDynamics {
-        data,
-        method,
-        zero: &zero,
-    };
-    let r = step_with_dynamics(model, &mut dynamics, contact, state, dt, settings);
-    contact.zero = zero;
-    r
+    let mut dynamics = ExactDynamics { data, method };
+    step_with_dynamics(model, &mut dynamics, contact, state, dt, settings)
 }
 
 /// [`step_with_contact`] on any [`ContactDynamics`]: the free motion, the rows' kinematics,
-/// the responses and the integration come from `dynamics`; detection, the rows, the
+/// the joints that move and the integration come from `dynamics`; detection, the rows, the
 /// Gauss–Seidel solve and the position correction are the same for every dynamics.
 pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     model: &Model,
@@ -532,64 +487,40 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
         cd.stats.converged = true;
         return finish(model, state);
     }
-    // 3. Rows of J (dense, k × nv), before the response solves overwrite the kinematics.
-    cd.jac.clear();
-    cd.jac.resize(k * nv, 0.0);
-    for &(src, row) in &cd.sources {
+    // 3. The articulated tree of the system at rest (once), each row's node, and the rows'
+    //    free velocities u_free = J v_free (a row reads its node's velocity).
+    cd.tree.build(model, &*dynamics)?;
+    cd.row_node.clear();
+    cd.row_bound.clear();
+    for &(src, _) in &cd.sources {
         match src {
             Source::Sphere { body, .. } => {
-                for i in row..row + 3 {
-                    let w = cd.wrench[i];
-                    let jrow = &mut cd.jac[i * nv..(i + 1) * nv];
-                    path_dofs(model, dynamics, body, |j| jrow[j] = data.s[j].dot(w));
-                }
+                let node = cd.tree.body_node[body];
+                cd.row_node.extend([node; 3]);
+                cd.row_bound.extend([usize::MAX; 3]);
             }
             Source::Limit { limit } => {
-                let b = cd.bounds[limit];
-                cd.jac[row * nv + b.vi] = b.sign;
+                cd.row_node.push(cd.tree.body_node[cd.bounds[limit].body]);
+                cd.row_bound.push(limit);
             }
         }
     }
-    // 4. R = M⁻¹ Jᵀ, row i of `resp` the response to row i: forward dynamics at rest, without
-    //    gravity, under the generalised force Jᵢᵀ.
-    cd.resp.clear();
-    cd.resp.resize(k * nv, 0.0);
-    responses(model, dynamics, cd, state)?;
-    // 5. W = J R (symmetric), u_free = J v_free, warm start.
-    //    Only the coordinates some response moves enter the products (the active ones of a
-    //    hybrid body, the contacting bodies' paths): the others add exact zeros, so the sums
-    //    are the full ones to the bit.
-    cd.cols.clear();
-    cd.cols
-        .extend((0..nv).filter(|&c| (0..k).any(|i| cd.resp[i * nv + c] != 0.0)));
-    let m = cd.cols.len();
-    cd.packed.clear();
-    cd.packed.resize(2 * k * m, 0.0);
-    let (pj, pr) = cd.packed.split_at_mut(k * m);
     for i in 0..k {
-        for (x, &c) in cd.cols.iter().enumerate() {
-            pj[i * m + x] = cd.jac[i * nv + c];
-            pr[i * m + x] = cd.resp[i * nv + c];
-        }
+        cd.tree.mark_read(cd.row_node[i]);
     }
-    cd.w.clear();
-    cd.w.resize(k * k, 0.0);
-    for i in 0..k {
-        let ji = &pj[i * m..(i + 1) * m];
-        for j in i..k {
-            let rj = &pr[j * m..(j + 1) * m];
-            let x: f64 = ji.iter().zip(rj).map(|(a, b)| a * b).sum();
-            cd.w[i * k + j] = x;
-            cd.w[j * k + i] = x;
-        }
-    }
+    cd.tree.finish_marks();
+    cd.tree.velocities(&cd.qd_free);
     cd.u_free.clear();
-    cd.lambda.clear();
     for i in 0..k {
-        let ji = &cd.jac[i * nv..(i + 1) * nv];
-        cd.u_free
-            .push(ji.iter().zip(&cd.qd_free).map(|(a, b)| a * b).sum());
+        let v = cd.tree.velocity(cd.row_node[i]);
+        let x = row_value(cd, i, |_| v, |dof| cd.qd_free[dof]);
+        cd.u_free.push(x);
     }
+    // 4. W = J M⁻¹ Jᵀ by columns: per body with 6 or more rows, the responses to its 6 unit
+    //    wrenches (each row's column a combination of those); else one response per row.
+    delassus(cd);
+    cd.stats.response_solves = cd.columns;
+    cd.lambda.clear();
     for &(src, _) in &cd.sources {
         match src {
             Source::Sphere { sphere, .. } => cd.lambda.extend(cd.warm_spheres[sphere]),
@@ -598,7 +529,7 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     }
     cd.u.clear();
     cd.u.resize(k, 0.0);
-    let solve = contact_solver::solve(
+    let solve = contact_solver::solve_active(
         &cd.w,
         &cd.blocks,
         &cd.u_free,
@@ -609,9 +540,10 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
             max_iterations: settings.max_iterations,
             tolerance: settings.tolerance,
         },
+        &mut cd.active,
     );
     cd.stats.iterations = solve.iterations;
-    cd.stats.converged = solve.change <= settings.tolerance;
+    cd.stats.converged = solve.converged;
     // Warm starts for the next step: these rows' impulses, zero elsewhere.
     cd.warm_spheres.iter_mut().for_each(|x| *x = [0.0; 3]);
     cd.warm_bounds.iter_mut().for_each(|x| *x = 0.0);
@@ -627,11 +559,14 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
             }
         }
     }
-    // 6. q̇⁺ = v_free + R λ, q⁺ = q ⊕ dt q̇⁺.
+    // 5. q̇⁺ = v_free + M⁻¹ Jᵀ λ (one pass over the tree), q⁺ = q ⊕ dt q̇⁺.
+    impulse_response(cd, nv);
     state.qd.copy_from_slice(&cd.qd_free);
-    add_responses(&mut state.qd, &cd.resp, &cd.lambda);
+    for (x, d) in state.qd.iter_mut().zip(&cd.delta) {
+        *x += d;
+    }
     dynamics.integrate(model, &mut state.q, &state.qd, dt);
-    // 7. Post-stabilisation of what penetrates deeper than the slop.
+    // 6. Post-stabilisation of what penetrates deeper than the slop.
     if cd.phi.iter().any(|&p| p < -settings.slop) {
         // Normal and limit rows only: friction is off (tangent rows' targets are ignored and
         // their impulses kept at 0 by μ = 0).
@@ -645,7 +580,7 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
             cd.target[i] = -cd.phi[i] - settings.slop;
             cd.lambda[i] = 0.0;
         }
-        contact_solver::solve(
+        contact_solver::solve_active(
             &cd.w,
             &cd.blocks,
             &cd.u_free,
@@ -656,85 +591,314 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
                 max_iterations: settings.max_iterations,
                 tolerance: settings.tolerance * dt,
             },
+            &mut cd.active,
         );
-        cd.delta.iter_mut().for_each(|x| *x = 0.0);
-        add_responses(&mut cd.delta, &cd.resp, &cd.lambda);
+        impulse_response(cd, nv);
         dynamics.integrate(model, &mut state.q, &cd.delta, 1.0);
     }
     finish(model, state)
 }
 
-/// Fills `contact.resp` (row i: `M⁻¹ Jᵢᵀ`) by forward-dynamics solves at rest (`data.gravity`
-/// is zero here): per body with 6 or more rows, the 6 unit wrenches in the computation frame
-/// (`τ_j = s_j[m]` along its path) combined by each row's wrench; one solve per row otherwise.
-fn responses<D: ContactDynamics + ?Sized>(
-    model: &Model,
-    dynamics: &mut D,
-    cd: &mut ContactData,
-    state: &State,
-) -> Result<(), DynamicsError> {
-    let nv = model.nv;
-    let mut b = 0;
-    while b < cd.sources.len() {
-        let (src, row) = cd.sources[b];
-        let body = match src {
-            Source::Sphere { body, .. } => Some(body),
-            Source::Limit { .. } => None,
-        };
-        // This body's run of blocks (spheres are grouped by body).
-        let mut end = b + 1;
-        while end < cd.sources.len()
-            && body.is_some()
-            && matches!(cd.sources[end].0, Source::Sphere { body: o, .. } if Some(o) == body)
-        {
-            end += 1;
+/// Row `i`'s value for a motion whose node velocities (or accelerations) `node` gives and
+/// whose joint rates `joint` gives: `wᵢ · v` for a contact row, `±q̇_j` for a joint bound.
+fn row_value(
+    cd: &ContactData,
+    i: usize,
+    node: impl Fn(usize) -> SpatialMotion,
+    joint: impl Fn(usize) -> f64,
+) -> f64 {
+    match cd.row_bound[i] {
+        usize::MAX => cd.wrench[i].dot(node(cd.row_node[i])),
+        li => {
+            let b = cd.bounds[li];
+            b.sign * joint(b.vi)
         }
-        let rows = row..cd.sources.get(end).map_or(cd.phi.len(), |s| s.1);
-        if let (Some(body), true) = (body, rows.len() >= 6) {
-            cd.basis.clear();
-            cd.basis.resize(6 * nv, 0.0);
-            for m in 0..6 {
-                cd.tau.iter_mut().for_each(|x| *x = 0.0);
-                let s = &dynamics.kinematics().s;
-                path_dofs(model, &*dynamics, body, |j| cd.tau[j] = s[j].to_array()[m]);
-                let out = &mut cd.basis[m * nv..(m + 1) * nv];
-                dynamics.response(model, state, &cd.tau, out)?;
-                cd.stats.response_solves += 1;
-            }
-            for i in rows {
-                let w = cd.wrench[i].to_array();
-                let r = &mut cd.resp[i * nv..(i + 1) * nv];
-                for (m, wm) in w.iter().enumerate() {
-                    for (x, a) in r.iter_mut().zip(&cd.basis[m * nv..(m + 1) * nv]) {
-                        *x += wm * a;
-                    }
-                }
-            }
-        } else {
-            for i in rows {
-                let tau = &cd.jac[i * nv..(i + 1) * nv];
-                dynamics.response(model, state, tau, &mut cd.resp[i * nv..(i + 1) * nv])?;
-                cd.stats.response_solves += 1;
-            }
-        }
-        b = end;
     }
-    Ok(())
 }
 
-/// `out += R λ`: the responses (rows of `resp`, each `out.len()` long) weighted by `lambda`.
-fn add_responses(out: &mut [f64], resp: &[f64], lambda: &[f64]) {
-    let nv = out.len();
-    for (l, r) in lambda.iter().zip(resp.chunks_exact(nv)) {
-        if *l != 0.0 {
-            for (x, ri) in out.iter_mut().zip(r) {
-                *x += ri * l;
+/// Fills `cd.w` (`k × k`, row-major, symmetric) with `W = J M⁻¹ Jᵀ` from one response
+/// column of the tree per load: per node (a moving joint with the bodies welded to it) with
+/// 6 or more contact rows, its 6 unit wrenches, whose responses each contact row on it
+/// combines by its wrench — a rigid character (one node) takes 6 columns whatever its
+/// contacts; else each row's own wrench or joint impulse. A column costs O(its node's depth
+/// + the rows' paths), reading it O(k).
+fn delassus(cd: &mut ContactData) {
+    let k = cd.phi.len();
+    // Every entry is written below (no zeroing).
+    if cd.w.len() < k * k {
+        cd.w.resize(k * k, 0.0);
+    }
+    cd.w.truncate(k * k);
+    cd.columns = 0;
+    // Contact rows per node (`node_rows`, reset after use).
+    cd.node_rows.resize(cd.tree.len(), 0);
+    for i in 0..k {
+        if cd.row_bound[i] == usize::MAX && cd.row_node[i] != NONE {
+            cd.node_rows[cd.row_node[i]] += 1;
+        }
+    }
+    // Column j of W done (by its node's basis).
+    cd.done.clear();
+    cd.done.resize(k, false);
+    for first in 0..k {
+        let node = cd.row_node[first];
+        if cd.done[first]
+            || cd.row_bound[first] != usize::MAX
+            || node == NONE
+            || cd.node_rows[node] < 6
+        {
+            continue;
+        }
+        // cd.basis[m * k + i]: row i's response to unit wrench m on this node.
+        if cd.basis.len() < 6 * k {
+            cd.basis.resize(6 * k, 0.0);
+        }
+        for m in 0..6 {
+            let mut e = [0.0; 6];
+            e[m] = 1.0;
+            cd.tree
+                .column(node, Load::Wrench(SpatialForce::from_array(e)));
+            cd.columns += 1;
+            for i in 0..k {
+                cd.basis[m * k + i] = column_value(cd, i);
+            }
+        }
+        for j in first..k {
+            if cd.row_node[j] != node || cd.row_bound[j] != usize::MAX {
+                continue;
+            }
+            cd.done[j] = true;
+            // Row j of W (its column to rounding: W is symmetric), contiguous.
+            let w = cd.wrench[j].to_array();
+            let wj = &mut cd.w[j * k..(j + 1) * k];
+            for (x, b) in wj.iter_mut().zip(&cd.basis[..k]) {
+                *x = w[0] * b;
+            }
+            for (m, wm) in w.iter().enumerate().skip(1) {
+                for (x, b) in wj.iter_mut().zip(&cd.basis[m * k..(m + 1) * k]) {
+                    *x += wm * b;
+                }
             }
         }
     }
+    for j in 0..k {
+        if cd.done[j] {
+            continue;
+        }
+        let node = cd.row_node[j];
+        let load = match cd.row_bound[j] {
+            usize::MAX => Load::Wrench(cd.wrench[j]),
+            li => {
+                let bd = cd.bounds[li];
+                Load::Tau {
+                    dof: bd.vi - cd.tree.v_offset(node),
+                    value: bd.sign,
+                }
+            }
+        };
+        cd.tree.column(node, load);
+        cd.columns += 1;
+        for i in 0..k {
+            cd.w[j * k + i] = column_value(cd, i);
+        }
+    }
+    for i in 0..k {
+        if cd.row_node[i] != NONE {
+            cd.node_rows[cd.row_node[i]] = 0;
+        }
+    }
+    // Rows of W, symmetric to rounding: make it so exactly (the solver reads row i as
+    // column i).
+    for i in 0..k {
+        for j in i + 1..k {
+            let x = 0.5 * (cd.w[i * k + j] + cd.w[j * k + i]);
+            cd.w[i * k + j] = x;
+            cd.w[j * k + i] = x;
+        }
+    }
+}
+
+/// Row `i`'s value of the tree's last response column.
+fn column_value(cd: &ContactData, i: usize) -> f64 {
+    let node = cd.row_node[i];
+    row_value(
+        cd,
+        i,
+        |n| cd.tree.accel(n),
+        |dof| {
+            if node == NONE {
+                0.0
+            } else {
+                cd.tree.joint_accel(node, dof - cd.tree.v_offset(node))
+            }
+        },
+    )
+}
+
+/// `cd.delta = M⁻¹ Jᵀ λ`: the rows' impulses gathered per node (wrenches) and per joint
+/// (bounds), then one pass over the tree.
+fn impulse_response(cd: &mut ContactData, nv: usize) {
+    cd.node_wrench.clear();
+    cd.node_wrench.resize(cd.tree.len(), [0.0; 6]);
+    cd.tau.clear();
+    cd.tau.resize(nv, 0.0);
+    for i in 0..cd.phi.len() {
+        let (l, node) = (cd.lambda[i], cd.row_node[i]);
+        if l == 0.0 || node == NONE {
+            continue;
+        }
+        match cd.row_bound[i] {
+            usize::MAX => {
+                let w = cd.wrench[i].to_array();
+                let f = &mut cd.node_wrench[node];
+                for r in 0..6 {
+                    f[r] += l * w[r];
+                }
+            }
+            li => {
+                let b = cd.bounds[li];
+                cd.tau[b.vi] += l * b.sign;
+            }
+        }
+    }
+    cd.tree.solve(&cd.tau, &cd.node_wrench, &mut cd.delta);
 }
 
 /// The end-of-step check: no NaN or infinity in `q` or `q̇`.
 fn finish(model: &Model, state: &State) -> Result<(), ContactError> {
     Ok(check_step_result(model, state)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{forward_kinematics, mass_matrix};
+    use glam::DQuat;
+
+    /// `M x = b` by Cholesky (dense, row-major `n × n`; test reference only).
+    fn spd_solve(m: &[f64], n: usize, b: &mut [f64]) {
+        let mut l = m.to_vec();
+        for j in 0..n {
+            let d = (l[j * n + j] - (0..j).map(|k| l[j * n + k].powi(2)).sum::<f64>()).sqrt();
+            l[j * n + j] = d;
+            for i in j + 1..n {
+                let s: f64 = (0..j).map(|k| l[i * n + k] * l[j * n + k]).sum();
+                l[i * n + j] = (l[i * n + j] - s) / d;
+            }
+        }
+        for i in 0..n {
+            b[i] = (b[i] - (0..i).map(|k| l[i * n + k] * b[k]).sum::<f64>()) / l[i * n + i];
+        }
+        for i in (0..n).rev() {
+            b[i] = (b[i] - (i + 1..n).map(|k| l[k * n + i] * b[k]).sum::<f64>()) / l[i * n + i];
+        }
+    }
+
+    /// The floating humanoid lying on its side, falling onto the floor with every joint
+    /// moving and one joint hitting its bound: the tree's Delassus operator `W` equals the dense
+    /// `J M⁻¹ Jᵀ` (CRBA's `M`, a Cholesky solve) and the step's velocity change is
+    /// `M⁻¹ Jᵀ λ`, both to rounding.
+    #[test]
+    fn tree_delassus_matches_the_dense_operator() {
+        let model = articula_testkit::bundled_with("humanoid", true);
+        let nv = model.nv;
+        let mut data = Data::new(&model);
+        let mut cd = ContactData::new(&model);
+        let mut state = State::neutral(&model);
+        let r = DQuat::from_rotation_x(std::f64::consts::FRAC_PI_2);
+        state.q[3..7].copy_from_slice(&[r.w, r.x, r.y, r.z]);
+        for (i, v) in state.qd.iter_mut().enumerate() {
+            *v = 0.3 * ((i as f64) * 1.7).sin();
+        }
+        state.qd[2] = -0.5;
+        let b = cd.bounds[0];
+        // Inside its range by 1 mrad, closing at 2 rad/s (no penetration: no position
+        // correction, so `lambda` holds the velocity impulses on return).
+        state.q[b.qi] = b.bound + 1e-3 * b.sign;
+        state.qd[b.vi] = -2.0 * b.sign;
+        forward_kinematics(&model, &state.q, &state.qd, &mut data);
+        let lowest = cd
+            .collision
+            .spheres
+            .iter()
+            .map(|s| (data.x[s.body].apply_point(s.center) + data.origin).z - s.radius)
+            .fold(f64::INFINITY, f64::min);
+        state.q[2] += 5e-4 - lowest;
+        let q0 = state.q.clone();
+        let settings = ContactSettings {
+            ground: Some(Ground::horizontal(0.0)),
+            // Every sphere within 0.3 m a candidate: many bodies, many rows.
+            margin: 0.3,
+            ..Default::default()
+        };
+        step_with_contact(
+            &model,
+            &mut data,
+            &mut cd,
+            &mut state,
+            Method::Aba,
+            1e-3,
+            &settings,
+        )
+        .unwrap();
+        let k = cd.stats.rows;
+        assert!(k >= 30 && cd.stats.limits >= 1, "{:?}", cd.stats);
+        // Dense J from the start-of-step kinematics (still in `data`).
+        let mut jac = vec![0.0; k * nv];
+        for i in 0..k {
+            match cd.row_bound[i] {
+                usize::MAX => {
+                    let body = cd
+                        .sources
+                        .iter()
+                        .rev()
+                        .find(|s| s.1 <= i)
+                        .map(|s| match s.0 {
+                            Source::Sphere { body, .. } => body,
+                            Source::Limit { .. } => unreachable!(),
+                        })
+                        .unwrap();
+                    let mut at = Some(body);
+                    while let Some(bi) = at {
+                        let bd = &model.bodies[bi];
+                        for j in bd.v_offset..bd.v_offset + bd.nv {
+                            jac[i * nv + j] = data.s[j].dot(cd.wrench[i]);
+                        }
+                        at = bd.parent;
+                    }
+                }
+                li => jac[i * nv + cd.bounds[li].vi] = cd.bounds[li].sign,
+            }
+        }
+        let mut md = Data::new(&model);
+        let m = mass_matrix(&model, &mut md, &q0).unwrap().to_vec();
+        let mut worst = 0.0f64;
+        let scale = cd.w.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        for j in 0..k {
+            let mut x = jac[j * nv..(j + 1) * nv].to_vec();
+            spd_solve(&m, nv, &mut x);
+            for i in 0..k {
+                let want: f64 = (0..nv).map(|c| jac[i * nv + c] * x[c]).sum();
+                worst = worst.max((cd.w[i * k + j] - want).abs());
+            }
+        }
+        assert!(
+            worst <= 1e-10 * scale,
+            "W off by {worst:e} (scale {scale:e})"
+        );
+        // q̇⁺ − v_free = M⁻¹ Jᵀ λ.
+        let mut want: Vec<f64> = (0..nv)
+            .map(|c| (0..k).map(|i| jac[i * nv + c] * cd.lambda[i]).sum())
+            .collect();
+        spd_solve(&m, nv, &mut want);
+        let mut off = 0.0f64;
+        for c in 0..nv {
+            off = off.max((state.qd[c] - cd.qd_free[c] - want[c]).abs());
+        }
+        let big = want.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        assert!(
+            big > 1e-3 && off <= 1e-10 * big,
+            "Δq̇ off by {off:e} of {big:e}"
+        );
+    }
 }

@@ -53,6 +53,7 @@ mod contact_solver;
 mod crba;
 mod data;
 mod dca;
+mod delassus;
 mod energy;
 mod error;
 mod finite;
