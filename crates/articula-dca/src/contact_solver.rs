@@ -79,15 +79,7 @@ pub(crate) fn solve(
     } = stop;
     let k = u_free.len();
     // u = u_free + W λ
-    for i in 0..k {
-        let row = &w[i * k..(i + 1) * k];
-        u[i] = u_free[i]
-            + row
-                .iter()
-                .zip(lambda.iter())
-                .map(|(a, b)| a * b)
-                .sum::<f64>();
-    }
+    contact_velocities(u, u_free, w, lambda);
     // Adds W[:, i] δ to u (W is symmetric: its row i).
     let apply = |u: &mut [f64], i: usize, d: f64| {
         if d != 0.0 {
@@ -224,15 +216,7 @@ pub(crate) fn solve_active(
         .reserve(blocks.len().saturating_sub(set.blocks.len()));
     set.on.reserve(blocks.len().saturating_sub(set.on.len()));
     // u at the warm start.
-    for i in 0..k {
-        let row = &w[i * k..(i + 1) * k];
-        u[i] = u_free[i]
-            + row
-                .iter()
-                .zip(lambda.iter())
-                .map(|(a, b)| a * b)
-                .sum::<f64>();
-    }
+    contact_velocities(u, u_free, w, lambda);
     let head = |b: &Block| match *b {
         Block::Unilateral { row } | Block::Contact { row, .. } => row,
     };
@@ -372,6 +356,21 @@ pub(crate) fn residual(blocks: &[Block], target: &[f64], lambda: &[f64], u: &[f6
         }
     }
     worst
+}
+
+/// The contact-space velocities `u = u_free + W λ` (`W` the row-major `k × k` Delassus
+/// operator, `k = u_free.len()`), into `u[..k]`.
+fn contact_velocities(u: &mut [f64], u_free: &[f64], w: &[f64], lambda: &[f64]) {
+    let k = u_free.len();
+    for (i, ui) in u[..k].iter_mut().enumerate() {
+        let row = &w[i * k..(i + 1) * k];
+        *ui = u_free[i]
+            + row
+                .iter()
+                .zip(lambda.iter())
+                .map(|(a, b)| a * b)
+                .sum::<f64>();
+    }
 }
 
 #[cfg(test)]

@@ -211,7 +211,7 @@ pub(crate) struct DcaData {
     pub clamped: u32,
     /// Whether a six-axis (floating) joint's join factors the identity instead of
     /// `K = Φ^A_jj + Φ^B_jj` (`mass_ratio.rs`): set for models with a neighbour mass ratio above
-    /// [`MASS_RATIO`], where a light base's `K` loses its rigid directions to rounding.
+    /// [`MASS_RATIO`](crate::mass_ratio::MASS_RATIO), where a light base's `K` loses its rigid directions to rounding.
     pub free_identity: bool,
     /// Per join (`DNode::jix`): what a one-axis join keeps for the back-substitution, dense in
     /// post-order (a back-substitution stream without the leaves' gaps).
@@ -436,23 +436,8 @@ pub(crate) struct RefineData {
     pub(crate) corrections: u64,
     /// Some body's DCA leaf inverts a regularised inertia: refine every solve to convergence.
     pub(crate) regularised: bool,
-    /// Some body's mass differs from its parent's by more than [`MASS_RATIO`]: the same.
+    /// Some body's mass differs from its parent's by more than [`MASS_RATIO`](crate::mass_ratio::MASS_RATIO): the same.
     pub(crate) mass_ratio: bool,
-}
-
-/// The neighbour mass ratio above which DCA refines every solve to convergence (see
-/// `refine.rs`): at 1e4 the join's cancellation costs ~4 digits.
-pub(crate) const MASS_RATIO: f64 = 1e4;
-
-/// Whether some body's mass and its parent's differ by more than [`MASS_RATIO`] (massless
-/// bodies do not count).
-fn large_mass_ratio(model: &Model) -> bool {
-    model.bodies.iter().any(|b| {
-        b.parent.is_some_and(|p| {
-            let (m, mp) = (b.inertia.mass, model.bodies[p].inertia.mass);
-            m > 0.0 && mp > 0.0 && (m > MASS_RATIO * mp || mp > MASS_RATIO * m)
-        })
-    })
 }
 
 impl RefineData {
@@ -467,7 +452,7 @@ impl RefineData {
             zc: vec![SpatialMotion::ZERO; n],
             corrections: 0,
             regularised,
-            mass_ratio: large_mass_ratio(model),
+            mass_ratio: crate::mass_ratio::large_mass_ratio(model),
         }
     }
 }
@@ -1071,7 +1056,7 @@ impl DcaData {
                 Vec::new()
             },
             clamped: 0,
-            free_identity: large_mass_ratio(model),
+            free_identity: crate::mass_ratio::large_mass_ratio(model),
             rev: vec![RevJoin::default(); joins],
             y: vec![[[0.0; 6]; 6]; nys * max_h],
             u: vec![[[0.0; 6]; 6]; nys * max_h],

@@ -67,6 +67,21 @@ pub(crate) const IDENTITY: [[f64; 6]; 6] = {
     l
 };
 
+/// The neighbour mass ratio above which DCA refines every solve to convergence (see
+/// `refine.rs`): at 1e4 the join's cancellation costs ~4 digits.
+pub(crate) const MASS_RATIO: f64 = 1e4;
+
+/// Whether some body's mass and its parent's differ by more than [`MASS_RATIO`] (massless
+/// bodies do not count).
+pub(crate) fn large_mass_ratio(model: &Model) -> bool {
+    model.bodies.iter().any(|b| {
+        b.parent.is_some_and(|p| {
+            let (m, mp) = (b.inertia.mass, model.bodies[p].inertia.mass);
+            m > 0.0 && mp > 0.0 && (m > MASS_RATIO * mp || mp > MASS_RATIO * m)
+        })
+    })
+}
+
 /// `β' = β − (K − 1) f` with the free joint's force `f = S⁻ᵀ τ = (Z D⁻¹) τ` (`zd`: the rows of
 /// `Z D⁻¹`, `Z = S` with `L = 1`), for the back-substitution of a free joint's join that
 /// factored the identity (see the module's equations); `k` the `6×6` `K = Φ^A_jj + Φ^B_jj`.
@@ -87,18 +102,18 @@ pub(crate) fn free_beta(
 /// The mass ratio an inflated light body keeps to its lightest heavy neighbour: each solve
 /// loses about `log10` of it in digits to the joins' cancellation, and each refinement step
 /// multiplies the error by about its inverse. The ratio above which the model is refined at
-/// all ([`MASS_RATIO`](crate::data::MASS_RATIO)): the joins lose at most what they lose on
+/// all ([`MASS_RATIO`]): the joins lose at most what they lose on
 /// any model that is not inflated.
-pub(crate) const INFLATED_RATIO: f64 = crate::data::MASS_RATIO;
+pub(crate) const INFLATED_RATIO: f64 = MASS_RATIO;
 
 /// Per body, the factor `σ ≥ 1` its DCA leaf scales its spatial inertia by (see the module's
 /// equations): `σ = M_min / (INFLATED_RATIO · m)` for a body of mass `m` that has two or more heavy
-/// neighbours — across a one-axis joint, heavier than [`MASS_RATIO`](crate::data::MASS_RATIO)
+/// neighbours — across a one-axis joint, heavier than [`MASS_RATIO`]
 /// `· m`, or the ground a fixed base's root body hangs from (`M_min` the lightest such
 /// neighbour's mass) — two of whose joint axes to them differ (so that it cannot move while
 /// they stand still); `1` for every other body.
 pub(crate) fn leaf_scales(model: &Model) -> Vec<f64> {
-    let ratio = crate::data::MASS_RATIO;
+    let ratio = MASS_RATIO;
     model
         .bodies
         .iter()

@@ -21,7 +21,7 @@
 //! light body's large ones (1e9 mass ratio: ~1e-9 out of ~1e5), and its rounding can leave
 //! negative eigenvalues. The factorisation takes the pivot's magnitude (`small::ldl5`), which
 //! is a nearby positive definite system, and the iteration corrects it. (2) Models whose
-//! neighbouring bodies differ in mass by more than [`MASS_RATIO`](crate::data::MASS_RATIO)
+//! neighbouring bodies differ in mass by more than [`MASS_RATIO`](crate::mass_ratio::MASS_RATIO)
 //! (the same cancellation, short of a lost pivot: 4e-8 on a 1,000-link chain of ratio 1e6).
 //! There DCA's leaves of light bodies between heavy ones invert a heavier inertia
 //! (`mass_ratio.rs`): each solve then loses at most 4 digits, and each step shrinks the error
