@@ -19,7 +19,7 @@ use crate::parts::rk_buffers::RkBuffers;
 use crate::parts::selection_queue::{Selection, SelectionQueue};
 use crate::parts::switches::Switches;
 use crate::settings::Settings;
-use articula_dca::Data;
+use articula_dca::{Data, Threads};
 use articula_model::Model;
 
 /// The adaptive-dynamics workspace of one articulated body: the hybrid-body state (which
@@ -69,6 +69,9 @@ pub struct Adaptive {
     /// The model's internal degrees of freedom (a floating base's six left out): what
     /// [`Settings::BALANCED`] resolves against.
     pub(crate) internal: usize,
+    /// The threads a hybrid step of a large active region splits its per-joint sweeps over
+    /// ([`Adaptive::set_threads`]; serial by default).
+    pub(crate) threads: Threads,
 }
 
 impl Adaptive {
@@ -105,6 +108,7 @@ impl Adaptive {
             },
             rk: RkBuffers::default(),
             internal: model.nv - if model.floating_base { 6 } else { 0 },
+            threads: Threads::serial(),
         }
     }
 }

@@ -14,7 +14,7 @@ use crate::parts::hierarchy::{
     coordinate_axis, revolute_parts, ActiveJoint, Hierarchy, Parent, RevoluteParts, AX_PARTS,
     NO_PARENT,
 };
-use articula_dca::DynamicsError;
+use articula_dca::{Data, DynamicsError};
 use articula_model::{Model, NodeKind};
 use articula_spatial::internals::{cholesky_into, dot6_pairs, Arith, Portable};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion, SpatialTransform};
@@ -261,14 +261,21 @@ impl Adaptive {
         // records at a time in AVX2 lanes when `wide` (the same bits).
         let h = &mut self.hier;
         let (ang, scs) = (&h.ang[..], &mut h.sc[..h.ang.len()]);
-        let mut done = 0;
-        #[cfg(target_arch = "x86_64")]
-        if wide && ang.len() >= 4 {
-            // SAFETY: `wide` is `fused`, set only where the CPU has AVX2 and FMA.
-            done = unsafe { sin_cos_angles4(ang, scs, q) };
-        }
-        for (&(qi, sign), sc) in ang[done..].iter().zip(&mut scs[done..]) {
-            *sc = crate::trig::sin_cos(sign as f64 * q[qi as usize]);
+        // (One thread without the `parallel` feature.)
+        if self.threads.count() > 1 && h.rec.len() >= PARALLEL_HYBRID_MIN_JOINTS {
+            // Runs of `RECORD_GRAIN` angles (a multiple of four: the same lanes of four as
+            // one sweep) on the threads; each angle's sine and cosine are its own.
+            #[cfg(feature = "parallel")]
+            {
+                use rayon::prelude::*;
+                self.threads.install(|| {
+                    ang.par_chunks(RECORD_GRAIN)
+                        .zip(scs.par_chunks_mut(RECORD_GRAIN))
+                        .for_each(|(ang, scs)| sin_cos_angles(wide, ang, scs, q))
+                });
+            }
+        } else {
+            sin_cos_angles(wide, ang, scs, q);
         }
         let h = &self.hier;
         let d = &mut self.data;
@@ -500,70 +507,27 @@ impl Adaptive {
         // top-body frame), `I = [Ī, h×; h×ᵀ, m 1]` with `Ī = E I_c Eᵀ + m (|c|² 1 − c cᵀ)`,
         // `h = m c`, and bias force `pᴬ = v ×* I v − f_ext` (gravity enters as the world's
         // acceleration −a_g).
-        for ((r, ia), pa) in h.rec.iter().zip(h.ia.iter_mut()).zip(h.pa.iter_mut()) {
-            let x = &d.x[r.j()];
-            let rl = &r.rig;
-            let m = rl.m;
-            // Ī = E I_c Eᵀ + m (|c|² 1 − c cᵀ) in lanes of four (the fourth unused), each
-            // entry by glam's operations in glam's order: with `e_r` row r of E and
-            // `ei_r = I_c e_r`, `ei_r[i] = (I_c[0][i] e_r,x + I_c[1][i] e_r,y) + I_c[2][i] e_r,z`
-            // (`I_c[col][row]`) is lane r of `a_i`, a sum of E's columns; `Ī[r][c] = ei_r · e_c
-            // − (m c_r) c_c` is lane r of column c (upper triangle used, r ≤ c).
-            let ec = [lanes3(x.e.x_axis), lanes3(x.e.y_axis), lanes3(x.e.z_axis)];
-            let icm = rl.ic.to_cols_array_2d();
-            let comb = |k: [f64; 3], v: &[[f64; 4]; 3]| -> [f64; 4] {
-                let mut o = [0.0; 4];
-                for l in 0..4 {
-                    o[l] = v[0][l] * k[0] + v[1][l] * k[1] + v[2][l] * k[2];
-                }
-                o
-            };
-            let a = [
-                comb([icm[0][0], icm[1][0], icm[2][0]], &ec),
-                comb([icm[0][1], icm[1][1], icm[2][1]], &ec),
-                comb([icm[0][2], icm[1][2], icm[2][2]], &ec),
-            ];
-            let dl = rl.c - x.r;
-            let cwl = comb([dl.x, dl.y, dl.z], &ec);
-            let cc = cwl[0] * cwl[0] + cwl[1] * cwl[1] + cwl[2] * cwl[2];
-            let mcw: [f64; 4] = [m * cwl[0], m * cwl[1], m * cwl[2], m * cwl[3]];
-            let col = |c: usize| -> [f64; 4] {
-                let dot = comb([ec[0][c], ec[1][c], ec[2][c]], &a);
-                let mut o = [0.0; 4];
-                for l in 0..4 {
-                    o[l] = dot[l] - mcw[l] * cwl[c];
-                }
-                o
-            };
-            let (c0, c1, c2) = (col(0), col(1), col(2));
-            let (i00, i01, i02, i11, i12, i22) = (
-                c0[0] + m * cc,
-                c1[0],
-                c2[0],
-                c1[1] + m * cc,
-                c2[1],
-                c2[2] + m * cc,
-            );
-            let hv = DVec3::new(cwl[0] * m, cwl[1] * m, cwl[2] * m);
-            // [Ī, h×; h×ᵀ, m 1].
-            *ia = Mat6([
-                [i00, i01, i02, 0.0, -hv.z, hv.y],
-                [i01, i11, i12, hv.z, 0.0, -hv.x],
-                [i02, i12, i22, -hv.y, hv.x, 0.0],
-                [0.0, hv.z, -hv.y, m, 0.0, 0.0],
-                [-hv.z, 0.0, hv.x, 0.0, m, 0.0],
-                [hv.y, -hv.x, 0.0, 0.0, 0.0, m],
-            ]);
-            *pa = if accel {
-                let v = d.v[r.j()];
-                let ibw = DVec3::new(i00, i01, i02) * v.w.x
-                    + DVec3::new(i01, i11, i12) * v.w.y
-                    + DVec3::new(i02, i12, i22) * v.w.z;
-                let iv = SpatialForce::new(ibw + hv.cross(v.v), v.v * m - hv.cross(v.w));
-                (v.cross_force(iv) - self.forces.node_sums[r.f()]).to_array()
-            } else {
-                [0.0; 6]
-            };
+        let n = h.rec.len();
+        let node_sums = &self.forces.node_sums[..];
+        // (One thread without the `parallel` feature.)
+        if self.threads.count() > 1 && n >= PARALLEL_HYBRID_MIN_JOINTS {
+            #[cfg(feature = "parallel")]
+            {
+                use rayon::prelude::*;
+                let (rec, ia, pa) = (&h.rec[..], &mut h.ia[..n], &mut h.pa[..n]);
+                self.threads.install(|| {
+                    rec.par_chunks(RECORD_GRAIN)
+                        .zip(ia.par_chunks_mut(RECORD_GRAIN))
+                        .zip(pa.par_chunks_mut(RECORD_GRAIN))
+                        .for_each(|((r, ia), pa)| {
+                            clusters_run(wide, r, ia, pa, d, node_sums, accel)
+                        })
+                });
+            }
+        } else {
+            for ((r, ia), pa) in h.rec.iter().zip(h.ia.iter_mut()).zip(h.pa.iter_mut()) {
+                (*ia, *pa) = cluster(r, d, node_sums, accel);
+            }
         }
         // Pass 2, leaves to root: U = Iᴬ S, D = Sᵀ U, u = τ − Sᵀ pᴬ; the parent cluster gets
         // Iᵃ = Iᴬ − U D⁻¹ Uᵀ and pᵃ = pᴬ + Iᵃ c + U D⁻¹ u.
@@ -747,6 +711,130 @@ impl Adaptive {
             };
         }
         Ok(())
+    }
+}
+
+/// Pass 1 of [`Adaptive::reduced_aba`] for one record: its cluster's spatial inertia about the
+/// computation origin (from its top-body frame), `I = [Ī, h×; h×ᵀ, m 1]` with
+/// `Ī = E I_c Eᵀ + m (|c|² 1 − c cᵀ)`, `h = m c`, and bias force `pᴬ = v ×* I v − f_ext`
+/// (zero at [`Level::Impulse`]). Reads only the record's own body, so records may be done in
+/// any order, on any thread, with the same bits.
+#[inline(always)]
+fn cluster(r: &ActiveJoint, d: &Data, node_sums: &[SpatialForce], accel: bool) -> (Mat6, [f64; 6]) {
+    let x = &d.x[r.j()];
+    let rl = &r.rig;
+    let m = rl.m;
+    // Ī = E I_c Eᵀ + m (|c|² 1 − c cᵀ) in lanes of four (the fourth unused), each
+    // entry by glam's operations in glam's order: with `e_r` row r of E and
+    // `ei_r = I_c e_r`, `ei_r[i] = (I_c[0][i] e_r,x + I_c[1][i] e_r,y) + I_c[2][i] e_r,z`
+    // (`I_c[col][row]`) is lane r of `a_i`, a sum of E's columns; `Ī[r][c] = ei_r · e_c
+    // − (m c_r) c_c` is lane r of column c (upper triangle used, r ≤ c).
+    let ec = [lanes3(x.e.x_axis), lanes3(x.e.y_axis), lanes3(x.e.z_axis)];
+    let icm = rl.ic.to_cols_array_2d();
+    let comb = |k: [f64; 3], v: &[[f64; 4]; 3]| -> [f64; 4] {
+        let mut o = [0.0; 4];
+        for l in 0..4 {
+            o[l] = v[0][l] * k[0] + v[1][l] * k[1] + v[2][l] * k[2];
+        }
+        o
+    };
+    let a = [
+        comb([icm[0][0], icm[1][0], icm[2][0]], &ec),
+        comb([icm[0][1], icm[1][1], icm[2][1]], &ec),
+        comb([icm[0][2], icm[1][2], icm[2][2]], &ec),
+    ];
+    let dl = rl.c - x.r;
+    let cwl = comb([dl.x, dl.y, dl.z], &ec);
+    let cc = cwl[0] * cwl[0] + cwl[1] * cwl[1] + cwl[2] * cwl[2];
+    let mcw: [f64; 4] = [m * cwl[0], m * cwl[1], m * cwl[2], m * cwl[3]];
+    let col = |c: usize| -> [f64; 4] {
+        let dot = comb([ec[0][c], ec[1][c], ec[2][c]], &a);
+        let mut o = [0.0; 4];
+        for l in 0..4 {
+            o[l] = dot[l] - mcw[l] * cwl[c];
+        }
+        o
+    };
+    let (c0, c1, c2) = (col(0), col(1), col(2));
+    let (i00, i01, i02, i11, i12, i22) = (
+        c0[0] + m * cc,
+        c1[0],
+        c2[0],
+        c1[1] + m * cc,
+        c2[1],
+        c2[2] + m * cc,
+    );
+    let hv = DVec3::new(cwl[0] * m, cwl[1] * m, cwl[2] * m);
+    // [Ī, h×; h×ᵀ, m 1].
+    let ia = Mat6([
+        [i00, i01, i02, 0.0, -hv.z, hv.y],
+        [i01, i11, i12, hv.z, 0.0, -hv.x],
+        [i02, i12, i22, -hv.y, hv.x, 0.0],
+        [0.0, hv.z, -hv.y, m, 0.0, 0.0],
+        [-hv.z, 0.0, hv.x, 0.0, m, 0.0],
+        [hv.y, -hv.x, 0.0, 0.0, 0.0, m],
+    ]);
+    let pa = if accel {
+        let v = d.v[r.j()];
+        let ibw = DVec3::new(i00, i01, i02) * v.w.x
+            + DVec3::new(i01, i11, i12) * v.w.y
+            + DVec3::new(i02, i12, i22) * v.w.z;
+        let iv = SpatialForce::new(ibw + hv.cross(v.v), v.v * m - hv.cross(v.w));
+        (v.cross_force(iv) - node_sums[r.f()]).to_array()
+    } else {
+        [0.0; 6]
+    };
+    (ia, pa)
+}
+
+/// [`cluster`] for a run of records (one task of the split pass 1), compiled for AVX2 + FMA
+/// too (the same bits, wider vectors), run when `wide`.
+#[cfg(feature = "parallel")]
+fn clusters_run(
+    wide: bool,
+    rec: &[ActiveJoint],
+    ia: &mut [Mat6],
+    pa: &mut [[f64; 6]],
+    d: &Data,
+    node_sums: &[SpatialForce],
+    accel: bool,
+) {
+    articula_spatial::fma_dispatch! {
+        fn run(wide: bool, rec: &[ActiveJoint], ia: &mut [Mat6], pa: &mut [[f64; 6]], d: &Data, node_sums: &[SpatialForce], accel: bool);
+        avx2_fma: wide, Portable;
+        |A| for ((r, ia), pa) in rec.iter().zip(ia.iter_mut()).zip(pa.iter_mut()) {
+            (*ia, *pa) = cluster(r, d, node_sums, accel);
+        }
+    }
+    run(wide, rec, ia, pa, d, node_sums, accel)
+}
+
+/// The smallest reduced tree (active joints) whose hybrid step ([`Adaptive::set_threads`])
+/// splits its per-joint sweeps — the angles' sines and cosines and pass 1 of the
+/// articulated-body algorithm (each cluster's inertia and bias force) — across threads: below
+/// it waking the pool costs more than the share of the step those sweeps save, and the serial
+/// loops run whatever the thread count. Measured on two cores (docs/scaling.md).
+pub const PARALLEL_HYBRID_MIN_JOINTS: usize = 5_000;
+
+/// Records (and angles) per task of a split sweep: a multiple of four (the lanes of
+/// [`sin_cos_angles4`]), large enough that a task outweighs its scheduling.
+#[cfg(feature = "parallel")]
+const RECORD_GRAIN: usize = 1024;
+
+/// The sines and cosines `sc` of the signed angles `ang` (indices into `q`): four at a time in
+/// AVX2 lanes when `wide` (the same bits as one at a time), the rest one at a time.
+#[inline(always)]
+fn sin_cos_angles(wide: bool, ang: &[(u32, f32)], scs: &mut [(f64, f64)], q: &[f64]) {
+    let mut done = 0;
+    #[cfg(target_arch = "x86_64")]
+    if wide && ang.len() >= 4 {
+        // SAFETY: `wide` is `fused`, set only where the CPU has AVX2 and FMA.
+        done = unsafe { sin_cos_angles4(ang, scs, q) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = wide;
+    for (&(qi, sign), sc) in ang[done..].iter().zip(&mut scs[done..]) {
+        *sc = crate::trig::sin_cos(sign as f64 * q[qi as usize]);
     }
 }
 

@@ -76,8 +76,11 @@ mod update;
 mod reference_tests;
 
 pub use adaptive::Adaptive;
+/// The thread count of [`Adaptive::set_threads`] (articula-dca's).
+pub use articula_dca::Threads;
 pub use contact::HybridContact;
 pub use error::AdaptiveError;
+pub use hierarchy::PARALLEL_HYBRID_MIN_JOINTS;
 pub use parts::selection_queue::Selection;
 pub use report::StepReport;
 pub use scratch::Scratch;
@@ -582,6 +585,23 @@ impl Adaptive {
     /// How a due re-selection finds the new hybrid body.
     pub fn reselection(&self) -> Reselection {
         self.switches.reselection
+    }
+
+    /// The threads a hybrid step splits its per-joint sweeps over when the active region has
+    /// at least [`PARALLEL_HYBRID_MIN_JOINTS`] joints: the active angles' sines and cosines,
+    /// and each cluster's spatial inertia and bias force (pass 1 of the articulated-body
+    /// algorithm). Default [`Threads::serial`]: a crowd holds one workspace per character
+    /// and spreads the characters, not their joints, over its threads. Every joint's
+    /// arithmetic is the serial one and nothing is summed across joints in a split sweep:
+    /// **the result is the same bits for any thread count**. Below the threshold (or without
+    /// the `parallel` feature) the serial loops run.
+    pub fn set_threads(&mut self, threads: Threads) {
+        self.threads = threads;
+    }
+
+    /// The threads of [`Adaptive::set_threads`].
+    pub fn threads(&self) -> &Threads {
+        &self.threads
     }
 
     /// The re-selection of [`Reselection::ExactSolve`]: one exact solve of the whole body

@@ -5,7 +5,9 @@
 //! with [`Instant`]. The reported figure is the median over batches of the time per call.
 //!
 //! `--threads T` spreads one body's DCA solve over T threads from
-//! [`articula_dca::PARALLEL_DCA_MIN_BODIES`] bodies (serial below: the same bits for any T).
+//! [`articula_dca::PARALLEL_DCA_MIN_BODIES`] bodies (serial below: the same bits for any T),
+//! and with `--method adaptive` a hybrid step's per-joint sweeps from
+//! [`articula_adaptive::PARALLEL_HYBRID_MIN_JOINTS`] active joints.
 //! `--states N` times [`Batch::forward_dynamics`] of `N` seeded states instead (seeds
 //! `SEED..SEED+N`), spread over `--threads`: one call solves all of them.
 
@@ -105,12 +107,9 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
         {
             sim.f_ext.clear();
         }
-        (
-            args.dynamics.adaptive(&model, every),
-            sim.clone(),
-            sim,
-            0u64,
-        )
+        let mut ad = args.dynamics.adaptive(&model, every);
+        ad.set_threads(threads.clone());
+        (ad, sim.clone(), sim, 0u64)
     });
     // Returns the time of a call to leave out of the timing: a restart of the adaptive run,
     // with the whole-body re-selection and cache build of the step that follows it.

@@ -191,11 +191,13 @@ impl Csv {
 
 /// Runs `articula simulate` on the pool of `--threads`.
 pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
-    crate::threads(args.dynamics.threads)?.install(|| run_here(args))
+    let threads = crate::threads(args.dynamics.threads)?;
+    threads.install(|| run_here(args, &threads))
 }
 
-/// Runs `articula simulate` on the current thread (or pool).
-fn run_here(args: &SimulateArgs) -> Result<(), CliError> {
+/// Runs `articula simulate` on the current thread (or pool); with `--method adaptive`, a
+/// hybrid step of a large active region splits its per-joint sweeps over `threads`.
+fn run_here(args: &SimulateArgs, threads: &articula_dca::Threads) -> Result<(), CliError> {
     let (model, mut data) = args.dynamics.load()?;
     let mut state = load_state(args.state.as_deref(), &model)?;
     let method = args.dynamics.method;
@@ -204,10 +206,11 @@ fn run_here(args: &SimulateArgs) -> Result<(), CliError> {
     let every = args.reselect_every.unwrap_or_else(|| {
         articula_adaptive::Settings::balanced_period(&model, args.dynamics.budget)
     });
-    let mut adaptive = method
-        .exact()
-        .is_none()
-        .then(|| (args.dynamics.adaptive(&model, every), state.clone()));
+    let mut adaptive = method.exact().is_none().then(|| {
+        let mut ad = args.dynamics.adaptive(&model, every);
+        ad.set_threads(threads.clone());
+        (ad, state.clone())
+    });
     let mut active = ActiveStats::default();
     let (steps, dt) = (args.steps, args.dt);
     let mut ground = args.contact.run(&model)?;

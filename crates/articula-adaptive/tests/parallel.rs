@@ -1,0 +1,114 @@
+//! A hybrid step of a large active region across threads (`Adaptive::set_threads`): the same
+//! bits as the serial step for any thread count, and the exact dynamics when every joint is
+//! active.
+
+use articula_adaptive::{Adaptive, Settings, Threads, PARALLEL_HYBRID_MIN_JOINTS};
+use articula_dca::{forward_dynamics_slices, Data, Method, State};
+use articula_model::{LoadOptions, Model};
+
+fn bits(xs: &[f64]) -> Vec<u64> {
+    xs.iter().map(|x| x.to_bits()).collect()
+}
+
+fn start(model: &Model) -> State {
+    let mut s = State::random(model, 29, 1.0);
+    s.randomize_forces(7, 0.5);
+    s
+}
+
+/// `steps` adaptive steps (a re-selection every fourth: the others are hybrid steps) on
+/// `threads` (`None`: the workspace's default), returning the states after each step and the
+/// active joints of the last hybrid body.
+fn run(model: &Model, budget: usize, threads: Option<usize>, steps: usize) -> (Vec<State>, usize) {
+    let settings = Settings {
+        budget: Some(budget),
+        reselect_every: 4,
+        ..Settings::default()
+    };
+    let mut ad = Adaptive::new(model, settings);
+    if let Some(t) = threads {
+        ad.set_threads(Threads::new(t).unwrap());
+    }
+    let mut s = start(model);
+    let mut out = Vec::new();
+    for _ in 0..steps {
+        ad.step(model, &mut s, 1e-3).unwrap();
+        out.push(s.clone());
+    }
+    (out, ad.active_dofs(model))
+}
+
+#[test]
+fn hybrid_step_is_bitwise_serial_for_any_thread_count() {
+    let tree = articula_testkit::random_tree_urdf(6_000, 3);
+    let models = [
+        ("chain6000", articula_testkit::chain(6_000)),
+        (
+            "tree6000",
+            Model::from_urdf_str(&tree, &LoadOptions::default()).unwrap(),
+        ),
+    ];
+    for (name, model) in &models {
+        let budget = 5_500;
+        assert!(budget >= PARALLEL_HYBRID_MIN_JOINTS);
+        let (reference, active) = run(model, budget, None, 6);
+        assert!(
+            active >= PARALLEL_HYBRID_MIN_JOINTS,
+            "{name}: {active} active joints, below the split"
+        );
+        // The steps move every active joint (a test of a frozen state could not fail).
+        assert_ne!(reference[5].q, start(model).q);
+        for threads in [1, 2, 3] {
+            let (states, _) = run(model, budget, Some(threads), 6);
+            for (k, (a, b)) in states.iter().zip(&reference).enumerate() {
+                assert_eq!(
+                    bits(&a.q),
+                    bits(&b.q),
+                    "{name} step {k} on {threads} threads"
+                );
+                assert_eq!(
+                    bits(&a.qd),
+                    bits(&b.qd),
+                    "{name} step {k} on {threads} threads"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn split_hybrid_step_with_every_joint_active_is_exact_dynamics() {
+    let model = articula_testkit::chain(6_000);
+    let settings = Settings {
+        budget: Some(model.nv),
+        reselect_every: 4,
+        ..Settings::default()
+    };
+    let mut ad = Adaptive::new(&model, settings);
+    ad.set_threads(Threads::new(2).unwrap());
+    let mut s = start(&model);
+    // The re-selection, then a hybrid step from `before`.
+    ad.step(&model, &mut s, 1e-3).unwrap();
+    let before = s.clone();
+    ad.step(&model, &mut s, 1e-3).unwrap();
+    assert_eq!(ad.active_dofs(&model), model.nv);
+    let mut data = Data::new(&model);
+    let exact = forward_dynamics_slices(
+        &model,
+        &mut data,
+        &before.q,
+        &before.qd,
+        &before.tau,
+        &before.f_ext,
+        Method::Aba,
+    )
+    .unwrap()
+    .to_vec();
+    let scale = exact.iter().fold(1.0f64, |m, x| m.max(x.abs()));
+    let err = ad
+        .qdd()
+        .iter()
+        .zip(&exact)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(err <= 1e-8 * scale, "max |Δq̈| {err:e} (scale {scale:e})");
+}
