@@ -814,7 +814,7 @@ fn clusters_run(
 /// articulated-body algorithm (each cluster's inertia and bias force) — across threads: below
 /// it waking the pool costs more than the share of the step those sweeps save, and the serial
 /// loops run whatever the thread count. Measured on two cores (docs/scaling.md).
-pub const PARALLEL_HYBRID_MIN_JOINTS: usize = 5_000;
+pub const PARALLEL_HYBRID_MIN_JOINTS: usize = 10_000;
 
 /// Records (and angles) per task of a split sweep: a multiple of four (the lanes of
 /// [`sin_cos_angles4`]), large enough that a task outweighs its scheduling.

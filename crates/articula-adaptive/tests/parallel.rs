@@ -40,16 +40,16 @@ fn run(model: &Model, budget: usize, threads: Option<usize>, steps: usize) -> (V
 
 #[test]
 fn hybrid_step_is_bitwise_serial_for_any_thread_count() {
-    let tree = articula_testkit::random_tree_urdf(6_000, 3);
+    let tree = articula_testkit::random_tree_urdf(10_500, 3);
     let models = [
-        ("chain6000", articula_testkit::chain(6_000)),
+        ("chain10500", articula_testkit::chain(10_500)),
         (
-            "tree6000",
+            "tree10500",
             Model::from_urdf_str(&tree, &LoadOptions::default()).unwrap(),
         ),
     ];
     for (name, model) in &models {
-        let budget = 5_500;
+        let budget = 10_000;
         assert!(budget >= PARALLEL_HYBRID_MIN_JOINTS);
         let (reference, active) = run(model, budget, None, 6);
         assert!(
@@ -78,7 +78,7 @@ fn hybrid_step_is_bitwise_serial_for_any_thread_count() {
 
 #[test]
 fn split_hybrid_step_with_every_joint_active_is_exact_dynamics() {
-    let model = articula_testkit::chain(6_000);
+    let model = articula_testkit::chain(10_500);
     let settings = Settings {
         budget: Some(model.nv),
         reselect_every: 4,

@@ -93,7 +93,7 @@ pub struct DynamicsArgs {
     pub tolerance: Option<f64>,
     /// Threads (default: one per core) for work across states (`bench --states`), for one
     /// body's DCA solve from 5,000 bodies (`fd`, `bench`; below, it runs on one thread) and for
-    /// a hybrid step's per-joint sweeps from 5,000 active joints (`simulate`, `bench` with
+    /// a hybrid step's per-joint sweeps from 10,000 active joints (`simulate`, `bench` with
     /// `--method adaptive`). Results are the same bits for any count.
     #[arg(long, value_name = "N", value_parser = parse_threads, allow_hyphen_values = true)]
     pub threads: Option<usize>,
