@@ -262,7 +262,7 @@ impl Adaptive {
         let h = &mut self.hier;
         let (ang, scs) = (&h.ang[..], &mut h.sc[..h.ang.len()]);
         // (One thread without the `parallel` feature.)
-        if self.threads.count() > 1 && h.rec.len() >= PARALLEL_HYBRID_MIN_JOINTS {
+        if h.rec.len() >= PARALLEL_HYBRID_MIN_JOINTS && self.threads.count() > 1 {
             // Runs of `RECORD_GRAIN` angles (a multiple of four: the same lanes of four as
             // one sweep) on the threads; each angle's sine and cosine are its own.
             #[cfg(feature = "parallel")]
@@ -510,7 +510,7 @@ impl Adaptive {
         let n = h.rec.len();
         let node_sums = &self.forces.node_sums[..];
         // (One thread without the `parallel` feature.)
-        if self.threads.count() > 1 && n >= PARALLEL_HYBRID_MIN_JOINTS {
+        if n >= PARALLEL_HYBRID_MIN_JOINTS && self.threads.count() > 1 {
             #[cfg(feature = "parallel")]
             {
                 use rayon::prelude::*;
@@ -526,7 +526,7 @@ impl Adaptive {
             }
         } else {
             for ((r, ia), pa) in h.rec.iter().zip(h.ia.iter_mut()).zip(h.pa.iter_mut()) {
-                (*ia, *pa) = cluster(r, d, node_sums, accel);
+                cluster(r, d, node_sums, accel, ia, pa);
             }
         }
         // Pass 2, leaves to root: U = Iᴬ S, D = Sᵀ U, u = τ − Sᵀ pᴬ; the parent cluster gets
@@ -720,7 +720,14 @@ impl Adaptive {
 /// (zero at [`Level::Impulse`]). Reads only the record's own body, so records may be done in
 /// any order, on any thread, with the same bits.
 #[inline(always)]
-fn cluster(r: &ActiveJoint, d: &Data, node_sums: &[SpatialForce], accel: bool) -> (Mat6, [f64; 6]) {
+fn cluster(
+    r: &ActiveJoint,
+    d: &Data,
+    node_sums: &[SpatialForce],
+    accel: bool,
+    ia: &mut Mat6,
+    pa: &mut [f64; 6],
+) {
     let x = &d.x[r.j()];
     let rl = &r.rig;
     let m = rl.m;
@@ -766,7 +773,7 @@ fn cluster(r: &ActiveJoint, d: &Data, node_sums: &[SpatialForce], accel: bool) -
     );
     let hv = DVec3::new(cwl[0] * m, cwl[1] * m, cwl[2] * m);
     // [Ī, h×; h×ᵀ, m 1].
-    let ia = Mat6([
+    *ia = Mat6([
         [i00, i01, i02, 0.0, -hv.z, hv.y],
         [i01, i11, i12, hv.z, 0.0, -hv.x],
         [i02, i12, i22, -hv.y, hv.x, 0.0],
@@ -774,7 +781,7 @@ fn cluster(r: &ActiveJoint, d: &Data, node_sums: &[SpatialForce], accel: bool) -
         [-hv.z, 0.0, hv.x, 0.0, m, 0.0],
         [hv.y, -hv.x, 0.0, 0.0, 0.0, m],
     ]);
-    let pa = if accel {
+    *pa = if accel {
         let v = d.v[r.j()];
         let ibw = DVec3::new(i00, i01, i02) * v.w.x
             + DVec3::new(i01, i11, i12) * v.w.y
@@ -784,7 +791,6 @@ fn cluster(r: &ActiveJoint, d: &Data, node_sums: &[SpatialForce], accel: bool) -
     } else {
         [0.0; 6]
     };
-    (ia, pa)
 }
 
 /// [`cluster`] for a run of records (one task of the split pass 1), compiled for AVX2 + FMA
@@ -803,7 +809,7 @@ fn clusters_run(
         fn run(wide: bool, rec: &[ActiveJoint], ia: &mut [Mat6], pa: &mut [[f64; 6]], d: &Data, node_sums: &[SpatialForce], accel: bool);
         avx2_fma: wide, Portable;
         |A| for ((r, ia), pa) in rec.iter().zip(ia.iter_mut()).zip(pa.iter_mut()) {
-            (*ia, *pa) = cluster(r, d, node_sums, accel);
+            cluster(r, d, node_sums, accel, ia, pa);
         }
     }
     run(wide, rec, ia, pa, d, node_sums, accel)
