@@ -816,3 +816,17 @@ fn bench_reports_its_thread_count_and_batch() {
         "--states with adaptive",
     );
 }
+
+/// `bench --method adaptive` times a continuing simulation; on a 1,000-link chain started with
+/// the seeded velocities it went non-finite (`non-finite qdd at joint500`). From the seeded
+/// pose at rest it runs, and its active region is the budget.
+#[test]
+fn adaptive_bench_runs_on_a_long_chain() {
+    let chain = model_path("chain1000.urdf");
+    let chain = chain.to_str().unwrap();
+    // 1,500 steps: past the 1,000-step restart of the timed run.
+    let out = stdout(&articula(&[
+        "bench", chain, "--method", "adaptive", "--budget", "200", "--reps", "1500",
+    ]));
+    assert!(out.contains("active_dofs=200"), "{out}");
+}
