@@ -10,6 +10,7 @@
 //! range): the crossover is the shortest chain whose ratio stays above 1.
 
 use crate::args::Args;
+use crate::timing::median;
 use articula_dca::internals::forward_dynamics_split;
 use articula_dca::{forward_dynamics_slices, Data, Method, State, Threads};
 use std::time::Instant;
@@ -76,14 +77,4 @@ pub fn run(args: &[String]) -> Result<()> {
         );
     }
     Ok(())
-}
-
-fn median(xs: &mut [f64]) -> f64 {
-    xs.sort_by(f64::total_cmp);
-    let n = xs.len();
-    if n % 2 == 1 {
-        xs[n / 2]
-    } else {
-        0.5 * (xs[n / 2 - 1] + xs[n / 2])
-    }
 }

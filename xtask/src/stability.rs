@@ -12,10 +12,10 @@
 
 use crate::chart::{self, LogLogPlot, Series};
 use crate::solver::{Runner, Solver};
-use crate::stress::rel_error;
 use articula_adaptive::{Adaptive, Settings};
 use articula_dca::{forward_kinematics, step, Data, Integrator, Method, State};
 use articula_model::{LoadOptions, Model};
+use articula_testkit::rel_error;
 use articula_testkit::Dd;
 use articula_testkit::ReferenceModel;
 use std::fmt::Write as _;

@@ -4,7 +4,7 @@
 
 use articula_dca::{forward_dynamics, Data, Method, State};
 use articula_model::{LoadOptions, Model};
-use articula_testkit::ratio_chain_urdf;
+use articula_testkit::{ratio_chain_urdf, rel_error};
 use articula_testkit::{Dd, ReferenceModel};
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
@@ -251,15 +251,4 @@ pub fn print(full: bool) -> Result<()> {
         );
     }
     Ok(())
-}
-
-/// Relative error `max |a − b| / max |b|`.
-pub fn rel_error(a: &[f64], b: &[f64]) -> f64 {
-    let num = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max);
-    let den = b.iter().map(|x| x.abs()).fold(0.0, f64::max);
-    num / den
 }

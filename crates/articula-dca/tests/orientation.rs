@@ -6,16 +6,7 @@
 
 use articula_dca::{forward_dynamics, Data, Method, State};
 use articula_model::{LoadOptions, Model};
-use articula_testkit::{ratio_chain_urdf, Dd, ReferenceModel};
-
-fn rel_error(a: &[f64], b: &[f64]) -> f64 {
-    let num = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max);
-    num / b.iter().map(|x| x.abs()).fold(0.0, f64::max)
-}
+use articula_testkit::{ratio_chain_urdf, rel_error, Dd, ReferenceModel};
 
 /// DCA's and ABA's relative errors on `state`.
 fn errors(model: &Model, state: &State) -> (f64, f64) {

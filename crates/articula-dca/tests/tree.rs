@@ -6,7 +6,7 @@
 
 use articula_dca::{forward_dynamics, Data, Method, State};
 use articula_model::{LoadOptions, Model, NodeKind};
-use articula_testkit::{hair_urdf, star_urdf, Dd, ReferenceModel};
+use articula_testkit::{hair_urdf, rel_error, star_urdf, Dd, ReferenceModel};
 
 fn load(urdf: &str, floating_base: bool) -> Model {
     Model::from_urdf_str(
@@ -53,15 +53,6 @@ fn trees() -> Vec<(String, Model)> {
         ));
     }
     out
-}
-
-/// `max |a − b| / max |b|`.
-fn rel(a: &[f64], b: &[f64]) -> f64 {
-    let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-    a.iter()
-        .zip(b)
-        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
-        / scale
 }
 
 #[test]
@@ -125,14 +116,14 @@ fn dca_agrees_on_trees_with_many_children() {
             let dca = solve(&mut data, Method::Dca);
             let aba = solve(&mut data, Method::Aba);
             let crba = solve(&mut data, Method::Crba);
-            let (e_aba, e_crba) = (rel(&dca, &aba), rel(&dca, &crba));
+            let (e_aba, e_crba) = (rel_error(&dca, &aba), rel_error(&dca, &crba));
             let e_ref = reference.as_ref().map_or(0.0, |r| {
                 let exact: Vec<f64> = r
                     .aba::<Dd>(&s.q, &s.qd, &s.tau, &s.f_ext)
                     .into_iter()
                     .map(Dd::to_f64)
                     .collect();
-                rel(&dca, &exact)
+                rel_error(&dca, &exact)
             });
             eprintln!("{label} seed {seed}: ABA {e_aba:.1e}, CRBA {e_crba:.1e}, ref {e_ref:.1e}");
             assert!(e_aba < 1e-10, "{label} seed {seed}: DCA vs ABA {e_aba:e}");

@@ -30,4 +30,4 @@ pub use fixtures::{
     bundled, bundled_urdf, bundled_with, chain, chain_urdf, hair_urdf, point_mass_humanoid_urdf,
     random_tree_urdf, ratio_chain_urdf, star_urdf, BUNDLED,
 };
-pub use reference::ReferenceModel;
+pub use reference::{rel_error, ReferenceModel};

@@ -402,22 +402,24 @@ fn crf<T: Real>(v: &V6<T>, f: &V6<T>) -> V6<T> {
     [a[0], a[1], a[2], b[0], b[1], b[2]]
 }
 
+/// Relative error `max |a − b| / max |b|`: how far `a` is from the reference `b`, in units
+/// of `b`'s largest entry (the measure of docs/stability.md).
+pub fn rel_error(a: &[f64], b: &[f64]) -> f64 {
+    let num = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max);
+    let den = b.iter().map(|x| x.abs()).fold(0.0, f64::max);
+    num / den
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::dd::Dd;
     use crate::fixtures::{bundled, bundled_with};
     use articula_dca::{forward_dynamics_slices, Data, Method, State};
-
-    fn rel(a: &[f64], b: &[f64]) -> f64 {
-        let num = a
-            .iter()
-            .zip(b)
-            .map(|(x, y)| (x - y).abs())
-            .fold(0.0, f64::max);
-        let den = b.iter().map(|x| x.abs()).fold(0.0, f64::max);
-        num / den
-    }
 
     /// The reference agrees with the library's ABA (an independent formulation) in f64 and in
     /// double-double, with torques and external forces, on a chain and on the humanoid
@@ -443,13 +445,21 @@ mod tests {
                 .unwrap()
                 .to_vec();
                 let ours: Vec<f64> = r.aba::<f64>(&st.q, &st.qd, &st.tau, &st.f_ext);
-                assert!(rel(&ours, &lib) < 1e-10, "{name} f64: {}", rel(&ours, &lib));
+                assert!(
+                    rel_error(&ours, &lib) < 1e-10,
+                    "{name} f64: {}",
+                    rel_error(&ours, &lib)
+                );
                 let hp: Vec<f64> = r
                     .aba::<Dd>(&st.q, &st.qd, &st.tau, &st.f_ext)
                     .iter()
                     .map(|x| x.to_f64())
                     .collect();
-                assert!(rel(&hp, &lib) < 1e-10, "{name} dd: {}", rel(&hp, &lib));
+                assert!(
+                    rel_error(&hp, &lib) < 1e-10,
+                    "{name} dd: {}",
+                    rel_error(&hp, &lib)
+                );
             }
         }
     }
