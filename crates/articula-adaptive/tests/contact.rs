@@ -23,7 +23,7 @@ fn lowest_point(model: &Model, contact: &ContactData, q: &[f64]) -> f64 {
     let mut data = Data::new(model);
     forward_kinematics(model, q, &vec![0.0; model.nv], &mut data);
     contact
-        .collision
+        .collision()
         .spheres
         .iter()
         .map(|s| (data.x[s.body].apply_point(s.center) + data.origin).z - s.radius)

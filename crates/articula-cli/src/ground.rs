@@ -105,7 +105,7 @@ impl GroundRun {
         forward_kinematics(model, &state.q, &state.qd, data);
         let lowest = self
             .contact
-            .collision
+            .collision()
             .spheres
             .iter()
             .map(|s| (data.x[s.body].apply_point(s.center) + data.origin).z - s.radius)
@@ -167,7 +167,7 @@ impl GroundRun {
                 g.friction,
                 g.restitution,
                 if self.settings.joint_limits { "on" } else { "off" },
-                self.contact.collision.summary()
+                self.contact.collision().summary()
             ),
             format!("max_penetration_m {:.3e}", self.max_penetration),
             format!(

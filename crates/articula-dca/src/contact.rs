@@ -6,15 +6,18 @@
 //! 1. free motion `v_free = q̇ + dt M⁻¹(τ − C)` (forward dynamics by the step's [`Method`]);
 //! 2. candidate rows at `q`: every contact sphere of [`CollisionModel`] whose gap to the
 //!    ground `φ = n·(c − p₀) − r` is below `margin` plus the distance it can close in the step,
-//!    with a normal row and two tangent rows; every limited joint within `margin` of a bound;
-//! 3. `R = M⁻¹ Jᵀ` column by column: the response of the model at rest without gravity to the
-//!    generalised force `J_iᵀ` is one forward-dynamics solve (`q̈ = M⁻¹ τ`); a body with 6 or
-//!    more rows is solved once per unit wrench (6 solves) and its rows combine those;
-//! 4. `W = J R` and `λ` by projected Gauss–Seidel (`contact_solver`), warm-started from the
+//!    with a normal row and two tangent rows (a body's spheres are skipped together when a
+//!    ball holding them all cannot reach that far); every limited joint within `margin` of a
+//!    bound;
+//! 3. `W = J M⁻¹ Jᵀ` from the articulated tree of the system at rest ([`crate::delassus`]),
+//!    built once per step: each column is the response to one row's wrench, propagated along
+//!    its body's path (a body with 6 or more rows: its 6 unit wrenches, which its rows
+//!    combine);
+//! 4. `λ` by projected Gauss–Seidel (`contact_solver`), warm-started from the
 //!    previous step's impulses at the same contact spheres and limits;
-//! 5. `q̇⁺ = v_free + R λ`, `q⁺ = q ⊕ dt q̇⁺`;
-//! 6. post-stabilisation: where a row penetrates deeper than `slop`, `q⁺ ← q⁺ ⊕ R μ` with
-//!    `μ ≥ 0` the smallest push-out (`J R μ ≥ −φ − slop`, same solver, no friction) — a
+//! 5. `q̇⁺ = v_free + M⁻¹ Jᵀ λ` (one pass over the tree), `q⁺ = q ⊕ dt q̇⁺`;
+//! 6. post-stabilisation: where a row penetrates deeper than `slop`, `q⁺ ← q⁺ ⊕ M⁻¹ Jᵀ μ`
+//!    with `μ ≥ 0` the smallest push-out (`W μ ≥ −φ − slop`, same solver, no friction) — a
 //!    position change only, so it adds no kinetic energy.
 //!
 //! Targets: a row whose gap `φ > 0` may close it but not cross it (`u ≥ −φ/dt`, speculative
@@ -151,6 +154,55 @@ enum Source {
     Limit { limit: usize },
 }
 
+/// Consecutive contact spheres `first..end` of one body and a ball that holds them all
+/// (`center` in the body frame, `reach` ≥ each sphere's `|c − center| + r`): the broad
+/// phase skips the run when the ball is too far above the ground for any of them to be a
+/// candidate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct SphereRun {
+    body: usize,
+    first: usize,
+    end: usize,
+    center: DVec3,
+    reach: f64,
+}
+
+impl SphereRun {
+    /// The runs of `spheres`: each maximal sequence of one body's spheres, its ball centred
+    /// on the middle of their bounding box.
+    fn of(spheres: &[articula_model::ContactSphere]) -> Vec<SphereRun> {
+        let mut runs = Vec::new();
+        let mut first = 0;
+        while first < spheres.len() {
+            let body = spheres[first].body;
+            let end = first
+                + spheres[first..]
+                    .iter()
+                    .take_while(|s| s.body == body)
+                    .count();
+            let run = &spheres[first..end];
+            let (lo, hi) = run.iter().fold(
+                (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+                |(lo, hi), s| (lo.min(s.center), hi.max(s.center)),
+            );
+            let center = 0.5 * (lo + hi);
+            let reach = run
+                .iter()
+                .map(|s| (s.center - center).length() + s.radius)
+                .fold(0.0, f64::max);
+            runs.push(SphereRun {
+                body,
+                first,
+                end,
+                center,
+                reach,
+            });
+            first = end;
+        }
+        runs
+    }
+}
+
 /// A joint bound: `sign (q[qi] − bound) ≥ 0` with velocity `sign q̇[vi]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Bound {
@@ -166,8 +218,10 @@ struct Bound {
 /// allocates only when it meets more rows than any step before.
 #[derive(Clone, Debug)]
 pub struct ContactData {
-    /// The model's contact spheres.
-    pub collision: CollisionModel,
+    /// The model's contact spheres ([`ContactData::collision`]).
+    collision: CollisionModel,
+    /// The spheres in runs of one body, each with a ball that holds them all.
+    runs: Vec<SphereRun>,
     /// Figures of the last step.
     pub stats: ContactStats,
     bounds: Vec<Bound>,
@@ -230,6 +284,7 @@ impl ContactData {
         ContactData {
             warm_spheres: vec![[0.0; 3]; collision.spheres.len()],
             warm_bounds: vec![0.0; bounds.len()],
+            runs: SphereRun::of(&collision.spheres),
             collision,
             stats: ContactStats::default(),
             bounds,
@@ -255,6 +310,11 @@ impl ContactData {
             basis: Vec::new(),
             delta: vec![0.0; nv],
         }
+    }
+
+    /// The model's contact spheres.
+    pub fn collision(&self) -> &CollisionModel {
+        &self.collision
     }
 
     /// The number of joint bounds enforced when `joint_limits` is set (two per limited joint).
@@ -412,42 +472,56 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     cd.target.clear();
     if let Some((g, n)) = ground {
         let (t1, t2) = tangents(n);
-        for (si, s) in cd.collision.spheres.iter().enumerate() {
-            let c = data.x[s.body].apply_point(s.center);
-            let phi = n.dot(c + data.origin - g.point) - s.radius;
-            cd.stats.max_penetration = cd.stats.max_penetration.max(-phi);
-            let r = c - n * s.radius;
-            let v = data.v[s.body];
-            let pre = n.dot(v.v + v.w.cross(r));
-            if phi >= settings.margin + dt * (-pre).max(0.0) {
+        // Broad phase: a run of one body's spheres whose ball is above the ground by more
+        // than the margin plus what its fastest point can close in the step has no
+        // candidate (each sphere's gap is at least the ball's, its approach speed at most
+        // the ball centre's plus |ω| times the reach; 1 nm covers the rounding).
+        for run in &cd.runs {
+            let cw = data.x[run.body].apply_point(run.center);
+            let v = data.v[run.body];
+            let gap = n.dot(cw + data.origin - g.point) - run.reach;
+            let pre = n.dot(v.v + v.w.cross(cw)) - v.w.length() * run.reach;
+            if gap >= settings.margin + dt * (-pre).max(0.0) + 1e-9 {
                 continue;
             }
-            let row = cd.phi.len();
-            cd.sources.push((
-                Source::Sphere {
-                    sphere: si,
-                    body: s.body,
-                },
-                row,
-            ));
-            cd.blocks.push(Block::Contact {
-                row,
-                mu: g.friction,
-            });
-            // An impact in this step (the gap closes at the start-of-step speed) fast enough
-            // to bounce leaves at e times that speed; otherwise the gap may close, not cross.
-            let bounce = g.restitution > 0.0
-                && pre < -settings.restitution_velocity
-                && phi + dt * pre <= settings.slop;
-            let target = if bounce {
-                -g.restitution * pre
-            } else {
-                -phi.max(0.0) / dt
-            };
-            for (d, p, t) in [(n, phi, target), (t1, 0.0, 0.0), (t2, 0.0, 0.0)] {
-                cd.wrench.push(SpatialForce::new(r.cross(d), d));
-                cd.phi.push(p);
-                cd.target.push(t);
+            for si in run.first..run.end {
+                let s = &cd.collision.spheres[si];
+                let c = data.x[s.body].apply_point(s.center);
+                let phi = n.dot(c + data.origin - g.point) - s.radius;
+                cd.stats.max_penetration = cd.stats.max_penetration.max(-phi);
+                let r = c - n * s.radius;
+                let v = data.v[s.body];
+                let pre = n.dot(v.v + v.w.cross(r));
+                if phi >= settings.margin + dt * (-pre).max(0.0) {
+                    continue;
+                }
+                let row = cd.phi.len();
+                cd.sources.push((
+                    Source::Sphere {
+                        sphere: si,
+                        body: s.body,
+                    },
+                    row,
+                ));
+                cd.blocks.push(Block::Contact {
+                    row,
+                    mu: g.friction,
+                });
+                // An impact in this step (the gap closes at the start-of-step speed) fast enough
+                // to bounce leaves at e times that speed; otherwise the gap may close, not cross.
+                let bounce = g.restitution > 0.0
+                    && pre < -settings.restitution_velocity
+                    && phi + dt * pre <= settings.slop;
+                let target = if bounce {
+                    -g.restitution * pre
+                } else {
+                    -phi.max(0.0) / dt
+                };
+                for (d, p, t) in [(n, phi, target), (t1, 0.0, 0.0), (t2, 0.0, 0.0)] {
+                    cd.wrench.push(SpatialForce::new(r.cross(d), d));
+                    cd.phi.push(p);
+                    cd.target.push(t);
+                }
             }
         }
     }
@@ -794,6 +868,76 @@ mod tests {
         }
     }
 
+    /// The broad phase keeps exactly the candidates of the per-sphere test: the floating
+    /// humanoid tumbling at random poses and velocities (every joint moving, up to 20 rad/s and 20 m/s, 50 ms steps: the approach speed matters)
+    /// with its lowest point from 5 cm below to 60 cm above the floor, candidates compared
+    /// with every sphere's `φ < margin + dt max(−u⁻, 0)` from the same kinematics.
+    #[test]
+    fn broad_phase_keeps_every_candidate() {
+        let model = articula_testkit::bundled_with("humanoid", true);
+        let mut data = Data::new(&model);
+        let mut cd = ContactData::new(&model);
+        assert!(cd.runs.len() >= 10 && cd.runs.len() < cd.collision().spheres.len());
+        let mut rng = crate::state::SplitMix64(26);
+        let settings = ContactSettings {
+            ground: Some(Ground::horizontal(0.0)),
+            ..Default::default()
+        };
+        let dt = 0.05;
+        let (mut skipped, mut kept) = (0, 0);
+        for trial in 0..200 {
+            let mut state = State::random(&model, 1000 + trial, 1.0);
+            for v in state.qd.iter_mut() {
+                *v = rng.uniform(-20.0, 20.0);
+            }
+            forward_kinematics(&model, &state.q, &state.qd, &mut data);
+            let lowest = cd
+                .collision()
+                .spheres
+                .iter()
+                .map(|s| (data.x[s.body].apply_point(s.center) + data.origin).z - s.radius)
+                .fold(f64::INFINITY, f64::min);
+            state.q[2] += rng.uniform(-0.05, 0.6) - lowest;
+            forward_kinematics(&model, &state.q, &state.qd, &mut data);
+            let expected: Vec<usize> = (cd.collision().spheres.iter().enumerate())
+                .filter(|(_, s)| {
+                    let c = data.x[s.body].apply_point(s.center);
+                    let phi = (c + data.origin).z - s.radius;
+                    let v = data.v[s.body];
+                    let pre = (v.v + v.w.cross(c - DVec3::Z * s.radius)).z;
+                    phi < settings.margin + dt * (-pre).max(0.0)
+                })
+                .map(|(i, _)| i)
+                .collect();
+            step_with_contact(
+                &model,
+                &mut data,
+                &mut cd,
+                &mut state,
+                Method::Aba,
+                dt,
+                &settings,
+            )
+            .unwrap();
+            let found: Vec<usize> = cd
+                .sources
+                .iter()
+                .filter_map(|(s, _)| match *s {
+                    Source::Sphere { sphere, .. } => Some(sphere),
+                    Source::Limit { .. } => None,
+                })
+                .collect();
+            assert_eq!(found, expected, "trial {trial}");
+            kept += expected.len();
+            skipped += cd.collision().spheres.len() - expected.len();
+        }
+        // Both sides of the test are exercised.
+        assert!(
+            kept > 1000 && skipped > 3 * kept,
+            "kept {kept}, skipped {skipped}"
+        );
+    }
+
     /// The floating humanoid lying on its side, falling onto the floor with every joint
     /// moving and one joint hitting its bound: the tree's Delassus operator `W` equals the dense
     /// `J M⁻¹ Jᵀ` (CRBA's `M`, a Cholesky solve) and the step's velocity change is
@@ -818,7 +962,7 @@ mod tests {
         state.qd[b.vi] = -2.0 * b.sign;
         forward_kinematics(&model, &state.q, &state.qd, &mut data);
         let lowest = cd
-            .collision
+            .collision()
             .spheres
             .iter()
             .map(|s| (data.x[s.body].apply_point(s.center) + data.origin).z - s.radius)

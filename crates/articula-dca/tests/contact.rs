@@ -330,7 +330,7 @@ fn dropped_humanoid_comes_to_rest() {
     forward_kinematics(&sim.model, &sim.state.q, &sim.state.qd, &mut sim.data);
     let lowest = sim
         .contact
-        .collision
+        .collision()
         .spheres
         .iter()
         .map(|s| (sim.data.x[s.body].apply_point(s.center) + sim.data.origin).z - s.radius)
