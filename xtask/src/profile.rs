@@ -237,6 +237,8 @@ fn exact(model: &Model, mut s: State, n: usize, steps: usize) -> Result<()> {
 fn scene(path: &Path, warmup: u64, steps: u64) -> Result<()> {
     let scene = articula_view::load_scene(path)?;
     let mut sim = articula_view::SceneSim::new(&scene).map_err(|e| e.to_string())?;
+    // One thread: the profile of one core's work.
+    sim.set_threads(articula_dca::Threads::serial());
     for _ in 0..warmup {
         sim.step()?;
     }

@@ -19,7 +19,9 @@
 
 use crate::args::Args;
 use articula_adaptive::{Adaptive, Reselection, Settings};
-use articula_dca::{step, step_with_contact, ContactData, Data, Integrator, Method, State};
+use articula_dca::{
+    step, step_with_contact, ContactData, Data, Integrator, Method, State, Threads,
+};
 use articula_testkit::seeds::{force_list, seeded_state};
 use articula_view::SceneSim;
 use std::hint::black_box;
@@ -186,6 +188,8 @@ fn crowd(path: &Path, rounds: usize, steps: u64) -> Result<()> {
     let mut ratios = Vec::new();
     for round in 0..rounds {
         let mut sim = SceneSim::new(&scene).map_err(|e| e.to_string())?;
+        // One thread, as the exact steps below.
+        sim.set_threads(Threads::serial());
         let t = Instant::now();
         for _ in 0..steps {
             sim.step()?;

@@ -10,7 +10,7 @@
 // `criterion_group!` makes a public function without documentation.
 #![allow(missing_docs)]
 
-use articula_dca::{step, Data, Integrator, Method};
+use articula_dca::{step, Data, Integrator, Method, Threads};
 use articula_view::{load_scene, parse_scene, SceneSim};
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::path::{Path, PathBuf};
@@ -28,6 +28,8 @@ fn timed_steps(scene: &articula_view::LoadedScene, iters: u64) -> Duration {
     let mut done = 0;
     while done < iters {
         let mut sim = SceneSim::new(scene).unwrap();
+        // One thread, as the exact steps.
+        sim.set_threads(Threads::serial());
         let n = (iters - done).min(500);
         let t = Instant::now();
         for _ in 0..n {

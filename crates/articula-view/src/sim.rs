@@ -765,7 +765,7 @@ impl<'s> SceneSim<'s> {
             .iter()
             .map(|m| whole_reach(&m.model, &m.volumes))
             .collect();
-        Ok(SceneSim {
+        let mut sim = SceneSim {
             reach,
             whole_reach,
             springs,
@@ -795,7 +795,9 @@ impl<'s> SceneSim<'s> {
                 .collect(),
             push_work: 0.0,
             push_slots,
-        })
+        };
+        sim.set_threads(Threads::default());
+        Ok(sim)
     }
 
     /// Whether the bodies' adaptive calls share one [`Scratch`] per model (default: on) or
@@ -806,7 +808,7 @@ impl<'s> SceneSim<'s> {
         self.shared = on;
     }
 
-    /// Steps the bodies on `threads` (default: one thread). The bodies are split into chunks
+    /// Steps the bodies on `threads` (default: [`Threads::default`], one per core). The bodies are split into chunks
     /// of contiguous bodies that the threads take as they come free, each thread with buffers
     /// of its own; the global joint budget stays one choice over every body. Every body's
     /// step does the same arithmetic whatever the chunk and the thread it falls to, and every
