@@ -108,7 +108,7 @@ impl Adaptive {
             },
             rk: RkBuffers::default(),
             internal: model.nv - if model.floating_base { 6 } else { 0 },
-            threads: Threads::serial(),
+            threads: Threads::default(),
         }
     }
 }

@@ -590,8 +590,9 @@ impl Adaptive {
     /// The threads a hybrid step splits its per-joint sweeps over when the active region has
     /// at least [`PARALLEL_HYBRID_MIN_JOINTS`] joints: the active angles' sines and cosines,
     /// and each cluster's spatial inertia and bias force (pass 1 of the articulated-body
-    /// algorithm). Default [`Threads::serial`]: a crowd holds one workspace per character
-    /// and spreads the characters, not their joints, over its threads. Every joint's
+    /// algorithm). Default [`Threads::default`], one per core (the process's shared pool:
+    /// a crowd's workspace per character holds a handle, not threads of its own, and a
+    /// character below the threshold never uses it). Every joint's
     /// arithmetic is the serial one and nothing is summed across joints in a split sweep:
     /// **the result is the same bits for any thread count**. Below the threshold (or without
     /// the `parallel` feature) the serial loops run.

@@ -74,9 +74,15 @@ impl Threads {
     }
 
     /// One thread per core (`std::thread::available_parallelism`; 1 when unknown, or without
-    /// the `parallel` feature).
+    /// the `parallel` feature). The pool is started once per process and shared by every
+    /// `Threads::all()` and [`Threads::default`] (like rayon's global pool), so a workspace
+    /// per character can hold one at no cost; [`Threads::new`] starts a pool of its own.
     pub fn all() -> Result<Threads, ThreadsError> {
-        Threads::new(std::thread::available_parallelism().map_or(1, |n| n.get()))
+        static ALL: std::sync::OnceLock<Result<Threads, ThreadsError>> = std::sync::OnceLock::new();
+        ALL.get_or_init(|| {
+            Threads::new(std::thread::available_parallelism().map_or(1, |n| n.get()))
+        })
+        .clone()
     }
 
     /// The number of threads work is spread over.
