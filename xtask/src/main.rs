@@ -61,7 +61,7 @@ subcommands:
     parallel [THREADS] [ROUNDS] [LENGTH...]
                             one body's DCA split across threads against the serial DCA,
                             by chain length (the crossover, the long-chain speed-up)
-    speedup seeds [ROUNDS] [BUDGET...] | speedup crowd SCENE.json [ROUNDS] [STEPS]
+    speedup seeds [ROUNDS] [BUDGET...] | speedup crowd SCENE.json [ROUNDS] [STEPS] [BUDGET...]
                             adaptive against exact DCA steps, interleaved in one process
     profile dynamics|adaptive|exact|scene ...
                             fixed workloads for callgrind and perf (see xtask/src/profile.rs)

@@ -9,7 +9,9 @@
 //!   (selection included); runs restarted every 1,000 steps, the restart and the whole-body
 //!   re-selection after it untimed. Each round times a batch of DCA steps, then a batch of each
 //!   budget's steps of about the same duration.
-//! - `crowd SCENE.json [ROUNDS] [STEPS]` (defaults 8 and 500): each round times `STEPS` scene
+//! - `crowd SCENE.json [ROUNDS] [STEPS] [BUDGET...]` (defaults 8 and 500; each budget replaces
+//!   the scene's in turn, and the weighted metric left unsimulated at the last re-selection is
+//!   printed beside the times): each round times `STEPS` scene
 //!   steps from a fresh scene (re-selections, pushes and all, as the criterion bench
 //!   `adaptive_step`), then `STEPS / 10` exact semi-implicit DCA steps of every body from the
 //!   states after 20 scene steps, one shared workspace per model (as `exact_dca_step`). A
@@ -31,7 +33,7 @@ use std::time::{Duration, Instant};
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
 const USAGE: &str = "cargo xtask speedup seeds [ROUNDS] [BUDGET...]
-       cargo xtask speedup crowd SCENE.json [ROUNDS] [STEPS]";
+       cargo xtask speedup crowd SCENE.json [ROUNDS] [STEPS] [BUDGET...]";
 
 pub fn run(args: &[String]) -> Result<()> {
     let mut a = Args::new(args, USAGE);
@@ -48,8 +50,18 @@ pub fn run(args: &[String]) -> Result<()> {
             let path: String = a.next("scene file")?;
             let rounds: usize = a.next_or("rounds", 8)?;
             let steps: u64 = a.next_or("steps", 500)?;
-            a.finish()?;
-            crowd(Path::new(&path), rounds.max(1), steps.max(1))
+            let budgets: Vec<usize> = a.rest("budget")?;
+            let scene = articula_view::load_scene(Path::new(&path))?;
+            if budgets.is_empty() {
+                return crowd(&scene, rounds.max(1), steps.max(1));
+            }
+            for b in budgets {
+                let mut scene = scene.clone();
+                scene.budget = Some(b);
+                println!("budget {b}:");
+                crowd(&scene, rounds.max(1), steps.max(1))?;
+            }
+            Ok(())
         }
         Some(other) => Err(format!("unknown comparison `{other}`; usage: {USAGE}").into()),
         None => Err(format!("usage: {USAGE}").into()),
@@ -165,8 +177,8 @@ fn seeds(rounds: usize, budgets: &[usize]) -> Result<()> {
     Ok(())
 }
 
-fn crowd(path: &Path, rounds: usize, steps: u64) -> Result<()> {
-    let scene = articula_view::load_scene(path)?;
+fn crowd(scene: &articula_view::LoadedScene, rounds: usize, steps: u64) -> Result<()> {
+    let scene = scene;
     let mut sim = SceneSim::new(&scene).map_err(|e| e.to_string())?;
     for _ in 0..20 {
         sim.step()?;
@@ -191,8 +203,9 @@ fn crowd(path: &Path, rounds: usize, steps: u64) -> Result<()> {
         // One thread, as the exact steps below.
         sim.set_threads(Threads::serial());
         let t = Instant::now();
+        let mut error = 0.0;
         for _ in 0..steps {
-            sim.step()?;
+            error = sim.step()?.total_error;
         }
         let a = t.elapsed().as_secs_f64() * 1e3 / steps as f64;
         let mut states = start.clone();
@@ -231,7 +244,7 @@ fn crowd(path: &Path, rounds: usize, steps: u64) -> Result<()> {
         best_e = best_e.min(e);
         ratios.push(e / a);
         println!(
-            "round {round}: adaptive {a:.3} ms/step, exact DCA {e:.3} ms/step, ratio {:.2}",
+            "round {round}: adaptive {a:.3} ms/step, exact DCA {e:.3} ms/step, ratio {:.2}; weighted error left {error:.4e}",
             e / a
         );
     }

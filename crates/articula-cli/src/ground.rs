@@ -2,17 +2,20 @@
 //! (`docs/contact.md`), and the figures the summary adds.
 
 use crate::CliError;
+use articula_adaptive::{Adaptive, HybridContact, StepReport};
 use articula_dca::{
-    forward_kinematics, step_with_contact, ContactData, ContactSettings, Data, Ground, Method,
-    State,
+    forward_kinematics, step_with_contact, ContactData, ContactSettings, ContactStats, Data,
+    Ground, Method, State,
 };
 use articula_model::Model;
+use articula_spatial::SpatialForce;
 
 /// The contact options of `articula simulate`.
 #[derive(clap::Args, Debug, Clone)]
 pub struct GroundArgs {
     /// A horizontal ground plane at height Z (m): hard contact with Coulomb friction, and the
-    /// URDF joint limits enforced (docs/contact.md). Semi-implicit Euler, exact methods only.
+    /// URDF joint limits enforced (docs/contact.md). Semi-implicit Euler; exact methods and
+    /// `--method adaptive` (its rigid parts still collide).
     #[arg(long, value_name = "Z", allow_hyphen_values = true)]
     pub ground: Option<f64>,
     /// `--ground`: Coulomb friction coefficient μ ≥ 0.
@@ -34,6 +37,11 @@ pub struct GroundArgs {
 pub struct GroundRun {
     settings: ContactSettings,
     contact: ContactData,
+    /// `--method adaptive`: the hybrid body's contact workspace, and the exact reference
+    /// run's (made at the first adaptive step).
+    hybrid: Option<(HybridContact, ContactData)>,
+    /// The external wrenches of an adaptive step, as a list.
+    forces: Vec<(usize, SpatialForce)>,
     steps: u64,
     contacts: u64,
     rows: u64,
@@ -73,6 +81,8 @@ impl GroundArgs {
                 ..ContactSettings::default()
             },
             contact: ContactData::new(model),
+            hybrid: None,
+            forces: Vec::new(),
             steps: 0,
             contacts: 0,
             rows: 0,
@@ -135,14 +145,71 @@ impl GroundRun {
             &self.settings,
         )
         .map_err(|e| e.to_string())?;
-        let s = &self.contact.stats;
+        let s = self.contact.stats;
+        self.record(&s);
+        Ok(())
+    }
+
+    /// One contact step of the hybrid body `ad` (re-selection included when due).
+    pub fn step_adaptive(
+        &mut self,
+        model: &Model,
+        ad: &mut Adaptive,
+        state: &mut State,
+        dt: f64,
+    ) -> Result<StepReport, String> {
+        let (hybrid, _) = self
+            .hybrid
+            .get_or_insert_with(|| (HybridContact::new(model), ContactData::new(model)));
+        // The hybrid step takes the external wrenches as a list (same convention as
+        // `state.f_ext`: world coordinates, about the world origin).
+        self.forces.clear();
+        self.forces.extend(
+            (state.f_ext.iter().enumerate())
+                .filter(|(_, f)| **f != SpatialForce::ZERO)
+                .map(|(i, f)| (i, *f)),
+        );
+        let f_ext = std::mem::take(&mut state.f_ext);
+        let report = ad.step_with_contact(model, state, dt, &self.forces, hybrid, &self.settings);
+        state.f_ext = f_ext;
+        let report = report.map_err(|e| e.to_string())?;
+        let s = hybrid.contact.stats;
+        self.record(&s);
+        Ok(report)
+    }
+
+    /// One exact DCA contact step of the reference run beside `--method adaptive` (its own
+    /// workspace and warm starts; not counted in the figures).
+    pub fn step_reference(
+        &mut self,
+        model: &Model,
+        data: &mut Data,
+        state: &mut State,
+        dt: f64,
+    ) -> Result<(), String> {
+        let (_, reference) = self
+            .hybrid
+            .get_or_insert_with(|| (HybridContact::new(model), ContactData::new(model)));
+        step_with_contact(
+            model,
+            data,
+            reference,
+            state,
+            Method::Dca,
+            dt,
+            &self.settings,
+        )
+        .map_err(|e| e.to_string())
+    }
+
+    /// Adds one step's contact figures.
+    fn record(&mut self, s: &ContactStats) {
         self.steps += 1;
         self.contacts += s.contacts as u64;
         self.rows += s.rows as u64;
         self.solves += s.response_solves as u64;
         self.not_converged += (!s.converged) as u64;
         self.max_penetration = self.max_penetration.max(s.max_penetration);
-        Ok(())
     }
 
     /// The summary lines: ground, penetration, contacts, kinetic energy at the end.

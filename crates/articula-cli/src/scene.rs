@@ -54,6 +54,10 @@ pub struct SceneArgs {
     /// stands a zero-gravity crowd on the floor).
     #[arg(long, value_name = "GZ", allow_hyphen_values = true, value_parser = parse_finite)]
     pub gravity: Option<f64>,
+    /// Replace the scene's joint budget: the internal degrees of freedom simulated per step,
+    /// over every character (0: every character one rigid body).
+    #[arg(long, value_name = "N")]
+    pub budget: Option<usize>,
 }
 
 fn parse_finite(s: &str) -> Result<f64, String> {
@@ -134,6 +138,9 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
     }
     if let Some(gz) = args.gravity {
         scene.gravity = articula_spatial::DVec3::new(0.0, 0.0, gz);
+    }
+    if let Some(budget) = args.budget {
+        scene.budget = Some(budget);
     }
     for m in &scene.models {
         for w in &m.model.warnings {

@@ -755,6 +755,53 @@ fn simulate_with_a_ground_reports_contact() {
     assert!(out.contains("joint limits on"), "{out}");
 }
 
+/// `simulate --method adaptive --ground`: at budget 0 the floating humanoid is one rigid body
+/// (every internal joint locked); dropped 0.2 m, it falls 0.2 m (its lowest point from 0.2 m
+/// to the floor, to the 0.1 mm slop), comes to rest, and keeps every joint angle to the bit.
+#[test]
+fn simulate_adaptive_with_a_ground_lands_a_rigid_body() {
+    let humanoid = model_path("humanoid.urdf");
+    let scratch = Scratch::new("adaptive-ground");
+    let csv = scratch.0.join("drop.csv");
+    let out = stdout(&articula(&[
+        OsStr::new("simulate"),
+        humanoid.as_os_str(),
+        OsStr::new("--floating-base"),
+        OsStr::new("--method"),
+        OsStr::new("adaptive"),
+        OsStr::new("--budget"),
+        OsStr::new("0"),
+        OsStr::new("--ground"),
+        OsStr::new("0"),
+        OsStr::new("--drop"),
+        OsStr::new("0.2"),
+        OsStr::new("--steps"),
+        OsStr::new("1000"),
+        OsStr::new("--dt"),
+        OsStr::new("1e-3"),
+        OsStr::new("--json"),
+        OsStr::new("--out"),
+        csv.as_os_str(),
+    ]));
+    let j: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    assert_eq!(j["steps_done"], 1000, "{out}");
+    assert!(j["contacts_mean"].as_f64().unwrap() > 0.0, "{out}");
+    assert!(j["kinetic_end"].as_f64().unwrap() < 1e-8, "{out}");
+    assert!(j["max_penetration_m"].as_f64().unwrap() < 1e-3, "{out}");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let nq = header.iter().filter(|c| !c.starts_with("qd:")).count() - 1;
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    let (first, last) = (&rows[0], &rows[rows.len() - 1]);
+    // Column 0 is t, then x, y, z of the base.
+    let fall = first[3] - last[3];
+    assert!((fall - 0.2).abs() < 2e-4, "fell {fall} m");
+    assert_eq!(first[8..=nq], last[8..=nq], "a locked joint moved");
+}
+
 /// `--ground` refuses RK4 and bad values with exit code 2; contact options need `--ground`.
 #[test]
 fn simulate_ground_bad_input_exits_2() {
