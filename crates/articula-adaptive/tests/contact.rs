@@ -22,12 +22,7 @@ const DT: f64 = 1e-3;
 fn lowest_point(model: &Model, contact: &ContactData, q: &[f64]) -> f64 {
     let mut data = Data::new(model);
     forward_kinematics(model, q, &vec![0.0; model.nv], &mut data);
-    contact
-        .collision()
-        .spheres
-        .iter()
-        .map(|s| (data.x[s.body].apply_point(s.center) + data.origin).z - s.radius)
-        .fold(f64::INFINITY, f64::min)
+    contact.lowest_point(&data)
 }
 
 fn settings() -> ContactSettings {

@@ -113,13 +113,7 @@ impl GroundRun {
         }
         let ground = self.settings.ground.expect("a ground");
         forward_kinematics(model, &state.q, &state.qd, data);
-        let lowest = self
-            .contact
-            .collision()
-            .spheres
-            .iter()
-            .map(|s| (data.x[s.body].apply_point(s.center) + data.origin).z - s.radius)
-            .fold(f64::INFINITY, f64::min);
+        let lowest = self.contact.lowest_point(data);
         if lowest.is_finite() {
             state.q[2] += ground.point.z + h - lowest;
         }

@@ -317,6 +317,16 @@ impl ContactData {
         &self.collision
     }
 
+    /// The world height (`z`) of the lowest contact point in the kinematics `data`
+    /// ([`crate::forward_kinematics`] of the model), `+∞` without contact spheres.
+    pub fn lowest_point(&self, data: &Data) -> f64 {
+        self.collision
+            .spheres
+            .iter()
+            .map(|s| (data.x[s.body].apply_point(s.center) + data.origin).z - s.radius)
+            .fold(f64::INFINITY, f64::min)
+    }
+
     /// The number of joint bounds enforced when `joint_limits` is set (two per limited joint).
     pub fn joint_bounds(&self) -> usize {
         self.bounds.len()
@@ -891,12 +901,7 @@ mod tests {
                 *v = rng.uniform(-20.0, 20.0);
             }
             forward_kinematics(&model, &state.q, &state.qd, &mut data);
-            let lowest = cd
-                .collision()
-                .spheres
-                .iter()
-                .map(|s| (data.x[s.body].apply_point(s.center) + data.origin).z - s.radius)
-                .fold(f64::INFINITY, f64::min);
+            let lowest = cd.lowest_point(&data);
             state.q[2] += rng.uniform(-0.05, 0.6) - lowest;
             forward_kinematics(&model, &state.q, &state.qd, &mut data);
             let expected: Vec<usize> = (cd.collision().spheres.iter().enumerate())
@@ -961,12 +966,7 @@ mod tests {
         state.q[b.qi] = b.bound + 1e-3 * b.sign;
         state.qd[b.vi] = -2.0 * b.sign;
         forward_kinematics(&model, &state.q, &state.qd, &mut data);
-        let lowest = cd
-            .collision()
-            .spheres
-            .iter()
-            .map(|s| (data.x[s.body].apply_point(s.center) + data.origin).z - s.radius)
-            .fold(f64::INFINITY, f64::min);
+        let lowest = cd.lowest_point(&data);
         state.q[2] += 5e-4 - lowest;
         let q0 = state.q.clone();
         let settings = ContactSettings {

@@ -328,13 +328,7 @@ fn dropped_humanoid_comes_to_rest() {
     let mut sim = Sim::new(model, Ground::horizontal(0.0));
     // Lowest contact sphere at the neutral pose.
     forward_kinematics(&sim.model, &sim.state.q, &sim.state.qd, &mut sim.data);
-    let lowest = sim
-        .contact
-        .collision()
-        .spheres
-        .iter()
-        .map(|s| (sim.data.x[s.body].apply_point(s.center) + sim.data.origin).z - s.radius)
-        .fold(f64::INFINITY, f64::min);
+    let lowest = sim.contact.lowest_point(&sim.data);
     sim.state.q[2] += 1.0 - lowest;
     let mut worst = 0.0f64;
     let mut rows = 0usize;
