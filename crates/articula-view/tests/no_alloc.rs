@@ -1,8 +1,8 @@
 //! A scene step on one thread allocates nothing once its buffers have grown: the bundled
 //! crowd200 scene (pushes, re-selections every 10 steps, bodies changing their hybrid bodies)
 //! stepped with the system allocator counting, in zero gravity without its floor (bodies turning rigid and
-//! back), and on its floor, where a step allocates only when some body meets more contact rows
-//! than at any step before (its contact workspace grows to them).
+//! back), and on its floor, where a step allocates only when some body meets more candidate
+//! contact points or rows than at any step before (its contact workspace grows to them).
 
 use articula_dca::Threads;
 use articula_testkit::{count_allocations, CountingAllocator};
@@ -17,20 +17,26 @@ fn crowd200() -> LoadedScene {
     load_scene(path).unwrap()
 }
 
-/// Per step after a 60-step warm-up, 60 steps: the allocations, and whether some body met
-/// more contact rows than ever before.
+/// Steps before the counted ones: the first whole-body selection, re-selections, and the
+/// crowd landing on its floor and settling (most contact workspaces reach their size).
+const WARM_UP: usize = 150;
+
+/// Per step after the warm-up, 60 steps: the allocations, and whether some body met
+/// more candidates or contact rows than ever before.
 fn count(scene: &LoadedScene) -> (Vec<usize>, Vec<bool>, usize) {
     let mut sim = SceneSim::new(scene).unwrap();
     // One thread: with several, each thread's buffers grow to the largest body it has met,
     // and which bodies a thread meets depends on the scheduling.
     sim.set_threads(Threads::serial());
-    let mut most = vec![0; sim.bodies.len()];
-    let rows = |sim: &SceneSim, most: &mut [usize]| {
+    // Per body: the most candidate spheres and rows met so far.
+    let mut most = vec![(0, 0); sim.bodies.len()];
+    let rows = |sim: &SceneSim, most: &mut [(usize, usize)]| {
         let mut grew = false;
         for (m, b) in most.iter_mut().zip(&sim.bodies) {
             if let Some(c) = &b.contact {
-                grew |= c.contact.stats.rows > *m;
-                *m = (*m).max(c.contact.stats.rows);
+                let s = &c.contact.stats;
+                grew |= s.candidates > m.0 || s.rows > m.1;
+                *m = (m.0.max(s.candidates), m.1.max(s.rows));
             }
         }
         grew
@@ -38,7 +44,7 @@ fn count(scene: &LoadedScene) -> (Vec<usize>, Vec<bool>, usize) {
     // Warm-up: the first whole-body selection and a few re-selections size every buffer (the
     // counter counts them).
     let warm = count_allocations(|| {
-        for _ in 0..60 {
+        for _ in 0..WARM_UP {
             sim.step().unwrap();
         }
     });
