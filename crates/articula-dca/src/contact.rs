@@ -267,6 +267,8 @@ pub struct ContactData {
     /// Warm starts: per contact sphere `[λ_n, λ_t1, λ_t2]`, per bound `λ`.
     warm_spheres: Vec<[f64; 3]>,
     warm_bounds: Vec<f64>,
+    /// The sources whose warm starts the last solve set.
+    warm_set: Vec<Source>,
     qd_free: Vec<f64>,
     tau: Vec<f64>,
     basis: Vec<f64>,
@@ -306,6 +308,7 @@ impl ContactData {
         ContactData {
             warm_spheres: vec![[0.0; 3]; collision.spheres.len()],
             warm_bounds: vec![0.0; bounds.len()],
+            warm_set: Vec::with_capacity(collision.spheres.len() + bounds.len()),
             runs: SphereRun::of(&collision.spheres),
             collision,
             stats: ContactStats::default(),
@@ -654,9 +657,16 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     );
     cd.stats.iterations = solve.iterations;
     cd.stats.converged = solve.converged;
-    // Warm starts for the next step: these rows' impulses, zero elsewhere.
-    cd.warm_spheres.iter_mut().for_each(|x| *x = [0.0; 3]);
-    cd.warm_bounds.iter_mut().for_each(|x| *x = 0.0);
+    // Warm starts for the next step: these rows' impulses, zero elsewhere (the entries the
+    // last solve set are the only ones not zero).
+    for &src in &cd.warm_set {
+        match src {
+            Source::Sphere { sphere, .. } => cd.warm_spheres[sphere] = [0.0; 3],
+            Source::Limit { limit } => cd.warm_bounds[limit] = 0.0,
+        }
+    }
+    cd.warm_set.clear();
+    cd.warm_set.extend(cd.sources.iter().map(|s| s.0));
     for &(src, row) in &cd.sources {
         match src {
             Source::Sphere { sphere, .. } => {
