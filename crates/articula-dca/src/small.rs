@@ -1,8 +1,10 @@
 //! The DCA and ABA passes' small dense pieces: the `L D Lᵀ` factorisation of a one-axis
 //! join's 5×5 constraint system ([`ldl5`]), the 6×6 Cholesky factor of a general join
 //! ([`cholesky6_inv_diag`]), the `k × k` joint-space inverses of multi-DOF joints
-//! ([`SmallSpd`]), and the tiled storage of DCA's diagonal blocks ([`SymT`]). The Cholesky
-//! factorisation itself, and the symmetric 6×6 types, live in articula-spatial
+//! ([`SmallSpd`]), the tiled storage of DCA's diagonal blocks ([`SymT`]), and the Cholesky
+//! factorisation of a row-major `n × n` matrix whose size is only known at run time
+//! ([`cholesky_rows`], the contact solver's subspace systems). The fixed-size Cholesky
+//! factorisation, and the symmetric 6×6 types, live in articula-spatial
 //! (docs/design.md#numerics).
 
 #[cfg(doc)]
@@ -241,6 +243,58 @@ impl SymT {
     }
 }
 
+/// In place, the Cholesky factor `L` (`L Lᵀ = A + shift·1`) of the leading `n × n` block of
+/// the row-major symmetric `a` (row stride `n`; its lower triangle is read and overwritten
+/// with `L`, the upper one is left alone): [`cholesky_into`]'s recursion, `L_jj =
+/// √(a_jj + shift − Σ_{p<j} L_jp²)`, `L_ij = (a_ij − Σ_{p<j} L_ip L_jp) / L_jj`, for a size
+/// known only at run time. `shift ≥ 0` regularises a positive semidefinite `A`. `false` when
+/// a pivot is not positive (or NaN). O(n³/6).
+pub(crate) fn cholesky_rows(a: &mut [f64], n: usize, shift: f64) -> bool {
+    for j in 0..n {
+        let row_j = &mut a[j * n..(j + 1) * n];
+        let mut d = row_j[j] + shift;
+        for p in 0..j {
+            d -= row_j[p] * row_j[p];
+        }
+        if d.is_nan() || d <= 0.0 {
+            return false;
+        }
+        row_j[j] = d.sqrt();
+        let r = 1.0 / row_j[j];
+        for i in (j + 1)..n {
+            let (upper, lower) = a.split_at_mut(i * n);
+            let lj = &upper[j * n..j * n + j];
+            let li = &mut lower[..n];
+            let mut x = li[j];
+            for p in 0..j {
+                x -= li[p] * lj[p];
+            }
+            li[j] = x * r;
+        }
+    }
+    true
+}
+
+/// `b ← (L Lᵀ)⁻¹ b` for the factor [`cholesky_rows`] left in the lower triangle of `l`
+/// (row-major `n × n`): forward then back substitution, O(n²).
+pub(crate) fn cholesky_rows_solve(l: &[f64], n: usize, b: &mut [f64]) {
+    for i in 0..n {
+        let row = &l[i * n..i * n + i];
+        let mut x = b[i];
+        for (lp, bp) in row.iter().zip(&b[..i]) {
+            x -= lp * bp;
+        }
+        b[i] = x / l[i * n + i];
+    }
+    for i in (0..n).rev() {
+        let mut x = b[i];
+        for p in (i + 1)..n {
+            x -= l[p * n + i] * b[p];
+        }
+        b[i] = x / l[i * n + i];
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -296,7 +350,24 @@ mod tests {
                 }
             }
         }
+        // The run-time-sized factor solves A x = b (n = 6, no shift) and, with a shift, the
+        // shifted system; an indefinite matrix fails.
+        let flat: Vec<f64> = a.iter().flatten().copied().collect();
+        for shift in [0.0, 0.25] {
+            let mut l = flat.clone();
+            assert!(cholesky_rows(&mut l, 6, shift));
+            let want = [1.0, -2.0, 0.5, 3.0, -1.5, 0.25];
+            let mut b: Vec<f64> = (0..6)
+                .map(|i| (0..6).map(|j| flat[i * 6 + j] * want[j]).sum::<f64>() + shift * want[i])
+                .collect();
+            cholesky_rows_solve(&l, 6, &mut b);
+            for (x, w) in b.iter().zip(want) {
+                assert!((x - w).abs() < 1e-13, "shift {shift}: {b:?}");
+            }
+        }
         a[3][3] = -1.0;
+        let mut bad: Vec<f64> = a.iter().flatten().copied().collect();
+        assert!(!cholesky_rows(&mut bad, 6, 0.0));
         assert!(cholesky6_inv_diag(&a).is_none());
         assert!(!SmallSpd { k: 6, a }.invert());
     }
