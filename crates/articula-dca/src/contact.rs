@@ -10,7 +10,8 @@
 //! 3. `R = M⁻¹ Jᵀ` column by column: the response of the model at rest without gravity to the
 //!    generalised force `J_iᵀ` is one forward-dynamics solve (`q̈ = M⁻¹ τ`); a body with 6 or
 //!    more rows is solved once per unit wrench (6 solves) and its rows combine those;
-//! 4. `W = J R` and `λ` by projected Gauss–Seidel (`contact_solver`), warm-started from the
+//! 4. `W = J R` and `λ` by projected Gauss–Seidel, or with subspace minimisation
+//!    ([`ContactSolver`], `contact_solver`), warm-started from the
 //!    previous step's impulses at the same contact spheres and limits;
 //! 5. `q̇⁺ = v_free + R λ`, `q⁺ = q ⊕ dt q̇⁺`;
 //! 6. post-stabilisation: where a row penetrates deeper than `slop`, `q⁺ ← q⁺ ⊕ R μ` with

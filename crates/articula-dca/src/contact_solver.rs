@@ -1,5 +1,6 @@
-//! The contact problem at velocity level, solved by projected Gauss–Seidel on the Delassus
-//! operator `W = J M⁻¹ Jᵀ` (`docs/contact.md#solver`, `docs/design.md#contact`).
+//! The contact problem at velocity level, solved by projected Gauss–Seidel ([`pgs`]) or by
+//! projected Gauss–Seidel with subspace minimisation ([`solve`]) on the Delassus operator
+//! `W = J M⁻¹ Jᵀ` (`docs/contact.md#solver`, `docs/design.md#contact`).
 //!
 //! Rows `u = J v⁺` (contact normals and tangents, joint-limit rows) with
 //! `u = u_free + W λ`; the impulses `λ` satisfy, per block,
@@ -21,7 +22,8 @@
 //! split of their impulses creep on long after the velocities are right), or after
 //! `max_iterations`; the last iterate is used either way (it is always inside the
 //! cone and non-negative: a non-converged solve leaves some residual slip or approach
-//! velocity, never a pulling normal force).
+//! velocity, never a pulling normal force). [`solve`] adds exact solves of the equations the
+//! sweeps' index sets give, and stops on the residual alone.
 
 use crate::small::{cholesky_rows, cholesky_rows_solve};
 
