@@ -1,8 +1,10 @@
 //! The DCA and ABA passes' small dense pieces: the `L D Lᵀ` factorisation of a one-axis
 //! join's 5×5 constraint system ([`ldl5`]), the 6×6 Cholesky factor of a general join
 //! ([`cholesky6_inv_diag`]), the `k × k` joint-space inverses of multi-DOF joints
-//! ([`SmallSpd`]), and the tiled storage of DCA's diagonal blocks ([`SymT`]). The Cholesky
-//! factorisation itself, and the symmetric 6×6 types, live in articula-spatial
+//! ([`SmallSpd`]), the tiled storage of DCA's diagonal blocks ([`SymT`]), and the Cholesky
+//! factorisation of a row-major `n × n` matrix whose size is only known at run time
+//! ([`cholesky_rows`], the contact solver's subspace systems). The fixed-size Cholesky
+//! factorisation, and the symmetric 6×6 types, live in articula-spatial
 //! (docs/design.md#numerics).
 
 #[cfg(doc)]
@@ -241,6 +243,92 @@ impl SymT {
     }
 }
 
+/// In place, the Cholesky factor `L` (`L Lᵀ = A`) of the leading `n × n` block of the
+/// row-major symmetric positive semidefinite `a` (row stride `n`; its lower triangle is read
+/// and overwritten with `L`, the upper one is left alone): [`cholesky_into`]'s recursion,
+/// `L_jj = √(a_jj − Σ_{p<j} L_jp²)`, `L_ij = (a_ij − Σ_{p<j} L_ip L_jp) / L_jj`, for a size
+/// known only at run time, **skipping dependent rows**: a pivot `a_jj − Σ L_jp² ≤ skip · a_jj`
+/// (row `j` a combination of the rows before it, to that relative precision) drops row and
+/// column `j` (`L_jj = 0` marks it, its column below is 0). [`cholesky_rows_solve`] then
+/// solves the equations of the kept rows with `x_j = 0` on the dropped ones: the exact
+/// solution when the system is consistent. Returns the number of dropped rows, `None` for a
+/// NaN. O(n³/6).
+pub(crate) fn cholesky_rows(a: &mut [f64], n: usize, skip: f64) -> Option<usize> {
+    let mut dropped = 0;
+    for j in 0..n {
+        let row_j = &mut a[j * n..(j + 1) * n];
+        let ajj = row_j[j];
+        let d = ajj - dot(&row_j[..j], &row_j[..j]);
+        if d.is_nan() {
+            return None;
+        }
+        if d <= skip * ajj.abs() || d <= 0.0 {
+            dropped += 1;
+            row_j[j] = 0.0;
+            for i in (j + 1)..n {
+                a[i * n + j] = 0.0;
+            }
+            continue;
+        }
+        row_j[j] = d.sqrt();
+        let r = 1.0 / row_j[j];
+        for i in (j + 1)..n {
+            let (upper, lower) = a.split_at_mut(i * n);
+            let lj = &upper[j * n..j * n + j];
+            let li = &mut lower[..n];
+            li[j] = (li[j] - dot(&li[..j], lj)) * r;
+        }
+    }
+    Some(dropped)
+}
+
+/// `a · b` in four interleaved partial sums (`Σ_{p ≡ r mod 4}`, r = 0..3, then
+/// `(s₀ + s₁) + (s₂ + s₃)`): independent chains the compiler can run in vector lanes.
+#[inline(always)]
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut s = [0.0f64; 4];
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for r in 0..4 {
+            s[r] += x[r] * y[r];
+        }
+    }
+    for (r, (x, y)) in ra.iter().zip(rb).enumerate() {
+        s[r] += x * y;
+    }
+    (s[0] + s[1]) + (s[2] + s[3])
+}
+
+/// `b ← x` with `L Lᵀ x = b` on the rows [`cholesky_rows`] kept (its factor in the lower
+/// triangle of the row-major `n × n` `l`) and `x_j = 0` on the rows it dropped: forward then
+/// back substitution, O(n²).
+pub(crate) fn cholesky_rows_solve(l: &[f64], n: usize, b: &mut [f64]) {
+    for i in 0..n {
+        let lii = l[i * n + i];
+        if lii == 0.0 {
+            b[i] = 0.0;
+            continue;
+        }
+        b[i] = (b[i] - dot(&l[i * n..i * n + i], &b[..i])) / lii;
+    }
+    // Lᵀ x = y by rows of L: x_i = y_i / L_ii, then y_p −= L_ip x_i for p < i.
+    for i in (0..n).rev() {
+        let lii = l[i * n + i];
+        if lii == 0.0 {
+            b[i] = 0.0;
+            continue;
+        }
+        let x = b[i] / lii;
+        b[i] = x;
+        for (bp, lp) in b[..i].iter_mut().zip(&l[i * n..i * n + i]) {
+            *bp -= lp * x;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -296,7 +384,53 @@ mod tests {
                 }
             }
         }
+        // The run-time-sized factor solves A x = b; with a dependent row (A's row 6 the sum of
+        // rows 0 and 1: a singular 7 × 7) it drops that row and solves the consistent system
+        // exactly; an indefinite matrix fails.
+        let want = [1.0, -2.0, 0.5, 3.0, -1.5, 0.25];
+        let flat: Vec<f64> = a.iter().flatten().copied().collect();
+        let mut l = flat.clone();
+        assert_eq!(cholesky_rows(&mut l, 6, 1e-12), Some(0));
+        let mut b: Vec<f64> = (0..6)
+            .map(|i| (0..6).map(|j| flat[i * 6 + j] * want[j]).sum::<f64>())
+            .collect();
+        cholesky_rows_solve(&l, 6, &mut b);
+        for (x, w) in b.iter().zip(want) {
+            assert!((x - w).abs() < 1e-13, "{b:?}");
+        }
+        // B = Cᵀ A C with C (6 × 7) = [1 | e₀ + e₁]: B's last row and column are the sums of
+        // its first two.
+        let c = |i: usize, j: usize| match j {
+            6 => (i < 2) as u8 as f64,
+            _ => (i == j) as u8 as f64,
+        };
+        let mut big = vec![0.0; 49];
+        for i in 0..7 {
+            for j in 0..7 {
+                big[i * 7 + j] = (0..6)
+                    .flat_map(|p| (0..6).map(move |q| (p, q)))
+                    .map(|(p, q)| c(p, i) * a[p][q] * c(q, j))
+                    .sum();
+            }
+        }
+        // Right-hand side B y for y = (want, 0): consistent.
+        let y: Vec<f64> = want.iter().copied().chain([0.0]).collect();
+        let rhs: Vec<f64> = (0..7)
+            .map(|i| (0..7).map(|j| big[i * 7 + j] * y[j]).sum::<f64>())
+            .collect();
+        let mut l = big.clone();
+        assert_eq!(cholesky_rows(&mut l, 7, 1e-12), Some(1));
+        let mut x = rhs.clone();
+        cholesky_rows_solve(&l, 7, &mut x);
+        for i in 0..7 {
+            let bx: f64 = (0..7).map(|j| big[i * 7 + j] * x[j]).sum();
+            assert!((bx - rhs[i]).abs() < 1e-13, "row {i}: {bx} vs {}", rhs[i]);
+        }
+        assert_eq!(x[6], 0.0);
         a[3][3] = -1.0;
+        let mut bad: Vec<f64> = a.iter().flatten().copied().collect();
+        // (A negative pivot is dropped, not factored.)
+        assert_eq!(cholesky_rows(&mut bad, 6, 1e-12), Some(1));
         assert!(cholesky6_inv_diag(&a).is_none());
         assert!(!SmallSpd { k: 6, a }.invert());
     }

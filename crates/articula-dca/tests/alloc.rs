@@ -349,16 +349,21 @@ fn a_star_allocates_linearly_in_its_children() {
 
 /// The contact step allocates nothing once its buffers have met the largest contact problem:
 /// the floating humanoid standing on the floor 0.9 m below its base, 600 steps to settle,
-/// then 50 more steps counted, with DCA and ABA.
+/// then 50 more steps counted, with DCA and ABA, and with both solvers.
 #[test]
 fn contact_step_allocates_nothing_after_warm_up() {
-    use articula_dca::{step_with_contact, ContactData, ContactSettings, Ground};
+    use articula_dca::{step_with_contact, ContactData, ContactSettings, ContactSolver, Ground};
     let model = load("humanoid", true);
-    let settings = ContactSettings {
-        ground: Some(Ground::horizontal(-0.9)),
-        ..ContactSettings::default()
-    };
-    for method in [Method::Dca, Method::Aba] {
+    for (method, solver) in [
+        (Method::Dca, ContactSolver::GaussSeidel),
+        (Method::Aba, ContactSolver::GaussSeidel),
+        (Method::Dca, ContactSolver::Subspace),
+    ] {
+        let settings = ContactSettings {
+            ground: Some(Ground::horizontal(-0.9)),
+            solver,
+            ..ContactSettings::default()
+        };
         let mut data = Data::new(&model);
         let mut contact = ContactData::new(&model);
         let mut state = State::neutral(&model);
@@ -378,7 +383,7 @@ fn contact_step_allocates_nothing_after_warm_up() {
         };
         run(&mut state, 600);
         let n = count_allocations(|| run(&mut state, 50));
-        assert_eq!(n, 0, "{method:?}: the contact step allocated");
+        assert_eq!(n, 0, "{method:?} {solver:?}: the contact step allocated");
         assert!(
             contact.stats.contacts >= 4,
             "{method:?}: {:?}",

@@ -4,8 +4,8 @@
 //! a floating humanoid dropped onto the floor, no creep under static friction.
 
 use articula_dca::{
-    forward_kinematics, step_with_contact, ContactData, ContactSettings, Data, Ground, Method,
-    State,
+    forward_kinematics, step_with_contact, ContactData, ContactSettings, ContactSolver, Data,
+    Ground, Method, State,
 };
 use articula_model::{LoadOptions, Model};
 use glam::{DQuat, DVec3};
@@ -324,23 +324,38 @@ fn energy_never_grows_through_contact() {
 /// rest: kinetic energy < 0.01 J after 3 s, penetration < 5 mm throughout.
 #[test]
 fn dropped_humanoid_comes_to_rest() {
-    let model = articula_testkit::bundled_with("humanoid", true);
-    let mut sim = Sim::new(model, Ground::horizontal(0.0));
-    // Lowest contact sphere at the neutral pose.
-    forward_kinematics(&sim.model, &sim.state.q, &sim.state.qd, &mut sim.data);
-    let lowest = sim.contact.lowest_point(&sim.data);
-    sim.state.q[2] += 1.0 - lowest;
-    let mut worst = 0.0f64;
-    let mut rows = 0usize;
-    let steps = 3000;
-    for _ in 0..steps {
-        sim.step(Method::Dca);
-        worst = worst.max(sim.contact.stats.max_penetration);
-        rows = rows.max(sim.contact.stats.rows);
+    // With either solver.
+    for solver in [ContactSolver::GaussSeidel, ContactSolver::Subspace] {
+        let model = articula_testkit::bundled_with("humanoid", true);
+        let mut sim = Sim::new(model, Ground::horizontal(0.0));
+        sim.settings.solver = solver;
+        // Lowest contact sphere at the neutral pose.
+        forward_kinematics(&sim.model, &sim.state.q, &sim.state.qd, &mut sim.data);
+        let lowest = sim.contact.lowest_point(&sim.data);
+        sim.state.q[2] += 1.0 - lowest;
+        let mut worst = 0.0f64;
+        let mut rows = 0usize;
+        let (mut iterations, mut capped) = (0usize, 0usize);
+        let steps = 3000;
+        for _ in 0..steps {
+            sim.step(Method::Dca);
+            worst = worst.max(sim.contact.stats.max_penetration);
+            rows = rows.max(sim.contact.stats.rows);
+            iterations += sim.contact.stats.iterations;
+            capped += !sim.contact.stats.converged as usize;
+        }
+        forward_kinematics(&sim.model, &sim.state.q, &sim.state.qd, &mut sim.data);
+        let kinetic = sim.data.kinetic_energy();
+        eprintln!(
+            "humanoid {solver:?}: kinetic {kinetic:.3e} J, max penetration {worst:.3e} m, max rows {rows}, \
+             iterations per step {:.1}, not converged {capped} of {steps} steps, last {:?}",
+            iterations as f64 / steps as f64,
+            sim.contact.stats
+        );
+        assert!(
+            kinetic < 0.01,
+            "{solver:?}: kinetic energy {kinetic} J after 3 s"
+        );
+        assert!(worst < 5e-3, "{solver:?}: penetration {worst} m");
     }
-    forward_kinematics(&sim.model, &sim.state.q, &sim.state.qd, &mut sim.data);
-    let kinetic = sim.data.kinetic_energy();
-    eprintln!("humanoid: kinetic {kinetic:.3e} J, max penetration {worst:.3e} m, max rows {rows}, last {:?}", sim.contact.stats);
-    assert!(kinetic < 0.01, "kinetic energy {kinetic} J after 3 s");
-    assert!(worst < 5e-3, "penetration {worst} m");
 }
