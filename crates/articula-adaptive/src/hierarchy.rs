@@ -238,7 +238,7 @@ impl Adaptive {
         h.uu.resize(dof, 0.0);
         // (Nothing to split without the `parallel` feature.)
         #[cfg(feature = "parallel")]
-        h.split.find(&h.rec, nb);
+        h.split.find(model, &h.rec);
     }
 
     /// Forward kinematics of the active joints only (parents first): poses, velocities,
@@ -282,72 +282,37 @@ impl Adaptive {
         } else {
             sin_cos_angles(wide, ang, scs, q);
         }
-        let h = &self.hier;
+        let h = &mut self.hier;
         let d = &mut self.data;
         // The records' sines and cosines in turn (one per closed-form joint, one per part).
-        let mut scs = &h.sc[..h.ang.len()];
-        for r in &h.rec {
-            let (base, v) = match r.parent {
-                Parent::World | Parent::Ground => (x_cw, SpatialMotion::ZERO),
-                Parent::Active(p) | Parent::Cluster(p) => (d.x[p as usize], d.v[p as usize]),
-            };
-            // The parent frame composed with the record's constant pose (in each branch: the
-            // general path passes it in memory, the closed form keeps it in registers).
-            let compose = |base: SpatialTransform| {
-                if r.shift {
-                    SpatialTransform {
-                        e: base.e,
-                        r: r.x0.r + base.r,
-                    }
-                } else if r.mulx {
-                    base * r.x0
-                } else {
-                    base
-                }
-            };
-            let Some((i, sign)) = r.axis() else {
-                let x = compose(base);
-                let body = &model.bodies[r.j()];
-                match r.parts() {
-                    Some(parts) => {
-                        let sc;
-                        (sc, scs) = scs.split_at(body.joint.len());
-                        let out = (&mut d.x[r.j()], &mut d.v[r.j()], &mut d.c[r.j()]);
-                        revolute(wide, body, parts, &x, &v, sc, qd, &mut d.s, out);
-                    }
-                    None => match body.joint.as_slice() {
-                        [part] if part.kind == articula_model::JointKind::Floating => {
-                            let out = (&mut d.x[r.j()], &mut d.v[r.j()], &mut d.c[r.j()]);
-                            floating(wide, part, &x, &v, q, qd, &mut d.s, out);
-                        }
-                        _ => {
-                            let (x, v, c) = articula_dca::internals::body_kinematics(
-                                body, x, v, q, qd, &mut d.s,
-                            );
-                            d.x[r.j()] = x;
-                            d.v[r.j()] = v;
-                            d.c[r.j()] = c;
-                        }
-                    },
-                }
-                continue;
-            };
-            let Some((&(sn, cs), rest)) = scs.split_first() else {
-                unreachable!("one angle per closed-form joint")
-            };
-            scs = rest;
-            let mut x = compose(base);
-            let w = turn(&mut x, i, sn, cs) * sign;
-            let p = -(x.e * x.r);
-            let s = SpatialMotion::new(w, p.cross(w));
-            d.s[r.vo()] = s;
-            let vj = s * qd[r.vo()];
-            let c = v.cross_motion(vj);
-            let v = v + vj;
-            d.x[r.j()] = x;
-            d.v[r.j()] = v;
-            d.c[r.j()] = c;
+        let scs = &h.sc[..h.ang.len()];
+        let mut out = Kin {
+            x: &mut d.x[..],
+            v: &mut d.v[..],
+            c: &mut d.c[..],
+            s: &mut d.s[..],
+        };
+        let (rec, none) = (&h.rec[..], (x_cw, SpatialMotion::ZERO));
+        // (One thread without the `parallel` feature.)
+        #[cfg(feature = "parallel")]
+        if rec.len() >= PARALLEL_HYBRID_MIN_JOINTS
+            && self.threads.count() > 1
+            && !h.split.tasks.is_empty()
+        {
+            let (tasks, at) = (&mut h.split.tasks[..], (x_cw, q, qd));
+            split_kinematics(wide, model, &self.threads, rec, tasks, at, scs, out);
+            return;
         }
+        kinematics_run(
+            wide,
+            model,
+            rec,
+            Base::ZERO,
+            none,
+            (x_cw, q, qd),
+            scs,
+            &mut out,
+        );
     }
 
     /// One hybrid-body step between re-selections: kinematics of the active joints, then the
@@ -620,6 +585,240 @@ impl Adaptive {
     }
 }
 
+/// Where the active bodies' kinematics go: per body its pose, velocity and velocity product,
+/// per velocity coordinate its subspace column — a workspace that starts at a [`Base`] (its
+/// `body` and `vo`).
+struct Kin<'a> {
+    x: &'a mut [SpatialTransform],
+    v: &'a mut [SpatialMotion],
+    c: &'a mut [SpatialMotion],
+    s: &'a mut [SpatialMotion],
+}
+
+#[cfg(feature = "parallel")]
+impl<'a> Kin<'a> {
+    /// The same workspace, borrowed.
+    fn reborrow(&mut self) -> Kin<'_> {
+        Kin {
+            x: self.x,
+            v: self.v,
+            c: self.c,
+            s: self.s,
+        }
+    }
+
+    /// The workspace (which starts at `from`) before `at` and from `at` on.
+    fn split(self, from: Base, at: Base) -> (Kin<'a>, Kin<'a>) {
+        let (b, k) = (at.body - from.body, at.vo - from.vo);
+        let (x, x1) = self.x.split_at_mut(b);
+        let (v, v1) = self.v.split_at_mut(b);
+        let (c, c1) = self.c.split_at_mut(b);
+        let (s, s1) = self.s.split_at_mut(k);
+        (
+            Kin { x, v, c, s },
+            Kin {
+                x: x1,
+                v: v1,
+                c: c1,
+                s: s1,
+            },
+        )
+    }
+}
+
+/// The kinematics of the records `rec` (parents first) into the workspace `out` that starts
+/// at `at`, with `scs` the sines and cosines of their angles in turn and `(x_cw, q, q̇)`.
+/// A parent body before `at.body` (the root of a subtree run on its own) has pose and
+/// velocity `root`. A joint of the general path (not closed-form, [`RevoluteParts`] or
+/// floating) needs `at.vo` zero (its columns go where `body_kinematics` puts them).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn kinematics_run(
+    wide: bool,
+    model: &Model,
+    rec: &[ActiveJoint],
+    at: Base,
+    root: (SpatialTransform, SpatialMotion),
+    (x_cw, q, qd): (SpatialTransform, &[f64], &[f64]),
+    mut scs: &[(f64, f64)],
+    d: &mut Kin,
+) {
+    for r in rec {
+        let (base, v) = match r.parent {
+            Parent::World | Parent::Ground => (x_cw, SpatialMotion::ZERO),
+            Parent::Active(p) | Parent::Cluster(p) => match p as usize {
+                p if p < at.body => root,
+                p => (d.x[p - at.body], d.v[p - at.body]),
+            },
+        };
+        let b = r.j() - at.body;
+        // The parent frame composed with the record's constant pose (in each branch: the
+        // general path passes it in memory, the closed form keeps it in registers).
+        let compose = |base: SpatialTransform| {
+            if r.shift {
+                SpatialTransform {
+                    e: base.e,
+                    r: r.x0.r + base.r,
+                }
+            } else if r.mulx {
+                base * r.x0
+            } else {
+                base
+            }
+        };
+        let Some((i, sign)) = r.axis() else {
+            let x = compose(base);
+            let body = &model.bodies[r.j()];
+            match r.parts() {
+                Some(parts) => {
+                    let sc;
+                    (sc, scs) = scs.split_at(body.joint.len());
+                    let out = (&mut d.x[b], &mut d.v[b], &mut d.c[b]);
+                    let s = (&mut *d.s, at.vo);
+                    revolute(wide, body, parts, &x, &v, sc, qd, s, out);
+                }
+                None => match body.joint.as_slice() {
+                    [part] if part.kind == articula_model::JointKind::Floating => {
+                        let out = (&mut d.x[b], &mut d.v[b], &mut d.c[b]);
+                        floating(wide, part, &x, &v, q, qd, (&mut *d.s, at.vo), out);
+                    }
+                    _ => {
+                        debug_assert_eq!(at.vo, 0, "the general path at the start of the columns");
+                        let (x, v, c) =
+                            articula_dca::internals::body_kinematics(body, x, v, q, qd, d.s);
+                        d.x[b] = x;
+                        d.v[b] = v;
+                        d.c[b] = c;
+                    }
+                },
+            }
+            continue;
+        };
+        let Some((&(sn, cs), rest)) = scs.split_first() else {
+            unreachable!("one angle per closed-form joint")
+        };
+        scs = rest;
+        let mut x = compose(base);
+        let w = turn(&mut x, i, sn, cs) * sign;
+        let p = -(x.e * x.r);
+        let s = SpatialMotion::new(w, p.cross(w));
+        d.s[r.vo() - at.vo] = s;
+        let vj = s * qd[r.vo()];
+        let c = v.cross_motion(vj);
+        let v = v + vj;
+        d.x[b] = x;
+        d.v[b] = v;
+        d.c[b] = c;
+    }
+}
+
+/// The kinematics of the active joints over the subtrees `tasks` on `threads`
+/// ([`Subtrees`]): the top records (and the subtrees with a joint of the general path)
+/// serially, then each other subtree on a task from its root's parent's pose and velocity.
+/// Each body's arithmetic is the serial loop's.
+#[cfg(feature = "parallel")]
+#[allow(clippy::too_many_arguments)]
+fn split_kinematics(
+    wide: bool,
+    model: &Model,
+    threads: &Threads,
+    rec: &[ActiveJoint],
+    tasks: &mut [Subtree],
+    at: (SpatialTransform, &[f64], &[f64]),
+    scs: &[(f64, f64)],
+    mut out: Kin,
+) {
+    let none = (at.0, SpatialMotion::ZERO);
+    let (mut start, mut ang) = (0, 0);
+    for t in tasks.iter() {
+        let top = &rec[start..t.start];
+        kinematics_run(
+            wide,
+            model,
+            top,
+            Base::ZERO,
+            none,
+            at,
+            &scs[ang..],
+            &mut out,
+        );
+        if !t.kin {
+            let sub = &rec[t.start..t.end];
+            kinematics_run(
+                wide,
+                model,
+                sub,
+                Base::ZERO,
+                none,
+                at,
+                &scs[t.ang..],
+                &mut out,
+            );
+        }
+        (start, ang) = (t.end, t.ang_end);
+    }
+    kinematics_run(
+        wide,
+        model,
+        &rec[start..],
+        Base::ZERO,
+        none,
+        at,
+        &scs[ang..],
+        &mut out,
+    );
+    for t in tasks.iter_mut() {
+        t.kin_root = match rec[t.start].parent {
+            Parent::World | Parent::Ground => none,
+            Parent::Active(p) | Parent::Cluster(p) => (out.x[p as usize], out.v[p as usize]),
+        };
+    }
+    let (tasks, first) = (&*tasks, tasks[0].at);
+    let (_, from) = out.reborrow().split(Base::ZERO, first);
+    threads.install(|| kinematics_tasks(wide, model, rec, tasks, at, scs, from));
+}
+
+/// The kinematics of the subtrees `tasks` of the general-path-free kind, halves of the list
+/// on two tasks, into the workspace `out` from the first's start.
+#[cfg(feature = "parallel")]
+#[allow(clippy::too_many_arguments)]
+fn kinematics_tasks(
+    wide: bool,
+    model: &Model,
+    rec: &[ActiveJoint],
+    tasks: &[Subtree],
+    at: (SpatialTransform, &[f64], &[f64]),
+    scs: &[(f64, f64)],
+    out: Kin,
+) {
+    match tasks {
+        [] => {}
+        [t] if t.kin => kinematics_subtree(wide, model, rec, t, at, scs, out),
+        [_] => {}
+        _ => {
+            let mid = tasks.len() / 2;
+            let (lo, hi) = out.split(tasks[0].at, tasks[mid].at);
+            rayon::join(
+                || kinematics_tasks(wide, model, rec, &tasks[..mid], at, scs, lo),
+                || kinematics_tasks(wide, model, rec, &tasks[mid..], at, scs, hi),
+            );
+        }
+    }
+}
+
+#[cfg(feature = "parallel")]
+articula_spatial::fma_dispatch! {
+    /// The kinematics of one subtree from its root's parent's pose and velocity, compiled for
+    /// AVX2 + FMA too when `wide` (the same bits, wider vectors).
+    fn kinematics_subtree(wide: bool, model: &Model, rec: &[ActiveJoint], t: &Subtree, at: (SpatialTransform, &[f64], &[f64]), scs: &[(f64, f64)], out: Kin<'_>);
+    avx2_fma: wide, Portable;
+    |A| {
+        let mut out = out;
+        let (sub, scs) = (&rec[t.start..t.end], &scs[t.ang..]);
+        kinematics_run(wide, model, sub, t.at, t.kin_root, at, scs, &mut out)
+    }
+}
+
 /// What every record of passes 2 and 3 reads: the kernels' switches (`wide`: AVX2 + FMA,
 /// `accel`: [`Level::Acceleration`]), the records and the active bodies' kinematics.
 #[derive(Clone, Copy)]
@@ -631,13 +830,15 @@ struct Run<'a> {
 }
 
 /// Where a run of records' workspace starts: its first record and that record's first slot
-/// in `U`/`u` and first velocity coordinate. A slice of the workspace from `at` is indexed
-/// by `record − at.rec`, `dof − at.dof`, `vo − at.vo` (zero: the whole workspace).
+/// in `U`/`u`, first velocity coordinate and body. A slice of the workspace from `at` is
+/// indexed by `record − at.rec`, `dof − at.dof`, `vo − at.vo`, `body − at.body` (zero: the
+/// whole workspace).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(crate) struct Base {
     rec: usize,
     dof: usize,
     vo: usize,
+    body: usize,
 }
 
 impl Base {
@@ -645,6 +846,7 @@ impl Base {
         rec: 0,
         dof: 0,
         vo: 0,
+        body: 0,
     };
 }
 
@@ -992,6 +1194,16 @@ pub(crate) struct Subtree {
     entry: Chain,
     /// The acceleration of the root's parent (−a_g for none).
     root: [f64; 6],
+    /// The angles (`Hierarchy::ang`) before `start` and before `end`.
+    ang: usize,
+    ang_end: usize,
+    /// No record of the subtree takes the general kinematics path
+    /// (`articula_dca::internals::body_kinematics`, which writes the subspace columns in
+    /// place): its kinematics may run on a task.
+    kin: bool,
+    /// The pose and velocity of the root's parent body (written by the serial part of the
+    /// kinematics of each step).
+    kin_root: (SpatialTransform, SpatialMotion),
 }
 
 #[cfg(feature = "parallel")]
@@ -1000,7 +1212,8 @@ impl Subtrees {
     /// records, or when the records are not a pre-order with coordinates in record order).
     /// `nb`: the model's bodies (the scratch is reserved for every body at once: a later
     /// re-selection allocates nothing).
-    fn find(&mut self, rec: &[ActiveJoint], nb: usize) {
+    fn find(&mut self, model: &Model, rec: &[ActiveJoint]) {
+        let nb = model.bodies.len();
         self.tasks.clear();
         let n = rec.len();
         if n < PARALLEL_HYBRID_MIN_JOINTS {
@@ -1046,6 +1259,7 @@ impl Subtrees {
                         rec: idx,
                         dof: r.dof(),
                         vo: r.vo(),
+                        body: r.j(),
                     },
                     ..Subtree::default()
                 });
@@ -1055,6 +1269,34 @@ impl Subtrees {
         // One subtree alone (a chain's lower half) would only move work to another thread.
         if self.tasks.len() < 2 {
             self.tasks.clear();
+            return;
+        }
+        // The angles before each subtree and in it (one per closed-form joint, one per part),
+        // and whether its kinematics may run on a task.
+        let mut ang = 0;
+        let mut next = 0;
+        for (idx, r) in rec.iter().enumerate() {
+            let Some(t) = self.tasks.get_mut(next) else {
+                break;
+            };
+            if idx == t.start {
+                (t.ang, t.kin) = (ang, true);
+            }
+            let joint = &model.bodies[r.j()].joint;
+            ang += match (r.axis(), r.parts()) {
+                (Some(_), _) => 1,
+                (None, Some(_)) => joint.len(),
+                (None, None) => {
+                    if idx >= t.start {
+                        t.kin &= matches!(joint.as_slice(), [part] if part.kind == articula_model::JointKind::Floating);
+                    }
+                    0
+                }
+            };
+            if idx + 1 == t.end {
+                t.ang_end = ang;
+                next += 1;
+            }
         }
     }
 }
@@ -1576,7 +1818,7 @@ fn accelerate_through_factor<const K: usize>(
 articula_spatial::fma_dispatch! {
     /// [`revolute_kinematics`], compiled for AVX2 + FMA when `wide` (the same arithmetic).
     #[inline(never)]
-    fn revolute(wide: bool, body: &articula_model::Body, parts: &RevoluteParts, x0: &SpatialTransform, v0: &SpatialMotion, sc: &[(f64, f64)], qd: &[f64], s: &mut [SpatialMotion], out: KinOut);
+    fn revolute(wide: bool, body: &articula_model::Body, parts: &RevoluteParts, x0: &SpatialTransform, v0: &SpatialMotion, sc: &[(f64, f64)], qd: &[f64], s: Columns, out: KinOut);
     avx2_fma: wide, Portable;
     |A| revolute_kinematics_with(body, parts, x0, v0, sc, qd, s, out)
 }
@@ -1593,7 +1835,7 @@ fn revolute_kinematics_with(
     v0: &SpatialMotion,
     sc: &[(f64, f64)],
     qd: &[f64],
-    s: &mut [SpatialMotion],
+    (s, s0): Columns,
     out: KinOut,
 ) {
     let (mut x, mut v) = (*x0, *v0);
@@ -1621,7 +1863,7 @@ fn revolute_kinematics_with(
         // S = X [±e_i; 0] = [w; p × w], `w = ±` column i of E.
         let w = axis * sign;
         let sk = SpatialMotion::new(w, p.cross(w));
-        s[part.v_offset] = sk;
+        s[part.v_offset - s0] = sk;
         let vj = sk * qd[part.v_offset];
         c += v.cross_motion(vj);
         v += vj;
@@ -1634,7 +1876,7 @@ fn revolute_kinematics_with(
 articula_spatial::fma_dispatch! {
     /// [`floating_kinematics`], compiled for AVX2 + FMA when `wide` (the same arithmetic).
     #[inline(never)]
-    fn floating(wide: bool, part: &articula_model::JointPart, x0: &SpatialTransform, v0: &SpatialMotion, q: &[f64], qd: &[f64], s: &mut [SpatialMotion], out: KinOut);
+    fn floating(wide: bool, part: &articula_model::JointPart, x0: &SpatialTransform, v0: &SpatialMotion, q: &[f64], qd: &[f64], s: Columns, out: KinOut);
     avx2_fma: wide, Portable;
     |A| floating_kinematics_with(part, x0, v0, q, qd, s, out)
 }
@@ -1652,7 +1894,7 @@ fn floating_kinematics_with(
     v0: &SpatialMotion,
     q: &[f64],
     qd: &[f64],
-    s: &mut [SpatialMotion],
+    (s, s0): Columns,
     out: KinOut,
 ) {
     let mut x = *x0;
@@ -1670,7 +1912,7 @@ fn floating_kinematics_with(
         e.x_axis * -r.y + e.y_axis * r.x,
     ];
     let vo = part.v_offset;
-    let (qd, s) = (&qd[vo..vo + 6], &mut s[vo..vo + 6]);
+    let (qd, s) = (&qd[vo..vo + 6], &mut s[vo - s0..vo - s0 + 6]);
     for k in 0..3 {
         s[k] = SpatialMotion::new(w[k], lin[k]);
         s[3 + k] = SpatialMotion::new(DVec3::ZERO, w[k]);
@@ -1685,6 +1927,9 @@ fn floating_kinematics_with(
     *out.1 = *v0 + vj;
     *out.2 = c;
 }
+
+/// Where a joint's subspace columns go: the columns from velocity coordinate `s0` on.
+type Columns<'a> = (&'a mut [SpatialMotion], usize);
 
 /// Where a joint's kinematics go: the body's pose, velocity and velocity product.
 type KinOut<'a> = (
