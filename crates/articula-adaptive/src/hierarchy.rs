@@ -523,8 +523,13 @@ impl Adaptive {
             u: &mut us[..],
             uu: &mut uus[..],
             chol: &mut chol[..n],
-            dinv: &mut dinv[..n],
-            s: &d.s[..],
+        };
+        let dinvs = &mut dinv[..n];
+        let run = Run {
+            wide,
+            accel,
+            rec,
+            d,
             tau,
         };
         // Pass 3's acceleration of the world: −a_g (gravity enters as the world's acceleration).
@@ -539,19 +544,13 @@ impl Adaptive {
         if n >= PARALLEL_HYBRID_MIN_JOINTS && self.threads.count() > 1 && !split.tasks.is_empty() {
             let qdd = &mut self.body.qdd[..];
             let tasks = &mut split.tasks[..];
-            let run = Run {
-                wide,
-                accel,
-                rec,
-                d,
-            };
-            return split_passes::<A>(&run, &self.threads, tasks, w, acc, qdd, a0)
+            return split_passes::<A>(&run, &self.threads, tasks, w, dinvs, acc, qdd, a0)
                 .map_err(|idx| singular(model, rec[idx].j()));
         }
         #[cfg(not(feature = "parallel"))]
         let _ = split;
         for idx in (0..n).rev() {
-            if !articulate_record::<A>(wide, accel, &rec[idx], idx, Base::ZERO, &mut w, d) {
+            if !articulate_record::<A>(&run, &rec[idx], idx, Base::ZERO, &mut w, dinvs) {
                 return Err(singular(model, rec[idx].j()));
             }
         }
@@ -564,23 +563,8 @@ impl Adaptive {
             s: &d.s[..],
             qdd: &mut self.body.qdd[..],
         };
-        let run = Run {
-            wide,
-            accel,
-            rec,
-            d,
-        };
-        accelerate_run::<A>(
-            &run,
-            0..n,
-            Base::ZERO,
-            Chain::NONE,
-            a0,
-            a0,
-            &mut io,
-            acc,
-            w.dinv,
-        );
+        let none = Chain::NONE;
+        accelerate_run::<A>(&run, 0..n, Base::ZERO, none, a0, a0, &mut io, acc, dinvs);
         Ok(())
     }
 }
@@ -820,13 +804,14 @@ articula_spatial::fma_dispatch! {
 }
 
 /// What every record of passes 2 and 3 reads: the kernels' switches (`wide`: AVX2 + FMA,
-/// `accel`: [`Level::Acceleration`]), the records and the active bodies' kinematics.
+/// `accel`: [`Level::Acceleration`]), the records, the active bodies' kinematics and `τ`.
 #[derive(Clone, Copy)]
 struct Run<'a> {
     wide: bool,
     accel: bool,
     rec: &'a [ActiveJoint],
     d: &'a Data,
+    tau: &'a [f64],
 }
 
 /// Where a run of records' workspace starts: its first record and that record's first slot
@@ -883,14 +868,14 @@ impl Default for Chain {
 /// only its own entries and its parent's `Iᴬ`, `pᴬ`.
 #[inline(always)]
 fn articulate_record<A: Arith>(
-    wide: bool,
-    accel: bool,
+    run: &Run,
     r: &ActiveJoint,
     idx: usize,
     at: Base,
     w: &mut Art,
-    d: &Data,
+    dinvs: &mut [f64],
 ) -> bool {
+    let (wide, accel, d, tau) = (run.wide, run.accel, run.d, run.tau);
     let (k, dof) = (r.k(), r.dof() - at.dof);
     let i = idx - at.rec;
     let pa = w.pa[i];
@@ -905,7 +890,7 @@ fn articulate_record<A: Arith>(
     };
     if k == 1 {
         let ia = &w.ia[i].0;
-        let s = w.s[r.vo()].to_array();
+        let s = d.s[r.vo()].to_array();
         // U = Iᴬ s (Iᴬ symmetric: a sum of its rows).
         // In two halves of three rows, then summed: the chain from a joint's Iᴬ to
         // its parent's is three multiply–adds and an addition here, not six.
@@ -922,10 +907,10 @@ fn articulate_record<A: Arith>(
         }
         let dd = dot6_pairs::<A>(&s, &u);
         let dinv = 1.0 / dd;
-        let uu = w.tau[r.vo()] - dot6_pairs::<A>(&s, &pa);
+        let uu = tau[r.vo()] - dot6_pairs::<A>(&s, &pa);
         w.u[dof] = u;
         w.uu[dof] = uu;
-        w.dinv[i] = dinv;
+        dinvs[i] = dinv;
         if parent != NO_PARENT {
             // Iᴬ c, a second sweep over the rows (read again: sweeping them once for
             // both products spilled them, and the broadcasts, to the stack).
@@ -956,8 +941,8 @@ fn articulate_record<A: Arith>(
     // (docs/performance.md#crowd), so only the humanoid's common count has one.
     let at = [i, parent, dof, r.vo()];
     match k {
-        3 => articulate::<3>(wide, &at, w, k, &c),
-        _ => articulate::<0>(wide, &at, w, k, &c),
+        3 => articulate::<3>(wide, &at, w, &d.s, tau, k, &c),
+        _ => articulate::<0>(wide, &at, w, &d.s, tau, k, &c),
     }
 }
 
@@ -1317,6 +1302,7 @@ fn split_passes<A: Arith>(
     threads: &Threads,
     tasks: &mut [Subtree],
     mut w: Art,
+    dinv: &mut [f64],
     acc: &mut [[f64; 6]],
     qdd: &mut [f64],
     a0: [f64; 6],
@@ -1325,26 +1311,15 @@ fn split_passes<A: Arith>(
     let first = tasks[0].at;
     let bad = {
         let (_, from) = w.reborrow().split(Base::ZERO, first);
-        let tasks = &*tasks;
-        threads.install(|| articulate_tasks(run, tasks, from))
+        let (tasks, dinv) = (&*tasks, &mut dinv[first.rec..]);
+        threads.install(|| articulate_tasks(run, tasks, from, dinv))
     };
     // The top records and the subtrees' roots in descending order (a subtree's records after
     // their root, its parent's other children in their places).
     let mut top = |idx: usize| -> Result<(), usize> {
         match bad {
             Some(b) if idx < b => Err(b),
-            _ if articulate_record::<A>(
-                run.wide,
-                run.accel,
-                &rec[idx],
-                idx,
-                Base::ZERO,
-                &mut w,
-                run.d,
-            ) =>
-            {
-                Ok(())
-            }
+            _ if articulate_record::<A>(run, &rec[idx], idx, Base::ZERO, &mut w, dinv) => Ok(()),
             _ => Err(idx),
         }
     };
@@ -1363,7 +1338,7 @@ fn split_passes<A: Arith>(
         return Err(b);
     }
     // Pass 3: the top, then the subtrees from their roots' parents.
-    let (dinv, s) = (&*w.dinv, run.d.s.as_slice());
+    let (dinv, s) = (&*dinv, run.d.s.as_slice());
     let mut io = Accel {
         chol: &*w.chol,
         u: &*w.u,
@@ -1421,16 +1396,18 @@ fn split_passes<A: Arith>(
 /// Pass 2 of the subtrees `tasks` below their roots, halves of the list on two tasks, into
 /// the workspace `w` from the first's start: the greatest record found singular, if any.
 #[cfg(feature = "parallel")]
-fn articulate_tasks(run: &Run, tasks: &[Subtree], w: Art) -> Option<usize> {
+fn articulate_tasks(run: &Run, tasks: &[Subtree], w: Art, dinv: &mut [f64]) -> Option<usize> {
     match tasks {
         [] => None,
-        [t] => articulate_subtree(run.wide, run, t, w),
+        [t] => articulate_subtree(run.wide, run, t, w, dinv),
         _ => {
             let mid = tasks.len() / 2;
-            let (lo, hi) = w.split(tasks[0].at, tasks[mid].at);
+            let (from, at) = (tasks[0].at, tasks[mid].at);
+            let (lo, hi) = w.split(from, at);
+            let (d0, d1) = dinv.split_at_mut(at.rec - from.rec);
             let (a, b) = rayon::join(
-                || articulate_tasks(run, &tasks[..mid], lo),
-                || articulate_tasks(run, &tasks[mid..], hi),
+                || articulate_tasks(run, &tasks[..mid], lo, d0),
+                || articulate_tasks(run, &tasks[mid..], hi, d1),
             );
             a.max(b)
         }
@@ -1442,13 +1419,13 @@ articula_spatial::fma_dispatch! {
     /// Pass 2 of one subtree below its root (the root's own record is the serial part's),
     /// compiled for AVX2 + FMA with fused multiply–adds when `wide` (the serial pass's
     /// arithmetic): the first record found singular, if any.
-    fn articulate_subtree(wide: bool, run: &Run<'_>, t: &Subtree, w: Art<'_>) -> Option<usize>;
+    fn articulate_subtree(wide: bool, run: &Run<'_>, t: &Subtree, w: Art<'_>, dinv: &mut [f64]) -> Option<usize>;
     avx2_fma: wide, Fused;
     |A| {
         let mut w = w;
-        (t.start + 1..t.end).rev().find(|&idx| {
-            !articulate_record::<A>(run.wide, run.accel, &run.rec[idx], idx, t.at, &mut w, run.d)
-        })
+        (t.start + 1..t.end)
+            .rev()
+            .find(|&idx| !articulate_record::<A>(run, &run.rec[idx], idx, t.at, &mut w, dinv))
     }
 }
 
@@ -1512,9 +1489,11 @@ articula_spatial::fma_dispatch! {
 
 /// The smallest reduced tree (active joints) whose hybrid step ([`Adaptive::set_threads`])
 /// splits its per-joint sweeps — the angles' sines and cosines and pass 1 of the
-/// articulated-body algorithm (each cluster's inertia and bias force) — across threads: below
-/// it waking the pool costs more than the share of the step those sweeps save, and the serial
-/// loops run whatever the thread count. Measured on two cores (docs/scaling.md).
+/// articulated-body algorithm (each cluster's inertia and bias force) — across threads, and,
+/// on a branched reduced tree, its recursions too (the active kinematics and passes 2 and 3
+/// over independent subtrees of the reduced tree): below it waking the pool costs more than the
+/// share of the step those sweeps save, and the serial loops run whatever the thread count.
+/// Measured on two cores (docs/scaling.md).
 pub const PARALLEL_HYBRID_MIN_JOINTS: usize = 10_000;
 
 /// Records (and angles) per task of a split sweep: a multiple of four (the lanes of
@@ -1587,18 +1566,14 @@ impl Parts {
     }
 }
 
-/// What pass 2 reads and writes: `Iᴬ`, `pᴬ` (the parents'), `U`, `u`, `D⁻¹` and the Cholesky
-/// factors — a workspace that starts at a [`Base`] — and the subspace columns and `τ` (whole,
-/// read by velocity coordinate).
+/// What pass 2 writes: `Iᴬ`, `pᴬ` (the parents'), `U`, `u` and the Cholesky factors — a
+/// workspace that starts at a [`Base`].
 struct Art<'a> {
     ia: &'a mut [Mat6],
     pa: &'a mut [[f64; 6]],
     u: &'a mut [[f64; 6]],
     uu: &'a mut [f64],
     chol: &'a mut [[[f64; 6]; 6]],
-    dinv: &'a mut [f64],
-    s: &'a [SpatialMotion],
-    tau: &'a [f64],
 }
 
 #[cfg(feature = "parallel")]
@@ -1611,9 +1586,6 @@ impl<'a> Art<'a> {
             u: self.u,
             uu: self.uu,
             chol: self.chol,
-            dinv: self.dinv,
-            s: self.s,
-            tau: self.tau,
         }
     }
 
@@ -1623,10 +1595,8 @@ impl<'a> Art<'a> {
         let (ia, ia1) = self.ia.split_at_mut(r);
         let (pa, pa1) = self.pa.split_at_mut(r);
         let (chol, chol1) = self.chol.split_at_mut(r);
-        let (dinv, dinv1) = self.dinv.split_at_mut(r);
         let (u, u1) = self.u.split_at_mut(k);
         let (uu, uu1) = self.uu.split_at_mut(k);
-        let (s, tau) = (self.s, self.tau);
         (
             Art {
                 ia,
@@ -1634,9 +1604,6 @@ impl<'a> Art<'a> {
                 u,
                 uu,
                 chol,
-                dinv,
-                s,
-                tau,
             },
             Art {
                 ia: ia1,
@@ -1644,9 +1611,6 @@ impl<'a> Art<'a> {
                 u: u1,
                 uu: uu1,
                 chol: chol1,
-                dinv: dinv1,
-                s,
-                tau,
             },
         )
     }
@@ -1657,9 +1621,9 @@ articula_spatial::fma_dispatch! {
     /// its registers), compiled for AVX2 + FMA when `wide` (the same arithmetic: no fused
     /// multiply–adds, the same results to the bit).
     #[inline(never)]
-    fn articulate<const K: usize>(wide: bool, at: &[usize; 4], w: &mut Art, k: usize, c: &[f64; 6]) -> bool;
+    fn articulate<const K: usize>(wide: bool, at: &[usize; 4], w: &mut Art, s: &[SpatialMotion], tau: &[f64], k: usize, c: &[f64; 6]) -> bool;
     avx2_fma: wide, Portable;
-    |A| articulate_through_factor::<K>(at, w, k, c)
+    |A| articulate_through_factor::<K>(at, w, s, tau, k, c)
 }
 
 /// Pass 2 of the reduced ABA for a joint of several degrees of freedom, at
@@ -1676,11 +1640,12 @@ articula_spatial::fma_dispatch! {
 fn articulate_through_factor<const K: usize>(
     &[idx, parent, dof, vo]: &[usize; 4],
     h: &mut Art,
+    s: &[SpatialMotion],
+    tau: &[f64],
     k: usize,
     c: &[f64; 6],
 ) -> bool {
     let k = if K == 0 { k } else { K };
-    let (s, tau) = (h.s, h.tau);
     let pa = h.pa[idx];
     let (lo, hi) = h.ia.split_at_mut(idx);
     let ia = &hi[0];
