@@ -1297,6 +1297,7 @@ const SUBTREE_MIN_RECORDS: usize = 1024;
 /// passes' (the record found singular first in descending order), as its record's index.
 #[cfg(feature = "parallel")]
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn split_passes<A: Arith>(
     run: &Run,
     threads: &Threads,
