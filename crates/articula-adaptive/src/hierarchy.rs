@@ -701,6 +701,7 @@ fn kinematics_run(
 /// serially, then each other subtree on a task from its root's parent's pose and velocity.
 /// Each body's arithmetic is the serial loop's.
 #[cfg(feature = "parallel")]
+#[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn split_kinematics(
     wide: bool,
@@ -1317,23 +1318,27 @@ fn split_passes<A: Arith>(
     };
     // The top records and the subtrees' roots in descending order (a subtree's records after
     // their root, its parent's other children in their places).
-    let mut top = |idx: usize| -> Result<(), usize> {
-        match bad {
-            Some(b) if idx < b => Err(b),
-            _ if articulate_record::<A>(run, &rec[idx], idx, Base::ZERO, &mut w, dinv) => Ok(()),
-            _ => Err(idx),
-        }
-    };
+    // (A loop, not a closure: a closure is a function of its own, compiled without the
+    // caller's AVX2 + FMA, where `Fused`'s multiply–adds are calls.)
     let mut end = n;
-    for t in tasks.iter().rev() {
-        for idx in (t.end..end).rev() {
-            top(idx)?;
+    let mut t = tasks.len();
+    loop {
+        // The top records after subtree `t` (or after the last one), then `t`'s root.
+        let (from, root) = match t.checked_sub(1) {
+            Some(k) => (tasks[k].end, Some(tasks[k].start)),
+            None => (0, None),
+        };
+        for idx in (from..end).rev().chain(root) {
+            match bad {
+                Some(b) if idx < b => return Err(b),
+                _ if articulate_record::<A>(run, &rec[idx], idx, Base::ZERO, &mut w, dinv) => {}
+                _ => return Err(idx),
+            }
         }
-        top(t.start)?;
-        end = t.start;
-    }
-    for idx in (0..end).rev() {
-        top(idx)?;
+        let Some(root) = root else {
+            break;
+        };
+        (end, t) = (root, t - 1);
     }
     if let Some(b) = bad {
         return Err(b);
