@@ -129,7 +129,10 @@ fn print_tree(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     let branches: usize = a.next("branch count")?;
     let links: usize = a.next("links per branch")?;
     a.finish()?;
-    print!("{}", articula_testkit::branches_urdf(&vec![links; branches]));
+    print!(
+        "{}",
+        articula_testkit::branches_urdf(&vec![links; branches])
+    );
     Ok(())
 }
 
