@@ -45,6 +45,9 @@ subcommands:
                             ARTICULA_PEERS_PYTHON or target/peers-venv)
     models                  regenerate the URDF test/benchmark models in models/
     models --chain N        print the URDF of an N-link chain (the bodies of chainN.urdf)
+    models --tree BRANCHES LINKS
+                            print the URDF of a head with BRANCHES chains of LINKS links
+                            (articula_testkit::branches_urdf)
     stability               accuracy of DCA, ABA, CRBA against a double-double reference
                             (chain length, mass ratio) and integrators' energy drift;
                             writes docs/stability.md and charts in docs/img/
@@ -78,6 +81,9 @@ fn main() -> ExitCode {
         Some("corpus") => corpus::main(&workspace_root(), &args[1..]),
         Some("models") if args.get(1).map(String::as_str) == Some("--chain") => {
             run(print_chain(&args[2..]))
+        }
+        Some("models") if args.get(1).map(String::as_str) == Some("--tree") => {
+            run(print_tree(&args[2..]))
         }
         Some("models") => run(models::run(&workspace_root().join("models"))),
         Some("hash") => run(hash::run(&workspace_root(), &args[1..])),
@@ -113,6 +119,20 @@ fn print_chain(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     let n: usize = a.next("link count")?;
     a.finish()?;
     print!("{}", articula_testkit::chain_urdf(n));
+    Ok(())
+}
+
+/// `cargo xtask models --tree BRANCHES LINKS`: the URDF of a branched tree on stdout (a large
+/// hybrid body whose passes split over subtrees, docs/scaling.md).
+fn print_tree(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
+    let mut a = args::Args::new(args, "cargo xtask models --tree BRANCHES LINKS");
+    let branches: usize = a.next("branch count")?;
+    let links: usize = a.next("links per branch")?;
+    a.finish()?;
+    print!(
+        "{}",
+        articula_testkit::branches_urdf(&vec![links; branches])
+    );
     Ok(())
 }
 

@@ -14,6 +14,8 @@ use crate::parts::hierarchy::{
     coordinate_axis, revolute_parts, ActiveJoint, Hierarchy, Parent, RevoluteParts, AX_PARTS,
     NO_PARENT,
 };
+#[cfg(feature = "parallel")]
+use articula_dca::Threads;
 use articula_dca::{Data, DynamicsError};
 use articula_model::{Model, NodeKind};
 use articula_spatial::internals::{cholesky_into, dot6_pairs, Arith, Portable};
@@ -234,6 +236,9 @@ impl Adaptive {
         h.chol.resize(na, [[0.0; 6]; 6]);
         h.u.resize(dof, [0.0; 6]);
         h.uu.resize(dof, 0.0);
+        // (Nothing to split without the `parallel` feature.)
+        #[cfg(feature = "parallel")]
+        h.split.find(model, &h.rec);
     }
 
     /// Forward kinematics of the active joints only (parents first): poses, velocities,
@@ -277,72 +282,37 @@ impl Adaptive {
         } else {
             sin_cos_angles(wide, ang, scs, q);
         }
-        let h = &self.hier;
+        let h = &mut self.hier;
         let d = &mut self.data;
         // The records' sines and cosines in turn (one per closed-form joint, one per part).
-        let mut scs = &h.sc[..h.ang.len()];
-        for r in &h.rec {
-            let (base, v) = match r.parent {
-                Parent::World | Parent::Ground => (x_cw, SpatialMotion::ZERO),
-                Parent::Active(p) | Parent::Cluster(p) => (d.x[p as usize], d.v[p as usize]),
-            };
-            // The parent frame composed with the record's constant pose (in each branch: the
-            // general path passes it in memory, the closed form keeps it in registers).
-            let compose = |base: SpatialTransform| {
-                if r.shift {
-                    SpatialTransform {
-                        e: base.e,
-                        r: r.x0.r + base.r,
-                    }
-                } else if r.mulx {
-                    base * r.x0
-                } else {
-                    base
-                }
-            };
-            let Some((i, sign)) = r.axis() else {
-                let x = compose(base);
-                let body = &model.bodies[r.j()];
-                match r.parts() {
-                    Some(parts) => {
-                        let sc;
-                        (sc, scs) = scs.split_at(body.joint.len());
-                        let out = (&mut d.x[r.j()], &mut d.v[r.j()], &mut d.c[r.j()]);
-                        revolute(wide, body, parts, &x, &v, sc, qd, &mut d.s, out);
-                    }
-                    None => match body.joint.as_slice() {
-                        [part] if part.kind == articula_model::JointKind::Floating => {
-                            let out = (&mut d.x[r.j()], &mut d.v[r.j()], &mut d.c[r.j()]);
-                            floating(wide, part, &x, &v, q, qd, &mut d.s, out);
-                        }
-                        _ => {
-                            let (x, v, c) = articula_dca::internals::body_kinematics(
-                                body, x, v, q, qd, &mut d.s,
-                            );
-                            d.x[r.j()] = x;
-                            d.v[r.j()] = v;
-                            d.c[r.j()] = c;
-                        }
-                    },
-                }
-                continue;
-            };
-            let Some((&(sn, cs), rest)) = scs.split_first() else {
-                unreachable!("one angle per closed-form joint")
-            };
-            scs = rest;
-            let mut x = compose(base);
-            let w = turn(&mut x, i, sn, cs) * sign;
-            let p = -(x.e * x.r);
-            let s = SpatialMotion::new(w, p.cross(w));
-            d.s[r.vo()] = s;
-            let vj = s * qd[r.vo()];
-            let c = v.cross_motion(vj);
-            let v = v + vj;
-            d.x[r.j()] = x;
-            d.v[r.j()] = v;
-            d.c[r.j()] = c;
+        let scs = &h.sc[..h.ang.len()];
+        let mut out = Kin {
+            x: &mut d.x[..],
+            v: &mut d.v[..],
+            c: &mut d.c[..],
+            s: &mut d.s[..],
+        };
+        let (rec, none) = (&h.rec[..], (x_cw, SpatialMotion::ZERO));
+        // (One thread without the `parallel` feature.)
+        #[cfg(feature = "parallel")]
+        if rec.len() >= PARALLEL_HYBRID_MIN_JOINTS
+            && self.threads.count() > 1
+            && !h.split.tasks.is_empty()
+        {
+            let (tasks, at) = (&mut h.split.tasks[..], (x_cw, q, qd));
+            split_kinematics(wide, model, &self.threads, rec, tasks, at, scs, out);
+            return;
         }
+        kinematics_run(
+            wide,
+            model,
+            rec,
+            Base::ZERO,
+            none,
+            (x_cw, q, qd),
+            scs,
+            &mut out,
+        );
     }
 
     /// One hybrid-body step between re-selections: kinematics of the active joints, then the
@@ -530,7 +500,7 @@ impl Adaptive {
             }
         }
         // Pass 2, leaves to root: U = Iᴬ S, D = Sᵀ U, u = τ − Sᵀ pᴬ; the parent cluster gets
-        // Iᵃ = Iᴬ − U D⁻¹ Uᵀ and pᵃ = pᴬ + Iᵃ c + U D⁻¹ u.
+        // Iᵃ = Iᴬ − U D⁻¹ Uᵀ and pᵃ = pᴬ + Iᵃ c + U D⁻¹ u ([`articulate_record`]).
         // The workspace as local slices (their pointers and lengths stay in registers, and
         // the per-record arrays need no bounds checks).
         let Hierarchy {
@@ -542,6 +512,7 @@ impl Adaptive {
             u: us,
             uu: uus,
             chol,
+            split,
             ..
         } = h;
         let n = rec.len();
@@ -554,163 +525,520 @@ impl Adaptive {
             chol: &mut chol[..n],
         };
         let dinvs = &mut dinv[..n];
-        for idx in (0..n).rev() {
-            let r = &rec[idx];
-            let (vo, k, dof) = (r.vo(), r.k(), r.dof());
-            let pa = w.pa[idx];
-            let parent = r.pidx();
-            let c = if accel {
-                d.c[r.j()].to_array()
-            } else {
-                [0.0; 6]
-            };
-            if k == 1 {
-                let ia = &w.ia[idx].0;
-                let s = d.s[vo].to_array();
-                // U = Iᴬ s (Iᴬ symmetric: a sum of its rows).
-                // In two halves of three rows, then summed: the chain from a joint's Iᴬ to
-                // its parent's is three multiply–adds and an addition here, not six.
-                let (mut ua, mut ub) = ([0.0; 6], [0.0; 6]);
-                for k in 0..3 {
-                    for rr in 0..6 {
-                        ua[rr] = A::mul_add(ia[k][rr], s[k], ua[rr]);
-                        ub[rr] = A::mul_add(ia[k + 3][rr], s[k + 3], ub[rr]);
-                    }
-                }
-                let mut u = [0.0; 6];
-                for rr in 0..6 {
-                    u[rr] = ua[rr] + ub[rr];
-                }
-                let dd = dot6_pairs::<A>(&s, &u);
-                let dinv = 1.0 / dd;
-                let uu = tau[vo] - dot6_pairs::<A>(&s, &pa);
-                w.u[dof] = u;
-                w.uu[dof] = uu;
-                dinvs[idx] = dinv;
-                if parent != NO_PARENT {
-                    // Iᴬ c, a second sweep over the rows (read again: sweeping them once for
-                    // both products spilled them, and the broadcasts, to the stack).
-                    let mut ic = [0.0; 6];
-                    for (row, &cc) in ia.iter().zip(&c) {
-                        for rr in 0..6 {
-                            ic[rr] = A::mul_add(row[rr], cc, ic[rr]);
-                        }
-                    }
-                    let g = dinv * (uu - dot6_pairs::<A>(&c, &u));
-                    let pp = &mut w.pa[parent];
-                    for rr in 0..6 {
-                        pp[rr] += pa[rr] + A::mul_add(u[rr], g, ic[rr]);
-                    }
-                    let (lo, hi) = w.ia.split_at_mut(idx);
-                    add_sub_outer::<A>(&mut lo[parent], &hi[0], &u, dinv);
-                }
-                // Checked after the parent's update (which an error leaves unused: pass 1
-                // rewrites every Iᴬ, pᴬ): the branch no longer splits the sweep over Iᴬ's rows.
-                if dd.is_nan() || dd <= 0.0 {
-                    return Err(singular(model, r.j()));
-                }
-                continue;
-            }
-            // Several degrees of freedom: the loops over them unrolled for three (the
-            // humanoid's hips, shoulders, spine and neck); any other count takes the same
-            // loops with their length read at run time (the same operations in the same
-            // order). One unrolled copy per count a body's step runs is code the instruction
-            // cache must hold for every body of a crowd: copies for 2 and 6 DOF too cost more
-            // in instruction-cache misses and wall time than they save in instructions
-            // (docs/performance.md#crowd), so only the humanoid's common count has one.
-            let ok = match k {
-                3 => articulate::<3>(wide, r, &mut w, &d.s, tau, idx, k, &c),
-                _ => articulate::<0>(wide, r, &mut w, &d.s, tau, idx, k, &c),
-            };
-            if !ok {
-                return Err(singular(model, r.j()));
-            }
-        }
-        // Pass 3, root to leaves: a' = a_parent + c, q̈ = D⁻¹ (u − Uᵀ a'), a = a' + S q̈.
+        let run = Run {
+            wide,
+            accel,
+            rec,
+            d,
+            tau,
+        };
+        // Pass 3's acceleration of the world: −a_g (gravity enters as the world's acceleration).
         let a0 = if accel {
             SpatialMotion::new(DVec3::ZERO, -d.gravity).to_array()
         } else {
             [0.0; 6]
         };
-        let (acc, dinv, chol) = (&mut acc[..n], &*dinvs, &*w.chol);
-        let (u, uu) = (&*w.u, &*w.uu);
-        // What a several-degree-of-freedom joint's pass 3 reads and writes, passed to it by
-        // one pointer (not nine words copied per call).
+        let acc = &mut acc[..n];
+        // (One thread without the `parallel` feature.)
+        #[cfg(feature = "parallel")]
+        if n >= PARALLEL_HYBRID_MIN_JOINTS && self.threads.count() > 1 && !split.tasks.is_empty() {
+            let qdd = &mut self.body.qdd[..];
+            let tasks = &mut split.tasks[..];
+            return split_passes::<A>(&run, &self.threads, tasks, w, dinvs, acc, qdd, a0)
+                .map_err(|idx| singular(model, rec[idx].j()));
+        }
+        #[cfg(not(feature = "parallel"))]
+        let _ = split;
+        for idx in (0..n).rev() {
+            if !articulate_record::<A>(&run, &rec[idx], idx, Base::ZERO, &mut w, dinvs) {
+                return Err(singular(model, rec[idx].j()));
+            }
+        }
+        // Pass 3, root to leaves: a' = a_parent + c, q̈ = D⁻¹ (u − Uᵀ a'), a = a' + S q̈
+        // ([`accelerate_run`]).
         let mut io = Accel {
-            chol,
-            u,
-            uu,
+            chol: &*w.chol,
+            u: &*w.u,
+            uu: &*w.uu,
             s: &d.s[..],
             qdd: &mut self.body.qdd[..],
         };
-        // The previous record when it is a one-degree-of-freedom joint (`usize::MAX`
-        // otherwise, which no `pidx` equals: [`NO_PARENT`] is `u32::MAX`): its index, a', S and q̈, kept in locals for a child that follows it
-        // (on a chain, every record).
-        let (mut pidx1, mut pap, mut ps, mut px) = (usize::MAX, [0.0; 6], [0.0; 6], 0.0);
-        for (idx, r) in rec.iter().enumerate() {
-            let (vo, k, dof) = (r.vo(), r.k(), r.dof());
-            let c = if accel {
-                d.c[r.j()].to_array()
+        let none = Chain::NONE;
+        accelerate_run::<A>(&run, 0..n, Base::ZERO, none, a0, a0, &mut io, acc, dinvs);
+        Ok(())
+    }
+}
+
+/// Where the active bodies' kinematics go: per body its pose, velocity and velocity product,
+/// per velocity coordinate its subspace column — a workspace that starts at a [`Base`] (its
+/// `body` and `vo`).
+struct Kin<'a> {
+    x: &'a mut [SpatialTransform],
+    v: &'a mut [SpatialMotion],
+    c: &'a mut [SpatialMotion],
+    s: &'a mut [SpatialMotion],
+}
+
+#[cfg(feature = "parallel")]
+impl<'a> Kin<'a> {
+    /// The same workspace, borrowed.
+    fn reborrow(&mut self) -> Kin<'_> {
+        Kin {
+            x: self.x,
+            v: self.v,
+            c: self.c,
+            s: self.s,
+        }
+    }
+
+    /// The workspace (which starts at `from`) before `at` and from `at` on.
+    fn split(self, from: Base, at: Base) -> (Kin<'a>, Kin<'a>) {
+        let (b, k) = (at.body - from.body, at.vo - from.vo);
+        let (x, x1) = self.x.split_at_mut(b);
+        let (v, v1) = self.v.split_at_mut(b);
+        let (c, c1) = self.c.split_at_mut(b);
+        let (s, s1) = self.s.split_at_mut(k);
+        (
+            Kin { x, v, c, s },
+            Kin {
+                x: x1,
+                v: v1,
+                c: c1,
+                s: s1,
+            },
+        )
+    }
+}
+
+/// The kinematics of the records `rec` (parents first) into the workspace `out` that starts
+/// at `at`, with `scs` the sines and cosines of their angles in turn and `(x_cw, q, q̇)`.
+/// A parent body before `at.body` (the root of a subtree run on its own) has pose and
+/// velocity `root`. A joint of the general path (not closed-form, [`RevoluteParts`] or
+/// floating) needs `at.vo` zero (its columns go where `body_kinematics` puts them).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn kinematics_run(
+    wide: bool,
+    model: &Model,
+    rec: &[ActiveJoint],
+    at: Base,
+    root: (SpatialTransform, SpatialMotion),
+    (x_cw, q, qd): (SpatialTransform, &[f64], &[f64]),
+    mut scs: &[(f64, f64)],
+    d: &mut Kin,
+) {
+    for r in rec {
+        let (base, v) = match r.parent {
+            Parent::World | Parent::Ground => (x_cw, SpatialMotion::ZERO),
+            Parent::Active(p) | Parent::Cluster(p) => match p as usize {
+                p if p < at.body => root,
+                p => (d.x[p - at.body], d.v[p - at.body]),
+            },
+        };
+        let b = r.j() - at.body;
+        // The parent frame composed with the record's constant pose (in each branch: the
+        // general path passes it in memory, the closed form keeps it in registers).
+        let compose = |base: SpatialTransform| {
+            if r.shift {
+                SpatialTransform {
+                    e: base.e,
+                    r: r.x0.r + base.r,
+                }
+            } else if r.mulx {
+                base * r.x0
             } else {
-                [0.0; 6]
-            };
-            if k == 1 {
-                let s = d.s[vo].to_array();
-                let ud = &io.u[dof];
-                let (ap, x) = if r.pidx() == pidx1 {
-                    // The parent is the previous record: a' = (a'_p + S_p q̈_p) + c, and
-                    // q̈ = D⁻¹ (u − Uᵀ(a'_p + c) − (Uᵀ S_p) q̈_p), whose chain from the
-                    // parent's q̈ is one multiply–add and a product (the parent's a' is
-                    // known before its q̈).
-                    let mut base = pap;
-                    let mut ap: [f64; 6] =
-                        std::array::from_fn(|rr| A::mul_add(ps[rr], px, pap[rr]));
-                    if accel {
-                        for rr in 0..6 {
-                            base[rr] += c[rr];
-                            ap[rr] += c[rr];
-                        }
-                    }
-                    let sig = dot6_pairs::<A>(ud, &ps);
-                    let x = dinv[idx]
-                        * A::neg_mul_add(sig, px, io.uu[dof] - dot6_pairs::<A>(&base, ud));
-                    (ap, x)
-                } else {
-                    let mut ap = if r.pidx() == NO_PARENT {
-                        a0
-                    } else {
-                        acc[r.pidx()]
-                    };
-                    if accel {
-                        for rr in 0..6 {
-                            ap[rr] += c[rr];
-                        }
-                    }
-                    (ap, dinv[idx] * (io.uu[dof] - dot6_pairs::<A>(&ap, ud)))
-                };
-                io.qdd[vo] = x;
-                acc[idx] = std::array::from_fn(|rr| A::mul_add(s[rr], x, ap[rr]));
-                (pidx1, pap, ps, px) = (idx, ap, s, x);
-                continue;
+                base
             }
-            pidx1 = usize::MAX;
-            let mut ap = if r.pidx() == NO_PARENT {
-                a0
-            } else {
-                acc[r.pidx()]
-            };
-            if accel {
+        };
+        let Some((i, sign)) = r.axis() else {
+            let x = compose(base);
+            let body = &model.bodies[r.j()];
+            match r.parts() {
+                Some(parts) => {
+                    let sc;
+                    (sc, scs) = scs.split_at(body.joint.len());
+                    let out = (&mut d.x[b], &mut d.v[b], &mut d.c[b]);
+                    let s = (&mut *d.s, at.vo);
+                    revolute(wide, body, parts, &x, &v, sc, qd, s, out);
+                }
+                None => match body.joint.as_slice() {
+                    [part] if part.kind == articula_model::JointKind::Floating => {
+                        let out = (&mut d.x[b], &mut d.v[b], &mut d.c[b]);
+                        floating(wide, part, &x, &v, q, qd, (&mut *d.s, at.vo), out);
+                    }
+                    _ => {
+                        debug_assert_eq!(at.vo, 0, "the general path at the start of the columns");
+                        let (x, v, c) =
+                            articula_dca::internals::body_kinematics(body, x, v, q, qd, d.s);
+                        d.x[b] = x;
+                        d.v[b] = v;
+                        d.c[b] = c;
+                    }
+                },
+            }
+            continue;
+        };
+        let Some((&(sn, cs), rest)) = scs.split_first() else {
+            unreachable!("one angle per closed-form joint")
+        };
+        scs = rest;
+        let mut x = compose(base);
+        let w = turn(&mut x, i, sn, cs) * sign;
+        let p = -(x.e * x.r);
+        let s = SpatialMotion::new(w, p.cross(w));
+        d.s[r.vo() - at.vo] = s;
+        let vj = s * qd[r.vo()];
+        let c = v.cross_motion(vj);
+        let v = v + vj;
+        d.x[b] = x;
+        d.v[b] = v;
+        d.c[b] = c;
+    }
+}
+
+/// The kinematics of the active joints over the subtrees `tasks` on `threads`
+/// ([`Subtrees`]): the top records (and the subtrees with a joint of the general path)
+/// serially, then each other subtree on a task from its root's parent's pose and velocity.
+/// Each body's arithmetic is the serial loop's.
+#[cfg(feature = "parallel")]
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn split_kinematics(
+    wide: bool,
+    model: &Model,
+    threads: &Threads,
+    rec: &[ActiveJoint],
+    tasks: &mut [Subtree],
+    at: (SpatialTransform, &[f64], &[f64]),
+    scs: &[(f64, f64)],
+    mut out: Kin,
+) {
+    let none = (at.0, SpatialMotion::ZERO);
+    let (mut start, mut ang) = (0, 0);
+    for t in tasks.iter() {
+        let top = &rec[start..t.start];
+        kinematics_run(
+            wide,
+            model,
+            top,
+            Base::ZERO,
+            none,
+            at,
+            &scs[ang..],
+            &mut out,
+        );
+        if !t.kin {
+            let sub = &rec[t.start..t.end];
+            kinematics_run(
+                wide,
+                model,
+                sub,
+                Base::ZERO,
+                none,
+                at,
+                &scs[t.ang..],
+                &mut out,
+            );
+        }
+        (start, ang) = (t.end, t.ang_end);
+    }
+    kinematics_run(
+        wide,
+        model,
+        &rec[start..],
+        Base::ZERO,
+        none,
+        at,
+        &scs[ang..],
+        &mut out,
+    );
+    for t in tasks.iter_mut() {
+        t.kin_root = match rec[t.start].parent {
+            Parent::World | Parent::Ground => none,
+            Parent::Active(p) | Parent::Cluster(p) => (out.x[p as usize], out.v[p as usize]),
+        };
+    }
+    let (tasks, first) = (&*tasks, tasks[0].at);
+    let (_, from) = out.reborrow().split(Base::ZERO, first);
+    threads.install(|| kinematics_tasks(wide, model, rec, tasks, at, scs, from));
+}
+
+/// The kinematics of the subtrees `tasks` of the general-path-free kind, halves of the list
+/// on two tasks, into the workspace `out` from the first's start.
+#[cfg(feature = "parallel")]
+#[allow(clippy::too_many_arguments)]
+fn kinematics_tasks(
+    wide: bool,
+    model: &Model,
+    rec: &[ActiveJoint],
+    tasks: &[Subtree],
+    at: (SpatialTransform, &[f64], &[f64]),
+    scs: &[(f64, f64)],
+    out: Kin,
+) {
+    match tasks {
+        [] => {}
+        [t] if t.kin => kinematics_subtree(wide, model, rec, t, at, scs, out),
+        [_] => {}
+        _ => {
+            let mid = tasks.len() / 2;
+            let (lo, hi) = out.split(tasks[0].at, tasks[mid].at);
+            rayon::join(
+                || kinematics_tasks(wide, model, rec, &tasks[..mid], at, scs, lo),
+                || kinematics_tasks(wide, model, rec, &tasks[mid..], at, scs, hi),
+            );
+        }
+    }
+}
+
+#[cfg(feature = "parallel")]
+articula_spatial::fma_dispatch! {
+    /// The kinematics of one subtree from its root's parent's pose and velocity, compiled for
+    /// AVX2 + FMA too when `wide` (the same bits, wider vectors).
+    fn kinematics_subtree(wide: bool, model: &Model, rec: &[ActiveJoint], t: &Subtree, at: (SpatialTransform, &[f64], &[f64]), scs: &[(f64, f64)], out: Kin<'_>);
+    avx2_fma: wide, Portable;
+    |A| {
+        let mut out = out;
+        let (sub, scs) = (&rec[t.start..t.end], &scs[t.ang..]);
+        kinematics_run(wide, model, sub, t.at, t.kin_root, at, scs, &mut out)
+    }
+}
+
+/// What every record of passes 2 and 3 reads: the kernels' switches (`wide`: AVX2 + FMA,
+/// `accel`: [`Level::Acceleration`]), the records, the active bodies' kinematics and `τ`.
+#[derive(Clone, Copy)]
+struct Run<'a> {
+    wide: bool,
+    accel: bool,
+    rec: &'a [ActiveJoint],
+    d: &'a Data,
+    tau: &'a [f64],
+}
+
+/// Where a run of records' workspace starts: its first record and that record's first slot
+/// in `U`/`u`, first velocity coordinate and body. A slice of the workspace from `at` is
+/// indexed by `record − at.rec`, `dof − at.dof`, `vo − at.vo`, `body − at.body` (zero: the
+/// whole workspace).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct Base {
+    rec: usize,
+    dof: usize,
+    vo: usize,
+    body: usize,
+}
+
+impl Base {
+    const ZERO: Base = Base {
+        rec: 0,
+        dof: 0,
+        vo: 0,
+        body: 0,
+    };
+}
+
+/// Pass 3's state after a one-degree-of-freedom record (`pidx`: its index; `usize::MAX`
+/// after any other record, which no `pidx` equals: [`NO_PARENT`] is `u32::MAX`): its `a'`,
+/// `S` and `q̈`, kept in locals for a child that follows it (on a chain, every record).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Chain {
+    pidx: usize,
+    ap: [f64; 6],
+    s: [f64; 6],
+    x: f64,
+}
+
+impl Chain {
+    const NONE: Chain = Chain {
+        pidx: usize::MAX,
+        ap: [0.0; 6],
+        s: [0.0; 6],
+        x: 0.0,
+    };
+}
+
+impl Default for Chain {
+    fn default() -> Chain {
+        Chain::NONE
+    }
+}
+
+/// Pass 2 of the reduced ABA at record `idx` (leaves to root: every child of `idx` done
+/// before), into the workspace `w` that starts at `at`: `U = Iᴬ S`, `D = Sᵀ U`,
+/// `u = τ − Sᵀ pᴬ`, and the parent cluster gets `Iᵃ = Iᴬ − U D⁻¹ Uᵀ`,
+/// `pᵃ = pᴬ + Iᵃ c + U D⁻¹ u`. False when `D` is not positive definite. A record touches
+/// only its own entries and its parent's `Iᴬ`, `pᴬ`.
+#[inline(always)]
+fn articulate_record<A: Arith>(
+    run: &Run,
+    r: &ActiveJoint,
+    idx: usize,
+    at: Base,
+    w: &mut Art,
+    dinvs: &mut [f64],
+) -> bool {
+    let (wide, accel, d, tau) = (run.wide, run.accel, run.d, run.tau);
+    let (k, dof) = (r.k(), r.dof() - at.dof);
+    let i = idx - at.rec;
+    let pa = w.pa[i];
+    let parent = match r.pidx() {
+        NO_PARENT => NO_PARENT,
+        p => p - at.rec,
+    };
+    let c = if accel {
+        d.c[r.j()].to_array()
+    } else {
+        [0.0; 6]
+    };
+    if k == 1 {
+        let ia = &w.ia[i].0;
+        let s = d.s[r.vo()].to_array();
+        // U = Iᴬ s (Iᴬ symmetric: a sum of its rows).
+        // In two halves of three rows, then summed: the chain from a joint's Iᴬ to
+        // its parent's is three multiply–adds and an addition here, not six.
+        let (mut ua, mut ub) = ([0.0; 6], [0.0; 6]);
+        for k in 0..3 {
+            for rr in 0..6 {
+                ua[rr] = A::mul_add(ia[k][rr], s[k], ua[rr]);
+                ub[rr] = A::mul_add(ia[k + 3][rr], s[k + 3], ub[rr]);
+            }
+        }
+        let mut u = [0.0; 6];
+        for rr in 0..6 {
+            u[rr] = ua[rr] + ub[rr];
+        }
+        let dd = dot6_pairs::<A>(&s, &u);
+        let dinv = 1.0 / dd;
+        let uu = tau[r.vo()] - dot6_pairs::<A>(&s, &pa);
+        w.u[dof] = u;
+        w.uu[dof] = uu;
+        dinvs[i] = dinv;
+        if parent != NO_PARENT {
+            // Iᴬ c, a second sweep over the rows (read again: sweeping them once for
+            // both products spilled them, and the broadcasts, to the stack).
+            let mut ic = [0.0; 6];
+            for (row, &cc) in ia.iter().zip(&c) {
                 for rr in 0..6 {
-                    ap[rr] += c[rr];
+                    ic[rr] = A::mul_add(row[rr], cc, ic[rr]);
                 }
             }
-            acc[idx] = match k {
-                3 => accelerate::<3>(wide, r, &mut io, idx, k, &ap),
-                6 => accelerate::<6>(wide, r, &mut io, idx, k, &ap),
-                _ => accelerate::<0>(wide, r, &mut io, idx, k, &ap),
-            };
+            let g = dinv * (uu - dot6_pairs::<A>(&c, &u));
+            let pp = &mut w.pa[parent];
+            for rr in 0..6 {
+                pp[rr] += pa[rr] + A::mul_add(u[rr], g, ic[rr]);
+            }
+            let (lo, hi) = w.ia.split_at_mut(i);
+            add_sub_outer::<A>(&mut lo[parent], &hi[0], &u, dinv);
         }
-        Ok(())
+        // Checked after the parent's update (which an error leaves unused: pass 1
+        // rewrites every Iᴬ, pᴬ): the branch no longer splits the sweep over Iᴬ's rows.
+        return !(dd.is_nan() || dd <= 0.0);
+    }
+    // Several degrees of freedom: the loops over them unrolled for three (the
+    // humanoid's hips, shoulders, spine and neck); any other count takes the same
+    // loops with their length read at run time (the same operations in the same
+    // order). One unrolled copy per count a body's step runs is code the instruction
+    // cache must hold for every body of a crowd: copies for 2 and 6 DOF too cost more
+    // in instruction-cache misses and wall time than they save in instructions
+    // (docs/performance.md#crowd), so only the humanoid's common count has one.
+    let at = [i, parent, dof, r.vo()];
+    match k {
+        3 => articulate::<3>(wide, &at, w, &d.s, tau, k, &c),
+        _ => articulate::<0>(wide, &at, w, &d.s, tau, k, &c),
+    }
+}
+
+/// Pass 3 of the reduced ABA over the records `range` (root to leaves: every parent done
+/// before), into the workspace that starts at `at` (`io`'s `q̈`, `acc`, `dinv`), from
+/// `chain`, the state after the record before `range.start`: `a' = a_parent + c`,
+/// `q̈ = D⁻¹ (u − Uᵀ a')`, `a = a' + S q̈`. A parent before `at.rec` (the root of a subtree
+/// run on its own) has acceleration `root`; none, `a0`. Returns the state after the last
+/// record.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn accelerate_run<A: Arith>(
+    run: &Run,
+    range: std::ops::Range<usize>,
+    at: Base,
+    chain: Chain,
+    a0: [f64; 6],
+    root: [f64; 6],
+    io: &mut Accel,
+    acc: &mut [[f64; 6]],
+    dinv: &[f64],
+) -> Chain {
+    let (wide, accel, d) = (run.wide, run.accel, run.d);
+    let Chain {
+        pidx: mut pidx1,
+        ap: mut pap,
+        s: mut ps,
+        x: mut px,
+    } = chain;
+    let first = range.start;
+    for (off, r) in run.rec[range].iter().enumerate() {
+        let i = first + off - at.rec;
+        let (vo, k, dof) = (r.vo() - at.vo, r.k(), r.dof() - at.dof);
+        let parent_acc = |acc: &[[f64; 6]]| match r.pidx() {
+            NO_PARENT => a0,
+            p if p < at.rec => root,
+            p => acc[p - at.rec],
+        };
+        let c = if accel {
+            d.c[r.j()].to_array()
+        } else {
+            [0.0; 6]
+        };
+        if k == 1 {
+            let s = io.s[r.vo()].to_array();
+            let ud = &io.u[dof];
+            let (ap, x) = if r.pidx() == pidx1 {
+                // The parent is the previous record: a' = (a'_p + S_p q̈_p) + c, and
+                // q̈ = D⁻¹ (u − Uᵀ(a'_p + c) − (Uᵀ S_p) q̈_p), whose chain from the
+                // parent's q̈ is one multiply–add and a product (the parent's a' is
+                // known before its q̈).
+                let mut base = pap;
+                let mut ap: [f64; 6] = std::array::from_fn(|rr| A::mul_add(ps[rr], px, pap[rr]));
+                if accel {
+                    for rr in 0..6 {
+                        base[rr] += c[rr];
+                        ap[rr] += c[rr];
+                    }
+                }
+                let sig = dot6_pairs::<A>(ud, &ps);
+                let x = dinv[i] * A::neg_mul_add(sig, px, io.uu[dof] - dot6_pairs::<A>(&base, ud));
+                (ap, x)
+            } else {
+                let mut ap = parent_acc(acc);
+                if accel {
+                    for rr in 0..6 {
+                        ap[rr] += c[rr];
+                    }
+                }
+                (ap, dinv[i] * (io.uu[dof] - dot6_pairs::<A>(&ap, ud)))
+            };
+            io.qdd[vo] = x;
+            acc[i] = std::array::from_fn(|rr| A::mul_add(s[rr], x, ap[rr]));
+            (pidx1, pap, ps, px) = (first + off, ap, s, x);
+            continue;
+        }
+        pidx1 = usize::MAX;
+        let mut ap = parent_acc(acc);
+        if accel {
+            for rr in 0..6 {
+                ap[rr] += c[rr];
+            }
+        }
+        let at = [i, dof, r.vo(), vo];
+        acc[i] = match k {
+            3 => accelerate::<3>(wide, &at, io, k, &ap),
+            6 => accelerate::<6>(wide, &at, io, k, &ap),
+            _ => accelerate::<0>(wide, &at, io, k, &ap),
+        };
+    }
+    Chain {
+        pidx: pidx1,
+        ap: pap,
+        s: ps,
+        x: px,
     }
 }
 
@@ -815,11 +1143,365 @@ fn clusters_run(
     run(wide, rec, ia, pa, d, node_sums, accel)
 }
 
+/// The reduced tree's independent subtrees that passes 2 and 3 of a large hybrid step run on
+/// the threads ([`Adaptive::set_threads`]), found with the records (once per re-selection).
+///
+/// The records are the active bodies in body order, a depth-first pre-order (parents first),
+/// so a record's subtree is the run of records from it. The subtrees taken are the largest of
+/// at most half the records and at least [`SUBTREE_MIN_RECORDS`]; the records outside them
+/// (the "top": on a chain, every record above the last half) run serially. Pass 2 runs each
+/// subtree below its root on a task, then the top records and the subtrees' roots serially in
+/// the serial order (descending record index), so every parent's `Iᴬ`, `pᴬ` receives its
+/// children's terms in the serial order; pass 3 runs the top serially, then each subtree on a
+/// task from its root's parent's acceleration. Every record's arithmetic is the serial loop's:
+/// the same bits for any thread count.
+///
+/// A chain has no independent subtrees (ABA's passes are one recursion along it): its passes
+/// 2 and 3 stay serial.
+#[derive(Clone, Debug, Default)]
+#[cfg_attr(not(feature = "parallel"), allow(dead_code))]
+pub(crate) struct Subtrees {
+    /// Ascending and disjoint.
+    pub(crate) tasks: Vec<Subtree>,
+    /// Per record, the records in its subtree (while finding them).
+    size: Vec<u32>,
+}
+
+/// One subtree of [`Subtrees`]: the records `start..end` (`start` its root, whose parent is a
+/// top record or none), where its workspace starts, and what pass 3 starts it from (written
+/// by the serial part of each step).
+#[derive(Clone, Copy, Debug, Default)]
+#[cfg_attr(not(feature = "parallel"), allow(dead_code))]
+pub(crate) struct Subtree {
+    start: usize,
+    end: usize,
+    at: Base,
+    /// Pass 3's [`Chain`] after the record before `start`.
+    entry: Chain,
+    /// The acceleration of the root's parent (−a_g for none).
+    root: [f64; 6],
+    /// The angles (`Hierarchy::ang`) before `start` and before `end`.
+    ang: usize,
+    ang_end: usize,
+    /// No record of the subtree takes the general kinematics path
+    /// (`articula_dca::internals::body_kinematics`, which writes the subspace columns in
+    /// place): its kinematics may run on a task.
+    kin: bool,
+    /// The pose and velocity of the root's parent body (written by the serial part of the
+    /// kinematics of each step).
+    kin_root: (SpatialTransform, SpatialMotion),
+}
+
+#[cfg(feature = "parallel")]
+impl Subtrees {
+    /// The subtrees of the reduced tree `rec` (none below [`PARALLEL_HYBRID_MIN_JOINTS`]
+    /// records, or when the records are not a pre-order with coordinates in record order).
+    /// `nb`: the model's bodies (the scratch is reserved for every body at once: a later
+    /// re-selection allocates nothing).
+    fn find(&mut self, model: &Model, rec: &[ActiveJoint]) {
+        let nb = model.bodies.len();
+        self.tasks.clear();
+        let n = rec.len();
+        if n < PARALLEL_HYBRID_MIN_JOINTS {
+            return;
+        }
+        let size = &mut self.size;
+        size.clear();
+        size.reserve(nb);
+        size.resize(n, 1);
+        for idx in (1..n).rev() {
+            match rec[idx].pidx() {
+                NO_PARENT => {}
+                p if p < idx => size[p] += size[idx],
+                _ => return,
+            }
+        }
+        // Pre-order: each record's run nests in its parent's (then a record's subtree fills
+        // its run exactly). Coordinates and slots ascend with the records.
+        for idx in 1..n {
+            let (r, prev) = (&rec[idx], &rec[idx - 1]);
+            let nests = match r.pidx() {
+                NO_PARENT => true,
+                p => idx + size[idx] as usize <= p + size[p] as usize,
+            };
+            if !nests || r.vo() < prev.vo() + prev.k() || r.dof() != prev.dof() + prev.k() {
+                return;
+            }
+        }
+        let most = n / 2;
+        let mut idx = 0;
+        while idx < n {
+            let m = size[idx] as usize;
+            if m > most {
+                idx += 1;
+                continue;
+            }
+            if m >= SUBTREE_MIN_RECORDS {
+                let r = &rec[idx];
+                self.tasks.push(Subtree {
+                    start: idx,
+                    end: idx + m,
+                    at: Base {
+                        rec: idx,
+                        dof: r.dof(),
+                        vo: r.vo(),
+                        body: r.j(),
+                    },
+                    ..Subtree::default()
+                });
+            }
+            idx += m;
+        }
+        // One subtree alone (a chain's lower half) would only move work to another thread.
+        if self.tasks.len() < 2 {
+            self.tasks.clear();
+            return;
+        }
+        // The angles before each subtree and in it (one per closed-form joint, one per part),
+        // and whether its kinematics may run on a task.
+        let mut ang = 0;
+        let mut next = 0;
+        for (idx, r) in rec.iter().enumerate() {
+            let Some(t) = self.tasks.get_mut(next) else {
+                break;
+            };
+            if idx == t.start {
+                (t.ang, t.kin) = (ang, true);
+            }
+            let joint = &model.bodies[r.j()].joint;
+            ang += match (r.axis(), r.parts()) {
+                (Some(_), _) => 1,
+                (None, Some(_)) => joint.len(),
+                (None, None) => {
+                    if idx >= t.start {
+                        t.kin &= matches!(joint.as_slice(), [part] if part.kind == articula_model::JointKind::Floating);
+                    }
+                    0
+                }
+            };
+            if idx + 1 == t.end {
+                t.ang_end = ang;
+                next += 1;
+            }
+        }
+    }
+}
+
+/// The smallest subtree of the reduced tree ([`Subtrees`]) the kinematics and passes 2 and 3
+/// run as a task of its own (a smaller one stays in the serial part): the runs of the split
+/// sweeps' size, some 0.2 ms of a hybrid step's work on one core of the test machine (about
+/// 200 ns a joint, docs/scaling.md), against a few microseconds to hand a task to a thread.
+#[cfg(feature = "parallel")]
+const SUBTREE_MIN_RECORDS: usize = 1024;
+
+/// Passes 2 and 3 of [`Adaptive::reduced_aba`] over the subtrees `tasks` on `threads`
+/// ([`Subtrees`]): each subtree below its root on a task, then the top and the roots serially
+/// (pass 2); the top serially, then each subtree on a task (pass 3). The error is the serial
+/// passes' (the record found singular first in descending order), as its record's index.
+#[cfg(feature = "parallel")]
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn split_passes<A: Arith>(
+    run: &Run,
+    threads: &Threads,
+    tasks: &mut [Subtree],
+    mut w: Art,
+    dinv: &mut [f64],
+    acc: &mut [[f64; 6]],
+    qdd: &mut [f64],
+    a0: [f64; 6],
+) -> Result<(), usize> {
+    let (rec, n) = (run.rec, run.rec.len());
+    let first = tasks[0].at;
+    let bad = {
+        let (_, from) = w.reborrow().split(Base::ZERO, first);
+        let (tasks, dinv) = (&*tasks, &mut dinv[first.rec..]);
+        threads.install(|| articulate_tasks(run, tasks, from, dinv))
+    };
+    // The top records and the subtrees' roots in descending order (a subtree's records after
+    // their root, its parent's other children in their places).
+    // (A loop, not a closure: a closure is a function of its own, compiled without the
+    // caller's AVX2 + FMA, where `Fused`'s multiply–adds are calls.)
+    let mut end = n;
+    let mut t = tasks.len();
+    loop {
+        // The top records after subtree `t` (or after the last one), then `t`'s root.
+        let (from, root) = match t.checked_sub(1) {
+            Some(k) => (tasks[k].end, Some(tasks[k].start)),
+            None => (0, None),
+        };
+        for idx in (from..end).rev().chain(root) {
+            match bad {
+                Some(b) if idx < b => return Err(b),
+                _ if articulate_record::<A>(run, &rec[idx], idx, Base::ZERO, &mut w, dinv) => {}
+                _ => return Err(idx),
+            }
+        }
+        let Some(root) = root else {
+            break;
+        };
+        (end, t) = (root, t - 1);
+    }
+    if let Some(b) = bad {
+        return Err(b);
+    }
+    // Pass 3: the top, then the subtrees from their roots' parents.
+    let (dinv, s) = (&*dinv, run.d.s.as_slice());
+    let mut io = Accel {
+        chol: &*w.chol,
+        u: &*w.u,
+        uu: &*w.uu,
+        s,
+        qdd,
+    };
+    let mut start = 0;
+    for t in tasks.iter_mut() {
+        let range = start..t.start;
+        t.entry = accelerate_run::<A>(
+            run,
+            range,
+            Base::ZERO,
+            Chain::NONE,
+            a0,
+            a0,
+            &mut io,
+            acc,
+            dinv,
+        );
+        start = t.end;
+    }
+    accelerate_run::<A>(
+        run,
+        start..n,
+        Base::ZERO,
+        Chain::NONE,
+        a0,
+        a0,
+        &mut io,
+        acc,
+        dinv,
+    );
+    for t in tasks.iter_mut() {
+        t.root = match rec[t.start].pidx() {
+            NO_PARENT => a0,
+            p => acc[p],
+        };
+    }
+    let tasks = &*tasks;
+    let (r, k, v) = (first.rec, first.dof, first.vo);
+    let from = Accel {
+        chol: &io.chol[r..],
+        u: &io.u[k..],
+        uu: &io.uu[k..],
+        s,
+        qdd: &mut io.qdd[v..],
+    };
+    let (acc, dinv) = (&mut acc[r..], &dinv[r..]);
+    threads.install(|| accelerate_tasks(run, tasks, from, acc, dinv, a0));
+    Ok(())
+}
+
+/// Pass 2 of the subtrees `tasks` below their roots, halves of the list on two tasks, into
+/// the workspace `w` from the first's start: the greatest record found singular, if any.
+#[cfg(feature = "parallel")]
+fn articulate_tasks(run: &Run, tasks: &[Subtree], w: Art, dinv: &mut [f64]) -> Option<usize> {
+    match tasks {
+        [] => None,
+        [t] => articulate_subtree(run.wide, run, t, w, dinv),
+        _ => {
+            let mid = tasks.len() / 2;
+            let (from, at) = (tasks[0].at, tasks[mid].at);
+            let (lo, hi) = w.split(from, at);
+            let (d0, d1) = dinv.split_at_mut(at.rec - from.rec);
+            let (a, b) = rayon::join(
+                || articulate_tasks(run, &tasks[..mid], lo, d0),
+                || articulate_tasks(run, &tasks[mid..], hi, d1),
+            );
+            a.max(b)
+        }
+    }
+}
+
+#[cfg(feature = "parallel")]
+articula_spatial::fma_dispatch! {
+    /// Pass 2 of one subtree below its root (the root's own record is the serial part's),
+    /// compiled for AVX2 + FMA with fused multiply–adds when `wide` (the serial pass's
+    /// arithmetic): the first record found singular, if any.
+    fn articulate_subtree(wide: bool, run: &Run<'_>, t: &Subtree, w: Art<'_>, dinv: &mut [f64]) -> Option<usize>;
+    avx2_fma: wide, Fused;
+    |A| {
+        let mut w = w;
+        (t.start + 1..t.end)
+            .rev()
+            .find(|&idx| !articulate_record::<A>(run, &run.rec[idx], idx, t.at, &mut w, dinv))
+    }
+}
+
+/// Pass 3 of the subtrees `tasks`, halves of the list on two tasks, into the workspace (`io`'s
+/// `q̈`, `acc`, `dinv`) from the first's start.
+#[cfg(feature = "parallel")]
+fn accelerate_tasks(
+    run: &Run,
+    tasks: &[Subtree],
+    io: Accel,
+    acc: &mut [[f64; 6]],
+    dinv: &[f64],
+    a0: [f64; 6],
+) {
+    match tasks {
+        [] => {}
+        [t] => accelerate_subtree(run.wide, run, t, io, acc, dinv, a0),
+        _ => {
+            let mid = tasks.len() / 2;
+            let (from, at) = (tasks[0].at, tasks[mid].at);
+            let (r, k, v) = (at.rec - from.rec, at.dof - from.dof, at.vo - from.vo);
+            let (q0, q1) = io.qdd.split_at_mut(v);
+            let (io0, io1) = (
+                Accel {
+                    chol: io.chol,
+                    u: io.u,
+                    uu: io.uu,
+                    s: io.s,
+                    qdd: q0,
+                },
+                Accel {
+                    chol: &io.chol[r..],
+                    u: &io.u[k..],
+                    uu: &io.uu[k..],
+                    s: io.s,
+                    qdd: q1,
+                },
+            );
+            let (acc0, acc1) = acc.split_at_mut(r);
+            let (d0, d1) = dinv.split_at(r);
+            rayon::join(
+                || accelerate_tasks(run, &tasks[..mid], io0, acc0, d0, a0),
+                || accelerate_tasks(run, &tasks[mid..], io1, acc1, d1, a0),
+            );
+        }
+    }
+}
+
+#[cfg(feature = "parallel")]
+articula_spatial::fma_dispatch! {
+    /// Pass 3 of one subtree from its entry state and its root's parent's acceleration,
+    /// compiled for AVX2 + FMA with fused multiply–adds when `wide` (the serial pass's
+    /// arithmetic).
+    fn accelerate_subtree(wide: bool, run: &Run<'_>, t: &Subtree, io: Accel<'_>, acc: &mut [[f64; 6]], dinv: &[f64], a0: [f64; 6]);
+    avx2_fma: wide, Fused;
+    |A| {
+        let mut io = io;
+        accelerate_run::<A>(run, t.start..t.end, t.at, t.entry, a0, t.root, &mut io, acc, dinv);
+    }
+}
+
 /// The smallest reduced tree (active joints) whose hybrid step ([`Adaptive::set_threads`])
 /// splits its per-joint sweeps — the angles' sines and cosines and pass 1 of the
-/// articulated-body algorithm (each cluster's inertia and bias force) — across threads: below
-/// it waking the pool costs more than the share of the step those sweeps save, and the serial
-/// loops run whatever the thread count. Measured on two cores (docs/scaling.md).
+/// articulated-body algorithm (each cluster's inertia and bias force) — across threads, and,
+/// on a branched reduced tree, its recursions too (the active kinematics and passes 2 and 3
+/// over independent subtrees of the reduced tree): below it waking the pool costs more than the
+/// share of the step those sweeps save, and the serial loops run whatever the thread count.
+/// Measured on two cores (docs/scaling.md).
 pub const PARALLEL_HYBRID_MIN_JOINTS: usize = 10_000;
 
 /// Records (and angles) per task of a split sweep: a multiple of four (the lanes of
@@ -892,7 +1574,8 @@ impl Parts {
     }
 }
 
-/// What pass 2 writes: `Iᴬ`, `pᴬ` (the parents'), `U`, `u` and the Cholesky factors.
+/// What pass 2 writes: `Iᴬ`, `pᴬ` (the parents'), `U`, `u` and the Cholesky factors — a
+/// workspace that starts at a [`Base`].
 struct Art<'a> {
     ia: &'a mut [Mat6],
     pa: &'a mut [[f64; 6]],
@@ -901,37 +1584,76 @@ struct Art<'a> {
     chol: &'a mut [[[f64; 6]; 6]],
 }
 
+#[cfg(feature = "parallel")]
+impl<'a> Art<'a> {
+    /// The same workspace, borrowed.
+    fn reborrow(&mut self) -> Art<'_> {
+        Art {
+            ia: self.ia,
+            pa: self.pa,
+            u: self.u,
+            uu: self.uu,
+            chol: self.chol,
+        }
+    }
+
+    /// The workspace (which starts at `from`) before `at` and from `at` on.
+    fn split(self, from: Base, at: Base) -> (Art<'a>, Art<'a>) {
+        let (r, k) = (at.rec - from.rec, at.dof - from.dof);
+        let (ia, ia1) = self.ia.split_at_mut(r);
+        let (pa, pa1) = self.pa.split_at_mut(r);
+        let (chol, chol1) = self.chol.split_at_mut(r);
+        let (u, u1) = self.u.split_at_mut(k);
+        let (uu, uu1) = self.uu.split_at_mut(k);
+        (
+            Art {
+                ia,
+                pa,
+                u,
+                uu,
+                chol,
+            },
+            Art {
+                ia: ia1,
+                pa: pa1,
+                u: u1,
+                uu: uu1,
+                chol: chol1,
+            },
+        )
+    }
+}
+
 articula_spatial::fma_dispatch! {
     /// [`articulate_through_factor`] out of line (the one-degree-of-freedom path of the passes keeps
     /// its registers), compiled for AVX2 + FMA when `wide` (the same arithmetic: no fused
     /// multiply–adds, the same results to the bit).
     #[inline(never)]
-    fn articulate<const K: usize>(wide: bool, r: &ActiveJoint, w: &mut Art, s: &[SpatialMotion], tau: &[f64], idx: usize, k: usize, c: &[f64; 6]) -> bool;
+    fn articulate<const K: usize>(wide: bool, at: &[usize; 4], w: &mut Art, s: &[SpatialMotion], tau: &[f64], k: usize, c: &[f64; 6]) -> bool;
     avx2_fma: wide, Portable;
-    |A| articulate_through_factor::<K>(r, w, s, tau, idx, k, c)
+    |A| articulate_through_factor::<K>(at, w, s, tau, k, c)
 }
 
-/// Pass 2 of the reduced ABA at record `idx` for a joint of several degrees of freedom:
-/// `U = Iᴬ S`, `D = Sᵀ U = L Lᵀ`, `u = τ − Sᵀ pᴬ`, and the parent's `Iᵃ`, `pᵃ`. `K`: the
-/// degrees of freedom when known at compile time (loops unrolled; the same sums), 0: `k`.
-/// False when `D` is not positive definite.
+/// Pass 2 of the reduced ABA for a joint of several degrees of freedom, at
+/// `[record, parent record, first slot in U/u]` of the workspace `h` (the parent
+/// [`NO_PARENT`] for none) and its first velocity coordinate: `U = Iᴬ S`, `D = Sᵀ U = L Lᵀ`,
+/// `u = τ − Sᵀ pᴬ`, and the parent's `Iᵃ`, `pᵃ`. `K`: the degrees of freedom when known at
+/// compile time (loops unrolled; the same sums), 0: `k`. False when `D` is not positive
+/// definite.
 ///
 /// Not `articula_dca::internals::articulate_multi`'s computation: that one inverts `D` and
 /// forms `U D⁻¹ Uᵀ`; this one keeps the factor `L` (pass 3 solves with it) and works through
 /// `Y = U L⁻ᵀ`, `z = L⁻¹ u`: `Iᵃ = Iᴬ − Y Yᵀ`, `pᵃ = pᴬ + Iᵃ c + Y z`.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn articulate_through_factor<const K: usize>(
-    r: &ActiveJoint,
+    &[idx, parent, dof, vo]: &[usize; 4],
     h: &mut Art,
     s: &[SpatialMotion],
     tau: &[f64],
-    idx: usize,
     k: usize,
     c: &[f64; 6],
 ) -> bool {
     let k = if K == 0 { k } else { K };
-    let (vo, dof, parent) = (r.vo(), r.dof(), r.pidx());
     let pa = h.pa[idx];
     let (lo, hi) = h.ia.split_at_mut(idx);
     let ia = &hi[0];
@@ -1006,7 +1728,8 @@ fn articulate_through_factor<const K: usize>(
 }
 
 /// What pass 3 of a several-degree-of-freedom joint reads and writes: the records' Cholesky
-/// factors, `U`, `u`, the subspace columns and `q̈`.
+/// factors, `U`, `u` and `q̈` — a workspace that starts at a [`Base`] — and the subspace
+/// columns (whole, read by velocity coordinate).
 struct Accel<'a> {
     chol: &'a [[[f64; 6]; 6]],
     u: &'a [[f64; 6]],
@@ -1019,26 +1742,25 @@ articula_spatial::fma_dispatch! {
     /// [`accelerate_through_factor`] out of line, compiled for AVX2 + FMA when `wide` (the same
     /// arithmetic).
     #[inline(never)]
-    fn accelerate<const K: usize>(wide: bool, r: &ActiveJoint, w: &mut Accel, idx: usize, k: usize, ap: &[f64; 6]) -> [f64; 6];
+    fn accelerate<const K: usize>(wide: bool, at: &[usize; 4], w: &mut Accel, k: usize, ap: &[f64; 6]) -> [f64; 6];
     avx2_fma: wide, Portable;
-    |A| accelerate_through_factor::<K>(r, w, idx, k, ap)
+    |A| accelerate_through_factor::<K>(at, w, k, ap)
 }
 
-/// Pass 3 of the reduced ABA at record `r` for a joint of several degrees of freedom, from
+/// Pass 3 of the reduced ABA for a joint of several degrees of freedom, at `[record, first
+/// slot in U/u, first velocity coordinate, its slot in q̈]` of the workspace `w`, from
 /// `a' = a_parent + c`: `q̈ = L⁻ᵀ L⁻¹ (u − Uᵀ a')`, returns `a = a' + S q̈`. `K` as in
 /// [`articulate`].
 #[inline(always)]
 fn accelerate_through_factor<const K: usize>(
-    r: &ActiveJoint,
+    &[idx, dof, vo, vq]: &[usize; 4],
     w: &mut Accel,
-    idx: usize,
     k: usize,
     ap: &[f64; 6],
 ) -> [f64; 6] {
     let (l, u, uu, s) = (&w.chol[idx], w.u, w.uu, w.s);
     let (qdd, ap) = (&mut *w.qdd, *ap);
     let k = if K == 0 { k } else { K };
-    let (vo, dof) = (r.vo(), r.dof());
     // q̈ = L⁻ᵀ L⁻¹ r.
     let mut x = [0.0; 6];
     for p in 0..k {
@@ -1057,7 +1779,7 @@ fn accelerate_through_factor<const K: usize>(
     }
     let mut a = ap;
     for p in 0..k {
-        qdd[vo + p] = x[p];
+        qdd[vq + p] = x[p];
         let s = s[vo + p].to_array();
         for rr in 0..6 {
             a[rr] += s[rr] * x[p];
@@ -1069,7 +1791,7 @@ fn accelerate_through_factor<const K: usize>(
 articula_spatial::fma_dispatch! {
     /// [`revolute_kinematics`], compiled for AVX2 + FMA when `wide` (the same arithmetic).
     #[inline(never)]
-    fn revolute(wide: bool, body: &articula_model::Body, parts: &RevoluteParts, x0: &SpatialTransform, v0: &SpatialMotion, sc: &[(f64, f64)], qd: &[f64], s: &mut [SpatialMotion], out: KinOut);
+    fn revolute(wide: bool, body: &articula_model::Body, parts: &RevoluteParts, x0: &SpatialTransform, v0: &SpatialMotion, sc: &[(f64, f64)], qd: &[f64], s: Columns, out: KinOut);
     avx2_fma: wide, Portable;
     |A| revolute_kinematics_with(body, parts, x0, v0, sc, qd, s, out)
 }
@@ -1086,7 +1808,7 @@ fn revolute_kinematics_with(
     v0: &SpatialMotion,
     sc: &[(f64, f64)],
     qd: &[f64],
-    s: &mut [SpatialMotion],
+    (s, s0): Columns,
     out: KinOut,
 ) {
     let (mut x, mut v) = (*x0, *v0);
@@ -1114,7 +1836,7 @@ fn revolute_kinematics_with(
         // S = X [±e_i; 0] = [w; p × w], `w = ±` column i of E.
         let w = axis * sign;
         let sk = SpatialMotion::new(w, p.cross(w));
-        s[part.v_offset] = sk;
+        s[part.v_offset - s0] = sk;
         let vj = sk * qd[part.v_offset];
         c += v.cross_motion(vj);
         v += vj;
@@ -1127,7 +1849,7 @@ fn revolute_kinematics_with(
 articula_spatial::fma_dispatch! {
     /// [`floating_kinematics`], compiled for AVX2 + FMA when `wide` (the same arithmetic).
     #[inline(never)]
-    fn floating(wide: bool, part: &articula_model::JointPart, x0: &SpatialTransform, v0: &SpatialMotion, q: &[f64], qd: &[f64], s: &mut [SpatialMotion], out: KinOut);
+    fn floating(wide: bool, part: &articula_model::JointPart, x0: &SpatialTransform, v0: &SpatialMotion, q: &[f64], qd: &[f64], s: Columns, out: KinOut);
     avx2_fma: wide, Portable;
     |A| floating_kinematics_with(part, x0, v0, q, qd, s, out)
 }
@@ -1145,7 +1867,7 @@ fn floating_kinematics_with(
     v0: &SpatialMotion,
     q: &[f64],
     qd: &[f64],
-    s: &mut [SpatialMotion],
+    (s, s0): Columns,
     out: KinOut,
 ) {
     let mut x = *x0;
@@ -1163,7 +1885,7 @@ fn floating_kinematics_with(
         e.x_axis * -r.y + e.y_axis * r.x,
     ];
     let vo = part.v_offset;
-    let (qd, s) = (&qd[vo..vo + 6], &mut s[vo..vo + 6]);
+    let (qd, s) = (&qd[vo..vo + 6], &mut s[vo - s0..vo - s0 + 6]);
     for k in 0..3 {
         s[k] = SpatialMotion::new(w[k], lin[k]);
         s[3 + k] = SpatialMotion::new(DVec3::ZERO, w[k]);
@@ -1178,6 +1900,9 @@ fn floating_kinematics_with(
     *out.1 = *v0 + vj;
     *out.2 = c;
 }
+
+/// Where a joint's subspace columns go: the columns from velocity coordinate `s0` on.
+type Columns<'a> = (&'a mut [SpatialMotion], usize);
 
 /// Where a joint's kinematics go: the body's pose, velocity and velocity product.
 type KinOut<'a> = (
@@ -1239,5 +1964,68 @@ fn singular(model: &Model, j: usize) -> DynamicsError {
     DynamicsError::Singular {
         joint: model.bodies[j].joint_name(),
         detail: "Sᵀ Iᴬ S of the hybrid body is not positive definite",
+    }
+}
+
+#[cfg(all(test, feature = "parallel"))]
+mod tests {
+    use crate::{Adaptive, Settings};
+    use articula_dca::State;
+    use articula_model::{LoadOptions, Model};
+
+    /// The subtrees found with every joint of `model` active: `(first record, records)`.
+    fn subtrees(model: &Model) -> Vec<(usize, usize)> {
+        let settings = Settings {
+            budget: Some(model.nv),
+            reselect_every: 4,
+            ..Settings::default()
+        };
+        let mut ad = Adaptive::new(model, settings);
+        let mut s = State::random(model, 3, 0.5);
+        for _ in 0..2 {
+            ad.step(model, &mut s, 1e-3).unwrap();
+        }
+        assert!(ad.hier.valid);
+        assert_eq!(ad.hier.dofs, model.nv);
+        ad.hier
+            .split
+            .tasks
+            .iter()
+            .map(|t| (t.start, t.end - t.start))
+            .collect()
+    }
+
+    fn branches(lengths: &[usize]) -> Model {
+        let urdf = articula_testkit::branches_urdf(lengths);
+        Model::from_urdf_str(&urdf, &LoadOptions::default()).unwrap()
+    }
+
+    #[test]
+    fn subtrees_are_the_branches_or_the_lower_part_of_a_long_one() {
+        // The head's record first, then each branch's run of records.
+        let split = subtrees(&branches(&[3_000; 4]));
+        assert_eq!(
+            split,
+            [(1, 3_000), (3_001, 3_000), (6_001, 3_000), (9_001, 3_000)]
+        );
+        // 11 801 records, at most 5 900 a subtree: the long branch's last 5 900 records.
+        let split = subtrees(&branches(&[8_000, 1_500, 1_200, 1_100]));
+        assert_eq!(
+            split,
+            [
+                (2_101, 5_900),
+                (8_001, 1_500),
+                (9_501, 1_200),
+                (10_701, 1_100)
+            ]
+        );
+        // Short branches stay in the serial part.
+        let split = subtrees(&branches(&[10_000, 1_000, 1_000]));
+        assert_eq!(split, []);
+    }
+
+    #[test]
+    fn a_chain_has_no_subtrees() {
+        assert_eq!(subtrees(&articula_testkit::chain(12_000)), []);
     }
 }

@@ -1,6 +1,7 @@
 //! A hybrid step of a large active region across threads (`Adaptive::set_threads`): the same
 //! bits as the serial step for any thread count, and the exact dynamics when every joint is
-//! active.
+//! active — on chains (the per-record sweeps split) and on branched trees (passes 2 and 3 over
+//! independent subtrees too).
 
 use articula_adaptive::{Adaptive, Settings, Threads, PARALLEL_HYBRID_MIN_JOINTS};
 use articula_dca::{forward_dynamics_slices, Data, Method, State};
@@ -20,6 +21,17 @@ fn start(model: &Model) -> State {
 /// `threads` (`None`: the workspace's default), returning the states after each step and the
 /// active joints of the last hybrid body.
 fn run(model: &Model, budget: usize, threads: Option<usize>, steps: usize) -> (Vec<State>, usize) {
+    let (states, ad) = run_with(model, budget, threads, steps);
+    (states, ad.active_dofs(model))
+}
+
+/// [`run`], returning the workspace.
+fn run_with(
+    model: &Model,
+    budget: usize,
+    threads: Option<usize>,
+    steps: usize,
+) -> (Vec<State>, Adaptive) {
     let settings = Settings {
         budget: Some(budget),
         reselect_every: 4,
@@ -35,7 +47,14 @@ fn run(model: &Model, budget: usize, threads: Option<usize>, steps: usize) -> (V
         ad.step(model, &mut s, 1e-3).unwrap();
         out.push(s.clone());
     }
-    (out, ad.active_dofs(model))
+    (out, ad)
+}
+
+/// The active joints (records of the reduced tree) of `ad`'s hybrid body.
+fn active_joints(model: &Model, ad: &Adaptive) -> usize {
+    (0..model.bodies.len())
+        .filter(|&b| ad.is_active(model, b))
+        .count()
 }
 
 #[test]
@@ -88,6 +107,88 @@ fn split_hybrid_step_with_every_joint_active_is_exact_dynamics() {
     ad.set_threads(Threads::new(2).unwrap());
     let mut s = start(&model);
     // The re-selection, then a hybrid step from `before`.
+    ad.step(&model, &mut s, 1e-3).unwrap();
+    let before = s.clone();
+    ad.step(&model, &mut s, 1e-3).unwrap();
+    assert_eq!(ad.active_dofs(&model), model.nv);
+    let mut data = Data::new(&model);
+    let exact = forward_dynamics_slices(
+        &model,
+        &mut data,
+        &before.q,
+        &before.qd,
+        &before.tau,
+        &before.f_ext,
+        Method::Aba,
+    )
+    .unwrap()
+    .to_vec();
+    let scale = exact.iter().fold(1.0f64, |m, x| m.max(x.abs()));
+    let err = ad
+        .qdd()
+        .iter()
+        .zip(&exact)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(err <= 1e-8 * scale, "max |Δq̈| {err:e} (scale {scale:e})");
+}
+
+/// A branched tree (`articula_testkit::branches_urdf`).
+fn branches(lengths: &[usize], floating_base: bool) -> Model {
+    let options = LoadOptions::default().with_floating_base(floating_base);
+    Model::from_urdf_str(&articula_testkit::branches_urdf(lengths), &options).unwrap()
+}
+
+/// Equal branches and a lopsided tree (one long branch — a chain whose upper part has no
+/// independent subtrees — and short ones, on a floating base), with ball joints (records of
+/// three degrees of freedom) among the revolute ones: hybrid steps on 1, 2 and 3 threads give
+/// the serial bits.
+#[test]
+fn hybrid_step_on_a_branched_tree_is_bitwise_serial_for_any_thread_count() {
+    let models = [
+        ("four branches", branches(&[3_000; 4], false)),
+        ("lopsided", branches(&[8_000, 1_500, 1_200, 1_100], true)),
+    ];
+    for (name, model) in &models {
+        // Most of the tree active: well above the split.
+        let budget = model.nv * 19 / 20;
+        let (reference, ad) = run_with(model, budget, None, 6);
+        let active = active_joints(model, &ad);
+        assert!(
+            active >= PARALLEL_HYBRID_MIN_JOINTS,
+            "{name}: {active} active joints, below the split"
+        );
+        assert_ne!(reference[5].q, start(model).q);
+        for threads in [1, 2, 3] {
+            let (states, _) = run(model, budget, Some(threads), 6);
+            for (k, (a, b)) in states.iter().zip(&reference).enumerate() {
+                assert_eq!(
+                    bits(&a.q),
+                    bits(&b.q),
+                    "{name} step {k} on {threads} threads"
+                );
+                assert_eq!(
+                    bits(&a.qd),
+                    bits(&b.qd),
+                    "{name} step {k} on {threads} threads"
+                );
+            }
+        }
+    }
+}
+
+/// Every joint of a branched tree active, its passes split over subtrees: the exact dynamics
+/// (the articulated-body algorithm over the whole tree, an independent computation).
+#[test]
+fn split_tree_step_with_every_joint_active_is_exact_dynamics() {
+    let model = branches(&[4_000, 3_000, 2_000, 1_500], false);
+    let settings = Settings {
+        budget: Some(model.nv),
+        reselect_every: 4,
+        ..Settings::default()
+    };
+    let mut ad = Adaptive::new(&model, settings);
+    ad.set_threads(Threads::new(2).unwrap());
+    let mut s = start(&model);
     ad.step(&model, &mut s, 1e-3).unwrap();
     let before = s.clone();
     ad.step(&model, &mut s, 1e-3).unwrap();

@@ -118,6 +118,52 @@ pub fn hair_urdf(strands: usize, segments: usize) -> String {
     s + "</robot>\n"
 }
 
+/// A branched tree: a welded base, a head on a ball joint (three revolute parts about z, x, y
+/// through massless links: one body of three degrees of freedom), and one chain of rod links
+/// (0.1 kg, 0.1 m) per entry of `branches`, of that many links, hanging from points around the
+/// head. A branch's links turn about y and x in turn; its first link and every fifth after it
+/// hang on a ball joint instead. `branches_urdf(&[n; k])` is `k` equal branches;
+/// `branches_urdf(&[big, small, small])` a lopsided tree.
+pub fn branches_urdf(branches: &[usize]) -> String {
+    let mut s = String::from("<robot name=\"branches\">\n");
+    s += &hub_link("base");
+    s += &hub_link("head");
+    s += &ball("neck", "base", "head", [0.0, 0.0, 0.2]);
+    for (i, &links) in branches.iter().enumerate() {
+        let a = std::f64::consts::TAU * i as f64 / branches.len() as f64;
+        let mut parent = "head".to_string();
+        for k in 0..links {
+            let name = format!("b{i}_{k}");
+            let at = if k == 0 {
+                [0.1 * a.cos(), 0.1 * a.sin(), -0.05]
+            } else {
+                [0.0, 0.0, -0.1]
+            };
+            s += &rod_link(&name, 0.1, 0.1);
+            let joint = format!("j{i}_{k}");
+            if k % 5 == 0 {
+                s += &ball(&joint, &parent, &name, at);
+            } else {
+                let axis = if k % 2 == 0 { "0 1 0" } else { "1 0 0" };
+                s += &revolute(&joint, &parent, &name, at, axis);
+            }
+            parent = name;
+        }
+    }
+    s + "</robot>\n"
+}
+
+/// A ball joint `name` from `parent` to `child` at `at`: revolute parts about z, x and y
+/// through two massless links.
+fn ball(name: &str, parent: &str, child: &str, at: [f64; 3]) -> String {
+    let (l1, l2) = (format!("{name}_l1"), format!("{name}_l2"));
+    let mut s = format!("<link name=\"{l1}\"/>\n<link name=\"{l2}\"/>\n");
+    s += &revolute(&format!("{name}_z"), parent, &l1, at, "0 0 1");
+    s += &revolute(&format!("{name}_x"), &l1, &l2, [0.0; 3], "1 0 0");
+    s += &revolute(&format!("{name}_y"), &l2, child, [0.0; 3], "0 1 0");
+    s
+}
+
 /// A 2 kg link with a 0.02 kg m² isotropic rotational inertia.
 fn hub_link(name: &str) -> String {
     format!("<link name=\"{name}\"><inertial><mass value=\"2\"/><inertia ixx=\"0.02\" iyy=\"0.02\" izz=\"0.02\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>\n")

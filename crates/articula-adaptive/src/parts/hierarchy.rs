@@ -79,6 +79,9 @@ pub(crate) struct Hierarchy {
     pub axis: Vec<Option<(usize, f64)>>,
     /// Per body: its record while building them (valid for the active bodies).
     pub ridx: Vec<usize>,
+    /// The reduced tree's independent subtrees (built with the records when they are many;
+    /// `hierarchy.rs`).
+    pub split: crate::hierarchy::Subtrees,
 }
 
 impl Hierarchy {
