@@ -587,15 +587,17 @@ impl Adaptive {
         self.switches.reselection
     }
 
-    /// The threads a hybrid step splits its per-joint sweeps over when the active region has
-    /// at least [`PARALLEL_HYBRID_MIN_JOINTS`] joints: the active angles' sines and cosines,
-    /// and each cluster's spatial inertia and bias force (pass 1 of the articulated-body
-    /// algorithm). Default [`Threads::default`], one per core (the process's shared pool:
-    /// a crowd's workspace per character holds a handle, not threads of its own, and a
-    /// character below the threshold never uses it). Every joint's
-    /// arithmetic is the serial one and nothing is summed across joints in a split sweep:
-    /// **the result is the same bits for any thread count**. Below the threshold (or without
-    /// the `parallel` feature) the serial loops run.
+    /// The threads a hybrid step splits its work over when the active region has at least
+    /// [`PARALLEL_HYBRID_MIN_JOINTS`] joints: the active angles' sines and cosines and each
+    /// cluster's spatial inertia and bias force (pass 1 of the articulated-body algorithm) in
+    /// runs of joints; the pose sweep and the two recursions (articulated inertias,
+    /// accelerations) over the independent subtrees of a branched reduced tree (a chain has
+    /// none: docs/scaling.md). Default [`Threads::default`], one per core (the process's
+    /// shared pool: a crowd's workspace per character holds a handle, not threads of its
+    /// own, and a character below the threshold never uses it). Every joint's arithmetic is
+    /// the serial one and every sum over joints keeps the serial order: **the result is the
+    /// same bits for any thread count**. Below the threshold (or without the `parallel`
+    /// feature) the serial loops run.
     pub fn set_threads(&mut self, threads: Threads) {
         self.threads = threads;
     }
