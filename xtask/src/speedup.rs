@@ -178,8 +178,7 @@ fn seeds(rounds: usize, budgets: &[usize]) -> Result<()> {
 }
 
 fn crowd(scene: &articula_view::LoadedScene, rounds: usize, steps: u64) -> Result<()> {
-    let scene = scene;
-    let mut sim = SceneSim::new(&scene).map_err(|e| e.to_string())?;
+    let mut sim = SceneSim::new(scene).map_err(|e| e.to_string())?;
     for _ in 0..20 {
         sim.step()?;
     }
@@ -199,7 +198,7 @@ fn crowd(scene: &articula_view::LoadedScene, rounds: usize, steps: u64) -> Resul
     let (mut best_a, mut best_e) = (f64::MAX, f64::MAX);
     let mut ratios = Vec::new();
     for round in 0..rounds {
-        let mut sim = SceneSim::new(&scene).map_err(|e| e.to_string())?;
+        let mut sim = SceneSim::new(scene).map_err(|e| e.to_string())?;
         // One thread, as the exact steps below.
         sim.set_threads(Threads::serial());
         let t = Instant::now();
