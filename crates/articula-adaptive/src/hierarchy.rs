@@ -14,6 +14,9 @@ use crate::parts::hierarchy::{
     coordinate_axis, revolute_parts, ActiveJoint, Hierarchy, Parent, RevoluteParts, AX_PARTS,
     NO_PARENT,
 };
+use crate::parts::subtrees::{Base, Chain, PARALLEL_HYBRID_MIN_JOINTS};
+#[cfg(feature = "parallel")]
+use crate::parts::subtrees::{Subtree, Subtrees};
 #[cfg(feature = "parallel")]
 use articula_dca::Threads;
 use articula_dca::{Data, DynamicsError};
@@ -697,7 +700,7 @@ fn kinematics_run(
 }
 
 /// The kinematics of the active joints over the subtrees `tasks` on `threads`
-/// ([`Subtrees`]): the top records (and the subtrees with a joint of the general path)
+/// ([`Subtrees`](crate::parts::subtrees::Subtrees)): the top records (and the subtrees with a joint of the general path)
 /// serially, then each other subtree on a task from its root's parent's pose and velocity.
 /// Each body's arithmetic is the serial loop's.
 #[cfg(feature = "parallel")]
@@ -813,53 +816,6 @@ struct Run<'a> {
     rec: &'a [ActiveJoint],
     d: &'a Data,
     tau: &'a [f64],
-}
-
-/// Where a run of records' workspace starts: its first record and that record's first slot
-/// in `U`/`u`, first velocity coordinate and body. A slice of the workspace from `at` is
-/// indexed by `record − at.rec`, `dof − at.dof`, `vo − at.vo`, `body − at.body` (zero: the
-/// whole workspace).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub(crate) struct Base {
-    rec: usize,
-    dof: usize,
-    vo: usize,
-    body: usize,
-}
-
-impl Base {
-    const ZERO: Base = Base {
-        rec: 0,
-        dof: 0,
-        vo: 0,
-        body: 0,
-    };
-}
-
-/// Pass 3's state after a one-degree-of-freedom record (`pidx`: its index; `usize::MAX`
-/// after any other record, which no `pidx` equals: [`NO_PARENT`] is `u32::MAX`): its `a'`,
-/// `S` and `q̈`, kept in locals for a child that follows it (on a chain, every record).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Chain {
-    pidx: usize,
-    ap: [f64; 6],
-    s: [f64; 6],
-    x: f64,
-}
-
-impl Chain {
-    const NONE: Chain = Chain {
-        pidx: usize::MAX,
-        ap: [0.0; 6],
-        s: [0.0; 6],
-        x: 0.0,
-    };
-}
-
-impl Default for Chain {
-    fn default() -> Chain {
-        Chain::NONE
-    }
 }
 
 /// Pass 2 of the reduced ABA at record `idx` (leaves to root: every child of `idx` done
@@ -1143,62 +1099,13 @@ fn clusters_run(
     run(wide, rec, ia, pa, d, node_sums, accel)
 }
 
-/// The reduced tree's independent subtrees that passes 2 and 3 of a large hybrid step run on
-/// the threads ([`Adaptive::set_threads`]), found with the records (once per re-selection).
-///
-/// The records are the active bodies in body order, a depth-first pre-order (parents first),
-/// so a record's subtree is the run of records from it. The subtrees taken are the largest of
-/// at most half the records and at least [`SUBTREE_MIN_RECORDS`]; the records outside them
-/// (the "top": on a chain, every record above the last half) run serially. Pass 2 runs each
-/// subtree below its root on a task, then the top records and the subtrees' roots serially in
-/// the serial order (descending record index), so every parent's `Iᴬ`, `pᴬ` receives its
-/// children's terms in the serial order; pass 3 runs the top serially, then each subtree on a
-/// task from its root's parent's acceleration. Every record's arithmetic is the serial loop's:
-/// the same bits for any thread count.
-///
-/// A chain has no independent subtrees (ABA's passes are one recursion along it): its passes
-/// 2 and 3 stay serial.
-#[derive(Clone, Debug, Default)]
-#[cfg_attr(not(feature = "parallel"), allow(dead_code))]
-pub(crate) struct Subtrees {
-    /// Ascending and disjoint.
-    pub(crate) tasks: Vec<Subtree>,
-    /// Per record, the records in its subtree (while finding them).
-    size: Vec<u32>,
-}
-
-/// One subtree of [`Subtrees`]: the records `start..end` (`start` its root, whose parent is a
-/// top record or none), where its workspace starts, and what pass 3 starts it from (written
-/// by the serial part of each step).
-#[derive(Clone, Copy, Debug, Default)]
-#[cfg_attr(not(feature = "parallel"), allow(dead_code))]
-pub(crate) struct Subtree {
-    start: usize,
-    end: usize,
-    at: Base,
-    /// Pass 3's [`Chain`] after the record before `start`.
-    entry: Chain,
-    /// The acceleration of the root's parent (−a_g for none).
-    root: [f64; 6],
-    /// The angles (`Hierarchy::ang`) before `start` and before `end`.
-    ang: usize,
-    ang_end: usize,
-    /// No record of the subtree takes the general kinematics path
-    /// (`articula_dca::internals::body_kinematics`, which writes the subspace columns in
-    /// place): its kinematics may run on a task.
-    kin: bool,
-    /// The pose and velocity of the root's parent body (written by the serial part of the
-    /// kinematics of each step).
-    kin_root: (SpatialTransform, SpatialMotion),
-}
-
 #[cfg(feature = "parallel")]
 impl Subtrees {
     /// The subtrees of the reduced tree `rec` (none below [`PARALLEL_HYBRID_MIN_JOINTS`]
     /// records, or when the records are not a pre-order with coordinates in record order).
     /// `nb`: the model's bodies (the scratch is reserved for every body at once: a later
     /// re-selection allocates nothing).
-    fn find(&mut self, model: &Model, rec: &[ActiveJoint]) {
+    pub(crate) fn find(&mut self, model: &Model, rec: &[ActiveJoint]) {
         let nb = model.bodies.len();
         self.tasks.clear();
         let n = rec.len();
@@ -1295,7 +1202,7 @@ impl Subtrees {
 const SUBTREE_MIN_RECORDS: usize = 1024;
 
 /// Passes 2 and 3 of [`Adaptive::reduced_aba`] over the subtrees `tasks` on `threads`
-/// ([`Subtrees`]): each subtree below its root on a task, then the top and the roots serially
+/// ([`Subtrees`](crate::parts::subtrees::Subtrees)): each subtree below its root on a task, then the top and the roots serially
 /// (pass 2); the top serially, then each subtree on a task (pass 3). The error is the serial
 /// passes' (the record found singular first in descending order), as its record's index.
 #[cfg(feature = "parallel")]
@@ -1494,15 +1401,6 @@ articula_spatial::fma_dispatch! {
         accelerate_run::<A>(run, t.start..t.end, t.at, t.entry, a0, t.root, &mut io, acc, dinv);
     }
 }
-
-/// The smallest reduced tree (active joints) whose hybrid step ([`Adaptive::set_threads`])
-/// splits its per-joint sweeps — the angles' sines and cosines and pass 1 of the
-/// articulated-body algorithm (each cluster's inertia and bias force) — across threads, and,
-/// on a branched reduced tree, its recursions too (the active kinematics and passes 2 and 3
-/// over independent subtrees of the reduced tree): below it waking the pool costs more than the
-/// share of the step those sweeps save, and the serial loops run whatever the thread count.
-/// Measured on two cores (docs/scaling.md).
-pub const PARALLEL_HYBRID_MIN_JOINTS: usize = 10_000;
 
 /// Records (and angles) per task of a split sweep: a multiple of four (the lanes of
 /// [`sin_cos_angles4`]), large enough that a task outweighs its scheduling.

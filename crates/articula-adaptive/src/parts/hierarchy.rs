@@ -81,7 +81,7 @@ pub(crate) struct Hierarchy {
     pub ridx: Vec<usize>,
     /// The reduced tree's independent subtrees (built with the records when they are many;
     /// `hierarchy.rs`).
-    pub split: crate::hierarchy::Subtrees,
+    pub split: crate::parts::subtrees::Subtrees,
 }
 
 impl Hierarchy {

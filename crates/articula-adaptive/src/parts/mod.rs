@@ -16,4 +16,5 @@ pub(crate) mod metric_coefficients;
 pub(crate) mod pass_scratch;
 pub(crate) mod rk_buffers;
 pub(crate) mod selection_queue;
+pub(crate) mod subtrees;
 pub(crate) mod switches;
