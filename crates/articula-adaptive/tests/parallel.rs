@@ -57,6 +57,31 @@ fn active_joints(model: &Model, ad: &Adaptive) -> usize {
         .count()
 }
 
+/// The states of six steps on 1, 2 and 3 threads equal `reference` (the serial run's) to the
+/// bit.
+fn assert_same_bits_on_any_thread_count(
+    name: &str,
+    model: &Model,
+    budget: usize,
+    reference: &[State],
+) {
+    for threads in [1, 2, 3] {
+        let (states, _) = run(model, budget, Some(threads), 6);
+        for (k, (a, b)) in states.iter().zip(reference).enumerate() {
+            assert_eq!(
+                bits(&a.q),
+                bits(&b.q),
+                "{name} step {k} on {threads} threads"
+            );
+            assert_eq!(
+                bits(&a.qd),
+                bits(&b.qd),
+                "{name} step {k} on {threads} threads"
+            );
+        }
+    }
+}
+
 #[test]
 fn hybrid_step_is_bitwise_serial_for_any_thread_count() {
     let tree = articula_testkit::random_tree_urdf(10_500, 3);
@@ -77,43 +102,29 @@ fn hybrid_step_is_bitwise_serial_for_any_thread_count() {
         );
         // The steps move every active joint (a test of a frozen state could not fail).
         assert_ne!(reference[5].q, start(model).q);
-        for threads in [1, 2, 3] {
-            let (states, _) = run(model, budget, Some(threads), 6);
-            for (k, (a, b)) in states.iter().zip(&reference).enumerate() {
-                assert_eq!(
-                    bits(&a.q),
-                    bits(&b.q),
-                    "{name} step {k} on {threads} threads"
-                );
-                assert_eq!(
-                    bits(&a.qd),
-                    bits(&b.qd),
-                    "{name} step {k} on {threads} threads"
-                );
-            }
-        }
+        assert_same_bits_on_any_thread_count(name, model, budget, &reference);
     }
 }
 
-#[test]
-fn split_hybrid_step_with_every_joint_active_is_exact_dynamics() {
-    let model = articula_testkit::chain(10_500);
+/// With every joint active, a hybrid step on two threads (after the re-selection) gives the
+/// accelerations of exact ABA at the state it starts from, to 1e-8 of their scale.
+fn assert_split_step_is_exact(model: &Model) {
     let settings = Settings {
         budget: Some(model.nv),
         reselect_every: 4,
         ..Settings::default()
     };
-    let mut ad = Adaptive::new(&model, settings);
+    let mut ad = Adaptive::new(model, settings);
     ad.set_threads(Threads::new(2).unwrap());
-    let mut s = start(&model);
+    let mut s = start(model);
     // The re-selection, then a hybrid step from `before`.
-    ad.step(&model, &mut s, 1e-3).unwrap();
+    ad.step(model, &mut s, 1e-3).unwrap();
     let before = s.clone();
-    ad.step(&model, &mut s, 1e-3).unwrap();
-    assert_eq!(ad.active_dofs(&model), model.nv);
-    let mut data = Data::new(&model);
+    ad.step(model, &mut s, 1e-3).unwrap();
+    assert_eq!(ad.active_dofs(model), model.nv);
+    let mut data = Data::new(model);
     let exact = forward_dynamics_slices(
-        &model,
+        model,
         &mut data,
         &before.q,
         &before.qd,
@@ -130,6 +141,11 @@ fn split_hybrid_step_with_every_joint_active_is_exact_dynamics() {
         .zip(&exact)
         .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
     assert!(err <= 1e-8 * scale, "max |Δq̈| {err:e} (scale {scale:e})");
+}
+
+#[test]
+fn split_hybrid_step_with_every_joint_active_is_exact_dynamics() {
+    assert_split_step_is_exact(&articula_testkit::chain(10_500));
 }
 
 /// A branched tree (`articula_testkit::branches_urdf`).
@@ -158,21 +174,7 @@ fn hybrid_step_on_a_branched_tree_is_bitwise_serial_for_any_thread_count() {
             "{name}: {active} active joints, below the split"
         );
         assert_ne!(reference[5].q, start(model).q);
-        for threads in [1, 2, 3] {
-            let (states, _) = run(model, budget, Some(threads), 6);
-            for (k, (a, b)) in states.iter().zip(&reference).enumerate() {
-                assert_eq!(
-                    bits(&a.q),
-                    bits(&b.q),
-                    "{name} step {k} on {threads} threads"
-                );
-                assert_eq!(
-                    bits(&a.qd),
-                    bits(&b.qd),
-                    "{name} step {k} on {threads} threads"
-                );
-            }
-        }
+        assert_same_bits_on_any_thread_count(name, model, budget, &reference);
     }
 }
 
@@ -180,36 +182,5 @@ fn hybrid_step_on_a_branched_tree_is_bitwise_serial_for_any_thread_count() {
 /// (the articulated-body algorithm over the whole tree, an independent computation).
 #[test]
 fn split_tree_step_with_every_joint_active_is_exact_dynamics() {
-    let model = branches(&[4_000, 3_000, 2_000, 1_500], false);
-    let settings = Settings {
-        budget: Some(model.nv),
-        reselect_every: 4,
-        ..Settings::default()
-    };
-    let mut ad = Adaptive::new(&model, settings);
-    ad.set_threads(Threads::new(2).unwrap());
-    let mut s = start(&model);
-    ad.step(&model, &mut s, 1e-3).unwrap();
-    let before = s.clone();
-    ad.step(&model, &mut s, 1e-3).unwrap();
-    assert_eq!(ad.active_dofs(&model), model.nv);
-    let mut data = Data::new(&model);
-    let exact = forward_dynamics_slices(
-        &model,
-        &mut data,
-        &before.q,
-        &before.qd,
-        &before.tau,
-        &before.f_ext,
-        Method::Aba,
-    )
-    .unwrap()
-    .to_vec();
-    let scale = exact.iter().fold(1.0f64, |m, x| m.max(x.abs()));
-    let err = ad
-        .qdd()
-        .iter()
-        .zip(&exact)
-        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-    assert!(err <= 1e-8 * scale, "max |Δq̈| {err:e} (scale {scale:e})");
+    assert_split_step_is_exact(&branches(&[4_000, 3_000, 2_000, 1_500], false));
 }
