@@ -174,6 +174,7 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
     let mut active_max = 0usize;
     let mut frames = 0u64;
     let (mut contacts_sum, mut max_penetration) = (0usize, 0.0f64);
+    let (mut solves_sum, mut capped_sum) = (0usize, 0usize);
     let mut last = None;
     let mut done = 0u64;
     let mut stop: Option<String> = None;
@@ -194,6 +195,8 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
                 active_max = active_max.max(s.active_total);
                 contacts_sum += s.contacts;
                 max_penetration = max_penetration.max(s.max_penetration);
+                solves_sum += s.contact_solves;
+                capped_sum += s.contact_capped;
                 bar.set_message(format!("{} active joints", s.active_total));
                 bar.set_position(k + 1);
                 last = Some(s);
@@ -259,6 +262,7 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
     if scene.ground.is_some() {
         summary["max_penetration_m"] = max_penetration.into();
         summary["contacts_mean"] = (contacts_sum as f64 / done.max(1) as f64).into();
+        summary["contact_capped_fraction"] = (capped_sum as f64 / solves_sum.max(1) as f64).into();
     }
     print_out(&format!("{summary}\n"))?;
     match stop {

@@ -135,6 +135,43 @@ fn summary_and_frames() {
     }
 }
 
+/// `--ground`, `--gravity` and `--budget` on a zero-gravity scene: at budget 0 both humanoids
+/// are rigid (no active joint), stand on the floor put under their feet, and the summary has
+/// the contact figures.
+#[test]
+fn ground_gravity_and_budget_flags() {
+    let s = Scratch::new("floor");
+    let f = s.file(
+        "floor.json",
+        &two_bodies(&models_dir().display().to_string()),
+    );
+    let out = articula(&[
+        "scene",
+        &f,
+        "--steps",
+        "100",
+        "--ground",
+        "-0.021",
+        "--gravity",
+        "-9.81",
+        "--budget",
+        "0",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let v: serde_json::Value = serde_json::from_str(stdout.lines().last().unwrap()).unwrap();
+    assert_eq!(v["budget"], 0);
+    assert_eq!(v["active_joints_max"], 0);
+    assert!(v["contacts_mean"].as_f64().unwrap() >= 6.0, "{v}");
+    assert!(v["max_penetration_m"].as_f64().unwrap() < 1e-3, "{v}");
+    let capped = v["contact_capped_fraction"].as_f64().unwrap();
+    assert!((0.0..=1.0).contains(&capped), "{v}");
+}
+
 /// A crowd of a million humanoids is refused before any body is placed: the estimate and the
 /// limit are named. A small scene under a smaller `--memory-limit` is refused too.
 #[test]

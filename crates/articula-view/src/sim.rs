@@ -517,6 +517,13 @@ pub struct SceneStep {
     pub contacts: usize,
     /// With a floor: the deepest penetration at the start of the step over every body (m).
     pub max_penetration: f64,
+    /// With a floor: the bodies whose contact problem had rows this step.
+    pub contact_solves: usize,
+    /// With a floor: of those, the bodies whose solve ended at its iteration cap
+    /// (`LoadedScene::contact_settings`) instead of meeting its tolerance: their impulses are
+    /// feasible (never pulling, inside the friction discs) but leave some residual approach
+    /// or slip velocity.
+    pub contact_capped: usize,
 }
 
 /// A scene being simulated.
@@ -582,6 +589,9 @@ struct Worker {
     active: usize,
     contacts: usize,
     penetration: f64,
+    /// Contact solves (bodies with contact rows) and those that ended at the iteration cap.
+    solves: usize,
+    capped: usize,
     error: Option<(usize, ViewError)>,
 }
 
@@ -607,6 +617,8 @@ impl Worker {
             active: 0,
             contacts: 0,
             penetration: 0.0,
+            solves: 0,
+            capped: 0,
             error: None,
         }
     }
@@ -1027,11 +1039,14 @@ impl<'s> SceneSim<'s> {
             }
         });
         let (mut total, mut contacts, mut penetration) = (0, 0, 0.0f64);
+        let (mut solves, mut capped) = (0, 0);
         for w in &mut self.workers {
             let w = w.get_mut().unwrap_or_else(|p| p.into_inner());
             total += std::mem::take(&mut w.active);
             contacts += std::mem::take(&mut w.contacts);
             penetration = penetration.max(std::mem::take(&mut w.penetration));
+            solves += std::mem::take(&mut w.solves);
+            capped += std::mem::take(&mut w.capped);
         }
         if !reselect {
             self.add_push_work();
@@ -1044,6 +1059,8 @@ impl<'s> SceneSim<'s> {
         out.active_total = total;
         out.contacts = contacts;
         out.max_penetration = penetration;
+        out.contact_solves = solves;
+        out.contact_capped = capped;
         Ok(out)
     }
 
@@ -1273,8 +1290,11 @@ fn step_body(
     if let Some(hc) = &mut b.contact {
         // On the floor: the hybrid body's contact step (its own buffers).
         let r = ad.step_with_contact(model, state, scene.dt, forces, hc, contact_settings);
-        w.contacts += hc.contact.stats.contacts;
-        w.penetration = w.penetration.max(hc.contact.stats.max_penetration);
+        let stats = &hc.contact.stats;
+        w.contacts += stats.contacts;
+        w.penetration = w.penetration.max(stats.max_penetration);
+        w.solves += (stats.rows > 0) as usize;
+        w.capped += (stats.rows > 0 && !stats.converged) as usize;
         r
     } else if shared {
         let scratch = &mut w.scratch[b.model];
