@@ -757,7 +757,8 @@ fn simulate_with_a_ground_reports_contact() {
 
 /// `simulate --method adaptive --ground`: at budget 0 the floating humanoid is one rigid body
 /// (every internal joint locked); dropped 0.2 m, it falls 0.2 m (its lowest point from 0.2 m
-/// to the floor, to the 0.1 mm slop), comes to rest, and keeps every joint angle to the bit.
+/// to the floor, to 0.2 mm: twice the position slop), comes to rest, and keeps every joint
+/// angle to the bit.
 #[test]
 fn simulate_adaptive_with_a_ground_lands_a_rigid_body() {
     let humanoid = model_path("humanoid.urdf");

@@ -20,6 +20,7 @@
 use crate::kinematics::world_inertia;
 use crate::{ContactDynamics, Data, DynamicsError};
 use articula_model::Model;
+use articula_spatial::internals::{dot6, Portable};
 use articula_spatial::{SpatialForce, SpatialMotion};
 
 /// "No node": a body welded to the world, or the parent of a root node.
@@ -86,10 +87,6 @@ pub(crate) struct Tree {
     /// The nodes some row reads and their root paths, ascending (parents first).
     needed: Vec<usize>,
     column: usize,
-}
-
-fn dot(a: &V6, b: &V6) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 impl Tree {
@@ -170,12 +167,12 @@ impl Tree {
             let node = &mut rest[0];
             let k = node.k;
             for d in 0..k {
-                node.u[d] = std::array::from_fn(|r| dot(&node.ia[r], &node.s[d]));
+                node.u[d] = std::array::from_fn(|r| dot6::<Portable>(&node.ia[r], &node.s[d]));
             }
             let mut dm = [[0.0; 6]; 6];
             for a in 0..k {
                 for b in 0..k {
-                    dm[a][b] = dot(&node.s[a], &node.u[b]);
+                    dm[a][b] = dot6::<Portable>(&node.s[a], &node.u[b]);
                 }
             }
             if !spd_inverse(&mut dm, k, &mut node.dinv) {
@@ -264,7 +261,7 @@ impl Tree {
             let k = node.k;
             let mut u = [0.0; 6];
             for (d, ud) in u.iter_mut().enumerate().take(k) {
-                *ud = -dot(&node.s[d], &p);
+                *ud = -dot6::<Portable>(&node.s[d], &p);
             }
             if let (true, Load::Tau { dof, value }) = (first, load) {
                 u[dof] += value;
@@ -298,7 +295,7 @@ impl Tree {
             let mut a = ap;
             let mut qdd = [0.0; 6];
             for d in 0..node.k {
-                let x = if on { self.g[i][d] } else { 0.0 } - dot(&node.dut[d], &ap);
+                let x = if on { self.g[i][d] } else { 0.0 } - dot6::<Portable>(&node.dut[d], &ap);
                 qdd[d] = x;
                 for (r, ar) in a.iter_mut().enumerate() {
                     *ar += node.s[d][r] * x;
@@ -338,7 +335,7 @@ impl Tree {
             let p = self.p[i];
             let u: V6 = std::array::from_fn(|d| {
                 if d < k {
-                    tau[node.vo + d] - dot(&node.s[d], &p)
+                    tau[node.vo + d] - dot6::<Portable>(&node.s[d], &p)
                 } else {
                     0.0
                 }
@@ -373,7 +370,7 @@ impl Tree {
             };
             let mut a = ap;
             for d in 0..node.k {
-                let x = self.g[i][d] - dot(&node.dut[d], &ap);
+                let x = self.g[i][d] - dot6::<Portable>(&node.dut[d], &ap);
                 out[node.vo + d] = x;
                 for (r, ar) in a.iter_mut().enumerate() {
                     *ar += node.s[d][r] * x;
