@@ -11,21 +11,16 @@
 //!   budget's steps of about the same duration.
 //! - `crowd SCENE.json [ROUNDS] [STEPS] [BUDGET...]` (defaults 8 and 500; each budget replaces
 //!   the scene's in turn, and the weighted metric left unsimulated at the last re-selection is
-//!   printed beside the times): each round times `STEPS` scene
-//!   steps from a fresh scene (re-selections, pushes and all, as the criterion bench
-//!   `adaptive_step`), then `STEPS / 10` exact semi-implicit DCA steps of every body from the
-//!   states after 20 scene steps, one shared workspace per model (as `exact_dca_step`). A
-//!   scene with a `ground` steps the exact bodies with the floor too ([`step_with_contact`]
-//!   with the scene's [`articula_view::LoadedScene::contact_settings`], one contact workspace
-//!   per body), so both sides pay for contact.
+//!   printed beside the times): each round times `STEPS` scene steps from a fresh scene
+//!   (re-selections, pushes and all, as the criterion bench `adaptive_step`), then `STEPS`
+//!   steps of the same scene's exact reference ([`SceneMethod::Exact`] by DCA: the same
+//!   springs, pushes and floor, every joint moving, semi-implicit Euler), both on one thread.
 
 use crate::args::Args;
 use articula_adaptive::{Adaptive, Reselection, Settings};
-use articula_dca::{
-    step, step_with_contact, ContactData, Data, Integrator, Method, State, Threads,
-};
+use articula_dca::{step, Data, Integrator, Method, State, Threads};
 use articula_testkit::seeds::{force_list, seeded_state};
-use articula_view::SceneSim;
+use articula_view::{SceneMethod, SceneSim};
 use std::hint::black_box;
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -178,67 +173,23 @@ fn seeds(rounds: usize, budgets: &[usize]) -> Result<()> {
 }
 
 fn crowd(scene: &articula_view::LoadedScene, rounds: usize, steps: u64) -> Result<()> {
-    let mut sim = SceneSim::new(scene).map_err(|e| e.to_string())?;
-    for _ in 0..20 {
-        sim.step()?;
-    }
-    let start: Vec<State> = sim.bodies.iter().map(|b| b.state.clone()).collect();
-    let models: Vec<usize> = sim.bodies.iter().map(|b| b.model).collect();
-    let mut data: Vec<Data> = scene
-        .models
-        .iter()
-        .map(|m| {
-            let mut d = Data::new(&m.model);
-            d.gravity = scene.gravity;
-            d
-        })
-        .collect();
-    let exact_steps = (steps / 10).max(1);
-    let settings = scene.contact_settings();
-    let (mut best_a, mut best_e) = (f64::MAX, f64::MAX);
-    let mut ratios = Vec::new();
-    for round in 0..rounds {
+    // Each side from a fresh scene, on one thread, for `steps` steps.
+    let run = |method: SceneMethod| -> Result<(f64, f64)> {
         let mut sim = SceneSim::new(scene).map_err(|e| e.to_string())?;
-        // One thread, as the exact steps below.
         sim.set_threads(Threads::serial());
+        sim.set_method(method);
         let t = Instant::now();
         let mut error = 0.0;
         for _ in 0..steps {
             error = sim.step()?.total_error;
         }
-        let a = t.elapsed().as_secs_f64() * 1e3 / steps as f64;
-        let mut states = start.clone();
-        // With a floor: exact DCA with the scene's contact step on every body (each its own
-        // contact workspace and warm starts, sized by one untimed step).
-        let mut contacts: Vec<ContactData> = models
-            .iter()
-            .map(|&m| ContactData::new(&scene.models[m].model))
-            .collect();
-        let exact = |states: &mut [State], data: &mut [Data], contacts: &mut [ContactData]| {
-            for ((s, &m), c) in states.iter_mut().zip(&models).zip(contacts.iter_mut()) {
-                let model = &scene.models[m].model;
-                if settings.ground.is_some() {
-                    step_with_contact(model, &mut data[m], c, s, Method::Dca, scene.dt, &settings)
-                        .map_err(|e| e.to_string())?;
-                } else {
-                    step(
-                        model,
-                        &mut data[m],
-                        s,
-                        Method::Dca,
-                        Integrator::SemiImplicitEuler,
-                        scene.dt,
-                    )?;
-                }
-            }
-            Ok::<(), Box<dyn std::error::Error>>(())
-        };
-        exact(&mut start.clone(), &mut data, &mut contacts)?;
-        let t = Instant::now();
-        for _ in 0..exact_steps {
-            exact(&mut states, &mut data, &mut contacts)?;
-        }
-        let e = t.elapsed().as_secs_f64() * 1e3 / exact_steps as f64;
+        Ok((t.elapsed().as_secs_f64() * 1e3 / steps as f64, error))
+    };
+    let (mut best_a, mut best_e) = (f64::MAX, f64::MAX);
+    let mut ratios = Vec::new();
+    for round in 0..rounds {
+        let (a, error) = run(SceneMethod::Adaptive)?;
+        let (e, _) = run(SceneMethod::Exact(Method::Dca))?;
         best_a = best_a.min(a);
         best_e = best_e.min(e);
         ratios.push(e / a);

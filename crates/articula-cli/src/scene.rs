@@ -6,7 +6,7 @@ use crate::simulate::parse_count;
 use crate::watch::{parse_growth, EnergyWatch, GimbalWatch, DEFAULT_MAX_ENERGY_GROWTH};
 use crate::{print_out, CliError};
 use articula_view::render::{render_map, render_view, save_png};
-use articula_view::{load_scene_limited, SceneSim};
+use articula_view::{load_scene_limited, SceneMethod, SceneSim};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -58,6 +58,11 @@ pub struct SceneArgs {
     /// over every character (0: every character one rigid body).
     #[arg(long, value_name = "N")]
     pub budget: Option<usize>,
+    /// How every character is stepped: `adaptive` (the scene's joint budget spent where the
+    /// camera looks), or the exact reference by `dca`, `aba` or `crba` on every character
+    /// (every joint moving; no camera, no budget) for comparison (docs/view.md#exact-reference).
+    #[arg(long, value_enum, default_value_t = crate::MethodArg::Adaptive)]
+    pub method: crate::MethodArg,
 }
 
 fn parse_finite(s: &str) -> Result<f64, String> {
@@ -128,6 +133,10 @@ fn write_frame(
 
 /// Runs `articula scene`.
 pub fn run(args: &SceneArgs) -> Result<(), CliError> {
+    let exact = args.method.exact();
+    if exact.is_some() && args.budget.is_some() {
+        return Err(CliError("--budget needs --method adaptive".to_string()));
+    }
     let mut scene = load_scene_limited(&args.scene, args.inertia.into(), args.memory_limit)?;
     if let Some(height) = args.ground {
         scene.ground = Some(articula_view::GroundSpec {
@@ -153,6 +162,9 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
     }
     let mut sim = SceneSim::new(&scene)?;
     sim.set_threads(crate::threads(args.threads)?);
+    if let Some(m) = exact {
+        sim.set_method(SceneMethod::Exact(m));
+    }
     let steps = args.steps;
     let bar = ProgressBar::with_draw_target(Some(steps), ProgressDrawTarget::hidden());
     bar.set_style(
@@ -231,6 +243,7 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
         "steps": done,
         "steps_requested": steps,
         "dt": scene.dt,
+        "method": args.method.name(),
         "bodies": sim.bodies.len(),
         "threads": sim.threads().count(),
         "dof_total": sim.dof_total(),
@@ -259,6 +272,20 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
         "out": args.out.as_ref().map(|d| d.display().to_string()),
         "stop_reason": stop,
     });
+    if exact.is_some() {
+        // No camera, no selection: every joint moves, nothing is left unselected.
+        for key in [
+            "budget",
+            "tolerance",
+            "reselect_every",
+            "visible",
+            "occluded",
+            "invisible",
+            "links",
+        ] {
+            summary[key] = serde_json::Value::Null;
+        }
+    }
     if scene.ground.is_some() {
         summary["max_penetration_m"] = max_penetration.into();
         summary["contacts_mean"] = (contacts_sum as f64 / done.max(1) as f64).into();

@@ -261,3 +261,47 @@ fn a_diverging_scene_stops_with_its_summary() {
         "{s}"
     );
 }
+
+/// `--method dca` steps every character exactly (every joint moving, no camera figures), on the
+/// floor too; `--budget` with an exact method is refused.
+#[test]
+fn the_exact_reference_method() {
+    let s = Scratch::new("exact");
+    let f = s.file(
+        "exact.json",
+        &two_bodies(&models_dir().display().to_string()),
+    );
+    let out = articula(&[
+        "scene",
+        &f,
+        "--steps",
+        "60",
+        "--method",
+        "dca",
+        "--ground",
+        "-0.021",
+        "--gravity",
+        "-9.81",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let v: serde_json::Value = serde_json::from_str(stdout.lines().last().unwrap()).unwrap();
+    assert_eq!(v["method"], "dca");
+    // Two humanoids of 34 internal degrees of freedom each, all of them moving at every step.
+    assert_eq!(v["dof_total"], 68);
+    assert_eq!(v["active_joints_mean"], 68.0);
+    assert_eq!(v["active_joints_max"], 68);
+    assert!(v["budget"].is_null() && v["visible"].is_null(), "{v}");
+    assert!(v["contacts_mean"].as_f64().unwrap() >= 6.0, "{v}");
+    assert!(v["max_penetration_m"].as_f64().unwrap() < 1e-3, "{v}");
+    bad(
+        &articula(&[
+            "scene", &f, "--steps", "1", "--method", "aba", "--budget", "3",
+        ]),
+        &["--budget needs --method adaptive"],
+    );
+}

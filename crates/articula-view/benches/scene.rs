@@ -1,8 +1,8 @@
 //! Scene benchmarks (docs/design.md#view):
 //! - `crowd200/adaptive_step`: one step of the bundled crowd200 scene (200 humanoids, budget
 //!   2,000 internal joints, re-selection every 10 steps amortised), against
-//!   `crowd200/exact_dca_step`: one exact DCA step (semi-implicit Euler) of every body, on the
-//!   same states.
+//!   `crowd200/exact_dca_step`: one step of the same scene's exact reference
+//!   (`SceneMethod::Exact`: DCA on every body, the same springs, pushes and integrator).
 //! - `crowd2000/adaptive_step`: 2,000 humanoids (40 rows × 50 columns), budget 4,000.
 //!
 //! `cargo bench -p articula-view --bench scene` (add `-- --quick` for a short run).
@@ -10,8 +10,8 @@
 // `criterion_group!` makes a public function without documentation.
 #![allow(missing_docs)]
 
-use articula_dca::{step, Data, Integrator, Method, Threads};
-use articula_view::{load_scene, parse_scene, SceneSim};
+use articula_dca::{Method, Threads};
+use articula_view::{load_scene, parse_scene, SceneMethod, SceneSim};
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -20,16 +20,17 @@ fn models() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../models")
 }
 
-/// Time of `iters` scene steps, re-selections included, on runs restarted every 500 steps (the
+/// Time of `iters` scene steps by `method` (adaptive: re-selections included), on runs restarted every 500 steps (the
 /// bundled crowd is stable for about 2 s of simulated time: see docs/view.md). Restarting is
 /// not timed.
-fn timed_steps(scene: &articula_view::LoadedScene, iters: u64) -> Duration {
+fn timed_steps(scene: &articula_view::LoadedScene, method: SceneMethod, iters: u64) -> Duration {
     let mut total = Duration::ZERO;
     let mut done = 0;
     while done < iters {
         let mut sim = SceneSim::new(scene).unwrap();
-        // One thread, as the exact steps.
+        // One thread, for both methods.
         sim.set_threads(Threads::serial());
+        sim.set_method(method);
         let n = (iters - done).min(500);
         let t = Instant::now();
         for _ in 0..n {
@@ -46,44 +47,10 @@ fn crowd200(c: &mut Criterion) {
     let mut g = c.benchmark_group("crowd200");
     g.sample_size(10).measurement_time(Duration::from_secs(8));
     g.bench_function("adaptive_step", |b| {
-        b.iter_custom(|iters| timed_steps(&scene, iters))
+        b.iter_custom(|iters| timed_steps(&scene, SceneMethod::Adaptive, iters))
     });
-    let mut sim = SceneSim::new(&scene).unwrap();
-    for _ in 0..20 {
-        sim.step().unwrap();
-    }
-    let model = &scene.models[0].model;
-    let mut data = Data::new(model);
-    data.gravity = scene.gravity;
-    // The scene's states after 20 steps, each body's tau (pose springs) and pushes held; runs
-    // restarted from them every 200 steps (restarting is not timed).
-    let start: Vec<_> = sim.bodies.iter().map(|b| b.state.clone()).collect();
     g.bench_function("exact_dca_step", |b| {
-        b.iter_custom(|iters| {
-            let mut total = Duration::ZERO;
-            let mut done = 0;
-            while done < iters {
-                let mut states = start.clone();
-                let n = (iters - done).min(200);
-                let t = Instant::now();
-                for _ in 0..n {
-                    for s in &mut states {
-                        step(
-                            model,
-                            &mut data,
-                            s,
-                            Method::Dca,
-                            Integrator::SemiImplicitEuler,
-                            scene.dt,
-                        )
-                        .unwrap();
-                    }
-                }
-                total += t.elapsed();
-                done += n;
-            }
-            total
-        })
+        b.iter_custom(|iters| timed_steps(&scene, SceneMethod::Exact(Method::Dca), iters))
     });
     g.finish();
 }
@@ -108,7 +75,7 @@ fn crowd2000(c: &mut Criterion) {
     let mut g = c.benchmark_group("crowd2000");
     g.sample_size(10).measurement_time(Duration::from_secs(10));
     g.bench_function("adaptive_step", |b| {
-        b.iter_custom(|iters| timed_steps(&scene, iters))
+        b.iter_custom(|iters| timed_steps(&scene, SceneMethod::Adaptive, iters))
     });
     g.finish();
 }

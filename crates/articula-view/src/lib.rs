@@ -41,6 +41,6 @@ pub use scene_file::{
 pub use scene_file::{
     load_scene, load_scene_limited, load_scene_with, parse_scene, parse_scene_with,
 };
-pub use sim::{SceneEnergy, SceneSim, SceneStep, SimBody};
+pub use sim::{SceneEnergy, SceneMethod, SceneSim, SceneStep, SimBody};
 pub use visibility::{BodyView, Visibility, VisibilitySettings};
 pub use volumes::{BodyVolumes, Volume};

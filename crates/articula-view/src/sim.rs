@@ -27,6 +27,7 @@
 //! Nodes of metric 0 are never selected: invisible bodies (all weights 0) keep no joint even
 //! with budget to spare.
 
+mod exact;
 mod springs;
 
 use crate::error::ViewError;
@@ -38,6 +39,7 @@ use articula_adaptive::{Adaptive, AdaptiveError, HybridContact, Scratch, Setting
 use articula_dca::{ContactSettings, DynamicsError, State, Threads};
 use articula_model::{JointKind, Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SymMat6};
+pub use exact::SceneMethod;
 use glam::{DMat3, DQuat, DVec3};
 use springs::pose_springs;
 use std::collections::BinaryHeap;
@@ -569,6 +571,11 @@ pub struct SceneSim<'s> {
     push_work: f64,
     /// Per push: its body and its slot in that body's `pushes`.
     push_slots: Vec<(usize, usize)>,
+    /// Adaptive (default) or exact dynamics on every body ([`SceneSim::set_method`]).
+    method: SceneMethod,
+    /// Whether the next adaptive step re-selects every body's hybrid body whatever the period
+    /// (after exact steps moved the states under them).
+    reselect_next: bool,
 }
 
 /// Bodies per chunk handed to a thread: about this many chunks per thread, so that threads
@@ -583,6 +590,9 @@ const CHUNKS_PER_THREAD: usize = 32;
 /// over its bodies with its first error.
 struct Worker {
     scratch: Vec<Scratch>,
+    /// Per model: the exact steps' workspace ([`SceneMethod::Exact`]), with the scene's gravity
+    /// and without the momentum projection (plain semi-implicit Euler, as the adaptive step).
+    exact: Vec<articula_dca::Data>,
     fdense: Vec<SpatialForce>,
     wanted: Vec<bool>,
     heap: BinaryHeap<Entry>,
@@ -602,6 +612,16 @@ impl Worker {
                 .models
                 .iter()
                 .map(|m| Scratch::new(&m.model))
+                .collect(),
+            exact: scene
+                .models
+                .iter()
+                .map(|m| {
+                    let mut data = articula_dca::Data::new(&m.model);
+                    data.gravity = scene.gravity;
+                    data.momentum_projection = false;
+                    data
+                })
                 .collect(),
             fdense: Vec::new(),
             wanted: Vec::new(),
@@ -807,6 +827,8 @@ impl<'s> SceneSim<'s> {
                 .collect(),
             push_work: 0.0,
             push_slots,
+            method: SceneMethod::Adaptive,
+            reselect_next: false,
         };
         sim.set_threads(Threads::default());
         Ok(sim)
@@ -910,8 +932,12 @@ impl<'s> SceneSim<'s> {
     pub fn step(&mut self) -> Result<SceneStep, ViewError> {
         let scene = self.scene;
         self.check_bodies()?;
+        if let SceneMethod::Exact(method) = self.method {
+            return self.step_exact(method);
+        }
         let t = self.time();
-        let reselect = self.steps.is_multiple_of(scene.reselect_every as u64);
+        let forced = std::mem::take(&mut self.reselect_next);
+        let reselect = forced || self.steps.is_multiple_of(scene.reselect_every as u64);
         let (threads, shared) = (self.threads.clone(), self.shared);
         let chunk = self.chunk();
         // Each body first, in the step's first pass over the bodies: the pushes acting now
@@ -1004,7 +1030,7 @@ impl<'s> SceneSim<'s> {
                 scene.budget,
                 scene.tolerance,
             );
-            let (sel, first_step) = (&self.selection, self.steps == 0);
+            let (sel, first_step) = (&self.selection, self.steps == 0 || forced);
             threads.for_each_chunk(&mut self.bodies, &self.workers, chunk, |w, first, run| {
                 for (j, b) in run.iter_mut().enumerate() {
                     let i = first + j;
@@ -1186,8 +1212,10 @@ impl<'s> SceneSim<'s> {
             if b.state.q.len() == model.nq {
                 self.plans[b.model].poses(model, &b.state.q, &mut b.poses);
             }
+            // Exact steps move every joint.
+            let exact = matches!(self.method, SceneMethod::Exact(_));
             let active: Vec<bool> = (0..model.bodies.len())
-                .map(|i| b.adaptive.is_active(model, i))
+                .map(|i| exact || b.adaptive.is_active(model, i))
                 .collect();
             rigid_groups(&self.parents[b.model], &active, g);
         }

@@ -534,3 +534,65 @@ fn a_bad_ground_names_its_field() {
         assert!(e.to_string().contains(field), "{e}");
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// The exact reference.
+
+/// Two pushed humanoids in view on their pose springs, `ground` a scene-file `ground` entry
+/// (with its leading comma) or nothing: the adaptive scene with a budget of every joint and
+/// the exact DCA reference, stepped side by side for `steps` steps; returns the largest
+/// difference of any `q` or `q̇` coordinate over the run.
+fn full_budget_against_exact(gz: f64, ground: &str, steps: usize) -> f64 {
+    use super::SceneMethod;
+    let s = scene(&format!(
+        r#"{{"models": {{"h": "humanoid.urdf"}},
+            "bodies": [{{"name": "a", "model": "h", "position": [5, -0.5, 1.021], "rpy": [0, 0, 3.14]}},
+                       {{"name": "b", "model": "h", "position": [6, 0.6, 1.021], "rpy": [0.1, 0, 3.0]}}],
+            "camera": {{"eye": [0, 0, 1.5], "target": [10, 0, 1]}},
+            "budget": 68, "dt": 0.0016666666666666668, "reselect_every": 5,
+            "gravity": [0, 0, {gz}],
+            "joint_springs": {{"frequency_hz": 2.0, "damping_ratio": 0.2}},
+            "pushes": [{{"bodies": "all", "link": "chest", "point": [0.05, 0.1, 0.2],
+                        "force": [-80, 40, 10], "t0": 0.0, "t1": 0.05}}]{ground}}}"#
+    ));
+    let mut adaptive = SceneSim::new(&s).unwrap();
+    let mut exact = SceneSim::new(&s).unwrap();
+    exact.set_method(SceneMethod::Exact(articula_dca::Method::Dca));
+    let mut worst = 0.0f64;
+    for _ in 0..steps {
+        let a = adaptive.step().unwrap();
+        let e = exact.step().unwrap();
+        // Every joint of both bodies moves in both.
+        assert_eq!((a.active_total, e.active_total), (68, 68));
+        for (x, y) in adaptive.bodies.iter().zip(&exact.bodies) {
+            for (u, v) in x
+                .state
+                .q
+                .iter()
+                .chain(&x.state.qd)
+                .zip(y.state.q.iter().chain(&y.state.qd))
+            {
+                worst = worst.max((u - v).abs());
+            }
+        }
+    }
+    worst
+}
+
+#[test]
+fn the_exact_reference_is_the_full_budget_adaptive_scene() {
+    // With every joint in the budget the hybrid body is the whole body, so the adaptive scene
+    // (reduced-tree ABA) and the exact reference (DCA) are two exact algorithms on the same
+    // springs, pushes and integrator: equal to rounding.
+    let free = full_budget_against_exact(0.0, "", 300);
+    let gravity = full_budget_against_exact(-9.81, "", 120);
+    eprintln!("full budget against exact DCA: zero gravity {free:.2e}, gravity {gravity:.2e}");
+    assert!(free < 1e-9, "zero gravity: {free:e}");
+    assert!(gravity < 1e-9, "gravity: {gravity:e}");
+    // On the floor both run the same contact step on the same articulated tree (every joint
+    // a node), so the solves take the same sweeps and agree to rounding too.
+    let floor =
+        full_budget_against_exact(-9.81, r#", "ground": {"height": 0, "friction": 1}"#, 300);
+    eprintln!("on the floor: {floor:.2e}");
+    assert!(floor < 1e-8, "floor: {floor:e}");
+}
