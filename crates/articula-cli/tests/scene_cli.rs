@@ -36,6 +36,17 @@ impl Drop for Scratch {
     }
 }
 
+/// The JSON summary (the last line of stdout) of a run that must have succeeded.
+fn succeeded(out: &Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    serde_json::from_str(stdout.lines().last().expect("a summary")).unwrap()
+}
+
 fn bad(out: &Output, needles: &[&str]) {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{needles:?}: stderr: {stderr}");
@@ -106,14 +117,7 @@ fn summary_and_frames() {
         "--frame-every",
         "2",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let last = stdout.lines().last().unwrap();
-    let v: serde_json::Value = serde_json::from_str(last).unwrap();
+    let v = succeeded(&out);
     assert_eq!(v["steps"], 4);
     assert_eq!(v["bodies"], 2);
     assert_eq!(v["dof_total"], 68);
@@ -157,13 +161,7 @@ fn ground_gravity_and_budget_flags() {
         "--budget",
         "0",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let v: serde_json::Value = serde_json::from_str(stdout.lines().last().unwrap()).unwrap();
+    let v = succeeded(&out);
     assert_eq!(v["budget"], 0);
     assert_eq!(v["active_joints_max"], 0);
     assert!(v["contacts_mean"].as_f64().unwrap() >= 6.0, "{v}");
@@ -283,13 +281,7 @@ fn the_exact_reference_method() {
         "--gravity",
         "-9.81",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let v: serde_json::Value = serde_json::from_str(stdout.lines().last().unwrap()).unwrap();
+    let v = succeeded(&out);
     assert_eq!(v["method"], "dca");
     // Two humanoids of 34 internal degrees of freedom each, all of them moving at every step.
     assert_eq!(v["dof_total"], 68);

@@ -36,7 +36,7 @@ use crate::scene_file::LoadedScene;
 use crate::visibility::{BodyView, Classifier, Placed, PosePlan, Visibility};
 use crate::volumes::BodyVolumes;
 use articula_adaptive::{Adaptive, AdaptiveError, HybridContact, Scratch, Settings};
-use articula_dca::{ContactSettings, DynamicsError, State, Threads};
+use articula_dca::{ContactSettings, ContactStats, DynamicsError, State, Threads};
 use articula_model::{JointKind, Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SymMat6};
 pub use exact::SceneMethod;
@@ -617,8 +617,7 @@ impl Worker {
                 .models
                 .iter()
                 .map(|m| {
-                    let mut data = articula_dca::Data::new(&m.model);
-                    data.gravity = scene.gravity;
+                    let mut data = scene_data(scene, &m.model);
                     data.momentum_projection = false;
                     data
                 })
@@ -643,12 +642,45 @@ impl Worker {
         }
     }
 
+    /// Adds one body's contact figures of this step to the sums.
+    fn add_contact(&mut self, stats: &ContactStats) {
+        self.contacts += stats.contacts;
+        self.penetration = self.penetration.max(stats.max_penetration);
+        self.solves += (stats.rows > 0) as usize;
+        self.capped += (stats.rows > 0 && !stats.converged) as usize;
+    }
+
     /// Records body `i`'s error unless it has one of a lower-numbered body already.
     fn fail(&mut self, i: usize, e: ViewError) {
         if self.error.as_ref().is_none_or(|(j, _)| i < *j) {
             self.error = Some((i, e));
         }
     }
+}
+
+/// This step's sums over the workers' bodies into `out` (active joints, contact figures),
+/// clearing them.
+fn take_sums(workers: &mut [Mutex<Worker>], out: &mut SceneStep) {
+    out.active_total = 0;
+    out.contacts = 0;
+    out.max_penetration = 0.0;
+    out.contact_solves = 0;
+    out.contact_capped = 0;
+    for w in workers {
+        let w = w.get_mut().unwrap_or_else(|p| p.into_inner());
+        out.active_total += std::mem::take(&mut w.active);
+        out.contacts += std::mem::take(&mut w.contacts);
+        out.max_penetration = out.max_penetration.max(std::mem::take(&mut w.penetration));
+        out.contact_solves += std::mem::take(&mut w.solves);
+        out.contact_capped += std::mem::take(&mut w.capped);
+    }
+}
+
+/// An exact-dynamics workspace of `model` under the scene's gravity.
+fn scene_data(scene: &LoadedScene, model: &Model) -> articula_dca::Data {
+    let mut data = articula_dca::Data::new(model);
+    data.gravity = scene.gravity;
+    data
 }
 
 /// The error of the lowest-numbered body among the workers' (the same for any thread
@@ -819,11 +851,7 @@ impl<'s> SceneSim<'s> {
             energy_data: scene
                 .models
                 .iter()
-                .map(|m| {
-                    let mut data = articula_dca::Data::new(&m.model);
-                    data.gravity = scene.gravity;
-                    data
-                })
+                .map(|m| scene_data(scene, &m.model))
                 .collect(),
             push_work: 0.0,
             push_slots,
@@ -1064,29 +1092,15 @@ impl<'s> SceneSim<'s> {
                 }
             }
         });
-        let (mut total, mut contacts, mut penetration) = (0, 0, 0.0f64);
-        let (mut solves, mut capped) = (0, 0);
-        for w in &mut self.workers {
-            let w = w.get_mut().unwrap_or_else(|p| p.into_inner());
-            total += std::mem::take(&mut w.active);
-            contacts += std::mem::take(&mut w.contacts);
-            penetration = penetration.max(std::mem::take(&mut w.penetration));
-            solves += std::mem::take(&mut w.solves);
-            capped += std::mem::take(&mut w.capped);
-        }
+        let mut out = self.last.clone();
+        out.reselected = reselect;
+        take_sums(&mut self.workers, &mut out);
         if !reselect {
             self.add_push_work();
         }
         first_error(&mut self.workers)?;
         self.steps += 1;
-        self.last_active = total;
-        let mut out = self.last.clone();
-        out.reselected = reselect;
-        out.active_total = total;
-        out.contacts = contacts;
-        out.max_penetration = penetration;
-        out.contact_solves = solves;
-        out.contact_capped = capped;
+        self.last_active = out.active_total;
         Ok(out)
     }
 
@@ -1318,11 +1332,7 @@ fn step_body(
     if let Some(hc) = &mut b.contact {
         // On the floor: the hybrid body's contact step (its own buffers).
         let r = ad.step_with_contact(model, state, scene.dt, forces, hc, contact_settings);
-        let stats = &hc.contact.stats;
-        w.contacts += stats.contacts;
-        w.penetration = w.penetration.max(stats.max_penetration);
-        w.solves += (stats.rows > 0) as usize;
-        w.capped += (stats.rows > 0 && !stats.converged) as usize;
+        w.add_contact(&hc.contact.stats);
         r
     } else if shared {
         let scratch = &mut w.scratch[b.model];

@@ -8,7 +8,7 @@
 //! per step is the reference of the crowd's speed-up and its trajectory that of the crowd's
 //! error.
 
-use super::{first_error, spring_torques, SceneSim, SceneStep, SimBody, Worker};
+use super::{first_error, spring_torques, take_sums, SceneSim, SceneStep, SimBody, Worker};
 use crate::error::ViewError;
 use crate::scene_file::LoadedScene;
 use articula_adaptive::AdaptiveError;
@@ -63,14 +63,7 @@ impl SceneSim<'_> {
             }
         });
         let mut out = SceneStep::default();
-        for w in &mut self.workers {
-            let w = w.get_mut().unwrap_or_else(|p| p.into_inner());
-            out.active_total += std::mem::take(&mut w.active);
-            out.contacts += std::mem::take(&mut w.contacts);
-            out.max_penetration = out.max_penetration.max(std::mem::take(&mut w.penetration));
-            out.contact_solves += std::mem::take(&mut w.solves);
-            out.contact_capped += std::mem::take(&mut w.capped);
-        }
+        take_sums(&mut self.workers, &mut out);
         self.add_push_work();
         first_error(&mut self.workers)?;
         self.steps += 1;
@@ -114,11 +107,7 @@ fn exact_step(
                 scene.dt,
                 settings,
             );
-            let stats = &hc.contact.stats;
-            w.contacts += stats.contacts;
-            w.penetration = w.penetration.max(stats.max_penetration);
-            w.solves += (stats.rows > 0) as usize;
-            w.capped += (stats.rows > 0 && !stats.converged) as usize;
+            w.add_contact(&hc.contact.stats);
             r.map_err(|e| match e {
                 ContactError::Dynamics(e) => AdaptiveError::Dynamics(e),
                 e => AdaptiveError::Setting(e.to_string()),
