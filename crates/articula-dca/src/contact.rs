@@ -11,8 +11,8 @@
 //!    bound;
 //! 3. `W = J M⁻¹ Jᵀ` from the articulated tree of the system at rest ([`crate::delassus`]),
 //!    built once per step: each column is the response to one row's wrench, propagated along
-//!    its body's path (a body with 6 or more rows: its 6 unit wrenches, which its rows
-//!    combine);
+//!    its node's path (a node with many rows: its 6 unit wrenches read at the contact nodes,
+//!    `Φ`, which its rows combine), one entry per pair of rows;
 //! 4. `λ` by projected Gauss–Seidel, or with subspace minimisation ([`ContactSolver`],
 //!    `contact_solver`), warm-started from the
 //!    previous step's impulses at the same contact spheres and limits;
@@ -237,6 +237,17 @@ struct Patches {
     hull: Vec<(f64, f64)>,
 }
 
+/// How a contact node's rows get their columns of `W` ([`delassus`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Basis {
+    /// One response column per row.
+    Rows,
+    /// From the node's 6 unit-wrench columns `Φ_{·b}`, not computed yet.
+    Pending,
+    /// From `Φ_{·b}`, computed.
+    Ready,
+}
+
 /// A joint bound: `sign (q[qi] − bound) ≥ 0` with velocity `sign q̇[vi]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Bound {
@@ -273,9 +284,19 @@ pub struct ContactData {
     /// Response columns of the last step, and per node the impulses' wrench.
     columns: usize,
     node_wrench: Vec<[f64; 6]>,
-    /// Per node: its contact rows (zero between steps); per row: its column of `W` done.
+    /// Per node: its contact rows (zero between steps) and its slot among the contact nodes
+    /// ([`NONE`] between steps); the contact nodes; per row its node's slot ([`NONE`]: a
+    /// bound, or a body welded to the world).
     node_rows: Vec<usize>,
-    done: Vec<bool>,
+    node_slot: Vec<usize>,
+    contact_nodes: Vec<usize>,
+    row_slot: Vec<usize>,
+    /// Per contact node: how its rows' columns of `W` are made.
+    slot_basis: Vec<Basis>,
+    /// `Φ_{·b}` of the contact nodes taking 6 columns (36 m² accelerations), and one row's
+    /// `Y_j = Φ_{·b} w_j` at the `m` contact nodes.
+    phi_op: Vec<[f64; 6]>,
+    y: Vec<[f64; 6]>,
     /// The buffers of [`drop_held_points`].
     patches: Patches,
     /// The solver's active-set buffers.
@@ -292,7 +313,6 @@ pub struct ContactData {
     warm_set: Vec<Source>,
     qd_free: Vec<f64>,
     tau: Vec<f64>,
-    basis: Vec<f64>,
     delta: Vec<f64>,
 }
 
@@ -344,7 +364,12 @@ impl ContactData {
             columns: 0,
             node_wrench: Vec::with_capacity(model.bodies.len()),
             node_rows: Vec::with_capacity(model.bodies.len()),
-            done: Vec::new(),
+            node_slot: Vec::with_capacity(model.bodies.len()),
+            contact_nodes: Vec::with_capacity(model.bodies.len()),
+            row_slot: Vec::new(),
+            slot_basis: Vec::with_capacity(model.bodies.len()),
+            phi_op: Vec::new(),
+            y: Vec::with_capacity(model.bodies.len()),
             patches,
             active: ActiveSet::default(),
             w: Vec::new(),
@@ -354,7 +379,6 @@ impl ContactData {
             u: Vec::new(),
             qd_free: vec![0.0; nv],
             tau: vec![0.0; nv],
-            basis: Vec::new(),
             delta: vec![0.0; nv],
         }
     }
@@ -650,8 +674,9 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
         let x = row_value(cd, i, |_| v, |dof| cd.qd_free[dof]);
         cd.u_free.push(x);
     }
-    // 4. W = J M⁻¹ Jᵀ by columns: per body with 6 or more rows, the responses to its 6 unit
-    //    wrenches (each row's column a combination of those); else one response per row.
+    // 4. W = J M⁻¹ Jᵀ by columns: per contact node, its 6 unit wrenches' responses at the
+    //    contact nodes (each row's column a combination of those) or one response per row,
+    //    whichever costs less.
     delassus(cd);
     cd.stats.response_solves = cd.columns;
     cd.lambda.clear();
@@ -931,12 +956,15 @@ fn row_value(
     }
 }
 
-/// Fills `cd.w` (`k × k`, row-major, symmetric) with `W = J M⁻¹ Jᵀ` from one response
-/// column of the tree per load: per node (a moving joint with the bodies welded to it) with
-/// 6 or more contact rows, its 6 unit wrenches, whose responses each contact row on it
-/// combines by its wrench — a rigid character (one node) takes 6 columns whatever its
-/// contacts; else each row's own wrench or joint impulse. A column costs O(its node's depth
-/// + the rows' paths), reading it O(k).
+/// Fills `cd.w` (`k × k`, row-major, exactly symmetric) with `W = J M⁻¹ Jᵀ`, one entry per
+/// pair `i ≤ j` from the response to row `j`'s load (`docs/contact.md#cost`). The `m` nodes
+/// carrying contact rows are the contact nodes; `Φ_ab` (6 × 6) is node `a`'s acceleration
+/// for a unit wrench on node `b`, and a contact row `i` on node `a(i)` with wrench `wᵢ` has
+/// `W_ij = wᵢᵀ Φ_{a(i) b(j)} w_j`. Per contact node `b`, whichever is cheaper by
+/// [`Tree::column_cost`]: its 6 unit-wrench columns read at the contact nodes (`Φ_{·b}`), each
+/// of its rows then `Y_j = Φ_{·b} w_j` (36 m) and `W_ij = wᵢ · Y_j^{a(i)}`; or one column per
+/// row, read at every row. A joint bound has its own column (bounds are the last rows, so a
+/// `Φ` column only meets contact rows).
 fn delassus(cd: &mut ContactData) {
     let k = cd.phi.len();
     // Every entry is written below (no zeroing).
@@ -945,91 +973,108 @@ fn delassus(cd: &mut ContactData) {
     }
     cd.w.truncate(k * k);
     cd.columns = 0;
-    // Contact rows per node (`node_rows`, reset after use).
-    cd.node_rows.resize(cd.tree.len(), 0);
+    // The contact nodes, each row's slot among them, and per node its contact rows
+    // (`node_rows`, `node_slot`: reset after use).
+    let nodes = cd.tree.len();
+    cd.node_rows.resize(nodes, 0);
+    cd.node_slot.resize(nodes, NONE);
+    cd.contact_nodes.clear();
+    cd.row_slot.clear();
     for i in 0..k {
-        if cd.row_bound[i] == usize::MAX && cd.row_node[i] != NONE {
-            cd.node_rows[cd.row_node[i]] += 1;
-        }
-    }
-    // Column j of W done (by its node's basis).
-    cd.done.clear();
-    cd.done.resize(k, false);
-    for first in 0..k {
-        let node = cd.row_node[first];
-        if cd.done[first]
-            || cd.row_bound[first] != usize::MAX
-            || node == NONE
-            || cd.node_rows[node] < 6
-        {
-            continue;
-        }
-        // cd.basis[m * k + i]: row i's response to unit wrench m on this node.
-        if cd.basis.len() < 6 * k {
-            cd.basis.resize(6 * k, 0.0);
-        }
-        for m in 0..6 {
-            let mut e = [0.0; 6];
-            e[m] = 1.0;
-            cd.tree
-                .column(node, Load::Wrench(SpatialForce::from_array(e)));
-            cd.columns += 1;
-            for i in 0..k {
-                cd.basis[m * k + i] = column_value(cd, i);
+        let node = cd.row_node[i];
+        let slot = if cd.row_bound[i] == usize::MAX && node != NONE {
+            if cd.node_slot[node] == NONE {
+                cd.node_slot[node] = cd.contact_nodes.len();
+                cd.contact_nodes.push(node);
             }
-        }
-        for j in first..k {
-            if cd.row_node[j] != node || cd.row_bound[j] != usize::MAX {
-                continue;
-            }
-            cd.done[j] = true;
-            // Row j of W (its column to rounding: W is symmetric), contiguous.
-            let w = cd.wrench[j].to_array();
-            let wj = &mut cd.w[j * k..(j + 1) * k];
-            for (x, b) in wj.iter_mut().zip(&cd.basis[..k]) {
-                *x = w[0] * b;
-            }
-            for (m, wm) in w.iter().enumerate().skip(1) {
-                for (x, b) in wj.iter_mut().zip(&cd.basis[m * k..(m + 1) * k]) {
-                    *x += wm * b;
-                }
-            }
-        }
-    }
-    for j in 0..k {
-        if cd.done[j] {
-            continue;
-        }
-        let node = cd.row_node[j];
-        let load = match cd.row_bound[j] {
-            usize::MAX => Load::Wrench(cd.wrench[j]),
-            li => {
-                let bd = cd.bounds[li];
-                Load::Tau {
-                    dof: bd.vi - cd.tree.v_offset(node),
-                    value: bd.sign,
-                }
-            }
+            cd.node_rows[node] += 1;
+            cd.node_slot[node]
+        } else {
+            NONE
         };
-        cd.tree.column(node, load);
-        cd.columns += 1;
-        for i in 0..k {
-            cd.w[j * k + i] = column_value(cd, i);
+        cd.row_slot.push(slot);
+    }
+    let m = cd.contact_nodes.len();
+    // Per contact node: by its 6 unit wrenches (Φ) or a column per row, by cost. A column
+    // costs `c`; `Φ_{·b}` costs 6 columns and 6m reads, then 36m per row.
+    cd.slot_basis.clear();
+    for s in 0..m {
+        let node = cd.contact_nodes[s];
+        let (r, c) = (cd.node_rows[node], cd.tree.column_cost(node));
+        cd.slot_basis.push(if 6 * c + 36 * m * (r + 1) < r * c {
+            Basis::Pending
+        } else {
+            Basis::Rows
+        });
+    }
+    if cd.phi_op.len() < 36 * m * m {
+        cd.phi_op.resize(36 * m * m, [0.0; 6]);
+    }
+    cd.y.resize(m, [0.0; 6]);
+    for j in 0..k {
+        let node = cd.row_node[j];
+        let sb = cd.row_slot[j];
+        if sb != NONE && cd.slot_basis[sb] != Basis::Rows {
+            // Φ_{·b}[c][s] at cd.phi_op[(sb 6 + c) m + s]: slot s's acceleration for the unit
+            // wrench c on this node.
+            let at = |c: usize, s: usize| (sb * 6 + c) * m + s;
+            if cd.slot_basis[sb] == Basis::Pending {
+                for c in 0..6 {
+                    let mut e = [0.0; 6];
+                    e[c] = 1.0;
+                    cd.tree
+                        .column(node, Load::Wrench(SpatialForce::from_array(e)));
+                    cd.columns += 1;
+                    for s in 0..m {
+                        cd.phi_op[at(c, s)] = cd.tree.accel_array(cd.contact_nodes[s]);
+                    }
+                }
+                cd.slot_basis[sb] = Basis::Ready;
+            }
+            // Y_j = Φ_{·b} w_j at every contact node.
+            let w = cd.wrench[j].to_array();
+            for s in 0..m {
+                let mut y = [0.0; 6];
+                for (c, wc) in w.iter().enumerate() {
+                    let col = &cd.phi_op[at(c, s)];
+                    for (yr, x) in y.iter_mut().zip(col) {
+                        *yr += wc * x;
+                    }
+                }
+                cd.y[s] = y;
+            }
+            for i in 0..=j {
+                debug_assert_eq!(cd.row_bound[i], usize::MAX, "bounds are the last rows");
+                let x = match cd.row_slot[i] {
+                    NONE => 0.0,
+                    s => cd.wrench[i].dot(SpatialMotion::from_array(cd.y[s])),
+                };
+                cd.w[j * k + i] = x;
+                cd.w[i * k + j] = x;
+            }
+        } else {
+            let load = match cd.row_bound[j] {
+                usize::MAX => Load::Wrench(cd.wrench[j]),
+                li => {
+                    let bd = cd.bounds[li];
+                    Load::Tau {
+                        dof: bd.vi - cd.tree.v_offset(node),
+                        value: bd.sign,
+                    }
+                }
+            };
+            cd.tree.column(node, load);
+            cd.columns += 1;
+            for i in 0..=j {
+                let x = column_value(cd, i);
+                cd.w[j * k + i] = x;
+                cd.w[i * k + j] = x;
+            }
         }
     }
-    for i in 0..k {
-        if cd.row_node[i] != NONE {
-            cd.node_rows[cd.row_node[i]] = 0;
-        }
-    }
-    // Rows of W, symmetric to rounding: make it so exactly (the solver reads row i as
-    // column i).
-    for i in 0..k {
-        for j in i + 1..k {
-            let x = 0.5 * (cd.w[i * k + j] + cd.w[j * k + i]);
-            cd.w[i * k + j] = x;
-            cd.w[j * k + i] = x;
-        }
+    for &node in &cd.contact_nodes {
+        cd.node_rows[node] = 0;
+        cd.node_slot[node] = NONE;
     }
 }
 

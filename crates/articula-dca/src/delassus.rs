@@ -86,6 +86,8 @@ pub(crate) struct Tree {
     read: Vec<bool>,
     /// The nodes some row reads and their root paths, ascending (parents first).
     needed: Vec<usize>,
+    /// The down pass's cost over `needed` ([`Tree::column_cost`]'s units).
+    down_cost: usize,
     column: usize,
 }
 
@@ -105,6 +107,7 @@ impl Tree {
             stamp: Vec::with_capacity(n),
             read: Vec::with_capacity(n),
             needed: Vec::with_capacity(n),
+            down_cost: 0,
             column: 0,
         }
     }
@@ -209,6 +212,7 @@ impl Tree {
         self.read.clear();
         self.read.resize(n, false);
         self.needed.clear();
+        self.down_cost = 0;
         self.column = 0;
         Ok(())
     }
@@ -231,6 +235,24 @@ impl Tree {
     pub(crate) fn finish_marks(&mut self) {
         self.needed.clear();
         self.needed.extend((0..self.len).filter(|&i| self.read[i]));
+        self.down_cost = self
+            .needed
+            .iter()
+            .map(|&i| 18 * self.nodes[i].k + 6)
+            .sum();
+    }
+
+    /// An estimate of what one [`Tree::column`] loaded at node `at` costs, in multiply-adds:
+    /// the walk up its path (`k² + 12k` per node of `k` dofs) and the down pass over the
+    /// marked nodes (`18k + 6` each). O(depth of `at`).
+    pub(crate) fn column_cost(&self, mut at: usize) -> usize {
+        let mut cost = self.down_cost;
+        while at != NONE {
+            let k = self.nodes[at].k;
+            cost += k * k + 12 * k + 6;
+            at = self.nodes[at].parent;
+        }
+        cost
     }
 
     /// The response of the system at rest to `load` on node `at` ([`NONE`]: nothing moves):
@@ -313,6 +335,11 @@ impl Tree {
         } else {
             SpatialMotion::from_array(self.acc[i])
         }
+    }
+
+    /// The last column's acceleration of node `i` (marked; not [`NONE`]) as an array.
+    pub(crate) fn accel_array(&self, i: usize) -> V6 {
+        self.acc[i]
     }
 
     /// The last column's `q̈` of degree of freedom `dof` of node `i` (marked).
