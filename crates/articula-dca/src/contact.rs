@@ -31,7 +31,7 @@ use crate::delassus::{Load, Tree, NONE};
 use crate::integrate::check_step_result;
 use crate::{forward_dynamics, integrate_q, Data, DynamicsError, Method, State};
 use articula_model::{CollisionModel, Model};
-use articula_spatial::{SpatialForce, SpatialMotion};
+use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion};
 use glam::DVec3;
 use thiserror::Error;
 
@@ -466,6 +466,12 @@ pub trait ContactDynamics {
     /// `s` and `origin` of every body that carries a contact sphere and of its root path.
     fn kinematics(&self) -> &Data;
 
+    /// Body `body`'s spatial inertia in the computation frame of
+    /// [`ContactDynamics::kinematics`] (default: from its pose `x`).
+    fn world_inertia(&self, model: &Model, body: usize) -> SpatialInertia {
+        crate::kinematics::world_inertia(&self.kinematics().x[body], &model.bodies[body].inertia)
+    }
+
     /// Whether body `body`'s joint moves in this step (its columns of `J` are used; default
     /// every joint).
     fn moves(&self, _model: &Model, _body: usize) -> bool {
@@ -536,7 +542,6 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     settings: &ContactSettings,
 ) -> Result<(), ContactError> {
     let ground = check(settings, dt)?;
-    let nv = model.nv;
     let cd = contact;
     cd.stats = ContactStats::default();
     // 1. Free motion.
@@ -609,12 +614,9 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     if settings.joint_limits {
         for (li, b) in cd.bounds.iter().enumerate() {
             // A joint that does not move in this step (locked in a hybrid body) has no row.
-            if !dynamics.moves(model, b.body) {
-                continue;
-            }
             let phi = b.sign * (state.q[b.qi] - b.bound);
             let pre = b.sign * state.qd[b.vi];
-            if phi >= settings.margin + dt * (-pre).max(0.0) {
+            if phi >= settings.margin + dt * (-pre).max(0.0) || !dynamics.moves(model, b.body) {
                 continue;
             }
             let row = cd.phi.len();
@@ -654,8 +656,10 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
         match src {
             Source::Sphere { body, .. } => {
                 let node = cd.tree.body_node[body];
-                cd.row_node.extend([node; 3]);
-                cd.row_bound.extend([usize::MAX; 3]);
+                for _ in 0..3 {
+                    cd.row_node.push(node);
+                    cd.row_bound.push(usize::MAX);
+                }
             }
             Source::Limit { limit } => {
                 cd.row_node.push(cd.tree.body_node[cd.bounds[limit].body]);
@@ -682,7 +686,9 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     cd.lambda.clear();
     for &(src, _) in &cd.sources {
         match src {
-            Source::Sphere { sphere, .. } => cd.lambda.extend(cd.warm_spheres[sphere]),
+            Source::Sphere { sphere, .. } => {
+                cd.lambda.extend_from_slice(&cd.warm_spheres[sphere]);
+            }
             Source::Limit { limit } => cd.lambda.push(cd.warm_bounds[limit]),
         }
     }
@@ -727,7 +733,7 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
         }
     }
     // 5. q̇⁺ = v_free + M⁻¹ Jᵀ λ (one pass over the tree), q⁺ = q ⊕ dt q̇⁺.
-    impulse_response(cd, nv);
+    impulse_response(cd);
     state.qd.copy_from_slice(&cd.qd_free);
     for (x, d) in state.qd.iter_mut().zip(&cd.delta) {
         *x += d;
@@ -761,7 +767,7 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
             &mut cd.active,
             settings.solver == ContactSolver::Subspace,
         );
-        impulse_response(cd, nv);
+        impulse_response(cd);
         dynamics.integrate(model, &mut state.q, &cd.delta, 1.0);
     }
     finish(model, state)
@@ -976,8 +982,10 @@ fn delassus(cd: &mut ContactData) {
     // The contact nodes, each row's slot among them, and per node its contact rows
     // (`node_rows`, `node_slot`: reset after use).
     let nodes = cd.tree.len();
-    cd.node_rows.resize(nodes, 0);
-    cd.node_slot.resize(nodes, NONE);
+    if cd.node_rows.len() < nodes {
+        cd.node_rows.resize(nodes, 0);
+        cd.node_slot.resize(nodes, NONE);
+    }
     cd.contact_nodes.clear();
     cd.row_slot.clear();
     for i in 0..k {
@@ -1096,12 +1104,12 @@ fn column_value(cd: &ContactData, i: usize) -> f64 {
 }
 
 /// `cd.delta = M⁻¹ Jᵀ λ`: the rows' impulses gathered per node (wrenches) and per joint
-/// (bounds), then one pass over the tree.
-fn impulse_response(cd: &mut ContactData, nv: usize) {
-    cd.node_wrench.clear();
-    cd.node_wrench.resize(cd.tree.len(), [0.0; 6]);
-    cd.tau.clear();
-    cd.tau.resize(nv, 0.0);
+/// (bounds), then one pass over the tree. `node_wrench` and `tau` are zero between calls:
+/// only the rows' entries are set, and reset afterwards.
+fn impulse_response(cd: &mut ContactData) {
+    if cd.node_wrench.len() < cd.tree.len() {
+        cd.node_wrench.resize(cd.tree.len(), [0.0; 6]);
+    }
     for i in 0..cd.phi.len() {
         let (l, node) = (cd.lambda[i], cd.row_node[i]);
         if l == 0.0 || node == NONE {
@@ -1122,6 +1130,14 @@ fn impulse_response(cd: &mut ContactData, nv: usize) {
         }
     }
     cd.tree.solve(&cd.tau, &cd.node_wrench, &mut cd.delta);
+    for i in 0..cd.phi.len() {
+        let node = cd.row_node[i];
+        match cd.row_bound[i] {
+            _ if node == NONE => {}
+            usize::MAX => cd.node_wrench[node] = [0.0; 6],
+            li => cd.tau[cd.bounds[li].vi] = 0.0,
+        }
+    }
 }
 
 /// The end-of-step check: no NaN or infinity in `q` or `q̇`.

@@ -17,11 +17,10 @@
 //! O(depth + rows' paths) instead of O(n). The whole response `M⁻¹ τ` (the impulses applied
 //! to the velocities) is the same two passes over every node, O(n).
 
-use crate::kinematics::world_inertia;
 use crate::{ContactDynamics, Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::internals::{dot6, Portable};
-use articula_spatial::{SpatialForce, SpatialMotion};
+use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion};
 
 /// "No node": a body welded to the world, or the parent of a root node.
 pub(crate) const NONE: usize = usize::MAX;
@@ -80,15 +79,17 @@ pub(crate) struct Tree {
     g: Vec<V6>,
     acc: Vec<V6>,
     qdd: Vec<V6>,
-    /// Per node: the column that put it on its load's path (`g` valid), and whether some
-    /// row reads it.
+    /// Per node: the column that put it on its load's path (`g` valid), and the build whose
+    /// rows read it (stamps: nothing is reset between columns or steps).
     stamp: Vec<usize>,
-    read: Vec<bool>,
+    read: Vec<usize>,
     /// The nodes some row reads and their root paths, ascending (parents first).
     needed: Vec<usize>,
     /// The down pass's cost over `needed` ([`Tree::column_cost`]'s units).
     down_cost: usize,
+    /// Columns and builds so far (never reset: the stamps of `stamp` and `read`).
     column: usize,
+    build: usize,
 }
 
 impl Tree {
@@ -109,6 +110,7 @@ impl Tree {
             needed: Vec::with_capacity(n),
             down_cost: 0,
             column: 0,
+            build: 0,
         }
     }
 
@@ -132,7 +134,7 @@ impl Tree {
                 debug_assert!(p < b, "bodies are stored parents first");
                 self.body_node[p]
             });
-            let m = world_inertia(&kin.x[b], &body.inertia).to_mat6();
+            let m = inertia_rows(&dynamics.world_inertia(model, b));
             if body.nv > 0 && dynamics.moves(model, b) {
                 if len == self.nodes.len() {
                     self.nodes.push(Node::default());
@@ -141,11 +143,7 @@ impl Tree {
                 node.parent = parent;
                 node.vo = body.v_offset;
                 node.k = body.nv;
-                for (r, row) in node.ia.iter_mut().enumerate() {
-                    for (c, x) in row.iter_mut().enumerate() {
-                        *x = m.get(r, c);
-                    }
-                }
+                node.ia = m;
                 for d in 0..body.nv {
                     node.s[d] = kin.s[body.v_offset + d].to_array();
                 }
@@ -155,9 +153,9 @@ impl Tree {
                 self.body_node[b] = parent;
                 if parent != NONE {
                     let pia = &mut self.nodes[parent].ia;
-                    for (r, row) in pia.iter_mut().enumerate() {
-                        for (c, x) in row.iter_mut().enumerate() {
-                            *x += m.get(r, c);
+                    for (row, mr) in pia.iter_mut().zip(&m) {
+                        for (x, y) in row.iter_mut().zip(mr) {
+                            *x += y;
                         }
                     }
                 }
@@ -178,7 +176,14 @@ impl Tree {
                     dm[a][b] = dot6::<Portable>(&node.s[a], &node.u[b]);
                 }
             }
-            if !spd_inverse(&mut dm, k, &mut node.dinv) {
+            let spd = if k == 1 {
+                // One dof: D⁻¹ = 1/d.
+                node.dinv[0][0] = 1.0 / dm[0][0];
+                dm[0][0] > 0.0
+            } else {
+                spd_inverse(&mut dm, k, &mut node.dinv)
+            };
+            if !spd {
                 let vo = node.vo;
                 let body = (0..model.bodies.len())
                     .find(|&b| model.bodies[b].v_offset == vo && model.bodies[b].nv > 0)
@@ -202,18 +207,19 @@ impl Tree {
                 }
             }
         }
+        // Per-node buffers: every entry a pass reads it has written first (the stamps tell
+        // the others), so they only grow.
         let n = len;
-        for v in [&mut self.p, &mut self.g, &mut self.acc, &mut self.qdd] {
-            v.clear();
-            v.resize(n, [0.0; 6]);
+        if self.p.len() < n {
+            for v in [&mut self.p, &mut self.g, &mut self.acc, &mut self.qdd] {
+                v.resize(n, [0.0; 6]);
+            }
+            self.stamp.resize(n, 0);
+            self.read.resize(n, 0);
         }
-        self.stamp.clear();
-        self.stamp.resize(n, usize::MAX);
-        self.read.clear();
-        self.read.resize(n, false);
+        self.build += 1;
         self.needed.clear();
         self.down_cost = 0;
-        self.column = 0;
         Ok(())
     }
 
@@ -225,8 +231,8 @@ impl Tree {
     /// Marks node `i` (and its root path) as read by some row; call for every row's node
     /// before the columns.
     pub(crate) fn mark_read(&mut self, mut i: usize) {
-        while i != NONE && !self.read[i] {
-            self.read[i] = true;
+        while i != NONE && self.read[i] != self.build {
+            self.read[i] = self.build;
             i = self.nodes[i].parent;
         }
     }
@@ -234,12 +240,13 @@ impl Tree {
     /// Orders the marked nodes (after every [`Tree::mark_read`]).
     pub(crate) fn finish_marks(&mut self) {
         self.needed.clear();
-        self.needed.extend((0..self.len).filter(|&i| self.read[i]));
-        self.down_cost = self
-            .needed
-            .iter()
-            .map(|&i| 18 * self.nodes[i].k + 6)
-            .sum();
+        self.down_cost = 0;
+        for i in 0..self.len {
+            if self.read[i] == self.build {
+                self.needed.push(i);
+                self.down_cost += 18 * self.nodes[i].k + 6;
+            }
+        }
     }
 
     /// An estimate of what one [`Tree::column`] loaded at node `at` costs, in multiply-adds:
@@ -435,6 +442,36 @@ impl Tree {
     pub(crate) fn len(&self) -> usize {
         self.len
     }
+}
+
+/// The 6 × 6 matrix `[Ī h×; h×ᵀ m1]` of `i` by rows, `Ī` made exactly symmetric (the entries
+/// of `SpatialInertia::to_mat6`, without its 6 × 6 averaging pass).
+fn inertia_rows(i: &SpatialInertia) -> [V6; 6] {
+    let ib = i.ibar.to_cols_array_2d();
+    let (m, h) = (i.mass, i.h);
+    let ibar = |r: usize, c: usize| {
+        if r == c {
+            ib[c][r]
+        } else {
+            0.5 * (ib[c][r] + ib[r][c])
+        }
+    };
+    // h× by rows: [[0, −h_z, h_y], [h_z, 0, −h_x], [−h_y, h_x, 0]].
+    let hx = [[0.0, -h.z, h.y], [h.z, 0.0, -h.x], [-h.y, h.x, 0.0]];
+    std::array::from_fn(|r| {
+        std::array::from_fn(|c| match (r < 3, c < 3) {
+            (true, true) => ibar(r, c),
+            (true, false) => hx[r][c - 3],
+            (false, true) => hx[c][r - 3],
+            (false, false) => {
+                if r == c {
+                    m
+                } else {
+                    0.0
+                }
+            }
+        })
+    })
 }
 
 /// `inv = A⁻¹` for the symmetric positive definite leading `k × k` block of `a` (Cholesky;
