@@ -281,6 +281,9 @@ pub struct ContactData {
     tree: Tree,
     row_node: Vec<usize>,
     row_bound: Vec<usize>,
+    /// Per row: its direction in the contact frame (0 normal, 1 and 2 the tangents; [`NONE`]
+    /// for a bound).
+    row_dir: Vec<usize>,
     /// Response columns of the last step, and per node the impulses' wrench.
     columns: usize,
     node_wrench: Vec<[f64; 6]>,
@@ -294,9 +297,11 @@ pub struct ContactData {
     /// Per contact node: how its rows' columns of `W` are made.
     slot_basis: Vec<Basis>,
     /// `Φ_{·b}` of the contact nodes taking 6 columns (36 m² accelerations), and one row's
-    /// `Y_j = Φ_{·b} w_j` at the `m` contact nodes.
+    /// `Y_j = Φ_{·b} w_j` at the `m` contact nodes, both in the contact frame.
     phi_op: Vec<[f64; 6]>,
     y: Vec<[f64; 6]>,
+    /// Per contact row: its wrench in the contact frame, 3 entries (index, value) of 6.
+    local: Vec<([usize; 3], [f64; 3])>,
     /// The buffers of [`drop_held_points`].
     patches: Patches,
     /// The solver's active-set buffers.
@@ -361,6 +366,7 @@ impl ContactData {
             tree: Tree::new(model),
             row_node: Vec::new(),
             row_bound: Vec::new(),
+            row_dir: Vec::new(),
             columns: 0,
             node_wrench: Vec::with_capacity(model.bodies.len()),
             node_rows: Vec::with_capacity(model.bodies.len()),
@@ -370,6 +376,7 @@ impl ContactData {
             slot_basis: Vec::with_capacity(model.bodies.len()),
             phi_op: Vec::new(),
             y: Vec::with_capacity(model.bodies.len()),
+            local: Vec::new(),
             patches,
             active: ActiveSet::default(),
             w: Vec::new(),
@@ -436,6 +443,13 @@ fn check(settings: &ContactSettings, dt: f64) -> Result<Option<(Ground, DVec3)>,
         );
     }
     Ok(Some((g, g.normal / len)))
+}
+
+/// The contact frame `[n, t₁, t₂]` of the unit normal `n` (right-handed, the directions of a
+/// contact's rows in order).
+fn contact_frame(n: DVec3) -> [DVec3; 3] {
+    let (t1, t2) = tangents(n);
+    [n, t1, t2]
 }
 
 /// Two unit tangents completing the unit normal `n` to a right-handed frame.
@@ -652,18 +666,21 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     cd.stats.rows = k;
     cd.row_node.clear();
     cd.row_bound.clear();
+    cd.row_dir.clear();
     for &(src, _) in &cd.sources {
         match src {
             Source::Sphere { body, .. } => {
                 let node = cd.tree.body_node[body];
-                for _ in 0..3 {
+                for d in 0..3 {
                     cd.row_node.push(node);
                     cd.row_bound.push(usize::MAX);
+                    cd.row_dir.push(d);
                 }
             }
             Source::Limit { limit } => {
                 cd.row_node.push(cd.tree.body_node[cd.bounds[limit].body]);
                 cd.row_bound.push(limit);
+                cd.row_dir.push(NONE);
             }
         }
     }
@@ -681,7 +698,7 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     // 4. W = J M⁻¹ Jᵀ by columns: per contact node, its 6 unit wrenches' responses at the
     //    contact nodes (each row's column a combination of those) or one response per row,
     //    whichever costs less.
-    delassus(cd);
+    delassus(cd, ground.map(|(_, n)| contact_frame(n)));
     cd.stats.response_solves = cd.columns;
     cd.lambda.clear();
     for &(src, _) in &cd.sources {
@@ -968,10 +985,14 @@ fn row_value(
 /// for a unit wrench on node `b`, and a contact row `i` on node `a(i)` with wrench `wᵢ` has
 /// `W_ij = wᵢᵀ Φ_{a(i) b(j)} w_j`. Per contact node `b`, whichever is cheaper by
 /// [`Tree::column_cost`]: its 6 unit-wrench columns read at the contact nodes (`Φ_{·b}`), each
-/// of its rows then `Y_j = Φ_{·b} w_j` (36 m) and `W_ij = wᵢ · Y_j^{a(i)}`; or one column per
-/// row, read at every row. A joint bound has its own column (bounds are the last rows, so a
-/// `Φ` column only meets contact rows).
-fn delassus(cd: &mut ContactData) {
+/// of its rows then `Y_j = Φ_{·b} w_j` and `W_ij = wᵢ · Y_j^{a(i)}`; or one column per row,
+/// read at every row. A joint bound has its own column (bounds are the last rows, so a `Φ`
+/// column only meets contact rows).
+///
+/// `Φ` and the wrenches are taken in the contact frame `frame` (`[n, t₁, t₂]`, world axes
+/// rotated): there a row's wrench `(ρ × e_d, e_d)` (`ρ` its contact point, `d` its direction)
+/// has 3 entries, so `Y_j` costs 18m and `W_ij` 3 products.
+fn delassus(cd: &mut ContactData, frame: Option<[DVec3; 3]>) {
     let k = cd.phi.len();
     // Every entry is written below (no zeroing).
     if cd.w.len() < k * k {
@@ -1004,16 +1025,31 @@ fn delassus(cd: &mut ContactData) {
     }
     let m = cd.contact_nodes.len();
     // Per contact node: by its 6 unit wrenches (Φ) or a column per row, by cost. A column
-    // costs `c`; `Φ_{·b}` costs 6 columns and 6m reads, then 36m per row.
+    // costs `c`; `Φ_{·b}` costs 6 columns and 6m reads (18 each), then 18m per row.
     cd.slot_basis.clear();
     for s in 0..m {
         let node = cd.contact_nodes[s];
         let (r, c) = (cd.node_rows[node], cd.tree.column_cost(node));
-        cd.slot_basis.push(if 6 * c + 36 * m * (r + 1) < r * c {
+        cd.slot_basis.push(if 6 * c + 18 * m * (r + 6) < r * c {
             Basis::Pending
         } else {
             Basis::Rows
         });
+    }
+    // The contact rows' wrenches in the contact frame: the moment's components off the
+    // row's direction (on it, `ρ × e_d` has none) and the unit force.
+    cd.local.clear();
+    if let Some(fr) = frame {
+        for i in 0..k {
+            let d = cd.row_dir[i];
+            cd.local.push(if d < 3 {
+                let n = cd.wrench[i].n;
+                let (a, b) = ((d + 1) % 3, (d + 2) % 3);
+                ([a, b, 3 + d], [fr[a].dot(n), fr[b].dot(n), 1.0])
+            } else {
+                ([0; 3], [0.0; 3])
+            });
+        }
     }
     if cd.phi_op.len() < 36 * m * m {
         cd.phi_op.resize(36 * m * m, [0.0; 6]);
@@ -1022,43 +1058,62 @@ fn delassus(cd: &mut ContactData) {
     for j in 0..k {
         let node = cd.row_node[j];
         let sb = cd.row_slot[j];
-        if sb != NONE && cd.slot_basis[sb] != Basis::Rows {
+        if let (Some(fr), true) = (frame, sb != NONE && cd.slot_basis[sb] != Basis::Rows) {
             // Φ_{·b}[c][s] at cd.phi_op[(sb 6 + c) m + s]: slot s's acceleration for the unit
-            // wrench c on this node.
+            // wrench c on this node (contact frame).
             let at = |c: usize, s: usize| (sb * 6 + c) * m + s;
             if cd.slot_basis[sb] == Basis::Pending {
                 for c in 0..6 {
-                    let mut e = [0.0; 6];
-                    e[c] = 1.0;
-                    cd.tree
-                        .column(node, Load::Wrench(SpatialForce::from_array(e)));
+                    let (e, z) = (fr[c % 3], DVec3::ZERO);
+                    let load = if c < 3 {
+                        SpatialForce::new(e, z)
+                    } else {
+                        SpatialForce::new(z, e)
+                    };
+                    cd.tree.column(node, Load::Wrench(load));
                     cd.columns += 1;
                     for s in 0..m {
-                        cd.phi_op[at(c, s)] = cd.tree.accel_array(cd.contact_nodes[s]);
+                        let a = cd.tree.accel(cd.contact_nodes[s]);
+                        let (w, v) = (a.w, a.v);
+                        cd.phi_op[at(c, s)] = [
+                            fr[0].dot(w),
+                            fr[1].dot(w),
+                            fr[2].dot(w),
+                            fr[0].dot(v),
+                            fr[1].dot(v),
+                            fr[2].dot(v),
+                        ];
                     }
                 }
                 cd.slot_basis[sb] = Basis::Ready;
             }
             // Y_j = Φ_{·b} w_j at every contact node.
-            let w = cd.wrench[j].to_array();
+            let (cj, xj) = cd.local[j];
             for s in 0..m {
-                let mut y = [0.0; 6];
-                for (c, wc) in w.iter().enumerate() {
-                    let col = &cd.phi_op[at(c, s)];
-                    for (yr, x) in y.iter_mut().zip(col) {
-                        *yr += wc * x;
-                    }
-                }
-                cd.y[s] = y;
+                let (p0, p1, p2) = (
+                    &cd.phi_op[at(cj[0], s)],
+                    &cd.phi_op[at(cj[1], s)],
+                    &cd.phi_op[at(cj[2], s)],
+                );
+                cd.y[s] = std::array::from_fn(|r| xj[0] * p0[r] + xj[1] * p1[r] + xj[2] * p2[r]);
             }
-            for i in 0..=j {
+            let (wj, wt) = cd.w.split_at_mut(j * k);
+            for (i, ((&s, &(ci, xi)), x)) in cd.row_slot[..=j]
+                .iter()
+                .zip(&cd.local[..=j])
+                .zip(&mut wt[..=j])
+                .enumerate()
+            {
                 debug_assert_eq!(cd.row_bound[i], usize::MAX, "bounds are the last rows");
-                let x = match cd.row_slot[i] {
-                    NONE => 0.0,
-                    s => cd.wrench[i].dot(SpatialMotion::from_array(cd.y[s])),
+                *x = if s == NONE {
+                    0.0
+                } else {
+                    let y = &cd.y[s];
+                    xi[0] * y[ci[0]] + xi[1] * y[ci[1]] + xi[2] * y[ci[2]]
                 };
-                cd.w[j * k + i] = x;
-                cd.w[i * k + j] = x;
+                if i < j {
+                    wj[i * k + j] = *x;
+                }
             }
         } else {
             let load = match cd.row_bound[j] {
@@ -1238,106 +1293,131 @@ mod tests {
         );
     }
 
-    /// The floating humanoid lying on its side, falling onto the floor with every joint
-    /// moving and one joint hitting its bound: the tree's Delassus operator `W` equals the dense
+    /// The floating humanoid lying on its side, falling onto the floor (horizontal, and
+    /// tilted) with every joint moving and one joint hitting its bound: the tree's Delassus operator `W` equals the dense
     /// `J M⁻¹ Jᵀ` (CRBA's `M`, a Cholesky solve) and the step's velocity change is
     /// `M⁻¹ Jᵀ λ`, both to rounding.
     #[test]
     fn tree_delassus_matches_the_dense_operator() {
-        let model = articula_testkit::bundled_with("humanoid", true);
-        let nv = model.nv;
-        let mut data = Data::new(&model);
-        let mut cd = ContactData::new(&model);
-        let mut state = State::neutral(&model);
-        let r = DQuat::from_rotation_x(std::f64::consts::FRAC_PI_2);
-        state.q[3..7].copy_from_slice(&[r.w, r.x, r.y, r.z]);
-        for (i, v) in state.qd.iter_mut().enumerate() {
-            *v = 0.3 * ((i as f64) * 1.7).sin();
-        }
-        state.qd[2] = -0.5;
-        let b = cd.bounds[0];
-        // Inside its range by 1 mrad, closing at 2 rad/s (no penetration: no position
-        // correction, so `lambda` holds the velocity impulses on return).
-        state.q[b.qi] = b.bound + 1e-3 * b.sign;
-        state.qd[b.vi] = -2.0 * b.sign;
-        forward_kinematics(&model, &state.q, &state.qd, &mut data);
-        let lowest = cd.lowest_point(&data);
-        state.q[2] += 5e-4 - lowest;
-        let q0 = state.q.clone();
-        let settings = ContactSettings {
-            ground: Some(Ground::horizontal(0.0)),
-            // Every sphere within 0.3 m a candidate: many bodies, many rows.
-            margin: 0.3,
-            ..Default::default()
+        // On the floor and on a plane tilted about both horizontal axes (a contact frame
+        // that is no permutation of the world axes).
+        let tilted = Ground {
+            normal: DVec3::new(0.2, -0.1, 1.0),
+            ..Ground::horizontal(0.0)
         };
-        step_with_contact(
-            &model,
-            &mut data,
-            &mut cd,
-            &mut state,
-            Method::Aba,
-            1e-3,
-            &settings,
-        )
-        .unwrap();
-        let k = cd.stats.rows;
-        assert!(k >= 30 && cd.stats.limits >= 1, "{:?}", cd.stats);
-        // Dense J from the start-of-step kinematics (still in `data`).
-        let mut jac = vec![0.0; k * nv];
-        for i in 0..k {
-            match cd.row_bound[i] {
-                usize::MAX => {
-                    let body = cd
-                        .sources
-                        .iter()
-                        .rev()
-                        .find(|s| s.1 <= i)
-                        .map(|s| match s.0 {
-                            Source::Sphere { body, .. } => body,
-                            Source::Limit { .. } => unreachable!(),
-                        })
-                        .unwrap();
-                    let mut at = Some(body);
-                    while let Some(bi) = at {
-                        let bd = &model.bodies[bi];
-                        for j in bd.v_offset..bd.v_offset + bd.nv {
-                            jac[i * nv + j] = data.s[j].dot(cd.wrench[i]);
-                        }
-                        at = bd.parent;
-                    }
-                }
-                li => jac[i * nv + cd.bounds[li].vi] = cd.bounds[li].sign,
+        // (A small margin: few rows per body, columns by row.)
+        let (mut by_phi, mut by_row) = (false, false);
+        for (ground, margin) in [
+            (Ground::horizontal(0.0), 0.3),
+            (tilted, 0.3),
+            (Ground::horizontal(0.0), 0.01),
+        ] {
+            let model = articula_testkit::bundled_with("humanoid", true);
+            let nv = model.nv;
+            let mut data = Data::new(&model);
+            let mut cd = ContactData::new(&model);
+            let mut state = State::neutral(&model);
+            let r = DQuat::from_rotation_x(std::f64::consts::FRAC_PI_2);
+            state.q[3..7].copy_from_slice(&[r.w, r.x, r.y, r.z]);
+            for (i, v) in state.qd.iter_mut().enumerate() {
+                *v = 0.3 * ((i as f64) * 1.7).sin();
             }
-        }
-        let mut md = Data::new(&model);
-        let m = mass_matrix(&model, &mut md, &q0).unwrap().to_vec();
-        let mut worst = 0.0f64;
-        let scale = cd.w.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-        for j in 0..k {
-            let mut x = jac[j * nv..(j + 1) * nv].to_vec();
-            spd_solve(&m, nv, &mut x);
+            state.qd[2] = -0.5;
+            let b = cd.bounds[0];
+            // Inside its range by 1 mrad, closing at 2 rad/s (no penetration: no position
+            // correction, so `lambda` holds the velocity impulses on return).
+            state.q[b.qi] = b.bound + 1e-3 * b.sign;
+            state.qd[b.vi] = -2.0 * b.sign;
+            forward_kinematics(&model, &state.q, &state.qd, &mut data);
+            // The lowest sphere 0.5 mm above the plane.
+            let nh = ground.normal.normalize();
+            let gap = (cd.collision().spheres.iter())
+                .map(|s| {
+                    let c = data.x[s.body].apply_point(s.center) + data.origin;
+                    nh.dot(c - ground.point) - s.radius
+                })
+                .fold(f64::INFINITY, f64::min);
+            state.q[2] += (5e-4 - gap) / nh.z;
+            let q0 = state.q.clone();
+            let settings = ContactSettings {
+                ground: Some(ground),
+                // Every sphere within 0.3 m a candidate: many bodies, many rows.
+                margin,
+                ..Default::default()
+            };
+            step_with_contact(
+                &model,
+                &mut data,
+                &mut cd,
+                &mut state,
+                Method::Aba,
+                1e-3,
+                &settings,
+            )
+            .unwrap();
+            let k = cd.stats.rows;
+            assert!(k >= 20 && cd.stats.limits >= 1, "{:?}", cd.stats);
+            by_phi |= cd.slot_basis.contains(&Basis::Ready);
+            by_row |= cd.slot_basis.contains(&Basis::Rows);
+            // Dense J from the start-of-step kinematics (still in `data`).
+            let mut jac = vec![0.0; k * nv];
             for i in 0..k {
-                let want: f64 = (0..nv).map(|c| jac[i * nv + c] * x[c]).sum();
-                worst = worst.max((cd.w[i * k + j] - want).abs());
+                match cd.row_bound[i] {
+                    usize::MAX => {
+                        let body = cd
+                            .sources
+                            .iter()
+                            .rev()
+                            .find(|s| s.1 <= i)
+                            .map(|s| match s.0 {
+                                Source::Sphere { body, .. } => body,
+                                Source::Limit { .. } => unreachable!(),
+                            })
+                            .unwrap();
+                        let mut at = Some(body);
+                        while let Some(bi) = at {
+                            let bd = &model.bodies[bi];
+                            for j in bd.v_offset..bd.v_offset + bd.nv {
+                                jac[i * nv + j] = data.s[j].dot(cd.wrench[i]);
+                            }
+                            at = bd.parent;
+                        }
+                    }
+                    li => jac[i * nv + cd.bounds[li].vi] = cd.bounds[li].sign,
+                }
             }
+            let mut md = Data::new(&model);
+            let m = mass_matrix(&model, &mut md, &q0).unwrap().to_vec();
+            let mut worst = 0.0f64;
+            let scale = cd.w.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+            for j in 0..k {
+                let mut x = jac[j * nv..(j + 1) * nv].to_vec();
+                spd_solve(&m, nv, &mut x);
+                for i in 0..k {
+                    let want: f64 = (0..nv).map(|c| jac[i * nv + c] * x[c]).sum();
+                    worst = worst.max((cd.w[i * k + j] - want).abs());
+                }
+            }
+            assert!(
+                worst <= 1e-10 * scale,
+                "W off by {worst:e} (scale {scale:e})"
+            );
+            // q̇⁺ − v_free = M⁻¹ Jᵀ λ.
+            let mut want: Vec<f64> = (0..nv)
+                .map(|c| (0..k).map(|i| jac[i * nv + c] * cd.lambda[i]).sum())
+                .collect();
+            spd_solve(&m, nv, &mut want);
+            let mut off = 0.0f64;
+            for c in 0..nv {
+                off = off.max((state.qd[c] - cd.qd_free[c] - want[c]).abs());
+            }
+            let big = want.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+            assert!(
+                big > 1e-3 && off <= 1e-10 * big,
+                "Δq̇ off by {off:e} of {big:e}"
+            );
         }
-        assert!(
-            worst <= 1e-10 * scale,
-            "W off by {worst:e} (scale {scale:e})"
-        );
-        // q̇⁺ − v_free = M⁻¹ Jᵀ λ.
-        let mut want: Vec<f64> = (0..nv)
-            .map(|c| (0..k).map(|i| jac[i * nv + c] * cd.lambda[i]).sum())
-            .collect();
-        spd_solve(&m, nv, &mut want);
-        let mut off = 0.0f64;
-        for c in 0..nv {
-            off = off.max((state.qd[c] - cd.qd_free[c] - want[c]).abs());
-        }
-        let big = want.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-        assert!(
-            big > 1e-3 && off <= 1e-10 * big,
-            "Δq̇ off by {off:e} of {big:e}"
-        );
+        // Both ways of making W's columns are used.
+        assert!(by_phi && by_row);
     }
 }

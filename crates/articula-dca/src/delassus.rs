@@ -303,9 +303,11 @@ impl Tree {
                     0.0
                 }
             });
-            for d in 0..k {
-                for (r, pr) in p.iter_mut().enumerate() {
-                    *pr += node.u[d][r] * g[d];
+            if node.parent != NONE {
+                for d in 0..k {
+                    for (r, pr) in p.iter_mut().enumerate() {
+                        *pr += node.u[d][r] * g[d];
+                    }
                 }
             }
             self.g[i] = g;
@@ -315,7 +317,8 @@ impl Tree {
         // Down the marked nodes: q̈ = g − D⁻¹ Uᵀ a', a = a' + S q̈.
         for &i in &self.needed {
             let node = &self.nodes[i];
-            let ap = if node.parent == NONE {
+            let root = node.parent == NONE;
+            let ap = if root {
                 [0.0; 6]
             } else {
                 self.acc[node.parent]
@@ -324,7 +327,13 @@ impl Tree {
             let mut a = ap;
             let mut qdd = [0.0; 6];
             for d in 0..node.k {
-                let x = if on { self.g[i][d] } else { 0.0 } - dot6::<Portable>(&node.dut[d], &ap);
+                let gd = if on { self.g[i][d] } else { 0.0 };
+                // (A root's a' is 0: q̈ = g.)
+                let x = if root {
+                    gd
+                } else {
+                    gd - dot6::<Portable>(&node.dut[d], &ap)
+                };
                 qdd[d] = x;
                 for (r, ar) in a.iter_mut().enumerate() {
                     *ar += node.s[d][r] * x;
@@ -342,11 +351,6 @@ impl Tree {
         } else {
             SpatialMotion::from_array(self.acc[i])
         }
-    }
-
-    /// The last column's acceleration of node `i` (marked; not [`NONE`]) as an array.
-    pub(crate) fn accel_array(&self, i: usize) -> V6 {
-        self.acc[i]
     }
 
     /// The last column's `q̈` of degree of freedom `dof` of node `i` (marked).
