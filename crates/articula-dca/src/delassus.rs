@@ -35,6 +35,8 @@ struct Node {
     vo: usize,
     k: usize,
     s: [V6; 6],
+    /// The rigid inertia of its bodies (the joint's and those welded to it).
+    rigid: SpatialInertia,
     ia: [V6; 6],
     u: [V6; 6],
     dinv: [[f64; 6]; 6],
@@ -48,6 +50,7 @@ impl Default for Node {
             vo: 0,
             k: 0,
             s: [[0.0; 6]; 6],
+            rigid: SpatialInertia::default(),
             ia: [[0.0; 6]; 6],
             u: [[0.0; 6]; 6],
             dinv: [[0.0; 6]; 6],
@@ -134,7 +137,7 @@ impl Tree {
                 debug_assert!(p < b, "bodies are stored parents first");
                 self.body_node[p]
             });
-            let m = inertia_rows(&dynamics.world_inertia(model, b));
+            let inertia = dynamics.world_inertia(model, b);
             if body.nv > 0 && dynamics.moves(model, b) {
                 if len == self.nodes.len() {
                     self.nodes.push(Node::default());
@@ -143,7 +146,7 @@ impl Tree {
                 node.parent = parent;
                 node.vo = body.v_offset;
                 node.k = body.nv;
-                node.ia = m;
+                node.rigid = inertia;
                 for d in 0..body.nv {
                     node.s[d] = kin.s[body.v_offset + d].to_array();
                 }
@@ -152,16 +155,14 @@ impl Tree {
             } else {
                 self.body_node[b] = parent;
                 if parent != NONE {
-                    let pia = &mut self.nodes[parent].ia;
-                    for (row, mr) in pia.iter_mut().zip(&m) {
-                        for (x, y) in row.iter_mut().zip(mr) {
-                            *x += y;
-                        }
-                    }
+                    self.nodes[parent].rigid += inertia;
                 }
             }
         }
         self.len = len;
+        for node in &mut self.nodes[..len] {
+            node.ia = inertia_rows(&node.rigid);
+        }
         // Leaves to root: U = Iᴬ S, D = Sᵀ U, D⁻¹, and the parent's Iᴬ += Iᴬ − U D⁻¹ Uᵀ.
         for i in (0..len).rev() {
             let (before, rest) = self.nodes.split_at_mut(i);
