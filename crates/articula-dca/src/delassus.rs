@@ -161,7 +161,7 @@ impl Tree {
         }
         self.len = len;
         for node in &mut self.nodes[..len] {
-            node.ia = inertia_rows(&node.rigid);
+            inertia_rows(&node.rigid, &mut node.ia);
         }
         // Leaves to root: U = Iᴬ S, D = Sᵀ U, D⁻¹, and the parent's Iᴬ += Iᴬ − U D⁻¹ Uᵀ.
         for i in (0..len).rev() {
@@ -449,9 +449,9 @@ impl Tree {
     }
 }
 
-/// The 6 × 6 matrix `[Ī h×; h×ᵀ m1]` of `i` by rows, `Ī` made exactly symmetric (the entries
-/// of `SpatialInertia::to_mat6`, without its 6 × 6 averaging pass).
-fn inertia_rows(i: &SpatialInertia) -> [V6; 6] {
+/// `out` = the 6 × 6 matrix `[Ī h×; h×ᵀ m1]` of `i` by rows, `Ī` made exactly symmetric (the
+/// entries of `SpatialInertia::to_mat6`, without its 6 × 6 averaging pass).
+fn inertia_rows(i: &SpatialInertia, out: &mut [V6; 6]) {
     let ib = i.ibar.to_cols_array_2d();
     let (m, h) = (i.mass, i.h);
     let ibar = |r: usize, c: usize| {
@@ -463,20 +463,17 @@ fn inertia_rows(i: &SpatialInertia) -> [V6; 6] {
     };
     // h× by rows: [[0, −h_z, h_y], [h_z, 0, −h_x], [−h_y, h_x, 0]].
     let hx = [[0.0, -h.z, h.y], [h.z, 0.0, -h.x], [-h.y, h.x, 0.0]];
-    std::array::from_fn(|r| {
-        std::array::from_fn(|c| match (r < 3, c < 3) {
-            (true, true) => ibar(r, c),
-            (true, false) => hx[r][c - 3],
-            (false, true) => hx[c][r - 3],
-            (false, false) => {
-                if r == c {
-                    m
-                } else {
-                    0.0
-                }
-            }
-        })
-    })
+    for (r, row) in out.iter_mut().enumerate() {
+        for (c, x) in row.iter_mut().enumerate() {
+            *x = match (r < 3, c < 3) {
+                (true, true) => ibar(r, c),
+                (true, false) => hx[r][c - 3],
+                (false, true) => hx[c][r - 3],
+                (false, false) if r == c => m,
+                (false, false) => 0.0,
+            };
+        }
+    }
 }
 
 /// `inv = A⁻¹` for the symmetric positive definite leading `k × k` block of `a` (Cholesky;
