@@ -209,12 +209,14 @@ impl Tree {
             }
         }
         // Per-node buffers: every entry a pass reads it has written first (the stamps tell
-        // the others), so they only grow.
+        // the others). They are cleared all the same: the clearing brings them into cache
+        // more cheaply than the passes' first scattered writes would.
         let n = len;
-        if self.p.len() < n {
-            for v in [&mut self.p, &mut self.g, &mut self.acc, &mut self.qdd] {
-                v.resize(n, [0.0; 6]);
-            }
+        for v in [&mut self.p, &mut self.g, &mut self.acc, &mut self.qdd] {
+            v.clear();
+            v.resize(n, [0.0; 6]);
+        }
+        if self.stamp.len() < n {
             self.stamp.resize(n, 0);
             self.read.resize(n, 0);
         }
