@@ -527,10 +527,10 @@ impl ContactDynamics for ExactDynamics<'_> {
 /// projection of [`crate::step`]: contact impulses are external). On return, `contact.stats`
 /// holds the step's figures and `data` the kinematics of the start-of-step `q`.
 ///
-/// Cost: one forward dynamics for the free motion, the articulated tree at rest O(n), one
-/// response column per contacting body's unit wrench (`min(6, its rows)`) and per active
-/// limit, each O(depth + the rows' paths), `W` O(k²) from them, O(k²) per Gauss–Seidel sweep
-/// for `k` rows, and O(n) to apply the impulses.
+/// Cost: one forward dynamics for the free motion, the articulated tree at rest O(n), per
+/// contact node 6 response columns (its unit wrenches) or one per row, whichever is cheaper,
+/// and one per active limit, each O(depth + the rows' paths), `W` from them (`k²/2` entries of
+/// 3 products), O(k²) per Gauss–Seidel sweep for `k` rows, and O(n) to apply the impulses.
 pub fn step_with_contact(
     model: &Model,
     data: &mut Data,
