@@ -20,7 +20,7 @@ use articula_dca::{
     ContactSettings, Data, DynamicsError, State,
 };
 use articula_model::Model;
-use articula_spatial::SpatialForce;
+use articula_spatial::{SpatialForce, SpatialInertia};
 
 /// The workspace of [`Adaptive::step_with_contact`]: articula-dca's contact workspace
 /// (contact spheres, joint bounds, warm starts, the last step's figures in `contact.stats`)
@@ -67,6 +67,11 @@ impl ContactDynamics for Hybrid<'_> {
 
     fn kinematics(&self) -> &Data {
         self.kin
+    }
+
+    fn world_inertia(&self, _model: &Model, body: usize) -> SpatialInertia {
+        // Set by the whole-body kinematics (the default's computation, done there).
+        self.kin.inertia[body]
     }
 
     fn moves(&self, model: &Model, body: usize) -> bool {

@@ -11,8 +11,8 @@
 //!    bound;
 //! 3. `W = J M⁻¹ Jᵀ` from the articulated tree of the system at rest ([`crate::delassus`]),
 //!    built once per step: each column is the response to one row's wrench, propagated along
-//!    its body's path (a body with 6 or more rows: its 6 unit wrenches, which its rows
-//!    combine);
+//!    its node's path (a node with many rows: its 6 unit wrenches read at the contact nodes,
+//!    `Φ`, which its rows combine), one entry per pair of rows;
 //! 4. `λ` by projected Gauss–Seidel, or with subspace minimisation ([`ContactSolver`],
 //!    `contact_solver`), warm-started from the
 //!    previous step's impulses at the same contact spheres and limits;
@@ -31,7 +31,7 @@ use crate::delassus::{Load, Tree, NONE};
 use crate::integrate::check_step_result;
 use crate::{forward_dynamics, integrate_q, Data, DynamicsError, Method, State};
 use articula_model::{CollisionModel, Model};
-use articula_spatial::{SpatialForce, SpatialMotion};
+use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion};
 use glam::DVec3;
 use thiserror::Error;
 
@@ -237,6 +237,17 @@ struct Patches {
     hull: Vec<(f64, f64)>,
 }
 
+/// How a contact node's rows get their columns of `W` ([`delassus`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Basis {
+    /// One response column per row.
+    Rows,
+    /// From the node's 6 unit-wrench columns `Φ_{·b}`, not computed yet.
+    Pending,
+    /// From `Φ_{·b}`, computed.
+    Ready,
+}
+
 /// A joint bound: `sign (q[qi] − bound) ≥ 0` with velocity `sign q̇[vi]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Bound {
@@ -270,12 +281,27 @@ pub struct ContactData {
     tree: Tree,
     row_node: Vec<usize>,
     row_bound: Vec<usize>,
+    /// Per row: its direction in the contact frame (0 normal, 1 and 2 the tangents; [`NONE`]
+    /// for a bound).
+    row_dir: Vec<usize>,
     /// Response columns of the last step, and per node the impulses' wrench.
     columns: usize,
     node_wrench: Vec<[f64; 6]>,
-    /// Per node: its contact rows (zero between steps); per row: its column of `W` done.
+    /// Per node: its contact rows (zero between steps) and its slot among the contact nodes
+    /// ([`NONE`] between steps); the contact nodes; per row its node's slot ([`NONE`]: a
+    /// bound, or a body welded to the world).
     node_rows: Vec<usize>,
-    done: Vec<bool>,
+    node_slot: Vec<usize>,
+    contact_nodes: Vec<usize>,
+    row_slot: Vec<usize>,
+    /// Per contact node: how its rows' columns of `W` are made.
+    slot_basis: Vec<Basis>,
+    /// `Φ_{·b}` of the contact nodes taking 6 columns (36 m² accelerations), and one row's
+    /// `Y_j = Φ_{·b} w_j` at the `m` contact nodes, both in the contact frame.
+    phi_op: Vec<[f64; 6]>,
+    y: Vec<[f64; 6]>,
+    /// Per contact row: its wrench in the contact frame, 3 entries (index, value) of 6.
+    local: Vec<([usize; 3], [f64; 3])>,
     /// The buffers of [`drop_held_points`].
     patches: Patches,
     /// The solver's active-set buffers.
@@ -292,7 +318,6 @@ pub struct ContactData {
     warm_set: Vec<Source>,
     qd_free: Vec<f64>,
     tau: Vec<f64>,
-    basis: Vec<f64>,
     delta: Vec<f64>,
 }
 
@@ -341,10 +366,17 @@ impl ContactData {
             tree: Tree::new(model),
             row_node: Vec::new(),
             row_bound: Vec::new(),
+            row_dir: Vec::new(),
             columns: 0,
             node_wrench: Vec::with_capacity(model.bodies.len()),
             node_rows: Vec::with_capacity(model.bodies.len()),
-            done: Vec::new(),
+            node_slot: Vec::with_capacity(model.bodies.len()),
+            contact_nodes: Vec::with_capacity(model.bodies.len()),
+            row_slot: Vec::new(),
+            slot_basis: Vec::with_capacity(model.bodies.len()),
+            phi_op: Vec::new(),
+            y: Vec::with_capacity(model.bodies.len()),
+            local: Vec::new(),
             patches,
             active: ActiveSet::default(),
             w: Vec::new(),
@@ -354,7 +386,6 @@ impl ContactData {
             u: Vec::new(),
             qd_free: vec![0.0; nv],
             tau: vec![0.0; nv],
-            basis: Vec::new(),
             delta: vec![0.0; nv],
         }
     }
@@ -414,6 +445,13 @@ fn check(settings: &ContactSettings, dt: f64) -> Result<Option<(Ground, DVec3)>,
     Ok(Some((g, g.normal / len)))
 }
 
+/// The contact frame `[n, t₁, t₂]` of the unit normal `n` (right-handed, the directions of a
+/// contact's rows in order).
+fn contact_frame(n: DVec3) -> [DVec3; 3] {
+    let (t1, t2) = tangents(n);
+    [n, t1, t2]
+}
+
 /// Two unit tangents completing the unit normal `n` to a right-handed frame.
 fn tangents(n: DVec3) -> (DVec3, DVec3) {
     let helper = if n.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
@@ -441,6 +479,12 @@ pub trait ContactDynamics {
     /// The kinematics of the step's start (after [`ContactDynamics::free_motion`]): `x`, `v`,
     /// `s` and `origin` of every body that carries a contact sphere and of its root path.
     fn kinematics(&self) -> &Data;
+
+    /// Body `body`'s spatial inertia in the computation frame of
+    /// [`ContactDynamics::kinematics`] (default: from its pose `x`).
+    fn world_inertia(&self, model: &Model, body: usize) -> SpatialInertia {
+        crate::kinematics::world_inertia(&self.kinematics().x[body], &model.bodies[body].inertia)
+    }
 
     /// Whether body `body`'s joint moves in this step (its columns of `J` are used; default
     /// every joint).
@@ -483,10 +527,10 @@ impl ContactDynamics for ExactDynamics<'_> {
 /// projection of [`crate::step`]: contact impulses are external). On return, `contact.stats`
 /// holds the step's figures and `data` the kinematics of the start-of-step `q`.
 ///
-/// Cost: one forward dynamics for the free motion, the articulated tree at rest O(n), one
-/// response column per contacting body's unit wrench (`min(6, its rows)`) and per active
-/// limit, each O(depth + the rows' paths), `W` O(k²) from them, O(k²) per Gauss–Seidel sweep
-/// for `k` rows, and O(n) to apply the impulses.
+/// Cost: one forward dynamics for the free motion, the articulated tree at rest O(n), per
+/// contact node 6 response columns (its unit wrenches) or one per row, whichever is cheaper,
+/// and one per active limit, each O(depth + the rows' paths), `W` from them (`k²/2` entries of
+/// 3 products), O(k²) per Gauss–Seidel sweep for `k` rows, and O(n) to apply the impulses.
 pub fn step_with_contact(
     model: &Model,
     data: &mut Data,
@@ -512,7 +556,6 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     settings: &ContactSettings,
 ) -> Result<(), ContactError> {
     let ground = check(settings, dt)?;
-    let nv = model.nv;
     let cd = contact;
     cd.stats = ContactStats::default();
     // 1. Free motion.
@@ -585,12 +628,9 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     if settings.joint_limits {
         for (li, b) in cd.bounds.iter().enumerate() {
             // A joint that does not move in this step (locked in a hybrid body) has no row.
-            if !dynamics.moves(model, b.body) {
-                continue;
-            }
             let phi = b.sign * (state.q[b.qi] - b.bound);
             let pre = b.sign * state.qd[b.vi];
-            if phi >= settings.margin + dt * (-pre).max(0.0) {
+            if phi >= settings.margin + dt * (-pre).max(0.0) || !dynamics.moves(model, b.body) {
                 continue;
             }
             let row = cd.phi.len();
@@ -626,16 +666,21 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     cd.stats.rows = k;
     cd.row_node.clear();
     cd.row_bound.clear();
+    cd.row_dir.clear();
     for &(src, _) in &cd.sources {
         match src {
             Source::Sphere { body, .. } => {
                 let node = cd.tree.body_node[body];
-                cd.row_node.extend([node; 3]);
-                cd.row_bound.extend([usize::MAX; 3]);
+                for d in 0..3 {
+                    cd.row_node.push(node);
+                    cd.row_bound.push(usize::MAX);
+                    cd.row_dir.push(d);
+                }
             }
             Source::Limit { limit } => {
                 cd.row_node.push(cd.tree.body_node[cd.bounds[limit].body]);
                 cd.row_bound.push(limit);
+                cd.row_dir.push(NONE);
             }
         }
     }
@@ -650,14 +695,17 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
         let x = row_value(cd, i, |_| v, |dof| cd.qd_free[dof]);
         cd.u_free.push(x);
     }
-    // 4. W = J M⁻¹ Jᵀ by columns: per body with 6 or more rows, the responses to its 6 unit
-    //    wrenches (each row's column a combination of those); else one response per row.
-    delassus(cd);
+    // 4. W = J M⁻¹ Jᵀ by columns: per contact node, its 6 unit wrenches' responses at the
+    //    contact nodes (each row's column a combination of those) or one response per row,
+    //    whichever costs less.
+    delassus(cd, ground.map(|(_, n)| contact_frame(n)));
     cd.stats.response_solves = cd.columns;
     cd.lambda.clear();
     for &(src, _) in &cd.sources {
         match src {
-            Source::Sphere { sphere, .. } => cd.lambda.extend(cd.warm_spheres[sphere]),
+            Source::Sphere { sphere, .. } => {
+                cd.lambda.extend_from_slice(&cd.warm_spheres[sphere]);
+            }
             Source::Limit { limit } => cd.lambda.push(cd.warm_bounds[limit]),
         }
     }
@@ -702,7 +750,7 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
         }
     }
     // 5. q̇⁺ = v_free + M⁻¹ Jᵀ λ (one pass over the tree), q⁺ = q ⊕ dt q̇⁺.
-    impulse_response(cd, nv);
+    impulse_response(cd);
     state.qd.copy_from_slice(&cd.qd_free);
     for (x, d) in state.qd.iter_mut().zip(&cd.delta) {
         *x += d;
@@ -736,7 +784,7 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
             &mut cd.active,
             settings.solver == ContactSolver::Subspace,
         );
-        impulse_response(cd, nv);
+        impulse_response(cd);
         dynamics.integrate(model, &mut state.q, &cd.delta, 1.0);
     }
     finish(model, state)
@@ -931,13 +979,20 @@ fn row_value(
     }
 }
 
-/// Fills `cd.w` (`k × k`, row-major, symmetric) with `W = J M⁻¹ Jᵀ` from one response
-/// column of the tree per load: per node (a moving joint with the bodies welded to it) with
-/// 6 or more contact rows, its 6 unit wrenches, whose responses each contact row on it
-/// combines by its wrench — a rigid character (one node) takes 6 columns whatever its
-/// contacts; else each row's own wrench or joint impulse. A column costs O(its node's depth
-/// + the rows' paths), reading it O(k).
-fn delassus(cd: &mut ContactData) {
+/// Fills `cd.w` (`k × k`, row-major, exactly symmetric) with `W = J M⁻¹ Jᵀ`, one entry per
+/// pair `i ≤ j` from the response to row `j`'s load (`docs/contact.md#cost`). The `m` nodes
+/// carrying contact rows are the contact nodes; `Φ_ab` (6 × 6) is node `a`'s acceleration
+/// for a unit wrench on node `b`, and a contact row `i` on node `a(i)` with wrench `wᵢ` has
+/// `W_ij = wᵢᵀ Φ_{a(i) b(j)} w_j`. Per contact node `b`, whichever is cheaper by
+/// [`Tree::column_cost`]: its 6 unit-wrench columns read at the contact nodes (`Φ_{·b}`), each
+/// of its rows then `Y_j = Φ_{·b} w_j` and `W_ij = wᵢ · Y_j^{a(i)}`; or one column per row,
+/// read at every row. A joint bound has its own column (bounds are the last rows, so a `Φ`
+/// column only meets contact rows).
+///
+/// `Φ` and the wrenches are taken in the contact frame `frame` (`[n, t₁, t₂]`, world axes
+/// rotated): there a row's wrench `(ρ × e_d, e_d)` (`ρ` its contact point, `d` its direction)
+/// has 3 entries, so `Y_j` costs 18m and `W_ij` 3 products.
+fn delassus(cd: &mut ContactData, frame: Option<[DVec3; 3]>) {
     let k = cd.phi.len();
     // Every entry is written below (no zeroing).
     if cd.w.len() < k * k {
@@ -945,91 +1000,144 @@ fn delassus(cd: &mut ContactData) {
     }
     cd.w.truncate(k * k);
     cd.columns = 0;
-    // Contact rows per node (`node_rows`, reset after use).
-    cd.node_rows.resize(cd.tree.len(), 0);
+    // The contact nodes, each row's slot among them, and per node its contact rows
+    // (`node_rows`, `node_slot`: reset after use).
+    let nodes = cd.tree.len();
+    if cd.node_rows.len() < nodes {
+        cd.node_rows.resize(nodes, 0);
+        cd.node_slot.resize(nodes, NONE);
+    }
+    cd.contact_nodes.clear();
+    cd.row_slot.clear();
     for i in 0..k {
-        if cd.row_bound[i] == usize::MAX && cd.row_node[i] != NONE {
-            cd.node_rows[cd.row_node[i]] += 1;
-        }
-    }
-    // Column j of W done (by its node's basis).
-    cd.done.clear();
-    cd.done.resize(k, false);
-    for first in 0..k {
-        let node = cd.row_node[first];
-        if cd.done[first]
-            || cd.row_bound[first] != usize::MAX
-            || node == NONE
-            || cd.node_rows[node] < 6
-        {
-            continue;
-        }
-        // cd.basis[m * k + i]: row i's response to unit wrench m on this node.
-        if cd.basis.len() < 6 * k {
-            cd.basis.resize(6 * k, 0.0);
-        }
-        for m in 0..6 {
-            let mut e = [0.0; 6];
-            e[m] = 1.0;
-            cd.tree
-                .column(node, Load::Wrench(SpatialForce::from_array(e)));
-            cd.columns += 1;
-            for i in 0..k {
-                cd.basis[m * k + i] = column_value(cd, i);
+        let node = cd.row_node[i];
+        let slot = if cd.row_bound[i] == usize::MAX && node != NONE {
+            if cd.node_slot[node] == NONE {
+                cd.node_slot[node] = cd.contact_nodes.len();
+                cd.contact_nodes.push(node);
             }
-        }
-        for j in first..k {
-            if cd.row_node[j] != node || cd.row_bound[j] != usize::MAX {
-                continue;
-            }
-            cd.done[j] = true;
-            // Row j of W (its column to rounding: W is symmetric), contiguous.
-            let w = cd.wrench[j].to_array();
-            let wj = &mut cd.w[j * k..(j + 1) * k];
-            for (x, b) in wj.iter_mut().zip(&cd.basis[..k]) {
-                *x = w[0] * b;
-            }
-            for (m, wm) in w.iter().enumerate().skip(1) {
-                for (x, b) in wj.iter_mut().zip(&cd.basis[m * k..(m + 1) * k]) {
-                    *x += wm * b;
-                }
-            }
-        }
-    }
-    for j in 0..k {
-        if cd.done[j] {
-            continue;
-        }
-        let node = cd.row_node[j];
-        let load = match cd.row_bound[j] {
-            usize::MAX => Load::Wrench(cd.wrench[j]),
-            li => {
-                let bd = cd.bounds[li];
-                Load::Tau {
-                    dof: bd.vi - cd.tree.v_offset(node),
-                    value: bd.sign,
-                }
-            }
+            cd.node_rows[node] += 1;
+            cd.node_slot[node]
+        } else {
+            NONE
         };
-        cd.tree.column(node, load);
-        cd.columns += 1;
+        cd.row_slot.push(slot);
+    }
+    let m = cd.contact_nodes.len();
+    // Per contact node: by its 6 unit wrenches (Φ) or a column per row, by cost. A column
+    // costs `c`; `Φ_{·b}` costs 6 columns and 6m reads (18 each), then 18m per row.
+    cd.slot_basis.clear();
+    for s in 0..m {
+        let node = cd.contact_nodes[s];
+        let (r, c) = (cd.node_rows[node], cd.tree.column_cost(node));
+        cd.slot_basis.push(if 6 * c + 18 * m * (r + 6) < r * c {
+            Basis::Pending
+        } else {
+            Basis::Rows
+        });
+    }
+    // The contact rows' wrenches in the contact frame: the moment's components off the
+    // row's direction (on it, `ρ × e_d` has none) and the unit force.
+    cd.local.clear();
+    if let Some(fr) = frame {
         for i in 0..k {
-            cd.w[j * k + i] = column_value(cd, i);
+            let d = cd.row_dir[i];
+            cd.local.push(if d < 3 {
+                let n = cd.wrench[i].n;
+                let (a, b) = ((d + 1) % 3, (d + 2) % 3);
+                ([a, b, 3 + d], [fr[a].dot(n), fr[b].dot(n), 1.0])
+            } else {
+                ([0; 3], [0.0; 3])
+            });
         }
     }
-    for i in 0..k {
-        if cd.row_node[i] != NONE {
-            cd.node_rows[cd.row_node[i]] = 0;
+    if cd.phi_op.len() < 36 * m * m {
+        cd.phi_op.resize(36 * m * m, [0.0; 6]);
+    }
+    cd.y.resize(m, [0.0; 6]);
+    for j in 0..k {
+        let node = cd.row_node[j];
+        let sb = cd.row_slot[j];
+        if let (Some(fr), true) = (frame, sb != NONE && cd.slot_basis[sb] != Basis::Rows) {
+            // Φ_{·b}[c][s] at cd.phi_op[(sb 6 + c) m + s]: slot s's acceleration for the unit
+            // wrench c on this node (contact frame).
+            let at = |c: usize, s: usize| (sb * 6 + c) * m + s;
+            if cd.slot_basis[sb] == Basis::Pending {
+                for c in 0..6 {
+                    let (e, z) = (fr[c % 3], DVec3::ZERO);
+                    let load = if c < 3 {
+                        SpatialForce::new(e, z)
+                    } else {
+                        SpatialForce::new(z, e)
+                    };
+                    cd.tree.column(node, Load::Wrench(load));
+                    cd.columns += 1;
+                    for s in 0..m {
+                        let a = cd.tree.accel(cd.contact_nodes[s]);
+                        let (w, v) = (a.w, a.v);
+                        cd.phi_op[at(c, s)] = [
+                            fr[0].dot(w),
+                            fr[1].dot(w),
+                            fr[2].dot(w),
+                            fr[0].dot(v),
+                            fr[1].dot(v),
+                            fr[2].dot(v),
+                        ];
+                    }
+                }
+                cd.slot_basis[sb] = Basis::Ready;
+            }
+            // Y_j = Φ_{·b} w_j at every contact node.
+            let (cj, xj) = cd.local[j];
+            for s in 0..m {
+                let (p0, p1, p2) = (
+                    &cd.phi_op[at(cj[0], s)],
+                    &cd.phi_op[at(cj[1], s)],
+                    &cd.phi_op[at(cj[2], s)],
+                );
+                cd.y[s] = std::array::from_fn(|r| xj[0] * p0[r] + xj[1] * p1[r] + xj[2] * p2[r]);
+            }
+            let (wj, wt) = cd.w.split_at_mut(j * k);
+            for (i, ((&s, &(ci, xi)), x)) in cd.row_slot[..=j]
+                .iter()
+                .zip(&cd.local[..=j])
+                .zip(&mut wt[..=j])
+                .enumerate()
+            {
+                debug_assert_eq!(cd.row_bound[i], usize::MAX, "bounds are the last rows");
+                *x = if s == NONE {
+                    0.0
+                } else {
+                    let y = &cd.y[s];
+                    xi[0] * y[ci[0]] + xi[1] * y[ci[1]] + xi[2] * y[ci[2]]
+                };
+                if i < j {
+                    wj[i * k + j] = *x;
+                }
+            }
+        } else {
+            let load = match cd.row_bound[j] {
+                usize::MAX => Load::Wrench(cd.wrench[j]),
+                li => {
+                    let bd = cd.bounds[li];
+                    Load::Tau {
+                        dof: bd.vi - cd.tree.v_offset(node),
+                        value: bd.sign,
+                    }
+                }
+            };
+            cd.tree.column(node, load);
+            cd.columns += 1;
+            for i in 0..=j {
+                let x = column_value(cd, i);
+                cd.w[j * k + i] = x;
+                cd.w[i * k + j] = x;
+            }
         }
     }
-    // Rows of W, symmetric to rounding: make it so exactly (the solver reads row i as
-    // column i).
-    for i in 0..k {
-        for j in i + 1..k {
-            let x = 0.5 * (cd.w[i * k + j] + cd.w[j * k + i]);
-            cd.w[i * k + j] = x;
-            cd.w[j * k + i] = x;
-        }
+    for &node in &cd.contact_nodes {
+        cd.node_rows[node] = 0;
+        cd.node_slot[node] = NONE;
     }
 }
 
@@ -1051,12 +1159,12 @@ fn column_value(cd: &ContactData, i: usize) -> f64 {
 }
 
 /// `cd.delta = M⁻¹ Jᵀ λ`: the rows' impulses gathered per node (wrenches) and per joint
-/// (bounds), then one pass over the tree.
-fn impulse_response(cd: &mut ContactData, nv: usize) {
-    cd.node_wrench.clear();
-    cd.node_wrench.resize(cd.tree.len(), [0.0; 6]);
-    cd.tau.clear();
-    cd.tau.resize(nv, 0.0);
+/// (bounds), then one pass over the tree. `node_wrench` and `tau` are zero between calls:
+/// only the rows' entries are set, and reset afterwards.
+fn impulse_response(cd: &mut ContactData) {
+    if cd.node_wrench.len() < cd.tree.len() {
+        cd.node_wrench.resize(cd.tree.len(), [0.0; 6]);
+    }
     for i in 0..cd.phi.len() {
         let (l, node) = (cd.lambda[i], cd.row_node[i]);
         if l == 0.0 || node == NONE {
@@ -1077,6 +1185,14 @@ fn impulse_response(cd: &mut ContactData, nv: usize) {
         }
     }
     cd.tree.solve(&cd.tau, &cd.node_wrench, &mut cd.delta);
+    for i in 0..cd.phi.len() {
+        let node = cd.row_node[i];
+        match cd.row_bound[i] {
+            _ if node == NONE => {}
+            usize::MAX => cd.node_wrench[node] = [0.0; 6],
+            li => cd.tau[cd.bounds[li].vi] = 0.0,
+        }
+    }
 }
 
 /// The end-of-step check: no NaN or infinity in `q` or `q̇`.
@@ -1177,106 +1293,131 @@ mod tests {
         );
     }
 
-    /// The floating humanoid lying on its side, falling onto the floor with every joint
-    /// moving and one joint hitting its bound: the tree's Delassus operator `W` equals the dense
+    /// The floating humanoid lying on its side, falling onto the floor (horizontal, and
+    /// tilted) with every joint moving and one joint hitting its bound: the tree's Delassus operator `W` equals the dense
     /// `J M⁻¹ Jᵀ` (CRBA's `M`, a Cholesky solve) and the step's velocity change is
     /// `M⁻¹ Jᵀ λ`, both to rounding.
     #[test]
     fn tree_delassus_matches_the_dense_operator() {
-        let model = articula_testkit::bundled_with("humanoid", true);
-        let nv = model.nv;
-        let mut data = Data::new(&model);
-        let mut cd = ContactData::new(&model);
-        let mut state = State::neutral(&model);
-        let r = DQuat::from_rotation_x(std::f64::consts::FRAC_PI_2);
-        state.q[3..7].copy_from_slice(&[r.w, r.x, r.y, r.z]);
-        for (i, v) in state.qd.iter_mut().enumerate() {
-            *v = 0.3 * ((i as f64) * 1.7).sin();
-        }
-        state.qd[2] = -0.5;
-        let b = cd.bounds[0];
-        // Inside its range by 1 mrad, closing at 2 rad/s (no penetration: no position
-        // correction, so `lambda` holds the velocity impulses on return).
-        state.q[b.qi] = b.bound + 1e-3 * b.sign;
-        state.qd[b.vi] = -2.0 * b.sign;
-        forward_kinematics(&model, &state.q, &state.qd, &mut data);
-        let lowest = cd.lowest_point(&data);
-        state.q[2] += 5e-4 - lowest;
-        let q0 = state.q.clone();
-        let settings = ContactSettings {
-            ground: Some(Ground::horizontal(0.0)),
-            // Every sphere within 0.3 m a candidate: many bodies, many rows.
-            margin: 0.3,
-            ..Default::default()
+        // On the floor and on a plane tilted about both horizontal axes (a contact frame
+        // that is no permutation of the world axes).
+        let tilted = Ground {
+            normal: DVec3::new(0.2, -0.1, 1.0),
+            ..Ground::horizontal(0.0)
         };
-        step_with_contact(
-            &model,
-            &mut data,
-            &mut cd,
-            &mut state,
-            Method::Aba,
-            1e-3,
-            &settings,
-        )
-        .unwrap();
-        let k = cd.stats.rows;
-        assert!(k >= 30 && cd.stats.limits >= 1, "{:?}", cd.stats);
-        // Dense J from the start-of-step kinematics (still in `data`).
-        let mut jac = vec![0.0; k * nv];
-        for i in 0..k {
-            match cd.row_bound[i] {
-                usize::MAX => {
-                    let body = cd
-                        .sources
-                        .iter()
-                        .rev()
-                        .find(|s| s.1 <= i)
-                        .map(|s| match s.0 {
-                            Source::Sphere { body, .. } => body,
-                            Source::Limit { .. } => unreachable!(),
-                        })
-                        .unwrap();
-                    let mut at = Some(body);
-                    while let Some(bi) = at {
-                        let bd = &model.bodies[bi];
-                        for j in bd.v_offset..bd.v_offset + bd.nv {
-                            jac[i * nv + j] = data.s[j].dot(cd.wrench[i]);
-                        }
-                        at = bd.parent;
-                    }
-                }
-                li => jac[i * nv + cd.bounds[li].vi] = cd.bounds[li].sign,
+        // (A small margin: few rows per body, columns by row.)
+        let (mut by_phi, mut by_row) = (false, false);
+        for (ground, margin) in [
+            (Ground::horizontal(0.0), 0.3),
+            (tilted, 0.3),
+            (Ground::horizontal(0.0), 0.01),
+        ] {
+            let model = articula_testkit::bundled_with("humanoid", true);
+            let nv = model.nv;
+            let mut data = Data::new(&model);
+            let mut cd = ContactData::new(&model);
+            let mut state = State::neutral(&model);
+            let r = DQuat::from_rotation_x(std::f64::consts::FRAC_PI_2);
+            state.q[3..7].copy_from_slice(&[r.w, r.x, r.y, r.z]);
+            for (i, v) in state.qd.iter_mut().enumerate() {
+                *v = 0.3 * ((i as f64) * 1.7).sin();
             }
-        }
-        let mut md = Data::new(&model);
-        let m = mass_matrix(&model, &mut md, &q0).unwrap().to_vec();
-        let mut worst = 0.0f64;
-        let scale = cd.w.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-        for j in 0..k {
-            let mut x = jac[j * nv..(j + 1) * nv].to_vec();
-            spd_solve(&m, nv, &mut x);
+            state.qd[2] = -0.5;
+            let b = cd.bounds[0];
+            // Inside its range by 1 mrad, closing at 2 rad/s (no penetration: no position
+            // correction, so `lambda` holds the velocity impulses on return).
+            state.q[b.qi] = b.bound + 1e-3 * b.sign;
+            state.qd[b.vi] = -2.0 * b.sign;
+            forward_kinematics(&model, &state.q, &state.qd, &mut data);
+            // The lowest sphere 0.5 mm above the plane.
+            let nh = ground.normal.normalize();
+            let gap = (cd.collision().spheres.iter())
+                .map(|s| {
+                    let c = data.x[s.body].apply_point(s.center) + data.origin;
+                    nh.dot(c - ground.point) - s.radius
+                })
+                .fold(f64::INFINITY, f64::min);
+            state.q[2] += (5e-4 - gap) / nh.z;
+            let q0 = state.q.clone();
+            let settings = ContactSettings {
+                ground: Some(ground),
+                // Every sphere within 0.3 m a candidate: many bodies, many rows.
+                margin,
+                ..Default::default()
+            };
+            step_with_contact(
+                &model,
+                &mut data,
+                &mut cd,
+                &mut state,
+                Method::Aba,
+                1e-3,
+                &settings,
+            )
+            .unwrap();
+            let k = cd.stats.rows;
+            assert!(k >= 20 && cd.stats.limits >= 1, "{:?}", cd.stats);
+            by_phi |= cd.slot_basis.contains(&Basis::Ready);
+            by_row |= cd.slot_basis.contains(&Basis::Rows);
+            // Dense J from the start-of-step kinematics (still in `data`).
+            let mut jac = vec![0.0; k * nv];
             for i in 0..k {
-                let want: f64 = (0..nv).map(|c| jac[i * nv + c] * x[c]).sum();
-                worst = worst.max((cd.w[i * k + j] - want).abs());
+                match cd.row_bound[i] {
+                    usize::MAX => {
+                        let body = cd
+                            .sources
+                            .iter()
+                            .rev()
+                            .find(|s| s.1 <= i)
+                            .map(|s| match s.0 {
+                                Source::Sphere { body, .. } => body,
+                                Source::Limit { .. } => unreachable!(),
+                            })
+                            .unwrap();
+                        let mut at = Some(body);
+                        while let Some(bi) = at {
+                            let bd = &model.bodies[bi];
+                            for j in bd.v_offset..bd.v_offset + bd.nv {
+                                jac[i * nv + j] = data.s[j].dot(cd.wrench[i]);
+                            }
+                            at = bd.parent;
+                        }
+                    }
+                    li => jac[i * nv + cd.bounds[li].vi] = cd.bounds[li].sign,
+                }
             }
+            let mut md = Data::new(&model);
+            let m = mass_matrix(&model, &mut md, &q0).unwrap().to_vec();
+            let mut worst = 0.0f64;
+            let scale = cd.w.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+            for j in 0..k {
+                let mut x = jac[j * nv..(j + 1) * nv].to_vec();
+                spd_solve(&m, nv, &mut x);
+                for i in 0..k {
+                    let want: f64 = (0..nv).map(|c| jac[i * nv + c] * x[c]).sum();
+                    worst = worst.max((cd.w[i * k + j] - want).abs());
+                }
+            }
+            assert!(
+                worst <= 1e-10 * scale,
+                "W off by {worst:e} (scale {scale:e})"
+            );
+            // q̇⁺ − v_free = M⁻¹ Jᵀ λ.
+            let mut want: Vec<f64> = (0..nv)
+                .map(|c| (0..k).map(|i| jac[i * nv + c] * cd.lambda[i]).sum())
+                .collect();
+            spd_solve(&m, nv, &mut want);
+            let mut off = 0.0f64;
+            for c in 0..nv {
+                off = off.max((state.qd[c] - cd.qd_free[c] - want[c]).abs());
+            }
+            let big = want.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+            assert!(
+                big > 1e-3 && off <= 1e-10 * big,
+                "Δq̇ off by {off:e} of {big:e}"
+            );
         }
-        assert!(
-            worst <= 1e-10 * scale,
-            "W off by {worst:e} (scale {scale:e})"
-        );
-        // q̇⁺ − v_free = M⁻¹ Jᵀ λ.
-        let mut want: Vec<f64> = (0..nv)
-            .map(|c| (0..k).map(|i| jac[i * nv + c] * cd.lambda[i]).sum())
-            .collect();
-        spd_solve(&m, nv, &mut want);
-        let mut off = 0.0f64;
-        for c in 0..nv {
-            off = off.max((state.qd[c] - cd.qd_free[c] - want[c]).abs());
-        }
-        let big = want.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-        assert!(
-            big > 1e-3 && off <= 1e-10 * big,
-            "Δq̇ off by {off:e} of {big:e}"
-        );
+        // Both ways of making W's columns are used.
+        assert!(by_phi && by_row);
     }
 }

@@ -640,11 +640,10 @@ pub(crate) fn solve_active(
         }
         let a = set.rows.len();
         set.w.clear();
-        set.w.extend(
-            set.rows
-                .iter()
-                .flat_map(|&i| set.rows.iter().map(move |&j| w[i * k + j])),
-        );
+        for &i in &set.rows {
+            let wi = &w[i * k..(i + 1) * k];
+            set.w.extend(set.rows.iter().map(|&j| wi[j]));
+        }
         set.u_free.clear();
         set.u_free.extend(set.rows.iter().map(|&i| u_free[i]));
         set.target.clear();

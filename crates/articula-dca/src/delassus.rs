@@ -17,11 +17,10 @@
 //! O(depth + rows' paths) instead of O(n). The whole response `M⁻¹ τ` (the impulses applied
 //! to the velocities) is the same two passes over every node, O(n).
 
-use crate::kinematics::world_inertia;
 use crate::{ContactDynamics, Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::internals::{dot6, Portable};
-use articula_spatial::{SpatialForce, SpatialMotion};
+use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion};
 
 /// "No node": a body welded to the world, or the parent of a root node.
 pub(crate) const NONE: usize = usize::MAX;
@@ -36,6 +35,8 @@ struct Node {
     vo: usize,
     k: usize,
     s: [V6; 6],
+    /// The rigid inertia of its bodies (the joint's and those welded to it).
+    rigid: SpatialInertia,
     ia: [V6; 6],
     u: [V6; 6],
     dinv: [[f64; 6]; 6],
@@ -49,6 +50,7 @@ impl Default for Node {
             vo: 0,
             k: 0,
             s: [[0.0; 6]; 6],
+            rigid: SpatialInertia::default(),
             ia: [[0.0; 6]; 6],
             u: [[0.0; 6]; 6],
             dinv: [[0.0; 6]; 6],
@@ -80,13 +82,17 @@ pub(crate) struct Tree {
     g: Vec<V6>,
     acc: Vec<V6>,
     qdd: Vec<V6>,
-    /// Per node: the column that put it on its load's path (`g` valid), and whether some
-    /// row reads it.
+    /// Per node: the column that put it on its load's path (`g` valid), and the build whose
+    /// rows read it (stamps: nothing is reset between columns or steps).
     stamp: Vec<usize>,
-    read: Vec<bool>,
+    read: Vec<usize>,
     /// The nodes some row reads and their root paths, ascending (parents first).
     needed: Vec<usize>,
+    /// The down pass's cost over `needed` ([`Tree::column_cost`]'s units).
+    down_cost: usize,
+    /// Columns and builds so far (never reset: the stamps of `stamp` and `read`).
     column: usize,
+    build: usize,
 }
 
 impl Tree {
@@ -105,7 +111,9 @@ impl Tree {
             stamp: Vec::with_capacity(n),
             read: Vec::with_capacity(n),
             needed: Vec::with_capacity(n),
+            down_cost: 0,
             column: 0,
+            build: 0,
         }
     }
 
@@ -129,7 +137,7 @@ impl Tree {
                 debug_assert!(p < b, "bodies are stored parents first");
                 self.body_node[p]
             });
-            let m = world_inertia(&kin.x[b], &body.inertia).to_mat6();
+            let inertia = dynamics.world_inertia(model, b);
             if body.nv > 0 && dynamics.moves(model, b) {
                 if len == self.nodes.len() {
                     self.nodes.push(Node::default());
@@ -138,11 +146,7 @@ impl Tree {
                 node.parent = parent;
                 node.vo = body.v_offset;
                 node.k = body.nv;
-                for (r, row) in node.ia.iter_mut().enumerate() {
-                    for (c, x) in row.iter_mut().enumerate() {
-                        *x = m.get(r, c);
-                    }
-                }
+                node.rigid = inertia;
                 for d in 0..body.nv {
                     node.s[d] = kin.s[body.v_offset + d].to_array();
                 }
@@ -151,16 +155,14 @@ impl Tree {
             } else {
                 self.body_node[b] = parent;
                 if parent != NONE {
-                    let pia = &mut self.nodes[parent].ia;
-                    for (r, row) in pia.iter_mut().enumerate() {
-                        for (c, x) in row.iter_mut().enumerate() {
-                            *x += m.get(r, c);
-                        }
-                    }
+                    self.nodes[parent].rigid += inertia;
                 }
             }
         }
         self.len = len;
+        for node in &mut self.nodes[..len] {
+            inertia_rows(&node.rigid, &mut node.ia);
+        }
         // Leaves to root: U = Iᴬ S, D = Sᵀ U, D⁻¹, and the parent's Iᴬ += Iᴬ − U D⁻¹ Uᵀ.
         for i in (0..len).rev() {
             let (before, rest) = self.nodes.split_at_mut(i);
@@ -175,7 +177,14 @@ impl Tree {
                     dm[a][b] = dot6::<Portable>(&node.s[a], &node.u[b]);
                 }
             }
-            if !spd_inverse(&mut dm, k, &mut node.dinv) {
+            let spd = if k == 1 {
+                // One dof: D⁻¹ = 1/d.
+                node.dinv[0][0] = 1.0 / dm[0][0];
+                dm[0][0] > 0.0
+            } else {
+                spd_inverse(&mut dm, k, &mut node.dinv)
+            };
+            if !spd {
                 let vo = node.vo;
                 let body = (0..model.bodies.len())
                     .find(|&b| model.bodies[b].v_offset == vo && model.bodies[b].nv > 0)
@@ -199,17 +208,21 @@ impl Tree {
                 }
             }
         }
+        // Per-node buffers: every entry a pass reads it has written first (the stamps tell
+        // the others). They are cleared all the same: the clearing brings them into cache
+        // more cheaply than the passes' first scattered writes would.
         let n = len;
         for v in [&mut self.p, &mut self.g, &mut self.acc, &mut self.qdd] {
             v.clear();
             v.resize(n, [0.0; 6]);
         }
-        self.stamp.clear();
-        self.stamp.resize(n, usize::MAX);
-        self.read.clear();
-        self.read.resize(n, false);
+        if self.stamp.len() < n {
+            self.stamp.resize(n, 0);
+            self.read.resize(n, 0);
+        }
+        self.build += 1;
         self.needed.clear();
-        self.column = 0;
+        self.down_cost = 0;
         Ok(())
     }
 
@@ -221,8 +234,8 @@ impl Tree {
     /// Marks node `i` (and its root path) as read by some row; call for every row's node
     /// before the columns.
     pub(crate) fn mark_read(&mut self, mut i: usize) {
-        while i != NONE && !self.read[i] {
-            self.read[i] = true;
+        while i != NONE && self.read[i] != self.build {
+            self.read[i] = self.build;
             i = self.nodes[i].parent;
         }
     }
@@ -230,7 +243,26 @@ impl Tree {
     /// Orders the marked nodes (after every [`Tree::mark_read`]).
     pub(crate) fn finish_marks(&mut self) {
         self.needed.clear();
-        self.needed.extend((0..self.len).filter(|&i| self.read[i]));
+        self.down_cost = 0;
+        for i in 0..self.len {
+            if self.read[i] == self.build {
+                self.needed.push(i);
+                self.down_cost += 18 * self.nodes[i].k + 6;
+            }
+        }
+    }
+
+    /// An estimate of what one [`Tree::column`] loaded at node `at` costs, in multiply-adds:
+    /// the walk up its path (`k² + 12k` per node of `k` dofs) and the down pass over the
+    /// marked nodes (`18k + 6` each). O(depth of `at`).
+    pub(crate) fn column_cost(&self, mut at: usize) -> usize {
+        let mut cost = self.down_cost;
+        while at != NONE {
+            let k = self.nodes[at].k;
+            cost += k * k + 12 * k + 6;
+            at = self.nodes[at].parent;
+        }
+        cost
     }
 
     /// The response of the system at rest to `load` on node `at` ([`NONE`]: nothing moves):
@@ -274,9 +306,11 @@ impl Tree {
                     0.0
                 }
             });
-            for d in 0..k {
-                for (r, pr) in p.iter_mut().enumerate() {
-                    *pr += node.u[d][r] * g[d];
+            if node.parent != NONE {
+                for d in 0..k {
+                    for (r, pr) in p.iter_mut().enumerate() {
+                        *pr += node.u[d][r] * g[d];
+                    }
                 }
             }
             self.g[i] = g;
@@ -286,7 +320,8 @@ impl Tree {
         // Down the marked nodes: q̈ = g − D⁻¹ Uᵀ a', a = a' + S q̈.
         for &i in &self.needed {
             let node = &self.nodes[i];
-            let ap = if node.parent == NONE {
+            let root = node.parent == NONE;
+            let ap = if root {
                 [0.0; 6]
             } else {
                 self.acc[node.parent]
@@ -295,7 +330,13 @@ impl Tree {
             let mut a = ap;
             let mut qdd = [0.0; 6];
             for d in 0..node.k {
-                let x = if on { self.g[i][d] } else { 0.0 } - dot6::<Portable>(&node.dut[d], &ap);
+                let gd = if on { self.g[i][d] } else { 0.0 };
+                // (A root's a' is 0: q̈ = g.)
+                let x = if root {
+                    gd
+                } else {
+                    gd - dot6::<Portable>(&node.dut[d], &ap)
+                };
                 qdd[d] = x;
                 for (r, ar) in a.iter_mut().enumerate() {
                     *ar += node.s[d][r] * x;
@@ -407,6 +448,33 @@ impl Tree {
     /// The number of nodes.
     pub(crate) fn len(&self) -> usize {
         self.len
+    }
+}
+
+/// `out` = the 6 × 6 matrix `[Ī h×; h×ᵀ m1]` of `i` by rows, `Ī` made exactly symmetric (the
+/// entries of `SpatialInertia::to_mat6`, without its 6 × 6 averaging pass).
+fn inertia_rows(i: &SpatialInertia, out: &mut [V6; 6]) {
+    let ib = i.ibar.to_cols_array_2d();
+    let (m, h) = (i.mass, i.h);
+    let ibar = |r: usize, c: usize| {
+        if r == c {
+            ib[c][r]
+        } else {
+            0.5 * (ib[c][r] + ib[r][c])
+        }
+    };
+    // h× by rows: [[0, −h_z, h_y], [h_z, 0, −h_x], [−h_y, h_x, 0]].
+    let hx = [[0.0, -h.z, h.y], [h.z, 0.0, -h.x], [-h.y, h.x, 0.0]];
+    for (r, row) in out.iter_mut().enumerate() {
+        for (c, x) in row.iter_mut().enumerate() {
+            *x = match (r < 3, c < 3) {
+                (true, true) => ibar(r, c),
+                (true, false) => hx[r][c - 3],
+                (false, true) => hx[c][r - 3],
+                (false, false) if r == c => m,
+                (false, false) => 0.0,
+            };
+        }
     }
 }
 

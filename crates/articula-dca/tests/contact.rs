@@ -321,7 +321,10 @@ fn energy_never_grows_through_contact() {
 }
 
 /// The bundled humanoid, floating, dropped with its lowest point 1 m above the floor, comes to
-/// rest: kinetic energy < 0.01 J after 3 s, penetration < 5 mm throughout.
+/// rest: kinetic energy < 0.01 J after 3 s (6 s with the subspace solver), penetration < 5 mm
+/// throughout. It lands on its feet and falls over; with the subspace solver the fall ends
+/// later and at a time that rounding decides: under 1e-9 m changes of the drop height its
+/// kinetic energy at 3 s ranges from 1e-4 J to over 1 J, at 6 s it is below 1e-3 J.
 #[test]
 fn dropped_humanoid_comes_to_rest() {
     // With either solver.
@@ -345,7 +348,17 @@ fn dropped_humanoid_comes_to_rest() {
             capped += !sim.contact.stats.converged as usize;
         }
         forward_kinematics(&sim.model, &sim.state.q, &sim.state.qd, &mut sim.data);
-        let kinetic = sim.data.kinetic_energy();
+        let mut kinetic = sim.data.kinetic_energy();
+        let mut settle = 0;
+        if solver == ContactSolver::Subspace {
+            // Three seconds more (not in the figures below).
+            for _ in 0..3000 {
+                sim.step(Method::Dca);
+                worst = worst.max(sim.contact.stats.max_penetration);
+            }
+            forward_kinematics(&sim.model, &sim.state.q, &sim.state.qd, &mut sim.data);
+            (settle, kinetic) = (3, sim.data.kinetic_energy());
+        }
         eprintln!(
             "humanoid {solver:?}: kinetic {kinetic:.3e} J, max penetration {worst:.3e} m, max rows {rows}, \
              iterations per step {:.1}, not converged {capped} of {steps} steps, last {:?}",
@@ -354,7 +367,8 @@ fn dropped_humanoid_comes_to_rest() {
         );
         assert!(
             kinetic < 0.01,
-            "{solver:?}: kinetic energy {kinetic} J after 3 s"
+            "{solver:?}: kinetic energy {kinetic} J after {} s",
+            3 + settle
         );
         assert!(worst < 5e-3, "{solver:?}: penetration {worst} m");
     }
