@@ -10,8 +10,9 @@
 //! one node per active joint, each locked body's inertia welded to its parent's node (the
 //! rigid cluster), a body welded to the world in none — so a response column walks only the
 //! active joints on a contact body's path. That step also does detection on the whole body's
-//! kinematics (a rigidified part still collides), the rows, the Gauss–Seidel solve and the
-//! position correction. With every joint active this is articula-dca's exact contact step to
+//! kinematics (a rigidified part still collides; each locked body's pose composed from its
+//! cluster's, [`HybridContact`]), the rows, the Gauss–Seidel solve and the position
+//! correction. With every joint active this is articula-dca's exact contact step to
 //! rounding.
 
 use crate::{integrate_part, Adaptive, AdaptiveError, StepReport};
@@ -192,8 +193,9 @@ impl Adaptive {
     /// (module documentation). A body with no active joint (budget 0) moves as one rigid body
     /// and still lands. `contact.contact.stats` holds the step's contact figures.
     ///
-    /// Cost: the hybrid step, whole-body kinematics O(n) for the contact spheres and the
-    /// reduced tree's inertias, per response column a walk along the active joints of one
+    /// Cost: the hybrid step, whole-body kinematics for the contact spheres (O(n) pose
+    /// compositions from the rigid clusters; a forward kinematics pass after a new hybrid
+    /// body), one inertia per cluster, per response column a walk along the active joints of one
     /// contact body's path and the rows' paths, O(k²) for `W` and per Gauss–Seidel sweep
     /// (`k` rows).
     pub fn step_with_contact(
