@@ -461,9 +461,9 @@ fn tangents(n: DVec3) -> (DVec3, DVec3) {
 
 /// The dynamics under a contact step ([`step_with_dynamics`]): the free motion, the
 /// kinematics the rows are read from, and the response `M⁻¹ τ` of the system at rest. Exact
-/// dynamics ([`ExactDynamics`]: DCA, ABA or CRBA) and articula-adaptive's hybrid body (its
-/// locked joints stay locked, a rigid cluster moves as one) implement it; detection, the
-/// rows, the solve and the position correction are shared.
+/// dynamics (DCA, ABA or CRBA, as [`step_with_contact`] uses them) and articula-adaptive's
+/// hybrid body (its locked joints stay locked, a rigid cluster moves as one) implement it;
+/// detection, the rows, the solve and the position correction are shared.
 pub trait ContactDynamics {
     /// The free-motion accelerations `q̈ = M⁻¹(τ − C)` of `state` into `qdd` (every entry
     /// written; 0 for a joint that does not move). May change `state.qd` first (a hybrid

@@ -5,7 +5,7 @@
 
 use articula_spatial::{SpatialMotion, SpatialTransform};
 
-/// The smallest reduced tree (active joints) whose hybrid step ([`Adaptive::set_threads`])
+/// The smallest reduced tree (active joints) whose hybrid step ([`crate::Adaptive::set_threads`])
 /// splits its per-joint sweeps — the angles' sines and cosines and pass 1 of the
 /// articulated-body algorithm (each cluster's inertia and bias force) — across threads, and,
 /// on a branched reduced tree, its recursions too (the active kinematics and passes 2 and 3
@@ -62,7 +62,7 @@ impl Default for Chain {
 }
 
 /// The reduced tree's independent subtrees that passes 2 and 3 of a large hybrid step run on
-/// the threads ([`Adaptive::set_threads`]), found with the records (once per re-selection).
+/// the threads ([`crate::Adaptive::set_threads`]), found with the records (once per re-selection).
 ///
 /// The records are the active bodies in body order, a depth-first pre-order (parents first),
 /// so a record's subtree is the run of records from it. The subtrees taken are the largest of
