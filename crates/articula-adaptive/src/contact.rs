@@ -18,7 +18,7 @@
 use crate::{integrate_part, Adaptive, AdaptiveError, StepReport};
 use articula_dca::{
     forward_kinematics, step_with_dynamics, ContactData, ContactDynamics, ContactError,
-    ContactSettings, Data, DynamicsError, State,
+    ContactScratch, ContactSettings, Data, DynamicsError, State,
 };
 use articula_model::Model;
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
@@ -36,6 +36,31 @@ pub struct HybridContact {
     qdd: Vec<f64>,
     /// The rigid clusters of the hybrid body of build `gen` ([`Clusters`]).
     clusters: Clusters,
+}
+
+/// The buffers of a hybrid body's contact step that nothing carries from one step to the
+/// next: articula-dca's ([`ContactScratch`]) and the whole-body kinematics. Bodies of one
+/// model stepped in turn share one ([`HybridContact::swap_scratch`]), which then stays in the
+/// processor's caches.
+#[derive(Clone, Debug)]
+pub struct HybridScratch {
+    contact: ContactScratch,
+    kin: Data,
+}
+
+impl HybridScratch {
+    /// The buffers for `model`.
+    pub fn new(model: &Model) -> HybridScratch {
+        HybridScratch {
+            contact: ContactScratch::new(model),
+            kin: Data::new(model),
+        }
+    }
+
+    /// articula-dca's part, for an exact contact step's [`ContactData::swap_scratch`].
+    pub fn contact(&mut self) -> &mut ContactScratch {
+        &mut self.contact
+    }
 }
 
 /// The hybrid body's rigid clusters, for its whole-body kinematics without a forward
@@ -77,6 +102,15 @@ impl HybridContact {
                 inertia: vec![SpatialInertia::ZERO; n],
             },
         }
+    }
+
+    /// Exchanges this workspace's step buffers with `scratch` (O(1)): give it a scratch of the
+    /// same model before [`Adaptive::step_with_contact`] and take it back after, and the
+    /// bodies of one model stepped in turn share one. The warm starts, the rigid clusters and
+    /// the last step's figures stay here.
+    pub fn swap_scratch(&mut self, scratch: &mut HybridScratch) {
+        self.contact.swap_scratch(&mut scratch.contact);
+        std::mem::swap(&mut self.kin, &mut scratch.kin);
     }
 
     /// The whole body's kinematics at the step's start into `kin`: after a new hybrid body,

@@ -78,7 +78,7 @@ mod reference_tests;
 pub use adaptive::Adaptive;
 /// The thread count of [`Adaptive::set_threads`] (articula-dca's).
 pub use articula_dca::Threads;
-pub use contact::HybridContact;
+pub use contact::{HybridContact, HybridScratch};
 pub use error::AdaptiveError;
 pub use parts::selection_queue::Selection;
 pub use parts::subtrees::PARALLEL_HYBRID_MIN_JOINTS;

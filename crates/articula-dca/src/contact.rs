@@ -270,6 +270,24 @@ pub struct ContactData {
     /// Figures of the last step.
     pub stats: ContactStats,
     bounds: Vec<Bound>,
+    /// Response columns of the last step.
+    columns: usize,
+    /// Warm starts: per contact sphere `[λ_n, λ_t1, λ_t2]`, per bound `λ`.
+    warm_spheres: Vec<[f64; 3]>,
+    warm_bounds: Vec<f64>,
+    /// The sources whose warm starts the last solve set.
+    warm_set: Vec<Source>,
+    /// The buffers one step uses and leaves ([`ContactScratch`]).
+    s: ContactScratch,
+}
+
+/// The buffers a contact step of one model uses within itself: the rows, the articulated tree,
+/// `W`, the solver's, the free velocities and the impulses' response. Nothing in them carries
+/// from one step to the next, so bodies of one model stepped in turn can share one
+/// ([`ContactData::swap_scratch`]) that stays in the processor's caches instead of each
+/// streaming its own from memory.
+#[derive(Clone, Debug)]
+pub struct ContactScratch {
     /// Per block: its source and first row.
     sources: Vec<(Source, usize)>,
     blocks: Vec<Block>,
@@ -284,8 +302,7 @@ pub struct ContactData {
     /// Per row: its direction in the contact frame (0 normal, 1 and 2 the tangents; [`NONE`]
     /// for a bound).
     row_dir: Vec<usize>,
-    /// Response columns of the last step, and per node the impulses' wrench.
-    columns: usize,
+    /// Per node: the impulses' wrench.
     node_wrench: Vec<[f64; 6]>,
     /// Per node: its contact rows (zero between steps) and its slot among the contact nodes
     /// ([`NONE`] between steps); the contact nodes; per row its node's slot ([`NONE`]: a
@@ -311,14 +328,63 @@ pub struct ContactData {
     target: Vec<f64>,
     lambda: Vec<f64>,
     u: Vec<f64>,
-    /// Warm starts: per contact sphere `[λ_n, λ_t1, λ_t2]`, per bound `λ`.
-    warm_spheres: Vec<[f64; 3]>,
-    warm_bounds: Vec<f64>,
-    /// The sources whose warm starts the last solve set.
-    warm_set: Vec<Source>,
     qd_free: Vec<f64>,
     tau: Vec<f64>,
     delta: Vec<f64>,
+}
+
+impl ContactScratch {
+    /// The step buffers for `model` and its contact spheres ([`CollisionModel::new`]) and joint
+    /// bounds, for [`ContactData::swap_scratch`].
+    pub fn new(model: &Model) -> ContactScratch {
+        let spheres = CollisionModel::new(model).spheres.len();
+        let bounds = model
+            .joint_parts()
+            .filter(|(_, p)| p.limits.is_some())
+            .count()
+            * 2;
+        Self::sized(model, spheres, bounds)
+    }
+
+    /// The step buffers for `model` with `spheres` contact spheres and `bounds` joint bounds.
+    fn sized(model: &Model, spheres: usize, bounds: usize) -> ContactScratch {
+        let (nb, nv) = (model.bodies.len(), model.nv);
+        ContactScratch {
+            sources: Vec::new(),
+            blocks: Vec::new(),
+            phi: Vec::new(),
+            wrench: Vec::new(),
+            tree: Tree::new(model),
+            row_node: Vec::new(),
+            row_bound: Vec::new(),
+            row_dir: Vec::new(),
+            node_wrench: Vec::with_capacity(nb),
+            node_rows: Vec::with_capacity(nb),
+            node_slot: Vec::with_capacity(nb),
+            contact_nodes: Vec::with_capacity(nb),
+            row_slot: Vec::new(),
+            slot_basis: Vec::with_capacity(nb),
+            phi_op: Vec::new(),
+            y: Vec::with_capacity(nb),
+            local: Vec::new(),
+            // Sized for every sphere and bound at once: it never grows in a step.
+            patches: Patches {
+                members: Vec::with_capacity(spheres),
+                keep: Vec::with_capacity(spheres + bounds),
+                points: Vec::with_capacity(spheres),
+                hull: Vec::with_capacity(spheres + 1),
+            },
+            active: ActiveSet::default(),
+            w: Vec::new(),
+            u_free: Vec::new(),
+            target: Vec::new(),
+            lambda: Vec::new(),
+            u: Vec::new(),
+            qd_free: vec![0.0; nv],
+            tau: vec![0.0; nv],
+            delta: vec![0.0; nv],
+        }
+    }
 }
 
 impl ContactData {
@@ -343,51 +409,25 @@ impl ContactData {
                 }
             }
         }
-        let nv = model.nv;
-        // Sized for every sphere and bound at once: it never grows in a step.
-        let patches = Patches {
-            members: Vec::with_capacity(collision.spheres.len()),
-            keep: Vec::with_capacity(collision.spheres.len() + bounds.len()),
-            points: Vec::with_capacity(collision.spheres.len()),
-            hull: Vec::with_capacity(collision.spheres.len() + 1),
-        };
         ContactData {
             warm_spheres: vec![[0.0; 3]; collision.spheres.len()],
             warm_bounds: vec![0.0; bounds.len()],
             warm_set: Vec::with_capacity(collision.spheres.len() + bounds.len()),
             runs: SphereRun::of(&collision.spheres),
+            s: ContactScratch::sized(model, collision.spheres.len(), bounds.len()),
             collision,
             stats: ContactStats::default(),
             bounds,
-            sources: Vec::new(),
-            blocks: Vec::new(),
-            phi: Vec::new(),
-            wrench: Vec::new(),
-            tree: Tree::new(model),
-            row_node: Vec::new(),
-            row_bound: Vec::new(),
-            row_dir: Vec::new(),
             columns: 0,
-            node_wrench: Vec::with_capacity(model.bodies.len()),
-            node_rows: Vec::with_capacity(model.bodies.len()),
-            node_slot: Vec::with_capacity(model.bodies.len()),
-            contact_nodes: Vec::with_capacity(model.bodies.len()),
-            row_slot: Vec::new(),
-            slot_basis: Vec::with_capacity(model.bodies.len()),
-            phi_op: Vec::new(),
-            y: Vec::with_capacity(model.bodies.len()),
-            local: Vec::new(),
-            patches,
-            active: ActiveSet::default(),
-            w: Vec::new(),
-            u_free: Vec::new(),
-            target: Vec::new(),
-            lambda: Vec::new(),
-            u: Vec::new(),
-            qd_free: vec![0.0; nv],
-            tau: vec![0.0; nv],
-            delta: vec![0.0; nv],
         }
+    }
+
+    /// Exchanges this workspace's step buffers with `scratch` (O(1)): give it a scratch of the
+    /// same model before a step and take it back after, and the bodies of one model stepped in
+    /// turn share one scratch ([`ContactScratch`]). The warm starts and the last step's figures
+    /// stay here.
+    pub fn swap_scratch(&mut self, scratch: &mut ContactScratch) {
+        std::mem::swap(&mut self.s, scratch);
     }
 
     /// The model's contact spheres.
@@ -559,17 +599,17 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     let cd = contact;
     cd.stats = ContactStats::default();
     // 1. Free motion.
-    dynamics.free_motion(model, state, &mut cd.delta)?;
-    for ((f, v), a) in cd.qd_free.iter_mut().zip(&state.qd).zip(&cd.delta) {
+    dynamics.free_motion(model, state, &mut cd.s.delta)?;
+    for ((f, v), a) in cd.s.qd_free.iter_mut().zip(&state.qd).zip(&cd.s.delta) {
         *f = v + dt * a;
     }
     let data = dynamics.kinematics();
     // 2. Candidates, from the kinematics of the start of the step.
-    cd.sources.clear();
-    cd.blocks.clear();
-    cd.phi.clear();
-    cd.wrench.clear();
-    cd.target.clear();
+    cd.s.sources.clear();
+    cd.s.blocks.clear();
+    cd.s.phi.clear();
+    cd.s.wrench.clear();
+    cd.s.target.clear();
     if let Some((g, n)) = ground {
         let (t1, t2) = tangents(n);
         // Broad phase: a run of one body's spheres whose ball is above the ground by more
@@ -595,15 +635,15 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
                 if phi >= settings.margin + dt * (-pre).max(0.0) {
                     continue;
                 }
-                let row = cd.phi.len();
-                cd.sources.push((
+                let row = cd.s.phi.len();
+                cd.s.sources.push((
                     Source::Sphere {
                         sphere: si,
                         body: s.body,
                     },
                     row,
                 ));
-                cd.blocks.push(Block::Contact {
+                cd.s.blocks.push(Block::Contact {
                     row,
                     mu: g.friction,
                 });
@@ -618,9 +658,9 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
                     -phi.max(0.0) / dt
                 };
                 for (d, p, t) in [(n, phi, target), (t1, 0.0, 0.0), (t2, 0.0, 0.0)] {
-                    cd.wrench.push(SpatialForce::new(r.cross(d), d));
-                    cd.phi.push(p);
-                    cd.target.push(t);
+                    cd.s.wrench.push(SpatialForce::new(r.cross(d), d));
+                    cd.s.phi.push(p);
+                    cd.s.target.push(t);
                 }
             }
         }
@@ -633,96 +673,97 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
             if phi >= settings.margin + dt * (-pre).max(0.0) || !dynamics.moves(model, b.body) {
                 continue;
             }
-            let row = cd.phi.len();
-            cd.sources.push((Source::Limit { limit: li }, row));
-            cd.blocks.push(Block::Unilateral { row });
-            cd.wrench.push(SpatialForce::ZERO);
-            cd.phi.push(phi);
-            cd.target.push(if phi > settings.slop {
+            let row = cd.s.phi.len();
+            cd.s.sources.push((Source::Limit { limit: li }, row));
+            cd.s.blocks.push(Block::Unilateral { row });
+            cd.s.wrench.push(SpatialForce::ZERO);
+            cd.s.phi.push(phi);
+            cd.s.target.push(if phi > settings.slop {
                 -phi / dt
             } else {
                 -phi.max(0.0) / dt
             });
         }
     }
-    cd.stats.candidates = cd
-        .sources
-        .iter()
-        .filter(|(s, _)| matches!(s, Source::Sphere { .. }))
-        .count();
-    if cd.phi.is_empty() {
-        state.qd.copy_from_slice(&cd.qd_free);
+    cd.stats.candidates =
+        cd.s.sources
+            .iter()
+            .filter(|(s, _)| matches!(s, Source::Sphere { .. }))
+            .count();
+    if cd.s.phi.is_empty() {
+        state.qd.copy_from_slice(&cd.s.qd_free);
         dynamics.integrate(model, &mut state.q, &state.qd, dt);
         cd.stats.converged = true;
         return finish(model, state);
     }
     // 3. The articulated tree of the system at rest (once), each row's node, and the rows'
     //    free velocities u_free = J v_free (a row reads its node's velocity).
-    cd.tree.build(model, &*dynamics)?;
+    cd.s.tree.build(model, &*dynamics)?;
     if let Some((_, n)) = ground {
         drop_held_points(cd, n, settings.slop);
     }
-    let k = cd.phi.len();
+    let k = cd.s.phi.len();
     cd.stats.rows = k;
-    cd.row_node.clear();
-    cd.row_bound.clear();
-    cd.row_dir.clear();
-    for &(src, _) in &cd.sources {
+    cd.s.row_node.clear();
+    cd.s.row_bound.clear();
+    cd.s.row_dir.clear();
+    for &(src, _) in &cd.s.sources {
         match src {
             Source::Sphere { body, .. } => {
-                let node = cd.tree.body_node[body];
+                let node = cd.s.tree.body_node[body];
                 for d in 0..3 {
-                    cd.row_node.push(node);
-                    cd.row_bound.push(usize::MAX);
-                    cd.row_dir.push(d);
+                    cd.s.row_node.push(node);
+                    cd.s.row_bound.push(usize::MAX);
+                    cd.s.row_dir.push(d);
                 }
             }
             Source::Limit { limit } => {
-                cd.row_node.push(cd.tree.body_node[cd.bounds[limit].body]);
-                cd.row_bound.push(limit);
-                cd.row_dir.push(NONE);
+                cd.s.row_node
+                    .push(cd.s.tree.body_node[cd.bounds[limit].body]);
+                cd.s.row_bound.push(limit);
+                cd.s.row_dir.push(NONE);
             }
         }
     }
     for i in 0..k {
-        cd.tree.mark_read(cd.row_node[i]);
+        cd.s.tree.mark_read(cd.s.row_node[i]);
     }
-    cd.tree.finish_marks();
-    cd.tree.velocities(&cd.qd_free);
-    cd.u_free.clear();
+    cd.s.tree.finish_marks();
+    cd.s.tree.velocities(&cd.s.qd_free);
+    cd.s.u_free.clear();
     for i in 0..k {
-        let v = cd.tree.velocity(cd.row_node[i]);
-        let x = row_value(cd, i, |_| v, |dof| cd.qd_free[dof]);
-        cd.u_free.push(x);
+        let v = cd.s.tree.velocity(cd.s.row_node[i]);
+        let x = row_value(cd, i, |_| v, |dof| cd.s.qd_free[dof]);
+        cd.s.u_free.push(x);
     }
     // 4. W = J M⁻¹ Jᵀ by columns: per contact node, its 6 unit wrenches' responses at the
     //    contact nodes (each row's column a combination of those) or one response per row,
     //    whichever costs less.
     delassus(cd, ground.map(|(_, n)| contact_frame(n)));
     cd.stats.response_solves = cd.columns;
-    cd.lambda.clear();
-    for &(src, _) in &cd.sources {
+    cd.s.lambda.clear();
+    for &(src, _) in &cd.s.sources {
         match src {
             Source::Sphere { sphere, .. } => {
-                cd.lambda.extend_from_slice(&cd.warm_spheres[sphere]);
+                cd.s.lambda.extend_from_slice(&cd.warm_spheres[sphere]);
             }
-            Source::Limit { limit } => cd.lambda.push(cd.warm_bounds[limit]),
+            Source::Limit { limit } => cd.s.lambda.push(cd.warm_bounds[limit]),
         }
     }
-    cd.u.clear();
-    cd.u.resize(k, 0.0);
+    cd.s.u.clear();
+    cd.s.u.resize(k, 0.0);
     let solve = contact_solver::solve_active(
-        &cd.w,
-        &cd.blocks,
-        &cd.u_free,
-        &cd.target,
-        &mut cd.lambda,
-        &mut cd.u,
+        &cd.s.w,
+        &cd.s.blocks,
+        &cd.s.u_free,
+        &cd.s.target,
+        &mut cd.s.lambda,
+        &mut cd.s.u,
         Stop {
             max_iterations: settings.max_iterations,
             tolerance: settings.tolerance,
         },
-        &mut cd.active,
+        &mut cd.s.active,
         settings.solver == ContactSolver::Subspace,
     );
     cd.stats.iterations = solve.iterations;
@@ -736,56 +777,57 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
         }
     }
     cd.warm_set.clear();
-    cd.warm_set.extend(cd.sources.iter().map(|s| s.0));
-    for &(src, row) in &cd.sources {
+    cd.warm_set.extend(cd.s.sources.iter().map(|s| s.0));
+    for &(src, row) in &cd.s.sources {
         match src {
             Source::Sphere { sphere, .. } => {
-                cd.warm_spheres[sphere] = [cd.lambda[row], cd.lambda[row + 1], cd.lambda[row + 2]];
-                cd.stats.contacts += (cd.lambda[row] > 0.0) as usize;
+                cd.warm_spheres[sphere] =
+                    [cd.s.lambda[row], cd.s.lambda[row + 1], cd.s.lambda[row + 2]];
+                cd.stats.contacts += (cd.s.lambda[row] > 0.0) as usize;
             }
             Source::Limit { limit } => {
-                cd.warm_bounds[limit] = cd.lambda[row];
-                cd.stats.limits += (cd.lambda[row] > 0.0) as usize;
+                cd.warm_bounds[limit] = cd.s.lambda[row];
+                cd.stats.limits += (cd.s.lambda[row] > 0.0) as usize;
             }
         }
     }
     // 5. q̇⁺ = v_free + M⁻¹ Jᵀ λ (one pass over the tree), q⁺ = q ⊕ dt q̇⁺.
     impulse_response(cd);
-    state.qd.copy_from_slice(&cd.qd_free);
-    for (x, d) in state.qd.iter_mut().zip(&cd.delta) {
+    state.qd.copy_from_slice(&cd.s.qd_free);
+    for (x, d) in state.qd.iter_mut().zip(&cd.s.delta) {
         *x += d;
     }
     dynamics.integrate(model, &mut state.q, &state.qd, dt);
     // 6. Post-stabilisation of what penetrates deeper than the slop.
-    if cd.phi.iter().any(|&p| p < -settings.slop) {
+    if cd.s.phi.iter().any(|&p| p < -settings.slop) {
         // Normal and limit rows only: friction is off (tangent rows' targets are ignored and
         // their impulses kept at 0 by μ = 0).
-        for b in cd.blocks.iter_mut() {
+        for b in cd.s.blocks.iter_mut() {
             if let Block::Contact { mu, .. } = b {
                 *mu = 0.0;
             }
         }
         for i in 0..k {
-            cd.u_free[i] = 0.0;
-            cd.target[i] = -cd.phi[i] - settings.slop;
-            cd.lambda[i] = 0.0;
+            cd.s.u_free[i] = 0.0;
+            cd.s.target[i] = -cd.s.phi[i] - settings.slop;
+            cd.s.lambda[i] = 0.0;
         }
         contact_solver::solve_active(
-            &cd.w,
-            &cd.blocks,
-            &cd.u_free,
-            &cd.target,
-            &mut cd.lambda,
-            &mut cd.u,
+            &cd.s.w,
+            &cd.s.blocks,
+            &cd.s.u_free,
+            &cd.s.target,
+            &mut cd.s.lambda,
+            &mut cd.s.u,
             Stop {
                 max_iterations: settings.max_iterations,
                 tolerance: settings.tolerance * dt,
             },
-            &mut cd.active,
+            &mut cd.s.active,
             settings.solver == ContactSolver::Subspace,
         );
         impulse_response(cd);
-        dynamics.integrate(model, &mut state.q, &cd.delta, 1.0);
+        dynamics.integrate(model, &mut state.q, &cd.s.delta, 1.0);
     }
     finish(model, state)
 }
@@ -808,12 +850,12 @@ const HELD_GAP: f64 = 1e-6;
 /// four corners of a foot and its toes' in one cluster become the corners of their outline.
 fn drop_held_points(cd: &mut ContactData, n: DVec3, slop: f64) {
     let (t1, t2) = tangents(n);
-    let p = &mut cd.patches;
+    let p = &mut cd.s.patches;
     // (node, source) of every sphere candidate on a moving node, by node.
     p.members.clear();
-    for (i, &(src, _)) in cd.sources.iter().enumerate() {
+    for (i, &(src, _)) in cd.s.sources.iter().enumerate() {
         if let Source::Sphere { body, .. } = src {
-            let node = cd.tree.body_node[body];
+            let node = cd.s.tree.body_node[body];
             if node != NONE {
                 p.members.push((node, i));
             }
@@ -824,7 +866,7 @@ fn drop_held_points(cd: &mut ContactData, n: DVec3, slop: f64) {
     }
     p.members.sort_unstable();
     p.keep.clear();
-    p.keep.resize(cd.sources.len(), true);
+    p.keep.resize(cd.s.sources.len(), true);
     let mut dropped = false;
     let mut first = 0;
     while first < p.members.len() {
@@ -839,7 +881,7 @@ fn drop_held_points(cd: &mut ContactData, n: DVec3, slop: f64) {
         if group.len() < 5 {
             continue;
         }
-        let radius = |i: usize| match cd.sources[i].0 {
+        let radius = |i: usize| match cd.s.sources[i].0 {
             Source::Sphere { sphere, .. } => cd.collision.spheres[sphere].radius,
             Source::Limit { .. } => f64::NAN,
         };
@@ -850,8 +892,8 @@ fn drop_held_points(cd: &mut ContactData, n: DVec3, slop: f64) {
         // The contact points' projections: the normal row's torque is r × n, and
         // n × (r × n) is r's component in the plane.
         let point = |i: usize| {
-            let row = cd.sources[i].1;
-            let r = n.cross(cd.wrench[row].n);
+            let row = cd.s.sources[i].1;
+            let r = n.cross(cd.s.wrench[row].n);
             (t1.dot(r), t2.dot(r))
         };
         // The convex hull (counter-clockwise, no collinear vertices) of the touching points.
@@ -859,7 +901,7 @@ fn drop_held_points(cd: &mut ContactData, n: DVec3, slop: f64) {
         p.points.extend(
             p.members[group.clone()]
                 .iter()
-                .filter(|m| cd.phi[cd.sources[m.1].1] <= HELD_GAP)
+                .filter(|m| cd.s.phi[cd.s.sources[m.1].1] <= HELD_GAP)
                 .map(|m| point(m.1)),
         );
         if p.points.len() < 3 {
@@ -878,7 +920,7 @@ fn drop_held_points(cd: &mut ContactData, n: DVec3, slop: f64) {
         let eps = 1e-12 * scale * scale;
         for m in &p.members[group] {
             let (x, y) = point(m.1);
-            if p.hull.contains(&(x, y)) || cd.phi[cd.sources[m.1].1] < -slop {
+            if p.hull.contains(&(x, y)) || cd.s.phi[cd.s.sources[m.1].1] < -slop {
                 continue;
             }
             let inside = (0..p.hull.len()).all(|e| {
@@ -897,39 +939,39 @@ fn drop_held_points(cd: &mut ContactData, n: DVec3, slop: f64) {
     }
     // Compact the rows of the kept blocks (blocks and sources are in the same order).
     let mut to = 0;
-    for b in 0..cd.sources.len() {
-        let (src, row) = cd.sources[b];
+    for b in 0..cd.s.sources.len() {
+        let (src, row) = cd.s.sources[b];
         let rows = match src {
             Source::Sphere { .. } => 3,
             Source::Limit { .. } => 1,
         };
-        if !cd.patches.keep[b] {
+        if !cd.s.patches.keep[b] {
             continue;
         }
         let new_row = to;
         for j in 0..rows {
-            cd.phi[new_row + j] = cd.phi[row + j];
-            cd.wrench[new_row + j] = cd.wrench[row + j];
-            cd.target[new_row + j] = cd.target[row + j];
+            cd.s.phi[new_row + j] = cd.s.phi[row + j];
+            cd.s.wrench[new_row + j] = cd.s.wrench[row + j];
+            cd.s.target[new_row + j] = cd.s.target[row + j];
         }
         to += rows;
-        cd.sources[b].1 = new_row;
-        cd.blocks[b] = match cd.blocks[b] {
+        cd.s.sources[b].1 = new_row;
+        cd.s.blocks[b] = match cd.s.blocks[b] {
             Block::Unilateral { .. } => Block::Unilateral { row: new_row },
             Block::Contact { mu, .. } => Block::Contact { row: new_row, mu },
         };
     }
-    cd.phi.truncate(to);
-    cd.wrench.truncate(to);
-    cd.target.truncate(to);
-    let keep = &cd.patches.keep;
+    cd.s.phi.truncate(to);
+    cd.s.wrench.truncate(to);
+    cd.s.target.truncate(to);
+    let keep = &cd.s.patches.keep;
     let mut b = 0;
-    cd.sources.retain(|_| {
+    cd.s.sources.retain(|_| {
         b += 1;
         keep[b - 1]
     });
     let mut b = 0;
-    cd.blocks.retain(|_| {
+    cd.s.blocks.retain(|_| {
         b += 1;
         keep[b - 1]
     });
@@ -970,8 +1012,8 @@ fn row_value(
     node: impl Fn(usize) -> SpatialMotion,
     joint: impl Fn(usize) -> f64,
 ) -> f64 {
-    match cd.row_bound[i] {
-        usize::MAX => cd.wrench[i].dot(node(cd.row_node[i])),
+    match cd.s.row_bound[i] {
+        usize::MAX => cd.s.wrench[i].dot(node(cd.s.row_node[i])),
         li => {
             let b = cd.bounds[li];
             b.sign * joint(b.vi)
@@ -979,7 +1021,7 @@ fn row_value(
     }
 }
 
-/// Fills `cd.w` (`k × k`, row-major, exactly symmetric) with `W = J M⁻¹ Jᵀ`, one entry per
+/// Fills `cd.s.w` (`k × k`, row-major, exactly symmetric) with `W = J M⁻¹ Jᵀ`, one entry per
 /// pair `i ≤ j` from the response to row `j`'s load (`docs/contact.md#cost`). The `m` nodes
 /// carrying contact rows are the contact nodes; `Φ_ab` (6 × 6) is node `a`'s acceleration
 /// for a unit wrench on node `b`, and a contact row `i` on node `a(i)` with wrench `wᵢ` has
@@ -993,44 +1035,44 @@ fn row_value(
 /// rotated): there a row's wrench `(ρ × e_d, e_d)` (`ρ` its contact point, `d` its direction)
 /// has 3 entries, so `Y_j` costs 18m and `W_ij` 3 products.
 fn delassus(cd: &mut ContactData, frame: Option<[DVec3; 3]>) {
-    let k = cd.phi.len();
+    let k = cd.s.phi.len();
     // Every entry is written below (no zeroing).
-    if cd.w.len() < k * k {
-        cd.w.resize(k * k, 0.0);
+    if cd.s.w.len() < k * k {
+        cd.s.w.resize(k * k, 0.0);
     }
-    cd.w.truncate(k * k);
+    cd.s.w.truncate(k * k);
     cd.columns = 0;
     // The contact nodes, each row's slot among them, and per node its contact rows
     // (`node_rows`, `node_slot`: reset after use).
-    let nodes = cd.tree.len();
-    if cd.node_rows.len() < nodes {
-        cd.node_rows.resize(nodes, 0);
-        cd.node_slot.resize(nodes, NONE);
+    let nodes = cd.s.tree.len();
+    if cd.s.node_rows.len() < nodes {
+        cd.s.node_rows.resize(nodes, 0);
+        cd.s.node_slot.resize(nodes, NONE);
     }
-    cd.contact_nodes.clear();
-    cd.row_slot.clear();
+    cd.s.contact_nodes.clear();
+    cd.s.row_slot.clear();
     for i in 0..k {
-        let node = cd.row_node[i];
-        let slot = if cd.row_bound[i] == usize::MAX && node != NONE {
-            if cd.node_slot[node] == NONE {
-                cd.node_slot[node] = cd.contact_nodes.len();
-                cd.contact_nodes.push(node);
+        let node = cd.s.row_node[i];
+        let slot = if cd.s.row_bound[i] == usize::MAX && node != NONE {
+            if cd.s.node_slot[node] == NONE {
+                cd.s.node_slot[node] = cd.s.contact_nodes.len();
+                cd.s.contact_nodes.push(node);
             }
-            cd.node_rows[node] += 1;
-            cd.node_slot[node]
+            cd.s.node_rows[node] += 1;
+            cd.s.node_slot[node]
         } else {
             NONE
         };
-        cd.row_slot.push(slot);
+        cd.s.row_slot.push(slot);
     }
-    let m = cd.contact_nodes.len();
+    let m = cd.s.contact_nodes.len();
     // Per contact node: by its 6 unit wrenches (Φ) or a column per row, by cost. A column
     // costs `c`; `Φ_{·b}` costs 6 columns and 6m reads (18 each), then 18m per row.
-    cd.slot_basis.clear();
+    cd.s.slot_basis.clear();
     for s in 0..m {
-        let node = cd.contact_nodes[s];
-        let (r, c) = (cd.node_rows[node], cd.tree.column_cost(node));
-        cd.slot_basis.push(if 6 * c + 18 * m * (r + 6) < r * c {
+        let node = cd.s.contact_nodes[s];
+        let (r, c) = (cd.s.node_rows[node], cd.s.tree.column_cost(node));
+        cd.s.slot_basis.push(if 6 * c + 18 * m * (r + 6) < r * c {
             Basis::Pending
         } else {
             Basis::Rows
@@ -1038,12 +1080,12 @@ fn delassus(cd: &mut ContactData, frame: Option<[DVec3; 3]>) {
     }
     // The contact rows' wrenches in the contact frame: the moment's components off the
     // row's direction (on it, `ρ × e_d` has none) and the unit force.
-    cd.local.clear();
+    cd.s.local.clear();
     if let Some(fr) = frame {
         for i in 0..k {
-            let d = cd.row_dir[i];
-            cd.local.push(if d < 3 {
-                let n = cd.wrench[i].n;
+            let d = cd.s.row_dir[i];
+            cd.s.local.push(if d < 3 {
+                let n = cd.s.wrench[i].n;
                 let (a, b) = ((d + 1) % 3, (d + 2) % 3);
                 ([a, b, 3 + d], [fr[a].dot(n), fr[b].dot(n), 1.0])
             } else {
@@ -1051,18 +1093,18 @@ fn delassus(cd: &mut ContactData, frame: Option<[DVec3; 3]>) {
             });
         }
     }
-    if cd.phi_op.len() < 36 * m * m {
-        cd.phi_op.resize(36 * m * m, [0.0; 6]);
+    if cd.s.phi_op.len() < 36 * m * m {
+        cd.s.phi_op.resize(36 * m * m, [0.0; 6]);
     }
-    cd.y.resize(m, [0.0; 6]);
+    cd.s.y.resize(m, [0.0; 6]);
     for j in 0..k {
-        let node = cd.row_node[j];
-        let sb = cd.row_slot[j];
-        if let (Some(fr), true) = (frame, sb != NONE && cd.slot_basis[sb] != Basis::Rows) {
-            // Φ_{·b}[c][s] at cd.phi_op[(sb 6 + c) m + s]: slot s's acceleration for the unit
+        let node = cd.s.row_node[j];
+        let sb = cd.s.row_slot[j];
+        if let (Some(fr), true) = (frame, sb != NONE && cd.s.slot_basis[sb] != Basis::Rows) {
+            // Φ_{·b}[c][s] at cd.s.phi_op[(sb 6 + c) m + s]: slot s's acceleration for the unit
             // wrench c on this node (contact frame).
             let at = |c: usize, s: usize| (sb * 6 + c) * m + s;
-            if cd.slot_basis[sb] == Basis::Pending {
+            if cd.s.slot_basis[sb] == Basis::Pending {
                 for c in 0..6 {
                     let (e, z) = (fr[c % 3], DVec3::ZERO);
                     let load = if c < 3 {
@@ -1070,12 +1112,12 @@ fn delassus(cd: &mut ContactData, frame: Option<[DVec3; 3]>) {
                     } else {
                         SpatialForce::new(z, e)
                     };
-                    cd.tree.column(node, Load::Wrench(load));
+                    cd.s.tree.column(node, Load::Wrench(load));
                     cd.columns += 1;
                     for s in 0..m {
-                        let a = cd.tree.accel(cd.contact_nodes[s]);
+                        let a = cd.s.tree.accel(cd.s.contact_nodes[s]);
                         let (w, v) = (a.w, a.v);
-                        cd.phi_op[at(c, s)] = [
+                        cd.s.phi_op[at(c, s)] = [
                             fr[0].dot(w),
                             fr[1].dot(w),
                             fr[2].dot(w),
@@ -1085,30 +1127,30 @@ fn delassus(cd: &mut ContactData, frame: Option<[DVec3; 3]>) {
                         ];
                     }
                 }
-                cd.slot_basis[sb] = Basis::Ready;
+                cd.s.slot_basis[sb] = Basis::Ready;
             }
             // Y_j = Φ_{·b} w_j at every contact node.
-            let (cj, xj) = cd.local[j];
+            let (cj, xj) = cd.s.local[j];
             for s in 0..m {
                 let (p0, p1, p2) = (
-                    &cd.phi_op[at(cj[0], s)],
-                    &cd.phi_op[at(cj[1], s)],
-                    &cd.phi_op[at(cj[2], s)],
+                    &cd.s.phi_op[at(cj[0], s)],
+                    &cd.s.phi_op[at(cj[1], s)],
+                    &cd.s.phi_op[at(cj[2], s)],
                 );
-                cd.y[s] = std::array::from_fn(|r| xj[0] * p0[r] + xj[1] * p1[r] + xj[2] * p2[r]);
+                cd.s.y[s] = std::array::from_fn(|r| xj[0] * p0[r] + xj[1] * p1[r] + xj[2] * p2[r]);
             }
-            let (wj, wt) = cd.w.split_at_mut(j * k);
-            for (i, ((&s, &(ci, xi)), x)) in cd.row_slot[..=j]
+            let (wj, wt) = cd.s.w.split_at_mut(j * k);
+            for (i, ((&s, &(ci, xi)), x)) in cd.s.row_slot[..=j]
                 .iter()
-                .zip(&cd.local[..=j])
+                .zip(&cd.s.local[..=j])
                 .zip(&mut wt[..=j])
                 .enumerate()
             {
-                debug_assert_eq!(cd.row_bound[i], usize::MAX, "bounds are the last rows");
+                debug_assert_eq!(cd.s.row_bound[i], usize::MAX, "bounds are the last rows");
                 *x = if s == NONE {
                     0.0
                 } else {
-                    let y = &cd.y[s];
+                    let y = &cd.s.y[s];
                     xi[0] * y[ci[0]] + xi[1] * y[ci[1]] + xi[2] * y[ci[2]]
                 };
                 if i < j {
@@ -1116,81 +1158,82 @@ fn delassus(cd: &mut ContactData, frame: Option<[DVec3; 3]>) {
                 }
             }
         } else {
-            let load = match cd.row_bound[j] {
-                usize::MAX => Load::Wrench(cd.wrench[j]),
+            let load = match cd.s.row_bound[j] {
+                usize::MAX => Load::Wrench(cd.s.wrench[j]),
                 li => {
                     let bd = cd.bounds[li];
                     Load::Tau {
-                        dof: bd.vi - cd.tree.v_offset(node),
+                        dof: bd.vi - cd.s.tree.v_offset(node),
                         value: bd.sign,
                     }
                 }
             };
-            cd.tree.column(node, load);
+            cd.s.tree.column(node, load);
             cd.columns += 1;
             for i in 0..=j {
                 let x = column_value(cd, i);
-                cd.w[j * k + i] = x;
-                cd.w[i * k + j] = x;
+                cd.s.w[j * k + i] = x;
+                cd.s.w[i * k + j] = x;
             }
         }
     }
-    for &node in &cd.contact_nodes {
-        cd.node_rows[node] = 0;
-        cd.node_slot[node] = NONE;
+    for &node in &cd.s.contact_nodes {
+        cd.s.node_rows[node] = 0;
+        cd.s.node_slot[node] = NONE;
     }
 }
 
 /// Row `i`'s value of the tree's last response column.
 fn column_value(cd: &ContactData, i: usize) -> f64 {
-    let node = cd.row_node[i];
+    let node = cd.s.row_node[i];
     row_value(
         cd,
         i,
-        |n| cd.tree.accel(n),
+        |n| cd.s.tree.accel(n),
         |dof| {
             if node == NONE {
                 0.0
             } else {
-                cd.tree.joint_accel(node, dof - cd.tree.v_offset(node))
+                cd.s.tree.joint_accel(node, dof - cd.s.tree.v_offset(node))
             }
         },
     )
 }
 
-/// `cd.delta = M⁻¹ Jᵀ λ`: the rows' impulses gathered per node (wrenches) and per joint
+/// `cd.s.delta = M⁻¹ Jᵀ λ`: the rows' impulses gathered per node (wrenches) and per joint
 /// (bounds), then one pass over the tree. `node_wrench` and `tau` are zero between calls:
 /// only the rows' entries are set, and reset afterwards.
 fn impulse_response(cd: &mut ContactData) {
-    if cd.node_wrench.len() < cd.tree.len() {
-        cd.node_wrench.resize(cd.tree.len(), [0.0; 6]);
+    if cd.s.node_wrench.len() < cd.s.tree.len() {
+        cd.s.node_wrench.resize(cd.s.tree.len(), [0.0; 6]);
     }
-    for i in 0..cd.phi.len() {
-        let (l, node) = (cd.lambda[i], cd.row_node[i]);
+    for i in 0..cd.s.phi.len() {
+        let (l, node) = (cd.s.lambda[i], cd.s.row_node[i]);
         if l == 0.0 || node == NONE {
             continue;
         }
-        match cd.row_bound[i] {
+        match cd.s.row_bound[i] {
             usize::MAX => {
-                let w = cd.wrench[i].to_array();
-                let f = &mut cd.node_wrench[node];
+                let w = cd.s.wrench[i].to_array();
+                let f = &mut cd.s.node_wrench[node];
                 for r in 0..6 {
                     f[r] += l * w[r];
                 }
             }
             li => {
                 let b = cd.bounds[li];
-                cd.tau[b.vi] += l * b.sign;
+                cd.s.tau[b.vi] += l * b.sign;
             }
         }
     }
-    cd.tree.solve(&cd.tau, &cd.node_wrench, &mut cd.delta);
-    for i in 0..cd.phi.len() {
-        let node = cd.row_node[i];
-        match cd.row_bound[i] {
+    cd.s.tree
+        .solve(&cd.s.tau, &cd.s.node_wrench, &mut cd.s.delta);
+    for i in 0..cd.s.phi.len() {
+        let node = cd.s.row_node[i];
+        match cd.s.row_bound[i] {
             _ if node == NONE => {}
-            usize::MAX => cd.node_wrench[node] = [0.0; 6],
-            li => cd.tau[cd.bounds[li].vi] = 0.0,
+            usize::MAX => cd.s.node_wrench[node] = [0.0; 6],
+            li => cd.s.tau[cd.bounds[li].vi] = 0.0,
         }
     }
 }
@@ -1271,14 +1314,14 @@ mod tests {
                 &settings,
             )
             .unwrap();
-            let found: Vec<usize> = cd
-                .sources
-                .iter()
-                .filter_map(|(s, _)| match *s {
-                    Source::Sphere { sphere, .. } => Some(sphere),
-                    Source::Limit { .. } => None,
-                })
-                .collect();
+            let found: Vec<usize> =
+                cd.s.sources
+                    .iter()
+                    .filter_map(|(s, _)| match *s {
+                        Source::Sphere { sphere, .. } => Some(sphere),
+                        Source::Limit { .. } => None,
+                    })
+                    .collect();
             // Every candidate is found (and some may then be dropped as held up by others:
             // `drop_held_points`).
             assert_eq!(cd.stats.candidates, expected.len(), "trial {trial}");
@@ -1357,28 +1400,28 @@ mod tests {
             .unwrap();
             let k = cd.stats.rows;
             assert!(k >= 20 && cd.stats.limits >= 1, "{:?}", cd.stats);
-            by_phi |= cd.slot_basis.contains(&Basis::Ready);
-            by_row |= cd.slot_basis.contains(&Basis::Rows);
+            by_phi |= cd.s.slot_basis.contains(&Basis::Ready);
+            by_row |= cd.s.slot_basis.contains(&Basis::Rows);
             // Dense J from the start-of-step kinematics (still in `data`).
             let mut jac = vec![0.0; k * nv];
             for i in 0..k {
-                match cd.row_bound[i] {
+                match cd.s.row_bound[i] {
                     usize::MAX => {
-                        let body = cd
-                            .sources
-                            .iter()
-                            .rev()
-                            .find(|s| s.1 <= i)
-                            .map(|s| match s.0 {
-                                Source::Sphere { body, .. } => body,
-                                Source::Limit { .. } => unreachable!(),
-                            })
-                            .unwrap();
+                        let body =
+                            cd.s.sources
+                                .iter()
+                                .rev()
+                                .find(|s| s.1 <= i)
+                                .map(|s| match s.0 {
+                                    Source::Sphere { body, .. } => body,
+                                    Source::Limit { .. } => unreachable!(),
+                                })
+                                .unwrap();
                         let mut at = Some(body);
                         while let Some(bi) = at {
                             let bd = &model.bodies[bi];
                             for j in bd.v_offset..bd.v_offset + bd.nv {
-                                jac[i * nv + j] = data.s[j].dot(cd.wrench[i]);
+                                jac[i * nv + j] = data.s[j].dot(cd.s.wrench[i]);
                             }
                             at = bd.parent;
                         }
@@ -1389,13 +1432,13 @@ mod tests {
             let mut md = Data::new(&model);
             let m = mass_matrix(&model, &mut md, &q0).unwrap().to_vec();
             let mut worst = 0.0f64;
-            let scale = cd.w.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+            let scale = cd.s.w.iter().fold(0.0f64, |a, x| a.max(x.abs()));
             for j in 0..k {
                 let mut x = jac[j * nv..(j + 1) * nv].to_vec();
                 spd_solve(&m, nv, &mut x);
                 for i in 0..k {
                     let want: f64 = (0..nv).map(|c| jac[i * nv + c] * x[c]).sum();
-                    worst = worst.max((cd.w[i * k + j] - want).abs());
+                    worst = worst.max((cd.s.w[i * k + j] - want).abs());
                 }
             }
             assert!(
@@ -1404,12 +1447,12 @@ mod tests {
             );
             // q̇⁺ − v_free = M⁻¹ Jᵀ λ.
             let mut want: Vec<f64> = (0..nv)
-                .map(|c| (0..k).map(|i| jac[i * nv + c] * cd.lambda[i]).sum())
+                .map(|c| (0..k).map(|i| jac[i * nv + c] * cd.s.lambda[i]).sum())
                 .collect();
             spd_solve(&m, nv, &mut want);
             let mut off = 0.0f64;
             for c in 0..nv {
-                off = off.max((state.qd[c] - cd.qd_free[c] - want[c]).abs());
+                off = off.max((state.qd[c] - cd.s.qd_free[c] - want[c]).abs());
             }
             let big = want.iter().fold(0.0f64, |a, x| a.max(x.abs()));
             assert!(

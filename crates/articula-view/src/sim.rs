@@ -35,7 +35,7 @@ use crate::render::{rigid_groups, FrameBody};
 use crate::scene_file::LoadedScene;
 use crate::visibility::{BodyView, Classifier, Placed, PosePlan, Visibility};
 use crate::volumes::BodyVolumes;
-use articula_adaptive::{Adaptive, AdaptiveError, HybridContact, Scratch, Settings};
+use articula_adaptive::{Adaptive, AdaptiveError, HybridContact, HybridScratch, Scratch, Settings};
 use articula_dca::{ContactSettings, ContactStats, DynamicsError, State, Threads};
 use articula_model::{JointKind, Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SymMat6};
@@ -590,6 +590,9 @@ const CHUNKS_PER_THREAD: usize = 32;
 /// over its bodies with its first error.
 struct Worker {
     scratch: Vec<Scratch>,
+    /// Per model: the contact step's buffers the bodies on the floor share
+    /// ([`HybridContact::swap_scratch`]).
+    contact: Vec<HybridScratch>,
     /// Per model: the exact steps' workspace ([`SceneMethod::Exact`]), with the scene's gravity
     /// and without the momentum projection (plain semi-implicit Euler, as the adaptive step).
     exact: Vec<articula_dca::Data>,
@@ -613,6 +616,15 @@ impl Worker {
                 .iter()
                 .map(|m| Scratch::new(&m.model))
                 .collect(),
+            contact: if scene.ground.is_some() {
+                scene
+                    .models
+                    .iter()
+                    .map(|m| HybridScratch::new(&m.model))
+                    .collect()
+            } else {
+                Vec::new()
+            },
             exact: scene
                 .models
                 .iter()
@@ -1330,8 +1342,10 @@ fn step_body(
     }
     let (ad, state, forces) = (&mut b.adaptive, &mut b.state, &b.forces);
     if let Some(hc) = &mut b.contact {
-        // On the floor: the hybrid body's contact step (its own buffers).
+        // On the floor: the hybrid body's contact step (the worker's buffers of its model).
+        hc.swap_scratch(&mut w.contact[b.model]);
         let r = ad.step_with_contact(model, state, scene.dt, forces, hc, contact_settings);
+        hc.swap_scratch(&mut w.contact[b.model]);
         w.add_contact(&hc.contact.stats);
         r
     } else if shared {

@@ -98,6 +98,9 @@ fn exact_step(
     let data = &mut w.exact[b.model];
     let r = match &mut b.contact {
         Some(hc) => {
+            // The worker's step buffers of the model (the warm starts stay the body's).
+            let scratch = w.contact[b.model].contact();
+            hc.contact.swap_scratch(scratch);
             let r = step_with_contact(
                 model,
                 data,
@@ -107,6 +110,7 @@ fn exact_step(
                 scene.dt,
                 settings,
             );
+            hc.contact.swap_scratch(w.contact[b.model].contact());
             w.add_contact(&hc.contact.stats);
             r.map_err(|e| match e {
                 ContactError::Dynamics(e) => AdaptiveError::Dynamics(e),
