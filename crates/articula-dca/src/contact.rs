@@ -33,6 +33,7 @@ use crate::{forward_dynamics, integrate_q, Data, DynamicsError, Method, State};
 use articula_model::{CollisionModel, Model};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion};
 use glam::DVec3;
+use std::sync::Arc;
 use thiserror::Error;
 
 /// A ground plane: the half-space `n·(x − point) ≥ 0` is free, below is solid.
@@ -260,16 +261,16 @@ struct Bound {
 }
 
 /// The contact step's workspace, built once per model ([`ContactData::new`]); a step
-/// allocates only when it meets more rows than any step before.
+/// allocates only when it meets more rows than any step before. Clones share the model's
+/// contact spheres and joint bounds (each keeps its own warm starts and buffers): clone one
+/// for each body of a crowd.
 #[derive(Clone, Debug)]
 pub struct ContactData {
-    /// The model's contact spheres ([`ContactData::collision`]).
-    collision: CollisionModel,
-    /// The spheres in runs of one body, each with a ball that holds them all.
-    runs: Vec<SphereRun>,
+    /// What the model gives: its contact spheres, their runs and its joint bounds (shared by
+    /// clones: one copy read by every body of a crowd).
+    shape: Arc<ContactShape>,
     /// Figures of the last step.
     pub stats: ContactStats,
-    bounds: Vec<Bound>,
     /// Response columns of the last step.
     columns: usize,
     /// Warm starts: per contact sphere `[λ_n, λ_t1, λ_t2]`, per bound `λ`.
@@ -279,6 +280,15 @@ pub struct ContactData {
     warm_set: Vec<Source>,
     /// The buffers one step uses and leaves ([`ContactScratch`]).
     s: ContactScratch,
+}
+
+/// A model's contact spheres ([`ContactData::collision`]), the spheres in runs of one body
+/// each with a ball that holds them all, and its joint bounds.
+#[derive(Debug)]
+struct ContactShape {
+    collision: CollisionModel,
+    runs: Vec<SphereRun>,
+    bounds: Vec<Bound>,
 }
 
 /// The buffers a contact step of one model uses within itself: the rows, the articulated tree,
@@ -413,11 +423,13 @@ impl ContactData {
             warm_spheres: vec![[0.0; 3]; collision.spheres.len()],
             warm_bounds: vec![0.0; bounds.len()],
             warm_set: Vec::with_capacity(collision.spheres.len() + bounds.len()),
-            runs: SphereRun::of(&collision.spheres),
             s: ContactScratch::sized(model, collision.spheres.len(), bounds.len()),
-            collision,
+            shape: Arc::new(ContactShape {
+                runs: SphereRun::of(&collision.spheres),
+                collision,
+                bounds,
+            }),
             stats: ContactStats::default(),
-            bounds,
             columns: 0,
         }
     }
@@ -432,13 +444,14 @@ impl ContactData {
 
     /// The model's contact spheres.
     pub fn collision(&self) -> &CollisionModel {
-        &self.collision
+        &self.shape.collision
     }
 
     /// The world height (`z`) of the lowest contact point in the kinematics `data`
     /// ([`crate::forward_kinematics`] of the model), `+∞` without contact spheres.
     pub fn lowest_point(&self, data: &Data) -> f64 {
-        self.collision
+        self.shape
+            .collision
             .spheres
             .iter()
             .map(|s| (data.x[s.body].apply_point(s.center) + data.origin).z - s.radius)
@@ -447,7 +460,7 @@ impl ContactData {
 
     /// The number of joint bounds enforced when `joint_limits` is set (two per limited joint).
     pub fn joint_bounds(&self) -> usize {
-        self.bounds.len()
+        self.shape.bounds.len()
     }
 }
 
@@ -616,7 +629,7 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
         // than the margin plus what its fastest point can close in the step has no
         // candidate (each sphere's gap is at least the ball's, its approach speed at most
         // the ball centre's plus |ω| times the reach; 1 nm covers the rounding).
-        for run in &cd.runs {
+        for run in &cd.shape.runs {
             let cw = data.x[run.body].apply_point(run.center);
             let v = data.v[run.body];
             let gap = n.dot(cw + data.origin - g.point) - run.reach;
@@ -625,7 +638,7 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
                 continue;
             }
             for si in run.first..run.end {
-                let s = &cd.collision.spheres[si];
+                let s = &cd.shape.collision.spheres[si];
                 let c = data.x[s.body].apply_point(s.center);
                 let phi = n.dot(c + data.origin - g.point) - s.radius;
                 cd.stats.max_penetration = cd.stats.max_penetration.max(-phi);
@@ -666,7 +679,7 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
         }
     }
     if settings.joint_limits {
-        for (li, b) in cd.bounds.iter().enumerate() {
+        for (li, b) in cd.shape.bounds.iter().enumerate() {
             // A joint that does not move in this step (locked in a hybrid body) has no row.
             let phi = b.sign * (state.q[b.qi] - b.bound);
             let pre = b.sign * state.qd[b.vi];
@@ -719,7 +732,7 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
             }
             Source::Limit { limit } => {
                 cd.s.row_node
-                    .push(cd.s.tree.body_node[cd.bounds[limit].body]);
+                    .push(cd.s.tree.body_node[cd.shape.bounds[limit].body]);
                 cd.s.row_bound.push(limit);
                 cd.s.row_dir.push(NONE);
             }
@@ -882,7 +895,7 @@ fn drop_held_points(cd: &mut ContactData, n: DVec3, slop: f64) {
             continue;
         }
         let radius = |i: usize| match cd.s.sources[i].0 {
-            Source::Sphere { sphere, .. } => cd.collision.spheres[sphere].radius,
+            Source::Sphere { sphere, .. } => cd.shape.collision.spheres[sphere].radius,
             Source::Limit { .. } => f64::NAN,
         };
         let r0 = radius(p.members[group.start].1);
@@ -1015,7 +1028,7 @@ fn row_value(
     match cd.s.row_bound[i] {
         usize::MAX => cd.s.wrench[i].dot(node(cd.s.row_node[i])),
         li => {
-            let b = cd.bounds[li];
+            let b = cd.shape.bounds[li];
             b.sign * joint(b.vi)
         }
     }
@@ -1161,7 +1174,7 @@ fn delassus(cd: &mut ContactData, frame: Option<[DVec3; 3]>) {
             let load = match cd.s.row_bound[j] {
                 usize::MAX => Load::Wrench(cd.s.wrench[j]),
                 li => {
-                    let bd = cd.bounds[li];
+                    let bd = cd.shape.bounds[li];
                     Load::Tau {
                         dof: bd.vi - cd.s.tree.v_offset(node),
                         value: bd.sign,
@@ -1221,7 +1234,7 @@ fn impulse_response(cd: &mut ContactData) {
                 }
             }
             li => {
-                let b = cd.bounds[li];
+                let b = cd.shape.bounds[li];
                 cd.s.tau[b.vi] += l * b.sign;
             }
         }
@@ -1233,7 +1246,7 @@ fn impulse_response(cd: &mut ContactData) {
         match cd.s.row_bound[i] {
             _ if node == NONE => {}
             usize::MAX => cd.s.node_wrench[node] = [0.0; 6],
-            li => cd.s.tau[cd.bounds[li].vi] = 0.0,
+            li => cd.s.tau[cd.shape.bounds[li].vi] = 0.0,
         }
     }
 }
@@ -1277,7 +1290,7 @@ mod tests {
         let model = articula_testkit::bundled_with("humanoid", true);
         let mut data = Data::new(&model);
         let mut cd = ContactData::new(&model);
-        assert!(cd.runs.len() >= 10 && cd.runs.len() < cd.collision().spheres.len());
+        assert!(cd.shape.runs.len() >= 10 && cd.shape.runs.len() < cd.collision().spheres.len());
         let mut rng = crate::state::SplitMix64(26);
         let settings = ContactSettings {
             ground: Some(Ground::horizontal(0.0)),
@@ -1366,7 +1379,7 @@ mod tests {
                 *v = 0.3 * ((i as f64) * 1.7).sin();
             }
             state.qd[2] = -0.5;
-            let b = cd.bounds[0];
+            let b = cd.shape.bounds[0];
             // Inside its range by 1 mrad, closing at 2 rad/s (no penetration: no position
             // correction, so `lambda` holds the velocity impulses on return).
             state.q[b.qi] = b.bound + 1e-3 * b.sign;
@@ -1426,7 +1439,7 @@ mod tests {
                             at = bd.parent;
                         }
                     }
-                    li => jac[i * nv + cd.bounds[li].vi] = cd.bounds[li].sign,
+                    li => jac[i * nv + cd.shape.bounds[li].vi] = cd.shape.bounds[li].sign,
                 }
             }
             let mut md = Data::new(&model);

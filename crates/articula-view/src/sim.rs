@@ -741,6 +741,11 @@ impl<'s> SceneSim<'s> {
             .iter()
             .map(|m| PosePlan::new(&m.model))
             .collect();
+        let contacts: Vec<Option<HybridContact>> = scene
+            .models
+            .iter()
+            .map(|m| scene.ground.map(|_| HybridContact::new(&m.model)))
+            .collect();
         let mut bodies: Vec<SimBody> = scene
             .placements
             .iter()
@@ -781,7 +786,8 @@ impl<'s> SceneSim<'s> {
                         pops: Vec::with_capacity(model.assembly.nodes.len()),
                         ..OwnQueue::default()
                     },
-                    contact: scene.ground.map(|_| HybridContact::new(model)),
+                    // Clones of the model's: one copy of its contact spheres for every body.
+                    contact: contacts[p.model].clone(),
                 }
             })
             .collect();
