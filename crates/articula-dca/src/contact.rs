@@ -26,7 +26,7 @@
 //! start-of-step approach speed `u⁻`, faster than `restitution_velocity`, leaves at `−e u⁻`
 //! (the bounce starts up to `|u⁻| dt` early: the ball turns a little above the floor).
 
-use crate::contact_solver::{self, ActiveSet, Block, Stop};
+use crate::contact_solver::{self, ActiveSet, Block, Solve, Stop};
 use crate::delassus::{Load, Tree, NONE};
 use crate::integrate::check_step_result;
 use crate::{forward_dynamics, integrate_q, Data, DynamicsError, Method, State};
@@ -765,20 +765,7 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     }
     cd.s.u.clear();
     cd.s.u.resize(k, 0.0);
-    let solve = contact_solver::solve_active(
-        &cd.s.w,
-        &cd.s.blocks,
-        &cd.s.u_free,
-        &cd.s.target,
-        &mut cd.s.lambda,
-        &mut cd.s.u,
-        Stop {
-            max_iterations: settings.max_iterations,
-            tolerance: settings.tolerance,
-        },
-        &mut cd.s.active,
-        settings.solver == ContactSolver::Subspace,
-    );
+    let solve = solve_rows(&mut cd.s, settings, settings.tolerance);
     cd.stats.iterations = solve.iterations;
     cd.stats.converged = solve.converged;
     // Warm starts for the next step: these rows' impulses, zero elsewhere (the entries the
@@ -825,24 +812,30 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
             cd.s.target[i] = -cd.s.phi[i] - settings.slop;
             cd.s.lambda[i] = 0.0;
         }
-        contact_solver::solve_active(
-            &cd.s.w,
-            &cd.s.blocks,
-            &cd.s.u_free,
-            &cd.s.target,
-            &mut cd.s.lambda,
-            &mut cd.s.u,
-            Stop {
-                max_iterations: settings.max_iterations,
-                tolerance: settings.tolerance * dt,
-            },
-            &mut cd.s.active,
-            settings.solver == ContactSolver::Subspace,
-        );
+        solve_rows(&mut cd.s, settings, settings.tolerance * dt);
         impulse_response(cd);
         dynamics.integrate(model, &mut state.q, &cd.s.delta, 1.0);
     }
     finish(model, state)
+}
+
+/// The step's rows solved ([`contact_solver::solve_active`]) to `tolerance`, with the cap and
+/// the solver of `settings`: the impulses into `lambda`, the row velocities into `u`.
+fn solve_rows(s: &mut ContactScratch, settings: &ContactSettings, tolerance: f64) -> Solve {
+    contact_solver::solve_active(
+        &s.w,
+        &s.blocks,
+        &s.u_free,
+        &s.target,
+        &mut s.lambda,
+        &mut s.u,
+        Stop {
+            max_iterations: settings.max_iterations,
+            tolerance,
+        },
+        &mut s.active,
+        settings.solver == ContactSolver::Subspace,
+    )
 }
 
 /// The gap (m) up to which a contact point counts as touching in [`drop_held_points`]: a
