@@ -538,13 +538,10 @@ fn a_bad_ground_names_its_field() {
 // ---------------------------------------------------------------------------------------------
 // The exact reference.
 
-/// Two pushed humanoids in view on their pose springs, `ground` a scene-file `ground` entry
-/// (with its leading comma) or nothing: the adaptive scene with a budget of every joint and
-/// the exact DCA reference, stepped side by side for `steps` steps; returns the largest
-/// difference of any `q` or `q̇` coordinate over the run.
-fn full_budget_against_exact(gz: f64, ground: &str, steps: usize) -> f64 {
-    use super::SceneMethod;
-    let s = scene(&format!(
+/// Two pushed humanoids in view on their pose springs under gravity `gz`, `ground` a
+/// scene-file `ground` entry (with its leading comma) or nothing, with a budget of every joint.
+fn two_in_view(gz: f64, ground: &str) -> LoadedScene {
+    scene(&format!(
         r#"{{"models": {{"h": "humanoid.urdf"}},
             "bodies": [{{"name": "a", "model": "h", "position": [5, -0.5, 1.021], "rpy": [0, 0, 3.14]}},
                        {{"name": "b", "model": "h", "position": [6, 0.6, 1.021], "rpy": [0.1, 0, 3.0]}}],
@@ -554,7 +551,14 @@ fn full_budget_against_exact(gz: f64, ground: &str, steps: usize) -> f64 {
             "joint_springs": {{"frequency_hz": 2.0, "damping_ratio": 0.2}},
             "pushes": [{{"bodies": "all", "link": "chest", "point": [0.05, 0.1, 0.2],
                         "force": [-80, 40, 10], "t0": 0.0, "t1": 0.05}}]{ground}}}"#
-    ));
+    ))
+}
+
+/// [`two_in_view`]: the adaptive scene and the exact DCA reference stepped side by side for
+/// `steps` steps; returns the largest difference of any `q` or `q̇` coordinate over the run.
+fn full_budget_against_exact(gz: f64, ground: &str, steps: usize) -> f64 {
+    use super::SceneMethod;
+    let s = two_in_view(gz, ground);
     let mut adaptive = SceneSim::new(&s).unwrap();
     let mut exact = SceneSim::new(&s).unwrap();
     exact.set_method(SceneMethod::Exact(articula_dca::Method::Dca));
@@ -595,4 +599,37 @@ fn the_exact_reference_is_the_full_budget_adaptive_scene() {
         full_budget_against_exact(-9.81, r#", "ground": {"height": 0, "friction": 1}"#, 300);
     eprintln!("on the floor: {floor:.2e}");
     assert!(floor < 1e-8, "floor: {floor:e}");
+}
+
+#[test]
+fn switching_from_exact_back_to_adaptive_reselects() {
+    // 23 exact steps, then adaptive ones: the first adaptive step re-selects although 23 is
+    // not a multiple of the period (5), from the states the exact steps left; with every
+    // joint in the budget the run then equals exact steps all along, to rounding.
+    use super::SceneMethod;
+    let exact = SceneMethod::Exact(articula_dca::Method::Dca);
+    let s = two_in_view(-9.81, r#", "ground": {"height": 0, "friction": 1}"#);
+    let (mut switched, mut reference) = (SceneSim::new(&s).unwrap(), SceneSim::new(&s).unwrap());
+    switched.set_method(exact);
+    reference.set_method(exact);
+    for k in 0..60 {
+        if k == 23 {
+            switched.set_method(SceneMethod::Adaptive);
+        }
+        let step = switched.step().unwrap();
+        reference.step().unwrap();
+        if k == 23 {
+            assert!(step.reselected && step.active_total == 68, "{step:?}");
+        }
+    }
+    let worst = switched
+        .bodies
+        .iter()
+        .zip(&reference.bodies)
+        .flat_map(|(a, b)| {
+            let (x, y) = (&a.state, &b.state);
+            x.q.iter().chain(&x.qd).zip(y.q.iter().chain(&y.qd))
+        })
+        .fold(0.0f64, |m, (u, v)| m.max((u - v).abs()));
+    assert!(worst < 1e-8, "switched run differs by {worst:e}");
 }
