@@ -49,10 +49,11 @@
 //! `_with` call, so plain calls keep working before and after `_with` calls, in any mix.
 
 use crate::adaptive::Adaptive;
+use crate::contact::HybridContact;
 use crate::error::AdaptiveError;
 use crate::parts::composites::Rigid;
 use crate::report::StepReport;
-use articula_dca::{Data, State};
+use articula_dca::{ContactSettings, Data, State};
 use articula_model::Model;
 use articula_spatial::{Mat6, SpatialForce};
 use std::mem::swap;
@@ -263,6 +264,25 @@ impl Adaptive {
         let step = self.between_reselections();
         self.with_scratch(scratch, step, |ad| {
             ad.step_with_forces(model, state, dt, forces)
+        })
+    }
+
+    /// [`Adaptive::step_with_contact`] with the per-call buffers of `scratch` (see
+    /// [`Adaptive::step_with`]): the same step to the bit.
+    #[allow(clippy::too_many_arguments)]
+    pub fn step_with_contact_and_scratch(
+        &mut self,
+        scratch: &mut Scratch,
+        model: &Model,
+        state: &mut State,
+        dt: f64,
+        forces: &[(usize, SpatialForce)],
+        contact: &mut HybridContact,
+        settings: &ContactSettings,
+    ) -> Result<StepReport, AdaptiveError> {
+        let step = self.between_reselections();
+        self.with_scratch(scratch, step, |ad| {
+            ad.step_with_contact(model, state, dt, forces, contact, settings)
         })
     }
 

@@ -1350,7 +1350,13 @@ fn step_body(
     if let Some(hc) = &mut b.contact {
         // On the floor: the hybrid body's contact step (the worker's buffers of its model).
         hc.swap_scratch(&mut w.contact[b.model]);
-        let r = ad.step_with_contact(model, state, scene.dt, forces, hc, contact_settings);
+        let (dt, settings) = (scene.dt, contact_settings);
+        let r = if shared {
+            let scratch = &mut w.scratch[b.model];
+            ad.step_with_contact_and_scratch(scratch, model, state, dt, forces, hc, settings)
+        } else {
+            ad.step_with_contact(model, state, dt, forces, hc, settings)
+        };
         hc.swap_scratch(&mut w.contact[b.model]);
         w.add_contact(&hc.contact.stats);
         r
