@@ -139,11 +139,7 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
     }
     let mut scene = load_scene_limited(&args.scene, args.inertia.into(), args.memory_limit)?;
     if let Some(height) = args.ground {
-        scene.ground = Some(articula_view::GroundSpec {
-            height,
-            friction: 1.0,
-            restitution: 0.0,
-        });
+        scene.ground = Some(articula_view::GroundSpec::at(height));
     }
     if let Some(gz) = args.gravity {
         scene.gravity = articula_spatial::DVec3::new(0.0, 0.0, gz);

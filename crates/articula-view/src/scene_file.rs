@@ -94,9 +94,37 @@ pub struct GroundSpec {
     /// Restitution 0 ≤ e ≤ 1 (default 0: inelastic impacts).
     #[cfg_attr(feature = "serde", serde(default))]
     pub restitution: f64,
+    /// Each contact solve stops once no row velocity changes by more than this, or every
+    /// condition holds to it (m/s of residual approach or slip velocity, > 0; default
+    /// [`GroundSpec::TOLERANCE`]).
+    #[cfg_attr(feature = "serde", serde(default = "ground_tolerance"))]
+    pub tolerance: f64,
+    /// … or after this many Gauss–Seidel sweeps (≥ 1; default [`GroundSpec::MAX_ITERATIONS`]).
+    #[cfg_attr(feature = "serde", serde(default = "ground_max_iterations"))]
+    pub max_iterations: usize,
 }
 
 impl GroundSpec {
+    /// The default solve tolerance of a scene's contact (m/s): a residual of a micrometre per
+    /// second is far below the position slop, so characters stand without creeping (the
+    /// library's default, 1e-9 m/s, is for known answers).
+    pub const TOLERANCE: f64 = 1e-6;
+
+    /// The default cap on a scene's contact sweeps (the library's: 200).
+    pub const MAX_ITERATIONS: usize = 50;
+
+    /// A floor at `height` with the defaults: friction 1, no restitution, the default
+    /// tolerance and sweep cap.
+    pub fn at(height: f64) -> GroundSpec {
+        GroundSpec {
+            height,
+            friction: 1.0,
+            restitution: 0.0,
+            tolerance: Self::TOLERANCE,
+            max_iterations: Self::MAX_ITERATIONS,
+        }
+    }
+
     /// The floor as articula-dca's [`Ground`].
     pub fn ground(&self) -> Ground {
         Ground {
@@ -114,6 +142,10 @@ impl GroundSpec {
             Some(("friction", "must be a non-negative number"))
         } else if !(0.0..=1.0).contains(&self.restitution) {
             Some(("restitution", "must lie in [0, 1]"))
+        } else if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
+            Some(("tolerance", "must be a positive number (m/s)"))
+        } else if self.max_iterations == 0 {
+            Some(("max_iterations", "must be at least 1"))
         } else {
             None
         }
@@ -122,6 +154,14 @@ impl GroundSpec {
 
 fn unit() -> f64 {
     1.0
+}
+
+fn ground_tolerance() -> f64 {
+    GroundSpec::TOLERANCE
+}
+
+fn ground_max_iterations() -> usize {
+    GroundSpec::MAX_ITERATIONS
 }
 
 /// Pose springs: each internal degree of freedom `i` gets `τᵢ = −kᵢ qᵢ − cᵢ q̇ᵢ` with
@@ -1307,14 +1347,14 @@ fn depth_cells_ok(w: usize, h: usize) -> bool {
 
 impl LoadedScene {
     /// The contact settings of every body's step: the `ground` (none: no contact) with the
-    /// URDF joint limits, the solve stopping at 1e-6 m/s of residual approach or slip velocity
-    /// or after 50 sweeps (the library's defaults, 1e-9 m/s and 200 sweeps, are for known
-    /// answers; a crowd's residual of a micrometre per second is below the position slop).
+    /// URDF joint limits, the solve stopping at the ground's `tolerance` (default 1e-6 m/s of
+    /// residual approach or slip velocity) or after its `max_iterations` sweeps (default 50).
     pub fn contact_settings(&self) -> ContactSettings {
+        let g = self.ground.unwrap_or(GroundSpec::at(0.0));
         ContactSettings {
             ground: self.ground.map(|g| g.ground()),
-            tolerance: 1e-6,
-            max_iterations: 50,
+            tolerance: g.tolerance,
+            max_iterations: g.max_iterations,
             ..ContactSettings::default()
         }
     }

@@ -525,6 +525,8 @@ fn a_bad_ground_names_its_field() {
     for (ground, field) in [
         (r#"{"friction": -1}"#, "ground.friction"),
         (r#"{"restitution": 2}"#, "ground.restitution"),
+        (r#"{"tolerance": 0}"#, "ground.tolerance"),
+        (r#"{"max_iterations": 0}"#, "ground.max_iterations"),
     ] {
         let text = format!(
             r#"{{"models": {{"h": "humanoid.urdf"}}, "camera": {{"eye": [0, 0, 1.5], "target": [10, 0, 1]}},
@@ -632,4 +634,21 @@ fn switching_from_exact_back_to_adaptive_reselects() {
         })
         .fold(0.0f64, |m, (u, v)| m.max((u - v).abs()));
     assert!(worst < 1e-8, "switched run differs by {worst:e}");
+}
+
+#[test]
+fn the_ground_block_sets_the_contact_solve() {
+    // Defaults: 1e-6 m/s and 50 sweeps; a ground block's own values otherwise.
+    let text = |ground: &str| {
+        format!(
+            r#"{{"models": {{"h": "humanoid.urdf"}}, "camera": {{"eye": [0, 0, 1.5], "target": [10, 0, 1]}},
+                "bodies": [{{"name": "a", "model": "h", "position": [5, 0, 1.021]}}],
+                "ground": {ground}}}"#
+        )
+    };
+    let plain = scene(&text("{}")).contact_settings();
+    assert_eq!((plain.tolerance, plain.max_iterations), (1e-6, 50));
+    let set = scene(&text(r#"{"tolerance": 1e-4, "max_iterations": 20}"#)).contact_settings();
+    assert_eq!((set.tolerance, set.max_iterations), (1e-4, 20));
+    assert!(set.ground.is_some());
 }
