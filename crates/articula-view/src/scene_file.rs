@@ -1350,11 +1350,15 @@ impl LoadedScene {
     /// URDF joint limits, the solve stopping at the ground's `tolerance` (default 1e-6 m/s of
     /// residual approach or slip velocity) or after its `max_iterations` sweeps (default 50).
     pub fn contact_settings(&self) -> ContactSettings {
-        let g = self.ground.unwrap_or(GroundSpec::at(0.0));
+        let (tolerance, max_iterations) = self
+            .ground
+            .map_or((GroundSpec::TOLERANCE, GroundSpec::MAX_ITERATIONS), |g| {
+                (g.tolerance, g.max_iterations)
+            });
         ContactSettings {
             ground: self.ground.map(|g| g.ground()),
-            tolerance: g.tolerance,
-            max_iterations: g.max_iterations,
+            tolerance,
+            max_iterations,
             ..ContactSettings::default()
         }
     }

@@ -1348,16 +1348,19 @@ fn step_body(
     }
     let (ad, state, forces) = (&mut b.adaptive, &mut b.state, &b.forces);
     if let Some(hc) = &mut b.contact {
-        // On the floor: the hybrid body's contact step (the worker's buffers of its model).
-        hc.swap_scratch(&mut w.contact[b.model]);
+        // On the floor: the hybrid body's contact step (shared: with the worker's buffers of
+        // its model, the adaptive step's and the contact step's).
         let (dt, settings) = (scene.dt, contact_settings);
         let r = if shared {
-            let scratch = &mut w.scratch[b.model];
-            ad.step_with_contact_and_scratch(scratch, model, state, dt, forces, hc, settings)
+            let (scratch, contact) = (&mut w.scratch[b.model], &mut w.contact[b.model]);
+            hc.swap_scratch(contact);
+            let r =
+                ad.step_with_contact_and_scratch(scratch, model, state, dt, forces, hc, settings);
+            hc.swap_scratch(contact);
+            r
         } else {
             ad.step_with_contact(model, state, dt, forces, hc, settings)
         };
-        hc.swap_scratch(&mut w.contact[b.model]);
         w.add_contact(&hc.contact.stats);
         r
     } else if shared {

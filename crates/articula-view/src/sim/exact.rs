@@ -110,7 +110,7 @@ fn exact_step(
                 scene.dt,
                 settings,
             );
-            hc.contact.swap_scratch(w.contact[b.model].contact());
+            hc.contact.swap_scratch(scratch);
             w.add_contact(&hc.contact.stats);
             r.map_err(|e| match e {
                 ContactError::Dynamics(e) => AdaptiveError::Dynamics(e),
