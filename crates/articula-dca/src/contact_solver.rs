@@ -440,18 +440,16 @@ fn head(b: &Block) -> usize {
 /// minimiser clamped at 0; a friction pair its 2 × 2 solve for zero slip when that lies in the
 /// disc, else a projected-gradient step onto the disc. Updates `u` with each change; returns
 /// the largest row-velocity change. O(k²).
+///
+/// A contact's three updates go through `u` in one pass: the tangents read only their own two
+/// velocities after the normal's change, so those two are updated first and the whole of `u`
+/// after, each entry adding the three columns in the order the updates were made (the same
+/// sums, in the same order, as three passes).
 fn sweep(w: &[f64], blocks: &[Block], target: &[f64], lambda: &mut [f64], u: &mut [f64]) -> f64 {
     let k = target.len();
-    // Adds W[:, i] δ to u (W is symmetric: its row i).
-    let apply = |u: &mut [f64], i: usize, d: f64| {
-        if d != 0.0 {
-            for (x, wij) in u.iter_mut().zip(&w[i * k..(i + 1) * k]) {
-                *x += wij * d;
-            }
-        }
-    };
-    // A unilateral row's exact update (its 1-D minimiser, clamped at 0): the velocity change.
-    let unilateral = |lambda: &mut [f64], u: &mut [f64], i: usize| {
+    let row = |i: usize| &w[i * k..(i + 1) * k];
+    // A unilateral row's exact update (its 1-D minimiser, clamped at 0): the impulse change.
+    let unilateral = |lambda: &mut [f64], u: &[f64], i: usize| {
         let wii = w[i * k + i];
         if wii.is_nan() || wii <= 0.0 {
             // A row no impulse can move (its body's joints are all locked or welded).
@@ -460,24 +458,37 @@ fn sweep(w: &[f64], blocks: &[Block], target: &[f64], lambda: &mut [f64], u: &mu
         let new = (lambda[i] - (u[i] - target[i]) / wii).max(0.0);
         let d = new - lambda[i];
         lambda[i] = new;
-        apply(u, i, d);
-        (d * wii).abs()
+        d
     };
     let mut change = 0.0f64;
     for block in blocks {
         match *block {
-            Block::Unilateral { row } => change = change.max(unilateral(lambda, u, row)),
+            Block::Unilateral { row: i } => {
+                let d = unilateral(lambda, u, i);
+                if d != 0.0 {
+                    for (x, wij) in u.iter_mut().zip(row(i)) {
+                        *x += wij * d;
+                    }
+                }
+                change = change.max((d * w[i * k + i]).abs());
+            }
             Block::Contact { row: n, mu } => {
-                change = change.max(unilateral(lambda, u, n));
+                let dn = unilateral(lambda, u, n);
+                change = change.max((dn * w[n * k + n]).abs());
                 // Tangents: the 2 × 2 solve for zero slip when it lies in the disc
                 // (sticking); else a projected gradient step of length 1/L (L the larger
                 // eigenvalue of the 2 × 2 block), whose fixed point on the rim opposes
                 // the slip (maximal dissipation) and which never raises the objective.
                 let (t1, t2) = (n + 1, n + 2);
+                let (mut u1, mut u2) = (u[t1], u[t2]);
+                if dn != 0.0 {
+                    u1 += w[n * k + t1] * dn;
+                    u2 += w[n * k + t2] * dn;
+                }
                 let (a, b, c) = (w[t1 * k + t1], w[t1 * k + t2], w[t2 * k + t2]);
                 let det = a * c - b * b;
                 let bound = mu * lambda[n];
-                let (r1, r2) = (-u[t1], -u[t2]);
+                let (r1, r2) = (-u1, -u2);
                 let stick = (det > 1e-12 * a * c)
                     .then(|| {
                         let (d1, d2) = ((c * r1 - b * r2) / det, (a * r2 - b * r1) / det);
@@ -504,13 +515,45 @@ fn sweep(w: &[f64], blocks: &[Block], target: &[f64], lambda: &mut [f64], u: &mu
                 let (d1, d2) = (l1 - lambda[t1], l2 - lambda[t2]);
                 lambda[t1] = l1;
                 lambda[t2] = l2;
-                apply(u, t1, d1);
-                apply(u, t2, d2);
+                add_columns(u, [(row(n), dn), (row(t1), d1), (row(t2), d2)]);
                 change = change.max((d1 * a).abs()).max((d2 * c).abs());
             }
         }
     }
     change
+}
+
+/// `u += Σ cᵢ dᵢ` over the columns `cᵢ` whose `dᵢ` is not 0, in one pass, each entry adding
+/// them in order (a zero `dᵢ` adds nothing: a column of a row no impulse moves may hold NaN).
+fn add_columns(u: &mut [f64], cols: [(&[f64], f64); 3]) {
+    let [(c0, d0), (c1, d1), (c2, d2)] = cols;
+    match (d0 != 0.0, d1 != 0.0, d2 != 0.0) {
+        (true, true, true) => {
+            for (((x, a), b), c) in u.iter_mut().zip(c0).zip(c1).zip(c2) {
+                *x = *x + a * d0 + b * d1 + c * d2;
+            }
+        }
+        (false, true, true) => {
+            for ((x, b), c) in u.iter_mut().zip(c1).zip(c2) {
+                *x = *x + b * d1 + c * d2;
+            }
+        }
+        (true, false, false) => {
+            for (x, a) in u.iter_mut().zip(c0) {
+                *x += a * d0;
+            }
+        }
+        (false, false, false) => {}
+        _ => {
+            for (c, d) in [(c0, d0), (c1, d1), (c2, d2)] {
+                if d != 0.0 {
+                    for (x, w) in u.iter_mut().zip(c) {
+                        *x += w * d;
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// Projected Gauss–Seidel: [`sweep`]s until one changes no row velocity by more than
