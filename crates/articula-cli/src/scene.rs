@@ -183,6 +183,7 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
     let mut frames = 0u64;
     let (mut contacts_sum, mut max_penetration) = (0usize, 0.0f64);
     let (mut solves_sum, mut capped_sum) = (0usize, 0usize);
+    let (mut rows_sum, mut sweeps_sum) = (0usize, 0usize);
     let mut last = None;
     let mut done = 0u64;
     let mut stop: Option<String> = None;
@@ -205,6 +206,8 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
                 max_penetration = max_penetration.max(s.max_penetration);
                 solves_sum += s.contact_solves;
                 capped_sum += s.contact_capped;
+                rows_sum += s.contact_rows;
+                sweeps_sum += s.contact_sweeps;
                 bar.set_message(format!("{} active joints", s.active_total));
                 bar.set_position(k + 1);
                 last = Some(s);
@@ -286,6 +289,8 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
         summary["max_penetration_m"] = max_penetration.into();
         summary["contacts_mean"] = (contacts_sum as f64 / done.max(1) as f64).into();
         summary["contact_capped_fraction"] = (capped_sum as f64 / solves_sum.max(1) as f64).into();
+        summary["contact_rows_mean"] = (rows_sum as f64 / solves_sum.max(1) as f64).into();
+        summary["contact_sweeps_mean"] = (sweeps_sum as f64 / solves_sum.max(1) as f64).into();
     }
     print_out(&format!("{summary}\n"))?;
     match stop {

@@ -141,7 +141,7 @@ fn summary_and_frames() {
 
 /// `--ground`, `--gravity` and `--budget` on a zero-gravity scene: at budget 0 both humanoids
 /// are rigid (no active joint), stand on the floor put under their feet, and the summary has
-/// the contact figures.
+/// the contact figures, consistent with each other.
 #[test]
 fn ground_gravity_and_budget_flags() {
     let s = Scratch::new("floor");
@@ -168,6 +168,12 @@ fn ground_gravity_and_budget_flags() {
     assert!(v["max_penetration_m"].as_f64().unwrap() < 1e-3, "{v}");
     let capped = v["contact_capped_fraction"].as_f64().unwrap();
     assert!((0.0..=1.0).contains(&capped), "{v}");
+    // Every pushed contact has 3 rows, and at most 2 bodies solve per step: rows per solve
+    // ≥ 3 · contacts per step / 2. A solve at the cap made its 50 sweeps.
+    let rows = v["contact_rows_mean"].as_f64().unwrap();
+    assert!(rows >= 1.5 * v["contacts_mean"].as_f64().unwrap(), "{v}");
+    let sweeps = v["contact_sweeps_mean"].as_f64().unwrap();
+    assert!(sweeps >= 1.0 && sweeps >= 50.0 * capped, "{v}");
 }
 
 /// A crowd of a million humanoids is refused before any body is placed: the estimate and the

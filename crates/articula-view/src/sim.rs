@@ -526,6 +526,12 @@ pub struct SceneStep {
     /// feasible (never pulling, inside the friction discs) but leave some residual approach
     /// or slip velocity.
     pub contact_capped: usize,
+    /// With a floor: rows of the contact problems (`ContactStats::rows`), summed over the
+    /// bodies of `contact_solves`.
+    pub contact_rows: usize,
+    /// With a floor: Gauss–Seidel sweeps (`ContactStats::iterations`), summed over the bodies
+    /// of `contact_solves`.
+    pub contact_sweeps: usize,
 }
 
 /// A scene being simulated.
@@ -605,6 +611,9 @@ struct Worker {
     /// Contact solves (bodies with contact rows) and those that ended at the iteration cap.
     solves: usize,
     capped: usize,
+    /// Their rows and sweeps.
+    rows: usize,
+    sweeps: usize,
     error: Option<(usize, ViewError)>,
 }
 
@@ -650,6 +659,8 @@ impl Worker {
             penetration: 0.0,
             solves: 0,
             capped: 0,
+            rows: 0,
+            sweeps: 0,
             error: None,
         }
     }
@@ -660,6 +671,8 @@ impl Worker {
         self.penetration = self.penetration.max(stats.max_penetration);
         self.solves += (stats.rows > 0) as usize;
         self.capped += (stats.rows > 0 && !stats.converged) as usize;
+        self.rows += stats.rows;
+        self.sweeps += stats.iterations;
     }
 
     /// Records body `i`'s error unless it has one of a lower-numbered body already.
@@ -678,6 +691,8 @@ fn take_sums(workers: &mut [Mutex<Worker>], out: &mut SceneStep) {
     out.max_penetration = 0.0;
     out.contact_solves = 0;
     out.contact_capped = 0;
+    out.contact_rows = 0;
+    out.contact_sweeps = 0;
     for w in workers {
         let w = w.get_mut().unwrap_or_else(|p| p.into_inner());
         out.active_total += std::mem::take(&mut w.active);
@@ -685,6 +700,8 @@ fn take_sums(workers: &mut [Mutex<Worker>], out: &mut SceneStep) {
         out.max_penetration = out.max_penetration.max(std::mem::take(&mut w.penetration));
         out.contact_solves += std::mem::take(&mut w.solves);
         out.contact_capped += std::mem::take(&mut w.capped);
+        out.contact_rows += std::mem::take(&mut w.rows);
+        out.contact_sweeps += std::mem::take(&mut w.sweeps);
     }
 }
 
