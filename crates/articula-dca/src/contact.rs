@@ -278,8 +278,22 @@ pub struct ContactData {
     warm_bounds: Vec<f64>,
     /// The sources whose warm starts the last solve set.
     warm_set: Vec<Source>,
+    /// The forces of the last step's solve.
+    forces: ContactForces,
     /// The buffers one step uses and leaves ([`ContactScratch`]).
     s: ContactScratch,
+}
+
+/// The forces of a step's contact solve: its impulses over `dt`. Per body the ground pushes,
+/// the wrench of its contact points (world axes, about the world origin, as external forces
+/// are given); per bounded degree of freedom (`q̇` index) the limit's torque or force. The
+/// position correction moves positions, not velocities, and adds nothing here.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ContactForces {
+    /// `(body, wrench)`, one entry per body the ground pushes.
+    pub wrenches: Vec<(usize, SpatialForce)>,
+    /// `(q̇ index, τ)`, one entry per pushing bound.
+    pub torques: Vec<(usize, f64)>,
 }
 
 /// A model's contact spheres ([`ContactData::collision`]), the spheres in runs of one body
@@ -423,6 +437,10 @@ impl ContactData {
             warm_spheres: vec![[0.0; 3]; collision.spheres.len()],
             warm_bounds: vec![0.0; bounds.len()],
             warm_set: Vec::with_capacity(collision.spheres.len() + bounds.len()),
+            forces: ContactForces {
+                wrenches: Vec::with_capacity(model.bodies.len()),
+                torques: Vec::with_capacity(bounds.len()),
+            },
             s: ContactScratch::sized(model, collision.spheres.len(), bounds.len()),
             shape: Arc::new(ContactShape {
                 runs: SphereRun::of(&collision.spheres),
@@ -440,6 +458,12 @@ impl ContactData {
     /// stay here.
     pub fn swap_scratch(&mut self, scratch: &mut ContactScratch) {
         std::mem::swap(&mut self.s, scratch);
+    }
+
+    /// The forces of the last step's contact solve (empty before the first step and after a
+    /// step without contact).
+    pub fn forces(&self) -> &ContactForces {
+        &self.forces
     }
 
     /// The model's contact spheres.
@@ -611,12 +635,15 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     let ground = check(settings, dt)?;
     let cd = contact;
     cd.stats = ContactStats::default();
+    cd.forces.wrenches.clear();
+    cd.forces.torques.clear();
     // 1. Free motion.
     dynamics.free_motion(model, state, &mut cd.s.delta)?;
     for ((f, v), a) in cd.s.qd_free.iter_mut().zip(&state.qd).zip(&cd.s.delta) {
         *f = v + dt * a;
     }
     let data = dynamics.kinematics();
+    let origin = data.origin;
     // 2. Candidates, from the kinematics of the start of the step.
     cd.s.sources.clear();
     cd.s.blocks.clear();
@@ -791,6 +818,7 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
             }
         }
     }
+    record_forces(cd, origin, dt);
     // 5. q̇⁺ = v_free + M⁻¹ Jᵀ λ (one pass over the tree), q⁺ = q ⊕ dt q̇⁺.
     impulse_response(cd);
     state.qd.copy_from_slice(&cd.s.qd_free);
@@ -1204,6 +1232,38 @@ fn column_value(cd: &ContactData, i: usize) -> f64 {
             }
         },
     )
+}
+
+/// The solve's impulses over `dt` into `cd.forces`: per body its rows' `Σ λᵢ wᵢ / dt` (the
+/// rows' wrenches are about the computation frame's `origin`; about the world origin the
+/// moment gains `origin × f`), per pushing bound `λ sign / dt`.
+fn record_forces(cd: &mut ContactData, origin: DVec3, dt: f64) {
+    for &(src, row) in &cd.s.sources {
+        match src {
+            Source::Sphere { body, .. } => {
+                let mut f = SpatialForce::ZERO;
+                for r in row..row + 3 {
+                    let w = cd.s.wrench[r];
+                    f += SpatialForce::new(w.n * cd.s.lambda[r], w.f * cd.s.lambda[r]);
+                }
+                if f == SpatialForce::ZERO {
+                    continue;
+                }
+                let f = SpatialForce::new((f.n + origin.cross(f.f)) / dt, f.f / dt);
+                match cd.forces.wrenches.iter_mut().find(|(b, _)| *b == body) {
+                    Some((_, w)) => *w += f,
+                    None => cd.forces.wrenches.push((body, f)),
+                }
+            }
+            Source::Limit { limit } => {
+                let l = cd.s.lambda[row];
+                if l > 0.0 {
+                    let b = cd.shape.bounds[limit];
+                    cd.forces.torques.push((b.vi, l * b.sign / dt));
+                }
+            }
+        }
+    }
 }
 
 /// `cd.s.delta = M⁻¹ Jᵀ λ`: the rows' impulses gathered per node (wrenches) and per joint

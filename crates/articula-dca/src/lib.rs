@@ -78,7 +78,7 @@ mod threads;
 pub use batch::{Batch, BatchError};
 pub use contact::{
     step_with_contact, step_with_dynamics, ContactData, ContactDynamics, ContactError,
-    ContactScratch, ContactSettings, ContactSolver, ContactStats, Ground,
+    ContactForces, ContactScratch, ContactSettings, ContactSolver, ContactStats, Ground,
 };
 pub use data::Data;
 pub use error::{DynamicsError, MAX_DENSE_MATRIX_BYTES};

@@ -150,6 +150,25 @@ fn dropped_box_rests_on_a_face() {
         );
         assert!((r * DVec3::Z).z > 1.0 - 1e-6, "{method:?}: not flat {r}");
         assert!(sim.contact.stats.contacts >= 3, "{:?}", sim.contact.stats);
+        // At rest the floor's wrench balances gravity acting at the centre of mass: the
+        // force m g up, the moment about the world origin c × f.
+        let forces = sim.contact.forces();
+        assert!(forces.torques.is_empty(), "{forces:?}");
+        let [(body, w)] = forces.wrenches[..] else {
+            panic!("{method:?}: one body in contact expected, {forces:?}");
+        };
+        let c = DVec3::new(sim.state.q[0], sim.state.q[1], sim.state.q[2]);
+        let weight = DVec3::new(0.0, 0.0, 2.0 * 9.81);
+        eprintln!("box {method:?}: floor force {:?}, moment {:?}", w.f, w.n);
+        assert_eq!(body, 0);
+        assert!(
+            (w.f - weight).length() < 1e-6 * weight.z,
+            "{method:?}: {w:?}"
+        );
+        assert!(
+            (w.n - c.cross(weight)).length() < 1e-6 * weight.z,
+            "{method:?}: {w:?}"
+        );
     }
 }
 
@@ -222,16 +241,18 @@ fn pendulum_stops_at_its_joint_limit() {
         let mut state = State::neutral(&model);
         let mut settings = ContactSettings::default();
         let mut max_q = 0.0f64;
-        let mut run = |state: &mut State, settings: &ContactSettings, steps: usize| {
+        let mut run = |contact: &mut ContactData,
+                       state: &mut State,
+                       settings: &ContactSettings,
+                       steps: usize| {
             let mut max_q = f64::NEG_INFINITY;
             for _ in 0..steps {
-                step_with_contact(&model, &mut data, &mut contact, state, method, DT, settings)
-                    .unwrap();
+                step_with_contact(&model, &mut data, contact, state, method, DT, settings).unwrap();
                 max_q = max_q.max(state.q[0]);
             }
             max_q
         };
-        max_q = max_q.max(run(&mut state, &settings, 2000));
+        max_q = max_q.max(run(&mut contact, &mut state, &settings, 2000));
         // Gravity pushes q up (the bob falls): it rests on the bound, within the slop.
         eprintln!(
             "pendulum {method:?}: q = {:.7} (bound 0.5), max {max_q:.7}, q̇ = {:.1e}",
@@ -244,9 +265,19 @@ fn pendulum_stops_at_its_joint_limit() {
         );
         assert!(max_q < 0.5 + 2e-3, "{method:?}: overshoot to {max_q}");
         assert!(state.qd[0].abs() < 1e-6, "{method:?}: q̇ = {}", state.qd[0]);
+        // Resting on its bound, the limit's torque balances gravity's, g cos q about y.
+        let tau = -9.81 * state.q[0].cos();
+        let torques = &contact.forces().torques;
+        assert_eq!(torques.len(), 1, "{torques:?}");
+        assert_eq!(torques[0].0, 0);
+        assert!(
+            (torques[0].1 - tau).abs() < 1e-6 * tau.abs(),
+            "{method:?}: limit torque {torques:?}, gravity's {tau}"
+        );
+        assert!(contact.forces().wrenches.is_empty());
         settings.joint_limits = false;
         let mut state = State::neutral(&model);
-        run(&mut state, &settings, 1000);
+        run(&mut contact, &mut state, &settings, 1000);
         assert!(state.q[0] > 1.0, "without limits: q = {}", state.q[0]);
     }
 }
