@@ -202,16 +202,6 @@ fn run_here(args: &SimulateArgs, threads: &articula_dca::Threads) -> Result<(), 
     let mut state = load_state(args.state.as_deref(), &model)?;
     let method = args.dynamics.method;
     let integrator = args.integrator.integrator();
-    // Adaptive: the hybrid body, and an exact DCA run beside it for the trajectory error.
-    let every = args.reselect_every.unwrap_or_else(|| {
-        articula_adaptive::Settings::balanced_period(&model, args.dynamics.budget)
-    });
-    let mut adaptive = method.exact().is_none().then(|| {
-        let mut ad = args.dynamics.adaptive(&model, every);
-        ad.set_threads(threads.clone());
-        (ad, state.clone())
-    });
-    let mut active = ActiveStats::default();
     let (steps, dt) = (args.steps, args.dt);
     let mut ground = args.contact.run(&model)?;
     if let Some(g) = &ground {
@@ -221,10 +211,26 @@ fn run_here(args: &SimulateArgs, threads: &articula_dca::Threads) -> Result<(), 
                     .into(),
             ));
         }
+        // With the joint limits enforced and no state file, the run starts in the rest pose
+        // (the neutral pose moved into the limits), not against a limit it violates.
+        if !args.contact.no_joint_limits && args.state.is_none() {
+            state.q.copy_from_slice(&model.rest_q());
+        }
         if let Some(h) = args.contact.drop {
             g.drop(&model, &mut data, &mut state, h)?;
         }
     }
+    // Adaptive: the hybrid body, and an exact DCA run beside it (from the same start) for the
+    // trajectory error.
+    let every = args.reselect_every.unwrap_or_else(|| {
+        articula_adaptive::Settings::balanced_period(&model, args.dynamics.budget)
+    });
+    let mut adaptive = method.exact().is_none().then(|| {
+        let mut ad = args.dynamics.adaptive(&model, every);
+        ad.set_threads(threads.clone());
+        (ad, state.clone())
+    });
+    let mut active = ActiveStats::default();
 
     let mut csv = match &args.out {
         Some(path) => Some(Csv::create(path, &model)?),

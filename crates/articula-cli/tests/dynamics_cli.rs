@@ -803,6 +803,90 @@ fn simulate_adaptive_with_a_ground_lands_a_rigid_body() {
     assert_eq!(first[8..=nq], last[8..=nq], "a locked joint moved");
 }
 
+/// A floating box on one leg whose knee bends only within `[−2.6, −0.8]` rad (like go1's):
+/// the neutral pose breaks the limit.
+const BENT_KNEE: &str = r#"<robot name="leg">
+  <link name="torso"><inertial><mass value="2"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><geometry><box size="0.2 0.2 0.1"/></geometry></collision></link>
+  <link name="thigh"><inertial><mass value="0.5"/><inertia ixx="2e-3" iyy="2e-3" izz="2e-3" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="shank"><inertial><mass value="0.2"/><inertia ixx="7e-4" iyy="7e-4" izz="7e-4" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0 0 -0.2"/><geometry><sphere radius="0.02"/></geometry></collision></link>
+  <joint name="hip" type="revolute"><parent link="torso"/><child link="thigh"/><axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="10" velocity="10"/></joint>
+  <joint name="knee" type="revolute"><parent link="thigh"/><child link="shank"/><origin xyz="0 0 -0.2"/>
+    <axis xyz="0 1 0"/><limit lower="-2.6" upper="-0.8" effort="10" velocity="10"/></joint>
+</robot>"#;
+
+/// `simulate --ground` with the joint limits on starts in the rest pose (the knee at its
+/// bound −0.8 rad, not at the neutral 0 it breaks); with `--no-joint-limits`, at neutral. And
+/// with `--method adaptive` at a budget of every joint, its exact reference starts where the
+/// adaptive run does (after `--drop`): the two trajectories agree to rounding.
+#[test]
+fn simulate_with_a_ground_starts_in_the_rest_pose() {
+    let scratch = Scratch::new("rest-pose");
+    let urdf = scratch.file("leg.urdf", BENT_KNEE);
+    let csv = scratch.0.join("leg.csv");
+    let first_knee = |extra: &[&str]| -> f64 {
+        let mut args = vec![
+            "simulate",
+            urdf.to_str().unwrap(),
+            "--floating-base",
+            "--ground",
+            "0",
+            "--drop",
+            "0.05",
+            "--steps",
+            "1",
+            "--dt",
+            "1e-3",
+            "--out",
+            csv.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        stdout(&articula(&args));
+        let text = std::fs::read_to_string(&csv).unwrap();
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let col = header.iter().position(|c| *c == "knee").unwrap();
+        lines
+            .next()
+            .unwrap()
+            .split(',')
+            .nth(col)
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    assert_eq!(first_knee(&[]), -0.8);
+    assert_eq!(first_knee(&["--no-joint-limits"]), 0.0);
+    let out = stdout(&articula(&[
+        "simulate",
+        urdf.to_str().unwrap(),
+        "--floating-base",
+        "--method",
+        "adaptive",
+        "--budget",
+        "2",
+        "--ground",
+        "0",
+        "--drop",
+        "0.05",
+        "--steps",
+        "300",
+        "--dt",
+        "1e-3",
+        "--json",
+    ]));
+    let j: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    assert_eq!(j["steps_done"], 300, "{out}");
+    assert!(j["contacts_mean"].as_f64().unwrap() > 0.0, "{out}");
+    let err = j["trajectory_error_max"].as_f64().unwrap();
+    assert!(
+        err < 1e-9,
+        "adaptive at full budget off its exact reference by {err}: {out}"
+    );
+}
+
 /// `--contact-solver`: the humanoid dropped 5 cm lands with either solver (penetration under
 /// 5 mm, contacts made), and the two solve it differently.
 #[test]

@@ -307,6 +307,21 @@ impl Model {
         q
     }
 
+    /// The rest configuration: [`Model::neutral_q`] with every limited coordinate whose
+    /// limits exclude its neutral value moved to the nearer bound (go1's knees, whose range
+    /// `[−2.82, −0.89]` rad excludes the straight leg). A state that honours the joint limits
+    /// from its start; the pose a scene's characters start in and their pose springs hold.
+    pub fn rest_q(&self) -> Vec<f64> {
+        let mut q = self.neutral_q();
+        for p in self.coordinate_parts() {
+            if let Some([lo, hi]) = p.limits {
+                let x = &mut q[p.q_offset];
+                *x = x.clamp(lo, hi);
+            }
+        }
+        q
+    }
+
     fn build(raw: RawRobot, options: &LoadOptions) -> Result<Model, ModelError> {
         let n = raw.links.len();
         let mut children_joints: Vec<Vec<usize>> = vec![Vec::new(); n];

@@ -112,3 +112,30 @@ fn bodies_without_shapes_or_with_meshes_get_their_inertia_box() {
         "0 shapes from URDF, 2 inertia boxes, 16 contact points (1 bodies with meshes use their inertia box)"
     );
 }
+
+/// The rest configuration moves a coordinate whose limits exclude 0 to the nearer bound (a
+/// knee bent like go1's, a slider that starts extended) and leaves the others at neutral.
+#[test]
+fn rest_q_is_the_neutral_pose_moved_into_the_limits() {
+    let urdf = format!(
+        r#"<robot name="r"><link name="base"/>
+        <link name="a">{INERTIAL}</link><link name="b">{INERTIAL}</link>
+        <link name="c">{INERTIAL}</link><link name="d">{INERTIAL}</link>
+        <joint name="knee" type="revolute"><parent link="base"/><child link="a"/>
+          <limit lower="-2.82" upper="-0.89" effort="1" velocity="1"/></joint>
+        <joint name="slide" type="prismatic"><parent link="a"/><child link="b"/>
+          <limit lower="0.1" upper="0.3" effort="1" velocity="1"/></joint>
+        <joint name="hip" type="revolute"><parent link="b"/><child link="c"/>
+          <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+        <joint name="wheel" type="continuous"><parent link="c"/><child link="d"/></joint>
+        </robot>"#
+    );
+    let model = load(&urdf);
+    assert_eq!(model.rest_q(), [-0.89, 0.1, 0.0, 0.0]);
+    let floating =
+        Model::from_urdf_str(&urdf, &LoadOptions::default().with_floating_base(true)).unwrap();
+    assert_eq!(
+        floating.rest_q(),
+        [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, -0.89, 0.1, 0.0, 0.0]
+    );
+}

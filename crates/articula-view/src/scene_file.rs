@@ -1132,7 +1132,7 @@ fn resolve_in(
     let mut placements = Vec::new();
     let mut groups: BTreeMap<String, Vec<usize>> = BTreeMap::new();
     let place = |model: &Model, pos: DVec3, rot: DMat3, vel: &VelocitySpec| {
-        let mut q = model.neutral_q();
+        let mut q = model.rest_q();
         let mut qd = vec![0.0; model.nv];
         let r = DQuat::from_mat3(&rot).normalize();
         q[..7].copy_from_slice(&[pos.x, pos.y, pos.z, r.w, r.x, r.y, r.z]);

@@ -827,13 +827,16 @@ impl<'s> SceneSim<'s> {
             .models
             .iter()
             .map(|m| match scene.joint_springs {
-                Some(sp) => SpringRuns::new(&pose_springs(
-                    &m.model,
-                    sp.frequency_hz,
-                    sp.damping_ratio,
-                    scene.dt,
-                    scene.ground.is_some(),
-                )),
+                Some(sp) => SpringRuns::new(
+                    &pose_springs(
+                        &m.model,
+                        sp.frequency_hz,
+                        sp.damping_ratio,
+                        scene.dt,
+                        scene.ground.is_some(),
+                    ),
+                    &m.model.rest_q(),
+                ),
                 None => SpringRuns::default(),
             })
             .collect();
@@ -1475,15 +1478,18 @@ pub(crate) fn whole_reach(model: &Model, volumes: &[BodyVolumes]) -> Option<f64>
 /// quaternion), so that [`spring_torques`] is a plain loop over slices.
 #[derive(Clone, Debug, Default)]
 struct SpringRuns {
-    /// Per run: its first `q` index, first `q̇` index, and its range in `k` and `c`.
+    /// Per run: its first `q` index, first `q̇` index, and its range in `k`, `c` and `rest`.
     runs: Vec<(usize, usize, std::ops::Range<usize>)>,
     k: Vec<f64>,
     c: Vec<f64>,
+    /// The coordinate each spring holds (`Model::rest_q`).
+    rest: Vec<f64>,
 }
 
 impl SpringRuns {
-    /// The runs of the springs `(q index, v index, k, c)`, in their order.
-    fn new(springs: &[(usize, usize, f64, f64)]) -> Self {
+    /// The runs of the springs `(q index, v index, k, c)`, in their order, holding the
+    /// coordinates at `rest` (a configuration).
+    fn new(springs: &[(usize, usize, f64, f64)], rest: &[f64]) -> Self {
         let mut out = SpringRuns::default();
         for (i, &(qi, vi, k, c)) in springs.iter().enumerate() {
             // (The last run always ends at spring i: every spring is appended.)
@@ -1497,24 +1503,26 @@ impl SpringRuns {
             }
             out.k.push(k);
             out.c.push(c);
+            out.rest.push(rest[qi]);
         }
         out
     }
 }
 
-/// `τ = −k q − c q̇` of each pose spring.
+/// `τ = −k (q − q_rest) − c q̇` of each pose spring.
 #[inline]
 fn spring_torques(springs: &SpringRuns, s: &mut State) {
     for (q0, v0, r) in &springs.runs {
         let n = r.len();
         let (k, c) = (&springs.k[r.clone()], &springs.c[r.clone()]);
+        let rest = &springs.rest[r.clone()];
         let (q, qd) = (&s.q[*q0..q0 + n], &s.qd[*v0..v0 + n]);
-        for ((t, (k, c)), (q, qd)) in s.tau[*v0..v0 + n]
+        for ((t, (k, c)), ((q, qd), q_rest)) in s.tau[*v0..v0 + n]
             .iter_mut()
             .zip(k.iter().zip(c))
-            .zip(q.iter().zip(qd))
+            .zip(q.iter().zip(qd).zip(rest))
         {
-            *t = -k * q - c * qd;
+            *t = -k * (q - q_rest) - c * qd;
         }
     }
 }
@@ -1568,24 +1576,26 @@ mod tests {
         assert!(farthest > 0.5 * bound, "{farthest} against {bound}");
     }
 
-    /// The runs give every spring's `τ = −k q − c q̇` to the bit, one spring at a time as the
+    /// The runs give every spring's `τ = −k (q − q_rest) − c q̇` to the bit, one spring at a time as the
     /// reference: on the humanoid (one run) and on a shuffled, gapped list (many runs).
     #[test]
     fn spring_runs_equal_one_spring_at_a_time() {
         let model = articula_testkit::bundled_with("humanoid", true);
         let springs = pose_springs(&model, 2.0, 0.2, 1.0 / 600.0, false);
         assert_eq!(springs.len(), model.nv - 6);
-        assert_eq!(SpringRuns::new(&springs).runs.len(), 1);
+        let rest: Vec<f64> = (0..model.nq).map(|i| 0.01 * i as f64 - 0.2).collect();
+        assert_eq!(SpringRuns::new(&springs, &rest).runs.len(), 1);
         let mut gapped: Vec<_> = springs.iter().copied().step_by(3).collect();
         gapped.extend(springs.iter().rev().take(5));
         gapped.extend(&springs[10..16]);
-        let runs = SpringRuns::new(&gapped);
+        let runs = SpringRuns::new(&gapped, &rest);
         assert!(runs.runs.len() > 10, "{}", runs.runs.len());
         for seed in 0..20 {
             let mut s = State::random(&model, seed, 2.0);
             spring_torques(&runs, &mut s);
             for &(qi, vi, k, c) in &gapped {
-                assert_eq!(s.tau[vi].to_bits(), (-k * s.q[qi] - c * s.qd[vi]).to_bits());
+                let want = -k * (s.q[qi] - rest[qi]) - c * s.qd[vi];
+                assert_eq!(s.tau[vi].to_bits(), want.to_bits());
             }
         }
     }

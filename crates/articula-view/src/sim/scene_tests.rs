@@ -652,3 +652,102 @@ fn the_ground_block_sets_the_contact_solve() {
     assert_eq!((set.tolerance, set.max_iterations), (1e-4, 20));
     assert!(set.ground.is_some());
 }
+
+// ---------------------------------------------------------------------------------------------
+// A model whose neutral pose breaks its joint limits.
+
+/// A 5 kg box on four two-joint legs (0.2 m thigh and shank, a 2 cm ball foot) whose knees
+/// bend only within `[−2.6, −0.8]` rad, like go1's: the straight legs of the neutral pose
+/// are outside the limits.
+fn quadruped_urdf() -> String {
+    let inertial = |m: f64, i: f64| {
+        format!(
+            r#"<inertial><mass value="{m}"/><inertia ixx="{i}" iyy="{i}" izz="{i}" ixy="0" ixz="0" iyz="0"/></inertial>"#
+        )
+    };
+    let mut urdf = format!(
+        r#"<robot name="quad"><link name="torso">{}<collision><geometry><box size="0.4 0.2 0.1"/></geometry></collision></link>"#,
+        inertial(5.0, 0.03)
+    );
+    for (leg, x, y) in [
+        ("fl", 0.2, 0.1),
+        ("fr", 0.2, -0.1),
+        ("hl", -0.2, 0.1),
+        ("hr", -0.2, -0.1),
+    ] {
+        urdf += &format!(
+            r#"<link name="{leg}_thigh">{}</link>
+            <link name="{leg}_shank">{}<collision><origin xyz="0 0 -0.2"/><geometry><sphere radius="0.02"/></geometry></collision></link>
+            <joint name="{leg}_hip" type="revolute"><parent link="torso"/><child link="{leg}_thigh"/>
+              <origin xyz="{x} {y} 0"/><axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="10" velocity="10"/></joint>
+            <joint name="{leg}_knee" type="revolute"><parent link="{leg}_thigh"/><child link="{leg}_shank"/>
+              <origin xyz="0 0 -0.2"/><axis xyz="0 1 0"/><limit lower="-2.6" upper="-0.8" effort="10" velocity="10"/></joint>"#,
+            inertial(0.5, 2e-3),
+            inertial(0.2, 7e-4),
+        );
+    }
+    urdf + "</robot>"
+}
+
+/// A scene starts such a model in its rest pose (`Model::rest_q`: the knees at −0.8 rad) and
+/// its pose springs hold that pose, so it stands on the floor: its knees never leave their
+/// limits (beyond the position correction's slop), and its torso stays within 2 cm of the
+/// height the rest pose puts it at.
+#[test]
+fn a_model_whose_neutral_pose_breaks_its_limits_starts_and_stands_in_its_rest_pose() {
+    let dir = std::env::temp_dir().join(format!("articula-quad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("quad.urdf");
+    std::fs::write(&path, quadruped_urdf()).unwrap();
+    let model = Model::from_urdf_file(
+        &path,
+        &articula_model::LoadOptions::default().with_floating_base(true),
+    )
+    .unwrap();
+    let rest = model.rest_q();
+    // The rest pose's standing height: the feet (balls of 2 cm) at the floor.
+    let mut data = articula_dca::Data::new(&model);
+    articula_dca::forward_kinematics(&model, &rest, &vec![0.0; model.nv], &mut data);
+    let contact = articula_dca::ContactData::new(&model);
+    let stand = -contact.lowest_point(&data);
+    let s = scene(&format!(
+        r#"{{"models": {{"quad": "{}"}},
+            "bodies": [{{"name": "q", "model": "quad", "position": [3, 0, {}]}}],
+            "camera": {{"eye": [0, 0, 0.5], "target": [3, 0, 0.2]}},
+            "budget": 8, "dt": 0.001, "reselect_every": 10,
+            "joint_springs": {{"frequency_hz": 4.0, "damping_ratio": 0.5}},
+            "ground": {{"height": 0, "friction": 1}}}}"#,
+        path.display(),
+        stand + 1e-3
+    ));
+    let mut sim = SceneSim::new(&s).unwrap();
+    let knees: Vec<usize> = model
+        .joint_parts()
+        .filter(|(_, p)| p.limits == Some([-2.6, -0.8]))
+        .map(|(_, p)| p.q_offset)
+        .collect();
+    assert_eq!(knees.len(), 4);
+    for &k in &knees {
+        assert_eq!(sim.bodies[0].state.q[k], -0.8);
+    }
+    let (mut lowest, mut highest) = (f64::INFINITY, f64::NEG_INFINITY);
+    for _ in 0..1000 {
+        sim.step().unwrap();
+        let q = &sim.bodies[0].state.q;
+        for &k in &knees {
+            assert!(
+                (-2.6 - 1e-3..=-0.8 + 1e-3).contains(&q[k]),
+                "knee at {}",
+                q[k]
+            );
+        }
+        lowest = lowest.min(q[2]);
+        highest = highest.max(q[2]);
+    }
+    eprintln!("quadruped: torso between {lowest:.4} and {highest:.4} m, rest height {stand:.4} m");
+    assert!(
+        (lowest - stand).abs() < 0.02 && (highest - stand).abs() < 0.02,
+        "torso between {lowest} and {highest} m, rest height {stand} m"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

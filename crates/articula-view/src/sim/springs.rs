@@ -10,7 +10,8 @@
 //! ```
 //!
 //! with `m̂ᵢ = mᵢᶠ / 4` ([`INTEGRATION_SHARE`]) and `mᵢᶠ = 1 / (M⁻¹)ᵢᵢ` the coordinate's
-//! effective inertia with the body free-floating in the neutral pose (the response `q̈ᵢ` to a
+//! effective inertia with the body free-floating in the rest pose (`Model::rest_q`: the
+//! neutral pose moved into the joint limits) (the response `q̈ᵢ` to a
 //! unit `τᵢ` with everything else free). `mᵢ` is the inertia the frequency is meant for: `mᵢᶠ`
 //! without a floor; with one the **stance** inertia ([`stance_inertia`]): a standing
 //! humanoid's ankle carries the whole body, its free inertia is the foot's (0.006 kg m²), its
@@ -48,7 +49,7 @@ pub(crate) fn pose_springs(
     dt: f64,
     stance: bool,
 ) -> Vec<(usize, usize, f64, f64)> {
-    let q = model.neutral_q();
+    let q = model.rest_q();
     let mut data = Data::new(model);
     data.gravity = glam::DVec3::ZERO;
     // DCA on the model's own tree: leaf clusters give the same stiffnesses to rounding but
