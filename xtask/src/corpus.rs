@@ -42,7 +42,7 @@ pub const PASSES: usize = 3;
 const BUDGET: Duration = Duration::from_millis(300);
 const QUICK_BUDGET: Duration = Duration::from_millis(40);
 
-const INSTALL: &str = "python3 -m venv target/peers-venv && \
+pub(crate) const INSTALL: &str = "python3 -m venv target/peers-venv && \
 target/peers-venv/bin/pip install pin mujoco example-robot-data";
 
 pub const USAGE: &str = "\
@@ -194,12 +194,12 @@ pub fn main(root: &Path, args: &[String]) -> ExitCode {
 }
 
 /// example-robot-data's `robots/` directory and the versions, from `corpus.py --locate`.
-struct Located {
-    robots: PathBuf,
-    versions: Vec<(String, String)>,
+pub(crate) struct Located {
+    pub(crate) robots: PathBuf,
+    pub(crate) versions: Vec<(String, String)>,
 }
 
-fn locate(root: &Path, python: &Path) -> Result<Located, String> {
+pub(crate) fn locate(root: &Path, python: &Path) -> Result<Located, String> {
     let out = Command::new(python)
         .arg(root.join("peers/corpus.py"))
         .arg("--locate")
@@ -226,12 +226,12 @@ fn versions_of(v: &Value) -> Vec<(String, String)> {
 }
 
 /// One URDF of the corpus.
-struct Robot {
+pub(crate) struct Robot {
     /// The file stem, or `package/stem` where two files share a stem.
-    name: String,
+    pub(crate) name: String,
     /// Path relative to example-robot-data's `robots/`.
-    rel: String,
-    path: PathBuf,
+    pub(crate) rel: String,
+    pub(crate) path: PathBuf,
 }
 
 /// Every `*.urdf` under `dir`, sorted by name (case-insensitive).
@@ -328,7 +328,7 @@ fn base_name(floating: bool) -> &'static str {
 
 /// The corpus's URDFs whose name or path contains one of `names` (all without names), and
 /// how many there are in all.
-fn select(dir: &Path, names: &[String]) -> Result<(Vec<Robot>, usize), String> {
+pub(crate) fn select(dir: &Path, names: &[String]) -> Result<(Vec<Robot>, usize), String> {
     let all = discover(dir)?;
     let total = all.len();
     let robots: Vec<Robot> = all
