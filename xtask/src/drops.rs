@@ -111,7 +111,7 @@ impl Options {
     }
 }
 
-fn parse_bound(flag: &str, v: Option<&String>) -> Result<f64, String> {
+pub(crate) fn parse_bound(flag: &str, v: Option<&String>) -> Result<f64, String> {
     let v = v.ok_or_else(|| format!("{flag} needs a value"))?;
     match v.parse::<f64>() {
         Ok(x) if x.is_finite() && x >= 0.0 => Ok(x),
@@ -333,13 +333,24 @@ fn energy(model: &Model, data: &mut Data, state: &State) -> (f64, f64) {
 
 fn drop_robot(robot: &Robot, opts: &Options) -> Fall {
     let outcome = match Model::from_urdf_file(&robot.path, &opts.load_options()) {
-        Err(e) => Outcome::Refused(e.to_string().lines().next().unwrap_or("").to_string()),
+        Err(e) => Outcome::Refused(reason(&e.to_string())),
         Ok(model) => Outcome::Loaded(simulate(&model, opts.seconds())),
     };
     Fall {
         name: robot.name.clone(),
         rel: robot.rel.clone(),
         outcome,
+    }
+}
+
+/// The first line of a loader's message, with the first item of a list it announces
+/// (`3 bodies with an inertia no rigid body has:` and the first body).
+fn reason(message: &str) -> String {
+    let mut lines = message.lines();
+    let first = lines.next().unwrap_or("").trim_end();
+    match (first.ends_with(':'), lines.next()) {
+        (true, Some(item)) => format!("{first} {} ...", item.trim().trim_start_matches("- ")),
+        _ => first.to_string(),
     }
 }
 
@@ -506,9 +517,18 @@ fn report_md(
                 );
             }
             Outcome::Loaded(r) => {
+                // A stopped run's last energies are those of a diverging state.
+                let (kinetic, drift) = if r.stop.is_some() {
+                    ("—".to_string(), "—".to_string())
+                } else {
+                    (
+                        format!("{:.2e}", r.kinetic_end / r.mass),
+                        format!("{:.3e}", r.drift),
+                    )
+                };
                 let _ = writeln!(
                     s,
-                    "| {} | {} | {} | {} | {:.2} | {}/{} | {:.2} | {:.2e} | {:.3e} | {:.1e} | \
+                    "| {} | {} | {} | {} | {:.2} | {}/{} | {:.2} | {kinetic} | {drift} | {:.1e} | \
                      {:.1} | {} | {:.0} |",
                     d.name,
                     d.verdict().name(),
@@ -518,8 +538,6 @@ fn report_md(
                     r.steps,
                     r.planned,
                     r.max_penetration * 1e3,
-                    r.kinetic_end / r.mass,
-                    r.drift,
                     r.max_growth,
                     r.contacts_mean,
                     r.not_converged,
@@ -614,6 +632,15 @@ fn report_json(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn refusal_reasons_keep_the_first_item() {
+        assert_eq!(
+            reason("3 bodies with an inertia no rigid body has:\n  - body 'a' (mass 1 kg): x\n  - b"),
+            "3 bodies with an inertia no rigid body has: body 'a' (mass 1 kg): x ..."
+        );
+        assert_eq!(reason("the robot has no links"), "the robot has no links");
+    }
 
     #[test]
     fn bounds_need_repair_and_finite_values() {

@@ -35,7 +35,8 @@ subcommands:
                             --quick samples in-process (minutes), otherwise criterion;
                             --publish also copies the charts into docs/img/ and the
                             report to docs/bench-report.md
-    corpus [--quick] [--inertia accept|strict|repair] [--venv DIR] [NAME...]
+    corpus [--quick] [--inertia accept|strict|repair] [--bound-inertia KGM2]
+           [--venv DIR] [NAME...]
                             load every URDF of example-robot-data (fixed and floating
                             base), compare DCA and ABA with Pinocchio's aba, time the
                             three; writes target/articula-corpus/report.md (needs the
