@@ -148,9 +148,7 @@ fn parse(root: &Path, args: &[String]) -> Result<Options, String> {
                     None => return Err("--inertia needs a policy".into()),
                 }
             }
-            "--bound-inertia" => {
-                o.bound_inertia = Some(crate::drops::parse_bound(a, it.next())?)
-            }
+            "--bound-inertia" => o.bound_inertia = Some(crate::drops::parse_bound(a, it.next())?),
             "--venv" => match it.next() {
                 Some(d) => o.venv = PathBuf::from(d),
                 None => return Err("--venv needs a directory".into()),

@@ -510,11 +510,7 @@ fn report_md(
     for d in drops {
         match &d.outcome {
             Outcome::Refused(_) => {
-                let _ = writeln!(
-                    s,
-                    "| {} | refused | | | | | | | | | | | |",
-                    d.name
-                );
+                let _ = writeln!(s, "| {} | refused | | | | | | | | | | | |", d.name);
             }
             Outcome::Loaded(r) => {
                 // A stopped run's last energies are those of a diverging state.
@@ -636,7 +632,9 @@ mod tests {
     #[test]
     fn refusal_reasons_keep_the_first_item() {
         assert_eq!(
-            reason("3 bodies with an inertia no rigid body has:\n  - body 'a' (mass 1 kg): x\n  - b"),
+            reason(
+                "3 bodies with an inertia no rigid body has:\n  - body 'a' (mass 1 kg): x\n  - b"
+            ),
             "3 bodies with an inertia no rigid body has: body 'a' (mass 1 kg): x ..."
         );
         assert_eq!(reason("the robot has no links"), "the robot has no links");
@@ -648,7 +646,11 @@ mod tests {
         let args = |a: &[&str]| a.iter().map(|s| s.to_string()).collect::<Vec<_>>();
         let e = parse(root, &args(&["--bound-inertia", "1e-4"])).unwrap_err();
         assert!(e.contains("--inertia repair"), "{e}");
-        let e = parse(root, &args(&["--inertia", "repair", "--bound-inertia", "-1"])).unwrap_err();
+        let e = parse(
+            root,
+            &args(&["--inertia", "repair", "--bound-inertia", "-1"]),
+        )
+        .unwrap_err();
         assert!(e.contains("--bound-inertia"), "{e}");
         let o = parse(
             root,

@@ -304,7 +304,10 @@ impl DynamicsArgs {
     pub fn load(&self) -> Result<(Model, Data), CliError> {
         let model = Model::from_urdf_file(
             &self.model,
-            &self.inertia.options()?.with_floating_base(self.floating_base),
+            &self
+                .inertia
+                .options()?
+                .with_floating_base(self.floating_base),
         )?;
         for w in &model.warnings {
             eprintln!("warning: {w}");

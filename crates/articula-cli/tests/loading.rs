@@ -405,7 +405,10 @@ fn cli_repair_bounds() {
     let path = scratch_file("point_fore.urdf", text.as_bytes());
     let p = path.to_str().unwrap();
     for (flag, cmd) in [
-        ("--bound-inertia", vec!["info", p, "--bound-inertia", "1e-4"]),
+        (
+            "--bound-inertia",
+            vec!["info", p, "--bound-inertia", "1e-4"],
+        ),
         ("--bound-mass", vec!["fd", p, "--bound-mass", "0.5"]),
         (
             "--bound-inertia",

@@ -473,8 +473,7 @@ mod tests {
         let com = DVec3::new(4e-4, 0.0, 0.0);
         let head = body(1.34, com, DMat3::ZERO, com.length());
         let b = 1e-4;
-        let (inertia, change) =
-            changed(head.judge(InertiaPolicy::Repair, 1.34, (0.0, b)));
+        let (inertia, change) = changed(head.judge(InertiaPolicy::Repair, 1.34, (0.0, b)));
         // max(0, b) for each moment, the mass and centre of mass kept.
         assert_eq!(change.moments, [b; 3]);
         assert_eq!(change.mass, 1.34);
@@ -482,7 +481,10 @@ mod tests {
         let kinds: Vec<_> = change.defects.iter().map(|d| d.kind).collect();
         assert_eq!(
             kinds,
-            [InertiaDefectKind::Singular, InertiaDefectKind::InertiaBelowBound]
+            [
+                InertiaDefectKind::Singular,
+                InertiaDefectKind::InertiaBelowBound
+            ]
         );
         assert_eq!(inertia.mass, 1.34);
         assert!((inertia.com() - com).length() < 1e-18);
@@ -491,7 +493,10 @@ mod tests {
         // The warning names the bound and the numbers before and after.
         let text = change.to_string();
         assert!(text.contains("below bound_inertia 1e-4 kg·m²"), "{text}");
-        assert!(text.contains("→ [1.000000e-4, 1.000000e-4, 1.000000e-4]"), "{text}");
+        assert!(
+            text.contains("→ [1.000000e-4, 1.000000e-4, 1.000000e-4]"),
+            "{text}"
+        );
         // Without the bound: the relative floor 1e-9 · m ℓ² (ℓ = 1 mm, the smallest size).
         let (_, change) = changed(head.judge(InertiaPolicy::Repair, 1.34, (0.0, 0.0)));
         assert_eq!(change.moments, [1e-9 * 1.34 * 1e-6; 3]);
@@ -539,8 +544,7 @@ mod tests {
         // Massless with a rotational inertia: the relative floor would give 1e-6 of the
         // largest mass (10 kg → 1e-5 kg); the bound 1e-3 kg is above it.
         let massless = body(0.0, DVec3::ZERO, ic, 0.05);
-        let (inertia, change) =
-            changed(massless.judge(InertiaPolicy::Repair, 10.0, (1e-3, 0.0)));
+        let (inertia, change) = changed(massless.judge(InertiaPolicy::Repair, 10.0, (1e-3, 0.0)));
         assert_eq!(inertia.mass, 1e-3);
         assert_eq!(change.fixes, vec!["boundmass"]);
         assert!(max_abs(inertia.inertia_about_com() - ic) < 1e-18);
@@ -551,7 +555,10 @@ mod tests {
         let (inertia, change) = changed(light.judge(InertiaPolicy::Repair, 10.0, (1e-3, 0.0)));
         assert_eq!(inertia.mass, 1e-3);
         assert_eq!(change.defects[0].kind, InertiaDefectKind::MassBelowBound);
-        assert!(change.to_string().contains("mass 0.0002 → 0.001 kg"), "{change}");
+        assert!(
+            change.to_string().contains("mass 0.0002 → 0.001 kg"),
+            "{change}"
+        );
         assert!(max_abs(inertia.inertia_about_com() - ic) < 1e-18);
         assert!((inertia.com() - DVec3::new(0.0, 0.0, 0.01)).length() < 1e-16);
     }

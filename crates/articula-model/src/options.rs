@@ -130,15 +130,13 @@ impl LoadOptions {
                 option,
                 message: format!("must be a finite number ≥ 0, got {x}"),
             }),
-            Some(_) if self.inertia != InertiaPolicy::Repair => {
-                Err(crate::ModelError::BadOption {
-                    option,
-                    message: format!(
-                        "applies only under the repair inertia policy, not {}",
-                        self.inertia.name()
-                    ),
-                })
-            }
+            Some(_) if self.inertia != InertiaPolicy::Repair => Err(crate::ModelError::BadOption {
+                option,
+                message: format!(
+                    "applies only under the repair inertia policy, not {}",
+                    self.inertia.name()
+                ),
+            }),
             Some(x) => Ok(x),
         };
         Ok((

@@ -1799,7 +1799,13 @@ fn repair_bounds_are_checked() {
             .with_bound_inertia(1e-4);
         let e = Model::from_urdf_str(&text, &options).unwrap_err();
         assert!(
-            matches!(e, ModelError::BadOption { option: "bound_inertia", .. }),
+            matches!(
+                e,
+                ModelError::BadOption {
+                    option: "bound_inertia",
+                    ..
+                }
+            ),
             "{e}"
         );
         assert!(e.to_string().contains(policy.name()), "{e}");
@@ -1808,7 +1814,13 @@ fn repair_bounds_are_checked() {
     for bad in [-1e-4, f64::NAN, f64::INFINITY] {
         let e = Model::from_urdf_str(&text, &repair.with_bound_mass(bad)).unwrap_err();
         assert!(
-            matches!(e, ModelError::BadOption { option: "bound_mass", .. }),
+            matches!(
+                e,
+                ModelError::BadOption {
+                    option: "bound_mass",
+                    ..
+                }
+            ),
             "{e}"
         );
         assert!(e.to_string().contains("finite number ≥ 0"), "{e}");
