@@ -6,7 +6,8 @@
 //! contact point is [`DROP`] above a horizontal ground at height 0 (friction 1, no
 //! restitution, the URDF joint limits enforced: `articula simulate`'s defaults), and run
 //! [`SECONDS`] (`--quick`: [`QUICK_SECONDS`]) of semi-implicit Euler steps of [`DT`] with DCA
-//! from the neutral configuration at rest.
+//! from the rest pose at rest ([`Model::rest_q`]: the neutral pose moved into the joint limits,
+//! as `articula simulate --ground` starts).
 //!
 //! **Divergence**: a run stops at the first step whose state is not finite, whose contact step
 //! fails, or whose energy has grown by more than [`MAX_ENERGY_GROWTH`] of the largest energy in
@@ -364,6 +365,7 @@ fn simulate(model: &Model, seconds: f64) -> Run {
     let mut contact = ContactData::new(model);
     let mut data = Data::new(model);
     let mut state = State::neutral(model);
+    state.q.copy_from_slice(&model.rest_q());
     forward_kinematics(model, &state.q, &state.qd, &mut data);
     let lowest = contact.lowest_point(&data);
     if lowest.is_finite() {
@@ -481,7 +483,7 @@ fn report_md(
         s,
         "Floating base, the lowest contact point {DROP} m above a ground at z = 0 (friction 1, \
          no restitution, joint limits on), {} s of DCA contact steps of {DT} s from the \
-         neutral configuration at rest; inertia policy `{}`{}{}. At rest: kinetic energy \
+         rest pose at rest; inertia policy `{}`{}{}. At rest: kinetic energy \
          below {REST:e} J per kg at the end. Stopped: the state or the energy diverged \
          (E − E₀ above {MAX_ENERGY_GROWTH} of the largest energy in play).\n",
         opts.seconds(),

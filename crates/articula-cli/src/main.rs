@@ -125,7 +125,7 @@ pub struct InertiaArgs {
     #[arg(long, value_name = "KG", value_parser = parse_bound, allow_hyphen_values = true)]
     pub bound_mass: Option<f64>,
     /// With `--inertia repair`: raise every body's principal moments to at least KGM2 (kg·m²,
-    /// MuJoCo's `boundinertia`), e.g. 1e-4 for icub's point masses (docs/loading.md).
+    /// MuJoCo's `boundinertia`), e.g. 1e-5 for icub's point masses (docs/loading.md).
     #[arg(long, value_name = "KGM2", value_parser = parse_bound,
           allow_hyphen_values = true)]
     pub bound_inertia: Option<f64>,

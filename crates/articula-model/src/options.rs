@@ -66,8 +66,8 @@ pub enum MasslessLeafPolicy {
 /// use articula_model::{InertiaPolicy, LoadOptions};
 /// let options = LoadOptions::default()
 ///     .with_inertia(InertiaPolicy::Repair)
-///     .with_bound_inertia(1e-4);
-/// assert_eq!(options.bound_inertia, Some(1e-4));
+///     .with_bound_inertia(1e-5);
+/// assert_eq!(options.bound_inertia, Some(1e-5));
 /// ```
 #[non_exhaustive]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
