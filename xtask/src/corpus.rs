@@ -42,11 +42,12 @@ pub const PASSES: usize = 3;
 const BUDGET: Duration = Duration::from_millis(300);
 const QUICK_BUDGET: Duration = Duration::from_millis(40);
 
-const INSTALL: &str = "python3 -m venv target/peers-venv && \
+pub(crate) const INSTALL: &str = "python3 -m venv target/peers-venv && \
 target/peers-venv/bin/pip install pin mujoco example-robot-data";
 
 pub const USAGE: &str = "\
-usage: cargo xtask corpus [--quick] [--inertia accept|strict|repair] [--venv DIR] [NAME...]
+usage: cargo xtask corpus [--quick] [--inertia accept|strict|repair] [--bound-inertia KGM2]
+                          [--venv DIR] [NAME...]
 
 Loads every URDF of example-robot-data (fixed and floating base), compares q̈ of DCA and ABA
 with Pinocchio's aba on seeded random states, times the three, and writes
@@ -54,6 +55,9 @@ target/articula-corpus/report.md and report.json.
 
     --quick        two states per robot, one short timing pass (about a minute)
     --inertia P    the loader's inertia policy (default accept)
+    --bound-inertia KGM2
+                   with --inertia repair: every body's principal moments at least KGM2
+                   (Pinocchio runs with the repaired inertias)
     --venv DIR     the Python venv with pin and example-robot-data (default target/peers-venv)
     NAME...        only the robots whose name or path contains one of these
 ";
@@ -77,15 +81,19 @@ impl Inertia {
     }
 }
 
-/// The loader options for one run: the base and the inertia policy.
-fn load_options(floating_base: bool, inertia: Inertia) -> LoadOptions {
-    LoadOptions::default()
+/// The loader options for one run: the base, the inertia policy and its bound.
+fn load_options(floating_base: bool, inertia: Inertia, bound_inertia: Option<f64>) -> LoadOptions {
+    let o = LoadOptions::default()
         .with_floating_base(floating_base)
         .with_inertia(match inertia {
             Inertia::Accept => InertiaPolicy::Accept,
             Inertia::Strict => InertiaPolicy::Strict,
             Inertia::Repair => InertiaPolicy::Repair,
-        })
+        });
+    match bound_inertia {
+        Some(b) => o.with_bound_inertia(b),
+        None => o,
+    }
 }
 
 /// The load warnings, one line each.
@@ -110,6 +118,7 @@ fn coordinate_parts<'a>(
 struct Options {
     quick: bool,
     inertia: Inertia,
+    bound_inertia: Option<f64>,
     venv: PathBuf,
     names: Vec<String>,
 }
@@ -118,6 +127,7 @@ fn parse(root: &Path, args: &[String]) -> Result<Options, String> {
     let mut o = Options {
         quick: false,
         inertia: Inertia::default(),
+        bound_inertia: None,
         venv: root.join("target/peers-venv"),
         names: Vec::new(),
     };
@@ -138,6 +148,7 @@ fn parse(root: &Path, args: &[String]) -> Result<Options, String> {
                     None => return Err("--inertia needs a policy".into()),
                 }
             }
+            "--bound-inertia" => o.bound_inertia = Some(crate::drops::parse_bound(a, it.next())?),
             "--venv" => match it.next() {
                 Some(d) => o.venv = PathBuf::from(d),
                 None => return Err("--venv needs a directory".into()),
@@ -145,6 +156,9 @@ fn parse(root: &Path, args: &[String]) -> Result<Options, String> {
             s if s.starts_with('-') => return Err(format!("unexpected argument {s:?}")),
             s => o.names.push(s.to_string()),
         }
+    }
+    if o.bound_inertia.is_some() && o.inertia != Inertia::Repair {
+        return Err("--bound-inertia needs --inertia repair".into());
     }
     Ok(o)
 }
@@ -194,12 +208,12 @@ pub fn main(root: &Path, args: &[String]) -> ExitCode {
 }
 
 /// example-robot-data's `robots/` directory and the versions, from `corpus.py --locate`.
-struct Located {
-    robots: PathBuf,
-    versions: Vec<(String, String)>,
+pub(crate) struct Located {
+    pub(crate) robots: PathBuf,
+    pub(crate) versions: Vec<(String, String)>,
 }
 
-fn locate(root: &Path, python: &Path) -> Result<Located, String> {
+pub(crate) fn locate(root: &Path, python: &Path) -> Result<Located, String> {
     let out = Command::new(python)
         .arg(root.join("peers/corpus.py"))
         .arg("--locate")
@@ -226,12 +240,12 @@ fn versions_of(v: &Value) -> Vec<(String, String)> {
 }
 
 /// One URDF of the corpus.
-struct Robot {
+pub(crate) struct Robot {
     /// The file stem, or `package/stem` where two files share a stem.
-    name: String,
+    pub(crate) name: String,
     /// Path relative to example-robot-data's `robots/`.
-    rel: String,
-    path: PathBuf,
+    pub(crate) rel: String,
+    pub(crate) path: PathBuf,
 }
 
 /// Every `*.urdf` under `dir`, sorted by name (case-insensitive).
@@ -328,7 +342,7 @@ fn base_name(floating: bool) -> &'static str {
 
 /// The corpus's URDFs whose name or path contains one of `names` (all without names), and
 /// how many there are in all.
-fn select(dir: &Path, names: &[String]) -> Result<(Vec<Robot>, usize), String> {
+pub(crate) fn select(dir: &Path, names: &[String]) -> Result<(Vec<Robot>, usize), String> {
     let all = discover(dir)?;
     let total = all.len();
     let robots: Vec<Robot> = all
@@ -376,7 +390,7 @@ fn run(
     let mut cases = Vec::new();
     for (ri, robot) in robots.iter().enumerate() {
         for floating in [false, true] {
-            let options = load_options(floating, opts.inertia);
+            let options = load_options(floating, opts.inertia, opts.bound_inertia);
             match Model::from_urdf_file(&robot.path, &options) {
                 Err(e) => outcomes.push((ri, floating, Outcome::Refused(e.to_string()))),
                 Ok(model) => {
@@ -989,6 +1003,9 @@ fn command_line(opts: &Options) -> String {
     if opts.inertia != Inertia::default() {
         let _ = write!(c, " --inertia {}", opts.inertia.name());
     }
+    if let Some(b) = opts.bound_inertia {
+        let _ = write!(c, " --bound-inertia {b:e}");
+    }
     for n in &opts.names {
         let _ = write!(c, " {n}");
     }
@@ -1189,7 +1206,7 @@ mod tests {
             <inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
             <joint name="j" type="continuous"><parent link="base"/><child link="arm"/>
             <axis xyz="0 0 1"/></joint></robot>"#;
-        let model = Model::from_urdf_str(urdf, &load_options(true, Inertia::Accept)).unwrap();
+        let model = Model::from_urdf_str(urdf, &load_options(true, Inertia::Accept, None)).unwrap();
         let mut s = State::neutral(&model);
         s.q = vec![1.0, 2.0, 3.0, 0.5, 0.5, 0.5, 0.5, 0.7];
         s.qd = (1..=7).map(f64::from).collect();

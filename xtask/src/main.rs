@@ -4,6 +4,7 @@ mod args;
 mod bench;
 mod chart;
 mod corpus;
+mod drops;
 mod growth;
 mod hash;
 mod models;
@@ -34,11 +35,18 @@ subcommands:
                             --quick samples in-process (minutes), otherwise criterion;
                             --publish also copies the charts into docs/img/ and the
                             report to docs/bench-report.md
-    corpus [--quick] [--inertia accept|strict|repair] [--venv DIR] [NAME...]
+    corpus [--quick] [--inertia accept|strict|repair] [--bound-inertia KGM2]
+           [--venv DIR] [NAME...]
                             load every URDF of example-robot-data (fixed and floating
                             base), compare DCA and ABA with Pinocchio's aba, time the
                             three; writes target/articula-corpus/report.md (needs the
                             venv of peers/corpus.py; exits 2 without it)
+    drops [--quick] [--inertia accept|strict|repair] [--bound-mass KG]
+          [--bound-inertia KGM2] [--venv DIR] [NAME...]
+                            drop every URDF of example-robot-data (floating base, 0.3 m)
+                            on a ground and run 3 s of DCA contact steps; writes
+                            target/articula-drops/report.md (needs the venv's
+                            example-robot-data)
     pinocchio               compare inverse dynamics, mass matrix, bias forces, centre of
                             mass, energies, momentum, link poses and Jacobians with
                             Pinocchio's on the humanoid (needs the peers' Python:
@@ -79,6 +87,7 @@ fn main() -> ExitCode {
     }
     match args.first().map(String::as_str) {
         Some("corpus") => corpus::main(&workspace_root(), &args[1..]),
+        Some("drops") => drops::main(&workspace_root(), &args[1..]),
         Some("models") if args.get(1).map(String::as_str) == Some("--chain") => {
             run(print_chain(&args[2..]))
         }

@@ -46,9 +46,8 @@ enum Command {
         /// Also print the assembly tree as an indented outline (text mode).
         #[arg(long)]
         tree: bool,
-        /// What to do with bodies whose inertia no rigid body has (docs/loading.md).
-        #[arg(long, value_enum, default_value_t = InertiaArg::Accept)]
-        inertia: InertiaArg,
+        #[command(flatten)]
+        inertia: InertiaArgs,
     },
     /// Forward dynamics of one state: the joint accelerations, as JSON keyed by URDF joint name.
     Fd(fd::FdArgs),
@@ -78,9 +77,8 @@ pub struct DynamicsArgs {
     /// to the world.
     #[arg(long)]
     pub floating_base: bool,
-    /// What to do with bodies whose inertia no rigid body has (docs/loading.md).
-    #[arg(long, value_enum, default_value_t = InertiaArg::Accept)]
-    pub inertia: InertiaArg,
+    #[command(flatten)]
+    pub inertia: InertiaArgs,
     /// `--method adaptive`: the most internal degrees of freedom simulated (0 = one rigid body).
     #[arg(long, value_name = "K", value_parser = parse_budget, allow_hyphen_values = true)]
     pub budget: Option<usize>,
@@ -115,6 +113,60 @@ pub fn threads(count: Option<usize>) -> Result<Threads, CliError> {
         Some(n) => Threads::new(n)?,
         None => Threads::all()?,
     })
+}
+
+/// `--inertia` and its repair bounds, on every command that loads URDFs.
+#[derive(Args, Clone, Debug)]
+pub struct InertiaArgs {
+    /// What to do with bodies whose inertia no rigid body has (docs/loading.md).
+    #[arg(long, value_enum, default_value_t = InertiaArg::Accept)]
+    pub inertia: InertiaArg,
+    /// With `--inertia repair`: raise every body's mass to at least KG (MuJoCo's `boundmass`).
+    #[arg(long, value_name = "KG", value_parser = parse_bound, allow_hyphen_values = true)]
+    pub bound_mass: Option<f64>,
+    /// With `--inertia repair`: raise every body's principal moments to at least KGM2 (kg·m²,
+    /// MuJoCo's `boundinertia`), e.g. 1e-5 for icub's point masses (docs/loading.md).
+    #[arg(long, value_name = "KGM2", value_parser = parse_bound,
+          allow_hyphen_values = true)]
+    pub bound_inertia: Option<f64>,
+}
+
+impl InertiaArgs {
+    /// The load options of these flags (fixed base), or why they cannot be used together.
+    pub fn options(&self) -> Result<LoadOptions, CliError> {
+        let mut options = LoadOptions::default().with_inertia(self.inertia.into());
+        for (flag, bound) in [
+            ("--bound-mass", self.bound_mass),
+            ("--bound-inertia", self.bound_inertia),
+        ] {
+            if bound.is_some() && self.inertia != InertiaArg::Repair {
+                return Err(CliError(format!(
+                    "{flag} needs --inertia repair (the bounds change bodies only when \
+                     repairing; the policy is {})",
+                    InertiaPolicy::from(self.inertia).name()
+                )));
+            }
+        }
+        if let Some(kg) = self.bound_mass {
+            options = options.with_bound_mass(kg);
+        }
+        if let Some(kgm2) = self.bound_inertia {
+            options = options.with_bound_inertia(kgm2);
+        }
+        Ok(options)
+    }
+}
+
+/// Parses `--bound-mass` and `--bound-inertia`: a finite number ≥ 0.
+fn parse_bound(s: &str) -> Result<f64, String> {
+    let x: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a number"))?;
+    if !(x.is_finite() && x >= 0.0) {
+        return Err(format!("the bound must be a finite number ≥ 0, got '{s}'"));
+    }
+    Ok(x)
 }
 
 /// `--inertia`.
@@ -252,9 +304,10 @@ impl DynamicsArgs {
     pub fn load(&self) -> Result<(Model, Data), CliError> {
         let model = Model::from_urdf_file(
             &self.model,
-            &LoadOptions::default()
-                .with_floating_base(self.floating_base)
-                .with_inertia(self.inertia.into()),
+            &self
+                .inertia
+                .options()?
+                .with_floating_base(self.floating_base),
         )?;
         for w in &model.warnings {
             eprintln!("warning: {w}");
@@ -317,14 +370,14 @@ fn main() -> ExitCode {
             json,
             tree,
             inertia,
-        } => info::run(
-            &model,
-            &LoadOptions::default()
-                .with_floating_base(floating_base)
-                .with_inertia(inertia.into()),
-            json,
-            tree,
-        ),
+        } => inertia.options().and_then(|options| {
+            info::run(
+                &model,
+                &options.with_floating_base(floating_base),
+                json,
+                tree,
+            )
+        }),
         Command::Fd(args) => fd::run(&args),
         Command::Simulate(args) => simulate::run(&args),
         Command::Bench(args) => bench::run(&args),

@@ -6,7 +6,7 @@ use crate::simulate::parse_count;
 use crate::watch::{parse_growth, EnergyWatch, GimbalWatch, DEFAULT_MAX_ENERGY_GROWTH};
 use crate::{print_out, CliError};
 use articula_view::render::{render_map, render_view, save_png};
-use articula_view::{load_scene_limited, SceneMethod, SceneSim};
+use articula_view::{load_scene_options, SceneMethod, SceneSim};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -28,10 +28,9 @@ pub struct SceneArgs {
     /// written).
     #[arg(long, default_value_t = 1, value_parser = parse_every, allow_hyphen_values = true)]
     pub frame_every: u64,
-    /// What to do with the scene's models' bodies whose inertia no rigid body has
-    /// (docs/loading.md).
-    #[arg(long, value_enum, default_value_t = crate::InertiaArg::Accept)]
-    pub inertia: crate::InertiaArg,
+    /// How the scene's models' inertias are loaded (docs/loading.md).
+    #[command(flatten)]
+    pub inertia: crate::InertiaArgs,
     /// Stop (exit 2, after the summary of the steps done) once the scene's energy (kinetic,
     /// gravity, pose springs) has grown, beyond the work of the pushes, by more than this
     /// fraction of the largest energy in play; checked at every re-selection. `inf`: no bound.
@@ -137,7 +136,7 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
     if exact.is_some() && args.budget.is_some() {
         return Err(CliError("--budget needs --method adaptive".to_string()));
     }
-    let mut scene = load_scene_limited(&args.scene, args.inertia.into(), args.memory_limit)?;
+    let mut scene = load_scene_options(&args.scene, &args.inertia.options()?, args.memory_limit)?;
     if let Some(height) = args.ground {
         scene.ground = Some(articula_view::GroundSpec::at(height));
     }

@@ -392,6 +392,88 @@ fn cli_inertia_flag_and_json_warnings() {
     }
 }
 
+/// `--bound-mass` and `--bound-inertia`: an error without `--inertia repair` (they would do
+/// nothing), and with it a change of every body below them, reported by `info`.
+#[test]
+fn cli_repair_bounds() {
+    // `fore` is a 1 kg point mass 2 mm from its joint; `base` (moments 0.03) is above the bound.
+    let text = robot(&[
+        link("base", 3.0, "0 0 0", [0.03, 0.03, 0.03]),
+        link("fore", 1.0, "0.002 0 0", [0.0, 0.0, 0.0]),
+        joint("elbow", "revolute", "base", "fore", "0 0 -0.4", "0 0 1"),
+    ]);
+    let path = scratch_file("point_fore.urdf", text.as_bytes());
+    let p = path.to_str().unwrap();
+    for (flag, cmd) in [
+        (
+            "--bound-inertia",
+            vec!["info", p, "--bound-inertia", "1e-4"],
+        ),
+        ("--bound-mass", vec!["fd", p, "--bound-mass", "0.5"]),
+        (
+            "--bound-inertia",
+            vec!["info", p, "--inertia", "strict", "--bound-inertia", "1e-4"],
+        ),
+    ] {
+        let out = articula(&cmd);
+        assert_eq!(out.status.code(), Some(2), "{cmd:?}");
+        let err = stderr(&out);
+        assert!(
+            err.starts_with("error: ") && err.contains(flag) && err.contains("--inertia repair"),
+            "{cmd:?}: {err}"
+        );
+    }
+    // A bad value is refused by name.
+    let out = articula(&["info", p, "--inertia", "repair", "--bound-mass", "-1"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("--bound-mass"), "{}", stderr(&out));
+    // With repair: `fore`'s moments go from 0 to the bound, and only `fore` changes.
+    let out = articula(&[
+        "info",
+        "--json",
+        p,
+        "--inertia",
+        "repair",
+        "--bound-inertia",
+        "1e-4",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let info: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let warnings: Vec<&str> = info["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w.as_str().unwrap())
+        .collect();
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert!(
+        warnings[0].contains("body 'fore': boundinertia")
+            && warnings[0].contains("→ [1.000000e-4, 1.000000e-4, 1.000000e-4]")
+            && warnings[0].contains("below bound_inertia 1e-4"),
+        "{}",
+        warnings[0]
+    );
+    // fd then gives the elbow q̈ = τ / (b + m d²) about its axis (no gravity).
+    let state = scratch_file("point_fore_state.json", br#"{"tau": {"elbow": [0.2]}}"#);
+    let out = articula(&[
+        "fd",
+        p,
+        "--inertia",
+        "repair",
+        "--bound-inertia",
+        "1e-4",
+        "--gravity",
+        "0,0,0",
+        "--state",
+        state.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let fd: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let qdd = fd["qdd"]["elbow"][0].as_f64().unwrap();
+    let want = 0.2 / (1e-4 + 1.0 * 0.002 * 0.002);
+    assert!((qdd - want).abs() < 1e-10 * want, "{qdd} vs {want}");
+}
+
 #[test]
 fn cli_lists_locked_joints() {
     let path = scratch_file("fingers.urdf", arm(true).as_bytes());

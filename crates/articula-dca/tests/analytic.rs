@@ -508,3 +508,55 @@ fn floating_joint_update_is_the_exponential() {
         }
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// (e) A point mass near a revolute axis, with an absolute inertia bound
+
+/// A point mass `m` whose centre of mass is `d` from a revolute axis, loaded under
+/// `InertiaPolicy::Repair` with `bound_inertia = b`, has the isotropic rotational inertia `b`
+/// about its centre of mass (the relative floor `1e-9 · m d²` is far below `b`); by the
+/// parallel-axis theorem its joint-space inertia is `b + m d²`, so without gravity
+/// `q̈ = τ / (b + m d²)` at every angle and speed (one revolute joint: no velocity terms).
+#[test]
+fn point_mass_with_bound_inertia() {
+    use articula_model::InertiaPolicy;
+    let (m, b) = (1.34, 1e-4);
+    for d in [4e-4, 0.03, 0.5] {
+        // Centre of mass `d` from the z axis, 5 cm along it (the along-axis offset does not
+        // count), the joint away from the world origin.
+        let com = DVec3::new(0.6 * d, 0.8 * d, 0.05);
+        let urdf = format!(
+            r#"<robot name="point">
+              <link name="base"/>
+              <link name="head">{}</link>
+              <joint name="neck" type="revolute">
+                <origin xyz="0.2 -0.1 0.4" rpy="0.3 0 0"/>
+                <parent link="base"/><child link="head"/><axis xyz="0 0 1"/>
+                <limit lower="-3" upper="3" effort="10" velocity="10"/>
+              </joint></robot>"#,
+            inertial(m, com, [0.0; 6])
+        );
+        let options = LoadOptions::default()
+            .with_inertia(InertiaPolicy::Repair)
+            .with_bound_inertia(b);
+        let model = Model::from_urdf_str(&urdf, &options).unwrap();
+        let mut data = Data::new(&model);
+        data.gravity = DVec3::ZERO;
+        let tau = 0.37;
+        let expected = tau / (b + m * d * d);
+        for (q, qd) in [(0.0, 0.0), (1.1, -2.5), (-2.9, 6.0)] {
+            let mut s = State::neutral(&model);
+            s.q[0] = q;
+            s.qd[0] = qd;
+            s.tau[0] = tau;
+            for method in METHODS {
+                let got = qdd(&model, &mut data, &s, method)[0];
+                let rel = (got - expected).abs() / expected;
+                assert!(
+                    rel < 1e-10,
+                    "{method:?} d = {d}: q̈ = {got}, τ/(b + m d²) = {expected} (rel {rel:.2e})"
+                );
+            }
+        }
+    }
+}

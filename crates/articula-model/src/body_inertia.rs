@@ -99,6 +99,11 @@ pub enum InertiaDefectKind {
     Singular,
     /// Zero mass with a rotational inertia.
     MasslessWithInertia,
+    /// A mass below [`crate::LoadOptions::bound_mass`]: not a defect of the body, a floor the
+    /// loader was asked for (reported by [`InertiaPolicy::Repair`] with that bound only).
+    MassBelowBound,
+    /// A principal moment below [`crate::LoadOptions::bound_inertia`] (likewise).
+    InertiaBelowBound,
 }
 
 /// One broken condition of one body, with its numbers.
@@ -115,7 +120,8 @@ pub struct InertiaDefect {
     /// The condition broken.
     pub kind: InertiaDefectKind,
     /// By how much (kg·m²): `−λ1` for [`InertiaDefectKind::NotPositive`], `λ3 − λ1 − λ2` for
-    /// the triangle inequality, `λ1` for a singular body, `λ3` for a massless one.
+    /// the triangle inequality, `λ1` for a singular body, `λ3` for a massless one; for the
+    /// bounds, the bound (kg for [`InertiaDefectKind::MassBelowBound`]).
     pub by: f64,
     /// The body's round-off tolerance `TOLERANCE · s` (kg·m²).
     pub tolerance: f64,
@@ -162,6 +168,12 @@ impl fmt::Display for InertiaDefect {
             InertiaDefectKind::MasslessWithInertia => {
                 write!(f, "massless with a rotational inertia (λ3 = {l3:.6e})")
             }
+            InertiaDefectKind::MassBelowBound => {
+                write!(f, "mass below bound_mass {:e} kg", self.by)
+            }
+            InertiaDefectKind::InertiaBelowBound => {
+                write!(f, "λ1 = {l1:.3e} below bound_inertia {:e} kg·m²", self.by)
+            }
         }
     }
 }
@@ -194,14 +206,20 @@ impl fmt::Display for InertiaChange {
             fmt_moments(&d.moments),
             fmt_moments(&self.moments)
         )?;
-        let kinds: Vec<&str> = self
+        let kinds: Vec<String> = self
             .defects
             .iter()
             .map(|d| match d.kind {
-                InertiaDefectKind::NotPositive => "not positive semidefinite",
-                InertiaDefectKind::TriangleInequality => "triangle inequality broken",
-                InertiaDefectKind::Singular => "point or rod mass",
-                InertiaDefectKind::MasslessWithInertia => "massless with rotational inertia",
+                InertiaDefectKind::NotPositive => "not positive semidefinite".to_string(),
+                InertiaDefectKind::TriangleInequality => "triangle inequality broken".to_string(),
+                InertiaDefectKind::Singular => "point or rod mass".to_string(),
+                InertiaDefectKind::MasslessWithInertia => {
+                    "massless with rotational inertia".to_string()
+                }
+                InertiaDefectKind::MassBelowBound => format!("below bound_mass {:e} kg", d.by),
+                InertiaDefectKind::InertiaBelowBound => {
+                    format!("below bound_inertia {:e} kg·m²", d.by)
+                }
             })
             .collect();
         write!(f, "{})", kinds.join(", "))
@@ -275,9 +293,38 @@ impl BodyInertia<'_> {
         out
     }
 
-    /// Applies `policy` (`max_mass`: the largest body mass of the model, for `boundmass`).
-    pub fn judge(&self, policy: InertiaPolicy, max_mass: f64) -> Verdict {
-        let defects = self.defects();
+    /// Every absolute bound the body is below: `bound_mass` (kg) and `bound_inertia` (kg·m²),
+    /// 0 for none.
+    fn below_bounds(&self, bound_mass: f64, bound_inertia: f64) -> Vec<InertiaDefect> {
+        let m = self.inertia.mass;
+        let (moments, _) = principal_moments(self.inertia.inertia_about_com());
+        let defect = |kind, by| InertiaDefect {
+            body: self.name.to_string(),
+            links: self.links.clone(),
+            mass: m,
+            moments,
+            kind,
+            by,
+            tolerance: TOLERANCE * self.scale(m, &moments),
+        };
+        let mut out = Vec::new();
+        if m < bound_mass {
+            out.push(defect(InertiaDefectKind::MassBelowBound, bound_mass));
+        }
+        if moments[0] < bound_inertia {
+            out.push(defect(InertiaDefectKind::InertiaBelowBound, bound_inertia));
+        }
+        out
+    }
+
+    /// Applies `policy` (`max_mass`: the largest body mass of the model, for `boundmass`;
+    /// `bounds`: the absolute `(bound_mass, bound_inertia)` of [`InertiaPolicy::Repair`], 0 for
+    /// none).
+    pub fn judge(&self, policy: InertiaPolicy, max_mass: f64, bounds: (f64, f64)) -> Verdict {
+        let mut defects = self.defects();
+        if policy == InertiaPolicy::Repair {
+            defects.extend(self.below_bounds(bounds.0, bounds.1));
+        }
         if defects.is_empty() {
             return Verdict::Fine;
         }
@@ -306,20 +353,24 @@ impl BodyInertia<'_> {
                 }
             }
             InertiaPolicy::Repair => {
-                let (inertia, change) = self.repair(defects, max_mass);
+                let (inertia, change) = self.repair(defects, max_mass, bounds);
                 Verdict::Changed(inertia, change)
             }
         }
     }
 
-    /// `boundmass` (a zero mass raised to `MASS_FLOOR · max_mass`), `boundinertia` (moments
-    /// raised to `SINGULAR · s`) and `balanceinertia` (the two smaller moments
-    /// raised by half the triangle excess each, so that `λ3 = λ1 + λ2`: the least change, where
-    /// MuJoCo sets all three to their mean). Principal axes and centre of mass are kept.
+    /// `boundmass` (a zero mass raised to `MASS_FLOOR · max_mass`, then every mass to at
+    /// least the absolute `bound_mass`), `boundinertia` (a point or rod mass's moments raised
+    /// to `SINGULAR · s`, then every moment to at least the absolute `bound_inertia`) and
+    /// `balanceinertia` (the two smaller moments raised by half the triangle excess each, so
+    /// that `λ3 = λ1 + λ2`: the least change, where MuJoCo sets all three to their mean).
+    /// Principal axes and centre of mass are kept; the rotational inertia is not scaled with a
+    /// raised mass (as in MuJoCo).
     fn repair(
         &self,
         defects: Vec<InertiaDefect>,
         max_mass: f64,
+        (bound_mass, bound_inertia): (f64, f64),
     ) -> (SpatialInertia, InertiaChange) {
         let mut fixes = Vec::new();
         let mut m = self.inertia.mass;
@@ -327,10 +378,21 @@ impl BodyInertia<'_> {
         let (mut moments, axes) = principal_moments(self.inertia.inertia_about_com());
         if m == 0.0 {
             m = MASS_FLOOR * if max_mass > 0.0 { max_mass } else { 1.0 };
+        }
+        if m < bound_mass {
+            m = bound_mass;
+        }
+        if m != self.inertia.mass {
             fixes.push("boundmass");
         }
-        let floor = SINGULAR * self.scale(m, &moments);
-        if moments[0] <= floor {
+        let relative = SINGULAR * self.scale(m, &moments);
+        let singular = moments[0] <= relative;
+        if singular || moments[0] < bound_inertia {
+            let floor = if singular {
+                relative.max(bound_inertia)
+            } else {
+                bound_inertia
+            };
             for x in &mut moments {
                 *x = x.max(floor);
             }
@@ -381,6 +443,124 @@ mod tests {
             .iter()
             .fold(0.0f64, |m, x| m.max(x.abs()));
         assert!(e < 1e-14, "{e}");
+    }
+
+    fn body(mass: f64, com: DVec3, ic: DMat3, size: f64) -> BodyInertia<'static> {
+        BodyInertia {
+            name: "head",
+            links: vec!["head".to_string()],
+            inertia: SpatialInertia::new(mass, com, ic),
+            size,
+        }
+    }
+
+    fn max_abs(m: DMat3) -> f64 {
+        m.to_cols_array().iter().fold(0.0f64, |a, x| a.max(x.abs()))
+    }
+
+    /// `Changed` or a panic naming the verdict.
+    fn changed(v: Verdict) -> (SpatialInertia, InertiaChange) {
+        match v {
+            Verdict::Changed(i, c) => (i, c),
+            Verdict::Fine => panic!("fine"),
+            Verdict::Odd(d) | Verdict::Refused(d) => panic!("not changed: {d:?}"),
+        }
+    }
+
+    #[test]
+    fn bound_inertia_raises_a_point_mass_to_the_bound() {
+        // icub's head: 1.34 kg, no rotational inertia, the centre of mass 0.4 mm from its frame.
+        let com = DVec3::new(4e-4, 0.0, 0.0);
+        let head = body(1.34, com, DMat3::ZERO, com.length());
+        let b = 1e-4;
+        let (inertia, change) = changed(head.judge(InertiaPolicy::Repair, 1.34, (0.0, b)));
+        // max(0, b) for each moment, the mass and centre of mass kept.
+        assert_eq!(change.moments, [b; 3]);
+        assert_eq!(change.mass, 1.34);
+        assert_eq!(change.fixes, vec!["boundinertia"]);
+        let kinds: Vec<_> = change.defects.iter().map(|d| d.kind).collect();
+        assert_eq!(
+            kinds,
+            [
+                InertiaDefectKind::Singular,
+                InertiaDefectKind::InertiaBelowBound
+            ]
+        );
+        assert_eq!(inertia.mass, 1.34);
+        assert!((inertia.com() - com).length() < 1e-18);
+        let err = max_abs(inertia.inertia_about_com() - DMat3::from_diagonal(DVec3::splat(b)));
+        assert!(err < 1e-18, "{err}");
+        // The warning names the bound and the numbers before and after.
+        let text = change.to_string();
+        assert!(text.contains("below bound_inertia 1e-4 kg·m²"), "{text}");
+        assert!(
+            text.contains("→ [1.000000e-4, 1.000000e-4, 1.000000e-4]"),
+            "{text}"
+        );
+        // Without the bound: the relative floor 1e-9 · m ℓ² (ℓ = 1 mm, the smallest size).
+        let (_, change) = changed(head.judge(InertiaPolicy::Repair, 1.34, (0.0, 0.0)));
+        assert_eq!(change.moments, [1e-9 * 1.34 * 1e-6; 3]);
+        // Accept and Strict never apply a bound.
+        assert!(matches!(
+            head.judge(InertiaPolicy::Accept, 1.34, (0.0, b)),
+            Verdict::Odd(d) if d.len() == 1
+        ));
+    }
+
+    #[test]
+    fn bound_inertia_keeps_axes_and_larger_moments() {
+        // A rotated body with moments 5e-5, 2e-4, 2.2e-4: only the smallest is below 1e-4.
+        let r = DMat3::from_euler(glam::EulerRot::ZYX, 0.7, -0.4, 1.9);
+        let ic = r * DMat3::from_diagonal(DVec3::new(2e-4, 5e-5, 2.2e-4)) * r.transpose();
+        let com = DVec3::new(0.01, -0.02, 0.03);
+        let b = 1e-4;
+        let link = body(0.5, com, ic, 0.05);
+        assert!(link.defects().is_empty());
+        assert!(matches!(
+            link.judge(InertiaPolicy::Repair, 0.5, (0.0, 0.0)),
+            Verdict::Fine
+        ));
+        let (inertia, change) = changed(link.judge(InertiaPolicy::Repair, 0.5, (0.0, b)));
+        for (got, want) in change.moments.iter().zip([b, 2e-4, 2.2e-4]) {
+            assert!((got - want).abs() < 1e-18, "{:?}", change.moments);
+        }
+        assert!((inertia.com() - com).length() < 1e-17);
+        // The same principal axes: r's columns are eigenvectors of the new inertia.
+        let new = inertia.inertia_about_com();
+        for (i, want) in [2e-4, b, 2.2e-4].into_iter().enumerate() {
+            let v = r.col(i);
+            assert!((new * v - want * v).length() < 1e-18, "axis {i}");
+        }
+        // A body above both bounds is left alone.
+        assert!(matches!(
+            link.judge(InertiaPolicy::Repair, 0.5, (0.1, 1e-5)),
+            Verdict::Fine
+        ));
+    }
+
+    #[test]
+    fn bound_mass_raises_light_and_massless_bodies() {
+        let ic = DMat3::from_diagonal(DVec3::new(1e-3, 1e-3, 1e-3));
+        // Massless with a rotational inertia: the relative floor would give 1e-6 of the
+        // largest mass (10 kg → 1e-5 kg); the bound 1e-3 kg is above it.
+        let massless = body(0.0, DVec3::ZERO, ic, 0.05);
+        let (inertia, change) = changed(massless.judge(InertiaPolicy::Repair, 10.0, (1e-3, 0.0)));
+        assert_eq!(inertia.mass, 1e-3);
+        assert_eq!(change.fixes, vec!["boundmass"]);
+        assert!(max_abs(inertia.inertia_about_com() - ic) < 1e-18);
+        let (inertia, _) = changed(massless.judge(InertiaPolicy::Repair, 10.0, (0.0, 0.0)));
+        assert_eq!(inertia.mass, MASS_FLOOR * 10.0);
+        // A light body: its mass raised, its rotational inertia kept.
+        let light = body(2e-4, DVec3::new(0.0, 0.0, 0.01), ic, 0.01);
+        let (inertia, change) = changed(light.judge(InertiaPolicy::Repair, 10.0, (1e-3, 0.0)));
+        assert_eq!(inertia.mass, 1e-3);
+        assert_eq!(change.defects[0].kind, InertiaDefectKind::MassBelowBound);
+        assert!(
+            change.to_string().contains("mass 0.0002 → 0.001 kg"),
+            "{change}"
+        );
+        assert!(max_abs(inertia.inertia_about_com() - ic) < 1e-18);
+        assert!((inertia.com() - DVec3::new(0.0, 0.0, 0.01)).length() < 1e-16);
     }
 
     #[test]

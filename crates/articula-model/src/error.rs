@@ -121,6 +121,15 @@ pub enum ModelError {
         /// Every broken condition of every refused body.
         defects: Vec<InertiaDefect>,
     },
+    /// A load option that cannot be used (a repair bound that is negative or not finite, or
+    /// given without [`InertiaPolicy::Repair`]).
+    #[error("load option {option} {message}")]
+    BadOption {
+        /// The [`crate::LoadOptions`] field.
+        option: &'static str,
+        /// What is wrong.
+        message: String,
+    },
     /// A joint type articula does not know.
     #[error("joint '{joint}' has unknown type '{kind}'")]
     UnknownJointType {

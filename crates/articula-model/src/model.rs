@@ -323,6 +323,7 @@ impl Model {
     }
 
     fn build(raw: RawRobot, options: &LoadOptions) -> Result<Model, ModelError> {
+        let bounds = options.bounds()?;
         let n = raw.links.len();
         let mut children_joints: Vec<Vec<usize>> = vec![Vec::new(); n];
         for (j, joint) in raw.joints.iter().enumerate() {
@@ -427,7 +428,7 @@ impl Model {
                 inertia: merged[l],
                 size,
             };
-            match body.judge(options.inertia, max_mass) {
+            match body.judge(options.inertia, max_mass, bounds) {
                 Verdict::Fine => {}
                 Verdict::Odd(defects) => warnings.push(LoadWarning::OddInertia(defects)),
                 Verdict::Changed(inertia, change) => {

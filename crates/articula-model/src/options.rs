@@ -16,7 +16,9 @@ pub enum InertiaPolicy {
     /// Refuse every odd body, each listed with its numbers.
     Strict,
     /// Fix every odd body the way MuJoCo's `boundmass`, `boundinertia` and `balanceinertia`
-    /// do, each change reported with the numbers before and after.
+    /// do, each change reported with the numbers before and after; with
+    /// [`LoadOptions::bound_mass`] or [`LoadOptions::bound_inertia`], also raise every body
+    /// below those absolute bounds.
     Repair,
 }
 
@@ -55,8 +57,20 @@ pub enum MasslessLeafPolicy {
 ///     .with_inertia(InertiaPolicy::Repair);
 /// assert!(options.floating_base);
 /// ```
+///
+/// A robot whose point masses sit close to joint axes (icub) loads under
+/// [`InertiaPolicy::Repair`] with an absolute floor on the principal moments that keeps its
+/// joints soft enough for a millisecond step (`docs/loading.md#absolute-bounds`):
+///
+/// ```
+/// use articula_model::{InertiaPolicy, LoadOptions};
+/// let options = LoadOptions::default()
+///     .with_inertia(InertiaPolicy::Repair)
+///     .with_bound_inertia(1e-5);
+/// assert_eq!(options.bound_inertia, Some(1e-5));
+/// ```
 #[non_exhaustive]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct LoadOptions {
     /// Give the root link six degrees of freedom (joint [`crate::FLOATING_BASE_JOINT`])
     /// instead of welding it to the world.
@@ -65,6 +79,15 @@ pub struct LoadOptions {
     pub inertia: InertiaPolicy,
     /// What to do with moving joints that carry no mass.
     pub massless_leaf: MasslessLeafPolicy,
+    /// [`InertiaPolicy::Repair`] only: every body's mass is raised to at least this (kg), like
+    /// MuJoCo's `boundmass`. Links with neither mass nor inertia are not bodies of the
+    /// dynamics (they fold into composed joints or are locked) and stay massless. Finite and
+    /// ≥ 0, else the load fails with [`crate::ModelError::BadOption`].
+    pub bound_mass: Option<f64>,
+    /// [`InertiaPolicy::Repair`] only: every body's principal moments about its centre of mass
+    /// are raised to at least this (kg·m²), like MuJoCo's `boundinertia` (axes and centre of
+    /// mass kept). Finite and ≥ 0, else the load fails with [`crate::ModelError::BadOption`].
+    pub bound_inertia: Option<f64>,
 }
 
 impl LoadOptions {
@@ -79,6 +102,47 @@ impl LoadOptions {
     /// With the given inertia policy.
     pub fn with_inertia(self, p: InertiaPolicy) -> Self {
         Self { inertia: p, ..self }
+    }
+
+    /// With an absolute lower bound on every body's mass (kg; needs [`InertiaPolicy::Repair`]).
+    pub fn with_bound_mass(self, kg: f64) -> Self {
+        Self {
+            bound_mass: Some(kg),
+            ..self
+        }
+    }
+
+    /// With an absolute lower bound on every body's principal moments (kg·m²; needs
+    /// [`InertiaPolicy::Repair`]).
+    pub fn with_bound_inertia(self, kgm2: f64) -> Self {
+        Self {
+            bound_inertia: Some(kgm2),
+            ..self
+        }
+    }
+
+    /// The repair bounds checked against the policy: `Ok((bound_mass, bound_inertia))`, each
+    /// 0 when not given, or the reason they cannot be used.
+    pub(crate) fn bounds(&self) -> Result<(f64, f64), crate::ModelError> {
+        let check = |option: &'static str, x: Option<f64>| match x {
+            None => Ok(0.0),
+            Some(x) if !(x.is_finite() && x >= 0.0) => Err(crate::ModelError::BadOption {
+                option,
+                message: format!("must be a finite number ≥ 0, got {x}"),
+            }),
+            Some(_) if self.inertia != InertiaPolicy::Repair => Err(crate::ModelError::BadOption {
+                option,
+                message: format!(
+                    "applies only under the repair inertia policy, not {}",
+                    self.inertia.name()
+                ),
+            }),
+            Some(x) => Ok(x),
+        };
+        Ok((
+            check("bound_mass", self.bound_mass)?,
+            check("bound_inertia", self.bound_inertia)?,
+        ))
     }
 
     /// With the given massless-leaf policy.

@@ -1788,3 +1788,49 @@ fn many_children_are_gathered() {
         assert!(m.assembly.depth() <= 4, "depth {}", m.assembly.depth());
     }
 }
+
+#[test]
+fn repair_bounds_are_checked() {
+    let text = one_link_on_a_joint(&link_raw("arm", "1", "0", "0", "0"));
+    // A bound without the repair policy would do nothing: refused, naming the option.
+    for policy in [InertiaPolicy::Accept, InertiaPolicy::Strict] {
+        let options = LoadOptions::default()
+            .with_inertia(policy)
+            .with_bound_inertia(1e-4);
+        let e = Model::from_urdf_str(&text, &options).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                ModelError::BadOption {
+                    option: "bound_inertia",
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        assert!(e.to_string().contains(policy.name()), "{e}");
+    }
+    let repair = LoadOptions::default().with_inertia(InertiaPolicy::Repair);
+    for bad in [-1e-4, f64::NAN, f64::INFINITY] {
+        let e = Model::from_urdf_str(&text, &repair.with_bound_mass(bad)).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                ModelError::BadOption {
+                    option: "bound_mass",
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        assert!(e.to_string().contains("finite number ≥ 0"), "{e}");
+    }
+    // Under repair: the point mass's moments are raised to the bound, and it is the one change
+    // (the base is welded to the world: not a body of the dynamics).
+    let m = Model::from_urdf_str(&text, &repair.with_bound_inertia(1e-4)).unwrap();
+    let arm = m.bodies.iter().find(|b| b.name == "arm").unwrap();
+    let ic = arm.inertia.inertia_about_com();
+    assert!((ic - DMat3::from_diagonal(DVec3::splat(1e-4))).abs_diff_eq(DMat3::ZERO, 1e-19));
+    assert_eq!(m.warnings.len(), 1, "{:?}", m.warnings);
+    assert!(m.warnings[0].to_string().contains("bound_inertia"));
+}

@@ -39,7 +39,8 @@ pub use scene_file::{
 };
 #[cfg(feature = "serde")]
 pub use scene_file::{
-    load_scene, load_scene_limited, load_scene_with, parse_scene, parse_scene_with,
+    load_scene, load_scene_limited, load_scene_options, load_scene_with, parse_scene,
+    parse_scene_with,
 };
 pub use sim::{SceneEnergy, SceneMethod, SceneSim, SceneStep, SimBody};
 pub use visibility::{BodyView, Visibility, VisibilitySettings};

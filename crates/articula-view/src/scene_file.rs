@@ -670,7 +670,7 @@ impl SceneBuilder {
             Path::new(""),
             &self.base,
             self.models,
-            InertiaPolicy::default(),
+            LoadOptions::default(),
             self.memory_limit.unwrap_or(DEFAULT_SCENE_MEMORY_LIMIT),
         )
     }
@@ -836,6 +836,21 @@ pub fn load_scene_limited(
     inertia: InertiaPolicy,
     memory_limit: u64,
 ) -> Result<LoadedScene, ViewError> {
+    load_scene_options(
+        path,
+        &LoadOptions::default().with_inertia(inertia),
+        memory_limit,
+    )
+}
+
+/// [`load_scene_limited`] with every load option of the models (the inertia policy and its
+/// repair bounds; the floating base is always on).
+#[cfg(feature = "serde")]
+pub fn load_scene_options(
+    path: impl AsRef<Path>,
+    options: &LoadOptions,
+    memory_limit: u64,
+) -> Result<LoadedScene, ViewError> {
     let path = path.as_ref();
     let io = |message: String| ViewError::Io {
         path: path.display().to_string(),
@@ -846,7 +861,7 @@ pub fn load_scene_limited(
     let text = String::from_utf8(bytes).map_err(|e| io(e.to_string()))?;
     let base = path.parent().unwrap_or(Path::new("."));
     let spec = parse_spec(&text, path)?;
-    resolve_in(spec, path, base, Vec::new(), inertia, memory_limit)
+    resolve_in(spec, path, base, Vec::new(), *options, memory_limit)
 }
 
 /// Parses and checks scene text; `path` names the file in errors and `base` is the folder model
@@ -870,7 +885,7 @@ pub fn parse_scene_with(
         path,
         base,
         Vec::new(),
-        inertia,
+        LoadOptions::default().with_inertia(inertia),
         DEFAULT_SCENE_MEMORY_LIMIT,
     )
 }
@@ -903,7 +918,7 @@ impl SceneSpec {
             Path::new(""),
             base.as_ref(),
             Vec::new(),
-            InertiaPolicy::default(),
+            LoadOptions::default(),
             DEFAULT_SCENE_MEMORY_LIMIT,
         )
     }
@@ -929,7 +944,7 @@ fn resolve_in(
     path: &Path,
     base: &Path,
     code_models: Vec<(String, Model)>,
-    inertia: InertiaPolicy,
+    options: LoadOptions,
     memory_limit: u64,
 ) -> Result<LoadedScene, ViewError> {
     let file = scene_label(path);
@@ -1050,18 +1065,15 @@ fn resolve_in(
     let mut model_index = BTreeMap::new();
     for (name, rel) in &spec.models {
         let p = base.join(rel);
-        let model = Model::from_urdf_file(
-            &p,
-            &LoadOptions::default()
-                .with_floating_base(true)
-                .with_inertia(inertia),
-        )
-        .map_err(|error| ViewError::Model {
-            path: file.clone(),
-            name: name.clone(),
-            model_path: p.display().to_string(),
-            error: Box::new(error),
-        })?;
+        let model =
+            Model::from_urdf_file(&p, &options.with_floating_base(true)).map_err(|error| {
+                ViewError::Model {
+                    path: file.clone(),
+                    name: name.clone(),
+                    model_path: p.display().to_string(),
+                    error: Box::new(error),
+                }
+            })?;
         model_index.insert(name.clone(), models.len());
         models.push(SceneModel {
             name: name.clone(),
