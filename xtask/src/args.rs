@@ -94,3 +94,19 @@ pub fn model(name: &str) -> Result<articula_model::Model> {
     }
     Ok(articula_testkit::bundled_with(stem, floating))
 }
+
+/// The loader's inertia policy as `--inertia` names it (`accept`, `strict`, `repair`).
+pub fn inertia_policy(
+    value: Option<&str>,
+) -> std::result::Result<articula_model::InertiaPolicy, String> {
+    use articula_model::InertiaPolicy;
+    match value {
+        Some("accept") => Ok(InertiaPolicy::Accept),
+        Some("strict") => Ok(InertiaPolicy::Strict),
+        Some("repair") => Ok(InertiaPolicy::Repair),
+        Some(p) => Err(format!(
+            "unknown inertia policy {p:?} (expected accept, strict or repair)"
+        )),
+        None => Err("--inertia needs a policy".into()),
+    }
+}

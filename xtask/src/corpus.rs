@@ -62,34 +62,15 @@ target/articula-corpus/report.md and report.json.
     NAME...        only the robots whose name or path contains one of these
 ";
 
-/// The loader's inertia policy, as `--inertia` names it.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-enum Inertia {
-    #[default]
-    Accept,
-    Strict,
-    Repair,
-}
-
-impl Inertia {
-    fn name(self) -> &'static str {
-        match self {
-            Inertia::Accept => "accept",
-            Inertia::Strict => "strict",
-            Inertia::Repair => "repair",
-        }
-    }
-}
-
 /// The loader options for one run: the base, the inertia policy and its bound.
-fn load_options(floating_base: bool, inertia: Inertia, bound_inertia: Option<f64>) -> LoadOptions {
+fn load_options(
+    floating_base: bool,
+    inertia: InertiaPolicy,
+    bound_inertia: Option<f64>,
+) -> LoadOptions {
     let o = LoadOptions::default()
         .with_floating_base(floating_base)
-        .with_inertia(match inertia {
-            Inertia::Accept => InertiaPolicy::Accept,
-            Inertia::Strict => InertiaPolicy::Strict,
-            Inertia::Repair => InertiaPolicy::Repair,
-        });
+        .with_inertia(inertia);
     match bound_inertia {
         Some(b) => o.with_bound_inertia(b),
         None => o,
@@ -117,7 +98,7 @@ fn coordinate_parts<'a>(
 #[derive(Debug)]
 struct Options {
     quick: bool,
-    inertia: Inertia,
+    inertia: InertiaPolicy,
     bound_inertia: Option<f64>,
     venv: PathBuf,
     names: Vec<String>,
@@ -126,7 +107,7 @@ struct Options {
 fn parse(root: &Path, args: &[String]) -> Result<Options, String> {
     let mut o = Options {
         quick: false,
-        inertia: Inertia::default(),
+        inertia: InertiaPolicy::default(),
         bound_inertia: None,
         venv: root.join("target/peers-venv"),
         names: Vec::new(),
@@ -135,19 +116,7 @@ fn parse(root: &Path, args: &[String]) -> Result<Options, String> {
     while let Some(a) = it.next() {
         match a.as_str() {
             "--quick" => o.quick = true,
-            "--inertia" => {
-                o.inertia = match it.next().map(String::as_str) {
-                    Some("accept") => Inertia::Accept,
-                    Some("strict") => Inertia::Strict,
-                    Some("repair") => Inertia::Repair,
-                    Some(p) => {
-                        return Err(format!(
-                            "unknown inertia policy {p:?} (expected accept, strict or repair)"
-                        ))
-                    }
-                    None => return Err("--inertia needs a policy".into()),
-                }
-            }
+            "--inertia" => o.inertia = crate::args::inertia_policy(it.next().map(String::as_str))?,
             "--bound-inertia" => o.bound_inertia = Some(crate::drops::parse_bound(a, it.next())?),
             "--venv" => match it.next() {
                 Some(d) => o.venv = PathBuf::from(d),
@@ -157,7 +126,7 @@ fn parse(root: &Path, args: &[String]) -> Result<Options, String> {
             s => o.names.push(s.to_string()),
         }
     }
-    if o.bound_inertia.is_some() && o.inertia != Inertia::Repair {
+    if o.bound_inertia.is_some() && o.inertia != InertiaPolicy::Repair {
         return Err("--bound-inertia needs --inertia repair".into());
     }
     Ok(o)
@@ -620,7 +589,7 @@ fn pinocchio(
     out_dir: &Path,
     robots: &[Robot],
     cases: &mut [Case],
-    inertia: Inertia,
+    inertia: InertiaPolicy,
     compare: bool,
     budget: Duration,
     min_batches: usize,
@@ -636,7 +605,7 @@ fn pinocchio(
                 "urdf": robots[c.robot].path,
                 "root": root_joint(&c.model),
                 "locked": c.locked,
-                "inertias": (inertia == Inertia::Repair).then(|| body_inertias(&c.model)),
+                "inertias": (inertia == InertiaPolicy::Repair).then(|| body_inertias(&c.model)),
                 "states": c.states.iter().map(|s| pin_joint_state(&c.model, &c.locked_parts, s)).collect::<Vec<_>>(),
             })
         })
@@ -1000,7 +969,7 @@ fn command_line(opts: &Options) -> String {
     if opts.quick {
         c.push_str(" --quick");
     }
-    if opts.inertia != Inertia::default() {
+    if opts.inertia != InertiaPolicy::default() {
         let _ = write!(c, " --inertia {}", opts.inertia.name());
     }
     if let Some(b) = opts.bound_inertia {
@@ -1206,7 +1175,8 @@ mod tests {
             <inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
             <joint name="j" type="continuous"><parent link="base"/><child link="arm"/>
             <axis xyz="0 0 1"/></joint></robot>"#;
-        let model = Model::from_urdf_str(urdf, &load_options(true, Inertia::Accept, None)).unwrap();
+        let model =
+            Model::from_urdf_str(urdf, &load_options(true, InertiaPolicy::Accept, None)).unwrap();
         let mut s = State::neutral(&model);
         s.q = vec![1.0, 2.0, 3.0, 0.5, 0.5, 0.5, 0.5, 0.7];
         s.qd = (1..=7).map(f64::from).collect();
@@ -1265,7 +1235,7 @@ mod tests {
         )
         .unwrap();
         assert!(o.quick);
-        assert_eq!(o.inertia, Inertia::Repair);
+        assert_eq!(o.inertia, InertiaPolicy::Repair);
         assert_eq!(o.names, ["ur5"]);
         assert_eq!(o.venv, Path::new("/w/target/peers-venv"));
         assert!(parse(root, &["--inertia".into(), "lenient".into()]).is_err());

@@ -133,19 +133,7 @@ fn parse(root: &Path, args: &[String]) -> Result<Options, String> {
     while let Some(a) = it.next() {
         match a.as_str() {
             "--quick" => o.quick = true,
-            "--inertia" => {
-                o.inertia = match it.next().map(String::as_str) {
-                    Some("accept") => InertiaPolicy::Accept,
-                    Some("strict") => InertiaPolicy::Strict,
-                    Some("repair") => InertiaPolicy::Repair,
-                    Some(p) => {
-                        return Err(format!(
-                            "unknown inertia policy {p:?} (expected accept, strict or repair)"
-                        ))
-                    }
-                    None => return Err("--inertia needs a policy".into()),
-                }
-            }
+            "--inertia" => o.inertia = crate::args::inertia_policy(it.next().map(String::as_str))?,
             "--bound-mass" => o.bound_mass = Some(parse_bound(a, it.next())?),
             "--bound-inertia" => o.bound_inertia = Some(parse_bound(a, it.next())?),
             "--venv" => match it.next() {
