@@ -110,3 +110,12 @@ pub fn inertia_policy(
         None => Err("--inertia needs a policy".into()),
     }
 }
+
+/// A repair bound's value (`--bound-mass`, `--bound-inertia`): finite and ≥ 0.
+pub fn parse_bound(flag: &str, v: Option<&String>) -> std::result::Result<f64, String> {
+    let v = v.ok_or_else(|| format!("{flag} needs a value"))?;
+    match v.parse::<f64>() {
+        Ok(x) if x.is_finite() && x >= 0.0 => Ok(x),
+        _ => Err(format!("{flag} must be a finite number ≥ 0, got {v:?}")),
+    }
+}

@@ -117,7 +117,7 @@ fn parse(root: &Path, args: &[String]) -> Result<Options, String> {
         match a.as_str() {
             "--quick" => o.quick = true,
             "--inertia" => o.inertia = crate::args::inertia_policy(it.next().map(String::as_str))?,
-            "--bound-inertia" => o.bound_inertia = Some(crate::drops::parse_bound(a, it.next())?),
+            "--bound-inertia" => o.bound_inertia = Some(crate::args::parse_bound(a, it.next())?),
             "--venv" => match it.next() {
                 Some(d) => o.venv = PathBuf::from(d),
                 None => return Err("--venv needs a directory".into()),

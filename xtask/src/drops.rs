@@ -112,14 +112,6 @@ impl Options {
     }
 }
 
-pub(crate) fn parse_bound(flag: &str, v: Option<&String>) -> Result<f64, String> {
-    let v = v.ok_or_else(|| format!("{flag} needs a value"))?;
-    match v.parse::<f64>() {
-        Ok(x) if x.is_finite() && x >= 0.0 => Ok(x),
-        _ => Err(format!("{flag} must be a finite number ≥ 0, got {v:?}")),
-    }
-}
-
 fn parse(root: &Path, args: &[String]) -> Result<Options, String> {
     let mut o = Options {
         quick: false,
@@ -134,8 +126,8 @@ fn parse(root: &Path, args: &[String]) -> Result<Options, String> {
         match a.as_str() {
             "--quick" => o.quick = true,
             "--inertia" => o.inertia = crate::args::inertia_policy(it.next().map(String::as_str))?,
-            "--bound-mass" => o.bound_mass = Some(parse_bound(a, it.next())?),
-            "--bound-inertia" => o.bound_inertia = Some(parse_bound(a, it.next())?),
+            "--bound-mass" => o.bound_mass = Some(crate::args::parse_bound(a, it.next())?),
+            "--bound-inertia" => o.bound_inertia = Some(crate::args::parse_bound(a, it.next())?),
             "--venv" => match it.next() {
                 Some(d) => o.venv = PathBuf::from(d),
                 None => return Err("--venv needs a directory".into()),
