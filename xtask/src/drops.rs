@@ -212,6 +212,9 @@ pub fn main(root: &Path, args: &[String]) -> ExitCode {
         return ExitCode::FAILURE;
     }
     println!("{}", summary.line());
+    if let Some((worst, name)) = Summary::statics(&drops) {
+        println!("at rest the floor carries M g to within {worst:.1e} (largest: {name})");
+    }
     println!(
         "report: {} ({:.1} s)",
         out_dir.join("report.md").display(),
@@ -249,6 +252,9 @@ struct Run {
     not_converged: u64,
     contacts_mean: f64,
     us_per_step: f64,
+    /// The ground's vertical force at the last step over the weight `M g` (1 at rest: the
+    /// floor carries the robot; `ContactData::forces`).
+    floor_load: f64,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -403,12 +409,14 @@ fn simulate(model: &Model, seconds: f64) -> Run {
         }
         (kinetic_end, e_end, steps) = (t, e, k);
     }
+    let mass: f64 = model.bodies.iter().map(|b| b.inertia.mass).sum();
+    let floor_load = contact.forces().total().f.z / (mass * -data.gravity.z);
     let us_per_step =
         in_steps.as_secs_f64() * 1e6 / (steps + u64::from(stop.is_some())).max(1) as f64;
     Run {
         bodies: model.bodies.len(),
         nv: model.nv,
-        mass: model.bodies.iter().map(|b| b.inertia.mass).sum(),
+        mass,
         warnings: model.warnings.len(),
         steps,
         planned,
@@ -420,6 +428,7 @@ fn simulate(model: &Model, seconds: f64) -> Run {
         not_converged,
         contacts_mean: contacts as f64 / steps.max(1) as f64,
         us_per_step,
+        floor_load,
     }
 }
 
@@ -439,6 +448,18 @@ impl Summary {
             stopped: count(Verdict::Stopped),
             refused: count(Verdict::Refused),
         }
+    }
+
+    /// Over the robots at rest: the largest `|floor load − 1|` and whose it is.
+    fn statics(drops: &[Fall]) -> Option<(f64, &str)> {
+        drops
+            .iter()
+            .filter(|d| d.verdict() == Verdict::Rest)
+            .filter_map(|d| match &d.outcome {
+                Outcome::Loaded(r) => Some(((r.floor_load - 1.0).abs(), d.name.as_str())),
+                Outcome::Refused(_) => None,
+            })
+            .max_by(|a, b| a.0.total_cmp(&b.0))
     }
 
     fn line(&self) -> String {
@@ -480,19 +501,27 @@ fn report_md(
         let _ = writeln!(s, "Robots from {}.\n", versions.join(", "));
     }
     let _ = writeln!(s, "**{}**\n", summary.line());
+    if let Some((worst, name)) = Summary::statics(drops) {
+        let _ = writeln!(
+            s,
+            "At rest the floor carries each robot's weight: its vertical force at the last step \
+             is `M g` to within {worst:.1e} (largest: {name}; column *floor load*, in weights).\n"
+        );
+    }
     let _ = writeln!(
         s,
         "| robot | verdict | bodies | nv | mass (kg) | steps | max penetration (mm) | \
-         KE end (J/kg) | E − E₀ (J) | max growth | contacts | not converged | µs/step |"
+         KE end (J/kg) | E − E₀ (J) | max growth | contacts | not converged | µs/step | \
+         floor load |"
     );
     let _ = writeln!(
         s,
-        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
+        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
     );
     for d in drops {
         match &d.outcome {
             Outcome::Refused(_) => {
-                let _ = writeln!(s, "| {} | refused | | | | | | | | | | | |", d.name);
+                let _ = writeln!(s, "| {} | refused | | | | | | | | | | | | |", d.name);
             }
             Outcome::Loaded(r) => {
                 // A stopped run's last energies are those of a diverging state.
@@ -507,7 +536,7 @@ fn report_md(
                 let _ = writeln!(
                     s,
                     "| {} | {} | {} | {} | {:.2} | {}/{} | {:.2} | {kinetic} | {drift} | {:.1e} | \
-                     {:.1} | {} | {:.0} |",
+                     {:.1} | {} | {:.0} | {:.6} |",
                     d.name,
                     d.verdict().name(),
                     r.bodies,
@@ -519,7 +548,8 @@ fn report_md(
                     r.max_growth,
                     r.contacts_mean,
                     r.not_converged,
-                    r.us_per_step
+                    r.us_per_step,
+                    r.floor_load
                 );
             }
         }
@@ -580,6 +610,7 @@ fn report_json(
                     j["contacts_mean"] = json!(r.contacts_mean);
                     j["steps_not_converged"] = json!(r.not_converged);
                     j["us_per_step"] = json!(r.us_per_step);
+                    j["floor_load"] = finite(r.floor_load);
                 }
             }
             j

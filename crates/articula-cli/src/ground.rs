@@ -4,8 +4,8 @@
 use crate::CliError;
 use articula_adaptive::{Adaptive, HybridContact, StepReport};
 use articula_dca::{
-    forward_kinematics, step_with_contact, ContactData, ContactSettings, ContactSolver,
-    ContactStats, Data, Ground, Method, State,
+    forward_kinematics, step_with_contact, ContactData, ContactForces, ContactSettings,
+    ContactSolver, ContactStats, Data, Ground, Method, State,
 };
 use articula_model::Model;
 use articula_spatial::SpatialForce;
@@ -232,6 +232,17 @@ impl GroundRun {
         j["contact_rows_mean"] = serde_json::json!(per(self.rows));
         j["response_solves_mean"] = serde_json::json!(per(self.solves));
         j["steps_not_converged"] = serde_json::json!(self.not_converged);
+        let f = self.last_forces().total().f;
+        j["ground_force_end_n"] = serde_json::json!([f.x, f.y, f.z]);
+    }
+
+    /// The forces of the last contact step of the run (the hybrid body's with `--method
+    /// adaptive`).
+    fn last_forces(&self) -> &ContactForces {
+        match &self.hybrid {
+            Some((hybrid, _)) => hybrid.contact.forces(),
+            None => self.contact.forces(),
+        }
     }
 
     /// The contact figures as lines of the text summary.
@@ -256,6 +267,13 @@ impl GroundRun {
                 self.not_converged
             ),
             format!("kinetic end  {kinetic_end:.6e} J"),
+            {
+                let f = self.last_forces().total().f;
+                format!(
+                    "ground force {:.6e} {:.6e} {:.6e} N (the last step's, world axes)",
+                    f.x, f.y, f.z
+                )
+            },
         ]
     }
 }

@@ -789,6 +789,24 @@ fn simulate_adaptive_with_a_ground_lands_a_rigid_body() {
     assert!(j["contacts_mean"].as_f64().unwrap() > 0.0, "{out}");
     assert!(j["kinetic_end"].as_f64().unwrap() < 1e-8, "{out}");
     assert!(j["max_penetration_m"].as_f64().unwrap() < 1e-3, "{out}");
+    // At rest the floor carries the body's weight, m g straight up.
+    let model =
+        Model::from_urdf_file(&humanoid, &LoadOptions::default().with_floating_base(true)).unwrap();
+    let weight = model.moving_mass() * 9.81;
+    let force: Vec<f64> = j["ground_force_end_n"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert!(
+        force[0].abs() < 1e-5 * weight && force[1].abs() < 1e-5 * weight,
+        "{out}"
+    );
+    assert!(
+        (force[2] - weight).abs() < 1e-5 * weight,
+        "{force:?} against {weight} N"
+    );
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();

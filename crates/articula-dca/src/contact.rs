@@ -296,6 +296,18 @@ pub struct ContactForces {
     pub torques: Vec<(usize, f64)>,
 }
 
+impl ContactForces {
+    /// The ground's whole wrench on the model: the sum of [`ContactForces::wrenches`] (world
+    /// axes, about the world origin). At rest its force is the model's weight.
+    pub fn total(&self) -> SpatialForce {
+        let mut t = SpatialForce::ZERO;
+        for (_, w) in &self.wrenches {
+            t += *w;
+        }
+        t
+    }
+}
+
 /// A model's contact spheres ([`ContactData::collision`]), the spheres in runs of one body
 /// each with a ball that holds them all, and its joint bounds.
 #[derive(Debug)]

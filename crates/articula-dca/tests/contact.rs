@@ -169,6 +169,7 @@ fn dropped_box_rests_on_a_face() {
             (w.n - c.cross(weight)).length() < 1e-6 * weight.z,
             "{method:?}: {w:?}"
         );
+        assert_eq!(forces.total(), w);
     }
 }
 
