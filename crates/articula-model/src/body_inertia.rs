@@ -256,6 +256,20 @@ impl BodyInertia<'_> {
             .max(mass * size * size)
     }
 
+    /// A defect of kind `kind` (by `by`) of this body, of mass `m` and principal moments
+    /// `moments`, with its round-off tolerance `TOLERANCE · s`.
+    fn defect(&self, m: f64, moments: [f64; 3], kind: InertiaDefectKind, by: f64) -> InertiaDefect {
+        InertiaDefect {
+            body: self.name.to_string(),
+            links: self.links.clone(),
+            mass: m,
+            moments,
+            kind,
+            by,
+            tolerance: TOLERANCE * self.scale(m, &moments),
+        }
+    }
+
     /// Every condition the body breaks.
     pub fn defects(&self) -> Vec<InertiaDefect> {
         let m = self.inertia.mass;
@@ -263,15 +277,7 @@ impl BodyInertia<'_> {
         let [l1, l2, l3] = moments;
         let s = self.scale(m, &moments);
         let tolerance = TOLERANCE * s;
-        let defect = |kind, by| InertiaDefect {
-            body: self.name.to_string(),
-            links: self.links.clone(),
-            mass: m,
-            moments,
-            kind,
-            by,
-            tolerance,
-        };
+        let defect = |kind, by| self.defect(m, moments, kind, by);
         let mut out = Vec::new();
         if m == 0.0 {
             // On the entries: moments of a huge inertia may overflow to NaN.
@@ -298,15 +304,7 @@ impl BodyInertia<'_> {
     fn below_bounds(&self, bound_mass: f64, bound_inertia: f64) -> Vec<InertiaDefect> {
         let m = self.inertia.mass;
         let (moments, _) = principal_moments(self.inertia.inertia_about_com());
-        let defect = |kind, by| InertiaDefect {
-            body: self.name.to_string(),
-            links: self.links.clone(),
-            mass: m,
-            moments,
-            kind,
-            by,
-            tolerance: TOLERANCE * self.scale(m, &moments),
-        };
+        let defect = |kind, by| self.defect(m, moments, kind, by);
         let mut out = Vec::new();
         if m < bound_mass {
             out.push(defect(InertiaDefectKind::MassBelowBound, bound_mass));
