@@ -16,6 +16,7 @@ mod solver;
 mod speedup;
 mod stability;
 mod stress;
+mod test;
 mod time;
 mod timing;
 mod trajectory;
@@ -51,6 +52,12 @@ subcommands:
                             mass, energies, momentum, link poses and Jacobians with
                             Pinocchio's on the humanoid (needs the peers' Python:
                             ARTICULA_PEERS_PYTHON or target/peers-venv)
+    test [--python-only | --rust-only] [--venv DIR] [PYTEST_ARGS...]
+                            every test: cargo test --workspace, then the Python package's
+                            (a venv in target/py-venv with maturin, numpy, pytest, pin,
+                            example-robot-data, mujoco, matplotlib installed from PyPI when
+                            missing; the extension built with maturin develop --release;
+                            pytest on crates/articula-py/tests, which runs examples/python)
     models                  regenerate the URDF test/benchmark models in models/
     models --chain N        print the URDF of an N-link chain (the bodies of chainN.urdf)
     models --tree BRANCHES LINKS
@@ -88,6 +95,7 @@ fn main() -> ExitCode {
     match args.first().map(String::as_str) {
         Some("corpus") => corpus::main(&workspace_root(), &args[1..]),
         Some("drops") => drops::main(&workspace_root(), &args[1..]),
+        Some("test") => run(test::main(&workspace_root(), &args[1..])),
         Some("models") if args.get(1).map(String::as_str) == Some("--chain") => {
             run(print_chain(&args[2..]))
         }

@@ -74,23 +74,42 @@ impl PyAdaptive {
         articula::dca::check_inputs(&m, &state.q, &state.qd, &state.tau, &[])
             .map_err(dynamics_error)?;
         let adaptive = Adaptive::new(&m, settings);
-        Ok(PyAdaptive { model: m, adaptive, state })
+        Ok(PyAdaptive {
+            model: m,
+            adaptive,
+            state,
+        })
     }
 
     /// Advances the state by dt (integrator "euler", semi-implicit, or "rk4") and returns the
     /// step's report: {"reselected", "rigidified", "active_dofs", "predicted_error",
     /// "nodes_touched"}. Releases the GIL.
     #[pyo3(signature = (dt, integrator="euler"))]
-    fn step<'py>(&mut self, py: Python<'py>, dt: f64, integrator: &str) -> PyResult<Bound<'py, PyDict>> {
+    fn step<'py>(
+        &mut self,
+        py: Python<'py>,
+        dt: f64,
+        integrator: &str,
+    ) -> PyResult<Bound<'py, PyDict>> {
         if !(dt.is_finite() && dt > 0.0) {
-            return Err(dynamics_error(format!("dt must be a finite number > 0, got {dt}")));
+            return Err(dynamics_error(format!(
+                "dt must be a finite number > 0, got {dt}"
+            )));
         }
         let integrator = match integrator {
             "euler" => Integrator::SemiImplicitEuler,
             "rk4" => Integrator::Rk4,
-            other => return Err(dynamics_error(format!("integrator must be 'rk4' or 'euler', not '{other}'"))),
+            other => {
+                return Err(dynamics_error(format!(
+                    "integrator must be 'rk4' or 'euler', not '{other}'"
+                )))
+            }
         };
-        let PyAdaptive { model, adaptive, state } = self;
+        let PyAdaptive {
+            model,
+            adaptive,
+            state,
+        } = self;
         let r = py
             .detach(|| articula::adaptive::step(model, adaptive, state, integrator, dt))
             .map_err(adaptive_error)?;

@@ -5,7 +5,9 @@
 use crate::errors::dynamics_error;
 use articula::model::{JointKind, Model};
 use articula::prelude::SpatialForce;
-use numpy::{PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods};
+use numpy::{
+    PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods,
+};
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 
@@ -44,9 +46,9 @@ pub(crate) fn read<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Input<'
                 "{name} has dtype {dtype}, articula needs float64 (use {name}.astype(float))"
             )));
         };
-        let ro = array.try_readonly().map_err(|e| {
-            PyTypeError::new_err(format!("{name} cannot be read: {e}"))
-        })?;
+        let ro = array
+            .try_readonly()
+            .map_err(|e| PyTypeError::new_err(format!("{name} cannot be read: {e}")))?;
         if ro.as_slice().is_ok() {
             return Ok(Input::Borrowed(ro));
         }
@@ -77,7 +79,11 @@ pub(crate) fn shape_text(shape: &[usize]) -> String {
         [n] => format!("({n},)"),
         _ => format!(
             "({})",
-            shape.iter().map(|n| n.to_string()).collect::<Vec<_>>().join(", ")
+            shape
+                .iter()
+                .map(|n| n.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
         ),
     }
 }

@@ -106,23 +106,33 @@ impl PyModel {
         bound_mass: Option<f64>,
         bound_inertia: Option<f64>,
     ) -> PyResult<PyModel> {
-        let options = load_options(floating_base, inertia, massless_leaf, bound_mass, bound_inertia)?;
+        let options = load_options(
+            floating_base,
+            inertia,
+            massless_leaf,
+            bound_mass,
+            bound_inertia,
+        )?;
         let text: Option<String> = source.extract::<String>().ok();
         let model = match text {
-            Some(t) if is_urdf_text(&t) => {
-                py.detach(|| Model::from_urdf_str(&t, &options)).map_err(model_error)?
-            }
+            Some(t) if is_urdf_text(&t) => py
+                .detach(|| Model::from_urdf_str(&t, &options))
+                .map_err(model_error)?,
             _ => {
                 let path: std::path::PathBuf = source.extract().map_err(|_| {
                     error(
                         Kind::Model,
                         format!(
                             "source must be a path or URDF text, not {}",
-                            source.get_type().name().map_or("?".into(), |n| n.to_string())
+                            source
+                                .get_type()
+                                .name()
+                                .map_or("?".into(), |n| n.to_string())
                         ),
                     )
                 })?;
-                py.detach(|| Model::from_urdf_file(&path, &options)).map_err(model_error)?
+                py.detach(|| Model::from_urdf_file(&path, &options))
+                    .map_err(model_error)?
             }
         };
         Ok(PyModel::new(model))
@@ -168,20 +178,31 @@ impl PyModel {
     #[getter]
     fn link_names(&self) -> Vec<String> {
         let ground = self.model.ground_links.iter().map(|(n, _)| n.clone());
-        let bodies = self.model.bodies.iter().flat_map(|b| b.links.iter().map(|(n, _)| n.clone()));
+        let bodies = self
+            .model
+            .bodies
+            .iter()
+            .flat_map(|b| b.links.iter().map(|(n, _)| n.clone()));
         ground.chain(bodies).collect()
     }
 
     /// The movable joints' URDF names in coordinate order (locked joints last).
     #[getter]
     fn joint_names(&self) -> Vec<String> {
-        self.model.coordinate_parts().map(|p| p.name.clone()).collect()
+        self.model
+            .coordinate_parts()
+            .map(|p| p.name.clone())
+            .collect()
     }
 
     /// The joints locked at load time (massless moving leaves): their q̈ is 0.
     #[getter]
     fn locked_joints(&self) -> Vec<String> {
-        self.model.locked_joints().into_iter().map(String::from).collect()
+        self.model
+            .locked_joints()
+            .into_iter()
+            .map(String::from)
+            .collect()
     }
 
     /// The loader's warnings, one string each.
@@ -270,7 +291,11 @@ impl PyModel {
             .iter()
             .map(|b| {
                 let i = &b.inertia;
-                let c = if i.mass > 0.0 { i.h / i.mass } else { i.h * 0.0 };
+                let c = if i.mass > 0.0 {
+                    i.h / i.mass
+                } else {
+                    i.h * 0.0
+                };
                 // Parallel-axis theorem: I_c = Ī − m (|c|² 1 − c cᵀ).
                 let ibar = i.ibar;
                 let cc = c.dot(c);
@@ -297,7 +322,11 @@ impl PyModel {
             self.model.nq,
             self.model.nv,
             self.model.bodies.len(),
-            if self.model.floating_base { "True" } else { "False" }
+            if self.model.floating_base {
+                "True"
+            } else {
+                "False"
+            }
         )
     }
 }
@@ -314,7 +343,11 @@ impl PyModel {
 
     /// Bound `k` (0 lower, 1 upper) of every position coordinate.
     fn limits(&self, k: usize) -> Vec<f64> {
-        let inf = if k == 0 { f64::NEG_INFINITY } else { f64::INFINITY };
+        let inf = if k == 0 {
+            f64::NEG_INFINITY
+        } else {
+            f64::INFINITY
+        };
         let mut out = vec![inf; self.model.nq];
         for p in self.model.coordinate_parts() {
             if let Some(l) = p.limits {

@@ -5,8 +5,8 @@
 use crate::errors::{error, scene_error, Kind};
 use crate::model::load_options;
 use articula::view::render::{render_map, render_view, save_png};
-use articula::view::{load_scene_options, parse_scene_with, LoadedScene, SceneSim, SceneStep};
 use articula::view::DEFAULT_SCENE_MEMORY_LIMIT;
+use articula::view::{load_scene_options, parse_scene_with, LoadedScene, SceneSim, SceneStep};
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -30,7 +30,12 @@ impl PyScene {
         // before `scene`, and no method hands out `&mut LoadedScene`.
         let borrowed: &'static LoadedScene = unsafe { &*(scene.as_ref() as *const LoadedScene) };
         let sim = SceneSim::new(borrowed).map_err(scene_error)?;
-        Ok(PyScene { sim, scene, last: SceneStep::default(), active_sum: 0 })
+        Ok(PyScene {
+            sim,
+            scene,
+            last: SceneStep::default(),
+            active_sum: 0,
+        })
     }
 }
 
@@ -41,7 +46,12 @@ impl PyScene {
     /// articula.SceneError naming the file and field.
     #[staticmethod]
     #[pyo3(signature = (path, inertia="accept", threads=None))]
-    fn from_file(py: Python<'_>, path: PathBuf, inertia: &str, threads: Option<usize>) -> PyResult<PyScene> {
+    fn from_file(
+        py: Python<'_>,
+        path: PathBuf,
+        inertia: &str,
+        threads: Option<usize>,
+    ) -> PyResult<PyScene> {
         let options = load_options(false, inertia, "lock", None, None)?;
         let scene = py
             .detach(|| load_scene_options(&path, &options, DEFAULT_SCENE_MEMORY_LIMIT))
@@ -55,10 +65,16 @@ impl PyScene {
     /// to base (default: the current directory).
     #[staticmethod]
     #[pyo3(signature = (text, base=None, inertia="accept", threads=None))]
-    fn from_json(text: &str, base: Option<PathBuf>, inertia: &str, threads: Option<usize>) -> PyResult<PyScene> {
+    fn from_json(
+        text: &str,
+        base: Option<PathBuf>,
+        inertia: &str,
+        threads: Option<usize>,
+    ) -> PyResult<PyScene> {
         let policy = load_options(false, inertia, "lock", None, None)?.inertia;
         let base = base.unwrap_or_else(|| PathBuf::from("."));
-        let scene = parse_scene_with(text, Path::new("<scene spec>"), &base, policy).map_err(scene_error)?;
+        let scene = parse_scene_with(text, Path::new("<scene spec>"), &base, policy)
+            .map_err(scene_error)?;
         let mut s = PyScene::start(scene)?;
         s.set_threads(threads)?;
         Ok(s)
@@ -132,7 +148,10 @@ impl PyScene {
         d.set_item("budget", self.scene.budget)?;
         d.set_item("tolerance", self.scene.tolerance)?;
         d.set_item("reselect_every", self.scene.reselect_every)?;
-        d.set_item("active_joints_mean", self.active_sum as f64 / steps.max(1) as f64)?;
+        d.set_item(
+            "active_joints_mean",
+            self.active_sum as f64 / steps.max(1) as f64,
+        )?;
         d.set_item("active_joints_last", last.active_total)?;
         d.set_item("visible", last.classes[0])?;
         d.set_item("occluded", last.classes[1])?;
@@ -148,7 +167,12 @@ impl PyScene {
 
     /// Writes frame_NNNNN.png (the camera's view) and map_NNNNN.png (top-down map) into dir,
     /// as `articula scene --out` does; returns the two paths.
-    fn save_frame(&mut self, py: Python<'_>, dir: PathBuf, index: u64) -> PyResult<(PathBuf, PathBuf)> {
+    fn save_frame(
+        &mut self,
+        py: Python<'_>,
+        dir: PathBuf,
+        index: u64,
+    ) -> PyResult<(PathBuf, PathBuf)> {
         std::fs::create_dir_all(&dir)
             .map_err(|e| error(Kind::Scene, format!("cannot create {}: {e}", dir.display())))?;
         let active = self.last.active_total;
@@ -183,7 +207,10 @@ impl PyScene {
         if b >= self.sim.bodies.len() {
             return Err(error(
                 Kind::Scene,
-                format!("body {b} out of range: the scene has {}", self.sim.bodies.len()),
+                format!(
+                    "body {b} out of range: the scene has {}",
+                    self.sim.bodies.len()
+                ),
             ));
         }
         Ok(())

@@ -6,10 +6,10 @@ use crate::dynamics::method;
 use crate::errors::{dynamics_error, error, Kind};
 use crate::input::{check_quaternions, expect_shape, read, vector, wrenches, Input};
 use crate::model::{PyData, PyModel};
-use articula::dca::{step_with_contact, ContactData, ContactSettings, Ground};
 use articula::dca::Threads;
+use articula::dca::{step_with_contact, ContactData, ContactSettings, Ground};
 use articula::prelude::{Data, Integrator, Method, Model, State};
-use numpy::{PyArray1, PyArrayMethods, PyArrayDyn};
+use numpy::{PyArray1, PyArrayDyn, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::sync::Mutex;
@@ -36,11 +36,27 @@ fn ground(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Ground>> {
     if let Ok(h) = obj.extract::<f64>() {
         return Ok(Some(Ground::horizontal(h)));
     }
-    let bad = |e: PyErr| dynamics_error(format!("ground must be None, a height or an articula.Ground: {e}"));
-    let point: [f64; 3] = obj.getattr("point").and_then(|x| x.extract()).map_err(bad)?;
-    let normal: [f64; 3] = obj.getattr("normal").and_then(|x| x.extract()).map_err(bad)?;
-    let friction: f64 = obj.getattr("friction").and_then(|x| x.extract()).map_err(bad)?;
-    let restitution: f64 = obj.getattr("restitution").and_then(|x| x.extract()).map_err(bad)?;
+    let bad = |e: PyErr| {
+        dynamics_error(format!(
+            "ground must be None, a height or an articula.Ground: {e}"
+        ))
+    };
+    let point: [f64; 3] = obj
+        .getattr("point")
+        .and_then(|x| x.extract())
+        .map_err(bad)?;
+    let normal: [f64; 3] = obj
+        .getattr("normal")
+        .and_then(|x| x.extract())
+        .map_err(bad)?;
+    let friction: f64 = obj
+        .getattr("friction")
+        .and_then(|x| x.extract())
+        .map_err(bad)?;
+    let restitution: f64 = obj
+        .getattr("restitution")
+        .and_then(|x| x.extract())
+        .map_err(bad)?;
     Ok(Some(Ground {
         point: point.into(),
         normal: normal.into(),
@@ -58,7 +74,9 @@ pub(crate) fn options(
     joint_limits: bool,
 ) -> PyResult<StepOptions> {
     if !(dt.is_finite() && dt > 0.0) {
-        return Err(dynamics_error(format!("dt must be a finite number > 0, got {dt}")));
+        return Err(dynamics_error(format!(
+            "dt must be a finite number > 0, got {dt}"
+        )));
     }
     let g = ground(ground_obj)?;
     let contact = (g.is_some() || joint_limits).then(|| ContactSettings {
@@ -142,10 +160,18 @@ pub fn step_arrays<'py>(
     if state.f_ext.is_empty() {
         state.f_ext = State::neutral(m).f_ext;
     }
-    let PyData { data: d, contact, kinematics, .. } = data;
+    let PyData {
+        data: d,
+        contact,
+        kinematics,
+        ..
+    } = data;
     *kinematics = true;
     step_once(m, d, contact, &mut state, &o).map_err(dynamics_error)?;
-    Ok((PyArray1::from_vec(py, state.q), PyArray1::from_vec(py, state.qd)))
+    Ok((
+        PyArray1::from_vec(py, state.q),
+        PyArray1::from_vec(py, state.qd),
+    ))
 }
 
 /// Joint forces over a run: one vector for every step, or one per step.
@@ -235,14 +261,23 @@ fn run(
         if let Some(e) = energy.as_deref_mut() {
             e.push(t0 + p0);
         }
-        guard = bound.map(|bound| Guard { start: t0 + p0, v0: p0, scale: (t0 + p0).abs().max(t0), bound });
+        guard = bound.map(|bound| Guard {
+            start: t0 + p0,
+            v0: p0,
+            scale: (t0 + p0).abs().max(t0),
+            bound,
+        });
     }
     let mut work = 0.0;
     for k in 0..out_q.len() / nq.max(1) {
         state.tau.copy_from_slice(tau.at(k, nv));
         let power = |s: &State| s.tau.iter().zip(&s.qd).map(|(a, b)| a * b).sum::<f64>();
         let p_before = power(&state);
-        let stop = |message: String, divergence: bool| Stop { step: k + 1, message, divergence };
+        let stop = |message: String, divergence: bool| Stop {
+            step: k + 1,
+            message,
+            divergence,
+        };
         step_once(model, &mut data, &mut contact, &mut state, o).map_err(|m| stop(m, false))?;
         out_q[k * nq..(k + 1) * nq].copy_from_slice(&state.q);
         out_v[k * nv..(k + 1) * nv].copy_from_slice(&state.qd);
@@ -287,7 +322,11 @@ fn torques<'py>(
 }
 
 /// A numpy array of `shape` from a flat vector.
-fn array<'py>(py: Python<'py>, flat: Vec<f64>, shape: &[usize]) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+fn array<'py>(
+    py: Python<'py>,
+    flat: Vec<f64>,
+    shape: &[usize],
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
     PyArray1::from_vec(py, flat).reshape(shape.to_vec())
 }
 
@@ -328,7 +367,11 @@ pub fn simulate<'py>(
     let (tau_in, per_step) = torques(tau, "tau", None, steps, nv)?;
     let zero = vec![0.0; nv];
     let tau_slice = tau_in.as_ref().map_or(&zero[..], |t| t.slice());
-    let torques = if per_step { Torques::PerStep(tau_slice) } else { Torques::Constant(tau_slice) };
+    let torques = if per_step {
+        Torques::PerStep(tau_slice)
+    } else {
+        Torques::Constant(tau_slice)
+    };
     let mut q = vec![0.0; (steps + 1) * nq];
     let mut v = vec![0.0; (steps + 1) * nv];
     q[..nq].copy_from_slice(q0.slice());
@@ -339,13 +382,32 @@ pub fn simulate<'py>(
         let (qh, qt) = q.split_at_mut(nq);
         let (vh, vt) = v.split_at_mut(nv);
         let _ = (qh, vh);
-        run(m, q0s, v0s, torques, &o, qt, vt, Some(&mut energy), max_energy_growth)
+        run(
+            m,
+            q0s,
+            v0s,
+            torques,
+            &o,
+            qt,
+            vt,
+            Some(&mut energy),
+            max_energy_growth,
+        )
     });
     if let Err(s) = result {
-        let kind = if s.divergence { Kind::Divergence } else { Kind::Dynamics };
+        let kind = if s.divergence {
+            Kind::Divergence
+        } else {
+            Kind::Dynamics
+        };
         return Err(error(
             kind,
-            format!("step {} of {steps} (t = {} s): {}", s.step, s.step as f64 * dt, s.message),
+            format!(
+                "step {} of {steps} (t = {} s): {}",
+                s.step,
+                s.step as f64 * dt,
+                s.message
+            ),
         ));
     }
     let out = PyDict::new(py);
@@ -373,7 +435,12 @@ fn threads(count: Option<usize>) -> PyResult<Threads> {
 }
 
 /// Reads a batch (n, width) named `name`; `n` is taken from the first batch read.
-fn batch<'py>(obj: &Bound<'py, PyAny>, name: &str, n: Option<usize>, width: usize) -> PyResult<Input<'py>> {
+fn batch<'py>(
+    obj: &Bound<'py, PyAny>,
+    name: &str,
+    n: Option<usize>,
+    width: usize,
+) -> PyResult<Input<'py>> {
     let input = read(obj, name)?;
     let shape = input.shape();
     let rows = n.unwrap_or(if shape.len() == 2 { shape[0] } else { 0 });
@@ -493,7 +560,10 @@ pub fn rollout<'py>(
             let (q0, v0) = (&q0s[i * nq..(i + 1) * nq], &v0s[i * nv..(i + 1) * nv]);
             slot.stop = run(m, q0, v0, tau, &o, slot.q, slot.v, None, None).err();
         });
-        slots.into_iter().enumerate().find_map(|(i, s)| s.stop.map(|s| (i, s)))
+        slots
+            .into_iter()
+            .enumerate()
+            .find_map(|(i, s)| s.stop.map(|s| (i, s)))
     });
     if let Some((i, s)) = stop {
         return Err(dynamics_error(format!(
@@ -503,5 +573,8 @@ pub fn rollout<'py>(
             s.message
         )));
     }
-    Ok((array(py, q, &[n, steps, nq])?, array(py, v, &[n, steps, nv])?))
+    Ok((
+        array(py, q, &[n, steps, nq])?,
+        array(py, v, &[n, steps, nv])?,
+    ))
 }
