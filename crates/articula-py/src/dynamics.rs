@@ -302,3 +302,31 @@ pub fn centroidal_momentum<'py>(
     data.check_kinematics()?;
     Ok(force(py, data.data.centroidal_momentum()))
 }
+
+/// The per-call time (s) of `calls` forward-dynamics calls inside Rust, on inputs read once:
+/// what `peers/python_speed.py` subtracts from a call from Python to find the bindings' cost.
+/// Not part of the public API.
+#[pyfunction]
+#[pyo3(signature = (model, data, q, v, tau, calls, method="dca"))]
+#[allow(clippy::too_many_arguments)]
+pub fn _time_forward_dynamics(
+    model: &PyModel,
+    data: &mut PyData,
+    q: &Bound<'_, PyAny>,
+    v: &Bound<'_, PyAny>,
+    tau: &Bound<'_, PyAny>,
+    calls: usize,
+    method: &str,
+) -> PyResult<f64> {
+    data.check(model)?;
+    let m = self::method(method)?;
+    let x = triple(&model.model, q, v, ("tau", tau))?;
+    let (q, v, tau) = (x.q.slice(), x.v.slice(), x.third.slice());
+    let t0 = std::time::Instant::now();
+    for _ in 0..calls {
+        articula::dca::forward_dynamics_slices(&model.model, &mut data.data, q, v, tau, &[], m)
+            .map_err(from_dynamics)?;
+    }
+    data.kinematics = true;
+    Ok(t0.elapsed().as_secs_f64() / calls.max(1) as f64)
+}

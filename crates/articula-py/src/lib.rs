@@ -39,6 +39,7 @@ fn _articula(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(dynamics::potential_energy, m)?)?;
     m.add_function(wrap_pyfunction!(dynamics::momentum, m)?)?;
     m.add_function(wrap_pyfunction!(dynamics::centroidal_momentum, m)?)?;
+    m.add_function(wrap_pyfunction!(dynamics::_time_forward_dynamics, m)?)?;
     m.add_function(wrap_pyfunction!(stepping::step_arrays, m)?)?;
     m.add_function(wrap_pyfunction!(stepping::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(stepping::forward_dynamics_batch, m)?)?;

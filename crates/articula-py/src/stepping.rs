@@ -365,8 +365,8 @@ pub fn simulate<'py>(
     articula::dca::check_inputs(m, q0.slice(), v0.slice(), &vec![0.0; nv], &[])
         .map_err(crate::errors::from_dynamics)?;
     let (tau_in, per_step) = torques(tau, "tau", None, steps, nv)?;
-    let zero = vec![0.0; nv];
-    let tau_slice = tau_in.as_ref().map_or(&zero[..], |t| t.slice());
+    let tau_vec = tau_in.as_ref().map_or_else(|| vec![0.0; nv], Input::to_vec);
+    let tau_slice = &tau_vec[..];
     let torques = if per_step {
         Torques::PerStep(tau_slice)
     } else {
@@ -377,7 +377,7 @@ pub fn simulate<'py>(
     q[..nq].copy_from_slice(q0.slice());
     v[..nv].copy_from_slice(v0.slice());
     let mut energy = Vec::with_capacity(steps + 1);
-    let (q0s, v0s) = (q0.slice(), v0.slice());
+    let (q0s, v0s) = (&q0.to_vec()[..], &v0.to_vec()[..]);
     let result = py.detach(|| {
         let (qh, qt) = q.split_at_mut(nq);
         let (vh, vt) = v.split_at_mut(nv);
@@ -480,7 +480,7 @@ pub fn forward_dynamics_batch<'py>(
     let tau = batch(TAU, "TAU", Some(n), m.nv)?;
     check_rows(m, q.slice(), "Q")?;
     let pool = self::threads(threads)?;
-    let (qs, vs, ts) = (q.slice(), v.slice(), tau.slice());
+    let (qs, vs, ts) = (&q.to_vec()[..], &v.to_vec()[..], &tau.to_vec()[..]);
     let mut qdd = vec![0.0; n * m.nv];
     let result = py.detach(|| {
         let f_ext = State::neutral(m).f_ext;
@@ -542,8 +542,9 @@ pub fn rollout<'py>(
     let pool = self::threads(threads)?;
     let mut q = vec![0.0; n * steps * nq];
     let mut v = vec![0.0; n * steps * nv];
-    let (q0s, v0s) = (q0.slice(), v0.slice());
-    let tau_all = tau_in.as_ref().map(|t| t.slice());
+    let (q0s, v0s) = (&q0.to_vec()[..], &v0.to_vec()[..]);
+    let tau_vec = tau_in.as_ref().map(Input::to_vec);
+    let tau_all = tau_vec.as_deref();
     let stop = py.detach(|| {
         let mut slots: Vec<Slot> = q
             .chunks_mut((steps * nq).max(1))
