@@ -5,15 +5,11 @@
 use crate::errors::{dynamics_error, error, from_dynamics, Kind};
 use crate::input::{check_quaternions, triple, vector, wrenches};
 use crate::model::{PyData, PyModel};
+use articula::glam::{DMat3, DVec3};
 use articula::model::LinkFrame;
 use articula::prelude::{Method, Model, ReferenceFrame, SpatialForce};
-use glam_types::{DMat3, DVec3};
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::prelude::*;
-
-mod glam_types {
-    pub use articula::glam::{DMat3, DVec3};
-}
 
 /// A method name to the library's.
 pub(crate) fn method(name: &str) -> PyResult<Method> {

@@ -65,7 +65,9 @@ pub(crate) fn read<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Input<'
         }
         // SAFETY: an ndarray whose dtype is float64 in native byte order (checked above).
         let array = unsafe { untyped.cast_unchecked::<PyArrayDyn<f64>>() };
-        if array.is_c_contiguous() && (array.data() as usize) % std::mem::align_of::<f64>() == 0 {
+        if array.is_c_contiguous()
+            && (array.data() as usize).is_multiple_of(std::mem::align_of::<f64>())
+        {
             return Ok(Input::Borrowed(array.clone()));
         }
         let ro = array.readonly();
