@@ -55,8 +55,8 @@ subcommands:
     test [--python-only | --rust-only] [--venv DIR] [PYTEST_ARGS...]
                             every test: cargo test --workspace, then the Python package's
                             (a venv in target/py-venv with maturin, numpy, pytest, pin,
-                            example-robot-data, mujoco, matplotlib installed from PyPI when
-                            missing; the extension built with maturin develop --release;
+                            example-robot-data, mujoco, matplotlib, ray installed from PyPI
+                            when missing; the extension built with maturin develop --release;
                             pytest on crates/articula-py/tests, which runs examples/python)
     models                  regenerate the URDF test/benchmark models in models/
     models --chain N        print the URDF of an N-link chain (the bodies of chainN.urdf)

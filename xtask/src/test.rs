@@ -1,7 +1,8 @@
 //! `cargo xtask test`: every test of the project, the README's test command. Runs
 //! `cargo test --workspace`, then the Python package's: makes (or reuses) a venv under
 //! `target/py-venv`, installs what the tests need from PyPI when it is missing, builds the
-//! extension into the venv (`maturin develop --release`, one release build) and runs pytest on
+//! extension into the venv (`maturin develop --release`, one release build; Ray too when PyPI
+//! has it, for `articula.ray`) and runs pytest on
 //! `crates/articula-py/tests` (Pinocchio comparisons, batches, errors, the fuzz loop, the
 //! examples of `examples/python/` in their quick variants).
 
@@ -70,10 +71,14 @@ fn run(cmd: &mut Command) -> Result<(), Box<dyn std::error::Error>> {
     Ok(())
 }
 
-/// The distributions of [`PACKAGES`] the venv's Python lacks.
-fn missing(python: &Path) -> Result<Vec<String>, Box<dyn std::error::Error>> {
+/// Installed when missing if PyPI has it for this Python and platform; without it the tests
+/// of `articula.ray` are skipped with the reason.
+const OPTIONAL: &[&str] = &["ray"];
+
+/// The distributions of `packages` the venv's Python lacks.
+fn missing(python: &Path, packages: &[&str]) -> Result<Vec<String>, Box<dyn std::error::Error>> {
     let script = format!(
-        "import importlib.metadata as md\nfor d in {PACKAGES:?}:\n    try: md.version(d)\n    \
+        "import importlib.metadata as md\nfor d in {packages:?}:\n    try: md.version(d)\n    \
          except md.PackageNotFoundError: print(d)\n"
     );
     let out = Command::new(python).args(["-c", &script]).output()?;
@@ -96,11 +101,21 @@ fn venv(root: &Path, dir: &Path) -> Result<PathBuf, Box<dyn std::error::Error>> 
             .arg(dir)
             .current_dir(root))?;
     }
-    let need = missing(&python)?;
+    let pip = |need: &[String]| {
+        let mut cmd = Command::new(&python);
+        cmd.args(["-m", "pip", "install", "--disable-pip-version-check", "-q"])
+            .args(need);
+        cmd
+    };
+    let need = missing(&python, PACKAGES)?;
     if !need.is_empty() {
-        run(Command::new(&python)
-            .args(["-m", "pip", "install", "--disable-pip-version-check", "-q"])
-            .args(&need))?;
+        run(&mut pip(&need))?;
+    }
+    let optional = missing(&python, OPTIONAL)?;
+    if !optional.is_empty() {
+        if let Err(e) = run(&mut pip(&optional)) {
+            eprintln!("warning: {e}: the tests that need {optional:?} will be skipped");
+        }
     }
     Ok(python)
 }
