@@ -6,6 +6,9 @@ use crate::dynamics::method;
 use crate::errors::{dynamics_error, error, Kind};
 use crate::input::{check_quaternions, expect_shape, read, vector, wrenches, Input};
 use crate::model::{PyData, PyModel};
+use articula::adaptive::simulation::{
+    Dynamics, GroundOptions, Simulation, SimulationOptions, StopReason,
+};
 use articula::dca::Threads;
 use articula::dca::{step_with_contact, ContactData, ContactSettings, Ground};
 use articula::prelude::{Data, Integrator, Method, Model, State};
@@ -190,63 +193,22 @@ impl Torques<'_> {
     }
 }
 
-/// What stopped a run: a step's error or the energy guard.
+/// What stopped a rollout: a step's error.
 struct Stop {
     step: usize,
     message: String,
-    divergence: bool,
 }
 
-/// The energy guard of `simulate`, as `articula simulate --max-energy-growth`: the drift
-/// `E − E₀ − W` (W the work of the joint forces) must stay below `bound × scale`, scale the
-/// largest energy in play.
-struct Guard {
-    start: f64,
-    v0: f64,
-    scale: f64,
-    bound: f64,
-}
-
-impl Guard {
-    fn check(&mut self, t: f64, v: f64, w: f64) -> Result<(), String> {
-        let e = t + v;
-        if !e.is_finite() {
-            return Err(format!("non-finite energy ({e} J)"));
-        }
-        self.scale = self.scale.max(t).max((v - self.v0).abs()).max(w.abs());
-        let drift = e - self.start - w;
-        if drift > self.bound * self.scale {
-            return Err(format!(
-                "the energy grew by {drift:.3e} J (E - E0 - work of the joint forces), more than \
-                 max_energy_growth {} × {:.3e} J, the largest energy in play: the integration \
-                 diverges (take a smaller dt)",
-                self.bound, self.scale
-            ));
-        }
-        Ok(())
-    }
-}
-
-/// Kinetic and potential energy of `state` (runs forward kinematics into `data`).
-fn energies(model: &Model, data: &mut Data, state: &State) -> (f64, f64) {
-    articula::dca::forward_kinematics(model, &state.q, &state.qd, data);
-    (data.kinetic_energy(), data.potential_energy())
-}
-
-/// One trajectory from (q0, v0) with a fresh workspace: each step's (q, v) into `out_q`,
-/// `out_v` (`steps` rows), its energy into `energy` when given (steps + 1 values, the first at
-/// the start), the guard when `bound` is given.
-#[allow(clippy::too_many_arguments)]
+/// One trajectory from (q0, v0) with a fresh workspace, each step's (q, v) into `out_q`,
+/// `out_v` (`steps` rows): the steps `simulate`'s driver takes (the same library calls), without
+/// its energy bookkeeping.
 fn run(
     model: &Model,
-    q0: &[f64],
-    v0: &[f64],
+    (q0, v0): (&[f64], &[f64]),
     tau: Torques,
     o: &StepOptions,
     out_q: &mut [f64],
     out_v: &mut [f64],
-    mut energy: Option<&mut Vec<f64>>,
-    bound: Option<f64>,
 ) -> Result<(), Stop> {
     let (nq, nv) = (model.nq, model.nv);
     let mut data = Data::new(model);
@@ -254,43 +216,22 @@ fn run(
     let mut state = State::neutral(model);
     state.q.copy_from_slice(q0);
     state.qd.copy_from_slice(v0);
-    let watch = energy.is_some() || bound.is_some();
-    let mut guard = None;
-    if watch {
-        let (t0, p0) = energies(model, &mut data, &state);
-        if let Some(e) = energy.as_deref_mut() {
-            e.push(t0 + p0);
-        }
-        guard = bound.map(|bound| Guard {
-            start: t0 + p0,
-            v0: p0,
-            scale: (t0 + p0).abs().max(t0),
-            bound,
-        });
-    }
-    let mut work = 0.0;
     for k in 0..out_q.len() / nq.max(1) {
         state.tau.copy_from_slice(tau.at(k, nv));
-        let power = |s: &State| s.tau.iter().zip(&s.qd).map(|(a, b)| a * b).sum::<f64>();
-        let p_before = power(&state);
-        let stop = |message: String, divergence: bool| Stop {
+        step_once(model, &mut data, &mut contact, &mut state, o).map_err(|message| Stop {
             step: k + 1,
             message,
-            divergence,
-        };
-        step_once(model, &mut data, &mut contact, &mut state, o).map_err(|m| stop(m, false))?;
+        })?;
+        let finite = state.q.iter().chain(&state.qd).all(|x| x.is_finite());
+        if !finite {
+            let message = "the state after the step is not finite".to_string();
+            return Err(Stop {
+                step: k + 1,
+                message,
+            });
+        }
         out_q[k * nq..(k + 1) * nq].copy_from_slice(&state.q);
         out_v[k * nv..(k + 1) * nv].copy_from_slice(&state.qd);
-        if watch {
-            work += 0.5 * o.dt * (p_before + power(&state));
-            let (t, p) = energies(model, &mut data, &state);
-            if let Some(e) = energy.as_deref_mut() {
-                e.push(t + p);
-            }
-            if let Some(g) = guard.as_mut() {
-                g.check(t, p, work).map_err(|m| stop(m, true))?;
-            }
-        }
     }
     Ok(())
 }
@@ -331,13 +272,16 @@ fn array<'py>(
 }
 
 /// Simulates one model from (q0, v0) for `steps` steps of `dt` under joint forces tau (None,
-/// a vector of nv, or one per step: (steps, nv)). Returns a dict of arrays: "t" (steps + 1),
-/// "q" (steps + 1, nq), "v" (steps + 1, nv), "energy" (steps + 1; kinetic + potential), the
-/// first row the initial state. integrator "rk4" (default without contact) or "euler"
-/// (semi-implicit; the only one with a ground or joint limits); ground None, a height or an
-/// articula.Ground; joint_limits enforces the URDF limits. The energy guard raises
-/// articula.DivergenceError when E − E0 − W grows beyond max_energy_growth times the largest
-/// energy in play (None: no guard). Releases the GIL.
+/// a vector of nv, or one per step: (steps, nv)), on the library's simulation driver
+/// (`articula::adaptive::simulation`, what `articula simulate` runs). Returns a dict of arrays:
+/// "t" (steps + 1), "q" (steps + 1, nq), "v" (steps + 1, nv), "energy" (steps + 1; kinetic +
+/// potential), the first row the initial state. integrator "rk4" (default without contact) or
+/// "euler" (semi-implicit; the only one with a ground or joint limits); ground None, a height
+/// or an articula.Ground; joint_limits enforces the URDF limits. The energy guard raises
+/// articula.DivergenceError when E − E0 − W (W the work of the joint forces, counted when the
+/// first step's are not all zero) grows beyond max_energy_growth times the largest energy in
+/// play (None: no guard); a failed step or a non-finite state raises DynamicsError. Releases
+/// the GIL.
 #[pyfunction]
 #[pyo3(signature = (model, q0, v0, tau=None, steps=1000, dt=1e-3, integrator=None,
                     method="dca", ground=None, joint_limits=false, max_energy_growth=Some(0.5)))]
@@ -362,51 +306,63 @@ pub fn simulate<'py>(
     let q0 = vector(q0, "q0", nq)?;
     let v0 = vector(v0, "v0", nv)?;
     check_quaternions(m, q0.slice(), "q0")?;
-    articula::dca::check_inputs(m, q0.slice(), v0.slice(), &vec![0.0; nv], &[])
-        .map_err(crate::errors::from_dynamics)?;
     let (tau_in, per_step) = torques(tau, "tau", None, steps, nv)?;
     let tau_vec = tau_in.as_ref().map_or_else(|| vec![0.0; nv], Input::to_vec);
-    let tau_slice = &tau_vec[..];
     let torques = if per_step {
-        Torques::PerStep(tau_slice)
+        Torques::PerStep(&tau_vec)
     } else {
-        Torques::Constant(tau_slice)
+        Torques::Constant(&tau_vec)
     };
-    let mut q = vec![0.0; (steps + 1) * nq];
-    let mut v = vec![0.0; (steps + 1) * nv];
-    q[..nq].copy_from_slice(q0.slice());
-    v[..nv].copy_from_slice(v0.slice());
+    let mut state = State::neutral(m);
+    state.q.copy_from_slice(q0.slice());
+    state.qd.copy_from_slice(v0.slice());
+    state.tau.copy_from_slice(torques.at(0, nv));
+    let sim_options = SimulationOptions {
+        dynamics: Dynamics::Exact(o.method),
+        integrator: o.integrator,
+        dt,
+        ground: o.contact.map(|contact| GroundOptions {
+            contact,
+            ..GroundOptions::floor(0.0)
+        }),
+        max_energy_growth: max_energy_growth.unwrap_or(f64::INFINITY),
+        ..SimulationOptions::default()
+    };
+    let mut q = Vec::with_capacity((steps + 1) * nq);
+    let mut v = Vec::with_capacity((steps + 1) * nv);
     let mut energy = Vec::with_capacity(steps + 1);
-    let (q0s, v0s) = (&q0.to_vec()[..], &v0.to_vec()[..]);
-    let result = py.detach(|| {
-        let (qh, qt) = q.split_at_mut(nq);
-        let (vh, vt) = v.split_at_mut(nv);
-        let _ = (qh, vh);
-        run(
-            m,
-            q0s,
-            v0s,
-            torques,
-            &o,
-            qt,
-            vt,
-            Some(&mut energy),
-            max_energy_growth,
-        )
-    });
-    if let Err(s) = result {
-        let kind = if s.divergence {
-            Kind::Divergence
-        } else {
-            Kind::Dynamics
+    // The driver's refusal to start (its message), or where and why the run stopped.
+    let result = py.detach(|| -> Result<(), (u64, Option<StopReason>, String)> {
+        let mut sim =
+            Simulation::new(m.clone(), state, sim_options).map_err(|e| (0, None, e.to_string()))?;
+        let mut record = |sim: &mut Simulation| {
+            q.extend_from_slice(&sim.state().q);
+            v.extend_from_slice(&sim.state().qd);
+            let e = sim.energy();
+            energy.push(e.kinetic + e.potential);
         };
+        record(&mut sim);
+        for k in 0..steps {
+            sim.state_mut().tau.copy_from_slice(torques.at(k, nv));
+            sim.step()
+                .map_err(|s| (s.step, Some(s.reason.clone()), s.reason.to_string()))?;
+            record(&mut sim);
+        }
+        Ok(())
+    });
+    if let Err((step, reason, message)) = result {
+        let kind = match reason {
+            Some(StopReason::Energy(_)) => Kind::Divergence,
+            _ => Kind::Dynamics,
+        };
+        if reason.is_none() {
+            return Err(error(kind, message));
+        }
         return Err(error(
             kind,
             format!(
-                "step {} of {steps} (t = {} s): {}",
-                s.step,
-                s.step as f64 * dt,
-                s.message
+                "step {step} of {steps} (t = {} s): {message}",
+                step as f64 * dt
             ),
         ));
     }
@@ -559,7 +515,7 @@ pub fn rollout<'py>(
                 Some(t) => Torques::Constant(&t[i * nv..(i + 1) * nv]),
             };
             let (q0, v0) = (&q0s[i * nq..(i + 1) * nq], &v0s[i * nv..(i + 1) * nv]);
-            slot.stop = run(m, q0, v0, tau, &o, slot.q, slot.v, None, None).err();
+            slot.stop = run(m, (q0, v0), tau, &o, slot.q, slot.v).err();
         });
         slots
             .into_iter()
