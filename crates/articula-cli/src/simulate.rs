@@ -50,6 +50,8 @@ pub struct SimulateArgs {
     /// Print the summary as one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
+    #[command(flatten)]
+    pub gltf: crate::gltf_out::GltfArgs,
 }
 
 /// `--integrator`.
@@ -239,6 +241,8 @@ fn run_here(args: &SimulateArgs, threads: &articula_dca::Threads) -> Result<(), 
     if let Some(csv) = &mut csv {
         csv.row(0.0, &state)?;
     }
+    let (urdf, floor) = (&args.dynamics.model, args.contact.ground);
+    let mut gltf = crate::gltf_out::SimGltf::start(&args.gltf, &model, urdf, floor, dt, &state.q)?;
     let (k0, p0) = energy(&model, &mut data, &state);
     let mut watch = EnergyWatch::new(k0, p0, args.max_energy_growth);
     let mut gimbal = GimbalWatch::default();
@@ -341,6 +345,9 @@ fn run_here(args: &SimulateArgs, threads: &articula_dca::Threads) -> Result<(), 
         if let Some(csv) = &mut csv {
             csv.row(t, &state)?;
         }
+        if let Some(g) = &mut gltf {
+            g.step(&model, k, t, &state.q)?;
+        }
         if k % tick == 0 {
             if show_bar && !bar_visible && start.elapsed() > Duration::from_millis(500) {
                 bar.set_draw_target(ProgressDrawTarget::stderr());
@@ -352,6 +359,9 @@ fn run_here(args: &SimulateArgs, threads: &articula_dca::Threads) -> Result<(), 
     bar.finish_and_clear();
     if let Some(csv) = csv {
         csv.finish()?;
+    }
+    if let Some(g) = gltf {
+        g.finish(&model, (done, done as f64 * dt, &state.q), stop.is_none())?;
     }
     let (k1, p1) = if stop.is_some() {
         (f64::NAN, watch.last)

@@ -64,6 +64,8 @@
 
 pub use articula_adaptive as adaptive;
 pub use articula_dca as dca;
+#[cfg(feature = "gltf")]
+pub use articula_gltf as gltf;
 pub use articula_model as model;
 pub use articula_spatial as spatial;
 pub use articula_view as view;

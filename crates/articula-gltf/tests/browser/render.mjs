@@ -5,9 +5,8 @@
 // Usage: node render.mjs FILE.glb NODE "ex,ey,ez" "tx,ty,tz" OUT_PREFIX t1 t2 ...
 // Prints one JSON object. CHROMIUM names the browser (default /usr/bin/chromium).
 import { createServer } from "node:http";
-import { readFileSync, existsSync, mkdtempSync, rmSync } from "node:fs";
+import { readFileSync, existsSync } from "node:fs";
 import { join, dirname, extname } from "node:path";
-import { tmpdir } from "node:os";
 import { fileURLToPath } from "node:url";
 import { chromium } from "playwright-core";
 
@@ -24,13 +23,13 @@ const server = createServer((req, res) => {
 });
 await new Promise((r) => server.listen(0, "127.0.0.1", r));
 const port = server.address().port;
-const profile = mkdtempSync(join(tmpdir(), "articula-chromium-"));
 const browser = await chromium.launch({
   executablePath: process.env.CHROMIUM ?? "/usr/bin/chromium",
   headless: true,
   args: ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
     "--disable-background-networking", "--disable-component-update", "--disable-sync",
-    "--use-angle=swiftshader", "--enable-unsafe-swiftshader", `--user-data-dir=${profile}`],
+    "--use-angle=swiftshader", "--enable-unsafe-swiftshader"],
+  // playwright gives the browser a fresh temporary profile (its --user-data-dir) and deletes it.
 });
 try {
   const page = await browser.newPage({ viewport: { width: 960, height: 640 } });
@@ -63,5 +62,4 @@ try {
 } finally {
   await browser.close();
   server.close();
-  rmSync(profile, { recursive: true, force: true });
 }

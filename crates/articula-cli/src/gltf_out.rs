@@ -1,0 +1,176 @@
+//! `--gltf out.glb` of `articula simulate` and `articula scene`: the run recorded as an
+//! animated binary glTF (docs/gltf.md) by articula-gltf; the commands call three hooks
+//! (start, after each step, finish).
+
+use crate::CliError;
+use articula_model::Model;
+use std::path::{Path, PathBuf};
+
+/// The glTF options shared by `simulate` and `scene`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct GltfArgs {
+    /// Write the motion as an animated glTF 2.0 binary file (`.glb`: one node per body, the
+    /// URDF's visual meshes, one animation; docs/gltf.md). Written through a temporary name.
+    #[arg(long, value_name = "out.glb")]
+    pub gltf: Option<PathBuf>,
+    /// With `--gltf`: sample the poses every this many steps (the first and the last state are
+    /// always sampled). Default: the steps closest to 1/50 s.
+    #[arg(long, value_name = "N", requires = "gltf", value_parser = parse_every, allow_hyphen_values = true)]
+    pub gltf_every: Option<u64>,
+    /// With `--gltf`: another folder to look for mesh files in (`package://PKG/...` is tried
+    /// as `DIR/PKG/...` and `DIR/...`); repeatable. The URDF's own folder and its ancestors
+    /// are always searched, and `ROS_PACKAGE_PATH`.
+    #[arg(long, value_name = "DIR", requires = "gltf")]
+    pub mesh_path: Vec<PathBuf>,
+}
+
+fn parse_every(s: &str) -> Result<u64, String> {
+    crate::simulate::parse_count(s).map_err(|e| format!("the glTF sample period {e}"))
+}
+
+impl GltfArgs {
+    fn every(&self, dt: f64) -> u64 {
+        self.gltf_every
+            .unwrap_or_else(|| ((0.02 / dt).round() as u64).max(1))
+    }
+
+    fn options(&self) -> articula_gltf::MeshOptions {
+        articula_gltf::MeshOptions {
+            search_paths: self.mesh_path.clone(),
+        }
+    }
+}
+
+fn failed(e: articula_gltf::GltfError) -> CliError {
+    CliError(format!("--gltf: {e}"))
+}
+
+fn report(path: &Path, s: &articula_gltf::GltfSummary) {
+    eprintln!(
+        "wrote {} ({:.1} MB: {} body nodes, {} samples, {} meshes, {} triangles)",
+        path.display(),
+        s.bytes as f64 / 1e6,
+        s.body_nodes,
+        s.samples,
+        s.meshes,
+        s.triangles
+    );
+}
+
+/// The recording of one `articula simulate` run.
+pub struct SimGltf {
+    rec: articula_gltf::TrajectoryRecorder,
+    path: PathBuf,
+    every: u64,
+    last: u64,
+}
+
+impl SimGltf {
+    /// Starts recording (the state at t = 0) when `--gltf` is given.
+    pub fn start(
+        args: &GltfArgs,
+        model: &Model,
+        urdf: &Path,
+        floor: Option<f64>,
+        dt: f64,
+        q: &[f64],
+    ) -> Result<Option<SimGltf>, CliError> {
+        let Some(path) = &args.gltf else {
+            return Ok(None);
+        };
+        let mut rec = articula_gltf::TrajectoryRecorder::new(model, Some(urdf), &args.options());
+        for w in &rec.warnings {
+            eprintln!("warning: {w}");
+        }
+        rec.set_floor(floor);
+        rec.record(model, 0.0, q).map_err(failed)?;
+        Ok(Some(SimGltf {
+            rec,
+            path: path.clone(),
+            every: args.every(dt),
+            last: 0,
+        }))
+    }
+
+    /// After step `k` (time `t`): records the state every N steps.
+    pub fn step(&mut self, model: &Model, k: u64, t: f64, q: &[f64]) -> Result<(), CliError> {
+        if k % self.every == 0 {
+            self.rec.record(model, t, q).map_err(failed)?;
+            self.last = k;
+        }
+        Ok(())
+    }
+
+    /// Records the last state (step `k`, time `t`) if not yet, and writes the file. After a
+    /// run that stopped (`complete` false), `q` is the rejected state: only the samples so far
+    /// are written.
+    pub fn finish(
+        mut self,
+        model: &Model,
+        (k, t, q): (u64, f64, &[f64]),
+        complete: bool,
+    ) -> Result<(), CliError> {
+        if complete && k != self.last {
+            self.rec.record(model, t, q).map_err(failed)?;
+        }
+        let s = self.rec.write(&self.path).map_err(failed)?;
+        report(&self.path, &s);
+        Ok(())
+    }
+}
+
+/// The recording of one `articula scene` run.
+pub struct SceneGltf {
+    rec: articula_gltf::SceneRecorder,
+    path: PathBuf,
+    every: u64,
+    last: u64,
+}
+
+impl SceneGltf {
+    /// Starts recording (the scene at t = 0) when `--gltf` is given.
+    pub fn start(
+        args: &GltfArgs,
+        sim: &mut articula_view::SceneSim,
+    ) -> Result<Option<SceneGltf>, CliError> {
+        let Some(path) = &args.gltf else {
+            return Ok(None);
+        };
+        let mut rec = articula_gltf::SceneRecorder::new(sim.scene, &args.options());
+        for w in &rec.warnings {
+            eprintln!("warning: {w}");
+        }
+        rec.record(sim).map_err(failed)?;
+        Ok(Some(SceneGltf {
+            rec,
+            path: path.clone(),
+            every: args.every(sim.scene.dt),
+            last: 0,
+        }))
+    }
+
+    /// After step `k`: records the scene every N steps.
+    pub fn step(&mut self, sim: &mut articula_view::SceneSim, k: u64) -> Result<(), CliError> {
+        if k % self.every == 0 {
+            self.rec.record(sim).map_err(failed)?;
+            self.last = k;
+        }
+        Ok(())
+    }
+
+    /// Records the last state (after step `k`) if not yet, and writes the file (after a run
+    /// that stopped, `complete` false, only the samples so far).
+    pub fn finish(
+        mut self,
+        sim: &mut articula_view::SceneSim,
+        k: u64,
+        complete: bool,
+    ) -> Result<(), CliError> {
+        if complete && k != self.last {
+            self.rec.record(sim).map_err(failed)?;
+        }
+        let s = self.rec.write(&self.path).map_err(failed)?;
+        report(&self.path, &s);
+        Ok(())
+    }
+}
