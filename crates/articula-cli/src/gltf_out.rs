@@ -5,6 +5,7 @@
 use crate::CliError;
 use articula_model::Model;
 use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 /// The glTF options shared by `simulate` and `scene`.
 #[derive(clap::Args, Debug, Clone)]
@@ -45,15 +46,17 @@ fn failed(e: articula_gltf::GltfError) -> CliError {
     CliError(format!("--gltf: {e}"))
 }
 
-fn report(path: &Path, s: &articula_gltf::GltfSummary) {
+fn report(path: &Path, s: &articula_gltf::GltfSummary, spent: Duration) {
     eprintln!(
-        "wrote {} ({:.1} MB: {} body nodes, {} samples, {} meshes, {} triangles)",
+        "wrote {} ({:.1} MB: {} body nodes, {} samples, {} meshes, {} triangles; {:.0} ms \
+         reading meshes, recording and writing)",
         path.display(),
         s.bytes as f64 / 1e6,
         s.body_nodes,
         s.samples,
         s.meshes,
-        s.triangles
+        s.triangles,
+        spent.as_secs_f64() * 1e3
     );
 }
 
@@ -63,6 +66,8 @@ pub struct SimGltf {
     path: PathBuf,
     every: u64,
     last: u64,
+    /// Time spent in the recorder (meshes, samples, file).
+    spent: Duration,
 }
 
 impl SimGltf {
@@ -78,6 +83,7 @@ impl SimGltf {
         let Some(path) = &args.gltf else {
             return Ok(None);
         };
+        let t0 = Instant::now();
         let mut rec = articula_gltf::TrajectoryRecorder::new(model, Some(urdf), &args.options());
         for w in &rec.warnings {
             eprintln!("warning: {w}");
@@ -89,14 +95,17 @@ impl SimGltf {
             path: path.clone(),
             every: args.every(dt),
             last: 0,
+            spent: t0.elapsed(),
         }))
     }
 
     /// After step `k` (time `t`): records the state every N steps.
     pub fn step(&mut self, model: &Model, k: u64, t: f64, q: &[f64]) -> Result<(), CliError> {
         if k % self.every == 0 {
+            let t0 = Instant::now();
             self.rec.record(model, t, q).map_err(failed)?;
             self.last = k;
+            self.spent += t0.elapsed();
         }
         Ok(())
     }
@@ -110,11 +119,12 @@ impl SimGltf {
         (k, t, q): (u64, f64, &[f64]),
         complete: bool,
     ) -> Result<(), CliError> {
+        let t0 = Instant::now();
         if complete && k != self.last {
             self.rec.record(model, t, q).map_err(failed)?;
         }
         let s = self.rec.write(&self.path).map_err(failed)?;
-        report(&self.path, &s);
+        report(&self.path, &s, self.spent + t0.elapsed());
         Ok(())
     }
 }
@@ -125,6 +135,8 @@ pub struct SceneGltf {
     path: PathBuf,
     every: u64,
     last: u64,
+    /// Time spent in the recorder (meshes, samples, file).
+    spent: Duration,
 }
 
 impl SceneGltf {
@@ -136,6 +148,7 @@ impl SceneGltf {
         let Some(path) = &args.gltf else {
             return Ok(None);
         };
+        let t0 = Instant::now();
         let mut rec = articula_gltf::SceneRecorder::new(sim.scene, &args.options());
         for w in &rec.warnings {
             eprintln!("warning: {w}");
@@ -146,14 +159,17 @@ impl SceneGltf {
             path: path.clone(),
             every: args.every(sim.scene.dt),
             last: 0,
+            spent: t0.elapsed(),
         }))
     }
 
     /// After step `k`: records the scene every N steps.
     pub fn step(&mut self, sim: &mut articula_view::SceneSim, k: u64) -> Result<(), CliError> {
         if k % self.every == 0 {
+            let t0 = Instant::now();
             self.rec.record(sim).map_err(failed)?;
             self.last = k;
+            self.spent += t0.elapsed();
         }
         Ok(())
     }
@@ -166,11 +182,12 @@ impl SceneGltf {
         k: u64,
         complete: bool,
     ) -> Result<(), CliError> {
+        let t0 = Instant::now();
         if complete && k != self.last {
             self.rec.record(sim).map_err(failed)?;
         }
         let s = self.rec.write(&self.path).map_err(failed)?;
-        report(&self.path, &s);
+        report(&self.path, &s, self.spent + t0.elapsed());
         Ok(())
     }
 }

@@ -227,7 +227,11 @@ impl GltfRecorder {
             body_mesh.push(ids);
             world_mesh.push(w.mesh("world", &m.meshes.world, &mut summary));
         }
-        let mut nodes: Vec<Value> = vec![json!({"name": "articula", "children": []})];
+        // The root turns articula's z-up world into glTF's y-up one: −90° about x, so that
+        // (x, y, z) is drawn at (x, z, −y). Below it, every pose is in articula's world.
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let mut nodes: Vec<Value> =
+            vec![json!({"name": "articula", "rotation": [-h, 0.0, 0.0, h], "children": []})];
         let mut roots = Vec::new();
         let mut channels = Vec::new();
         let mut samplers = Vec::new();

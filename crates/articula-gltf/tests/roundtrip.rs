@@ -106,6 +106,18 @@ fn every_node_pose_at_every_sample_matches_forward_kinematics() {
         moved > 0.3,
         "the fall moves the bodies ({moved} m): the test can fail"
     );
+    // Body nodes sit under their character (no transform) under the root, which turns the
+    // z-up world to glTF's y-up: their local poses are world poses.
+    let root = doc.scenes().next().unwrap().nodes().next().unwrap();
+    let (_, r, _) = root.transform().decomposed();
+    let up = glam::Quat::from_array(r).as_dquat() * DVec3::Z;
+    assert!((up - DVec3::Y).length() < 1e-7, "z up becomes y up: {up}");
+    let character = root.children().next().unwrap();
+    assert_eq!(
+        character.transform().decomposed(),
+        ([0.0; 3], [0.0, 0.0, 0.0, 1.0], [1.0; 3])
+    );
+    assert_eq!(character.children().count(), model.bodies.len());
     // Each body node has a mesh; the first sample is also the node's rest pose.
     for node in doc
         .nodes()

@@ -57,7 +57,8 @@
 //! ```
 //!
 //! Features (all on by default): `serde` (scene files as JSON, serde for the scene specs, the
-//! joint kinds and glam's types) and `render` (PNG frames of scenes, through tiny-skia).
+//! joint kinds and glam's types), `render` (PNG frames of scenes, through tiny-skia) and `gltf`
+//! (animated glTF export with the models' meshes, `articula::gltf`; docs/gltf.md).
 //! Examples: `cargo run --release --example rope` (a 1,000-link rope under adaptive dynamics)
 //! and `cargo run --release --example crowd` (a crowd built in code, frames written to a
 //! folder).
