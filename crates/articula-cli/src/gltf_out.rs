@@ -101,7 +101,7 @@ impl SimGltf {
 
     /// After step `k` (time `t`): records the state every N steps.
     pub fn step(&mut self, model: &Model, k: u64, t: f64, q: &[f64]) -> Result<(), CliError> {
-        if k % self.every == 0 {
+        if k.is_multiple_of(self.every) {
             let t0 = Instant::now();
             self.rec.record(model, t, q).map_err(failed)?;
             self.last = k;
@@ -165,7 +165,7 @@ impl SceneGltf {
 
     /// After step `k`: records the scene every N steps.
     pub fn step(&mut self, sim: &mut articula_view::SceneSim, k: u64) -> Result<(), CliError> {
-        if k % self.every == 0 {
+        if k.is_multiple_of(self.every) {
             let t0 = Instant::now();
             self.rec.record(sim).map_err(failed)?;
             self.last = k;

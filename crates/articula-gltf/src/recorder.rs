@@ -342,7 +342,7 @@ fn f32_bytes(v: &[f32]) -> Vec<u8> {
 impl Writer {
     /// A buffer view of `bytes` (4-byte aligned) with an optional target; returns its index.
     fn view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         let mut v = json!({"buffer": 0, "byteOffset": self.bin.len(), "byteLength": bytes.len()});
@@ -512,7 +512,7 @@ impl Writer {
                 }
             }
         }
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         for (key, list) in [
@@ -529,7 +529,7 @@ impl Writer {
             doc["buffers"] = json!([{"byteLength": self.bin.len()}]);
         }
         let mut text = serde_json::to_vec(&doc).expect("JSON of plain values");
-        while text.len() % 4 != 0 {
+        while !text.len().is_multiple_of(4) {
             text.push(b' ');
         }
         let bin_chunk = if self.bin.is_empty() {

@@ -10,6 +10,9 @@ use glam::DVec3;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+/// A mesh file's sub-mesh and its colour in the file, if any.
+type Part = (TriMesh, Option<[f64; 4]>);
+
 /// The colour of a visual without a material (light grey).
 pub const DEFAULT_RGBA: [f64; 4] = [0.7, 0.7, 0.72, 1.0];
 
@@ -82,7 +85,7 @@ impl ModelMeshes {
             None => Visuals::from_body_geometry(model),
         };
         let base = urdf.and_then(Path::parent).unwrap_or(Path::new("."));
-        let mut cache: HashMap<PathBuf, Option<Vec<(TriMesh, Option<[f64; 4]>)>>> = HashMap::new();
+        let mut cache: HashMap<PathBuf, Option<Vec<Part>>> = HashMap::new();
         for v in &visuals.items {
             let rgba = v.rgba;
             let target = match v.body {
@@ -142,10 +145,7 @@ impl ModelMeshes {
 
 /// Meshes as read (unit scale) scaled by `scale` per axis: normals by the inverse scale, and
 /// a mirroring scale reverses the triangles so that they stay counter-clockwise from outside.
-fn from_scene_scaled(
-    parts: Vec<(TriMesh, Option<[f64; 4]>)>,
-    scale: DVec3,
-) -> Vec<(TriMesh, Option<[f64; 4]>)> {
+fn from_scene_scaled(parts: Vec<Part>, scale: DVec3) -> Vec<Part> {
     if scale == DVec3::ONE {
         return parts;
     }
@@ -257,7 +257,11 @@ mod tests {
         // Another package name: found only through a search path.
         assert_eq!(resolve("package://other/meshes/a.stl", &base, &[]), None);
         assert_eq!(
-            resolve("package://other/meshes/a.stl", &base, &[pkg.clone()]),
+            resolve(
+                "package://other/meshes/a.stl",
+                &base,
+                std::slice::from_ref(&pkg)
+            ),
             want
         );
         assert_eq!(

@@ -45,7 +45,7 @@ fn read_back(glb: &[u8]) -> (Tracks, Vec<f32>, gltf::Document) {
 #[test]
 fn every_node_pose_at_every_sample_matches_forward_kinematics() {
     let model = Model::from_urdf_file(
-        &models().join("humanoid.urdf"),
+        models().join("humanoid.urdf"),
         &LoadOptions::default().with_floating_base(true),
     )
     .unwrap();
@@ -133,7 +133,7 @@ fn every_node_pose_at_every_sample_matches_forward_kinematics() {
 #[test]
 fn characters_share_their_model_meshes_and_samples_must_advance() {
     let model = Model::from_urdf_file(
-        &models().join("humanoid.urdf"),
+        models().join("humanoid.urdf"),
         &LoadOptions::default().with_floating_base(true),
     )
     .unwrap();
