@@ -3,7 +3,7 @@
 use articula_dca::DynamicsError;
 
 /// What can go wrong in an adaptive call.
-#[derive(Debug, thiserror::Error)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum AdaptiveError {
     /// An invalid setting.
     #[error("invalid adaptive setting: {0}")]

@@ -69,6 +69,7 @@ mod rigidify;
 mod rk4;
 mod scratch;
 mod settings;
+pub mod simulation;
 mod trig;
 mod update;
 

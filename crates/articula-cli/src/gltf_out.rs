@@ -1,9 +1,8 @@
 //! `--gltf out.glb` of `articula simulate` and `articula scene`: the run recorded as an
-//! animated binary glTF (docs/gltf.md) by articula-gltf; the commands call three hooks
-//! (start, after each step, finish).
+//! animated binary glTF (docs/gltf.md) by articula-gltf: `simulate` adds a recorder to its
+//! run, `scene` calls three hooks (start, after each step, finish).
 
 use crate::CliError;
-use articula_model::Model;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -46,7 +45,7 @@ fn failed(e: articula_gltf::GltfError) -> CliError {
     CliError(format!("--gltf: {e}"))
 }
 
-fn report(path: &Path, s: &articula_gltf::GltfSummary, spent: Duration) {
+fn report_summary(path: &Path, s: &articula_gltf::GltfSummary, spent: Duration) {
     eprintln!(
         "wrote {} ({:.1} MB: {} body nodes, {} samples, {} meshes, {} triangles; {:.0} ms \
          reading meshes, recording and writing)",
@@ -60,72 +59,27 @@ fn report(path: &Path, s: &articula_gltf::GltfSummary, spent: Duration) {
     );
 }
 
-/// The recording of one `articula simulate` run.
-pub struct SimGltf {
-    rec: articula_gltf::TrajectoryRecorder,
-    path: PathBuf,
-    every: u64,
-    last: u64,
-    /// Time spent in the recorder (meshes, samples, file).
-    spent: Duration,
+/// The glTF recorder of an `articula simulate` run when `--gltf` is given (its mesh warnings
+/// printed); the run calls it with its other recorders.
+pub fn sim_recorder(
+    args: &GltfArgs,
+    sim: &articula_adaptive::simulation::Simulation,
+    urdf: &Path,
+    floor: Option<f64>,
+) -> Option<articula_gltf::GltfFile> {
+    let path = args.gltf.as_ref()?;
+    let every = args.every(sim.options().dt);
+    let file = articula_gltf::GltfFile::new(sim, Some(urdf), &args.options(), path, every, floor);
+    for w in file.warnings() {
+        eprintln!("warning: {w}");
+    }
+    Some(file)
 }
 
-impl SimGltf {
-    /// Starts recording (the state at t = 0) when `--gltf` is given.
-    pub fn start(
-        args: &GltfArgs,
-        model: &Model,
-        urdf: &Path,
-        floor: Option<f64>,
-        dt: f64,
-        q: &[f64],
-    ) -> Result<Option<SimGltf>, CliError> {
-        let Some(path) = &args.gltf else {
-            return Ok(None);
-        };
-        let t0 = Instant::now();
-        let mut rec = articula_gltf::TrajectoryRecorder::new(model, Some(urdf), &args.options());
-        for w in &rec.warnings {
-            eprintln!("warning: {w}");
-        }
-        rec.set_floor(floor);
-        rec.record(model, 0.0, q).map_err(failed)?;
-        Ok(Some(SimGltf {
-            rec,
-            path: path.clone(),
-            every: args.every(dt),
-            last: 0,
-            spent: t0.elapsed(),
-        }))
-    }
-
-    /// After step `k` (time `t`): records the state every N steps.
-    pub fn step(&mut self, model: &Model, k: u64, t: f64, q: &[f64]) -> Result<(), CliError> {
-        if k.is_multiple_of(self.every) {
-            let t0 = Instant::now();
-            self.rec.record(model, t, q).map_err(failed)?;
-            self.last = k;
-            self.spent += t0.elapsed();
-        }
-        Ok(())
-    }
-
-    /// Records the last state (step `k`, time `t`) if not yet, and writes the file. After a
-    /// run that stopped (`complete` false), `q` is the rejected state: only the samples so far
-    /// are written.
-    pub fn finish(
-        mut self,
-        model: &Model,
-        (k, t, q): (u64, f64, &[f64]),
-        complete: bool,
-    ) -> Result<(), CliError> {
-        let t0 = Instant::now();
-        if complete && k != self.last {
-            self.rec.record(model, t, q).map_err(failed)?;
-        }
-        let s = self.rec.write(&self.path).map_err(failed)?;
-        report(&self.path, &s, self.spent + t0.elapsed());
-        Ok(())
+/// The line on stderr once the file of a run is written.
+pub fn report(file: Option<&articula_gltf::GltfFile>) {
+    if let Some((f, s)) = file.and_then(|f| Some((f, f.written.as_ref()?))) {
+        report_summary(f.path(), s, f.spent);
     }
 }
 
@@ -187,7 +141,7 @@ impl SceneGltf {
             self.rec.record(sim).map_err(failed)?;
         }
         let s = self.rec.write(&self.path).map_err(failed)?;
-        report(&self.path, &s, self.spent + t0.elapsed());
+        report_summary(&self.path, &s, self.spent + t0.elapsed());
         Ok(())
     }
 }

@@ -9,6 +9,7 @@ mod gltf_out;
 mod ground;
 mod info;
 mod scene;
+mod signals;
 mod simulate;
 mod state_json;
 mod watch;
@@ -287,14 +288,19 @@ fn parse_gravity(s: &str) -> Result<DVec3, String> {
 }
 
 impl DynamicsArgs {
-    /// The adaptive workspace of `--method adaptive` (budget, tolerance, gravity).
-    pub fn adaptive(&self, model: &Model, reselect_every: u64) -> articula_adaptive::Adaptive {
-        let settings = articula_adaptive::Settings {
+    /// The settings of `--method adaptive` (budget, tolerance) with the period `reselect_every`.
+    pub fn adaptive_settings(&self, reselect_every: u64) -> articula_adaptive::Settings {
+        articula_adaptive::Settings {
             budget: self.budget,
             tolerance: self.tolerance,
             reselect_every,
             velocity_tolerance: None,
-        };
+        }
+    }
+
+    /// The adaptive workspace of `--method adaptive` (budget, tolerance, gravity).
+    pub fn adaptive(&self, model: &Model, reselect_every: u64) -> articula_adaptive::Adaptive {
+        let settings = self.adaptive_settings(reselect_every);
         let mut ad = articula_adaptive::Adaptive::new(model, settings);
         ad.data.gravity = self.gravity;
         ad.set_reselection(self.reselection.into());

@@ -2,14 +2,17 @@
 //! spent where the camera looks; progress on stderr, one JSON summary as the last line of
 //! stdout, and with `--out` PNG frames from the camera and top-down maps.
 
+use crate::signals::Interrupt;
 use crate::simulate::parse_count;
-use crate::watch::{parse_growth, EnergyWatch, GimbalWatch, DEFAULT_MAX_ENERGY_GROWTH};
+use crate::watch::{energy_stop_message, parse_growth, warn_gimbal, DEFAULT_MAX_ENERGY_GROWTH};
 use crate::{print_out, CliError};
+use articula_adaptive::simulation::{EnergyWatch, GimbalWatch};
 use articula_view::render::{render_map, render_view, save_png};
 use articula_view::{load_scene_options, SceneMethod, SceneSim};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 /// Arguments of `articula scene`.
@@ -189,12 +192,27 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
     let mut last = None;
     let mut done = 0u64;
     let mut stop: Option<String> = None;
+    let interrupt = Interrupt::install()?;
     for k in 0..steps {
+        let at = |e: &str| {
+            format!(
+                "step {} of {steps} (t = {:?} s): {e}",
+                k + 1,
+                (k + 1) as f64 * scene.dt
+            )
+        };
+        if interrupt.flag.load(Ordering::Relaxed) {
+            stop = Some(at(&format!("interrupted by {}", interrupt.name())));
+            break;
+        }
         if let (Some(dir), true) = (&args.out, k % args.frame_every == 0) {
             let active = last
                 .as_ref()
                 .map_or(0, |s: &articula_view::SceneStep| s.active_total);
-            write_frame(&mut sim, dir, k, active)?;
+            if let Err(CliError(e)) = write_frame(&mut sim, dir, k, active) {
+                stop = Some(at(&e));
+                break;
+            }
             frames += 1;
         }
         let t0 = Instant::now();
@@ -222,11 +240,7 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
             Err(e) => Err(e.to_string()),
         };
         if let Err(e) = checked {
-            stop = Some(format!(
-                "step {} of {steps} (t = {:?} s): {e}",
-                k + 1,
-                (k + 1) as f64 * scene.dt
-            ));
+            stop = Some(at(&e));
             break;
         }
         done = k + 1;
@@ -240,8 +254,10 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
     }
     if let (Some(dir), None) = (&args.out, &stop) {
         let active = last.as_ref().map_or(0, |s| s.active_total);
-        write_frame(&mut sim, dir, steps, active)?;
-        frames += 1;
+        match write_frame(&mut sim, dir, steps, active) {
+            Ok(()) => frames += 1,
+            Err(CliError(e)) => stop = Some(format!("the last frame: {e}")),
+        }
     }
     let last = last.unwrap_or_default();
     let e_end = watch.last;
@@ -302,6 +318,10 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
     }
     print_out(&format!("{summary}\n"))?;
     match stop {
+        Some(s) if interrupt.flag.load(Ordering::Relaxed) => {
+            eprintln!("error: {s}");
+            std::process::exit(interrupt.exit_code().into())
+        }
         Some(s) => Err(CliError(s)),
         None => Ok(()),
     }
@@ -321,11 +341,12 @@ fn check_scene(
     for (b, placement) in sim.bodies.iter().zip(&sim.scene.placements) {
         let model = &sim.scene.models[b.model].model;
         let who = format!("body '{}': ", placement.name);
-        gimbal[b.model].check(model, &b.state.q, &who, || {
-            format!("step {k} (t = {t:?} s)")
+        gimbal[b.model].check(model, &b.state.q, |w| {
+            warn_gimbal(model, &w, &who, &format!("step {k} (t = {t:?} s)"))
         });
     }
-    watch.check(k, e.kinetic, e.gravity + e.springs, e.push_work)
+    (watch.check(k, e.kinetic, e.gravity + e.springs, e.push_work))
+        .map_err(|e| energy_stop_message(&e))
 }
 
 #[cfg(test)]

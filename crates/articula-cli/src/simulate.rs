@@ -1,15 +1,19 @@
 //! `articula simulate`: integrate the motion for a number of steps, report time per step and
 //! energy drift, and optionally write the trajectory as CSV (`docs/state-format.md`).
 
-use crate::watch::{parse_growth, EnergyWatch, GimbalWatch, DEFAULT_MAX_ENERGY_GROWTH};
+use crate::signals::Interrupt;
+use crate::watch::{parse_growth, stop_message, warn_gimbal, DEFAULT_MAX_ENERGY_GROWTH};
 use crate::{load_state, print_out, CliError, DynamicsArgs};
-use articula_dca::{forward_kinematics, step, Data, Integrator, Method, State};
+use articula_adaptive::simulation::{
+    AdaptiveTally, CsvRecorder, Dynamics, Energy, GimbalWarning, Recorder, RunControl, Simulation,
+    SimulationError, SimulationOptions, StepTiming, StopReason,
+};
+use articula_dca::Integrator;
 use articula_model::Model;
 use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use std::fs::File;
-use std::io::{BufWriter, IsTerminal, Write};
-use std::path::{Path, PathBuf};
+use std::io::IsTerminal;
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 /// Arguments of `articula simulate`.
@@ -104,352 +108,343 @@ fn parse_dt(s: &str) -> Result<f64, String> {
     Ok(dt)
 }
 
-/// Kinetic and gravitational potential energy of `state` (the potential is zero at the world
-/// origin).
-fn energy(model: &Model, data: &mut Data, state: &State) -> (f64, f64) {
-    forward_kinematics(model, &state.q, &state.qd, data);
-    (data.kinetic_energy(), data.potential_energy())
-}
-
-/// The CSV header: `t`, then one column per position coordinate (`joint`, or `joint[i]` for a
-/// joint with several), then the same for velocities prefixed `qd:`.
-pub fn csv_header(model: &Model) -> String {
-    let mut cols = vec!["t".to_string()];
-    for p in model.coordinate_parts() {
-        push_columns(&mut cols, "", &p.name, p.nq());
-    }
-    for p in model.coordinate_parts() {
-        push_columns(&mut cols, "qd:", &p.name, p.nv());
-    }
-    cols.iter()
-        .map(|c| csv_field(c))
-        .collect::<Vec<_>>()
-        .join(",")
-}
-
-fn push_columns(cols: &mut Vec<String>, prefix: &str, name: &str, n: usize) {
-    if n == 1 {
-        cols.push(format!("{prefix}{name}"));
-    } else {
-        cols.extend((0..n).map(|i| format!("{prefix}{name}[{i}]")));
-    }
-}
-
-/// Quotes a CSV field when it holds a comma, a quote or a line break (RFC 4180).
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
-}
-
-fn write_row(w: &mut impl Write, t: f64, state: &State) -> std::io::Result<()> {
-    write!(w, "{t:?}")?;
-    for x in state.q.iter().chain(&state.qd) {
-        write!(w, ",{x:?}")?;
-    }
-    writeln!(w)
-}
-
-struct Csv {
-    path: PathBuf,
-    w: BufWriter<File>,
-}
-
-impl Csv {
-    fn create(path: &Path, model: &Model) -> Result<Csv, CliError> {
-        // The folder is created if needed (the README writes into target/).
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir)
-                .map_err(|e| CliError(format!("cannot create {}: {e}", dir.display())))?;
-        }
-        let file = File::create(path)
-            .map_err(|e| CliError(format!("cannot create {}: {e}", path.display())))?;
-        let mut csv = Csv {
-            path: path.to_path_buf(),
-            w: BufWriter::new(file),
-        };
-        let header = csv_header(model);
-        csv.io(|w| writeln!(w, "{header}"))?;
-        Ok(csv)
-    }
-
-    fn io(
-        &mut self,
-        f: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
-    ) -> Result<(), CliError> {
-        f(&mut self.w).map_err(|e| CliError(format!("cannot write {}: {e}", self.path.display())))
-    }
-
-    fn row(&mut self, t: f64, state: &State) -> Result<(), CliError> {
-        self.io(|w| write_row(w, t, state))
-    }
-
-    fn finish(mut self) -> Result<(), CliError> {
-        self.io(|w| w.flush())
-    }
-}
-
 /// Runs `articula simulate` on the pool of `--threads`.
 pub fn run(args: &SimulateArgs) -> Result<(), CliError> {
     let threads = crate::threads(args.dynamics.threads)?;
     threads.install(|| run_here(args, &threads))
 }
 
+/// The library's options of these arguments.
+fn options(
+    args: &SimulateArgs,
+    model: &Model,
+    threads: &articula_dca::Threads,
+) -> Result<(SimulationOptions, u64), CliError> {
+    let integrator = args.integrator.integrator();
+    let ground = args.contact.options(model, args.state.is_some())?;
+    if ground.is_some() && integrator != Integrator::SemiImplicitEuler {
+        return Err(CliError(
+            "--ground needs --integrator euler (contact is solved in the semi-implicit Euler step)"
+                .into(),
+        ));
+    }
+    let every = args.reselect_every.unwrap_or_else(|| {
+        articula_adaptive::Settings::balanced_period(model, args.dynamics.budget)
+    });
+    let dynamics = match args.dynamics.method.exact() {
+        Some(method) => Dynamics::Exact(method),
+        None => Dynamics::Adaptive {
+            settings: args.dynamics.adaptive_settings(every),
+            reselection: args.dynamics.reselection.into(),
+        },
+    };
+    let options = SimulationOptions {
+        dynamics,
+        integrator,
+        dt: args.dt,
+        gravity: args.dynamics.gravity,
+        ground,
+        max_energy_growth: args.max_energy_growth,
+        // Adaptive: an exact DCA run beside it (from the same start) for the trajectory error.
+        exact_reference: true,
+        threads: Some(threads.clone()),
+    };
+    Ok((options, every))
+}
+
+/// A simulation that cannot start, in the words of the command line.
+fn start_error(e: SimulationError, floating_base: bool) -> CliError {
+    let raise = if floating_base {
+        "raise it with --drop H or a state above the floor"
+    } else {
+        "the model is fixed to the world: put the ground lower"
+    };
+    match e {
+        SimulationError::StartsInsideFloor {
+            link,
+            lowest,
+            ground,
+            depth,
+            limit,
+        } => CliError(format!(
+            "the body starts inside the floor: link {link}'s lowest contact point is at z = \
+             {lowest:.4} m, {depth:.4} m below the ground (--ground {ground}; at most {limit} m \
+             at the start): {raise}"
+        )),
+        other => CliError(other.to_string()),
+    }
+}
+
 /// Runs `articula simulate` on the current thread (or pool); with `--method adaptive`, a
 /// hybrid step of a large active region splits its per-joint sweeps over `threads`.
 fn run_here(args: &SimulateArgs, threads: &articula_dca::Threads) -> Result<(), CliError> {
-    let (model, mut data) = args.dynamics.load()?;
-    let mut state = load_state(args.state.as_deref(), &model)?;
-    let method = args.dynamics.method;
-    let integrator = args.integrator.integrator();
-    let (steps, dt) = (args.steps, args.dt);
-    let mut ground = args.contact.run(&model)?;
-    if let Some(g) = &ground {
-        if integrator != Integrator::SemiImplicitEuler {
-            return Err(CliError(
-                "--ground needs --integrator euler (contact is solved in the semi-implicit Euler step)"
-                    .into(),
-            ));
-        }
-        // With the joint limits enforced and no state file, the run starts in the rest pose
-        // (the neutral pose moved into the limits), not against a limit it violates.
-        if !args.contact.no_joint_limits && args.state.is_none() {
-            state.q.copy_from_slice(&model.rest_q());
-        }
-        if let Some(h) = args.contact.drop {
-            g.drop(&model, &mut data, &mut state, h)?;
-        }
-    }
-    // Adaptive: the hybrid body, and an exact DCA run beside it (from the same start) for the
-    // trajectory error.
-    let every = args.reselect_every.unwrap_or_else(|| {
-        articula_adaptive::Settings::balanced_period(&model, args.dynamics.budget)
-    });
-    let mut adaptive = method.exact().is_none().then(|| {
-        let mut ad = args.dynamics.adaptive(&model, every);
-        ad.set_threads(threads.clone());
-        (ad, state.clone())
-    });
-    let mut active = ActiveStats::default();
-
+    let (model, _) = args.dynamics.load()?;
+    let state = load_state(args.state.as_deref(), &model)?;
+    let (options, every) = options(args, &model, threads)?;
+    let floating_base = model.floating_base;
+    let mut sim =
+        Simulation::new(model, state, options).map_err(|e| start_error(e, floating_base))?;
     let mut csv = match &args.out {
-        Some(path) => Some(Csv::create(path, &model)?),
+        Some(path) => Some(
+            CsvRecorder::create(path, sim.model())
+                .map_err(|e| CliError(format!("cannot create {}: {e}", path.display())))?,
+        ),
         None => None,
     };
-    if let Some(csv) = &mut csv {
-        csv.row(0.0, &state)?;
+    for (_, w) in sim.take_warnings() {
+        warn_gimbal(sim.model(), &w, "", "at t = 0");
     }
-    let (urdf, floor) = (&args.dynamics.model, args.contact.ground);
-    let mut gltf = crate::gltf_out::SimGltf::start(&args.gltf, &model, urdf, floor, dt, &state.q)?;
-    let (k0, p0) = energy(&model, &mut data, &state);
-    let mut watch = EnergyWatch::new(k0, p0, args.max_energy_growth);
-    let mut gimbal = GimbalWatch::default();
-    gimbal.check(&model, &state.q, "", || "at t = 0".to_string());
-    // The work of the constant joint forces, ∫ τ·q̇ dt (trapezoidal over each step).
-    let torques = state.tau.iter().any(|&x| x != 0.0);
-    let mut work = 0.0;
-    let mut qd_before = state.qd.clone();
-
-    // The bar appears only on a terminal, and only once the run has lasted long enough to be
-    // worth watching.
-    let bar = ProgressBar::with_draw_target(Some(steps), ProgressDrawTarget::hidden());
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{spinner} step {pos}/{len} [{bar:40}] {percent}% {elapsed_precise} (eta {eta})",
-        )
-        .expect("valid progress template")
-        .progress_chars("=> "),
-    );
-    let show_bar = std::io::stderr().is_terminal() && steps >= 100;
-    let mut bar_visible = false;
-    let tick = (steps / 1000).max(1);
-
+    let floor = args.contact.ground;
+    let mut gltf = crate::gltf_out::sim_recorder(&args.gltf, &sim, &args.dynamics.model, floor);
+    let interrupt = Interrupt::install()?;
+    let steps = args.steps;
+    let bar = Bar::new(steps);
     let start = Instant::now();
-    let mut in_steps = Duration::ZERO;
-    let mut first_step = Duration::ZERO;
-    let mut done = 0;
-    let mut stop: Option<(u64, String)> = None;
-    for k in 1..=steps {
-        if torques {
-            qd_before.copy_from_slice(&state.qd);
-        }
-        let t0 = Instant::now();
-        let result = match (adaptive.as_mut(), ground.as_mut()) {
-            (None, Some(g)) => g.step(
-                &model,
-                &mut data,
-                &mut state,
-                method.exact().unwrap_or_default(),
-                dt,
-            ),
-            (None, None) => step(
-                &model,
-                &mut data,
-                &mut state,
-                method.exact().unwrap_or_default(),
-                integrator,
-                dt,
-            )
-            .map_err(|e| e.to_string()),
-            (Some((ad, _)), Some(g)) => g
-                .step_adaptive(&model, ad, &mut state, dt)
-                .map(|r| active.add(k, r.active_dofs, steps)),
-            (Some((ad, _)), None) => {
-                articula_adaptive::step(&model, ad, &mut state, integrator, dt)
-                    .map(|r| active.add(k, r.active_dofs, steps))
-                    .map_err(|e| e.to_string())
-            }
+    let stop = {
+        let model = sim.model().clone();
+        let mut gimbal = |k: u64, w: &GimbalWarning| {
+            let t = k as f64 * args.dt;
+            warn_gimbal(&model, w, "", &format!("step {k} (t = {t:?} s)"));
         };
-        let took = t0.elapsed();
-        in_steps += took;
-        if k == 1 {
-            first_step = took;
-        }
-        let result = result.and_then(|()| match adaptive.as_mut() {
-            Some((_, exact)) => {
-                let r = match ground.as_mut() {
-                    Some(g) => g.step_reference(&model, &mut data, exact, dt),
-                    None => step(&model, &mut data, exact, Method::Dca, integrator, dt)
-                        .map_err(|e| e.to_string()),
-                }
-                .map_err(|e| format!("exact reference: {e}"));
-                active.track(&state, exact);
-                r
-            }
-            None => Ok(()),
-        });
-        let result = result.and_then(|()| {
-            if !state.q.iter().chain(&state.qd).all(|x| x.is_finite()) {
-                return Err("the state is not finite".to_string());
-            }
-            if torques {
-                work += state
-                    .tau
-                    .iter()
-                    .zip(qd_before.iter().zip(&state.qd))
-                    .map(|(t, (a, b))| t * 0.5 * (a + b) * dt)
-                    .sum::<f64>();
-            }
-            let (kk, pp) = energy(&model, &mut data, &state);
-            watch.check(k, kk, pp, work)
-        });
-        let t = k as f64 * dt;
-        if let Err(e) = result {
-            stop = Some((k, e));
-            break;
-        }
-        done = k;
-        gimbal.check(&model, &state.q, "", || format!("step {k} (t = {t:?} s)"));
+        let mut progress = |k: u64, _: u64| bar.tick(k, start);
+        let mut control = RunControl {
+            stop: Some(interrupt.flag.clone()),
+            progress: Some(&mut progress),
+            gimbal: Some(&mut gimbal),
+        };
+        let mut recorders: Vec<&mut dyn Recorder> = Vec::new();
         if let Some(csv) = &mut csv {
-            csv.row(t, &state)?;
+            recorders.push(csv);
         }
         if let Some(g) = &mut gltf {
-            g.step(&model, k, t, &state.q)?;
+            recorders.push(g);
         }
-        if k % tick == 0 {
-            if show_bar && !bar_visible && start.elapsed() > Duration::from_millis(500) {
-                bar.set_draw_target(ProgressDrawTarget::stderr());
-                bar_visible = true;
-            }
-            bar.set_position(k);
-        }
-    }
-    bar.finish_and_clear();
-    if let Some(csv) = csv {
-        csv.finish()?;
-    }
-    if let Some(g) = gltf {
-        g.finish(&model, (done, done as f64 * dt, &state.q), stop.is_none())?;
-    }
-    let (k1, p1) = if stop.is_some() {
-        (f64::NAN, watch.last)
-    } else {
-        energy(&model, &mut data, &state)
+        sim.run(steps, &mut recorders, &mut control)
     };
-    let e1 = if stop.is_some() { watch.last } else { k1 + p1 };
-    let per_step_us = in_steps.as_secs_f64() * 1e6 / done.max(1) as f64;
-    let drift = e1 - watch.start - work;
-    let stopped = stop.as_ref().map(|(k, e)| {
-        format!(
-            "step {k} of {steps} (from t = {:?} s): {e}",
-            (k - 1) as f64 * dt
-        )
-    });
-
-    // The first step apart (adaptive dynamics' whole-body selection), then the steady state.
-    let steady_us =
-        (in_steps - first_step).as_secs_f64() * 1e6 / done.saturating_sub(1).max(1) as f64;
+    bar.finish();
+    crate::gltf_out::report(gltf.as_ref());
+    let elapsed = start.elapsed();
+    let stopped = match &stop.reason {
+        StopReason::StepsDone => None,
+        StopReason::Interrupted => {
+            Some((stop.step, format!("interrupted by {}", interrupt.name())))
+        }
+        reason => Some((stop.step, stop_message(reason))),
+    };
+    let summary = Summary::new(&mut sim, steps, stopped, elapsed);
     let out = if args.json {
+        summary.json(args, &sim)
+    } else {
+        summary.text(args, &sim, every)
+    };
+    print_out(&out)?;
+    match (&summary.stopped, &stop.reason) {
+        (Some(s), StopReason::Interrupted) => {
+            eprintln!("error: {s}");
+            std::process::exit(interrupt.exit_code().into())
+        }
+        (Some(s), _) => Err(CliError(s.clone())),
+        (None, _) => Ok(()),
+    }
+}
+
+/// The progress bar: it appears only on a terminal, and only once the run has lasted long
+/// enough to be worth watching.
+struct Bar {
+    bar: ProgressBar,
+    show: bool,
+    visible: std::cell::Cell<bool>,
+    tick: u64,
+}
+
+impl Bar {
+    fn new(steps: u64) -> Bar {
+        let bar = ProgressBar::with_draw_target(Some(steps), ProgressDrawTarget::hidden());
+        bar.set_style(
+            ProgressStyle::with_template(
+                "{spinner} step {pos}/{len} [{bar:40}] {percent}% {elapsed_precise} (eta {eta})",
+            )
+            .expect("valid progress template")
+            .progress_chars("=> "),
+        );
+        Bar {
+            bar,
+            show: std::io::stderr().is_terminal() && steps >= 100,
+            visible: std::cell::Cell::new(false),
+            tick: (steps / 1000).max(1),
+        }
+    }
+
+    fn tick(&self, k: u64, start: Instant) {
+        if k.is_multiple_of(self.tick) {
+            if self.show && !self.visible.get() && start.elapsed() > Duration::from_millis(500) {
+                self.bar.set_draw_target(ProgressDrawTarget::stderr());
+                self.visible.set(true);
+            }
+            self.bar.set_position(k);
+        }
+    }
+
+    fn finish(&self) {
+        self.bar.finish_and_clear();
+    }
+}
+
+/// The figures of the summary, text or JSON.
+struct Summary {
+    /// The steps asked for and done.
+    steps: u64,
+    done: u64,
+    /// `Some((step, why))` when the run stopped before the last step.
+    stopped_at: Option<(u64, String)>,
+    /// The message of the stop: `step k of N (from t = ...): why`.
+    stopped: Option<String>,
+    timing: StepTiming,
+    /// Wall time of the whole run.
+    elapsed: Duration,
+    /// Kinetic and potential energy at the end (not measured after a stop).
+    end: Energy,
+    /// The mechanical energy at the end (at the step that stopped the run, after a stop).
+    e_end: f64,
+    /// `E − E₀ − W` at the end.
+    drift: f64,
+}
+
+impl Summary {
+    fn new(
+        sim: &mut Simulation,
+        steps: u64,
+        stopped_at: Option<(u64, String)>,
+        elapsed: Duration,
+    ) -> Self {
+        let last = sim.energy_watch().last;
+        let end = if stopped_at.is_some() {
+            Energy {
+                kinetic: f64::NAN,
+                potential: last,
+            }
+        } else {
+            sim.energy()
+        };
+        let e_end = if stopped_at.is_some() {
+            last
+        } else {
+            end.kinetic + end.potential
+        };
+        let dt = sim.options().dt;
+        let stopped = stopped_at.as_ref().map(|(k, e)| {
+            format!(
+                "step {k} of {steps} (from t = {:?} s): {e}",
+                (k - 1) as f64 * dt
+            )
+        });
+        Summary {
+            steps,
+            done: sim.steps_done(),
+            stopped_at,
+            stopped,
+            timing: sim.timing(),
+            elapsed,
+            end,
+            e_end,
+            drift: e_end - sim.energy_watch().start - sim.work(),
+        }
+    }
+
+    /// µs per step over the run, and over the steady state (the first step apart: adaptive
+    /// dynamics' whole-body selection).
+    fn per_step_us(&self) -> (f64, f64) {
+        let t = &self.timing;
+        let per_step = t.in_steps.as_secs_f64() * 1e6 / self.done.max(1) as f64;
+        let steady = (t.in_steps - t.first_step).as_secs_f64() * 1e6
+            / self.done.saturating_sub(1).max(1) as f64;
+        (per_step, steady)
+    }
+
+    fn json(&self, args: &SimulateArgs, sim: &Simulation) -> String {
+        let watch = sim.energy_watch();
+        let (per_step_us, steady_us) = self.per_step_us();
         let mut j = serde_json::json!({
-            "model": model.name,
-            "dof": model.nv,
-            "method": method.name(),
+            "model": sim.model().name,
+            "dof": sim.model().nv,
+            "method": args.dynamics.method.name(),
             "integrator": args.integrator.name(),
-            "dt": dt,
-            "steps": steps,
-            "steps_done": done,
+            "dt": args.dt,
+            "steps": self.steps,
+            "steps_done": self.done,
             "us_per_step": per_step_us,
-            "first_step_ms": first_step.as_secs_f64() * 1e3,
+            "first_step_ms": self.timing.first_step.as_secs_f64() * 1e3,
             "steady_us_per_step": steady_us,
             "energy_start": watch.start,
-            "energy_end": e1,
-            "energy_drift": drift,
+            "energy_end": self.e_end,
+            "energy_drift": self.drift,
             "energy_drift_max": watch.max_drift,
             "energy_drift_max_step": watch.max_drift_step,
             "energy_drift_max_relative": watch.max_drift_relative(),
             "energy_scale": watch.scale,
-            "work": work,
+            "work": sim.work(),
             "max_energy_growth": finite_or_null(args.max_energy_growth),
-            "stop_reason": stopped,
+            "stop_reason": self.stopped,
         });
-        if stop.is_none() {
-            j["kinetic_end"] = serde_json::json!(k1);
+        if self.stopped.is_none() {
+            j["kinetic_end"] = serde_json::json!(self.end.kinetic);
         }
-        if let Some(g) = &ground {
-            g.add_json(&mut j);
-        }
-        if adaptive.is_some() {
-            j["active_dofs_mean"] = serde_json::json!(active.sum as f64 / active.n.max(1) as f64);
-            j["trajectory_error_max"] = serde_json::json!(active.err_max);
+        crate::ground::add_json(sim, &mut j);
+        if let Some(a) = sim.adaptive_tally() {
+            j["active_dofs_mean"] = serde_json::json!(a.active_mean());
+            j["trajectory_error_max"] = serde_json::json!(a.error_max);
         }
         format!("{j}\n")
-    } else {
+    }
+
+    fn text(&self, args: &SimulateArgs, sim: &Simulation, every: u64) -> String {
+        let model = sim.model();
+        let (watch, done, dt) = (sim.energy_watch(), self.done, args.dt);
+        let (per_step_us, steady_us) = self.per_step_us();
+        let first_ms = self.timing.first_step.as_secs_f64() * 1e3;
         let base = if model.floating_base {
             "floating"
         } else {
             "fixed"
         };
-        let e0 = watch.start;
+        let (e0, start) = (watch.start, sim.energy_start());
+        let (e1, end) = (self.e_end, self.end);
         let mut lines = vec![
             format!(
                 "model        {} ({} DOF, nq = {}, {base} base)",
                 model.name, model.nv, model.nq
             ),
-            format!("method       {}", method.name()),
+            format!("method       {}", args.dynamics.method.name()),
             format!("integrator   {}", args.integrator.name()),
-            match &stop {
-                None => format!("steps        {steps}"),
-                Some((k, _)) => format!("steps        {done} of {steps} (stopped at step {k})"),
+            match &self.stopped_at {
+                None => format!("steps        {}", self.steps),
+                Some((k, _)) => format!(
+                    "steps        {done} of {} (stopped at step {k})",
+                    self.steps
+                ),
             },
             format!("dt           {dt:?} s (t_end = {:?} s)", done as f64 * dt),
             format!(
                 "wall time    {per_step_us:.3} µs per step ({:.3} ms in steps, {:.3} ms in all)",
-                in_steps.as_secs_f64() * 1e3,
-                start.elapsed().as_secs_f64() * 1e3
+                self.timing.in_steps.as_secs_f64() * 1e3,
+                self.elapsed.as_secs_f64() * 1e3
             ),
             if done > 1 {
                 format!(
-                    "first step   {:.3} ms, steady {steady_us:.3} µs per step (steps 2..{done})",
-                    first_step.as_secs_f64() * 1e3,
+                    "first step   {first_ms:.3} ms, steady {steady_us:.3} µs per step (steps 2..{done})"
                 )
             } else {
-                format!("first step   {:.3} ms", first_step.as_secs_f64() * 1e3)
+                format!("first step   {first_ms:.3} ms")
             },
-            format!("energy start {e0:.9e} J (kinetic {k0:.6e}, potential {p0:.6e})"),
-            if stop.is_none() {
-                format!("energy end   {e1:.9e} J (kinetic {k1:.6e}, potential {p1:.6e})")
+            format!(
+                "energy start {e0:.9e} J (kinetic {:.6e}, potential {:.6e})",
+                start.kinetic, start.potential
+            ),
+            if self.stopped.is_none() {
+                format!(
+                    "energy end   {e1:.9e} J (kinetic {:.6e}, potential {:.6e})",
+                    end.kinetic, end.potential
+                )
             } else {
                 format!("energy end   {e1:.9e} J (at the step that stopped the run)")
             },
@@ -462,8 +457,9 @@ fn run_here(args: &SimulateArgs, threads: &articula_dca::Threads) -> Result<(), 
             }
         };
         lines.push(format!(
-            "energy drift {drift:.3e} J at the end (E - E0 - work), {}",
-            rel(drift)
+            "energy drift {:.3e} J at the end (E - E0 - work), {}",
+            self.drift,
+            rel(self.drift)
         ));
         lines.push(format!(
             "max drift    {:.3e} J at step {} ({:.3e} of the largest energy in play, {:.3e} J)",
@@ -472,21 +468,14 @@ fn run_here(args: &SimulateArgs, threads: &articula_dca::Threads) -> Result<(), 
             watch.max_drift_relative(),
             watch.scale
         ));
-        if let Some(g) = &ground {
-            lines.extend(g.lines(k1));
+        lines.extend(crate::ground::lines(sim, end.kinetic));
+        if let Some(a) = sim.adaptive_tally() {
+            lines.extend(adaptive_lines(args, a, every));
         }
-        if adaptive.is_some() {
-            lines.extend(active.lines(
-                args.dynamics.budget,
-                args.dynamics.tolerance,
-                every,
-                args.reselect_every.is_none(),
-                args.dynamics.reselection,
-            ));
-        }
-        if torques {
+        if sim.has_torques() {
             lines.push(format!(
-                "work         {work:.6e} J by the joint forces tau (held constant), not counted as drift"
+                "work         {:.6e} J by the joint forces tau (held constant), not counted as drift",
+                sim.work()
             ));
         }
         if let Some(path) = &args.out {
@@ -496,17 +485,12 @@ fn run_here(args: &SimulateArgs, threads: &articula_dca::Threads) -> Result<(), 
                 done + 1
             ));
         }
-        if let Some(s) = &stopped {
+        if let Some(s) = &self.stopped {
             lines.push(format!("stopped      {s}"));
         }
         let mut out = lines.join("\n");
         out.push('\n');
         out
-    };
-    print_out(&out)?;
-    match stopped {
-        Some(s) => Err(CliError(s)),
-        None => Ok(()),
     }
 }
 
@@ -519,86 +503,43 @@ fn finite_or_null(x: f64) -> serde_json::Value {
     }
 }
 
-/// Active joints over time and the distance to the exact run (`--method adaptive`).
-#[derive(Default)]
-struct ActiveStats {
-    sum: u64,
-    n: u64,
-    min: Option<usize>,
-    max: usize,
-    /// (step, active DOFs) at ten evenly spaced steps.
-    samples: Vec<(u64, usize)>,
-    next_sample: u64,
-    every: u64,
-    err_max: f64,
-    err_end: f64,
-}
-
-impl ActiveStats {
-    fn add(&mut self, k: u64, active: usize, steps: u64) {
-        self.every = (steps / 10).max(1);
-        self.sum += active as u64;
-        self.n += 1;
-        self.min = Some(self.min.map_or(active, |m| m.min(active)));
-        self.max = self.max.max(active);
-        if k >= self.next_sample {
-            self.samples.push((k, active));
-            self.next_sample = k + self.every.max(1);
-        }
-    }
-
-    /// Trajectory error: the largest coordinate difference `max |q − q_exact|`.
-    fn track(&mut self, state: &State, exact: &State) {
-        let e = state
-            .q
-            .iter()
-            .zip(&exact.q)
-            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-        self.err_max = self.err_max.max(e);
-        self.err_end = e;
-    }
-
-    fn lines(
-        &self,
-        budget: Option<usize>,
-        tolerance: Option<f64>,
-        every: u64,
-        balanced: bool,
-        how: crate::ReselectionArg,
-    ) -> Vec<String> {
-        let mean = self.sum as f64 / self.n.max(1) as f64;
-        let limit = match (budget, tolerance) {
-            (Some(b), Some(t)) => format!("budget {b} DOF, tolerance {t:e}"),
-            (Some(b), None) => format!("budget {b} DOF"),
-            (None, Some(t)) => format!("tolerance {t:e}"),
-            (None, None) => "no limit (exact)".to_string(),
-        };
-        let samples: Vec<String> = self
-            .samples
-            .iter()
-            .map(|(k, a)| format!("{k}:{a}"))
-            .collect();
-        vec![
-            format!(
-                "adaptive     {limit}, re-selection every {every} step(s){} by {}",
-                if balanced { " (balanced default)" } else { "" },
-                match how {
-                    crate::ReselectionArg::Exact => "exact solve",
-                    crate::ReselectionArg::Caches => "caches",
-                }
-            ),
-            format!(
-                "active DOFs  mean {mean:.2}, min {}, max {} (step:active {})",
-                self.min.unwrap_or(0),
-                self.max,
-                samples.join(" ")
-            ),
-            format!(
-                "traj error   max |q - q_exact| = {:.3e} over the run, {:.3e} at the end (exact: DCA, same integrator and dt)",
-                self.err_max, self.err_end
-            ),
-        ]
-    }
+/// The summary lines of `--method adaptive`: the limit, the active joints over time and the
+/// distance to the exact run.
+fn adaptive_lines(args: &SimulateArgs, a: &AdaptiveTally, every: u64) -> Vec<String> {
+    let limit = match (args.dynamics.budget, args.dynamics.tolerance) {
+        (Some(b), Some(t)) => format!("budget {b} DOF, tolerance {t:e}"),
+        (Some(b), None) => format!("budget {b} DOF"),
+        (None, Some(t)) => format!("tolerance {t:e}"),
+        (None, None) => "no limit (exact)".to_string(),
+    };
+    let samples: Vec<String> = (a.samples.iter())
+        .map(|(k, n)| format!("{k}:{n}"))
+        .collect();
+    vec![
+        format!(
+            "adaptive     {limit}, re-selection every {every} step(s){} by {}",
+            if args.reselect_every.is_none() {
+                " (balanced default)"
+            } else {
+                ""
+            },
+            match args.dynamics.reselection {
+                crate::ReselectionArg::Exact => "exact solve",
+                crate::ReselectionArg::Caches => "caches",
+            }
+        ),
+        format!(
+            "active DOFs  mean {:.2}, min {}, max {} (step:active {})",
+            a.active_mean(),
+            a.active_min.unwrap_or(0),
+            a.active_max,
+            samples.join(" ")
+        ),
+        format!(
+            "traj error   max |q - q_exact| = {:.3e} over the run, {:.3e} at the end (exact: DCA, same integrator and dt)",
+            a.error_max, a.error_end
+        ),
+    ]
 }
 
 #[cfg(test)]
@@ -620,12 +561,5 @@ mod tests {
         for bad in ["0", "-3", "1.5", "x", "", "1e3"] {
             assert!(parse_count(bad).is_err(), "{bad}");
         }
-    }
-
-    #[test]
-    fn csv_fields_are_quoted_when_needed() {
-        assert_eq!(csv_field("joint1"), "joint1");
-        assert_eq!(csv_field("a,b"), "\"a,b\"");
-        assert_eq!(csv_field("a\"b"), "\"a\"\"b\"");
     }
 }

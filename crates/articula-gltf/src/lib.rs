@@ -33,10 +33,12 @@
 
 mod geometry;
 mod recorder;
+mod simulation;
 mod visuals;
 
 pub use geometry::{tessellate, TriMesh};
 pub use recorder::{GltfRecorder, GltfSummary};
+pub use simulation::GltfFile;
 pub use visuals::{resolve, BodyMesh, MeshOptions, ModelMeshes, DEFAULT_RGBA};
 
 use articula_model::Model;

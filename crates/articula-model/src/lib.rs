@@ -44,6 +44,7 @@
 //! ```
 
 mod assembly;
+mod atomic_file;
 pub mod body_inertia;
 mod collision;
 mod error;
@@ -56,6 +57,7 @@ mod visual;
 mod warning;
 
 pub use assembly::{AssemblyNode, AssemblyTree, HandleLayout, NodeKind, GATHER_ABOVE};
+pub use atomic_file::AtomicFile;
 pub use body_inertia::{InertiaChange, InertiaDefect, InertiaDefectKind};
 pub use collision::{inertia_box, shape_points, CollisionModel, ContactSphere};
 pub use error::ModelError;

@@ -402,11 +402,14 @@ pub(crate) fn draw_number(pix: &mut Pixmap, x: f64, y: f64, cell: f64, n: usize,
     }
 }
 
-/// Writes a PNG.
+/// Writes a PNG, through a temporary name in the same folder renamed when complete
+/// ([`articula_model::AtomicFile`]): a killed run or a full disk never leaves a cut image
+/// under `path`.
 #[cfg(feature = "render")]
 pub fn save_png(pix: &Pixmap, path: &std::path::Path) -> Result<(), String> {
-    pix.save_png(path)
-        .map_err(|e| format!("cannot write {}: {e}", path.display()))
+    let error = |e: &dyn std::fmt::Display| format!("cannot write {}: {e}", path.display());
+    let bytes = pix.encode_png().map_err(|e| error(&e))?;
+    articula_model::AtomicFile::write(path, &bytes).map_err(|e| error(&e))
 }
 
 #[cfg(all(test, feature = "render"))]

@@ -59,9 +59,10 @@
 //! Features (all on by default): `serde` (scene files as JSON, serde for the scene specs, the
 //! joint kinds and glam's types), `render` (PNG frames of scenes, through tiny-skia) and `gltf`
 //! (animated glTF export with the models' meshes, `articula::gltf`; docs/gltf.md).
-//! Examples: `cargo run --release --example rope` (a 1,000-link rope under adaptive dynamics)
-//! and `cargo run --release --example crowd` (a crowd built in code, frames written to a
-//! folder).
+//! Examples: `cargo run --release --example rope` (a 1,000-link rope under adaptive dynamics),
+//! `cargo run --release --example drop` (the humanoid dropped onto a floor by the simulation
+//! driver, with its energy guard) and `cargo run --release --example crowd` (a crowd built in
+//! code, frames written to a folder).
 
 pub use articula_adaptive as adaptive;
 pub use articula_dca as dca;
@@ -81,13 +82,21 @@ pub mod prelude {
     //! poses, Jacobians in a [`ReferenceFrame`], centre of mass, energies and momentum as
     //! [`Data`] methods), adaptive dynamics ([`Adaptive`], [`Settings`]; its stepping call,
     //! `articula::adaptive::step`, takes `articula_dca::step`'s arguments less the method),
+    //! ground contact ([`Ground`], [`ContactSettings`], [`ContactData`], [`step_with_contact`]),
+    //! the simulation driver ([`Simulation`] with its [`SimulationOptions`], [`GroundOptions`],
+    //! [`Recorder`]s such as [`CsvRecorder`], and the [`StopReason`] of a run),
     //! scenes ([`SceneBuilder`] and its specs, [`SceneSim`]), the spatial types, glam's
     //! `DVec3`, `DMat3`, `DQuat`, and every layer's error type.
 
+    pub use crate::adaptive::simulation::{
+        CsvRecorder, Dynamics, GimbalWarning, GroundOptions, Recorder, RunControl, Simulation,
+        SimulationError, SimulationOptions, Stop, StopReason,
+    };
     pub use crate::adaptive::{Adaptive, AdaptiveError, Selection, Settings, StepReport};
     pub use crate::dca::{
         bias_forces, forward_dynamics, forward_kinematics, inverse_dynamics, mass_matrix, step,
-        Data, DynamicsError, Integrator, Method, ReferenceFrame, State,
+        step_with_contact, ContactData, ContactError, ContactSettings, Data, DynamicsError, Ground,
+        Integrator, Method, ReferenceFrame, State,
     };
     pub use crate::model::{JointKind, LoadOptions, Model, ModelError};
     pub use crate::spatial::{SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
