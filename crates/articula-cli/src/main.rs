@@ -5,6 +5,7 @@
 
 mod bench;
 mod fd;
+mod gltf_out;
 mod ground;
 mod info;
 mod scene;

@@ -65,6 +65,8 @@ pub struct SceneArgs {
     /// (every joint moving; no camera, no budget) for comparison (docs/view.md#exact-reference).
     #[arg(long, value_enum, default_value_t = crate::MethodArg::Adaptive)]
     pub method: crate::MethodArg,
+    #[command(flatten)]
+    pub gltf: crate::gltf_out::GltfArgs,
 }
 
 fn parse_finite(s: &str) -> Result<f64, String> {
@@ -175,6 +177,7 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
     if std::io::stderr().is_terminal() {
         bar.set_draw_target(ProgressDrawTarget::stderr());
     }
+    let mut gltf = crate::gltf_out::SceneGltf::start(&args.gltf, &mut sim)?;
     let e0 = sim.energy();
     let mut watch = EnergyWatch::new(e0.kinetic, e0.gravity + e0.springs, args.max_energy_growth);
     let mut gimbal = vec![GimbalWatch::default(); scene.models.len()];
@@ -241,8 +244,14 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
             break;
         }
         done = k + 1;
+        if let Some(g) = &mut gltf {
+            g.step(&mut sim, done)?;
+        }
     }
     bar.finish_and_clear();
+    if let Some(g) = gltf {
+        g.finish(&mut sim, done, stop.is_none())?;
+    }
     if let (Some(dir), None) = (&args.out, &stop) {
         let active = last.as_ref().map_or(0, |s| s.active_total);
         match write_frame(&mut sim, dir, steps, active) {

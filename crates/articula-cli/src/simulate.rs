@@ -54,6 +54,8 @@ pub struct SimulateArgs {
     /// Print the summary as one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
+    #[command(flatten)]
+    pub gltf: crate::gltf_out::GltfArgs,
 }
 
 /// `--integrator`.
@@ -192,6 +194,8 @@ fn run_here(args: &SimulateArgs, threads: &articula_dca::Threads) -> Result<(), 
     for (_, w) in sim.take_warnings() {
         warn_gimbal(sim.model(), &w, "", "at t = 0");
     }
+    let floor = args.contact.ground;
+    let mut gltf = crate::gltf_out::sim_recorder(&args.gltf, &sim, &args.dynamics.model, floor);
     let interrupt = Interrupt::install()?;
     let steps = args.steps;
     let bar = Bar::new(steps);
@@ -212,9 +216,13 @@ fn run_here(args: &SimulateArgs, threads: &articula_dca::Threads) -> Result<(), 
         if let Some(csv) = &mut csv {
             recorders.push(csv);
         }
+        if let Some(g) = &mut gltf {
+            recorders.push(g);
+        }
         sim.run(steps, &mut recorders, &mut control)
     };
     bar.finish();
+    crate::gltf_out::report(gltf.as_ref());
     let elapsed = start.elapsed();
     let stopped = match &stop.reason {
         StopReason::StepsDone => None,

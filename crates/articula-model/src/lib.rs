@@ -53,6 +53,7 @@ mod options;
 mod urdf;
 #[cfg(feature = "urdf-rs")]
 mod urdf_rs_interop;
+mod visual;
 mod warning;
 
 pub use assembly::{AssemblyNode, AssemblyTree, HandleLayout, NodeKind, GATHER_ABOVE};
@@ -68,6 +69,7 @@ pub use urdf::{
 };
 #[cfg(feature = "urdf-rs")]
 pub use urdf_rs;
+pub use visual::{Visual, VisualShape, Visuals};
 pub use warning::LoadWarning;
 
 impl Body {

@@ -247,7 +247,7 @@ fn malformed(element: &'static str, name: &str, message: impl Into<String>) -> M
 }
 
 /// Strictly parses exactly `N` whitespace-separated numbers.
-fn numbers<const N: usize>(s: &str) -> Option<[f64; N]> {
+pub(crate) fn numbers<const N: usize>(s: &str) -> Option<[f64; N]> {
     let mut tokens = s.split_whitespace();
     let mut out = [0.0; N];
     for x in &mut out {
@@ -299,7 +299,7 @@ fn attr_number(
 
 /// Whether `quat_xyzw` is read (URDF 1.1 and later; like urdfdom, a missing or malformed
 /// `version` means 1.0, and older versions ignore `quat_xyzw`).
-fn supports_quat(robot: roxmltree::Node) -> bool {
+pub(crate) fn supports_quat(robot: roxmltree::Node) -> bool {
     robot
         .attribute("version")
         .and_then(|v| {
@@ -545,7 +545,11 @@ pub struct Geometry {
 /// Leniently reads one `<collision>` or `<visual>` element: anything malformed (a missing or
 /// unparsable size, a negative or non-finite dimension, an unknown shape, a bad origin) makes
 /// it `None` — geometry never makes loading fail.
-fn read_geometry(el: roxmltree::Node, role: GeometryRole, quat: bool) -> Option<Geometry> {
+pub(crate) fn read_geometry(
+    el: roxmltree::Node,
+    role: GeometryRole,
+    quat: bool,
+) -> Option<Geometry> {
     let mut origin = Origin::default();
     let mut shape = None;
     for c in el.children().filter(|n| n.is_element()) {

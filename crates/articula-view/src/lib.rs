@@ -43,5 +43,5 @@ pub use scene_file::{
     parse_scene_with,
 };
 pub use sim::{SceneEnergy, SceneMethod, SceneSim, SceneStep, SimBody};
-pub use visibility::{BodyView, Visibility, VisibilitySettings};
+pub use visibility::{BodyView, PosePlan, Visibility, VisibilitySettings};
 pub use volumes::{BodyVolumes, Volume};

@@ -659,7 +659,7 @@ pub(crate) fn body_poses(model: &articula_model::Model, q: &[f64], out: &mut Vec
 /// Its [`PosePlan::pose`] and [`PosePlan::poses`] give the same numbers as composing each
 /// part's general transform (the products skipped are exact zeros and ones).
 #[derive(Clone, Debug)]
-pub(crate) struct PosePlan {
+pub struct PosePlan {
     /// Per model body: its parent and the range of its parts in `parts`.
     bodies: Vec<(Option<usize>, std::ops::Range<usize>)>,
     parts: Vec<PlanPart>,

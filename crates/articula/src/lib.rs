@@ -57,7 +57,8 @@
 //! ```
 //!
 //! Features (all on by default): `serde` (scene files as JSON, serde for the scene specs, the
-//! joint kinds and glam's types) and `render` (PNG frames of scenes, through tiny-skia).
+//! joint kinds and glam's types), `render` (PNG frames of scenes, through tiny-skia) and `gltf`
+//! (animated glTF export with the models' meshes, `articula::gltf`; docs/gltf.md).
 //! Examples: `cargo run --release --example rope` (a 1,000-link rope under adaptive dynamics),
 //! `cargo run --release --example drop` (the humanoid dropped onto a floor by the simulation
 //! driver, with its energy guard) and `cargo run --release --example crowd` (a crowd built in
@@ -65,6 +66,8 @@
 
 pub use articula_adaptive as adaptive;
 pub use articula_dca as dca;
+#[cfg(feature = "gltf")]
+pub use articula_gltf as gltf;
 pub use articula_model as model;
 pub use articula_spatial as spatial;
 pub use articula_view as view;
