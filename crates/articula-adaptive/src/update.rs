@@ -584,16 +584,16 @@ impl Adaptive {
     fn reduced_momenta(&mut self, gm: &mut [f64]) {
         let h = &mut self.hier;
         for idx in 0..h.rec.len() {
-            h.pa[idx] = self.cache.reselection.locking_momentum[h.rec[idx].f()].to_array();
+            h.aba.pa[idx] = self.cache.reselection.locking_momentum[h.rec[idx].f()].to_array();
         }
         for idx in (0..h.rec.len()).rev() {
             let r = &h.rec[idx];
-            let hj = SpatialForce::from_array(h.pa[idx]);
+            let hj = SpatialForce::from_array(h.aba.pa[idx]);
             for p in 0..r.k() {
                 gm[r.vo() + p] = self.data.s[r.vo() + p].dot(hj);
             }
             if r.pidx() != NO_PARENT {
-                let pp = &mut h.pa[r.pidx()];
+                let pp = &mut h.aba.pa[r.pidx()];
                 for (x, y) in pp.iter_mut().zip(hj.to_array()) {
                     *x += y;
                 }
