@@ -669,15 +669,18 @@ impl Adaptive {
     }
 
     /// The bias part of the join of node `n` and of its metric, on the NW monomial columns at
-    /// once (computation axes): the children's bias columns in `build.child_b[0]` (A), `build.child_b[1]` (B), their
-    /// `P` columns in `build.child_p`, their `E` in `build.child_e`; the joint torques enter the constant column. With
+    /// once (computation axes): the children's bias columns in `build.child_b[0]` (A),
+    /// `build.child_b[1]` (B), their `P` columns in `build.child_p`, their `E` in
+    /// `build.child_e`; the joint torques enter the constant column. With
     /// the join's maps `maps.recorded`, `G_F` (`scratch.g_force`), `K`, `N` and the children's
     /// Ψ from the slots:
     /// `β = B^A_j − B^B_j`, `k = κ_β β + κ_Q Q`, `n = ν_β β + ν_Q Q`,
     /// `B^C_h = B^X_h − G_F,hᵀ n` (into `build.out_b`, `build.out_k_w`, `build.out_n_w`),
     /// `P^C = 2 Kᵀ A k + Σ_X [Nᵀ s u_jx + u_i on the shared handles]` with
-    /// `u_jx = 2 s Ψ_X[jx,jx] n + P_X,jx`, `u_i = P_X,i + 2 s Ψ_X[i,jx] n` (into `build.out_p`), and
-    /// `E^C = k_wᵀ A k_w + Σ_X [E_X + n_wᵀ Ψ_X[jx,jx] n_w + s sym(n_wᵀ P_X,jx)]` (into `build.out_e`).
+    /// `u_jx = 2 s Ψ_X[jx,jx] n + P_X,jx`, `u_i = P_X,i + 2 s Ψ_X[i,jx] n` (into
+    /// `build.out_p`), and
+    /// `E^C = k_wᵀ A k_w + Σ_X [E_X + n_wᵀ Ψ_X[jx,jx] n_w + s sym(n_wᵀ P_X,jx)]` (into
+    /// `build.out_e`).
     ///
     /// Every product is a sum of rank-one updates of whole NW-long rows (`axpy`), which the
     /// compiler vectorises along the columns (in AVX2 lanes within `build_cache`'s AVX2

@@ -236,49 +236,15 @@ impl Adaptive {
             // The maps' storage, at the first re-selection with external forces.
             self.map_alloc(model);
         }
-        let x_cw = SpatialTransform::xlt(self.data.origin);
-        for k in 0..self.forces.sparse.len() {
-            let (i, fe) = self.forces.sparse[k];
-            let leaf = tree.body_leaf[i];
-            if tree.nodes[leaf].parent.is_none_or(|p| self.body.active[p]) {
-                // A frontier leaf: its own rigid coefficients take the force.
-                self.forces.node_sums[leaf] += x_cw.apply_force(fe);
-                continue;
-            }
-            let fresh = self.cache.dirty.dirty_stamp[leaf] != ep;
-            if fresh {
-                self.forces.node_sums[leaf] = SpatialForce::ZERO;
-            }
-            self.forces.node_sums[leaf] += x_cw.apply_force(fe);
-            if !fresh {
-                // Its path is marked (and counted) already.
-                continue;
-            }
-            let mut n = leaf;
-            loop {
-                if self.cache.dirty.dirty_stamp[n] == ep {
-                    // Below it another forced leaf's path: two or more leaves from here up.
-                    self.cache.dirty.forced_leaves[n] = 2;
-                } else {
-                    self.cache.dirty.dirty_stamp[n] = ep;
-                    self.cache.dirty.nodes.push(n);
-                    self.cache.dirty.forced_leaves[n] = if self.cache.without_maps { 2 } else { 1 };
-                    self.cache.dirty.forced_leaf[n] = leaf;
-                }
-                match tree.nodes[n].parent.filter(|&p| !self.body.active[p]) {
-                    Some(p) => n = p,
-                    None => break,
-                }
-            }
-        }
+        self.mark_forced_paths(model, ep);
         if self.cache.dirty.nodes.is_empty() {
             return 0;
         }
         // Post-order: children before parents.
         self.cache.dirty.nodes.sort_unstable();
         // A node with one forced leaf below it takes its deltas from its path's map when its
-        // record holds (`dirty.map_valid`; valid while the caches below it stay), built on the second
-        // sighting; which maps must be built, bottom-up.
+        // record holds (`dirty.map_valid`; valid while the caches below it stay), built on the
+        // second sighting; which maps must be built, bottom-up.
         let mut build = false;
         if !self.cache.without_maps {
             for idx in 0..self.cache.dirty.nodes.len() {
@@ -382,8 +348,52 @@ impl Adaptive {
         self.cache.dirty.nodes.len()
     }
 
+    /// The first stage of [`Adaptive::dirty_paths`]: each external force summed into its
+    /// leaf (a frontier leaf's own rigid coefficients take it), and the path from each forced
+    /// leaf up to its cluster marked dirty (stamped `ep`, listed in `dirty.nodes`), with the
+    /// number of forced leaves below each node (2: several) and the one leaf when there is one.
+    fn mark_forced_paths(&mut self, model: &Model, ep: u64) {
+        let tree = &model.assembly;
+        let x_cw = SpatialTransform::xlt(self.data.origin);
+        for k in 0..self.forces.sparse.len() {
+            let (i, fe) = self.forces.sparse[k];
+            let leaf = tree.body_leaf[i];
+            if tree.nodes[leaf].parent.is_none_or(|p| self.body.active[p]) {
+                // A frontier leaf: its own rigid coefficients take the force.
+                self.forces.node_sums[leaf] += x_cw.apply_force(fe);
+                continue;
+            }
+            let fresh = self.cache.dirty.dirty_stamp[leaf] != ep;
+            if fresh {
+                self.forces.node_sums[leaf] = SpatialForce::ZERO;
+            }
+            self.forces.node_sums[leaf] += x_cw.apply_force(fe);
+            if !fresh {
+                // Its path is marked (and counted) already.
+                continue;
+            }
+            let mut n = leaf;
+            loop {
+                if self.cache.dirty.dirty_stamp[n] == ep {
+                    // Below it another forced leaf's path: two or more leaves from here up.
+                    self.cache.dirty.forced_leaves[n] = 2;
+                } else {
+                    self.cache.dirty.dirty_stamp[n] = ep;
+                    self.cache.dirty.nodes.push(n);
+                    self.cache.dirty.forced_leaves[n] = if self.cache.without_maps { 2 } else { 1 };
+                    self.cache.dirty.forced_leaf[n] = leaf;
+                }
+                match tree.nodes[n].parent.filter(|&p| !self.body.active[p]) {
+                    Some(p) => n = p,
+                    None => break,
+                }
+            }
+        }
+    }
+
     /// `A` of every node of the old active region and its frontier at the exact handle forces
-    /// (`reselection.exact_metric`, stamped `exact_metric_stamp`): see [`Adaptive::cached_reselect`].
+    /// (`reselection.exact_metric`, stamped `exact_metric_stamp`): see
+    /// [`Adaptive::cached_reselect`].
     fn active_metrics(&mut self, model: &Model, ep: u64) {
         let tree = &model.assembly;
         let root = tree.root();
@@ -601,9 +611,10 @@ impl Adaptive {
         }
     }
 
-    /// The hierarchical state of the newly selected hybrid body (`cache.reselection.selected`), touching the
-    /// old and new active regions only: flags, node and joint lists, clusters' mass properties
-    /// and the poses of active joints' parent bodies from the caches.
+    /// The hierarchical state of the newly selected hybrid body
+    /// (`cache.reselection.selected`), touching the old and new active regions only: flags,
+    /// node and joint lists, clusters' mass properties and the poses of active joints' parent
+    /// bodies from the caches.
     fn rebuild_hierarchy_cached(&mut self, model: &Model) {
         let tree = &model.assembly;
         let h = &mut self.hier;
