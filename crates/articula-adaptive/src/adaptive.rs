@@ -103,7 +103,7 @@ impl Adaptive {
             impulse: LockingImpulse::new(model),
             scratch: PassScratch::new(model),
             cache: Caches {
-                check_tau: true,
+                check_torques: true,
                 ..Default::default()
             },
             rk: RkBuffers::default(),

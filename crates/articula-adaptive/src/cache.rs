@@ -358,7 +358,7 @@ struct DirtyJoin {
 impl Adaptive {
     /// Allocates the caches (first use).
     pub(crate) fn cache_alloc(&mut self, model: &Model) {
-        if self.cache.alloc {
+        if self.cache.allocated {
             return;
         }
         let sizes = [
@@ -436,10 +436,10 @@ impl Adaptive {
         // from world poses, which would feed the rounding of every rebuild into the next):
         // n's top body is on A's side (parents precede their children), so A's frame is n's,
         // and B's top body is the joint's child, at `hpose_A[ja] · X_J(q)`.
-        self.cache.rel[a] = SpatialTransform::IDENTITY;
+        self.cache.tensors.parent_pose[a] = SpatialTransform::IDENTITY;
         let pa = match tree.nodes[a].kind {
             NodeKind::Join { .. } => {
-                self.cache.hpose[self.coef.layout.hoff[a] + self.coef.layout.ja[n]]
+                self.cache.tensors.handle_pose[self.coef.layout.hoff[a] + self.coef.layout.ja[n]]
             }
             _ => SpatialTransform::IDENTITY,
         };
@@ -448,15 +448,15 @@ impl Adaptive {
             SpatialTransform::IDENTITY,
             SpatialMotion::ZERO,
             q,
-            &self.cache.qd0,
-            &mut self.cache.s0,
+            &self.cache.build.zero_velocity,
+            &mut self.cache.build.subspace,
         );
-        self.cache.rel[b] = pa * xj;
+        self.cache.tensors.parent_pose[b] = pa * xj;
         // Children's tensors over n's monomials, computation axes.
         for (side, x) in [(0usize, a), (1, b)] {
             let nhx = self.coef.handles[x];
             let rows = 6 * nhx;
-            let rel = self.cache.rel[x];
+            let rel = self.cache.tensors.parent_pose[x];
             let same = x == a && !grounded;
             let xx = xn * rel;
             // u_X = rel⁻¹ u_n (0 for a node holding the ground: nothing moves).
@@ -466,9 +466,9 @@ impl Adaptive {
                 inv_motion_matrix(&rel)
             };
             let c = &mut self.cache;
-            c.xb[side][..rows * NW].fill(0.0);
-            c.xp[side][..rows * NW].fill(0.0);
-            c.xe[side].fill(0.0);
+            c.build.child_b[side][..rows * NW].fill(0.0);
+            c.build.child_p[side][..rows * NW].fill(0.0);
+            c.build.child_e[side].fill(0.0);
             match tree.nodes[x].kind {
                 NodeKind::Gather { .. } | NodeKind::Cluster { .. } => {
                     unreachable!("adaptive refuses models with gather nodes (`load_state`); `Model::assembly` has no leaf clusters")
@@ -482,29 +482,50 @@ impl Adaptive {
                     let (ho, rx) = (self.coef.layout.hoff[x], rows3(&xx.e));
                     let c = &mut self.cache;
                     let (bw, pw) = (
-                        &c.bw[ho * 6 * NW..(ho * 6 + rows) * NW],
-                        &c.pw[ho * 6 * NW..(ho * 6 + rows) * NW],
+                        &c.tensors.b_w[ho * 6 * NW..(ho * 6 + rows) * NW],
+                        &c.tensors.p_w[ho * 6 * NW..(ho * 6 + rows) * NW],
                     );
-                    let e = &c.e[x * NW * NW..(x + 1) * NW * NW];
+                    let e = &c.tensors.e[x * NW * NW..(x + 1) * NW * NW];
                     if identity {
-                        c.xb[side][..rows * NW].copy_from_slice(bw);
-                        c.xp[side][..rows * NW].copy_from_slice(pw);
-                        c.xe[side].copy_from_slice(e);
+                        c.build.child_b[side][..rows * NW].copy_from_slice(bw);
+                        c.build.child_p[side][..rows * NW].copy_from_slice(pw);
+                        c.build.child_e[side].copy_from_slice(e);
                     } else {
-                        monomial_map(&t, &mut c.mm);
-                        mul(bw, &c.mm, rows, NW, NW, &mut c.xb[side]);
-                        mul(pw, &c.mm, rows, NW, NW, &mut c.xp[side]);
+                        monomial_map(&t, &mut c.build.monomial_map);
+                        mul(
+                            bw,
+                            &c.build.monomial_map,
+                            rows,
+                            NW,
+                            NW,
+                            &mut c.build.child_b[side],
+                        );
+                        mul(
+                            pw,
+                            &c.build.monomial_map,
+                            rows,
+                            NW,
+                            NW,
+                            &mut c.build.child_p[side],
+                        );
                         // E_X over n's monomials: Mᵀ E M.
-                        mul(e, &c.mm, NW, NW, NW, &mut c.tmp);
-                        crate::dense::at_b(&c.mm, &c.tmp, NW, NW, NW, &mut c.xe[side]);
+                        mul(e, &c.build.monomial_map, NW, NW, NW, &mut c.build.product);
+                        crate::dense::at_b(
+                            &c.build.monomial_map,
+                            &c.build.product,
+                            NW,
+                            NW,
+                            NW,
+                            &mut c.build.child_e[side],
+                        );
                     }
-                    left_rot(&mut c.xb[side], rows, NW, &rx);
-                    left_rot(&mut c.xp[side], rows, NW, &rx);
+                    left_rot(&mut c.build.child_b[side], rows, NW, &rx);
+                    left_rot(&mut c.build.child_p[side], rows, NW, &rx);
                     if grounded && !self.composites.grounded[x] {
                         // A child not holding the ground left a_g out of its tensors.
                         for h in 0..nhx {
                             for r in 0..3 {
-                                c.xb[side][(6 * h + 3 + r) * NW + CONST] += a_g[r];
+                                c.build.child_b[side][(6 * h + 3 + r) * NW + CONST] += a_g[r];
                             }
                         }
                     }
@@ -527,34 +548,34 @@ impl Adaptive {
             let mut m = self.coef.phi[bc + blk];
             left_rot(m.0.as_flattened_mut(), 6, 6, &rt);
             right_rot(m.0.as_flattened_mut(), 6, 6, &rt);
-            c.phi[bc + blk] = m;
+            c.tensors.phi[bc + blk] = m;
         }
         let ko = self.maps.qdd_gain_at[n];
-        c.kmat[ko..ko + k * nc].copy_from_slice(&self.maps.qdd_gain[ko..ko + k * nc]);
-        right_rot(&mut c.kmat[ko..ko + k * nc], k, nc, &rt);
-        c.nmat[36 * hc..36 * hc + 6 * nc]
+        c.tensors.k[ko..ko + k * nc].copy_from_slice(&self.maps.qdd_gain[ko..ko + k * nc]);
+        right_rot(&mut c.tensors.k[ko..ko + k * nc], k, nc, &rt);
+        c.tensors.n[36 * hc..36 * hc + 6 * nc]
             .copy_from_slice(&self.maps.force_gain[36 * hc..36 * hc + 6 * nc]);
-        left_rot(&mut c.nmat[36 * hc..36 * hc + 6 * nc], 6, nc, &rt);
-        right_rot(&mut c.nmat[36 * hc..36 * hc + 6 * nc], 6, nc, &rt);
+        left_rot(&mut c.tensors.n[36 * hc..36 * hc + 6 * nc], 6, nc, &rt);
+        right_rot(&mut c.tensors.n[36 * hc..36 * hc + 6 * nc], 6, nc, &rt);
         let po = self.metric.quad_at[n];
-        c.psi[po..po + nc * nc].copy_from_slice(&self.metric.quad[po..po + nc * nc]);
-        left_rot(&mut c.psi[po..po + nc * nc], nc, nc, &rt);
-        right_rot(&mut c.psi[po..po + nc * nc], nc, nc, &rt);
-        left_rot(&mut c.ob[..nc * NW], nc, NW, &rt);
-        c.bw[hc * 6 * NW..(hc * 6 + nc) * NW].copy_from_slice(&c.ob[..nc * NW]);
-        left_rot(&mut c.op[..nc * NW], nc, NW, &rt);
-        c.pw[hc * 6 * NW..(hc * 6 + nc) * NW].copy_from_slice(&c.op[..nc * NW]);
-        left_rot(&mut c.onw[..6 * NW], 6, NW, &rt);
-        c.nw[n * 6 * NW..(n + 1) * 6 * NW].copy_from_slice(&c.onw[..6 * NW]);
-        c.kw[vo * NW..(vo + k) * NW].copy_from_slice(&c.okw[..k * NW]);
-        c.e[n * NW * NW..(n + 1) * NW * NW].copy_from_slice(&c.oe);
+        c.tensors.psi[po..po + nc * nc].copy_from_slice(&self.metric.quad[po..po + nc * nc]);
+        left_rot(&mut c.tensors.psi[po..po + nc * nc], nc, nc, &rt);
+        right_rot(&mut c.tensors.psi[po..po + nc * nc], nc, nc, &rt);
+        left_rot(&mut c.build.out_b[..nc * NW], nc, NW, &rt);
+        c.tensors.b_w[hc * 6 * NW..(hc * 6 + nc) * NW].copy_from_slice(&c.build.out_b[..nc * NW]);
+        left_rot(&mut c.build.out_p[..nc * NW], nc, NW, &rt);
+        c.tensors.p_w[hc * 6 * NW..(hc * 6 + nc) * NW].copy_from_slice(&c.build.out_p[..nc * NW]);
+        left_rot(&mut c.build.out_n_w[..6 * NW], 6, NW, &rt);
+        c.tensors.n_w[n * 6 * NW..(n + 1) * 6 * NW].copy_from_slice(&c.build.out_n_w[..6 * NW]);
+        c.tensors.k_w[vo * NW..(vo + k) * NW].copy_from_slice(&c.build.out_k_w[..k * NW]);
+        c.tensors.e[n * NW * NW..(n + 1) * NW * NW].copy_from_slice(&c.build.out_e);
         // κ_β R, κ_Q, Rᵀ ν_β R, Rᵀ ν_Q: the maps from cache-frame β to k and n.
         let mut jm = self.maps.recorded;
         right_rot(jm.kb.as_flattened_mut(), 6, 6, &rt);
         left_rot(jm.nb.as_flattened_mut(), 6, 6, &rt);
         right_rot(jm.nb.as_flattened_mut(), 6, 6, &rt);
         left_rot(jm.nq.as_flattened_mut(), 6, 6, &rt);
-        c.jm[n] = jm;
+        c.tensors.bias_maps[n] = jm;
         // Composite and the poses of the handles' parent bodies, in n's frame (`rel` maps a
         // child's coordinates to n's).
         let into = |r: &Rigid, rel: &SpatialTransform| Rigid {
@@ -562,20 +583,22 @@ impl Adaptive {
             c: rel.apply_point(r.c),
             ic: rel.e * r.ic * rel.e.transpose(),
         };
-        let ra = into(&c.rig[a], &c.rel[a]);
-        let rb = into(&c.rig[b], &c.rel[b]);
-        c.rig[n] = ra.combine(&rb);
+        let ra = into(&c.tensors.composite[a], &c.tensors.parent_pose[a]);
+        let rb = into(&c.tensors.composite[b], &c.tensors.parent_pose[b]);
+        c.tensors.composite[n] = ra.combine(&rb);
         for h in 0..nh {
             let (from_a, i) = self.coef.layout.from[hc + h];
             let x = if from_a { a } else { b };
-            c.hpose[hc + h] = match tree.nodes[x].kind {
-                NodeKind::Join { .. } => c.rel[x] * c.hpose[self.coef.layout.hoff[x] + i],
-                _ => c.rel[x],
+            c.tensors.handle_pose[hc + h] = match tree.nodes[x].kind {
+                NodeKind::Join { .. } => {
+                    c.tensors.parent_pose[x] * c.tensors.handle_pose[self.coef.layout.hoff[x] + i]
+                }
+                _ => c.tensors.parent_pose[x],
             };
         }
-        c.valid[n] = true;
+        c.tensors.node_valid[n] = true;
         c.clock += 1;
-        c.cgen[n] = c.clock;
+        c.tensors.built_at[n] = c.clock;
         Ok(())
     }
 
@@ -614,7 +637,7 @@ impl Adaptive {
             (-x.w.cross(ic * y.w), -(x.w.cross(yc)) * m)
         };
         let handles = &model.assembly.nodes[x].handles;
-        let out = &mut self.cache.xb[side];
+        let out = &mut self.cache.build.child_b[side];
         let a_g = self.data.gravity;
         for a in 0..6 {
             for bb in a..6 {
@@ -646,15 +669,18 @@ impl Adaptive {
     }
 
     /// The bias part of the join of node `n` and of its metric, on the NW monomial columns at
-    /// once (computation axes): the children's bias columns in `xb[0]` (A), `xb[1]` (B), their
-    /// `P` columns in `xp`, their `E` in `xe`; the joint torques enter the constant column. With
+    /// once (computation axes): the children's bias columns in `build.child_b[0]` (A),
+    /// `build.child_b[1]` (B), their `P` columns in `build.child_p`, their `E` in
+    /// `build.child_e`; the joint torques enter the constant column. With
     /// the join's maps `maps.recorded`, `G_F` (`scratch.g_force`), `K`, `N` and the children's
     /// Ψ from the slots:
     /// `β = B^A_j − B^B_j`, `k = κ_β β + κ_Q Q`, `n = ν_β β + ν_Q Q`,
-    /// `B^C_h = B^X_h − G_F,hᵀ n` (into `ob`, `okw`, `onw`),
+    /// `B^C_h = B^X_h − G_F,hᵀ n` (into `build.out_b`, `build.out_k_w`, `build.out_n_w`),
     /// `P^C = 2 Kᵀ A k + Σ_X [Nᵀ s u_jx + u_i on the shared handles]` with
-    /// `u_jx = 2 s Ψ_X[jx,jx] n + P_X,jx`, `u_i = P_X,i + 2 s Ψ_X[i,jx] n` (into `op`), and
-    /// `E^C = k_wᵀ A k_w + Σ_X [E_X + n_wᵀ Ψ_X[jx,jx] n_w + s sym(n_wᵀ P_X,jx)]` (into `oe`).
+    /// `u_jx = 2 s Ψ_X[jx,jx] n + P_X,jx`, `u_i = P_X,i + 2 s Ψ_X[i,jx] n` (into
+    /// `build.out_p`), and
+    /// `E^C = k_wᵀ A k_w + Σ_X [E_X + n_wᵀ Ψ_X[jx,jx] n_w + s sym(n_wᵀ P_X,jx)]` (into
+    /// `build.out_e`).
     ///
     /// Every product is a sum of rank-one updates of whole NW-long rows (`axpy`), which the
     /// compiler vectorises along the columns (in AVX2 lanes within `build_cache`'s AVX2
@@ -680,7 +706,10 @@ impl Adaptive {
         // β, then k_w = κ_β β (+ κ_Q τ in the constant column), n_w likewise.
         let mut beta = [[0.0; NW]; 6];
         for (r, br) in beta.iter_mut().enumerate() {
-            let (xa, xb) = (row(&c.xb[0], 6 * ja + r), row(&c.xb[1], 6 * jb + r));
+            let (xa, xb) = (
+                row(&c.build.child_b[0], 6 * ja + r),
+                row(&c.build.child_b[1], 6 * jb + r),
+            );
             for ((x, &p), &q) in br.iter_mut().zip(xa).zip(xb) {
                 *x = p - q;
             }
@@ -693,7 +722,7 @@ impl Adaptive {
             for qq in 0..k {
                 kw[p][CONST] += jm.kq[p][qq] * tau[vo + qq];
             }
-            row_mut(&mut c.okw, p).copy_from_slice(&kw[p]);
+            row_mut(&mut c.build.out_k_w, p).copy_from_slice(&kw[p]);
         }
         let mut nw = [[0.0; NW]; 6];
         for s in 0..6 {
@@ -703,7 +732,7 @@ impl Adaptive {
             for qq in 0..k {
                 nw[s][CONST] += jm.nq[s][qq] * tau[vo + qq];
             }
-            row_mut(&mut c.onw, s).copy_from_slice(&nw[s]);
+            row_mut(&mut c.build.out_n_w, s).copy_from_slice(&nw[s]);
         }
         // B^C_h = B^X_i − G_F,hᵀ n.
         for h in 0..nhc {
@@ -711,11 +740,11 @@ impl Adaptive {
             let side = usize::from(!from_a);
             let g = &self.scratch.g_force[h].0;
             for r in 0..6 {
-                let mut x = *row(&c.xb[side], 6 * i + r);
+                let mut x = *row(&c.build.child_b[side], 6 * i + r);
                 for s in 0..6 {
                     axpy(&mut x, -g[s][r], &nw[s]);
                 }
-                *row_mut(&mut c.ob, 6 * h + r) = x;
+                *row_mut(&mut c.build.out_b, 6 * h + r) = x;
             }
         }
         // P^C: own joint 2 Kᵀ A k; E^C: own joint k_wᵀ A k_w.
@@ -733,14 +762,14 @@ impl Adaptive {
             for p in 0..k {
                 axpy(&mut x, 2.0 * kmat[p * ncc + i], &akw[p]);
             }
-            *row_mut(&mut c.op, i) = x;
+            *row_mut(&mut c.build.out_p, i) = x;
         }
         for r in 0..NW {
             let mut x = [0.0; NW];
             for p in 0..k {
                 axpy(&mut x, kw[p][r], &akw[p]);
             }
-            *row_mut(&mut c.oe, r) = x;
+            *row_mut(&mut c.build.out_e, r) = x;
         }
         let nm = &self.maps.force_gain[36 * hc..36 * hc + 6 * ncc];
         for (side, x, jx, sign) in [(0usize, a, ja, -1.0), (1, b, jb, 1.0)] {
@@ -755,7 +784,7 @@ impl Adaptive {
                 for t in 0..6 {
                     axpy(&mut psin[r], ps(6 * jx + r, 6 * jx + t), &nw[t]);
                 }
-                pj[r] = *row(&c.xp[side], 6 * jx + r);
+                pj[r] = *row(&c.build.child_p[side], 6 * jx + r);
             }
             // P^C += Nᵀ (s u_jx), u_jx = 2 s ψn + P_X,jx.
             for t in 0..6 {
@@ -764,7 +793,7 @@ impl Adaptive {
                     *v = sign * (2.0 * sign * p + q);
                 }
                 for i in 0..ncc {
-                    axpy(row_mut(&mut c.op, i), nm[t * ncc + i], &su);
+                    axpy(row_mut(&mut c.build.out_p, i), nm[t * ncc + i], &su);
                 }
             }
             // Shared handles: u_i = P_X,i + 2 s Ψ_X[i,jx] n.
@@ -774,11 +803,11 @@ impl Adaptive {
                     continue;
                 }
                 for r in 0..6 {
-                    let mut u = *row(&c.xp[side], 6 * i + r);
+                    let mut u = *row(&c.build.child_p[side], 6 * i + r);
                     for t in 0..6 {
                         axpy(&mut u, 2.0 * sign * ps(6 * i + r, 6 * jx + t), &nw[t]);
                     }
-                    let o = row_mut(&mut c.op, 6 * h + r);
+                    let o = row_mut(&mut c.build.out_p, 6 * h + r);
                     for (y, v) in o.iter_mut().zip(u) {
                         *y += v;
                     }
@@ -793,12 +822,12 @@ impl Adaptive {
                 }
             }
             for r in 0..NW {
-                let mut x = *row(&c.xe[side], r);
+                let mut x = *row(&c.build.child_e[side], r);
                 for t in 0..6 {
                     axpy(&mut x, nw[t][r], &g[t]);
                     axpy(&mut x, 0.5 * sign * pj[t][r], &nw[t]);
                 }
-                let o = row_mut(&mut c.oe, r);
+                let o = row_mut(&mut c.build.out_e, r);
                 for (y, v) in o.iter_mut().zip(x) {
                     *y += v;
                 }
@@ -850,7 +879,7 @@ impl Adaptive {
         match part {
             Part::Coefficients => {
                 for blk in 0..nh * nh {
-                    let mut m = c.phi[bc + blk];
+                    let mut m = c.tensors.phi[bc + blk];
                     left_rot(m.0.as_flattened_mut(), 6, 6, &r);
                     right_rot(m.0.as_flattened_mut(), 6, 6, &r);
                     self.coef.phi[bc + blk] = m;
@@ -862,7 +891,7 @@ impl Adaptive {
                 };
                 for h in 0..nh {
                     let o = (hc + h) * 6 * NW;
-                    let mut v = wdot6(&c.bw[o..o + 6 * NW], &w);
+                    let mut v = wdot6(&c.tensors.b_w[o..o + 6 * NW], &w);
                     left_rot(&mut v, 6, 1, &r);
                     self.coef.bias[hc + h] =
                         SpatialMotion::from_array(v) + SpatialMotion::new(DVec3::ZERO, a_g);
@@ -871,18 +900,18 @@ impl Adaptive {
             Part::Metric => {
                 let po = self.metric.quad_at[n];
                 let psi = &mut self.metric.quad[po..po + nc * nc];
-                psi.copy_from_slice(&c.psi[po..po + nc * nc]);
+                psi.copy_from_slice(&c.tensors.psi[po..po + nc * nc]);
                 left_rot(psi, nc, nc, &r);
                 right_rot(psi, nc, nc, &r);
                 let pv = &mut self.metric.linear[6 * hc..6 * hc + nc];
                 let o = hc * 6 * NW;
                 for (row, p) in pv.iter_mut().enumerate() {
-                    *p = wdot(&c.pw[o + row * NW..o + row * NW + NW]);
+                    *p = wdot(&c.tensors.p_w[o + row * NW..o + row * NW + NW]);
                 }
                 left_rot(pv, nc, 1, &r);
-                let e = &c.e[n * NW * NW..(n + 1) * NW * NW];
+                let e = &c.tensors.e[n * NW * NW..(n + 1) * NW * NW];
                 self.metric.constant[n] = quad_w(e, &w, self.switches.fused);
-                self.cache.pstamp[n] = self.cache.epoch;
+                self.cache.reselection.metric_stamp[n] = self.cache.reselection.epoch;
             }
             Part::Maps => {
                 let NodeKind::Join { joint, .. } = model.assembly.nodes[n].kind else {
@@ -892,16 +921,17 @@ impl Adaptive {
                 let (vo, k) = (body.v_offset, body.nv);
                 let ko = self.maps.qdd_gain_at[n];
                 let km = &mut self.maps.qdd_gain[ko..ko + k * nc];
-                km.copy_from_slice(&c.kmat[ko..ko + k * nc]);
+                km.copy_from_slice(&c.tensors.k[ko..ko + k * nc]);
                 right_rot(km, k, nc, &r);
                 for p in 0..k {
-                    self.maps.qdd_bias[vo + p] = wdot(&c.kw[(vo + p) * NW..(vo + p + 1) * NW]);
+                    self.maps.qdd_bias[vo + p] =
+                        wdot(&c.tensors.k_w[(vo + p) * NW..(vo + p + 1) * NW]);
                 }
                 let nm = &mut self.maps.force_gain[36 * hc..36 * hc + 6 * nc];
-                nm.copy_from_slice(&c.nmat[36 * hc..36 * hc + 6 * nc]);
+                nm.copy_from_slice(&c.tensors.n[36 * hc..36 * hc + 6 * nc]);
                 left_rot(nm, 6, nc, &r);
                 right_rot(nm, 6, nc, &r);
-                let mut nv = wdot6(&c.nw[n * 6 * NW..(n + 1) * 6 * NW], &w);
+                let mut nv = wdot6(&c.tensors.n_w[n * 6 * NW..(n + 1) * 6 * NW], &w);
                 left_rot(&mut nv, 6, 1, &r);
                 self.maps.force_bias[n] = nv;
             }
@@ -909,12 +939,12 @@ impl Adaptive {
     }
 
     /// What the external forces on a dirty leaf add to its bias (its cache frame's axes):
-    /// with its composite at `cx` and the wrench `f_e` (computation frame, about its origin),
+    /// with its composite at `reselection.frame_pose` and the wrench `f_e` (computation frame, about its origin),
     /// `α = I_c⁻¹ (n_e − c × f_e)`, `Δb_h = [α; f_e/m + α × (P_h − c)]` — the force terms of
     /// [`Adaptive::rigid_coefficients`] (its velocity terms are in the cache).
     pub(crate) fn leaf_delta(&mut self, model: &Model, n: usize, fe: SpatialForce) {
-        let x = self.cache.cx[n];
-        let r = self.cache.rig[n];
+        let x = self.cache.reselection.frame_pose[n];
+        let r = self.cache.tensors.composite[n];
         let c = x.apply_point(r.c);
         let ic = x.e * r.ic * x.e.transpose();
         let alpha = ic.inverse() * (fe.n - c.cross(fe.f));
@@ -923,7 +953,7 @@ impl Adaptive {
         let ho = self.coef.layout.hoff[n];
         for (h, &jh) in model.assembly.nodes[n].handles.iter().enumerate() {
             let bh = SpatialMotion::new(alpha, a_c + alpha.cross(self.coef.point[jh] - c));
-            self.cache.db[ho + h] = rot6(&rt, &bh.to_array());
+            self.cache.dirty.delta_b[ho + h] = rot6(&rt, &bh.to_array());
         }
     }
 
@@ -933,8 +963,8 @@ impl Adaptive {
         let NodeKind::Body(_) = model.assembly.nodes[x].kind else {
             return [0.0; 6];
         };
-        let xf = self.cache.cx[x];
-        let r = self.cache.rig[x];
+        let xf = self.cache.reselection.frame_pose[x];
+        let r = self.cache.tensors.composite[x];
         let ic = xf.e * r.ic * xf.e.transpose();
         let hs = &model.assembly.nodes[x].handles;
         let g = rigid_phi(
@@ -961,7 +991,7 @@ impl Adaptive {
         else {
             return None;
         };
-        let ep = self.cache.epoch;
+        let ep = self.cache.reselection.epoch;
         let (hc, nhc) = (self.coef.layout.hoff[n], self.coef.handles[n]);
         let (ja, jb) = (self.coef.layout.ja[n], self.coef.layout.jb[n]);
         Some(DirtyJoin {
@@ -972,8 +1002,8 @@ impl Adaptive {
             nhc,
             nc: 6 * nhc,
             children: [(a, ja, -1.0), (b, jb, 1.0)],
-            rel: [a, b].map(|x| rows3(&self.cache.rel[x].e)),
-            xdirty: [a, b].map(|x| self.cache.dstamp[x] == ep),
+            rel: [a, b].map(|x| rows3(&self.cache.tensors.parent_pose[x].e)),
+            xdirty: [a, b].map(|x| self.cache.dirty.dirty_stamp[x] == ep),
         })
     }
 
@@ -1012,7 +1042,10 @@ impl Adaptive {
         let mut beta = [0.0; 6];
         for (side, &(x, jx, sign)) in children.iter().enumerate() {
             if xdirty[side] {
-                let d = rot6(&rel[side], &self.cache.db[self.coef.layout.hoff[x] + jx]);
+                let d = rot6(
+                    &rel[side],
+                    &self.cache.dirty.delta_b[self.coef.layout.hoff[x] + jx],
+                );
                 for (bv, dv) in beta.iter_mut().zip(d) {
                     *bv -= sign * dv;
                 }
@@ -1020,19 +1053,19 @@ impl Adaptive {
         }
         let body = &model.bodies[joint];
         let (vo, k) = (body.v_offset, body.nv);
-        let jm = &self.cache.jm[n];
+        let jm = &self.cache.tensors.bias_maps[n];
         let dn: [f64; 6] = std::array::from_fn(|s| dot6::<Portable>(&jm.nb[s], &beta));
         let mut dk = [0.0; 6];
         for p in 0..k {
             dk[p] = dot6::<Portable>(&jm.kb[p], &beta);
         }
-        self.cache.dk[vo..vo + k].copy_from_slice(&dk[..k]);
-        self.cache.dn[n] = dn;
-        let wd = monomials(self.cache.cu[n]);
+        self.cache.dirty.delta_k[vo..vo + k].copy_from_slice(&dk[..k]);
+        self.cache.dirty.delta_n[n] = dn;
+        let wd = monomials(self.cache.reselection.frame_velocity[n]);
         // Own joint: Δp = 2 Kᵀ A Δk, Δη = k₀ᵀAΔk + ΔkᵀAk₀ + ΔkᵀAΔk.
         let mut k0 = [0.0; 6];
         for p in 0..k {
-            k0[p] = wdot(&self.cache.kw[(vo + p) * NW..][..NW], &wd);
+            k0[p] = wdot(&self.cache.tensors.k_w[(vo + p) * NW..][..NW], &wd);
         }
         let wo = self.metric.weight_at[joint];
         let aw = &self.metric.accel_weights[wo..wo + k * k];
@@ -1043,8 +1076,8 @@ impl Adaptive {
             .map(|p| (k0[p] + dk[p]) * adk[p] + dk[p] * ak0[p])
             .sum();
         let ko = self.maps.qdd_gain_at[n];
-        let km = &self.cache.kmat[ko..ko + k * nc];
-        let dp = &mut self.cache.dp[6 * hc..6 * hc + nc];
+        let km = &self.cache.tensors.k[ko..ko + k * nc];
+        let dp = &mut self.cache.dirty.delta_p[6 * hc..6 * hc + nc];
         for (i, d) in dp.iter_mut().enumerate() {
             *d = 2.0 * (0..k).map(|p| km[p * nc + i] * adk[p]).sum::<f64>();
         }
@@ -1053,7 +1086,9 @@ impl Adaptive {
             .iter()
             .any(|c| matches!(model.assembly.nodes[c.0].kind, NodeKind::Join { .. }))
         {
-            std::array::from_fn(|row| wdot(&self.cache.nw[(n * 6 + row) * NW..][..NW], &wd))
+            std::array::from_fn(|row| {
+                wdot(&self.cache.tensors.n_w[(n * 6 + row) * NW..][..NW], &wd)
+            })
         } else {
             [0.0; 6]
         };
@@ -1064,7 +1099,7 @@ impl Adaptive {
             let NodeKind::Join { .. } = model.assembly.nodes[x].kind else {
                 // A leaf (Ψ, p, η are 0): its shared handles' Δb through its rigid block,
                 // in computation axes.
-                let rd = rows3(&self.cache.cx[n].e);
+                let rd = rows3(&self.cache.reselection.frame_pose[n].e);
                 let dnw = rot6(&rd, &dn);
                 for h in 0..nhc {
                     let (from_a, i) = self.coef.layout.from[hc + h];
@@ -1074,14 +1109,14 @@ impl Adaptive {
                     let g = self.leaf_phi_t(model, x, jx, i, &dnw);
                     let mut bh = rot6(&tr3(&rd), &g);
                     let own = if xdirty[side] {
-                        rot6(r, &self.cache.db[hx + i])
+                        rot6(r, &self.cache.dirty.delta_b[hx + i])
                     } else {
                         [0.0; 6]
                     };
                     for (bv, ov) in bh.iter_mut().zip(own) {
                         *bv = ov + sign * *bv;
                     }
-                    self.cache.db[hc + h] = bh;
+                    self.cache.dirty.delta_b[hc + h] = bh;
                 }
                 continue;
             };
@@ -1089,11 +1124,11 @@ impl Adaptive {
             let rt = tr3(r);
             let dnx = rot6(&rt, &dn);
             let n0x = rot6(&rt, &n0);
-            let wx = monomials(self.cache.cu[x]);
+            let wx = monomials(self.cache.reselection.frame_velocity[x]);
             let nx = 6 * self.coef.handles[x];
             let po = self.metric.quad_at[x];
             let c = &self.cache;
-            let psi = &c.psi[po..po + nx * nx];
+            let psi = &c.tensors.psi[po..po + nx * nx];
             // Ψ_X[i,jx] Δn for every handle i of X (6 each).
             let psidn = |i: usize| -> [f64; 6] {
                 std::array::from_fn(|r| {
@@ -1103,12 +1138,16 @@ impl Adaptive {
             };
             let g = psidn(jx);
             let mut du = [0.0; 6];
-            let mut eta_x = if xdirty[side] { c.deta[x] } else { 0.0 };
+            let mut eta_x = if xdirty[side] {
+                c.dirty.delta_eta[x]
+            } else {
+                0.0
+            };
             for r in 0..6 {
                 let row = 6 * jx + r;
-                let p0 = wdot(&c.pw[(hx * 6 + row) * NW..][..NW], &wx);
+                let p0 = wdot(&c.tensors.p_w[(hx * 6 + row) * NW..][..NW], &wx);
                 let dpj = if xdirty[side] {
-                    c.dp[6 * hx + row]
+                    c.dirty.delta_p[6 * hx + row]
                 } else {
                     0.0
                 };
@@ -1129,12 +1168,12 @@ impl Adaptive {
                     continue;
                 }
                 let c = &self.cache;
-                let psi = &c.psi[po..po + nx * nx];
+                let psi = &c.tensors.psi[po..po + nx * nx];
                 let pd: [f64; 6] = std::array::from_fn(|r| {
                     let row = &psi[(6 * i + r) * nx + 6 * jx..][..6];
                     dot6::<Portable>(row.try_into().expect("6"), &dnx)
                 });
-                let g = &c.phi[self.coef.layout.boff[x] + jx * self.coef.handles[x] + i];
+                let g = &c.tensors.phi[self.coef.layout.boff[x] + jx * self.coef.handles[x] + i];
                 let mut u = [0.0; 6];
                 let mut bh: [f64; 6] = std::array::from_fn(|col| {
                     sign * (0..6).map(|s| g.0[s][col] * dnx[s]).sum::<f64>()
@@ -1142,59 +1181,59 @@ impl Adaptive {
                 for r in 0..6 {
                     u[r] = 2.0 * sign * pd[r];
                     if xdirty[side] {
-                        u[r] += c.dp[6 * hx + 6 * i + r];
-                        bh[r] += c.db[hx + i][r];
+                        u[r] += c.dirty.delta_p[6 * hx + 6 * i + r];
+                        bh[r] += c.dirty.delta_b[hx + i][r];
                     }
                 }
                 let (u, bh) = (rot6(r, &u), rot6(r, &bh));
-                for (d, v) in self.cache.dp[6 * (hc + h)..6 * (hc + h) + 6]
+                for (d, v) in self.cache.dirty.delta_p[6 * (hc + h)..6 * (hc + h) + 6]
                     .iter_mut()
                     .zip(u)
                 {
                     *d += v;
                 }
-                self.cache.db[hc + h] = bh;
+                self.cache.dirty.delta_b[hc + h] = bh;
             }
         }
         // Δp += Nᵀ Σ_X s Δu_jx.
-        let nm = &self.cache.nmat[36 * hc..36 * hc + 6 * nc];
-        let dp = &mut self.cache.dp[6 * hc..6 * hc + nc];
+        let nm = &self.cache.tensors.n[36 * hc..36 * hc + 6 * nc];
+        let dp = &mut self.cache.dirty.delta_p[6 * hc..6 * hc + nc];
         for (t, &w) in sdu.iter().enumerate() {
             for (d, &nv) in dp.iter_mut().zip(&nm[t * nc..t * nc + nc]) {
                 *d += w * nv;
             }
         }
-        self.cache.deta[n] = deta;
+        self.cache.dirty.delta_eta[n] = deta;
     }
 
     /// Allocates the forced paths' maps (the first re-selection with external forces).
     pub(crate) fn map_alloc(&mut self, model: &Model) {
-        if self.cache.malloc {
+        if self.cache.maps.allocated {
             return;
         }
         let nn = model.assembly.nodes.len();
         let c = &mut self.cache;
-        c.mleaf = vec![usize::MAX; nn];
-        c.mtime = vec![0; nn];
-        c.mbuilt = vec![false; nn];
-        c.mpose = vec![SpatialTransform::IDENTITY; nn];
-        c.mgn = vec![[[0.0; 6]; 6]; nn];
-        c.mhq = vec![[[0.0; 6]; 6]; nn];
-        c.mjw = vec![[[0.0; NW]; 6]; nn];
-        c.mgb = vec![[[0.0; 6]; 6]; self.coef.layout.handles];
-        c.mgp = vec![[[0.0; 6]; 6]; self.coef.layout.handles];
-        c.mgk = vec![[0.0; 6]; model.nv];
-        c.malloc = true;
+        c.maps.leaf = vec![usize::MAX; nn];
+        c.maps.built_at = vec![0; nn];
+        c.maps.built = vec![false; nn];
+        c.maps.leaf_pose = vec![SpatialTransform::IDENTITY; nn];
+        c.maps.g_n = vec![[[0.0; 6]; 6]; nn];
+        c.maps.h = vec![[[0.0; 6]; 6]; nn];
+        c.maps.j_w = vec![[[0.0; NW]; 6]; nn];
+        c.maps.g_b = vec![[[0.0; 6]; 6]; self.coef.layout.handles];
+        c.maps.g_p = vec![[[0.0; 6]; 6]; self.coef.layout.handles];
+        c.maps.g_k = vec![[0.0; 6]; model.nv];
+        c.maps.allocated = true;
     }
 
     /// Whether dirty node `n`'s map record (one forced leaf below it) holds: made for this
     /// leaf, after n's cache was built and after its dirty child's record, which holds
-    /// (`mok`, set bottom-up). A record is made the first time a path is seen and its map
+    /// (`dirty.map_valid`, set bottom-up). A record is made the first time a path is seen and its map
     /// built the second time (a path seen once — the selection moving — is not worth six
     /// columns).
     pub(crate) fn map_holds(&self, model: &Model, n: usize) -> bool {
         let c = &self.cache;
-        if c.mleaf[n] != c.fleaf[n] {
+        if c.maps.leaf[n] != c.dirty.forced_leaf[n] {
             return false;
         }
         match model.assembly.nodes[n].kind {
@@ -1203,8 +1242,14 @@ impl Adaptive {
                 child_side: b,
                 ..
             } => {
-                let x = if c.dstamp[a] == c.epoch { a } else { b };
-                c.mtime[n] > c.cgen[n] && c.mtime[n] > c.mtime[x] && c.mok[x]
+                let x = if c.dirty.dirty_stamp[a] == c.reselection.epoch {
+                    a
+                } else {
+                    b
+                };
+                c.maps.built_at[n] > c.tensors.built_at[n]
+                    && c.maps.built_at[n] > c.maps.built_at[x]
+                    && c.dirty.map_valid[x]
             }
             _ => true,
         }
@@ -1213,37 +1258,37 @@ impl Adaptive {
     /// A new map record for dirty node `n` (its map not built yet).
     pub(crate) fn map_record(&mut self, n: usize) {
         let c = &mut self.cache;
-        c.mleaf[n] = c.fleaf[n];
+        c.maps.leaf[n] = c.dirty.forced_leaf[n];
         c.clock += 1;
-        c.mtime[n] = c.clock;
-        c.mbuilt[n] = false;
+        c.maps.built_at[n] = c.clock;
+        c.maps.built[n] = false;
     }
 
     /// The map of a forced leaf `n`: `Δb_h = G_b,h f` for its wrench `f` in its own frame
     /// (about its origin), the columns of [`Adaptive::leaf_delta`] at the unit wrenches.
     pub(crate) fn leaf_map(&mut self, model: &Model, n: usize) {
-        let x = self.cache.cx[n];
+        let x = self.cache.reselection.frame_pose[n];
         let (ho, nh) = (self.coef.layout.hoff[n], self.coef.handles[n]);
         for col in 0..6 {
             let mut e = [0.0; 6];
             e[col] = 1.0;
             self.leaf_delta(model, n, x.apply_force(SpatialForce::from_array(e)));
             for h in 0..nh {
-                let d = self.cache.db[ho + h];
+                let d = self.cache.dirty.delta_b[ho + h];
                 for (row, v) in d.iter().enumerate() {
-                    self.cache.mgb[ho + h][row][col] = *v;
+                    self.cache.maps.g_b[ho + h][row][col] = *v;
                 }
             }
         }
         let c = &mut self.cache;
-        c.mpose[n] = SpatialTransform::IDENTITY;
-        c.mbuilt[n] = true;
-        c.map_builds += 1;
+        c.maps.leaf_pose[n] = SpatialTransform::IDENTITY;
+        c.maps.built[n] = true;
+        c.maps.builds += 1;
     }
 
     /// The map of a dirty join `n` with one forced leaf below it, from its dirty child's:
     /// [`Adaptive::dirty_delta`] with every delta a linear map of the leaf's wrench `f` (own
-    /// frame, `mpose` in n's) and `Δη` a quadratic form plus a bilinear one in `f` and n's
+    /// frame, `maps.leaf_pose` in n's) and `Δη` a quadratic form plus a bilinear one in `f` and n's
     /// monomials `w`,
     /// ```text
     /// Δb_h = G_b,h f   Δp = G_p f   Δk = G_k f   Δn = G_n f   Δη = fᵀ H f + fᵀ J w
@@ -1285,7 +1330,10 @@ impl Adaptive {
         let mut gbeta = [[0.0; 6]; 6];
         for (side, &(x, jx, sign)) in children.iter().enumerate() {
             if xdirty[side] {
-                let d = m6_rot(&rel[side], &self.cache.mgb[self.coef.layout.hoff[x] + jx]);
+                let d = m6_rot(
+                    &rel[side],
+                    &self.cache.maps.g_b[self.coef.layout.hoff[x] + jx],
+                );
                 for (br, dr) in gbeta.iter_mut().zip(&d) {
                     for (bv, dv) in br.iter_mut().zip(dr) {
                         *bv -= sign * dv;
@@ -1295,7 +1343,7 @@ impl Adaptive {
         }
         let body = &model.bodies[joint];
         let (vo, k) = (body.v_offset, body.nv);
-        let jm = self.cache.jm[n];
+        let jm = self.cache.tensors.bias_maps[n];
         let gdn = m6_mul(&jm.nb, &gbeta);
         let gdk = m6_mul(&jm.kb, &gbeta);
         // Own joint: A G_k, Aᵀ G_k (rows p < k).
@@ -1321,7 +1369,9 @@ impl Adaptive {
         }
         let mut jw = [[0.0; NW]; 6];
         for p in 0..k {
-            let kw: &[f64; NW] = self.cache.kw[(vo + p) * NW..][..NW].try_into().expect("NW");
+            let kw: &[f64; NW] = self.cache.tensors.k_w[(vo + p) * NW..][..NW]
+                .try_into()
+                .expect("NW");
             for (r, jr) in jw.iter_mut().enumerate() {
                 let f = adk[p][r] + atdk[p][r];
                 for (x, &y) in jr.iter_mut().zip(kw) {
@@ -1332,16 +1382,16 @@ impl Adaptive {
         let ko = self.maps.qdd_gain_at[n];
         for i in 0..nc {
             for col in 0..6 {
-                self.cache.mgp[hc + i / 6][i % 6][col] = 2.0
+                self.cache.maps.g_p[hc + i / 6][i % 6][col] = 2.0
                     * (0..k)
-                        .map(|p| self.cache.kmat[ko + p * nc + i] * adk[p][col])
+                        .map(|p| self.cache.tensors.k[ko + p * nc + i] * adk[p][col])
                         .sum::<f64>();
             }
         }
         // N_w (6 × NW) of n.
         let mut nw0 = [[0.0; NW]; 6];
         for (row, r) in nw0.iter_mut().enumerate() {
-            r.copy_from_slice(&self.cache.nw[(n * 6 + row) * NW..][..NW]);
+            r.copy_from_slice(&self.cache.tensors.n_w[(n * 6 + row) * NW..][..NW]);
         }
         let mut gsdu = [[0.0; 6]; 6];
         for (side, &(x, jx, sign)) in children.iter().enumerate() {
@@ -1350,14 +1400,14 @@ impl Adaptive {
             let NodeKind::Join { .. } = model.assembly.nodes[x].kind else {
                 // A leaf: its shared handles' Δb through its rigid block (computation axes,
                 // turned into n's).
-                let rd = rows3(&self.cache.cx[n].e);
+                let rd = rows3(&self.cache.reselection.frame_pose[n].e);
                 for h in 0..nhc {
                     let (from_a, i) = self.coef.layout.from[hc + h];
                     if from_a != (side == 0) {
                         continue;
                     }
                     let mut gb = if xdirty[side] {
-                        m6_rot(r, &self.cache.mgb[hx + i])
+                        m6_rot(r, &self.cache.maps.g_b[hx + i])
                     } else {
                         [[0.0; 6]; 6]
                     };
@@ -1372,7 +1422,7 @@ impl Adaptive {
                             gb[row][col] += sign * bh[row];
                         }
                     }
-                    self.cache.mgb[hc + h] = gb;
+                    self.cache.maps.g_b[hc + h] = gb;
                 }
                 continue;
             };
@@ -1384,15 +1434,15 @@ impl Adaptive {
             // (`w = e_CONST`): only the constant column matters, which M_X keeps.
             let still = self.composites.grounded[n];
             if !still {
-                let t = inv_motion_matrix(&self.cache.rel[x]);
-                monomial_map(&t, &mut self.cache.mm);
+                let t = inv_motion_matrix(&self.cache.tensors.parent_pose[x]);
+                monomial_map(&t, &mut self.cache.build.monomial_map);
             }
             let nx = 6 * self.coef.handles[x];
             let po = self.metric.quad_at[x];
             let psi_at = |c: &Caches, i: usize| -> M6 {
                 let mut m = [[0.0; 6]; 6];
                 for (r, mr) in m.iter_mut().enumerate() {
-                    mr.copy_from_slice(&c.psi[po + (6 * i + r) * nx + 6 * jx..][..6]);
+                    mr.copy_from_slice(&c.tensors.psi[po + (6 * i + r) * nx + 6 * jx..][..6]);
                 }
                 m
             };
@@ -1402,10 +1452,10 @@ impl Adaptive {
             // product with M_X below.
             let mut p0 = [[0.0; NW]; 6];
             for (r, pr) in p0.iter_mut().enumerate() {
-                pr.copy_from_slice(&c.pw[(hx * 6 + 6 * jx + r) * NW..][..NW]);
+                pr.copy_from_slice(&c.tensors.p_w[(hx * 6 + 6 * jx + r) * NW..][..NW]);
             }
             let mut jxw = if xdirty[side] {
-                c.mjw[x]
+                c.maps.j_w[x]
             } else {
                 [[0.0; NW]; 6]
             };
@@ -1416,7 +1466,10 @@ impl Adaptive {
                     continue;
                 }
                 for (m, &xv) in xr.iter().enumerate() {
-                    for (o, &mv) in jr.iter_mut().zip(&c.mm[m * NW..(m + 1) * NW]) {
+                    for (o, &mv) in jr
+                        .iter_mut()
+                        .zip(&c.build.monomial_map[m * NW..(m + 1) * NW])
+                    {
                         *o += xv * mv;
                     }
                 }
@@ -1430,10 +1483,10 @@ impl Adaptive {
                 }
             }
             if xdirty[side] {
-                let gpj = c.mgp[hx + jx];
+                let gpj = c.maps.g_p[hx + jx];
                 add_at_b(&mut jw, sign, &gpj, &n0x);
                 let h2 = m6_tmul(&gdnx, &gpj);
-                let hx_ = c.mhq[x];
+                let hx_ = c.maps.h[x];
                 for rr in 0..6 {
                     for cc in 0..6 {
                         hq[rr][cc] += h1[rr][cc] + sign * h2[rr][cc] + hx_[rr][cc];
@@ -1462,7 +1515,7 @@ impl Adaptive {
                 }
                 let c = &self.cache;
                 let pd = m6_mul(&psi_at(c, i), &gdnx);
-                let g = &c.phi[self.coef.layout.boff[x] + jx * self.coef.handles[x] + i];
+                let g = &c.tensors.phi[self.coef.layout.boff[x] + jx * self.coef.handles[x] + i];
                 let mut bh = m6_tmul(&g.0, &gdnx);
                 let mut u = [[0.0; 6]; 6];
                 for rr in 0..6 {
@@ -1470,43 +1523,43 @@ impl Adaptive {
                         bh[rr][cc] *= sign;
                         u[rr][cc] = 2.0 * sign * pd[rr][cc];
                         if xdirty[side] {
-                            u[rr][cc] += c.mgp[hx + i][rr][cc];
-                            bh[rr][cc] += c.mgb[hx + i][rr][cc];
+                            u[rr][cc] += c.maps.g_p[hx + i][rr][cc];
+                            bh[rr][cc] += c.maps.g_b[hx + i][rr][cc];
                         }
                     }
                 }
                 let (u, bh) = (m6_rot(r, &u), m6_rot(r, &bh));
-                let gp = &mut self.cache.mgp[hc + h];
+                let gp = &mut self.cache.maps.g_p[hc + h];
                 for rr in 0..6 {
                     for cc in 0..6 {
                         gp[rr][cc] += u[rr][cc];
                     }
                 }
-                self.cache.mgb[hc + h] = bh;
+                self.cache.maps.g_b[hc + h] = bh;
             }
         }
         // G_p += Nᵀ Σ_X s R_X G_du,X.
         for i in 0..nc {
             for col in 0..6 {
                 let add: f64 = (0..6)
-                    .map(|t| self.cache.nmat[36 * hc + t * nc + i] * gsdu[t][col])
+                    .map(|t| self.cache.tensors.n[36 * hc + t * nc + i] * gsdu[t][col])
                     .sum();
-                self.cache.mgp[hc + i / 6][i % 6][col] += add;
+                self.cache.maps.g_p[hc + i / 6][i % 6][col] += add;
             }
         }
         let xd = if xdirty[0] { a } else { b };
         let c = &mut self.cache;
-        c.mgn[n] = gdn;
-        c.mgk[vo..vo + k].copy_from_slice(&gdk[..k]);
-        c.mhq[n] = hq;
-        c.mjw[n] = jw;
-        c.mpose[n] = c.rel[xd] * c.mpose[xd];
-        c.mbuilt[n] = true;
-        c.map_builds += 1;
+        c.maps.g_n[n] = gdn;
+        c.maps.g_k[vo..vo + k].copy_from_slice(&gdk[..k]);
+        c.maps.h[n] = hq;
+        c.maps.j_w[n] = jw;
+        c.maps.leaf_pose[n] = c.tensors.parent_pose[xd] * c.maps.leaf_pose[xd];
+        c.maps.built[n] = true;
+        c.maps.builds += 1;
     }
 
     /// Dirty node `n`'s deltas from its map at its leaf's wrench (`f` in the leaf's frame, at
-    /// `cx[n] · mpose`) and n's velocity: `Δb_h = G_b,h f`, `Δp = G_p f`, `Δk = G_k f`,
+    /// `frame_pose[n] · leaf_pose`) and n's velocity: `Δb_h = G_b,h f`, `Δp = G_p f`, `Δk = G_k f`,
     /// `Δn = G_n f`, `Δη = fᵀ H f + fᵀ J w`.
     pub(crate) fn eval_map(&mut self, model: &Model, n: usize) {
         // Also compiled for AVX2 + FMA (the same bits, wider vectors), run when `fused`.
@@ -1521,36 +1574,38 @@ impl Adaptive {
     #[inline(always)]
     fn eval_map_with(&mut self, model: &Model, n: usize) {
         let c = &mut self.cache;
-        let l = c.mleaf[n];
-        let xl = c.cx[n] * c.mpose[n];
+        let l = c.maps.leaf[n];
+        let xl = c.reselection.frame_pose[n] * c.maps.leaf_pose[n];
         let f = xl.inv_apply_force(self.forces.node_sums[l]).to_array();
         let (hc, nh) = (self.coef.layout.hoff[n], self.coef.handles[n]);
         for h in 0..nh {
-            c.db[hc + h] = m6_x(&c.mgb[hc + h], &f);
+            c.dirty.delta_b[hc + h] = m6_x(&c.maps.g_b[hc + h], &f);
         }
         if let NodeKind::Join { joint, .. } = model.assembly.nodes[n].kind {
             for h in 0..nh {
-                let p = m6_x(&c.mgp[hc + h], &f);
-                c.dp[6 * (hc + h)..6 * (hc + h) + 6].copy_from_slice(&p);
+                let p = m6_x(&c.maps.g_p[hc + h], &f);
+                c.dirty.delta_p[6 * (hc + h)..6 * (hc + h) + 6].copy_from_slice(&p);
             }
-            c.dn[n] = m6_x(&c.mgn[n], &f);
+            c.dirty.delta_n[n] = m6_x(&c.maps.g_n[n], &f);
             let body = &model.bodies[joint];
             for p in body.v_offset..body.v_offset + body.nv {
-                c.dk[p] = dot6::<Portable>(&c.mgk[p], &f);
+                c.dirty.delta_k[p] = dot6::<Portable>(&c.maps.g_k[p], &f);
             }
-            let w = monomials(c.cu[n]);
-            let hf = m6_x(&c.mhq[n], &f);
-            let jw = wdot6(c.mjw[n].as_flattened(), &w);
-            c.deta[n] = (0..6).map(|r| f[r] * (hf[r] + jw[r])).sum();
+            let w = monomials(c.reselection.frame_velocity[n]);
+            let hf = m6_x(&c.maps.h[n], &f);
+            let jw = wdot6(c.maps.j_w[n].as_flattened(), &w);
+            c.dirty.delta_eta[n] = (0..6).map(|r| f[r] * (hf[r] + jw[r])).sum();
         }
-        c.dvstamp[n] = c.epoch;
-        c.map_evals += 1;
+        c.dirty.delta_stamp[n] = c.reselection.epoch;
+        c.maps.evaluations += 1;
     }
 
     /// Makes dirty node `n`'s deltas this re-selection's: a node inside a forced path with one
     /// leaf is evaluated from its map when the selection first reads it.
     pub(crate) fn ensure_delta(&mut self, model: &Model, n: usize) {
-        if self.cache.dstamp[n] == self.cache.epoch && self.cache.dvstamp[n] != self.cache.epoch {
+        if self.cache.dirty.dirty_stamp[n] == self.cache.reselection.epoch
+            && self.cache.dirty.delta_stamp[n] != self.cache.reselection.epoch
+        {
             self.eval_map(model, n);
         }
     }
@@ -1562,19 +1617,19 @@ impl Adaptive {
         let o = 6 * self.coef.layout.hoff[n];
         self.scratch.handle_forces[..nc]
             .iter()
-            .zip(&self.cache.dp[o..o + nc])
+            .zip(&self.cache.dirty.delta_p[o..o + nc])
             .map(|(f, d)| f * d)
             .sum::<f64>()
-            + self.cache.deta[n]
+            + self.cache.dirty.delta_eta[n]
     }
 
     /// Makes node `n`'s metric slots (Ψ, p, η, computation axes) valid for this re-selection:
-    /// from its cache at its frame and velocity (`cx`, `cu`) when it is rigid (p and η then
+    /// from its cache at its frame and velocity (`reselection.frame_pose`, `frame_velocity`) when it is rigid (p and η then
     /// without external forces: a build reads Ψ alone),
     /// otherwise from its children's by the metric pass (a leaf: zero).
     pub(crate) fn world_metric(&mut self, model: &Model, n: usize) {
-        let ep = self.cache.epoch;
-        if self.cache.pstamp[n] == ep {
+        let ep = self.cache.reselection.epoch;
+        if self.cache.reselection.metric_stamp[n] == ep {
             return;
         }
         match model.assembly.nodes[n].kind {
@@ -1583,8 +1638,11 @@ impl Adaptive {
                 child_side: b,
                 ..
             } => {
-                if self.cache.valid[n] {
-                    let (x, u) = (self.cache.cx[n], self.cache.cu[n]);
+                if self.cache.tensors.node_valid[n] {
+                    let (x, u) = (
+                        self.cache.reselection.frame_pose[n],
+                        self.cache.reselection.frame_velocity[n],
+                    );
                     self.eval_cache(model, n, &x, u, Part::Metric);
                 } else {
                     self.world_metric(model, a);
@@ -1594,7 +1652,7 @@ impl Adaptive {
             }
             _ => self.metric_node(model, n),
         }
-        self.cache.pstamp[n] = ep;
+        self.cache.reselection.metric_stamp[n] = ep;
     }
 
     /// `A(n) = Fᵀ Ψ F + Fᵀ p + η` of a cached node at the handle forces in `f`, in its cache
@@ -1624,11 +1682,16 @@ impl Adaptive {
         let fx = &self.scratch.handle_forces[..nc];
         let po = self.metric.quad_at[n];
         let o = hc * 6 * NW;
-        let mut a = crate::dense::quad(&c.psi[po..po + nc * nc], fx, nc);
+        let mut a = crate::dense::quad(&c.tensors.psi[po..po + nc * nc], fx, nc);
         // Fᵀ P w = (Σ_row F_row P_row) · w.
-        let pf = comb_rows(&c.pw[o..o + nc * NW], fx, true, self.switches.fused);
+        let pf = comb_rows(
+            &c.tensors.p_w[o..o + nc * NW],
+            fx,
+            true,
+            self.switches.fused,
+        );
         a += wdot(&pf, &w);
-        let e = &c.e[n * NW * NW..(n + 1) * NW * NW];
+        let e = &c.tensors.e[n * NW * NW..(n + 1) * NW * NW];
         a + quad_w(e, &w, self.switches.fused)
     }
 
@@ -1642,23 +1705,26 @@ impl Adaptive {
         tau: &[f64],
     ) -> Result<(), DynamicsError> {
         self.cache_alloc(model);
-        self.cache.ready = false;
-        if !self.cache.supported {
+        self.cache.all_valid = false;
+        if !self.cache.handles_fixed {
             return Ok(());
         }
         // The whole-body metric pass filled every node's metric slots.
-        self.cache.epoch += 1;
-        self.cache.pstamp.fill(self.cache.epoch);
+        self.cache.reselection.epoch += 1;
+        self.cache
+            .reselection
+            .metric_stamp
+            .fill(self.cache.reselection.epoch);
         for n in 0..model.assembly.nodes.len() {
-            self.cache.valid[n] = false;
+            self.cache.tensors.node_valid[n] = false;
             if !self.queue.selected[n]
                 && matches!(model.assembly.nodes[n].kind, NodeKind::Join { .. })
             {
                 self.build_cache(model, n, q, tau)?;
             }
         }
-        self.cache.tau.copy_from_slice(tau);
-        self.cache.ready = true;
+        self.cache.torques.copy_from_slice(tau);
+        self.cache.all_valid = true;
         Ok(())
     }
 }

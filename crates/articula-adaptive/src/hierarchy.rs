@@ -11,8 +11,8 @@ use crate::adaptive::Adaptive;
 use crate::hybrid::Level;
 use crate::parts::composites::Rigid;
 use crate::parts::hierarchy::{
-    coordinate_axis, revolute_parts, ActiveJoint, Hierarchy, Parent, RevoluteParts, AX_PARTS,
-    NO_PARENT,
+    coordinate_axis, revolute_parts, ActiveJoint, Hierarchy, Parent, ReducedAba, RevoluteParts,
+    AX_PARTS, NO_PARENT,
 };
 use crate::parts::subtrees::{Base, Chain, PARALLEL_HYBRID_MIN_JOINTS};
 #[cfg(feature = "parallel")]
@@ -140,16 +140,18 @@ impl Adaptive {
         let nb = model.bodies.len();
         if h.rec.capacity() < nb {
             h.rec.reserve(nb);
-            h.ia.reserve(nb.saturating_sub(h.ia.len()));
-            h.chol.reserve(nb.saturating_sub(h.chol.len()));
-            for v in [&mut h.pa, &mut h.acc] {
+            h.aba.ia.reserve(nb.saturating_sub(h.aba.ia.len()));
+            h.aba
+                .cholesky
+                .reserve(nb.saturating_sub(h.aba.cholesky.len()));
+            for v in [&mut h.aba.pa, &mut h.aba.acceleration] {
                 v.reserve(nb.saturating_sub(v.len()));
             }
-            h.dinv.reserve(nb.saturating_sub(h.dinv.len()));
+            h.aba.dinv.reserve(nb.saturating_sub(h.aba.dinv.len()));
             h.sc.reserve(model.nv.saturating_sub(h.sc.len()));
             h.ang.reserve(model.nv.saturating_sub(h.ang.len()));
-            h.u.reserve(model.nv.saturating_sub(h.u.len()));
-            h.uu.reserve(model.nv.saturating_sub(h.uu.len()));
+            h.aba.u.reserve(model.nv.saturating_sub(h.aba.u.len()));
+            h.aba.uu.reserve(model.nv.saturating_sub(h.aba.uu.len()));
         }
         if h.ridx.len() != nb {
             h.ridx.resize(nb, usize::MAX);
@@ -231,14 +233,14 @@ impl Adaptive {
         }
         h.dofs = dof;
         let na = h.rec.len();
-        h.ia.resize(na, Mat6::ZERO);
-        h.pa.resize(na, [0.0; 6]);
-        h.acc.resize(na, [0.0; 6]);
-        h.dinv.resize(na, 0.0);
+        h.aba.ia.resize(na, Mat6::ZERO);
+        h.aba.pa.resize(na, [0.0; 6]);
+        h.aba.acceleration.resize(na, [0.0; 6]);
+        h.aba.dinv.resize(na, 0.0);
         h.sc.resize(h.ang.len(), (0.0, 1.0));
-        h.chol.resize(na, [[0.0; 6]; 6]);
-        h.u.resize(dof, [0.0; 6]);
-        h.uu.resize(dof, 0.0);
+        h.aba.cholesky.resize(na, [[0.0; 6]; 6]);
+        h.aba.u.resize(dof, [0.0; 6]);
+        h.aba.uu.resize(dof, 0.0);
         // (Nothing to split without the `parallel` feature.)
         #[cfg(feature = "parallel")]
         h.split.find(model, &h.rec);
@@ -487,7 +489,7 @@ impl Adaptive {
             #[cfg(feature = "parallel")]
             {
                 use rayon::prelude::*;
-                let (rec, ia, pa) = (&h.rec[..], &mut h.ia[..n], &mut h.pa[..n]);
+                let (rec, ia, pa) = (&h.rec[..], &mut h.aba.ia[..n], &mut h.aba.pa[..n]);
                 self.threads.install(|| {
                     rec.par_chunks(RECORD_GRAIN)
                         .zip(ia.par_chunks_mut(RECORD_GRAIN))
@@ -498,7 +500,12 @@ impl Adaptive {
                 });
             }
         } else {
-            for ((r, ia), pa) in h.rec.iter().zip(h.ia.iter_mut()).zip(h.pa.iter_mut()) {
+            for ((r, ia), pa) in h
+                .rec
+                .iter()
+                .zip(h.aba.ia.iter_mut())
+                .zip(h.aba.pa.iter_mut())
+            {
                 cluster(r, d, node_sums, accel, ia, pa);
             }
         }
@@ -508,13 +515,16 @@ impl Adaptive {
         // the per-record arrays need no bounds checks).
         let Hierarchy {
             rec,
-            ia,
-            pa: pas,
-            acc,
-            dinv,
-            u: us,
-            uu: uus,
-            chol,
+            aba:
+                ReducedAba {
+                    ia,
+                    pa: pas,
+                    acceleration: acc,
+                    dinv,
+                    u: us,
+                    uu: uus,
+                    cholesky: chol,
+                },
             split,
             ..
         } = h;

@@ -146,7 +146,7 @@ impl Adaptive {
     /// (an unchanged weight keeps them).
     pub fn set_weight(&mut self, model: &Model, body: usize, scale: f64) {
         if self.metric.set_accel_weight(model, body, scale) {
-            self.cache.ready = false;
+            self.cache.all_valid = false;
         }
     }
 
@@ -255,7 +255,7 @@ impl Adaptive {
         f_ext: &[SpatialForce],
     ) -> Result<&[f64], AdaptiveError> {
         self.settings.validate()?;
-        self.cache.ready = false;
+        self.cache.all_valid = false;
         self.load(model, q, qd, tau, f_ext)?;
         self.main_pass(model, tau, Level::Acceleration, true)?;
         self.metric_pass(model);
@@ -389,23 +389,23 @@ impl Adaptive {
             self.build_all_caches(model, &state.q, &state.tau)?;
             touched += model.assembly.nodes.len();
         } else {
-            self.cache.ready = false;
+            self.cache.all_valid = false;
         }
         // (An impulse changes velocities only: the composites stay valid.)
         let locked = self.rebuild_hybrid(model, state, true, false)?;
         if locked {
             touched += self.touched;
         }
-        if self.cache.ready {
+        if self.cache.all_valid {
             // Caches of the nodes left in the active region (velocity tolerance) would be
             // stale; the selection's nodes for the next cached one.
-            self.cache.sel.clear();
+            self.cache.reselection.selected.clear();
             for (n, node) in model.assembly.nodes.iter().enumerate() {
                 if self.body.active[n] {
-                    self.cache.valid[n] = false;
+                    self.cache.tensors.node_valid[n] = false;
                 }
                 if self.queue.selected[n] && matches!(node.kind, NodeKind::Join { .. }) {
-                    self.cache.sel.push(n);
+                    self.cache.reselection.selected.push(n);
                 }
             }
         }
@@ -820,7 +820,7 @@ impl Adaptive {
             }
         }
         self.rigid_composites(model);
-        self.cache.ready = false;
+        self.cache.all_valid = false;
         let vtol = self.settings.velocity_tolerance.take();
         let locked = self.rebuild_hybrid(model, state, false, true);
         self.settings.velocity_tolerance = vtol;
@@ -839,7 +839,7 @@ impl Adaptive {
     /// changing their torques when [`Adaptive::set_check_locked_torques`] is off.
     pub fn invalidate(&mut self) {
         self.hier.valid = false;
-        self.cache.ready = false;
+        self.cache.all_valid = false;
     }
 
     /// Whether a re-selection compares the joint torques with those the caches of the rigid
@@ -850,7 +850,7 @@ impl Adaptive {
     /// locked joints' torques never change, or call [`Adaptive::invalidate`] after changing
     /// them.
     pub fn set_check_locked_torques(&mut self, on: bool) {
-        self.cache.check_tau = on;
+        self.cache.check_torques = on;
     }
 
     /// Re-select through the caches of the rigid subassemblies (default, O(active region)) or
@@ -858,7 +858,7 @@ impl Adaptive {
     #[cfg(test)]
     pub(crate) fn set_cached_reselection(&mut self, on: bool) {
         self.switches.use_cache = on;
-        self.cache.ready = false;
+        self.cache.all_valid = false;
     }
 
     /// Run the hybrid step's reduced ABA with fused multiply–adds where the CPU has AVX2 and
@@ -876,13 +876,13 @@ impl Adaptive {
     /// that compare the two.
     #[cfg(test)]
     pub(crate) fn set_path_maps(&mut self, on: bool) {
-        self.cache.no_maps = !on;
+        self.cache.without_maps = !on;
     }
 
     /// Forced-path maps built and evaluated so far (for tests: whether the maps were used).
     #[cfg(test)]
     pub(crate) fn path_map_counts(&self) -> (u64, u64) {
-        (self.cache.map_builds, self.cache.map_evals)
+        (self.cache.maps.builds, self.cache.maps.evaluations)
     }
 
     /// Between re-selections, run whole-body kinematics and composites instead of the

@@ -52,6 +52,7 @@ use crate::adaptive::Adaptive;
 use crate::contact::HybridContact;
 use crate::error::AdaptiveError;
 use crate::parts::composites::Rigid;
+use crate::parts::hierarchy::ReducedAba;
 use crate::report::StepReport;
 use articula_dca::{ContactSettings, Data, State};
 use articula_model::Model;
@@ -68,13 +69,8 @@ pub struct Scratch {
     /// The whole `data` of [`Adaptive::node_metrics_with`]; its kinematics (`x`, `v`, `c`,
     /// `s`, `inertia`) for the other calls.
     data: Data,
-    ia: Vec<Mat6>,
-    pa: Vec<[f64; 6]>,
-    acc: Vec<[f64; 6]>,
-    dinv: Vec<f64>,
-    chol: Vec<[[f64; 6]; 6]>,
-    u: Vec<[f64; 6]>,
-    uu: Vec<f64>,
+    /// The reduced tree's articulated-body workspace.
+    aba: ReducedAba,
     sc: Vec<(f64, f64)>,
     comp: Vec<Rigid>,
     fsum: Vec<SpatialForce>,
@@ -93,13 +89,15 @@ impl Scratch {
         Scratch {
             sizes: [nb, nv, model.nq, nn],
             data: Data::new(model),
-            ia: vec![Mat6::ZERO; nb],
-            pa: vec![[0.0; 6]; nb],
-            acc: vec![[0.0; 6]; nb],
-            dinv: vec![0.0; nb],
-            chol: vec![[[0.0; 6]; 6]; nb],
-            u: vec![[0.0; 6]; nv],
-            uu: vec![0.0; nv],
+            aba: ReducedAba {
+                ia: vec![Mat6::ZERO; nb],
+                pa: vec![[0.0; 6]; nb],
+                acceleration: vec![[0.0; 6]; nb],
+                dinv: vec![0.0; nb],
+                cholesky: vec![[[0.0; 6]; 6]; nb],
+                u: vec![[0.0; 6]; nv],
+                uu: vec![0.0; nv],
+            },
             sc: vec![(0.0, 1.0); nv],
             comp: vec![Rigid::default(); nn],
             fsum: vec![SpatialForce::ZERO; nn],
@@ -139,13 +137,7 @@ impl Adaptive {
     #[inline(never)]
     fn swap_scratch(&mut self, s: &mut Scratch, kin: bool, step: bool) {
         let h = &mut self.hier;
-        swap(&mut h.ia, &mut s.ia);
-        swap(&mut h.pa, &mut s.pa);
-        swap(&mut h.acc, &mut s.acc);
-        swap(&mut h.dinv, &mut s.dinv);
-        swap(&mut h.chol, &mut s.chol);
-        swap(&mut h.u, &mut s.u);
-        swap(&mut h.uu, &mut s.uu);
+        swap(&mut h.aba, &mut s.aba);
         swap(&mut h.sc, &mut s.sc);
         swap(&mut self.forces.node_sums, &mut s.fsum);
         if !step {

@@ -32,7 +32,7 @@ impl Adaptive {
     /// changed).
     pub(crate) fn can_reselect_cached(&mut self, model: &Model, state: &State) -> bool {
         if !(self.switches.use_cache
-            && self.cache.ready
+            && self.cache.all_valid
             && self.hier.valid
             && !self.switches.full_passes
             && self.settings.velocity_tolerance.is_none()
@@ -40,15 +40,15 @@ impl Adaptive {
         {
             return false;
         }
-        if self.cache.check_tau && !same_bits(&state.tau, &self.cache.tau) {
+        if self.cache.check_torques && !same_bits(&state.tau, &self.cache.torques) {
             for (j, body) in model.bodies.iter().enumerate() {
                 let r = body.v_offset..body.v_offset + body.nv;
-                if !self.hier.abody[j] && state.tau[r.clone()] != self.cache.tau[r] {
-                    self.cache.ready = false;
+                if !self.hier.abody[j] && state.tau[r.clone()] != self.cache.torques[r] {
+                    self.cache.all_valid = false;
                     return false;
                 }
             }
-            self.cache.tau.copy_from_slice(&state.tau);
+            self.cache.torques.copy_from_slice(&state.tau);
         }
         true
     }
@@ -77,8 +77,8 @@ impl Adaptive {
     ) -> Result<bool, DynamicsError> {
         let tree = &model.assembly;
         self.check_active_inputs(model, state)?;
-        self.cache.epoch += 1;
-        let ep = self.cache.epoch;
+        self.cache.reselection.epoch += 1;
+        let ep = self.cache.reselection.epoch;
         self.data.origin = articula_dca::internals::computation_origin(model, &state.q);
         self.active_kinematics(model, &state.q, &state.qd);
         for idx in 0..self.hier.ajoints.len() {
@@ -97,7 +97,7 @@ impl Adaptive {
         for idx in 0..self.hier.fnodes.len() {
             let f = self.hier.fnodes[idx];
             touched += 1;
-            self.cache.stamp[f] = ep;
+            self.cache.reselection.slots_stamp[f] = ep;
             match tree.nodes[f].kind {
                 NodeKind::Gather { .. } | NodeKind::Cluster { .. } => {
                     unreachable!("adaptive refuses models with gather nodes (`load_state`); `Model::assembly` has no leaf clusters")
@@ -105,14 +105,14 @@ impl Adaptive {
                 NodeKind::Ground => self.ground_coefficients(f),
                 NodeKind::Body(i) => {
                     let x = self.data.x[i];
-                    let r = self.cache.rig[f];
+                    let r = self.cache.tensors.composite[f];
                     let world = Rigid {
                         m: r.m,
                         c: x.apply_point(r.c),
                         ic: x.e * r.ic * x.e.transpose(),
                     };
-                    self.cache.cx[f] = x;
-                    self.cache.cu[f] = x.inv_apply_motion(self.data.v[i]);
+                    self.cache.reselection.frame_pose[f] = x;
+                    self.cache.reselection.frame_velocity[f] = x.inv_apply_motion(self.data.v[i]);
                     let (v, fe) = (self.data.v[i], self.forces.node_sums[f]);
                     self.rigid_coefficients(model, f, &world, v, fe, Level::Acceleration)?;
                 }
@@ -123,14 +123,14 @@ impl Adaptive {
                     } else {
                         x.inv_apply_motion(self.data.v[self.composites.top[f]])
                     };
-                    self.cache.cx[f] = x;
-                    self.cache.cu[f] = u;
+                    self.cache.reselection.frame_pose[f] = x;
+                    self.cache.reselection.frame_velocity[f] = u;
                     self.eval_cache(model, f, &x, u, Part::Coefficients);
-                    if self.cache.dstamp[f] == ep {
+                    if self.cache.dirty.dirty_stamp[f] == ep {
                         // Plus what the forces on its dirty paths add.
                         let (hc, r) = (self.coef.layout.hoff[f], rows3(&x.e));
                         for h in 0..self.coef.handles[f] {
-                            let db = rot6(&r, &self.cache.db[hc + h]);
+                            let db = rot6(&r, &self.cache.dirty.delta_b[hc + h]);
                             self.coef.bias[hc + h] += SpatialMotion::from_array(db);
                         }
                     }
@@ -141,7 +141,7 @@ impl Adaptive {
         for idx in 0..self.hier.hnodes.len() {
             let n = self.hier.hnodes[idx];
             self.join(model, n, &state.tau, Level::Acceleration)?;
-            self.cache.stamp[n] = ep;
+            self.cache.reselection.slots_stamp[n] = ep;
             touched += 1;
         }
         // The metric of every active and frontier node at its exact handle forces: one
@@ -159,9 +159,9 @@ impl Adaptive {
                 touched += 1;
             }
         }
-        for idx in 0..self.cache.sel.len() {
-            let n = self.cache.sel[idx];
-            self.cache.valid[n] = false;
+        for idx in 0..self.cache.reselection.selected.len() {
+            let n = self.cache.reselection.selected[idx];
+            self.cache.tensors.node_valid[n] = false;
         }
         // 6. Old clusters' momenta (before the flags change), the new hierarchy, the impulse.
         let mut moving = false;
@@ -178,14 +178,16 @@ impl Adaptive {
         if moving {
             self.cluster_momenta(model);
         }
-        let mut leaving = std::mem::take(&mut self.cache.leaving);
+        let mut leaving = std::mem::take(&mut self.cache.reselection.leaving);
         leaving.clear();
         for &j in &self.hier.ajoints {
             if !self.queue.selected[tree.joint_node[j]] {
                 leaving.push(j);
             }
         }
-        let same = self.hier.valid && self.hier.from_cache && self.cache.sel == self.hier.hnodes;
+        let same = self.hier.valid
+            && self.hier.from_cache
+            && self.cache.reselection.selected == self.hier.hnodes;
         self.rebuild_hierarchy_cached(model);
         // Same active joints and no impulse: their kinematics in `data` are this step's.
         self.hier.kin_fresh = same && !moving;
@@ -207,7 +209,7 @@ impl Adaptive {
             state.qd[b.v_offset..b.v_offset + b.nv].fill(0.0);
             self.body.qdd[b.v_offset..b.v_offset + b.nv].fill(0.0);
         }
-        self.cache.leaving = leaving;
+        self.cache.reselection.leaving = leaving;
         self.fresh.valid = false;
         self.touched = touched;
         Ok(moving)
@@ -229,64 +231,30 @@ impl Adaptive {
     /// when the selection reads a node. Returns the nodes marked.
     fn dirty_paths(&mut self, model: &Model, ep: u64) -> usize {
         let tree = &model.assembly;
-        self.cache.dirty.clear();
-        if !self.forces.sparse.is_empty() && !self.cache.no_maps {
+        self.cache.dirty.nodes.clear();
+        if !self.forces.sparse.is_empty() && !self.cache.without_maps {
             // The maps' storage, at the first re-selection with external forces.
             self.map_alloc(model);
         }
-        let x_cw = SpatialTransform::xlt(self.data.origin);
-        for k in 0..self.forces.sparse.len() {
-            let (i, fe) = self.forces.sparse[k];
-            let leaf = tree.body_leaf[i];
-            if tree.nodes[leaf].parent.is_none_or(|p| self.body.active[p]) {
-                // A frontier leaf: its own rigid coefficients take the force.
-                self.forces.node_sums[leaf] += x_cw.apply_force(fe);
-                continue;
-            }
-            let fresh = self.cache.dstamp[leaf] != ep;
-            if fresh {
-                self.forces.node_sums[leaf] = SpatialForce::ZERO;
-            }
-            self.forces.node_sums[leaf] += x_cw.apply_force(fe);
-            if !fresh {
-                // Its path is marked (and counted) already.
-                continue;
-            }
-            let mut n = leaf;
-            loop {
-                if self.cache.dstamp[n] == ep {
-                    // Below it another forced leaf's path: two or more leaves from here up.
-                    self.cache.nforced[n] = 2;
-                } else {
-                    self.cache.dstamp[n] = ep;
-                    self.cache.dirty.push(n);
-                    self.cache.nforced[n] = if self.cache.no_maps { 2 } else { 1 };
-                    self.cache.fleaf[n] = leaf;
-                }
-                match tree.nodes[n].parent.filter(|&p| !self.body.active[p]) {
-                    Some(p) => n = p,
-                    None => break,
-                }
-            }
-        }
-        if self.cache.dirty.is_empty() {
+        self.mark_forced_paths(model, ep);
+        if self.cache.dirty.nodes.is_empty() {
             return 0;
         }
         // Post-order: children before parents.
-        self.cache.dirty.sort_unstable();
+        self.cache.dirty.nodes.sort_unstable();
         // A node with one forced leaf below it takes its deltas from its path's map when its
-        // record holds (`mok`; valid while the caches below it stay), built on the second
-        // sighting; which maps must be built, bottom-up.
+        // record holds (`dirty.map_valid`; valid while the caches below it stay), built on the
+        // second sighting; which maps must be built, bottom-up.
         let mut build = false;
-        if !self.cache.no_maps {
-            for idx in 0..self.cache.dirty.len() {
-                let d = self.cache.dirty[idx];
-                let ok = self.cache.nforced[d] == 1 && self.map_holds(model, d);
-                if self.cache.nforced[d] == 1 && !ok {
+        if !self.cache.without_maps {
+            for idx in 0..self.cache.dirty.nodes.len() {
+                let d = self.cache.dirty.nodes[idx];
+                let ok = self.cache.dirty.forced_leaves[d] == 1 && self.map_holds(model, d);
+                if self.cache.dirty.forced_leaves[d] == 1 && !ok {
                     self.map_record(d);
                 }
-                build |= ok && !self.cache.mbuilt[d];
-                self.cache.mok[d] = ok;
+                build |= ok && !self.cache.maps.built[d];
+                self.cache.dirty.map_valid[d] = ok;
             }
         }
         // A mapped node is the top of its part of the path when its parent is not dirty (the
@@ -294,31 +262,31 @@ impl Adaptive {
         let top = |ad: &Adaptive, d: usize| {
             tree.nodes[d]
                 .parent
-                .is_none_or(|p| ad.cache.dstamp[p] != ep || !ad.cache.mok[p])
+                .is_none_or(|p| ad.cache.dirty.dirty_stamp[p] != ep || !ad.cache.dirty.map_valid[p])
         };
         // Top-down (parents first): frames, velocities and joint points of the nodes a map
         // build or `dirty_delta` reads; with every map built, only of the nodes without a map
         // and of the tops (the selection sets the others' if it gets there).
-        for idx in (0..self.cache.dirty.len()).rev() {
-            let d = self.cache.dirty[idx];
-            let mapped = !self.cache.no_maps && self.cache.mok[d];
+        for idx in (0..self.cache.dirty.nodes.len()).rev() {
+            let d = self.cache.dirty.nodes[idx];
+            let mapped = !self.cache.without_maps && self.cache.dirty.map_valid[d];
             if !build && mapped && !top(self, d) {
                 continue;
             }
             let parent_dirty = tree.nodes[d]
                 .parent
-                .is_some_and(|p| self.cache.dstamp[p] == ep);
+                .is_some_and(|p| self.cache.dirty.dirty_stamp[p] == ep);
             if !parent_dirty {
                 // The cluster: its frame from its top body.
                 let x = self.cache_frame(d);
-                self.cache.cx[d] = x;
-                self.cache.cu[d] = if self.composites.grounded[d] {
+                self.cache.reselection.frame_pose[d] = x;
+                self.cache.reselection.frame_velocity[d] = if self.composites.grounded[d] {
                     SpatialMotion::ZERO
                 } else {
                     x.inv_apply_motion(self.data.v[self.composites.top[d]])
                 };
             }
-            self.cache.stamp[d] = ep;
+            self.cache.reselection.slots_stamp[d] = ep;
             if !build && mapped {
                 continue;
             }
@@ -330,30 +298,33 @@ impl Adaptive {
             else {
                 continue;
             };
-            let (xd, ud) = (self.cache.cx[d], self.cache.cu[d]);
+            let (xd, ud) = (
+                self.cache.reselection.frame_pose[d],
+                self.cache.reselection.frame_velocity[d],
+            );
             for ch in [a, b] {
                 // The children's velocities; their frames when they are dirty or leaves, and
                 // B's (its origin is the joint's point; a clean join's frame is set by the
                 // selection if it gets there).
-                let rel = self.cache.rel[ch];
-                self.cache.cu[ch] = rel.inv_apply_motion(ud);
+                let rel = self.cache.tensors.parent_pose[ch];
+                self.cache.reselection.frame_velocity[ch] = rel.inv_apply_motion(ud);
                 if ch == b
-                    || self.cache.dstamp[ch] == ep
+                    || self.cache.dirty.dirty_stamp[ch] == ep
                     || !matches!(tree.nodes[ch].kind, NodeKind::Join { .. })
                 {
-                    self.cache.cx[ch] = xd * rel;
-                    self.cache.stamp[ch] = ep;
+                    self.cache.reselection.frame_pose[ch] = xd * rel;
+                    self.cache.reselection.slots_stamp[ch] = ep;
                 }
             }
             // The joint's point (its child body's origin, B's top body: a leaf's handle).
-            self.coef.point[joint] = self.cache.cx[b].apply_point(DVec3::ZERO);
+            self.coef.point[joint] = self.cache.reselection.frame_pose[b].apply_point(DVec3::ZERO);
         }
         // Bottom-up: what the forces add, from the forced leaves up — maps (re)built where
         // invalid and evaluated at the tops, the nodes with several leaves by `dirty_delta`.
-        for idx in 0..self.cache.dirty.len() {
-            let d = self.cache.dirty[idx];
-            if !self.cache.no_maps && self.cache.mok[d] {
-                if !self.cache.mbuilt[d] {
+        for idx in 0..self.cache.dirty.nodes.len() {
+            let d = self.cache.dirty.nodes[idx];
+            if !self.cache.without_maps && self.cache.dirty.map_valid[d] {
+                if !self.cache.maps.built[d] {
                     match tree.nodes[d].kind {
                         NodeKind::Join { .. } => self.join_map(model, d),
                         _ => self.leaf_map(model, d),
@@ -372,13 +343,57 @@ impl Adaptive {
                 NodeKind::Body(_) => self.leaf_delta(model, d, self.forces.node_sums[d]),
                 NodeKind::Join { .. } => self.dirty_delta(model, d),
             }
-            self.cache.dvstamp[d] = ep;
+            self.cache.dirty.delta_stamp[d] = ep;
         }
-        self.cache.dirty.len()
+        self.cache.dirty.nodes.len()
+    }
+
+    /// The first stage of [`Adaptive::dirty_paths`]: each external force summed into its
+    /// leaf (a frontier leaf's own rigid coefficients take it), and the path from each forced
+    /// leaf up to its cluster marked dirty (stamped `ep`, listed in `dirty.nodes`), with the
+    /// number of forced leaves below each node (2: several) and the one leaf when there is one.
+    fn mark_forced_paths(&mut self, model: &Model, ep: u64) {
+        let tree = &model.assembly;
+        let x_cw = SpatialTransform::xlt(self.data.origin);
+        for k in 0..self.forces.sparse.len() {
+            let (i, fe) = self.forces.sparse[k];
+            let leaf = tree.body_leaf[i];
+            if tree.nodes[leaf].parent.is_none_or(|p| self.body.active[p]) {
+                // A frontier leaf: its own rigid coefficients take the force.
+                self.forces.node_sums[leaf] += x_cw.apply_force(fe);
+                continue;
+            }
+            let fresh = self.cache.dirty.dirty_stamp[leaf] != ep;
+            if fresh {
+                self.forces.node_sums[leaf] = SpatialForce::ZERO;
+            }
+            self.forces.node_sums[leaf] += x_cw.apply_force(fe);
+            if !fresh {
+                // Its path is marked (and counted) already.
+                continue;
+            }
+            let mut n = leaf;
+            loop {
+                if self.cache.dirty.dirty_stamp[n] == ep {
+                    // Below it another forced leaf's path: two or more leaves from here up.
+                    self.cache.dirty.forced_leaves[n] = 2;
+                } else {
+                    self.cache.dirty.dirty_stamp[n] = ep;
+                    self.cache.dirty.nodes.push(n);
+                    self.cache.dirty.forced_leaves[n] = if self.cache.without_maps { 2 } else { 1 };
+                    self.cache.dirty.forced_leaf[n] = leaf;
+                }
+                match tree.nodes[n].parent.filter(|&p| !self.body.active[p]) {
+                    Some(p) => n = p,
+                    None => break,
+                }
+            }
+        }
     }
 
     /// `A` of every node of the old active region and its frontier at the exact handle forces
-    /// (`amet`, stamped `astamp`): see [`Adaptive::cached_reselect`].
+    /// (`reselection.exact_metric`, stamped `exact_metric_stamp`): see
+    /// [`Adaptive::cached_reselect`].
     fn active_metrics(&mut self, model: &Model, ep: u64) {
         let tree = &model.assembly;
         let root = tree.root();
@@ -390,11 +405,14 @@ impl Adaptive {
         }
         for idx in 0..self.hier.fnodes.len() {
             let f = self.hier.fnodes[idx];
-            self.cache.amet[f] = match tree.nodes[f].kind {
+            self.cache.reselection.exact_metric[f] = match tree.nodes[f].kind {
                 NodeKind::Join { .. } => {
-                    let (x, u) = (self.cache.cx[f], self.cache.cu[f]);
+                    let (x, u) = (
+                        self.cache.reselection.frame_pose[f],
+                        self.cache.reselection.frame_velocity[f],
+                    );
                     let a = self.metric_local(f, &x, u);
-                    if self.cache.dstamp[f] == ep {
+                    if self.cache.dirty.dirty_stamp[f] == ep {
                         a + self.metric_delta(f)
                     } else {
                         a
@@ -402,7 +420,7 @@ impl Adaptive {
                 }
                 _ => 0.0,
             };
-            self.cache.astamp[f] = ep;
+            self.cache.reselection.exact_metric_stamp[f] = ep;
         }
         for idx in 0..self.hier.hnodes.len() {
             let n = self.hier.hnodes[idx];
@@ -421,8 +439,10 @@ impl Adaptive {
                 &self.body.qdd[vo..vo + k],
                 k,
             );
-            self.cache.amet[n] = own + self.cache.amet[a] + self.cache.amet[b];
-            self.cache.astamp[n] = ep;
+            self.cache.reselection.exact_metric[n] = own
+                + self.cache.reselection.exact_metric[a]
+                + self.cache.reselection.exact_metric[b];
+            self.cache.reselection.exact_metric_stamp[n] = ep;
         }
     }
 
@@ -431,21 +451,24 @@ impl Adaptive {
     /// its children their frames (`rel`), velocities and metric coefficients.
     fn select_cached(&mut self, model: &Model, ep: u64, touched: &mut usize) -> Selection {
         let tree = &model.assembly;
-        for idx in 0..self.cache.sel.len() {
-            let n = self.cache.sel[idx];
+        for idx in 0..self.cache.reselection.selected.len() {
+            let n = self.cache.reselection.selected[idx];
             self.queue.selected[n] = false;
         }
-        self.cache.sel.clear();
-        let total = self.cache.amet[tree.root()];
+        self.cache.reselection.selected.clear();
+        let total = self.cache.reselection.exact_metric[tree.root()];
         let sel = self.run_queue(
             model,
             total,
             |ad, n| {
-                ad.cache.sel.push(n);
+                ad.cache.reselection.selected.push(n);
                 if !ad.body.active[n] {
-                    let (x, u) = (ad.cache.cx[n], ad.cache.cu[n]);
+                    let (x, u) = (
+                        ad.cache.reselection.frame_pose[n],
+                        ad.cache.reselection.frame_velocity[n],
+                    );
                     ad.eval_cache(model, n, &x, u, Part::Maps);
-                    if ad.cache.dstamp[n] == ep {
+                    if ad.cache.dirty.dirty_stamp[n] == ep {
                         // Plus what the forces on its dirty paths add.
                         ad.ensure_delta(model, n);
                         if let NodeKind::Join { joint, .. } = tree.nodes[n].kind {
@@ -453,10 +476,10 @@ impl Adaptive {
                             let r = body.v_offset..body.v_offset + body.nv;
                             ad.maps.qdd_bias[r.clone()]
                                 .iter_mut()
-                                .zip(&ad.cache.dk[r])
+                                .zip(&ad.cache.dirty.delta_k[r])
                                 .for_each(|(k, d)| *k += d);
                         }
-                        let dn = rot6(&rows3(&x.e), &ad.cache.dn[n]);
+                        let dn = rot6(&rows3(&x.e), &ad.cache.dirty.delta_n[n]);
                         for (v, d) in ad.maps.force_bias[n].iter_mut().zip(dn) {
                             *v += d;
                         }
@@ -467,25 +490,29 @@ impl Adaptive {
                 ad.body.active[n]
             },
             |ad, n, c| {
-                if !ad.body.active[n] && ad.cache.stamp[c] != ep {
+                if !ad.body.active[n] && ad.cache.reselection.slots_stamp[c] != ep {
                     // Below the old frontier: the child's frame and velocity from n's.
-                    let rel = ad.cache.rel[c];
-                    ad.cache.cx[c] = ad.cache.cx[n] * rel;
-                    ad.cache.cu[c] = rel.inv_apply_motion(ad.cache.cu[n]);
-                    ad.cache.stamp[c] = ep;
+                    let rel = ad.cache.tensors.parent_pose[c];
+                    ad.cache.reselection.frame_pose[c] = ad.cache.reselection.frame_pose[n] * rel;
+                    ad.cache.reselection.frame_velocity[c] =
+                        rel.inv_apply_motion(ad.cache.reselection.frame_velocity[n]);
+                    ad.cache.reselection.slots_stamp[c] = ep;
                 }
                 if !matches!(tree.nodes[c].kind, NodeKind::Join { .. }) {
                     return None;
                 }
-                Some(if ad.cache.astamp[c] == ep {
-                    ad.cache.amet[c]
-                } else if ad.cache.pstamp[c] == ep {
+                Some(if ad.cache.reselection.exact_metric_stamp[c] == ep {
+                    ad.cache.reselection.exact_metric[c]
+                } else if ad.cache.reselection.metric_stamp[c] == ep {
                     ad.metric_at(c)
                 } else {
                     *touched += 1;
-                    let (x, u) = (ad.cache.cx[c], ad.cache.cu[c]);
+                    let (x, u) = (
+                        ad.cache.reselection.frame_pose[c],
+                        ad.cache.reselection.frame_velocity[c],
+                    );
                     let a = ad.metric_local(c, &x, u);
-                    if ad.cache.dstamp[c] == ep {
+                    if ad.cache.dirty.dirty_stamp[c] == ep {
                         ad.ensure_delta(model, c);
                         a + ad.metric_delta(c)
                     } else {
@@ -495,13 +522,13 @@ impl Adaptive {
             },
         );
         // Post-order for the hierarchy.
-        self.cache.sel.sort_unstable();
+        self.cache.reselection.selected.sort_unstable();
         sel
     }
 
     /// Spatial momentum (computation frame, about its origin) of every old cluster, summed up
     /// the old active region, and of the rigid nodes the selection reached below it (from
-    /// their caches at their frames and velocities): `hm`.
+    /// their caches at their frames and velocities): `reselection.locking_momentum`.
     fn cluster_momenta(&mut self, model: &Model) {
         let tree = &model.assembly;
         let momentum = |r: &Rigid, x: &SpatialTransform, u: SpatialMotion| {
@@ -510,10 +537,14 @@ impl Adaptive {
         };
         for idx in 0..self.hier.fnodes.len() {
             let f = self.hier.fnodes[idx];
-            self.cache.hm[f] = if self.composites.grounded[f] {
+            self.cache.reselection.locking_momentum[f] = if self.composites.grounded[f] {
                 SpatialForce::ZERO
             } else {
-                momentum(&self.hier.rig[f], &self.cache.cx[f], self.cache.cu[f])
+                momentum(
+                    &self.hier.rig[f],
+                    &self.cache.reselection.frame_pose[f],
+                    self.cache.reselection.frame_velocity[f],
+                )
             };
         }
         for idx in 0..self.hier.hnodes.len() {
@@ -524,11 +555,13 @@ impl Adaptive {
                 ..
             } = tree.nodes[n].kind
             {
-                self.cache.hm[n] = self.cache.hm[a] + self.cache.hm[b];
+                self.cache.reselection.locking_momentum[n] =
+                    self.cache.reselection.locking_momentum[a]
+                        + self.cache.reselection.locking_momentum[b];
             }
         }
-        for idx in 0..self.cache.sel.len() {
-            let n = self.cache.sel[idx];
+        for idx in 0..self.cache.reselection.selected.len() {
+            let n = self.cache.reselection.selected[idx];
             if self.body.active[n] {
                 continue;
             }
@@ -540,10 +573,15 @@ impl Adaptive {
             {
                 for c in [a, b] {
                     if !self.queue.selected[c] {
-                        self.cache.hm[c] = if self.composites.grounded[c] {
+                        self.cache.reselection.locking_momentum[c] = if self.composites.grounded[c]
+                        {
                             SpatialForce::ZERO
                         } else {
-                            momentum(&self.cache.rig[c], &self.cache.cx[c], self.cache.cu[c])
+                            momentum(
+                                &self.cache.tensors.composite[c],
+                                &self.cache.reselection.frame_pose[c],
+                                self.cache.reselection.frame_velocity[c],
+                            )
                         };
                     }
                 }
@@ -556,16 +594,16 @@ impl Adaptive {
     fn reduced_momenta(&mut self, gm: &mut [f64]) {
         let h = &mut self.hier;
         for idx in 0..h.rec.len() {
-            h.pa[idx] = self.cache.hm[h.rec[idx].f()].to_array();
+            h.aba.pa[idx] = self.cache.reselection.locking_momentum[h.rec[idx].f()].to_array();
         }
         for idx in (0..h.rec.len()).rev() {
             let r = &h.rec[idx];
-            let hj = SpatialForce::from_array(h.pa[idx]);
+            let hj = SpatialForce::from_array(h.aba.pa[idx]);
             for p in 0..r.k() {
                 gm[r.vo() + p] = self.data.s[r.vo() + p].dot(hj);
             }
             if r.pidx() != NO_PARENT {
-                let pp = &mut h.pa[r.pidx()];
+                let pp = &mut h.aba.pa[r.pidx()];
                 for (x, y) in pp.iter_mut().zip(hj.to_array()) {
                     *x += y;
                 }
@@ -573,13 +611,14 @@ impl Adaptive {
         }
     }
 
-    /// The hierarchical state of the newly selected hybrid body (`cache.sel`), touching the
-    /// old and new active regions only: flags, node and joint lists, clusters' mass properties
-    /// and the poses of active joints' parent bodies from the caches.
+    /// The hierarchical state of the newly selected hybrid body
+    /// (`cache.reselection.selected`), touching the old and new active regions only: flags,
+    /// node and joint lists, clusters' mass properties and the poses of active joints' parent
+    /// bodies from the caches.
     fn rebuild_hierarchy_cached(&mut self, model: &Model) {
         let tree = &model.assembly;
         let h = &mut self.hier;
-        if h.valid && h.from_cache && self.cache.sel == h.hnodes {
+        if h.valid && h.from_cache && self.cache.reselection.selected == h.hnodes {
             // The same hybrid body, whose lists, clusters and poses came from the caches
             // already: nothing changes.
             return;
@@ -593,11 +632,11 @@ impl Adaptive {
         h.hnodes.clear();
         h.fnodes.clear();
         h.ajoints.clear();
-        for &n in &self.cache.sel {
+        for &n in &self.cache.reselection.selected {
             self.body.active[n] = true;
             h.hnodes.push(n);
         }
-        for &n in &self.cache.sel {
+        for &n in &self.cache.reselection.selected {
             if let NodeKind::Join {
                 joint,
                 parent_side: a,
@@ -620,7 +659,7 @@ impl Adaptive {
         h.ajoints.sort_unstable();
         for &f in &h.fnodes {
             if !self.composites.grounded[f] {
-                h.rig[f] = self.cache.rig[f];
+                h.rig[f] = self.cache.tensors.composite[f];
             }
         }
         let cluster = |mut n: usize, active: &[bool]| {
@@ -646,7 +685,7 @@ impl Adaptive {
                                 .iter()
                                 .position(|&x| x == j)
                                 .expect("an active joint on a cluster is one of its handles");
-                            self.cache.hpose[self.coef.layout.hoff[f] + k]
+                            self.cache.tensors.handle_pose[self.coef.layout.hoff[f] + k]
                         }
                         _ => SpatialTransform::IDENTITY,
                     };

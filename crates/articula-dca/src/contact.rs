@@ -663,79 +663,10 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     cd.s.wrench.clear();
     cd.s.target.clear();
     if let Some((g, n)) = ground {
-        let (t1, t2) = tangents(n);
-        // Broad phase: a run of one body's spheres whose ball is above the ground by more
-        // than the margin plus what its fastest point can close in the step has no
-        // candidate (each sphere's gap is at least the ball's, its approach speed at most
-        // the ball centre's plus |ω| times the reach; 1 nm covers the rounding).
-        for run in &cd.shape.runs {
-            let cw = data.x[run.body].apply_point(run.center);
-            let v = data.v[run.body];
-            let gap = n.dot(cw + data.origin - g.point) - run.reach;
-            let pre = n.dot(v.v + v.w.cross(cw)) - v.w.length() * run.reach;
-            if gap >= settings.margin + dt * (-pre).max(0.0) + 1e-9 {
-                continue;
-            }
-            for si in run.first..run.end {
-                let s = &cd.shape.collision.spheres[si];
-                let c = data.x[s.body].apply_point(s.center);
-                let phi = n.dot(c + data.origin - g.point) - s.radius;
-                cd.stats.max_penetration = cd.stats.max_penetration.max(-phi);
-                let r = c - n * s.radius;
-                let v = data.v[s.body];
-                let pre = n.dot(v.v + v.w.cross(r));
-                if phi >= settings.margin + dt * (-pre).max(0.0) {
-                    continue;
-                }
-                let row = cd.s.phi.len();
-                cd.s.sources.push((
-                    Source::Sphere {
-                        sphere: si,
-                        body: s.body,
-                    },
-                    row,
-                ));
-                cd.s.blocks.push(Block::Contact {
-                    row,
-                    mu: g.friction,
-                });
-                // An impact in this step (the gap closes at the start-of-step speed) fast enough
-                // to bounce leaves at e times that speed; otherwise the gap may close, not cross.
-                let bounce = g.restitution > 0.0
-                    && pre < -settings.restitution_velocity
-                    && phi + dt * pre <= settings.slop;
-                let target = if bounce {
-                    -g.restitution * pre
-                } else {
-                    -phi.max(0.0) / dt
-                };
-                for (d, p, t) in [(n, phi, target), (t1, 0.0, 0.0), (t2, 0.0, 0.0)] {
-                    cd.s.wrench.push(SpatialForce::new(r.cross(d), d));
-                    cd.s.phi.push(p);
-                    cd.s.target.push(t);
-                }
-            }
-        }
+        ground_candidates(cd, data, g, n, dt, settings);
     }
     if settings.joint_limits {
-        for (li, b) in cd.shape.bounds.iter().enumerate() {
-            // A joint that does not move in this step (locked in a hybrid body) has no row.
-            let phi = b.sign * (state.q[b.qi] - b.bound);
-            let pre = b.sign * state.qd[b.vi];
-            if phi >= settings.margin + dt * (-pre).max(0.0) || !dynamics.moves(model, b.body) {
-                continue;
-            }
-            let row = cd.s.phi.len();
-            cd.s.sources.push((Source::Limit { limit: li }, row));
-            cd.s.blocks.push(Block::Unilateral { row });
-            cd.s.wrench.push(SpatialForce::ZERO);
-            cd.s.phi.push(phi);
-            cd.s.target.push(if phi > settings.slop {
-                -phi / dt
-            } else {
-                -phi.max(0.0) / dt
-            });
-        }
+        limit_candidates(model, &*dynamics, cd, state, dt, settings);
     }
     cd.stats.candidates =
         cd.s.sources
@@ -756,6 +687,140 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     }
     let k = cd.s.phi.len();
     cd.stats.rows = k;
+    row_free_velocities(cd);
+    // 4. W = J M⁻¹ Jᵀ by columns: per contact node, its 6 unit wrenches' responses at the
+    //    contact nodes (each row's column a combination of those) or one response per row,
+    //    whichever costs less.
+    delassus(cd, ground.map(|(_, n)| contact_frame(n)));
+    cd.stats.response_solves = cd.columns;
+    cd.s.lambda.clear();
+    for &(src, _) in &cd.s.sources {
+        match src {
+            Source::Sphere { sphere, .. } => {
+                cd.s.lambda.extend_from_slice(&cd.warm_spheres[sphere]);
+            }
+            Source::Limit { limit } => cd.s.lambda.push(cd.warm_bounds[limit]),
+        }
+    }
+    cd.s.u.clear();
+    cd.s.u.resize(k, 0.0);
+    let solve = solve_rows(&mut cd.s, settings, settings.tolerance);
+    cd.stats.iterations = solve.iterations;
+    cd.stats.converged = solve.converged;
+    store_warm_starts(cd);
+    record_forces(cd, origin, dt);
+    // 5. q̇⁺ = v_free + M⁻¹ Jᵀ λ (one pass over the tree), q⁺ = q ⊕ dt q̇⁺.
+    impulse_response(cd);
+    state.qd.copy_from_slice(&cd.s.qd_free);
+    for (x, d) in state.qd.iter_mut().zip(&cd.s.delta) {
+        *x += d;
+    }
+    dynamics.integrate(model, &mut state.q, &state.qd, dt);
+    // 6. Post-stabilisation of what penetrates deeper than the slop.
+    post_stabilise(model, dynamics, cd, state, dt, settings);
+    finish(model, state)
+}
+
+/// Stage 2 of [`step_with_dynamics`] at the ground: the candidate contact spheres (those the
+/// step may bring within the margin), three rows each, from the kinematics `data` of the
+/// start of the step.
+fn ground_candidates(
+    cd: &mut ContactData,
+    data: &Data,
+    g: Ground,
+    n: DVec3,
+    dt: f64,
+    settings: &ContactSettings,
+) {
+    let (t1, t2) = tangents(n);
+    // Broad phase: a run of one body's spheres whose ball is above the ground by more
+    // than the margin plus what its fastest point can close in the step has no
+    // candidate (each sphere's gap is at least the ball's, its approach speed at most
+    // the ball centre's plus |ω| times the reach; 1 nm covers the rounding).
+    for run in &cd.shape.runs {
+        let cw = data.x[run.body].apply_point(run.center);
+        let v = data.v[run.body];
+        let gap = n.dot(cw + data.origin - g.point) - run.reach;
+        let pre = n.dot(v.v + v.w.cross(cw)) - v.w.length() * run.reach;
+        if gap >= settings.margin + dt * (-pre).max(0.0) + 1e-9 {
+            continue;
+        }
+        for si in run.first..run.end {
+            let s = &cd.shape.collision.spheres[si];
+            let c = data.x[s.body].apply_point(s.center);
+            let phi = n.dot(c + data.origin - g.point) - s.radius;
+            cd.stats.max_penetration = cd.stats.max_penetration.max(-phi);
+            let r = c - n * s.radius;
+            let v = data.v[s.body];
+            let pre = n.dot(v.v + v.w.cross(r));
+            if phi >= settings.margin + dt * (-pre).max(0.0) {
+                continue;
+            }
+            let row = cd.s.phi.len();
+            cd.s.sources.push((
+                Source::Sphere {
+                    sphere: si,
+                    body: s.body,
+                },
+                row,
+            ));
+            cd.s.blocks.push(Block::Contact {
+                row,
+                mu: g.friction,
+            });
+            // An impact in this step (the gap closes at the start-of-step speed) fast enough
+            // to bounce leaves at e times that speed; otherwise the gap may close, not cross.
+            let bounce = g.restitution > 0.0
+                && pre < -settings.restitution_velocity
+                && phi + dt * pre <= settings.slop;
+            let target = if bounce {
+                -g.restitution * pre
+            } else {
+                -phi.max(0.0) / dt
+            };
+            for (d, p, t) in [(n, phi, target), (t1, 0.0, 0.0), (t2, 0.0, 0.0)] {
+                cd.s.wrench.push(SpatialForce::new(r.cross(d), d));
+                cd.s.phi.push(p);
+                cd.s.target.push(t);
+            }
+        }
+    }
+}
+
+/// Stage 2 of [`step_with_dynamics`] at the joint limits: one unilateral row per bound the
+/// step may reach, for the joints that move.
+fn limit_candidates<D: ContactDynamics + ?Sized>(
+    model: &Model,
+    dynamics: &D,
+    cd: &mut ContactData,
+    state: &State,
+    dt: f64,
+    settings: &ContactSettings,
+) {
+    for (li, b) in cd.shape.bounds.iter().enumerate() {
+        // A joint that does not move in this step (locked in a hybrid body) has no row.
+        let phi = b.sign * (state.q[b.qi] - b.bound);
+        let pre = b.sign * state.qd[b.vi];
+        if phi >= settings.margin + dt * (-pre).max(0.0) || !dynamics.moves(model, b.body) {
+            continue;
+        }
+        let row = cd.s.phi.len();
+        cd.s.sources.push((Source::Limit { limit: li }, row));
+        cd.s.blocks.push(Block::Unilateral { row });
+        cd.s.wrench.push(SpatialForce::ZERO);
+        cd.s.phi.push(phi);
+        cd.s.target.push(if phi > settings.slop {
+            -phi / dt
+        } else {
+            -phi.max(0.0) / dt
+        });
+    }
+}
+
+/// Stage 3 of [`step_with_dynamics`]: each row's node of the articulated tree, the nodes the
+/// rows read, and the rows' free velocities `u_free = J v_free`.
+fn row_free_velocities(cd: &mut ContactData) {
+    let k = cd.s.phi.len();
     cd.s.row_node.clear();
     cd.s.row_bound.clear();
     cd.s.row_dir.clear();
@@ -788,26 +853,11 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
         let x = row_value(cd, i, |_| v, |dof| cd.s.qd_free[dof]);
         cd.s.u_free.push(x);
     }
-    // 4. W = J M⁻¹ Jᵀ by columns: per contact node, its 6 unit wrenches' responses at the
-    //    contact nodes (each row's column a combination of those) or one response per row,
-    //    whichever costs less.
-    delassus(cd, ground.map(|(_, n)| contact_frame(n)));
-    cd.stats.response_solves = cd.columns;
-    cd.s.lambda.clear();
-    for &(src, _) in &cd.s.sources {
-        match src {
-            Source::Sphere { sphere, .. } => {
-                cd.s.lambda.extend_from_slice(&cd.warm_spheres[sphere]);
-            }
-            Source::Limit { limit } => cd.s.lambda.push(cd.warm_bounds[limit]),
-        }
-    }
-    cd.s.u.clear();
-    cd.s.u.resize(k, 0.0);
-    let solve = solve_rows(&mut cd.s, settings, settings.tolerance);
-    cd.stats.iterations = solve.iterations;
-    cd.stats.converged = solve.converged;
-    // Warm starts for the next step: these rows' impulses, zero elsewhere (the entries the
+}
+
+/// Warm starts for the next step: this step's impulses of its rows (spheres and bounds), and
+/// the contacts and limits that push.
+fn store_warm_starts(cd: &mut ContactData) {
     // last solve set are the only ones not zero).
     for &src in &cd.warm_set {
         match src {
@@ -830,33 +880,37 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
             }
         }
     }
-    record_forces(cd, origin, dt);
-    // 5. q̇⁺ = v_free + M⁻¹ Jᵀ λ (one pass over the tree), q⁺ = q ⊕ dt q̇⁺.
+}
+
+/// Stage 6 of [`step_with_dynamics`]: a position-only correction of what penetrates deeper
+/// than the slop (normal and limit rows, friction off), integrated as a displacement.
+fn post_stabilise<D: ContactDynamics + ?Sized>(
+    model: &Model,
+    dynamics: &mut D,
+    cd: &mut ContactData,
+    state: &mut State,
+    dt: f64,
+    settings: &ContactSettings,
+) {
+    let k = cd.s.phi.len();
+    if !cd.s.phi.iter().any(|&p| p < -settings.slop) {
+        return;
+    }
+    // Normal and limit rows only: friction is off (tangent rows' targets are ignored and
+    // their impulses kept at 0 by μ = 0).
+    for b in cd.s.blocks.iter_mut() {
+        if let Block::Contact { mu, .. } = b {
+            *mu = 0.0;
+        }
+    }
+    for i in 0..k {
+        cd.s.u_free[i] = 0.0;
+        cd.s.target[i] = -cd.s.phi[i] - settings.slop;
+        cd.s.lambda[i] = 0.0;
+    }
+    solve_rows(&mut cd.s, settings, settings.tolerance * dt);
     impulse_response(cd);
-    state.qd.copy_from_slice(&cd.s.qd_free);
-    for (x, d) in state.qd.iter_mut().zip(&cd.s.delta) {
-        *x += d;
-    }
-    dynamics.integrate(model, &mut state.q, &state.qd, dt);
-    // 6. Post-stabilisation of what penetrates deeper than the slop.
-    if cd.s.phi.iter().any(|&p| p < -settings.slop) {
-        // Normal and limit rows only: friction is off (tangent rows' targets are ignored and
-        // their impulses kept at 0 by μ = 0).
-        for b in cd.s.blocks.iter_mut() {
-            if let Block::Contact { mu, .. } = b {
-                *mu = 0.0;
-            }
-        }
-        for i in 0..k {
-            cd.s.u_free[i] = 0.0;
-            cd.s.target[i] = -cd.s.phi[i] - settings.slop;
-            cd.s.lambda[i] = 0.0;
-        }
-        solve_rows(&mut cd.s, settings, settings.tolerance * dt);
-        impulse_response(cd);
-        dynamics.integrate(model, &mut state.q, &cd.s.delta, 1.0);
-    }
-    finish(model, state)
+    dynamics.integrate(model, &mut state.q, &cd.s.delta, 1.0);
 }
 
 /// The step's rows solved ([`contact_solver::solve_active`]) to `tolerance`, with the cap and

@@ -15,18 +15,8 @@ pub(crate) struct Hierarchy {
     /// The reduced tree, one record per active joint in the order of `ajoints` (parents
     /// first): what its kinematics and articulated-body passes read, contiguous.
     pub rec: Vec<ActiveJoint>,
-    /// Articulated-body workspace of the reduced tree (one rigid cluster per active joint),
-    /// indexed like `rec`: `Iᴬ`, `pᴬ`, the cluster's acceleration, `D⁻¹` (one DOF) or the
-    /// Cholesky factor of `D` (several); per degree of freedom (at `rec.dof()`) `U = Iᴬ s` and
-    /// `u = τ − sᵀ pᴬ`. `Iᴬ` is symmetric, stored whole with both halves equal to the bit
-    /// (a [`Mat6`] whose rows are contiguous vectors).
-    pub ia: Vec<Mat6>,
-    pub pa: Vec<[f64; 6]>,
-    pub acc: Vec<[f64; 6]>,
-    pub dinv: Vec<f64>,
-    pub chol: Vec<[[f64; 6]; 6]>,
-    pub u: Vec<[f64; 6]>,
-    pub uu: Vec<f64>,
+    /// Articulated-body workspace of the reduced tree, indexed like `rec`.
+    pub aba: ReducedAba,
     /// Per angle of the reduced tree — a closed-form revolute joint's, then each part of a
     /// joint of [`RevoluteParts`], in record order (the kinematics take them in turn) —
     /// its coordinate and sign (`ang`, built with the records) and the `sin`, `cos` of its
@@ -84,6 +74,28 @@ pub(crate) struct Hierarchy {
     pub split: crate::parts::subtrees::Subtrees,
 }
 
+/// Articulated-body workspace of the reduced tree (one rigid cluster per active joint),
+/// indexed like `Hierarchy::rec`; per degree of freedom at `rec.dof()`. The short names are the
+/// symbols of the articulated-body algorithm (docs/design.md#adaptive).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct ReducedAba {
+    /// The symbol `Iᴬ`: the cluster's articulated inertia, symmetric, stored whole with both
+    /// halves equal to the bit (a [`Mat6`] whose rows are contiguous vectors).
+    pub ia: Vec<Mat6>,
+    /// The symbol `pᴬ`: the cluster's articulated bias force.
+    pub pa: Vec<[f64; 6]>,
+    /// The cluster's spatial acceleration.
+    pub acceleration: Vec<[f64; 6]>,
+    /// The symbol `D⁻¹` of a one-DOF joint.
+    pub dinv: Vec<f64>,
+    /// The Cholesky factor of `D` of a joint of several DOF.
+    pub cholesky: Vec<[[f64; 6]; 6]>,
+    /// Per degree of freedom: the symbol `U = Iᴬ s`.
+    pub u: Vec<[f64; 6]>,
+    /// Per degree of freedom: the symbol `u = τ − sᵀ pᴬ`.
+    pub uu: Vec<f64>,
+}
+
 impl Hierarchy {
     /// The reduced tree's workspace at least as long as its records need (the
     /// articulated-body passes index it by record and degree of freedom): a shared buffer may
@@ -95,16 +107,16 @@ impl Hierarchy {
         let na = h.rec.len();
         let dof = h.rec.last().map_or(0, |r| r.dof() + r.k());
         let fits = [
-            h.ia.len(),
-            h.pa.len(),
-            h.acc.len(),
-            h.dinv.len(),
-            h.chol.len(),
+            h.aba.ia.len(),
+            h.aba.pa.len(),
+            h.aba.acceleration.len(),
+            h.aba.dinv.len(),
+            h.aba.cholesky.len(),
         ]
         .iter()
         .all(|&l| l >= na)
-            && h.u.len() >= dof
-            && h.uu.len() >= dof
+            && h.aba.u.len() >= dof
+            && h.aba.uu.len() >= dof
             && h.sc.len() >= h.ang.len();
         if !fits {
             self.grow_reduced(na, dof, full);
@@ -115,13 +127,13 @@ impl Hierarchy {
     #[inline(never)]
     fn grow_reduced(&mut self, na: usize, dof: usize, [nb, nv]: [usize; 2]) {
         let h = self;
-        grow(&mut h.ia, na, nb, Mat6::ZERO);
-        grow(&mut h.pa, na, nb, [0.0; 6]);
-        grow(&mut h.acc, na, nb, [0.0; 6]);
-        grow(&mut h.dinv, na, nb, 0.0);
-        grow(&mut h.chol, na, nb, [[0.0; 6]; 6]);
-        grow(&mut h.u, dof, nv, [0.0; 6]);
-        grow(&mut h.uu, dof, nv, 0.0);
+        grow(&mut h.aba.ia, na, nb, Mat6::ZERO);
+        grow(&mut h.aba.pa, na, nb, [0.0; 6]);
+        grow(&mut h.aba.acceleration, na, nb, [0.0; 6]);
+        grow(&mut h.aba.dinv, na, nb, 0.0);
+        grow(&mut h.aba.cholesky, na, nb, [[0.0; 6]; 6]);
+        grow(&mut h.aba.u, dof, nv, [0.0; 6]);
+        grow(&mut h.aba.uu, dof, nv, 0.0);
         grow(&mut h.sc, h.ang.len(), nv, (0.0, 1.0));
     }
 }
