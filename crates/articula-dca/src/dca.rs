@@ -752,8 +752,14 @@ fn join<A: Arith>(
             }
         }
         d.beta[n] = beta;
+        // Armature A (docs/loading.md#armature-and-damping): D = SᵀVS + A.
+        let arm = data
+            .armature
+            .get(vo..vo + k)
+            .filter(|a| a.iter().any(|&x| x != 0.0));
+        let identity = k == 6 && d.free_identity && arm.is_none();
         // L Lᵀ = Φ^A_jj + Φ^B_jj; a free joint's W is zero for any K (`mass_ratio.rs`).
-        let l = if k == 6 && d.free_identity {
+        let l = if identity {
             crate::mass_ratio::IDENTITY
         } else {
             crate::small::cholesky6_inv_diag(&sum).ok_or_else(|| DynamicsError::Singular {
@@ -775,6 +781,11 @@ fn join<A: Arith>(
                 dm.a[q][p] = x;
             }
         }
+        if let Some(arm) = arm {
+            for p in 0..k {
+                dm.a[p][p] += arm[p];
+            }
+        }
         if !dm.invert() {
             return Err(DynamicsError::Singular {
                 joint: body.joint_name(),
@@ -794,7 +805,7 @@ fn join<A: Arith>(
                 }
             }
         }
-        if k == 6 && d.free_identity {
+        if identity {
             // The back-substitution's q̈ with L = 1 (`mass_ratio.rs`).
             d.beta[n] = crate::mass_ratio::free_beta(&sum, &zd, &tau[vo..vo + 6], beta);
         }
@@ -809,10 +820,30 @@ fn join<A: Arith>(
         gamma = solve_lt(&l, &w);
         // Ỹ_h = Q L⁻¹ Φ_jh: forward substitution on whole rows of Φ_jh (vectorises), then the
         // projection Ỹ −= (Z D⁻¹)(Zᵀ Ỹ) (k rank-1 row updates).
+        // With armature Q = 1 − Z D⁻¹ Zᵀ is no projector: Ỹ_h = R L⁻¹ Φ_jh, RᵀR = Q.
+        let root = arm.map(|_| {
+            let mut q = [[0.0; 6]; 6];
+            for r in 0..6 {
+                for c in 0..6 {
+                    let zz: f64 = (0..k).map(|p| zd[p][r] * d.z[vo + p][c]).sum();
+                    q[r][c] = f64::from(u8::from(r == c)) - zz;
+                }
+            }
+            psd_root(q)
+        });
         for h in 0..nhc {
             let (bo, nh, j, i) = at.from(d, h);
             let g = cross_rows(&d.phi, bo, nh, j, i);
-            y_tilde(&mut d.y[at.ys + h], &g, &l, &d.z[vo..vo + k], &zd);
+            match &root {
+                None => y_tilde(&mut d.y[at.ys + h], &g, &l, &d.z[vo..vo + k], &zd),
+                Some(root) => {
+                    let mut yt = [[0.0; 6]; 6];
+                    y_tilde(&mut yt, &g, &l, &[], &zd);
+                    d.y[at.ys + h] = std::array::from_fn(|r| {
+                        std::array::from_fn(|c| (0..6).map(|s| root[r][s] * yt[s][c]).sum())
+                    });
+                }
+            }
         }
         rows = 6;
     }
@@ -962,6 +993,63 @@ fn y_tilde(
             }
         }
     }
+}
+
+/// A square root `R` of a symmetric positive semidefinite 6×6 `Q`: `RᵀR = Q`, from its
+/// eigen-decomposition `Q = V Λ Vᵀ` by cyclic Jacobi rotations, `R = Λ^½ Vᵀ` (negative
+/// eigenvalues of rounding taken as 0). For the joins of joints with armature.
+fn psd_root(mut a: [[f64; 6]; 6]) -> [[f64; 6]; 6] {
+    let mut v = [[0.0; 6]; 6];
+    for (i, row) in v.iter_mut().enumerate() {
+        row[i] = 1.0;
+    }
+    let scale: f64 = (0..6)
+        .map(|i| a[i][i].abs())
+        .sum::<f64>()
+        .max(f64::MIN_POSITIVE);
+    for _sweep in 0..50 {
+        let off: f64 = (0..6)
+            .flat_map(|p| (p + 1..6).map(move |q| (p, q)))
+            .map(|(p, q)| a[p][q] * a[p][q])
+            .sum();
+        if off.sqrt() <= 1e-18 * scale {
+            break;
+        }
+        for p in 0..6 {
+            for q in p + 1..6 {
+                if a[p][q] == 0.0 {
+                    continue;
+                }
+                let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+                let t = if theta == 0.0 {
+                    1.0
+                } else {
+                    theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt())
+                };
+                let c = 1.0 / (t * t + 1.0).sqrt();
+                let s = t * c;
+                for row in a.iter_mut() {
+                    let (x, y) = (row[p], row[q]);
+                    row[p] = c * x - s * y;
+                    row[q] = s * x + c * y;
+                }
+                for k in 0..6 {
+                    let (x, y) = (a[p][k], a[q][k]);
+                    a[p][k] = c * x - s * y;
+                    a[q][k] = s * x + c * y;
+                }
+                for row in v.iter_mut() {
+                    let (x, y) = (row[p], row[q]);
+                    row[p] = c * x - s * y;
+                    row[q] = s * x + c * y;
+                }
+            }
+        }
+    }
+    std::array::from_fn(|r| {
+        let l = a[r][r].max(0.0).sqrt();
+        std::array::from_fn(|s| l * v[s][r])
+    })
 }
 
 /// A pair `p`, `q` completing ω to an orthogonal basis: `p = ω × e` with `e` the coordinate
