@@ -811,10 +811,27 @@ fn join<A: Arith>(
         }
         // γ = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − Q)),  w = L⁻¹ β
         let mut w = solve_l(&l, &beta.to_array());
-        for p in 0..k {
-            let t = dot6::<A>(&d.z[vo + p], &w) - tau[vo + p];
-            for i in 0..6 {
-                w[i] -= zd[p][i] * t;
+        if arm.is_none() {
+            // Zᵀ Z D⁻¹ = 1: each update leaves the other columns' Zᵀw as they were.
+            for p in 0..k {
+                let t = dot6::<A>(&d.z[vo + p], &w) - tau[vo + p];
+                for i in 0..6 {
+                    w[i] -= zd[p][i] * t;
+                }
+            }
+        } else {
+            // With armature Zᵀ Z D⁻¹ ≠ 1: every Zᵀw before any update.
+            let t: [f64; 6] = std::array::from_fn(|p| {
+                if p < k {
+                    dot6::<A>(&d.z[vo + p], &w) - tau[vo + p]
+                } else {
+                    0.0
+                }
+            });
+            for p in 0..k {
+                for i in 0..6 {
+                    w[i] -= zd[p][i] * t[p];
+                }
             }
         }
         gamma = solve_lt(&l, &w);
@@ -1007,12 +1024,12 @@ fn psd_root(mut a: [[f64; 6]; 6]) -> [[f64; 6]; 6] {
         .map(|i| a[i][i].abs())
         .sum::<f64>()
         .max(f64::MIN_POSITIVE);
-    for _sweep in 0..50 {
+    for _sweep in 0..30 {
         let off: f64 = (0..6)
             .flat_map(|p| (p + 1..6).map(move |q| (p, q)))
             .map(|(p, q)| a[p][q] * a[p][q])
             .sum();
-        if off.sqrt() <= 1e-18 * scale {
+        if off.sqrt() <= 1e-16 * scale {
             break;
         }
         for p in 0..6 {

@@ -44,9 +44,27 @@ const MJCF: &str = r#"<mujoco model="armature">
   </worldbody>
 </mujoco>"#;
 
-fn model() -> Model {
-    Model::from_mjcf_str(MJCF, &LoadOptions::default()).unwrap()
-}
+/// A planar swimmer: a composed slide–slide–hinge root whose middle part alone has armature
+/// (a join whose `Zᵀ Z D⁻¹` is no identity), and two hinged links.
+const SWIMMER: &str = r#"<mujoco>
+  <default><joint armature="0.1"/></default>
+  <worldbody>
+    <body name="torso">
+      <geom fromto="0 0 0 0.5 0 0" size="0.1" type="capsule"/>
+      <joint axis="1 0 0" name="slider1" type="slide" armature="0"/>
+      <joint axis="0 1 0" name="slider2" type="slide"/>
+      <joint axis="0 0 1" name="rot" armature="0"/>
+      <body name="mid" pos="0.5 0 0">
+        <geom fromto="0 0 0 -1 0 0" size="0.1" type="capsule"/>
+        <joint axis="0 0 1" name="motor1" armature="0.3"/>
+        <body name="back" pos="-1 0 0">
+          <geom fromto="0 0 0 -1 0 0" size="0.1" type="capsule"/>
+          <joint axis="0 0 1" name="motor2" armature="0"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>"#;
 
 /// `M q̈ = τ − b` by a dense LU-free solve (Gaussian elimination with partial pivoting).
 fn solve(m: &[f64], rhs: &[f64]) -> Vec<f64> {
@@ -80,16 +98,26 @@ fn solve(m: &[f64], rhs: &[f64]) -> Vec<f64> {
 
 #[test]
 fn armature_is_on_the_mass_matrix_diagonal_and_in_every_method() {
-    let model = model();
-    assert!(model.dynamics.has_armature());
-    assert_eq!(model.nv, 6 + 3 + 1 + 2 + 1);
+    for (text, nv) in [(MJCF, 6 + 3 + 1 + 2 + 1), (SWIMMER, 5)] {
+        let model = Model::from_mjcf_str(text, &LoadOptions::default()).unwrap();
+        assert!(model.dynamics.has_armature());
+        assert_eq!(model.nv, nv);
+        // DCA with and without leaf clusters: its joins and its clusters' ABA passes.
+        for clusters in [true, false] {
+            check(&model, clusters);
+        }
+    }
+}
+
+fn check(model: &Model, clusters: bool) {
     let mut rigid = model.clone();
     rigid.dynamics = Default::default();
-    let mut data = Data::new(&model);
+    let mut data = Data::new(model);
+    data.set_leaf_clusters(model, clusters);
     let mut rd = Data::new(&rigid);
     for seed in 0..5 {
-        let state = State::random(&model, seed, 5.0);
-        let m = mass_matrix(&model, &mut data, &state.q).unwrap().to_vec();
+        let state = State::random(model, seed, 5.0);
+        let m = mass_matrix(model, &mut data, &state.q).unwrap().to_vec();
         let m0 = mass_matrix(&rigid, &mut rd, &state.q).unwrap().to_vec();
         let nv = model.nv;
         for r in 0..nv {
@@ -102,14 +130,14 @@ fn armature_is_on_the_mass_matrix_diagonal_and_in_every_method() {
                 assert!((m[r * nv + c] - m0[r * nv + c] - extra).abs() < 1e-12);
             }
         }
-        let b = bias_forces(&model, &mut data, &state.q, &state.qd)
+        let b = bias_forces(model, &mut data, &state.q, &state.qd)
             .unwrap()
             .to_vec();
         let rhs: Vec<f64> = state.tau.iter().zip(&b).map(|(t, b)| t - b).collect();
         let expected = solve(&m, &rhs);
         let scale = expected.iter().fold(1.0f64, |a, x| a.max(x.abs()));
         for method in [Method::Dca, Method::Aba, Method::Crba] {
-            let qdd = forward_dynamics(&model, &mut data, &state, method)
+            let qdd = forward_dynamics(model, &mut data, &state, method)
                 .unwrap()
                 .to_vec();
             let err = qdd
@@ -117,8 +145,11 @@ fn armature_is_on_the_mass_matrix_diagonal_and_in_every_method() {
                 .zip(&expected)
                 .map(|(a, b)| (a - b).abs())
                 .fold(0.0, f64::max);
-            assert!(err < 1e-10 * scale, "{method:?} seed {seed}: {err:e}");
-            let tau = inverse_dynamics(&model, &mut data, &state.q, &state.qd, &qdd, &[])
+            assert!(
+                err < 1e-10 * scale,
+                "{method:?} seed {seed} clusters {clusters}: {err:e}"
+            );
+            let tau = inverse_dynamics(model, &mut data, &state.q, &state.qd, &qdd, &[])
                 .unwrap()
                 .to_vec();
             for (a, b) in tau.iter().zip(&state.tau) {

@@ -71,7 +71,8 @@ struct Builder<'a> {
     /// What the dynamics does not model, by kind.
     ignored: BTreeMap<String, Vec<String>>,
     warnings: Vec<LoadWarning>,
-    unnamed: usize,
+    /// Bodies read so far.
+    bodies: usize,
 }
 
 fn read(doc: Doc) -> Result<MjcfRobot, ModelError> {
@@ -87,7 +88,7 @@ fn read(doc: Doc) -> Result<MjcfRobot, ModelError> {
         renames: HashMap::new(),
         ignored: BTreeMap::new(),
         warnings: Vec::new(),
-        unnamed: 0,
+        bodies: 0,
     };
     let name = doc.root.attr("model").unwrap_or("mujoco").to_string();
     b.add_link(
@@ -234,12 +235,11 @@ impl Builder<'_> {
         let a = Attrs::plain(doc, el);
         let class = el.attr("childclass").unwrap_or(childclass);
         let x_body = frame_to_parent * frame(&a, &self.compiler)?;
+        // MuJoCo's body id (document order, the world 0) names an unnamed body.
+        self.bodies += 1;
         let name = match el.attr("name") {
             Some(n) => n.to_string(),
-            None => {
-                self.unnamed += 1;
-                format!("body{}", self.links.len())
-            }
+            None => format!("body{}", self.bodies),
         };
         if a.number("gravcomp", 0.0)? != 0.0 {
             self.ignore("MJCF body gravity compensation (gravcomp)", el);
