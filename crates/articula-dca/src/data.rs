@@ -38,6 +38,8 @@ pub struct Data {
     /// `b` implicitly. Empty for a model with neither armature nor damping (every algorithm
     /// then runs as without them).
     pub(crate) armature: Vec<f64>,
+    /// A step's joint forces `τ` plus the passive forces (`integrate::with_passive_forces`).
+    pub(crate) passive: Vec<f64>,
     /// Whether DCA's `q̈` goes through that check (when `refine_floating` is set): with a
     /// floating base of at least `REFINE_MIN_BODIES` (100) bodies, or when some body's
     /// rotational inertia is tiny for its mass and size (`docs/loading.md`) and the body is in
@@ -647,6 +649,7 @@ impl Data {
             gravity: DVec3::new(0.0, 0.0, -9.81),
             refine_floating: true,
             armature: armature_of(model),
+            passive: Vec::new(),
             refine_dca: needs_refinement(model, true),
             origin: DVec3::ZERO,
             f_ext_c: Vec::with_capacity(n),
