@@ -1012,60 +1012,38 @@ fn y_tilde(
     }
 }
 
-/// A square root `R` of a symmetric positive semidefinite 6×6 `Q`: `RᵀR = Q`, from its
-/// eigen-decomposition `Q = V Λ Vᵀ` by cyclic Jacobi rotations, `R = Λ^½ Vᵀ` (negative
-/// eigenvalues of rounding taken as 0). For the joins of joints with armature.
-fn psd_root(mut a: [[f64; 6]; 6]) -> [[f64; 6]; 6] {
-    let mut v = [[0.0; 6]; 6];
-    for (i, row) in v.iter_mut().enumerate() {
-        row[i] = 1.0;
-    }
-    let scale: f64 = (0..6)
-        .map(|i| a[i][i].abs())
-        .sum::<f64>()
-        .max(f64::MIN_POSITIVE);
-    for _sweep in 0..30 {
-        let off: f64 = (0..6)
-            .flat_map(|p| (p + 1..6).map(move |q| (p, q)))
-            .map(|(p, q)| a[p][q] * a[p][q])
-            .sum();
-        if off.sqrt() <= 1e-16 * scale {
-            break;
+/// A square root `R` of a symmetric positive semidefinite 6×6 `Q`: `RᵀR = Q`, from
+/// `Q = L D Lᵀ` (unit lower `L`, `D ≥ 0`) as `R = D^½ Lᵀ`. A pivot at rounding level (the
+/// directions of joints without armature, where `Q` is singular) is taken as 0 with its
+/// column. For the joins of joints with armature.
+fn psd_root(q: [[f64; 6]; 6]) -> [[f64; 6]; 6] {
+    let scale = (0..6).map(|i| q[i][i].abs()).fold(0.0, f64::max);
+    let tiny = 1e-14 * scale;
+    let mut l = [[0.0; 6]; 6];
+    let mut d = [0.0; 6];
+    for j in 0..6 {
+        let mut dj = q[j][j];
+        for p in 0..j {
+            dj -= l[j][p] * l[j][p] * d[p];
         }
-        for p in 0..6 {
-            for q in p + 1..6 {
-                if a[p][q] == 0.0 {
-                    continue;
-                }
-                let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
-                let t = if theta == 0.0 {
-                    1.0
-                } else {
-                    theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt())
-                };
-                let c = 1.0 / (t * t + 1.0).sqrt();
-                let s = t * c;
-                for row in a.iter_mut() {
-                    let (x, y) = (row[p], row[q]);
-                    row[p] = c * x - s * y;
-                    row[q] = s * x + c * y;
-                }
-                for k in 0..6 {
-                    let (x, y) = (a[p][k], a[q][k]);
-                    a[p][k] = c * x - s * y;
-                    a[q][k] = s * x + c * y;
-                }
-                for row in v.iter_mut() {
-                    let (x, y) = (row[p], row[q]);
-                    row[p] = c * x - s * y;
-                    row[q] = s * x + c * y;
-                }
+        if dj <= tiny {
+            d[j] = 0.0;
+            l[j][j] = 1.0;
+            continue;
+        }
+        d[j] = dj;
+        l[j][j] = 1.0;
+        for i in j + 1..6 {
+            let mut x = q[i][j];
+            for p in 0..j {
+                x -= l[i][p] * l[j][p] * d[p];
             }
+            l[i][j] = x / dj;
         }
     }
     std::array::from_fn(|r| {
-        let l = a[r][r].max(0.0).sqrt();
-        std::array::from_fn(|s| l * v[s][r])
+        let s = d[r].sqrt();
+        std::array::from_fn(|c| s * l[c][r])
     })
 }
 

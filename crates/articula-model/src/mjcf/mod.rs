@@ -91,13 +91,7 @@ fn read(doc: Doc) -> Result<MjcfRobot, ModelError> {
         bodies: 0,
     };
     let name = doc.root.attr("model").unwrap_or("mujoco").to_string();
-    b.add_link(
-        "world",
-        SpatialInertia::ZERO,
-        Vec::new(),
-        doc.root.line,
-        &doc.root,
-    )?;
+    b.add_link("world", SpatialInertia::ZERO, Vec::new(), &doc.root)?;
     for wb in doc.root.each("worldbody") {
         b.children(wb, 0, SpatialTransform::IDENTITY, MAIN)?;
     }
@@ -155,7 +149,6 @@ impl Builder<'_> {
         name: &str,
         inertia: SpatialInertia,
         geometry: Vec<Geometry>,
-        _line: u32,
         el: &El,
     ) -> Result<usize, ModelError> {
         if !self.link_names.insert(name.to_string()) {
@@ -205,10 +198,12 @@ impl Builder<'_> {
                     self.children(c, link, x, class)?;
                 }
                 "site" => self.ignore("MJCF <site>", c),
-                "joint" | "freejoint" | "inertial" | "geom" if link == 0 => {
-                    if c.tag != "geom" {
-                        return Err(self.doc.err(c, None, "the world body cannot have joints or an inertial"));
-                    }
+                "joint" | "freejoint" | "inertial" if link == 0 => {
+                    return Err(self.doc.err(
+                        c,
+                        None,
+                        "the world body cannot have joints or an inertial",
+                    ));
                 }
                 "joint" | "freejoint" | "inertial" | "geom" | "camera" | "light" => {}
                 "composite" | "flexcomp" | "replicate" | "attach" | "skin" => {
@@ -251,7 +246,7 @@ impl Builder<'_> {
             .filter(|c| c.tag == "joint" || c.tag == "freejoint")
             .collect();
         let body_link = if joint_els.is_empty() {
-            let l = self.add_link(&name, inertia, geometry, el.line, el)?;
+            let l = self.add_link(&name, inertia, geometry, el)?;
             self.add_joint(
                 el,
                 RawJoint {
@@ -304,7 +299,7 @@ impl Builder<'_> {
                 if n > 1 {
                     return Err(doc.err(j, None, "a free joint must be its body's only joint"));
                 }
-                let l = self.add_link(name, inertia, geometry, el.line, el)?;
+                let l = self.add_link(name, inertia, geometry, el)?;
                 let ji = self.add_joint(
                     j,
                     RawJoint {
@@ -319,10 +314,10 @@ impl Builder<'_> {
             }
             let last = k + 1 == n;
             let child = if last && jn.anchor == DVec3::ZERO {
-                self.add_link(name, inertia, geometry.clone(), el.line, el)?
+                self.add_link(name, inertia, geometry.clone(), el)?
             } else {
                 let link = format!("{name}@{}", jn.joint.name);
-                let l = self.add_link(&link, SpatialInertia::ZERO, Vec::new(), el.line, el)?;
+                let l = self.add_link(&link, SpatialInertia::ZERO, Vec::new(), el)?;
                 if last {
                     self.renames.insert(link, name.to_string());
                 }
@@ -346,7 +341,7 @@ impl Builder<'_> {
             return Ok(prev);
         }
         // The body's frame hangs off the last joint's frame at −anchor.
-        let l = self.add_link(name, inertia, geometry, el.line, el)?;
+        let l = self.add_link(name, inertia, geometry, el)?;
         self.add_joint(
             el,
             RawJoint {
