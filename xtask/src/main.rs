@@ -7,6 +7,7 @@ mod corpus;
 mod drops;
 mod growth;
 mod hash;
+mod mjcf_corpus;
 mod models;
 mod parallel;
 mod pinocchio;
@@ -36,6 +37,11 @@ subcommands:
                             --quick samples in-process (minutes), otherwise criterion;
                             --publish also copies the charts into docs/img/ and the
                             report to docs/bench-report.md
+    mjcf-corpus [--quick] [--venv DIR]
+                            loads every kinematic-tree MJCF model of dm-control and
+                            gymnasium with articula and MuJoCo, compares M and qacc_smooth,
+                            times DCA, ABA and mj_forward; writes
+                            target/articula-mjcf-corpus/report.md
     corpus [--quick] [--inertia accept|strict|repair] [--bound-inertia KGM2]
            [--venv DIR] [NAME...]
                             load every URDF of example-robot-data (fixed and floating
@@ -96,6 +102,7 @@ fn main() -> ExitCode {
         Some("corpus") => corpus::main(&workspace_root(), &args[1..]),
         Some("drops") => drops::main(&workspace_root(), &args[1..]),
         Some("test") => run(test::main(&workspace_root(), &args[1..])),
+        Some("mjcf-corpus") => mjcf_corpus::main(&workspace_root(), &args[1..]),
         Some("models") if args.get(1).map(String::as_str) == Some("--chain") => {
             run(print_chain(&args[2..]))
         }

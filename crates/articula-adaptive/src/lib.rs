@@ -228,6 +228,13 @@ impl Adaptive {
         if model.assembly.has_gather() {
             return Err(unsupported_tree(model));
         }
+        if model.dynamics.has_armature() {
+            return Err(AdaptiveError::Unsupported(
+                "the model has joint armature (MJCF armature), which adaptive dynamics does \
+                 not model; use the exact methods (dca, aba, crba)"
+                    .into(),
+            ));
+        }
         check_inputs(model, q, qd, tau, f_ext)?;
         // Kinematics left by node_metrics for this very state are reused (the same bits:
         // compared by `memcmp`, much cheaper than `f64` equality; a `-0.0` for a

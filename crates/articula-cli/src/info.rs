@@ -146,7 +146,7 @@ fn round(x: f64) -> f64 {
 
 /// Runs `articula info`.
 pub fn run(path: &Path, options: &LoadOptions, json: bool, tree: bool) -> Result<(), CliError> {
-    let model = Model::from_urdf_file(path, options)?;
+    let model = Model::from_file(path, options)?;
     let info = Info::of(&model);
     if json {
         return crate::print_out(&format!("{}\n", serde_json::to_string_pretty(&info)?));

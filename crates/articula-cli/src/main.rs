@@ -309,7 +309,7 @@ impl DynamicsArgs {
 
     /// Loads the model (printing its warnings on stderr) and a workspace with the gravity set.
     pub fn load(&self) -> Result<(Model, Data), CliError> {
-        let model = Model::from_urdf_file(
+        let model = Model::from_file(
             &self.model,
             &self
                 .inertia

@@ -110,6 +110,11 @@ fn aba_with<A: Arith>(
                 (u, dot6::<A>(&s, &u), sm)
             };
             aba.sl[vo] = sm;
+            // Armature: D = sᵀ Iᴬ s + a (docs/loading.md#armature-and-damping).
+            let d = match data.armature.get(vo) {
+                Some(a) => d + a,
+                None => d,
+            };
             if d.is_nan() || d <= 0.0 {
                 return Err(DynamicsError::Singular {
                     joint: model.bodies[i].joint_name(),
@@ -155,6 +160,7 @@ fn aba_with<A: Arith>(
             u: &mut aba.u[vo..vo + k],
             uu: &mut aba.uu[vo..vo + k],
             dinv: &mut aba.dinv[doff..doff + k * k],
+            armature: data.armature.get(vo..vo + k).unwrap_or(&[]),
         };
         let to_parent = (parent != usize::MAX).then_some((&mut ia_a, &mut pa_a, true));
         let ok = match k {
@@ -258,6 +264,8 @@ pub struct MultiArgs<'a> {
     pub uu: &'a mut [f64],
     /// Written: `D⁻¹` (`k × k`, row-major).
     pub dinv: &'a mut [f64],
+    /// The joint's armature (`k`, added to `D`'s diagonal), or empty for none.
+    pub armature: &'a [f64],
 }
 
 /// ABA's pass 2 (RBDA Table 7.1) at a joint of `K` > 1 degrees of freedom (`K = 0`: none,
@@ -288,6 +296,9 @@ pub fn articulate_multi<A: Arith, const K: usize>(
         u_out[p] = u;
         for q in 0..=p {
             dm[p][q] = dot6::<A>(&s[q].to_array(), &u);
+        }
+        if let Some(a) = m.armature.get(p) {
+            dm[p][p] += a;
         }
         uu[p] = tau[p] - s[p].dot(pa_i);
     }
@@ -412,6 +423,7 @@ pub(crate) fn refine(model: &Model, tau: &[f64], f_ext: &[SpatialForce], data: &
         tau,
         f_ext,
         qdd: Some(&data.qdd),
+        armature: &data.armature,
     };
     // r = τ − ID(q̈) into uu (aba.a, aba.pa as scratch).
     let aba = &mut data.aba;

@@ -190,6 +190,10 @@ fn articulate<A: Arith>(
         let s = data.s[vo].to_array();
         let u = ia.mul_vec(&s);
         let dd = dot6::<A>(&s, &u);
+        let dd = match data.armature.get(vo) {
+            Some(a) => dd + a,
+            None => dd,
+        };
         if dd.is_nan() || dd <= 0.0 {
             return Err(singular());
         }
@@ -223,6 +227,7 @@ fn articulate<A: Arith>(
         u: &mut aba.u[vo..vo + k],
         uu: &mut aba.uu[vo..vo + k],
         dinv: &mut aba.dinv[doff..doff + k * k],
+        armature: data.armature.get(vo..vo + k).unwrap_or(&[]),
     };
     let to_parent = if parent == usize::MAX {
         None

@@ -29,7 +29,7 @@
 use crate::contact_solver::{self, ActiveSet, Block, Solve, Stop};
 use crate::delassus::{Load, Tree, NONE};
 use crate::integrate::check_step_result;
-use crate::{forward_dynamics, integrate_q, Data, DynamicsError, Method, State};
+use crate::{integrate_q, Data, DynamicsError, Method, State};
 use articula_model::{CollisionModel, Model};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion};
 use glam::DVec3;
@@ -592,6 +592,8 @@ pub trait ContactDynamics {
 struct ExactDynamics<'a> {
     data: &'a mut Data,
     method: Method,
+    /// The step, over which damping is implicit.
+    dt: f64,
 }
 
 impl ContactDynamics for ExactDynamics<'_> {
@@ -601,7 +603,17 @@ impl ContactDynamics for ExactDynamics<'_> {
         state: &mut State,
         qdd: &mut [f64],
     ) -> Result<(), DynamicsError> {
-        qdd.copy_from_slice(forward_dynamics(model, self.data, state, self.method)?);
+        // Passive forces applied, damping implicit over the step (the contact impulses'
+        // response is the rigid-body one).
+        let s = &*state;
+        crate::integrate::with_passive_forces(
+            model,
+            self.data,
+            (&s.q, &s.qd, &s.tau, &s.f_ext),
+            self.method,
+            self.dt,
+        )?;
+        qdd.copy_from_slice(&self.data.qdd);
         Ok(())
     }
 
@@ -629,7 +641,7 @@ pub fn step_with_contact(
     dt: f64,
     settings: &ContactSettings,
 ) -> Result<(), ContactError> {
-    let mut dynamics = ExactDynamics { data, method };
+    let mut dynamics = ExactDynamics { data, method, dt };
     step_with_dynamics(model, &mut dynamics, contact, state, dt, settings)
 }
 

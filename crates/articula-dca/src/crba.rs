@@ -40,10 +40,18 @@ pub(crate) fn crba(
     let mut rhs = Mat::<f64>::from_fn(nv, 1, |j, _| r[j]);
     let mut ic = data.inertia.clone();
     let mut h = Mat::<f64>::zeros(nv, nv);
-    crate::mass_matrix::composite_mass_matrix(model, &data.inertia, &data.s, &mut ic, |r, c, x| {
-        h[(r, c)] = x;
-        h[(c, r)] = x;
-    });
+    let armature = &data.armature;
+    crate::mass_matrix::composite_mass_matrix(
+        model,
+        &data.inertia,
+        &data.s,
+        armature,
+        &mut ic,
+        |r, c, x| {
+            h[(r, c)] = x;
+            h[(c, r)] = x;
+        },
+    );
     // A locked joint's coordinates (after every body's) are no body's: H is the identity
     // there and the right-hand side zero, so their q̈ is 0.
     for l in &model.locked {

@@ -33,6 +33,13 @@ pub struct Data {
     /// instead of ~1e-9 on 1,000-link floating chains; turn it off where ~1e-9 relative is
     /// enough.
     pub refine_floating: bool,
+    /// Per degree of freedom, the armature every solve adds to the joint-space inertia's
+    /// diagonal: the model's (`Model::dynamics`), plus `h b` while a step integrates damping
+    /// `b` implicitly. Empty for a model with neither armature nor damping (every algorithm
+    /// then runs as without them).
+    pub(crate) armature: Vec<f64>,
+    /// A step's joint forces `τ` plus the passive forces (`integrate::with_passive_forces`).
+    pub(crate) passive: Vec<f64>,
     /// Whether DCA's `q̈` goes through that check (when `refine_floating` is set): with a
     /// floating base of at least `REFINE_MIN_BODIES` (100) bodies, or when some body's
     /// rotational inertia is tiny for its mass and size (`docs/loading.md`) and the body is in
@@ -641,6 +648,8 @@ impl Data {
         Data {
             gravity: DVec3::new(0.0, 0.0, -9.81),
             refine_floating: true,
+            armature: armature_of(model),
+            passive: Vec::new(),
             refine_dca: needs_refinement(model, true),
             origin: DVec3::ZERO,
             f_ext_c: Vec::with_capacity(n),
@@ -923,10 +932,18 @@ impl DcaData {
                     let at = (blk, joins);
                     blk += nh * nh.saturating_sub(1) / 2;
                     joins += 1;
+                    // (A joint with armature or damping takes the general join.)
                     let one_dof = matches!(
                         model.bodies[joint].joint.as_slice(),
                         [p] if matches!(p.kind, JointKind::Revolute | JointKind::Continuous)
-                    );
+                    ) && armature_of(model)
+                        .get(model.bodies[joint].v_offset)
+                        .is_none_or(|_| {
+                            let d = &model.dynamics;
+                            let vo = model.bodies[joint].v_offset;
+                            d.armature.get(vo).is_none_or(|&a| a == 0.0)
+                                && d.damping.get(vo).is_none_or(|&b| b == 0.0)
+                        });
                     let kind = DKind::Join {
                         joint: u(joint),
                         a: u(parent_side),
@@ -1106,5 +1123,18 @@ mod refinement_tests {
                 "{name}"
             );
         }
+    }
+}
+
+/// The armature a new [`Data`] starts with: the model's per degree of freedom, zeros where it
+/// has none when it has damping (a step adds `h b` there), empty when it has neither.
+pub(crate) fn armature_of(model: &Model) -> Vec<f64> {
+    let d = &model.dynamics;
+    if d.has_armature() {
+        d.armature.clone()
+    } else if !d.damping.is_empty() {
+        vec![0.0; model.nv]
+    } else {
+        Vec::new()
     }
 }

@@ -752,8 +752,14 @@ fn join<A: Arith>(
             }
         }
         d.beta[n] = beta;
+        // Armature A (docs/loading.md#armature-and-damping): D = SᵀVS + A.
+        let arm = data
+            .armature
+            .get(vo..vo + k)
+            .filter(|a| a.iter().any(|&x| x != 0.0));
+        let identity = k == 6 && d.free_identity && arm.is_none();
         // L Lᵀ = Φ^A_jj + Φ^B_jj; a free joint's W is zero for any K (`mass_ratio.rs`).
-        let l = if k == 6 && d.free_identity {
+        let l = if identity {
             crate::mass_ratio::IDENTITY
         } else {
             crate::small::cholesky6_inv_diag(&sum).ok_or_else(|| DynamicsError::Singular {
@@ -775,6 +781,11 @@ fn join<A: Arith>(
                 dm.a[q][p] = x;
             }
         }
+        if let Some(arm) = arm {
+            for p in 0..k {
+                dm.a[p][p] += arm[p];
+            }
+        }
         if !dm.invert() {
             return Err(DynamicsError::Singular {
                 joint: body.joint_name(),
@@ -794,25 +805,62 @@ fn join<A: Arith>(
                 }
             }
         }
-        if k == 6 && d.free_identity {
+        if identity {
             // The back-substitution's q̈ with L = 1 (`mass_ratio.rs`).
             d.beta[n] = crate::mass_ratio::free_beta(&sum, &zd, &tau[vo..vo + 6], beta);
         }
         // γ = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − Q)),  w = L⁻¹ β
         let mut w = solve_l(&l, &beta.to_array());
-        for p in 0..k {
-            let t = dot6::<A>(&d.z[vo + p], &w) - tau[vo + p];
-            for i in 0..6 {
-                w[i] -= zd[p][i] * t;
+        if arm.is_none() {
+            // Zᵀ Z D⁻¹ = 1: each update leaves the other columns' Zᵀw as they were.
+            for p in 0..k {
+                let t = dot6::<A>(&d.z[vo + p], &w) - tau[vo + p];
+                for i in 0..6 {
+                    w[i] -= zd[p][i] * t;
+                }
+            }
+        } else {
+            // With armature Zᵀ Z D⁻¹ ≠ 1: every Zᵀw before any update.
+            let t: [f64; 6] = std::array::from_fn(|p| {
+                if p < k {
+                    dot6::<A>(&d.z[vo + p], &w) - tau[vo + p]
+                } else {
+                    0.0
+                }
+            });
+            for p in 0..k {
+                for i in 0..6 {
+                    w[i] -= zd[p][i] * t[p];
+                }
             }
         }
         gamma = solve_lt(&l, &w);
         // Ỹ_h = Q L⁻¹ Φ_jh: forward substitution on whole rows of Φ_jh (vectorises), then the
         // projection Ỹ −= (Z D⁻¹)(Zᵀ Ỹ) (k rank-1 row updates).
+        // With armature Q = 1 − Z D⁻¹ Zᵀ is no projector: Ỹ_h = R L⁻¹ Φ_jh, RᵀR = Q.
+        let root = arm.map(|_| {
+            let mut q = [[0.0; 6]; 6];
+            for r in 0..6 {
+                for c in 0..6 {
+                    let zz: f64 = (0..k).map(|p| zd[p][r] * d.z[vo + p][c]).sum();
+                    q[r][c] = f64::from(u8::from(r == c)) - zz;
+                }
+            }
+            psd_root(q)
+        });
         for h in 0..nhc {
             let (bo, nh, j, i) = at.from(d, h);
             let g = cross_rows(&d.phi, bo, nh, j, i);
-            y_tilde(&mut d.y[at.ys + h], &g, &l, &d.z[vo..vo + k], &zd);
+            match &root {
+                None => y_tilde(&mut d.y[at.ys + h], &g, &l, &d.z[vo..vo + k], &zd),
+                Some(root) => {
+                    let mut yt = [[0.0; 6]; 6];
+                    y_tilde(&mut yt, &g, &l, &[], &zd);
+                    d.y[at.ys + h] = std::array::from_fn(|r| {
+                        std::array::from_fn(|c| (0..6).map(|s| root[r][s] * yt[s][c]).sum())
+                    });
+                }
+            }
         }
         rows = 6;
     }
@@ -962,6 +1010,41 @@ fn y_tilde(
             }
         }
     }
+}
+
+/// A square root `R` of a symmetric positive semidefinite 6×6 `Q`: `RᵀR = Q`, from
+/// `Q = L D Lᵀ` (unit lower `L`, `D ≥ 0`) as `R = D^½ Lᵀ`. A pivot at rounding level (the
+/// directions of joints without armature, where `Q` is singular) is taken as 0 with its
+/// column. For the joins of joints with armature.
+fn psd_root(q: [[f64; 6]; 6]) -> [[f64; 6]; 6] {
+    let scale = (0..6).map(|i| q[i][i].abs()).fold(0.0, f64::max);
+    let tiny = 1e-14 * scale;
+    let mut l = [[0.0; 6]; 6];
+    let mut d = [0.0; 6];
+    for j in 0..6 {
+        let mut dj = q[j][j];
+        for p in 0..j {
+            dj -= l[j][p] * l[j][p] * d[p];
+        }
+        if dj <= tiny {
+            d[j] = 0.0;
+            l[j][j] = 1.0;
+            continue;
+        }
+        d[j] = dj;
+        l[j][j] = 1.0;
+        for i in j + 1..6 {
+            let mut x = q[i][j];
+            for p in 0..j {
+                x -= l[i][p] * l[j][p] * d[p];
+            }
+            l[i][j] = x / dj;
+        }
+    }
+    std::array::from_fn(|r| {
+        let s = d[r].sqrt();
+        std::array::from_fn(|c| s * l[c][r])
+    })
 }
 
 /// A pair `p`, `q` completing ω to an orthogonal basis: `p = ω × e` with `e` the coordinate

@@ -97,6 +97,10 @@ pub(crate) fn main(
             for q in 0..nv {
                 dm.a[p][q] = dot(&s[p], &ks[q]);
             }
+            // Armature: D = Sᵀ K S + A (in inertia form, as ABA).
+            if let Some(a) = data.armature.get(vo + p) {
+                dm.a[p][p] += a;
+            }
         }
         if !dm.invert() {
             return Err(singular(

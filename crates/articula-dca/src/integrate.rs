@@ -102,14 +102,12 @@ pub fn step(
     let mut start = None;
     match integrator {
         Integrator::SemiImplicitEuler => {
-            forward_dynamics_slices(
+            with_passive_forces(
                 model,
                 data,
-                &state.q,
-                &state.qd,
-                &state.tau,
-                &state.f_ext,
+                (&state.q, &state.qd, &state.tau, &state.f_ext),
                 method,
+                dt,
             )?;
             if project {
                 start = Some(MomentumStart::of(data));
@@ -131,14 +129,12 @@ pub fn step(
             let next = [0.5, 0.5, 1.0];
             let mut result = Ok(());
             for stage in 0..4 {
-                if let Err(e) = forward_dynamics_slices(
+                if let Err(e) = with_passive_forces(
                     model,
                     data,
-                    &state.q,
-                    &state.qd,
-                    &state.tau,
-                    &state.f_ext,
+                    (&state.q, &state.qd, &state.tau, &state.f_ext),
                     method,
+                    0.0,
                 ) {
                     result = Err(e);
                     break;
@@ -300,4 +296,38 @@ fn project_momentum(
     for (v, dv) in state.qd[vo..vo + 6].iter_mut().zip(d) {
         *v += dv;
     }
+}
+
+/// Forward dynamics for a step: `τ` plus the model's passive forces
+/// ([`Model::passive_forces`]: damping and springs), with the damping `b` integrated implicitly
+/// over `dt` by adding `dt b` to the armature for this solve, `(M + A + dt B) q̈ = τ − b(q, q̇)
+/// − B q̇ − K (q − q_spring)` (MuJoCo's implicit damping; `dt = 0`: explicit). A model without
+/// damping or springs takes the plain [`forward_dynamics_slices`]. `q̈` is left in `data.qdd`.
+pub(crate) fn with_passive_forces(
+    model: &Model,
+    data: &mut Data,
+    (q, qd, tau, f_ext): (&[f64], &[f64], &[f64], &[SpatialForce]),
+    method: Method,
+    dt: f64,
+) -> Result<(), DynamicsError> {
+    if !model.dynamics.has_passive() {
+        return forward_dynamics_slices(model, data, q, qd, tau, f_ext, method).map(|_| ());
+    }
+    let mut total = std::mem::take(&mut data.passive);
+    total.resize(model.nv, 0.0);
+    model.passive_forces(q, qd, &mut total);
+    for (t, x) in total.iter_mut().zip(tau) {
+        *t += x;
+    }
+    let damping = &model.dynamics.damping;
+    for (a, b) in data.armature.iter_mut().zip(damping) {
+        *a += dt * b;
+    }
+    let result = forward_dynamics_slices(model, data, q, qd, &total, f_ext, method).map(|_| ());
+    // The model's own armature back, exactly.
+    for (i, a) in data.armature.iter_mut().enumerate() {
+        *a = model.dynamics.armature.get(i).copied().unwrap_or(0.0);
+    }
+    data.passive = total;
+    result
 }

@@ -77,6 +77,7 @@ fn rnea<'d>(
         tau: &quant.zero,
         f_ext: &data.f_ext_c,
         qdd,
+        armature: &data.armature,
     };
     rnea_residual(model, &input, &mut quant.a, &mut quant.f, &mut quant.tau);
     // r = 0 − τ, so 0 − r = τ exactly.

@@ -38,21 +38,31 @@ pub fn mass_matrix<'d>(
     let ic = sized(&mut quant.ic, model.bodies.len(), SpatialInertia::ZERO);
     let m = sized(&mut quant.mass_matrix, nv * nv, 0.0);
     m.fill(0.0);
-    composite_mass_matrix(model, &data.inertia, &data.s, ic, |row, col, x| {
-        m[row * nv + col] = x;
-        m[col * nv + row] = x;
-    });
+    let armature = &model.dynamics.armature;
+    composite_mass_matrix(
+        model,
+        &data.inertia,
+        &data.s,
+        armature,
+        ic,
+        |row, col, x| {
+            m[row * nv + col] = x;
+            m[col * nv + row] = x;
+        },
+    );
     Ok(m)
 }
 
 /// The composite-rigid-body algorithm on the inertias and subspace columns of some kinematics
 /// (one frame for all): the composite inertias into `ic`, then `set(row, col, M_row,col)` for
-/// every entry on or below the diagonal that is not structurally zero, in body order (also
+/// every entry on or below the diagonal that is not structurally zero, in body order, with
+/// `armature` (empty, or one per degree of freedom) added to the diagonal (also
 /// CRBA's reference solve, [`crate::Method::Crba`]).
 pub(crate) fn composite_mass_matrix(
     model: &Model,
     inertia: &[SpatialInertia],
     s: &[SpatialMotion],
+    armature: &[f64],
     ic: &mut [SpatialInertia],
     mut set: impl FnMut(usize, usize, f64),
 ) {
@@ -73,7 +83,12 @@ pub(crate) fn composite_mass_matrix(
                 let bj = &model.bodies[jj];
                 for q in 0..bj.nv {
                     let col = bj.v_offset + q;
-                    set(row, col, s[col].dot(fcol));
+                    let mut x = s[col].dot(fcol);
+                    // Armature on the diagonal (docs/loading.md#armature-and-damping).
+                    if row == col {
+                        x += armature.get(row).copied().unwrap_or(0.0);
+                    }
+                    set(row, col, x);
                 }
                 j = bj.parent;
             }

@@ -137,6 +137,7 @@ fn residual(model: &Model, tau: &[f64], f_ext: &[SpatialForce], data: &mut Data)
         tau,
         f_ext,
         qdd: Some(&data.qdd),
+        armature: &data.armature,
     };
     let rd = &mut data.refine;
     rnea_residual(model, &input, &mut rd.a, &mut rd.f, &mut rd.r)

@@ -18,6 +18,8 @@ pub(crate) struct RneaInput<'a> {
     pub f_ext: &'a [SpatialForce],
     /// `None`: q̈ = 0 (then `r = τ − C`, the bias forces of CRBA).
     pub qdd: Option<&'a [f64]>,
+    /// Per degree of freedom, the armature whose force `a q̈` joins `ID` (empty: none).
+    pub armature: &'a [f64],
 }
 
 impl<'a> RneaInput<'a> {
@@ -37,6 +39,7 @@ impl<'a> RneaInput<'a> {
             tau,
             f_ext,
             qdd,
+            armature: &data.armature,
         }
     }
 }
@@ -71,7 +74,11 @@ pub(crate) fn rnea_residual(
     for (i, body) in model.bodies.iter().enumerate().rev() {
         let fi = f[i];
         for j in body.v_offset..body.v_offset + body.nv {
-            let sf = k.s[j].dot(fi);
+            let mut sf = k.s[j].dot(fi);
+            // The armature's force A q̈ (docs/loading.md#armature-and-damping).
+            if let (Some(qdd), Some(a)) = (k.qdd, k.armature.get(j)) {
+                sf += a * qdd[j];
+            }
             r[j] = k.tau[j] - sf;
             scale = scale.max(sf.abs()).max(k.tau[j].abs());
             rmax = rmax.max(r[j].abs());

@@ -53,6 +53,19 @@ pub enum ModelError {
         /// What is wrong.
         message: String,
     },
+    /// An MJCF file articula cannot read as written: the file, the element (with its name and
+    /// line) and the attribute at fault.
+    #[error("{file}: {element}{}: {message}", attribute.as_ref().map(|a| format!(", attribute '{a}'")).unwrap_or_default())]
+    Mjcf {
+        /// The file (or `<string>`).
+        file: String,
+        /// The element, as `<joint name="knee"> (line 12)`.
+        element: String,
+        /// The attribute, when one is at fault.
+        attribute: Option<String>,
+        /// What is wrong.
+        message: String,
+    },
     /// The robot has no links.
     #[error("the robot has no links")]
     NoLinks,

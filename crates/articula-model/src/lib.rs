@@ -47,7 +47,9 @@ mod assembly;
 mod atomic_file;
 pub mod body_inertia;
 mod collision;
+mod dynamics;
 mod error;
+mod mjcf;
 mod model;
 mod options;
 mod urdf;
@@ -60,6 +62,7 @@ pub use assembly::{AssemblyNode, AssemblyTree, HandleLayout, NodeKind, GATHER_AB
 pub use atomic_file::AtomicFile;
 pub use body_inertia::{InertiaChange, InertiaDefect, InertiaDefectKind};
 pub use collision::{inertia_box, shape_points, CollisionModel, ContactSphere};
+pub use dynamics::{DofDynamics, JointDynamics};
 pub use error::ModelError;
 pub use model::{Body, JointPart, LinkFrame, LockedJoint, Model, FLOATING_BASE_JOINT};
 pub use options::{InertiaPolicy, LoadOptions, MasslessLeafPolicy};

@@ -199,6 +199,9 @@ pub struct Model {
     /// depth-first order. Their coordinates come after every body's in `q` and `qd`; no
     /// algorithm moves them (`q̈ = 0`).
     pub locked: Vec<LockedJoint>,
+    /// Armature, damping and springs per degree of freedom (empty vectors when the model has
+    /// none; `docs/loading.md#armature-and-damping`).
+    pub dynamics: crate::DofDynamics,
 }
 
 /// A moving URDF joint that carries no mass, locked at its neutral position.
@@ -226,6 +229,81 @@ impl Model {
     /// Loads a URDF from text.
     pub fn from_urdf_str(text: &str, options: &LoadOptions) -> Result<Model, ModelError> {
         Self::build(urdf::read_str(text)?, options)
+    }
+
+    /// Loads an MJCF (MuJoCo XML) file, its `<include>`s resolved against its directory
+    /// (docs/mjcf.md). The file decides the base: one free body alone under the world is a
+    /// floating base ([`LoadOptions::floating_base`] is not used); the other options apply
+    /// as for a URDF.
+    pub fn from_mjcf_file(
+        path: impl AsRef<Path>,
+        options: &LoadOptions,
+    ) -> Result<Model, ModelError> {
+        Self::from_mjcf(crate::mjcf::read_file(path.as_ref())?, options)
+    }
+
+    /// Loads an MJCF model from text (an `<include>` is then an error: it needs a directory).
+    pub fn from_mjcf_str(text: &str, options: &LoadOptions) -> Result<Model, ModelError> {
+        Self::from_mjcf(crate::mjcf::read_str(text)?, options)
+    }
+
+    /// Loads a URDF or an MJCF file, by its content (an MJCF's root element is `<mujoco>`).
+    pub fn from_file(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Model, ModelError> {
+        let path = path.as_ref();
+        let head = urdf::read_limited(path, 1 << 16).or_else(|e| {
+            if e.kind() == std::io::ErrorKind::FileTooLarge {
+                // Long files: their first 64 KiB.
+                use std::io::Read;
+                let mut b = Vec::new();
+                std::fs::File::open(path)
+                    .and_then(|f| f.take(1 << 16).read_to_end(&mut b))
+                    .map(|_| b)
+            } else {
+                Err(e)
+            }
+        });
+        let head = head.map_err(|e| ModelError::Io {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })?;
+        if crate::mjcf::is_mjcf(&String::from_utf8_lossy(&head)) {
+            Self::from_mjcf_file(path, options)
+        } else {
+            Self::from_urdf_file(path, options)
+        }
+    }
+
+    fn from_mjcf(
+        robot: crate::mjcf::MjcfRobot,
+        options: &LoadOptions,
+    ) -> Result<Model, ModelError> {
+        let options = options.with_floating_base(robot.floating_base);
+        let free = robot.free_joint.clone();
+        let mut model = Self::build(robot.raw, &options)?;
+        for b in &mut model.bodies {
+            if let Some(name) = robot.renames.get(&b.name) {
+                b.name = name.clone();
+            }
+        }
+        if let (Some(free), true) = (free, model.floating_base) {
+            model.bodies[0].joint[0].name = free.name.clone();
+            let mut per_joint = model.dynamics_by_joint(&robot.joints_dynamics);
+            if !free.dynamics.is_zero() {
+                per_joint.push((0, 6, free.dynamics));
+            }
+            model.dynamics = crate::DofDynamics::from_joints(model.nv, &per_joint);
+        }
+        Ok(model)
+    }
+
+    /// Each moving part's `(v_offset, nv, dynamics)` for the joints named in `dynamics`.
+    fn dynamics_by_joint(
+        &self,
+        dynamics: &std::collections::HashMap<String, crate::JointDynamics>,
+    ) -> Vec<(usize, usize, crate::JointDynamics)> {
+        self.coordinate_parts()
+            .filter_map(|p| Some((p.v_offset, p.nv(), *dynamics.get(p.name.as_str())?)))
+            .collect()
     }
 
     /// Builds a model from a robot already read by the `urdf-rs` crate (feature `urdf-rs`),
@@ -478,6 +556,7 @@ impl Model {
             urdf_joints: raw.joints.len(),
             warnings,
             locked: Vec::new(),
+            dynamics: crate::DofDynamics::default(),
         };
         let mut massless_leaves: Vec<(String, String)> = Vec::new();
         // A pending moving joint: (parent body, first part, link it moves).
@@ -677,6 +756,15 @@ impl Model {
         for p in parts.chain(model.locked.iter_mut().map(|l| &mut l.joint)) {
             p.limits = limits.get(p.name.as_str()).copied();
         }
+        // Armature, damping and springs, by joint name.
+        let dynamics = raw
+            .joints
+            .iter()
+            .filter(|j| !j.dynamics.is_zero())
+            .map(|j| (j.name.clone(), j.dynamics))
+            .collect();
+        let per_joint = model.dynamics_by_joint(&dynamics);
+        model.dynamics = crate::DofDynamics::from_joints(model.nv, &per_joint);
         model.assembly = AssemblyTree::build(&model);
         Ok(model)
     }

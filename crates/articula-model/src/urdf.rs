@@ -78,6 +78,8 @@ pub(crate) struct RawJoint {
     pub limits: Option<[f64; 2]>,
     pub parent: usize,
     pub child: usize,
+    /// Armature, damping and springs (URDF: `<dynamics damping>`).
+    pub dynamics: crate::JointDynamics,
 }
 
 /// A validated robot: links, joints, the root link, and warnings.
@@ -177,7 +179,7 @@ pub(crate) fn read_data(text: &str) -> Result<RobotData<'_>, ModelError> {
 /// CDATA sections, processing instructions, declarations and quoted attribute values. Text that
 /// is not well-formed may be counted loosely; the parser reports it afterwards, before it can
 /// recurse past the point the scan stopped trusting.
-fn check_depth(text: &str, limit: usize) -> Result<(), ModelError> {
+pub(crate) fn check_depth(text: &str, limit: usize) -> Result<(), ModelError> {
     let b = text.as_bytes();
     let find = |from: usize, pat: &[u8]| -> usize {
         b[from.min(b.len())..]
@@ -607,6 +609,8 @@ pub(crate) struct JointData<'a> {
     pub(crate) axis: DVec3,
     /// `<limit lower upper>`, read leniently ([`read_limits`]).
     pub(crate) limits: Option<[f64; 2]>,
+    /// `<dynamics damping>` (N·m·s/rad or N·s/m), 0 when absent.
+    pub(crate) damping: f64,
 }
 
 /// Reads `<limit lower="..." upper="...">` leniently: `Some([lower, upper])` when both are
@@ -620,6 +624,35 @@ pub(crate) fn read_limits(el: roxmltree::Node) -> Option<[f64; 2]> {
     };
     let (lower, upper) = (get("lower")?, get("upper")?);
     (lower < upper).then_some([lower, upper])
+}
+
+/// Reads `<dynamics damping friction>`: the damping (a finite number ≥ 0, else an error
+/// naming the joint); a non-zero `friction` is reported as not modelled.
+fn read_dynamics(
+    el: roxmltree::Node,
+    joint: &str,
+    warnings: &mut Vec<LoadWarning>,
+) -> Result<f64, ModelError> {
+    let get = |a: &str| -> Result<f64, ModelError> {
+        let Some(text) = el.attribute(a) else {
+            return Ok(0.0);
+        };
+        match numbers::<1>(text) {
+            Some([x]) if x.is_finite() && x >= 0.0 => Ok(x),
+            _ => Err(malformed(
+                "joint",
+                joint,
+                format!("<dynamics {a}=\"{text}\"> must be a finite number ≥ 0"),
+            )),
+        }
+    };
+    if get("friction")? != 0.0 {
+        warnings.push(LoadWarning::NotModelled {
+            what: "joint friction (URDF <dynamics friction>)".into(),
+            items: vec![joint.to_string()],
+        });
+    }
+    get("damping")
 }
 
 /// The robot as read, before validation.
@@ -738,6 +771,7 @@ fn read_joint<'input>(
         // URDF's default axis.
         axis: DVec3::X,
         limits: None,
+        damping: 0.0,
     };
     let (mut origin, mut axis, mut parent, mut child) = (None, None, None, None);
     for c in el.children().filter(|n| n.is_element()) {
@@ -749,6 +783,10 @@ fn read_joint<'input>(
             "child" => &mut child,
             "limit" => {
                 joint.limits = read_limits(c);
+                continue;
+            }
+            "dynamics" => {
+                joint.damping = read_dynamics(c, name, warnings)?;
                 continue;
             }
             "mimic" => {
@@ -969,6 +1007,10 @@ pub(crate) fn validate(robot: RobotData) -> Result<RawRobot, ModelError> {
             },
             parent,
             child,
+            dynamics: crate::JointDynamics {
+                damping: j.damping,
+                ..Default::default()
+            },
         });
     }
 

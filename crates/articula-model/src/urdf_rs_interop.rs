@@ -96,6 +96,8 @@ pub(crate) fn robot_data(robot: &u::Robot) -> Result<RobotData<'_>, ModelError> 
                     && j.limit.upper.is_finite()
                     && j.limit.lower < j.limit.upper)
                     .then_some([j.limit.lower, j.limit.upper]),
+                // As `read_dynamics` (the friction warning aside).
+                damping: j.dynamics.as_ref().map_or(0.0, |d| d.damping).max(0.0),
             }
         })
         .collect();

@@ -36,6 +36,14 @@ pub enum LoadWarning {
         /// The massless links it moves.
         links: Vec<String>,
     },
+    /// Something the file describes that articula's dynamics does not model (MJCF tendons,
+    /// equality constraints, actuators, sensors, sites; joint friction), listed by name.
+    NotModelled {
+        /// What it is (`MJCF <tendon>`).
+        what: String,
+        /// The elements' names.
+        items: Vec<String>,
+    },
 }
 
 impl fmt::Display for LoadWarning {
@@ -57,6 +65,12 @@ impl fmt::Display for LoadWarning {
                 f,
                 "joint '{joint}' moves only massless links ({}): locked, its q̈ is 0",
                 links.join(", ")
+            ),
+            LoadWarning::NotModelled { what, items } => write!(
+                f,
+                "{what} not modelled, ignored ({}): {}",
+                items.len(),
+                items.join(", ")
             ),
         }
     }

@@ -1065,15 +1065,14 @@ fn resolve_in(
     let mut model_index = BTreeMap::new();
     for (name, rel) in &spec.models {
         let p = base.join(rel);
-        let model =
-            Model::from_urdf_file(&p, &options.with_floating_base(true)).map_err(|error| {
-                ViewError::Model {
-                    path: file.clone(),
-                    name: name.clone(),
-                    model_path: p.display().to_string(),
-                    error: Box::new(error),
-                }
-            })?;
+        let model = Model::from_file(&p, &options.with_floating_base(true)).map_err(|error| {
+            ViewError::Model {
+                path: file.clone(),
+                name: name.clone(),
+                model_path: p.display().to_string(),
+                error: Box::new(error),
+            }
+        })?;
         model_index.insert(name.clone(), models.len());
         models.push(SceneModel {
             name: name.clone(),

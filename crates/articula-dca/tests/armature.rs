@@ -1,0 +1,200 @@
+//! Armature (MJCF `armature`, a rotor's reflected inertia) in every method: DCA, ABA and CRBA
+//! solve `(M + A) q̈ = τ − b`, inverse dynamics returns `(M + A) q̈ + b`, and the mass matrix
+//! has `A` on its diagonal — checked against `mass_matrix` and `bias_forces` formed
+//! independently (dense solve), on a model with hinge, slide, composed and free joints.
+
+use articula_dca::{
+    bias_forces, forward_dynamics, inverse_dynamics, mass_matrix, Data, Method, State,
+};
+use articula_model::{LoadOptions, Model};
+
+/// A free torso with a 3-hinge hip composed in one body (anchored off the body origin, with
+/// `ref`), a slide, a 2-hinge shoulder, and armature and damping on every joint (some
+/// different per class).
+const MJCF: &str = r#"<mujoco model="armature">
+  <compiler angle="degree"/>
+  <default>
+    <joint armature="0.02" damping="0.5"/>
+    <default class="big"><joint armature="1.5" damping="3"/></default>
+  </default>
+  <worldbody>
+    <body name="torso" pos="0 0 1">
+      <freejoint name="root"/>
+      <geom type="capsule" fromto="0 -.07 0 0 .07 0" size=".07"/>
+      <body name="thigh" pos="0 -.1 -.04" euler="10 0 -20">
+        <joint name="hip_x" axis="1 0 0" pos="0 0 .05" range="-25 5"/>
+        <joint name="hip_z" axis="0 0 1" pos="0 0 .05" ref="12"/>
+        <joint name="hip_y" axis="0 1 0" pos="0 .01 .05" class="big"/>
+        <geom type="capsule" fromto="0 0 0 0 .01 -.34" size=".06"/>
+        <body name="shin" pos="0 .01 -.403">
+          <joint name="knee" type="slide" axis="0 0 1" class="big"/>
+          <geom type="box" size=".05 .04 .1" pos="0 0 -.1"/>
+        </body>
+      </body>
+      <body name="arm" pos=".1 .2 0" quat="0.9 0.1 0.3 0.2">
+        <joint name="sh1" axis="2 1 1"/>
+        <joint name="sh2" axis="0 -1 1" pos=".02 0 0"/>
+        <geom type="ellipsoid" size=".05 .08 .12"/>
+        <body name="hand" pos="0 0 -.2">
+          <joint name="wrist" axis="1 0 0"/>
+          <geom type="sphere" size=".04"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>"#;
+
+/// A planar swimmer: a composed slide–slide–hinge root whose middle part alone has armature
+/// (a join whose `Zᵀ Z D⁻¹` is no identity), and two hinged links.
+const SWIMMER: &str = r#"<mujoco>
+  <default><joint armature="0.1"/></default>
+  <worldbody>
+    <body name="torso">
+      <geom fromto="0 0 0 0.5 0 0" size="0.1" type="capsule"/>
+      <joint axis="1 0 0" name="slider1" type="slide" armature="0"/>
+      <joint axis="0 1 0" name="slider2" type="slide"/>
+      <joint axis="0 0 1" name="rot" armature="0"/>
+      <body name="mid" pos="0.5 0 0">
+        <geom fromto="0 0 0 -1 0 0" size="0.1" type="capsule"/>
+        <joint axis="0 0 1" name="motor1" armature="0.3"/>
+        <body name="back" pos="-1 0 0">
+          <geom fromto="0 0 0 -1 0 0" size="0.1" type="capsule"/>
+          <joint axis="0 0 1" name="motor2" armature="0"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>"#;
+
+/// `M q̈ = τ − b` by a dense LU-free solve (Gaussian elimination with partial pivoting).
+fn solve(m: &[f64], rhs: &[f64]) -> Vec<f64> {
+    let n = rhs.len();
+    let mut a: Vec<Vec<f64>> = (0..n)
+        .map(|r| {
+            let mut row = m[r * n..(r + 1) * n].to_vec();
+            row.push(rhs[r]);
+            row
+        })
+        .collect();
+    for c in 0..n {
+        let p = (c..n)
+            .max_by(|&x, &y| a[x][c].abs().total_cmp(&a[y][c].abs()))
+            .unwrap();
+        a.swap(c, p);
+        for r in c + 1..n {
+            let f = a[r][c] / a[c][c];
+            for k in c..=n {
+                a[r][k] -= f * a[c][k];
+            }
+        }
+    }
+    let mut x = vec![0.0; n];
+    for r in (0..n).rev() {
+        let s: f64 = (r + 1..n).map(|k| a[r][k] * x[k]).sum();
+        x[r] = (a[r][n] - s) / a[r][r];
+    }
+    x
+}
+
+#[test]
+fn armature_is_on_the_mass_matrix_diagonal_and_in_every_method() {
+    for (text, nv) in [(MJCF, 6 + 3 + 1 + 2 + 1), (SWIMMER, 5)] {
+        let model = Model::from_mjcf_str(text, &LoadOptions::default()).unwrap();
+        assert!(model.dynamics.has_armature());
+        assert_eq!(model.nv, nv);
+        // DCA with and without leaf clusters: its joins and its clusters' ABA passes.
+        for clusters in [true, false] {
+            check(&model, clusters);
+        }
+    }
+}
+
+fn check(model: &Model, clusters: bool) {
+    let mut rigid = model.clone();
+    rigid.dynamics = Default::default();
+    let mut data = Data::new(model);
+    data.set_leaf_clusters(model, clusters);
+    let mut rd = Data::new(&rigid);
+    for seed in 0..5 {
+        let state = State::random(model, seed, 5.0);
+        let m = mass_matrix(model, &mut data, &state.q).unwrap().to_vec();
+        let m0 = mass_matrix(&rigid, &mut rd, &state.q).unwrap().to_vec();
+        let nv = model.nv;
+        for r in 0..nv {
+            for c in 0..nv {
+                let extra = if r == c {
+                    model.dynamics.armature[r]
+                } else {
+                    0.0
+                };
+                assert!((m[r * nv + c] - m0[r * nv + c] - extra).abs() < 1e-12);
+            }
+        }
+        let b = bias_forces(model, &mut data, &state.q, &state.qd)
+            .unwrap()
+            .to_vec();
+        let rhs: Vec<f64> = state.tau.iter().zip(&b).map(|(t, b)| t - b).collect();
+        let expected = solve(&m, &rhs);
+        let scale = expected.iter().fold(1.0f64, |a, x| a.max(x.abs()));
+        for method in [Method::Dca, Method::Aba, Method::Crba] {
+            let qdd = forward_dynamics(model, &mut data, &state, method)
+                .unwrap()
+                .to_vec();
+            let err = qdd
+                .iter()
+                .zip(&expected)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            assert!(
+                err < 1e-10 * scale,
+                "{method:?} seed {seed} clusters {clusters}: {err:e}"
+            );
+            let tau = inverse_dynamics(model, &mut data, &state.q, &state.qd, &qdd, &[])
+                .unwrap()
+                .to_vec();
+            for (a, b) in tau.iter().zip(&state.tau) {
+                assert!((a - b).abs() < 1e-9 * (1.0 + b.abs()), "{method:?} ID");
+            }
+        }
+    }
+}
+
+/// A wheel (one hinge through its centre of mass, no gravity torque) with armature `a` and
+/// damping `b`: the passive force is `−b q̇`, and a semi-implicit Euler step integrates it
+/// implicitly, `q̇₁ = q̇₀ (I + a) / (I + a + h b)` exactly, so a damping 100 times too stiff
+/// for an explicit step still decays monotonically — by every method.
+#[test]
+fn damping_is_a_passive_force_integrated_implicitly() {
+    let wheel = r#"<mujoco><worldbody><body name="wheel">
+        <joint name="spin" axis="0 0 1" armature="0.5" damping="200"/>
+        <inertial pos="0 0 0" mass="2" diaginertia="1 1 1.5"/>
+      </body></worldbody></mujoco>"#;
+    let model = Model::from_mjcf_str(wheel, &LoadOptions::default()).unwrap();
+    let (i, a, b, h) = (1.5, 0.5, 200.0, 0.01);
+    let mut out = vec![0.0; 1];
+    model.passive_forces(&[0.3], &[2.0], &mut out);
+    assert_eq!(out, vec![-400.0]);
+    for method in [Method::Dca, Method::Aba, Method::Crba] {
+        let mut data = Data::new(&model);
+        let mut state = State::neutral(&model);
+        state.qd[0] = 2.0;
+        // forward_dynamics with τ = 0 stays the rigid-body map: no passive force.
+        let qdd = forward_dynamics(&model, &mut data, &state, method).unwrap()[0];
+        assert_eq!(qdd, 0.0);
+        let mut v = 2.0;
+        for _ in 0..20 {
+            articula_dca::step(
+                &model,
+                &mut data,
+                &mut state,
+                method,
+                articula_dca::Integrator::SemiImplicitEuler,
+                h,
+            )
+            .unwrap();
+            v *= (i + a) / (i + a + h * b);
+            assert!((state.qd[0] - v).abs() <= 1e-14 * 2.0, "{method:?}");
+            assert!(state.qd[0] > 0.0);
+        }
+    }
+}
