@@ -97,12 +97,16 @@ pub struct DynamicsArgs {
     pub threads: Option<usize>,
 }
 
-/// `--threads N`: at least 1.
+/// `--threads N`: at least 1, at most `Threads::max_count()` (8 per core, at least 64).
 pub fn parse_threads(s: &str) -> Result<usize, String> {
+    let cap = Threads::max_count();
     match s.parse::<usize>() {
+        Ok(n) if n > cap => Err(format!(
+            "{n} is more than the cap of {cap} threads (8 per core on this machine, at least 64)"
+        )),
         Ok(n) if n >= 1 => Ok(n),
         _ => Err(format!(
-            "the thread count must be a whole number of at least 1, got '{s}'"
+            "the thread count must be a whole number from 1 to {cap}, got '{s}'"
         )),
     }
 }
