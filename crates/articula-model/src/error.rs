@@ -282,7 +282,7 @@ fn massless_message(leaves: &[(String, String)]) -> String {
 /// A number for a message: plain for ordinary magnitudes, in scientific notation beyond
 /// (`1e308`, never a 309-digit integer).
 pub(crate) fn number(x: f64) -> String {
-    if x != 0.0 && x.is_finite() && !(1e-4..1e15).contains(&x.abs()) {
+    if x != 0.0 && x.is_finite() && !(1e-4..1e6).contains(&x.abs()) {
         format!("{x:e}")
     } else {
         format!("{x}")
