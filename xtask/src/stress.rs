@@ -18,6 +18,9 @@ pub enum Pose {
     NearStraight,
     /// The first joint at 0.5 rad, the others at 0: a straight chain tilted in the world.
     Tilted,
+    /// The first joint at 0.3 rad: where DCA's refinement stalls on its residual's rounding
+    /// and DCA answers with ABA (issue 39; docs/algorithms.md).
+    TiltedLess,
     /// `State::random` angles (±1.2 rad), rates (±2 rad/s) and torques (±1 N·m).
     Random,
 }
@@ -28,6 +31,7 @@ impl Pose {
             Pose::Straight => "straight",
             Pose::NearStraight => "near-straight (±0.01 rad)",
             Pose::Tilted => "tilted (q₁ = 0.5 rad)",
+            Pose::TiltedLess => "tilted (q₁ = 0.3 rad)",
             Pose::Random => "random",
         }
     }
@@ -85,6 +89,7 @@ impl Case {
                 }
             }
             Pose::Tilted => s.q[0] = 0.5,
+            Pose::TiltedLess => s.q[0] = 0.3,
             _ => {}
         }
         if self.tau1 {
@@ -105,7 +110,8 @@ const fn chain(links: usize, ratio: f64, pose: Pose) -> Case {
     }
 }
 
-/// The cases of issue 24 (items 1, 2, 7): `full` adds the 100,000-link ones.
+/// The cases of issue 24 (items 1, 2, 7) and issue 39 (the chains tilted 0.3 rad): `full` adds
+/// the 100,000-link ones.
 pub fn cases(full: bool) -> Vec<Case> {
     let mut v = vec![
         chain(300, 1.0, Pose::Tilted),
@@ -114,6 +120,7 @@ pub fn cases(full: bool) -> Vec<Case> {
         chain(8_000, 1.0, Pose::Tilted),
         chain(9_000, 1.0, Pose::Tilted),
         chain(20_000, 1.0, Pose::Tilted),
+        chain(20_000, 1.0, Pose::TiltedLess),
         chain(20_000, 1.0, Pose::Straight),
         Case {
             shape: Shape::Chain {
@@ -138,6 +145,7 @@ pub fn cases(full: bool) -> Vec<Case> {
             chain(100_000, 1.0, Pose::Straight),
             chain(100_000, 1.0, Pose::NearStraight),
             chain(100_000, 1.0, Pose::Tilted),
+            chain(100_000, 1.0, Pose::TiltedLess),
         ]);
     }
     v

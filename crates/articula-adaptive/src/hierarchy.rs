@@ -21,7 +21,9 @@ use crate::parts::subtrees::{Subtree, Subtrees};
 use articula_dca::Threads;
 use articula_dca::{Data, DynamicsError};
 use articula_model::{Model, NodeKind};
-use articula_spatial::internals::{cholesky_into, dot6_pairs, Arith, Portable};
+use articula_spatial::internals::{
+    cholesky_into, dot6_pairs, joint_block_regular, Arith, Portable,
+};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion, SpatialTransform};
 use glam::DVec3;
 
@@ -1582,7 +1584,8 @@ fn articulate_through_factor<const K: usize>(
     // dividing again (the same numbers). The factor goes straight into `chol` (the lower
     // triangle of the leading k × k block: all that passes 2 and 3 read).
     let mut invs = [0.0; 6];
-    if !cholesky_into(&dm, k, &mut h.chol[idx], &mut invs) {
+    // The joint's own block, tested as DCA, ABA and CRBA test theirs (a gimbal lock).
+    if !joint_block_regular(&dm, k) || !cholesky_into(&dm, k, &mut h.chol[idx], &mut invs) {
         return false;
     }
     if parent == NO_PARENT {
@@ -1871,7 +1874,8 @@ fn add_sub_outer<A: Arith>(s: &mut Mat6, a: &Mat6, u: &[f64; 6], alpha: f64) {
 fn singular(model: &Model, j: usize) -> DynamicsError {
     DynamicsError::Singular {
         joint: model.bodies[j].joint_name(),
-        detail: "Sᵀ Iᴬ S of the hybrid body is not positive definite",
+        detail: "Sᵀ Iᴬ S of the hybrid body is not positive definite, or a pivot of a joint's \
+                 own block is at most 1e-13 of its diagonal (its axes dependent: a gimbal lock)",
     }
 }
 

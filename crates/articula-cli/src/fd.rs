@@ -145,10 +145,17 @@ fn run_here(args: &FdArgs, threads: &articula_dca::Threads) -> Result<(), CliErr
         &state.f_ext,
         exact,
         threads,
-    )?;
+    )?
+    .to_vec();
+    if data.fallback_count() > 0 {
+        eprintln!(
+            "warning: DCA could not certify this solve (its refinement did not converge); \
+             the accelerations are ABA's (docs/algorithms.md, \"When DCA falls back to ABA\")"
+        );
+    }
     let out = FdOutput {
         method: exact.name(),
-        qdd: ByJoint::velocities(&model, qdd),
+        qdd: ByJoint::velocities(&model, &qdd),
         adaptive: None,
     };
     print_out(&out.to_json()?)

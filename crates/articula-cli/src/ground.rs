@@ -15,7 +15,8 @@ pub struct GroundArgs {
     #[arg(long, value_name = "Z", allow_hyphen_values = true)]
     pub ground: Option<f64>,
     /// `--ground`: Coulomb friction coefficient μ ≥ 0.
-    #[arg(long, value_name = "MU", default_value_t = 1.0, requires = "ground")]
+    #[arg(long, value_name = "MU", default_value_t = 1.0, requires = "ground",
+          value_parser = crate::parse_nonnegative)]
     pub friction: f64,
     /// `--ground`: restitution 0 ≤ e ≤ 1.
     #[arg(long, value_name = "E", default_value_t = 0.0, requires = "ground")]
@@ -25,7 +26,7 @@ pub struct GroundArgs {
     pub no_joint_limits: bool,
     /// `--ground`: before the run, raise a floating base so that the lowest contact point is H
     /// metres above the ground.
-    #[arg(long, value_name = "H", requires = "ground")]
+    #[arg(long, value_name = "H", requires = "ground", value_parser = crate::parse_nonnegative)]
     pub drop: Option<f64>,
     /// `--ground`: how the contact problem is solved (docs/contact.md#solver).
     #[arg(long, value_enum, default_value_t = SolverArg::GaussSeidel, requires = "ground")]

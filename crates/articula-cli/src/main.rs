@@ -52,14 +52,22 @@ enum Command {
         inertia: InertiaArgs,
     },
     /// Forward dynamics of one state: the joint accelerations, as JSON keyed by URDF joint name.
+    // Negative numbers reach the flags' validators, which name the flag and its rule.
+    #[command(allow_negative_numbers = true)]
     Fd(fd::FdArgs),
     /// Integrate the motion from a state for a number of steps; print a summary (time per step,
     /// energy drift) and optionally write the trajectory as CSV.
+    // Negative numbers reach the flags' validators, which name the flag and its rule.
+    #[command(allow_negative_numbers = true)]
     Simulate(simulate::SimulateArgs),
     /// Time forward-dynamics calls on a seeded random state.
+    // Negative numbers reach the flags' validators, which name the flag and its rule.
+    #[command(allow_negative_numbers = true)]
     Bench(bench::BenchArgs),
     /// Simulate a scene of many bodies with view-dependent adaptive dynamics (one scene-wide
     /// joint budget); optionally write PNG frames and top-down maps.
+    // Negative numbers reach the flags' validators, which name the flag and its rule.
+    #[command(allow_negative_numbers = true)]
     Scene(scene::SceneArgs),
 }
 
@@ -99,12 +107,16 @@ pub struct DynamicsArgs {
     pub threads: Option<usize>,
 }
 
-/// `--threads N`: at least 1.
+/// `--threads N`: at least 1, at most `Threads::max_count()` (8 per core, at least 64).
 pub fn parse_threads(s: &str) -> Result<usize, String> {
+    let cap = Threads::max_count();
     match s.parse::<usize>() {
+        Ok(n) if n > cap => Err(format!(
+            "{n} is more than the cap of {cap} threads (8 per core on this machine, at least 64)"
+        )),
         Ok(n) if n >= 1 => Ok(n),
         _ => Err(format!(
-            "the thread count must be a whole number of at least 1, got '{s}'"
+            "the thread count must be a whole number from 1 to {cap}, got '{s}'"
         )),
     }
 }
@@ -245,8 +257,16 @@ impl From<ReselectionArg> for articula_adaptive::Reselection {
     }
 }
 
+/// Parses a finite number ≥ 0 (`--friction`, `--drop`).
+pub(crate) fn parse_nonnegative(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(x) if x.is_finite() && x >= 0.0 => Ok(x),
+        _ => Err(format!("must be a finite number ≥ 0, got '{s}'")),
+    }
+}
+
 /// Parses `--budget`: a whole number ≥ 0.
-fn parse_budget(s: &str) -> Result<usize, String> {
+pub(crate) fn parse_budget(s: &str) -> Result<usize, String> {
     s.trim()
         .parse()
         .map_err(|_| format!("the budget must be a whole number ≥ 0, got '{s}'"))

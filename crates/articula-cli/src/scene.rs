@@ -36,7 +36,7 @@ pub struct SceneArgs {
     pub inertia: crate::InertiaArgs,
     /// Stop (exit 2, after the summary of the steps done) once the scene's energy (kinetic,
     /// gravity, pose springs) has grown, beyond the work of the pushes, by more than this
-    /// fraction of the largest energy in play; checked at every re-selection. `inf`: no bound.
+    /// fraction of the largest energy in play; checked after every step. `inf`: no bound.
     #[arg(long, value_name = "FRACTION", default_value_t = DEFAULT_MAX_ENERGY_GROWTH,
           value_parser = parse_growth)]
     pub max_energy_growth: f64,
@@ -58,7 +58,7 @@ pub struct SceneArgs {
     pub gravity: Option<f64>,
     /// Replace the scene's joint budget: the internal degrees of freedom simulated per step,
     /// over every character (0: every character one rigid body).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = crate::parse_budget)]
     pub budget: Option<usize>,
     /// How every character is stepped: `adaptive` (the scene's joint budget spent where the
     /// camera looks), or the exact reference by `dca`, `aba` or `crba` on every character
@@ -231,11 +231,10 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
                 bar.set_message(format!("{} active joints", s.active_total));
                 bar.set_position(k + 1);
                 last = Some(s);
-                if (k + 1) % check_every == 0 || k + 1 == steps {
-                    check_scene(&mut sim, &mut watch, &mut gimbal, k + 1)
-                } else {
-                    Ok(())
-                }
+                // The energy every step (a divergence is caught within one step); the
+                // composed joints at re-selections.
+                let gimbal_too = (k + 1) % check_every == 0 || k + 1 == steps;
+                check_scene(&mut sim, &mut watch, &mut gimbal, k + 1, gimbal_too)
             }
             Err(e) => Err(e.to_string()),
         };
@@ -327,18 +326,22 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
     }
 }
 
-/// The checks of a re-selection step: the energy balance, and every character's composed
-/// joints against gimbal lock (one warning per joint of each model, naming the first character
-/// that neared it).
+/// The checks after a step: the energy balance (every step), and with `gimbal_too` (at
+/// re-selections) every character's composed joints against gimbal lock (one warning per joint
+/// of each model, naming the first character that neared it).
 fn check_scene(
     sim: &mut SceneSim,
     watch: &mut EnergyWatch,
     gimbal: &mut [GimbalWatch],
     k: u64,
+    gimbal_too: bool,
 ) -> Result<(), String> {
     let e = sim.energy();
     let t = sim.time();
     for (b, placement) in sim.bodies.iter().zip(&sim.scene.placements) {
+        if !gimbal_too {
+            break;
+        }
         let model = &sim.scene.models[b.model].model;
         let who = format!("body '{}': ", placement.name);
         gimbal[b.model].check(model, &b.state.q, |w| {

@@ -7,7 +7,7 @@
 use crate::kinematics::FkPlan;
 use crate::{Data, DynamicsError};
 use articula_model::Model;
-use articula_spatial::internals::{dot6, invert_spd_into, Arith, Portable};
+use articula_spatial::internals::{dot6, invert_spd_into, joint_block_regular, Arith, Portable};
 use articula_spatial::{PackedSymMat6, SpatialForce, SpatialMotion};
 use glam::DVec3;
 
@@ -174,7 +174,7 @@ fn aba_with<A: Arith>(
         if !ok {
             return Err(DynamicsError::Singular {
                 joint: model.bodies[i].joint_name(),
-                detail: "Sᵀ Iᴬ S is not positive definite",
+                detail: crate::error::JOINT_BLOCK_SINGULAR,
             });
         }
         if parent != usize::MAX {
@@ -303,7 +303,8 @@ pub fn articulate_multi<A: Arith, const K: usize>(
         uu[p] = tau[p] - s[p].dot(pa_i);
     }
     let mut di = [[0.0; K]; K];
-    if !invert_spd_into(&dm, K, &mut di) {
+    // The joint's own block, tested as every method tests it (`JOINT_PIVOT_REL`).
+    if !joint_block_regular(&dm, K) || !invert_spd_into(&dm, K, &mut di) {
         return false;
     }
     for p in 0..K {

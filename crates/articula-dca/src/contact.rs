@@ -79,7 +79,7 @@ pub struct ContactSettings {
     pub ground: Option<Ground>,
     /// Enforce the URDF limits of revolute and prismatic joints (default `true`).
     pub joint_limits: bool,
-    /// Gauss–Seidel sweeps at most (default 200).
+    /// Gauss–Seidel sweeps at most (default 200, at most [`MAX_ITERATIONS`]).
     pub max_iterations: usize,
     /// Stop when no sweep changes a row velocity by more than this (default 1e-9, m/s or
     /// rad/s).
@@ -282,6 +282,8 @@ pub struct ContactData {
     forces: ContactForces,
     /// The buffers one step uses and leaves ([`ContactScratch`]).
     s: ContactScratch,
+    /// The model this workspace was built for (checked by every step).
+    fingerprint: crate::data::Fingerprint,
 }
 
 /// The forces of a step's contact solve: its impulses over `dt`. Per body the ground pushes,
@@ -461,6 +463,7 @@ impl ContactData {
             }),
             stats: ContactStats::default(),
             columns: 0,
+            fingerprint: crate::data::Fingerprint::of(model),
         }
     }
 
@@ -500,6 +503,11 @@ impl ContactData {
     }
 }
 
+/// The most Gauss–Seidel sweeps a step may be given (`ContactSettings::max_iterations`): a
+/// bound on any step's work whatever the tolerance (the default is 200, 50 times less). A
+/// tolerance below what rounding lets Gauss–Seidel reach would otherwise run to the count.
+pub const MAX_ITERATIONS: usize = 10_000;
+
 fn check(settings: &ContactSettings, dt: f64) -> Result<Option<(Ground, DVec3)>, ContactError> {
     let bad = |what, detail: String| Err(ContactError::Invalid { what, detail });
     if !(dt > 0.0 && dt.is_finite()) {
@@ -514,6 +522,16 @@ fn check(settings: &ContactSettings, dt: f64) -> Result<Option<(Ground, DVec3)>,
         if !(x >= 0.0 && x.is_finite()) {
             return bad(what, format!("{x} must be finite and ≥ 0"));
         }
+    }
+    if settings.max_iterations > MAX_ITERATIONS {
+        return bad(
+            "max_iterations",
+            format!(
+                "{} is above the cap {MAX_ITERATIONS} (each sweep costs O(rows²); the solve \
+                 ends at its tolerance or its cap, whichever comes first)",
+                settings.max_iterations
+            ),
+        );
     }
     let Some(g) = settings.ground else {
         return Ok(None);
@@ -656,6 +674,13 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     dt: f64,
     settings: &ContactSettings,
 ) -> Result<(), ContactError> {
+    let given = crate::data::Fingerprint::of(model);
+    if contact.fingerprint != given {
+        return Err(ContactError::Dynamics(DynamicsError::WrongModel {
+            data: format!("ContactData of {}", contact.fingerprint.describe(&given)),
+            model: given.describe(&contact.fingerprint),
+        }));
+    }
     let ground = check(settings, dt)?;
     let cd = contact;
     cd.stats = ContactStats::default();

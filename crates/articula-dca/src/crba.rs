@@ -59,6 +59,24 @@ pub(crate) fn crba(
             h[(l.joint.v_offset + k, l.joint.v_offset + k)] = 1.0;
         }
     }
+    // Each multi-DOF joint's own block first, as DCA and ABA test theirs (a gimbal lock).
+    for body in model.bodies.iter().filter(|b| b.nv >= 2 && b.nv <= 6) {
+        let block: [[f64; 6]; 6] = std::array::from_fn(|r| {
+            std::array::from_fn(|c| {
+                if r < body.nv && c < body.nv {
+                    h[(body.v_offset + r, body.v_offset + c)]
+                } else {
+                    0.0
+                }
+            })
+        });
+        if !articula_spatial::internals::joint_block_regular(&block, body.nv) {
+            return Err(DynamicsError::Singular {
+                joint: body.joint_name(),
+                detail: crate::error::JOINT_BLOCK_SINGULAR,
+            });
+        }
+    }
     let llt = h
         .llt(faer::Side::Lower)
         .map_err(|_| DynamicsError::Singular {

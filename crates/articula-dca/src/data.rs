@@ -85,6 +85,8 @@ pub struct Data {
     pub(crate) refine: RefineData,
     pub(crate) rk: RkData,
     pub(crate) quant: QuantityData,
+    /// The model this workspace was built for (`inputs::check_data`).
+    pub(crate) fingerprint: Fingerprint,
 }
 
 /// Buffers of the quantities around forward dynamics (inverse dynamics, bias forces, mass
@@ -428,6 +430,59 @@ pub(crate) struct RkData {
 /// block) above which it prefetches (see [`DcaData::prefetch`]): a quarter of a 1 MB L2.
 const PREFETCH_ABOVE: usize = 256 * 1024;
 
+/// A cheap fingerprint of a model: its sizes and the shape of three of its bodies (first,
+/// middle, last: parent, degrees of freedom, offsets). O(1) to compare, so every entry point
+/// checks that a [`Data`] belongs to the model it is given (`inputs::check_data`); two models
+/// of the same sizes and probed shape share buffers safely in every algorithm, whose loops
+/// are bounded by these sizes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Fingerprint {
+    nq: usize,
+    nv: usize,
+    bodies: usize,
+    floating: bool,
+    locked: usize,
+    /// (parent or `usize::MAX`, nv, q offset, v offset) of bodies 0, n/2 and n − 1.
+    probe: [(usize, usize, usize, usize); 3],
+}
+
+impl Fingerprint {
+    pub(crate) fn of(model: &Model) -> Fingerprint {
+        let n = model.bodies.len();
+        let probe = [0, n / 2, n.saturating_sub(1)].map(|i| {
+            model.bodies.get(i).map_or((0, 0, 0, 0), |b| {
+                (b.parent.unwrap_or(usize::MAX), b.nv, b.q_offset, b.v_offset)
+            })
+        });
+        Fingerprint {
+            nq: model.nq,
+            nv: model.nv,
+            bodies: n,
+            floating: model.floating_base,
+            locked: model.locked.len(),
+            probe,
+        }
+    }
+
+    /// For messages: the sizes (and "same sizes, other shape" when only the probe differs).
+    pub(crate) fn describe(&self, other: &Fingerprint) -> String {
+        let base = if self.floating { "floating" } else { "fixed" };
+        let same_sizes = (self.nq, self.nv, self.bodies, self.floating)
+            == (other.nq, other.nv, other.bodies, other.floating);
+        format!(
+            "{} bodies, nq {}, nv {}, {base} base{}",
+            self.bodies,
+            self.nq,
+            self.nv,
+            if same_sizes {
+                ", another tree shape"
+            } else {
+                ""
+            }
+        )
+    }
+}
+
 /// Buffers of DCA's iterative refinement (`refine.rs`).
 #[derive(Clone, Debug)]
 pub(crate) struct RefineData {
@@ -441,6 +496,9 @@ pub(crate) struct RefineData {
     /// Solves whose residual was above rounding level (a counter for tests); with
     /// `regularised`, every correction step.
     pub(crate) corrections: u64,
+    /// DCA solves answered by ABA instead (`forward::dca_or_fall_back`): a refinement that did
+    /// not converge, or a join that rounding made singular where ABA is not.
+    pub(crate) fallbacks: u64,
     /// Some body's DCA leaf inverts a regularised inertia: refine every solve to convergence.
     pub(crate) regularised: bool,
     /// Some body's mass differs from its parent's by more than [`MASS_RATIO`](crate::mass_ratio::MASS_RATIO): the same.
@@ -458,6 +516,7 @@ impl RefineData {
             zv: vec![SpatialMotion::ZERO; n],
             zc: vec![SpatialMotion::ZERO; n],
             corrections: 0,
+            fallbacks: 0,
             regularised,
             mass_ratio: crate::mass_ratio::large_mass_ratio(model),
         }
@@ -711,6 +770,7 @@ impl Data {
                 theta: vec![0.0; nv],
             },
             quant: QuantityData::default(),
+            fingerprint: Fingerprint::of(model),
         }
     }
 
@@ -779,6 +839,15 @@ impl Data {
     /// residual is above rounding level (see `docs/algorithms.md`).
     pub fn refinement_count(&self) -> u64 {
         self.refine.corrections
+    }
+
+    /// How many `Method::Dca` solves on this workspace were answered by ABA instead, because
+    /// DCA could not certify its own answer: its iterative refinement stopped contracting above
+    /// the accuracy it promises, or one of its joins was singular to rounding where ABA's
+    /// articulated inertias are not (docs/algorithms.md, "When DCA falls back to ABA"). Callers
+    /// report it as a warning; the `q̈` returned is ABA's, exact to rounding.
+    pub fn fallback_count(&self) -> u64 {
+        self.refine.fallbacks
     }
 }
 

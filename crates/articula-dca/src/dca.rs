@@ -789,7 +789,7 @@ fn join<A: Arith>(
         if !dm.invert() {
             return Err(DynamicsError::Singular {
                 joint: body.joint_name(),
-                detail: "Sᵀ V S is not positive definite",
+                detail: crate::error::JOINT_BLOCK_SINGULAR,
             });
         }
         d.dinv[joint] = dm;

@@ -33,6 +33,18 @@ pub enum DynamicsError {
         /// What failed.
         detail: &'static str,
     },
+    /// The workspace was built for another model ([`Data::new`](crate::Data::new) of a model
+    /// of other sizes or shape): checked by every entry point before anything is read.
+    #[error(
+        "this Data was built for another model (the Data's: {data}; the model's: {model}); \
+         build one with Data::new(&model)"
+    )]
+    WrongModel {
+        /// The fingerprint of the model the workspace was built for.
+        data: String,
+        /// The fingerprint of the model given.
+        model: String,
+    },
     /// A dense matrix the call would allocate is larger than its limit
     /// ([`crate::MAX_DENSE_MATRIX_BYTES`]); checked before anything is allocated.
     #[error(
@@ -88,6 +100,12 @@ pub fn human_bytes(bytes: u64) -> String {
 pub const MAX_DENSE_MATRIX_BYTES: u64 = 2 << 30;
 
 /// Checks that a dense `rows × cols` matrix of `f64` fits in [`MAX_DENSE_MATRIX_BYTES`].
+/// The detail of [`DynamicsError::Singular`] when a multi-DOF joint's own block `Sᵀ X S`
+/// fails `joint_block_regular` (articula-spatial): the same test in DCA, ABA and CRBA.
+pub(crate) const JOINT_BLOCK_SINGULAR: &str =
+    "its axes are dependent (a gimbal lock) or move no mass: a pivot of its Sᵀ I S block \
+     is at most 1e-13 of its diagonal (docs/conventions.md, \"Singular configurations\")";
+
 pub(crate) fn check_dense(
     what: &'static str,
     rows: usize,

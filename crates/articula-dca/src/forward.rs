@@ -76,6 +76,7 @@ pub fn forward_dynamics_slices<'d>(
     f_ext: &[SpatialForce],
     method: Method,
 ) -> Result<&'d [f64], DynamicsError> {
+    crate::inputs::check_data(model, data)?;
     check_inputs(model, q, qd, tau, f_ext)?;
     if method == Method::Crba {
         crate::error::check_dense("joint-space inertia matrix", model.nv, model.nv)?;
@@ -84,25 +85,10 @@ pub fn forward_dynamics_slices<'d>(
     kinematics::forces_to_computation_frame(f_ext, data);
     let f_ext = std::mem::take(&mut data.f_ext_c);
     let result = match method {
-        Method::Dca => dca::forward(model, q, qd, tau, &f_ext, data).and_then(|()| {
-            // Regularised leaves always (see `refine`): their first solve is not exact.
-            // ... and solves whose join factorisation lost a pivot to rounding, and models
-            // whose neighbouring bodies differ greatly in mass (`refine`).
-            if data.refine.regularised
-                || data.refine.mass_ratio
-                || data.dca.clamped > 0
-                || (data.refine_dca && data.refine_floating)
-            {
-                refine::refine_dca(model, tau, &f_ext, data)
-            } else {
-                Ok(())
-            }
+        Method::Dca => dca_or_fall_back(model, q, qd, tau, &f_ext, data, |data| {
+            dca::forward(model, q, qd, tau, &f_ext, data)
         }),
-        Method::Aba => aba::forward(model, q, qd, tau, &f_ext, data).map(|()| {
-            if model.floating_base && data.refine_floating {
-                aba::refine(model, tau, &f_ext, data);
-            }
-        }),
+        Method::Aba => aba_refined(model, q, qd, tau, &f_ext, data),
         Method::Crba => {
             kinematics::kinematics(model, q, qd, data, |_, _| {});
             crba::crba(model, tau, &f_ext, data)
@@ -112,6 +98,68 @@ pub fn forward_dynamics_slices<'d>(
     result?;
     check_qdd(model, data)?;
     Ok(&data.qdd)
+}
+
+/// ABA with its floating-base refinement.
+fn aba_refined(
+    model: &Model,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+    data: &mut Data,
+) -> Result<(), DynamicsError> {
+    aba::forward(model, q, qd, tau, f_ext, data)?;
+    if model.floating_base && data.refine_floating {
+        aba::refine(model, tau, f_ext, data);
+    }
+    Ok(())
+}
+
+/// DCA's solve `solve` (serial or split; `f_ext` in the computation frame) with its
+/// refinement rule, answered by ABA when DCA cannot certify its own answer: the refinement
+/// did not converge, or a join was singular where ABA's articulated inertias are not (a
+/// rounding artefact of DCA's compliances on very long bodies). Each fallback is counted
+/// (`Data::fallback_count`, reported as a warning by callers). A joint found singular by the
+/// test every method shares (`joint_block_regular`) is an error without a fallback.
+pub(crate) fn dca_or_fall_back(
+    model: &Model,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+    data: &mut Data,
+    solve: impl FnOnce(&mut Data) -> Result<(), DynamicsError>,
+) -> Result<(), DynamicsError> {
+    let certified = solve(data).and_then(|()| {
+        // Regularised leaves always (see `refine`): their first solve is not exact.
+        // ... and solves whose join factorisation lost a pivot to rounding, and models
+        // whose neighbouring bodies differ greatly in mass (`refine`).
+        if data.refine.regularised
+            || data.refine.mass_ratio
+            || data.dca.clamped > 0
+            || (data.refine_dca && data.refine_floating)
+        {
+            refine::refine_dca(model, tau, f_ext, data)
+        } else {
+            Ok(true)
+        }
+    });
+    match certified {
+        Ok(true) => Ok(()),
+        Ok(false) => {
+            data.refine.fallbacks += 1;
+            aba_refined(model, q, qd, tau, f_ext, data)
+        }
+        Err(DynamicsError::Singular { detail, .. })
+            if detail != crate::error::JOINT_BLOCK_SINGULAR =>
+        {
+            aba_refined(model, q, qd, tau, f_ext, data)?;
+            data.refine.fallbacks += 1;
+            Ok(())
+        }
+        Err(e) => Err(e),
+    }
 }
 
 /// `Ok` when every `q̈` in `data.qdd` is finite, else the error naming the first joint with

@@ -12,6 +12,20 @@ pub(crate) fn f_ext_of(f_ext: &[SpatialForce], i: usize) -> SpatialForce {
     f_ext.get(i).copied().unwrap_or(SpatialForce::ZERO)
 }
 
+/// `Ok` when `data` was built for `model` (its fingerprint: sizes and shape, O(1)), else
+/// [`DynamicsError::WrongModel`]: a workspace of another model would index out of its buffers.
+#[inline]
+pub(crate) fn check_data(model: &Model, data: &crate::Data) -> Result<(), DynamicsError> {
+    let given = crate::data::Fingerprint::of(model);
+    if data.fingerprint == given {
+        return Ok(());
+    }
+    Err(DynamicsError::WrongModel {
+        data: data.fingerprint.describe(&given),
+        model: given.describe(&data.fingerprint),
+    })
+}
+
 /// Checks the inputs of a dynamics call: lengths of `q`, `qd`, `tau` (and `f_ext` when not
 /// empty), and that every number is finite — an error names the joint or body.
 #[inline]

@@ -98,6 +98,7 @@ pub fn step(
     integrator: Integrator,
     dt: f64,
 ) -> Result<(), DynamicsError> {
+    crate::inputs::check_data(model, data)?;
     let project = data.momentum_projection && projectable(model, state);
     let mut start = None;
     match integrator {

@@ -28,6 +28,7 @@ pub fn inverse_dynamics<'d>(
     qdd: &[f64],
     f_ext: &[SpatialForce],
 ) -> Result<&'d [f64], DynamicsError> {
+    crate::inputs::check_data(model, data)?;
     check_values(model, q, qd, ("qdd", qdd), f_ext)?;
     rnea(model, data, q, qd, Some(qdd), f_ext)
 }
@@ -42,6 +43,7 @@ pub fn bias_forces<'d>(
     q: &[f64],
     qd: &[f64],
 ) -> Result<&'d [f64], DynamicsError> {
+    crate::inputs::check_data(model, data)?;
     let mut zero = std::mem::take(&mut data.quant.zero);
     sized(&mut zero, model.nv, 0.0);
     let checked = check_values(model, q, qd, ("qdd", &zero), &[]);

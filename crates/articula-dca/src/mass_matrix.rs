@@ -23,6 +23,7 @@ pub fn mass_matrix<'d>(
     data: &'d mut Data,
     q: &[f64],
 ) -> Result<&'d [f64], DynamicsError> {
+    crate::inputs::check_data(model, data)?;
     let nv = model.nv;
     crate::error::check_dense("joint-space inertia matrix", nv, nv)?;
     let mut zero = std::mem::take(&mut data.quant.zero);

@@ -74,6 +74,7 @@ pub fn forward_split<'d>(
     f_ext: &[SpatialForce],
     threads: &Threads,
 ) -> Result<&'d [f64], DynamicsError> {
+    crate::inputs::check_data(model, data)?;
     crate::check_inputs(model, q, qd, tau, f_ext)?;
     data.origin = crate::kinematics::computation_origin(model, q);
     crate::kinematics::forces_to_computation_frame(f_ext, data);
@@ -85,8 +86,24 @@ pub fn forward_split<'d>(
     Ok(&data.qdd)
 }
 
-/// The kinematics, the split passes and, where the serial DCA takes it, the refinement.
+/// The kinematics, the split passes and, where the serial DCA takes it, the refinement (and
+/// its fallback to ABA: `forward::dca_or_fall_back`).
 fn solve(
+    model: &Model,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+    data: &mut Data,
+    threads: &Threads,
+) -> Result<(), DynamicsError> {
+    crate::forward::dca_or_fall_back(model, q, qd, tau, f_ext, data, |data| {
+        split(model, q, qd, tau, f_ext, data, threads)
+    })
+}
+
+/// The kinematics and the split passes.
+fn split(
     model: &Model,
     q: &[f64],
     qd: &[f64],
@@ -107,22 +124,14 @@ fn solve(
     // leaf clusters or gather nodes never is, and runs the serial passes).
     let nodes = data.dca.node.len();
     if banked && threads.count() > 1 && nodes > 1 {
-        passes(model, tau, f_ext, data, threads)?;
+        passes(model, tau, f_ext, data, threads)
     } else {
         // One thread: the same nodes in the same order as the split (each node's arithmetic
         // does not depend on the order).
         crate::dca::main_range(model, tau, f_ext, data, true, 0..nodes)?;
         crate::dca::back_range(tau, data, 0..nodes);
+        Ok(())
     }
-    // The serial DCA's refinement rule (`forward.rs`).
-    if data.refine.regularised
-        || data.refine.mass_ratio
-        || data.dca.clamped > 0
-        || (data.refine_dca && data.refine_floating)
-    {
-        crate::refine::refine_dca(model, tau, f_ext, data)?;
-    }
-    Ok(())
 }
 
 /// Bodies per task of the kinematics' per-body parts: enough to amortise a task's

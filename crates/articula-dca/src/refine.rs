@@ -42,22 +42,23 @@ use glam::DVec3;
 const TRIGGER: f64 = 1e-8;
 
 /// One refinement step of DCA's `data.qdd` (floating bases), when the residual asks for it;
-/// with regularised leaves, [`refine_regularised`].
+/// with regularised leaves, [`refine_regularised`]. `Ok(false)`: the refinement did not
+/// converge, and the caller answers with an exact method instead (`forward::dca_or_fall_back`).
 pub(crate) fn refine_dca(
     model: &Model,
     tau: &[f64],
     f_ext: &[SpatialForce],
     data: &mut Data,
-) -> Result<(), DynamicsError> {
+) -> Result<bool, DynamicsError> {
     if data.refine.regularised || data.refine.mass_ratio || data.dca.clamped > 0 {
         return refine_regularised(model, tau, f_ext, data);
     }
     let (scale, rmax) = residual(model, tau, f_ext, data);
     if rmax <= TRIGGER * scale {
-        return Ok(());
+        return Ok(true);
     }
     data.refine.corrections += 1;
-    correct(model, data).map(|_| ())
+    correct(model, data).map(|_| true)
 }
 
 /// Correction steps at most with regularised leaves.
@@ -77,20 +78,28 @@ const CONVERGED: f64 = 1e-10;
 const FLOOR: f64 = 1e-7;
 
 /// Iterative refinement to convergence, for a model whose DCA leaves invert a regularised
-/// inertia: `q̈ += H'⁻¹ (τ − ID(q̈))` until [`CONVERGED`] or [`FLOOR`], at most [`MAX_STEPS`] steps; a
-/// solve that does not converge (dynamics too close to singular for the regularisation) is an
-/// error, never a silently wrong `q̈`.
+/// inertia: `q̈ += H'⁻¹ (τ − ID(q̈))` until [`CONVERGED`] or [`FLOOR`], at most [`MAX_STEPS`] steps;
+/// `Ok(false)` when it does not converge, never a silently wrong `q̈`.
+///
+/// Non-convergence has two causes. (1) The dynamics is too close to singular for the
+/// regularisation. (2) The residual's own rounding: `rnea_residual` works about the
+/// computation origin, so on a body kilometres long (a 20,000-link chain of 0.1 m links) a
+/// joint torque is the small difference of moments ~10⁴ times larger, and `H⁻¹` amplifies that
+/// rounding to corrections of ~5e-7 of `q̈` that do not shrink (ρ ≈ 1) while the first solve
+/// was already exact to 5e-11: a join's pivot lost in the directions such a planar chain never
+/// loads (out of its plane, where its compliance is rounding) is what asked for refinement.
+/// The caller then answers with ABA, which needs neither.
 fn refine_regularised(
     model: &Model,
     tau: &[f64],
     f_ext: &[SpatialForce],
     data: &mut Data,
-) -> Result<(), DynamicsError> {
+) -> Result<bool, DynamicsError> {
     let mut last = f64::INFINITY;
     for _ in 0..MAX_STEPS {
         let (_, rmax) = residual(model, tau, f_ext, data);
         if rmax == 0.0 {
-            return Ok(());
+            return Ok(true);
         }
         data.refine.corrections += 1;
         let dn = correct(model, data)?;
@@ -105,24 +114,11 @@ fn refine_regularised(
             || (rho <= 0.5 && rho * dn <= CONVERGED * xn)
             || (rho > 0.5 && dn <= FLOOR * xn);
         if converged {
-            return Ok(());
+            return Ok(true);
         }
         last = dn;
     }
-    // Named for the joint with the largest residual left.
-    residual(model, tau, f_ext, data);
-    let r = &data.refine.r;
-    let j = (0..r.len())
-        .max_by(|&a, &b| r[a].abs().total_cmp(&r[b].abs()))
-        .unwrap_or(0);
-    let body = model
-        .bodies
-        .iter()
-        .find(|b| (b.v_offset..b.v_offset + b.nv).contains(&j));
-    Err(DynamicsError::Singular {
-        joint: body.map(|b| b.joint_name()).unwrap_or_default(),
-        detail: "DCA's refinement did not converge: the dynamics is too close to singular",
-    })
+    Ok(false)
 }
 
 /// The residual `r = τ − ID(q, q̇, q̈)` of `data.qdd` into `data.refine.r`; returns the scale of

@@ -9,7 +9,7 @@
 
 #[cfg(doc)]
 use articula_spatial::internals::cholesky_into;
-use articula_spatial::internals::{invert_spd_into, Arith};
+use articula_spatial::internals::{invert_spd_into, joint_block_regular, Arith};
 
 /// Cholesky factor `L` (lower, `L Lᵀ = A`) of a 6×6 symmetric positive definite matrix (its
 /// lower triangle is read; [`cholesky_into`]'s operations, the same bits), `None` when a pivot
@@ -167,7 +167,8 @@ pub struct SmallSpd {
 }
 
 impl SmallSpd {
-    /// Inverts in place by Cholesky; `false` when not positive definite.
+    /// Inverts in place by Cholesky; `false` when not positive definite or, for k ≥ 2, not a
+    /// regular joint block (`joint_block_regular`: a gimbal lock).
     pub fn invert(&mut self) -> bool {
         match self.k {
             0 => true,
@@ -193,7 +194,7 @@ impl SmallSpd {
     fn invert_fixed<const K: usize>(&mut self) -> bool {
         debug_assert_eq!(self.k, K);
         let a = self.a;
-        invert_spd_into(&a, K, &mut self.a)
+        joint_block_regular(&a, K) && invert_spd_into(&a, K, &mut self.a)
     }
 
     /// `y = self · x` on the leading k entries.

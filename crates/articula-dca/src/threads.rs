@@ -25,6 +25,18 @@ pub enum ThreadsError {
     /// A count of zero threads.
     #[error("a thread count must be at least 1")]
     Zero,
+    /// More threads than [`Threads::max_count`]: a pool that size only competes with itself,
+    /// and a runaway count would exhaust the machine's processes.
+    #[error(
+        "{count} threads is more than the cap of {cap} (8 per core on this machine, at least \
+         64; results do not depend on the count)"
+    )]
+    TooMany {
+        /// The count asked for.
+        count: usize,
+        /// [`Threads::max_count`].
+        cap: usize,
+    },
     /// The operating system refused to start the pool's threads.
     #[error("could not start {count} threads: {reason}")]
     Spawn {
@@ -41,6 +53,10 @@ impl Threads {
     pub fn new(count: usize) -> Result<Threads, ThreadsError> {
         if count == 0 {
             return Err(ThreadsError::Zero);
+        }
+        let cap = Threads::max_count();
+        if count > cap {
+            return Err(ThreadsError::TooMany { count, cap });
         }
         #[cfg(feature = "parallel")]
         {
@@ -62,6 +78,13 @@ impl Threads {
         }
         #[cfg(not(feature = "parallel"))]
         Ok(Threads::serial())
+    }
+
+    /// The largest count [`Threads::new`] accepts: 8 per core
+    /// (`std::thread::available_parallelism`), and at least 64.
+    pub fn max_count() -> usize {
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        cores.saturating_mul(8).max(64)
     }
 
     /// One thread: the calling one.

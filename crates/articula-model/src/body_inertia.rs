@@ -138,7 +138,7 @@ impl fmt::Display for InertiaDefect {
             f,
             "body '{}' (mass {} kg, principal moments {} kg·m² about its centre of mass",
             self.body,
-            self.mass,
+            crate::error::number(self.mass),
             fmt_moments(&self.moments)
         )?;
         if self.links.len() > 1 {
@@ -196,9 +196,14 @@ impl fmt::Display for InertiaChange {
         let d = &self.defects[0];
         write!(f, "body '{}': {} changed ", d.body, self.fixes.join(" + "))?;
         if d.mass != self.mass {
-            write!(f, "mass {} → {} kg, ", d.mass, self.mass)?;
+            write!(
+                f,
+                "mass {} → {} kg, ",
+                crate::error::number(d.mass),
+                crate::error::number(self.mass)
+            )?;
         } else {
-            write!(f, "(mass {} kg) ", d.mass)?;
+            write!(f, "(mass {} kg) ", crate::error::number(d.mass))?;
         }
         write!(
             f,

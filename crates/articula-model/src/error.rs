@@ -112,7 +112,7 @@ pub enum ModelError {
         link: String,
     },
     /// Mass negative, NaN or infinite.
-    #[error("link '{link}' has invalid mass {mass}")]
+    #[error("link '{link}' has invalid mass {}", crate::error::number(*mass))]
     InvalidMass {
         /// The link.
         link: String,
@@ -167,6 +167,21 @@ pub enum ModelError {
         /// What is wrong.
         reason: String,
     },
+    /// A finite value too large for the dynamics to stay finite on ([`MAX_MASS`](crate::MAX_MASS),
+    /// [`MAX_LENGTH`](crate::MAX_LENGTH), [`MAX_INERTIA`](crate::MAX_INERTIA)).
+    #[error(
+        "{what} is {}, beyond the limit of {} (docs/loading.md, \"Limits\")",
+        crate::error::number(*value),
+        crate::error::number(*limit)
+    )]
+    Absurd {
+        /// The field, naming its link or joint (`link 'a' mass (kg)`).
+        what: String,
+        /// The value read.
+        value: f64,
+        /// The limit it passes.
+        limit: f64,
+    },
     /// A non-finite joint origin.
     #[error("joint '{joint}' has a non-finite origin")]
     InvalidOrigin {
@@ -213,6 +228,28 @@ pub enum ModelError {
         /// The limit.
         limit: usize,
     },
+    /// An error located in a file's text (malformed XML, nesting, attributes, not text, empty),
+    /// with the file it is in ([`Model::from_urdf_file`](crate::Model::from_urdf_file)).
+    #[error("{path}: {source}")]
+    InFile {
+        /// The file.
+        path: String,
+        /// The error in its text.
+        source: Box<ModelError>,
+    },
+    /// An element with more attributes than [`MAX_XML_ATTRIBUTES`](crate::MAX_XML_ATTRIBUTES),
+    /// counted before the XML parser (whose duplicate check is quadratic in them) runs.
+    #[error(
+        "malformed XML at line {line}, column {column}: an element with more than {limit} attributes"
+    )]
+    TooManyAttributes {
+        /// 1-based line of the element.
+        line: u32,
+        /// 1-based column.
+        column: u32,
+        /// The limit.
+        limit: usize,
+    },
 }
 
 fn inertia_message(policy: InertiaPolicy, defects: &[InertiaDefect]) -> String {
@@ -253,4 +290,14 @@ fn massless_message(leaves: &[(String, String)]) -> String {
         if leaves.len() == 1 { "" } else { "s" },
         list.join(", ")
     )
+}
+
+/// A number for a message: plain for ordinary magnitudes, in scientific notation beyond
+/// (`1e308`, never a 309-digit integer).
+pub(crate) fn number(x: f64) -> String {
+    if x != 0.0 && x.is_finite() && !(1e-4..1e6).contains(&x.abs()) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
 }

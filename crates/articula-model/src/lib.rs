@@ -67,8 +67,8 @@ pub use error::ModelError;
 pub use model::{Body, JointPart, LinkFrame, LockedJoint, Model, FLOATING_BASE_JOINT};
 pub use options::{InertiaPolicy, LoadOptions, MasslessLeafPolicy};
 pub use urdf::{
-    read_limited, rpy_to_matrix, Geometry, GeometryRole, JointKind, Shape, MAX_URDF_BYTES,
-    MAX_XML_DEPTH,
+    read_limited, rpy_to_matrix, Geometry, GeometryRole, JointKind, Shape, MAX_INERTIA, MAX_LENGTH,
+    MAX_MASS, MAX_URDF_BYTES, MAX_XML_ATTRIBUTES, MAX_XML_DEPTH,
 };
 #[cfg(feature = "urdf-rs")]
 pub use urdf_rs;

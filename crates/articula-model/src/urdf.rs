@@ -99,11 +99,19 @@ pub const MAX_URDF_BYTES: u64 = 64 << 20;
 /// once per level, so without a limit a small file of deeply nested elements exhausts the stack.
 pub const MAX_XML_DEPTH: usize = 256;
 
+/// The most attributes one element may carry (a URDF element has at most about ten). The XML
+/// parser's duplicate-attribute check is quadratic in an element's attributes (a 4.9 MB
+/// element of 300,000 attributes takes hours), so they are counted before it runs.
+pub const MAX_XML_ATTRIBUTES: usize = 256;
+
 /// Reads at most `limit` bytes of a file. A longer input (`/dev/zero` included) is an error of
 /// kind [`std::io::ErrorKind::FileTooLarge`] after reading `limit + 1` bytes, never an
-/// unbounded read.
+/// unbounded read. A FIFO (named pipe) or a socket is refused before it is opened (an error
+/// of kind [`std::io::ErrorKind::InvalidInput`]): opening a FIFO without a writer blocks for
+/// ever.
 pub fn read_limited(path: &std::path::Path, limit: u64) -> std::io::Result<Vec<u8>> {
     use std::io::Read;
+    refuse_pipes(path)?;
     let file = std::fs::File::open(path)?;
     let mut bytes = Vec::new();
     file.take(limit.saturating_add(1)).read_to_end(&mut bytes)?;
@@ -114,6 +122,34 @@ pub fn read_limited(path: &std::path::Path, limit: u64) -> std::io::Result<Vec<u
         ));
     }
     Ok(bytes)
+}
+
+/// `Err` for a FIFO or a socket (by `stat`, which never blocks); anything else passes
+/// (a missing file is reported by the `open` that follows).
+fn refuse_pipes(path: &std::path::Path) -> std::io::Result<()> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if let Ok(meta) = std::fs::metadata(path) {
+            let t = meta.file_type();
+            let what = if t.is_fifo() {
+                Some("a FIFO (named pipe)")
+            } else if t.is_socket() {
+                Some("a socket")
+            } else {
+                None
+            };
+            if let Some(what) = what {
+                return Err(std::io::Error::new(
+                    std::io::ErrorKind::InvalidInput,
+                    format!("{what}, not a file: articula reads only files, which it can size"),
+                ));
+            }
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = path;
+    Ok(())
 }
 
 /// Reads a URDF file (bytes are checked for being text first).
@@ -132,11 +168,24 @@ pub(crate) fn read_file(path: &std::path::Path) -> Result<RawRobot, ModelError> 
             }
         }
     })?;
-    let text = std::str::from_utf8(&bytes).map_err(|e| ModelError::NotText {
-        reason: "invalid UTF-8".into(),
-        offset: e.valid_up_to(),
+    let in_file = |e: ModelError| match e {
+        ModelError::Xml { .. }
+        | ModelError::TooDeep { .. }
+        | ModelError::TooManyAttributes { .. }
+        | ModelError::NotText { .. }
+        | ModelError::Empty => ModelError::InFile {
+            path: path.display().to_string(),
+            source: Box::new(e),
+        },
+        e => e,
+    };
+    let text = std::str::from_utf8(&bytes).map_err(|e| {
+        in_file(ModelError::NotText {
+            reason: "invalid UTF-8".into(),
+            offset: e.valid_up_to(),
+        })
     })?;
-    read_str(text)
+    read_str(text).map_err(in_file)
 }
 
 /// Reads a URDF from text.
@@ -163,7 +212,7 @@ pub(crate) fn read_data(text: &str) -> Result<RobotData<'_>, ModelError> {
             offset,
         });
     }
-    check_depth(text, MAX_XML_DEPTH)?;
+    check_markup(text, MAX_XML_DEPTH, MAX_XML_ATTRIBUTES)?;
     let doc = roxmltree::Document::parse(text).map_err(|e| {
         let pos = e.pos();
         ModelError::Xml {
@@ -175,11 +224,25 @@ pub(crate) fn read_data(text: &str) -> Result<RobotData<'_>, ModelError> {
     extract(&doc)
 }
 
-/// Fails when elements nest deeper than `limit`, by a scan of the markup that skips comments,
-/// CDATA sections, processing instructions, declarations and quoted attribute values. Text that
-/// is not well-formed may be counted loosely; the parser reports it afterwards, before it can
-/// recurse past the point the scan stopped trusting.
-pub(crate) fn check_depth(text: &str, limit: usize) -> Result<(), ModelError> {
+/// Fails when elements nest deeper than `limit` or an element carries more than `max_attributes`
+/// attributes (each is one `=` outside quotes in its start tag), by a linear scan of the markup
+/// that skips comments, CDATA sections, processing instructions, declarations and quoted
+/// attribute values. Text that is not well-formed may be counted loosely; the parser reports
+/// it afterwards, before it can recurse past the point the scan stopped trusting.
+pub(crate) fn check_markup(
+    text: &str,
+    limit: usize,
+    max_attributes: usize,
+) -> Result<(), ModelError> {
+    let position = |at: usize| {
+        let before = &text[..at];
+        let line = before.matches('\n').count() + 1;
+        let column = before.rsplit('\n').next().unwrap_or("").chars().count() + 1;
+        (
+            u32::try_from(line).unwrap_or(u32::MAX),
+            u32::try_from(column).unwrap_or(u32::MAX),
+        )
+    };
     let b = text.as_bytes();
     let find = |from: usize, pat: &[u8]| -> usize {
         b[from.min(b.len())..]
@@ -210,10 +273,22 @@ pub(crate) fn check_depth(text: &str, limit: usize) -> Result<(), ModelError> {
             // A start tag: to its '>' outside quotes.
             let mut quote = None;
             let mut end = b.len();
+            let mut attributes = 0usize;
             for (k, &c) in b.iter().enumerate().skip(at + 1) {
                 match (quote, c) {
                     (None, b'"' | b'\'') => quote = Some(c),
                     (Some(q), c) if c == q => quote = None,
+                    (None, b'=') => {
+                        attributes += 1;
+                        if attributes > max_attributes {
+                            let (line, column) = position(at);
+                            return Err(ModelError::TooManyAttributes {
+                                line,
+                                column,
+                                limit: max_attributes,
+                            });
+                        }
+                    }
                     (None, b'>') => {
                         end = k;
                         break;
@@ -224,12 +299,10 @@ pub(crate) fn check_depth(text: &str, limit: usize) -> Result<(), ModelError> {
             if end < b.len() && b[end - 1] != b'/' {
                 depth += 1;
                 if depth > limit {
-                    let before = &text[..at];
-                    let line = before.matches('\n').count() + 1;
-                    let column = before.rsplit('\n').next().unwrap_or("").chars().count() + 1;
+                    let (line, column) = position(at);
                     return Err(ModelError::TooDeep {
-                        line: u32::try_from(line).unwrap_or(u32::MAX),
-                        column: u32::try_from(column).unwrap_or(u32::MAX),
+                        line,
+                        column,
                         limit,
                     });
                 }
@@ -877,6 +950,26 @@ pub(crate) fn pose(o: &Origin) -> Option<SpatialTransform> {
         .then(|| SpatialTransform::from_pose(rpy_to_matrix(o.rpy), o.xyz))
 }
 
+/// The largest mass of a link (kg): finite masses above it are refused. Sums and products of
+/// the dynamics (total mass, `m |c|²`, momenta) must stay finite and keep their digits.
+pub const MAX_MASS: f64 = 1e12;
+/// The largest distance (m) of a joint or inertial origin from its frame: 1,000 km.
+pub const MAX_LENGTH: f64 = 1e6;
+/// The largest inertia entry (kg·m²): [`MAX_MASS`] · [`MAX_LENGTH`]².
+pub const MAX_INERTIA: f64 = 1e24;
+
+/// `Err` naming `what` when `value` (finite) is above `limit` in magnitude.
+fn within(what: impl FnOnce() -> String, value: f64, limit: f64) -> Result<(), ModelError> {
+    if value.abs() > limit {
+        return Err(ModelError::Absurd {
+            what: what(),
+            value,
+            limit,
+        });
+    }
+    Ok(())
+}
+
 pub(crate) fn validate(robot: RobotData) -> Result<RawRobot, ModelError> {
     let mut warnings = robot.warnings;
     if robot.links.is_empty() {
@@ -897,9 +990,30 @@ pub(crate) fn validate(robot: RobotData) -> Result<RawRobot, ModelError> {
                 mass: m,
             });
         }
+        within(|| format!("link '{}' mass (kg)", l.name), m, MAX_MASS)?;
         // Positive semidefiniteness and the triangle inequality are checked on the bodies
         // after fixed-joint merging (`body_inertia`), where dynamics sees them.
         let [ixx, ixy, ixz, iyy, iyz, izz] = l.inertia;
+        for x in l.inertia.into_iter().filter(|x| x.is_finite()) {
+            within(
+                || format!("link '{}' inertia entry (kg·m²)", l.name),
+                x,
+                MAX_INERTIA,
+            )?;
+        }
+        for x in l
+            .origin
+            .xyz
+            .to_array()
+            .into_iter()
+            .filter(|x| x.is_finite())
+        {
+            within(
+                || format!("link '{}' inertial origin (m)", l.name),
+                x,
+                MAX_LENGTH,
+            )?;
+        }
         let ic = DMat3::from_cols(
             DVec3::new(ixx, ixy, ixz),
             DVec3::new(ixy, iyy, iyz),
@@ -955,6 +1069,9 @@ pub(crate) fn validate(robot: RobotData) -> Result<RawRobot, ModelError> {
         let origin = pose(&j.origin).ok_or_else(|| ModelError::InvalidOrigin {
             joint: j.name.to_string(),
         })?;
+        for x in j.origin.xyz.to_array() {
+            within(|| format!("joint '{}' origin (m)", j.name), x, MAX_LENGTH)?;
+        }
         let mut axis = j.axis;
         if matches!(
             kind,

@@ -47,6 +47,43 @@ pub fn dot6_pairs<A: Arith>(a: &[f64; 6], b: &[f64; 6]) -> f64 {
     (p[0] + p[1]) + p[2]
 }
 
+/// The relative pivot at or below which a joint's own `k × k` block `Sᵀ X S` is singular
+/// ([`joint_block_regular`]); `X` is the inertia the method eliminates with (ABA's articulated
+/// inertia, CRBA's composite inertia, DCA's inverse compliance), `S` the joint's `k` axes.
+/// Every method tests the same block the same way, so they agree on what is singular. At the
+/// exact gimbal lock of a composed 3-DOF joint two axes coincide and the pivot is rounding
+/// (~1e-16 of the diagonal); `1e-13` leaves three digits of margin above that and refuses a
+/// configuration within about 3e-7 rad of the lock, where `q̈` would lose 13 digits.
+pub const JOINT_PIVOT_REL: f64 = 1e-13;
+
+/// Whether the leading `k × k` block of the symmetric `a` (its lower triangle is read) is
+/// regular as a joint block: every pivot `d_j` of its `L D Lᵀ` factorisation (columns in
+/// order) is above [`JOINT_PIVOT_REL`] times its diagonal entry `a_jj`. `false` for a NaN.
+pub fn joint_block_regular<const N: usize>(a: &[[f64; N]], k: usize) -> bool {
+    let mut l = [[0.0f64; 6]; 6];
+    let mut d = [0.0f64; 6];
+    for j in 0..k.min(6) {
+        let mut dj = a[j][j];
+        for p in 0..j {
+            dj -= l[j][p] * l[j][p] * d[p];
+        }
+        // `!(x > y)` also refuses a NaN.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        if !(dj > JOINT_PIVOT_REL * a[j][j].abs()) {
+            return false;
+        }
+        d[j] = dj;
+        for i in (j + 1)..k.min(6) {
+            let mut x = a[i][j];
+            for p in 0..j {
+                x -= l[i][p] * l[j][p] * d[p];
+            }
+            l[i][j] = x / dj;
+        }
+    }
+    true
+}
+
 /// Cholesky factorisation `L Lᵀ = A` of the leading `k × k` block of a symmetric positive
 /// definite `a` (its lower triangle is read) into the caller's arrays: the lower triangle of
 /// the leading block of `l` gets `L` (nothing else is written) and `inv[j]` the `1 / L_jj`

@@ -59,5 +59,6 @@ pub mod internals {
     pub use crate::arith::{fused_available, Arith, Portable};
     pub use crate::kernels::{
         cholesky, cholesky_into, dot6, dot6_even_odd, dot6_pairs, invert_spd_into,
+        joint_block_regular, JOINT_PIVOT_REL,
     };
 }

@@ -136,16 +136,18 @@ impl GroundSpec {
 
     /// The first field out of its range, and why.
     fn problem(&self) -> Option<(&'static str, &'static str)> {
-        if !self.height.is_finite() {
-            Some(("height", "must be finite"))
+        if !(self.height.is_finite() && self.height.abs() <= MAX_DISTANCE) {
+            Some(("height", "must be finite, at most 1e6 m from 0"))
         } else if !(self.friction.is_finite() && self.friction >= 0.0) {
             Some(("friction", "must be a non-negative number"))
         } else if !(0.0..=1.0).contains(&self.restitution) {
             Some(("restitution", "must lie in [0, 1]"))
         } else if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
             Some(("tolerance", "must be a positive number (m/s)"))
-        } else if self.max_iterations == 0 {
-            Some(("max_iterations", "must be at least 1"))
+        } else if self.max_iterations == 0
+            || self.max_iterations > articula_dca::CONTACT_MAX_ITERATIONS
+        {
+            Some(("max_iterations", "must lie in 1..=10000"))
         } else {
             None
         }
@@ -890,9 +892,90 @@ pub fn parse_scene_with(
     )
 }
 
+/// The blocks of a scene file that must be JSON objects, as JSON paths (`[]`: every element
+/// of an array). Serde reads a struct from an array too, by position (`"ground": [5.0, 0.3]`
+/// as a floor at 5 m with μ 0.3): [`check_objects`] refuses that first.
+#[cfg(feature = "serde")]
+const OBJECT_BLOCKS: &[&str] = &[
+    "",
+    "models",
+    "bodies[]",
+    "bodies[].velocity",
+    "crowds[]",
+    "crowds[].velocity",
+    "camera",
+    "camera.path[]",
+    "visibility",
+    "pushes[]",
+    "image",
+    "joint_springs",
+    "ground",
+];
+
+/// `Err((field, kind))` for the first block of [`OBJECT_BLOCKS`] present in `v` that is a JSON
+/// array (other wrong types are serde's "invalid type" errors).
+#[cfg(feature = "serde")]
+fn check_objects(v: &serde_json::Value) -> Result<(), (String, &'static str)> {
+    use serde_json::Value;
+    fn kind(v: &Value) -> &'static str {
+        match v {
+            Value::Array(_) => "an array",
+            Value::String(_) => "a string",
+            Value::Number(_) => "a number",
+            Value::Bool(_) => "a boolean",
+            Value::Null => "null",
+            Value::Object(_) => "an object",
+        }
+    }
+    // Walks `rest` (path segments) from `v` at `at`, checking the block at the end.
+    fn walk(v: &Value, at: String, rest: &[&str]) -> Result<(), (String, &'static str)> {
+        let Some((first, rest)) = rest.split_first() else {
+            // Only arrays: serde's own error for a number or a string in a block's place
+            // already says "invalid type".
+            return match v {
+                Value::Array(_) => Err((if at.is_empty() { ".".into() } else { at }, kind(v))),
+                _ => Ok(()),
+            };
+        };
+        let (name, each) = match first.strip_suffix("[]") {
+            Some(n) => (n, true),
+            None => (*first, false),
+        };
+        let Some(child) = v.as_object().and_then(|o| o.get(name)) else {
+            return Ok(());
+        };
+        let here = if at.is_empty() {
+            name.to_string()
+        } else {
+            format!("{at}.{name}")
+        };
+        if !each {
+            return walk(child, here, rest);
+        }
+        for (i, e) in child.as_array().into_iter().flatten().enumerate() {
+            walk(e, format!("{here}[{i}]"), rest)?;
+        }
+        Ok(())
+    }
+    for block in OBJECT_BLOCKS {
+        let segments: Vec<&str> = block.split('.').filter(|s| !s.is_empty()).collect();
+        walk(v, String::new(), &segments)?;
+    }
+    Ok(())
+}
+
 /// The spec in scene text (`path` names the file in errors).
 #[cfg(feature = "serde")]
 fn parse_spec(text: &str, path: &Path) -> Result<SceneSpec, ViewError> {
+    // Blocks given as arrays are refused by name before serde reads them by position. (Text
+    // that is not JSON is left to the reader below, whose error has the line and column.)
+    if let Ok(value) = serde_json::from_str::<serde_json::Value>(text) {
+        check_objects(&value).map_err(|(field, kind)| ViewError::Json {
+            path: path.display().to_string(),
+            field,
+            message: format!("must be a JSON object {{ ... }} (docs/view.md), not {kind}"),
+        })?;
+    }
     let de = &mut serde_json::Deserializer::from_str(text);
     serde_path_to_error::deserialize(de).map_err(|e| {
         let field = match e.path().to_string() {
@@ -937,6 +1020,22 @@ fn finite(v: &[f64]) -> bool {
     v.iter().all(|x| x.is_finite())
 }
 
+/// The largest distance a scene may place anything from the world origin (m): positions,
+/// origins, spacings, jitters, camera points, the floor's height. Finite but absurd values
+/// (1e308) are refused at load, naming their field, rather than failing at step 1.
+pub const MAX_DISTANCE: f64 = 1e6;
+/// The largest speed (m/s, rad/s) of an initial velocity and the largest gravity (m/s²).
+pub const MAX_RATE: f64 = 1e4;
+/// The largest push force (N).
+pub const MAX_FORCE: f64 = 1e12;
+/// The largest spring frequency (Hz) and damping ratio of `joint_springs`.
+pub const MAX_SPRING: f64 = 1e4;
+
+/// Every entry finite and at most `limit` in magnitude.
+fn within(v: &[f64], limit: f64) -> bool {
+    v.iter().all(|x| x.is_finite() && x.abs() <= limit)
+}
+
 /// Checks `spec`, loads its model files (relative to `base`) and adds `code_models`; `path`
 /// names the scene in errors (empty: built in code).
 fn resolve_in(
@@ -971,8 +1070,11 @@ fn resolve_in(
             ));
         }
     }
-    if !finite(&spec.gravity) {
-        return Err(invalid("gravity".into(), "must be finite".into()));
+    if !within(&spec.gravity, MAX_RATE) {
+        return Err(invalid(
+            "gravity".into(),
+            "must be finite, each component at most 1e4 m/s²".into(),
+        ));
     }
     let v = spec.visibility;
     if !(v.occluded_factor.is_finite() && (0.0..=1.0).contains(&v.occluded_factor)) {
@@ -1005,10 +1107,10 @@ fn resolve_in(
             ("frequency_hz", j.frequency_hz),
             ("damping_ratio", j.damping_ratio),
         ] {
-            if !(x.is_finite() && x >= 0.0) {
+            if !(x.is_finite() && (0.0..=MAX_SPRING).contains(&x)) {
                 return Err(invalid(
                     format!("joint_springs.{f}"),
-                    "must be a non-negative number".into(),
+                    "must be a number in [0, 1e4]".into(),
                 ));
             }
         }
@@ -1154,19 +1256,25 @@ fn resolve_in(
         (q, qd)
     };
     let check_vel = |field: String, v: &VelocitySpec| {
-        if finite(&v.linear) && finite(&v.angular) {
+        if within(&v.linear, MAX_RATE) && within(&v.angular, MAX_RATE) {
             Ok(())
         } else {
-            Err(invalid(field, "must be finite".into()))
+            Err(invalid(
+                field,
+                "must be finite, each component at most 1e4 (m/s, rad/s)".into(),
+            ))
         }
     };
     for (i, b) in spec.bodies.iter().enumerate() {
         let m = find_model(format!("bodies[{i}].model"), &b.model)?;
-        if !finite(&b.position) || !finite(&b.rpy) {
+        if !within(&b.position, MAX_DISTANCE) {
             return Err(invalid(
-                format!("bodies[{i}]"),
-                "position and rpy must be finite".into(),
+                format!("bodies[{i}].position"),
+                "must be finite, each component at most 1e6 m".into(),
             ));
+        }
+        if !finite(&b.rpy) {
+            return Err(invalid(format!("bodies[{i}].rpy"), "must be finite".into()));
         }
         check_vel(format!("bodies[{i}].velocity"), &b.velocity)?;
         let rot = articula_model::rpy_to_matrix(DVec3::from_array(b.rpy));
@@ -1200,15 +1308,28 @@ fn resolve_in(
                 "rows and columns must be at least 1, with at most 1,000,000 bodies".into(),
             ));
         }
-        if !finite(&c.origin) || !finite(&c.spacing) {
+        for (f, v) in [("origin", &c.origin[..]), ("spacing", &c.spacing[..])] {
+            if !within(v, MAX_DISTANCE) {
+                return Err(invalid(
+                    field(f),
+                    "must be finite, each component at most 1e6 m".into(),
+                ));
+            }
+        }
+        // The grid's far corner too: rows × spacing stays within the distance limit.
+        let extent = [
+            c.origin[0] + c.rows as f64 * c.spacing[0],
+            c.origin[1] + c.columns as f64 * c.spacing[1],
+        ];
+        if !within(&extent, MAX_DISTANCE) {
             return Err(invalid(
-                field("origin"),
-                "origin and spacing must be finite".into(),
+                field("spacing"),
+                "places the crowd's far corner more than 1e6 m from the origin".into(),
             ));
         }
         for (f, x) in [("jitter", c.jitter), ("yaw_jitter", c.yaw_jitter)] {
-            if !(x.is_finite() && x >= 0.0) {
-                return Err(invalid(field(f), "must be a non-negative number".into()));
+            if !(x.is_finite() && (0.0..=MAX_DISTANCE).contains(&x)) {
+                return Err(invalid(field(f), "must be a number in [0, 1e6]".into()));
             }
         }
         if !c.yaw.is_finite() {
@@ -1259,10 +1380,10 @@ fn resolve_in(
     let mut pushes = Vec::new();
     for (i, p) in spec.pushes.iter().enumerate() {
         let field = |f: &str| format!("pushes[{i}].{f}");
-        if !finite(&p.point) || !finite(&p.force) {
+        if !within(&p.point, MAX_DISTANCE) || !within(&p.force, MAX_FORCE) {
             return Err(invalid(
                 field("force"),
-                "point and force must be finite".into(),
+                "point (at most 1e6 m) and force (at most 1e12 N) must be finite".into(),
             ));
         }
         if !(p.t0.is_finite() && p.t1.is_finite() && p.t0 <= p.t1) {

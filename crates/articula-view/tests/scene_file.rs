@@ -200,3 +200,83 @@ fn missing_scene_file_is_an_io_error() {
     assert!(matches!(e, ViewError::Io { .. }));
     assert!(e.to_string().contains("/nonexistent/scene.json"));
 }
+
+/// Blocks given as JSON arrays are refused naming the field (serde would read them by
+/// position: `"ground": [5.0, 0.3]` as a floor at 5 m with μ 0.3).
+#[test]
+fn blocks_must_be_objects() {
+    let body = r#""bodies": [{"model": "h", "position": [0, 0, 1.2]}]"#;
+    for (extra, field) in [
+        (format!(r#"{body}, "ground": []"#), "ground"),
+        (format!(r#"{body}, "ground": [5.0, 0.3]"#), "ground"),
+        (format!(r#"{body}, "visibility": [0.5]"#), "visibility"),
+        (format!(r#"{body}, "joint_springs": [1, 2]"#), "joint_springs"),
+        (r#""bodies": [["h", [0, 0, 1.2]]]"#.to_string(), "bodies[0]"),
+        (
+            r#""crowds": [{"model": "h", "rows": 1, "columns": 1, "origin": [0, 0, 1], "spacing": [1, 1], "velocity": [[1,0,0],[0,0,0]]}]"#.to_string(),
+            "crowds[0].velocity",
+        ),
+    ] {
+        let e = err(&with(&extra));
+        assert!(
+            e.contains(&format!("{field}:")) && e.contains("must be a JSON object") && e.contains("array"),
+            "{extra}: {e}"
+        );
+    }
+    // The camera as an array of points.
+    let text = format!(
+        r#"{{"models": {{"h": "humanoid.urdf"}}, "camera": [[0, 0, 1.5], [10, 0, 1]], {body}}}"#
+    );
+    let e = err(&text);
+    assert!(
+        e.contains("camera:") && e.contains("must be a JSON object"),
+        "{e}"
+    );
+    // The top level too.
+    assert!(err("[1, 2]").contains("must be a JSON object"));
+    // Objects and absent or null optional blocks still load.
+    parse(&with(&format!(
+        r#"{body}, "ground": {{"height": 0}}, "joint_springs": null"#
+    )))
+    .unwrap();
+}
+
+/// Finite but absurd values are refused at load, naming the field, instead of failing at the
+/// first step ("non-finite tau at lumbar_z").
+#[test]
+fn absurd_values_are_refused_at_load() {
+    let crowd = |origin: &str, spacing: &str| {
+        format!(
+            r#""crowds": [{{"model": "h", "rows": 2, "columns": 2, "origin": {origin}, "spacing": {spacing}}}]"#
+        )
+    };
+    for (extra, field) in [
+        (r#""bodies": [{"model": "h", "position": [1e308, 0, 1.2]}]"#.to_string(), "bodies[0].position"),
+        (crowd("[1e308, 0, 1]", "[1, 1]"), "crowds[0].origin"),
+        (crowd("[0, 0, 1]", "[1e300, 1]"), "crowds[0].spacing"),
+        (crowd("[9e5, 0, 1]", "[1e5, 1]"), "crowds[0].spacing"),
+        (
+            r#""bodies": [{"model": "h", "position": [0, 0, 1.2]}], "joint_springs": {"frequency_hz": 1e308, "damping_ratio": 1}"#.to_string(),
+            "joint_springs.frequency_hz",
+        ),
+        (
+            r#""bodies": [{"model": "h", "position": [0, 0, 1.2], "velocity": {"linear": [1e300, 0, 0]}}]"#.to_string(),
+            "bodies[0].velocity",
+        ),
+        (
+            r#""bodies": [{"model": "h", "position": [0, 0, 1.2]}], "gravity": [0, 0, -1e300]"#.to_string(),
+            "gravity",
+        ),
+        (
+            r#""bodies": [{"model": "h", "position": [0, 0, 1.2]}], "ground": {"max_iterations": 1000000000000}"#.to_string(),
+            "ground.max_iterations",
+        ),
+        (
+            r#""bodies": [{"model": "h", "position": [0, 0, 1.2]}], "ground": {"height": 1e308}"#.to_string(),
+            "ground.height",
+        ),
+    ] {
+        let e = err(&with(&extra));
+        assert!(e.contains(&format!("{field}:")), "{extra}: {e}");
+    }
+}

@@ -2,7 +2,7 @@
 //! `<default>` classes resolved, `<compiler>` settings, and typed attribute access whose errors
 //! name the file, element and attribute.
 
-use crate::urdf::{check_depth, read_limited, MAX_URDF_BYTES, MAX_XML_DEPTH};
+use crate::urdf::{check_markup, read_limited, MAX_URDF_BYTES, MAX_XML_ATTRIBUTES, MAX_XML_DEPTH};
 use crate::ModelError;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -122,7 +122,7 @@ fn parse(
             offset,
         });
     }
-    check_depth(text, MAX_XML_DEPTH)?;
+    check_markup(text, MAX_XML_DEPTH, MAX_XML_ATTRIBUTES)?;
     let doc = roxmltree::Document::parse(text).map_err(|e| ModelError::Mjcf {
         file: label.clone(),
         element: "the document".into(),
