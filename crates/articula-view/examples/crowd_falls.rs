@@ -56,7 +56,11 @@ fn main() -> Result<(), Box<dyn Error>> {
 type Falls = (Vec<Vec<bool>>, Vec<String>);
 
 /// Steps `scene` (its exact reference with `exact`) for `seconds`: see [`Falls`].
-fn down_each_second(scene: &LoadedScene, seconds: usize, exact: bool) -> Result<Falls, Box<dyn Error>> {
+fn down_each_second(
+    scene: &LoadedScene,
+    seconds: usize,
+    exact: bool,
+) -> Result<Falls, Box<dyn Error>> {
     let steps_per_second = (1.0 / scene.dt).round() as usize;
     let mut sim = SceneSim::new(scene)?;
     if exact {
@@ -77,7 +81,10 @@ fn down_each_second(scene: &LoadedScene, seconds: usize, exact: bool) -> Result<
     let classes = if exact {
         vec!["exact".to_string(); sim.bodies.len()]
     } else {
-        sim.views.iter().map(|v| format!("{:?}", v.summary()).to_lowercase()).collect()
+        sim.views
+            .iter()
+            .map(|v| format!("{:?}", v.summary()).to_lowercase())
+            .collect()
     };
     Ok((out, classes))
 }
