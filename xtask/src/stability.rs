@@ -500,6 +500,22 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     let path = root.join("docs/stability.md");
     std::fs::write(&path, doc)?;
     println!("wrote {}", path.display());
+    // The longest chain's errors, quoted in docs/performance.md.
+    if let Some((n, e)) = by_length.last() {
+        let errors: Vec<String> = e
+            .iter()
+            .map(|(s, x)| format!("{} {}", s.label(), sci(*x)))
+            .collect();
+        crate::docs::write_between_markers(
+            &root.join("docs/performance.md"),
+            "stability",
+            &format!(
+                "Relative error `max |q̈ − q̈_ref| / max |q̈_ref|` at {n} links, the worst of \
+                 [stability.md](stability.md)'s states: {}.",
+                errors.join(", ")
+            ),
+        )?;
+    }
     for f in &files {
         println!("wrote {}", f.display());
     }
@@ -696,7 +712,9 @@ fn document(
          (seed 8, angles ±1.2 rad, rates ≤ 0.5 rad/s, τ = 0, gravity only: a conservative \
          system), run for {DURATION} s. Drift is `max_t |E(t) − E(0)| / |E(0)|` over the run, \
          E = kinetic + potential energy (E(0) < 0: potential energy is measured from the \
-         base). µs per step is the integration step alone.\n"
+         base). µs per step is the integration step alone, timed on the machine of the run \
+         that wrote this page and as loaded as it was then: the drifts do not depend on the \
+         machine, the times do (compare them with each other, not with another machine's).\n"
     );
     let _ = writeln!(
         s,
