@@ -151,9 +151,9 @@ fn alone(
     );
     for &f in forces {
         let mut down = vec![0usize; seconds];
-        for i in 0..n.min(scene.placements.len()) {
+        for placement in scene.placements.iter().take(n) {
             let mut one = scene.clone();
-            one.placements = vec![scene.placements[i].clone()];
+            one.placements = vec![placement.clone()];
             one.pushes = vec![Push {
                 body: 0,
                 force: direction * f,
