@@ -54,6 +54,9 @@ struct Options {
     /// Also copy the charts into `docs/img/` and the report to `docs/bench-report.md` (for
     /// docs/performance.md and the README).
     publish: bool,
+    /// Also write the exact methods' one-step errors into docs/performance.md between its
+    /// markers (they do not depend on the machine).
+    write_docs: bool,
 }
 
 fn parse(args: &[String]) -> Result<Options> {
@@ -61,15 +64,18 @@ fn parse(args: &[String]) -> Result<Options> {
         quick: false,
         peers: false,
         publish: false,
+        write_docs: false,
     };
     for a in args {
         match a.as_str() {
             "--quick" => o.quick = true,
             "--peers" => o.peers = true,
             "--publish" => o.publish = true,
+            "--write-docs" => o.write_docs = true,
             _ => {
                 return Err(format!(
-                    "unexpected argument {a:?}; usage: cargo xtask bench [--quick] [--peers] [--publish]"
+                    "unexpected argument {a:?}; usage: cargo xtask bench [--quick] [--peers] \
+                     [--publish] [--write-docs]"
                 )
                 .into())
             }
@@ -258,6 +264,17 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
         }
     }
     println!("  one-step errors: {accel:?}");
+    if opts.write_docs {
+        let mut table = String::from(
+            "| method | one-step error `Σ (q̈ − q̈_exact)²`, 300-link chain |\n| --- | ---: |\n",
+        );
+        for solver in Solver::EXACT {
+            if let Some((_, _, e)) = accel.iter().find(|(l, _, _)| *l == solver.label()) {
+                table.push_str(&format!("| {} | {e:.1e} |\n", solver.label()));
+            }
+        }
+        crate::docs::write_between_markers(&root.join("docs/performance.md"), "bench", &table)?;
+    }
     let traj = trajectory::study(&chain300)?;
     println!(
         "  trajectory reference check {:.3e} rad",

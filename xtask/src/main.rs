@@ -4,6 +4,7 @@ mod args;
 mod bench;
 mod chart;
 mod corpus;
+mod docs;
 mod drops;
 mod growth;
 mod hash;
@@ -29,27 +30,28 @@ const USAGE: &str = "\
 usage: cargo xtask <subcommand>
 
 subcommands:
-    bench [--quick] [--peers] [--publish]
+    bench [--quick] [--peers] [--publish] [--write-docs]
                             time DCA, ABA, CRBA (and with --peers Pinocchio and MuJoCo) on
                             chains of 10..10,000 links and the humanoid, measure their error
                             against a double-double reference, write
                             target/articula-bench/report.md and charts (SVG, PNG);
                             --quick samples in-process (minutes), otherwise criterion;
                             --publish also copies the charts into docs/img/ and the
-                            report to docs/bench-report.md
+                            report to docs/bench-report.md; --write-docs writes the
+                            exact methods' one-step errors into docs/performance.md
     mjcf-corpus [--quick] [--venv DIR]
                             loads every kinematic-tree MJCF model of dm-control and
                             gymnasium with articula and MuJoCo, compares M and qacc_smooth,
                             times DCA, ABA and mj_forward; writes
                             target/articula-mjcf-corpus/report.md
     corpus [--quick] [--inertia accept|strict|repair] [--bound-inertia KGM2]
-           [--venv DIR] [NAME...]
+           [--venv DIR] [--write-docs] [NAME...]
                             load every URDF of example-robot-data (fixed and floating
                             base), compare DCA and ABA with Pinocchio's aba, time the
                             three; writes target/articula-corpus/report.md (needs the
                             venv of peers/corpus.py; exits 2 without it)
     drops [--quick] [--inertia accept|strict|repair] [--bound-mass KG]
-          [--bound-inertia KGM2] [--venv DIR] [NAME...]
+          [--bound-inertia KGM2] [--venv DIR] [--write-docs] [NAME...]
                             drop every URDF of example-robot-data (floating base, 0.3 m)
                             on a ground and run 3 s of DCA contact steps; writes
                             target/articula-drops/report.md (needs the venv's
@@ -71,7 +73,8 @@ subcommands:
                             (articula_testkit::branches_urdf)
     stability               accuracy of DCA, ABA, CRBA against a double-double reference
                             (chain length, mass ratio) and integrators' energy drift;
-                            writes docs/stability.md and charts in docs/img/
+                            writes docs/stability.md, charts in docs/img/ and the
+                            longest chain's errors into docs/performance.md
     snapshots [--accept]    run the snapshot tests of `articula info` (INSTA_UPDATE=no);
                             with --accept, rewrite the changed .snap files
                             (INSTA_UPDATE=always) and list them with git status
@@ -91,12 +94,37 @@ subcommands:
                             fixed workloads for callgrind and perf (see xtask/src/profile.rs)
 ";
 
+/// The subcommands `main` dispatches, in its order (README.md's xtask list names each).
+const SUBCOMMANDS: &[&str] = &[
+    "corpus",
+    "drops",
+    "models",
+    "hash",
+    "time",
+    "growth",
+    "speedup",
+    "parallel",
+    "profile",
+    "pinocchio",
+    "bench",
+    "stability",
+    "snapshots",
+];
+
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    // `cargo xtask SUBCOMMAND --help` prints the usage of every subcommand.
+    // `cargo xtask SUBCOMMAND --help` prints the usage of every subcommand; an unknown
+    // subcommand's is an error (exit 2), so that `--help` tells whether a subcommand exists
+    // (xtask/tests/docs_commands.rs checks every one the docs name).
     if args.iter().skip(1).any(|a| a == "-h" || a == "--help") {
-        print!("{USAGE}");
-        return ExitCode::SUCCESS;
+        let sub = args[0].as_str();
+        if SUBCOMMANDS.contains(&sub) {
+            print!("{USAGE}");
+            return ExitCode::SUCCESS;
+        }
+        eprintln!("error: unknown subcommand `{sub}`\n");
+        eprint!("{USAGE}");
+        return ExitCode::from(2);
     }
     match args.first().map(String::as_str) {
         Some("corpus") => corpus::main(&workspace_root(), &args[1..]),

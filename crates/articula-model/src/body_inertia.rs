@@ -305,16 +305,17 @@ impl BodyInertia<'_> {
     }
 
     /// Every absolute bound the body is below: `bound_mass` (kg) and `bound_inertia` (kg·m²),
-    /// 0 for none.
+    /// 0 for none. A bound of 0 names no defect: a negative moment is `NotPositive`, not below
+    /// a bound nobody gave.
     fn below_bounds(&self, bound_mass: f64, bound_inertia: f64) -> Vec<InertiaDefect> {
         let m = self.inertia.mass;
         let (moments, _) = principal_moments(self.inertia.inertia_about_com());
         let defect = |kind, by| self.defect(m, moments, kind, by);
         let mut out = Vec::new();
-        if m < bound_mass {
+        if bound_mass > 0.0 && m < bound_mass {
             out.push(defect(InertiaDefectKind::MassBelowBound, bound_mass));
         }
-        if moments[0] < bound_inertia {
+        if bound_inertia > 0.0 && moments[0] < bound_inertia {
             out.push(defect(InertiaDefectKind::InertiaBelowBound, bound_inertia));
         }
         out
@@ -508,6 +509,30 @@ mod tests {
             head.judge(InertiaPolicy::Accept, 1.34, (0.0, b)),
             Verdict::Odd(d) if d.len() == 1
         ));
+    }
+
+    #[test]
+    fn repair_without_bounds_names_no_bound() {
+        // romeo_laas_small's LHipPitch_link: a negative principal moment, repaired with no
+        // absolute bound given. The warning names what is wrong with it, not a bound of 0.
+        let com = DVec3::new(0.0, 0.01, -0.05);
+        let ic = DMat3::from_diagonal(DVec3::new(-2.720418e-3, 3.951261e-2, 5.404991e-2));
+        let hip = body(4.71096, com, ic, 0.3);
+        let (_, change) = changed(hip.judge(InertiaPolicy::Repair, 4.71096, (0.0, 0.0)));
+        let kinds: Vec<_> = change.defects.iter().map(|d| d.kind).collect();
+        assert_eq!(
+            kinds,
+            [
+                InertiaDefectKind::NotPositive,
+                InertiaDefectKind::TriangleInequality
+            ]
+        );
+        let text = change.to_string();
+        assert!(
+            text.ends_with("(not positive semidefinite, triangle inequality broken)"),
+            "{text}"
+        );
+        assert!(!text.contains("bound_"), "{text}");
     }
 
     #[test]

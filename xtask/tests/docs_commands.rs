@@ -1,0 +1,125 @@
+//! The `cargo xtask` subcommands that README.md and docs/ name exist, and the README's list of
+//! them is complete: read from the dispatcher in `xtask/src/main.rs` and checked by running
+//! the built xtask binary with `SUBCOMMAND --help` (exit 0 for a known one, 2 otherwise).
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// The subcommands of `main`'s dispatcher: its `Some("name")` arms (help aside).
+fn dispatched() -> BTreeSet<String> {
+    let main = std::fs::read_to_string(root().join("xtask/src/main.rs")).unwrap();
+    let body = &main[main.find("match args.first()").expect("the dispatcher")..];
+    let mut subs = BTreeSet::new();
+    for piece in body.split("Some(\"").skip(1) {
+        let name = &piece[..piece.find('"').unwrap()];
+        if !name.starts_with('-') && name != "help" {
+            subs.insert(name.to_owned());
+        }
+    }
+    subs
+}
+
+/// `cargo xtask WORD` occurrences in README.md and docs/*.md (line breaks and backticks
+/// within the phrase allowed), with the file that names each first.
+fn named_in_docs() -> Vec<(String, String)> {
+    let root = root();
+    let mut files = vec![root.join("README.md")];
+    for e in std::fs::read_dir(root.join("docs")).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "md") {
+            files.push(p);
+        }
+    }
+    let mut seen = BTreeSet::new();
+    let mut out = Vec::new();
+    for f in files {
+        let text = std::fs::read_to_string(&f).unwrap();
+        let words: Vec<&str> = text.split_whitespace().collect();
+        for w in words.windows(3) {
+            if w[0].trim_start_matches(['`', '(']) == "cargo" && w[1] == "xtask" {
+                let sub: String = w[2]
+                    .chars()
+                    .take_while(|c| c.is_ascii_lowercase() || *c == '-')
+                    .collect();
+                if !sub.is_empty() && !sub.starts_with('-') && seen.insert(sub.clone()) {
+                    out.push((sub, f.display().to_string()));
+                }
+            }
+        }
+    }
+    out
+}
+
+fn help_status(sub: &str) -> Option<i32> {
+    Command::new(env!("CARGO_BIN_EXE_xtask"))
+        .args([sub, "--help"])
+        .output()
+        .expect("run xtask")
+        .status
+        .code()
+}
+
+#[test]
+fn every_subcommand_the_docs_name_exists() {
+    let subs = dispatched();
+    let named = named_in_docs();
+    assert!(named.len() >= 10, "only {named:?} found");
+    for (sub, file) in &named {
+        assert!(
+            subs.contains(sub),
+            "{file} names `cargo xtask {sub}`, which xtask/src/main.rs does not dispatch"
+        );
+        assert_eq!(
+            help_status(sub),
+            Some(0),
+            "`cargo xtask {sub} --help` failed"
+        );
+    }
+    assert_eq!(help_status("no-such-subcommand"), Some(2));
+}
+
+#[test]
+fn the_readme_lists_every_subcommand() {
+    let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
+    // The layout's entry: "xtask/   cargo xtask models | bench | ... |" over several lines,
+    // up to the next directory entry.
+    let start = readme
+        .find("xtask/ ")
+        .expect("README.md's layout has an xtask/ entry");
+    let entry = &readme[start..];
+    let end = entry.find("\npeers/").unwrap_or(entry.len());
+    let listed: BTreeSet<String> = entry[..end]
+        .replace("cargo xtask", "")
+        .trim_start_matches("xtask/")
+        .split(['|', '\n'])
+        .map(|w| w.trim().to_owned())
+        .filter(|w| !w.is_empty())
+        .collect();
+    assert_eq!(
+        listed,
+        dispatched(),
+        "README.md's xtask list (left) against xtask/src/main.rs's dispatcher (right)"
+    );
+}
+
+#[test]
+fn the_help_list_matches_the_dispatcher() {
+    let main = std::fs::read_to_string(root().join("xtask/src/main.rs")).unwrap();
+    let list = &main[main.find("const SUBCOMMANDS").unwrap()..];
+    let list = &list[..list.find("];").unwrap()];
+    let consts: BTreeSet<String> = list
+        .split('"')
+        .skip(1)
+        .step_by(2)
+        .map(str::to_owned)
+        .collect();
+    assert_eq!(consts, dispatched());
+    for sub in &consts {
+        assert_eq!(help_status(sub), Some(0), "`cargo xtask {sub} --help`");
+    }
+}
