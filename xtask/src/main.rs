@@ -98,6 +98,8 @@ subcommands:
 const SUBCOMMANDS: &[&str] = &[
     "corpus",
     "drops",
+    "test",
+    "mjcf-corpus",
     "models",
     "hash",
     "time",
