@@ -1176,6 +1176,19 @@ pub(crate) fn ub(nh: usize, h: usize, k: usize) -> usize {
     h * nh - h * (h + 1) / 2 + (k - h - 1)
 }
 
+/// The armature a new [`Data`] starts with: the model's per degree of freedom, zeros where it
+/// has none when it has damping (a step adds `h b` there), empty when it has neither.
+pub(crate) fn armature_of(model: &Model) -> Vec<f64> {
+    let d = &model.dynamics;
+    if d.has_armature() {
+        d.armature.clone()
+    } else if !d.damping.is_empty() {
+        vec![0.0; model.nv]
+    } else {
+        Vec::new()
+    }
+}
+
 #[cfg(test)]
 mod refinement_tests {
     use super::needs_refinement;
@@ -1192,18 +1205,5 @@ mod refinement_tests {
                 "{name}"
             );
         }
-    }
-}
-
-/// The armature a new [`Data`] starts with: the model's per degree of freedom, zeros where it
-/// has none when it has damping (a step adds `h b` there), empty when it has neither.
-pub(crate) fn armature_of(model: &Model) -> Vec<f64> {
-    let d = &model.dynamics;
-    if d.has_armature() {
-        d.armature.clone()
-    } else if !d.damping.is_empty() {
-        vec![0.0; model.nv]
-    } else {
-        Vec::new()
     }
 }
