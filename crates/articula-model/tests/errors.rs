@@ -1290,7 +1290,6 @@ fn sloppy_geometry_and_extras_load() {
     <child link="arm"/>
     <axis xyz="0 1 0"/>
     <limit lower="-1" upper="1" effort="10"/>
-    <dynamics damping="lots"/>
     <safety_controller k_velocity="?"/>
     <calibration rising="never"/>
   </joint>
@@ -1304,6 +1303,11 @@ fn sloppy_geometry_and_extras_load() {
   <ros2_control name="x" type="system"><hardware/></ros2_control>
 </robot>
 "#;
+    // Damping is dynamics now (it enters every step as a passive force): a value that is not a
+    // number is refused, naming the joint, as the other dynamic values are.
+    let bad = text.replacen("</joint>", "<dynamics damping=\"lots\"/></joint>", 1);
+    let err = load(&bad).unwrap_err().to_string();
+    assert!(err.contains("elbow") && err.contains("damping"), "{err}");
     let m = load(text).unwrap();
     assert_eq!(m.name, "sloppy");
     assert_eq!(m.bodies.len(), 1);

@@ -243,14 +243,15 @@ fn builder_inputs_are_checked() {
             }),
             "crowds[1].jitter",
         ),
-        // Finite inputs whose positions overflow: 1e308 + 2e308.
+        // Finite inputs whose positions would overflow (1e308 + 2e308) are refused at the
+        // field that is out of range (distances at most 1e6 m), before any placement.
         (
             builder().crowd(CrowdSpec {
                 origin: [1e308, 0.0, 1.0],
                 spacing: [1.7e308, 1.0],
                 ..CrowdSpec::new("bot", 2, 1)
             }),
-            "placements[8].q",
+            "crowds[1].origin",
         ),
         (
             builder().body(BodySpec {
