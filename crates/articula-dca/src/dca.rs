@@ -820,46 +820,19 @@ fn join<A: Arith>(
                 }
             }
         } else {
-            // With armature Zᵀ Z D⁻¹ ≠ 1: every Zᵀw before any update.
-            let t: [f64; 6] = std::array::from_fn(|p| {
-                if p < k {
-                    dot6::<A>(&d.z[vo + p], &w) - tau[vo + p]
-                } else {
-                    0.0
-                }
-            });
-            for p in 0..k {
-                for i in 0..6 {
-                    w[i] -= zd[p][i] * t[p];
-                }
-            }
+            armature_w_update::<A>(&mut w, &d.z[vo..vo + k], &zd, &tau[vo..vo + k]);
         }
         gamma = solve_lt(&l, &w);
         // Ỹ_h = Q L⁻¹ Φ_jh: forward substitution on whole rows of Φ_jh (vectorises), then the
         // projection Ỹ −= (Z D⁻¹)(Zᵀ Ỹ) (k rank-1 row updates).
         // With armature Q = 1 − Z D⁻¹ Zᵀ is no projector: Ỹ_h = R L⁻¹ Φ_jh, RᵀR = Q.
-        let root = arm.map(|_| {
-            let mut q = [[0.0; 6]; 6];
-            for r in 0..6 {
-                for c in 0..6 {
-                    let zz: f64 = (0..k).map(|p| zd[p][r] * d.z[vo + p][c]).sum();
-                    q[r][c] = f64::from(u8::from(r == c)) - zz;
-                }
-            }
-            psd_root(q)
-        });
+        let root = arm.map(|_| armature_projector_root(&d.z[vo..vo + k], &zd));
         for h in 0..nhc {
             let (bo, nh, j, i) = at.from(d, h);
             let g = cross_rows(&d.phi, bo, nh, j, i);
             match &root {
                 None => y_tilde(&mut d.y[at.ys + h], &g, &l, &d.z[vo..vo + k], &zd),
-                Some(root) => {
-                    let mut yt = [[0.0; 6]; 6];
-                    y_tilde(&mut yt, &g, &l, &[], &zd);
-                    d.y[at.ys + h] = std::array::from_fn(|r| {
-                        std::array::from_fn(|c| (0..6).map(|s| root[r][s] * yt[s][c]).sum())
-                    });
-                }
+                Some(root) => y_tilde_rooted(&mut d.y[at.ys + h], &g, &l, &zd, root),
             }
         }
         rows = 6;
@@ -1012,39 +985,43 @@ fn y_tilde(
     }
 }
 
-/// A square root `R` of a symmetric positive semidefinite 6×6 `Q`: `RᵀR = Q`, from
-/// `Q = L D Lᵀ` (unit lower `L`, `D ≥ 0`) as `R = D^½ Lᵀ`. A pivot at rounding level (the
-/// directions of joints without armature, where `Q` is singular) is taken as 0 with its
-/// column. For the joins of joints with armature.
-fn psd_root(q: [[f64; 6]; 6]) -> [[f64; 6]; 6] {
-    let scale = (0..6).map(|i| q[i][i].abs()).fold(0.0, f64::max);
-    let tiny = 1e-14 * scale;
-    let mut l = [[0.0; 6]; 6];
-    let mut d = [0.0; 6];
-    for j in 0..6 {
-        let mut dj = q[j][j];
-        for p in 0..j {
-            dj -= l[j][p] * l[j][p] * d[p];
-        }
-        if dj <= tiny {
-            d[j] = 0.0;
-            l[j][j] = 1.0;
-            continue;
-        }
-        d[j] = dj;
-        l[j][j] = 1.0;
-        for i in j + 1..6 {
-            let mut x = q[i][j];
-            for p in 0..j {
-                x -= l[i][p] * l[j][p] * d[p];
-            }
-            l[i][j] = x / dj;
+/// `w −= Z D⁻¹ (Zᵀw − Q)` for a joint with armature, where `Zᵀ Z D⁻¹ ≠ 1`: every column's
+/// `Zᵀw` is read before any update (`zd` = Z D⁻¹, one row per column of the joint).
+fn armature_w_update<A: Arith>(w: &mut [f64; 6], z: &[[f64; 6]], zd: &[[f64; 6]; 6], tau: &[f64]) {
+    let t: [f64; 6] = std::array::from_fn(|p| z.get(p).map_or(0.0, |zp| dot6::<A>(zp, w) - tau[p]));
+    for (p, tp) in t.iter().enumerate().take(z.len()) {
+        for i in 0..6 {
+            w[i] -= zd[p][i] * tp;
         }
     }
-    std::array::from_fn(|r| {
-        let s = d[r].sqrt();
-        std::array::from_fn(|c| s * l[c][r])
-    })
+}
+
+/// With armature `Q = 1 − Z D⁻¹ Zᵀ` is no projector; its square root `R` (`RᵀR = Q`,
+/// [`crate::small::psd_root`]) carries `Ỹ_h = R L⁻¹ Φ_jh`.
+fn armature_projector_root(z: &[[f64; 6]], zd: &[[f64; 6]; 6]) -> [[f64; 6]; 6] {
+    let mut q = [[0.0; 6]; 6];
+    for r in 0..6 {
+        for c in 0..6 {
+            let zz: f64 = (0..z.len()).map(|p| zd[p][r] * z[p][c]).sum();
+            q[r][c] = f64::from(u8::from(r == c)) - zz;
+        }
+    }
+    crate::small::psd_root(q)
+}
+
+/// `Ỹ_h = R L⁻¹ Φ_jh` (the armature form of [`y_tilde`]'s projection).
+fn y_tilde_rooted(
+    y: &mut [[f64; 6]; 6],
+    g: &[[f64; 6]; 6],
+    l: &[[f64; 6]; 6],
+    zd: &[[f64; 6]; 6],
+    root: &[[f64; 6]; 6],
+) {
+    let mut yt = [[0.0; 6]; 6];
+    y_tilde(&mut yt, g, l, &[], zd);
+    *y = std::array::from_fn(|r| {
+        std::array::from_fn(|c| (0..6).map(|s| root[r][s] * yt[s][c]).sum())
+    });
 }
 
 /// A pair `p`, `q` completing ω to an orthogonal basis: `p = ω × e` with `e` the coordinate

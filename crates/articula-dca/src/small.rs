@@ -1,6 +1,7 @@
 //! The DCA and ABA passes' small dense pieces: the `L D Lᵀ` factorisation of a one-axis
 //! join's 5×5 constraint system ([`ldl5`]), the 6×6 Cholesky factor of a general join
-//! ([`cholesky6_inv_diag`]), the `k × k` joint-space inverses of multi-DOF joints
+//! ([`cholesky6_inv_diag`]) and, for joints with armature, the square root of its
+//! semidefinite projector ([`psd_root`]), the `k × k` joint-space inverses of multi-DOF joints
 //! ([`SmallSpd`]), the tiled storage of DCA's diagonal blocks ([`SymT`]), and the Cholesky
 //! factorisation of a row-major `n × n` matrix whose size is only known at run time
 //! ([`cholesky_rows`], the contact solver's subspace systems). The fixed-size Cholesky
@@ -10,6 +11,41 @@
 #[cfg(doc)]
 use articula_spatial::internals::cholesky_into;
 use articula_spatial::internals::{invert_spd_into, joint_block_regular, Arith};
+
+/// A square root `R` of a symmetric positive semidefinite 6×6 `Q`: `RᵀR = Q`, from
+/// `Q = L D Lᵀ` (unit lower `L`, `D ≥ 0`) as `R = D^½ Lᵀ`. A pivot at rounding level (the
+/// directions of joints without armature, where `Q` is singular) is taken as 0 with its
+/// column. For DCA's joins of joints with armature (`dca.rs`).
+pub(crate) fn psd_root(q: [[f64; 6]; 6]) -> [[f64; 6]; 6] {
+    let scale = (0..6).map(|i| q[i][i].abs()).fold(0.0, f64::max);
+    let tiny = 1e-14 * scale;
+    let mut l = [[0.0; 6]; 6];
+    let mut d = [0.0; 6];
+    for j in 0..6 {
+        let mut dj = q[j][j];
+        for p in 0..j {
+            dj -= l[j][p] * l[j][p] * d[p];
+        }
+        if dj <= tiny {
+            d[j] = 0.0;
+            l[j][j] = 1.0;
+            continue;
+        }
+        d[j] = dj;
+        l[j][j] = 1.0;
+        for i in j + 1..6 {
+            let mut x = q[i][j];
+            for p in 0..j {
+                x -= l[i][p] * l[j][p] * d[p];
+            }
+            l[i][j] = x / dj;
+        }
+    }
+    std::array::from_fn(|r| {
+        let s = d[r].sqrt();
+        std::array::from_fn(|c| s * l[c][r])
+    })
+}
 
 /// Cholesky factor `L` (lower, `L Lᵀ = A`) of a 6×6 symmetric positive definite matrix (its
 /// lower triangle is read; [`cholesky_into`]'s operations, the same bits), `None` when a pivot

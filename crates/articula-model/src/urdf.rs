@@ -152,12 +152,13 @@ fn refuse_pipes(path: &std::path::Path) -> std::io::Result<()> {
     Ok(())
 }
 
-/// Reads a URDF file (bytes are checked for being text first).
-pub(crate) fn read_file(path: &std::path::Path) -> Result<RawRobot, ModelError> {
-    let bytes = read_limited(path, MAX_URDF_BYTES).map_err(|e| {
+/// A model file's bytes, at most [`MAX_URDF_BYTES`]; `kind` ("URDF", "MJCF") names the file
+/// in the size error.
+pub(crate) fn read_model_bytes(path: &std::path::Path, kind: &str) -> Result<Vec<u8>, ModelError> {
+    read_limited(path, MAX_URDF_BYTES).map_err(|e| {
         if e.kind() == std::io::ErrorKind::FileTooLarge {
             ModelError::TooLarge {
-                what: format!("the URDF file {}", path.display()),
+                what: format!("the {kind} file {}", path.display()),
                 size: MAX_URDF_BYTES + 1,
                 limit: MAX_URDF_BYTES,
             }
@@ -167,7 +168,12 @@ pub(crate) fn read_file(path: &std::path::Path) -> Result<RawRobot, ModelError> 
                 message: e.to_string(),
             }
         }
-    })?;
+    })
+}
+
+/// Reads a URDF file (bytes are checked for being text first).
+pub(crate) fn read_file(path: &std::path::Path) -> Result<RawRobot, ModelError> {
+    let bytes = read_model_bytes(path, "URDF")?;
     let in_file = |e: ModelError| match e {
         ModelError::Xml { .. }
         | ModelError::TooDeep { .. }

@@ -2,7 +2,7 @@
 //! `<default>` classes resolved, `<compiler>` settings, and typed attribute access whose errors
 //! name the file, element and attribute.
 
-use crate::urdf::{check_markup, read_limited, MAX_URDF_BYTES, MAX_XML_ATTRIBUTES, MAX_XML_DEPTH};
+use crate::urdf::{check_markup, read_model_bytes, MAX_XML_ATTRIBUTES, MAX_XML_DEPTH};
 use crate::ModelError;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -86,20 +86,7 @@ impl Doc {
 }
 
 fn read_text(path: &Path) -> Result<String, ModelError> {
-    let bytes = read_limited(path, MAX_URDF_BYTES).map_err(|e| {
-        if e.kind() == std::io::ErrorKind::FileTooLarge {
-            ModelError::TooLarge {
-                what: format!("the MJCF file {}", path.display()),
-                size: MAX_URDF_BYTES + 1,
-                limit: MAX_URDF_BYTES,
-            }
-        } else {
-            ModelError::Io {
-                path: path.display().to_string(),
-                message: e.to_string(),
-            }
-        }
-    })?;
+    let bytes = read_model_bytes(path, "MJCF")?;
     String::from_utf8(bytes).map_err(|e| ModelError::NotText {
         reason: format!("invalid UTF-8 in {}", path.display()),
         offset: e.utf8_error().valid_up_to(),
