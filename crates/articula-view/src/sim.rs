@@ -27,8 +27,10 @@
 //! Nodes of metric 0 are never selected: invisible bodies (all weights 0) keep no joint even
 //! with budget to spare.
 
+mod culling;
 mod exact;
 mod springs;
+mod view_error;
 
 use crate::error::ViewError;
 use crate::render::{rigid_groups, FrameBody};
@@ -44,6 +46,7 @@ use glam::{DMat3, DQuat, DVec3};
 use springs::pose_springs;
 use std::collections::BinaryHeap;
 use std::sync::Mutex;
+pub use view_error::ViewDeviation;
 
 /// A node of some body in the global queue.
 #[derive(Clone, Copy, Debug)]
@@ -998,8 +1001,10 @@ impl<'s> SceneSim<'s> {
     pub fn step(&mut self) -> Result<SceneStep, ViewError> {
         let scene = self.scene;
         self.check_bodies()?;
-        if let SceneMethod::Exact(method) = self.method {
-            return self.step_exact(method);
+        match self.method {
+            SceneMethod::Exact(method) => return self.step_exact(method),
+            SceneMethod::Culling => return self.step_culling(),
+            SceneMethod::Adaptive => {}
         }
         let t = self.time();
         let forced = std::mem::take(&mut self.reselect_next);

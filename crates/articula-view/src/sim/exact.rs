@@ -25,14 +25,20 @@ pub enum SceneMethod {
     /// Exact forward dynamics by this method on every body, every joint moving: no camera, no
     /// selection. The reference the adaptive scene is measured against.
     Exact(Method),
+    /// The culling baseline (`docs/view.md#culling`): at every re-selection the camera
+    /// decides which characters are in view (visible or occluded); those step with every
+    /// joint free (exact dynamics), the others with every joint locked (one rigid body, as
+    /// the adaptive scene moves its invisible characters). No metric, no queue, no budget.
+    Culling,
 }
 
 impl SceneSim<'_> {
     /// Sets how the bodies are stepped from the next step on (default
     /// [`SceneMethod::Adaptive`]). Switching to [`SceneMethod::Exact`] keeps every state as
-    /// it is; switching back re-selects at the next step.
+    /// it is; switching to [`SceneMethod::Adaptive`] or [`SceneMethod::Culling`] re-selects
+    /// at the next step.
     pub fn set_method(&mut self, method: SceneMethod) {
-        if method != self.method && method == SceneMethod::Adaptive {
+        if method != self.method && !matches!(method, SceneMethod::Exact(_)) {
             // The hybrid bodies no longer match the states: the next step re-selects them all.
             self.reselect_next = true;
         }
