@@ -346,14 +346,19 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     let mut files = Vec::new();
     files.extend(chart_speed(&out, &rows)?);
     files.extend(chart_accel(&out, &accel)?);
-    files.extend(chart_traj(&out, &traj)?);
+    let pin_traj = if opts.peers {
+        pinocchio_trajectories(root, &out, &chain300, &traj)
+    } else {
+        Vec::new()
+    };
+    files.extend(chart_traj(&out, &traj, &pin_traj)?);
     files.extend(chart_seeds(&out, &seeds)?);
     let report = report(
         &opts,
         &rows,
         &growths,
         &accel,
-        &traj,
+        (&traj, &pin_traj),
         &seeds,
         &peers,
         &files,
@@ -623,6 +628,76 @@ fn run_peers(
     p
 }
 
+/// Pinocchio's `aba` with a plain integrator in Python (`peers/pin_trajectory.py`) over the
+/// trajectory study's runs: one series per integrator, `(ms per simulated s, deviation from
+/// the study's reference)` labelled by the time step. Empty (said on stdout) when the peers'
+/// Python cannot run it.
+fn pinocchio_trajectories(root: &Path, out: &Path, chain300: &Model, traj: &Study) -> Vec<Series> {
+    let start = trajectory::crumpled_start(chain300, Solver::Exact(articula_dca::Method::Dca));
+    let runs: Vec<(&str, f64)> = trajectory::EXACT_DTS
+        .iter()
+        .map(|dt| ("euler", *dt))
+        .chain(trajectory::RK4_DTS.iter().map(|dt| ("rk4", *dt)))
+        .collect();
+    let spec = serde_json::json!({"q0": start.q, "horizon": trajectory::HORIZON, "runs": runs});
+    let spec_path = out.join("pin_trajectory.json");
+    let run = || -> Result<String> {
+        std::fs::write(&spec_path, spec.to_string())?;
+        let o = Command::new(peers_python(root))
+            .arg(root.join("peers/pin_trajectory.py"))
+            .arg(out.join("urdf/chain300.urdf"))
+            .arg(&spec_path)
+            .output()?;
+        if !o.status.success() {
+            return Err(String::from_utf8_lossy(&o.stderr).into_owned().into());
+        }
+        Ok(String::from_utf8_lossy(&o.stdout).into_owned())
+    };
+    let text = match run() {
+        Ok(t) => t,
+        Err(e) => {
+            println!("  Pinocchio trajectories did not run: {e}");
+            return Vec::new();
+        }
+    };
+    let mut series: Vec<Series> = Vec::new();
+    for line in text.lines() {
+        let Ok(v) = serde_json::from_str::<serde_json::Value>(line) else {
+            continue;
+        };
+        let (Some(dt), Some(us)) = (v["dt"].as_f64(), v["us_per_step"].as_f64()) else {
+            continue;
+        };
+        let q: Vec<f64> = v["q"]
+            .as_array()
+            .map(|a| a.iter().filter_map(|x| x.as_f64()).collect())
+            .unwrap_or_default();
+        let deviation = if q.len() == traj.q_ref.len() {
+            trajectory::norm_diff(&q, &traj.q_ref)
+        } else {
+            f64::NAN
+        };
+        let name = match v["integrator"].as_str() {
+            Some("rk4") => "Pinocchio aba + RK4 (Python)",
+            _ => "Pinocchio aba + semi-implicit Euler (Python)",
+        };
+        println!("  {name} dt {dt:.2e}: {us:.1} µs/step, deviation {deviation:.3e} rad");
+        let (x, label) = (us * 1e-3 / dt, format!("{} ms", dt * 1e3));
+        match series.iter_mut().find(|s| s.name == name) {
+            Some(s) => {
+                s.points.push((x, deviation));
+                s.labels.push(label);
+            }
+            None => series.push(Series {
+                name: name.into(),
+                points: vec![(x, deviation)],
+                labels: vec![label],
+            }),
+        }
+    }
+    series
+}
+
 // ---------------------------------------------------------------------------------------------
 // Charts
 
@@ -663,6 +738,7 @@ fn chart_speed(out: &Path, rows: &[SpeedRow]) -> Result<Vec<PathBuf>> {
             y_desc: "time per forward-dynamics call (µs)".into(),
             series,
             lines: true,
+            vlines: vec![],
         },
     )
 }
@@ -723,49 +799,48 @@ fn chart_accel(out: &Path, accel: &[(String, f64, f64)]) -> Result<Vec<PathBuf>>
         out,
         ACCEL_CHART,
         &LogLogPlot {
-            title: "300-link chain, one step: acceleration-metric error vs time".into(),
+            title: "300-link chain, one step (dt = 1 ms): acceleration-metric error vs time".into(),
             x_desc: "time per call or step (µs); adaptive: first step and steady step apart".into(),
             y_desc: "Σ (qdd − qdd_exact)²  ((rad/s²)²)".into(),
             series,
             lines: false,
+            vlines: vec![],
         },
     )
 }
 
-fn integ_name(i: Integrator) -> &'static str {
-    match i {
-        Integrator::SemiImplicitEuler => "semi-implicit Euler",
-        Integrator::Rk4 => "RK4",
-    }
-}
-
 /// The study's runs as chart series: one line per exact method and integrator over the time
-/// steps, one per adaptive re-selection policy over the budgets; `y` picks the error.
+/// steps, one per adaptive re-selection policy and integrator over the budgets (the runs
+/// re-selecting through the caches stay in the table only); `y` picks the error. x is the
+/// cost per simulated second (ms).
 fn study_series(traj: &Study, y: impl Fn(&trajectory::Run) -> Option<f64>) -> Vec<Series> {
     let mut series: Vec<Series> = Vec::new();
     for r in &traj.runs {
         let Some(e) = y(r) else { continue };
+        let integ = trajectory::integrator_name(r.integrator);
         let (name, label) = match &r.policy {
+            Some(p) if p.contains("caches") => continue,
             Some(p) => (
                 if p.starts_with("balanced") {
-                    "adaptive, balanced".to_string()
+                    format!("adaptive + {integ}, balanced")
                 } else {
-                    format!("adaptive, {p}")
+                    format!("adaptive + {integ}, {p}")
                 },
-                r.method.trim_start_matches("adaptive ").to_string(),
+                format!("b={}", r.method.trim_start_matches("adaptive b=")),
             ),
             None => (
-                format!("{} + {}", r.method, integ_name(r.integrator)),
+                format!("{} + {integ}", r.method),
                 format!("{} ms", r.dt * 1e3),
             ),
         };
+        let x = r.ms_per_sim_s();
         if let Some(sr) = series.iter_mut().find(|sr| sr.name == name) {
-            sr.points.push((r.steady_us, e));
+            sr.points.push((x, e));
             sr.labels.push(label);
         } else {
             series.push(Series {
                 name,
-                points: vec![(r.steady_us, e)],
+                points: vec![(x, e)],
                 labels: vec![label],
             });
         }
@@ -773,7 +848,9 @@ fn study_series(traj: &Study, y: impl Fn(&trajectory::Run) -> Option<f64>) -> Ve
     series
 }
 
-fn chart_traj(out: &Path, traj: &Study) -> Result<Vec<PathBuf>> {
+fn chart_traj(out: &Path, traj: &Study, peers: &[Series]) -> Result<Vec<PathBuf>> {
+    let mut series = study_series(traj, |r| Some(r.deviation));
+    series.extend(peers.iter().cloned());
     let mut files = chart::write_loglog(
         out,
         TRAJ_CHART,
@@ -783,10 +860,11 @@ fn chart_traj(out: &Path, traj: &Study) -> Result<Vec<PathBuf>> {
                 trajectory::CRUMPLE,
                 trajectory::HORIZON
             ),
-            x_desc: "steady time per step (µs)".into(),
+            x_desc: "cost per simulated second (CPU ms, one thread)".into(),
             y_desc: format!("‖q({0} s) − q_ref({0} s)‖ (rad)", trajectory::HORIZON),
-            series: study_series(traj, |r| Some(r.deviation)),
+            series,
             lines: true,
+            vlines: vec![],
         },
     )?;
     files.extend(chart::write_loglog(
@@ -797,10 +875,11 @@ fn chart_traj(out: &Path, traj: &Study) -> Result<Vec<PathBuf>> {
                 "Adaptive dynamics, {} s of the falling chain: accumulated acceleration-metric error",
                 trajectory::HORIZON
             ),
-            x_desc: "steady time per step (µs)".into(),
+            x_desc: "cost per simulated second (CPU ms, one thread)".into(),
             y_desc: "∫ Σ (qdd − qdd_exact)² dt  ((rad/s²)² s)".into(),
             series: study_series(traj, |r| r.accel_error.filter(|e| *e > 0.0)),
             lines: true,
+            vlines: vec![],
         },
     )?);
     Ok(files)
@@ -886,45 +965,52 @@ fn accel_words(accel: &[(String, f64, f64)]) -> String {
     )
 }
 
-/// Which adaptive runs of the trajectory study are on its front, in words.
-fn study_words(traj: &Study) -> String {
-    let pts: Vec<(f64, f64)> = traj
-        .runs
-        .iter()
-        .map(|r| (r.steady_us, r.deviation))
-        .collect();
-    let front = on_front(&pts);
-    let name = |r: &trajectory::Run| match &r.policy {
-        Some(p) => format!("{} {p}", r.method),
-        None => format!(
-            "{} {} dt {} ms",
-            r.method,
-            integ_name(r.integrator),
-            r.dt * 1e3
-        ),
-    };
-    let list = |want: bool, adaptive: bool| {
-        let v: Vec<String> = traj
-            .runs
-            .iter()
-            .zip(&front)
-            .filter(|(r, f)| **f == want && r.policy.is_some() == adaptive)
-            .map(|(r, _)| name(r))
-            .collect();
-        if v.is_empty() {
-            "none".to_string()
-        } else {
-            v.join(", ")
+/// The Pareto front of the trajectory study (cost per simulated second against deviation,
+/// the peers' points included), in words, cheapest first; then the adaptive runs off it.
+fn study_words(traj: &Study, peers: &[Series]) -> String {
+    let name = |r: &trajectory::Run| {
+        let integ = trajectory::integrator_name(r.integrator);
+        match &r.policy {
+            Some(p) => format!("{} + {integ} ({p})", r.method),
+            None => format!("{} + {integ} at {} ms", r.method, r.dt * 1e3),
         }
     };
+    let mut points: Vec<(String, f64, f64, bool)> = traj
+        .runs
+        .iter()
+        .map(|r| (name(r), r.ms_per_sim_s(), r.deviation, r.policy.is_some()))
+        .collect();
+    for sr in peers {
+        for (p, l) in sr.points.iter().zip(&sr.labels) {
+            points.push((format!("{} at {l}", sr.name), p.0, p.1, false));
+        }
+    }
+    let front = on_front(&points.iter().map(|p| (p.1, p.2)).collect::<Vec<_>>());
+    let mut on: Vec<&(String, f64, f64, bool)> = points
+        .iter()
+        .zip(&front)
+        .filter(|(_, f)| **f)
+        .map(|(p, _)| p)
+        .collect();
+    on.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let words: Vec<String> = on
+        .iter()
+        .map(|(n, c, e, _)| format!("{n} ({c:.1} ms/s, {e:.1e} rad)"))
+        .collect();
+    let off: Vec<&str> = points
+        .iter()
+        .zip(&front)
+        .filter(|(p, f)| p.3 && !**f)
+        .map(|(p, _)| p.0.as_str())
+        .collect();
     format!(
-        "**Where adaptive dynamics is on the front (trajectories).** Runs on the front of \
-         deviation against steady time per step: {}; exact methods: {}. Adaptive runs not on \
-         it (an exact run is both faster and closer to the reference, or another adaptive \
-         run is): {}.",
-        list(true, true),
-        list(true, false),
-        list(false, true)
+        "**The Pareto front (trajectories).** The runs no other run beats in both cost per          simulated second and deviation, from the cheapest to the most accurate: {}. Adaptive          runs off the front (another run is both cheaper and closer to the reference): {}.",
+        words.join("; "),
+        if off.is_empty() {
+            "none".to_string()
+        } else {
+            off.join(", ")
+        }
     )
 }
 
@@ -1003,7 +1089,7 @@ fn report(
     rows: &[SpeedRow],
     growths: &[crate::growth::Growth],
     accel: &[(String, f64, f64)],
-    traj: &Study,
+    (traj, pin_traj): (&Study, &[Series]),
     seeds: &SeedsTable,
     peers: &Peers,
     files: &[PathBuf],
@@ -1153,35 +1239,78 @@ fn report(
          error accumulated over the run, `∫ Σᵢ (q̈ᵢ − q̈ᵢ,exact)² dt`, `q̈_exact` the exact \
          DCA solve at the state each step used (after its locking impulse); the exact methods' \
          is zero by construction. Time per step is the steady state (the mean step after the \
-         first; the first step apart), the minimum over 5 runs; an RK4 step is four dynamics calls. \
-         Adaptive dynamics runs semi-implicit Euler at dt = {} ms, re-selecting at every step \
-         or at the library's default (balanced) period.\n",
+         first; the first step apart), the minimum over 5 runs; an RK4 step is four dynamics \
+         calls. **Cost per simulated second** is that time over the step (CPU ms on one thread \
+         per second of simulated motion): what a user choosing a method and a step pays for \
+         the same simulated time. Adaptive dynamics runs at dt = {} ms with semi-implicit Euler \
+         (re-selecting at every step, through the caches, or at the library's default \
+         balanced period) and with RK4 (balanced period). The charts leave out the runs \
+         through the caches (in the table).\n",
         trajectory::CRUMPLE,
         trajectory::HORIZON,
         trajectory::HORIZON,
         traj.reference_dt * 1e3,
         traj.reference_check,
-        trajectory::EXACT_DTS[0] * 1e3,
+        trajectory::ADAPTIVE_DT * 1e3,
     );
     let _ = writeln!(
         s,
-        "| method | re-selection | integrator | dt (ms) | first step (µs) | steady µs per step | deviation at {} s (rad) | accumulated Σ (q̈ − q̈_exact)² dt |",
+        "| method | re-selection | integrator | dt (ms) | first step (µs) | steady µs per step | ms per simulated s | deviation at {} s (rad) | accumulated Σ (q̈ − q̈_exact)² dt |",
         trajectory::HORIZON
     );
-    let _ = writeln!(s, "|---|---|---|---:|---:|---:|---:|---:|");
+    let _ = writeln!(s, "|---|---|---|---:|---:|---:|---:|---:|---:|");
     for r in &traj.runs {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} | {} | {:.3e} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {:.3e} | {} |",
             r.method,
             r.policy.as_deref().unwrap_or("—"),
-            integ_name(r.integrator),
+            trajectory::integrator_name(r.integrator),
             r.dt * 1e3,
             fmt_us(Some(&r.first_us)),
             fmt_us(Some(&r.steady_us)),
+            fmt_us(Some(&r.ms_per_sim_s())),
             r.deviation,
-            r.accel_error
-                .map_or("0 (exact)".into(), |e| format!("{e:.3e}"))
+            match (r.accel_error, &r.policy) {
+                (Some(e), _) => format!("{e:.3e}"),
+                (None, None) => "0 (exact)".into(),
+                (None, Some(_)) => "— (RK4 stages)".into(),
+            }
+        );
+    }
+    for sr in pin_traj {
+        for (p, l) in sr.points.iter().zip(&sr.labels) {
+            let _ = writeln!(
+                s,
+                "| {} | — | — | {} | — | {} | {} | {:.3e} | 0 (exact) |",
+                sr.name,
+                l.trim_end_matches(" ms"),
+                fmt_us(Some(&(p.0 * l.trim_end_matches(" ms").parse::<f64>().unwrap_or(f64::NAN)))),
+                fmt_us(Some(&p.0)),
+                p.1
+            );
+        }
+    }
+    if !traj.diverged.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nRuns that diverged (a non-finite state before {} s): {}.",
+            trajectory::HORIZON,
+            traj.diverged.join("; ")
+        );
+    }
+    if pin_traj.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nPinocchio's points (`pin.aba` with the same integrators in Python, \
+             `peers/pin_trajectory.py`) are drawn with `--peers`."
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "\nPinocchio: `pin.aba` with the same integrators written in Python \
+             (`peers/pin_trajectory.py`, the interpreter's loop included in its time; the \
+             minimum over 3 runs), from the same start; its deviation is the same reference's."
         );
     }
     let _ = writeln!(s, "\n![trajectory error against time]({TRAJ_CHART}.png)\n");
@@ -1189,7 +1318,7 @@ fn report(
         s,
         "![accumulated acceleration-metric error against time]({ACCUM_CHART}.png)\n"
     );
-    let _ = writeln!(s, "{}\n", study_words(traj));
+    let _ = writeln!(s, "{}\n", study_words(traj, pin_traj));
 
     // Seeds' table.
     let _ = writeln!(

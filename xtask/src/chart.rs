@@ -41,6 +41,9 @@ pub struct LogLogPlot {
     pub series: Vec<Series>,
     /// Join the points of each series (false: markers only).
     pub lines: bool,
+    /// Vertical reference lines: `(x, label)`, drawn grey across the chart, the label at the
+    /// top.
+    pub vlines: Vec<(f64, String)>,
 }
 
 /// A grid of values (rows × columns), `None` where a value is missing (drawn grey and
@@ -146,7 +149,8 @@ where
     let (x0, x1) = log_range(
         plot.series
             .iter()
-            .flat_map(|s| s.points.iter().map(|p| p.0)),
+            .flat_map(|s| s.points.iter().map(|p| p.0))
+            .chain(plot.vlines.iter().map(|v| v.0)),
     );
     let (y0, y1) = log_range(
         plot.series
@@ -175,6 +179,43 @@ where
         .light_line_style(RGBColor(235, 235, 235))
         .draw()
         .map_err(err)?;
+    for (x, label) in &plot.vlines {
+        if !(x.is_finite() && *x > 0.0) {
+            continue;
+        }
+        let grey = RGBColor(110, 110, 110);
+        let lx = x.log10();
+        chart
+            .draw_series(LineSeries::new(
+                vec![(lx, y0 as f64), (lx, y1 as f64)],
+                grey.stroke_width(2),
+            ))
+            .map_err(err)?;
+        let at = chart.backend_coord(&(lx, y1 as f64));
+        root.draw_text(
+            label,
+            &(FONT_NAME, 14).into_font().color(&grey).into(),
+            (at.0 + 5, at.1 + 4),
+        )
+        .map_err(err)?;
+    }
+    // Markers first (every point is an obstacle for the labels), then the labels.
+    let mut occupied: Vec<Rect> = Vec::new();
+    // The legend's corner (upper left), estimated from its entries.
+    let legend_w = plot
+        .series
+        .iter()
+        .map(|s| s.name.chars().count() as i32 * 8 + 40)
+        .max()
+        .unwrap_or(0);
+    let corner = chart.backend_coord(&(x0 as f64, y1 as f64));
+    occupied.push(Rect {
+        x0: corner.0,
+        y0: corner.1,
+        x1: corner.0 + legend_w + 20,
+        y1: corner.1 + plot.series.len() as i32 * 21 + 20,
+    });
+    let mut pending: Vec<((i32, i32), &str, RGBColor)> = Vec::new();
     for (i, s) in plot.series.iter().enumerate() {
         let color = palette(i);
         let pts: Vec<(f64, f64)> = s
@@ -200,20 +241,36 @@ where
                 + PathElement::new(vec![(-8, 0), (8, 0)], color.stroke_width(2))
                 + Circle::new((0, 0), 4, color.filled())
         });
-        if !s.labels.is_empty() {
-            chart
-                .draw_series(
-                    s.points
-                        .iter()
-                        .zip(&s.labels)
-                        .filter(|(p, _)| p.0 > 0.0 && p.1 > 0.0)
-                        .map(|(&p, l)| {
-                            EmptyElement::at(log_point(p))
-                                + Text::new(l.clone(), (7, -14), (FONT_NAME, 13).into_font())
-                        }),
-                )
-                .map_err(err)?;
+        for (k, &p) in s.points.iter().enumerate() {
+            if !(p.0.is_finite() && p.1.is_finite() && p.0 > 0.0 && p.1 > 0.0) {
+                continue;
+            }
+            let at = chart.backend_coord(&log_point(p));
+            occupied.push(Rect::around(at, 6));
+            if let Some(l) = s.labels.get(k).filter(|l| !l.is_empty()) {
+                pending.push((at, l.as_str(), color));
+            }
         }
+    }
+    let area = {
+        let (a, b) = (
+            chart.backend_coord(&(x0 as f64, y0 as f64)),
+            chart.backend_coord(&(x1 as f64, y1 as f64)),
+        );
+        Rect {
+            x0: a.0,
+            y0: b.1,
+            x1: b.0,
+            y1: a.1,
+        }
+    };
+    let font: TextStyle = (FONT_NAME, 13).into_font().into();
+    for (at, label, color) in pending {
+        let (w, h) = root.estimate_text_size(label, &font).map_err(err)?;
+        let r = place_label(at, (w as i32, h as i32), &occupied, &area);
+        root.draw_text(label, &font.color(&color.mix(1.0)), (r.x0, r.y0))
+            .map_err(err)?;
+        occupied.push(r);
     }
     chart
         .configure_series_labels()
@@ -225,6 +282,74 @@ where
         .map_err(err)?;
     root.present().map_err(err)?;
     Ok(())
+}
+
+/// A box in backend pixels (x right, y down).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Rect {
+    x0: i32,
+    y0: i32,
+    x1: i32,
+    y1: i32,
+}
+
+impl Rect {
+    fn around((x, y): (i32, i32), r: i32) -> Rect {
+        Rect {
+            x0: x - r,
+            y0: y - r,
+            x1: x + r,
+            y1: y + r,
+        }
+    }
+
+    fn overlap(&self, o: &Rect) -> i64 {
+        let w = (self.x1.min(o.x1) - self.x0.max(o.x0)).max(0) as i64;
+        let h = (self.y1.min(o.y1) - self.y0.max(o.y0)).max(0) as i64;
+        w * h
+    }
+
+    fn inside(&self, o: &Rect) -> bool {
+        self.x0 >= o.x0 && self.x1 <= o.x1 && self.y0 >= o.y0 && self.y1 <= o.y1
+    }
+}
+
+/// Where a label of `size` (w, h) beside the point `at` overlaps nothing in `occupied` and
+/// stays in `area`: the first free place of eight around the point (right, left, above,
+/// below, then the diagonals), at one, two and three times the marker's distance; else the
+/// place of least overlap.
+fn place_label(at: (i32, i32), (w, h): (i32, i32), occupied: &[Rect], area: &Rect) -> Rect {
+    let mut best: Option<(i64, Rect)> = None;
+    for reach in [1, 2, 3] {
+        let d = 7 * reach;
+        let spots = [
+            (d, -h / 2),
+            (-w - d, -h / 2),
+            (-w / 2, -h - d),
+            (-w / 2, d),
+            (d - 2, -h - d + 2),
+            (d - 2, d - 2),
+            (-w - d + 2, -h - d + 2),
+            (-w - d + 2, d - 2),
+        ];
+        for (dx, dy) in spots {
+            let r = Rect {
+                x0: at.0 + dx,
+                y0: at.1 + dy,
+                x1: at.0 + dx + w,
+                y1: at.1 + dy + h,
+            };
+            let cost = occupied.iter().map(|o| o.overlap(&r)).sum::<i64>()
+                + if r.inside(area) { 0 } else { 1_000_000 };
+            if cost == 0 {
+                return r;
+            }
+            if best.is_none_or(|(c, _)| cost < c) {
+                best = Some((cost, r));
+            }
+        }
+    }
+    best.map_or(Rect::around(at, 0), |(_, r)| r)
 }
 
 fn draw_heat_map<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, map: &HeatMap) -> Result<()>
@@ -358,6 +483,7 @@ mod tests {
                 },
             ],
             lines: true,
+            vlines: vec![],
         };
         let files = write_loglog(&dir, "x", &plot).unwrap();
         if let Some(keep) = std::env::var_os("XTASK_KEEP_CHARTS") {

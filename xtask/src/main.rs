@@ -4,6 +4,7 @@ mod args;
 mod bench;
 mod chart;
 mod corpus;
+mod crowd_chart;
 mod docs;
 mod drops;
 mod growth;
@@ -39,6 +40,12 @@ subcommands:
                             --publish also copies the charts into docs/img/ and the
                             report to docs/bench-report.md; --write-docs writes the
                             exact methods' one-step errors into docs/performance.md
+    crowd-chart [SCENE.json] [--horizon S] [--budgets B,B,...] [--mujoco MS] [--publish]
+                            cost per simulated second (one thread) against the view-weighted
+                            error of crowd200 on its floor: adaptive budgets, the culling
+                            baseline, exact DCA at 1x, 2x, 4x the step, MuJoCo's cost as a
+                            line; writes target/articula-crowd/ (report.md, SVG, PNG);
+                            --publish copies the chart into docs/img/
     mjcf-corpus [--quick] [--venv DIR]
                             loads every kinematic-tree MJCF model of dm-control and
                             gymnasium with articula and MuJoCo, compares M and qacc_smooth,
@@ -109,6 +116,7 @@ const SUBCOMMANDS: &[&str] = &[
     "profile",
     "pinocchio",
     "bench",
+    "crowd-chart",
     "stability",
     "snapshots",
 ];
@@ -148,6 +156,7 @@ fn main() -> ExitCode {
         Some("profile") => run(profile::run(&args[1..])),
         Some("pinocchio") => run(pinocchio::run(&workspace_root())),
         Some("bench") => run(bench::run(&workspace_root(), &args[1..])),
+        Some("crowd-chart") => run(crowd_chart::run(&workspace_root(), &args[1..])),
         Some("stability") => run(stability::run(&workspace_root(), &args[1..])),
         Some("snapshots") => run(snapshots::run(&workspace_root(), &args[1..])),
         Some("-h" | "--help" | "help") => {

@@ -395,6 +395,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
         y_desc: "relative error max|Δqdd| / max|qdd|".into(),
         series: series_of(&len_rows),
         lines: true,
+        vlines: vec![],
     };
     let ratio_plot = LogLogPlot {
         title: format!("Accuracy against neighbour mass ratio ({RATIO_LINKS}-link chain)"),
@@ -402,6 +403,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
         y_desc: "relative error max|Δqdd| / max|qdd|".into(),
         series: series_of(&by_ratio),
         lines: true,
+        vlines: vec![],
     };
     let energy_plot = LogLogPlot {
         title: format!("Energy drift, 10-link chain, {DURATION} s"),
@@ -427,6 +429,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
             })
             .collect(),
         lines: true,
+        vlines: vec![],
     };
     let adaptive_plot = LogLogPlot {
         title: "Adaptive, 100-link chain: deviation from exact DCA after 0.2 s".into(),
@@ -445,6 +448,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
             })
             .collect(),
         lines: true,
+        vlines: vec![],
     };
     let tilted_plot = LogLogPlot {
         title: "Straight chain tilted by its first joint (0.5 rad), from rest".into(),
@@ -469,6 +473,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
             })
             .collect(),
         lines: true,
+        vlines: vec![],
     };
     for dir in [&out, &img] {
         files.extend(chart::write_loglog(dir, "stability_tilted", &tilted_plot)?);

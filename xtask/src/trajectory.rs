@@ -25,8 +25,13 @@ type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 pub const CRUMPLE: f64 = 0.3;
 /// Simulated time of the trajectory study (s).
 pub const HORIZON: f64 = 0.1;
-/// Time steps of the exact methods (s); adaptive dynamics runs at the first.
-pub const EXACT_DTS: [f64; 3] = [1e-3, 5e-4, 2.5e-4];
+/// Time steps of the exact methods with semi-implicit Euler (s); adaptive dynamics runs at
+/// 1 ms ([`ADAPTIVE_DT`]).
+pub const EXACT_DTS: [f64; 4] = [2e-3, 1e-3, 5e-4, 2.5e-4];
+/// Time steps of the exact methods with RK4 (s).
+pub const RK4_DTS: [f64; 4] = [4e-3, 2e-3, 1e-3, 5e-4];
+/// Time step of the adaptive runs (s).
+pub const ADAPTIVE_DT: f64 = 1e-3;
 /// Budgets of the adaptive runs.
 pub const BUDGETS: [usize; 5] = [10, 50, 100, 200, 300];
 /// Re-selection policies of the adaptive runs (period, through the caches): every step by
@@ -97,13 +102,25 @@ pub struct Run {
     pub accel_error: Option<f64>,
 }
 
+impl Run {
+    /// Cost per simulated second (CPU ms on one thread): the steady time per step over the
+    /// time step.
+    pub fn ms_per_sim_s(&self) -> f64 {
+        self.steady_us * 1e-3 / self.dt
+    }
+}
+
 /// The study's runs and its reference.
 pub struct Study {
     pub runs: Vec<Run>,
+    /// The runs that stopped (a non-finite state), with the error.
+    pub diverged: Vec<String>,
     /// Time step of the RK4 ABA reference (s).
     pub reference_dt: f64,
     /// `‖q_ref(2·dt_ref) − q_ref(dt_ref)‖` at the horizon (RK4's own error is ~1/16 of it).
     pub reference_check: f64,
+    /// The reference's `q` at the horizon.
+    pub q_ref: Vec<f64>,
 }
 
 /// Final `q` of a run over [`HORIZON`]; for adaptive dynamics also the accumulated
@@ -122,7 +139,9 @@ fn final_q(
     for _ in 0..steps {
         let q0 = s.q.clone();
         r.step(&mut s, integrator, dt)?;
-        if let Some(qdd) = r.adaptive_qdd() {
+        // (With RK4 the last q̈ is a stage's: no accumulated error is kept.)
+        let euler = integrator == Integrator::SemiImplicitEuler;
+        if let Some(qdd) = r.adaptive_qdd().filter(|_| euler) {
             // The state the step's accelerations belong to: its start's q, and its q̇ after
             // the locking impulse (semi-implicit Euler: q̇' = q̇ + h q̈; locked joints 0).
             let qd: Vec<f64> = s.qd.iter().zip(qdd).map(|(v, a)| v - dt * a).collect();
@@ -133,7 +152,7 @@ fn final_q(
     Ok((s.q, acc))
 }
 
-fn norm_diff(a: &[f64], b: &[f64]) -> f64 {
+pub fn norm_diff(a: &[f64], b: &[f64]) -> f64 {
     metric_error(a, b).sqrt()
 }
 
@@ -157,6 +176,7 @@ pub fn policy_label(model: &Model, budget: usize, every: u64, caches: bool) -> S
 pub fn study(model: &Model) -> Result<Study> {
     let aba = Solver::Exact(Method::Aba);
     let reference_dt = EXACT_DTS[EXACT_DTS.len() - 1] / 10.0;
+    debug_assert!(RK4_DTS.iter().all(|dt| *dt > reference_dt));
     let (q_ref, _) = final_q(model, aba, Integrator::Rk4, reference_dt)?;
     let (q_ref2, _) = final_q(model, aba, Integrator::Rk4, 2.0 * reference_dt)?;
     let mut configs: Vec<(Solver, Integrator, f64, Option<String>)> = Vec::new();
@@ -164,11 +184,16 @@ pub fn study(model: &Model) -> Result<Study> {
         for dt in EXACT_DTS {
             configs.push((Solver::Exact(m), Integrator::SemiImplicitEuler, dt, None));
         }
-        for dt in &EXACT_DTS[..2] {
-            configs.push((Solver::Exact(m), Integrator::Rk4, *dt, None));
+        for dt in RK4_DTS {
+            configs.push((Solver::Exact(m), Integrator::Rk4, dt, None));
         }
     }
-    for (every, caches) in POLICIES {
+    // Semi-implicit Euler at every policy; RK4 at the library's default (balanced) period.
+    let policies = POLICIES
+        .iter()
+        .map(|&p| (p, Integrator::SemiImplicitEuler))
+        .chain([((Settings::BALANCED, false), Integrator::Rk4)]);
+    for ((every, caches), integrator) in policies {
         for budget in BUDGETS {
             let solver = Solver::Adaptive {
                 budget,
@@ -176,17 +201,27 @@ pub fn study(model: &Model) -> Result<Study> {
                 caches,
             };
             let policy = policy_label(model, budget, every, caches);
-            configs.push((
-                solver,
-                Integrator::SemiImplicitEuler,
-                EXACT_DTS[0],
-                Some(policy),
-            ));
+            configs.push((solver, integrator, ADAPTIVE_DT, Some(policy)));
         }
     }
     let mut runs = Vec::new();
+    let mut diverged = Vec::new();
     for (solver, integrator, dt, policy) in configs {
-        let (q, accel_error) = final_q(model, solver, integrator, dt)?;
+        let (q, accel_error) = match final_q(model, solver, integrator, dt) {
+            Ok(r) => r,
+            Err(e) => {
+                let what = format!(
+                    "{} {} {} dt {} ms: {e}",
+                    solver.label(),
+                    policy.as_deref().unwrap_or(""),
+                    integrator_name(integrator),
+                    dt * 1e3
+                );
+                println!("  trajectory diverged: {what}");
+                diverged.push(what);
+                continue;
+            }
+        };
         let start = crumpled_start(model, solver);
         let steps = (HORIZON / dt).round() as usize;
         let (first_us, steady_us) =
@@ -220,9 +255,19 @@ pub fn study(model: &Model) -> Result<Study> {
     }
     Ok(Study {
         runs,
+        diverged,
         reference_dt,
         reference_check: norm_diff(&q_ref2, &q_ref),
+        q_ref,
     })
+}
+
+/// The integrator's name in tables and legends.
+pub fn integrator_name(i: Integrator) -> &'static str {
+    match i {
+        Integrator::SemiImplicitEuler => "semi-implicit Euler",
+        Integrator::Rk4 => "RK4",
+    }
 }
 
 /// `Σ (a − b)²`: the acceleration metric (identity weights) of the difference.
