@@ -65,8 +65,26 @@ pub struct SceneArgs {
     /// (every joint moving; no camera, no budget) for comparison (docs/view.md#exact-reference).
     #[arg(long, value_enum, default_value_t = crate::MethodArg::Adaptive)]
     pub method: crate::MethodArg,
+    /// The culling baseline instead of adaptive dynamics: characters in view (visible or
+    /// occluded) with every joint free, the others rigid; no budget (docs/view.md#culling).
+    #[arg(long)]
+    pub culling: bool,
+    /// Run the exact reference by this method beside the scene (same start, same springs,
+    /// pushes and floor) and report the view-weighted error against it after 0.1, 0.5 and
+    /// 2 s and at the last step (docs/view.md#view-error). Doubles the work, more or less.
+    #[arg(long, value_name = "METHOD", value_parser = parse_reference)]
+    pub reference: Option<articula_dca::Method>,
     #[command(flatten)]
     pub gltf: crate::gltf_out::GltfArgs,
+}
+
+fn parse_reference(s: &str) -> Result<articula_dca::Method, String> {
+    match s {
+        "dca" => Ok(articula_dca::Method::Dca),
+        "aba" => Ok(articula_dca::Method::Aba),
+        "crba" => Ok(articula_dca::Method::Crba),
+        _ => Err(format!("unknown reference '{s}' (dca, aba or crba)")),
+    }
 }
 
 fn parse_finite(s: &str) -> Result<f64, String> {
@@ -141,6 +159,12 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
     if exact.is_some() && args.budget.is_some() {
         return Err(CliError("--budget needs --method adaptive".to_string()));
     }
+    if args.culling && (exact.is_some() || args.budget.is_some()) {
+        return Err(CliError(
+            "--culling replaces adaptive dynamics: it takes neither --method nor --budget"
+                .to_string(),
+        ));
+    }
     let mut scene = load_scene_options(&args.scene, &args.inertia.options()?, args.memory_limit)?;
     if let Some(height) = args.ground {
         scene.ground = Some(articula_view::GroundSpec::at(height));
@@ -164,7 +188,10 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
     sim.set_threads(crate::threads(args.threads)?);
     if let Some(m) = exact {
         sim.set_method(SceneMethod::Exact(m));
+    } else if args.culling {
+        sim.set_method(SceneMethod::Culling);
     }
+    let mut reference = ViewReference::start(&scene, args.reference, sim.threads())?;
     let steps = args.steps;
     let bar = ProgressBar::with_draw_target(Some(steps), ProgressDrawTarget::hidden());
     bar.set_style(
@@ -243,6 +270,10 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
             break;
         }
         done = k + 1;
+        if let Err(CliError(e)) = reference.step(&mut sim, done == steps) {
+            stop = Some(at(&e));
+            break;
+        }
         if let Some(g) = &mut gltf {
             g.step(&mut sim, done)?;
         }
@@ -265,7 +296,7 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
         "steps": done,
         "steps_requested": steps,
         "dt": scene.dt,
-        "method": args.method.name(),
+        "method": if args.culling { "culling" } else { args.method.name() },
         "bodies": sim.bodies.len(),
         "threads": sim.threads().count(),
         "dof_total": sim.dof_total(),
@@ -308,6 +339,10 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
             summary[key] = serde_json::Value::Null;
         }
     }
+    if let Some(r) = &reference.method {
+        summary["reference"] = r.name().into();
+        summary["view_error"] = reference.json();
+    }
     if scene.ground.is_some() {
         summary["max_penetration_m"] = max_penetration.into();
         summary["contacts_mean"] = (contacts_sum as f64 / done.max(1) as f64).into();
@@ -323,6 +358,78 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
         }
         Some(s) => Err(CliError(s)),
         None => Ok(()),
+    }
+}
+
+/// The exact reference run beside the scene (`--reference`) and the view-weighted errors
+/// measured against it.
+struct ViewReference<'s> {
+    method: Option<articula_dca::Method>,
+    sim: Option<SceneSim<'s>>,
+    /// `(t, error)` at each of [`VIEW_ERROR_TIMES`] reached and at the last step.
+    errors: Vec<articula_view::ViewDeviation>,
+}
+
+/// Simulated times (s) at which `--reference` measures the view-weighted error.
+const VIEW_ERROR_TIMES: [f64; 3] = [0.1, 0.5, 2.0];
+
+impl<'s> ViewReference<'s> {
+    fn start(
+        scene: &'s articula_view::LoadedScene,
+        method: Option<articula_dca::Method>,
+        threads: &articula_dca::Threads,
+    ) -> Result<Self, CliError> {
+        let sim = match method {
+            Some(m) => {
+                let mut sim = SceneSim::new(scene)?;
+                sim.set_threads(threads.clone());
+                sim.set_method(SceneMethod::Exact(m));
+                Some(sim)
+            }
+            None => None,
+        };
+        Ok(ViewReference {
+            method,
+            sim,
+            errors: Vec::new(),
+        })
+    }
+
+    /// One step of the reference (after the scene's); the error at the checkpoints and at
+    /// the `last` step.
+    fn step(&mut self, run: &mut SceneSim, last: bool) -> Result<(), CliError> {
+        let Some(r) = &mut self.sim else {
+            return Ok(());
+        };
+        r.step()
+            .map_err(|e| CliError(format!("the exact reference: {e}")))?;
+        let dt = r.scene.dt;
+        let at_mark = VIEW_ERROR_TIMES
+            .iter()
+            .any(|t| (t / dt).round() as u64 == r.steps);
+        if at_mark || last {
+            let d = r.view_deviation(run)?;
+            if self.errors.last().is_none_or(|e| e.time != d.time) {
+                self.errors.push(d);
+            }
+        }
+        Ok(())
+    }
+
+    fn json(&self) -> serde_json::Value {
+        self.errors
+            .iter()
+            .map(|e| {
+                serde_json::json!({
+                    "t": e.time,
+                    "pixels": e.pixels,
+                    "metres": e.metres,
+                    "max_pixels": e.max_pixels,
+                    "visible_links": e.visible_links,
+                    "occluded_links": e.occluded_links,
+                })
+            })
+            .collect()
     }
 }
 

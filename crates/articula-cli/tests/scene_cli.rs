@@ -303,3 +303,50 @@ fn the_exact_reference_method() {
         &["--budget needs --method adaptive"],
     );
 }
+
+#[test]
+fn a_reference_beside_the_scene_reports_the_view_error() {
+    let s = Scratch::new("reference");
+    let f = s.file(
+        "reference.json",
+        &two_bodies(&models_dir().display().to_string()),
+    );
+    let floor = ["--ground", "-0.021", "--gravity", "-9.81"];
+    let run = |extra: &[&str]| {
+        let mut args = vec!["scene", &f, "--steps", "50", "--reference", "dca"];
+        args.extend_from_slice(&floor);
+        args.extend_from_slice(extra);
+        succeeded(&articula(&args))
+    };
+    // 50 steps of 2 ms: the checkpoint at 0.1 s is the last step (one entry).
+    let v = run(&["--budget", "12"]);
+    assert_eq!(v["reference"], "dca");
+    let e = v["view_error"].as_array().unwrap();
+    assert_eq!(e.len(), 1, "{v}");
+    assert!((e[0]["t"].as_f64().unwrap() - 0.1).abs() < 1e-12, "{v}");
+    // The front character is in view, the other behind the camera.
+    assert!(e[0]["visible_links"].as_u64().unwrap() > 10, "{v}");
+    let budget12 = e[0]["pixels"].as_f64().unwrap();
+    assert!(
+        budget12 > 1e-6,
+        "12 of 68 joints drift from the reference: {v}"
+    );
+    // The culling baseline runs the character in view exactly: no drift on screen but
+    // rounding; the one out of view (weight 0) is rigid.
+    let v = run(&["--culling"]);
+    assert_eq!(v["method"], "culling");
+    assert_eq!(v["active_joints_max"], 34, "{v}");
+    let culled = v["view_error"][0]["pixels"].as_f64().unwrap();
+    assert!(culled < 1e-6, "{culled} px: {v}");
+    // Without --reference: no view error in the summary.
+    let v = succeeded(&articula(&["scene", &f, "--steps", "2"]));
+    assert!(v.get("view_error").is_none(), "{v}");
+    bad(
+        &articula(&["scene", &f, "--steps", "1", "--culling", "--budget", "3"]),
+        &["--culling replaces adaptive dynamics"],
+    );
+    bad(
+        &articula(&["scene", &f, "--steps", "1", "--reference", "rk4"]),
+        &["unknown reference 'rk4'"],
+    );
+}
