@@ -1004,7 +1004,9 @@ fn study_words(traj: &Study, peers: &[Series]) -> String {
         .map(|(p, _)| p.0.as_str())
         .collect();
     format!(
-        "**The Pareto front (trajectories).** The runs no other run beats in both cost per          simulated second and deviation, from the cheapest to the most accurate: {}. Adaptive          runs off the front (another run is both cheaper and closer to the reference): {}.",
+        "**The Pareto front (trajectories).** The runs no other run beats in both cost per \
+         simulated second and deviation, from the cheapest to the most accurate: {}. Adaptive \
+         runs off the front (another run is both cheaper and closer to the reference): {}.",
         words.join("; "),
         if off.is_empty() {
             "none".to_string()
@@ -1285,7 +1287,9 @@ fn report(
                 "| {} | — | — | {} | — | {} | {} | {:.3e} | 0 (exact) |",
                 sr.name,
                 l.trim_end_matches(" ms"),
-                fmt_us(Some(&(p.0 * l.trim_end_matches(" ms").parse::<f64>().unwrap_or(f64::NAN)))),
+                fmt_us(Some(
+                    &(p.0 * l.trim_end_matches(" ms").parse::<f64>().unwrap_or(f64::NAN))
+                )),
                 fmt_us(Some(&p.0)),
                 p.1
             );

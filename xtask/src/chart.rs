@@ -201,20 +201,50 @@ where
     }
     // Markers first (every point is an obstacle for the labels), then the labels.
     let mut occupied: Vec<Rect> = Vec::new();
-    // The legend's corner (upper left), estimated from its entries.
+    // The legend in the corner with the fewest points, its box estimated from its entries.
     let legend_w = plot
         .series
         .iter()
         .map(|s| s.name.chars().count() as i32 * 8 + 40)
         .max()
         .unwrap_or(0);
-    let corner = chart.backend_coord(&(x0 as f64, y1 as f64));
-    occupied.push(Rect {
-        x0: corner.0,
-        y0: corner.1,
-        x1: corner.0 + legend_w + 20,
-        y1: corner.1 + plot.series.len() as i32 * 21 + 20,
-    });
+    let legend_h = plot.series.len() as i32 * 21 + 20;
+    let (tl, br) = (
+        chart.backend_coord(&(x0 as f64, y1 as f64)),
+        chart.backend_coord(&(x1 as f64, y0 as f64)),
+    );
+    let corners = [
+        (SeriesLabelPosition::UpperLeft, (tl.0, tl.1)),
+        (SeriesLabelPosition::UpperRight, (br.0 - legend_w - 20, tl.1)),
+        (SeriesLabelPosition::LowerLeft, (tl.0, br.1 - legend_h)),
+        (SeriesLabelPosition::LowerRight, (br.0 - legend_w - 20, br.1 - legend_h)),
+    ];
+    let pixels: Vec<(i32, i32)> = plot
+        .series
+        .iter()
+        .flat_map(|s| s.points.iter())
+        .filter(|(x, y)| x.is_finite() && y.is_finite() && *x > 0.0 && *y > 0.0)
+        .map(|&p| chart.backend_coord(&log_point(p)))
+        .collect();
+    let (legend_at, legend_box) = corners
+        .iter()
+        .map(|(pos, (x, y))| {
+            let r = Rect {
+                x0: *x,
+                y0: *y,
+                x1: x + legend_w + 20,
+                y1: y + legend_h,
+            };
+            let inside = pixels
+                .iter()
+                .filter(|p| r.overlap(&Rect::around(**p, 6)) > 0)
+                .count();
+            (inside, pos.clone(), r)
+        })
+        .min_by_key(|c| c.0)
+        .map(|(_, pos, r)| (pos, r))
+        .unwrap_or((SeriesLabelPosition::UpperLeft, Rect::around(tl, 0)));
+    occupied.push(legend_box);
     let mut pending: Vec<((i32, i32), &str, RGBColor)> = Vec::new();
     for (i, s) in plot.series.iter().enumerate() {
         let color = palette(i);
@@ -247,6 +277,18 @@ where
             }
             let at = chart.backend_coord(&log_point(p));
             occupied.push(Rect::around(at, 6));
+            // The line to the next point, sampled every few pixels.
+            let next = s.points.get(k + 1).filter(|q| q.0 > 0.0 && q.1 > 0.0 && plot.lines);
+            if let Some(&q) = next {
+                let b = chart.backend_coord(&log_point(q));
+                let n = ((b.0 - at.0).abs().max((b.1 - at.1).abs()) / 6).max(1);
+                for j in 1..n {
+                    let f = j as f64 / n as f64;
+                    let x = at.0 + ((b.0 - at.0) as f64 * f) as i32;
+                    let y = at.1 + ((b.1 - at.1) as f64 * f) as i32;
+                    occupied.push(Rect::around((x, y), 2));
+                }
+            }
             if let Some(l) = s.labels.get(k).filter(|l| !l.is_empty()) {
                 pending.push((at, l.as_str(), color));
             }
@@ -277,7 +319,7 @@ where
         .label_font((FONT_NAME, 15))
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperLeft)
+        .position(legend_at)
         .draw()
         .map_err(err)?;
     root.present().map_err(err)?;

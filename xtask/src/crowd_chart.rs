@@ -83,7 +83,9 @@ fn parse(root: &Path, args: &[String]) -> Result<Options> {
         }
     }
     if !(o.horizon > 0.0 && o.horizon.is_finite()) {
-        return Err(format!("--horizon must be a positive number of seconds; usage: {USAGE}").into());
+        return Err(
+            format!("--horizon must be a positive number of seconds; usage: {USAGE}").into(),
+        );
     }
     Ok(o)
 }
@@ -125,12 +127,10 @@ fn run_scene(
     sim.set_threads(Threads::serial());
     sim.set_method(method);
     let steps = steps_in(horizon, scene.dt);
-    let marks: Vec<u64> = CHECKPOINTS
-        .iter()
-        .map(|t| steps_in(*t, scene.dt))
-        .collect();
+    let marks: Vec<u64> = CHECKPOINTS.iter().map(|t| steps_in(*t, scene.dt)).collect();
     let e0 = sim.energy();
-    let scale = |e: &articula_view::SceneEnergy| e.kinetic.abs() + e.gravity.abs() + e.springs.abs();
+    let scale =
+        |e: &articula_view::SceneEnergy| e.kinetic.abs() + e.gravity.abs() + e.springs.abs();
     let (start, mut largest) = (e0.total(), scale(&e0));
     let (mut wall, mut active) = (Duration::ZERO, 0usize);
     let mut diverged = None;
@@ -182,7 +182,10 @@ fn reference(scene: &LoadedScene, horizon: f64) -> Result<(CrowdRun, Snapshots)>
     let mut snaps = Vec::new();
     let (cost_ms, active_mean, diverged) =
         run_scene(scene, SceneMethod::Exact(Method::Dca), horizon, |sim, _| {
-            snaps.push((sim.steps, sim.bodies.iter().map(|b| b.state.clone()).collect()));
+            snaps.push((
+                sim.steps,
+                sim.bodies.iter().map(|b| b.state.clone()).collect(),
+            ));
             Ok(())
         })?;
     if let Some(d) = diverged {
@@ -250,17 +253,37 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     let started = Instant::now();
     let base = articula_view::load_scene(&o.scene)?;
     let horizon = o.horizon;
-    println!("crowd chart: {} ({horizon} s, one thread)", o.scene.display());
+    println!(
+        "crowd chart: {} ({horizon} s, one thread)",
+        o.scene.display()
+    );
     let (reference, snaps) = reference(&base, horizon)?;
-    println!("  {}: {:.0} ms per simulated s", reference.label, reference.cost_ms);
+    println!(
+        "  {}: {:.0} ms per simulated s",
+        reference.label, reference.cost_ms
+    );
     let mut runs = Vec::new();
     for &b in &o.budgets {
         let mut s = base.clone();
         s.budget = Some(b);
         let label = format!("adaptive b={b}");
-        runs.push(measured(&s, &base, label, SceneMethod::Adaptive, horizon, &snaps)?);
+        runs.push(measured(
+            &s,
+            &base,
+            label,
+            SceneMethod::Adaptive,
+            horizon,
+            &snaps,
+        )?);
     }
-    runs.push(measured(&base, &base, "culling".into(), SceneMethod::Culling, horizon, &snaps)?);
+    runs.push(measured(
+        &base,
+        &base,
+        "culling".into(),
+        SceneMethod::Culling,
+        horizon,
+        &snaps,
+    )?);
     for m in COARSE {
         let mut s = base.clone();
         s.dt = base.dt * m as f64;
@@ -274,13 +297,22 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     };
     let out = root.join("target/articula-crowd");
     let files = write_chart(&out, &base, &reference, &runs, mujoco.as_ref().map(|m| m.0))?;
-    let text = report(&o, &base, &reference, &runs, mujoco.as_ref(), started.elapsed());
+    let text = report(
+        &o,
+        &base,
+        &reference,
+        &runs,
+        mujoco.as_ref(),
+        started.elapsed(),
+    );
     std::fs::write(out.join("report.md"), &text)?;
     println!("wrote {}", out.join("report.md").display());
     for f in &files {
         println!("wrote {}", f.display());
         if o.publish {
-            let to = root.join("docs/img").join(f.file_name().ok_or("chart without a name")?);
+            let to = root
+                .join("docs/img")
+                .join(f.file_name().ok_or("chart without a name")?);
             std::fs::copy(f, &to)?;
             println!("copied to {}", to.display());
         }
@@ -313,7 +345,10 @@ fn mujoco_figure(root: &Path, scene: &Path, horizon: f64) -> Option<(f64, String
             println!(
                 "  MuJoCo: {} failed: {}",
                 script.display(),
-                String::from_utf8_lossy(&o.stderr).lines().last().unwrap_or_default()
+                String::from_utf8_lossy(&o.stderr)
+                    .lines()
+                    .last()
+                    .unwrap_or_default()
             );
             None
         }
@@ -436,11 +471,19 @@ fn report(
         .filter(|t| **t <= o.horizon + 1e-9)
         .map(|t| format!(" px at {t} s | m at {t} s |"))
         .collect();
-    let _ = writeln!(s, "| run | dt (ms) | ms per simulated s | joints a step |{head}");
+    let _ = writeln!(
+        s,
+        "| run | dt (ms) | ms per simulated s | joints a step |{head}"
+    );
     let _ = writeln!(
         s,
         "|---|---:|---:|---:|{}",
-        "---:|".repeat(2 * CHECKPOINTS.iter().filter(|t| **t <= o.horizon + 1e-9).count())
+        "---:|".repeat(
+            2 * CHECKPOINTS
+                .iter()
+                .filter(|t| **t <= o.horizon + 1e-9)
+                .count()
+        )
     );
     for r in runs {
         let cells: String = CHECKPOINTS
@@ -484,7 +527,14 @@ pub fn verdict(runs: &[CrowdRun]) -> String {
     let cheaper: Vec<String> = adaptive
         .iter()
         .filter(|r| r.cost_ms <= cull.cost_ms)
-        .map(|r| format!("{} ({:.0} ms/s, {:.3} px)", r.label, r.cost_ms, at(r).unwrap_or(0.0)))
+        .map(|r| {
+            format!(
+                "{} ({:.0} ms/s, {:.3} px)",
+                r.label,
+                r.cost_ms,
+                at(r).unwrap_or(0.0)
+            )
+        })
         .collect();
     let better: Vec<String> = adaptive
         .iter()
@@ -497,7 +547,15 @@ pub fn verdict(runs: &[CrowdRun]) -> String {
          reference on screen as culling: {}.",
         cull.cost_ms,
         ce,
-        if cheaper.is_empty() { "none".into() } else { cheaper.join(", ") },
-        if better.is_empty() { "none".into() } else { better.join(", ") }
+        if cheaper.is_empty() {
+            "none".into()
+        } else {
+            cheaper.join(", ")
+        },
+        if better.is_empty() {
+            "none".into()
+        } else {
+            better.join(", ")
+        }
     )
 }

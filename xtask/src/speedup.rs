@@ -16,7 +16,9 @@
 //!   steps of the same scene's exact reference ([`SceneMethod::Exact`] by DCA: the same
 //!   springs, pushes and floor, every joint moving, semi-implicit Euler), both on one thread;
 //!   then how far the adaptive crowd is from the exact one after 0.1 s (60 steps), per
-//!   character (root position, joint coordinates: median and largest).
+//!   character (root position, joint coordinates: median and largest), and its view-weighted
+//!   error (screen distance of the visible links, px; world distance, m) after 0.1, 0.5 and
+//!   2 s (both runs continue to 2 s for it).
 
 use crate::args::Args;
 use articula_adaptive::{Adaptive, Reselection, Settings};
@@ -209,22 +211,57 @@ fn crowd(scene: &articula_view::LoadedScene, rounds: usize, steps: u64) -> Resul
     crowd_deviation(scene, DEVIATION_HORIZON.min(steps))
 }
 
-/// Steps after which [`crowd_deviation`] compares the adaptive crowd with its exact reference:
-/// 0.1 s at the bundled scenes' 600 steps a second, before the characters' chaotic motions
-/// (a fall, a stagger) separate any two integrations.
+/// Steps after which [`crowd_deviation`] compares the adaptive crowd's joints with its exact
+/// reference: 0.1 s at the bundled scenes' 600 steps a second, before the characters' chaotic
+/// motions (a fall, a stagger) separate any two integrations.
 const DEVIATION_HORIZON: u64 = 60;
 
-/// How far the adaptive scene has drifted from its exact reference after `steps` steps, both
-/// from the scene's start: per character the largest deviation of its root position (m) and of
-/// any internal joint coordinate (rad), printed as the median and the largest over the crowd.
+/// How far the adaptive scene has drifted from its exact reference, both from the scene's
+/// start: after `steps` steps, per character the largest deviation of its root position (m)
+/// and of any internal joint coordinate (rad), printed as the median and the largest over the
+/// crowd; and the view-weighted error ([`articula_view::SceneSim::view_deviation`]: screen
+/// distance of the visible links, px, and world distance, m) at each of
+/// [`crate::crowd_chart::CHECKPOINTS`].
 fn crowd_deviation(scene: &articula_view::LoadedScene, steps: u64) -> Result<()> {
     let mut adaptive = SceneSim::new(scene).map_err(|e| e.to_string())?;
     let mut exact = SceneSim::new(scene).map_err(|e| e.to_string())?;
     exact.set_method(SceneMethod::Exact(Method::Dca));
-    for _ in 0..steps {
+    let marks: Vec<u64> = crate::crowd_chart::CHECKPOINTS
+        .iter()
+        .map(|t| (t / scene.dt).round() as u64)
+        .collect();
+    let last = marks.iter().copied().max().unwrap_or(0).max(steps);
+    for k in 1..=last {
         adaptive.step()?;
         exact.step()?;
+        if k == steps {
+            joint_deviation(scene, &adaptive, &exact, steps);
+        }
+        if marks.contains(&k) {
+            let d = exact.view_deviation(&adaptive)?;
+            println!(
+                "view-weighted error after {:.2} s: {:.3} px mean ({:.2} px largest) over {} visible and {} occluded links at {}×{}, {:.2e} m",
+                d.time,
+                d.pixels,
+                d.max_pixels,
+                d.visible_links,
+                d.occluded_links,
+                scene.image.width,
+                scene.image.height,
+                d.metres
+            );
+        }
     }
+    Ok(())
+}
+
+/// The per-character joint and root deviations of [`crowd_deviation`].
+fn joint_deviation(
+    scene: &articula_view::LoadedScene,
+    adaptive: &SceneSim,
+    exact: &SceneSim,
+    steps: u64,
+) {
     let (mut root, mut joint) = (Vec::new(), Vec::new());
     for (a, e) in adaptive.bodies.iter().zip(&exact.bodies) {
         let model = &scene.models[a.model].model;
@@ -251,5 +288,4 @@ fn crowd_deviation(scene: &articula_view::LoadedScene, steps: u64) -> Result<()>
         joint[n / 2],
         joint[n - 1]
     );
-    Ok(())
 }
