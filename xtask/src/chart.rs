@@ -194,7 +194,7 @@ where
         let at = chart.backend_coord(&(lx, y1 as f64));
         root.draw_text(
             label,
-            &(FONT_NAME, 14).into_font().color(&grey).into(),
+            &(FONT_NAME, 14).into_font().color(&grey),
             (at.0 + 5, at.1 + 4),
         )
         .map_err(err)?;
@@ -215,9 +215,15 @@ where
     );
     let corners = [
         (SeriesLabelPosition::UpperLeft, (tl.0, tl.1)),
-        (SeriesLabelPosition::UpperRight, (br.0 - legend_w - 20, tl.1)),
+        (
+            SeriesLabelPosition::UpperRight,
+            (br.0 - legend_w - 20, tl.1),
+        ),
         (SeriesLabelPosition::LowerLeft, (tl.0, br.1 - legend_h)),
-        (SeriesLabelPosition::LowerRight, (br.0 - legend_w - 20, br.1 - legend_h)),
+        (
+            SeriesLabelPosition::LowerRight,
+            (br.0 - legend_w - 20, br.1 - legend_h),
+        ),
     ];
     let pixels: Vec<(i32, i32)> = plot
         .series
@@ -278,7 +284,10 @@ where
             let at = chart.backend_coord(&log_point(p));
             occupied.push(Rect::around(at, 6));
             // The line to the next point, sampled every few pixels.
-            let next = s.points.get(k + 1).filter(|q| q.0 > 0.0 && q.1 > 0.0 && plot.lines);
+            let next = s
+                .points
+                .get(k + 1)
+                .filter(|q| q.0 > 0.0 && q.1 > 0.0 && plot.lines);
             if let Some(&q) = next {
                 let b = chart.backend_coord(&log_point(q));
                 let n = ((b.0 - at.0).abs().max((b.1 - at.1).abs()) / 6).max(1);

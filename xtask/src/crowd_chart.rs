@@ -153,7 +153,7 @@ fn run_scene(
             let e = sim.energy();
             largest = largest.max(scale(&e));
             let growth = e.total() - e.push_work - start;
-            if !(growth <= MAX_ENERGY_GROWTH * largest) {
+            if growth.is_nan() || growth > MAX_ENERGY_GROWTH * largest {
                 diverged = Some(format!(
                     "energy grew by {growth:.3e} J by t = {:.3} s",
                     k as f64 * scene.dt
