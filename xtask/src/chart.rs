@@ -179,7 +179,10 @@ where
         .light_line_style(RGBColor(235, 235, 235))
         .draw()
         .map_err(err)?;
-    for (x, label) in &plot.vlines {
+    // Their labels at the top, each below the last so that neighbours do not overlap.
+    let mut vline_boxes = Vec::new();
+    let vfont: TextStyle = (FONT_NAME, 14).into_font().into();
+    for (k, (x, label)) in plot.vlines.iter().enumerate() {
         if !(x.is_finite() && *x > 0.0) {
             continue;
         }
@@ -192,15 +195,19 @@ where
             ))
             .map_err(err)?;
         let at = chart.backend_coord(&(lx, y1 as f64));
-        root.draw_text(
-            label,
-            &(FONT_NAME, 14).into_font().color(&grey),
-            (at.0 + 5, at.1 + 4),
-        )
-        .map_err(err)?;
+        let (w, h) = root.estimate_text_size(label, &vfont).map_err(err)?;
+        let (px, py) = (at.0 + 5, at.1 + 4 + 20 * k as i32);
+        root.draw_text(label, &vfont.color(&grey), (px, py))
+            .map_err(err)?;
+        vline_boxes.push(Rect {
+            x0: px,
+            y0: py,
+            x1: px + w as i32,
+            y1: py + h as i32,
+        });
     }
     // Markers first (every point is an obstacle for the labels), then the labels.
-    let mut occupied: Vec<Rect> = Vec::new();
+    let mut occupied: Vec<Rect> = vline_boxes;
     // The legend in the corner with the fewest points, its box estimated from its entries.
     let legend_w = plot
         .series

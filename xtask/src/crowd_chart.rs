@@ -299,6 +299,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     let files = write_chart(&out, &base, &reference, &runs, mujoco.as_ref().map(|m| m.0))?;
     let text = report(
         &o,
+        root,
         &base,
         &reference,
         &runs,
@@ -426,6 +427,7 @@ fn write_chart(
 
 fn report(
     o: &Options,
+    root: &Path,
     scene: &LoadedScene,
     reference: &CrowdRun,
     runs: &[CrowdRun],
@@ -439,7 +441,7 @@ fn report(
          `cargo xtask crowd-chart {}` ({} s simulated per run, one thread, took {:.0} s; \
          machine load average {} when written). Scene: {} characters, {} internal joints, \
          dt = {:.3} ms, image {}×{}.\n",
-        o.scene.display(),
+        o.scene.strip_prefix(root).unwrap_or(&o.scene).display(),
         o.horizon,
         took.as_secs_f64(),
         std::fs::read_to_string("/proc/loadavg")
