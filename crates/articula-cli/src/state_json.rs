@@ -12,7 +12,7 @@
 //! errors naming what is wrong.
 
 use articula_dca::State;
-use articula_model::{JointKind, JointPart, Model, FLOATING_BASE_JOINT};
+use articula_model::{JointPart, Model, FLOATING_BASE_JOINT};
 use serde::de::{self, DeserializeSeed, Deserializer, MapAccess, SeqAccess, Visitor};
 use serde::Deserialize;
 use std::fmt;
@@ -118,8 +118,8 @@ impl StateFile {
                     ));
                 }
                 target.copy_from_slice(values);
-                if what == "q" && part.kind == JointKind::Floating {
-                    normalize_quaternion(name, &mut target[3..7])?;
+                if let (Some(o), "q") = (part.kind.quaternion_offset(), what) {
+                    normalize_quaternion(name, &mut target[o..o + 4])?;
                 }
             }
         }
@@ -152,27 +152,11 @@ fn unknown_joint(model: &Model, what: &str, name: &str) -> String {
 }
 
 fn kind_name(part: &JointPart) -> &'static str {
-    match part.kind {
-        JointKind::Revolute => "revolute",
-        JointKind::Continuous => "continuous",
-        JointKind::Prismatic => "prismatic",
-        JointKind::Floating => "floating",
-        JointKind::Fixed => "fixed",
-    }
+    part.kind.name()
 }
 
 fn layout(what: &str, part: &JointPart) -> &'static str {
-    match (what, part.kind) {
-        ("q", JointKind::Floating) => "[x, y, z, qw, qx, qy, qz]",
-        ("qd", JointKind::Floating) => "[wx, wy, wz, vx, vy, vz] in the moving frame",
-        (_, JointKind::Floating) => "[nx, ny, nz, fx, fy, fz] in the moving frame",
-        ("q", JointKind::Prismatic) => "[displacement in m]",
-        ("q", _) => "[angle in rad]",
-        ("qd", JointKind::Prismatic) => "[velocity in m/s]",
-        ("qd", _) => "[angular velocity in rad/s]",
-        (_, JointKind::Prismatic) => "[force in N]",
-        _ => "[torque in N m]",
-    }
+    part.kind.coordinates(what)
 }
 
 fn normalize_quaternion(name: &str, quat: &mut [f64]) -> Result<(), String> {

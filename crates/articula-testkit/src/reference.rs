@@ -7,7 +7,11 @@
 //! spatial types): it reads only the model's description (joint origins, axes, body inertias)
 //! and treats those `f64` numbers as exact. Each URDF joint of a composed joint is its own
 //! (massless) body here: the uncomposed model that composition (docs/design.md#composition) must
-//! reproduce. Fixed bases with revolute, continuous and prismatic joints only.
+//! reproduce. A ball joint is three bodies turning about the moving frame's x, y and z axes at
+//! zero angle after the quaternion's rotation, whose velocity products are taken with the
+//! velocity before the joint (so that the three act as one spherical joint, whose subspace is
+//! constant in the moving frame). Fixed bases with revolute, continuous, prismatic and ball
+//! joints.
 
 use crate::dd::Real;
 use articula_model::{JointKind, Model};
@@ -23,7 +27,7 @@ struct RefBody {
     /// Joint frame in the preceding frame: axes (columns) and origin.
     rot: [[f64; 3]; 3],
     pos: [f64; 3],
-    prismatic: bool,
+    joint: RefJoint,
     axis: [f64; 3],
     /// Spatial inertia in the moving frame `[Ī, h×; h×ᵀ, m 1]`, zero for a massless link.
     inertia: Mat6,
@@ -32,6 +36,15 @@ struct RefBody {
     v_index: usize,
     /// The model body whose frame this moving frame is (for external forces).
     model_body: Option<usize>,
+}
+
+/// How a reference body moves.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum RefJoint {
+    Hinge,
+    Slide,
+    /// Axis `e_k` of a ball joint (`k` = 0 carries the quaternion at `q_index`).
+    Ball(usize),
 }
 
 /// A model flattened into single-axis joints, ready for [`ReferenceModel::aba`].
@@ -52,10 +65,14 @@ impl ReferenceModel {
         for (bi, body) in model.bodies.iter().enumerate() {
             let mut parent = body.parent.map(|p| last_of[p]);
             for (pi, part) in body.joint.iter().enumerate() {
-                let prismatic = match part.kind {
-                    JointKind::Revolute | JointKind::Continuous => false,
-                    JointKind::Prismatic => true,
-                    k => return Err(format!("joint {}: {k:?} is not supported", part.name)),
+                let subs = match part.kind {
+                    JointKind::Revolute | JointKind::Continuous => vec![RefJoint::Hinge],
+                    JointKind::Prismatic => vec![RefJoint::Slide],
+                    JointKind::Ball => (0..3).map(RefJoint::Ball).collect(),
+                    k @ (JointKind::Floating | JointKind::Fixed) => {
+                        return Err(format!("joint {}: {k:?} is not supported", part.name))
+                    }
+                    k => return Err(format!("joint {}: {k:?} is not known", part.name)),
                 };
                 let (r, p) = part.origin.to_pose();
                 let last = pi + 1 == body.joint.len();
@@ -75,22 +92,36 @@ impl ReferenceModel {
                     }
                 }
                 let rc = r.to_cols_array_2d();
-                bodies.push(RefBody {
-                    parent,
-                    rot: [
-                        [rc[0][0], rc[1][0], rc[2][0]],
-                        [rc[0][1], rc[1][1], rc[2][1]],
-                        [rc[0][2], rc[1][2], rc[2][2]],
-                    ],
-                    pos: p.to_array(),
-                    prismatic,
-                    axis: part.axis.to_array(),
-                    inertia,
-                    q_index: part.q_offset,
-                    v_index: part.v_offset,
-                    model_body: last.then_some(bi),
-                });
-                parent = Some(bodies.len() - 1);
+                let n_subs = subs.len();
+                for (k, joint) in subs.into_iter().enumerate() {
+                    let first = k == 0;
+                    let end = k + 1 == n_subs;
+                    let mut axis = part.axis.to_array();
+                    if let RefJoint::Ball(k) = joint {
+                        axis = [0.0; 3];
+                        axis[k] = 1.0;
+                    }
+                    bodies.push(RefBody {
+                        parent,
+                        rot: if first {
+                            [
+                                [rc[0][0], rc[1][0], rc[2][0]],
+                                [rc[0][1], rc[1][1], rc[2][1]],
+                                [rc[0][2], rc[1][2], rc[2][2]],
+                            ]
+                        } else {
+                            [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+                        },
+                        pos: if first { p.to_array() } else { [0.0; 3] },
+                        joint,
+                        axis,
+                        inertia: if end { inertia } else { Mat6::ZERO },
+                        q_index: part.q_offset,
+                        v_index: part.v_offset + k,
+                        model_body: (last && end).then_some(bi),
+                    });
+                    parent = Some(bodies.len() - 1);
+                }
             }
             last_of[bi] = bodies.len() - 1;
         }
@@ -105,7 +136,7 @@ impl ReferenceModel {
     /// about the world origin, one per model body; empty for none).
     pub fn aba<T: Real>(
         &self,
-        q: &[f64],
+        qv: &[f64],
         qd: &[f64],
         tau: &[f64],
         f_ext: &[SpatialForce],
@@ -116,6 +147,8 @@ impl ReferenceModel {
         let mut x: Vec<M6<T>> = vec![[[z; 6]; 6]; n];
         let mut v: Vec<V6<T>> = vec![[z; 6]; n];
         let mut c: Vec<V6<T>> = vec![[z; 6]; n];
+        // The velocity before each body's (ball) joint, in its frame.
+        let mut vbase: Vec<V6<T>> = vec![[z; 6]; n];
         let mut s: Vec<V6<T>> = vec![[z; 6]; n];
         let mut ia: Vec<M6<T>> = vec![[[z; 6]; 6]; n];
         let mut pa: Vec<V6<T>> = vec![[z; 6]; n];
@@ -132,22 +165,29 @@ impl ReferenceModel {
         // pᴬ_i = v_i ×* I_i v_i − f_ext,i.
         for i in 0..n {
             let b = &self.bodies[i];
-            let q = f(q[b.q_index]);
+            let q = f(qv[b.q_index]);
             let qd = f(qd[b.v_index]);
             let ax = b.axis.map(f);
             // Pose of the moving frame in the parent frame: R = R_origin R_q, p = p_origin
             // (+ R_origin axis q when prismatic).
             let r0 = b.rot.map(|row| row.map(f));
             let p0 = b.pos.map(f);
-            let (rq, dp) = if b.prismatic {
-                (eye, ax.map(|a| a * q))
-            } else {
-                (rodrigues(ax, q), [z; 3])
+            let (rq, dp) = match b.joint {
+                RefJoint::Slide => (eye, ax.map(|a| a * q)),
+                RefJoint::Hinge => (rodrigues(ax, q), [z; 3]),
+                RefJoint::Ball(0) => {
+                    let qi = b.q_index;
+                    (
+                        quaternion_matrix([q, f(qv[qi + 1]), f(qv[qi + 2]), f(qv[qi + 3])]),
+                        [z; 3],
+                    )
+                }
+                RefJoint::Ball(_) => (eye, [z; 3]),
             };
             let rot = mat3_mul(&r0, &rq);
             let pos = add3(p0, mat3_vec(&r0, dp));
             x[i] = plucker(&rot, pos);
-            s[i] = if b.prismatic {
+            s[i] = if b.joint == RefJoint::Slide {
                 [z, z, z, ax[0], ax[1], ax[2]]
             } else {
                 [ax[0], ax[1], ax[2], z, z, z]
@@ -158,7 +198,14 @@ impl ReferenceModel {
                 None => [z; 6],
             };
             v[i] = add6(vp, vj);
-            c[i] = crm(&v[i], &vj);
+            vbase[i] = match (b.joint, b.parent) {
+                (RefJoint::Ball(1 | 2), Some(p)) => mat6_vec(&x[i], &vbase[p]),
+                _ => vp,
+            };
+            c[i] = match b.joint {
+                RefJoint::Ball(_) => crm(&vbase[i], &vj),
+                _ => crm(&v[i], &vj),
+            };
             ia[i] = b.inertia.0.map(|row| row.map(f));
             let iv = mat6_vec(&ia[i], &v[i]);
             pa[i] = crf(&v[i], &iv);
@@ -246,6 +293,31 @@ impl ReferenceModel {
         }
         qdd
     }
+}
+
+/// The rotation of the quaternion `[w, x, y, z]` (any length but zero):
+/// `1 + 2 (w [u]× + [u]×²) / |q|²`, `u = (x, y, z)`.
+fn quaternion_matrix<T: Real>([w, x, y, zq]: [T; 4]) -> [[T; 3]; 3] {
+    let n2 = w * w + x * x + y * y + zq * zq;
+    let two = T::from_f64(2.0) / n2;
+    let one = T::from_f64(1.0);
+    [
+        [
+            one - two * (y * y + zq * zq),
+            two * (x * y - w * zq),
+            two * (x * zq + w * y),
+        ],
+        [
+            two * (x * y + w * zq),
+            one - two * (x * x + zq * zq),
+            two * (y * zq - w * x),
+        ],
+        [
+            two * (x * zq - w * y),
+            two * (y * zq + w * x),
+            one - two * (x * x + y * y),
+        ],
+    ]
 }
 
 /// Rotation by `q` about the unit axis `a`: `cos q 1 + sin q [a]× + (1 − cos q) a aᵀ`.
