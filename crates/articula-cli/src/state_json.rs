@@ -407,6 +407,33 @@ mod tests {
         assert!(e.contains("needs 6"), "{e}");
     }
 
+    /// A ball joint's `q` is its quaternion, normalised on reading; `qd` and `tau` have three
+    /// entries; a wrong length names the layout.
+    #[test]
+    fn ball_joint_values() {
+        let m = Model::from_mjcf_str(
+            r#"<mujoco><worldbody><body name="b"><joint name="neck" type="ball"/>
+                 <geom size="0.1"/></body></worldbody></mujoco>"#,
+            &LoadOptions::default(),
+        )
+        .unwrap();
+        let s = parse_state(
+            r#"{"q": {"neck": [0, 2, 0, 0]}, "qd": {"neck": [1, 2, 3]}, "tau": {"neck": [4, 5, 6]}}"#,
+            &m,
+        )
+        .unwrap();
+        assert_eq!(s.q, vec![0.0, 1.0, 0.0, 0.0]);
+        assert_eq!(s.qd, vec![1.0, 2.0, 3.0]);
+        assert_eq!(s.tau, vec![4.0, 5.0, 6.0]);
+        let e = parse_state(r#"{"q": {"neck": [1, 0, 0]}}"#, &m).unwrap_err();
+        assert!(
+            e.contains("a ball joint needs 4") && e.contains("[qw, qx, qy, qz]"),
+            "{e}"
+        );
+        let e = parse_state(r#"{"q": {"neck": [0, 0, 0, 0]}}"#, &m).unwrap_err();
+        assert!(e.contains("quaternion"), "{e}");
+    }
+
     #[test]
     fn degenerate_quaternion_is_refused() {
         let e = err(r#"{"q": {"floating_base": [0, 0, 0, 0, 0, 0, 0]}}"#, true);
