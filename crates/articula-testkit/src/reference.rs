@@ -7,8 +7,10 @@
 //! spatial types): it reads only the model's description (joint origins, axes, body inertias)
 //! and treats those `f64` numbers as exact. Each URDF joint of a composed joint is its own
 //! (massless) body here: the uncomposed model that composition (docs/design.md#composition) must
-//! reproduce. Revolute, continuous and prismatic joints, and a floating base (a six-degree-of-
-//! freedom joint, `q = [x, y, z, qw, qx, qy, qz]`, `q̇ = [w; v]` in the moving frame).
+//! reproduce. Revolute, continuous and prismatic joints, ball joints (three degrees of freedom,
+//! `q = [qw, qx, qy, qz]`, `q̇` the angular velocity in the moving frame) and a floating base
+//! (six, `q = [x, y, z, qw, qx, qy, qz]`, `q̇ = [w; v]` in the moving frame): a multi-axis joint
+//! is one body whose subspace is constant in its moving frame, solved with its `D⁻¹`.
 
 use crate::dd::Real;
 use articula_model::{JointKind, Model};
@@ -24,6 +26,11 @@ enum RefJoint {
     Revolute([f64; 3]),
     /// Translation along the unit axis (joint frame).
     Prismatic([f64; 3]),
+    /// Axis `e_k` of a ball joint: the joint is three bodies turning about the moving frame's
+    /// x, y and z axes at zero angle after the quaternion's rotation (the first carries it),
+    /// whose velocity products are taken with the velocity before the joint, so that the three
+    /// act as one spherical joint whose subspace is constant in the moving frame.
+    BallAxis(usize),
     /// Six degrees of freedom: position and unit quaternion in the joint frame; motion
     /// subspace the identity.
     Free,
@@ -32,7 +39,7 @@ enum RefJoint {
 impl RefJoint {
     fn nv(self) -> usize {
         match self {
-            RefJoint::Revolute(_) | RefJoint::Prismatic(_) => 1,
+            RefJoint::Revolute(_) | RefJoint::Prismatic(_) | RefJoint::BallAxis(_) => 1,
             RefJoint::Free => 6,
         }
     }
@@ -73,11 +80,15 @@ impl ReferenceModel {
             let mut parent = body.parent.map(|p| last_of[p]);
             for (pi, part) in body.joint.iter().enumerate() {
                 let axis = part.axis.to_array();
-                let joint = match part.kind {
-                    JointKind::Revolute | JointKind::Continuous => RefJoint::Revolute(axis),
-                    JointKind::Prismatic => RefJoint::Prismatic(axis),
-                    JointKind::Floating => RefJoint::Free,
-                    k => return Err(format!("joint {}: {k:?} is not supported", part.name)),
+                let joints = match part.kind {
+                    JointKind::Revolute | JointKind::Continuous => vec![RefJoint::Revolute(axis)],
+                    JointKind::Prismatic => vec![RefJoint::Prismatic(axis)],
+                    JointKind::Ball => (0..3).map(RefJoint::BallAxis).collect(),
+                    JointKind::Floating => vec![RefJoint::Free],
+                    JointKind::Fixed => {
+                        return Err(format!("joint {}: Fixed is not supported", part.name))
+                    }
+                    k => return Err(format!("joint {}: {k:?} is not known", part.name)),
                 };
                 let (r, p) = part.origin.to_pose();
                 let last = pi + 1 == body.joint.len();
@@ -97,21 +108,31 @@ impl ReferenceModel {
                     }
                 }
                 let rc = r.to_cols_array_2d();
-                bodies.push(RefBody {
-                    parent,
-                    rot: [
-                        [rc[0][0], rc[1][0], rc[2][0]],
-                        [rc[0][1], rc[1][1], rc[2][1]],
-                        [rc[0][2], rc[1][2], rc[2][2]],
-                    ],
-                    pos: p.to_array(),
-                    joint,
-                    inertia,
-                    q_index: part.q_offset,
-                    v_index: part.v_offset,
-                    model_body: last.then_some(bi),
-                });
-                parent = Some(bodies.len() - 1);
+                let count = joints.len();
+                for (k, joint) in joints.into_iter().enumerate() {
+                    // Only the first of a ball's three bodies has the joint's origin, only the
+                    // last the body's inertia.
+                    let (first, end) = (k == 0, k + 1 == count);
+                    bodies.push(RefBody {
+                        parent,
+                        rot: if first {
+                            [
+                                [rc[0][0], rc[1][0], rc[2][0]],
+                                [rc[0][1], rc[1][1], rc[2][1]],
+                                [rc[0][2], rc[1][2], rc[2][2]],
+                            ]
+                        } else {
+                            [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+                        },
+                        pos: if first { p.to_array() } else { [0.0; 3] },
+                        joint,
+                        inertia: if end { inertia } else { Mat6::ZERO },
+                        q_index: part.q_offset,
+                        v_index: part.v_offset + k,
+                        model_body: (last && end).then_some(bi),
+                    });
+                    parent = Some(bodies.len() - 1);
+                }
             }
             last_of[bi] = bodies.len() - 1;
         }
@@ -137,6 +158,9 @@ impl ReferenceModel {
         let mut x: Vec<M6<T>> = vec![[[z; 6]; 6]; n];
         let mut v: Vec<V6<T>> = vec![[z; 6]; n];
         let mut c: Vec<V6<T>> = vec![[z; 6]; n];
+        // The velocity before each body's joint (for a ball's second and third axes: before
+        // the ball), in its frame.
+        let mut vbase: Vec<V6<T>> = vec![[z; 6]; n];
         let mut s: Vec<Vec<V6<T>>> = vec![Vec::new(); n];
         let mut ia: Vec<M6<T>> = vec![[[z; 6]; 6]; n];
         let mut pa: Vec<V6<T>> = vec![[z; 6]; n];
@@ -170,7 +194,11 @@ impl ReferenceModel {
                 None => [z; 6],
             };
             v[i] = add6(vp, vj);
-            c[i] = crm(&v[i], &vj);
+            vbase[i] = match (b.joint, b.parent) {
+                (RefJoint::BallAxis(1 | 2), Some(p)) => mat6_vec(&x[i], &vbase[p]),
+                _ => vp,
+            };
+            c[i] = crm(&vbase[i], &vj);
             ia[i] = b.inertia.0.map(|row| row.map(f));
             let iv = mat6_vec(&ia[i], &v[i]);
             pa[i] = crf(&v[i], &iv);
@@ -290,6 +318,8 @@ fn joint_pose<T: Real>(joint: RefJoint, q: &[f64]) -> ([[T; 3]; 3], [T; 3]) {
     match joint {
         RefJoint::Revolute(axis) => (rodrigues(axis.map(f), f(q[0])), [z; 3]),
         RefJoint::Prismatic(axis) => (identity3(), axis.map(|a| f(a) * f(q[0]))),
+        RefJoint::BallAxis(0) => (quat_matrix([f(q[0]), f(q[1]), f(q[2]), f(q[3])]), [z; 3]),
+        RefJoint::BallAxis(_) => (identity3(), [z; 3]),
         RefJoint::Free => (
             quat_matrix([f(q[3]), f(q[4]), f(q[5]), f(q[6])]),
             [f(q[0]), f(q[1]), f(q[2])],
@@ -304,6 +334,11 @@ fn subspace<T: Real>(joint: RefJoint) -> Vec<V6<T>> {
     match joint {
         RefJoint::Revolute(a) => vec![[f(a[0]), f(a[1]), f(a[2]), z, z, z]],
         RefJoint::Prismatic(a) => vec![[z, z, z, f(a[0]), f(a[1]), f(a[2])]],
+        RefJoint::BallAxis(k) => {
+            let mut col = [z; 6];
+            col[k] = f(1.0);
+            vec![col]
+        }
         RefJoint::Free => (0..6)
             .map(|k| {
                 let mut col = [z; 6];

@@ -1458,12 +1458,10 @@ pub(crate) fn whole_reach(model: &Model, volumes: &[BodyVolumes]) -> Option<f64>
         if let Some(p) = body.parent {
             let mut r = path[p];
             for part in &body.joint {
-                match part.kind {
-                    JointKind::Revolute | JointKind::Continuous | JointKind::Fixed => {
-                        r += part.origin.r.length()
-                    }
-                    _ => return None,
+                if !part.kind.keeps_origin() {
+                    return None;
                 }
+                r += part.origin.r.length();
             }
             path[i] = r;
         }

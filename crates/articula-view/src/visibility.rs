@@ -784,18 +784,16 @@ impl PosePlan {
                     PlanMotion::General { body, part } => {
                         let jp = &model.bodies[body].joint[part];
                         let qj = &q[jp.q_offset..jp.q_offset + jp.nq()];
-                        x = match jp.kind {
+                        x = if jp.kind == articula_model::JointKind::Floating {
                             // Position, then the unit quaternion (w, x, y, z) normalised as
                             // `motion_transform` does, rotating the point directly.
-                            articula_model::JointKind::Floating => {
-                                let rot =
-                                    glam::DQuat::from_xyzw(qj[4], qj[5], qj[6], qj[3]).normalize();
-                                rot * x + DVec3::new(qj[0], qj[1], qj[2])
-                            }
-                            _ => {
-                                let (rm, pm) = jp.motion_transform(qj).to_pose();
-                                rm * x + pm
-                            }
+                            let rot =
+                                glam::DQuat::from_xyzw(qj[4], qj[5], qj[6], qj[3]).normalize();
+                            rot * x + DVec3::new(qj[0], qj[1], qj[2])
+                        } else {
+                            // Every kind's own motion (`JointKind::motion_transform`).
+                            let (rm, pm) = jp.motion_transform(qj).to_pose();
+                            rm * x + pm
                         };
                     }
                 }
@@ -859,17 +857,15 @@ impl PosePlan {
             }
             PlanMotion::General { body, part } => {
                 let jp = &model.bodies[body].joint[part];
-                match jp.kind {
-                    articula_model::JointKind::Revolute | articula_model::JointKind::Continuous => {
-                        *r *= DMat3::from_axis_angle(jp.axis, q[jp.q_offset])
-                    }
-                    _ => {
-                        let (rm, pm) = jp
-                            .motion_transform(&q[jp.q_offset..jp.q_offset + jp.nq()])
-                            .to_pose();
-                        *p += *r * pm;
-                        *r *= rm;
-                    }
+                if jp.kind.is_hinge() {
+                    *r *= DMat3::from_axis_angle(jp.axis, q[jp.q_offset])
+                } else {
+                    // Every kind's own motion (`JointKind::motion_transform`).
+                    let (rm, pm) = jp
+                        .motion_transform(&q[jp.q_offset..jp.q_offset + jp.nq()])
+                        .to_pose();
+                    *p += *r * pm;
+                    *r *= rm;
                 }
             }
         }
