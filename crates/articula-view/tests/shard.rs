@@ -216,7 +216,8 @@ fn shards_that_do_not_fit_together_are_refused() {
     // Out of shard order, or a shard missing.
     let m = shard_error(merge_candidates(&[cb.clone(), ca.clone()]));
     assert!(m.contains("expected shard 0"), "{m}");
-    assert!(shard_error(merge_candidates(&[ca.clone()])).contains("1 messages for 2 shards"));
+    assert!(shard_error(merge_candidates(std::slice::from_ref(&ca)))
+        .contains("1 messages for 2 shards"));
     // More pops than the shard sent within the budget.
     assert!(shard_error(sa.apply(ca.pops.len() + 1)).contains("pops taken"));
     // Messages cut short, or of another kind.
