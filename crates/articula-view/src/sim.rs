@@ -26,6 +26,9 @@
 //!
 //! Nodes of metric 0 are never selected: invisible bodies (all weights 0) keep no joint even
 //! with budget to spare.
+//!
+//! A scene split by body over processes ([`SceneShard`]) runs the same passes on each shard,
+//! the depth buffers and the merge of step 3 done by a driver between them (`shard.rs`).
 
 mod exact;
 mod shard;
