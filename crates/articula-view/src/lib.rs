@@ -42,6 +42,10 @@ pub use scene_file::{
     load_scene, load_scene_limited, load_scene_options, load_scene_with, parse_scene,
     parse_scene_with,
 };
-pub use sim::{SceneEnergy, SceneMethod, SceneSim, SceneStep, SimBody, ViewDeviation};
+pub use sim::{
+    combine_state_hashes, combine_steps, merge_candidates, merge_depths, Candidate, Candidates,
+    DepthMessage, SceneEnergy, SceneMethod, SceneShard, SceneSim, SceneStep, ShardRange, ShardStep,
+    SimBody, ViewDeviation,
+};
 pub use visibility::{BodyView, PosePlan, Visibility, VisibilitySettings};
 pub use volumes::{BodyVolumes, Volume};

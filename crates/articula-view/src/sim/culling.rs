@@ -13,8 +13,8 @@
 //! budget: the classic view-dependent culling of animation systems, in the scene's own code.
 
 use super::{
-    body_error, first_error, model_error, spring_torques, step_body, take_sums, SceneMethod,
-    SceneSim, SceneStep, SimBody, Worker,
+    body_error, first_error, model_error, placed, spring_torques, step_body, take_sums,
+    SceneMethod, SceneSim, SceneStep, SimBody, Worker,
 };
 use crate::error::ViewError;
 use crate::scene_file::LoadedScene;
@@ -43,7 +43,15 @@ impl SceneSim<'_> {
                 }
             });
             self.add_push_work();
-            self.classify();
+            {
+                let cam = scene.camera.at(t);
+                let n = self.bodies.len();
+                let placed = placed(scene, &self.bodies, &self.parents, &self.margins);
+                let (settings, views) = (&scene.visibility, &mut self.views);
+                let classifier = &mut self.classifier;
+                classifier.rasterize_with(&cam, &threads, chunk, n, &placed, views);
+                classifier.occlude_with(&cam, settings, &threads, chunk, &placed, views);
+            }
             let (mut classes, mut link_classes) = ([0; 3], [0; 3]);
             for view in &self.views {
                 for c in &view.links {

@@ -93,20 +93,16 @@ impl SceneSim<'_> {
         let mut views: Vec<BodyView> = Vec::new();
         let (bodies, parents, reference) = (&self.bodies, &self.parents, &poses.0);
         let chunk = self.chunk();
-        self.classifier.classify_with(
-            &cam,
-            &scene.visibility,
-            &self.threads,
-            chunk,
-            n,
-            |i| Placed {
-                volumes: &scene.models[bodies[i].model].volumes,
-                poses: &reference[i],
-                parents: &parents[bodies[i].model],
-                margin: 0.0,
-            },
-            &mut views,
-        );
+        let body = |i: usize| Placed {
+            volumes: &scene.models[bodies[i].model].volumes,
+            poses: &reference[i],
+            parents: &parents[bodies[i].model],
+            margin: 0.0,
+        };
+        let threads = self.threads.clone();
+        let classifier = &mut self.classifier;
+        classifier.rasterize_with(&cam, &threads, chunk, n, &body, &mut views);
+        classifier.occlude_with(&cam, &scene.visibility, &threads, chunk, &body, &mut views);
         let image = DVec2::new(scene.image.width as f64, scene.image.height as f64);
         let mut d = ViewDeviation {
             time,
