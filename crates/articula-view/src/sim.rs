@@ -41,7 +41,7 @@ use articula_model::{JointKind, Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SymMat6};
 pub use exact::SceneMethod;
 use glam::{DMat3, DQuat, DVec3};
-use springs::pose_springs;
+pub use springs::pose_springs;
 use std::collections::BinaryHeap;
 use std::sync::Mutex;
 
