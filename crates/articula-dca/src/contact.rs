@@ -211,7 +211,7 @@ impl SphereRun {
             let center = 0.5 * (lo + hi);
             let reach = run
                 .iter()
-                .map(|s| (s.center - center).length() + s.radius)
+                .map(|s| (s.center - center).length() + s.extent())
                 .fold(0.0, f64::max);
             runs.push(SphereRun {
                 body,
@@ -493,7 +493,7 @@ impl ContactData {
             .collision
             .spheres
             .iter()
-            .map(|s| (data.x[s.body].apply_point(s.center) + data.origin).z - s.radius)
+            .map(|s| (sphere_center(data, s, DVec3::Z) + data.origin).z - s.radius)
             .fold(f64::INFINITY, f64::min)
     }
 
@@ -758,6 +758,19 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     finish(model, state)
 }
 
+/// The world centre (relative to `data.origin`) of contact sphere `s` in the kinematics
+/// `data`, against a plane of normal `n` (a rim point's place depends on it:
+/// [`articula_model::ContactSphere::center_facing`]).
+pub fn sphere_center(data: &Data, s: &articula_model::ContactSphere, n: DVec3) -> DVec3 {
+    let x = &data.x[s.body];
+    if s.rim.is_none() {
+        return x.apply_point(s.center);
+    }
+    // The normal in the body frame: x maps body points affinely, p ↦ R p + t.
+    let t = x.apply_point(DVec3::ZERO);
+    x.apply_point(s.center_facing(x.inv_apply_point(t + n)))
+}
+
 /// Stage 2 of [`step_with_dynamics`] at the ground: the candidate contact spheres (those the
 /// step may bring within the margin), three rows each, from the kinematics `data` of the
 /// start of the step.
@@ -784,7 +797,7 @@ fn ground_candidates(
         }
         for si in run.first..run.end {
             let s = &cd.shape.collision.spheres[si];
-            let c = data.x[s.body].apply_point(s.center);
+            let c = sphere_center(data, s, n);
             let phi = n.dot(c + data.origin - g.point) - s.radius;
             cd.stats.max_penetration = cd.stats.max_penetration.max(-phi);
             let r = c - n * s.radius;
@@ -1465,7 +1478,7 @@ mod tests {
             forward_kinematics(&model, &state.q, &state.qd, &mut data);
             let expected: Vec<usize> = (cd.collision().spheres.iter().enumerate())
                 .filter(|(_, s)| {
-                    let c = data.x[s.body].apply_point(s.center);
+                    let c = sphere_center(&data, s, DVec3::Z);
                     let phi = (c + data.origin).z - s.radius;
                     let v = data.v[s.body];
                     let pre = (v.v + v.w.cross(c - DVec3::Z * s.radius)).z;
@@ -1545,7 +1558,7 @@ mod tests {
             let nh = ground.normal.normalize();
             let gap = (cd.collision().spheres.iter())
                 .map(|s| {
-                    let c = data.x[s.body].apply_point(s.center) + data.origin;
+                    let c = sphere_center(&data, s, nh) + data.origin;
                     nh.dot(c - ground.point) - s.radius
                 })
                 .fold(f64::INFINITY, f64::min);

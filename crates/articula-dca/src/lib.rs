@@ -77,7 +77,7 @@ mod threads;
 
 pub use batch::{Batch, BatchError};
 pub use contact::{
-    step_with_contact, step_with_dynamics, ContactData, ContactDynamics, ContactError,
+    sphere_center, step_with_contact, step_with_dynamics, ContactData, ContactDynamics, ContactError,
     ContactForces, ContactScratch, ContactSettings, ContactSolver, ContactStats, Ground,
     MAX_ITERATIONS as CONTACT_MAX_ITERATIONS,
 };

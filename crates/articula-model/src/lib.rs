@@ -61,7 +61,9 @@ mod warning;
 pub use assembly::{AssemblyNode, AssemblyTree, HandleLayout, NodeKind, GATHER_ABOVE};
 pub use atomic_file::AtomicFile;
 pub use body_inertia::{InertiaChange, InertiaDefect, InertiaDefectKind};
-pub use collision::{inertia_box, shape_points, CollisionModel, ContactSphere};
+pub use collision::{
+    inertia_box, shape_points, shape_spheres, CollisionModel, ContactSphere, Rim, RIM_POINTS,
+};
 pub use dynamics::{DofDynamics, JointDynamics};
 pub use error::ModelError;
 pub use model::{Body, JointPart, LinkFrame, LockedJoint, Model, FLOATING_BASE_JOINT};

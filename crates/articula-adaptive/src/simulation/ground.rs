@@ -10,6 +10,7 @@ use articula_dca::{
 };
 use articula_model::Model;
 use articula_spatial::SpatialForce;
+use glam::DVec3;
 
 /// Ground contact of a simulation.
 #[derive(Clone, Debug)]
@@ -154,7 +155,7 @@ impl ContactRun {
             .spheres
             .iter()
             .map(|s| {
-                let z = (data.x[s.body].apply_point(s.center) + data.origin).z - s.radius;
+                let z = (articula_dca::sphere_center(data, s, DVec3::Z) + data.origin).z - s.radius;
                 (z, s.body)
             })
             .fold(None, |low: Option<(f64, usize)>, (z, b)| match low {

@@ -126,7 +126,7 @@ fn stance_inertia(model: &Model, q: &[f64]) -> Option<Vec<f64>> {
     forward_kinematics(model, q, &vec![0.0; model.nv], &mut data);
     let low = |s: &articula_model::ContactSphere| {
         let (r, p) = data.body_pose(s.body);
-        (r * s.center + p).z - s.radius
+        (r * s.center_facing(r.transpose() * glam::DVec3::Z) + p).z - s.radius
     };
     let lowest = collision
         .spheres
