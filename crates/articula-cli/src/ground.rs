@@ -134,6 +134,7 @@ pub fn add_json(sim: &Simulation, j: &mut serde_json::Value) {
     j["contact_rows_mean"] = serde_json::json!(tally.per_step(tally.rows));
     j["response_solves_mean"] = serde_json::json!(tally.per_step(tally.response_solves));
     j["steps_not_converged"] = serde_json::json!(tally.not_converged);
+    j["worst_residual_m_per_s"] = serde_json::json!(tally.worst_residual);
     let f = forces.total().f;
     j["ground_force_end_n"] = serde_json::json!([f.x, f.y, f.z]);
 }
@@ -163,11 +164,16 @@ pub fn lines(sim: &Simulation, kinetic_end: f64) -> Vec<String> {
         ),
         format!("max_penetration_m {:.3e}", tally.max_penetration),
         format!(
-            "contacts     {:.2} per step (mean), {:.2} rows, {:.2} response columns; {} step(s) not converged",
+            "contacts     {:.2} per step (mean), {:.2} rows, {:.2} response columns; {} step(s) not converged{}",
             tally.per_step(tally.contacts),
             tally.per_step(tally.rows),
             tally.per_step(tally.response_solves),
-            tally.not_converged
+            tally.not_converged,
+            if tally.not_converged > 0 {
+                format!(" (largest residual {:.1e} m/s)", tally.worst_residual)
+            } else {
+                String::new()
+            }
         ),
         format!("kinetic end  {kinetic_end:.6e} J"),
         format!(

@@ -164,6 +164,11 @@ pub struct ContactStats {
     pub iterations: usize,
     /// Whether the sweeps met `tolerance`.
     pub converged: bool,
+    /// The solve's largest violation of its conditions at its end (m/s or rad/s: a pushing
+    /// row off its target, a row approaching below it, a sticking contact's slip, a sliding
+    /// one's slip not opposing its force); at most `tolerance` when `converged`, 0 without
+    /// rows.
+    pub residual: f64,
     /// The deepest penetration into the ground at the start of the step (m, ≥ 0).
     pub max_penetration: f64,
 }
@@ -744,6 +749,7 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     let solve = solve_rows(&mut cd.s, settings, settings.tolerance);
     cd.stats.iterations = solve.iterations;
     cd.stats.converged = solve.converged;
+    cd.stats.residual = contact_solver::residual(&cd.s.blocks, &cd.s.target, &cd.s.lambda, &cd.s.u);
     store_warm_starts(cd);
     record_forces(cd, origin, dt);
     // 5. q̇⁺ = v_free + M⁻¹ Jᵀ λ (one pass over the tree), q⁺ = q ⊕ dt q̇⁺.

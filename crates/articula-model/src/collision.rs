@@ -109,14 +109,15 @@ impl CollisionModel {
                 out.urdf_shapes += 1;
                 // The shape's frame in the body's: its points and its axis.
                 let axis = g.origin.apply_point(DVec3::Z) - g.origin.apply_point(DVec3::ZERO);
-                out.spheres.extend(shape_spheres(&g.shape).into_iter().map(
-                    |(c, radius, rim)| ContactSphere {
-                        body: b,
-                        center: g.origin.apply_point(c),
-                        radius,
-                        rim: rim.map(|r| Rim { axis, ..r }),
-                    },
-                ));
+                out.spheres
+                    .extend(shape_spheres(&g.shape).into_iter().map(|(c, radius, rim)| {
+                        ContactSphere {
+                            body: b,
+                            center: g.origin.apply_point(c),
+                            radius,
+                            rim: rim.map(|r| Rim { axis, ..r }),
+                        }
+                    }));
             }
             if has_mesh {
                 out.mesh_bodies += 1;
@@ -303,7 +304,10 @@ mod tests {
                 .iter()
                 .map(|s| s.center_facing(normal).dot(normal))
                 .fold(f64::INFINITY, f64::min);
-            assert!(ours <= sampled + 1e-12 && ours > sampled - 1e-6, "{ours} {sampled}");
+            assert!(
+                ours <= sampled + 1e-12 && ours > sampled - 1e-6,
+                "{ours} {sampled}"
+            );
             for s in &spheres {
                 let p = s.center_facing(normal);
                 assert!(((p.x * p.x + p.y * p.y).sqrt() - 0.3).abs() < 1e-15);

@@ -57,6 +57,9 @@ pub struct ContactTally {
     pub response_solves: u64,
     /// Steps whose solver did not meet its tolerance.
     pub not_converged: u64,
+    /// The largest residual those steps' solves ended with (m/s; `ContactStats::residual`),
+    /// 0 when every solve converged.
+    pub worst_residual: f64,
     /// The deepest penetration seen at the start of a step (m).
     pub max_penetration: f64,
 }
@@ -69,6 +72,9 @@ impl ContactTally {
         self.rows += s.rows as u64;
         self.response_solves += s.response_solves as u64;
         self.not_converged += (!s.converged) as u64;
+        if !s.converged {
+            self.worst_residual = self.worst_residual.max(s.residual);
+        }
         self.max_penetration = self.max_penetration.max(s.max_penetration);
     }
 
