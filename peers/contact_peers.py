@@ -442,18 +442,24 @@ def main():
 
 
 def print_table(out):
-    print(f"\nMuJoCo {out['mujoco']}, {out['rounds']} rounds alternated, one thread; "
-          "times: fastest–slowest round")
-    print("| case | engine | µs per step | penetration (mm) | contacts per step | energy end (J) | at the cap |")
-    print("|---|---|---|---|---|---|---|")
+    print(f"\nMuJoCo {out['mujoco']}, {out['rounds']} rounds alternated, one thread; times: "
+          "fastest–slowest round; ratio: articula / MuJoCo within each round (min–max)")
+    print("| case | engine | µs per step | ratio | penetration (mm) | contacts per step | "
+          "energy end (J) | torso z at 1 s, end (m) | at the cap |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for name, by in out["results"].items():
+        base = [r["us_per_step"] for r in by.get("mujoco", [])]
         for who, rs in by.items():
             t = sorted(r["us_per_step"] for r in rs)
+            ratios = sorted(r["us_per_step"] / b for r, b in zip(rs, base)) if base else []
+            ratio = "—" if who == "mujoco" or not ratios else f"{ratios[0]:.2f}–{ratios[-1]:.2f}"
             r = rs[-1]
             cap = (f"{r['capped']}" if "capped" in r else
                    f"{100 * r['capped_fraction']:.1f} %" if "capped_fraction" in r else "—")
-            print(f"| {name} | {who} | {t[0]:.1f}–{t[-1]:.1f} | {1e3 * r['penetration_m']:.3f} | "
-                  f"{r['contacts_mean']:.2f} | {r['energy_end_j']:.4g} | {cap} |")
+            h = r.get("heights") or {}
+            z = ", ".join(f"{v:.4f}" for _, v in sorted((int(k), v) for k, v in h.items())) or "—"
+            print(f"| {name} | {who} | {t[0]:.1f}–{t[-1]:.1f} | {ratio} | {1e3 * r['penetration_m']:.3f} | "
+                  f"{r['contacts_mean']:.2f} | {r['energy_end_j']:.4g} | {z} | {cap} |")
 
 
 if __name__ == "__main__":
