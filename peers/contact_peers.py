@@ -401,6 +401,43 @@ def case_crowd(mujoco, exe, crowd_path, steps=400):
     return mj, (lambda: art(None)), (lambda: art("dca"))
 
 
+def alone(mujoco, crowd_path, n, forces, seconds=4.0):
+    """Each of the first `n` crowd200 characters alone in MuJoCo (its start state, the
+    scene's springs and floor, dt 1/600 s), pushed at the chest point of the scene's first
+    push by each force along its direction for its t0..t1: how many are down (pelvis below
+    0.5 m) at each whole second. The MuJoCo side of docs/view.md's one-character figures."""
+    import numpy as np
+    spec = json.load(open(crowd_path))
+    springs = [(f"h0_{name}", k, c) for (name, k, c) in spec["springs"]]
+    m = humanoid_model(mujoco, 1, spec["dt"], springs)
+    chest = m.body("h0_chest").id
+    push = spec["pushes"][0]
+    direction = np.array(push["force"]) / np.linalg.norm(push["force"])
+    steps = int(round(seconds / spec["dt"]))
+    per_second = int(round(1.0 / spec["dt"]))
+    for force in forces:
+        down = [0] * int(seconds)
+        for i in range(n):
+            d = mujoco.MjData(m)
+            b = spec["bodies"][i]
+            d.qpos[0:3] = b["position"]
+            d.qpos[3:7] = b["quaternion_wxyz"]
+            mujoco.mj_forward(m, d)
+            for k in range(steps):
+                t = k * spec["dt"]
+                d.xfrc_applied[:] = 0.0
+                if push["t0"] <= t < push["t1"]:
+                    f = force * direction
+                    at = d.xpos[chest] + d.xmat[chest].reshape(3, 3) @ np.array(push["point"])
+                    d.xfrc_applied[chest, :3] = f
+                    d.xfrc_applied[chest, 3:] = np.cross(at - d.xipos[chest], f)
+                mujoco.mj_step(m, d)
+                if (k + 1) % per_second == 0:
+                    down[(k + 1) // per_second - 1] += d.qpos[2] < 0.5
+        print(f"MuJoCo, {force:g} N for {push['t0']:g}..{push['t1']:g} s, each of {n} characters "
+              f"alone: down at " + ", ".join(f"{s + 1} s {c}" for s, c in enumerate(down)), flush=True)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--articula", required=True)
@@ -408,8 +445,12 @@ def main():
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--only", default="", help="comma-separated case names")
     ap.add_argument("--json")
+    ap.add_argument("--alone", nargs="+", type=float, metavar=("N", "FORCE"),
+                    help="only: the first N crowd characters alone under each FORCE (N)")
     a = ap.parse_args()
     import mujoco
+    if a.alone:
+        return alone(mujoco, a.crowd, int(a.alone[0]), a.alone[1:])
     cases = {}
     mj, art = case_humanoid(mujoco, a.articula)
     cases["humanoid drop"] = {"mujoco": mj, "articula": art}
