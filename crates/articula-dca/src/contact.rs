@@ -1587,7 +1587,9 @@ mod tests {
             )
             .unwrap();
             let k = cd.stats.rows;
-            assert!(k >= 20 && cd.stats.limits >= 1, "{:?}", cd.stats);
+            // (The small margin meets the lying limbs' one rim point per cap: fewer rows.)
+            let least = if margin > 0.1 { 20 } else { 10 };
+            assert!(k >= least && cd.stats.limits >= 1, "{:?}", cd.stats);
             by_phi |= cd.s.slot_basis.contains(&Basis::Ready);
             by_row |= cd.s.slot_basis.contains(&Basis::Rows);
             // Dense J from the start-of-step kinematics (still in `data`).
