@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """MuJoCo's side of `cargo xtask mjcf-corpus`: every MJCF file of the PyPI packages dm-control
-and gymnasium, compiled by MuJoCo; `mj_fullM` and `qacc_smooth` on the states xtask sends.
+and gymnasium, and of the workspace's models/ directory, compiled by MuJoCo; `mj_fullM` and `qacc_smooth` on the states xtask sends.
 
 Install it once (from the workspace root):
 
@@ -42,6 +42,8 @@ def packages():
     return {
         "dm_control": os.path.dirname(dm_control.__file__),
         "gymnasium": os.path.dirname(gymnasium.__file__),
+        # articula's own MJCF models (the ball-joint humanoid).
+        "models": os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "models"),
     }
 
 

@@ -106,13 +106,9 @@ pub fn scene_hash(path: &Path, steps: u64) -> Result<u64> {
     Ok(state_hash(&sim))
 }
 
-/// A rotate-xor hash of the bits of every body's `q` and `q̇`.
+/// A rotate-xor hash of the bits of every body's `q` and `q̇` ([`SceneSim::state_hash`]).
+///
+/// [`SceneSim::state_hash`]: articula_view::SceneSim::state_hash
 pub fn state_hash(sim: &articula_view::SceneSim) -> u64 {
-    let mut h = 0u64;
-    for b in &sim.bodies {
-        for x in b.state.q.iter().chain(&b.state.qd) {
-            h = h.rotate_left(5) ^ x.to_bits();
-        }
-    }
-    h
+    sim.state_hash()
 }

@@ -72,8 +72,15 @@ fn run(cmd: &mut Command) -> Result<(), Box<dyn std::error::Error>> {
 }
 
 /// Installed when missing if PyPI has it for this Python and platform; without it the tests
-/// of `articula.ray` are skipped with the reason.
+/// of `articula.ray` are skipped with the reason — except under CI, where a failed install
+/// fails the run.
 const OPTIONAL: &[&str] = &["ray"];
+
+/// Whether this runs under CI (`CI` set to anything but `false` or empty, as `.ci/run` sets
+/// it): then the optional packages are required.
+fn under_ci() -> bool {
+    std::env::var("CI").is_ok_and(|v| !v.is_empty() && v != "false" && v != "0")
+}
 
 /// The distributions of `packages` the venv's Python lacks.
 fn missing(python: &Path, packages: &[&str]) -> Result<Vec<String>, Box<dyn std::error::Error>> {
@@ -114,6 +121,12 @@ fn venv(root: &Path, dir: &Path) -> Result<PathBuf, Box<dyn std::error::Error>> 
     let optional = missing(&python, OPTIONAL)?;
     if !optional.is_empty() {
         if let Err(e) = run(&mut pip(&optional)) {
+            // Under CI (`.ci/run`) they are required: a skipped Ray suite must not pass.
+            if under_ci() {
+                return Err(
+                    format!("{e}: CI needs {optional:?} for the tests of articula.ray").into(),
+                );
+            }
             eprintln!("warning: {e}: the tests that need {optional:?} will be skipped");
         }
     }

@@ -414,10 +414,7 @@ impl Adaptive {
         }
         let (vo, k) = (body.v_offset, body.nv);
         if let [part] = body.joint.as_slice() {
-            if matches!(
-                part.kind,
-                JointKind::Revolute | JointKind::Continuous | JointKind::Prismatic
-            ) {
+            if part.kind.is_scalar() {
                 let s = shift(self.data.s[vo]);
                 let prismatic = part.kind == JointKind::Prismatic;
                 return self.join_one_axis(model, n, tau, &g, s, prismatic, &beta);

@@ -1023,15 +1023,7 @@ fn non_finite(model: &Model, j: usize, what: &'static str, x: &[f64]) -> Dynamic
 
 /// `q ← q ⊕ h q̇` for one joint part (see [`articula_dca::integrate_q`]).
 fn integrate_part(part: &articula_model::JointPart, q: &mut [f64], qd: &[f64], h: f64) {
-    match part.kind {
-        articula_model::JointKind::Fixed => {}
-        articula_model::JointKind::Floating => {
-            // The SE(3) exponential of articula-dca, on this joint's coordinates alone.
-            let (qo, vo) = (part.q_offset, part.v_offset);
-            articula_dca::integrate_floating(&mut q[qo..qo + 7], &qd[vo..vo + 6], h);
-        }
-        _ => q[part.q_offset] += qd[part.v_offset] * h,
-    }
+    part.integrate(q, qd, h);
 }
 
 fn check_qdd(model: &Model, qdd: &[f64]) -> Result<(), DynamicsError> {

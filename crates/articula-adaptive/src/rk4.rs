@@ -25,8 +25,8 @@ use crate::parts::rk_buffers::RkBuffers;
 use crate::report::StepReport;
 use crate::{finite, integrate_part, non_finite};
 use articula_dca::State;
-use articula_model::{JointKind, Model};
-use articula_spatial::{SpatialForce, SpatialMotion};
+use articula_model::Model;
+use articula_spatial::SpatialForce;
 
 /// The stage weights of classic RK4 and the fractions of `h` at which stages 2–4 are taken.
 const WEIGHTS: [f64; 4] = [1.0, 2.0, 2.0, 1.0];
@@ -107,12 +107,10 @@ impl Adaptive {
                 if !finite(&self.body.qdd[vr.clone()]) {
                     return Err(non_finite(model, rec.j(), "qdd", &self.body.qdd).into());
                 }
-                // The position slope: q̇, but a floating joint's is dexp⁻¹_{−Θ}(ξ).
+                // The position slope: q̇, but a ball or floating joint's is dexp⁻¹_{−Θ}(ξ).
                 for part in &b.joint {
-                    if part.kind == JointKind::Floating {
-                        let r = part.v_offset..part.v_offset + 6;
-                        rkmk_slope(&rk.theta[r.clone()], &mut state.qd[r]);
-                    }
+                    let r = part.v_offset..part.v_offset + part.nv();
+                    part.kind.rkmk_slope(&rk.theta[r.clone()], &mut state.qd[r]);
                 }
                 for v in vr.clone() {
                     rk.kv[v] += w * state.qd[v];
@@ -168,15 +166,4 @@ impl Adaptive {
             state.qd[vr.clone()].copy_from_slice(&rk.qd0[vr]);
         }
     }
-}
-
-/// Replaces a floating joint's body twist `ξ` by the RKMK slope `dexp⁻¹_{−Θ}(ξ)`
-/// ([`SpatialMotion::dexp_inv_slope`], as articula-dca's RK4 step).
-fn rkmk_slope(theta: &[f64], xi: &mut [f64]) {
-    let t = SpatialMotion::from_array(std::array::from_fn(|i| theta[i]));
-    if t == SpatialMotion::ZERO {
-        return;
-    }
-    let x = SpatialMotion::from_array(std::array::from_fn(|i| xi[i]));
-    xi.copy_from_slice(&t.dexp_inv_slope(x).to_array());
 }

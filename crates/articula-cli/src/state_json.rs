@@ -12,7 +12,7 @@
 //! errors naming what is wrong.
 
 use articula_dca::State;
-use articula_model::{JointKind, JointPart, Model, FLOATING_BASE_JOINT};
+use articula_model::{JointPart, Model, FLOATING_BASE_JOINT};
 use serde::de::{self, DeserializeSeed, Deserializer, MapAccess, SeqAccess, Visitor};
 use serde::Deserialize;
 use std::fmt;
@@ -118,8 +118,8 @@ impl StateFile {
                     ));
                 }
                 target.copy_from_slice(values);
-                if what == "q" && part.kind == JointKind::Floating {
-                    normalize_quaternion(name, &mut target[3..7])?;
+                if let (Some(o), "q") = (part.kind.quaternion_offset(), what) {
+                    normalize_quaternion(name, &mut target[o..o + 4])?;
                 }
             }
         }
@@ -152,27 +152,11 @@ fn unknown_joint(model: &Model, what: &str, name: &str) -> String {
 }
 
 fn kind_name(part: &JointPart) -> &'static str {
-    match part.kind {
-        JointKind::Revolute => "revolute",
-        JointKind::Continuous => "continuous",
-        JointKind::Prismatic => "prismatic",
-        JointKind::Floating => "floating",
-        JointKind::Fixed => "fixed",
-    }
+    part.kind.name()
 }
 
 fn layout(what: &str, part: &JointPart) -> &'static str {
-    match (what, part.kind) {
-        ("q", JointKind::Floating) => "[x, y, z, qw, qx, qy, qz]",
-        ("qd", JointKind::Floating) => "[wx, wy, wz, vx, vy, vz] in the moving frame",
-        (_, JointKind::Floating) => "[nx, ny, nz, fx, fy, fz] in the moving frame",
-        ("q", JointKind::Prismatic) => "[displacement in m]",
-        ("q", _) => "[angle in rad]",
-        ("qd", JointKind::Prismatic) => "[velocity in m/s]",
-        ("qd", _) => "[angular velocity in rad/s]",
-        (_, JointKind::Prismatic) => "[force in N]",
-        _ => "[torque in N m]",
-    }
+    part.kind.coordinates(what)
 }
 
 fn normalize_quaternion(name: &str, quat: &mut [f64]) -> Result<(), String> {
@@ -421,6 +405,33 @@ mod tests {
         assert!(e.contains("needs 7"), "{e}");
         let e = err(r#"{"qd": {"floating_base": [0, 0, 0, 1, 0, 0, 0]}}"#, true);
         assert!(e.contains("needs 6"), "{e}");
+    }
+
+    /// A ball joint's `q` is its quaternion, normalised on reading; `qd` and `tau` have three
+    /// entries; a wrong length names the layout.
+    #[test]
+    fn ball_joint_values() {
+        let m = Model::from_mjcf_str(
+            r#"<mujoco><worldbody><body name="b"><joint name="neck" type="ball"/>
+                 <geom size="0.1"/></body></worldbody></mujoco>"#,
+            &LoadOptions::default(),
+        )
+        .unwrap();
+        let s = parse_state(
+            r#"{"q": {"neck": [0, 2, 0, 0]}, "qd": {"neck": [1, 2, 3]}, "tau": {"neck": [4, 5, 6]}}"#,
+            &m,
+        )
+        .unwrap();
+        assert_eq!(s.q, vec![0.0, 1.0, 0.0, 0.0]);
+        assert_eq!(s.qd, vec![1.0, 2.0, 3.0]);
+        assert_eq!(s.tau, vec![4.0, 5.0, 6.0]);
+        let e = parse_state(r#"{"q": {"neck": [1, 0, 0]}}"#, &m).unwrap_err();
+        assert!(
+            e.contains("a ball joint needs 4") && e.contains("[qw, qx, qy, qz]"),
+            "{e}"
+        );
+        let e = parse_state(r#"{"q": {"neck": [0, 0, 0, 0]}}"#, &m).unwrap_err();
+        assert!(e.contains("quaternion"), "{e}");
     }
 
     #[test]

@@ -416,7 +416,7 @@ const ABA_TRIGGER: f64 = 1e-11;
 pub(crate) fn refine(model: &Model, tau: &[f64], f_ext: &[SpatialForce], data: &mut Data) {
     let n = model.bodies.len();
     let input = crate::residual::RneaInput {
-        inertia: &data.inertia,
+        x: &data.x,
         v: &data.v,
         c: &data.c,
         s: &data.s,

@@ -420,7 +420,7 @@ mod tests {
                 crate::data::absorbed(&model, true).contains(&true),
                 "{label}: no cluster"
             );
-            let reference = (!model.floating_base).then(|| ReferenceModel::new(&model).unwrap());
+            let reference = Some(ReferenceModel::new(&model).unwrap());
             let mut data = Data::new(&model);
             for seed in 0..4u64 {
                 let mut s = State::random(&model, seed, 1.0);

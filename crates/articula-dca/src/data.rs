@@ -3,7 +3,7 @@
 use crate::kinematics::FkPlan;
 use crate::small::{SmallSpd, SymT};
 use crate::DynamicsError;
-use articula_model::{JointKind, Model, NodeKind};
+use articula_model::{Model, NodeKind};
 use articula_spatial::internals::fused_available;
 use articula_spatial::PackedSymMat6;
 use articula_spatial::{Mat6, SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
@@ -1004,7 +1004,7 @@ impl DcaData {
                     // (A joint with armature or damping takes the general join.)
                     let one_dof = matches!(
                         model.bodies[joint].joint.as_slice(),
-                        [p] if matches!(p.kind, JointKind::Revolute | JointKind::Continuous)
+                        [p] if p.kind.is_hinge()
                     ) && armature_of(model)
                         .get(model.bodies[joint].v_offset)
                         .is_none_or(|_| {

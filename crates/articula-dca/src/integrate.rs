@@ -4,7 +4,7 @@
 use crate::{forward_dynamics_slices, forward_kinematics, Data, DynamicsError, Method, State};
 use articula_model::{JointKind, Model};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
-use glam::{DQuat, DVec3};
+use glam::DVec3;
 
 /// A time integrator.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -19,56 +19,17 @@ pub enum Integrator {
     Rk4,
 }
 
-/// `q ← q ⊕ h·qd`: angles and displacements add; a floating joint moves by the SE(3)
-/// exponential of its body twist `h [ω; v]` — the exact motion at constant body velocity:
-/// orientation `R exp(ω h)` (renormalised), position `p + R J(ω h) v h` with
-/// `J(φ) = ∫₀¹ exp(s [φ]×) ds = 1 + a [φ]× + b [φ]×²`, `a = (1 − cos θ)/θ²`,
-/// `b = (θ − sin θ)/θ³`, `θ = |φ|`. (`p + R v h` alone is only first order in `h` and makes
-/// RK4 first order on a floating base.)
+/// `q ← q ⊕ h·qd`, joint by joint ([`articula_model::JointKind::integrate`]): angles and
+/// displacements add; a ball joint turns by `exp(h ω)` in its moving frame (renormalised); a
+/// floating joint moves by the SE(3) exponential of its body twist `h [ω; v]` — the exact
+/// motion at constant body velocity ([`integrate_floating`]).
 pub fn integrate_q(model: &Model, q: &mut [f64], qd: &[f64], h: f64) {
     for (_, part) in model.joint_parts() {
-        let (qo, vo) = (part.q_offset, part.v_offset);
-        match part.kind {
-            JointKind::Floating => {
-                integrate_floating(&mut q[qo..qo + 7], &qd[vo..vo + 6], h);
-            }
-            JointKind::Fixed => {}
-            _ => q[qo] += qd[vo] * h,
-        }
+        part.integrate(q, qd, h);
     }
 }
 
-/// `q ← q ⊕ h·v` for one floating joint: `q = [x, y, z, qw, qx, qy, qz]`, `v = [ω; v]` its
-/// body twist (see [`integrate_q`]).
-pub fn integrate_floating(q: &mut [f64], v: &[f64], h: f64) {
-    let rot = DQuat::from_xyzw(q[4], q[5], q[6], q[3]).normalize();
-    let w = DVec3::new(v[0], v[1], v[2]);
-    let v = DVec3::new(v[3], v[4], v[5]);
-    let phi = w * h;
-    let th = phi.length();
-    let (a, b) = if th < 1e-2 {
-        // Taylor series (the closed forms cancel); the next terms are < 1e-16.
-        let t2 = th * th;
-        (
-            0.5 - t2 / 24.0 + t2 * t2 / 720.0,
-            1.0 / 6.0 - t2 / 120.0 + t2 * t2 / 5040.0,
-        )
-    } else {
-        let s = (0.5 * th).sin();
-        (2.0 * s * s / (th * th), (th - th.sin()) / (th * th * th))
-    };
-    let pv = phi.cross(v);
-    let p = DVec3::new(q[0], q[1], q[2]) + rot * ((v + a * pv + b * phi.cross(pv)) * h);
-    let angle = w.length() * h;
-    // (A negative `h` turns backwards: any non-zero angle, with the axis of `w`.)
-    let dr = if angle != 0.0 {
-        DQuat::from_axis_angle(w.normalize(), angle)
-    } else {
-        DQuat::IDENTITY
-    };
-    let r = (rot * dr).normalize();
-    q[..7].copy_from_slice(&[p.x, p.y, p.z, r.w, r.x, r.y, r.z]);
-}
+pub use articula_model::integrate_floating;
 
 /// Advances `state` by `dt` with `method` and `integrator`. Allocates nothing for DCA and ABA.
 ///
@@ -198,22 +159,16 @@ pub(crate) fn check_step_result(model: &Model, state: &State) -> Result<(), Dyna
     Ok(())
 }
 
-/// Replaces, for every floating joint, the body twist `ξ` in `qd` by the RKMK slope
-/// `dexp⁻¹_{−Θ}(ξ) = ξ + ½ [Θ, ξ] + ¹⁄₁₂ [Θ, [Θ, ξ]]` (enough for fourth order; `Θ` from `theta`,
-/// the stage's increment): with `q(t) = q0 exp(Θ(t))` and the body twist `ξ`,
-/// `Θ̇ = dexp⁻¹_{−Θ}(ξ)`. `[Θ, ξ]` is the se(3) bracket `[θ_ω × ξ_ω; θ_ω × ξ_v + θ_v × ξ_ω]`.
+/// Replaces, for every joint on a Lie group (ball, floating), the body velocity `ξ` in `qd` by
+/// the RKMK slope `dexp⁻¹_{−Θ}(ξ) = ξ + ½ [Θ, ξ] + ¹⁄₁₂ [Θ, [Θ, ξ]]` (enough for fourth order;
+/// `Θ` from `theta`, the stage's increment): with `q(t) = q0 exp(Θ(t))` and the body velocity
+/// `ξ`, `Θ̇ = dexp⁻¹_{−Θ}(ξ)` ([`articula_model::JointKind::rkmk_slope`]).
 fn rkmk_slopes(model: &Model, qd: &mut [f64], theta: &[f64]) {
     for (_, part) in model.joint_parts() {
-        if part.kind != JointKind::Floating {
-            continue;
+        if part.kind.on_a_lie_group() {
+            let v = part.v_offset..part.v_offset + part.nv();
+            part.kind.rkmk_slope(&theta[v.clone()], &mut qd[v]);
         }
-        let vo = part.v_offset;
-        let t = SpatialMotion::from_array(std::array::from_fn(|i| theta[vo + i]));
-        if t == SpatialMotion::ZERO {
-            continue;
-        }
-        let xi = SpatialMotion::from_array(std::array::from_fn(|i| qd[vo + i]));
-        qd[vo..vo + 6].copy_from_slice(&t.dexp_inv_slope(xi).to_array());
     }
 }
 

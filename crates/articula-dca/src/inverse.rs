@@ -71,7 +71,7 @@ fn rnea<'d>(
     sized(&mut quant.f, n, SpatialForce::ZERO);
     sized(&mut quant.tau, nv, 0.0);
     let input = RneaInput {
-        inertia: &data.inertia,
+        x: &data.x,
         v: &data.v,
         c: &data.c,
         s: &data.s,

@@ -32,9 +32,7 @@ impl FkPlan {
         let [part] = body.joint.as_slice() else {
             return FkPlan::General;
         };
-        if !matches!(part.kind, JointKind::Revolute | JointKind::Continuous)
-            || part.origin.e != DMat3::IDENTITY
-        {
+        if !part.kind.is_hinge() || part.origin.e != DMat3::IDENTITY {
             return FkPlan::General;
         }
         let ax = part.axis;
@@ -433,12 +431,11 @@ pub fn body_kinematics(
             v += vj;
             continue;
         }
-        match part.kind {
-            JointKind::Revolute | JointKind::Continuous => {
-                let rq = DMat3::from_axis_angle(part.axis, q[part.q_offset]);
-                x = SpatialTransform::new(x.e * rq, rq.transpose() * x.r);
-            }
-            _ => x = x * part.motion_transform(&q[part.q_offset..part.q_offset + part.nq()]),
+        if part.kind.is_hinge() {
+            let rq = DMat3::from_axis_angle(part.axis, q[part.q_offset]);
+            x = SpatialTransform::new(x.e * rq, rq.transpose() * x.r);
+        } else {
+            x = x * part.motion_transform(&q[part.q_offset..part.q_offset + part.nq()]);
         }
         let mut vj = SpatialMotion::ZERO;
         for k in 0..part.nv() {

@@ -177,10 +177,7 @@ fn child_axis(model: &Model, c: usize) -> Option<SpatialMotion> {
 }
 
 fn one_axis(kind: JointKind) -> bool {
-    matches!(
-        kind,
-        JointKind::Revolute | JointKind::Continuous | JointKind::Prismatic
-    )
+    kind.is_scalar()
 }
 
 /// Whether two joint subspace columns are parallel (to 1e-9 of their lengths, as 6-vectors).

@@ -125,7 +125,7 @@ fn refine_regularised(
 /// the joint forces and `max |r|` (see [`rnea_residual`]).
 fn residual(model: &Model, tau: &[f64], f_ext: &[SpatialForce], data: &mut Data) -> (f64, f64) {
     let input = RneaInput {
-        inertia: &data.inertia,
+        x: &data.x,
         v: &data.v,
         c: &data.c,
         s: &data.s,

@@ -3,13 +3,14 @@
 
 use crate::Data;
 use articula_model::Model;
-use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion};
+use articula_spatial::{SpatialForce, SpatialMotion, SpatialTransform};
 use glam::DVec3;
 
 /// The inputs of [`rnea_residual`]: the kinematics of a `Data` (borrowed field by field, so
 /// that its scratch buffers can be lent at the same time) and the joint forces and accelerations.
 pub(crate) struct RneaInput<'a> {
-    pub inertia: &'a [SpatialInertia],
+    /// Per body, `X_{C←body}` (its pose in the computation frame).
+    pub x: &'a [SpatialTransform],
     pub v: &'a [SpatialMotion],
     pub c: &'a [SpatialMotion],
     pub s: &'a [SpatialMotion],
@@ -31,7 +32,7 @@ impl<'a> RneaInput<'a> {
         qdd: Option<&'a [f64]>,
     ) -> RneaInput<'a> {
         RneaInput {
-            inertia: &data.inertia,
+            x: &data.x,
             v: &data.v,
             c: &data.c,
             s: &data.s,
@@ -50,6 +51,13 @@ impl<'a> RneaInput<'a> {
 /// It never forms the joint-space inertia H, so it is accurate to rounding in the joint forces
 /// (the residual of CRBA's, ABA's and DCA's refinements). Returns the largest `|τⱼ|` or
 /// `|Sⱼᵀ fᵢ|` met (the scale of the joint forces) and the largest `|rⱼ|`.
+///
+/// Each body's `Iᵢ aᵢ + vᵢ ×* Iᵢ vᵢ` is formed about the body's own origin ([`body_force`]),
+/// not about the computation origin: there the rotational inertia is `m |p|²` large for a body
+/// at distance `|p|`, and the force of a light body spinning fast about a nearby axis is the
+/// difference of such terms (icub's 1.3 kg head, 0.4 mm from its neck axis and 0.5 m from the
+/// base, lost ~1e-9 of q̈ to it). About the body origin only the lever arms carry `|p|`, and
+/// their rounding is `|p|` times smaller.
 pub(crate) fn rnea_residual(
     model: &Model,
     k: &RneaInput,
@@ -66,9 +74,7 @@ pub(crate) fn rnea_residual(
             }
         }
         a[i] = ai;
-        let (inertia, v) = (&k.inertia[i], k.v[i]);
-        f[i] = inertia.mul_motion(ai) + v.cross_force(inertia.mul_motion(v))
-            - crate::inputs::f_ext_of(k.f_ext, i);
+        f[i] = body_force(&k.x[i], &body.inertia, ai, k.v[i]) - crate::inputs::f_ext_of(k.f_ext, i);
     }
     let (mut scale, mut rmax) = (0.0f64, 0.0f64);
     for (i, body) in model.bodies.iter().enumerate().rev() {
@@ -88,4 +94,23 @@ pub(crate) fn rnea_residual(
         }
     }
     (scale, rmax)
+}
+
+/// `I a + v ×* I v` about the computation origin for a body of inertia `inertia` (body frame,
+/// about its origin) at `x = X_{C←body}`, with `a` and `v` about the computation origin: formed
+/// about the body origin `p` (`I_P = rot(E) I`, `m_P = m_O + [0; w × p]`) and moved back
+/// (`n_O = n_P + p × f`).
+#[inline]
+fn body_force(
+    x: &SpatialTransform,
+    inertia: &articula_spatial::SpatialInertia,
+    a: SpatialMotion,
+    v: SpatialMotion,
+) -> SpatialForce {
+    let (rotated, _) = crate::kinematics::rotated_and_world_inertia(x, inertia);
+    let p = -(x.e * x.r);
+    let at = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(p));
+    let (ap, vp) = (at(a), at(v));
+    let fp = rotated.mul_motion(ap) + vp.cross_force(rotated.mul_motion(vp));
+    SpatialForce::new(fp.n + p.cross(fp.f), fp.f)
 }

@@ -1,8 +1,7 @@
 //! The state of an articulated body and the inputs of one dynamics call.
 
-use articula_model::{JointKind, Model};
+use articula_model::Model;
 use articula_spatial::SpatialForce;
-use glam::{DQuat, DVec3};
 
 /// Joint positions, velocities and forces, and external forces on the bodies.
 ///
@@ -33,38 +32,18 @@ impl State {
         }
     }
 
-    /// A reproducible random state: angles in [-1.2, 1.2] rad (clear of the gimbal lock of
-    /// composed 3-axis joints at ±π/2, where every method loses digits), displacements in [-0.2, 0.2] m,
-    /// velocities in [-2, 2], torques in [-tau_scale, tau_scale], a random floating-base pose.
+    /// A reproducible random state: each joint's [`articula_model::JointKind::random_q`]
+    /// (angles in [-1.2, 1.2] rad, clear of the gimbal lock of composed 3-axis joints at ±π/2
+    /// where every method loses digits; displacements in [-0.2, 0.2] m; random orientations
+    /// for ball and floating joints), velocities in [-2, 2], torques in
+    /// [-tau_scale, tau_scale].
     /// No external forces.
     pub fn random(model: &Model, seed: u64, tau_scale: f64) -> State {
         let mut rng = SplitMix64(seed);
         let mut s = State::neutral(model);
         for (_, part) in model.joint_parts() {
             let q = &mut s.q[part.q_offset..part.q_offset + part.nq()];
-            match part.kind {
-                JointKind::Revolute | JointKind::Continuous => q[0] = rng.uniform(-1.2, 1.2),
-                JointKind::Prismatic => q[0] = rng.uniform(-0.2, 0.2),
-                JointKind::Floating => {
-                    let axis = DVec3::new(
-                        rng.uniform(-1.0, 1.0),
-                        rng.uniform(-1.0, 1.0),
-                        rng.uniform(-1.0, 1.0),
-                    );
-                    let rot =
-                        DQuat::from_axis_angle(axis.normalize_or(DVec3::X), rng.uniform(-3.0, 3.0));
-                    q.copy_from_slice(&[
-                        rng.uniform(-1.0, 1.0),
-                        rng.uniform(-1.0, 1.0),
-                        rng.uniform(-1.0, 1.0),
-                        rot.w,
-                        rot.x,
-                        rot.y,
-                        rot.z,
-                    ]);
-                }
-                JointKind::Fixed => {}
-            }
+            part.kind.random_q(q, &mut |lo, hi| rng.uniform(lo, hi));
         }
         for x in s.qd.iter_mut() {
             *x = rng.uniform(-2.0, 2.0);

@@ -49,6 +49,7 @@ pub mod body_inertia;
 mod collision;
 mod dynamics;
 mod error;
+mod joint;
 mod mjcf;
 mod model;
 mod options;
@@ -66,11 +67,12 @@ pub use collision::{
 };
 pub use dynamics::{DofDynamics, JointDynamics};
 pub use error::ModelError;
+pub use joint::{integrate_floating, JointKind, JOINT_KINDS};
 pub use model::{Body, JointPart, LinkFrame, LockedJoint, Model, FLOATING_BASE_JOINT};
 pub use options::{InertiaPolicy, LoadOptions, MasslessLeafPolicy};
 pub use urdf::{
-    read_limited, rpy_to_matrix, Geometry, GeometryRole, JointKind, Shape, MAX_INERTIA, MAX_LENGTH,
-    MAX_MASS, MAX_URDF_BYTES, MAX_XML_ATTRIBUTES, MAX_XML_DEPTH,
+    read_limited, rpy_to_matrix, Geometry, GeometryRole, Shape, MAX_INERTIA, MAX_LENGTH, MAX_MASS,
+    MAX_URDF_BYTES, MAX_XML_ATTRIBUTES, MAX_XML_DEPTH,
 };
 #[cfg(feature = "urdf-rs")]
 pub use urdf_rs;
@@ -94,8 +96,7 @@ impl Body {
     /// velocities grow like `1 / cos q₂` for a bounded angular velocity). `None` for any other
     /// joint or a `q` too short.
     pub fn euler_axes_volume(&self, q: &[f64]) -> Option<f64> {
-        let rotational =
-            |p: &JointPart| matches!(p.kind, JointKind::Revolute | JointKind::Continuous);
+        let rotational = |p: &JointPart| p.kind.is_hinge();
         if self.joint.len() != 3 || !self.joint.iter().all(rotational) {
             return None;
         }

@@ -6,7 +6,7 @@ use crate::body_inertia::{BodyInertia, InertiaDefect, InertiaDefectKind, Verdict
 use crate::urdf::{self, Geometry, JointKind, RawRobot};
 use crate::{LoadOptions, LoadWarning, MasslessLeafPolicy, ModelError};
 use articula_spatial::{SpatialInertia, SpatialMotion, SpatialTransform};
-use glam::{DMat3, DQuat, DVec3};
+use glam::{DMat3, DVec3};
 use std::path::Path;
 
 fn is_finite(x: &SpatialTransform) -> bool {
@@ -38,12 +38,12 @@ pub struct JointPart {
 }
 
 impl JointPart {
-    /// Number of position coordinates (1, or 7 for floating).
+    /// Number of position coordinates (1; 4 for ball, 7 for floating).
     pub fn nq(&self) -> usize {
         self.kind.nq()
     }
 
-    /// Number of velocity coordinates (1, or 6 for floating).
+    /// Number of velocity coordinates (1; 3 for ball, 6 for floating).
     pub fn nv(&self) -> usize {
         self.kind.nv()
     }
@@ -52,7 +52,7 @@ impl JointPart {
     /// of its joint frame — the usual URDF case, for which kinematics can rotate two columns
     /// instead of forming the general axis–angle rotation.
     pub fn coordinate_axis(&self) -> Option<(usize, f64)> {
-        if !matches!(self.kind, JointKind::Revolute | JointKind::Continuous) {
+        if !self.kind.is_hinge() {
             return None;
         }
         // One component ±1, the other two 0 (−0 included): straight-line tests, no search
@@ -75,46 +75,31 @@ impl JointPart {
     ///
     /// Revolute/continuous: rotation by `q[0]` about the axis. Prismatic: translation by
     /// `q[0]` along the axis. Floating: `q = [x, y, z, qw, qx, qy, qz]`, the moving frame's
-    /// position and orientation (unit quaternion) in the joint frame.
+    /// position and orientation (unit quaternion) in the joint frame. Ball: `q = [qw, qx, qy,
+    /// qz]`, the moving frame's orientation.
     pub fn motion_transform(&self, q: &[f64]) -> SpatialTransform {
-        match self.kind {
-            JointKind::Revolute | JointKind::Continuous => {
-                SpatialTransform::from_pose(DMat3::from_axis_angle(self.axis, q[0]), DVec3::ZERO)
-            }
-            JointKind::Prismatic => SpatialTransform::from_pose(DMat3::IDENTITY, self.axis * q[0]),
-            JointKind::Floating => {
-                let rot = DQuat::from_xyzw(q[4], q[5], q[6], q[3]).normalize();
-                SpatialTransform::from_pose(DMat3::from_quat(rot), DVec3::new(q[0], q[1], q[2]))
-            }
-            JointKind::Fixed => SpatialTransform::IDENTITY,
-        }
+        self.kind.motion_transform(self.axis, q)
     }
 
-    /// Column `k` of the motion subspace in the moving frame. Revolute: `[axis; 0]`; prismatic:
-    /// `[0; axis]`; floating: the unit vectors (its `qd` is the moving frame's spatial velocity
-    /// `[w; v]` relative to the joint frame, in moving-frame coordinates).
+    /// Column `k` of the motion subspace in the moving frame ([`JointKind::subspace_column`]).
+    /// Revolute: `[axis; 0]`; prismatic: `[0; axis]`; ball and floating: the unit vectors (their
+    /// `qd` is the moving frame's angular velocity `ω`, or spatial velocity `[ω; v]`, relative
+    /// to the joint frame, in moving-frame coordinates).
     pub fn subspace_column(&self, k: usize) -> SpatialMotion {
-        match self.kind {
-            JointKind::Revolute | JointKind::Continuous => {
-                SpatialMotion::new(self.axis, DVec3::ZERO)
-            }
-            JointKind::Prismatic => SpatialMotion::new(DVec3::ZERO, self.axis),
-            JointKind::Floating => {
-                let mut a = [0.0; 6];
-                a[k] = 1.0;
-                SpatialMotion::from_array(a)
-            }
-            JointKind::Fixed => SpatialMotion::ZERO,
-        }
+        self.kind.subspace_column(self.axis, k)
     }
 
-    /// The neutral coordinates (zero angle; identity orientation for floating).
+    /// The neutral coordinates (zero angle; identity orientation for ball and floating).
     pub fn neutral_q(&self) -> &'static [f64] {
-        match self.kind {
-            JointKind::Floating => &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0],
-            JointKind::Fixed => &[],
-            _ => &[0.0],
-        }
+        self.kind.neutral_q()
+    }
+
+    /// `q ← q ⊕ h·qd` on this part's coordinates in the model's whole `q` and `qd`
+    /// ([`JointKind::integrate`]).
+    pub fn integrate(&self, q: &mut [f64], qd: &[f64], h: f64) {
+        let (qo, vo) = (self.q_offset, self.v_offset);
+        self.kind
+            .integrate(&mut q[qo..qo + self.nq()], &qd[vo..vo + self.nv()], h);
     }
 }
 

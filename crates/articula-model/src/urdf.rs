@@ -15,44 +15,7 @@ use glam::{DMat3, DVec3};
 use std::borrow::Cow;
 use std::collections::HashMap;
 
-/// The motion a URDF joint allows.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(
-    feature = "serde",
-    derive(serde::Serialize),
-    serde(rename_all = "snake_case")
-)]
-pub enum JointKind {
-    /// Rotation about the axis, with limits in the URDF ([`crate::JointPart::limits`]).
-    Revolute,
-    /// Rotation about the axis without limits.
-    Continuous,
-    /// Translation along the axis.
-    Prismatic,
-    /// Welded: the child is merged into the parent.
-    Fixed,
-    /// Six degrees of freedom.
-    Floating,
-}
-
-impl JointKind {
-    /// Number of position coordinates.
-    pub fn nq(self) -> usize {
-        match self {
-            JointKind::Fixed => 0,
-            JointKind::Floating => 7,
-            _ => 1,
-        }
-    }
-    /// Number of velocity coordinates (degrees of freedom).
-    pub fn nv(self) -> usize {
-        match self {
-            JointKind::Fixed => 0,
-            JointKind::Floating => 6,
-            _ => 1,
-        }
-    }
-}
+pub use crate::joint::JointKind;
 
 /// A link as read from the URDF.
 #[derive(Clone, Debug)]
@@ -1124,10 +1087,7 @@ pub(crate) fn validate(robot: RobotData) -> Result<RawRobot, ModelError> {
             kind,
             origin,
             axis,
-            limits: match kind {
-                JointKind::Revolute | JointKind::Prismatic => j.limits,
-                _ => None,
-            },
+            limits: if kind.takes_limits() { j.limits } else { None },
             parent,
             child,
             dynamics: crate::JointDynamics {

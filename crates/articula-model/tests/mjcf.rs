@@ -115,12 +115,12 @@ fn composed_joints_and_free_base() {
 #[test]
 fn refusals_and_warnings() {
     let e = load(&wrap(
-        r#"<body name="b"><joint name="neck" type="ball"/><geom size="0.1"/></body>"#,
+        r#"<body name="b"><joint name="neck" type="ball" stiffness="2"/><geom size="0.1"/></body>"#,
     ))
     .unwrap_err();
     let msg = e.to_string();
     assert!(
-        msg.contains("ball joint 'neck'") && msg.contains("attribute 'type'"),
+        msg.contains("\"neck\"") && msg.contains("stiffness") && msg.contains("ball"),
         "{msg}"
     );
     let e = load(&wrap(
@@ -180,4 +180,26 @@ fn from_file_chooses_by_content() {
     assert_eq!(m.name, "r");
     assert_eq!(m.dynamics.damping, vec![0.7]);
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A ball joint: a quaternion in `q`, three degrees of freedom, turning about its anchor; a
+/// cone limit is reported as not modelled.
+#[test]
+fn ball_joint_loads() {
+    let m = load(&wrap(
+        r#"<body name="b" pos="0 0 1"><joint name="neck" type="ball" pos="0 0 0.1" range="0 45"
+             damping="0.5" armature="0.01"/><geom size="0.1"/></body>"#,
+    ))
+    .unwrap();
+    assert_eq!((m.nq, m.nv), (4, 3));
+    let p = &m.bodies[0].joint[0];
+    assert_eq!((p.name.as_str(), p.kind), ("neck", JointKind::Ball));
+    assert_eq!(m.neutral_q(), vec![1.0, 0.0, 0.0, 0.0]);
+    assert_eq!(m.dynamics.damping, vec![0.5; 3]);
+    assert_eq!(m.dynamics.armature, vec![0.01; 3]);
+    assert!(
+        format!("{:?}", m.warnings).contains("ball joint cone limit"),
+        "{:?}",
+        m.warnings
+    );
 }

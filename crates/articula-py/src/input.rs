@@ -3,7 +3,7 @@
 //! model and every error names the argument.
 
 use crate::errors::dynamics_error;
-use articula::model::{JointKind, Model};
+use articula::model::Model;
 use articula::prelude::SpatialForce;
 use numpy::{
     PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyUntypedArray, PyUntypedArrayMethods,
@@ -136,10 +136,10 @@ pub(crate) const QUATERNION_TOLERANCE: f64 = 1e-6;
 /// `Q[3]`).
 pub(crate) fn check_quaternions(model: &Model, q: &[f64], what: &str) -> PyResult<()> {
     for (_, part) in model.joint_parts() {
-        if part.kind != JointKind::Floating {
+        let Some(o) = part.kind.quaternion_offset() else {
             continue;
-        }
-        let quat = &q[part.q_offset + 3..part.q_offset + 7];
+        };
+        let quat = &q[part.q_offset + o..part.q_offset + o + 4];
         let norm = quat.iter().map(|x| x * x).sum::<f64>().sqrt();
         if norm.is_finite() && (norm - 1.0).abs() > QUATERNION_TOLERANCE {
             return Err(dynamics_error(format!(

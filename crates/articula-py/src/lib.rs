@@ -15,6 +15,7 @@ mod errors;
 mod input;
 mod model;
 mod scene;
+mod shard;
 mod stepping;
 
 use pyo3::prelude::*;
@@ -26,6 +27,11 @@ fn _articula(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<model::PyData>()?;
     m.add_class::<adaptive::PyAdaptive>()?;
     m.add_class::<scene::PyScene>()?;
+    m.add_class::<shard::PyShard>()?;
+    m.add_function(wrap_pyfunction!(shard::shard_merge_depths, m)?)?;
+    m.add_function(wrap_pyfunction!(shard::shard_merge_candidates, m)?)?;
+    m.add_function(wrap_pyfunction!(shard::shard_combine_steps, m)?)?;
+    m.add_function(wrap_pyfunction!(shard::shard_combine_hashes, m)?)?;
     m.add_function(wrap_pyfunction!(dynamics::forward_dynamics, m)?)?;
     m.add_function(wrap_pyfunction!(dynamics::inverse_dynamics, m)?)?;
     m.add_function(wrap_pyfunction!(dynamics::mass_matrix, m)?)?;

@@ -133,6 +133,18 @@ impl PyScene {
         Ok(PyArray1::from_slice(py, &self.sim.bodies[b].state.qd))
     }
 
+    /// The state hash `cargo xtask hash` prints: a rotate-xor of the bits of every body's q
+    /// then v, in body order.
+    fn state_hash(&self) -> u64 {
+        self.sim.state_hash()
+    }
+
+    /// Per body: (its share of the budget, its weighted error) at the last re-selection.
+    fn selection(&self) -> Vec<(usize, f64)> {
+        let bodies = &self.sim.bodies;
+        bodies.iter().map(|b| (b.allocation, b.error)).collect()
+    }
+
     /// The summary so far, as `articula scene` prints it (the fields that do not depend on a
     /// run's wall-clock): steps, dt, bodies, dof_total, budget, active joints (mean, last),
     /// visibility classes, weighted error and energies.
@@ -228,7 +240,7 @@ impl PyScene {
 }
 
 /// A scene step as a dict.
-fn step_dict<'py>(py: Python<'py>, s: &SceneStep) -> PyResult<Bound<'py, PyDict>> {
+pub(crate) fn step_dict<'py>(py: Python<'py>, s: &SceneStep) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("reselected", s.reselected)?;
     d.set_item("active_total", s.active_total)?;

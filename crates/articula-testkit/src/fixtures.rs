@@ -375,6 +375,40 @@ pub fn random_tree_urdf(n: usize, seed: u64) -> String {
     s + "</robot>\n"
 }
 
+/// example-robot-data's `robots/` folder: `$ROBOTS`, or the copy `pip install
+/// example-robot-data` put in the workspace's `target/peers-venv` (as `.ci/run` does). `None`
+/// when neither exists.
+pub fn example_robots_dir() -> Option<std::path::PathBuf> {
+    if let Some(d) = std::env::var_os("ROBOTS") {
+        return Some(d.into());
+    }
+    let lib = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/peers-venv/lib");
+    std::fs::read_dir(lib).ok()?.flatten().find_map(|e| {
+        let d = e
+            .path()
+            .join("site-packages/cmeel.prefix/share/example-robot-data/robots");
+        d.is_dir().then_some(d)
+    })
+}
+
+/// Every `.urdf` under `dir` (recursively), sorted.
+pub fn urdfs_under(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).into_iter().flatten().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == "urdf") {
+                out.push(p);
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -27,7 +27,8 @@ pub mod seeds;
 pub use alloc::{count_allocated_bytes, count_allocations, CountingAllocator};
 pub use dd::{Dd, Real};
 pub use fixtures::{
-    branches_urdf, bundled, bundled_urdf, bundled_with, chain, chain_urdf, hair_urdf,
-    point_mass_humanoid_urdf, random_tree_urdf, ratio_chain_urdf, star_urdf, BUNDLED,
+    branches_urdf, bundled, bundled_urdf, bundled_with, chain, chain_urdf, example_robots_dir,
+    hair_urdf, point_mass_humanoid_urdf, random_tree_urdf, ratio_chain_urdf, star_urdf,
+    urdfs_under, BUNDLED,
 };
 pub use reference::{rel_error, ReferenceModel};

@@ -7,7 +7,10 @@
 //! spatial types): it reads only the model's description (joint origins, axes, body inertias)
 //! and treats those `f64` numbers as exact. Each URDF joint of a composed joint is its own
 //! (massless) body here: the uncomposed model that composition (docs/design.md#composition) must
-//! reproduce. Fixed bases with revolute, continuous and prismatic joints only.
+//! reproduce. Revolute, continuous and prismatic joints, ball joints (three degrees of freedom,
+//! `q = [qw, qx, qy, qz]`, `q̇` the angular velocity in the moving frame) and a floating base
+//! (six, `q = [x, y, z, qw, qx, qy, qz]`, `q̇ = [w; v]` in the moving frame): a multi-axis joint
+//! is one body whose subspace is constant in its moving frame, solved with its `D⁻¹`.
 
 use crate::dd::Real;
 use articula_model::{JointKind, Model};
@@ -16,15 +19,40 @@ use articula_spatial::{Mat6, SpatialForce};
 type V6<T> = [T; 6];
 type M6<T> = [[T; 6]; 6];
 
-/// One single-axis joint and the (possibly massless) body it moves.
+/// The motion of one reference joint.
+#[derive(Clone, Copy, Debug)]
+enum RefJoint {
+    /// Rotation about the unit axis (joint frame).
+    Revolute([f64; 3]),
+    /// Translation along the unit axis (joint frame).
+    Prismatic([f64; 3]),
+    /// Axis `e_k` of a ball joint: the joint is three bodies turning about the moving frame's
+    /// x, y and z axes at zero angle after the quaternion's rotation (the first carries it),
+    /// whose velocity products are taken with the velocity before the joint, so that the three
+    /// act as one spherical joint whose subspace is constant in the moving frame.
+    BallAxis(usize),
+    /// Six degrees of freedom: position and unit quaternion in the joint frame; motion
+    /// subspace the identity.
+    Free,
+}
+
+impl RefJoint {
+    fn nv(self) -> usize {
+        match self {
+            RefJoint::Revolute(_) | RefJoint::Prismatic(_) | RefJoint::BallAxis(_) => 1,
+            RefJoint::Free => 6,
+        }
+    }
+}
+
+/// One joint and the (possibly massless) body it moves.
 #[derive(Clone, Debug)]
 struct RefBody {
     parent: Option<usize>,
     /// Joint frame in the preceding frame: axes (columns) and origin.
     rot: [[f64; 3]; 3],
     pos: [f64; 3],
-    prismatic: bool,
-    axis: [f64; 3],
+    joint: RefJoint,
     /// Spatial inertia in the moving frame `[Ī, h×; h×ᵀ, m 1]`, zero for a massless link.
     inertia: Mat6,
     /// Index of the joint coordinate in `q` and of its velocity in `qd`.
@@ -43,8 +71,7 @@ pub struct ReferenceModel {
 }
 
 impl ReferenceModel {
-    /// Flattens `model` (gravity (0, 0, −9.81), the library's default). Floating joints are
-    /// not supported.
+    /// Flattens `model` (gravity (0, 0, −9.81), the library's default).
     pub fn new(model: &Model) -> Result<ReferenceModel, String> {
         let mut bodies: Vec<RefBody> = Vec::new();
         // The reference index of each model body's moving frame (its last part).
@@ -52,10 +79,16 @@ impl ReferenceModel {
         for (bi, body) in model.bodies.iter().enumerate() {
             let mut parent = body.parent.map(|p| last_of[p]);
             for (pi, part) in body.joint.iter().enumerate() {
-                let prismatic = match part.kind {
-                    JointKind::Revolute | JointKind::Continuous => false,
-                    JointKind::Prismatic => true,
-                    k => return Err(format!("joint {}: {k:?} is not supported", part.name)),
+                let axis = part.axis.to_array();
+                let joints = match part.kind {
+                    JointKind::Revolute | JointKind::Continuous => vec![RefJoint::Revolute(axis)],
+                    JointKind::Prismatic => vec![RefJoint::Prismatic(axis)],
+                    JointKind::Ball => (0..3).map(RefJoint::BallAxis).collect(),
+                    JointKind::Floating => vec![RefJoint::Free],
+                    JointKind::Fixed => {
+                        return Err(format!("joint {}: Fixed is not supported", part.name))
+                    }
+                    k => return Err(format!("joint {}: {k:?} is not known", part.name)),
                 };
                 let (r, p) = part.origin.to_pose();
                 let last = pi + 1 == body.joint.len();
@@ -75,22 +108,31 @@ impl ReferenceModel {
                     }
                 }
                 let rc = r.to_cols_array_2d();
-                bodies.push(RefBody {
-                    parent,
-                    rot: [
-                        [rc[0][0], rc[1][0], rc[2][0]],
-                        [rc[0][1], rc[1][1], rc[2][1]],
-                        [rc[0][2], rc[1][2], rc[2][2]],
-                    ],
-                    pos: p.to_array(),
-                    prismatic,
-                    axis: part.axis.to_array(),
-                    inertia,
-                    q_index: part.q_offset,
-                    v_index: part.v_offset,
-                    model_body: last.then_some(bi),
-                });
-                parent = Some(bodies.len() - 1);
+                let count = joints.len();
+                for (k, joint) in joints.into_iter().enumerate() {
+                    // Only the first of a ball's three bodies has the joint's origin, only the
+                    // last the body's inertia.
+                    let (first, end) = (k == 0, k + 1 == count);
+                    bodies.push(RefBody {
+                        parent,
+                        rot: if first {
+                            [
+                                [rc[0][0], rc[1][0], rc[2][0]],
+                                [rc[0][1], rc[1][1], rc[2][1]],
+                                [rc[0][2], rc[1][2], rc[2][2]],
+                            ]
+                        } else {
+                            [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+                        },
+                        pos: if first { p.to_array() } else { [0.0; 3] },
+                        joint,
+                        inertia: if end { inertia } else { Mat6::ZERO },
+                        q_index: part.q_offset,
+                        v_index: part.v_offset + k,
+                        model_body: (last && end).then_some(bi),
+                    });
+                    parent = Some(bodies.len() - 1);
+                }
             }
             last_of[bi] = bodies.len() - 1;
         }
@@ -116,49 +158,47 @@ impl ReferenceModel {
         let mut x: Vec<M6<T>> = vec![[[z; 6]; 6]; n];
         let mut v: Vec<V6<T>> = vec![[z; 6]; n];
         let mut c: Vec<V6<T>> = vec![[z; 6]; n];
-        let mut s: Vec<V6<T>> = vec![[z; 6]; n];
+        // The velocity before each body's joint (for a ball's second and third axes: before
+        // the ball), in its frame.
+        let mut vbase: Vec<V6<T>> = vec![[z; 6]; n];
+        let mut s: Vec<Vec<V6<T>>> = vec![Vec::new(); n];
         let mut ia: Vec<M6<T>> = vec![[[z; 6]; 6]; n];
         let mut pa: Vec<V6<T>> = vec![[z; 6]; n];
         // World pose of each moving frame (for the external forces).
         let mut world: Vec<([[T; 3]; 3], [T; 3])> = vec![([[z; 3]; 3], [z; 3]); n];
-        let eye = {
-            let mut m = [[z; 3]; 3];
-            for (i, row) in m.iter_mut().enumerate() {
-                row[i] = T::from_f64(1.0);
-            }
-            m
-        };
+        let eye = identity3::<T>();
         // Pass 1, root to leaves: X_i (parent → child), v_i, c_i, Iᴬ_i = I_i,
         // pᴬ_i = v_i ×* I_i v_i − f_ext,i.
         for i in 0..n {
             let b = &self.bodies[i];
-            let q = f(q[b.q_index]);
-            let qd = f(qd[b.v_index]);
-            let ax = b.axis.map(f);
-            // Pose of the moving frame in the parent frame: R = R_origin R_q, p = p_origin
-            // (+ R_origin axis q when prismatic).
+            let nv = b.joint.nv();
+            let qd_i: Vec<T> = qd[b.v_index..b.v_index + nv]
+                .iter()
+                .map(|&e| f(e))
+                .collect();
+            // Pose of the moving frame in the parent frame: R = R_origin R_q,
+            // p = p_origin + R_origin p_q.
             let r0 = b.rot.map(|row| row.map(f));
             let p0 = b.pos.map(f);
-            let (rq, dp) = if b.prismatic {
-                (eye, ax.map(|a| a * q))
-            } else {
-                (rodrigues(ax, q), [z; 3])
-            };
+            let (rq, pq) = joint_pose::<T>(b.joint, &q[b.q_index..]);
             let rot = mat3_mul(&r0, &rq);
-            let pos = add3(p0, mat3_vec(&r0, dp));
+            let pos = add3(p0, mat3_vec(&r0, pq));
             x[i] = plucker(&rot, pos);
-            s[i] = if b.prismatic {
-                [z, z, z, ax[0], ax[1], ax[2]]
-            } else {
-                [ax[0], ax[1], ax[2], z, z, z]
-            };
-            let vj = s[i].map(|e| e * qd);
+            s[i] = subspace::<T>(b.joint);
+            let mut vj = [z; 6];
+            for (col, &rate) in s[i].iter().zip(&qd_i) {
+                vj = add6(vj, col.map(|e| e * rate));
+            }
             let vp = match b.parent {
                 Some(p) => mat6_vec(&x[i], &v[p]),
                 None => [z; 6],
             };
             v[i] = add6(vp, vj);
-            c[i] = crm(&v[i], &vj);
+            vbase[i] = match (b.joint, b.parent) {
+                (RefJoint::BallAxis(1 | 2), Some(p)) => mat6_vec(&x[i], &vbase[p]),
+                _ => vp,
+            };
+            c[i] = crm(&vbase[i], &vj);
             ia[i] = b.inertia.0.map(|row| row.map(f));
             let iv = mat6_vec(&ia[i], &v[i]);
             pa[i] = crf(&v[i], &iv);
@@ -167,61 +207,76 @@ impl ReferenceModel {
                 None => (eye, [z; 3]),
             };
             world[i] = (mat3_mul(&pr, &rot), add3(pp, mat3_vec(&pr, pos)));
-            if let Some(mb) = b.model_body {
-                if let Some(fe) = f_ext.get(mb) {
-                    // Local = X*_{i←0} f: n' = Rᵀ (n − p × f), f' = Rᵀ f.
-                    let (rw, pw) = &world[i];
-                    let nw = [f(fe.n.x), f(fe.n.y), f(fe.n.z)];
-                    let fw = [f(fe.f.x), f(fe.f.y), f(fe.f.z)];
-                    let rt = transpose3(rw);
-                    let nl = mat3_vec(&rt, sub3(nw, cross3(*pw, fw)));
-                    let fl = mat3_vec(&rt, fw);
-                    for k in 0..3 {
-                        pa[i][k] -= nl[k];
-                        pa[i][3 + k] -= fl[k];
-                    }
+            if let Some(fe) = b.model_body.and_then(|mb| f_ext.get(mb)) {
+                // Local = X*_{i←0} f: n' = Rᵀ (n − p × f), f' = Rᵀ f.
+                let (rw, pw) = &world[i];
+                let nw = [f(fe.n.x), f(fe.n.y), f(fe.n.z)];
+                let fw = [f(fe.f.x), f(fe.f.y), f(fe.f.z)];
+                let rt = transpose3(rw);
+                let nl = mat3_vec(&rt, sub3(nw, cross3(*pw, fw)));
+                let fl = mat3_vec(&rt, fw);
+                for k in 0..3 {
+                    pa[i][k] -= nl[k];
+                    pa[i][3 + k] -= fl[k];
                 }
             }
         }
-        // Pass 2, leaves to root: U = Iᴬ s, D = sᵀU, u = τ − sᵀpᴬ, Iᵃ = Iᴬ − U Uᵀ/D,
-        // pᵃ = pᴬ + Iᵃ c + U u/D; Iᴬ_parent += Xᵀ Iᵃ X, pᴬ_parent += Xᵀ pᵃ.
-        let mut uvec: Vec<V6<T>> = vec![[z; 6]; n];
-        let mut dd: Vec<T> = vec![z; n];
-        let mut uu: Vec<T> = vec![z; n];
+        // Pass 2, leaves to root: U = Iᴬ S, D = SᵀU, u = τ − Sᵀpᴬ, Iᵃ = Iᴬ − U D⁻¹ Uᵀ,
+        // pᵃ = pᴬ + Iᵃ c + U D⁻¹ u; Iᴬ_parent += Xᵀ Iᵃ X, pᴬ_parent += Xᵀ pᵃ.
+        let mut uvec: Vec<Vec<V6<T>>> = vec![Vec::new(); n];
+        let mut dinv: Vec<Vec<Vec<T>>> = vec![Vec::new(); n];
+        let mut uu: Vec<Vec<T>> = vec![Vec::new(); n];
         for i in (0..n).rev() {
             let b = &self.bodies[i];
-            let u = mat6_vec(&ia[i], &s[i]);
-            let d = dot6(&s[i], &u);
-            let small_u = f(tau[b.v_index]) - dot6(&s[i], &pa[i]);
+            let u: Vec<V6<T>> = s[i].iter().map(|col| mat6_vec(&ia[i], col)).collect();
+            let d: Vec<Vec<T>> = s[i]
+                .iter()
+                .map(|si| u.iter().map(|uj| dot6(si, uj)).collect())
+                .collect();
+            let d_inv = invert(d);
+            let small_u: Vec<T> = s[i]
+                .iter()
+                .enumerate()
+                .map(|(k, col)| f(tau[b.v_index + k]) - dot6(col, &pa[i]))
+                .collect();
+            // U D⁻¹ (6 × nv) and D⁻¹ u.
+            let udi: Vec<V6<T>> = (0..u.len())
+                .map(|k| {
+                    let mut col = [z; 6];
+                    for (l, ul) in u.iter().enumerate() {
+                        col = add6(col, ul.map(|e| e * d_inv[l][k]));
+                    }
+                    col
+                })
+                .collect();
+            let du: Vec<T> = d_inv.iter().map(|row| dotn(row, &small_u)).collect();
+            if let Some(p) = b.parent {
+                let mut iaa = ia[i];
+                for r in 0..6 {
+                    for cc in 0..6 {
+                        for (ul, udl) in u.iter().zip(&udi) {
+                            iaa[r][cc] -= udl[r] * ul[cc];
+                        }
+                    }
+                }
+                let mut pav = add6(pa[i], mat6_vec(&iaa, &c[i]));
+                for (ul, &dl) in u.iter().zip(&du) {
+                    pav = add6(pav, ul.map(|e| e * dl));
+                }
+                let xt = transpose6(&x[i]);
+                let add = mat6_mul(&mat6_mul(&xt, &iaa), &x[i]);
+                for r in 0..6 {
+                    for cc in 0..6 {
+                        ia[p][r][cc] += add[r][cc];
+                    }
+                }
+                pa[p] = add6(pa[p], mat6_vec(&xt, &pav));
+            }
             uvec[i] = u;
-            dd[i] = d;
+            dinv[i] = d_inv;
             uu[i] = small_u;
-            let Some(p) = b.parent else { continue };
-            let mut iaa = ia[i];
-            for r in 0..6 {
-                for cc in 0..6 {
-                    iaa[r][cc] -= u[r] * u[cc] / d;
-                }
-            }
-            let iac = mat6_vec(&iaa, &c[i]);
-            let ud = small_u / d;
-            let mut pav = pa[i];
-            for k in 0..6 {
-                pav[k] += iac[k] + u[k] * ud;
-            }
-            let xt = transpose6(&x[i]);
-            let add = mat6_mul(&mat6_mul(&xt, &iaa), &x[i]);
-            for r in 0..6 {
-                for cc in 0..6 {
-                    ia[p][r][cc] += add[r][cc];
-                }
-            }
-            let pp = mat6_vec(&xt, &pav);
-            for k in 0..6 {
-                pa[p][k] += pp[k];
-            }
         }
-        // Pass 3, root to leaves: a' = X a_parent + c, q̈ = (u − Uᵀa')/D, a = a' + s q̈,
+        // Pass 3, root to leaves: a' = X a_parent + c, q̈ = D⁻¹(u − Uᵀa'), a = a' + S q̈,
         // with a_0 = −a_g.
         let a0 = [
             z,
@@ -240,12 +295,131 @@ impl ReferenceModel {
                 None => mat6_vec(&x[i], &a0),
             };
             let ap = add6(ap, c[i]);
-            let acc = (uu[i] - dot6(&uvec[i], &ap)) / dd[i];
-            qdd[b.v_index] = acc;
-            a[i] = add6(ap, s[i].map(|e| e * acc));
+            let rhs: Vec<T> = uu[i]
+                .iter()
+                .zip(&uvec[i])
+                .map(|(&uk, col)| uk - dot6(col, &ap))
+                .collect();
+            a[i] = ap;
+            for (k, row) in dinv[i].iter().enumerate() {
+                let acc = dotn(row, &rhs);
+                qdd[b.v_index + k] = acc;
+                a[i] = add6(a[i], s[i][k].map(|e| e * acc));
+            }
         }
         qdd
     }
+}
+
+/// The joint's own motion (moving frame in the joint frame) at its coordinates `q`.
+fn joint_pose<T: Real>(joint: RefJoint, q: &[f64]) -> ([[T; 3]; 3], [T; 3]) {
+    let f = T::from_f64;
+    let z = T::zero();
+    match joint {
+        RefJoint::Revolute(axis) => (rodrigues(axis.map(f), f(q[0])), [z; 3]),
+        RefJoint::Prismatic(axis) => (identity3(), axis.map(|a| f(a) * f(q[0]))),
+        RefJoint::BallAxis(0) => (quat_matrix([f(q[0]), f(q[1]), f(q[2]), f(q[3])]), [z; 3]),
+        RefJoint::BallAxis(_) => (identity3(), [z; 3]),
+        RefJoint::Free => (
+            quat_matrix([f(q[3]), f(q[4]), f(q[5]), f(q[6])]),
+            [f(q[0]), f(q[1]), f(q[2])],
+        ),
+    }
+}
+
+/// The motion subspace's columns in the moving frame.
+fn subspace<T: Real>(joint: RefJoint) -> Vec<V6<T>> {
+    let f = T::from_f64;
+    let z = T::zero();
+    match joint {
+        RefJoint::Revolute(a) => vec![[f(a[0]), f(a[1]), f(a[2]), z, z, z]],
+        RefJoint::Prismatic(a) => vec![[z, z, z, f(a[0]), f(a[1]), f(a[2])]],
+        RefJoint::BallAxis(k) => {
+            let mut col = [z; 6];
+            col[k] = f(1.0);
+            vec![col]
+        }
+        RefJoint::Free => (0..6)
+            .map(|k| {
+                let mut col = [z; 6];
+                col[k] = f(1.0);
+                col
+            })
+            .collect(),
+    }
+}
+
+/// The rotation of the quaternion `[w, x, y, z]`, divided by its squared norm (so a quaternion
+/// normalised in `f64` is normalised exactly here).
+fn quat_matrix<T: Real>([w, x, y, z]: [T; 4]) -> [[T; 3]; 3] {
+    let n2 = w * w + x * x + y * y + z * z;
+    let two = T::from_f64(2.0) / n2;
+    let one = T::from_f64(1.0);
+    [
+        [
+            one - two * (y * y + z * z),
+            two * (x * y - w * z),
+            two * (x * z + w * y),
+        ],
+        [
+            two * (x * y + w * z),
+            one - two * (x * x + z * z),
+            two * (y * z - w * x),
+        ],
+        [
+            two * (x * z - w * y),
+            two * (y * z + w * x),
+            one - two * (x * x + y * y),
+        ],
+    ]
+}
+
+fn identity3<T: Real>() -> [[T; 3]; 3] {
+    let mut m = [[T::zero(); 3]; 3];
+    for (i, row) in m.iter_mut().enumerate() {
+        row[i] = T::from_f64(1.0);
+    }
+    m
+}
+
+/// The inverse of a small symmetric positive definite matrix by Gauss–Jordan elimination
+/// (pivots on the diagonal, which positive definiteness keeps non-zero).
+fn invert<T: Real>(mut d: Vec<Vec<T>>) -> Vec<Vec<T>> {
+    let n = d.len();
+    let mut inv: Vec<Vec<T>> = (0..n)
+        .map(|i| {
+            (0..n)
+                .map(|j| T::from_f64(if i == j { 1.0 } else { 0.0 }))
+                .collect()
+        })
+        .collect();
+    for k in 0..n {
+        let pivot = d[k][k];
+        for j in 0..n {
+            d[k][j] = d[k][j] / pivot;
+            inv[k][j] = inv[k][j] / pivot;
+        }
+        for r in 0..n {
+            if r == k {
+                continue;
+            }
+            let factor = d[r][k];
+            for j in 0..n {
+                let (dk, ik) = (d[k][j], inv[k][j]);
+                d[r][j] -= factor * dk;
+                inv[r][j] -= factor * ik;
+            }
+        }
+    }
+    inv
+}
+
+fn dotn<T: Real>(a: &[T], b: &[T]) -> T {
+    let mut s = T::zero();
+    for (&x, &y) in a.iter().zip(b) {
+        s += x * y;
+    }
+    s
 }
 
 /// Rotation by `q` about the unit axis `a`: `cos q 1 + sin q [a]× + (1 − cos q) a aᵀ`.

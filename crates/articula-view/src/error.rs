@@ -90,4 +90,9 @@ pub enum ViewError {
     /// A frame that could not be rendered or written.
     #[error("frame: {0}")]
     Frame(String),
+    /// A scene split over shards ([`crate::SceneShard`]) whose parts do not fit together: a
+    /// shard count or range, a budget, tolerance or step that differs between the shards and
+    /// the merge, a message that is not one, or a call out of the re-selection's order.
+    #[error("sharded scene: {0}")]
+    Shard(String),
 }

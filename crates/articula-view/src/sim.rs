@@ -26,8 +26,12 @@
 //!
 //! Nodes of metric 0 are never selected: invisible bodies (all weights 0) keep no joint even
 //! with budget to spare.
+//!
+//! A scene split by body over processes ([`SceneShard`]) runs the same passes on each shard,
+//! the depth buffers and the merge of step 3 done by a driver between them (`shard.rs`).
 
 mod exact;
+mod shard;
 mod springs;
 
 use crate::error::ViewError;
@@ -41,6 +45,10 @@ use articula_model::{JointKind, Model, NodeKind};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SymMat6};
 pub use exact::SceneMethod;
 use glam::{DMat3, DQuat, DVec3};
+pub use shard::{
+    combine_state_hashes, combine_steps, merge_candidates, merge_depths, Candidate, Candidates,
+    DepthMessage, SceneShard, ShardRange, ShardStep,
+};
 pub use springs::pose_springs;
 use std::collections::BinaryHeap;
 use std::sync::Mutex;
@@ -965,33 +973,6 @@ impl<'s> SceneSim<'s> {
             .max(1)
     }
 
-    /// Classifies what the camera sees now (from the bodies' `poses`, which must be those of
-    /// their current states, and the `margins`) and sets every joint's weight.
-    fn classify(&mut self) {
-        let cam = self.scene.camera.at(self.time());
-        let scene = self.scene;
-        let (bodies, parents, margins) = (&self.bodies, &self.parents, &self.margins);
-        let placed = |i: usize| {
-            let b = &bodies[i];
-            Placed {
-                volumes: &scene.models[b.model].volumes,
-                poses: &b.poses,
-                parents: &parents[b.model],
-                margin: margins[i],
-            }
-        };
-        let chunk = self.chunk();
-        self.classifier.classify_with(
-            &cam,
-            &scene.visibility,
-            &self.threads,
-            chunk,
-            bodies.len(),
-            placed,
-            &mut self.views,
-        );
-    }
-
     /// Advances the scene by one step. The bodies' states are public: one whose model index,
     /// `q`, `q̇` or `τ` length no longer fits its model is an error naming it (non-finite
     /// numbers are the dynamics' errors), never a panic.
@@ -1001,90 +982,10 @@ impl<'s> SceneSim<'s> {
         if let SceneMethod::Exact(method) = self.method {
             return self.step_exact(method);
         }
-        let t = self.time();
-        let forced = std::mem::take(&mut self.reselect_next);
-        let reselect = forced || self.steps.is_multiple_of(scene.reselect_every as u64);
-        let (threads, shared) = (self.threads.clone(), self.shared);
-        let chunk = self.chunk();
-        // Each body first, in the step's first pass over the bodies: the pushes acting now
-        // (world wrenches about the world origin) and the pose springs' torques.
-        let prepare = |b: &mut SimBody, springs: &[SpringRuns], plans: &[PosePlan]| {
-            b.set_pushes(scene, &plans[b.model], t);
-            spring_torques(&springs[b.model], &mut b.state);
-        };
+        let (reselect, forced) = self.reselect_due();
         if reselect {
-            // Every body's exact solve first: its accelerations give the metrics once the
-            // weights are known, and its kinematics the link poses the camera classifies (no
-            // separate pose pass) and the next hybrid body's load.
-            // A body whose whole bounding sphere (about its root, grown by its margin) lies
-            // outside a frustum plane has every link invisible (each link's sphere is inside
-            // it): all its weights will be 0, so its solve is skipped and the pose-only
-            // kinematics give the classifier its poses.
-            self.set_margins();
-            let frustum = scene.camera.at(t).frustum();
-            let (plans, whole_reach, margins) = (&self.plans, &self.whole_reach, &self.margins);
-            let springs = &self.springs;
-            threads.for_each_chunk(&mut self.bodies, &self.workers, chunk, |w, first, run| {
-                for (j, b) in run.iter_mut().enumerate() {
-                    let i = first + j;
-                    prepare(b, springs, plans);
-                    let (plan, model) = (&plans[b.model], &scene.models[b.model].model);
-                    let outside = whole_reach[b.model].is_some_and(|r| {
-                        let root = plan.pose(model, &b.state.q, 0).1;
-                        frustum.nearest_plane_distance(root) < -(r + margins[i])
-                    });
-                    b.solved = !outside;
-                    if outside {
-                        plan.poses(model, &b.state.q, &mut b.poses);
-                    } else if let Err(e) = exact_solve(scene, shared, b, i, w) {
-                        w.fail(i, e);
-                    } else {
-                        // The solve's kinematics left in the workspace: each body's world pose.
-                        let data = &b.adaptive.data;
-                        b.poses.clear();
-                        b.poses.extend((0..data.x.len()).map(|j| data.body_pose(j)));
-                    }
-                }
-            });
-            self.add_push_work();
-            first_error(&mut self.workers)?;
-            self.classify();
-            let mut link_classes = [0; 3];
-            let mut classes = [0; 3];
-            for (b, view) in self.bodies.iter_mut().zip(&self.views) {
-                b.unweighted = view.joint_weights.iter().all(|w| *w == 0.0);
-                for c in &view.links {
-                    link_classes[*c as usize] += 1;
-                }
-                classes[view.summary() as usize] += 1;
-            }
-            let views = &self.views;
-            threads.for_each_chunk(&mut self.bodies, &self.workers, chunk, |w, first, run| {
-                for (j, b) in run.iter_mut().enumerate() {
-                    let i = first + j;
-                    b.metrics.clear();
-                    let model = &scene.models[b.model].model;
-                    if !b.unweighted {
-                        b.metrics.resize(model.assembly.nodes.len(), 0.0);
-                        if !b.solved {
-                            // (Not reached: a body outside the view classifies invisible; a
-                            // safeguard against rounding at the frustum's edge.)
-                            if let Err(e) = exact_solve(scene, shared, b, i, w) {
-                                w.fail(i, e);
-                                b.metrics.clear();
-                            }
-                        }
-                        if !b.metrics.is_empty() {
-                            let weights = &views[i].joint_weights;
-                            b.adaptive
-                                .scaled_node_metrics(model, weights, &mut b.metrics);
-                        }
-                    }
-                    // Its own queue, for the global one.
-                    b.own.run(model, &b.metrics, &mut w.heap);
-                }
-            });
-            first_error(&mut self.workers)?;
+            self.reselect_solve()?;
+            let classes = self.reselect_weigh()?;
             // The global queue: a merge of the bodies' own queues (the same pops as one
             // queue over every body's nodes).
             let bodies = &self.bodies;
@@ -1096,34 +997,164 @@ impl<'s> SceneSim<'s> {
                 scene.budget,
                 scene.tolerance,
             );
-            let (sel, first_step) = (&self.selection, self.steps == 0 || forced);
-            threads.for_each_chunk(&mut self.bodies, &self.workers, chunk, |w, first, run| {
-                for (j, b) in run.iter_mut().enumerate() {
-                    let i = first + j;
-                    if let Err(e) = apply_selection(scene, shared, sel, first_step, b, i, w) {
-                        w.fail(i, e);
+            self.reselect_apply(forced, classes)?;
+        }
+        self.step_bodies(reselect)
+    }
+
+    /// Whether this step re-selects, and whether because it was forced (after exact steps);
+    /// clears the forcing.
+    fn reselect_due(&mut self) -> (bool, bool) {
+        let forced = std::mem::take(&mut self.reselect_next);
+        let every = self.scene.reselect_every as u64;
+        (forced || self.steps.is_multiple_of(every), forced)
+    }
+
+    /// A re-selection's first pass: each body's pushes and pose springs of the step, its exact
+    /// solve and its link poses, then the camera's frustum classes and the depth buffer of
+    /// the bodies' occluders ([`Classifier::rasterize_with`]).
+    ///
+    /// Every body's exact solve first: its accelerations give the metrics once the weights
+    /// are known, and its kinematics the link poses the camera classifies (no separate pose
+    /// pass) and the next hybrid body's load. A body whose whole bounding sphere (about its
+    /// root, grown by its margin) lies outside a frustum plane has every link invisible (each
+    /// link's sphere is inside it): all its weights will be 0, so its solve is skipped and
+    /// the pose-only kinematics give the classifier its poses.
+    fn reselect_solve(&mut self) -> Result<(), ViewError> {
+        let scene = self.scene;
+        let t = self.time();
+        let (threads, shared, chunk) = (self.threads.clone(), self.shared, self.chunk());
+        self.set_margins();
+        let frustum = scene.camera.at(t).frustum();
+        let (plans, whole_reach, margins) = (&self.plans, &self.whole_reach, &self.margins);
+        let springs = &self.springs;
+        threads.for_each_chunk(&mut self.bodies, &self.workers, chunk, |w, first, run| {
+            for (j, b) in run.iter_mut().enumerate() {
+                let i = first + j;
+                prepare(scene, b, springs, plans, t);
+                let (plan, model) = (&plans[b.model], &scene.models[b.model].model);
+                let outside = whole_reach[b.model].is_some_and(|r| {
+                    let root = plan.pose(model, &b.state.q, 0).1;
+                    frustum.nearest_plane_distance(root) < -(r + margins[i])
+                });
+                b.solved = !outside;
+                if outside {
+                    plan.poses(model, &b.state.q, &mut b.poses);
+                } else if let Err(e) = exact_solve(scene, shared, b, i, w) {
+                    w.fail(i, e);
+                } else {
+                    // The solve's kinematics left in the workspace: each body's world pose.
+                    let data = &b.adaptive.data;
+                    b.poses.clear();
+                    b.poses.extend((0..data.x.len()).map(|j| data.body_pose(j)));
+                }
+            }
+        });
+        self.add_push_work();
+        first_error(&mut self.workers)?;
+        let cam = scene.camera.at(t);
+        let chunk = self.chunk();
+        let n = self.bodies.len();
+        let placed = placed(scene, &self.bodies, &self.parents, &self.margins);
+        let views = &mut self.views;
+        (self.classifier).rasterize_with(&cam, &self.threads, chunk, n, &placed, views);
+        Ok(())
+    }
+
+    /// A re-selection's second pass, after [`SceneSim::reselect_solve`]: the occlusion test
+    /// against the depth buffer and every joint's weight, then each weighted body's node
+    /// metrics and its own queue ([`OwnQueue`]). Returns the bodies and the links per class.
+    fn reselect_weigh(&mut self) -> Result<[[usize; 3]; 2], ViewError> {
+        let scene = self.scene;
+        let (threads, shared, chunk) = (self.threads.clone(), self.shared, self.chunk());
+        let cam = scene.camera.at(self.time());
+        {
+            let placed = placed(scene, &self.bodies, &self.parents, &self.margins);
+            let (settings, views) = (&scene.visibility, &mut self.views);
+            (self.classifier).occlude_with(&cam, settings, &threads, chunk, &placed, views);
+        }
+        let mut link_classes = [0; 3];
+        let mut classes = [0; 3];
+        for (b, view) in self.bodies.iter_mut().zip(&self.views) {
+            b.unweighted = view.joint_weights.iter().all(|w| *w == 0.0);
+            for c in &view.links {
+                link_classes[*c as usize] += 1;
+            }
+            classes[view.summary() as usize] += 1;
+        }
+        let views = &self.views;
+        threads.for_each_chunk(&mut self.bodies, &self.workers, chunk, |w, first, run| {
+            for (j, b) in run.iter_mut().enumerate() {
+                let i = first + j;
+                b.metrics.clear();
+                let model = &scene.models[b.model].model;
+                if !b.unweighted {
+                    b.metrics.resize(model.assembly.nodes.len(), 0.0);
+                    if !b.solved {
+                        // (Not reached: a body outside the view classifies invisible; a
+                        // safeguard against rounding at the frustum's edge.)
+                        if let Err(e) = exact_solve(scene, shared, b, i, w) {
+                            w.fail(i, e);
+                            b.metrics.clear();
+                        }
+                    }
+                    if !b.metrics.is_empty() {
+                        let weights = &views[i].joint_weights;
+                        b.adaptive
+                            .scaled_node_metrics(model, weights, &mut b.metrics);
                     }
                 }
-            });
-            first_error(&mut self.workers)?;
-            // The scene's error, summed in body order.
-            self.selection.total_error = self.bodies.iter().map(|b| b.error).sum();
-            self.last = SceneStep {
-                reselected: true,
-                active_total: 0,
-                classes,
-                link_classes,
-                total_error: self.selection.total_error,
-                ..SceneStep::default()
-            };
-        }
+                // Its own queue, for the global one.
+                b.own.run(model, &b.metrics, &mut w.heap);
+            }
+        });
+        first_error(&mut self.workers)?;
+        Ok([classes, link_classes])
+    }
+
+    /// A re-selection's last pass, once `self.selection` holds the global queue's choice: each
+    /// body's share ([`apply_selection`]), the scene's error summed in body order, and the
+    /// step's summary so far (`classes`: bodies and links per class).
+    fn reselect_apply(&mut self, forced: bool, classes: [[usize; 3]; 2]) -> Result<(), ViewError> {
+        let scene = self.scene;
+        let (threads, shared, chunk) = (self.threads.clone(), self.shared, self.chunk());
+        let (sel, first_step) = (&self.selection, self.steps == 0 || forced);
+        threads.for_each_chunk(&mut self.bodies, &self.workers, chunk, |w, first, run| {
+            for (j, b) in run.iter_mut().enumerate() {
+                let i = first + j;
+                if let Err(e) = apply_selection(scene, shared, sel, first_step, b, i, w) {
+                    w.fail(i, e);
+                }
+            }
+        });
+        first_error(&mut self.workers)?;
+        // The scene's error, summed in body order.
+        self.selection.total_error = self.bodies.iter().map(|b| b.error).sum();
+        let [classes, link_classes] = classes;
+        self.last = SceneStep {
+            reselected: true,
+            active_total: 0,
+            classes,
+            link_classes,
+            total_error: self.selection.total_error,
+            ..SceneStep::default()
+        };
+        Ok(())
+    }
+
+    /// The step of every body (after a re-selection when `reselect`; else first its pushes
+    /// and pose springs), and the step's summary.
+    fn step_bodies(&mut self, reselect: bool) -> Result<SceneStep, ViewError> {
+        let scene = self.scene;
+        let t = self.time();
+        let (threads, shared, chunk) = (self.threads.clone(), self.shared, self.chunk());
         let contact_settings = scene.contact_settings();
         let (springs, plans) = (&self.springs, &self.plans);
         threads.for_each_chunk(&mut self.bodies, &self.workers, chunk, |w, first, run| {
             for (j, b) in run.iter_mut().enumerate() {
                 let i = first + j;
                 if !reselect {
-                    prepare(b, springs, plans);
+                    prepare(scene, b, springs, plans, t);
                 }
                 if let Err(e) = step_body(scene, shared, plans, &contact_settings, b, i, w) {
                     w.fail(i, e);
@@ -1288,6 +1319,38 @@ impl<'s> SceneSim<'s> {
                 })
             })
             .collect()
+    }
+}
+
+/// Body `b` first in a step's first pass over the bodies: the pushes acting at time `t`
+/// (world wrenches about the world origin) and the pose springs' torques.
+fn prepare(
+    scene: &LoadedScene,
+    b: &mut SimBody,
+    springs: &[SpringRuns],
+    plans: &[PosePlan],
+    t: f64,
+) {
+    b.set_pushes(scene, &plans[b.model], t);
+    spring_torques(&springs[b.model], &mut b.state);
+}
+
+/// Body `i` as the camera classifies it: its volumes, link poses (those of its current state)
+/// and margin.
+fn placed<'a>(
+    scene: &'a LoadedScene,
+    bodies: &'a [SimBody],
+    parents: &'a [Vec<Option<usize>>],
+    margins: &'a [f64],
+) -> impl Fn(usize) -> Placed<'a> + Sync + 'a {
+    move |i| {
+        let b = &bodies[i];
+        Placed {
+            volumes: &scene.models[b.model].volumes,
+            poses: &b.poses,
+            parents: &parents[b.model],
+            margin: margins[i],
+        }
     }
 }
 
@@ -1458,12 +1521,10 @@ pub(crate) fn whole_reach(model: &Model, volumes: &[BodyVolumes]) -> Option<f64>
         if let Some(p) = body.parent {
             let mut r = path[p];
             for part in &body.joint {
-                match part.kind {
-                    JointKind::Revolute | JointKind::Continuous | JointKind::Fixed => {
-                        r += part.origin.r.length()
-                    }
-                    _ => return None,
+                if !part.kind.keeps_origin() {
+                    return None;
                 }
+                r += part.origin.r.length();
             }
             path[i] = r;
         }

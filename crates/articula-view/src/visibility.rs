@@ -468,26 +468,27 @@ impl Classifier {
         bodies: &[Placed],
         out: &mut Vec<BodyView>,
     ) {
-        let threads = Threads::serial();
-        self.classify_with(cam, settings, &threads, 1, bodies.len(), |b| bodies[b], out);
+        let (threads, body) = (Threads::serial(), |b| bodies[b]);
+        self.rasterize_with(cam, &threads, 1, bodies.len(), &body, out);
+        self.occlude_with(cam, settings, &threads, 1, &body, out);
     }
 
-    /// [`Classifier::classify`] of bodies `0..n`, body `b` given by `body(b)` (called twice per
-    /// body): no list of the bodies to build. The bodies are classified on `threads`, in
-    /// chunks of `chunk` bodies ([`Threads::for_each_chunk`]): each thread rasterises its
-    /// bodies' occluders into a depth buffer of its own, and the buffers are merged cell by
-    /// cell, keeping the nearest depth — a minimum, which is the same whatever the order the
-    /// balls were written in, so the buffer, and every class and weight, are the same bits
-    /// for any thread count.
-    #[allow(clippy::too_many_arguments)]
-    pub fn classify_with<'a>(
+    /// The first half of a classification of bodies `0..n`, body `b` given by `body(b)`: no
+    /// list of the bodies to build. Frustum culling of every link into `out`, and the bodies'
+    /// occluders into the depth buffer (`self.buffer`). The bodies are classified on
+    /// `threads`, in chunks of `chunk` bodies ([`Threads::for_each_chunk`]): each thread
+    /// rasterises its bodies' occluders into a depth buffer of its own, and the buffers are
+    /// merged cell by cell, keeping the nearest depth — a minimum, which is the same whatever
+    /// the order the balls were written in, so the buffer, and every class and weight, are the
+    /// same bits for any thread count. A scene split over processes merges the processes'
+    /// buffers the same way before [`Classifier::occlude_with`].
+    pub fn rasterize_with<'a>(
         &mut self,
         cam: &Camera,
-        settings: &VisibilitySettings,
         threads: &Threads,
         chunk: usize,
         n: usize,
-        body: impl Fn(usize) -> Placed<'a> + Sync,
+        body: &(impl Fn(usize) -> Placed<'a> + Sync),
         out: &mut Vec<BodyView>,
     ) {
         let frustum = cam.frustum();
@@ -510,7 +511,6 @@ impl Classifier {
         }
         out.resize_with(n, BodyView::default);
         let out = &mut out[..n];
-        let body = &body;
         // 1. Frustum culling on world bounding spheres; occluders into the depth buffers.
         threads.for_each_chunk(out, &self.workers, chunk, |w, first, views| {
             for (j, view) in views.iter_mut().enumerate() {
@@ -576,6 +576,20 @@ impl Classifier {
                 *d = if *e < *d { *e } else { *d };
             }
         }
+    }
+
+    /// The second half of a classification ([`Classifier::rasterize_with`] first): the occlusion test of every visible
+    /// link of the bodies of `out` against the depth buffer, and the weights.
+    pub fn occlude_with<'a>(
+        &mut self,
+        cam: &Camera,
+        settings: &VisibilitySettings,
+        threads: &Threads,
+        chunk: usize,
+        body: &(impl Fn(usize) -> Placed<'a> + Sync),
+        out: &mut [BodyView],
+    ) {
+        let lens = self.buffer.lens(cam);
         // 2. Occlusion, weights.
         let buffer = &self.buffer;
         threads.for_each_chunk(out, &self.workers, chunk, |w, first, views| {
@@ -784,18 +798,16 @@ impl PosePlan {
                     PlanMotion::General { body, part } => {
                         let jp = &model.bodies[body].joint[part];
                         let qj = &q[jp.q_offset..jp.q_offset + jp.nq()];
-                        x = match jp.kind {
+                        x = if jp.kind == articula_model::JointKind::Floating {
                             // Position, then the unit quaternion (w, x, y, z) normalised as
                             // `motion_transform` does, rotating the point directly.
-                            articula_model::JointKind::Floating => {
-                                let rot =
-                                    glam::DQuat::from_xyzw(qj[4], qj[5], qj[6], qj[3]).normalize();
-                                rot * x + DVec3::new(qj[0], qj[1], qj[2])
-                            }
-                            _ => {
-                                let (rm, pm) = jp.motion_transform(qj).to_pose();
-                                rm * x + pm
-                            }
+                            let rot =
+                                glam::DQuat::from_xyzw(qj[4], qj[5], qj[6], qj[3]).normalize();
+                            rot * x + DVec3::new(qj[0], qj[1], qj[2])
+                        } else {
+                            // Every kind's own motion (`JointKind::motion_transform`).
+                            let (rm, pm) = jp.motion_transform(qj).to_pose();
+                            rm * x + pm
                         };
                     }
                 }
@@ -859,17 +871,15 @@ impl PosePlan {
             }
             PlanMotion::General { body, part } => {
                 let jp = &model.bodies[body].joint[part];
-                match jp.kind {
-                    articula_model::JointKind::Revolute | articula_model::JointKind::Continuous => {
-                        *r *= DMat3::from_axis_angle(jp.axis, q[jp.q_offset])
-                    }
-                    _ => {
-                        let (rm, pm) = jp
-                            .motion_transform(&q[jp.q_offset..jp.q_offset + jp.nq()])
-                            .to_pose();
-                        *p += *r * pm;
-                        *r *= rm;
-                    }
+                if jp.kind.is_hinge() {
+                    *r *= DMat3::from_axis_angle(jp.axis, q[jp.q_offset])
+                } else {
+                    // Every kind's own motion (`JointKind::motion_transform`).
+                    let (rm, pm) = jp
+                        .motion_transform(&q[jp.q_offset..jp.q_offset + jp.nq()])
+                        .to_pose();
+                    *p += *r * pm;
+                    *r *= rm;
                 }
             }
         }

@@ -290,10 +290,8 @@ impl Caches {
         c.handles_fixed = model.bodies.iter().all(|b| {
             b.parent.is_none()
                 || b.joint.iter().enumerate().all(|(k, p)| {
-                    matches!(
-                        p.kind,
-                        JointKind::Revolute | JointKind::Continuous | JointKind::Fixed
-                    ) && (k == 0 || p.origin.r == DVec3::ZERO)
+                    (p.kind.is_hinge() || p.kind == JointKind::Fixed)
+                        && (k == 0 || p.origin.r == DVec3::ZERO)
                 })
         });
         c.allocated = true;

@@ -482,7 +482,11 @@ impl Builder<'_> {
         match kind {
             "free" => {
                 if parent != 0 {
-                    return Err(doc.err(el, None, "a free joint can only move a child of the world body"));
+                    return Err(doc.err(
+                        el,
+                        None,
+                        "a free joint can only move a child of the world body",
+                    ));
                 }
                 if dynamics.stiffness != 0.0 {
                     return Err(a.err("stiffness", "a free joint's spring is not modelled"));
@@ -494,10 +498,26 @@ impl Builder<'_> {
                 })
             }
             "hinge" | "slide" => self.scalar_joint(&a, kind == "hinge", dynamics, joint),
-            "ball" => Err(a.err(
-                "type",
-                format!("ball joint '{name}': articula has no ball joints yet (model it as three hinges)"),
-            )),
+            "ball" => {
+                if dynamics.stiffness != 0.0 {
+                    return Err(a.err("stiffness", "a ball joint's spring is not modelled"));
+                }
+                let range = a.array::<2>("range")?;
+                let limited = match a.flag("limited", None)? {
+                    Some(x) => x,
+                    None => self.compiler.autolimits && range.is_some(),
+                };
+                if limited && range.is_some_and(|[_, hi]| hi > 0.0) {
+                    ignore(&mut self.ignored, "MJCF ball joint cone limit (range)", el);
+                }
+                // The ball turns about its anchor; qpos = [qw, qx, qy, qz], qvel the angular
+                // velocity in the body frame, as in MuJoCo.
+                Ok(ReadJoint {
+                    joint: joint(JointKind::Ball, DVec3::Z, None, dynamics),
+                    anchor: DVec3::from_array(a.array::<3>("pos")?.unwrap_or([0.0; 3])),
+                    zero: SpatialTransform::IDENTITY,
+                })
+            }
             other => Err(a.err("type", format!("unknown joint type '{other}'"))),
         }
     }

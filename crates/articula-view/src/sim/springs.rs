@@ -61,8 +61,7 @@ pub fn pose_springs(
     // (body, q index, v index, free inertia)
     let mut coords: Vec<(usize, usize, usize, f64)> = Vec::new();
     for (b, part) in model.joint_parts() {
-        if part.nq() != 1
-            || part.nv() != 1
+        if !part.kind.is_scalar()
             || model.bodies[b].parent.is_none()
                 && model.floating_base
                 && part.kind == JointKind::Floating
