@@ -3,6 +3,7 @@
 mod args;
 mod bench;
 mod chart;
+mod contact_peers;
 mod corpus;
 mod crowd_chart;
 mod docs;
@@ -63,6 +64,10 @@ subcommands:
                             on a ground and run 3 s of DCA contact steps; writes
                             target/articula-drops/report.md (needs the venv's
                             example-robot-data)
+    contact-peers [--rounds N] [--only CASES] [--venv DIR]
+                            the humanoid drop, anymal standing and dropped and crowd200
+                            in articula and MuJoCo, alternated, one thread: time per
+                            step, penetration, contacts, energy (peers/contact_peers.py)
     pinocchio               compare inverse dynamics, mass matrix, bias forces, centre of
                             mass, energies, momentum, link poses and Jacobians with
                             Pinocchio's on the humanoid (needs the peers' Python:
@@ -105,6 +110,7 @@ subcommands:
 const SUBCOMMANDS: &[&str] = &[
     "corpus",
     "drops",
+    "contact-peers",
     "test",
     "mjcf-corpus",
     "models",
@@ -139,6 +145,7 @@ fn main() -> ExitCode {
     match args.first().map(String::as_str) {
         Some("corpus") => corpus::main(&workspace_root(), &args[1..]),
         Some("drops") => drops::main(&workspace_root(), &args[1..]),
+        Some("contact-peers") => contact_peers::main(&workspace_root(), &args[1..]),
         Some("test") => run(test::main(&workspace_root(), &args[1..])),
         Some("mjcf-corpus") => mjcf_corpus::main(&workspace_root(), &args[1..]),
         Some("models") if args.get(1).map(String::as_str) == Some("--chain") => {

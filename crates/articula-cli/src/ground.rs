@@ -31,6 +31,14 @@ pub struct GroundArgs {
     /// `--ground`: how the contact problem is solved (docs/contact.md#solver).
     #[arg(long, value_enum, default_value_t = SolverArg::GaussSeidel, requires = "ground")]
     pub contact_solver: SolverArg,
+    /// `--ground`: stop each contact solve once every condition holds to this residual
+    /// velocity (m/s or rad/s; default the library's, docs/contact.md#solver).
+    #[arg(long, value_name = "V", requires = "ground", value_parser = crate::parse_nonnegative)]
+    pub contact_tolerance: Option<f64>,
+    /// `--ground`: at most this many solver iterations per contact solve (1..=10000; default
+    /// the library's).
+    #[arg(long, value_name = "N", requires = "ground")]
+    pub contact_iterations: Option<usize>,
 }
 
 /// `--contact-solver`.
@@ -91,6 +99,23 @@ impl GroundArgs {
             SolverArg::GaussSeidel => ContactSolver::GaussSeidel,
             SolverArg::Subspace => ContactSolver::Subspace,
         };
+        if let Some(t) = self.contact_tolerance {
+            if !(t > 0.0 && t.is_finite()) {
+                return Err(CliError(format!(
+                    "--contact-tolerance must be a positive number (m/s), got {t}"
+                )));
+            }
+            contact.tolerance = t;
+        }
+        if let Some(n) = self.contact_iterations {
+            if n == 0 || n > articula_dca::CONTACT_MAX_ITERATIONS {
+                return Err(CliError(format!(
+                    "--contact-iterations must lie in 1..={}, got {n}",
+                    articula_dca::CONTACT_MAX_ITERATIONS
+                )));
+            }
+            contact.max_iterations = n;
+        }
         options.drop = self.drop;
         // With the joint limits enforced and no state file, the run starts in the rest pose
         // (the neutral pose moved into the limits), not against a limit it violates.
@@ -109,6 +134,7 @@ pub fn add_json(sim: &Simulation, j: &mut serde_json::Value) {
     j["contact_rows_mean"] = serde_json::json!(tally.per_step(tally.rows));
     j["response_solves_mean"] = serde_json::json!(tally.per_step(tally.response_solves));
     j["steps_not_converged"] = serde_json::json!(tally.not_converged);
+    j["worst_residual_m_per_s"] = serde_json::json!(tally.worst_residual);
     let f = forces.total().f;
     j["ground_force_end_n"] = serde_json::json!([f.x, f.y, f.z]);
 }
@@ -138,11 +164,16 @@ pub fn lines(sim: &Simulation, kinetic_end: f64) -> Vec<String> {
         ),
         format!("max_penetration_m {:.3e}", tally.max_penetration),
         format!(
-            "contacts     {:.2} per step (mean), {:.2} rows, {:.2} response columns; {} step(s) not converged",
+            "contacts     {:.2} per step (mean), {:.2} rows, {:.2} response columns; {} step(s) not converged{}",
             tally.per_step(tally.contacts),
             tally.per_step(tally.rows),
             tally.per_step(tally.response_solves),
-            tally.not_converged
+            tally.not_converged,
+            if tally.not_converged > 0 {
+                format!(" (largest residual {:.1e} m/s)", tally.worst_residual)
+            } else {
+                String::new()
+            }
         ),
         format!("kinetic end  {kinetic_end:.6e} J"),
         format!(

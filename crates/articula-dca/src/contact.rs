@@ -164,6 +164,11 @@ pub struct ContactStats {
     pub iterations: usize,
     /// Whether the sweeps met `tolerance`.
     pub converged: bool,
+    /// The solve's largest violation of its conditions at its end (m/s or rad/s: a pushing
+    /// row off its target, a row approaching below it, a sticking contact's slip, a sliding
+    /// one's slip not opposing its force); at most `tolerance` when `converged`, 0 without
+    /// rows.
+    pub residual: f64,
     /// The deepest penetration into the ground at the start of the step (m, ≥ 0).
     pub max_penetration: f64,
 }
@@ -211,7 +216,7 @@ impl SphereRun {
             let center = 0.5 * (lo + hi);
             let reach = run
                 .iter()
-                .map(|s| (s.center - center).length() + s.radius)
+                .map(|s| (s.center - center).length() + s.extent())
                 .fold(0.0, f64::max);
             runs.push(SphereRun {
                 body,
@@ -493,7 +498,7 @@ impl ContactData {
             .collision
             .spheres
             .iter()
-            .map(|s| (data.x[s.body].apply_point(s.center) + data.origin).z - s.radius)
+            .map(|s| (sphere_center(data, s, DVec3::Z) + data.origin).z - s.radius)
             .fold(f64::INFINITY, f64::min)
     }
 
@@ -744,6 +749,7 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     let solve = solve_rows(&mut cd.s, settings, settings.tolerance);
     cd.stats.iterations = solve.iterations;
     cd.stats.converged = solve.converged;
+    cd.stats.residual = contact_solver::residual(&cd.s.blocks, &cd.s.target, &cd.s.lambda, &cd.s.u);
     store_warm_starts(cd);
     record_forces(cd, origin, dt);
     // 5. q̇⁺ = v_free + M⁻¹ Jᵀ λ (one pass over the tree), q⁺ = q ⊕ dt q̇⁺.
@@ -756,6 +762,19 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     // 6. Post-stabilisation of what penetrates deeper than the slop.
     post_stabilise(model, dynamics, cd, state, dt, settings);
     finish(model, state)
+}
+
+/// The world centre (relative to `data.origin`) of contact sphere `s` in the kinematics
+/// `data`, against a plane of normal `n` (a rim point's place depends on it:
+/// [`articula_model::ContactSphere::center_facing`]).
+pub fn sphere_center(data: &Data, s: &articula_model::ContactSphere, n: DVec3) -> DVec3 {
+    let x = &data.x[s.body];
+    if s.rim.is_none() {
+        return x.apply_point(s.center);
+    }
+    // The normal in the body frame: x maps body points affinely, p ↦ R p + t.
+    let t = x.apply_point(DVec3::ZERO);
+    x.apply_point(s.center_facing(x.inv_apply_point(t + n)))
 }
 
 /// Stage 2 of [`step_with_dynamics`] at the ground: the candidate contact spheres (those the
@@ -784,7 +803,7 @@ fn ground_candidates(
         }
         for si in run.first..run.end {
             let s = &cd.shape.collision.spheres[si];
-            let c = data.x[s.body].apply_point(s.center);
+            let c = sphere_center(data, s, n);
             let phi = n.dot(c + data.origin - g.point) - s.radius;
             cd.stats.max_penetration = cd.stats.max_penetration.max(-phi);
             let r = c - n * s.radius;
@@ -1465,7 +1484,7 @@ mod tests {
             forward_kinematics(&model, &state.q, &state.qd, &mut data);
             let expected: Vec<usize> = (cd.collision().spheres.iter().enumerate())
                 .filter(|(_, s)| {
-                    let c = data.x[s.body].apply_point(s.center);
+                    let c = sphere_center(&data, s, DVec3::Z);
                     let phi = (c + data.origin).z - s.radius;
                     let v = data.v[s.body];
                     let pre = (v.v + v.w.cross(c - DVec3::Z * s.radius)).z;
@@ -1545,7 +1564,7 @@ mod tests {
             let nh = ground.normal.normalize();
             let gap = (cd.collision().spheres.iter())
                 .map(|s| {
-                    let c = data.x[s.body].apply_point(s.center) + data.origin;
+                    let c = sphere_center(&data, s, nh) + data.origin;
                     nh.dot(c - ground.point) - s.radius
                 })
                 .fold(f64::INFINITY, f64::min);
@@ -1568,7 +1587,9 @@ mod tests {
             )
             .unwrap();
             let k = cd.stats.rows;
-            assert!(k >= 20 && cd.stats.limits >= 1, "{:?}", cd.stats);
+            // (The small margin meets the lying limbs' one rim point per cap: fewer rows.)
+            let least = if margin > 0.1 { 20 } else { 10 };
+            assert!(k >= least && cd.stats.limits >= 1, "{:?}", cd.stats);
             by_phi |= cd.s.slot_basis.contains(&Basis::Ready);
             by_row |= cd.s.slot_basis.contains(&Basis::Rows);
             // Dense J from the start-of-step kinematics (still in `data`).

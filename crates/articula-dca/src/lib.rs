@@ -77,9 +77,9 @@ mod threads;
 
 pub use batch::{Batch, BatchError};
 pub use contact::{
-    step_with_contact, step_with_dynamics, ContactData, ContactDynamics, ContactError,
-    ContactForces, ContactScratch, ContactSettings, ContactSolver, ContactStats, Ground,
-    MAX_ITERATIONS as CONTACT_MAX_ITERATIONS,
+    sphere_center, step_with_contact, step_with_dynamics, ContactData, ContactDynamics,
+    ContactError, ContactForces, ContactScratch, ContactSettings, ContactSolver, ContactStats,
+    Ground, MAX_ITERATIONS as CONTACT_MAX_ITERATIONS,
 };
 pub use data::Data;
 pub use error::{DynamicsError, MAX_DENSE_MATRIX_BYTES};

@@ -10,7 +10,7 @@
 //! | sphere (radius r) | 1: its centre, radius r (the closest point to any plane) |
 //! | capsule (radius r, length l) | 2: the end spheres' centres `±l/2 z`, radius r |
 //! | box (size a × b × c) | 8: the corners, radius 0 |
-//! | cylinder (radius r, length l) | 16: 8 points on each cap's rim (every 45°), radius 0 |
+//! | cylinder (radius r, length l) | 8: 4 [`Rim`] points on each cap's rim, placed by the plane: the rim's lowest point and the points 90°, 180° and 270° round from it, radius 0 |
 //! | mesh | the body's inertia box, once per body (meshes are not read) |
 //!
 //! A body with no readable shape gets its **inertia box**: the box of uniform density with
@@ -24,15 +24,59 @@ use crate::{Model, Shape};
 use articula_spatial::{SpatialInertia, SpatialTransform};
 use glam::DVec3;
 
-/// One contact sphere of a body: `center` in the body frame, `radius` (0 for a corner).
+/// One contact sphere of a body: `center` in the body frame, `radius` (0 for a corner), or a
+/// point of a cylinder's rim placed by the plane it meets (`rim`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ContactSphere {
     /// The body (index into `model.bodies`).
     pub body: usize,
-    /// Centre in the body frame (m).
+    /// Centre in the body frame (m); for a rim point, the centre of its cap.
     pub center: DVec3,
     /// Radius (m); 0 for a box corner or a cylinder rim point.
     pub radius: f64,
+    /// For a cylinder's rim point: where on the rim ([`ContactSphere::center_facing`]).
+    pub rim: Option<Rim>,
+}
+
+/// A point on a cylinder cap's rim (circle of `radius` about `axis` through the sphere's
+/// `center`), `angle` round from the rim's point nearest a plane (about `axis`): angle 0 is
+/// the lowest point of the rim over the plane, whatever the cylinder's orientation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rim {
+    /// The cylinder's axis (unit, body frame).
+    pub axis: DVec3,
+    /// The rim's radius (m).
+    pub radius: f64,
+    /// Radians round the axis from the lowest point.
+    pub angle: f64,
+}
+
+impl ContactSphere {
+    /// The sphere's centre (body frame) against a plane whose normal, in the body frame, is
+    /// `normal` (unit, pointing away from the plane): `center`, or for a rim point its place
+    /// on the rim — the lowest (`angle` 0: `center − r d`, `d` the normal's direction across
+    /// the axis) turned by `angle` about the axis. With the axis along the normal (a cylinder
+    /// standing on a cap) any direction across it serves: every rim point is equally low.
+    pub fn center_facing(&self, normal: DVec3) -> DVec3 {
+        let Some(rim) = self.rim else {
+            return self.center;
+        };
+        let across = normal - rim.axis * rim.axis.dot(normal);
+        let len = across.length();
+        let d = if len > 1e-12 {
+            across / len
+        } else {
+            rim.axis.any_orthonormal_vector()
+        };
+        let e = rim.axis.cross(d);
+        self.center - rim.radius * (rim.angle.cos() * d + rim.angle.sin() * e)
+    }
+
+    /// The largest distance from `center` of any point of the sphere, wherever a rim point
+    /// sits: `radius` plus the rim's radius.
+    pub fn extent(&self) -> f64 {
+        self.radius + self.rim.map_or(0.0, |r| r.radius)
+    }
 }
 
 /// The contact spheres of every body of a model, built once ([`CollisionModel::new`]),
@@ -57,18 +101,22 @@ impl CollisionModel {
             let mut has_mesh = false;
             let mut any = false;
             for g in &body.geometry {
-                let local = shape_points(&g.shape);
                 if g.shape == Shape::Mesh {
                     has_mesh = true;
                     continue;
                 }
                 any = true;
                 out.urdf_shapes += 1;
+                // The shape's frame in the body's: its points and its axis.
+                let axis = g.origin.apply_point(DVec3::Z) - g.origin.apply_point(DVec3::ZERO);
                 out.spheres
-                    .extend(local.into_iter().map(|(c, radius)| ContactSphere {
-                        body: b,
-                        center: g.origin.apply_point(c),
-                        radius,
+                    .extend(shape_spheres(&g.shape).into_iter().map(|(c, radius, rim)| {
+                        ContactSphere {
+                            body: b,
+                            center: g.origin.apply_point(c),
+                            radius,
+                            rim: rim.map(|r| Rim { axis, ..r }),
+                        }
                     }));
             }
             if has_mesh {
@@ -82,6 +130,7 @@ impl CollisionModel {
                             body: b,
                             center: pose.apply_point(c),
                             radius: 0.0,
+                            rim: None,
                         }));
                 }
             }
@@ -107,8 +156,37 @@ impl CollisionModel {
     }
 }
 
-/// The contact spheres `(centre, radius)` of one shape in its own frame (module table); none
-/// for a mesh.
+/// Rim points per cylinder cap.
+pub const RIM_POINTS: usize = 4;
+
+/// The contact spheres `(centre, radius, rim)` of one shape in its own frame (module table;
+/// a rim's axis is the shape's z); none for a mesh.
+pub fn shape_spheres(shape: &Shape) -> Vec<(DVec3, f64, Option<Rim>)> {
+    match *shape {
+        Shape::Cylinder { radius, length } => {
+            let mut v = Vec::with_capacity(2 * RIM_POINTS);
+            for z in [-0.5 * length, 0.5 * length] {
+                for k in 0..RIM_POINTS {
+                    let rim = Rim {
+                        axis: DVec3::Z,
+                        radius,
+                        angle: k as f64 * std::f64::consts::TAU / RIM_POINTS as f64,
+                    };
+                    v.push((DVec3::new(0.0, 0.0, z), 0.0, Some(rim)));
+                }
+            }
+            v
+        }
+        _ => shape_points(shape)
+            .into_iter()
+            .map(|(c, r)| (c, r, None))
+            .collect(),
+    }
+}
+
+/// The fixed contact spheres `(centre, radius)` of one shape in its own frame: a sphere's
+/// centre, a capsule's end spheres, a box's corners; none for a cylinder (its rim points
+/// move with the plane: [`shape_spheres`]) or a mesh.
 pub fn shape_points(shape: &Shape) -> Vec<(DVec3, f64)> {
     match *shape {
         Shape::Sphere { radius } => vec![(DVec3::ZERO, radius)],
@@ -117,17 +195,7 @@ pub fn shape_points(shape: &Shape) -> Vec<(DVec3, f64)> {
             (DVec3::new(0.0, 0.0, 0.5 * length), radius),
         ],
         Shape::Box { size } => box_corners(size).into_iter().map(|c| (c, 0.0)).collect(),
-        Shape::Cylinder { radius, length } => {
-            let mut v = Vec::with_capacity(16);
-            for z in [-0.5 * length, 0.5 * length] {
-                for k in 0..8 {
-                    let a = k as f64 * std::f64::consts::FRAC_PI_4;
-                    v.push((DVec3::new(radius * a.cos(), radius * a.sin(), z), 0.0));
-                }
-            }
-            v
-        }
-        Shape::Mesh => Vec::new(),
+        Shape::Cylinder { .. } | Shape::Mesh => Vec::new(),
     }
 }
 
@@ -199,19 +267,64 @@ mod tests {
         );
     }
 
-    /// Cylinder rim points lie on the rim; capsule ends at ±l/2 with the radius.
+    /// A cylinder's rim points are its lowest rim points over any plane: tilted, the lowest
+    /// is the support point `c − r d` (checked against the minimum over 3,600 rim points), and
+    /// standing on a cap its 4 points span the cap (a square of side `r √2`); capsule ends at
+    /// ±l/2 with the radius.
     #[test]
     fn shape_points_lie_on_the_shapes() {
-        let pts = shape_points(&Shape::Cylinder {
+        let cyl = Shape::Cylinder {
             radius: 0.3,
             length: 1.0,
-        });
-        assert_eq!(pts.len(), 16);
-        for (p, r) in pts {
-            assert_eq!(r, 0.0);
-            assert!(((p.x * p.x + p.y * p.y).sqrt() - 0.3).abs() < 1e-15);
-            assert!((p.z.abs() - 0.5).abs() < 1e-15);
+        };
+        let pts = shape_spheres(&cyl);
+        assert_eq!(pts.len(), 2 * RIM_POINTS);
+        let spheres: Vec<ContactSphere> = pts
+            .iter()
+            .map(|&(center, radius, rim)| ContactSphere {
+                body: 0,
+                center,
+                radius,
+                rim,
+            })
+            .collect();
+        for normal in [
+            DVec3::new(0.3, -0.2, 0.9).normalize(),
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(0.0, 0.0, -1.0),
+        ] {
+            // The lowest point of the whole rim, sampled finely, along `normal`.
+            let sampled = (0..3600)
+                .flat_map(|k| {
+                    let a = k as f64 * std::f64::consts::TAU / 3600.0;
+                    [-0.5, 0.5].map(|z| DVec3::new(0.3 * a.cos(), 0.3 * a.sin(), z).dot(normal))
+                })
+                .fold(f64::INFINITY, f64::min);
+            let ours = spheres
+                .iter()
+                .map(|s| s.center_facing(normal).dot(normal))
+                .fold(f64::INFINITY, f64::min);
+            assert!(
+                ours <= sampled + 1e-12 && ours > sampled - 1e-6,
+                "{ours} {sampled}"
+            );
+            for s in &spheres {
+                let p = s.center_facing(normal);
+                assert!(((p.x * p.x + p.y * p.y).sqrt() - 0.3).abs() < 1e-15);
+                assert!((p.z.abs() - 0.5).abs() < 1e-15);
+                assert_eq!(s.extent(), 0.3);
+            }
         }
+        // Standing on its lower cap (normal +z): that cap's 4 points, a square on the rim.
+        let low: Vec<DVec3> = spheres[..RIM_POINTS]
+            .iter()
+            .map(|s| s.center_facing(DVec3::Z))
+            .collect();
+        for k in 0..RIM_POINTS {
+            let side = (low[k] - low[(k + 1) % RIM_POINTS]).length();
+            assert!((side - 0.3 * 2f64.sqrt()).abs() < 1e-14, "{side}");
+        }
+        assert_eq!(shape_points(&cyl), vec![]);
         let caps = shape_points(&Shape::Capsule {
             radius: 0.1,
             length: 0.4,

@@ -62,7 +62,9 @@ mod warning;
 pub use assembly::{AssemblyNode, AssemblyTree, HandleLayout, NodeKind, GATHER_ABOVE};
 pub use atomic_file::AtomicFile;
 pub use body_inertia::{InertiaChange, InertiaDefect, InertiaDefectKind};
-pub use collision::{inertia_box, shape_points, CollisionModel, ContactSphere};
+pub use collision::{
+    inertia_box, shape_points, shape_spheres, CollisionModel, ContactSphere, Rim, RIM_POINTS,
+};
 pub use dynamics::{DofDynamics, JointDynamics};
 pub use error::ModelError;
 pub use joint::{integrate_floating, JointKind, JOINT_KINDS};

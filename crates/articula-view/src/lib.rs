@@ -42,6 +42,7 @@ pub use scene_file::{
     load_scene, load_scene_limited, load_scene_options, load_scene_with, parse_scene,
     parse_scene_with,
 };
+pub use sim::pose_springs;
 pub use sim::{
     combine_state_hashes, combine_steps, merge_candidates, merge_depths, Candidate, Candidates,
     DepthMessage, SceneEnergy, SceneMethod, SceneShard, SceneSim, SceneStep, ShardRange, ShardStep,

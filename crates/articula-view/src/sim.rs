@@ -51,7 +51,7 @@ pub use shard::{
     combine_state_hashes, combine_steps, merge_candidates, merge_depths, Candidate, Candidates,
     DepthMessage, SceneShard, ShardRange, ShardStep,
 };
-use springs::pose_springs;
+pub use springs::pose_springs;
 use std::collections::BinaryHeap;
 use std::sync::Mutex;
 pub use view_error::ViewDeviation;

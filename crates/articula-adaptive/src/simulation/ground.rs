@@ -10,6 +10,7 @@ use articula_dca::{
 };
 use articula_model::Model;
 use articula_spatial::SpatialForce;
+use glam::DVec3;
 
 /// Ground contact of a simulation.
 #[derive(Clone, Debug)]
@@ -56,6 +57,9 @@ pub struct ContactTally {
     pub response_solves: u64,
     /// Steps whose solver did not meet its tolerance.
     pub not_converged: u64,
+    /// The largest residual those steps' solves ended with (m/s; `ContactStats::residual`),
+    /// 0 when every solve converged.
+    pub worst_residual: f64,
     /// The deepest penetration seen at the start of a step (m).
     pub max_penetration: f64,
 }
@@ -68,6 +72,9 @@ impl ContactTally {
         self.rows += s.rows as u64;
         self.response_solves += s.response_solves as u64;
         self.not_converged += (!s.converged) as u64;
+        if !s.converged {
+            self.worst_residual = self.worst_residual.max(s.residual);
+        }
         self.max_penetration = self.max_penetration.max(s.max_penetration);
     }
 
@@ -154,7 +161,7 @@ impl ContactRun {
             .spheres
             .iter()
             .map(|s| {
-                let z = (data.x[s.body].apply_point(s.center) + data.origin).z - s.radius;
+                let z = (articula_dca::sphere_center(data, s, DVec3::Z) + data.origin).z - s.radius;
                 (z, s.body)
             })
             .fold(None, |low: Option<(f64, usize)>, (z, b)| match low {

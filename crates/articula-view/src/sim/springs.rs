@@ -42,7 +42,7 @@ const INTEGRATION_SHARE: f64 = 0.25;
 /// Pose springs of every internal one-coordinate degree of freedom of `model` for time step
 /// `dt`, `(q index, v index, k, c)` (module documentation); `stance`: scale them by the stance
 /// inertia (a scene with a floor). A coordinate the dynamics cannot move gets none.
-pub(crate) fn pose_springs(
+pub fn pose_springs(
     model: &Model,
     frequency_hz: f64,
     damping_ratio: f64,
@@ -125,7 +125,7 @@ fn stance_inertia(model: &Model, q: &[f64]) -> Option<Vec<f64>> {
     forward_kinematics(model, q, &vec![0.0; model.nv], &mut data);
     let low = |s: &articula_model::ContactSphere| {
         let (r, p) = data.body_pose(s.body);
-        (r * s.center + p).z - s.radius
+        (r * s.center_facing(r.transpose() * glam::DVec3::Z) + p).z - s.radius
     };
     let lowest = collision
         .spheres
