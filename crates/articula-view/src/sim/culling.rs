@@ -13,8 +13,8 @@
 //! budget: the classic view-dependent culling of animation systems, in the scene's own code.
 
 use super::{
-    body_error, first_error, model_error, placed, spring_torques, step_body, take_sums,
-    SceneMethod, SceneSim, SceneStep, SimBody, Worker,
+    body_error, first_error, model_error, placed, spring_torques, SceneMethod, SceneSim, SceneStep,
+    SimBody, Worker,
 };
 use crate::error::ViewError;
 use crate::scene_file::LoadedScene;
@@ -77,30 +77,7 @@ impl SceneSim<'_> {
                 ..SceneStep::default()
             };
         }
-        let contact_settings = scene.contact_settings();
-        let (springs, plans) = (&self.springs, &self.plans);
-        threads.for_each_chunk(&mut self.bodies, &self.workers, chunk, |w, first, run| {
-            for (j, b) in run.iter_mut().enumerate() {
-                let i = first + j;
-                if !reselect {
-                    b.set_pushes(scene, &plans[b.model], t);
-                    spring_torques(&springs[b.model], &mut b.state);
-                }
-                if let Err(e) = step_body(scene, shared, plans, &contact_settings, b, i, w) {
-                    w.fail(i, e);
-                }
-            }
-        });
-        let mut out = self.last.clone();
-        out.reselected = reselect;
-        take_sums(&mut self.workers, &mut out);
-        if !reselect {
-            self.add_push_work();
-        }
-        first_error(&mut self.workers)?;
-        self.steps += 1;
-        self.last_active = out.active_total;
-        Ok(out)
+        self.step_bodies(reselect)
     }
 }
 
