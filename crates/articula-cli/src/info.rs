@@ -144,10 +144,22 @@ fn round(x: f64) -> f64 {
     (x * 1e9).round() / 1e9
 }
 
+/// "MJCF" or "URDF": the format `Model::from_file` read `path` as (its first 64 KiB decide).
+fn file_format(path: &Path) -> &'static str {
+    use std::io::Read;
+    let mut head = Vec::new();
+    let read = std::fs::File::open(path).and_then(|f| f.take(1 << 16).read_to_end(&mut head));
+    match read {
+        Ok(_) if articula_model::is_mjcf(&String::from_utf8_lossy(&head)) => "MJCF",
+        _ => "URDF",
+    }
+}
+
 /// Runs `articula info`.
 pub fn run(path: &Path, options: &LoadOptions, json: bool, tree: bool) -> Result<(), CliError> {
     let model = Model::from_file(path, options)?;
     let info = Info::of(&model);
+    let format = file_format(path);
     if json {
         return crate::print_out(&format!("{}\n", serde_json::to_string_pretty(&info)?));
     }
@@ -158,7 +170,7 @@ pub fn run(path: &Path, options: &LoadOptions, json: bool, tree: bool) -> Result
     writeln!(out, "robot        {}", info.name)?;
     writeln!(
         out,
-        "URDF         {} links, {} joints",
+        "{format:<12} {} links, {} joints",
         info.urdf_links, info.urdf_joints
     )?;
     writeln!(
@@ -195,7 +207,7 @@ pub fn run(path: &Path, options: &LoadOptions, json: bool, tree: bool) -> Result
         .joint_parts()
         .filter(|(_, p)| p.limits.is_some())
         .count();
-    writeln!(out, "limits       {limited} joints with URDF limits")?;
+    writeln!(out, "limits       {limited} joints with {format} limits")?;
     if !info.composed_joints.is_empty() {
         writeln!(out, "composed joints (through massless links):")?;
         for c in &info.composed_joints {

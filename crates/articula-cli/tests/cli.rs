@@ -213,3 +213,15 @@ fn closed_stdout_is_not_a_panic() {
         "a closed pipe is not an error; stderr:\n{stderr}"
     );
 }
+
+/// `info` names the format the file was read as: the bundled MJCF humanoid's ten ball joints
+/// (3 DOF each) and its free root give 41 DOF; the URDF humanoid says URDF.
+#[test]
+fn info_names_the_file_format() {
+    let text = stdout(&info(&models_dir().join("humanoid_ball.xml"), &[]));
+    assert!(text.contains("\nMJCF "), "{text}");
+    assert!(text.contains("41 DOF"), "{text}");
+    assert!(text.contains("joints with MJCF limits"), "{text}");
+    let text = stdout(&info(&models_dir().join("humanoid.urdf"), &[]));
+    assert!(text.contains("\nURDF "), "{text}");
+}

@@ -51,6 +51,7 @@ mod dynamics;
 mod error;
 mod joint;
 mod mjcf;
+pub use mjcf::is_mjcf;
 mod model;
 mod options;
 mod urdf;

@@ -39,8 +39,9 @@ pub(crate) fn read_str(text: &str) -> Result<MjcfRobot, ModelError> {
     read(Doc::read_str(text)?)
 }
 
-/// Whether text looks like MJCF (its root element is `<mujoco>`), for `Model::from_file`.
-pub(crate) fn is_mjcf(text: &str) -> bool {
+/// Whether text looks like MJCF (its root element is `<mujoco>`): how `Model::from_file` tells
+/// MJCF from URDF.
+pub fn is_mjcf(text: &str) -> bool {
     let mut rest = text.trim_start_matches('\u{feff}');
     loop {
         rest = rest.trim_start();
