@@ -115,16 +115,11 @@ pub fn main(root: &Path, args: &[String]) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let python = opts.venv.join("bin/python");
-    if !python.exists() {
-        eprintln!(
-            "error: no Python at {}; create the venv from the workspace root with\n    {}\n\
-             or pass --venv DIR",
-            python.display(),
-            crate::corpus::INSTALL
-        );
-        return ExitCode::from(2);
-    }
+    let needs = "the harness needs mujoco and example-robot-data";
+    let python = match crate::corpus::venv_python(&opts.venv, needs, crate::corpus::INSTALL) {
+        Ok(p) => p,
+        Err(code) => return code,
+    };
     match run(root, &opts, &python) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -141,6 +141,21 @@ fn parse(root: &Path, args: &[String]) -> Result<Options, String> {
     Ok(o)
 }
 
+/// `VENV/bin/python`, or (printed) the error a subcommand exits 2 with when it is missing:
+/// what the subcommand `needs` from it and how to create it (`install`).
+pub(crate) fn venv_python(venv: &Path, needs: &str, install: &str) -> Result<PathBuf, ExitCode> {
+    let python = venv.join("bin/python");
+    if python.exists() {
+        return Ok(python);
+    }
+    eprintln!(
+        "error: no Python at {} ({needs}); create the venv from the workspace root with\n    \
+         {install}\nor pass --venv DIR",
+        python.display()
+    );
+    Err(ExitCode::from(2))
+}
+
 /// Runs the subcommand: 0 when every loaded robot matches Pinocchio, 1 when one does not (or
 /// something failed), 2 on bad arguments or a missing venv.
 pub fn main(root: &Path, args: &[String]) -> ExitCode {
@@ -152,15 +167,11 @@ pub fn main(root: &Path, args: &[String]) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let python = opts.venv.join("bin/python");
-    if !python.exists() {
-        eprintln!(
-            "error: no Python at {} (the corpus check needs pin and example-robot-data); \
-             create the venv from the workspace root with\n    {INSTALL}\nor pass --venv DIR",
-            python.display()
-        );
-        return ExitCode::from(2);
-    }
+    let needs = "the corpus check needs pin and example-robot-data";
+    let python = match venv_python(&opts.venv, needs, INSTALL) {
+        Ok(p) => p,
+        Err(code) => return code,
+    };
     let located = match locate(root, &python) {
         Ok(l) => l,
         Err(e) => {

@@ -168,16 +168,11 @@ pub fn main(root: &Path, args: &[String]) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let python = opts.venv.join("bin/python");
-    if !python.exists() {
-        eprintln!(
-            "error: no Python at {} (the robots come from example-robot-data); create the \
-             venv from the workspace root with\n    {}\nor pass --venv DIR",
-            python.display(),
-            corpus::INSTALL
-        );
-        return ExitCode::from(2);
-    }
+    let needs = "the robots come from example-robot-data";
+    let python = match corpus::venv_python(&opts.venv, needs, corpus::INSTALL) {
+        Ok(p) => p,
+        Err(code) => return code,
+    };
     let located = match corpus::locate(root, &python) {
         Ok(l) => l,
         Err(e) => {

@@ -72,15 +72,13 @@ pub fn main(root: &Path, args: &[String]) -> ExitCode {
             other => return usage_error(&format!("unknown argument '{other}'")),
         }
     }
-    let python = venv.join("bin/python");
-    if !python.exists() {
-        eprintln!(
-            "no Python at {} (create it: python3 -m venv target/peers-venv && \
-             target/peers-venv/bin/pip install mujoco dm-control gymnasium)",
-            python.display()
-        );
-        return ExitCode::from(2);
-    }
+    let install = "python3 -m venv target/peers-venv && \
+                   target/peers-venv/bin/pip install mujoco dm-control gymnasium";
+    let needs = "the corpus needs mujoco, dm-control and gymnasium";
+    let python = match crate::corpus::venv_python(&venv, needs, install) {
+        Ok(p) => p,
+        Err(code) => return code,
+    };
     match run(root, &python, quick) {
         Ok(true) => ExitCode::SUCCESS,
         Ok(false) => ExitCode::FAILURE,

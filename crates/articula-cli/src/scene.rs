@@ -78,13 +78,13 @@ pub struct SceneArgs {
     pub gltf: crate::gltf_out::GltfArgs,
 }
 
+/// An exact method by `--method`'s names.
 fn parse_reference(s: &str) -> Result<articula_dca::Method, String> {
-    match s {
-        "dca" => Ok(articula_dca::Method::Dca),
-        "aba" => Ok(articula_dca::Method::Aba),
-        "crba" => Ok(articula_dca::Method::Crba),
-        _ => Err(format!("unknown reference '{s}' (dca, aba or crba)")),
-    }
+    use clap::ValueEnum;
+    crate::MethodArg::from_str(s, false)
+        .ok()
+        .and_then(crate::MethodArg::exact)
+        .ok_or_else(|| format!("unknown reference '{s}' (dca, aba or crba)"))
 }
 
 fn parse_finite(s: &str) -> Result<f64, String> {
@@ -154,7 +154,11 @@ fn write_frame(
 }
 
 /// Runs `articula scene`.
-pub fn run(args: &SceneArgs) -> Result<(), CliError> {
+/// The checked flags' scene: the file with the command line's overrides (its models'
+/// warnings printed, `--out` created), and the exact method `--method` asks for, if any.
+fn load(
+    args: &SceneArgs,
+) -> Result<(articula_view::LoadedScene, Option<articula_dca::Method>), CliError> {
     let exact = args.method.exact();
     if exact.is_some() && args.budget.is_some() {
         return Err(CliError("--budget needs --method adaptive".to_string()));
@@ -184,6 +188,11 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
         std::fs::create_dir_all(dir)
             .map_err(|e| CliError(format!("cannot create {}: {e}", dir.display())))?;
     }
+    Ok((scene, exact))
+}
+
+pub fn run(args: &SceneArgs) -> Result<(), CliError> {
+    let (scene, exact) = load(args)?;
     let mut sim = SceneSim::new(&scene)?;
     sim.set_threads(crate::threads(args.threads)?);
     if let Some(m) = exact {

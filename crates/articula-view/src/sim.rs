@@ -1391,6 +1391,22 @@ fn apply_selection(
     if !needed {
         return Ok(());
     }
+    // Exactly the chosen joints stay free; the others are locked by momentum-keeping
+    // impulses (no second articulated pass).
+    let scratch = shared.then(|| &mut w.scratch[b.model]);
+    free_exactly(scene, scratch, b, i, |j| wanted[tree.joint_node[j]])
+}
+
+/// Body `i` (`b`) with its share `b.allocation` as its budget and exactly the joints `free`
+/// says (by body index) left free, the others locked by momentum-keeping impulses; `scratch`
+/// the worker's workspace for the body's model when workspaces are shared.
+pub(super) fn free_exactly(
+    scene: &LoadedScene,
+    scratch: Option<&mut Scratch>,
+    b: &mut SimBody,
+    i: usize,
+    free: impl Fn(usize) -> bool,
+) -> Result<(), ViewError> {
     // (Its own re-selection, should the workspace ever run one, keeps the share.)
     let settings = Settings {
         budget: Some(b.allocation),
@@ -1401,14 +1417,11 @@ fn apply_selection(
     b.adaptive
         .set_settings(settings)
         .map_err(|e| model_error(scene, b.model, e))?;
-    // Exactly the chosen joints stay free; the others are locked by momentum-keeping
-    // impulses (no second articulated pass).
-    let wanted = |j: usize| wanted[tree.joint_node[j]];
+    let model = &scene.models[b.model].model;
     let (ad, state) = (&mut b.adaptive, &mut b.state);
-    if shared {
-        ad.set_active_with(&mut w.scratch[b.model], model, state, wanted)
-    } else {
-        ad.set_active(model, state, wanted)
+    match scratch {
+        Some(scratch) => ad.set_active_with(scratch, model, state, free),
+        None => ad.set_active(model, state, free),
     }
     .map_err(|e| body_error(scene, i, e))?;
     b.rigid = None;

@@ -13,13 +13,12 @@
 //! budget: the classic view-dependent culling of animation systems, in the scene's own code.
 
 use super::{
-    body_error, first_error, model_error, placed, spring_torques, SceneMethod, SceneSim, SceneStep,
-    SimBody, Worker,
+    first_error, free_exactly, placed, spring_torques, SceneMethod, SceneSim, SceneStep, SimBody,
+    Worker,
 };
 use crate::error::ViewError;
 use crate::scene_file::LoadedScene;
 use crate::visibility::Visibility;
-use articula_adaptive::Settings;
 
 impl SceneSim<'_> {
     /// [`SceneSim::step`] by the culling baseline ([`SceneMethod::Culling`]).
@@ -109,24 +108,8 @@ fn cull(
     if !b.changed {
         return Ok(());
     }
-    let settings = Settings {
-        budget: Some(b.allocation),
-        tolerance: None,
-        reselect_every: u64::MAX,
-        velocity_tolerance: None,
-    };
-    b.adaptive
-        .set_settings(settings)
-        .map_err(|e| model_error(scene, b.model, e))?;
-    let (ad, state) = (&mut b.adaptive, &mut b.state);
-    if shared {
-        ad.set_active_with(&mut w.scratch[b.model], model, state, |_| in_view)
-    } else {
-        ad.set_active(model, state, |_| in_view)
-    }
-    .map_err(|e| body_error(scene, i, e))?;
-    b.rigid = None;
-    Ok(())
+    let scratch = shared.then(|| &mut w.scratch[b.model]);
+    free_exactly(scene, scratch, b, i, |_| in_view)
 }
 
 #[cfg(all(test, feature = "serde"))]
