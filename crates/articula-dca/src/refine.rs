@@ -82,8 +82,9 @@ const FLOOR: f64 = 1e-7;
 /// `Ok(false)` when it does not converge, never a silently wrong `q̈`.
 ///
 /// Non-convergence has two causes. (1) The dynamics is too close to singular for the
-/// regularisation. (2) The residual's own rounding: `rnea_residual` works about the
-/// computation origin, so on a body kilometres long (a 20,000-link chain of 0.1 m links) a
+/// regularisation. (2) The residual's own rounding: `rnea_residual` sums moments about the
+/// computation origin (each body's own force is formed about its origin), so on a body
+/// kilometres long (a 20,000-link chain of 0.1 m links) a
 /// joint torque is the small difference of moments ~10⁴ times larger, and `H⁻¹` amplifies that
 /// rounding to corrections of ~5e-7 of `q̈` that do not shrink (ρ ≈ 1) while the first solve
 /// was already exact to 5e-11: a join's pivot lost in the directions such a planar chain never
