@@ -114,6 +114,8 @@ def list_models():
                 m = mujoco.MjModel.from_xml_path(path)
             except Exception as e:  # noqa: BLE001 (MuJoCo raises ValueError and others)
                 msg = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+                # Paths in MuJoCo's message as the table names files (from the package).
+                msg = msg.replace(os.path.dirname(root) + os.sep, "")
                 entry["reason"] = f"does not compile alone: {msg}"
                 models.append(entry)
                 continue

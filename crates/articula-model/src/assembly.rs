@@ -152,274 +152,17 @@ impl AssemblyTree {
     /// `false`) gives [`AssemblyTree::build`]'s tree. A hub with more than [`GATHER_ABOVE`]
     /// children must absorb none of them.
     pub fn build_clustered(model: &Model, absorbed: &[bool]) -> AssemblyTree {
-        let n = model.bodies.len();
-        let absorbed = |v: usize| absorbed.get(v).copied().unwrap_or(false);
-        let ground = n;
-        // Vertex parent (ground for the root bodies); the ground has none.
-        let vparent = |v: usize| -> Option<usize> {
-            if v == ground {
-                None
-            } else {
-                Some(model.bodies[v].parent.unwrap_or(ground))
-            }
-        };
+        let coarse = Coarse::new(model, absorbed);
+        let drafts = Cutter::new(coarse).cut();
+        let mut tree = renumber(drafts, model.bodies.len());
+        tree.link_nodes();
+        tree
+    }
 
-        struct Tmp {
-            kind: NodeKind,
-            handles: Vec<usize>,
-            size: usize,
-            /// A join's two sides (A, B) or a gather's subassemblies.
-            children: Vec<usize>,
-            /// A cluster's absorbed bodies.
-            cluster: Vec<usize>,
-        }
-        let empty = || Tmp {
-            kind: NodeKind::Ground,
-            handles: Vec::new(),
-            size: 0,
-            children: Vec::new(),
-            cluster: Vec::new(),
-        };
-        let mut tmp: Vec<Tmp> = Vec::with_capacity(2 * n + 1);
-        // Scratch indexed by vertex: membership stamp, subtree size, handles inside subtree.
-        let mut stamp = vec![usize::MAX; n + 1];
-        let mut sub = vec![0usize; n + 1];
-        let mut hsub = vec![0usize; n + 1];
-        let mut children: Vec<Vec<usize>> = vec![Vec::new(); n + 1];
-        // Per vertex, the bodies of the subtrees it absorbs (leaf clusters), in index order;
-        // an absorbed body is no vertex of the coarse tree.
-        let mut cluster: Vec<Vec<usize>> = vec![Vec::new(); n + 1];
-        let mut owner = vec![usize::MAX; n];
-        for v in 0..n {
-            let p = vparent(v).unwrap();
-            if absorbed(v) || (p != ground && owner[p] != usize::MAX) {
-                let o = if p != ground && owner[p] != usize::MAX {
-                    owner[p]
-                } else {
-                    p
-                };
-                owner[v] = o;
-                cluster[o].push(v);
-            } else {
-                children[p].push(v);
-            }
-        }
-        // Hubs, the gather nodes' vertices: in its parent's component a hub stands for its
-        // whole subtree (its weight), and its children are no handles there.
-        let hub: Vec<bool> = children.iter().map(|c| c.len() > GATHER_ABOVE).collect();
-        let mut weight: Vec<usize> = cluster.iter().map(|c| 1 + c.len()).collect();
-        if hub.contains(&true) {
-            let mut full = weight.clone();
-            for v in (0..n).rev() {
-                if owner[v] == usize::MAX {
-                    full[vparent(v).unwrap()] += full[v];
-                }
-            }
-            for v in 0..=n {
-                if hub[v] {
-                    weight[v] = full[v];
-                }
-            }
-        }
-        // The component of `root`'s subtree, down to the hubs (included): `root` first, then
-        // the bodies in stored order (parents first), so a forward loop visits parents before
-        // children. Without hubs, the ground's is the ground then every body.
-        let component = |root: usize| -> Vec<usize> {
-            let mut out = vec![root];
-            let mut i = 0;
-            while i < out.len() {
-                let v = out[i];
-                i += 1;
-                if !hub[v] {
-                    out.extend_from_slice(&children[v]);
-                }
-            }
-            out[1..].sort_unstable();
-            out
-        };
-        // Work items: (component vertices, index of its Tmp node).
-        tmp.push(empty());
-        let mut work = vec![(component(ground), 0usize)];
-        while let Some((comp, id)) = work.pop() {
-            for &v in &comp {
-                stamp[v] = id;
-            }
-            // Handles: the top vertex's own joint if its parent is outside, plus joints to
-            // children outside (a hub's are inside its gather node).
-            let mut handles = Vec::new();
-            for &v in &comp {
-                hsub[v] = 0;
-                sub[v] = weight[v];
-                if let Some(p) = vparent(v) {
-                    if stamp[p] != id {
-                        handles.push(v);
-                    }
-                }
-                if hub[v] {
-                    continue;
-                }
-                for &ch in &children[v] {
-                    if stamp[ch] != id {
-                        handles.push(ch);
-                        hsub[v] += 1;
-                    }
-                }
-            }
-            handles.sort_unstable();
-            tmp[id].handles = handles;
-            let m: usize = comp.iter().map(|&v| weight[v]).sum();
-            tmp[id].size = m;
-            if comp.len() == 1 {
-                let v = comp[0];
-                if hub[v] {
-                    // A gather node: each child's subtree is a subassembly of its own.
-                    let first = tmp.len();
-                    for &c in &children[v] {
-                        work.push((component(c), tmp.len()));
-                        tmp.push(empty());
-                    }
-                    tmp[id].kind = NodeKind::Gather {
-                        body: (v != ground).then_some(v),
-                        first: 0,
-                        count: children[v].len(),
-                    };
-                    tmp[id].children = (first..tmp.len()).collect();
-                } else if !cluster[v].is_empty() {
-                    tmp[id].kind = NodeKind::Cluster {
-                        body: (v != ground).then_some(v),
-                        first: 0,
-                        count: cluster[v].len(),
-                    };
-                    tmp[id].cluster = std::mem::take(&mut cluster[v]);
-                } else {
-                    tmp[id].kind = if v == ground {
-                        NodeKind::Ground
-                    } else {
-                        NodeKind::Body(v)
-                    };
-                }
-                continue;
-            }
-            // Subtree sizes within the component, children before parents.
-            for &v in comp.iter().rev() {
-                if let Some(p) = vparent(v) {
-                    if stamp[p] == id {
-                        sub[p] += sub[v];
-                        hsub[p] += hsub[v];
-                    }
-                }
-            }
-            let total_h = tmp[id].handles.len();
-            let mut best: Option<((usize, usize), usize)> = None;
-            for &v in &comp {
-                let Some(p) = vparent(v) else { continue };
-                if stamp[p] != id {
-                    continue;
-                }
-                let balance = sub[v].max(m - sub[v]);
-                let h_child = hsub[v] + 1;
-                let h_parent = total_h - hsub[v] + 1;
-                let score = (balance, h_child.max(h_parent));
-                if best.is_none_or(|(s, _)| score < s) {
-                    best = Some((score, v));
-                }
-            }
-            let (_, mut cut) =
-                best.expect("a connected component of two or more vertices has an inner joint");
-            // A floating base's 6-DOF joint is the root cut: the free body is then one subtree
-            // of the root, so an adaptive hybrid body can keep it moving as one rigid body
-            // (articula-adaptive) while every internal joint is frozen.
-            if id == 0 && model.floating_base && n > 0 {
-                cut = 0;
-            }
-            // Split: the child side is the subtree of `cut` inside the component.
-            let mut in_child = Vec::with_capacity(sub[cut]);
-            let mut parent_side = Vec::with_capacity(m - sub[cut]);
-            // Mark the child side by walking the component in order (parents first).
-            let child_mark = usize::MAX - 1;
-            for &v in &comp {
-                let inside = v == cut || vparent(v).is_some_and(|p| stamp[p] == child_mark);
-                if inside {
-                    in_child.push(v);
-                } else {
-                    parent_side.push(v);
-                }
-                if inside {
-                    stamp[v] = child_mark;
-                }
-            }
-            for &v in &comp {
-                stamp[v] = id;
-            }
-            let a = tmp.len();
-            let b = a + 1;
-            tmp.push(empty());
-            tmp.push(empty());
-            tmp[id].kind = NodeKind::Join {
-                joint: cut,
-                parent_side: a,
-                child_side: b,
-            };
-            tmp[id].children = vec![a, b];
-            work.push((parent_side, a));
-            work.push((in_child, b));
-        }
-
-        // Renumber in post-order (iterative), fixing child references and depths.
-        let mut new_index = vec![usize::MAX; tmp.len()];
-        let mut post = Vec::with_capacity(tmp.len());
-        let mut stack = vec![(0usize, false)];
-        while let Some((t, expanded)) = stack.pop() {
-            if !expanded && !tmp[t].children.is_empty() {
-                stack.push((t, true));
-                for &c in tmp[t].children.iter().rev() {
-                    stack.push((c, false));
-                }
-            } else {
-                new_index[t] = post.len();
-                post.push(t);
-            }
-        }
-        let mut tree = AssemblyTree {
-            nodes: Vec::with_capacity(post.len()),
-            body_leaf: vec![0; n],
-            joint_node: vec![0; n],
-            ground_leaf: 0,
-            gathered: Vec::new(),
-            clustered: Vec::new(),
-        };
-        for &t in &post {
-            let kind = match tmp[t].kind {
-                NodeKind::Join {
-                    joint,
-                    parent_side,
-                    child_side,
-                } => NodeKind::Join {
-                    joint,
-                    parent_side: new_index[parent_side],
-                    child_side: new_index[child_side],
-                },
-                NodeKind::Gather { body, count, .. } => {
-                    let first = tree.gathered.len();
-                    tree.gathered
-                        .extend(tmp[t].children.iter().map(|&c| new_index[c]));
-                    NodeKind::Gather { body, first, count }
-                }
-                NodeKind::Cluster { body, count, .. } => {
-                    let first = tree.clustered.len();
-                    tree.clustered.extend_from_slice(&tmp[t].cluster);
-                    NodeKind::Cluster { body, first, count }
-                }
-                k => k,
-            };
-            tree.nodes.push(AssemblyNode {
-                kind,
-                handles: std::mem::take(&mut tmp[t].handles),
-                parent: None,
-                depth: 0,
-                size: tmp[t].size,
-            });
-        }
+    /// Sets every node's parent and depth, and the leaf of each body and the node of each
+    /// joint, from the root down.
+    fn link_nodes(&mut self) {
+        let tree = self;
         for i in (0..tree.nodes.len()).rev() {
             let depth = tree.nodes[i].depth;
             match tree.nodes[i].kind {
@@ -462,7 +205,6 @@ impl AssemblyTree {
                 NodeKind::Ground => tree.ground_leaf = i,
             }
         }
-        tree
     }
 
     /// The tree as an indented outline, one node a line, for people and snapshot tests.
@@ -581,6 +323,366 @@ impl AssemblyTree {
         }
         l
     }
+}
+
+/// A node of the tree while [`AssemblyTree::build_clustered`] cuts it, before renumbering.
+struct Draft {
+    kind: NodeKind,
+    handles: Vec<usize>,
+    size: usize,
+    /// A join's two sides (A, B) or a gather's subassemblies.
+    children: Vec<usize>,
+    /// A cluster's absorbed bodies.
+    cluster: Vec<usize>,
+}
+
+impl Draft {
+    fn empty() -> Draft {
+        Draft {
+            kind: NodeKind::Ground,
+            handles: Vec::new(),
+            size: 0,
+            children: Vec::new(),
+            cluster: Vec::new(),
+        }
+    }
+}
+
+/// The coarse tree that [`AssemblyTree::build_clustered`] cuts: one vertex per body not
+/// absorbed into a leaf cluster, plus the ground (vertex `n`).
+struct Coarse<'a> {
+    model: &'a Model,
+    ground: usize,
+    /// Each vertex's children in the coarse tree.
+    children: Vec<Vec<usize>>,
+    /// Per vertex, the bodies of the subtrees it absorbs (leaf clusters), in index order;
+    /// an absorbed body is no vertex of the coarse tree.
+    cluster: Vec<Vec<usize>>,
+    /// Hubs, the gather nodes' vertices: in its parent's component a hub stands for its
+    /// whole subtree (its weight), and its children are no handles there.
+    hub: Vec<bool>,
+    /// Bodies each vertex stands for.
+    weight: Vec<usize>,
+}
+
+impl<'a> Coarse<'a> {
+    fn new(model: &'a Model, absorbed: &[bool]) -> Coarse<'a> {
+        let n = model.bodies.len();
+        let absorbed = |v: usize| absorbed.get(v).copied().unwrap_or(false);
+        let ground = n;
+        let mut children: Vec<Vec<usize>> = vec![Vec::new(); n + 1];
+        let mut cluster: Vec<Vec<usize>> = vec![Vec::new(); n + 1];
+        let mut owner = vec![usize::MAX; n];
+        for v in 0..n {
+            let p = model.bodies[v].parent.unwrap_or(ground);
+            if absorbed(v) || (p != ground && owner[p] != usize::MAX) {
+                let o = if p != ground && owner[p] != usize::MAX {
+                    owner[p]
+                } else {
+                    p
+                };
+                owner[v] = o;
+                cluster[o].push(v);
+            } else {
+                children[p].push(v);
+            }
+        }
+        let hub: Vec<bool> = children.iter().map(|c| c.len() > GATHER_ABOVE).collect();
+        let mut weight: Vec<usize> = cluster.iter().map(|c| 1 + c.len()).collect();
+        if hub.contains(&true) {
+            let mut full = weight.clone();
+            for v in (0..n).rev() {
+                if owner[v] == usize::MAX {
+                    full[model.bodies[v].parent.unwrap_or(ground)] += full[v];
+                }
+            }
+            for v in 0..=n {
+                if hub[v] {
+                    weight[v] = full[v];
+                }
+            }
+        }
+        Coarse {
+            model,
+            ground,
+            children,
+            cluster,
+            hub,
+            weight,
+        }
+    }
+
+    /// Vertex parent (ground for the root bodies); the ground has none.
+    fn parent(&self, v: usize) -> Option<usize> {
+        if v == self.ground {
+            None
+        } else {
+            Some(self.model.bodies[v].parent.unwrap_or(self.ground))
+        }
+    }
+
+    /// The component of `root`'s subtree, down to the hubs (included): `root` first, then
+    /// the bodies in stored order (parents first), so a forward loop visits parents before
+    /// children. Without hubs, the ground's is the ground then every body.
+    fn component(&self, root: usize) -> Vec<usize> {
+        let mut out = vec![root];
+        let mut i = 0;
+        while i < out.len() {
+            let v = out[i];
+            i += 1;
+            if !self.hub[v] {
+                out.extend_from_slice(&self.children[v]);
+            }
+        }
+        out[1..].sort_unstable();
+        out
+    }
+}
+
+/// The balanced cuts of a [`Coarse`] tree, component by component.
+struct Cutter<'a> {
+    coarse: Coarse<'a>,
+    drafts: Vec<Draft>,
+    /// Work items: (component vertices, index of its draft node).
+    work: Vec<(Vec<usize>, usize)>,
+    /// Scratch indexed by vertex: membership stamp, subtree size, handles inside subtree.
+    stamp: Vec<usize>,
+    sub: Vec<usize>,
+    hsub: Vec<usize>,
+}
+
+impl<'a> Cutter<'a> {
+    fn new(coarse: Coarse<'a>) -> Cutter<'a> {
+        let n = coarse.ground;
+        let mut drafts = Vec::with_capacity(2 * n + 1);
+        drafts.push(Draft::empty());
+        let work = vec![(coarse.component(coarse.ground), 0usize)];
+        Cutter {
+            coarse,
+            drafts,
+            work,
+            stamp: vec![usize::MAX; n + 1],
+            sub: vec![0usize; n + 1],
+            hsub: vec![0usize; n + 1],
+        }
+    }
+
+    /// Cuts until every component is a leaf; the draft nodes, the root first.
+    fn cut(mut self) -> Vec<Draft> {
+        while let Some((comp, id)) = self.work.pop() {
+            for &v in &comp {
+                self.stamp[v] = id;
+            }
+            self.drafts[id].handles = self.handles(&comp, id);
+            let m: usize = comp.iter().map(|&v| self.coarse.weight[v]).sum();
+            self.drafts[id].size = m;
+            if comp.len() == 1 {
+                self.leaf(comp[0], id);
+                continue;
+            }
+            let cut = self.best_cut(&comp, id, m);
+            self.split(comp, id, cut, m);
+        }
+        self.drafts
+    }
+
+    /// Handles of component `id`: the top vertex's own joint if its parent is outside, plus
+    /// joints to children outside (a hub's are inside its gather node). Resets `sub` and
+    /// counts each vertex's own outside children in `hsub`.
+    fn handles(&mut self, comp: &[usize], id: usize) -> Vec<usize> {
+        let c = &self.coarse;
+        let mut handles = Vec::new();
+        for &v in comp {
+            self.hsub[v] = 0;
+            self.sub[v] = c.weight[v];
+            if let Some(p) = c.parent(v) {
+                if self.stamp[p] != id {
+                    handles.push(v);
+                }
+            }
+            if c.hub[v] {
+                continue;
+            }
+            for &ch in &c.children[v] {
+                if self.stamp[ch] != id {
+                    handles.push(ch);
+                    self.hsub[v] += 1;
+                }
+            }
+        }
+        handles.sort_unstable();
+        handles
+    }
+
+    /// A one-vertex component: a gather node (a hub: each child's subtree a subassembly of
+    /// its own), a cluster, a body or the ground.
+    fn leaf(&mut self, v: usize, id: usize) {
+        let ground = self.coarse.ground;
+        if self.coarse.hub[v] {
+            let first = self.drafts.len();
+            for &c in &self.coarse.children[v] {
+                self.work
+                    .push((self.coarse.component(c), self.drafts.len()));
+                self.drafts.push(Draft::empty());
+            }
+            self.drafts[id].kind = NodeKind::Gather {
+                body: (v != ground).then_some(v),
+                first: 0,
+                count: self.coarse.children[v].len(),
+            };
+            self.drafts[id].children = (first..self.drafts.len()).collect();
+        } else if !self.coarse.cluster[v].is_empty() {
+            self.drafts[id].kind = NodeKind::Cluster {
+                body: (v != ground).then_some(v),
+                first: 0,
+                count: self.coarse.cluster[v].len(),
+            };
+            self.drafts[id].cluster = std::mem::take(&mut self.coarse.cluster[v]);
+        } else {
+            self.drafts[id].kind = if v == ground {
+                NodeKind::Ground
+            } else {
+                NodeKind::Body(v)
+            };
+        }
+    }
+
+    /// The inner joint of component `id` (weight `m`) whose cut balances the two sides best,
+    /// then their handle counts; a floating base's 6-DOF joint for the root component.
+    fn best_cut(&mut self, comp: &[usize], id: usize, m: usize) -> usize {
+        let c = &self.coarse;
+        // Subtree sizes within the component, children before parents.
+        for &v in comp.iter().rev() {
+            if let Some(p) = c.parent(v) {
+                if self.stamp[p] == id {
+                    self.sub[p] += self.sub[v];
+                    self.hsub[p] += self.hsub[v];
+                }
+            }
+        }
+        let total_h = self.drafts[id].handles.len();
+        let mut best: Option<((usize, usize), usize)> = None;
+        for &v in comp {
+            let Some(p) = c.parent(v) else { continue };
+            if self.stamp[p] != id {
+                continue;
+            }
+            let balance = self.sub[v].max(m - self.sub[v]);
+            let h_child = self.hsub[v] + 1;
+            let h_parent = total_h - self.hsub[v] + 1;
+            let score = (balance, h_child.max(h_parent));
+            if best.is_none_or(|(s, _)| score < s) {
+                best = Some((score, v));
+            }
+        }
+        let (_, cut) =
+            best.expect("a connected component of two or more vertices has an inner joint");
+        // A floating base's 6-DOF joint is the root cut: the free body is then one subtree
+        // of the root, so an adaptive hybrid body can keep it moving as one rigid body
+        // (articula-adaptive) while every internal joint is frozen.
+        if id == 0 && c.model.floating_base && c.ground > 0 {
+            0
+        } else {
+            cut
+        }
+    }
+
+    /// Splits component `id` at joint `cut` into a join node of its two sides.
+    fn split(&mut self, comp: Vec<usize>, id: usize, cut: usize, m: usize) {
+        // The child side is the subtree of `cut` inside the component.
+        let mut in_child = Vec::with_capacity(self.sub[cut]);
+        let mut parent_side = Vec::with_capacity(m - self.sub[cut]);
+        // Mark the child side by walking the component in order (parents first).
+        let child_mark = usize::MAX - 1;
+        for &v in &comp {
+            let inside = v == cut
+                || self
+                    .coarse
+                    .parent(v)
+                    .is_some_and(|p| self.stamp[p] == child_mark);
+            if inside {
+                in_child.push(v);
+                self.stamp[v] = child_mark;
+            } else {
+                parent_side.push(v);
+            }
+        }
+        for &v in &comp {
+            self.stamp[v] = id;
+        }
+        let a = self.drafts.len();
+        let b = a + 1;
+        self.drafts.push(Draft::empty());
+        self.drafts.push(Draft::empty());
+        self.drafts[id].kind = NodeKind::Join {
+            joint: cut,
+            parent_side: a,
+            child_side: b,
+        };
+        self.drafts[id].children = vec![a, b];
+        self.work.push((parent_side, a));
+        self.work.push((in_child, b));
+    }
+}
+
+/// The draft nodes renumbered in post-order (iterative), child references fixed; parents
+/// and depths are left to [`AssemblyTree::link_nodes`].
+fn renumber(mut tmp: Vec<Draft>, n: usize) -> AssemblyTree {
+    let mut new_index = vec![usize::MAX; tmp.len()];
+    let mut post = Vec::with_capacity(tmp.len());
+    let mut stack = vec![(0usize, false)];
+    while let Some((t, expanded)) = stack.pop() {
+        if !expanded && !tmp[t].children.is_empty() {
+            stack.push((t, true));
+            for &c in tmp[t].children.iter().rev() {
+                stack.push((c, false));
+            }
+        } else {
+            new_index[t] = post.len();
+            post.push(t);
+        }
+    }
+    let mut tree = AssemblyTree {
+        nodes: Vec::with_capacity(post.len()),
+        body_leaf: vec![0; n],
+        joint_node: vec![0; n],
+        ground_leaf: 0,
+        gathered: Vec::new(),
+        clustered: Vec::new(),
+    };
+    for &t in &post {
+        let kind = match tmp[t].kind {
+            NodeKind::Join {
+                joint,
+                parent_side,
+                child_side,
+            } => NodeKind::Join {
+                joint,
+                parent_side: new_index[parent_side],
+                child_side: new_index[child_side],
+            },
+            NodeKind::Gather { body, count, .. } => {
+                let first = tree.gathered.len();
+                tree.gathered
+                    .extend(tmp[t].children.iter().map(|&c| new_index[c]));
+                NodeKind::Gather { body, first, count }
+            }
+            NodeKind::Cluster { body, count, .. } => {
+                let first = tree.clustered.len();
+                tree.clustered.extend_from_slice(&tmp[t].cluster);
+                NodeKind::Cluster { body, first, count }
+            }
+            k => k,
+        };
+        tree.nodes.push(AssemblyNode {
+            kind,
+            handles: std::mem::take(&mut tmp[t].handles),
+            parent: None,
+            depth: 0,
+            size: tmp[t].size,
+        });
+    }
+    tree
 }
 
 #[cfg(test)]

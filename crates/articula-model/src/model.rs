@@ -187,6 +187,10 @@ pub struct Model {
     /// Armature, damping and springs per degree of freedom (empty vectors when the model has
     /// none; `docs/loading.md#armature-and-damping`).
     pub dynamics: crate::DofDynamics,
+    /// The gravity the model's file states, m/s² in world coordinates: MJCF `<option
+    /// gravity>` (zero under `<flag gravity="disable">`); `(0, 0, −9.81)` for a URDF, which
+    /// has none. A new `Data` starts with it (`Data::gravity`, which a program may change).
+    pub gravity: DVec3,
 }
 
 /// A moving URDF joint that carries no mass, locked at its neutral position.
@@ -265,6 +269,7 @@ impl Model {
         let options = options.with_floating_base(robot.floating_base);
         let free = robot.free_joint.clone();
         let mut model = Self::build(robot.raw, &options)?;
+        model.gravity = robot.gravity;
         for b in &mut model.bodies {
             if let Some(name) = robot.renames.get(&b.name) {
                 b.name = name.clone();
@@ -278,6 +283,7 @@ impl Model {
             }
             model.dynamics = crate::DofDynamics::from_joints(model.nv, &per_joint);
         }
+        crate::mjcf::spring_damper::apply(&mut model, &robot.spring_dampers, &robot.qpos0)?;
         Ok(model)
     }
 
@@ -387,13 +393,68 @@ impl Model {
 
     fn build(raw: RawRobot, options: &LoadOptions) -> Result<Model, ModelError> {
         let bounds = options.bounds()?;
+        // 1. Fixed joints weld links into owners.
+        let mut welded = Welded::new(&raw)?;
+        // 2. The inertia of every body dynamics sees, checked and, by the policy, kept,
+        //    changed or refused.
+        let warnings = judge_inertias(&raw, options, bounds, &mut welded)?;
+        // 3. Bodies, depth first from the root.
+        let mut model = Model {
+            name: raw.name.clone(),
+            bodies: Vec::new(),
+            ground_links: Vec::new(),
+            ground_mass: 0.0,
+            floating_base: options.floating_base,
+            nq: 0,
+            nv: 0,
+            assembly: AssemblyTree::default(),
+            urdf_links: raw.links.len(),
+            urdf_joints: raw.joints.len(),
+            warnings,
+            locked: Vec::new(),
+            dynamics: crate::DofDynamics::default(),
+            gravity: DVec3::new(0.0, 0.0, -9.81),
+        };
+        add_bodies(&raw, options, &mut welded, &mut model)?;
+        // 4. Locked coordinates, limits, joint dynamics, the assembly tree.
+        finish_joints(&raw, &mut model);
+        Ok(model)
+    }
+}
+
+/// Stage 1 of [`Model::build`]: the URDF's links welded by fixed joints into owners (the
+/// nearest link up the tree reached by a moving joint, or the root), with what each owner
+/// carries.
+struct Welded {
+    /// The joints leaving each link (indices into the URDF's joints).
+    children_joints: Vec<Vec<usize>>,
+    /// Each link's owner.
+    owner: Vec<usize>,
+    /// The map from each link's frame to its owner's frame.
+    to_owner: Vec<SpatialTransform>,
+    /// The links breadth first from the root.
+    order: Vec<usize>,
+    /// Each owner's inertia, its welded links' summed in its frame.
+    merged: Vec<SpatialInertia>,
+    /// Each owner's links with their frames in the owner's.
+    members: Vec<Vec<(String, SpatialTransform)>>,
+    /// Each owner's collision geometry in its frame.
+    geometry: Vec<Vec<Geometry>>,
+    /// Moving joints leaving each owner, with origins re-expressed in the owner's frame.
+    moving_out: Vec<Vec<(usize, SpatialTransform)>>,
+    /// Whether each owner carries no mass (before stage 2 may repair it).
+    massless: Vec<bool>,
+    /// Whether anything in the subtree of each link (through any joint) has mass.
+    massive_below: Vec<bool>,
+}
+
+impl Welded {
+    fn new(raw: &RawRobot) -> Result<Welded, ModelError> {
         let n = raw.links.len();
         let mut children_joints: Vec<Vec<usize>> = vec![Vec::new(); n];
         for (j, joint) in raw.joints.iter().enumerate() {
             children_joints[joint.parent].push(j);
         }
-        // 1. Fixed joints: each link's owner (the nearest link up the tree reached by a moving
-        //    joint, or the root) and the map from the link's frame to its owner's frame.
         let mut owner = vec![usize::MAX; n];
         let mut to_owner = vec![SpatialTransform::IDENTITY; n];
         let mut order = vec![raw.root];
@@ -420,26 +481,42 @@ impl Model {
                 order.push(c);
             }
         }
-        let mut merged = vec![SpatialInertia::ZERO; n];
-        let mut members: Vec<Vec<(String, SpatialTransform)>> = vec![Vec::new(); n];
-        let mut geometry: Vec<Vec<Geometry>> = vec![Vec::new(); n];
-        for &l in &order {
-            geometry[owner[l]].extend(raw.links[l].geometry.iter().map(|g| Geometry {
+        let mut welded = Welded {
+            children_joints,
+            owner,
+            to_owner,
+            order,
+            merged: vec![SpatialInertia::ZERO; n],
+            members: vec![Vec::new(); n],
+            geometry: vec![Vec::new(); n],
+            moving_out: vec![Vec::new(); n],
+            massless: Vec::new(),
+            massive_below: vec![false; n],
+        };
+        welded.gather(raw)?;
+        Ok(welded)
+    }
+
+    /// Sums each owner's inertia, links and geometry; lists the moving joints leaving it;
+    /// marks the massless owners and the subtrees with mass.
+    fn gather(&mut self, raw: &RawRobot) -> Result<(), ModelError> {
+        let (owner, to_owner) = (&self.owner, &self.to_owner);
+        for &l in &self.order {
+            let o = owner[l];
+            self.geometry[o].extend(raw.links[l].geometry.iter().map(|g| Geometry {
                 origin: to_owner[l] * g.origin,
                 ..*g
             }));
-            merged[owner[l]] += to_owner[l].apply_inertia(&raw.links[l].inertia);
-            if !merged[owner[l]].is_finite() {
+            self.merged[o] += to_owner[l].apply_inertia(&raw.links[l].inertia);
+            if !self.merged[o].is_finite() {
                 return Err(ModelError::NonFiniteInertia {
                     link: raw.links[l].name.clone(),
                 });
             }
-            members[owner[l]].push((raw.links[l].name.clone(), to_owner[l]));
+            self.members[o].push((raw.links[l].name.clone(), to_owner[l]));
         }
-        // Moving joints leaving each owner, with origins re-expressed in the owner's frame.
-        let mut moving_out: Vec<Vec<(usize, SpatialTransform)>> = vec![Vec::new(); n];
-        for &l in &order {
-            for &j in &children_joints[l] {
+        for &l in &self.order {
+            for &j in &self.children_joints[l] {
                 let joint = &raw.joints[j];
                 if joint.kind != JointKind::Fixed {
                     let origin = to_owner[l] * joint.origin;
@@ -448,311 +525,356 @@ impl Model {
                             joint: joint.name.clone(),
                         });
                     }
-                    moving_out[owner[l]].push((j, origin));
+                    self.moving_out[owner[l]].push((j, origin));
                 }
             }
         }
-        let is_massless: Vec<bool> = merged
+        self.massless = self
+            .merged
             .iter()
             .map(|m| m.mass == 0.0 && m.ibar == DMat3::ZERO)
             .collect();
-        let massless = |l: usize| is_massless[l];
-        // Whether anything in the subtree of each link (through any joint) has mass.
-        let mut massive_below = vec![false; n];
-        for &l in order.iter().rev() {
-            massive_below[l] |= raw.links[l].inertia != SpatialInertia::ZERO;
-            for &j in &children_joints[l] {
-                massive_below[l] |= massive_below[raw.joints[j].child];
+        for &l in self.order.iter().rev() {
+            let mut below = raw.links[l].inertia != SpatialInertia::ZERO;
+            for &j in &self.children_joints[l] {
+                below |= self.massive_below[raw.joints[j].child];
             }
+            self.massive_below[l] |= below;
         }
-
-        // 2. The inertia of every body dynamics sees (the owners with mass, the ground excepted),
-        //    checked and, by the policy, kept, changed or refused — all of them before failing.
-        let is_ground = |l: usize| l == raw.root && !options.floating_base;
-        let max_mass = order
-            .iter()
-            .filter(|&&l| owner[l] == l)
-            .map(|&l| merged[l].mass)
-            .fold(0.0, f64::max);
-        let mut refused: Vec<InertiaDefect> = Vec::new();
-        let mut warnings = raw.warnings.clone();
-        for &l in &order {
-            if owner[l] != l || is_ground(l) || massless(l) {
-                continue;
-            }
-            let com = merged[l].com();
-            let size = members[l]
-                .iter()
-                .map(|(_, x)| (x.to_pose().1 - com).length())
-                .fold(com.length(), f64::max);
-            let body = BodyInertia {
-                name: &raw.links[l].name,
-                links: members[l].iter().map(|m| m.0.clone()).collect(),
-                inertia: merged[l],
-                size,
-            };
-            match body.judge(options.inertia, max_mass, bounds) {
-                Verdict::Fine => {}
-                Verdict::Odd(defects) => warnings.push(LoadWarning::OddInertia(defects)),
-                Verdict::Changed(inertia, change) => {
-                    merged[l] = inertia;
-                    warnings.push(LoadWarning::InertiaChanged(change));
-                }
-                Verdict::Refused(defects) => refused.extend(defects),
-            }
-            // A point mass may pass (see `body_inertia::SINGULAR`), an overflowed one not.
-            let (moments, _) =
-                crate::body_inertia::principal_moments(merged[l].inertia_about_com());
-            if refused.last().is_none_or(|d| d.body != raw.links[l].name)
-                && !(merged[l].is_finite()
-                    && merged[l].mass > 0.0
-                    && moments.iter().all(|x| x.is_finite()))
-            {
-                refused.push(InertiaDefect {
-                    body: raw.links[l].name.clone(),
-                    links: members[l].iter().map(|m| m.0.clone()).collect(),
-                    mass: merged[l].mass,
-                    moments,
-                    kind: InertiaDefectKind::Singular,
-                    by: moments[0],
-                    tolerance: 0.0,
-                });
-            }
-        }
-        if !refused.is_empty() {
-            return Err(ModelError::Inertia {
-                policy: options.inertia,
-                defects: refused,
-            });
-        }
-
-        // 3. Bodies, depth first from the root; runs through massless links become one joint;
-        //    joints carrying no mass at all are locked.
-        let mut model = Model {
-            name: raw.name.clone(),
-            bodies: Vec::new(),
-            ground_links: Vec::new(),
-            ground_mass: 0.0,
-            floating_base: options.floating_base,
-            nq: 0,
-            nv: 0,
-            assembly: AssemblyTree::default(),
-            urdf_links: raw.links.len(),
-            urdf_joints: raw.joints.len(),
-            warnings,
-            locked: Vec::new(),
-            dynamics: crate::DofDynamics::default(),
-        };
-        let mut massless_leaves: Vec<(String, String)> = Vec::new();
-        // A pending moving joint: (parent body, first part, link it moves).
-        let mut stack: Vec<(Option<usize>, JointPart, usize)> = Vec::new();
-        let part = |name: &str, kind: JointKind, origin: SpatialTransform, axis: DVec3| JointPart {
-            name: name.to_string(),
-            kind,
-            origin,
-            axis,
-            q_offset: 0,
-            v_offset: 0,
-            limits: None,
-        };
-        // Locks the massless subtree moved by `first` (which moves `link`), its links welded at
-        // the neutral position to `weld`: `Some((body or None for the ground, the map from the
-        // joint frame to that frame))`, or `None` to weld them nowhere.
-        let lock = |model: &mut Model,
-                    first: JointPart,
-                    link: usize,
-                    weld: Option<(Option<usize>, SpatialTransform)>| {
-            let mut pending = vec![(first, link, weld.map(|(_, x)| x))];
-            while let Some((joint, link, frame)) = pending.pop() {
-                let mut links = Vec::new();
-                let mut walk = vec![(link, frame)];
-                let mut moving = Vec::new();
-                while let Some((l, x)) = walk.pop() {
-                    links.push(raw.links[l].name.clone());
-                    if let (Some((target, _)), Some(x)) = (weld, x) {
-                        let list = match target {
-                            Some(b) => &mut model.bodies[b].links,
-                            None => &mut model.ground_links,
-                        };
-                        list.push((raw.links[l].name.clone(), x));
-                        let geometry = raw.links[l].geometry.iter().map(|g| Geometry {
-                            origin: x * g.origin,
-                            ..*g
-                        });
-                        if let Some(b) = target {
-                            model.bodies[b].geometry.extend(geometry);
-                        }
-                    }
-                    for &j in children_joints[l].iter().rev() {
-                        let jt = &raw.joints[j];
-                        let xc = x.map(|x| x * jt.origin);
-                        if jt.kind == JointKind::Fixed {
-                            walk.push((jt.child, xc));
-                        } else {
-                            moving.push((
-                                part(&jt.name, jt.kind, jt.origin, jt.axis),
-                                jt.child,
-                                xc,
-                            ));
-                        }
-                    }
-                }
-                model.warnings.push(LoadWarning::LockedJoint {
-                    joint: joint.name.clone(),
-                    links: links.clone(),
-                });
-                model.locked.push(LockedJoint {
-                    joint,
-                    links,
-                    body: weld.and_then(|(b, _)| b),
-                });
-                pending.extend(moving.into_iter().rev());
-            }
-        };
-        // Any joint may be locked but a floating base (a robot without mass).
-        let lockable = |parent: Option<usize>| {
-            options.massless_leaf == MasslessLeafPolicy::Lock
-                && !(parent.is_none() && options.floating_base)
-        };
-        if options.floating_base {
-            let name = if raw.joints.iter().any(|j| j.name == FLOATING_BASE_JOINT) {
-                format!("{FLOATING_BASE_JOINT}#")
-            } else {
-                FLOATING_BASE_JOINT.to_string()
-            };
-            stack.push((
-                None,
-                part(
-                    &name,
-                    JointKind::Floating,
-                    SpatialTransform::IDENTITY,
-                    DVec3::ZERO,
-                ),
-                raw.root,
-            ));
-        } else {
-            model.ground_links = members[raw.root].clone();
-            model.ground_mass = merged[raw.root].mass;
-            for &(j, origin) in moving_out[raw.root].iter().rev() {
-                let joint = &raw.joints[j];
-                stack.push((
-                    None,
-                    part(&joint.name, joint.kind, origin, joint.axis),
-                    joint.child,
-                ));
-            }
-        }
-        while let Some((parent, first, mut link)) = stack.pop() {
-            if !massive_below[link] {
-                if lockable(parent) {
-                    let origin = first.origin;
-                    lock(&mut model, first, link, Some((parent, origin)));
-                } else {
-                    massless_leaves.push((raw.links[link].name.clone(), first.name));
-                }
-                continue;
-            }
-            let mut parts = vec![first];
-            let mut massless_links = Vec::new();
-            while massless(link) {
-                // Something beyond has mass: through one moving joint, or several (a branch).
-                let (out, empty): (Vec<_>, Vec<_>) = moving_out[link]
-                    .iter()
-                    .partition(|&&(j, _)| massive_below[raw.joints[j].child]);
-                for &(j, origin) in &empty {
-                    let joint = &raw.joints[j];
-                    let p = part(&joint.name, joint.kind, origin, joint.axis);
-                    if options.massless_leaf == MasslessLeafPolicy::Lock {
-                        lock(&mut model, p, joint.child, None);
-                    } else {
-                        massless_leaves.push((raw.links[joint.child].name.clone(), p.name));
-                    }
-                }
-                if out.len() != 1 {
-                    return Err(ModelError::MasslessBranch {
-                        link: raw.links[link].name.clone(),
-                        joints: out
-                            .iter()
-                            .map(|&(j, _)| raw.joints[j].name.clone())
-                            .collect(),
-                    });
-                }
-                let (j, origin) = out[0];
-                let joint = &raw.joints[j];
-                massless_links.extend(members[link].iter().map(|m| m.0.clone()));
-                parts.push(part(&joint.name, joint.kind, origin, joint.axis));
-                link = joint.child;
-            }
-            let index = model.bodies.len();
-            let (mut nq, mut nv) = (0, 0);
-            for p in &mut parts {
-                p.q_offset = model.nq + nq;
-                p.v_offset = model.nv + nv;
-                nq += p.nq();
-                nv += p.nv();
-            }
-            model.bodies.push(Body {
-                name: raw.links[link].name.clone(),
-                parent,
-                children: Vec::new(),
-                joint: parts,
-                inertia: merged[link],
-                links: members[link].clone(),
-                geometry: std::mem::take(&mut geometry[link]),
-                massless_links,
-                q_offset: model.nq,
-                nq,
-                v_offset: model.nv,
-                nv,
-            });
-            model.nq += nq;
-            model.nv += nv;
-            if let Some(p) = parent {
-                model.bodies[p].children.push(index);
-            }
-            for &(j, origin) in moving_out[link].iter().rev() {
-                let joint = &raw.joints[j];
-                stack.push((
-                    Some(index),
-                    part(&joint.name, joint.kind, origin, joint.axis),
-                    joint.child,
-                ));
-            }
-        }
-        if !massless_leaves.is_empty() {
-            return Err(ModelError::SingularMassless {
-                leaves: massless_leaves,
-            });
-        }
-        // The locked joints' coordinates follow every body's.
-        for l in &mut model.locked {
-            l.joint.q_offset = model.nq;
-            l.joint.v_offset = model.nv;
-            model.nq += l.joint.nq();
-            model.nv += l.joint.nv();
-        }
-        // URDF joint limits, by joint name (names are unique).
-        let limits: std::collections::HashMap<&str, [f64; 2]> = raw
-            .joints
-            .iter()
-            .filter_map(|j| Some((j.name.as_str(), j.limits?)))
-            .collect();
-        let parts = model.bodies.iter_mut().flat_map(|b| b.joint.iter_mut());
-        for p in parts.chain(model.locked.iter_mut().map(|l| &mut l.joint)) {
-            p.limits = limits.get(p.name.as_str()).copied();
-        }
-        // Armature, damping and springs, by joint name.
-        let dynamics = raw
-            .joints
-            .iter()
-            .filter(|j| !j.dynamics.is_zero())
-            .map(|j| (j.name.clone(), j.dynamics))
-            .collect();
-        let per_joint = model.dynamics_by_joint(&dynamics);
-        model.dynamics = crate::DofDynamics::from_joints(model.nv, &per_joint);
-        model.assembly = AssemblyTree::build(&model);
-        Ok(model)
+        Ok(())
     }
+}
+
+/// Stage 2 of [`Model::build`]: the inertia of every body dynamics sees (the owners with
+/// mass, the ground excepted), checked and, by the policy, kept, changed or refused — all of
+/// them before failing. Returns the load's warnings.
+fn judge_inertias(
+    raw: &RawRobot,
+    options: &LoadOptions,
+    bounds: (f64, f64),
+    welded: &mut Welded,
+) -> Result<Vec<LoadWarning>, ModelError> {
+    let is_ground = |l: usize| l == raw.root && !options.floating_base;
+    let Welded {
+        owner,
+        order,
+        merged,
+        members,
+        massless,
+        ..
+    } = welded;
+    let max_mass = order
+        .iter()
+        .filter(|&&l| owner[l] == l)
+        .map(|&l| merged[l].mass)
+        .fold(0.0, f64::max);
+    let mut refused: Vec<InertiaDefect> = Vec::new();
+    let mut warnings = raw.warnings.clone();
+    for &l in order.iter() {
+        if owner[l] != l || is_ground(l) || massless[l] {
+            continue;
+        }
+        let com = merged[l].com();
+        let size = members[l]
+            .iter()
+            .map(|(_, x)| (x.to_pose().1 - com).length())
+            .fold(com.length(), f64::max);
+        let body = BodyInertia {
+            name: &raw.links[l].name,
+            links: members[l].iter().map(|m| m.0.clone()).collect(),
+            inertia: merged[l],
+            size,
+        };
+        match body.judge(options.inertia, max_mass, bounds) {
+            Verdict::Fine => {}
+            Verdict::Odd(defects) => warnings.push(LoadWarning::OddInertia(defects)),
+            Verdict::Changed(inertia, change) => {
+                merged[l] = inertia;
+                warnings.push(LoadWarning::InertiaChanged(change));
+            }
+            Verdict::Refused(defects) => refused.extend(defects),
+        }
+        // A point mass may pass (see `body_inertia::SINGULAR`), an overflowed one not.
+        let (moments, _) = crate::body_inertia::principal_moments(merged[l].inertia_about_com());
+        if refused.last().is_none_or(|d| d.body != raw.links[l].name)
+            && !(merged[l].is_finite()
+                && merged[l].mass > 0.0
+                && moments.iter().all(|x| x.is_finite()))
+        {
+            refused.push(InertiaDefect {
+                body: raw.links[l].name.clone(),
+                links: members[l].iter().map(|m| m.0.clone()).collect(),
+                mass: merged[l].mass,
+                moments,
+                kind: InertiaDefectKind::Singular,
+                by: moments[0],
+                tolerance: 0.0,
+            });
+        }
+    }
+    if !refused.is_empty() {
+        return Err(ModelError::Inertia {
+            policy: options.inertia,
+            defects: refused,
+        });
+    }
+    Ok(warnings)
+}
+
+/// A joint part at its URDF origin, offsets and limits not yet set.
+fn part(name: &str, kind: JointKind, origin: SpatialTransform, axis: DVec3) -> JointPart {
+    JointPart {
+        name: name.to_string(),
+        kind,
+        origin,
+        axis,
+        q_offset: 0,
+        v_offset: 0,
+        limits: None,
+    }
+}
+
+/// Locks the massless subtree moved by `first` (which moves `link`), its links welded at the
+/// neutral position to `weld`: `Some((body or None for the ground, the map from the joint
+/// frame to that frame))`, or `None` to weld them nowhere.
+fn lock(
+    model: &mut Model,
+    raw: &RawRobot,
+    children_joints: &[Vec<usize>],
+    first: JointPart,
+    link: usize,
+    weld: Option<(Option<usize>, SpatialTransform)>,
+) {
+    let mut pending = vec![(first, link, weld.map(|(_, x)| x))];
+    while let Some((joint, link, frame)) = pending.pop() {
+        let mut links = Vec::new();
+        let mut walk = vec![(link, frame)];
+        let mut moving = Vec::new();
+        while let Some((l, x)) = walk.pop() {
+            links.push(raw.links[l].name.clone());
+            if let (Some((target, _)), Some(x)) = (weld, x) {
+                let list = match target {
+                    Some(b) => &mut model.bodies[b].links,
+                    None => &mut model.ground_links,
+                };
+                list.push((raw.links[l].name.clone(), x));
+                let geometry = raw.links[l].geometry.iter().map(|g| Geometry {
+                    origin: x * g.origin,
+                    ..*g
+                });
+                if let Some(b) = target {
+                    model.bodies[b].geometry.extend(geometry);
+                }
+            }
+            for &j in children_joints[l].iter().rev() {
+                let jt = &raw.joints[j];
+                let xc = x.map(|x| x * jt.origin);
+                if jt.kind == JointKind::Fixed {
+                    walk.push((jt.child, xc));
+                } else {
+                    moving.push((part(&jt.name, jt.kind, jt.origin, jt.axis), jt.child, xc));
+                }
+            }
+        }
+        model.warnings.push(LoadWarning::LockedJoint {
+            joint: joint.name.clone(),
+            links: links.clone(),
+        });
+        model.locked.push(LockedJoint {
+            joint,
+            links,
+            body: weld.and_then(|(b, _)| b),
+        });
+        pending.extend(moving.into_iter().rev());
+    }
+}
+
+/// Stage 3 of [`Model::build`]: bodies, depth first from the root; runs through massless
+/// links become one joint; joints carrying no mass at all are locked.
+fn add_bodies(
+    raw: &RawRobot,
+    options: &LoadOptions,
+    welded: &mut Welded,
+    model: &mut Model,
+) -> Result<(), ModelError> {
+    let mut massless_leaves: Vec<(String, String)> = Vec::new();
+    // A pending moving joint: (parent body, first part, link it moves).
+    let mut stack: Vec<(Option<usize>, JointPart, usize)> = Vec::new();
+    // Any joint may be locked but a floating base (a robot without mass).
+    let lockable = |parent: Option<usize>| {
+        options.massless_leaf == MasslessLeafPolicy::Lock
+            && !(parent.is_none() && options.floating_base)
+    };
+    if options.floating_base {
+        let name = if raw.joints.iter().any(|j| j.name == FLOATING_BASE_JOINT) {
+            format!("{FLOATING_BASE_JOINT}#")
+        } else {
+            FLOATING_BASE_JOINT.to_string()
+        };
+        let base = part(
+            &name,
+            JointKind::Floating,
+            SpatialTransform::IDENTITY,
+            DVec3::ZERO,
+        );
+        stack.push((None, base, raw.root));
+    } else {
+        model.ground_links = welded.members[raw.root].clone();
+        model.ground_mass = welded.merged[raw.root].mass;
+        push_moving_out(&mut stack, raw, welded, raw.root, None);
+    }
+    while let Some((parent, first, link)) = stack.pop() {
+        if !welded.massive_below[link] {
+            if lockable(parent) {
+                let origin = first.origin;
+                let weld = Some((parent, origin));
+                lock(model, raw, &welded.children_joints, first, link, weld);
+            } else {
+                massless_leaves.push((raw.links[link].name.clone(), first.name));
+            }
+            continue;
+        }
+        let (parts, link, massless_links) = through_massless(
+            raw,
+            options,
+            welded,
+            model,
+            first,
+            link,
+            &mut massless_leaves,
+        )?;
+        let index = model.bodies.len();
+        let (mut nq, mut nv) = (0, 0);
+        let mut parts = parts;
+        for p in &mut parts {
+            p.q_offset = model.nq + nq;
+            p.v_offset = model.nv + nv;
+            nq += p.nq();
+            nv += p.nv();
+        }
+        model.bodies.push(Body {
+            name: raw.links[link].name.clone(),
+            parent,
+            children: Vec::new(),
+            joint: parts,
+            inertia: welded.merged[link],
+            links: welded.members[link].clone(),
+            geometry: std::mem::take(&mut welded.geometry[link]),
+            massless_links,
+            q_offset: model.nq,
+            nq,
+            v_offset: model.nv,
+            nv,
+        });
+        model.nq += nq;
+        model.nv += nv;
+        if let Some(p) = parent {
+            model.bodies[p].children.push(index);
+        }
+        push_moving_out(&mut stack, raw, welded, link, Some(index));
+    }
+    if !massless_leaves.is_empty() {
+        return Err(ModelError::SingularMassless {
+            leaves: massless_leaves,
+        });
+    }
+    Ok(())
+}
+
+/// Pushes the moving joints leaving owner `link` (children of body `parent`) onto `stack`,
+/// the first joint on top.
+fn push_moving_out(
+    stack: &mut Vec<(Option<usize>, JointPart, usize)>,
+    raw: &RawRobot,
+    welded: &Welded,
+    link: usize,
+    parent: Option<usize>,
+) {
+    for &(j, origin) in welded.moving_out[link].iter().rev() {
+        let joint = &raw.joints[j];
+        stack.push((
+            parent,
+            part(&joint.name, joint.kind, origin, joint.axis),
+            joint.child,
+        ));
+    }
+}
+
+/// Follows the run of massless owners from `link` (moved by `first`) to the owner with mass
+/// that ends it: the run's joint parts, that owner, and the massless links passed. Massless
+/// side branches are locked or listed in `massless_leaves`; a branch with mass on two sides
+/// is refused.
+fn through_massless(
+    raw: &RawRobot,
+    options: &LoadOptions,
+    welded: &Welded,
+    model: &mut Model,
+    first: JointPart,
+    mut link: usize,
+    massless_leaves: &mut Vec<(String, String)>,
+) -> Result<(Vec<JointPart>, usize, Vec<String>), ModelError> {
+    let mut parts = vec![first];
+    let mut massless_links = Vec::new();
+    while welded.massless[link] {
+        // Something beyond has mass: through one moving joint, or several (a branch).
+        let (out, empty): (Vec<_>, Vec<_>) = welded.moving_out[link]
+            .iter()
+            .partition(|&&(j, _)| welded.massive_below[raw.joints[j].child]);
+        for &(j, origin) in &empty {
+            let joint = &raw.joints[j];
+            let p = part(&joint.name, joint.kind, origin, joint.axis);
+            if options.massless_leaf == MasslessLeafPolicy::Lock {
+                lock(model, raw, &welded.children_joints, p, joint.child, None);
+            } else {
+                massless_leaves.push((raw.links[joint.child].name.clone(), p.name));
+            }
+        }
+        if out.len() != 1 {
+            return Err(ModelError::MasslessBranch {
+                link: raw.links[link].name.clone(),
+                joints: out
+                    .iter()
+                    .map(|&(j, _)| raw.joints[j].name.clone())
+                    .collect(),
+            });
+        }
+        let (j, origin) = out[0];
+        let joint = &raw.joints[j];
+        massless_links.extend(welded.members[link].iter().map(|m| m.0.clone()));
+        parts.push(part(&joint.name, joint.kind, origin, joint.axis));
+        link = joint.child;
+    }
+    Ok((parts, link, massless_links))
+}
+
+/// Stage 4 of [`Model::build`]: the locked joints' coordinates after every body's, URDF
+/// joint limits, armature, damping and springs (by joint name), the assembly tree.
+fn finish_joints(raw: &RawRobot, model: &mut Model) {
+    for l in &mut model.locked {
+        l.joint.q_offset = model.nq;
+        l.joint.v_offset = model.nv;
+        model.nq += l.joint.nq();
+        model.nv += l.joint.nv();
+    }
+    // Joint names are unique.
+    let limits: std::collections::HashMap<&str, [f64; 2]> = raw
+        .joints
+        .iter()
+        .filter_map(|j| Some((j.name.as_str(), j.limits?)))
+        .collect();
+    let parts = model.bodies.iter_mut().flat_map(|b| b.joint.iter_mut());
+    for p in parts.chain(model.locked.iter_mut().map(|l| &mut l.joint)) {
+        p.limits = limits.get(p.name.as_str()).copied();
+    }
+    let dynamics = raw
+        .joints
+        .iter()
+        .filter(|j| !j.dynamics.is_zero())
+        .map(|j| (j.name.clone(), j.dynamics))
+        .collect();
+    let per_joint = model.dynamics_by_joint(&dynamics);
+    model.dynamics = crate::DofDynamics::from_joints(model.nv, &per_joint);
+    model.assembly = AssemblyTree::build(model);
 }
 
 #[cfg(test)]

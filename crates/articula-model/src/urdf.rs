@@ -952,62 +952,7 @@ pub(crate) fn validate(robot: RobotData) -> Result<RawRobot, ModelError> {
                 link: l.name.to_string(),
             });
         }
-        let m = l.mass;
-        if !m.is_finite() || m < 0.0 {
-            return Err(ModelError::InvalidMass {
-                link: l.name.to_string(),
-                mass: m,
-            });
-        }
-        within(|| format!("link '{}' mass (kg)", l.name), m, MAX_MASS)?;
-        // Positive semidefiniteness and the triangle inequality are checked on the bodies
-        // after fixed-joint merging (`body_inertia`), where dynamics sees them.
-        let [ixx, ixy, ixz, iyy, iyz, izz] = l.inertia;
-        for x in l.inertia.into_iter().filter(|x| x.is_finite()) {
-            within(
-                || format!("link '{}' inertia entry (kg·m²)", l.name),
-                x,
-                MAX_INERTIA,
-            )?;
-        }
-        for x in l
-            .origin
-            .xyz
-            .to_array()
-            .into_iter()
-            .filter(|x| x.is_finite())
-        {
-            within(
-                || format!("link '{}' inertial origin (m)", l.name),
-                x,
-                MAX_LENGTH,
-            )?;
-        }
-        let ic = DMat3::from_cols(
-            DVec3::new(ixx, ixy, ixz),
-            DVec3::new(ixy, iyy, iyz),
-            DVec3::new(ixz, iyz, izz),
-        );
-        let origin = pose(&l.origin);
-        let (Some(origin), true) = (origin, ic.is_finite()) else {
-            return Err(ModelError::NonFiniteInertia {
-                link: l.name.to_string(),
-            });
-        };
-        // The inertial frame (origin, rpy) in link coordinates: com = xyz, I_com rotated.
-        let (rot, com) = origin.to_pose();
-        let inertia = SpatialInertia::new(m, com, rot * ic * rot.transpose());
-        // Finite inputs can still overflow (a huge mass far from the link origin).
-        if !inertia.is_finite() {
-            return Err(ModelError::NonFiniteInertia {
-                link: l.name.to_string(),
-            });
-        }
-        links.push(RawLink {
-            name: l.name.to_string(),
-            inertia,
-            geometry: l.geometry.clone(),
-        });
+        links.push(validate_link(l)?);
     }
 
     let mut joint_names = HashMap::new();
@@ -1041,39 +986,7 @@ pub(crate) fn validate(robot: RobotData) -> Result<RawRobot, ModelError> {
         for x in j.origin.xyz.to_array() {
             within(|| format!("joint '{}' origin (m)", j.name), x, MAX_LENGTH)?;
         }
-        let mut axis = j.axis;
-        if matches!(
-            kind,
-            JointKind::Revolute | JointKind::Continuous | JointKind::Prismatic
-        ) {
-            if !axis.is_finite() {
-                return Err(ModelError::InvalidAxis {
-                    joint: j.name.to_string(),
-                    reason: "non-finite component".into(),
-                });
-            }
-            // Scaled first, so huge components do not overflow the length to infinity (and
-            // the axis to zero).
-            let max = axis.abs().max_element();
-            let len = if max > 0.0 {
-                max * (axis / max).length()
-            } else {
-                0.0
-            };
-            if len < 1e-9 {
-                return Err(ModelError::InvalidAxis {
-                    joint: j.name.to_string(),
-                    reason: "zero length".into(),
-                });
-            }
-            if (len - 1.0).abs() > 1e-6 {
-                warnings.push(LoadWarning::AxisNormalised {
-                    joint: j.name.to_string(),
-                    length: len,
-                });
-            }
-            axis = (axis / max).normalize();
-        }
+        let axis = joint_axis(j, kind, &mut warnings)?;
         if let Some(first) = parent_joint[child] {
             let first: &RawJoint = &joints[first];
             return Err(ModelError::MultipleParents {
@@ -1097,6 +1010,127 @@ pub(crate) fn validate(robot: RobotData) -> Result<RawRobot, ModelError> {
         });
     }
 
+    let root = find_root(&links, &joints, &parent_joint)?;
+    Ok(RawRobot {
+        name: robot.name.into_owned(),
+        links,
+        joints,
+        root,
+        warnings,
+    })
+}
+
+/// A link's mass, inertia and inertial origin checked (finite, not absurd) and its spatial
+/// inertia in link coordinates.
+fn validate_link(l: &LinkData) -> Result<RawLink, ModelError> {
+    let m = l.mass;
+    if !m.is_finite() || m < 0.0 {
+        return Err(ModelError::InvalidMass {
+            link: l.name.to_string(),
+            mass: m,
+        });
+    }
+    within(|| format!("link '{}' mass (kg)", l.name), m, MAX_MASS)?;
+    // Positive semidefiniteness and the triangle inequality are checked on the bodies
+    // after fixed-joint merging (`body_inertia`), where dynamics sees them.
+    let [ixx, ixy, ixz, iyy, iyz, izz] = l.inertia;
+    for x in l.inertia.into_iter().filter(|x| x.is_finite()) {
+        within(
+            || format!("link '{}' inertia entry (kg·m²)", l.name),
+            x,
+            MAX_INERTIA,
+        )?;
+    }
+    for x in l
+        .origin
+        .xyz
+        .to_array()
+        .into_iter()
+        .filter(|x| x.is_finite())
+    {
+        within(
+            || format!("link '{}' inertial origin (m)", l.name),
+            x,
+            MAX_LENGTH,
+        )?;
+    }
+    let ic = DMat3::from_cols(
+        DVec3::new(ixx, ixy, ixz),
+        DVec3::new(ixy, iyy, iyz),
+        DVec3::new(ixz, iyz, izz),
+    );
+    let origin = pose(&l.origin);
+    let (Some(origin), true) = (origin, ic.is_finite()) else {
+        return Err(ModelError::NonFiniteInertia {
+            link: l.name.to_string(),
+        });
+    };
+    // The inertial frame (origin, rpy) in link coordinates: com = xyz, I_com rotated.
+    let (rot, com) = origin.to_pose();
+    let inertia = SpatialInertia::new(m, com, rot * ic * rot.transpose());
+    // Finite inputs can still overflow (a huge mass far from the link origin).
+    if !inertia.is_finite() {
+        return Err(ModelError::NonFiniteInertia {
+            link: l.name.to_string(),
+        });
+    }
+    Ok(RawLink {
+        name: l.name.to_string(),
+        inertia,
+        geometry: l.geometry.clone(),
+    })
+}
+
+/// The unit axis of a revolute, continuous or prismatic joint (a warning when the file's
+/// was not of unit length); other kinds keep the axis as read.
+fn joint_axis(
+    j: &JointData,
+    kind: JointKind,
+    warnings: &mut Vec<LoadWarning>,
+) -> Result<DVec3, ModelError> {
+    let mut axis = j.axis;
+    if matches!(
+        kind,
+        JointKind::Revolute | JointKind::Continuous | JointKind::Prismatic
+    ) {
+        if !axis.is_finite() {
+            return Err(ModelError::InvalidAxis {
+                joint: j.name.to_string(),
+                reason: "non-finite component".into(),
+            });
+        }
+        // Scaled first, so huge components do not overflow the length to infinity (and
+        // the axis to zero).
+        let max = axis.abs().max_element();
+        let len = if max > 0.0 {
+            max * (axis / max).length()
+        } else {
+            0.0
+        };
+        if len < 1e-9 {
+            return Err(ModelError::InvalidAxis {
+                joint: j.name.to_string(),
+                reason: "zero length".into(),
+            });
+        }
+        if (len - 1.0).abs() > 1e-6 {
+            warnings.push(LoadWarning::AxisNormalised {
+                joint: j.name.to_string(),
+                length: len,
+            });
+        }
+        axis = (axis / max).normalize();
+    }
+    Ok(axis)
+}
+
+/// The one link without a parent joint, every link reachable from it (the unreachable ones
+/// sit on a cycle).
+fn find_root(
+    links: &[RawLink],
+    joints: &[RawJoint],
+    parent_joint: &[Option<usize>],
+) -> Result<usize, ModelError> {
     let roots: Vec<usize> = (0..links.len())
         .filter(|&l| parent_joint[l].is_none())
         .collect();
@@ -1112,7 +1146,7 @@ pub(crate) fn validate(robot: RobotData) -> Result<RawRobot, ModelError> {
     };
     // Every link must be reachable from the root; the unreachable ones sit on a cycle.
     let mut children: Vec<Vec<usize>> = vec![Vec::new(); links.len()];
-    for j in &joints {
+    for j in joints {
         children[j.parent].push(j.child);
     }
     let mut seen = vec![false; links.len()];
@@ -1126,13 +1160,7 @@ pub(crate) fn validate(robot: RobotData) -> Result<RawRobot, ModelError> {
             link: links[l].name.clone(),
         });
     }
-    Ok(RawRobot {
-        name: robot.name.into_owned(),
-        links,
-        joints,
-        root,
-        warnings,
-    })
+    Ok(root)
 }
 
 #[cfg(test)]

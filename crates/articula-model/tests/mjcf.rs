@@ -203,3 +203,33 @@ fn ball_joint_loads() {
         m.warnings
     );
 }
+
+/// `<option gravity>` becomes the model's gravity (MuJoCo's default without one, zero when a
+/// `<flag gravity="disable">` switches it off); a URDF's is the default.
+#[test]
+fn option_gravity_is_the_models() {
+    let body = r#"<body><joint type="hinge"/><geom type="sphere" size="0.1" mass="1"/></body>"#;
+    let with = |option: &str| {
+        let text = format!("<mujoco>{option}<worldbody>{body}</worldbody></mujoco>");
+        load(&text).expect("loads").gravity
+    };
+    assert_eq!(with(""), DVec3::new(0.0, 0.0, -9.81));
+    assert_eq!(
+        with(r#"<option gravity="0.5 -1 -3.7"/>"#),
+        DVec3::new(0.5, -1.0, -3.7)
+    );
+    assert_eq!(
+        with(r#"<option gravity="0 0 -1.62"><flag gravity="disable"/></option>"#),
+        DVec3::ZERO
+    );
+    let text =
+        format!(r#"<mujoco><option gravity="0 0 x"/><worldbody>{body}</worldbody></mujoco>"#);
+    let err = load(&text).expect_err("a word is not a number").to_string();
+    assert!(err.contains("gravity"), "{err}");
+    let urdf = Model::from_urdf_file(
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../models/chain10.urdf"),
+        &LoadOptions::default(),
+    )
+    .expect("loads");
+    assert_eq!(urdf.gravity, DVec3::new(0.0, 0.0, -9.81));
+}

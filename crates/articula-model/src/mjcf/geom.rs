@@ -1,6 +1,7 @@
 //! MJCF frames (`pos` and the five ways to write an orientation) and geoms (their shapes as
 //! contact geometry, and the mass and inertia MuJoCo gives them).
 
+use super::mesh::{self, MeshInertia};
 use super::xml::{Attrs, Compiler};
 use crate::urdf::{Geometry, GeometryRole, Shape};
 use crate::ModelError;
@@ -108,6 +109,8 @@ pub(crate) struct Geom {
     pub pose: (DQuat, DVec3),
     pub collides: bool,
     pub group: i64,
+    /// The `<mesh>` asset a mesh geom shows (its `mesh` attribute).
+    pub mesh: Option<String>,
 }
 
 impl Geom {
@@ -147,6 +150,7 @@ impl Geom {
         if size.iter().any(|&x| x < 0.0) {
             return Err(a.err("size", "a size is negative"));
         }
+        let mesh = a.get("mesh").map(str::to_string);
         let contype = a.number("contype", 1.0)?;
         let conaffinity = a.number("conaffinity", 1.0)?;
         Ok(Geom {
@@ -155,6 +159,7 @@ impl Geom {
             pose,
             collides: contype != 0.0 || conaffinity != 0.0,
             group: a.number("group", 0.0)? as i64,
+            mesh,
         })
     }
 
@@ -191,9 +196,52 @@ impl Geom {
         })
     }
 
-    /// The geom's spatial inertia in its body's frame (`mass`, else `density` × volume).
-    pub fn inertia(&self, a: &Attrs) -> Result<SpatialInertia, ModelError> {
-        let Some((volume, unit)) = self.unit_inertia() else {
+    /// The geom's mass, centre and principal moments and axes, as MuJoCo's compiler keeps
+    /// them (`mass`, else `density` × volume).
+    pub fn mass_properties(
+        &self,
+        a: &Attrs,
+        mesh: Option<&MeshInertia>,
+    ) -> Result<GeomMass, ModelError> {
+        let kind = self.kind.as_str();
+        match (kind, &self.mesh) {
+            ("mesh", None) => return Err(a.err("mesh", "a mesh geom needs a mesh")),
+            ("mesh", Some(_)) | (_, None) => {}
+            (_, Some(_)) => {
+                return Err(a.err(
+                    "mesh",
+                    format!("a {kind} geom fitted to a mesh is not read: give its size"),
+                ))
+            }
+        }
+        if a.flag("shellinertia", Some(false))? == Some(true) {
+            return Err(a.err(
+                "shellinertia",
+                if kind == "mesh" {
+                    "for mesh geoms, inertia should be specified in the mesh asset \
+                     (<mesh inertia=\"shell\">), as MuJoCo says"
+                } else {
+                    "shell inertia of primitive geoms is not computed: give the body an <inertial>"
+                },
+            ));
+        }
+        let mut pose = self.pose;
+        let found = match mesh {
+            Some(m) => {
+                // MuJoCo's geom frame absorbs the mesh's: pos += R(quat) · mesh pos,
+                // quat ← quat · mesh quat (mjuu_frameaccum).
+                let q = self.pose.0;
+                let q = [q.w, q.x, q.y, q.z];
+                let qm = mesh::mulquat(&q, &m.quat);
+                pose = (
+                    DQuat::from_xyzw(qm[1], qm[2], qm[3], qm[0]),
+                    self.pose.1 + mesh::rot_vec_quat(m.pos, &q),
+                );
+                Some((m.volume, m.unit_moments()))
+            }
+            None => self.unit_inertia(),
+        };
+        let Some((volume, unit)) = found else {
             return Err(a.err(
                 "type",
                 format!(
@@ -210,9 +258,12 @@ impl Geom {
         if mass < 0.0 {
             return Err(a.err("mass", format!("negative mass {mass}")));
         }
-        let rot = DMat3::from_quat(self.pose.0);
-        let ic = rot * DMat3::from_diagonal(unit * mass) * rot.transpose();
-        Ok(SpatialInertia::new(mass, self.pose.1, ic))
+        Ok(GeomMass {
+            mass,
+            pos: pose.1,
+            quat: pose.0,
+            moments: unit * mass,
+        })
     }
 
     /// The contact shape, when articula has one for it.
@@ -243,5 +294,71 @@ impl Geom {
                 GeometryRole::Visual
             },
         })
+    }
+}
+
+/// A geom's (or a body's) mass properties as MuJoCo stores them: mass, centre, principal
+/// axes and moments.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct GeomMass {
+    pub mass: f64,
+    /// Centre of mass in the body frame.
+    pub pos: DVec3,
+    /// Principal axes in the body frame.
+    pub quat: DQuat,
+    /// Principal moments about the centre.
+    pub moments: DVec3,
+}
+
+impl GeomMass {
+    /// As a spatial inertia in the body frame.
+    pub fn spatial(&self) -> SpatialInertia {
+        let rot = DMat3::from_quat(self.quat);
+        let ic = rot * DMat3::from_diagonal(self.moments) * rot.transpose();
+        SpatialInertia::new(self.mass, self.pos, ic)
+    }
+
+    /// A body's mass properties from its geoms', as MuJoCo's `mjCBody::InertiaFromGeom`:
+    /// geoms of mass ≤ 1e-14 are left out, one geom is copied, several are summed about
+    /// their common centre and re-diagonalised by [`mesh::eig3`] with MuJoCo's body
+    /// tolerance (its dropped residual, up to 4e-15 of the largest entry, is MuJoCo's too).
+    pub fn principal_sum(parts: &[GeomMass]) -> SpatialInertia {
+        let sel: Vec<&GeomMass> = parts.iter().filter(|g| g.mass > 1e-14).collect();
+        match sel.as_slice() {
+            [] => SpatialInertia::ZERO,
+            [one] => one.spatial(),
+            _ => {
+                let mass: f64 = sel.iter().map(|g| g.mass).sum();
+                let com = sel.iter().fold(DVec3::ZERO, |c, g| c + g.pos * g.mass) / mass;
+                let mut total = DMat3::ZERO;
+                for g in &sel {
+                    let rot = DMat3::from_quat(g.quat);
+                    let d = g.pos - com;
+                    let shift = DMat3::from_diagonal(DVec3::splat(d.length_squared()))
+                        - DMat3::from_cols(d * d.x, d * d.y, d * d.z);
+                    total +=
+                        rot * DMat3::from_diagonal(g.moments) * rot.transpose() + shift * g.mass;
+                }
+                let full = [
+                    total.x_axis.x,
+                    total.y_axis.x,
+                    total.z_axis.x,
+                    total.x_axis.y,
+                    total.y_axis.y,
+                    total.z_axis.y,
+                    total.x_axis.z,
+                    total.y_axis.z,
+                    total.z_axis.z,
+                ];
+                let (eig, q) = mesh::eig3(&full, mesh::BODY_EIG_TOL);
+                GeomMass {
+                    mass,
+                    pos: com,
+                    quat: DQuat::from_xyzw(q[1], q[2], q[3], q[0]),
+                    moments: DVec3::from_array(eig),
+                }
+                .spatial()
+            }
+        }
     }
 }

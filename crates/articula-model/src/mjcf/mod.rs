@@ -8,13 +8,17 @@
 //! the last part by a weld `T(−p_last)`.
 
 mod geom;
+mod mesh;
+mod mesh_file;
+pub(crate) mod spring_damper;
 mod xml;
 
 use crate::urdf::{Geometry, JointKind, RawJoint, RawLink, RawRobot};
 use crate::{JointDynamics, LoadWarning, ModelError};
 use articula_spatial::{SpatialInertia, SpatialTransform};
-use geom::{frame, Geom};
+use geom::{frame, Geom, GeomMass};
 use glam::{DMat3, DVec3};
+use mesh::Meshes;
 use std::collections::{BTreeMap, HashMap, HashSet};
 use xml::{Attrs, Compiler, Defaults, Doc, El, MAIN};
 
@@ -29,6 +33,13 @@ pub(crate) struct MjcfRobot {
     pub free_joint: Option<RawJoint>,
     /// Every joint's dynamics, by name.
     pub joints_dynamics: HashMap<String, JointDynamics>,
+    /// Joints whose stiffness and damping come from `springdamper` (name, `[timeconst,
+    /// dampratio]`), set by [`spring_damper::apply`] once the model is built.
+    pub spring_dampers: Vec<(String, [f64; 2])>,
+    /// MuJoCo's `qpos0` where it is not neutral (the `ref` of hinge and slide joints).
+    pub qpos0: HashMap<String, f64>,
+    /// `<option gravity>` (MuJoCo's default `0 0 -9.81`), zero under `<flag gravity="disable">`.
+    pub gravity: DVec3,
 }
 
 pub(crate) fn read_file(path: &std::path::Path) -> Result<MjcfRobot, ModelError> {
@@ -62,6 +73,8 @@ struct Builder<'a> {
     doc: &'a Doc,
     defaults: Defaults,
     compiler: Compiler,
+    /// The `<mesh>` assets, read when a geom's inertia needs one.
+    meshes: Meshes,
     links: Vec<RawLink>,
     joints: Vec<RawJoint>,
     link_names: HashSet<String>,
@@ -74,12 +87,44 @@ struct Builder<'a> {
     warnings: Vec<LoadWarning>,
     /// Bodies read so far.
     bodies: usize,
+    spring_dampers: Vec<(String, [f64; 2])>,
+    qpos0: HashMap<String, f64>,
+}
+
+/// The gravity `<option>` states (the last one read wins, as in MuJoCo), zero when a
+/// `<flag gravity="disable">` switches it off.
+fn gravity(doc: &Doc) -> Result<DVec3, ModelError> {
+    let mut g = DVec3::new(0.0, 0.0, -9.81);
+    let mut enabled = true;
+    for option in doc.root.each("option") {
+        if let Some([x, y, z]) = Attrs::plain(doc, option).array::<3>("gravity")? {
+            g = DVec3::new(x, y, z);
+        }
+        for flag in option.each("flag") {
+            let a = Attrs::plain(doc, flag);
+            match a.get("gravity") {
+                None => {}
+                Some("enable") => enabled = true,
+                Some("disable") => enabled = false,
+                Some(x) => {
+                    return Err(a.err(
+                        "gravity",
+                        format!("expected enable or disable, found '{x}'"),
+                    ))
+                }
+            }
+        }
+    }
+    Ok(if enabled { g } else { DVec3::ZERO })
 }
 
 fn read(doc: Doc) -> Result<MjcfRobot, ModelError> {
+    let compiler = Compiler::read(&doc)?;
+    let gravity = gravity(&doc)?;
     let mut b = Builder {
         defaults: Defaults::read(&doc)?,
-        compiler: Compiler::read(&doc)?,
+        meshes: Meshes::read(&doc, &compiler)?,
+        compiler,
         doc: &doc,
         links: Vec::new(),
         joints: Vec::new(),
@@ -90,6 +135,8 @@ fn read(doc: Doc) -> Result<MjcfRobot, ModelError> {
         ignored: BTreeMap::new(),
         warnings: Vec::new(),
         bodies: 0,
+        spring_dampers: Vec::new(),
+        qpos0: HashMap::new(),
     };
     let name = doc.root.attr("model").unwrap_or("mujoco").to_string();
     b.add_link("world", SpatialInertia::ZERO, Vec::new(), &doc.root)?;
@@ -104,6 +151,8 @@ fn read(doc: Doc) -> Result<MjcfRobot, ModelError> {
         free,
         renames,
         warnings,
+        spring_dampers,
+        qpos0,
         ..
     } = b;
     // One free body hanging alone from the world is the floating base; the world is dropped.
@@ -141,6 +190,9 @@ fn read(doc: Doc) -> Result<MjcfRobot, ModelError> {
         renames,
         free_joint,
         joints_dynamics,
+        spring_dampers,
+        qpos0,
+        gravity,
     })
 }
 
@@ -376,15 +428,30 @@ impl Builder<'_> {
             None => inertials.is_empty(),
         };
         let mut inertia = SpatialInertia::ZERO;
+        let mut parts = Vec::new();
+        let mut meshes = false;
         let mut geometry = Vec::new();
         for g in el.each("geom") {
             let a = Attrs::new(doc, &self.defaults, g, class)?;
             let geom = Geom::read(&a, &self.compiler)?;
             let [lo, hi] = self.compiler.inertia_groups;
             if from_geoms && (lo..=hi).contains(&geom.group) {
-                inertia += geom.inertia(&a)?;
+                let mesh = match &geom.mesh {
+                    Some(m) => Some(self.meshes.inertia(doc, &self.defaults, m, &a)?),
+                    None => None,
+                };
+                meshes |= mesh.is_some();
+                let part = geom.mass_properties(&a, mesh.as_ref())?;
+                inertia += part.spatial();
+                parts.push(part);
             }
             geometry.extend(geom.geometry());
+        }
+        // Bodies with meshes take MuJoCo's route through principal axes, which drops a
+        // residual that shows on tiny inertias; others keep the exact sum (the same to
+        // rounding at ordinary sizes, and unchanged from before meshes were read).
+        if meshes {
+            inertia = GeomMass::principal_sum(&parts);
         }
         if !from_geoms {
             if let Some(i) = inertials.first() {
@@ -470,6 +537,26 @@ impl Builder<'_> {
         if a.number("frictionloss", 0.0)? != 0.0 {
             ignore(&mut self.ignored, "MJCF joint friction (frictionloss)", el);
         }
+        let spring_damper =
+            match a.array::<2>("springdamper")? {
+                Some([0.0, 0.0]) | None => None,
+                Some([tc, dr]) if tc > 0.0 && dr > 0.0 => Some([tc, dr]),
+                Some(_) => return Err(a.err(
+                    "springdamper",
+                    "when given, springdamper's time constant and damping ratio must be positive",
+                )),
+            };
+        if let Some(sd) = spring_damper {
+            if matches!(kind, "hinge" | "slide") {
+                self.spring_dampers.push((name.clone(), sd));
+            } else {
+                ignore(
+                    &mut self.ignored,
+                    "MJCF springdamper of a ball or free joint",
+                    el,
+                );
+            }
+        }
         let joint = |kind, axis, limits, dynamics| RawJoint {
             name: name.clone(),
             kind,
@@ -498,7 +585,19 @@ impl Builder<'_> {
                     zero: SpatialTransform::IDENTITY,
                 })
             }
-            "hinge" | "slide" => self.scalar_joint(&a, kind == "hinge", dynamics, joint),
+            "hinge" | "slide" => {
+                let hinge = kind == "hinge";
+                let reference = a.number("ref", 0.0)?;
+                if reference != 0.0 {
+                    let r = if hinge {
+                        self.compiler.angle(reference)
+                    } else {
+                        reference
+                    };
+                    self.qpos0.insert(name.clone(), r);
+                }
+                self.scalar_joint(&a, hinge, dynamics, joint)
+            }
             "ball" => {
                 if dynamics.stiffness != 0.0 {
                     return Err(a.err("stiffness", "a ball joint's spring is not modelled"));

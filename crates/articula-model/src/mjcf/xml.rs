@@ -49,6 +49,8 @@ impl El {
 pub(crate) struct Doc {
     pub files: Vec<String>,
     pub root: El,
+    /// The main file's directory (asset files are resolved against it), `None` for text.
+    pub dir: Option<PathBuf>,
 }
 
 impl Doc {
@@ -74,14 +76,18 @@ impl Doc {
             dir.as_deref(),
             &mut files,
         )?;
-        Ok(Doc { files, root })
+        Ok(Doc { files, root, dir })
     }
 
     /// Reads a model from text; an `<include>` is then an error (it has no directory).
     pub fn read_str(text: &str) -> Result<Doc, ModelError> {
         let mut files = Vec::new();
         let root = parse(text, "<string>".into(), None, &mut files)?;
-        Ok(Doc { files, root })
+        Ok(Doc {
+            files,
+            root,
+            dir: None,
+        })
     }
 }
 
@@ -371,6 +377,8 @@ pub(crate) struct Compiler {
     pub inertia_groups: [i64; 2],
     /// `settotalmass`: scale every body's mass and inertia to this total.
     pub total_mass: Option<f64>,
+    /// `meshdir` (else `assetdir`): mesh files' directory, relative to the model's.
+    pub meshdir: Option<String>,
 }
 
 impl Compiler {
@@ -382,6 +390,7 @@ impl Compiler {
             inertia_from_geom: None,
             inertia_groups: [0, 5],
             total_mass: None,
+            meshdir: None,
         };
         for el in doc.root.each("compiler") {
             let a = Attrs::plain(doc, el);
@@ -414,6 +423,9 @@ impl Compiler {
             }
             if let Some([m]) = a.array::<1>("settotalmass")? {
                 c.total_mass = (m > 0.0).then_some(m);
+            }
+            if let Some(dir) = a.get("meshdir").or_else(|| a.get("assetdir")) {
+                c.meshdir = Some(dir.to_string());
             }
             if a.get("coordinate").is_some_and(|x| x != "local") {
                 return Err(a.err(

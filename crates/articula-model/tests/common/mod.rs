@@ -138,7 +138,14 @@ fn vertex_sets(model: &Model) -> Vec<BTreeSet<usize>> {
 /// Checks the model's bookkeeping and every structural invariant of its assembly tree. Panics
 /// with a message naming the broken invariant.
 pub fn check_invariants(model: &Model) {
-    let n = model.bodies.len();
+    check_bodies(model);
+    check_tree_links(model);
+    check_leaves(model);
+    check_vertex_sets(model);
+}
+
+/// Bodies: parents before children, children lists consistent, coordinates contiguous.
+fn check_bodies(model: &Model) {
     // Bodies: parents before children, children lists consistent, coordinates contiguous.
     let (mut nq, mut nv) = (0, 0);
     for (i, b) in model.bodies.iter().enumerate() {
@@ -208,11 +215,12 @@ pub fn check_invariants(model: &Model) {
         assert!(model.ground_links.is_empty());
         assert_eq!(model.ground_mass, 0.0);
     }
+}
 
+/// The tree's node count and post-order links.
+fn check_tree_links(model: &Model) {
+    let n = model.bodies.len();
     let tree = &model.assembly;
-    let ground = n;
-    let vparent = |v: usize| model.bodies[v].parent.unwrap_or(ground);
-
     // A full binary tree over n + 1 leaves (without gather nodes); otherwise one node per body
     // and the ground (a leaf or a gather) plus one join per joint no gather absorbs.
     let gathered_joints = tree.gathered.len();
@@ -262,7 +270,13 @@ pub fn check_invariants(model: &Model) {
             }
         }
     }
+}
 
+/// Each body in exactly one leaf, the ground in exactly one; each joint principal once.
+fn check_leaves(model: &Model) {
+    let n = model.bodies.len();
+    let tree = &model.assembly;
+    let ground = n;
     // Each body in exactly one leaf, the ground in exactly one; each joint principal once.
     let mut leaf_count = vec![0usize; n + 1];
     let mut principal_count = vec![0usize; n];
@@ -306,7 +320,15 @@ pub fn check_invariants(model: &Model) {
         principal_count.iter().all(|&c| c == 1),
         "principal joint counts {principal_count:?}"
     );
+}
 
+/// Vertex sets; sizes; handles; principal joint sides; connectedness.
+fn check_vertex_sets(model: &Model) {
+    let n = model.bodies.len();
+    let tree = &model.assembly;
+    let ground = n;
+    let vparent = |v: usize| model.bodies[v].parent.unwrap_or(ground);
+    let root = tree.root();
     // Vertex sets; sizes; handles; principal joint sides; connectedness.
     let sets = vertex_sets(model);
     assert_eq!(
