@@ -138,6 +138,26 @@ pub fn bias_forces<'py>(
     Ok(PyArray1::from_slice(py, b.map_err(from_dynamics)?))
 }
 
+/// The passive joint forces at (q, v): per degree of freedom -damping v - stiffness (q -
+/// springref), from URDF <dynamics damping> and MJCF damping, stiffness and springdamper.
+/// MuJoCo: data.qfrc_passive. Stepping applies them (damping implicitly); forward_dynamics
+/// with an explicit tau does not, so forward_dynamics(model, data, q, v, tau +
+/// passive_forces(model, q, v)) is MuJoCo's qacc_smooth.
+#[pyfunction]
+pub fn passive_forces<'py>(
+    py: Python<'py>,
+    model: &PyModel,
+    q: &Bound<'py, PyAny>,
+    v: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let q = vector(q, "q", model.model.nq)?;
+    let v = vector(v, "v", model.model.nv)?;
+    check_quaternions(&model.model, q.slice(), "q")?;
+    let mut out = vec![0.0; model.model.nv];
+    model.model.passive_forces(q.slice(), v.slice(), &mut out);
+    Ok(PyArray1::from_vec(py, out))
+}
+
 /// Positions and velocities of every body at (q, v) (v defaults to zero) into data, for
 /// link_pose, jacobian, com, com_jacobian, the energies and momentum.
 /// Pinocchio: pin.forwardKinematics + pin.updateFramePlacements.

@@ -36,6 +36,7 @@ fn _articula(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(dynamics::inverse_dynamics, m)?)?;
     m.add_function(wrap_pyfunction!(dynamics::mass_matrix, m)?)?;
     m.add_function(wrap_pyfunction!(dynamics::bias_forces, m)?)?;
+    m.add_function(wrap_pyfunction!(dynamics::passive_forces, m)?)?;
     m.add_function(wrap_pyfunction!(dynamics::forward_kinematics, m)?)?;
     m.add_function(wrap_pyfunction!(dynamics::link_pose, m)?)?;
     m.add_function(wrap_pyfunction!(dynamics::jacobian, m)?)?;

@@ -79,9 +79,54 @@ pub(crate) fn load_options(
     Ok(options)
 }
 
-/// Whether `source` is URDF text rather than a path: its first non-blank character is `<`.
-fn is_urdf_text(source: &str) -> bool {
+/// Whether `source` is a model's text rather than a path: its first non-blank character is `<`.
+fn is_model_text(source: &str) -> bool {
     source.trim_start().starts_with('<')
+}
+
+/// The two model formats a source string may hold.
+#[derive(Clone, Copy)]
+enum Format {
+    Urdf,
+    Mjcf,
+}
+
+/// Loads `source` (a path, or the model's text when it starts with '<') as `format`.
+fn load(
+    py: Python<'_>,
+    source: &Bound<'_, PyAny>,
+    options: &LoadOptions,
+    format: Format,
+) -> PyResult<PyModel> {
+    let name = match format {
+        Format::Urdf => "URDF",
+        Format::Mjcf => "MJCF",
+    };
+    let text: Option<String> = source.extract::<String>().ok();
+    let model = match text {
+        Some(t) if is_model_text(&t) => py.detach(|| match format {
+            Format::Urdf => Model::from_urdf_str(&t, options),
+            Format::Mjcf => Model::from_mjcf_str(&t, options),
+        }),
+        _ => {
+            let path: std::path::PathBuf = source.extract().map_err(|_| {
+                let ty = source
+                    .get_type()
+                    .name()
+                    .map_or("?".into(), |n| n.to_string());
+                error(
+                    Kind::Model,
+                    format!("source must be a path or {name} text, not {ty}"),
+                )
+            })?;
+            py.detach(|| match format {
+                Format::Urdf => Model::from_urdf_file(&path, options),
+                Format::Mjcf => Model::from_mjcf_file(&path, options),
+            })
+        }
+    }
+    .map_err(model_error)?;
+    Ok(PyModel::new(model))
 }
 
 #[pymethods]
@@ -113,28 +158,56 @@ impl PyModel {
             bound_mass,
             bound_inertia,
         )?;
-        let text: Option<String> = source.extract::<String>().ok();
-        let model = match text {
-            Some(t) if is_urdf_text(&t) => py
-                .detach(|| Model::from_urdf_str(&t, &options))
-                .map_err(model_error)?,
-            _ => {
-                let path: std::path::PathBuf = source.extract().map_err(|_| {
-                    error(
-                        Kind::Model,
-                        format!(
-                            "source must be a path or URDF text, not {}",
-                            source
-                                .get_type()
-                                .name()
-                                .map_or("?".into(), |n| n.to_string())
-                        ),
-                    )
-                })?;
-                py.detach(|| Model::from_urdf_file(&path, &options))
-                    .map_err(model_error)?
-            }
-        };
+        load(py, source, &options, Format::Urdf)
+    }
+
+    /// Loads an MJCF (MuJoCo XML) model from a file path (its `<include>`s and mesh files
+    /// resolved against its directory) or from MJCF text (a string whose first non-blank
+    /// character is '<'; an `<include>` is then an error). The file decides the base: one
+    /// free body alone under the world is a floating base. Ball joints are quaternions
+    /// `[w, x, y, z]` in q, as MuJoCo's; `armature`, `damping` and springs are read
+    /// (docs/mjcf.md lists what is read, warned about and refused). Options as in from_urdf.
+    /// Raises articula.ModelError naming the file, body or joint.
+    #[staticmethod]
+    #[pyo3(signature = (source, inertia="accept", massless_leaf="lock", bound_mass=None,
+                        bound_inertia=None))]
+    fn from_mjcf(
+        py: Python<'_>,
+        source: &Bound<'_, PyAny>,
+        inertia: &str,
+        massless_leaf: &str,
+        bound_mass: Option<f64>,
+        bound_inertia: Option<f64>,
+    ) -> PyResult<PyModel> {
+        let options = load_options(false, inertia, massless_leaf, bound_mass, bound_inertia)?;
+        load(py, source, &options, Format::Mjcf)
+    }
+
+    /// Loads a URDF or an MJCF file, by its content (an MJCF's root element is `<mujoco>`).
+    /// floating_base applies to a URDF only (an MJCF file decides its base); the other
+    /// options as in from_urdf.
+    #[staticmethod]
+    #[pyo3(signature = (path, floating_base=false, inertia="accept", massless_leaf="lock",
+                        bound_mass=None, bound_inertia=None))]
+    fn from_file(
+        py: Python<'_>,
+        path: std::path::PathBuf,
+        floating_base: bool,
+        inertia: &str,
+        massless_leaf: &str,
+        bound_mass: Option<f64>,
+        bound_inertia: Option<f64>,
+    ) -> PyResult<PyModel> {
+        let options = load_options(
+            floating_base,
+            inertia,
+            massless_leaf,
+            bound_mass,
+            bound_inertia,
+        )?;
+        let model = py
+            .detach(|| Model::from_file(&path, &options))
+            .map_err(model_error)?;
         Ok(PyModel::new(model))
     }
 

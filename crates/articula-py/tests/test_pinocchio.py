@@ -8,13 +8,8 @@ v = [w; v], tau = [n; f] here and [x, y, z, qx, qy, qz, qw], [v; w], [f; n] in P
 same frame: a reordering); Jacobian rows are [w; v] here and [v; w] there. A joint articula
 locks (a massless moving leaf) is removed from Pinocchio's model with buildReducedModel.
 
-Error: max |x - x_pin| / max(1, max |x_pin|) per quantity and state; the target is 1e-10.
-One exception, DCA on icub: its neck is near gimbal lock at these random states (q̈ up to 8e7
-rad/s²) with the 1.3 kg head 0.4 mm from the last axis, and DCA, which takes every quantity about
-one computation origin, keeps fewer digits there than ABA, CRBA and Pinocchio, which form their
-inertias about each body's own origin (against the double-double reference, Rust test
-crates/articula-dca/tests/example_robots.rs: DCA 6.8e-10, ABA 4.7e-11, Pinocchio 8.3e-11). Its
-bound is 2e-9.
+Error: max |x - x_pin| / max(1, max |x_pin|) per quantity and state; the bound is 1e-10 for every
+quantity on every robot.
 """
 
 import numpy as np
@@ -28,7 +23,6 @@ pin = pytest.importorskip("pinocchio", reason="Pinocchio (pip install pin) is no
 BUNDLED = [(n, model_path(n + ".urdf")) for n in ("humanoid", "chain10", "chain30", "plant", "rope")]
 ROBOTS = example_robot_urdfs()
 TOL = 1e-10
-LOOSE = {("icub", "fd_dca"): 2e-9}
 SEEDS = (1, 2)
 
 
@@ -161,7 +155,7 @@ def test_matches_pinocchio(key, path, floating):
     if "refused" in result:
         pytest.skip(f"articula refuses {key}: {result['refused']}")
     robot = key.split("/")[-1]
-    bad = {k: e for k, e in result["errors"].items() if not e <= LOOSE.get((robot, k), TOL)}
+    bad = {k: e for k, e in result["errors"].items() if not e <= TOL}
     assert not bad, f"{key} ({'floating' if floating else 'fixed'}): errors above {TOL}: {bad}"
 
 

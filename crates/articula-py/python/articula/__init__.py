@@ -34,6 +34,7 @@ from ._articula import (
     SceneShard,
     __version__,
     bias_forces,
+    passive_forces,
     centroidal_momentum,
     com,
     com_jacobian,
@@ -54,7 +55,7 @@ from . import _articula
 
 __all__ = [
     "Adaptive", "Data", "DivergenceError", "DynamicsError", "Error", "Ground", "Model",
-    "ModelError", "Scene", "SceneBuilder", "SceneShard", "SceneError", "State", "bias_forces",
+    "ModelError", "Scene", "SceneBuilder", "SceneShard", "SceneError", "State", "bias_forces", "passive_forces",
     "centroidal_momentum", "com", "com_jacobian", "forward_dynamics", "forward_dynamics_batch",
     "forward_kinematics", "inverse_dynamics", "jacobian", "kinetic_energy", "link_pose",
     "mass_matrix", "momentum", "potential_energy", "rollout", "simulate", "step",

@@ -18,7 +18,7 @@ GroundLike = Union[None, float, "Ground"]
 
 
 class Model:
-    """An articulated model loaded from a URDF (immutable)."""
+    """An articulated model loaded from a URDF or an MJCF file (immutable)."""
 
     @staticmethod
     def from_urdf(source: Union[str, PathLike], floating_base: bool = False,
@@ -26,6 +26,18 @@ class Model:
                   bound_mass: Optional[float] = None,
                   bound_inertia: Optional[float] = None) -> "Model":
         """Loads a URDF from a path or from URDF text; raises ModelError."""
+    @staticmethod
+    def from_mjcf(source: Union[str, PathLike], inertia: str = "accept",
+                  massless_leaf: str = "lock", bound_mass: Optional[float] = None,
+                  bound_inertia: Optional[float] = None) -> "Model":
+        """Loads an MJCF (MuJoCo XML) model from a path or from MJCF text; the file decides
+        its base; raises ModelError."""
+    @staticmethod
+    def from_file(path: Union[str, PathLike], floating_base: bool = False,
+                  inertia: str = "accept", massless_leaf: str = "lock",
+                  bound_mass: Optional[float] = None,
+                  bound_inertia: Optional[float] = None) -> "Model":
+        """Loads a URDF or an MJCF file, by its content; raises ModelError."""
     @property
     def name(self) -> str: ...
     @property
@@ -148,6 +160,9 @@ def rollout(model: Model, Q0: ArrayLike, V0: ArrayLike, TAU: Optional[ArrayLike]
             method: str = "dca", ground: GroundLike = None, joint_limits: bool = False,
             threads: Optional[int] = None) -> Tuple[Array, Array]:
     """(Q (n, steps, nq), V (n, steps, nv)), across cores."""
+
+def passive_forces(model: Model, q: ArrayLike, v: ArrayLike) -> Array:
+    """Passive joint forces -damping v - stiffness (q - springref) (MuJoCo's qfrc_passive)."""
 
 
 class Adaptive:
