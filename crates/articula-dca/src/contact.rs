@@ -79,10 +79,11 @@ pub struct ContactSettings {
     pub ground: Option<Ground>,
     /// Enforce the URDF limits of revolute and prismatic joints (default `true`).
     pub joint_limits: bool,
-    /// Gauss–Seidel sweeps at most (default 200, at most [`MAX_ITERATIONS`]).
+    /// Solver iterations at most (Gauss–Seidel sweeps, Newton iterations, subspace steps;
+    /// default 200, at most [`MAX_ITERATIONS`]).
     pub max_iterations: usize,
-    /// Stop when no sweep changes a row velocity by more than this (default 1e-9, m/s or
-    /// rad/s).
+    /// Stop when every condition holds to this residual velocity (default 1e-9, m/s or
+    /// rad/s; Gauss–Seidel also stops when no sweep changes a row velocity by more).
     pub tolerance: f64,
     /// Penetration (m, or rad for a limit) left alone by the position correction (default
     /// 1e-4).
@@ -97,13 +98,13 @@ pub struct ContactSettings {
     pub solver: ContactSolver,
 }
 
-/// How the contact problem is solved (`docs/contact.md#solver`). Both stop at
-/// `ContactSettings::tolerance` or after `max_iterations`, and both return impulses inside
+/// How the contact problem is solved (`docs/contact.md#solver`). Each stops at
+/// `ContactSettings::tolerance` or after `max_iterations`, and each returns impulses inside
 /// the friction discs and never a pulling normal force.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum ContactSolver {
     /// Projected Gauss–Seidel: sweeps until no row velocity changes by more than the
-    /// tolerance or every condition holds to it.
+    /// tolerance or every condition holds to it. The default.
     #[default]
     GaussSeidel,
     /// Projected Gauss–Seidel with subspace minimisation: a few sweeps fix which rows push
@@ -112,6 +113,11 @@ pub enum ContactSolver {
     /// condition holds to the tolerance. About half the iterations of Gauss–Seidel, each
     /// subspace step costing several sweeps.
     Subspace,
+    /// Semismooth Newton on the Alart–Curnier equations: per iteration the status of every
+    /// contact and limit (separating, sticking, sliding), one dense solve on the rows that
+    /// push, and a line search; converges in a few iterations where Gauss–Seidel needs
+    /// hundreds, and falls back to Gauss–Seidel sweeps when it stalls.
+    Newton,
 }
 
 impl Default for ContactSettings {
@@ -371,8 +377,18 @@ pub struct ContactScratch {
     target: Vec<f64>,
     lambda: Vec<f64>,
     u: Vec<f64>,
+    /// The joint-space vectors of the step.
+    joint: JointVectors,
+}
+
+/// The joint-space vectors of a contact step (`nv` each).
+#[derive(Clone, Debug)]
+struct JointVectors {
+    /// The free-motion velocity `q̇ + dt M⁻¹(τ − C)`.
     qd_free: Vec<f64>,
+    /// The joint-bound impulses gathered per coordinate.
     tau: Vec<f64>,
+    /// A velocity change: the free motion's, then `M⁻¹ Jᵀ λ` (or the position correction).
     delta: Vec<f64>,
 }
 
@@ -423,9 +439,11 @@ impl ContactScratch {
             target: Vec::new(),
             lambda: Vec::new(),
             u: Vec::new(),
-            qd_free: vec![0.0; nv],
-            tau: vec![0.0; nv],
-            delta: vec![0.0; nv],
+            joint: JointVectors {
+                qd_free: vec![0.0; nv],
+                tau: vec![0.0; nv],
+                delta: vec![0.0; nv],
+            },
         }
     }
 }
@@ -692,8 +710,14 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     cd.forces.wrenches.clear();
     cd.forces.torques.clear();
     // 1. Free motion.
-    dynamics.free_motion(model, state, &mut cd.s.delta)?;
-    for ((f, v), a) in cd.s.qd_free.iter_mut().zip(&state.qd).zip(&cd.s.delta) {
+    dynamics.free_motion(model, state, &mut cd.s.joint.delta)?;
+    for ((f, v), a) in
+        cd.s.joint
+            .qd_free
+            .iter_mut()
+            .zip(&state.qd)
+            .zip(&cd.s.joint.delta)
+    {
         *f = v + dt * a;
     }
     let data = dynamics.kinematics();
@@ -716,7 +740,7 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
             .filter(|(s, _)| matches!(s, Source::Sphere { .. }))
             .count();
     if cd.s.phi.is_empty() {
-        state.qd.copy_from_slice(&cd.s.qd_free);
+        state.qd.copy_from_slice(&cd.s.joint.qd_free);
         dynamics.integrate(model, &mut state.q, &state.qd, dt);
         cd.stats.converged = true;
         return finish(model, state);
@@ -754,8 +778,8 @@ pub fn step_with_dynamics<D: ContactDynamics + ?Sized>(
     record_forces(cd, origin, dt);
     // 5. q̇⁺ = v_free + M⁻¹ Jᵀ λ (one pass over the tree), q⁺ = q ⊕ dt q̇⁺.
     impulse_response(cd);
-    state.qd.copy_from_slice(&cd.s.qd_free);
-    for (x, d) in state.qd.iter_mut().zip(&cd.s.delta) {
+    state.qd.copy_from_slice(&cd.s.joint.qd_free);
+    for (x, d) in state.qd.iter_mut().zip(&cd.s.joint.delta) {
         *x += d;
     }
     dynamics.integrate(model, &mut state.q, &state.qd, dt);
@@ -902,11 +926,11 @@ fn row_free_velocities(cd: &mut ContactData) {
         cd.s.tree.mark_read(cd.s.row_node[i]);
     }
     cd.s.tree.finish_marks();
-    cd.s.tree.velocities(&cd.s.qd_free);
+    cd.s.tree.velocities(&cd.s.joint.qd_free);
     cd.s.u_free.clear();
     for i in 0..k {
         let v = cd.s.tree.velocity(cd.s.row_node[i]);
-        let x = row_value(cd, i, |_| v, |dof| cd.s.qd_free[dof]);
+        let x = row_value(cd, i, |_| v, |dof| cd.s.joint.qd_free[dof]);
         cd.s.u_free.push(x);
     }
 }
@@ -966,7 +990,7 @@ fn post_stabilise<D: ContactDynamics + ?Sized>(
     }
     solve_rows(&mut cd.s, settings, settings.tolerance * dt);
     impulse_response(cd);
-    dynamics.integrate(model, &mut state.q, &cd.s.delta, 1.0);
+    dynamics.integrate(model, &mut state.q, &cd.s.joint.delta, 1.0);
 }
 
 /// The step's rows solved ([`contact_solver::solve_active`]) to `tolerance`, with the cap and
@@ -984,7 +1008,11 @@ fn solve_rows(s: &mut ContactScratch, settings: &ContactSettings, tolerance: f64
             tolerance,
         },
         &mut s.active,
-        settings.solver == ContactSolver::Subspace,
+        match settings.solver {
+            ContactSolver::GaussSeidel => contact_solver::Method::GaussSeidel,
+            ContactSolver::Subspace => contact_solver::Method::Subspace,
+            ContactSolver::Newton => contact_solver::Method::Newton,
+        },
     )
 }
 
@@ -1388,7 +1416,7 @@ fn record_forces(cd: &mut ContactData, origin: DVec3, dt: f64) {
     }
 }
 
-/// `cd.s.delta = M⁻¹ Jᵀ λ`: the rows' impulses gathered per node (wrenches) and per joint
+/// `cd.s.joint.delta = M⁻¹ Jᵀ λ`: the rows' impulses gathered per node (wrenches) and per joint
 /// (bounds), then one pass over the tree. `node_wrench` and `tau` are zero between calls:
 /// only the rows' entries are set, and reset afterwards.
 fn impulse_response(cd: &mut ContactData) {
@@ -1410,18 +1438,18 @@ fn impulse_response(cd: &mut ContactData) {
             }
             li => {
                 let b = cd.shape.bounds[li];
-                cd.s.tau[b.vi] += l * b.sign;
+                cd.s.joint.tau[b.vi] += l * b.sign;
             }
         }
     }
     cd.s.tree
-        .solve(&cd.s.tau, &cd.s.node_wrench, &mut cd.s.delta);
+        .solve(&cd.s.joint.tau, &cd.s.node_wrench, &mut cd.s.joint.delta);
     for i in 0..cd.s.phi.len() {
         let node = cd.s.row_node[i];
         match cd.s.row_bound[i] {
             _ if node == NONE => {}
             usize::MAX => cd.s.node_wrench[node] = [0.0; 6],
-            li => cd.s.tau[cd.shape.bounds[li].vi] = 0.0,
+            li => cd.s.joint.tau[cd.shape.bounds[li].vi] = 0.0,
         }
     }
 }
@@ -1642,7 +1670,7 @@ mod tests {
             spd_solve(&m, nv, &mut want);
             let mut off = 0.0f64;
             for c in 0..nv {
-                off = off.max((state.qd[c] - cd.s.qd_free[c] - want[c]).abs());
+                off = off.max((state.qd[c] - cd.s.joint.qd_free[c] - want[c]).abs());
             }
             let big = want.iter().fold(0.0f64, |a, x| a.max(x.abs()));
             assert!(

@@ -25,6 +25,7 @@
 //! velocity, never a pulling normal force). [`solve`] adds exact solves of the equations the
 //! sweeps' index sets give, and stops on the residual alone.
 
+use crate::contact_newton::{newton, Newton};
 use crate::small::{cholesky_rows, cholesky_rows_solve};
 
 /// One block of rows of the contact problem.
@@ -242,67 +243,11 @@ fn subspace_step(
         return None;
     }
     let movable = |i: usize| w[i * k + i] > 1e-12 * scale;
-    // The start: the iterate with each sliding contact's friction turned against its
-    // current slip (`λ_t = −μ λ_n u_t / |u_t|`, the direction maximal dissipation gives it).
-    sub.lambda.clear();
-    sub.lambda.extend_from_slice(&lambda[..k]);
-    sub.u.clear();
-    sub.u.extend_from_slice(&u[..k]);
-    for block in blocks {
-        if let Block::Contact { row: n, mu } = *block {
-            let bound = mu * lambda[n];
-            let (l1, l2) = (lambda[n + 1], lambda[n + 2]);
-            let (s1, s2) = (u[n + 1], u[n + 2]);
-            let slip = (s1 * s1 + s2 * s2).sqrt();
-            if bound > 0.0 && l1 * l1 + l2 * l2 >= (bound * (1.0 - 1e-9)).powi(2) && slip > 0.0 {
-                let (n1, n2) = (-bound * s1 / slip, -bound * s2 / slip);
-                for (t, d) in [(n + 1, n1 - l1), (n + 2, n2 - l2)] {
-                    sub.lambda[t] += d;
-                    for (x, wt) in sub.u.iter_mut().zip(&w[t * k..(t + 1) * k]) {
-                        *x += wt * d;
-                    }
-                }
-            }
-        }
-    }
+    turn_sliding_friction((w, k), blocks, lambda, u, sub);
     sub.start.clear();
     sub.start.extend_from_slice(&sub.lambda);
-    let (lambda, u) = (&sub.start, &sub.u);
-    sub.free.clear();
-    sub.slide.clear();
-    // (e = b − u per free row: the targets of tangent rows are 0.)
-    sub.err.clear();
-    for block in blocks {
-        match *block {
-            Block::Unilateral { row } => {
-                if (lambda[row] > 0.0 || u[row] < target[row]) && movable(row) {
-                    sub.free.push(row);
-                    sub.slide.push((0.0, 0.0));
-                    sub.err.push(target[row] - u[row]);
-                }
-            }
-            Block::Contact { row: n, mu } => {
-                if !((lambda[n] > 0.0 || u[n] < target[n]) && movable(n)) {
-                    continue;
-                }
-                let bound = mu * lambda[n];
-                let (l1, l2) = (lambda[n + 1], lambda[n + 2]);
-                let norm = (l1 * l1 + l2 * l2).sqrt();
-                sub.free.push(n);
-                sub.err.push(target[n] - u[n]);
-                if norm < bound * (1.0 - 1e-9) && movable(n + 1) && movable(n + 2) {
-                    sub.slide.push((0.0, 0.0));
-                    sub.free.extend([n + 1, n + 2]);
-                    sub.slide.extend([(0.0, 0.0); 2]);
-                    sub.err.extend([-u[n + 1], -u[n + 2]]);
-                } else if norm > 0.0 && lambda[n] > 0.0 {
-                    sub.slide.push((mu * l1 / norm, mu * l2 / norm));
-                } else {
-                    sub.slide.push((0.0, 0.0));
-                }
-            }
-        }
-    }
+    free_set(blocks, target, movable, sub);
+    let lambda = &sub.start;
     let f = sub.free.len();
     if f == 0 {
         return None;
@@ -374,37 +319,7 @@ fn subspace_step(
             sub.lambda[i + 2] += s2 * step * d;
         }
     }
-    let mut changed = blocking.is_some();
-    if let Some(i) = blocking {
-        sub.lambda[i] = 0.0;
-    }
-    for block in blocks {
-        match *block {
-            Block::Unilateral { row } => {
-                if sub.lambda[row] < 0.0 {
-                    sub.lambda[row] = 0.0;
-                    changed = true;
-                }
-            }
-            Block::Contact { row: n, mu } => {
-                if sub.lambda[n] < 0.0 {
-                    sub.lambda[n] = 0.0;
-                    changed = true;
-                }
-                let bound = mu * sub.lambda[n];
-                let (l1, l2) = (sub.lambda[n + 1], sub.lambda[n + 2]);
-                let norm = (l1 * l1 + l2 * l2).sqrt();
-                if norm > bound {
-                    // Onto the rim: a sticking contact starts to slide (a sliding one only
-                    // meets it to rounding, or lost its normal impulse).
-                    changed |= norm > bound * (1.0 + 1e-9) || bound == 0.0;
-                    let s = if norm > 0.0 { bound / norm } else { 0.0 };
-                    sub.lambda[n + 1] = l1 * s;
-                    sub.lambda[n + 2] = l2 * s;
-                }
-            }
-        }
-    }
+    let changed = project_onto_constraints(blocks, blocking, &mut sub.lambda);
     // u' = u + W (λ' − λ), over the impulses that changed.
     for j in 0..k {
         let d = sub.lambda[j] - sub.start[j];
@@ -415,15 +330,128 @@ fn subspace_step(
         }
     }
     // A row held at 0 that now approaches joins the free set in the next step.
-    changed |= blocks.iter().any(|b| {
-        let r = head(b);
-        sub.lambda[r] == 0.0 && sub.u[r] < target[r] && free.binary_search(&r).is_err()
-    });
+    let changed = changed
+        || blocks.iter().any(|b| {
+            let r = head(b);
+            sub.lambda[r] == 0.0 && sub.u[r] < target[r] && free.binary_search(&r).is_err()
+        });
     Some((residual(blocks, target, &sub.lambda, &sub.u[..k]), changed))
 }
 
+/// The start of a subspace step, into `sub.lambda`, `sub.u`: the iterate with each sliding
+/// contact's friction turned against its current slip (`λ_t = −μ λ_n u_t / |u_t|`, the
+/// direction maximal dissipation gives it).
+fn turn_sliding_friction(
+    (w, k): (&[f64], usize),
+    blocks: &[Block],
+    lambda: &[f64],
+    u: &[f64],
+    sub: &mut Subspace,
+) {
+    sub.lambda.clear();
+    sub.lambda.extend_from_slice(&lambda[..k]);
+    sub.u.clear();
+    sub.u.extend_from_slice(&u[..k]);
+    for block in blocks {
+        if let Block::Contact { row: n, mu } = *block {
+            let bound = mu * lambda[n];
+            let (l1, l2) = (lambda[n + 1], lambda[n + 2]);
+            let (s1, s2) = (u[n + 1], u[n + 2]);
+            let slip = (s1 * s1 + s2 * s2).sqrt();
+            if bound > 0.0 && l1 * l1 + l2 * l2 >= (bound * (1.0 - 1e-9)).powi(2) && slip > 0.0 {
+                let (n1, n2) = (-bound * s1 / slip, -bound * s2 / slip);
+                for (t, d) in [(n + 1, n1 - l1), (n + 2, n2 - l2)] {
+                    sub.lambda[t] += d;
+                    for (x, wt) in sub.u.iter_mut().zip(&w[t * k..(t + 1) * k]) {
+                        *x += wt * d;
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The free rows of a subspace step from its start `sub.start`, `sub.u` (module
+/// documentation of [`solve`]): `sub.free`, `sub.slide` and the velocity errors `sub.err`.
+fn free_set(blocks: &[Block], target: &[f64], movable: impl Fn(usize) -> bool, sub: &mut Subspace) {
+    let (lambda, u) = (&sub.start, &sub.u);
+    sub.free.clear();
+    sub.slide.clear();
+    // (e = b − u per free row: the targets of tangent rows are 0.)
+    sub.err.clear();
+    for block in blocks {
+        match *block {
+            Block::Unilateral { row } => {
+                if (lambda[row] > 0.0 || u[row] < target[row]) && movable(row) {
+                    sub.free.push(row);
+                    sub.slide.push((0.0, 0.0));
+                    sub.err.push(target[row] - u[row]);
+                }
+            }
+            Block::Contact { row: n, mu } => {
+                if !((lambda[n] > 0.0 || u[n] < target[n]) && movable(n)) {
+                    continue;
+                }
+                let bound = mu * lambda[n];
+                let (l1, l2) = (lambda[n + 1], lambda[n + 2]);
+                let norm = (l1 * l1 + l2 * l2).sqrt();
+                sub.free.push(n);
+                sub.err.push(target[n] - u[n]);
+                if norm < bound * (1.0 - 1e-9) && movable(n + 1) && movable(n + 2) {
+                    sub.slide.push((0.0, 0.0));
+                    sub.free.extend([n + 1, n + 2]);
+                    sub.slide.extend([(0.0, 0.0); 2]);
+                    sub.err.extend([-u[n + 1], -u[n + 2]]);
+                } else if norm > 0.0 && lambda[n] > 0.0 {
+                    sub.slide.push((mu * l1 / norm, mu * l2 / norm));
+                } else {
+                    sub.slide.push((0.0, 0.0));
+                }
+            }
+        }
+    }
+}
+
+/// A subspace step's impulses `lambda` projected onto the constraints (the `blocking` row at
+/// 0, unilateral impulses ≥ 0, tangents into their disc); `true` when that changed an index
+/// set.
+fn project_onto_constraints(blocks: &[Block], blocking: Option<usize>, lambda: &mut [f64]) -> bool {
+    let mut changed = blocking.is_some();
+    if let Some(i) = blocking {
+        lambda[i] = 0.0;
+    }
+    for block in blocks {
+        match *block {
+            Block::Unilateral { row } => {
+                if lambda[row] < 0.0 {
+                    lambda[row] = 0.0;
+                    changed = true;
+                }
+            }
+            Block::Contact { row: n, mu } => {
+                if lambda[n] < 0.0 {
+                    lambda[n] = 0.0;
+                    changed = true;
+                }
+                let bound = mu * lambda[n];
+                let (l1, l2) = (lambda[n + 1], lambda[n + 2]);
+                let norm = (l1 * l1 + l2 * l2).sqrt();
+                if norm > bound {
+                    // Onto the rim: a sticking contact starts to slide (a sliding one only
+                    // meets it to rounding, or lost its normal impulse).
+                    changed |= norm > bound * (1.0 + 1e-9) || bound == 0.0;
+                    let s = if norm > 0.0 { bound / norm } else { 0.0 };
+                    lambda[n + 1] = l1 * s;
+                    lambda[n + 2] = l2 * s;
+                }
+            }
+        }
+    }
+    changed
+}
+
 /// Row `i` is a friction row (the first or second tangent of a contact).
-fn is_tangent(blocks: &[Block], i: usize) -> bool {
+pub(crate) fn is_tangent(blocks: &[Block], i: usize) -> bool {
     // Blocks are in row order: the last block starting at or before `i`.
     let at = blocks.partition_point(|b| head(b) <= i);
     matches!(blocks[at - 1], Block::Contact { row, .. } if row != i)
@@ -445,7 +473,13 @@ fn head(b: &Block) -> usize {
 /// velocities after the normal's change, so those two are updated first and the whole of `u`
 /// after, each entry adding the three columns in the order the updates were made (the same
 /// sums, in the same order, as three passes).
-fn sweep(w: &[f64], blocks: &[Block], target: &[f64], lambda: &mut [f64], u: &mut [f64]) -> f64 {
+pub(crate) fn sweep(
+    w: &[f64],
+    blocks: &[Block],
+    target: &[f64],
+    lambda: &mut [f64],
+    u: &mut [f64],
+) -> f64 {
     let k = target.len();
     let row = |i: usize| &w[i * k..(i + 1) * k];
     // A unilateral row's exact update (its 1-D minimiser, clamped at 0): the impulse change.
@@ -601,6 +635,19 @@ pub(crate) struct ActiveSet {
     u: Vec<f64>,
     /// The subspace steps' buffers.
     sub: Subspace,
+    /// The Newton solver's buffers.
+    newton: Newton,
+}
+
+/// The method of [`solve_active`]'s compacted solves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Method {
+    /// Projected Gauss–Seidel ([`pgs`]).
+    GaussSeidel,
+    /// Gauss–Seidel with subspace minimisation ([`solve`]).
+    Subspace,
+    /// Semismooth Newton ([`newton`]).
+    Newton,
 }
 
 /// [`solve`] on the blocks that can push, the others' impulses held at 0: a resting crowd's
@@ -624,7 +671,7 @@ pub(crate) fn solve_active(
     u: &mut [f64],
     stop: Stop,
     set: &mut ActiveSet,
-    subspace: bool,
+    method: Method,
 ) -> Solve {
     let k = u_free.len();
     // Sized for every block active: the buffers grow only with `k`.
@@ -702,19 +749,11 @@ pub(crate) fn solve_active(
             tolerance: stop.tolerance,
         };
         let (cw, cb, cu, ct) = (&set.w, &set.blocks, &set.u_free, &set.target);
-        let s = if subspace {
-            solve(
-                cw,
-                cb,
-                cu,
-                ct,
-                &mut set.lambda,
-                &mut set.u,
-                round,
-                &mut set.sub,
-            )
-        } else {
-            pgs(cw, cb, cu, ct, &mut set.lambda, &mut set.u, round)
+        let (lambda_a, u_a) = (&mut set.lambda, &mut set.u);
+        let s = match method {
+            Method::Subspace => solve(cw, cb, cu, ct, lambda_a, u_a, round, &mut set.sub),
+            Method::Newton => newton(cw, cb, cu, ct, lambda_a, u_a, round, &mut set.newton),
+            Method::GaussSeidel => pgs(cw, cb, cu, ct, lambda_a, u_a, round),
         };
         total.iterations += s.iterations;
         total.change = s.change;
@@ -789,7 +828,7 @@ pub(crate) fn residual(blocks: &[Block], target: &[f64], lambda: &[f64], u: &[f6
 
 /// The contact-space velocities `u = u_free + W λ` (`W` the row-major `k × k` Delassus
 /// operator, `k = u_free.len()`), into `u[..k]`.
-fn contact_velocities(u: &mut [f64], u_free: &[f64], w: &[f64], lambda: &[f64]) {
+pub(crate) fn contact_velocities(u: &mut [f64], u_free: &[f64], w: &[f64], lambda: &[f64]) {
     let k = u_free.len();
     for (i, ui) in u[..k].iter_mut().enumerate() {
         let row = &w[i * k..(i + 1) * k];
@@ -956,17 +995,14 @@ mod tests {
         );
         assert!(residual(&blocks, &target, &l_full, &u_full) <= 1e-10);
         // Gauss–Seidel and the subspace solver on the active set.
-        for subspace in [false, true] {
+        for method in [Method::GaussSeidel, Method::Subspace, Method::Newton] {
             let (mut l, mut u) = ([0.0; 12], [0.0; 12]);
             let mut set = ActiveSet::default();
             let act = solve_active(
-                &w, &blocks, &u_free, &target, &mut l, &mut u, stop, &mut set, subspace,
+                &w, &blocks, &u_free, &target, &mut l, &mut u, stop, &mut set, method,
             );
             assert!(full.converged && act.converged, "{full:?} {act:?}");
-            assert!(
-                residual(&blocks, &target, &l, &u) <= 1e-10,
-                "subspace {subspace}"
-            );
+            assert!(residual(&blocks, &target, &l, &u) <= 1e-10, "{method:?}");
             for i in 0..k {
                 assert!((u[i] - u_full[i]).abs() < 1e-9, "u {u:?} vs {u_full:?}");
                 let want = u_free[i] + (0..k).map(|j| w[i * k + j] * l[j]).sum::<f64>();

@@ -1,0 +1,188 @@
+//! Dense factorisations of the contact solver's Newton systems ([`crate::contact_newton`]),
+//! row-major `n × n` with `n` known only at run time: Cholesky for the symmetric systems (every
+//! pushing contact sticking) and LU with partial pivoting for the others (a sliding contact's
+//! rows make the system non-symmetric).
+
+/// `a · b` in four interleaved partial sums: independent chains the compiler can run in
+/// vector lanes.
+#[inline(always)]
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut s = [0.0f64; 4];
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    for (x, y) in ca.clone().zip(cb.clone()) {
+        for r in 0..4 {
+            s[r] += x[r] * y[r];
+        }
+    }
+    for (r, (x, y)) in ca.remainder().iter().zip(cb.remainder()).enumerate() {
+        s[r] += x * y;
+    }
+    (s[0] + s[1]) + (s[2] + s[3])
+}
+
+/// In place, the Cholesky factor `L` (`L Lᵀ = A`) of the row-major symmetric positive
+/// definite `n × n` `a`, in its lower triangle (the upper one is left alone). `false` when a
+/// pivot is not positive or not finite. O(n³/6).
+pub(crate) fn cholesky(a: &mut [f64], n: usize) -> bool {
+    for j in 0..n {
+        // Row j left of the diagonal already holds L_jp (p < j), from the steps before.
+        let row_j = &mut a[j * n..(j + 1) * n];
+        let d = row_j[j] - dot(&row_j[..j], &row_j[..j]);
+        if !(d > 0.0 && d.is_finite()) {
+            return false;
+        }
+        let ljj = d.sqrt();
+        row_j[j] = ljj;
+        let r = 1.0 / ljj;
+        for i in (j + 1)..n {
+            let (upper, lower) = a.split_at_mut(i * n);
+            let lj = &upper[j * n..j * n + j];
+            let li = &mut lower[..n];
+            li[j] = (li[j] - dot(&li[..j], lj)) * r;
+        }
+    }
+    true
+}
+
+/// `b ← x` with `L Lᵀ x = b`, `L` from [`cholesky`]: forward then back substitution, O(n²).
+pub(crate) fn cholesky_solve(l: &[f64], n: usize, b: &mut [f64]) {
+    for i in 0..n {
+        b[i] = (b[i] - dot(&l[i * n..i * n + i], &b[..i])) / l[i * n + i];
+    }
+    for i in (0..n).rev() {
+        let x = b[i] / l[i * n + i];
+        b[i] = x;
+        for (bp, lp) in b[..i].iter_mut().zip(&l[i * n..i * n + i]) {
+            *bp -= lp * x;
+        }
+    }
+}
+
+/// In place, the LU factorisation with partial pivoting `P A = L U` of the row-major `n × n`
+/// `a` (unit lower `L` below the diagonal, `U` on and above it; `piv[j]` the row swapped with
+/// row `j` at step `j`). `false` when a pivot is zero or not finite. O(n³/3).
+pub(crate) fn lu(a: &mut [f64], n: usize, piv: &mut Vec<usize>) -> bool {
+    piv.clear();
+    for j in 0..n {
+        let (mut p, mut big) = (j, a[j * n + j].abs());
+        for i in (j + 1)..n {
+            let x = a[i * n + j].abs();
+            if x > big {
+                (p, big) = (i, x);
+            }
+        }
+        if !(big > 0.0 && big.is_finite()) {
+            return false;
+        }
+        piv.push(p);
+        if p != j {
+            for c in 0..n {
+                a.swap(j * n + c, p * n + c);
+            }
+        }
+        let (top, below) = a.split_at_mut((j + 1) * n);
+        let row_j = &top[j * n..];
+        let r = 1.0 / row_j[j];
+        for row_i in below.chunks_exact_mut(n) {
+            let l = row_i[j] * r;
+            row_i[j] = l;
+            if l != 0.0 {
+                for (x, u) in row_i[j + 1..].iter_mut().zip(&row_j[j + 1..]) {
+                    *x -= l * u;
+                }
+            }
+        }
+    }
+    true
+}
+
+/// `b ← x` with `A x = b`, `A` factored by [`lu`]: the row swaps, then forward and back
+/// substitution, O(n²).
+pub(crate) fn lu_solve(lu: &[f64], n: usize, piv: &[usize], b: &mut [f64]) {
+    for (j, &p) in piv.iter().enumerate() {
+        b.swap(j, p);
+    }
+    for i in 0..n {
+        b[i] -= dot(&lu[i * n..i * n + i], &b[..i]);
+    }
+    for i in (0..n).rev() {
+        let s = dot(&lu[i * n + i + 1..(i + 1) * n], &b[i + 1..n]);
+        b[i] = (b[i] - s) / lu[i * n + i];
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `A x` for the row-major `n × n` `a`.
+    fn product(a: &[f64], x: &[f64]) -> Vec<f64> {
+        let n = x.len();
+        (0..n)
+            .map(|i| (0..n).map(|j| a[i * n + j] * x[j]).sum())
+            .collect()
+    }
+
+    /// `lu` / `lu_solve` solve a non-symmetric system that needs row swaps (a zero diagonal),
+    /// checked against its product; a singular matrix is refused.
+    #[test]
+    fn lu_solves_a_pivoted_system() {
+        let n = 5;
+        let a: Vec<f64> = (0..n * n)
+            .map(|i| {
+                if i % (n + 1) == 0 {
+                    0.0
+                } else {
+                    ((i * 37 % 11) as f64 - 5.0) / 3.0
+                }
+            })
+            .collect();
+        let x: Vec<f64> = (0..n).map(|i| 1.0 + i as f64).collect();
+        let mut b = product(&a, &x);
+        let (mut f, mut piv) = (a.clone(), Vec::new());
+        assert!(lu(&mut f, n, &mut piv));
+        assert!(
+            piv.iter().enumerate().any(|(j, &p)| p != j),
+            "no swap tested"
+        );
+        lu_solve(&f, n, &piv, &mut b);
+        for (got, want) in b.iter().zip(&x) {
+            assert!((got - want).abs() < 1e-12, "{b:?}");
+        }
+        let mut z = vec![1.0; 4];
+        assert!(!lu(&mut z, 2, &mut piv));
+    }
+
+    /// `cholesky` / `cholesky_solve` on `Bᵀ B + I` (symmetric positive definite), checked
+    /// against its product and against `lu`'s solution; an indefinite matrix is refused.
+    #[test]
+    fn cholesky_solves_a_positive_definite_system() {
+        let n = 7;
+        let b: Vec<f64> = (0..n * n)
+            .map(|i| ((i * 29 % 13) as f64 - 6.0) / 4.0)
+            .collect();
+        let mut a = vec![0.0; n * n];
+        for i in 0..n {
+            for j in 0..n {
+                a[i * n + j] = (0..n).map(|p| b[p * n + i] * b[p * n + j]).sum::<f64>()
+                    + if i == j { 1.0 } else { 0.0 };
+            }
+        }
+        let x: Vec<f64> = (0..n).map(|i| (i as f64 - 3.0) * 0.5).collect();
+        let rhs = product(&a, &x);
+        let (mut l, mut y) = (a.clone(), rhs.clone());
+        assert!(cholesky(&mut l, n));
+        cholesky_solve(&l, n, &mut y);
+        let (mut f, mut piv, mut z) = (a.clone(), Vec::new(), rhs.clone());
+        assert!(lu(&mut f, n, &mut piv));
+        lu_solve(&f, n, &piv, &mut z);
+        for i in 0..n {
+            assert!((y[i] - x[i]).abs() < 1e-11, "{y:?} vs {x:?}");
+            assert!((y[i] - z[i]).abs() < 1e-11, "{y:?} vs {z:?}");
+        }
+        let mut indefinite = vec![1.0, 2.0, 2.0, 1.0];
+        assert!(!cholesky(&mut indefinite, 2));
+    }
+}
