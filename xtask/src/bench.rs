@@ -129,99 +129,9 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     let humanoid = Model::from_urdf_file(&hpath, &LoadOptions::default())?;
     models.push(("humanoid".into(), hpath, humanoid));
 
-    // 1. Speed.
-    let mut rows: Vec<SpeedRow> = Vec::new();
-    let criterion = if opts.quick {
-        None
-    } else {
-        Some(run_criterion(root)?)
-    };
-    // The cells timed in-process (all of them in quick mode, the adaptive ones in full mode)
-    // are timed in PASSES passes over the whole table, each with a share of the budget, and
-    // each cell's time is the median over the batches of all passes: a shared host's slow
-    // phases last seconds, and timing a cell in one window would let a phase set it alone
-    // (the 10,000-link chain's cells, ~60 calls, fit in a quarter of a second).
-    let mut times: Vec<BTreeMap<String, f64>> = vec![BTreeMap::new(); models.len()];
-    // (model index, solver, per-call times of all passes' batches)
-    let mut pending: Vec<(usize, Solver, Vec<f64>)> = Vec::new();
-    for (mi, (name, _, model)) in models.iter().enumerate() {
-        for solver in Solver::all() {
-            if !solver.runs_at(model.nv) {
-                continue;
-            }
-            let from_criterion = criterion
-                .as_ref()
-                .filter(|_| matches!(solver, Solver::Exact(_)));
-            match from_criterion {
-                Some(c) => {
-                    let t = c
-                        .get(&(name.clone(), solver.label()))
-                        .copied()
-                        .ok_or_else(|| {
-                            format!("criterion has no estimate for {} on {name}", solver.label())
-                        })?;
-                    times[mi].insert(solver.label(), t);
-                }
-                None => pending.push((mi, solver, Vec::new())),
-            }
-        }
-    }
-    for pass in 0..PASSES {
-        println!("  speed: pass {}/{PASSES}", pass + 1);
-        for (mi, solver, samples) in &mut pending {
-            let model = &models[*mi].2;
-            let state = State::random(model, SEED, 1.0);
-            let mut r = Runner::new(model, *solver);
-            let per_pass = timing::MIN_BATCHES.div_ceil(PASSES);
-            let s = timing::sample(budget / PASSES as u32, per_pass, || {
-                r.forward(black_box(&state)).map(|q| {
-                    black_box(q[0]);
-                })
-            })?;
-            samples.extend(s.times_us);
-        }
-    }
-    for (mi, solver, mut samples) in pending {
-        let t = timing::median(&mut samples);
-        println!(
-            "  {:<10} {:<5} {:>12.2} µs  (median of {} batches over {PASSES} passes)",
-            models[mi].0,
-            solver.label(),
-            t,
-            samples.len()
-        );
-        times[mi].insert(solver.label(), t);
-    }
-    for ((name, _, model), times) in models.iter().zip(times) {
-        rows.push(SpeedRow {
-            model: name.clone(),
-            links: model.bodies.len(),
-            times,
-        });
-    }
+    let mut rows = speed_rows(root, &opts, &models, budget)?;
 
-    // 1b. Growth from 1,000 to 10,000 links, the two lengths interleaved in one process (the
-    // table's medians time each size apart, minutes apart in full mode, and a shared host's
-    // phases move them by more than the cache effects being measured).
-    let rounds = if opts.quick { 400 } else { 1000 };
-    let mut growths = Vec::new();
-    for method in [articula_dca::Method::Dca, articula_dca::Method::Aba] {
-        let t0 = Instant::now();
-        let g = crate::growth::measure(method, 1000, 10_000, rounds, |r| {
-            if (1..4).any(|k| r == rounds * k / 4) {
-                println!("  growth {method:?} 1000 -> 10000: round {r}/{rounds}");
-            }
-        });
-        println!(
-            "  growth {method:?} 1000 -> 10000: minima {:.1} / {:.1} µs, {:.2}× (per-round median {:.2}×), {:.1} s",
-            g.short_us,
-            g.long_us,
-            g.ratio(),
-            g.per_round_quantile(0.5),
-            t0.elapsed().as_secs_f64()
-        );
-        growths.push(g);
-    }
+    let growths = growth_pairs(&opts);
 
     // 2. Accuracy on the 300-link chain.
     let chain300 = articula_testkit::chain(300);
@@ -281,40 +191,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
         traj.reference_check
     );
 
-    // 3. The seeds' table: a row per adaptive budget (pending while the solver does not
-    // exist), then full DCA.
-    let mut seeds: SeedsTable = Vec::new();
-    let rows_solvers = ADAPTIVE_BUDGETS
-        .iter()
-        .map(|&b| (format!("adaptive {b}"), Solver::adaptive(b)))
-        .chain(ADAPTIVE_BUDGETS.iter().map(|&b| {
-            (
-                format!("adaptive {b} caches"),
-                Some(Solver::Adaptive {
-                    budget: b,
-                    every: 1,
-                    caches: true,
-                }),
-            )
-        }))
-        .chain(std::iter::once((
-            "full DCA (300)".to_string(),
-            Some(Solver::Exact(articula_dca::Method::Dca)),
-        )));
-    for (label, solver) in rows_solvers {
-        let mut cells = Vec::new();
-        for &k in &SEED_FORCES {
-            cells.push(match solver {
-                Some(solver) => {
-                    let t = time_seeds_cell(&chain300, solver, k, budget / 2)?;
-                    println!("  seeds' table: {label} with {k} forces {t:.1} µs");
-                    Some(t)
-                }
-                None => None,
-            });
-        }
-        seeds.push((label, cells));
-    }
+    let seeds = seeds_table(&chain300, budget)?;
 
     // 4. Peers.
     let peers = if opts.peers {
@@ -392,6 +269,153 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     }
     println!("bench took {:.1} s", started.elapsed().as_secs_f64());
     Ok(())
+}
+
+/// Part 1 of the bench: the time per call of every solver on every model, from criterion
+/// (full mode's exact methods) or sampled in-process in PASSES passes over the table.
+fn speed_rows(
+    root: &Path,
+    opts: &Options,
+    models: &[(String, PathBuf, Model)],
+    budget: Duration,
+) -> Result<Vec<SpeedRow>> {
+    let mut rows: Vec<SpeedRow> = Vec::new();
+    let criterion = if opts.quick {
+        None
+    } else {
+        Some(run_criterion(root)?)
+    };
+    // The cells timed in-process (all of them in quick mode, the adaptive ones in full mode)
+    // are timed in PASSES passes over the whole table, each with a share of the budget, and
+    // each cell's time is the median over the batches of all passes: a shared host's slow
+    // phases last seconds, and timing a cell in one window would let a phase set it alone
+    // (the 10,000-link chain's cells, ~60 calls, fit in a quarter of a second).
+    let mut times: Vec<BTreeMap<String, f64>> = vec![BTreeMap::new(); models.len()];
+    // (model index, solver, per-call times of all passes' batches)
+    let mut pending: Vec<(usize, Solver, Vec<f64>)> = Vec::new();
+    for (mi, (name, _, model)) in models.iter().enumerate() {
+        for solver in Solver::all() {
+            if !solver.runs_at(model.nv) {
+                continue;
+            }
+            let from_criterion = criterion
+                .as_ref()
+                .filter(|_| matches!(solver, Solver::Exact(_)));
+            match from_criterion {
+                Some(c) => {
+                    let t = c
+                        .get(&(name.clone(), solver.label()))
+                        .copied()
+                        .ok_or_else(|| {
+                            format!("criterion has no estimate for {} on {name}", solver.label())
+                        })?;
+                    times[mi].insert(solver.label(), t);
+                }
+                None => pending.push((mi, solver, Vec::new())),
+            }
+        }
+    }
+    for pass in 0..PASSES {
+        println!("  speed: pass {}/{PASSES}", pass + 1);
+        for (mi, solver, samples) in &mut pending {
+            let model = &models[*mi].2;
+            let state = State::random(model, SEED, 1.0);
+            let mut r = Runner::new(model, *solver);
+            let per_pass = timing::MIN_BATCHES.div_ceil(PASSES);
+            let s = timing::sample(budget / PASSES as u32, per_pass, || {
+                r.forward(black_box(&state)).map(|q| {
+                    black_box(q[0]);
+                })
+            })?;
+            samples.extend(s.times_us);
+        }
+    }
+    for (mi, solver, mut samples) in pending {
+        let t = timing::median(&mut samples);
+        println!(
+            "  {:<10} {:<5} {:>12.2} µs  (median of {} batches over {PASSES} passes)",
+            models[mi].0,
+            solver.label(),
+            t,
+            samples.len()
+        );
+        times[mi].insert(solver.label(), t);
+    }
+    for ((name, _, model), times) in models.iter().zip(times) {
+        rows.push(SpeedRow {
+            model: name.clone(),
+            links: model.bodies.len(),
+            times,
+        });
+    }
+
+    Ok(rows)
+}
+
+/// Part 1b of the bench: growth from 1,000 to 10,000 links, the two lengths interleaved in
+/// one process (the table's medians time each size apart, minutes apart in full mode, and a
+/// shared host's phases move them by more than the cache effects being measured).
+fn growth_pairs(opts: &Options) -> Vec<crate::growth::Growth> {
+    let rounds = if opts.quick { 400 } else { 1000 };
+    let mut growths = Vec::new();
+    for method in [articula_dca::Method::Dca, articula_dca::Method::Aba] {
+        let t0 = Instant::now();
+        let g = crate::growth::measure(method, 1000, 10_000, rounds, |r| {
+            if (1..4).any(|k| r == rounds * k / 4) {
+                println!("  growth {method:?} 1000 -> 10000: round {r}/{rounds}");
+            }
+        });
+        println!(
+            "  growth {method:?} 1000 -> 10000: minima {:.1} / {:.1} µs, {:.2}× (per-round median {:.2}×), {:.1} s",
+            g.short_us,
+            g.long_us,
+            g.ratio(),
+            g.per_round_quantile(0.5),
+            t0.elapsed().as_secs_f64()
+        );
+        growths.push(g);
+    }
+
+    growths
+}
+
+/// Part 3 of the bench, the seeds' table: a row per adaptive budget (pending while the
+/// solver does not exist), then full DCA.
+fn seeds_table(chain300: &Model, budget: Duration) -> Result<SeedsTable> {
+    let mut seeds: SeedsTable = Vec::new();
+    let rows_solvers = ADAPTIVE_BUDGETS
+        .iter()
+        .map(|&b| (format!("adaptive {b}"), Solver::adaptive(b)))
+        .chain(ADAPTIVE_BUDGETS.iter().map(|&b| {
+            (
+                format!("adaptive {b} caches"),
+                Some(Solver::Adaptive {
+                    budget: b,
+                    every: 1,
+                    caches: true,
+                }),
+            )
+        }))
+        .chain(std::iter::once((
+            "full DCA (300)".to_string(),
+            Some(Solver::Exact(articula_dca::Method::Dca)),
+        )));
+    for (label, solver) in rows_solvers {
+        let mut cells = Vec::new();
+        for &k in &SEED_FORCES {
+            cells.push(match solver {
+                Some(solver) => {
+                    let t = time_seeds_cell(chain300, solver, k, budget / 2)?;
+                    println!("  seeds' table: {label} with {k} forces {t:.1} µs");
+                    Some(t)
+                }
+                None => None,
+            });
+        }
+        seeds.push((label, cells));
+    }
+
+    Ok(seeds)
 }
 
 fn speed_of(rows: &[SpeedRow], model: &str, label: &str) -> f64 {
@@ -1097,12 +1121,17 @@ fn report(
     files: &[PathBuf],
     took: Duration,
 ) -> String {
-    let root_target = |p: &PathBuf| {
-        p.file_name()
-            .map(|n| n.to_string_lossy().to_string())
-            .unwrap_or_default()
-    };
     let mut s = String::new();
+    report_header(&mut s, opts, took);
+    report_speed(&mut s, rows, growths, peers);
+    report_accuracy(&mut s, accel, traj, pin_traj);
+    report_seeds(&mut s, seeds);
+    report_peers(&mut s, peers, files);
+    s
+}
+
+/// The report's title, how it was made, and the machine.
+fn report_header(s: &mut String, opts: &Options, took: Duration) {
     let mode = if opts.quick {
         format!(
             "quick (in-process sampling: median over batches of calls after a warm-up, \
@@ -1134,7 +1163,15 @@ fn report(
     if !Solver::adaptive_available() {
         let _ = writeln!(s, "> {ADAPTIVE_PENDING}\n");
     }
+}
 
+/// The time per call table, growth, and the comparison with Pinocchio on chain300.
+fn report_speed(
+    s: &mut String,
+    rows: &[SpeedRow],
+    growths: &[crate::growth::Growth],
+    peers: &Peers,
+) {
     // Speed table.
     let mut labels: Vec<String> = Vec::new();
     for r in rows {
@@ -1198,7 +1235,15 @@ fn report(
         }
     }
     let _ = writeln!(s, "![time per step against links]({SPEED_CHART}.png)\n");
+}
 
+/// Error against time: one step (a) and trajectories (b).
+fn report_accuracy(
+    s: &mut String,
+    accel: &[(String, f64, f64)],
+    traj: &Study,
+    pin_traj: &[Series],
+) {
     // Accuracy.
     let _ = writeln!(s, "## Error against time per step (300-link chain)\n");
     let _ = writeln!(
@@ -1323,7 +1368,10 @@ fn report(
         "![accumulated acceleration-metric error against time]({ACCUM_CHART}.png)\n"
     );
     let _ = writeln!(s, "{}\n", study_words(traj, pin_traj));
+}
 
+/// The seeds' table beside Redon et al. 2005's.
+fn report_seeds(s: &mut String, seeds: &SeedsTable) {
     // Seeds' table.
     let _ = writeln!(
         s,
@@ -1405,7 +1453,15 @@ fn report(
         let _ = writeln!(s, "| {label}: ours (2005) | {} |", cells.join(" | "));
     }
     let _ = writeln!(s);
+}
 
+/// The peers' notes and memory, how to install them, the files written.
+fn report_peers(s: &mut String, peers: &Peers, files: &[PathBuf]) {
+    let root_target = |p: &PathBuf| {
+        p.file_name()
+            .map(|n| n.to_string_lossy().to_string())
+            .unwrap_or_default()
+    };
     // Peers.
     let _ = writeln!(s, "## Peers\n");
     match &peers.skipped {
@@ -1470,7 +1526,6 @@ fn report(
     for f in files {
         let _ = writeln!(s, "- `{}`", root_target(f));
     }
-    s
 }
 
 #[cfg(test)]

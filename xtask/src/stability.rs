@@ -365,7 +365,69 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     let chain100 = articula_testkit::chain(100);
     let ad_runs = adaptive_study(&chain100)?;
 
-    // Charts.
+    let studies = Studies {
+        by_length: &by_length,
+        by_ratio: &by_ratio,
+        drifts: &drifts,
+        ad_runs: &ad_runs,
+        hard: &hard,
+    };
+    let files = write_charts(&[&out, &img], &studies)?;
+
+    let doc = document(
+        &by_length,
+        &by_ratio,
+        &drifts,
+        &ad_runs,
+        &hard,
+        started.elapsed().as_secs_f64(),
+    );
+    let path = root.join("docs/stability.md");
+    std::fs::write(&path, doc)?;
+    println!("wrote {}", path.display());
+    // The longest chain's errors, quoted in docs/performance.md.
+    if let Some((n, e)) = by_length.last() {
+        let errors: Vec<String> = e
+            .iter()
+            .map(|(s, x)| format!("{} {}", s.label(), sci(*x)))
+            .collect();
+        crate::docs::write_between_markers(
+            &root.join("docs/performance.md"),
+            "stability",
+            &format!(
+                "Relative error `max |q̈ − q̈_ref| / max |q̈_ref|` at {n} links, the worst of \
+                 [stability.md](stability.md)'s states: {}.",
+                errors.join(", ")
+            ),
+        )?;
+    }
+    for f in &files {
+        println!("wrote {}", f.display());
+    }
+    println!("stability took {:.1} s", started.elapsed().as_secs_f64());
+    Ok(())
+}
+
+/// The results of `cargo xtask stability`'s studies, for its charts.
+#[derive(Clone, Copy)]
+struct Studies<'a> {
+    by_length: &'a [(usize, Errors)],
+    by_ratio: &'a [(f64, Errors)],
+    drifts: &'a [Drift],
+    ad_runs: &'a [AdRun],
+    hard: &'a [crate::stress::Outcome],
+}
+
+/// The stability charts (tilted chain, chain length, mass ratio, energy, adaptive), written
+/// into each of `dirs`; the files written.
+fn write_charts(dirs: &[&Path], studies: &Studies) -> Result<Vec<std::path::PathBuf>> {
+    let Studies {
+        by_length,
+        by_ratio,
+        drifts,
+        ad_runs,
+        hard,
+    } = *studies;
     let mut files = Vec::new();
     let series_of = |rows: &[(f64, Errors)]| -> Vec<Series> {
         Solver::EXACT
@@ -401,7 +463,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
         title: format!("Accuracy against neighbour mass ratio ({RATIO_LINKS}-link chain)"),
         x_desc: "mass and inertia ratio of neighbouring links".into(),
         y_desc: "relative error max|Δqdd| / max|qdd|".into(),
-        series: series_of(&by_ratio),
+        series: series_of(by_ratio),
         lines: true,
         vlines: vec![],
     };
@@ -475,7 +537,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
         lines: true,
         vlines: vec![],
     };
-    for dir in [&out, &img] {
+    for &dir in dirs {
         files.extend(chart::write_loglog(dir, "stability_tilted", &tilted_plot)?);
         files.extend(chart::write_loglog(
             dir,
@@ -495,38 +557,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
         )?);
     }
 
-    let doc = document(
-        &by_length,
-        &by_ratio,
-        &drifts,
-        &ad_runs,
-        &hard,
-        started.elapsed().as_secs_f64(),
-    );
-    let path = root.join("docs/stability.md");
-    std::fs::write(&path, doc)?;
-    println!("wrote {}", path.display());
-    // The longest chain's errors, quoted in docs/performance.md.
-    if let Some((n, e)) = by_length.last() {
-        let errors: Vec<String> = e
-            .iter()
-            .map(|(s, x)| format!("{} {}", s.label(), sci(*x)))
-            .collect();
-        crate::docs::write_between_markers(
-            &root.join("docs/performance.md"),
-            "stability",
-            &format!(
-                "Relative error `max |q̈ − q̈_ref| / max |q̈_ref|` at {n} links, the worst of \
-                 [stability.md](stability.md)'s states: {}.",
-                errors.join(", ")
-            ),
-        )?;
-    }
-    for f in &files {
-        println!("wrote {}", f.display());
-    }
-    println!("stability took {:.1} s", started.elapsed().as_secs_f64());
-    Ok(())
+    Ok(files)
 }
 
 fn table<X: std::fmt::Display>(s: &mut String, head: &str, rows: &[(X, Errors)]) {
@@ -710,6 +741,13 @@ fn document(
     }
     let _ = writeln!(s);
 
+    energy_section(&mut s, drifts);
+    adaptive_section(&mut s, ad_runs, hard);
+    s
+}
+
+/// Section 3 of docs/stability.md: the integrators' energy drift.
+fn energy_section(s: &mut String, drifts: &[Drift]) {
     // Energy.
     let _ = writeln!(s, "## 3. Energy drift of the integrators\n");
     let _ = writeln!(
@@ -803,7 +841,10 @@ fn document(
             sci(Some(a.0))
         );
     }
+}
 
+/// Section 4 of docs/stability.md: adaptive dynamics (and section 5, the hard cases).
+fn adaptive_section(s: &mut String, ad_runs: &[AdRun], hard: &[crate::stress::Outcome]) {
     // Adaptive.
     let _ = writeln!(s, "## 4. Adaptive dynamics\n");
     let _ = writeln!(
@@ -885,8 +926,7 @@ fn document(
         sci(push(100.0, 50)),
         sci(push(1000.0, 50)),
     );
-    hard_cases(&mut s, hard);
-    s
+    hard_cases(s, hard);
 }
 
 /// Section 5: the hard cases of issue 24.

@@ -123,3 +123,54 @@ fn the_help_list_matches_the_dispatcher() {
         assert_eq!(help_status(sub), Some(0), "`cargo xtask {sub} --help`");
     }
 }
+
+/// `xtask ARGS...`: its exit code and stdout.
+fn run(args: &[&str]) -> (Option<i32>, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_xtask"))
+        .args(args)
+        .current_dir(root())
+        .output()
+        .expect("run xtask");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success(),
+        "`cargo xtask {}` failed: {stderr}",
+        args.join(" ")
+    );
+    (out.status.code(), String::from_utf8(out.stdout).unwrap())
+}
+
+/// The documented subcommands that take seconds, run with small arguments (the docs' own runs
+/// take minutes; the rest are covered by `--help` above): docs/scaling.md's `parallel` splits
+/// one body on the two threads it is given, docs/performance.md's `models --chain` and
+/// `models --tree` write models that load with the DOF the page quotes (the tree: `16 × 5000`
+/// gives 112,003), and `time`, `growth` and `profile` print their figures.
+#[test]
+fn the_cheap_documented_subcommands_run() {
+    let (_, out) = run(&["parallel", "2", "1", "300"]);
+    assert!(out.starts_with("threads=2 rounds=1"), "{out}");
+    assert!(
+        out.contains("chain300: serial ") && out.contains(" split/2 "),
+        "{out}"
+    );
+
+    let options = articula_model::LoadOptions::default();
+    let (_, urdf) = run(&["models", "--chain", "50"]);
+    let chain = articula_model::Model::from_urdf_str(&urdf, &options).unwrap();
+    assert_eq!((chain.name.as_str(), chain.nv), ("chain", 50));
+    let (_, urdf) = run(&["models", "--tree", "16", "50"]);
+    let tree = articula_model::Model::from_urdf_str(&urdf, &options).unwrap();
+    // A head and 16 branches; from 16 × 5000 links, 112,003 DOF: 7 × 16 × LINKS / 5 + 3.
+    assert_eq!(tree.bodies.len(), 16 * 50 + 1);
+    assert_eq!(tree.nv, 7 * 16 * 50 / 5 + 3);
+
+    let (_, out) = run(&["time", "dca", "humanoid-floating", "2", "5"]);
+    assert!(out.starts_with("dca humanoid-floating: min "), "{out}");
+    let (_, out) = run(&["growth", "dca", "10", "100", "1"]);
+    assert!(
+        out.starts_with("dca chain10 ") && out.contains("growth"),
+        "{out}"
+    );
+    let (_, out) = run(&["profile", "adaptive", "300", "50", "10", "30"]);
+    assert!(out.contains("budget 50 re-select every 10"), "{out}");
+}

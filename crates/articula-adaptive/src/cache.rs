@@ -343,6 +343,26 @@ pub(crate) enum Part {
 }
 
 /// A join of a dirty path as the delta and map passes see it ([`Adaptive::dirty_join`]).
+/// The own-joint terms of a dirty join's map, shared by its children's
+/// ([`Adaptive::join_map`]).
+struct JoinMapOwn {
+    /// `G_n`: the join force's gain on the dirty child's wrench.
+    gdn: M6,
+    /// `G_k` rows of the joint (the first `k` used).
+    gdk: M6,
+    /// `H`, the quadratic term of `Δη`.
+    hq: M6,
+    /// `J`, the term of `Δη` linear in the wrench and the velocity monomials.
+    jw: [[f64; NW]; 6],
+    /// `N_w` of the join (6 × NW).
+    nw0: [[f64; NW]; 6],
+    /// The joint's degrees of freedom.
+    k: usize,
+    /// The joint's velocity offset.
+    vo: usize,
+}
+
+#[derive(Clone, Copy)]
 struct DirtyJoin {
     joint: usize,
     a: usize,
@@ -382,7 +402,7 @@ impl Adaptive {
         if self.composites.grounded[n] {
             SpatialTransform::xlt(self.data.origin)
         } else {
-            self.data.x[self.composites.top[n]]
+            self.data.x[self.composites.top_body[n]]
         }
     }
 
@@ -431,7 +451,6 @@ impl Adaptive {
         self.world_metric(model, n);
         let xn = self.cache_frame(n);
         let grounded = self.composites.grounded[n];
-        let a_g = self.data.gravity;
         // The children's frames in n's, from the cached poses and the joint's q alone (never
         // from world poses, which would feed the rounding of every rebuild into the next):
         // n's top body is on A's side (parents precede their children), so A's frame is n's,
@@ -478,62 +497,100 @@ impl Adaptive {
                     self.leaf_columns(model, x, &xn, &xx, grounded, side);
                 }
                 NodeKind::Join { .. } => {
-                    let identity = same;
-                    let (ho, rx) = (self.coef.layout.hoff[x], rows3(&xx.e));
-                    let c = &mut self.cache;
-                    let (bw, pw) = (
-                        &c.tensors.b_w[ho * 6 * NW..(ho * 6 + rows) * NW],
-                        &c.tensors.p_w[ho * 6 * NW..(ho * 6 + rows) * NW],
-                    );
-                    let e = &c.tensors.e[x * NW * NW..(x + 1) * NW * NW];
-                    if identity {
-                        c.build.child_b[side][..rows * NW].copy_from_slice(bw);
-                        c.build.child_p[side][..rows * NW].copy_from_slice(pw);
-                        c.build.child_e[side].copy_from_slice(e);
-                    } else {
-                        monomial_map(&t, &mut c.build.monomial_map);
-                        mul(
-                            bw,
-                            &c.build.monomial_map,
-                            rows,
-                            NW,
-                            NW,
-                            &mut c.build.child_b[side],
-                        );
-                        mul(
-                            pw,
-                            &c.build.monomial_map,
-                            rows,
-                            NW,
-                            NW,
-                            &mut c.build.child_p[side],
-                        );
-                        // E_X over n's monomials: Mᵀ E M.
-                        mul(e, &c.build.monomial_map, NW, NW, NW, &mut c.build.product);
-                        crate::dense::at_b(
-                            &c.build.monomial_map,
-                            &c.build.product,
-                            NW,
-                            NW,
-                            NW,
-                            &mut c.build.child_e[side],
-                        );
-                    }
-                    left_rot(&mut c.build.child_b[side], rows, NW, &rx);
-                    left_rot(&mut c.build.child_p[side], rows, NW, &rx);
-                    if grounded && !self.composites.grounded[x] {
-                        // A child not holding the ground left a_g out of its tensors.
-                        for h in 0..nhx {
-                            for r in 0..3 {
-                                c.build.child_b[side][(6 * h + 3 + r) * NW + CONST] += a_g[r];
-                            }
-                        }
-                    }
+                    self.join_child_columns(x, side, &xx, &t, same, grounded);
                 }
             }
         }
         self.join_columns(model, n, tau);
-        // Store in n's cache frame: Φ, K, N, Ψ from the slots, the tensors from the results.
+        self.store_in_cache_frame(model, n, &xn);
+        let c = &mut self.cache;
+        c.tensors.node_valid[n] = true;
+        c.clock += 1;
+        c.tensors.built_at[n] = c.clock;
+        Ok(())
+    }
+
+    /// The tensors of join child `x` (on `side`, at `xx` in computation axes) over its
+    /// parent's monomials: its own (`same`: the parent's frame) or carried by the monomial
+    /// map of `t` (`u_X = t u_n`), a_g added when only the parent holds the ground.
+    #[inline(always)]
+    fn join_child_columns(
+        &mut self,
+        x: usize,
+        side: usize,
+        xx: &SpatialTransform,
+        t: &[[f64; 6]; 6],
+        same: bool,
+        grounded: bool,
+    ) {
+        let nhx = self.coef.handles[x];
+        let rows = 6 * nhx;
+        let a_g = self.data.gravity;
+        let (ho, rx) = (self.coef.layout.hoff[x], rows3(&xx.e));
+        let c = &mut self.cache;
+        let (bw, pw) = (
+            &c.tensors.b_w[ho * 6 * NW..(ho * 6 + rows) * NW],
+            &c.tensors.p_w[ho * 6 * NW..(ho * 6 + rows) * NW],
+        );
+        let e = &c.tensors.e[x * NW * NW..(x + 1) * NW * NW];
+        if same {
+            c.build.child_b[side][..rows * NW].copy_from_slice(bw);
+            c.build.child_p[side][..rows * NW].copy_from_slice(pw);
+            c.build.child_e[side].copy_from_slice(e);
+        } else {
+            monomial_map(t, &mut c.build.monomial_map);
+            mul(
+                bw,
+                &c.build.monomial_map,
+                rows,
+                NW,
+                NW,
+                &mut c.build.child_b[side],
+            );
+            mul(
+                pw,
+                &c.build.monomial_map,
+                rows,
+                NW,
+                NW,
+                &mut c.build.child_p[side],
+            );
+            // E_X over n's monomials: Mᵀ E M.
+            mul(e, &c.build.monomial_map, NW, NW, NW, &mut c.build.product);
+            crate::dense::at_b(
+                &c.build.monomial_map,
+                &c.build.product,
+                NW,
+                NW,
+                NW,
+                &mut c.build.child_e[side],
+            );
+        }
+        left_rot(&mut c.build.child_b[side], rows, NW, &rx);
+        left_rot(&mut c.build.child_p[side], rows, NW, &rx);
+        if grounded && !self.composites.grounded[x] {
+            // A child not holding the ground left a_g out of its tensors.
+            for h in 0..nhx {
+                for r in 0..3 {
+                    c.build.child_b[side][(6 * h + 3 + r) * NW + CONST] += a_g[r];
+                }
+            }
+        }
+    }
+
+    /// Stores join `n`'s results in its cache frame `xn`: Φ, K, N, Ψ from the slots, the
+    /// tensors from the results, the bias maps, the composite and the handles' parent poses.
+    #[inline(always)]
+    fn store_in_cache_frame(&mut self, model: &Model, n: usize, xn: &SpatialTransform) {
+        let tree = &model.assembly;
+        let NodeKind::Join {
+            joint,
+            parent_side: a,
+            child_side: b,
+        } = tree.nodes[n].kind
+        else {
+            return;
+        };
         let rt = tr3(&rows3(&xn.e));
         let (nh, hc, bc) = (
             self.coef.handles[n],
@@ -571,17 +628,17 @@ impl Adaptive {
         c.tensors.e[n * NW * NW..(n + 1) * NW * NW].copy_from_slice(&c.build.out_e);
         // κ_β R, κ_Q, Rᵀ ν_β R, Rᵀ ν_Q: the maps from cache-frame β to k and n.
         let mut jm = self.maps.recorded;
-        right_rot(jm.kb.as_flattened_mut(), 6, 6, &rt);
-        left_rot(jm.nb.as_flattened_mut(), 6, 6, &rt);
-        right_rot(jm.nb.as_flattened_mut(), 6, 6, &rt);
-        left_rot(jm.nq.as_flattened_mut(), 6, 6, &rt);
+        right_rot(jm.kappa_beta.as_flattened_mut(), 6, 6, &rt);
+        left_rot(jm.nu_beta.as_flattened_mut(), 6, 6, &rt);
+        right_rot(jm.nu_beta.as_flattened_mut(), 6, 6, &rt);
+        left_rot(jm.nu_q.as_flattened_mut(), 6, 6, &rt);
         c.tensors.bias_maps[n] = jm;
         // Composite and the poses of the handles' parent bodies, in n's frame (`rel` maps a
         // child's coordinates to n's).
         let into = |r: &Rigid, rel: &SpatialTransform| Rigid {
-            m: r.m,
-            c: rel.apply_point(r.c),
-            ic: rel.e * r.ic * rel.e.transpose(),
+            mass: r.mass,
+            com: rel.apply_point(r.com),
+            inertia: rel.e * r.inertia * rel.e.transpose(),
         };
         let ra = into(&c.tensors.composite[a], &c.tensors.parent_pose[a]);
         let rb = into(&c.tensors.composite[b], &c.tensors.parent_pose[b]);
@@ -596,10 +653,6 @@ impl Adaptive {
                 _ => c.tensors.parent_pose[x],
             };
         }
-        c.tensors.node_valid[n] = true;
-        c.clock += 1;
-        c.tensors.built_at[n] = c.clock;
-        Ok(())
     }
 
     /// The bias columns of leaf `x` (body `i`) over the monomials of its parent's velocity
@@ -717,20 +770,20 @@ impl Adaptive {
         let mut kw = [[0.0; NW]; 6];
         for p in 0..k {
             for r in 0..6 {
-                axpy(&mut kw[p], jm.kb[p][r], &beta[r]);
+                axpy(&mut kw[p], jm.kappa_beta[p][r], &beta[r]);
             }
             for qq in 0..k {
-                kw[p][CONST] += jm.kq[p][qq] * tau[vo + qq];
+                kw[p][CONST] += jm.kappa_q[p][qq] * tau[vo + qq];
             }
             row_mut(&mut c.build.out_k_w, p).copy_from_slice(&kw[p]);
         }
         let mut nw = [[0.0; NW]; 6];
         for s in 0..6 {
             for r in 0..6 {
-                axpy(&mut nw[s], jm.nb[s][r], &beta[r]);
+                axpy(&mut nw[s], jm.nu_beta[s][r], &beta[r]);
             }
             for qq in 0..k {
-                nw[s][CONST] += jm.nq[s][qq] * tau[vo + qq];
+                nw[s][CONST] += jm.nu_q[s][qq] * tau[vo + qq];
             }
             row_mut(&mut c.build.out_n_w, s).copy_from_slice(&nw[s]);
         }
@@ -945,10 +998,10 @@ impl Adaptive {
     pub(crate) fn leaf_delta(&mut self, model: &Model, n: usize, fe: SpatialForce) {
         let x = self.cache.reselection.frame_pose[n];
         let r = self.cache.tensors.composite[n];
-        let c = x.apply_point(r.c);
-        let ic = x.e * r.ic * x.e.transpose();
+        let c = x.apply_point(r.com);
+        let ic = x.e * r.inertia * x.e.transpose();
         let alpha = ic.inverse() * (fe.n - c.cross(fe.f));
-        let a_c = fe.f / r.m;
+        let a_c = fe.f / r.mass;
         let rt = tr3(&rows3(&x.e));
         let ho = self.coef.layout.hoff[n];
         for (h, &jh) in model.assembly.nodes[n].handles.iter().enumerate() {
@@ -965,11 +1018,11 @@ impl Adaptive {
         };
         let xf = self.cache.reselection.frame_pose[x];
         let r = self.cache.tensors.composite[x];
-        let ic = xf.e * r.ic * xf.e.transpose();
+        let ic = xf.e * r.inertia * xf.e.transpose();
         let hs = &model.assembly.nodes[x].handles;
         let g = rigid_phi(
-            r.m,
-            xf.apply_point(r.c),
+            r.mass,
+            xf.apply_point(r.com),
             ic.inverse(),
             self.coef.point[hs[jx]],
             self.coef.point[hs[i]],
@@ -1025,19 +1078,18 @@ impl Adaptive {
     /// O(1) per node: no cached matrix rotated, no clean child evaluated (a clean join
     /// child: `Ψ_X[·,j]` and the six rows of `P_X,j` read from its cache).
     pub(crate) fn dirty_delta(&mut self, model: &Model, n: usize) {
-        let Some(DirtyJoin {
+        let Some(dj) = self.dirty_join(model, n) else {
+            return;
+        };
+        let DirtyJoin {
             joint,
             hc,
-            nhc,
             nc,
             children,
             rel,
             xdirty,
             ..
-        }) = self.dirty_join(model, n)
-        else {
-            return;
-        };
+        } = dj;
         // Δβ = Δb^A_ja − Δb^B_jb.
         let mut beta = [0.0; 6];
         for (side, &(x, jx, sign)) in children.iter().enumerate() {
@@ -1054,10 +1106,10 @@ impl Adaptive {
         let body = &model.bodies[joint];
         let (vo, k) = (body.v_offset, body.nv);
         let jm = &self.cache.tensors.bias_maps[n];
-        let dn: [f64; 6] = std::array::from_fn(|s| dot6::<Portable>(&jm.nb[s], &beta));
+        let dn: [f64; 6] = std::array::from_fn(|s| dot6::<Portable>(&jm.nu_beta[s], &beta));
         let mut dk = [0.0; 6];
         for p in 0..k {
-            dk[p] = dot6::<Portable>(&jm.kb[p], &beta);
+            dk[p] = dot6::<Portable>(&jm.kappa_beta[p], &beta);
         }
         self.cache.dirty.delta_k[vo..vo + k].copy_from_slice(&dk[..k]);
         self.cache.dirty.delta_n[n] = dn;
@@ -1093,106 +1145,11 @@ impl Adaptive {
             [0.0; 6]
         };
         let mut sdu = [0.0; 6];
-        for (side, &(x, jx, sign)) in children.iter().enumerate() {
-            let hx = self.coef.layout.hoff[x];
-            let r = &rel[side];
-            let NodeKind::Join { .. } = model.assembly.nodes[x].kind else {
-                // A leaf (Ψ, p, η are 0): its shared handles' Δb through its rigid block,
-                // in computation axes.
-                let rd = rows3(&self.cache.reselection.frame_pose[n].e);
-                let dnw = rot6(&rd, &dn);
-                for h in 0..nhc {
-                    let (from_a, i) = self.coef.layout.from[hc + h];
-                    if from_a != (side == 0) {
-                        continue;
-                    }
-                    let g = self.leaf_phi_t(model, x, jx, i, &dnw);
-                    let mut bh = rot6(&tr3(&rd), &g);
-                    let own = if xdirty[side] {
-                        rot6(r, &self.cache.dirty.delta_b[hx + i])
-                    } else {
-                        [0.0; 6]
-                    };
-                    for (bv, ov) in bh.iter_mut().zip(own) {
-                        *bv = ov + sign * *bv;
-                    }
-                    self.cache.dirty.delta_b[hc + h] = bh;
-                }
-                continue;
-            };
-            // X's frame: Δn, n₀ there; its cache's Ψ_X[·,jx], P_X,jx at its velocity.
-            let rt = tr3(r);
-            let dnx = rot6(&rt, &dn);
-            let n0x = rot6(&rt, &n0);
-            let wx = monomials(self.cache.reselection.frame_velocity[x]);
-            let nx = 6 * self.coef.handles[x];
-            let po = self.metric.quad_at[x];
-            let c = &self.cache;
-            let psi = &c.tensors.psi[po..po + nx * nx];
-            // Ψ_X[i,jx] Δn for every handle i of X (6 each).
-            let psidn = |i: usize| -> [f64; 6] {
-                std::array::from_fn(|r| {
-                    let row = &psi[(6 * i + r) * nx + 6 * jx..][..6];
-                    dot6::<Portable>(row.try_into().expect("6"), &dnx)
-                })
-            };
-            let g = psidn(jx);
-            let mut du = [0.0; 6];
-            let mut eta_x = if xdirty[side] {
-                c.dirty.delta_eta[x]
+        for (side, &(x, ..)) in children.iter().enumerate() {
+            if let NodeKind::Join { .. } = model.assembly.nodes[x].kind {
+                deta += self.dirty_delta_join_side(&dj, side, &dn, &n0, &mut sdu);
             } else {
-                0.0
-            };
-            for r in 0..6 {
-                let row = 6 * jx + r;
-                let p0 = wdot(&c.tensors.p_w[(hx * 6 + row) * NW..][..NW], &wx);
-                let dpj = if xdirty[side] {
-                    c.dirty.delta_p[6 * hx + row]
-                } else {
-                    0.0
-                };
-                eta_x +=
-                    (2.0 * n0x[r] + dnx[r]) * g[r] + sign * (dnx[r] * p0 + (n0x[r] + dnx[r]) * dpj);
-                du[r] = 2.0 * sign * g[r] + dpj;
-            }
-            deta += eta_x;
-            // s Δu_jx, summed over the children for one Nᵀ (n's frame).
-            for (sv, dv) in sdu.iter_mut().zip(rot6(r, &du)) {
-                *sv += sign * dv;
-            }
-            // Shared handles i → h: Δp_h += Δp_X,i + 2 s Ψ_X[i,jx] Δn,
-            // Δb_h = Δb^X_i + s Φ^X_{jx,i}ᵀ Δn (s = −1 for A: `G_F = ±Φ^X_j·`).
-            for h in 0..nhc {
-                let (from_a, i) = self.coef.layout.from[hc + h];
-                if from_a != (side == 0) {
-                    continue;
-                }
-                let c = &self.cache;
-                let psi = &c.tensors.psi[po..po + nx * nx];
-                let pd: [f64; 6] = std::array::from_fn(|r| {
-                    let row = &psi[(6 * i + r) * nx + 6 * jx..][..6];
-                    dot6::<Portable>(row.try_into().expect("6"), &dnx)
-                });
-                let g = &c.tensors.phi[self.coef.layout.boff[x] + jx * self.coef.handles[x] + i];
-                let mut u = [0.0; 6];
-                let mut bh: [f64; 6] = std::array::from_fn(|col| {
-                    sign * (0..6).map(|s| g.0[s][col] * dnx[s]).sum::<f64>()
-                });
-                for r in 0..6 {
-                    u[r] = 2.0 * sign * pd[r];
-                    if xdirty[side] {
-                        u[r] += c.dirty.delta_p[6 * hx + 6 * i + r];
-                        bh[r] += c.dirty.delta_b[hx + i][r];
-                    }
-                }
-                let (u, bh) = (rot6(r, &u), rot6(r, &bh));
-                for (d, v) in self.cache.dirty.delta_p[6 * (hc + h)..6 * (hc + h) + 6]
-                    .iter_mut()
-                    .zip(u)
-                {
-                    *d += v;
-                }
-                self.cache.dirty.delta_b[hc + h] = bh;
+                self.dirty_delta_leaf_side(model, n, &dj, side, &dn);
             }
         }
         // Δp += Nᵀ Σ_X s Δu_jx.
@@ -1204,6 +1161,146 @@ impl Adaptive {
             }
         }
         self.cache.dirty.delta_eta[n] = deta;
+    }
+
+    /// Leaf child on `side` of dirty join `n` (Ψ, p, η are 0): its shared handles' Δb through
+    /// its rigid block, in computation axes.
+    #[inline(always)]
+    fn dirty_delta_leaf_side(
+        &mut self,
+        model: &Model,
+        n: usize,
+        dj: &DirtyJoin,
+        side: usize,
+        dn: &[f64; 6],
+    ) {
+        let DirtyJoin {
+            hc,
+            nhc,
+            children,
+            rel,
+            xdirty,
+            ..
+        } = *dj;
+        let (x, jx, sign) = children[side];
+        let hx = self.coef.layout.hoff[x];
+        let r = &rel[side];
+        let rd = rows3(&self.cache.reselection.frame_pose[n].e);
+        let dnw = rot6(&rd, dn);
+        for h in 0..nhc {
+            let (from_a, i) = self.coef.layout.from[hc + h];
+            if from_a != (side == 0) {
+                continue;
+            }
+            let g = self.leaf_phi_t(model, x, jx, i, &dnw);
+            let mut bh = rot6(&tr3(&rd), &g);
+            let own = if xdirty[side] {
+                rot6(r, &self.cache.dirty.delta_b[hx + i])
+            } else {
+                [0.0; 6]
+            };
+            for (bv, ov) in bh.iter_mut().zip(own) {
+                *bv = ov + sign * *bv;
+            }
+            self.cache.dirty.delta_b[hc + h] = bh;
+        }
+    }
+
+    /// Join child on `side` of a dirty join (Δn, n₀ of the join): its shared handles' Δp and
+    /// Δb, its `s Δu_jx` added to `sdu`; returns its share of Δη.
+    #[inline(always)]
+    fn dirty_delta_join_side(
+        &mut self,
+        dj: &DirtyJoin,
+        side: usize,
+        dn: &[f64; 6],
+        n0: &[f64; 6],
+        sdu: &mut [f64; 6],
+    ) -> f64 {
+        let DirtyJoin {
+            hc,
+            nhc,
+            children,
+            rel,
+            xdirty,
+            ..
+        } = *dj;
+        let (x, jx, sign) = children[side];
+        let hx = self.coef.layout.hoff[x];
+        let r = &rel[side];
+        // X's frame: Δn, n₀ there; its cache's Ψ_X[·,jx], P_X,jx at its velocity.
+        let rt = tr3(r);
+        let dnx = rot6(&rt, dn);
+        let n0x = rot6(&rt, n0);
+        let wx = monomials(self.cache.reselection.frame_velocity[x]);
+        let nx = 6 * self.coef.handles[x];
+        let po = self.metric.quad_at[x];
+        let c = &self.cache;
+        let psi = &c.tensors.psi[po..po + nx * nx];
+        // Ψ_X[i,jx] Δn for every handle i of X (6 each).
+        let psidn = |i: usize| -> [f64; 6] {
+            std::array::from_fn(|r| {
+                let row = &psi[(6 * i + r) * nx + 6 * jx..][..6];
+                dot6::<Portable>(row.try_into().expect("6"), &dnx)
+            })
+        };
+        let g = psidn(jx);
+        let mut du = [0.0; 6];
+        let mut eta_x = if xdirty[side] {
+            c.dirty.delta_eta[x]
+        } else {
+            0.0
+        };
+        for r in 0..6 {
+            let row = 6 * jx + r;
+            let p0 = wdot(&c.tensors.p_w[(hx * 6 + row) * NW..][..NW], &wx);
+            let dpj = if xdirty[side] {
+                c.dirty.delta_p[6 * hx + row]
+            } else {
+                0.0
+            };
+            eta_x +=
+                (2.0 * n0x[r] + dnx[r]) * g[r] + sign * (dnx[r] * p0 + (n0x[r] + dnx[r]) * dpj);
+            du[r] = 2.0 * sign * g[r] + dpj;
+        }
+        // s Δu_jx, summed over the children for one Nᵀ (n's frame).
+        for (sv, dv) in sdu.iter_mut().zip(rot6(r, &du)) {
+            *sv += sign * dv;
+        }
+        // Shared handles i → h: Δp_h += Δp_X,i + 2 s Ψ_X[i,jx] Δn,
+        // Δb_h = Δb^X_i + s Φ^X_{jx,i}ᵀ Δn (s = −1 for A: `G_F = ±Φ^X_j·`).
+        for h in 0..nhc {
+            let (from_a, i) = self.coef.layout.from[hc + h];
+            if from_a != (side == 0) {
+                continue;
+            }
+            let c = &self.cache;
+            let psi = &c.tensors.psi[po..po + nx * nx];
+            let pd: [f64; 6] = std::array::from_fn(|r| {
+                let row = &psi[(6 * i + r) * nx + 6 * jx..][..6];
+                dot6::<Portable>(row.try_into().expect("6"), &dnx)
+            });
+            let g = &c.tensors.phi[self.coef.layout.boff[x] + jx * self.coef.handles[x] + i];
+            let mut u = [0.0; 6];
+            let mut bh: [f64; 6] =
+                std::array::from_fn(|col| sign * (0..6).map(|s| g.0[s][col] * dnx[s]).sum::<f64>());
+            for r in 0..6 {
+                u[r] = 2.0 * sign * pd[r];
+                if xdirty[side] {
+                    u[r] += c.dirty.delta_p[6 * hx + 6 * i + r];
+                    bh[r] += c.dirty.delta_b[hx + i][r];
+                }
+            }
+            let (u, bh) = (rot6(r, &u), rot6(r, &bh));
+            for (d, v) in self.cache.dirty.delta_p[6 * (hc + h)..6 * (hc + h) + 6]
+                .iter_mut()
+                .zip(u)
+            {
+                *d += v;
+            }
+            self.cache.dirty.delta_b[hc + h] = bh;
+        }
+        eta_x
     }
 
     /// Allocates the forced paths' maps (the first re-selection with external forces).
@@ -1312,20 +1409,70 @@ impl Adaptive {
 
     #[inline(always)]
     fn join_map_with(&mut self, model: &Model, n: usize) {
-        let Some(DirtyJoin {
-            joint,
+        let Some(dj) = self.dirty_join(model, n) else {
+            return;
+        };
+        let mut own = self.join_map_own(model, n, &dj);
+        // Σ_X s R_X G_du,X over the join children.
+        let mut gsdu = [[0.0; 6]; 6];
+        for side in 0..2 {
+            let x = dj.children[side].0;
+            if let NodeKind::Join { .. } = model.assembly.nodes[x].kind {
+                self.join_map_join_side(n, &dj, side, &mut own, &mut gsdu);
+            } else {
+                self.join_map_leaf_side(model, n, &dj, side, &own.gdn);
+            }
+        }
+        let DirtyJoin {
             a,
             b,
             hc,
-            nhc,
+            nc,
+            xdirty,
+            ..
+        } = dj;
+        let JoinMapOwn {
+            gdn,
+            gdk,
+            hq,
+            jw,
+            k,
+            vo,
+            ..
+        } = own;
+        // G_p += Nᵀ Σ_X s R_X G_du,X.
+        for i in 0..nc {
+            for col in 0..6 {
+                let add: f64 = (0..6)
+                    .map(|t| self.cache.tensors.n[36 * hc + t * nc + i] * gsdu[t][col])
+                    .sum();
+                self.cache.maps.g_p[hc + i / 6][i % 6][col] += add;
+            }
+        }
+        let xd = if xdirty[0] { a } else { b };
+        let c = &mut self.cache;
+        c.maps.g_n[n] = gdn;
+        c.maps.g_k[vo..vo + k].copy_from_slice(&gdk[..k]);
+        c.maps.h[n] = hq;
+        c.maps.j_w[n] = jw;
+        c.maps.leaf_pose[n] = c.tensors.parent_pose[xd] * c.maps.leaf_pose[xd];
+        c.maps.built[n] = true;
+        c.maps.builds += 1;
+    }
+
+    /// The own-joint terms of [`Adaptive::join_map`] at dirty join `n`: `G_n`, `G_k`, the
+    /// joint's share of `H` and `J`, `G_p`'s start and `N_w`.
+    #[inline(always)]
+    fn join_map_own(&mut self, model: &Model, n: usize, dj: &DirtyJoin) -> JoinMapOwn {
+        let DirtyJoin {
+            joint,
+            hc,
             nc,
             children,
             rel,
             xdirty,
-        }) = self.dirty_join(model, n)
-        else {
-            return;
-        };
+            ..
+        } = *dj;
         // G_β = −s_X R_X G_b,jx^X of the dirty child.
         let mut gbeta = [[0.0; 6]; 6];
         for (side, &(x, jx, sign)) in children.iter().enumerate() {
@@ -1344,8 +1491,8 @@ impl Adaptive {
         let body = &model.bodies[joint];
         let (vo, k) = (body.v_offset, body.nv);
         let jm = self.cache.tensors.bias_maps[n];
-        let gdn = m6_mul(&jm.nb, &gbeta);
-        let gdk = m6_mul(&jm.kb, &gbeta);
+        let gdn = m6_mul(&jm.nu_beta, &gbeta);
+        let gdk = m6_mul(&jm.kappa_beta, &gbeta);
         // Own joint: A G_k, Aᵀ G_k (rows p < k).
         let wo = self.metric.weight_at[joint];
         let aw = &self.metric.accel_weights[wo..wo + k * k];
@@ -1393,169 +1540,202 @@ impl Adaptive {
         for (row, r) in nw0.iter_mut().enumerate() {
             r.copy_from_slice(&self.cache.tensors.n_w[(n * 6 + row) * NW..][..NW]);
         }
-        let mut gsdu = [[0.0; 6]; 6];
-        for (side, &(x, jx, sign)) in children.iter().enumerate() {
-            let hx = self.coef.layout.hoff[x];
-            let r = &rel[side];
-            let NodeKind::Join { .. } = model.assembly.nodes[x].kind else {
-                // A leaf: its shared handles' Δb through its rigid block (computation axes,
-                // turned into n's).
-                let rd = rows3(&self.cache.reselection.frame_pose[n].e);
-                for h in 0..nhc {
-                    let (from_a, i) = self.coef.layout.from[hc + h];
-                    if from_a != (side == 0) {
-                        continue;
-                    }
-                    let mut gb = if xdirty[side] {
-                        m6_rot(r, &self.cache.maps.g_b[hx + i])
-                    } else {
-                        [[0.0; 6]; 6]
-                    };
-                    for col in 0..6 {
-                        let mut v = [0.0; 6];
-                        for (row, x) in v.iter_mut().enumerate() {
-                            *x = gdn[row][col];
-                        }
-                        let g = self.leaf_phi_t(model, x, jx, i, &rot6(&rd, &v));
-                        let bh = rot6(&tr3(&rd), &g);
-                        for row in 0..6 {
-                            gb[row][col] += sign * bh[row];
-                        }
-                    }
-                    self.cache.maps.g_b[hc + h] = gb;
-                }
+        JoinMapOwn {
+            gdn,
+            gdk,
+            hq,
+            jw,
+            nw0,
+            k,
+            vo,
+        }
+    }
+
+    /// Leaf child on `side` of dirty join `n`: its shared handles' Δb through its rigid block
+    /// (computation axes, turned into n's).
+    #[inline(always)]
+    fn join_map_leaf_side(
+        &mut self,
+        model: &Model,
+        n: usize,
+        dj: &DirtyJoin,
+        side: usize,
+        gdn: &M6,
+    ) {
+        let DirtyJoin {
+            hc,
+            nhc,
+            children,
+            rel,
+            xdirty,
+            ..
+        } = *dj;
+        let (x, jx, sign) = children[side];
+        let hx = self.coef.layout.hoff[x];
+        let r = &rel[side];
+        let rd = rows3(&self.cache.reselection.frame_pose[n].e);
+        for h in 0..nhc {
+            let (from_a, i) = self.coef.layout.from[hc + h];
+            if from_a != (side == 0) {
                 continue;
-            };
-            let rt = tr3(r);
-            let gdnx = m6_rot(&rt, &gdn);
-            let mut n0x = nw0;
-            left_rot(n0x.as_flattened_mut(), 6, NW, &rt);
-            // M_X: w_X = M_X w (u_X = rel⁻¹ u); a node holding the ground does not move
-            // (`w = e_CONST`): only the constant column matters, which M_X keeps.
-            let still = self.composites.grounded[n];
-            if !still {
-                let t = inv_motion_matrix(&self.cache.tensors.parent_pose[x]);
-                monomial_map(&t, &mut self.cache.build.monomial_map);
             }
-            let nx = 6 * self.coef.handles[x];
-            let po = self.metric.quad_at[x];
-            let psi_at = |c: &Caches, i: usize| -> M6 {
-                let mut m = [[0.0; 6]; 6];
-                for (r, mr) in m.iter_mut().enumerate() {
-                    mr.copy_from_slice(&c.tensors.psi[po + (6 * i + r) * nx + 6 * jx..][..6]);
-                }
-                m
-            };
-            let c = &self.cache;
-            let gg = m6_mul(&psi_at(c, jx), &gdnx);
-            // The terms over X's monomials, `s G_nxᵀ P_X,jx (+ J_X)`, carried to n's by one
-            // product with M_X below.
-            let mut p0 = [[0.0; NW]; 6];
-            for (r, pr) in p0.iter_mut().enumerate() {
-                pr.copy_from_slice(&c.tensors.p_w[(hx * 6 + 6 * jx + r) * NW..][..NW]);
-            }
-            let mut jxw = if xdirty[side] {
-                c.maps.j_w[x]
+            let mut gb = if xdirty[side] {
+                m6_rot(r, &self.cache.maps.g_b[hx + i])
             } else {
-                [[0.0; NW]; 6]
+                [[0.0; 6]; 6]
             };
-            add_at_b(&mut jxw, sign, &gdnx, &p0);
-            for (jr, xr) in jw.iter_mut().zip(&jxw) {
-                if still {
-                    jr[CONST] += xr[CONST];
-                    continue;
+            for col in 0..6 {
+                let mut v = [0.0; 6];
+                for (row, x) in v.iter_mut().enumerate() {
+                    *x = gdn[row][col];
                 }
-                for (m, &xv) in xr.iter().enumerate() {
-                    for (o, &mv) in jr
-                        .iter_mut()
-                        .zip(&c.build.monomial_map[m * NW..(m + 1) * NW])
-                    {
-                        *o += xv * mv;
-                    }
+                let g = self.leaf_phi_t(model, x, jx, i, &rot6(&rd, &v));
+                let bh = rot6(&tr3(&rd), &g);
+                for row in 0..6 {
+                    gb[row][col] += sign * bh[row];
                 }
             }
-            add_at_b(&mut jw, 2.0, &gg, &n0x);
-            let h1 = m6_tmul(&gdnx, &gg);
-            let mut du = [[0.0; 6]; 6];
-            for (dr, gr) in du.iter_mut().zip(&gg) {
-                for (d, &v) in dr.iter_mut().zip(gr) {
-                    *d = 2.0 * sign * v;
+            self.cache.maps.g_b[hc + h] = gb;
+        }
+    }
+
+    /// Join child on `side` of dirty join `n`: its terms of `J` and `H` carried to n's
+    /// monomials, its share of `G_du`, and its shared handles' `G_p`, `G_b`.
+    #[inline(always)]
+    fn join_map_join_side(
+        &mut self,
+        n: usize,
+        dj: &DirtyJoin,
+        side: usize,
+        own: &mut JoinMapOwn,
+        gsdu: &mut M6,
+    ) {
+        let DirtyJoin {
+            hc,
+            nhc,
+            children,
+            rel,
+            xdirty,
+            ..
+        } = *dj;
+        let (x, jx, sign) = children[side];
+        let hx = self.coef.layout.hoff[x];
+        let r = &rel[side];
+        let JoinMapOwn {
+            gdn, hq, jw, nw0, ..
+        } = own;
+        let (gdn, nw0) = (*gdn, *nw0);
+        let rt = tr3(r);
+        let gdnx = m6_rot(&rt, &gdn);
+        let mut n0x = nw0;
+        left_rot(n0x.as_flattened_mut(), 6, NW, &rt);
+        // M_X: w_X = M_X w (u_X = rel⁻¹ u); a node holding the ground does not move
+        // (`w = e_CONST`): only the constant column matters, which M_X keeps.
+        let still = self.composites.grounded[n];
+        if !still {
+            let t = inv_motion_matrix(&self.cache.tensors.parent_pose[x]);
+            monomial_map(&t, &mut self.cache.build.monomial_map);
+        }
+        let nx = 6 * self.coef.handles[x];
+        let po = self.metric.quad_at[x];
+        let psi_at = |c: &Caches, i: usize| -> M6 {
+            let mut m = [[0.0; 6]; 6];
+            for (r, mr) in m.iter_mut().enumerate() {
+                mr.copy_from_slice(&c.tensors.psi[po + (6 * i + r) * nx + 6 * jx..][..6]);
+            }
+            m
+        };
+        let c = &self.cache;
+        let gg = m6_mul(&psi_at(c, jx), &gdnx);
+        // The terms over X's monomials, `s G_nxᵀ P_X,jx (+ J_X)`, carried to n's by one
+        // product with M_X below.
+        let mut p0 = [[0.0; NW]; 6];
+        for (r, pr) in p0.iter_mut().enumerate() {
+            pr.copy_from_slice(&c.tensors.p_w[(hx * 6 + 6 * jx + r) * NW..][..NW]);
+        }
+        let mut jxw = if xdirty[side] {
+            c.maps.j_w[x]
+        } else {
+            [[0.0; NW]; 6]
+        };
+        add_at_b(&mut jxw, sign, &gdnx, &p0);
+        for (jr, xr) in jw.iter_mut().zip(&jxw) {
+            if still {
+                jr[CONST] += xr[CONST];
+                continue;
+            }
+            for (m, &xv) in xr.iter().enumerate() {
+                for (o, &mv) in jr
+                    .iter_mut()
+                    .zip(&c.build.monomial_map[m * NW..(m + 1) * NW])
+                {
+                    *o += xv * mv;
                 }
             }
-            if xdirty[side] {
-                let gpj = c.maps.g_p[hx + jx];
-                add_at_b(&mut jw, sign, &gpj, &n0x);
-                let h2 = m6_tmul(&gdnx, &gpj);
-                let hx_ = c.maps.h[x];
-                for rr in 0..6 {
-                    for cc in 0..6 {
-                        hq[rr][cc] += h1[rr][cc] + sign * h2[rr][cc] + hx_[rr][cc];
-                        du[rr][cc] += gpj[rr][cc];
-                    }
-                }
-            } else {
-                for rr in 0..6 {
-                    for cc in 0..6 {
-                        hq[rr][cc] += h1[rr][cc];
-                    }
-                }
+        }
+        add_at_b(jw, 2.0, &gg, &n0x);
+        let h1 = m6_tmul(&gdnx, &gg);
+        let mut du = [[0.0; 6]; 6];
+        for (dr, gr) in du.iter_mut().zip(&gg) {
+            for (d, &v) in dr.iter_mut().zip(gr) {
+                *d = 2.0 * sign * v;
             }
-            let du = m6_rot(r, &du);
+        }
+        if xdirty[side] {
+            let gpj = c.maps.g_p[hx + jx];
+            add_at_b(jw, sign, &gpj, &n0x);
+            let h2 = m6_tmul(&gdnx, &gpj);
+            let hx_ = c.maps.h[x];
             for rr in 0..6 {
                 for cc in 0..6 {
-                    gsdu[rr][cc] += sign * du[rr][cc];
+                    hq[rr][cc] += h1[rr][cc] + sign * h2[rr][cc] + hx_[rr][cc];
+                    du[rr][cc] += gpj[rr][cc];
                 }
             }
-            // Shared handles i → h: G_p,h += R (G_p,i + 2 s Ψ_X[i,jx] G_nx),
-            // G_b,h = R (G_b,i + s Φ^X_{jx,i}ᵀ G_nx).
-            for h in 0..nhc {
-                let (from_a, i) = self.coef.layout.from[hc + h];
-                if from_a != (side == 0) {
-                    continue;
+        } else {
+            for rr in 0..6 {
+                for cc in 0..6 {
+                    hq[rr][cc] += h1[rr][cc];
                 }
-                let c = &self.cache;
-                let pd = m6_mul(&psi_at(c, i), &gdnx);
-                let g = &c.tensors.phi[self.coef.layout.boff[x] + jx * self.coef.handles[x] + i];
-                let mut bh = m6_tmul(&g.0, &gdnx);
-                let mut u = [[0.0; 6]; 6];
-                for rr in 0..6 {
-                    for cc in 0..6 {
-                        bh[rr][cc] *= sign;
-                        u[rr][cc] = 2.0 * sign * pd[rr][cc];
-                        if xdirty[side] {
-                            u[rr][cc] += c.maps.g_p[hx + i][rr][cc];
-                            bh[rr][cc] += c.maps.g_b[hx + i][rr][cc];
-                        }
-                    }
-                }
-                let (u, bh) = (m6_rot(r, &u), m6_rot(r, &bh));
-                let gp = &mut self.cache.maps.g_p[hc + h];
-                for rr in 0..6 {
-                    for cc in 0..6 {
-                        gp[rr][cc] += u[rr][cc];
-                    }
-                }
-                self.cache.maps.g_b[hc + h] = bh;
             }
         }
-        // G_p += Nᵀ Σ_X s R_X G_du,X.
-        for i in 0..nc {
-            for col in 0..6 {
-                let add: f64 = (0..6)
-                    .map(|t| self.cache.tensors.n[36 * hc + t * nc + i] * gsdu[t][col])
-                    .sum();
-                self.cache.maps.g_p[hc + i / 6][i % 6][col] += add;
+        let du = m6_rot(r, &du);
+        for rr in 0..6 {
+            for cc in 0..6 {
+                gsdu[rr][cc] += sign * du[rr][cc];
             }
         }
-        let xd = if xdirty[0] { a } else { b };
-        let c = &mut self.cache;
-        c.maps.g_n[n] = gdn;
-        c.maps.g_k[vo..vo + k].copy_from_slice(&gdk[..k]);
-        c.maps.h[n] = hq;
-        c.maps.j_w[n] = jw;
-        c.maps.leaf_pose[n] = c.tensors.parent_pose[xd] * c.maps.leaf_pose[xd];
-        c.maps.built[n] = true;
-        c.maps.builds += 1;
+        // Shared handles i → h: G_p,h += R (G_p,i + 2 s Ψ_X[i,jx] G_nx),
+        // G_b,h = R (G_b,i + s Φ^X_{jx,i}ᵀ G_nx).
+        for h in 0..nhc {
+            let (from_a, i) = self.coef.layout.from[hc + h];
+            if from_a != (side == 0) {
+                continue;
+            }
+            let c = &self.cache;
+            let pd = m6_mul(&psi_at(c, i), &gdnx);
+            let g = &c.tensors.phi[self.coef.layout.boff[x] + jx * self.coef.handles[x] + i];
+            let mut bh = m6_tmul(&g.0, &gdnx);
+            let mut u = [[0.0; 6]; 6];
+            for rr in 0..6 {
+                for cc in 0..6 {
+                    bh[rr][cc] *= sign;
+                    u[rr][cc] = 2.0 * sign * pd[rr][cc];
+                    if xdirty[side] {
+                        u[rr][cc] += c.maps.g_p[hx + i][rr][cc];
+                        bh[rr][cc] += c.maps.g_b[hx + i][rr][cc];
+                    }
+                }
+            }
+            let (u, bh) = (m6_rot(r, &u), m6_rot(r, &bh));
+            let gp = &mut self.cache.maps.g_p[hc + h];
+            for rr in 0..6 {
+                for cc in 0..6 {
+                    gp[rr][cc] += u[rr][cc];
+                }
+            }
+            self.cache.maps.g_b[hc + h] = bh;
+        }
     }
 
     /// Dirty node `n`'s deltas from its map at its leaf's wrench (`f` in the leaf's frame, at

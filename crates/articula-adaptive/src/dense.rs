@@ -124,34 +124,6 @@ pub(crate) fn solve_lt_k(l: &[[f64; 6]; 6], u: &[f64; 5], k: usize) -> [f64; 5] 
     x
 }
 
-/// `L⁻¹ b` (forward substitution).
-#[inline]
-pub(crate) fn solve_l(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
-    let mut x = [0.0; 6];
-    for i in 0..6 {
-        let mut v = b[i];
-        for p in 0..i {
-            v -= l[i][p] * x[p];
-        }
-        x[i] = v / l[i][i];
-    }
-    x
-}
-
-/// `L⁻ᵀ b` (back substitution).
-#[inline]
-pub(crate) fn solve_lt(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
-    let mut x = [0.0; 6];
-    for i in (0..6).rev() {
-        let mut v = b[i];
-        for p in (i + 1)..6 {
-            v -= l[p][i] * x[p];
-        }
-        x[i] = v / l[i][i];
-    }
-    x
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

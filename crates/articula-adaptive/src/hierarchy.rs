@@ -34,7 +34,7 @@ impl Adaptive {
         if self.composites.grounded[n] {
             SpatialTransform::xlt(self.data.origin)
         } else {
-            self.data.x[self.composites.top[n]]
+            self.data.x[self.composites.top_body[n]]
         }
     }
 
@@ -48,13 +48,13 @@ impl Adaptive {
         let nn = tree.nodes.len();
         let nb = model.bodies.len();
         let h = &mut self.hier;
-        h.rig.resize(nn, Rigid::default());
+        h.cluster_mass.resize(nn, Rigid::default());
         h.abody.clear();
         h.abody.resize(nb, false);
-        h.pcl.resize(nb, usize::MAX);
+        h.parent_cluster.resize(nb, usize::MAX);
         h.prel.resize(nb, SpatialTransform::IDENTITY);
-        h.cl.resize(nb, usize::MAX);
-        h.par.resize(nb, usize::MAX);
+        h.own_cluster.resize(nb, usize::MAX);
+        h.parent_top.resize(nb, usize::MAX);
         if h.axis.len() != nb {
             h.axis = model.bodies.iter().map(coordinate_axis).collect();
             h.parts = model.bodies.iter().map(revolute_parts).collect();
@@ -80,13 +80,13 @@ impl Adaptive {
                 self.hier.fnodes.push(n);
                 if !self.composites.grounded[n] {
                     // The composite (computation frame) carried into the top body's frame.
-                    let x = self.data.x[self.composites.top[n]];
+                    let x = self.data.x[self.composites.top_body[n]];
                     let (r, _) = x.to_pose();
                     let c = self.composites.rigid[n];
-                    self.hier.rig[n] = Rigid {
-                        m: c.m,
-                        c: x.inverse().apply_point(c.c),
-                        ic: r.transpose() * c.ic * r,
+                    self.hier.cluster_mass[n] = Rigid {
+                        mass: c.mass,
+                        com: x.inverse().apply_point(c.com),
+                        inertia: r.transpose() * c.inertia * r,
                     };
                 }
             }
@@ -96,8 +96,8 @@ impl Adaptive {
                 continue;
             }
             self.hier.ajoints.push(j);
-            self.hier.pcl[j] = usize::MAX;
-            self.hier.par[j] = usize::MAX;
+            self.hier.parent_cluster[j] = usize::MAX;
+            self.hier.parent_top[j] = usize::MAX;
             if let Some(p) = model.bodies[j].parent {
                 if !self.hier.abody[p] {
                     // Walk up from the parent's leaf to the frontier node holding it.
@@ -105,15 +105,15 @@ impl Adaptive {
                     while let Some(par) = tree.nodes[n].parent.filter(|&q| !self.body.active[q]) {
                         n = par;
                     }
-                    self.hier.pcl[j] = n;
+                    self.hier.parent_cluster[j] = n;
                     self.hier.prel[j] = self.top_frame(n).inverse() * self.data.x[p];
                     if !self.composites.grounded[n] {
                         // The cluster's top body: its joint is one of the cluster's handles,
                         // all of which are active.
-                        self.hier.par[j] = self.composites.top[n];
+                        self.hier.parent_top[j] = self.composites.top_body[n];
                     }
                 } else {
-                    self.hier.par[j] = p;
+                    self.hier.parent_top[j] = p;
                 }
             }
             // The cluster j tops: the frontier node above j's leaf.
@@ -121,7 +121,7 @@ impl Adaptive {
             while let Some(par) = tree.nodes[n].parent.filter(|&q| !self.body.active[q]) {
                 n = par;
             }
-            self.hier.cl[j] = n;
+            self.hier.own_cluster[j] = n;
         }
         self.build_records(model);
         self.hier.valid = true;
@@ -129,37 +129,45 @@ impl Adaptive {
         self.hier.kin_fresh = false;
     }
 
-    /// The records of the reduced tree (`rec`) from the lists and frames of
+    /// The records of the reduced tree (`records`) from the lists and frames of
     /// [`Adaptive::build_hierarchy`], and the articulated-body workspace sized to them.
     pub(crate) fn build_records(&mut self, model: &Model) {
         let h = &mut self.hier;
-        h.rec.clear();
+        h.records.clear();
         h.gen += 1;
-        if h.fcl.len() != model.bodies.len() {
-            h.fcl = vec![(0, 0); model.bodies.len()];
+        if h.force_cluster.len() != model.bodies.len() {
+            h.force_cluster = vec![(0, 0); model.bodies.len()];
         }
         // Room for every body at the first build: later hybrid bodies allocate nothing.
         let nb = model.bodies.len();
-        if h.rec.capacity() < nb {
-            h.rec.reserve(nb);
-            h.aba.ia.reserve(nb.saturating_sub(h.aba.ia.len()));
-            h.aba
+        if h.records.capacity() < nb {
+            h.records.reserve(nb);
+            h.reduced_aba
+                .ia
+                .reserve(nb.saturating_sub(h.reduced_aba.ia.len()));
+            h.reduced_aba
                 .cholesky
-                .reserve(nb.saturating_sub(h.aba.cholesky.len()));
-            for v in [&mut h.aba.pa, &mut h.aba.acceleration] {
+                .reserve(nb.saturating_sub(h.reduced_aba.cholesky.len()));
+            for v in [&mut h.reduced_aba.pa, &mut h.reduced_aba.acceleration] {
                 v.reserve(nb.saturating_sub(v.len()));
             }
-            h.aba.dinv.reserve(nb.saturating_sub(h.aba.dinv.len()));
-            h.sc.reserve(model.nv.saturating_sub(h.sc.len()));
-            h.ang.reserve(model.nv.saturating_sub(h.ang.len()));
-            h.aba.u.reserve(model.nv.saturating_sub(h.aba.u.len()));
-            h.aba.uu.reserve(model.nv.saturating_sub(h.aba.uu.len()));
+            h.reduced_aba
+                .dinv
+                .reserve(nb.saturating_sub(h.reduced_aba.dinv.len()));
+            h.sin_cos.reserve(model.nv.saturating_sub(h.sin_cos.len()));
+            h.angles.reserve(model.nv.saturating_sub(h.angles.len()));
+            h.reduced_aba
+                .u
+                .reserve(model.nv.saturating_sub(h.reduced_aba.u.len()));
+            h.reduced_aba
+                .uu
+                .reserve(model.nv.saturating_sub(h.reduced_aba.uu.len()));
         }
         if h.ridx.len() != nb {
             h.ridx.resize(nb, usize::MAX);
         }
         let mut dof = 0;
-        h.ang.clear();
+        h.angles.clear();
         for idx in 0..h.ajoints.len() {
             let j = h.ajoints[idx];
             let body = &model.bodies[j];
@@ -168,8 +176,8 @@ impl Adaptive {
             let parent = match body.parent {
                 None => Parent::World,
                 Some(p) if h.abody[p] => Parent::Active(narrow(p)),
-                Some(_) if self.composites.grounded[h.pcl[j]] => Parent::Ground,
-                Some(_) => Parent::Cluster(narrow(self.composites.top[h.pcl[j]])),
+                Some(_) if self.composites.grounded[h.parent_cluster[j]] => Parent::Ground,
+                Some(_) => Parent::Cluster(narrow(self.composites.top_body[h.parent_cluster[j]])),
             };
             let mut x0 = match parent {
                 Parent::World | Parent::Active(_) => SpatialTransform::IDENTITY,
@@ -183,12 +191,12 @@ impl Adaptive {
                     mulx = true;
                 }
             }
-            // The parent record: the active body topping the parent's cluster (`par`) comes
+            // The parent record: the active body topping the parent's cluster (`parent_top`) comes
             // earlier in `ajoints`.
-            let pidx = if h.par[j] == usize::MAX {
+            let pidx = if h.parent_top[j] == usize::MAX {
                 u32::MAX
             } else {
-                narrow(h.ridx[h.par[j]])
+                narrow(h.ridx[h.parent_top[j]])
             };
             let revs = match h.parts[j] {
                 Some(_)
@@ -202,56 +210,57 @@ impl Adaptive {
                 _ => 0,
             };
             if let Some((_, sign)) = axis {
-                h.ang.push((narrow(body.q_offset), sign as f32));
+                h.angles.push((narrow(body.q_offset), sign as f32));
             } else if let Some(parts) = &h.parts[j] {
                 for (k, part) in body.joint.iter().enumerate() {
-                    h.ang.push((narrow(part.q_offset), parts.axis(k).1 as f32));
+                    h.angles
+                        .push((narrow(part.q_offset), parts.axis(k).1 as f32));
                 }
             }
-            h.ridx[j] = h.rec.len();
-            h.rec.push(ActiveJoint {
-                j: narrow(j),
-                qo: narrow(body.q_offset),
-                vo: narrow(body.v_offset),
-                k: narrow(body.nv),
-                dof: narrow(dof),
+            h.ridx[j] = h.records.len();
+            h.records.push(ActiveJoint {
+                body: narrow(j),
+                q_offset: narrow(body.q_offset),
+                v_offset: narrow(body.v_offset),
+                dof_count: narrow(body.nv),
+                first_dof: narrow(dof),
                 pidx,
-                f: narrow(h.cl[j]),
+                cluster: narrow(h.own_cluster[j]),
                 parent,
                 mulx,
                 shift: mulx && x0.e == glam::DMat3::IDENTITY,
                 revs,
-                ax: match (axis, &h.parts[j]) {
+                axis_code: match (axis, &h.parts[j]) {
                     (Some((i, _)), _) => i as u8,
                     (None, Some(_)) => AX_PARTS,
                     (None, None) => u8::MAX,
                 },
                 sign: axis.map_or(0.0, |(_, sign)| sign),
-                rp: h.parts[j].unwrap_or_default(),
-                x0,
-                rig: h.rig[h.cl[j]],
+                rev_parts: h.parts[j].unwrap_or_default(),
+                fixed_pose: x0,
+                cluster_mass: h.cluster_mass[h.own_cluster[j]],
             });
             dof += body.nv;
         }
         h.dofs = dof;
-        let na = h.rec.len();
-        h.aba.ia.resize(na, Mat6::ZERO);
-        h.aba.pa.resize(na, [0.0; 6]);
-        h.aba.acceleration.resize(na, [0.0; 6]);
-        h.aba.dinv.resize(na, 0.0);
-        h.sc.resize(h.ang.len(), (0.0, 1.0));
-        h.aba.cholesky.resize(na, [[0.0; 6]; 6]);
-        h.aba.u.resize(dof, [0.0; 6]);
-        h.aba.uu.resize(dof, 0.0);
+        let na = h.records.len();
+        h.reduced_aba.ia.resize(na, Mat6::ZERO);
+        h.reduced_aba.pa.resize(na, [0.0; 6]);
+        h.reduced_aba.acceleration.resize(na, [0.0; 6]);
+        h.reduced_aba.dinv.resize(na, 0.0);
+        h.sin_cos.resize(h.angles.len(), (0.0, 1.0));
+        h.reduced_aba.cholesky.resize(na, [[0.0; 6]; 6]);
+        h.reduced_aba.u.resize(dof, [0.0; 6]);
+        h.reduced_aba.uu.resize(dof, 0.0);
         // (Nothing to split without the `parallel` feature.)
         #[cfg(feature = "parallel")]
-        h.split.find(model, &h.rec);
+        h.split.find(model, &h.records);
     }
 
     /// Forward kinematics of the active joints only (parents first): poses, velocities,
     /// subspace columns and velocity products of the active bodies. A joint of one revolute
     /// part about a coordinate axis takes its parent frame composed with its constant pose
-    /// (`x0`: the parent body's pose in its cluster and the joint origin) and turns two
+    /// (`fixed_pose`: the parent body's pose in its cluster and the joint origin) and turns two
     /// columns of it; its axis is a column of the pose, `s = [ω; p × ω]` with `p` the body's
     /// origin.
     #[inline]
@@ -272,9 +281,9 @@ impl Adaptive {
         // The angles' sines and cosines first (the loop below then makes no call), four
         // records at a time in AVX2 lanes when `wide` (the same bits).
         let h = &mut self.hier;
-        let (ang, scs) = (&h.ang[..], &mut h.sc[..h.ang.len()]);
+        let (ang, scs) = (&h.angles[..], &mut h.sin_cos[..h.angles.len()]);
         // (One thread without the `parallel` feature.)
-        if h.rec.len() >= PARALLEL_HYBRID_MIN_JOINTS && self.threads.count() > 1 {
+        if h.records.len() >= PARALLEL_HYBRID_MIN_JOINTS && self.threads.count() > 1 {
             // Runs of `RECORD_GRAIN` angles (a multiple of four: the same lanes of four as
             // one sweep) on the threads; each angle's sine and cosine are its own.
             #[cfg(feature = "parallel")]
@@ -292,14 +301,14 @@ impl Adaptive {
         let h = &mut self.hier;
         let d = &mut self.data;
         // The records' sines and cosines in turn (one per closed-form joint, one per part).
-        let scs = &h.sc[..h.ang.len()];
+        let scs = &h.sin_cos[..h.angles.len()];
         let mut out = Kin {
             x: &mut d.x[..],
             v: &mut d.v[..],
             c: &mut d.c[..],
             s: &mut d.s[..],
         };
-        let (rec, none) = (&h.rec[..], (x_cw, SpatialMotion::ZERO));
+        let (rec, none) = (&h.records[..], (x_cw, SpatialMotion::ZERO));
         // (One thread without the `parallel` feature.)
         #[cfg(feature = "parallel")]
         if rec.len() >= PARALLEL_HYBRID_MIN_JOINTS
@@ -357,14 +366,14 @@ impl Adaptive {
             let gen = self.hier.gen;
             for k in 0..self.forces.sparse.len() {
                 let (i, fe) = self.forces.sparse[k];
-                let n = match self.hier.fcl[i] {
+                let n = match self.hier.force_cluster[i] {
                     (g, n) if g == gen => n,
                     _ => {
                         let mut n = tree.body_leaf[i];
                         while let Some(p) = tree.nodes[n].parent.filter(|&p| !self.body.active[p]) {
                             n = p;
                         }
-                        self.hier.fcl[i] = (gen, n);
+                        self.hier.force_cluster[i] = (gen, n);
                         n
                     }
                 };
@@ -391,8 +400,8 @@ impl Adaptive {
         tau: &[f64],
         level: Level,
     ) -> Result<(), DynamicsError> {
-        if let [r] = &self.hier.rec[..] {
-            if r.k() == 1 && r.pidx() == NO_PARENT {
+        if let [r] = &self.hier.records[..] {
+            if r.dof_count() == 1 && r.pidx() == NO_PARENT {
                 return self.one_joint(model, tau, level);
             }
         }
@@ -433,37 +442,37 @@ impl Adaptive {
         let accel = level == Level::Acceleration;
         self.touched = self.hier.hnodes.len() + self.hier.fnodes.len();
         let d = &self.data;
-        let r = &self.hier.rec[0];
-        let x = &d.x[r.j()];
-        let rl = &r.rig;
+        let r = &self.hier.records[0];
+        let x = &d.x[r.body()];
+        let rl = &r.cluster_mass;
         // The cluster's centre of mass from the joint's body (computation axes), h = m c.
-        let cw = x.e * (rl.c - x.r);
+        let cw = x.e * (rl.com - x.r);
         let body = Parts {
             e: x.e,
             et: x.e.transpose(),
-            ic: rl.ic,
-            m: rl.m,
+            ic: rl.inertia,
+            m: rl.mass,
             cw,
             cc: cw.dot(cw),
-            hv: cw * rl.m,
+            hv: cw * rl.mass,
         };
-        let s = d.s[r.vo()];
+        let s = d.s[r.v_offset()];
         let u = body.inertia(s);
         let dd = s.dot(u);
         if dd.is_nan() || dd <= 0.0 {
-            return Err(singular(model, r.j()));
+            return Err(singular(model, r.body()));
         }
         let (pa, ap) = if accel {
-            let v = d.v[r.j()];
+            let v = d.v[r.body()];
             (
-                v.cross_force(body.inertia(v)) - self.forces.node_sums[r.f()],
-                SpatialMotion::new(DVec3::ZERO, -d.gravity) + d.c[r.j()],
+                v.cross_force(body.inertia(v)) - self.forces.node_sums[r.cluster()],
+                SpatialMotion::new(DVec3::ZERO, -d.gravity) + d.c[r.body()],
             )
         } else {
             (SpatialForce::ZERO, SpatialMotion::ZERO)
         };
-        let uu = tau[r.vo()] - s.dot(pa);
-        self.body.qdd[r.vo()] = (1.0 / dd) * (uu - ap.dot(u));
+        let uu = tau[r.v_offset()] - s.dot(pa);
+        self.body.qdd[r.v_offset()] = (1.0 / dd) * (uu - ap.dot(u));
         Ok(())
     }
 
@@ -484,14 +493,18 @@ impl Adaptive {
         // top-body frame), `I = [Ī, h×; h×ᵀ, m 1]` with `Ī = E I_c Eᵀ + m (|c|² 1 − c cᵀ)`,
         // `h = m c`, and bias force `pᴬ = v ×* I v − f_ext` (gravity enters as the world's
         // acceleration −a_g).
-        let n = h.rec.len();
+        let n = h.records.len();
         let node_sums = &self.forces.node_sums[..];
         // (One thread without the `parallel` feature.)
         if n >= PARALLEL_HYBRID_MIN_JOINTS && self.threads.count() > 1 {
             #[cfg(feature = "parallel")]
             {
                 use rayon::prelude::*;
-                let (rec, ia, pa) = (&h.rec[..], &mut h.aba.ia[..n], &mut h.aba.pa[..n]);
+                let (rec, ia, pa) = (
+                    &h.records[..],
+                    &mut h.reduced_aba.ia[..n],
+                    &mut h.reduced_aba.pa[..n],
+                );
                 self.threads.install(|| {
                     rec.par_chunks(RECORD_GRAIN)
                         .zip(ia.par_chunks_mut(RECORD_GRAIN))
@@ -503,10 +516,10 @@ impl Adaptive {
             }
         } else {
             for ((r, ia), pa) in h
-                .rec
+                .records
                 .iter()
-                .zip(h.aba.ia.iter_mut())
-                .zip(h.aba.pa.iter_mut())
+                .zip(h.reduced_aba.ia.iter_mut())
+                .zip(h.reduced_aba.pa.iter_mut())
             {
                 cluster(r, d, node_sums, accel, ia, pa);
             }
@@ -516,8 +529,8 @@ impl Adaptive {
         // The workspace as local slices (their pointers and lengths stay in registers, and
         // the per-record arrays need no bounds checks).
         let Hierarchy {
-            rec,
-            aba:
+            records: rec,
+            reduced_aba:
                 ReducedAba {
                     ia,
                     pa: pas,
@@ -560,13 +573,13 @@ impl Adaptive {
             let qdd = &mut self.body.qdd[..];
             let tasks = &mut split.tasks[..];
             return split_passes::<A>(&run, &self.threads, tasks, w, dinvs, acc, qdd, a0)
-                .map_err(|idx| singular(model, rec[idx].j()));
+                .map_err(|idx| singular(model, rec[idx].body()));
         }
         #[cfg(not(feature = "parallel"))]
         let _ = split;
         for idx in (0..n).rev() {
             if !articulate_record::<A>(&run, &rec[idx], idx, Base::ZERO, &mut w, dinvs) {
-                return Err(singular(model, rec[idx].j()));
+                return Err(singular(model, rec[idx].body()));
             }
         }
         // Pass 3, root to leaves: a' = a_parent + c, q̈ = D⁻¹ (u − Uᵀ a'), a = a' + S q̈
@@ -608,7 +621,7 @@ impl<'a> Kin<'a> {
 
     /// The workspace (which starts at `from`) before `at` and from `at` on.
     fn split(self, from: Base, at: Base) -> (Kin<'a>, Kin<'a>) {
-        let (b, k) = (at.body - from.body, at.vo - from.vo);
+        let (b, k) = (at.body - from.body, at.v_offset - from.v_offset);
         let (x, x1) = self.x.split_at_mut(b);
         let (v, v1) = self.v.split_at_mut(b);
         let (c, c1) = self.c.split_at_mut(b);
@@ -625,7 +638,7 @@ impl<'a> Kin<'a> {
     }
 }
 
-/// The kinematics of the records `rec` (parents first) into the workspace `out` that starts
+/// The kinematics of the records `records` (parents first) into the workspace `out` that starts
 /// at `at`, with `scs` the sines and cosines of their angles in turn and `(x_cw, q, q̇)`.
 /// A parent body before `at.body` (the root of a subtree run on its own) has pose and
 /// velocity `root`. A joint of the general path (not closed-form, [`RevoluteParts`] or
@@ -650,39 +663,42 @@ fn kinematics_run(
                 p => (d.x[p - at.body], d.v[p - at.body]),
             },
         };
-        let b = r.j() - at.body;
+        let b = r.body() - at.body;
         // The parent frame composed with the record's constant pose (in each branch: the
         // general path passes it in memory, the closed form keeps it in registers).
         let compose = |base: SpatialTransform| {
             if r.shift {
                 SpatialTransform {
                     e: base.e,
-                    r: r.x0.r + base.r,
+                    r: r.fixed_pose.r + base.r,
                 }
             } else if r.mulx {
-                base * r.x0
+                base * r.fixed_pose
             } else {
                 base
             }
         };
         let Some((i, sign)) = r.axis() else {
             let x = compose(base);
-            let body = &model.bodies[r.j()];
+            let body = &model.bodies[r.body()];
             match r.parts() {
                 Some(parts) => {
                     let sc;
                     (sc, scs) = scs.split_at(body.joint.len());
                     let out = (&mut d.x[b], &mut d.v[b], &mut d.c[b]);
-                    let s = (&mut *d.s, at.vo);
+                    let s = (&mut *d.s, at.v_offset);
                     revolute(wide, body, parts, &x, &v, sc, qd, s, out);
                 }
                 None => match body.joint.as_slice() {
                     [part] if part.kind == articula_model::JointKind::Floating => {
                         let out = (&mut d.x[b], &mut d.v[b], &mut d.c[b]);
-                        floating(wide, part, &x, &v, q, qd, (&mut *d.s, at.vo), out);
+                        floating(wide, part, &x, &v, q, qd, (&mut *d.s, at.v_offset), out);
                     }
                     _ => {
-                        debug_assert_eq!(at.vo, 0, "the general path at the start of the columns");
+                        debug_assert_eq!(
+                            at.v_offset, 0,
+                            "the general path at the start of the columns"
+                        );
                         let (x, v, c) =
                             articula_dca::internals::body_kinematics(body, x, v, q, qd, d.s);
                         d.x[b] = x;
@@ -701,8 +717,8 @@ fn kinematics_run(
         let w = turn(&mut x, i, sn, cs) * sign;
         let p = -(x.e * x.r);
         let s = SpatialMotion::new(w, p.cross(w));
-        d.s[r.vo() - at.vo] = s;
-        let vj = s * qd[r.vo()];
+        d.s[r.v_offset() - at.v_offset] = s;
+        let vj = s * qd[r.v_offset()];
         let c = v.cross_motion(vj);
         let v = v + vj;
         d.x[b] = x;
@@ -742,8 +758,8 @@ fn split_kinematics(
             &scs[ang..],
             &mut out,
         );
-        if !t.kin {
-            let sub = &rec[t.start..t.end];
+        if !t.kin_on_task {
+            let sub = &rec[t.start..t.stop];
             kinematics_run(
                 wide,
                 model,
@@ -751,11 +767,11 @@ fn split_kinematics(
                 Base::ZERO,
                 none,
                 at,
-                &scs[t.ang..],
+                &scs[t.angle_start..],
                 &mut out,
             );
         }
-        (start, ang) = (t.end, t.ang_end);
+        (start, ang) = (t.stop, t.angle_stop);
     }
     kinematics_run(
         wide,
@@ -773,7 +789,7 @@ fn split_kinematics(
             Parent::Active(p) | Parent::Cluster(p) => (out.x[p as usize], out.v[p as usize]),
         };
     }
-    let (tasks, first) = (&*tasks, tasks[0].at);
+    let (tasks, first) = (&*tasks, tasks[0].base);
     let (_, from) = out.reborrow().split(Base::ZERO, first);
     threads.install(|| kinematics_tasks(wide, model, rec, tasks, at, scs, from));
 }
@@ -793,11 +809,11 @@ fn kinematics_tasks(
 ) {
     match tasks {
         [] => {}
-        [t] if t.kin => kinematics_subtree(wide, model, rec, t, at, scs, out),
+        [t] if t.kin_on_task => kinematics_subtree(wide, model, rec, t, at, scs, out),
         [_] => {}
         _ => {
             let mid = tasks.len() / 2;
-            let (lo, hi) = out.split(tasks[0].at, tasks[mid].at);
+            let (lo, hi) = out.split(tasks[0].base, tasks[mid].base);
             rayon::join(
                 || kinematics_tasks(wide, model, rec, &tasks[..mid], at, scs, lo),
                 || kinematics_tasks(wide, model, rec, &tasks[mid..], at, scs, hi),
@@ -814,8 +830,8 @@ articula_spatial::fma_dispatch! {
     avx2_fma: wide, Portable;
     |A| {
         let mut out = out;
-        let (sub, scs) = (&rec[t.start..t.end], &scs[t.ang..]);
-        kinematics_run(wide, model, sub, t.at, t.kin_root, at, scs, &mut out)
+        let (sub, scs) = (&rec[t.start..t.stop], &scs[t.angle_start..]);
+        kinematics_run(wide, model, sub, t.base, t.kin_root, at, scs, &mut out)
     }
 }
 
@@ -845,21 +861,21 @@ fn articulate_record<A: Arith>(
     dinvs: &mut [f64],
 ) -> bool {
     let (wide, accel, d, tau) = (run.wide, run.accel, run.d, run.tau);
-    let (k, dof) = (r.k(), r.dof() - at.dof);
-    let i = idx - at.rec;
+    let (k, dof) = (r.dof_count(), r.first_dof() - at.first_dof);
+    let i = idx - at.record;
     let pa = w.pa[i];
     let parent = match r.pidx() {
         NO_PARENT => NO_PARENT,
-        p => p - at.rec,
+        p => p - at.record,
     };
     let c = if accel {
-        d.c[r.j()].to_array()
+        d.c[r.body()].to_array()
     } else {
         [0.0; 6]
     };
     if k == 1 {
         let ia = &w.ia[i].0;
-        let s = d.s[r.vo()].to_array();
+        let s = d.s[r.v_offset()].to_array();
         // U = Iᴬ s (Iᴬ symmetric: a sum of its rows).
         // In two halves of three rows, then summed: the chain from a joint's Iᴬ to
         // its parent's is three multiply–adds and an addition here, not six.
@@ -876,7 +892,7 @@ fn articulate_record<A: Arith>(
         }
         let dd = dot6_pairs::<A>(&s, &u);
         let dinv = 1.0 / dd;
-        let uu = tau[r.vo()] - dot6_pairs::<A>(&s, &pa);
+        let uu = tau[r.v_offset()] - dot6_pairs::<A>(&s, &pa);
         w.u[dof] = u;
         w.uu[dof] = uu;
         dinvs[i] = dinv;
@@ -908,7 +924,7 @@ fn articulate_record<A: Arith>(
     // cache must hold for every body of a crowd: copies for 2 and 6 DOF too cost more
     // in instruction-cache misses and wall time than they save in instructions
     // (docs/performance.md#crowd), so only the humanoid's common count has one.
-    let at = [i, parent, dof, r.vo()];
+    let at = [i, parent, dof, r.v_offset()];
     match k {
         3 => articulate::<3>(wide, &at, w, &d.s, tau, k, &c),
         _ => articulate::<0>(wide, &at, w, &d.s, tau, k, &c),
@@ -937,26 +953,30 @@ fn accelerate_run<A: Arith>(
     let (wide, accel, d) = (run.wide, run.accel, run.d);
     let Chain {
         pidx: mut pidx1,
-        ap: mut pap,
-        s: mut ps,
-        x: mut px,
+        accel: mut pap,
+        subspace: mut ps,
+        qdd: mut px,
     } = chain;
     let first = range.start;
     for (off, r) in run.rec[range].iter().enumerate() {
-        let i = first + off - at.rec;
-        let (vo, k, dof) = (r.vo() - at.vo, r.k(), r.dof() - at.dof);
+        let i = first + off - at.record;
+        let (vo, k, dof) = (
+            r.v_offset() - at.v_offset,
+            r.dof_count(),
+            r.first_dof() - at.first_dof,
+        );
         let parent_acc = |acc: &[[f64; 6]]| match r.pidx() {
             NO_PARENT => a0,
-            p if p < at.rec => root,
-            p => acc[p - at.rec],
+            p if p < at.record => root,
+            p => acc[p - at.record],
         };
         let c = if accel {
-            d.c[r.j()].to_array()
+            d.c[r.body()].to_array()
         } else {
             [0.0; 6]
         };
         if k == 1 {
-            let s = io.s[r.vo()].to_array();
+            let s = io.s[r.v_offset()].to_array();
             let ud = &io.u[dof];
             let (ap, x) = if r.pidx() == pidx1 {
                 // The parent is the previous record: a' = (a'_p + S_p q̈_p) + c, and
@@ -995,7 +1015,7 @@ fn accelerate_run<A: Arith>(
                 ap[rr] += c[rr];
             }
         }
-        let at = [i, dof, r.vo(), vo];
+        let at = [i, dof, r.v_offset(), vo];
         acc[i] = match k {
             3 => accelerate::<3>(wide, &at, io, k, &ap),
             6 => accelerate::<6>(wide, &at, io, k, &ap),
@@ -1004,9 +1024,9 @@ fn accelerate_run<A: Arith>(
     }
     Chain {
         pidx: pidx1,
-        ap: pap,
-        s: ps,
-        x: px,
+        accel: pap,
+        subspace: ps,
+        qdd: px,
     }
 }
 
@@ -1024,16 +1044,16 @@ fn cluster(
     ia: &mut Mat6,
     pa: &mut [f64; 6],
 ) {
-    let x = &d.x[r.j()];
-    let rl = &r.rig;
-    let m = rl.m;
+    let x = &d.x[r.body()];
+    let rl = &r.cluster_mass;
+    let m = rl.mass;
     // Ī = E I_c Eᵀ + m (|c|² 1 − c cᵀ) in lanes of four (the fourth unused), each
     // entry by glam's operations in glam's order: with `e_r` row r of E and
     // `ei_r = I_c e_r`, `ei_r[i] = (I_c[0][i] e_r,x + I_c[1][i] e_r,y) + I_c[2][i] e_r,z`
     // (`I_c[col][row]`) is lane r of `a_i`, a sum of E's columns; `Ī[r][c] = ei_r · e_c
     // − (m c_r) c_c` is lane r of column c (upper triangle used, r ≤ c).
     let ec = [lanes3(x.e.x_axis), lanes3(x.e.y_axis), lanes3(x.e.z_axis)];
-    let icm = rl.ic.to_cols_array_2d();
+    let icm = rl.inertia.to_cols_array_2d();
     let comb = |k: [f64; 3], v: &[[f64; 4]; 3]| -> [f64; 4] {
         let mut o = [0.0; 4];
         for l in 0..4 {
@@ -1046,7 +1066,7 @@ fn cluster(
         comb([icm[0][1], icm[1][1], icm[2][1]], &ec),
         comb([icm[0][2], icm[1][2], icm[2][2]], &ec),
     ];
-    let dl = rl.c - x.r;
+    let dl = rl.com - x.r;
     let cwl = comb([dl.x, dl.y, dl.z], &ec);
     let cc = cwl[0] * cwl[0] + cwl[1] * cwl[1] + cwl[2] * cwl[2];
     let mcw: [f64; 4] = [m * cwl[0], m * cwl[1], m * cwl[2], m * cwl[3]];
@@ -1078,12 +1098,12 @@ fn cluster(
         [hv.y, -hv.x, 0.0, 0.0, 0.0, m],
     ]);
     *pa = if accel {
-        let v = d.v[r.j()];
+        let v = d.v[r.body()];
         let ibw = DVec3::new(i00, i01, i02) * v.w.x
             + DVec3::new(i01, i11, i12) * v.w.y
             + DVec3::new(i02, i12, i22) * v.w.z;
         let iv = SpatialForce::new(ibw + hv.cross(v.v), v.v * m - hv.cross(v.w));
-        (v.cross_force(iv) - node_sums[r.f()]).to_array()
+        (v.cross_force(iv) - node_sums[r.cluster()]).to_array()
     } else {
         [0.0; 6]
     };
@@ -1113,7 +1133,7 @@ fn clusters_run(
 
 #[cfg(feature = "parallel")]
 impl Subtrees {
-    /// The subtrees of the reduced tree `rec` (none below [`PARALLEL_HYBRID_MIN_JOINTS`]
+    /// The subtrees of the reduced tree `records` (none below [`PARALLEL_HYBRID_MIN_JOINTS`]
     /// records, or when the records are not a pre-order with coordinates in record order).
     /// `nb`: the model's bodies (the scratch is reserved for every body at once: a later
     /// re-selection allocates nothing).
@@ -1143,7 +1163,10 @@ impl Subtrees {
                 NO_PARENT => true,
                 p => idx + size[idx] as usize <= p + size[p] as usize,
             };
-            if !nests || r.vo() < prev.vo() + prev.k() || r.dof() != prev.dof() + prev.k() {
+            if !nests
+                || r.v_offset() < prev.v_offset() + prev.dof_count()
+                || r.first_dof() != prev.first_dof() + prev.dof_count()
+            {
                 return;
             }
         }
@@ -1159,12 +1182,12 @@ impl Subtrees {
                 let r = &rec[idx];
                 self.tasks.push(Subtree {
                     start: idx,
-                    end: idx + m,
-                    at: Base {
-                        rec: idx,
-                        dof: r.dof(),
-                        vo: r.vo(),
-                        body: r.j(),
+                    stop: idx + m,
+                    base: Base {
+                        record: idx,
+                        first_dof: r.first_dof(),
+                        v_offset: r.v_offset(),
+                        body: r.body(),
                     },
                     ..Subtree::default()
                 });
@@ -1185,21 +1208,21 @@ impl Subtrees {
                 break;
             };
             if idx == t.start {
-                (t.ang, t.kin) = (ang, true);
+                (t.angle_start, t.kin_on_task) = (ang, true);
             }
-            let joint = &model.bodies[r.j()].joint;
+            let joint = &model.bodies[r.body()].joint;
             ang += match (r.axis(), r.parts()) {
                 (Some(_), _) => 1,
                 (None, Some(_)) => joint.len(),
                 (None, None) => {
                     if idx >= t.start {
-                        t.kin &= matches!(joint.as_slice(), [part] if part.kind == articula_model::JointKind::Floating);
+                        t.kin_on_task &= matches!(joint.as_slice(), [part] if part.kind == articula_model::JointKind::Floating);
                     }
                     0
                 }
             };
-            if idx + 1 == t.end {
-                t.ang_end = ang;
+            if idx + 1 == t.stop {
+                t.angle_stop = ang;
                 next += 1;
             }
         }
@@ -1231,10 +1254,10 @@ fn split_passes<A: Arith>(
     a0: [f64; 6],
 ) -> Result<(), usize> {
     let (rec, n) = (run.rec, run.rec.len());
-    let first = tasks[0].at;
+    let first = tasks[0].base;
     let bad = {
         let (_, from) = w.reborrow().split(Base::ZERO, first);
-        let (tasks, dinv) = (&*tasks, &mut dinv[first.rec..]);
+        let (tasks, dinv) = (&*tasks, &mut dinv[first.record..]);
         threads.install(|| articulate_tasks(run, tasks, from, dinv))
     };
     // The top records and the subtrees' roots in descending order (a subtree's records after
@@ -1246,7 +1269,7 @@ fn split_passes<A: Arith>(
     loop {
         // The top records after subtree `t` (or after the last one), then `t`'s root.
         let (from, root) = match t.checked_sub(1) {
-            Some(k) => (tasks[k].end, Some(tasks[k].start)),
+            Some(k) => (tasks[k].stop, Some(tasks[k].start)),
             None => (0, None),
         };
         for idx in (from..end).rev().chain(root) {
@@ -1287,7 +1310,7 @@ fn split_passes<A: Arith>(
             acc,
             dinv,
         );
-        start = t.end;
+        start = t.stop;
     }
     accelerate_run::<A>(
         run,
@@ -1307,7 +1330,7 @@ fn split_passes<A: Arith>(
         };
     }
     let tasks = &*tasks;
-    let (r, k, v) = (first.rec, first.dof, first.vo);
+    let (r, k, v) = (first.record, first.first_dof, first.v_offset);
     let from = Accel {
         chol: &io.chol[r..],
         u: &io.u[k..],
@@ -1329,9 +1352,9 @@ fn articulate_tasks(run: &Run, tasks: &[Subtree], w: Art, dinv: &mut [f64]) -> O
         [t] => articulate_subtree(run.wide, run, t, w, dinv),
         _ => {
             let mid = tasks.len() / 2;
-            let (from, at) = (tasks[0].at, tasks[mid].at);
+            let (from, at) = (tasks[0].base, tasks[mid].base);
             let (lo, hi) = w.split(from, at);
-            let (d0, d1) = dinv.split_at_mut(at.rec - from.rec);
+            let (d0, d1) = dinv.split_at_mut(at.record - from.record);
             let (a, b) = rayon::join(
                 || articulate_tasks(run, &tasks[..mid], lo, d0),
                 || articulate_tasks(run, &tasks[mid..], hi, d1),
@@ -1350,9 +1373,9 @@ articula_spatial::fma_dispatch! {
     avx2_fma: wide, Fused;
     |A| {
         let mut w = w;
-        (t.start + 1..t.end)
+        (t.start + 1..t.stop)
             .rev()
-            .find(|&idx| !articulate_record::<A>(run, &run.rec[idx], idx, t.at, &mut w, dinv))
+            .find(|&idx| !articulate_record::<A>(run, &run.rec[idx], idx, t.base, &mut w, dinv))
     }
 }
 
@@ -1372,8 +1395,12 @@ fn accelerate_tasks(
         [t] => accelerate_subtree(run.wide, run, t, io, acc, dinv, a0),
         _ => {
             let mid = tasks.len() / 2;
-            let (from, at) = (tasks[0].at, tasks[mid].at);
-            let (r, k, v) = (at.rec - from.rec, at.dof - from.dof, at.vo - from.vo);
+            let (from, at) = (tasks[0].base, tasks[mid].base);
+            let (r, k, v) = (
+                at.record - from.record,
+                at.first_dof - from.first_dof,
+                at.v_offset - from.v_offset,
+            );
             let (q0, q1) = io.qdd.split_at_mut(v);
             let (io0, io1) = (
                 Accel {
@@ -1410,7 +1437,7 @@ articula_spatial::fma_dispatch! {
     avx2_fma: wide, Fused;
     |A| {
         let mut io = io;
-        accelerate_run::<A>(run, t.start..t.end, t.at, t.entry, a0, t.root, &mut io, acc, dinv);
+        accelerate_run::<A>(run, t.start..t.stop, t.base, t.entry, a0, t.root, &mut io, acc, dinv);
     }
 }
 
@@ -1419,7 +1446,7 @@ articula_spatial::fma_dispatch! {
 #[cfg(feature = "parallel")]
 const RECORD_GRAIN: usize = 1024;
 
-/// The sines and cosines `sc` of the signed angles `ang` (indices into `q`): four at a time in
+/// The sines and cosines `sin_cos` of the signed angles `angles` (indices into `q`): four at a time in
 /// AVX2 lanes when `wide` (the same bits as one at a time), the rest one at a time.
 #[inline(always)]
 fn sin_cos_angles(wide: bool, ang: &[(u32, f32)], scs: &mut [(f64, f64)], q: &[f64]) {
@@ -1438,7 +1465,7 @@ fn sin_cos_angles(wide: bool, ang: &[(u32, f32)], scs: &mut [(f64, f64)], q: &[f
 
 /// The first sweep of [`Adaptive::active_kinematics`] four angles at a time
 /// ([`crate::trig::sin_cos4`]; out of line, so that a reduced tree of a few joints pays
-/// nothing for it): `sc` of the first `4 ⌊n/4⌋` angles, whose count it returns.
+/// nothing for it): `sin_cos` of the first `4 ⌊n/4⌋` angles, whose count it returns.
 ///
 /// # Safety
 /// The CPU must have AVX2 and FMA.
@@ -1509,7 +1536,7 @@ impl<'a> Art<'a> {
 
     /// The workspace (which starts at `from`) before `at` and from `at` on.
     fn split(self, from: Base, at: Base) -> (Art<'a>, Art<'a>) {
-        let (r, k) = (at.rec - from.rec, at.dof - from.dof);
+        let (r, k) = (at.record - from.record, at.first_dof - from.first_dof);
         let (ia, ia1) = self.ia.split_at_mut(r);
         let (pa, pa1) = self.pa.split_at_mut(r);
         let (chol, chol1) = self.chol.split_at_mut(r);
@@ -1903,7 +1930,7 @@ mod tests {
             .split
             .tasks
             .iter()
-            .map(|t| (t.start, t.end - t.start))
+            .map(|t| (t.start, t.stop - t.start))
             .collect()
     }
 

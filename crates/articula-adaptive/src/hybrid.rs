@@ -11,8 +11,9 @@ use crate::dense;
 use crate::parts::composites::Rigid;
 use crate::parts::join_maps::BiasMaps;
 use articula_dca::DynamicsError;
-use articula_model::{JointKind, Model, NodeKind};
+use articula_model::{Body, JointKind, Model, NodeKind};
 use articula_spatial::internals::{cholesky_into, dot6, Portable};
+use articula_spatial::internals::{solve_lower, solve_lower_t};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::{DMat3, DVec3};
 
@@ -213,7 +214,7 @@ impl Adaptive {
                 NodeKind::Ground => {
                     self.composites.rigid[n] = Rigid::default();
                     self.composites.grounded[n] = true;
-                    self.composites.top[n] = usize::MAX;
+                    self.composites.top_body[n] = usize::MAX;
                     if all {
                         self.forces.node_sums[n] = SpatialForce::ZERO;
                     }
@@ -223,12 +224,12 @@ impl Adaptive {
                     let (rot, _) = self.data.x[i].to_pose();
                     let bi = &model.bodies[i].inertia;
                     self.composites.rigid[n] = Rigid {
-                        m: bi.mass,
-                        c: self.data.x[i].apply_point(bi.com()),
-                        ic: rot * bi.inertia_about_com() * rot.transpose(),
+                        mass: bi.mass,
+                        com: self.data.x[i].apply_point(bi.com()),
+                        inertia: rot * bi.inertia_about_com() * rot.transpose(),
                     };
                     self.composites.grounded[n] = false;
-                    self.composites.top[n] = i;
+                    self.composites.top_body[n] = i;
                     if all {
                         self.forces.node_sums[n] = self
                             .forces
@@ -249,7 +250,8 @@ impl Adaptive {
                     }
                     self.composites.grounded[n] =
                         self.composites.grounded[a] || self.composites.grounded[b];
-                    self.composites.top[n] = self.composites.top[a].min(self.composites.top[b]);
+                    self.composites.top_body[n] =
+                        self.composites.top_body[a].min(self.composites.top_body[b]);
                     if all {
                         self.forces.node_sums[n] =
                             self.forces.node_sums[a] + self.forces.node_sums[b];
@@ -299,9 +301,9 @@ impl Adaptive {
             self.coef.layout.boff[n],
             self.coef.handles[n],
         );
-        let (m, ic, c) = (inertia.m, inertia.ic, inertia.c);
+        let (m, ic, c) = (inertia.mass, inertia.inertia, inertia.com);
         if m.is_nan() || m <= 0.0 || ic.determinant() <= 0.0 {
-            let body = self.composites.top[n].min(model.bodies.len() - 1);
+            let body = self.composites.top_body[n].min(model.bodies.len() - 1);
             return Err(DynamicsError::Singular {
                 joint: model.bodies[body].joint_name(),
                 detail: "a rigid subassembly's spatial inertia is not positive definite",
@@ -428,7 +430,7 @@ impl Adaptive {
         // Z = L⁻¹ S, D = Zᵀ Z
         let mut z = [[0.0; 6]; 6];
         for p in 0..k {
-            z[p] = dense::solve_l(&l, &shift(self.data.s[vo + p]));
+            z[p] = solve_lower(&l, &shift(self.data.s[vo + p]));
         }
         let mut d = [[0.0; 6]; 6];
         for p in 0..k {
@@ -441,49 +443,10 @@ impl Adaptive {
             detail: "Sᵀ V S is not positive definite",
         })?;
         if self.maps.record {
-            // κ_β = −D⁻¹ Zᵀ L⁻¹, ν_β = L⁻ᵀ (L⁻¹ + Z κ_β), κ_Q = D⁻¹, ν_Q = L⁻ᵀ Z D⁻¹.
-            let mut jm = BiasMaps::default();
-            for r in 0..6 {
-                let mut e = [0.0; 6];
-                e[r] = 1.0;
-                let wr = dense::solve_l(&l, &e);
-                let zw: [f64; 6] = std::array::from_fn(|p| {
-                    if p < k {
-                        dot6::<Portable>(&z[p], &wr)
-                    } else {
-                        0.0
-                    }
-                });
-                let mut col = wr;
-                for p in 0..k {
-                    let x: f64 = -(0..k).map(|q| dinv[p][q] * zw[q]).sum::<f64>();
-                    jm.kb[p][r] = x;
-                    for s in 0..6 {
-                        col[s] += z[p][s] * x;
-                    }
-                }
-                let nc = dense::solve_lt(&l, &col);
-                for s in 0..6 {
-                    jm.nb[s][r] = nc[s];
-                }
-            }
-            for q in 0..k {
-                let mut col = [0.0; 6];
-                for p in 0..k {
-                    jm.kq[p][q] = dinv[p][q];
-                    for s in 0..6 {
-                        col[s] += z[p][s] * dinv[p][q];
-                    }
-                }
-                let nc = dense::solve_lt(&l, &col);
-                for s in 0..6 {
-                    jm.nq[s][q] = nc[s];
-                }
-            }
-            self.maps.recorded = jm;
+            self.maps.recorded = bias_maps(&l, &z, &dinv, k);
         }
         // w = L⁻¹ β
-        let mut w = dense::solve_l(&l, &beta);
+        let mut w = solve_lower(&l, &beta);
         // k = D⁻¹ (Q − Zᵀ w);  w ← w + Z k;  n = γ = L⁻ᵀ w
         let mut t = [0.0; 6];
         for p in 0..k {
@@ -498,10 +461,27 @@ impl Adaptive {
                 w[r] += z[p][r] * kp;
             }
         }
-        let nv = dense::solve_lt(&l, &w);
+        let nv = solve_lower_t(&l, &w);
         self.maps.force_bias[n] = nv;
-        // Per handle h of C: Y_h = L⁻¹ G_F,h (G_F,h = +Φ^A_jh from A, −Φ^B_jh from B),
-        // K_h = −D⁻¹ Zᵀ Y_h, U_h = Y_h + Z K_h, N_h = L⁻ᵀ U_h. Stored column-wise in `y`/`u`.
+        self.join_handle_gains(n, body, &l, &z, &dinv);
+        self.assemble(n, a, b, false);
+        Ok(())
+    }
+
+    /// Per handle h of join `n` (joint `body`): `Y_h = L⁻¹ G_F,h` (`G_F,h = +Φ^A_jh` from A,
+    /// `−Φ^B_jh` from B), `K_h = −D⁻¹ Zᵀ Y_h`, `U_h = Y_h + Z K_h`, `N_h = L⁻ᵀ U_h`; Y and U
+    /// stored column-wise in `scratch.y_cols`/`u_cols`.
+    #[inline(always)]
+    fn join_handle_gains(
+        &mut self,
+        n: usize,
+        body: &Body,
+        l: &[[f64; 6]; 6],
+        z: &[[f64; 6]; 6],
+        dinv: &[[f64; 6]; 6],
+    ) {
+        let k = body.nv;
+        let (nhc, hc) = (self.coef.handles[n], self.coef.layout.hoff[n]);
         let ko = self.maps.qdd_gain_at[n];
         let wd = 6 * nhc;
         for h in 0..nhc {
@@ -509,7 +489,7 @@ impl Adaptive {
             let mut yc = [[0.0; 6]; 6];
             let mut uc = [[0.0; 6]; 6];
             for c in 0..6 {
-                yc[c] = dense::solve_l(&l, &gt.0[c]);
+                yc[c] = solve_lower(l, &gt.0[c]);
             }
             for p in 0..k {
                 for c in 0..6 {
@@ -528,7 +508,7 @@ impl Adaptive {
                     }
                 }
                 uc[c] = col;
-                let ncol = dense::solve_lt(&l, &col);
+                let ncol = solve_lower_t(l, &col);
                 for r in 0..6 {
                     self.maps.force_gain[36 * hc + r * wd + 6 * h + c] = ncol[r];
                 }
@@ -536,8 +516,6 @@ impl Adaptive {
             self.scratch.y_cols[h] = yc;
             self.scratch.u_cols[h] = uc;
         }
-        self.assemble(n, a, b, false);
-        Ok(())
     }
 
     /// `Φ^C_hk = Φ^X_hk [same side] − Y_hᵀ U_k` (columns of Y_h and U_k in `scratch.y_cols`,
@@ -631,7 +609,7 @@ impl Adaptive {
             unreachable!("join() on a leaf")
         };
         let body = &model.bodies[joint];
-        let (nhc, hc) = (self.coef.handles[n], self.coef.layout.hoff[n]);
+        let nhc = self.coef.handles[n];
         let vo = body.v_offset;
         // The axis passes through P_j: the other half is rounding.
         let off = if prismatic { 3 } else { 0 };
@@ -685,21 +663,19 @@ impl Adaptive {
             // κ_β = gᵀ / sᵀs, κ_Q = q̈_τ, ν_β = W, ν_Q = f_τ.
             let mut jm = BiasMaps::default();
             for r in 0..6 {
-                jm.kb[0][r] = gv[r] / ss;
+                jm.kappa_beta[0][r] = gv[r] / ss;
                 let mut e = [0.0; 6];
                 e[r] = 1.0;
                 let c = w_apply(&e);
                 for s in 0..6 {
-                    jm.nb[s][r] = c[s];
+                    jm.nu_beta[s][r] = c[s];
                 }
-                jm.nq[r][0] = ft[r];
+                jm.nu_q[r][0] = ft[r];
             }
-            jm.kq[0][0] = qt;
+            jm.kappa_q[0][0] = qt;
             self.maps.recorded = jm;
         }
         self.maps.force_bias[n] = nv;
-        let ko = self.maps.qdd_gain_at[n];
-        let wd = 6 * nhc;
         // The substitutions below multiply by reciprocals (`ldinv` from the factorisation: a
         // division's latency would sit on their critical path).
         let ssinv = 1.0 / ss;
@@ -707,66 +683,87 @@ impl Adaptive {
         // the order of one column at a time): K_h = gᵀ G_F,h / sᵀs, Ỹ_h = L⁻¹ Tᵀ G_F,h
         // (5 × 6, its rows kept in yc[h][0..5]), N_h = T L⁻ᵀ Ỹ_h.
         for h in 0..nhc {
-            let gfm = &self.scratch.g_force[h].0;
-            let mut kr = row_scaled(&gfm[0], gv[0]);
-            for r in 1..6 {
-                row_add_scaled(&mut kr, gv[r], &gfm[r]);
-            }
-            let krow: &mut [f64; 6] = (&mut self.maps.qdd_gain[ko + 6 * h..ko + 6 * h + 6])
-                .try_into()
-                .expect("a row of 6");
-            *krow = row_scaled(&kr, ssinv);
-            // Tᵀ G_F,h, then the forward substitution row by row.
-            let mut y = [[0.0; 6]; 5];
-            y[0] = gfm[t.a];
-            row_sub_scaled(&mut y[0], t.ra, &gfm[t.m]);
-            y[1] = gfm[t.b];
-            row_sub_scaled(&mut y[1], t.rb, &gfm[t.m]);
-            y[2] = gfm[t.keep[0]];
-            y[3] = gfm[t.keep[1]];
-            y[4] = gfm[t.keep[2]];
-            for i in 0..5 {
-                let mut v = y[i];
-                for p in 0..i {
-                    row_sub_scaled(&mut v, l5[i][p], &y[p]);
-                }
-                y[i] = row_scaled(&v, ldinv[i]);
-            }
-            // L⁻ᵀ Ỹ_h, then T.
-            let mut z = y;
-            for i in (0..5).rev() {
-                let mut v = z[i];
-                for p in (i + 1)..5 {
-                    row_sub_scaled(&mut v, l5[p][i], &z[p]);
-                }
-                z[i] = row_scaled(&v, ldinv[i]);
-            }
-            let mut nr = [[0.0; 6]; 6];
-            nr[t.a] = z[0];
-            nr[t.b] = z[1];
-            // −r_a z₀ − r_b z₁
-            let mut zm = row_scaled(&z[0], -t.ra);
-            row_sub_scaled(&mut zm, t.rb, &z[1]);
-            nr[t.m] = zm;
-            nr[t.keep[0]] = z[2];
-            nr[t.keep[1]] = z[3];
-            nr[t.keep[2]] = z[4];
-            // N's six rows of width 6·nhc, this handle's six columns of each (one range
-            // check for the node's block, then fixed-size row slices).
-            let blk = &mut self.maps.force_gain[36 * hc..36 * hc + 6 * wd];
-            for (dst, row) in blk.chunks_exact_mut(wd).zip(&nr) {
-                let dst: &mut [f64; 6] = (&mut dst[6 * h..6 * h + 6])
-                    .try_into()
-                    .expect("six columns per handle");
-                *dst = *row;
-            }
-            for (dst, src) in self.scratch.y_rows[h].0.iter_mut().zip(&y) {
-                dst[..6].copy_from_slice(src);
-            }
+            self.one_axis_handle(n, h, &t, (&l5, &ldinv), &gv, ssinv);
         }
         // Ỹ_hᵀ Ỹ_k is a Gram product: the subtracted part stays positive semidefinite.
         self.assemble(n, a, b, true);
         Ok(())
+    }
+
+    /// Handle `h` of the one-axis join `n`, all six columns of G_F,h at once, row by row
+    /// (each column's sums in the order of one column at a time): K_h = gᵀ G_F,h / sᵀs,
+    /// Ỹ_h = L⁻¹ Tᵀ G_F,h (5 × 6, its rows kept in `scratch.y_rows[h]`), N_h = T L⁻ᵀ Ỹ_h.
+    /// `factor`: L of `M = Tᵀ G T` and the reciprocals of its diagonal.
+    #[inline(always)]
+    fn one_axis_handle(
+        &mut self,
+        n: usize,
+        h: usize,
+        t: &AxisBasis,
+        factor: (&[[f64; 6]; 6], &[f64; 5]),
+        gv: &[f64; 6],
+        ssinv: f64,
+    ) {
+        let (l5, ldinv) = factor;
+        let hc = self.coef.layout.hoff[n];
+        let ko = self.maps.qdd_gain_at[n];
+        let wd = 6 * self.coef.handles[n];
+        let gfm = &self.scratch.g_force[h].0;
+        let mut kr = row_scaled(&gfm[0], gv[0]);
+        for r in 1..6 {
+            row_add_scaled(&mut kr, gv[r], &gfm[r]);
+        }
+        let krow: &mut [f64; 6] = (&mut self.maps.qdd_gain[ko + 6 * h..ko + 6 * h + 6])
+            .try_into()
+            .expect("a row of 6");
+        *krow = row_scaled(&kr, ssinv);
+        // Tᵀ G_F,h, then the forward substitution row by row.
+        let mut y = [[0.0; 6]; 5];
+        y[0] = gfm[t.a];
+        row_sub_scaled(&mut y[0], t.ra, &gfm[t.m]);
+        y[1] = gfm[t.b];
+        row_sub_scaled(&mut y[1], t.rb, &gfm[t.m]);
+        y[2] = gfm[t.keep[0]];
+        y[3] = gfm[t.keep[1]];
+        y[4] = gfm[t.keep[2]];
+        for i in 0..5 {
+            let mut v = y[i];
+            for p in 0..i {
+                row_sub_scaled(&mut v, l5[i][p], &y[p]);
+            }
+            y[i] = row_scaled(&v, ldinv[i]);
+        }
+        // L⁻ᵀ Ỹ_h, then T.
+        let mut z = y;
+        for i in (0..5).rev() {
+            let mut v = z[i];
+            for p in (i + 1)..5 {
+                row_sub_scaled(&mut v, l5[p][i], &z[p]);
+            }
+            z[i] = row_scaled(&v, ldinv[i]);
+        }
+        let mut nr = [[0.0; 6]; 6];
+        nr[t.a] = z[0];
+        nr[t.b] = z[1];
+        // −r_a z₀ − r_b z₁
+        let mut zm = row_scaled(&z[0], -t.ra);
+        row_sub_scaled(&mut zm, t.rb, &z[1]);
+        nr[t.m] = zm;
+        nr[t.keep[0]] = z[2];
+        nr[t.keep[1]] = z[3];
+        nr[t.keep[2]] = z[4];
+        // N's six rows of width 6·nhc, this handle's six columns of each (one range
+        // check for the node's block, then fixed-size row slices).
+        let blk = &mut self.maps.force_gain[36 * hc..36 * hc + 6 * wd];
+        for (dst, row) in blk.chunks_exact_mut(wd).zip(&nr) {
+            let dst: &mut [f64; 6] = (&mut dst[6 * h..6 * h + 6])
+                .try_into()
+                .expect("six columns per handle");
+            *dst = *row;
+        }
+        for (dst, src) in self.scratch.y_rows[h].0.iter_mut().zip(&y) {
+            dst[..6].copy_from_slice(src);
+        }
     }
 
     /// Back-substitution at join node `n` with its handle forces in `f`: writes its joint's
@@ -894,7 +891,7 @@ impl Adaptive {
                 self.ground_coefficients(n);
             } else {
                 let v = match level {
-                    Level::Acceleration => self.data.v[self.composites.top[n]],
+                    Level::Acceleration => self.data.v[self.composites.top_body[n]],
                     Level::Impulse => SpatialMotion::ZERO,
                 };
                 let r = self.composites.rigid[n];
@@ -985,6 +982,52 @@ pub(crate) fn rigid_phi(m: f64, c: DVec3, j: DMat3, ph: DVec3, pk: DVec3) -> Mat
 
 /// [`rigid_phi`] by 3 × 3 matrix products, as it was computed before its closed form (the
 /// reference of the test that they agree).
+/// The maps from a join's bias β and joint forces Q to its joint accelerations and join
+/// force, from `L` (`L Lᵀ = Φ^A_jj + Φ^B_jj`), `Z = L⁻¹ S` and `D⁻¹` (`k` axes):
+/// κ_β = −D⁻¹ Zᵀ L⁻¹, ν_β = L⁻ᵀ (L⁻¹ + Z κ_β), κ_Q = D⁻¹, ν_Q = L⁻ᵀ Z D⁻¹.
+#[inline(always)]
+fn bias_maps(l: &[[f64; 6]; 6], z: &[[f64; 6]; 6], dinv: &[[f64; 6]; 6], k: usize) -> BiasMaps {
+    let mut jm = BiasMaps::default();
+    for r in 0..6 {
+        let mut e = [0.0; 6];
+        e[r] = 1.0;
+        let wr = solve_lower(l, &e);
+        let zw: [f64; 6] = std::array::from_fn(|p| {
+            if p < k {
+                dot6::<Portable>(&z[p], &wr)
+            } else {
+                0.0
+            }
+        });
+        let mut col = wr;
+        for p in 0..k {
+            let x: f64 = -(0..k).map(|q| dinv[p][q] * zw[q]).sum::<f64>();
+            jm.kappa_beta[p][r] = x;
+            for s in 0..6 {
+                col[s] += z[p][s] * x;
+            }
+        }
+        let nc = solve_lower_t(l, &col);
+        for s in 0..6 {
+            jm.nu_beta[s][r] = nc[s];
+        }
+    }
+    for q in 0..k {
+        let mut col = [0.0; 6];
+        for p in 0..k {
+            jm.kappa_q[p][q] = dinv[p][q];
+            for s in 0..6 {
+                col[s] += z[p][s] * dinv[p][q];
+            }
+        }
+        let nc = solve_lower_t(l, &col);
+        for s in 0..6 {
+            jm.nu_q[s][q] = nc[s];
+        }
+    }
+    jm
+}
+
 #[cfg(test)]
 pub(crate) fn rigid_phi_product(m: f64, c: DVec3, j: DMat3, ph: DVec3, pk: DVec3) -> Mat6 {
     use articula_spatial::skew;

@@ -74,126 +74,134 @@ impl Adaptive {
             // s·(N F + n) on X's principal-joint handle jx (s = −1 for A, +1 for B), so with
             // Ψ_X in handle blocks: Ψ_C gets Ψ_X[i,l] at (h_i, h_l), s·Ψ_X[i,jx] N on rows
             // h_i (and its transpose), and Nᵀ Ψ_X[jx,jx] N.
-            let hc = self.coef.layout.hoff[n];
-            let nhc = self.coef.handles[n];
             for (x, jx, sign) in [
                 (a, self.coef.layout.ja[n], -1.0),
                 (b, self.coef.layout.jb[n], 1.0),
             ] {
-                let nx = 6 * self.coef.handles[x];
-                let (pox, pvx) = (self.metric.quad_at[x], 6 * self.coef.layout.hoff[x]);
-                // X handle i → C handle (usize::MAX for jx).
-                let map = &mut self.scratch.handle_map;
-                map.fill(usize::MAX);
-                for h in 0..nhc {
-                    let (from_a, i) = self.coef.layout.from[hc + h];
-                    if from_a == (sign < 0.0) {
-                        map[i] = h;
-                    }
-                }
-                // Children precede their parent in post-order: X's blocks lie below C's.
-                let (psi_lo, psi_hi) = self.metric.quad.split_at_mut(po);
-                let psix = &psi_lo[pox..pox + nx * nx];
-                let psic = &mut psi_hi[..nc * nc];
-                let (p_lo, p_hi) = self.metric.linear.split_at_mut(pv);
-                let px = &p_lo[pvx..pvx + nx];
-                let pc = &mut p_hi[..nc];
-                let nm = &self.maps.force_gain[36 * hc..36 * hc + 6 * nc];
-                let nvec = self.maps.force_bias[n];
-                // G = Ψ_X[jx,jx] N (6 × nc) in s2.
-                let g = &mut self.scratch.metric_g[..6 * nc];
-                g.fill(0.0);
-                for r in 0..6 {
-                    for t in 0..6 {
-                        let w = psix[(6 * jx + r) * nx + 6 * jx + t];
-                        if w != 0.0 {
-                            for (gv, &nv) in g[r * nc..r * nc + nc]
-                                .iter_mut()
-                                .zip(&nm[t * nc..t * nc + nc])
-                            {
-                                *gv += w * nv;
-                            }
-                        }
-                    }
-                }
-                // Nᵀ G
-                for t in 0..6 {
-                    let grow = &g[t * nc..t * nc + nc];
-                    for (i, &ni) in nm[t * nc..t * nc + nc].iter().enumerate() {
-                        if ni != 0.0 {
-                            for (dst, &gv) in psic[i * nc..i * nc + nc].iter_mut().zip(grow) {
-                                *dst += ni * gv;
-                            }
-                        }
-                    }
-                }
-                // u_jx = 2 Ψ_X[jx,jx] m + p_X,jx with m = s n; η terms.
-                let mut ujx = [0.0; 6];
-                let mut eta_x = self.metric.constant[x];
-                for r in 0..6 {
-                    let mut psim = 0.0;
-                    for t in 0..6 {
-                        psim += psix[(6 * jx + r) * nx + 6 * jx + t] * sign * nvec[t];
-                    }
-                    eta_x += sign * nvec[r] * (psim + px[6 * jx + r]);
-                    ujx[r] = 2.0 * psim + px[6 * jx + r];
-                }
-                eta += eta_x;
-                // p_C += Nᵀ (s u_jx)
-                for t in 0..6 {
-                    let w = sign * ujx[t];
-                    for (dst, &nv) in pc.iter_mut().zip(&nm[t * nc..t * nc + nc]) {
-                        *dst += w * nv;
-                    }
-                }
-                for i in 0..self.coef.handles[x] {
-                    let hi = map[i];
-                    if hi == usize::MAX {
-                        continue;
-                    }
-                    // Ψ_X[i,l] blocks for shared handles l.
-                    for l in 0..self.coef.handles[x] {
-                        let hl = map[l];
-                        if hl == usize::MAX {
-                            continue;
-                        }
-                        for r in 0..6 {
-                            let src = &psix[(6 * i + r) * nx + 6 * l..(6 * i + r) * nx + 6 * l + 6];
-                            let dst = &mut psic
-                                [(6 * hi + r) * nc + 6 * hl..(6 * hi + r) * nc + 6 * hl + 6];
-                            for (d, v) in dst.iter_mut().zip(src) {
-                                *d += v;
-                            }
-                        }
-                    }
-                    // C = s Ψ_X[i,jx] N (6 × nc): rows 6 hi.., and columns 6 hi.. (transpose).
-                    for r in 0..6 {
-                        let row = 6 * hi + r;
-                        let crow = &mut self.scratch.metric_row[..nc];
-                        crow.fill(0.0);
-                        for t in 0..6 {
-                            let w = sign * psix[(6 * i + r) * nx + 6 * jx + t];
-                            if w != 0.0 {
-                                for (cv, &nv) in crow.iter_mut().zip(&nm[t * nc..t * nc + nc]) {
-                                    *cv += w * nv;
-                                }
-                            }
-                        }
-                        for c in 0..nc {
-                            psic[row * nc + c] += crow[c];
-                            psic[c * nc + row] += crow[c];
-                        }
-                        // u_i = 2 s Ψ_X[i,jx] n + p_X,i
-                        let mut ui = px[6 * i + r];
-                        for t in 0..6 {
-                            ui += 2.0 * sign * psix[(6 * i + r) * nx + 6 * jx + t] * nvec[t];
-                        }
-                        pc[row] += ui;
-                    }
-                }
+                eta += self.metric_child(n, x, jx, sign);
             }
             self.metric.constant[n] = eta;
         }
+    }
+
+    /// Child `x` of join `n` (its principal-joint handle `jx`, `sign` −1 for A, +1 for B)
+    /// into n's Ψ and p (see [`Adaptive::metric_node`]); returns its share of η.
+    fn metric_child(&mut self, n: usize, x: usize, jx: usize, sign: f64) -> f64 {
+        let nc = 6 * self.coef.handles[n];
+        let (po, pv) = (self.metric.quad_at[n], 6 * self.coef.layout.hoff[n]);
+        let hc = self.coef.layout.hoff[n];
+        let nhc = self.coef.handles[n];
+        let nx = 6 * self.coef.handles[x];
+        let (pox, pvx) = (self.metric.quad_at[x], 6 * self.coef.layout.hoff[x]);
+        // X handle i → C handle (usize::MAX for jx).
+        let map = &mut self.scratch.handle_map;
+        map.fill(usize::MAX);
+        for h in 0..nhc {
+            let (from_a, i) = self.coef.layout.from[hc + h];
+            if from_a == (sign < 0.0) {
+                map[i] = h;
+            }
+        }
+        // Children precede their parent in post-order: X's blocks lie below C's.
+        let (psi_lo, psi_hi) = self.metric.quad.split_at_mut(po);
+        let psix = &psi_lo[pox..pox + nx * nx];
+        let psic = &mut psi_hi[..nc * nc];
+        let (p_lo, p_hi) = self.metric.linear.split_at_mut(pv);
+        let px = &p_lo[pvx..pvx + nx];
+        let pc = &mut p_hi[..nc];
+        let nm = &self.maps.force_gain[36 * hc..36 * hc + 6 * nc];
+        let nvec = self.maps.force_bias[n];
+        // G = Ψ_X[jx,jx] N (6 × nc) in s2.
+        let g = &mut self.scratch.metric_g[..6 * nc];
+        g.fill(0.0);
+        for r in 0..6 {
+            for t in 0..6 {
+                let w = psix[(6 * jx + r) * nx + 6 * jx + t];
+                if w != 0.0 {
+                    for (gv, &nv) in g[r * nc..r * nc + nc]
+                        .iter_mut()
+                        .zip(&nm[t * nc..t * nc + nc])
+                    {
+                        *gv += w * nv;
+                    }
+                }
+            }
+        }
+        // Nᵀ G
+        for t in 0..6 {
+            let grow = &g[t * nc..t * nc + nc];
+            for (i, &ni) in nm[t * nc..t * nc + nc].iter().enumerate() {
+                if ni != 0.0 {
+                    for (dst, &gv) in psic[i * nc..i * nc + nc].iter_mut().zip(grow) {
+                        *dst += ni * gv;
+                    }
+                }
+            }
+        }
+        // u_jx = 2 Ψ_X[jx,jx] m + p_X,jx with m = s n; η terms.
+        let mut ujx = [0.0; 6];
+        let mut eta_x = self.metric.constant[x];
+        for r in 0..6 {
+            let mut psim = 0.0;
+            for t in 0..6 {
+                psim += psix[(6 * jx + r) * nx + 6 * jx + t] * sign * nvec[t];
+            }
+            eta_x += sign * nvec[r] * (psim + px[6 * jx + r]);
+            ujx[r] = 2.0 * psim + px[6 * jx + r];
+        }
+        // p_C += Nᵀ (s u_jx)
+        for t in 0..6 {
+            let w = sign * ujx[t];
+            for (dst, &nv) in pc.iter_mut().zip(&nm[t * nc..t * nc + nc]) {
+                *dst += w * nv;
+            }
+        }
+        for i in 0..self.coef.handles[x] {
+            let hi = map[i];
+            if hi == usize::MAX {
+                continue;
+            }
+            // Ψ_X[i,l] blocks for shared handles l.
+            for l in 0..self.coef.handles[x] {
+                let hl = map[l];
+                if hl == usize::MAX {
+                    continue;
+                }
+                for r in 0..6 {
+                    let src = &psix[(6 * i + r) * nx + 6 * l..(6 * i + r) * nx + 6 * l + 6];
+                    let dst = &mut psic[(6 * hi + r) * nc + 6 * hl..(6 * hi + r) * nc + 6 * hl + 6];
+                    for (d, v) in dst.iter_mut().zip(src) {
+                        *d += v;
+                    }
+                }
+            }
+            // C = s Ψ_X[i,jx] N (6 × nc): rows 6 hi.., and columns 6 hi.. (transpose).
+            for r in 0..6 {
+                let row = 6 * hi + r;
+                let crow = &mut self.scratch.metric_row[..nc];
+                crow.fill(0.0);
+                for t in 0..6 {
+                    let w = sign * psix[(6 * i + r) * nx + 6 * jx + t];
+                    if w != 0.0 {
+                        for (cv, &nv) in crow.iter_mut().zip(&nm[t * nc..t * nc + nc]) {
+                            *cv += w * nv;
+                        }
+                    }
+                }
+                for c in 0..nc {
+                    psic[row * nc + c] += crow[c];
+                    psic[c * nc + row] += crow[c];
+                }
+                // u_i = 2 s Ψ_X[i,jx] n + p_X,i
+                let mut ui = px[6 * i + r];
+                for t in 0..6 {
+                    ui += 2.0 * sign * psix[(6 * i + r) * nx + 6 * jx + t] * nvec[t];
+                }
+                pc[row] += ui;
+            }
+        }
+
+        eta_x
     }
 
     /// `A(n)` at the handle forces currently in `f`.

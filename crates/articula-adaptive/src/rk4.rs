@@ -61,13 +61,13 @@ impl Adaptive {
         }
         // Stage 1 is the Euler step's dynamics: re-selection, impulse, q̈ of the active joints.
         let mut report = self.step_dynamics(model, state)?;
-        let mut rk = std::mem::take(&mut self.rk);
+        let mut rk = std::mem::take(&mut self.rk4);
         rk.fit(model);
         let result = self.rk4_stages(model, state, dt, &mut rk);
         if result.is_err() {
             self.restore(model, state, &rk);
         }
-        self.rk = rk;
+        self.rk4 = rk;
         let (dofs, touched) = result?;
         self.steps += 1;
         report.active_dofs = dofs;
@@ -85,13 +85,13 @@ impl Adaptive {
         dt: f64,
         rk: &mut RkBuffers,
     ) -> Result<(usize, usize), AdaptiveError> {
-        for rec in &self.hier.rec {
-            let b = &model.bodies[rec.j()];
+        for rec in &self.hier.records {
+            let b = &model.bodies[rec.body()];
             let (qr, vr) = (b.q_offset..b.q_offset + b.nq, b.v_offset..b.v_offset + b.nv);
-            rk.q0[qr.clone()].copy_from_slice(&state.q[qr]);
-            rk.qd0[vr.clone()].copy_from_slice(&state.qd[vr.clone()]);
-            rk.kv[vr.clone()].fill(0.0);
-            rk.ka[vr.clone()].fill(0.0);
+            rk.q_start[qr.clone()].copy_from_slice(&state.q[qr]);
+            rk.qd_start[vr.clone()].copy_from_slice(&state.qd[vr.clone()]);
+            rk.slope_sum[vr.clone()].fill(0.0);
+            rk.accel_sum[vr.clone()].fill(0.0);
             rk.theta[vr].fill(0.0);
         }
         let mut touched = self.touched;
@@ -101,11 +101,11 @@ impl Adaptive {
                 touched += self.touched;
             }
             let w = WEIGHTS[stage];
-            for rec in &self.hier.rec {
-                let b = &model.bodies[rec.j()];
+            for rec in &self.hier.records {
+                let b = &model.bodies[rec.body()];
                 let vr = b.v_offset..b.v_offset + b.nv;
                 if !finite(&self.body.qdd[vr.clone()]) {
-                    return Err(non_finite(model, rec.j(), "qdd", &self.body.qdd).into());
+                    return Err(non_finite(model, rec.body(), "qdd", &self.body.qdd).into());
                 }
                 // The position slope: q̇, but a ball or floating joint's is dexp⁻¹_{−Θ}(ξ).
                 for part in &b.joint {
@@ -113,42 +113,42 @@ impl Adaptive {
                     part.kind.rkmk_slope(&rk.theta[r.clone()], &mut state.qd[r]);
                 }
                 for v in vr.clone() {
-                    rk.kv[v] += w * state.qd[v];
-                    rk.ka[v] += w * self.body.qdd[v];
+                    rk.slope_sum[v] += w * state.qd[v];
+                    rk.accel_sum[v] += w * self.body.qdd[v];
                 }
                 if stage < 3 {
                     // The next stage's state: q0 ⊕ h k_v, q̇0 + h k_a with this stage's k.
                     let h = NEXT[stage] * dt;
                     let qr = b.q_offset..b.q_offset + b.nq;
-                    state.q[qr.clone()].copy_from_slice(&rk.q0[qr]);
+                    state.q[qr.clone()].copy_from_slice(&rk.q_start[qr]);
                     for part in &b.joint {
                         integrate_part(part, &mut state.q, &state.qd, h);
                     }
                     for v in vr {
                         rk.theta[v] = h * state.qd[v];
-                        state.qd[v] = rk.qd0[v] + h * self.body.qdd[v];
+                        state.qd[v] = rk.qd_start[v] + h * self.body.qdd[v];
                     }
                 }
             }
         }
         let mut dofs = 0;
-        for rec in &self.hier.rec {
-            let b = &model.bodies[rec.j()];
+        for rec in &self.hier.records {
+            let b = &model.bodies[rec.body()];
             let (qr, vr) = (b.q_offset..b.q_offset + b.nq, b.v_offset..b.v_offset + b.nv);
             dofs += b.nv;
-            state.q[qr.clone()].copy_from_slice(&rk.q0[qr.clone()]);
+            state.q[qr.clone()].copy_from_slice(&rk.q_start[qr.clone()]);
             for v in vr.clone() {
-                rk.kv[v] /= 6.0;
-                state.qd[v] = rk.qd0[v] + dt * rk.ka[v] / 6.0;
+                rk.slope_sum[v] /= 6.0;
+                state.qd[v] = rk.qd_start[v] + dt * rk.accel_sum[v] / 6.0;
             }
             for part in &b.joint {
-                integrate_part(part, &mut state.q, &rk.kv, dt);
+                integrate_part(part, &mut state.q, &rk.slope_sum, dt);
             }
             if !finite(&state.q[qr]) {
-                return Err(non_finite(model, rec.j(), "q after the step", &state.q).into());
+                return Err(non_finite(model, rec.body(), "q after the step", &state.q).into());
             }
             if !finite(&state.qd[vr]) {
-                return Err(non_finite(model, rec.j(), "qd after the step", &state.qd).into());
+                return Err(non_finite(model, rec.body(), "qd after the step", &state.qd).into());
             }
         }
         Ok((dofs, touched))
@@ -156,14 +156,14 @@ impl Adaptive {
 
     /// Puts the active joints' `q`, `q̇` back to the step's start values.
     fn restore(&self, model: &Model, state: &mut State, rk: &RkBuffers) {
-        if rk.q0.len() != model.nq {
+        if rk.q_start.len() != model.nq {
             return;
         }
-        for rec in &self.hier.rec {
-            let b = &model.bodies[rec.j()];
+        for rec in &self.hier.records {
+            let b = &model.bodies[rec.body()];
             let (qr, vr) = (b.q_offset..b.q_offset + b.nq, b.v_offset..b.v_offset + b.nv);
-            state.q[qr.clone()].copy_from_slice(&rk.q0[qr]);
-            state.qd[vr.clone()].copy_from_slice(&rk.qd0[vr]);
+            state.q[qr.clone()].copy_from_slice(&rk.q_start[qr]);
+            state.qd[vr.clone()].copy_from_slice(&rk.qd_start[vr]);
         }
     }
 }

@@ -70,14 +70,14 @@ pub struct Scratch {
     /// `s`, `inertia`) for the other calls.
     data: Data,
     /// The reduced tree's articulated-body workspace.
-    aba: ReducedAba,
-    sc: Vec<(f64, f64)>,
-    comp: Vec<Rigid>,
-    fsum: Vec<SpatialForce>,
-    hsub: Vec<SpatialForce>,
-    gmom: Vec<f64>,
-    fext_c: Vec<SpatialForce>,
-    fdense: Vec<SpatialForce>,
+    reduced_aba: ReducedAba,
+    sin_cos: Vec<(f64, f64)>,
+    composites: Vec<Rigid>,
+    node_sums: Vec<SpatialForce>,
+    subtree_forces: Vec<SpatialForce>,
+    momenta: Vec<f64>,
+    computation_forces: Vec<SpatialForce>,
+    dense_forces: Vec<SpatialForce>,
 }
 
 impl Scratch {
@@ -89,7 +89,7 @@ impl Scratch {
         Scratch {
             sizes: [nb, nv, model.nq, nn],
             data: Data::new(model),
-            aba: ReducedAba {
+            reduced_aba: ReducedAba {
                 ia: vec![Mat6::ZERO; nb],
                 pa: vec![[0.0; 6]; nb],
                 acceleration: vec![[0.0; 6]; nb],
@@ -98,13 +98,13 @@ impl Scratch {
                 u: vec![[0.0; 6]; nv],
                 uu: vec![0.0; nv],
             },
-            sc: vec![(0.0, 1.0); nv],
-            comp: vec![Rigid::default(); nn],
-            fsum: vec![SpatialForce::ZERO; nn],
-            hsub: vec![SpatialForce::ZERO; nb],
-            gmom: vec![0.0; nv],
-            fext_c: Vec::with_capacity(nb),
-            fdense: vec![SpatialForce::ZERO; nb],
+            sin_cos: vec![(0.0, 1.0); nv],
+            composites: vec![Rigid::default(); nn],
+            node_sums: vec![SpatialForce::ZERO; nn],
+            subtree_forces: vec![SpatialForce::ZERO; nb],
+            momenta: vec![0.0; nv],
+            computation_forces: Vec::with_capacity(nb),
+            dense_forces: vec![SpatialForce::ZERO; nb],
         }
     }
 
@@ -137,15 +137,15 @@ impl Adaptive {
     #[inline(never)]
     fn swap_scratch(&mut self, s: &mut Scratch, kin: bool, step: bool) {
         let h = &mut self.hier;
-        swap(&mut h.aba, &mut s.aba);
-        swap(&mut h.sc, &mut s.sc);
-        swap(&mut self.forces.node_sums, &mut s.fsum);
+        swap(&mut h.reduced_aba, &mut s.reduced_aba);
+        swap(&mut h.sin_cos, &mut s.sin_cos);
+        swap(&mut self.forces.node_sums, &mut s.node_sums);
         if !step {
-            swap(&mut self.composites.rigid, &mut s.comp);
-            swap(&mut self.impulse.subtree, &mut s.hsub);
-            swap(&mut self.impulse.momenta, &mut s.gmom);
-            swap(&mut self.forces.computation, &mut s.fext_c);
-            swap(&mut self.forces.dense, &mut s.fdense);
+            swap(&mut self.composites.rigid, &mut s.composites);
+            swap(&mut self.impulse.subtree, &mut s.subtree_forces);
+            swap(&mut self.impulse.momenta, &mut s.momenta);
+            swap(&mut self.forces.computation, &mut s.computation_forces);
+            swap(&mut self.forces.dense, &mut s.dense_forces);
         }
         if kin {
             let (d, sd) = (&mut self.data, &mut s.data);

@@ -107,9 +107,9 @@ impl Adaptive {
                     let x = self.data.x[i];
                     let r = self.cache.tensors.composite[f];
                     let world = Rigid {
-                        m: r.m,
-                        c: x.apply_point(r.c),
-                        ic: x.e * r.ic * x.e.transpose(),
+                        mass: r.mass,
+                        com: x.apply_point(r.com),
+                        inertia: x.e * r.inertia * x.e.transpose(),
                     };
                     self.cache.reselection.frame_pose[f] = x;
                     self.cache.reselection.frame_velocity[f] = x.inv_apply_motion(self.data.v[i]);
@@ -121,7 +121,7 @@ impl Adaptive {
                     let u = if self.composites.grounded[f] {
                         SpatialMotion::ZERO
                     } else {
-                        x.inv_apply_motion(self.data.v[self.composites.top[f]])
+                        x.inv_apply_motion(self.data.v[self.composites.top_body[f]])
                     };
                     self.cache.reselection.frame_pose[f] = x;
                     self.cache.reselection.frame_velocity[f] = u;
@@ -283,7 +283,7 @@ impl Adaptive {
                 self.cache.reselection.frame_velocity[d] = if self.composites.grounded[d] {
                     SpatialMotion::ZERO
                 } else {
-                    x.inv_apply_motion(self.data.v[self.composites.top[d]])
+                    x.inv_apply_motion(self.data.v[self.composites.top_body[d]])
                 };
             }
             self.cache.reselection.slots_stamp[d] = ep;
@@ -532,7 +532,7 @@ impl Adaptive {
     fn cluster_momenta(&mut self, model: &Model) {
         let tree = &model.assembly;
         let momentum = |r: &Rigid, x: &SpatialTransform, u: SpatialMotion| {
-            let i = SpatialInertia::new(r.m, r.c, r.ic);
+            let i = SpatialInertia::new(r.mass, r.com, r.inertia);
             x.apply_force(i.mul_motion(u))
         };
         for idx in 0..self.hier.fnodes.len() {
@@ -541,7 +541,7 @@ impl Adaptive {
                 SpatialForce::ZERO
             } else {
                 momentum(
-                    &self.hier.rig[f],
+                    &self.hier.cluster_mass[f],
                     &self.cache.reselection.frame_pose[f],
                     self.cache.reselection.frame_velocity[f],
                 )
@@ -593,17 +593,18 @@ impl Adaptive {
     /// `p_j = S_jᵀ H_j`, `H_j = h(cluster of j) + Σ_{children j'} H_j'`.
     fn reduced_momenta(&mut self, gm: &mut [f64]) {
         let h = &mut self.hier;
-        for idx in 0..h.rec.len() {
-            h.aba.pa[idx] = self.cache.reselection.locking_momentum[h.rec[idx].f()].to_array();
+        for idx in 0..h.records.len() {
+            h.reduced_aba.pa[idx] =
+                self.cache.reselection.locking_momentum[h.records[idx].cluster()].to_array();
         }
-        for idx in (0..h.rec.len()).rev() {
-            let r = &h.rec[idx];
-            let hj = SpatialForce::from_array(h.aba.pa[idx]);
-            for p in 0..r.k() {
-                gm[r.vo() + p] = self.data.s[r.vo() + p].dot(hj);
+        for idx in (0..h.records.len()).rev() {
+            let r = &h.records[idx];
+            let hj = SpatialForce::from_array(h.reduced_aba.pa[idx]);
+            for p in 0..r.dof_count() {
+                gm[r.v_offset() + p] = self.data.s[r.v_offset() + p].dot(hj);
             }
             if r.pidx() != NO_PARENT {
-                let pp = &mut h.aba.pa[r.pidx()];
+                let pp = &mut h.reduced_aba.pa[r.pidx()];
                 for (x, y) in pp.iter_mut().zip(hj.to_array()) {
                     *x += y;
                 }
@@ -659,7 +660,7 @@ impl Adaptive {
         h.ajoints.sort_unstable();
         for &f in &h.fnodes {
             if !self.composites.grounded[f] {
-                h.rig[f] = self.cache.tensors.composite[f];
+                h.cluster_mass[f] = self.cache.tensors.composite[f];
             }
         }
         let cluster = |mut n: usize, active: &[bool]| {
@@ -670,14 +671,14 @@ impl Adaptive {
         };
         for idx in 0..h.ajoints.len() {
             let j = h.ajoints[idx];
-            h.pcl[j] = usize::MAX;
-            h.par[j] = usize::MAX;
+            h.parent_cluster[j] = usize::MAX;
+            h.parent_top[j] = usize::MAX;
             if let Some(p) = model.bodies[j].parent {
                 if h.abody[p] {
-                    h.par[j] = p;
+                    h.parent_top[j] = p;
                 } else {
                     let f = cluster(tree.body_leaf[p], &self.body.active);
-                    h.pcl[j] = f;
+                    h.parent_cluster[j] = f;
                     h.prel[j] = match tree.nodes[f].kind {
                         NodeKind::Join { .. } => {
                             let k = tree.nodes[f]
@@ -690,11 +691,11 @@ impl Adaptive {
                         _ => SpatialTransform::IDENTITY,
                     };
                     if !self.composites.grounded[f] {
-                        h.par[j] = self.composites.top[f];
+                        h.parent_top[j] = self.composites.top_body[f];
                     }
                 }
             }
-            h.cl[j] = cluster(tree.body_leaf[j], &self.body.active);
+            h.own_cluster[j] = cluster(tree.body_leaf[j], &self.body.active);
         }
         self.build_records(model);
         self.hier.valid = true;

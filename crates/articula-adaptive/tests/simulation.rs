@@ -137,7 +137,7 @@ fn the_energy_guard_stops_a_diverging_run() {
     }
     let options = SimulationOptions {
         dt: 0.05,
-        gravity: glam::DVec3::ZERO,
+        gravity: Some(glam::DVec3::ZERO),
         ..SimulationOptions::default()
     };
     let mut sim = Simulation::new(model, state, options).unwrap();

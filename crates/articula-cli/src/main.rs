@@ -79,10 +79,10 @@ pub struct DynamicsArgs {
     /// Forward-dynamics algorithm.
     #[arg(long, value_enum, default_value_t = MethodArg::Dca)]
     pub method: MethodArg,
-    /// Gravity acceleration in world coordinates (m/s²), as `gx,gy,gz`.
-    #[arg(long, value_name = "GX,GY,GZ", default_value = "0,0,-9.81",
-          value_parser = parse_gravity, allow_hyphen_values = true)]
-    pub gravity: DVec3,
+    /// Gravity acceleration in world coordinates (m/s²), as `gx,gy,gz` [default: the model's:
+    /// an MJCF file's `<option gravity>`, else 0,0,-9.81].
+    #[arg(long, value_name = "GX,GY,GZ", value_parser = parse_gravity, allow_hyphen_values = true)]
+    pub gravity: Option<DVec3>,
     /// Give the root link six degrees of freedom (joint `floating_base`) instead of welding it
     /// to the world.
     #[arg(long)]
@@ -322,7 +322,9 @@ impl DynamicsArgs {
     pub fn adaptive(&self, model: &Model, reselect_every: u64) -> articula_adaptive::Adaptive {
         let settings = self.adaptive_settings(reselect_every);
         let mut ad = articula_adaptive::Adaptive::new(model, settings);
-        ad.data.gravity = self.gravity;
+        if let Some(g) = self.gravity {
+            ad.data.gravity = g;
+        }
         ad.set_reselection(self.reselection.into());
         ad
     }
@@ -346,7 +348,9 @@ impl DynamicsArgs {
             ));
         }
         let mut data = Data::new(&model);
-        data.gravity = self.gravity;
+        if let Some(g) = self.gravity {
+            data.gravity = g;
+        }
         Ok((model, data))
     }
 }

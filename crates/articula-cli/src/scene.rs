@@ -202,29 +202,13 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
     }
     let mut reference = ViewReference::start(&scene, args.reference, sim.threads())?;
     let steps = args.steps;
-    let bar = ProgressBar::with_draw_target(Some(steps), ProgressDrawTarget::hidden());
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{spinner} step {pos}/{len} [{bar:40}] {percent}% {elapsed_precise} (eta {eta}) {msg}",
-        )
-        .expect("valid progress template")
-        .progress_chars("=> "),
-    );
-    if std::io::stderr().is_terminal() {
-        bar.set_draw_target(ProgressDrawTarget::stderr());
-    }
+    let bar = progress_bar(steps);
     let mut gltf = crate::gltf_out::SceneGltf::start(&args.gltf, &mut sim)?;
     let e0 = sim.energy();
     let mut watch = EnergyWatch::new(e0.kinetic, e0.gravity + e0.springs, args.max_energy_growth);
     let mut gimbal = vec![GimbalWatch::default(); scene.models.len()];
     let check_every = scene.reselect_every as u64;
-    let mut in_steps = Duration::ZERO;
-    let mut active_sum = 0usize;
-    let mut active_max = 0usize;
-    let mut frames = 0u64;
-    let (mut contacts_sum, mut max_penetration) = (0usize, 0.0f64);
-    let (mut solves_sum, mut capped_sum) = (0usize, 0usize);
-    let (mut rows_sum, mut sweeps_sum) = (0usize, 0usize);
+    let mut tally = Tally::default();
     let mut last = None;
     let mut done = 0u64;
     let mut stop: Option<String> = None;
@@ -249,21 +233,14 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
                 stop = Some(at(&e));
                 break;
             }
-            frames += 1;
+            tally.frames += 1;
         }
         let t0 = Instant::now();
         let result = sim.step();
-        in_steps += t0.elapsed();
+        tally.in_steps += t0.elapsed();
         let checked = match result {
             Ok(s) => {
-                active_sum += s.active_total;
-                active_max = active_max.max(s.active_total);
-                contacts_sum += s.contacts;
-                max_penetration = max_penetration.max(s.max_penetration);
-                solves_sum += s.contact_solves;
-                capped_sum += s.contact_capped;
-                rows_sum += s.contact_rows;
-                sweeps_sum += s.contact_sweeps;
+                tally.add(&s);
                 bar.set_message(format!("{} active joints", s.active_total));
                 bar.set_position(k + 1);
                 last = Some(s);
@@ -294,16 +271,100 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
     if let (Some(dir), None) = (&args.out, &stop) {
         let active = last.as_ref().map_or(0, |s| s.active_total);
         match write_frame(&mut sim, dir, steps, active) {
-            Ok(()) => frames += 1,
+            Ok(()) => tally.frames += 1,
             Err(CliError(e)) => stop = Some(format!("the last frame: {e}")),
         }
     }
     let last = last.unwrap_or_default();
+    let run = RunEnd {
+        done,
+        stop: &stop,
+        exact: exact.is_some(),
+    };
+    let summary = summary(args, &scene, &sim, &tally, &last, &watch, &reference, run);
+    print_out(&format!("{summary}\n"))?;
+    match stop {
+        Some(s) if interrupt.flag.load(Ordering::Relaxed) => {
+            eprintln!("error: {s}");
+            std::process::exit(interrupt.exit_code().into())
+        }
+        Some(s) => Err(CliError(s)),
+        None => Ok(()),
+    }
+}
+
+/// The counters of a scene run, summed over its steps.
+#[derive(Default)]
+struct Tally {
+    /// Wall time inside `SceneSim::step`.
+    in_steps: Duration,
+    active_sum: usize,
+    active_max: usize,
+    /// Frames written to `--out`.
+    frames: u64,
+    contacts_sum: usize,
+    max_penetration: f64,
+    solves_sum: usize,
+    capped_sum: usize,
+    rows_sum: usize,
+    sweeps_sum: usize,
+}
+
+impl Tally {
+    fn add(&mut self, s: &articula_view::SceneStep) {
+        self.active_sum += s.active_total;
+        self.active_max = self.active_max.max(s.active_total);
+        self.contacts_sum += s.contacts;
+        self.max_penetration = self.max_penetration.max(s.max_penetration);
+        self.solves_sum += s.contact_solves;
+        self.capped_sum += s.contact_capped;
+        self.rows_sum += s.contact_rows;
+        self.sweeps_sum += s.contact_sweeps;
+    }
+}
+
+/// How a scene run ended: the steps done, why it stopped early (if it did), whether it
+/// ran an exact method.
+#[derive(Clone, Copy)]
+struct RunEnd<'a> {
+    done: u64,
+    stop: &'a Option<String>,
+    exact: bool,
+}
+
+/// The progress bar of a run of `steps` steps, drawn only on a terminal.
+fn progress_bar(steps: u64) -> ProgressBar {
+    let bar = ProgressBar::with_draw_target(Some(steps), ProgressDrawTarget::hidden());
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} step {pos}/{len} [{bar:40}] {percent}% {elapsed_precise} (eta {eta}) {msg}",
+        )
+        .expect("valid progress template")
+        .progress_chars("=> "),
+    );
+    if std::io::stderr().is_terminal() {
+        bar.set_draw_target(ProgressDrawTarget::stderr());
+    }
+    bar
+}
+
+/// The JSON summary `articula scene` prints at the end of a run.
+#[allow(clippy::too_many_arguments)]
+fn summary(
+    args: &SceneArgs,
+    scene: &articula_view::LoadedScene,
+    sim: &SceneSim,
+    tally: &Tally,
+    last: &articula_view::SceneStep,
+    watch: &EnergyWatch,
+    reference: &ViewReference,
+    run: RunEnd,
+) -> serde_json::Value {
     let e_end = watch.last;
     let mut summary = serde_json::json!({
         "scene": args.scene.display().to_string(),
-        "steps": done,
-        "steps_requested": steps,
+        "steps": run.done,
+        "steps_requested": args.steps,
         "dt": scene.dt,
         "method": if args.culling { "culling" } else { args.method.name() },
         "bodies": sim.bodies.len(),
@@ -312,10 +373,10 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
         "budget": scene.budget,
         "tolerance": scene.tolerance,
         "reselect_every": scene.reselect_every,
-        "active_joints_mean": active_sum as f64 / done.max(1) as f64,
-        "active_joints_max": active_max,
+        "active_joints_mean": tally.active_sum as f64 / run.done.max(1) as f64,
+        "active_joints_max": tally.active_max,
         "active_joints_last": last.active_total,
-        "ms_per_step": in_steps.as_secs_f64() * 1e3 / done.max(1) as f64,
+        "ms_per_step": tally.in_steps.as_secs_f64() * 1e3 / run.done.max(1) as f64,
         "visible": last.classes[0],
         "occluded": last.classes[1],
         "invisible": last.classes[2],
@@ -330,11 +391,11 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
         "energy_drift_max": watch.max_drift,
         "energy_drift_max_step": watch.max_drift_step,
         "energy_drift_max_relative": watch.max_drift_relative(),
-        "frames": frames,
+        "frames": tally.frames,
         "out": args.out.as_ref().map(|d| d.display().to_string()),
-        "stop_reason": stop,
+        "stop_reason": run.stop,
     });
-    if exact.is_some() {
+    if run.exact {
         // No camera, no selection: every joint moves, nothing is left unselected.
         for key in [
             "budget",
@@ -353,21 +414,16 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
         summary["view_error"] = reference.json();
     }
     if scene.ground.is_some() {
-        summary["max_penetration_m"] = max_penetration.into();
-        summary["contacts_mean"] = (contacts_sum as f64 / done.max(1) as f64).into();
-        summary["contact_capped_fraction"] = (capped_sum as f64 / solves_sum.max(1) as f64).into();
-        summary["contact_rows_mean"] = (rows_sum as f64 / solves_sum.max(1) as f64).into();
-        summary["contact_sweeps_mean"] = (sweeps_sum as f64 / solves_sum.max(1) as f64).into();
+        summary["max_penetration_m"] = tally.max_penetration.into();
+        summary["contacts_mean"] = (tally.contacts_sum as f64 / run.done.max(1) as f64).into();
+        summary["contact_capped_fraction"] =
+            (tally.capped_sum as f64 / tally.solves_sum.max(1) as f64).into();
+        summary["contact_rows_mean"] =
+            (tally.rows_sum as f64 / tally.solves_sum.max(1) as f64).into();
+        summary["contact_sweeps_mean"] =
+            (tally.sweeps_sum as f64 / tally.solves_sum.max(1) as f64).into();
     }
-    print_out(&format!("{summary}\n"))?;
-    match stop {
-        Some(s) if interrupt.flag.load(Ordering::Relaxed) => {
-            eprintln!("error: {s}");
-            std::process::exit(interrupt.exit_code().into())
-        }
-        Some(s) => Err(CliError(s)),
-        None => Ok(()),
-    }
+    summary
 }
 
 /// The exact reference run beside the scene (`--reference`) and the view-weighted errors

@@ -139,6 +139,153 @@ fn documented_commands_print_what_the_docs_say() {
     t.run();
 }
 
+/// The subcommands of `articula`.
+const SUBCOMMANDS: [&str; 5] = ["info", "fd", "simulate", "bench", "scene"];
+
+/// Every `articula SUB ...` command written in `text` that no console block runs: an inline
+/// `code` span (which may break across lines) or a line of any other fenced block (joined with
+/// the next when it ends in `\`; a `#` comment dropped), as (line, subcommand, its `--flags`).
+fn shown_commands(text: &str) -> Vec<(usize, String, Vec<String>)> {
+    let mut out = Vec::new();
+    let mut take = |line: usize, command: &str| {
+        let words: Vec<&str> = command.split_whitespace().collect();
+        for (i, w) in words.iter().enumerate() {
+            let program = w.rsplit('/').next().unwrap_or(w);
+            let Some(sub) = words.get(i + 1) else {
+                continue;
+            };
+            if program != "articula" || !SUBCOMMANDS.contains(sub) {
+                continue;
+            }
+            let flags = words[i + 2..]
+                .iter()
+                .map(|w| w.trim_start_matches(['[', '(']))
+                .filter(|w| w.starts_with("--") && w.len() > 2)
+                .map(|w| {
+                    w.chars()
+                        .take_while(|c| c.is_ascii_alphanumeric() || *c == '-')
+                        .collect::<String>()
+                })
+                .collect();
+            out.push((line, (*sub).to_owned(), flags));
+        }
+    };
+    let (mut fence, mut console, mut pending) = (None::<String>, false, String::new());
+    let mut start = 0;
+    let mut prose = String::new();
+    for (n, line) in text.lines().enumerate() {
+        let trimmed = line.trim_start();
+        if let Some(f) = &fence {
+            if trimmed.starts_with(f.as_str()) && trimmed.trim_matches('`').is_empty() {
+                fence = None;
+            } else if !console {
+                let code = line.split(" #").next().unwrap_or(line);
+                if pending.is_empty() {
+                    start = n + 1;
+                }
+                pending.push_str(code.trim_end_matches('\\'));
+                pending.push(' ');
+                if !code.trim_end().ends_with('\\') {
+                    take(start, &pending);
+                    pending.clear();
+                }
+            }
+            prose.push('\n');
+            continue;
+        }
+        if trimmed.starts_with("```") {
+            let ticks = trimmed.len() - trimmed.trim_start_matches('`').len();
+            fence = Some("`".repeat(ticks));
+            console = trimmed[ticks..].trim() == "console";
+            prose.push('\n');
+            continue;
+        }
+        prose.push_str(line);
+        prose.push('\n');
+    }
+    // Inline spans: the odd pieces between backticks, each at the line it starts on.
+    let mut at = 0;
+    for (k, piece) in prose.split('`').enumerate() {
+        if k % 2 == 1 {
+            let line = prose[..at].matches('\n').count() + 1;
+            take(line, &piece.replace('\n', " "));
+        }
+        at += piece.len() + 1;
+    }
+    out
+}
+
+#[test]
+fn every_flag_the_docs_show_is_one_the_cli_takes() {
+    let bin = trycmd::cargo::cargo_bin!("articula");
+    let mut help = std::collections::BTreeMap::new();
+    for sub in SUBCOMMANDS {
+        let out = std::process::Command::new(bin)
+            .args([sub, "--help"])
+            .output()
+            .expect("run articula SUB --help");
+        assert!(out.status.success(), "articula {sub} --help failed");
+        // The options' own lines (`      --steps <STEPS>`, `  -h, --help`), not their text.
+        let options: Vec<String> = String::from_utf8(out.stdout)
+            .unwrap()
+            .lines()
+            .map(str::trim_start)
+            .filter(|l| l.starts_with('-'))
+            .flat_map(|l| l.split([' ', ',']).filter(|w| w.starts_with("--")))
+            .map(str::to_owned)
+            .collect();
+        help.insert(sub, options);
+    }
+    let (mut checked, mut wrong) = (0, Vec::new());
+    for doc in documents() {
+        let text = std::fs::read_to_string(&doc).unwrap();
+        let rel = doc
+            .strip_prefix(root())
+            .unwrap_or(&doc)
+            .display()
+            .to_string();
+        for (line, sub, flags) in shown_commands(&text) {
+            for flag in flags {
+                checked += 1;
+                let known = help[sub.as_str()].contains(&flag);
+                if !known {
+                    wrong.push(format!("{rel}:{line}: articula {sub} {flag}"));
+                }
+            }
+        }
+    }
+    assert!(checked >= 50, "only {checked} flags found in the docs");
+    assert!(
+        wrong.is_empty(),
+        "flags the docs show that `articula SUB --help` does not list:\n{}",
+        wrong.join("\n")
+    );
+}
+
+#[test]
+fn shown_commands_are_read_from_spans_and_blocks() {
+    let text = "Run `articula simulate m.urdf\n--steps 10 [--json]` or\n```sh\n\
+                target/release/articula scene s.json --threads 1 \\\n    --ground 0  # --no\n```\n\
+                ```console\n$ articula info m --tree\n```\n`articula-cli` `articula bench M --reps`\n";
+    let got = shown_commands(text);
+    assert_eq!(
+        got,
+        vec![
+            (
+                4,
+                "scene".to_owned(),
+                vec!["--threads".to_owned(), "--ground".to_owned()]
+            ),
+            (
+                1,
+                "simulate".to_owned(),
+                vec!["--steps".to_owned(), "--json".to_owned()]
+            ),
+            (10, "bench".to_owned(), vec!["--reps".to_owned()]),
+        ]
+    );
+}
+
 #[test]
 fn console_blocks_are_found_and_other_blocks_blanked() {
     let text = "a\n```sh\n$ cargo x\n```\n```console\n$ articula info m\nout\n$ articula y\n? 2\nerr\n```\nb\nc\n```\nplain\n```\n";

@@ -4,6 +4,7 @@
 //! to a far point (docs/algorithms.md, ABA). Articulated inertias
 //! are kept packed (21 entries, [`PackedSymMat6`]) and 1-DOF joints take a rank-1 fast path.
 
+use crate::data::AbaData;
 use crate::kinematics::FkPlan;
 use crate::{Data, DynamicsError};
 use articula_model::Model;
@@ -34,13 +35,13 @@ articula_spatial::fma_dispatch! {
 
 /// `m` (about the computation origin) about the point `p`: `[ω; v + ω × p]`.
 #[inline(always)]
-fn motion_at(m: SpatialMotion, p: DVec3) -> SpatialMotion {
+pub(crate) fn motion_at(m: SpatialMotion, p: DVec3) -> SpatialMotion {
     SpatialMotion::new(m.w, m.v + m.w.cross(p))
 }
 
 /// `f` (about one point) about the point `r` before it: `[n + r × f; f]`.
 #[inline(always)]
-fn force_back(f: SpatialForce, r: DVec3) -> SpatialForce {
+pub(crate) fn force_back(f: SpatialForce, r: DVec3) -> SpatialForce {
     SpatialForce::new(f.n + r.cross(f.f), f.f)
 }
 
@@ -93,101 +94,41 @@ fn aba_with<A: Arith>(
         let c = motion_at(data.c[i], p);
         aba.cl[i] = c;
         let first = aba.first[i];
-        if k == 1 {
-            // One DOF (the common case): U = Iᴬ s, D = sᵀU scalar.
-            let (u, d, sm) = if let FkPlan::AxisRevolute { .. } = data.fk_plan[i] {
-                // A revolute axis through pᵢ: s = [ω; 0] there (`motion_at` gives
-                // `p × ω + ω × p`, exactly zero), so U takes Iᴬ's first three columns only and
-                // D three products (the same values as the six with zeros).
-                let w = data.s[vo].w;
-                let u = ia.mul_angular(&w.to_array());
-                let d = A::mul_add(w.z, u[2], A::mul_add(w.y, u[1], w.x * u[0]));
-                (u, d, SpatialMotion::new(w, DVec3::ZERO))
-            } else {
-                let sm = motion_at(data.s[vo], p);
-                let s = sm.to_array();
-                let u = ia.mul_vec(&s);
-                (u, dot6::<A>(&s, &u), sm)
-            };
-            aba.sl[vo] = sm;
-            // Armature: D = sᵀ Iᴬ s + a (docs/loading.md#armature-and-damping).
-            let d = match data.armature.get(vo) {
-                Some(a) => d + a,
-                None => d,
-            };
-            if d.is_nan() || d <= 0.0 {
-                return Err(DynamicsError::Singular {
-                    joint: model.bodies[i].joint_name(),
-                    detail: "Sᵀ Iᴬ S is not positive definite",
-                });
-            }
-            let dinv = 1.0 / d;
-            let uu = tau[vo] - sm.dot(pa_i);
-            aba.u[vo] = u;
-            aba.uu[vo] = uu;
-            aba.dinv[doff] = dinv;
-            if parent == usize::MAX {
-                continue;
-            }
-            let ps = aba.acc[parent] as usize;
-            // pᵃ = pᴬ + Iᵃ c + U D⁻¹ u with Iᵃ c = Iᴬ c − U (Uᵀc) / D
-            let c = c.to_array();
-            let ic = ia.mul_vec(&c);
-            let g = dinv * (uu - dot6::<A>(&c, &u));
-            let add = SpatialForce::from_array(std::array::from_fn(|r| ic[r] + u[r] * g));
-            let pa = force_back(pa_i + add, arm);
-            let ia_a = ia.sub_outer(&u, dinv).shifted(arm.to_array());
-            if first {
-                aba.pa[ps] = pa;
-                aba.ia[ps] = ia_a;
-            } else {
-                aba.pa[ps] += pa;
-                aba.ia[ps].add_assign(&ia_a);
-            }
-            continue;
-        }
-        // Several DOF: the same equations with k×k `D`, its loops of fixed length.
-        for p_ in 0..k {
-            aba.sl[vo + p_] = motion_at(data.s[vo + p_], p);
-        }
-        let (mut ia_a, mut pa_a) = (PackedSymMat6::ZERO, SpatialForce::ZERO);
-        let args = MultiArgs {
-            s: &aba.sl[vo..vo + k],
-            tau: &tau[vo..vo + k],
-            c,
+        let body = BodyJoint {
             ia,
-            pa_i,
-            u: &mut aba.u[vo..vo + k],
-            uu: &mut aba.uu[vo..vo + k],
-            dinv: &mut aba.dinv[doff..doff + k * k],
-            armature: data.armature.get(vo..vo + k).unwrap_or(&[]),
+            pa: pa_i,
+            c,
+            origin: p,
+            vo,
+            k,
+            doff,
+            axis_through_origin: matches!(data.fk_plan[i], FkPlan::AxisRevolute { .. }),
         };
-        let to_parent = (parent != usize::MAX).then_some((&mut ia_a, &mut pa_a, true));
-        let ok = match k {
-            0 => articulate_multi::<A, 0>(args, to_parent),
-            2 => articulate_multi::<A, 2>(args, to_parent),
-            3 => articulate_multi::<A, 3>(args, to_parent),
-            4 => articulate_multi::<A, 4>(args, to_parent),
-            5 => articulate_multi::<A, 5>(args, to_parent),
-            _ => articulate_multi::<A, 6>(args, to_parent),
-        };
-        if !ok {
+        let to_parent = parent != usize::MAX;
+        let Some((ia_a, pa_a)) =
+            articulate_joint::<A>(aba, &data.s, tau, &data.armature, body, to_parent)
+        else {
             return Err(DynamicsError::Singular {
                 joint: model.bodies[i].joint_name(),
-                detail: crate::error::JOINT_BLOCK_SINGULAR,
+                detail: if k == 1 {
+                    "Sᵀ Iᴬ S is not positive definite"
+                } else {
+                    crate::error::JOINT_BLOCK_SINGULAR
+                },
             });
+        };
+        if !to_parent {
+            continue;
         }
-        if parent != usize::MAX {
-            let ps = aba.acc[parent] as usize;
-            let pa = force_back(pa_a, arm);
-            let ia_a = ia_a.shifted(arm.to_array());
-            if first {
-                aba.pa[ps] = pa;
-                aba.ia[ps] = ia_a;
-            } else {
-                aba.pa[ps] += pa;
-                aba.ia[ps].add_assign(&ia_a);
-            }
+        let ps = aba.acc[parent] as usize;
+        let pa = force_back(pa_a, arm);
+        let ia_a = ia_a.shifted(arm.to_array());
+        if first {
+            aba.pa[ps] = pa;
+            aba.ia[ps] = ia_a;
+        } else {
+            aba.pa[ps] += pa;
+            aba.ia[ps].add_assign(&ia_a);
         }
     }
     let a0 = SpatialMotion::new(glam::DVec3::ZERO, -data.gravity);
@@ -243,6 +184,108 @@ fn accelerations<A: Arith>(
             _ => accelerate_multi::<A, 6>(args, ap),
         };
     }
+}
+
+/// One body's joint as ABA's pass 2 meets it, everything about the body's own origin.
+#[derive(Clone, Copy)]
+pub(crate) struct BodyJoint {
+    /// The body's articulated inertia `Iᴬ` and bias force `pᴬ` (its children's sums added).
+    pub ia: PackedSymMat6,
+    pub pa: SpatialForce,
+    /// Its velocity product `c`.
+    pub c: SpatialMotion,
+    /// Its origin `pᵢ` in the computation frame, where its `S` is taken.
+    pub origin: DVec3,
+    /// Its joint's offset in `v`, degrees of freedom, and offset in `AbaData::dinv`.
+    pub vo: usize,
+    pub k: usize,
+    pub doff: usize,
+    /// One revolute axis through the origin ([`FkPlan::AxisRevolute`]): `S = [ω; 0]`.
+    pub axis_through_origin: bool,
+}
+
+/// ABA's pass 2 at one joint (RBDA Table 7.1), shared by ABA and DCA's leaf clusters: the
+/// local `S` into `aba.sl`, `U = Iᴬ S`, `D = Sᵀ U` plus the armature, `u = τ − Sᵀ pᴬ` and
+/// `D⁻¹` into `aba`; with `to_parent`, returns `Iᵃ = Iᴬ − U D⁻¹ Uᵀ` and
+/// `pᵃ = pᴬ + Iᵃ c + U D⁻¹ u`, still about the body's origin (zero without). `None`: `D` is
+/// not positive definite. `s`, `tau` and `armature` are the model-wide arrays (`data.s`,
+/// `τ`, `data.armature`, empty for none).
+#[inline(always)]
+pub(crate) fn articulate_joint<A: Arith>(
+    aba: &mut AbaData,
+    s: &[SpatialMotion],
+    tau: &[f64],
+    armature: &[f64],
+    b: BodyJoint,
+    to_parent: bool,
+) -> Option<(PackedSymMat6, SpatialForce)> {
+    let (vo, k, doff, ia) = (b.vo, b.k, b.doff, b.ia);
+    if k == 1 {
+        // One DOF (the common case): U = Iᴬ s, D = sᵀU scalar.
+        let (u, d, sm) = if b.axis_through_origin {
+            // A revolute axis through pᵢ: s = [ω; 0] there (`motion_at` gives
+            // `p × ω + ω × p`, exactly zero), so U takes Iᴬ's first three columns only and
+            // D three products (the same values as the six with zeros).
+            let w = s[vo].w;
+            let u = ia.mul_angular(&w.to_array());
+            let d = A::mul_add(w.z, u[2], A::mul_add(w.y, u[1], w.x * u[0]));
+            (u, d, SpatialMotion::new(w, DVec3::ZERO))
+        } else {
+            let sm = motion_at(s[vo], b.origin);
+            let s = sm.to_array();
+            let u = ia.mul_vec(&s);
+            (u, dot6::<A>(&s, &u), sm)
+        };
+        aba.sl[vo] = sm;
+        // Armature: D = sᵀ Iᴬ s + a (docs/loading.md#armature-and-damping).
+        let d = match armature.get(vo) {
+            Some(a) => d + a,
+            None => d,
+        };
+        if d.is_nan() || d <= 0.0 {
+            return None;
+        }
+        let dinv = 1.0 / d;
+        let uu = tau[vo] - sm.dot(b.pa);
+        aba.u[vo] = u;
+        aba.uu[vo] = uu;
+        aba.dinv[doff] = dinv;
+        if !to_parent {
+            return Some((PackedSymMat6::ZERO, SpatialForce::ZERO));
+        }
+        // pᵃ = pᴬ + Iᵃ c + U D⁻¹ u with Iᵃ c = Iᴬ c − U (Uᵀc) / D
+        let c = b.c.to_array();
+        let ic = ia.mul_vec(&c);
+        let g = dinv * (uu - dot6::<A>(&c, &u));
+        let add = SpatialForce::from_array(std::array::from_fn(|r| ic[r] + u[r] * g));
+        return Some((ia.sub_outer(&u, dinv), b.pa + add));
+    }
+    // Several DOF: the same equations with k×k `D`, its loops of fixed length.
+    for p_ in 0..k {
+        aba.sl[vo + p_] = motion_at(s[vo + p_], b.origin);
+    }
+    let (mut ia_a, mut pa_a) = (PackedSymMat6::ZERO, SpatialForce::ZERO);
+    let args = MultiArgs {
+        s: &aba.sl[vo..vo + k],
+        tau: &tau[vo..vo + k],
+        c: b.c,
+        ia,
+        pa_i: b.pa,
+        u: &mut aba.u[vo..vo + k],
+        uu: &mut aba.uu[vo..vo + k],
+        dinv: &mut aba.dinv[doff..doff + k * k],
+        armature: armature.get(vo..vo + k).unwrap_or(&[]),
+    };
+    let to_parent = to_parent.then_some((&mut ia_a, &mut pa_a, true));
+    let ok = match k {
+        0 => articulate_multi::<A, 0>(args, to_parent),
+        2 => articulate_multi::<A, 2>(args, to_parent),
+        3 => articulate_multi::<A, 3>(args, to_parent),
+        4 => articulate_multi::<A, 4>(args, to_parent),
+        5 => articulate_multi::<A, 5>(args, to_parent),
+        _ => articulate_multi::<A, 6>(args, to_parent),
+    };
+    ok.then_some((ia_a, pa_a))
 }
 
 /// What ABA's pass 2 reads and writes at a joint of `k` > 1 degrees of freedom (see
@@ -417,6 +460,7 @@ pub(crate) fn refine(model: &Model, tau: &[f64], f_ext: &[SpatialForce], data: &
     let n = model.bodies.len();
     let input = crate::residual::RneaInput {
         x: &data.x,
+        fk_plan: &data.fk_plan,
         v: &data.v,
         c: &data.c,
         s: &data.s,

@@ -166,10 +166,37 @@ pub(crate) struct DcaData {
     /// Per handle of a join node (flat, `DNode::hoff`): the side it comes from and its index
     /// there.
     pub from: Vec<(Side, u32)>,
+    /// Joins of the last pass whose constraint factorisation met a pivot that rounding had
+    /// made non-positive ([`crate::small::ldl5`]); reset by each pass.
+    pub clamped: u32,
+    /// Whether a six-axis (floating) joint's join factors the identity instead of
+    /// `K = Φ^A_jj + Φ^B_jj` (`mass_ratio.rs`): set for models with a neighbour mass ratio above
+    /// [`MASS_RATIO`](crate::mass_ratio::MASS_RATIO), where a light base's `K` loses its rigid directions to rounding.
+    pub free_identity: bool,
+    /// The gather nodes' buffers (`gather.rs`).
+    pub gather: GatherBuffers,
+    /// The leaf clusters' buffers (`cluster.rs`).
+    pub cluster: ClusterBuffers,
+    /// What a node hands its parent join, in a slot per (depth, side) (see [`SlotBuffers::dg`]).
+    pub slots: SlotBuffers,
+    /// Per join node: the factors the main pass leaves for the back-substitution, and the join scratch.
+    pub joins: JoinBuffers,
+    /// Per body, joint or degree of freedom: leaf constants, points, arms and the joint factors.
+    pub bodies: BodyBuffers,
+}
+
+/// The gather nodes' buffers (`gather.rs`).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct GatherBuffers {
     /// The gather nodes' children (node indices, `DKind::Gather::first`), and per child `K =
     /// Φ_jj⁻¹`, its articulated inertia at its joint to the hub (`gather.rs`).
     pub gathered: Vec<u32>,
     pub gk: Vec<Mat6>,
+}
+
+/// The leaf clusters' buffers (`cluster.rs`).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct ClusterBuffers {
     /// The bodies the cluster nodes absorb (`DKind::Cluster::first`), parents first.
     pub clustered: Vec<u32>,
     /// Per body of a cluster (empty without clusters): whether its ABA terms set its parent's
@@ -181,8 +208,11 @@ pub(crate) struct DcaData {
     pub cia: Vec<PackedSymMat6>,
     pub cpa: Vec<SpatialForce>,
     pub ca: Vec<SpatialMotion>,
-    /// Φ's cross blocks.
-    pub phi: Vec<Mat6>,
+}
+
+/// What a node hands its parent join, in a slot per (depth, side) (see [`SlotBuffers::dg`]).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct SlotBuffers {
     /// Φ's diagonal blocks `Φ_hh` (symmetric, upper 2×2 tiles) and the bias accelerations `b_h`: only the
     /// parent join reads them, so they live in a slot per (depth, side) instead of per node —
     /// in post-order, the child visited first waits while its sibling's subtree (deeper
@@ -190,20 +220,41 @@ pub(crate) struct DcaData {
     /// A few kB, cache-resident however long the chain.
     pub dg: Vec<SymT>,
     pub b: Vec<SpatialMotion>,
-    /// Per body: what the back-substitution needs of its leaf.
-    pub leafk: Vec<LeafK>,
     /// Handle forces (back-substitution): set by the parent join and read by the node itself,
     /// so in the node's slot like `dg` and `b` (in reverse post-order the child processed last
     /// waits while its sibling's subtree is solved).
     pub f: Vec<SpatialForce>,
+}
+
+/// Per join node: the factors the main pass leaves for the back-substitution, and the join scratch.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct JoinBuffers {
+    /// Φ's cross blocks.
+    pub phi: Vec<Mat6>,
     /// Per join node off the one-axis path: the Cholesky factor L of `Φ^A_jj + Φ^B_jj = V⁻¹`
     /// (its diagonal stored inverted, see [`crate::small::cholesky6_inv_diag`]), and β.
     pub l: Vec<[[f64; 6]; 6]>,
     pub beta: Vec<SpatialMotion>,
-    /// Per degree of freedom: the column of `Z = L⁻¹ S`.
-    pub z: Vec<[f64; 6]>,
-    /// Per joint (= body): `D⁻¹ = (Sᵀ V S)⁻¹`.
-    pub dinv: Vec<SmallSpd>,
+    /// Per join (`DNode::jix`): what a one-axis join keeps for the back-substitution, dense in
+    /// post-order (a back-substitution stream without the leaves' gaps).
+    pub rev: Vec<RevJoin>,
+    /// Scratch per handle of the node being joined: `Ỹ_h = Q L⁻¹ Φ_jh` (or, one axis,
+    /// `Z_h = L⁻¹ Tᵀ Φ_jh`).
+    pub y: Vec<[[f64; 6]; 6]>,
+    /// Scratch per handle of a one-axis join: `D⁻¹ Z_h`, the rows of `Z_h` (in `y`) divided by
+    /// the pivots (see `dca::y_reduced`).
+    pub u: Vec<[[f64; 6]; 6]>,
+}
+
+/// Per body, joint or degree of freedom: leaf constants, points, arms and the joint factors.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct BodyBuffers {
+    /// Per body: what the back-substitution needs of its leaf.
+    pub leafk: Vec<LeafK>,
+    /// Per body: the constants of its leaf.
+    pub leaf: Vec<LeafConst>,
+    /// The rotational inertias with products of inertia (see [`LeafConst::full`]).
+    pub leaf_full: Vec<[[f64; 6]; 2]>,
     /// Per joint h: the point P_h (origin of body h, computation frame) about which every
     /// handle-h vector is taken.
     pub point: Vec<DVec3>,
@@ -215,26 +266,10 @@ pub(crate) struct DcaData {
     /// the one-axis revolute fast path, computed on all threads before the pose chain of the
     /// parallel driver (`parallel_dca.rs`).
     pub trig: Vec<(f64, f64)>,
-    /// Joins of the last pass whose constraint factorisation met a pivot that rounding had
-    /// made non-positive ([`crate::small::ldl5`]); reset by each pass.
-    pub clamped: u32,
-    /// Whether a six-axis (floating) joint's join factors the identity instead of
-    /// `K = Φ^A_jj + Φ^B_jj` (`mass_ratio.rs`): set for models with a neighbour mass ratio above
-    /// [`MASS_RATIO`](crate::mass_ratio::MASS_RATIO), where a light base's `K` loses its rigid directions to rounding.
-    pub free_identity: bool,
-    /// Per join (`DNode::jix`): what a one-axis join keeps for the back-substitution, dense in
-    /// post-order (a back-substitution stream without the leaves' gaps).
-    pub rev: Vec<RevJoin>,
-    /// Scratch per handle of the node being joined: `Ỹ_h = Q L⁻¹ Φ_jh` (or, one axis,
-    /// `Z_h = L⁻¹ Tᵀ Φ_jh`).
-    pub y: Vec<[[f64; 6]; 6]>,
-    /// Scratch per handle of a one-axis join: `D⁻¹ Z_h`, the rows of `Z_h` (in `y`) divided by
-    /// the pivots (see `dca::y_reduced`).
-    pub u: Vec<[[f64; 6]; 6]>,
-    /// Per body: the constants of its leaf.
-    pub leaf: Vec<LeafConst>,
-    /// The rotational inertias with products of inertia (see [`LeafConst::full`]).
-    pub leaf_full: Vec<[[f64; 6]; 2]>,
+    /// Per degree of freedom: the column of `Z = L⁻¹ S`.
+    pub z: Vec<[f64; 6]>,
+    /// Per joint (= body): `D⁻¹ = (Sᵀ V S)⁻¹`.
+    pub dinv: Vec<SmallSpd>,
 }
 
 /// A node of the assembly tree as DCA's passes read it: 40 bytes (the tree's own node and the
@@ -705,7 +740,7 @@ impl Data {
         }
         let regularised = regularised(model, true);
         Data {
-            gravity: DVec3::new(0.0, 0.0, -9.81),
+            gravity: model.gravity,
             refine_floating: true,
             armature: armature_of(model),
             passive: Vec::new(),
@@ -789,7 +824,7 @@ impl Data {
     /// rebuilds DCA's buffers once if they were laid out for the serial passes only. Returns
     /// whether the layout is banked (a tree with gather nodes or leaf clusters never is).
     pub(crate) fn ensure_dca_banked(&mut self, model: &Model) -> Result<bool, DynamicsError> {
-        let bankable = !model.assembly.has_gather() && self.dca.clustered.is_empty();
+        let bankable = !model.assembly.has_gather() && self.dca.cluster.clustered.is_empty();
         if !self.dca.built || (!self.dca.banked && bankable) {
             self.dca = DcaData::build(
                 model,
@@ -851,6 +886,32 @@ impl Data {
     }
 }
 
+impl SlotBuffers {
+    /// `slots` zeroed slots.
+    fn new(slots: usize) -> SlotBuffers {
+        SlotBuffers {
+            dg: vec![SymT::ZERO; slots],
+            b: vec![SpatialMotion::ZERO; slots],
+            f: vec![SpatialForce::ZERO; slots],
+        }
+    }
+}
+
+impl JoinBuffers {
+    /// Zeroed: `blocks` cross blocks, `nodes` factors and β (per node), `joins` one-axis
+    /// records and `scratch` handles of join scratch.
+    fn new(blocks: usize, nodes: usize, joins: usize, scratch: usize) -> JoinBuffers {
+        JoinBuffers {
+            phi: vec![Mat6::ZERO; blocks],
+            l: vec![[[0.0; 6]; 6]; nodes],
+            beta: vec![SpatialMotion::ZERO; nodes],
+            rev: vec![RevJoin::default(); joins],
+            y: vec![[[0.0; 6]; 6]; scratch],
+            u: vec![[[0.0; 6]; 6]; scratch],
+        }
+    }
+}
+
 impl DcaData {
     /// DCA's buffers before the first DCA call: none (see [`Data::ensure_dca`]).
     fn empty(fused: bool) -> DcaData {
@@ -865,33 +926,13 @@ impl DcaData {
             node: Vec::new(),
             hj: Vec::new(),
             from: Vec::new(),
-            gathered: Vec::new(),
-            gk: Vec::new(),
-            clustered: Vec::new(),
-            cfirst: Vec::new(),
-            csums: Vec::new(),
-            cia: Vec::new(),
-            cpa: Vec::new(),
-            ca: Vec::new(),
-            phi: Vec::new(),
-            dg: Vec::new(),
-            b: Vec::new(),
-            leafk: Vec::new(),
-            f: Vec::new(),
-            l: Vec::new(),
-            beta: Vec::new(),
-            z: Vec::new(),
-            dinv: Vec::new(),
-            point: Vec::new(),
-            arm: Vec::new(),
-            trig: Vec::new(),
             clamped: 0,
             free_identity: false,
-            rev: Vec::new(),
-            y: Vec::new(),
-            u: Vec::new(),
-            leaf: Vec::new(),
-            leaf_full: Vec::new(),
+            gather: GatherBuffers::default(),
+            cluster: ClusterBuffers::default(),
+            slots: SlotBuffers::default(),
+            joins: JoinBuffers::default(),
+            bodies: BodyBuffers::default(),
         }
     }
 
@@ -958,7 +999,7 @@ impl DcaData {
         // Every index DCA stores is 32-bit; this bounds them all (node and handle indices and
         // offsets, slots, cross-block offsets).
         let mb = max_h * (max_h - 1) / 2;
-        let largest = [
+        fits_u32(&[
             nn,
             layout.handles,
             n + 1,
@@ -966,125 +1007,22 @@ impl DcaData {
             slots,
             nsi * mb + layout.blocks,
             nys * max_h,
-        ]
-        .into_iter()
-        .max()
-        .unwrap_or(0);
-        if largest >= u32::MAX as usize {
-            return Err(DynamicsError::TooLarge {
-                what: "DCA's workspace (assembly-tree nodes, handles, slots or blocks)",
-                size: largest,
-                limit: u32::MAX as usize - 1,
-            });
-        }
-        // Φ: the nh (nh − 1) / 2 cross blocks above the diagonal of each node (the diagonal ones
-        // in the slots). A join's stay for the back-substitution, in post-order after the leaves'
-        // slots (a leaf's are read by its parent join only: the back-substitution multiplies by
-        // a leaf's Φ in closed form, `LeafK`).
-        let mut blk = nsi * mb;
-        let mut joins = 0;
-        let mut node = Vec::with_capacity(nn);
-        for (i, nd) in tree.nodes.iter().enumerate() {
-            let nh = nd.handles.len();
-            let slot = u(if gslot[i] != usize::MAX {
+        ])?;
+        // Φ's cross blocks: see `node_records`.
+        let slot_of = |i: usize| {
+            u(if gslot[i] != usize::MAX {
                 gslot[i]
             } else {
                 gathered + si[i] * max_h
-            });
-            let u16_of = |x: usize| u16::try_from(x).expect("more than 65535 handles on a node");
-            let (kind, boff, jix, one_dof) = match nd.kind {
-                NodeKind::Join {
-                    joint,
-                    parent_side,
-                    child_side,
-                } => {
-                    let at = (blk, joins);
-                    blk += nh * nh.saturating_sub(1) / 2;
-                    joins += 1;
-                    // (A joint with armature or damping takes the general join.)
-                    let one_dof = matches!(
-                        model.bodies[joint].joint.as_slice(),
-                        [p] if p.kind.is_hinge()
-                    ) && armature_of(model)
-                        .get(model.bodies[joint].v_offset)
-                        .is_none_or(|_| {
-                            let d = &model.dynamics;
-                            let vo = model.bodies[joint].v_offset;
-                            d.armature.get(vo).is_none_or(|&a| a == 0.0)
-                                && d.damping.get(vo).is_none_or(|&b| b == 0.0)
-                        });
-                    let kind = DKind::Join {
-                        joint: u(joint),
-                        a: u(parent_side),
-                        b: u(child_side),
-                    };
-                    (kind, at.0, at.1, one_dof)
-                }
-                NodeKind::Body(b) => (DKind::Body(u(b)), si[i] * mb, 0, false),
-                NodeKind::Ground => (DKind::Ground, si[i] * mb, 0, false),
-                // One handle: no cross blocks.
-                NodeKind::Gather { body, first, count } => {
-                    let kind = DKind::Gather {
-                        body: body.map_or(u32::MAX, u),
-                        first: u(first),
-                        count: u(count),
-                    };
-                    (kind, 0, 0, false)
-                }
-                NodeKind::Cluster { body, first, count } => {
-                    let kind = DKind::Cluster {
-                        body: body.map_or(u32::MAX, u),
-                        first: u(first),
-                        count: u(count),
-                    };
-                    (kind, si[i] * mb, 0, false)
-                }
-            };
-            node.push(DNode {
-                kind,
-                hoff: u(layout.hoff[i]),
-                nh: u(nh),
-                boff: u(boff),
-                slot,
-                jix: u(jix),
-                ja: u16_of(layout.ja[i]),
-                jb: u16_of(layout.jb[i]),
-                one_dof,
-                ys: u16_of(ys[i]),
-            });
-        }
-        // Whether the main pass can run each body's kinematics at its parent's leaf (the
-        // roots' at the ground's) before anything reads it (see `DcaData::leaf_kinematics`).
-        let mut done = vec![false; n];
-        let leaf_kinematics = tree.nodes.iter().all(|nd| match nd.kind {
-            NodeKind::Ground => nd.handles.iter().all(|&h| {
-                done[h] = true;
-                model.bodies[h].parent.is_none()
-            }),
-            NodeKind::Body(b) => {
-                let ok = done[b];
-                for &h in nd.handles.iter().filter(|&&h| h != b) {
-                    done[h] = true;
-                }
-                ok
-            }
-            NodeKind::Join { joint, .. } => done[joint],
-            // A gather's children come before its hub (whose pose they need).
-            NodeKind::Gather { .. } | NodeKind::Cluster { .. } => false,
-        }) && done.iter().all(|&x| x);
+            })
+        };
+        let (node, blk, joins) = node_records(model, tree, &layout, slot_of, &si, &ys, mb, nsi);
+        let leaf_kinematics = leaf_kinematics_first(model, tree);
         // A cluster body's ABA sums (see `DcaData::cfirst`): the main pass visits a cluster's
         // bodies in reverse index order, so the first of a parent's absorbed children is its
         // last in index order.
-        let clustered = !tree.clustered.is_empty();
-        let per_body = if clustered { n } else { 0 };
-        let mut cfirst = vec![false; per_body];
-        let mut csums = vec![false; per_body];
-        for &i in tree.clustered.iter().rev() {
-            if let Some(p) = model.bodies[i].parent {
-                cfirst[i] = !csums[p];
-                csums[p] = true;
-            }
-        }
+        let per_body = if tree.clustered.is_empty() { 0 } else { n };
+        let (cfirst, csums) = cluster_firsts(model, tree);
         let mut leaf_full = Vec::new();
         // Light bodies between heavy neighbours: a heavier leaf (`mass_ratio.rs`).
         let scales = crate::mass_ratio::leaf_scales(model);
@@ -1117,39 +1055,189 @@ impl DcaData {
                 .flat_map(|node| node.handles.iter().map(|&h| u(h)))
                 .collect(),
             from,
-            gathered: tree.gathered.iter().map(|&c| u(c)).collect(),
-            gk: vec![Mat6::ZERO; tree.gathered.len()],
-            clustered: tree.clustered.iter().map(|&c| u(c)).collect(),
-            cfirst,
-            csums,
-            cia: vec![PackedSymMat6::ZERO; per_body],
-            cpa: vec![SpatialForce::ZERO; per_body],
-            ca: vec![SpatialMotion::ZERO; per_body],
-            phi: vec![Mat6::ZERO; blk],
-            dg: vec![SymT::ZERO; slots],
-            b: vec![SpatialMotion::ZERO; slots],
-            leafk: vec![LeafK::default(); n],
-            f: vec![SpatialForce::ZERO; slots],
-            l: vec![[[0.0; 6]; 6]; nn],
-            beta: vec![SpatialMotion::ZERO; nn],
-            z: vec![[0.0; 6]; nv],
-            dinv: vec![SmallSpd::default(); n],
-            point: vec![DVec3::ZERO; n],
-            arm: vec![DVec3::ZERO; n],
-            trig: if banked {
-                vec![(0.0, 1.0); n]
-            } else {
-                Vec::new()
-            },
             clamped: 0,
             free_identity: crate::mass_ratio::large_mass_ratio(model),
-            rev: vec![RevJoin::default(); joins],
-            y: vec![[[0.0; 6]; 6]; nys * max_h],
-            u: vec![[[0.0; 6]; 6]; nys * max_h],
-            leaf,
-            leaf_full,
+            gather: GatherBuffers {
+                gathered: tree.gathered.iter().map(|&c| u(c)).collect(),
+                gk: vec![Mat6::ZERO; tree.gathered.len()],
+            },
+            cluster: ClusterBuffers {
+                clustered: tree.clustered.iter().map(|&c| u(c)).collect(),
+                cfirst,
+                csums,
+                cia: vec![PackedSymMat6::ZERO; per_body],
+                cpa: vec![SpatialForce::ZERO; per_body],
+                ca: vec![SpatialMotion::ZERO; per_body],
+            },
+            slots: SlotBuffers::new(slots),
+            joins: JoinBuffers::new(blk, nn, joins, nys * max_h),
+            bodies: BodyBuffers {
+                leafk: vec![LeafK::default(); n],
+                leaf,
+                leaf_full,
+                point: vec![DVec3::ZERO; n],
+                arm: vec![DVec3::ZERO; n],
+                trig: if banked {
+                    vec![(0.0, 1.0); n]
+                } else {
+                    Vec::new()
+                },
+                z: vec![[0.0; 6]; nv],
+                dinv: vec![SmallSpd::default(); n],
+            },
         })
     }
+}
+
+/// One record per node of `tree` (see [`DNode`]): its kind, handle offset and count, its
+/// cross blocks' offset, slot (`slot_of`), join index, ja/jb and scratch bank (`ys`); with
+/// the cross-block count and the number of joins. Φ: the nh (nh − 1) / 2 cross blocks above
+/// the diagonal of each node (the diagonal ones in the slots). A join's stay for the
+/// back-substitution, in post-order after the leaves' slots (a leaf's are read by its parent
+/// join only: the back-substitution multiplies by a leaf's Φ in closed form, `LeafK`).
+#[allow(clippy::too_many_arguments)]
+fn node_records(
+    model: &Model,
+    tree: &articula_model::AssemblyTree,
+    layout: &articula_model::HandleLayout,
+    slot_of: impl Fn(usize) -> u32,
+    si: &[usize],
+    ys: &[usize],
+    mb: usize,
+    nsi: usize,
+) -> (Vec<DNode>, usize, usize) {
+    let u = |x: usize| u32::try_from(x).expect("checked against u32::MAX");
+    let nn = tree.nodes.len();
+    let mut blk = nsi * mb;
+    let mut joins = 0;
+    let mut node = Vec::with_capacity(nn);
+    for (i, nd) in tree.nodes.iter().enumerate() {
+        let nh = nd.handles.len();
+        let slot = slot_of(i);
+        let u16_of = |x: usize| u16::try_from(x).expect("more than 65535 handles on a node");
+        let (kind, boff, jix, one_dof) = match nd.kind {
+            NodeKind::Join {
+                joint,
+                parent_side,
+                child_side,
+            } => {
+                let at = (blk, joins);
+                blk += nh * nh.saturating_sub(1) / 2;
+                joins += 1;
+                let one_dof = one_dof_join(model, joint);
+                let kind = DKind::Join {
+                    joint: u(joint),
+                    a: u(parent_side),
+                    b: u(child_side),
+                };
+                (kind, at.0, at.1, one_dof)
+            }
+            NodeKind::Body(b) => (DKind::Body(u(b)), si[i] * mb, 0, false),
+            NodeKind::Ground => (DKind::Ground, si[i] * mb, 0, false),
+            // One handle: no cross blocks.
+            NodeKind::Gather { body, first, count } => {
+                let kind = DKind::Gather {
+                    body: body.map_or(u32::MAX, u),
+                    first: u(first),
+                    count: u(count),
+                };
+                (kind, 0, 0, false)
+            }
+            NodeKind::Cluster { body, first, count } => {
+                let kind = DKind::Cluster {
+                    body: body.map_or(u32::MAX, u),
+                    first: u(first),
+                    count: u(count),
+                };
+                (kind, si[i] * mb, 0, false)
+            }
+        };
+        node.push(DNode {
+            kind,
+            hoff: u(layout.hoff[i]),
+            nh: u(nh),
+            boff: u(boff),
+            slot,
+            jix: u(jix),
+            ja: u16_of(layout.ja[i]),
+            jb: u16_of(layout.jb[i]),
+            one_dof,
+            ys: u16_of(ys[i]),
+        });
+    }
+    (node, blk, joins)
+}
+
+/// `Err` unless every size in `sizes` fits DCA's 32-bit indices.
+fn fits_u32(sizes: &[usize]) -> Result<(), DynamicsError> {
+    let largest = sizes.iter().copied().max().unwrap_or(0);
+    if largest >= u32::MAX as usize {
+        return Err(DynamicsError::TooLarge {
+            what: "DCA's workspace (assembly-tree nodes, handles, slots or blocks)",
+            size: largest,
+            limit: u32::MAX as usize - 1,
+        });
+    }
+    Ok(())
+}
+
+/// Whether joint `joint` takes the one-axis join: a single hinge without armature or
+/// damping (a joint with either takes the general join).
+fn one_dof_join(model: &Model, joint: usize) -> bool {
+    matches!(
+        model.bodies[joint].joint.as_slice(),
+        [p] if p.kind.is_hinge()
+    ) && armature_of(model)
+        .get(model.bodies[joint].v_offset)
+        .is_none_or(|_| {
+            let d = &model.dynamics;
+            let vo = model.bodies[joint].v_offset;
+            d.armature.get(vo).is_none_or(|&a| a == 0.0)
+                && d.damping.get(vo).is_none_or(|&b| b == 0.0)
+        })
+}
+
+/// Whether the main pass can run each body's kinematics at its parent's leaf (the roots' at
+/// the ground's) before anything reads it (see `DcaData::leaf_kinematics`).
+fn leaf_kinematics_first(model: &Model, tree: &articula_model::AssemblyTree) -> bool {
+    let n = model.bodies.len();
+    let mut done = vec![false; n];
+    tree.nodes.iter().all(|nd| match nd.kind {
+        NodeKind::Ground => nd.handles.iter().all(|&h| {
+            done[h] = true;
+            model.bodies[h].parent.is_none()
+        }),
+        NodeKind::Body(b) => {
+            let ok = done[b];
+            for &h in nd.handles.iter().filter(|&&h| h != b) {
+                done[h] = true;
+            }
+            ok
+        }
+        NodeKind::Join { joint, .. } => done[joint],
+        // A gather's children come before its hub (whose pose they need).
+        NodeKind::Gather { .. } | NodeKind::Cluster { .. } => false,
+    }) && done.iter().all(|&x| x)
+}
+
+/// A cluster body's ABA sums (see `DcaData::cfirst`): the main pass visits a cluster's
+/// bodies in reverse index order, so the first of a parent's absorbed children is its last
+/// in index order. Empty without clusters.
+fn cluster_firsts(model: &Model, tree: &articula_model::AssemblyTree) -> (Vec<bool>, Vec<bool>) {
+    let per_body = if tree.clustered.is_empty() {
+        0
+    } else {
+        model.bodies.len()
+    };
+    let mut cfirst = vec![false; per_body];
+    let mut csums = vec![false; per_body];
+    for &i in tree.clustered.iter().rev() {
+        if let Some(p) = model.bodies[i].parent {
+            cfirst[i] = !csums[p];
+            csums[p] = true;
+        }
+    }
+    (cfirst, csums)
 }
 
 impl RkData {

@@ -8,10 +8,11 @@
 
 use crate::data::ub;
 use crate::data::{DKind, LeafK, RevJoin, Side};
-use crate::small::{solve_l, solve_lt, SymT, TILE};
+use crate::small::{SymT, TILE};
 use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::internals::{dot6_even_odd as dot6, Arith};
+use articula_spatial::internals::{solve_lower_inv_diag, solve_lower_t_inv_diag};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::DVec3;
 
@@ -21,8 +22,9 @@ use glam::DVec3;
 #[inline(always)]
 pub(crate) fn init_body(i: usize, data: &mut Data) {
     let p = data.x[i].apply_point(DVec3::ZERO);
-    data.dca.point[i] = p;
-    data.dca.arm[i] = crate::kinematics::arm(data.fk_plan[i], &data.x, data.topo[i].parent, p);
+    data.dca.bodies.point[i] = p;
+    data.dca.bodies.arm[i] =
+        crate::kinematics::arm(data.fk_plan[i], &data.x, data.topo[i].parent, p);
 }
 
 /// `P_h − P_i` for a handle `h` of leaf body `i`: 0 for its own joint, else the arm of the
@@ -32,7 +34,7 @@ fn handle_offset(d: &crate::data::DcaData, i: usize, h: usize) -> [f64; 3] {
     if h == i {
         [0.0; 3]
     } else {
-        d.arm[h].to_array()
+        d.bodies.arm[h].to_array()
     }
 }
 
@@ -186,9 +188,9 @@ fn phi_jh_mul<A: Arith>(
     }
     let f = f.to_array();
     SpatialMotion::from_array(if j < h {
-        mat_vec::<A>(&d.phi[bo + ub(nh, j, h)].0, &f)
+        mat_vec::<A>(&d.joins.phi[bo + ub(nh, j, h)].0, &f)
     } else {
-        mat_tr_vec::<A>(&d.phi[bo + ub(nh, h, j)].0, &f)
+        mat_tr_vec::<A>(&d.joins.phi[bo + ub(nh, h, j)].0, &f)
     })
 }
 
@@ -203,7 +205,7 @@ fn leaf_mul<A: Arith>(
     h: usize,
     f: SpatialForce,
 ) -> SpatialMotion {
-    let lk = &d.leafk[i];
+    let lk = &d.bodies.leafk[i];
     let ho = d.node[n].hoff as usize;
     let c = lk.c;
     let (ph, pj) = (
@@ -258,11 +260,11 @@ fn main_pass<A: Arith>(
                     }
                 }
                 for k in 0..nh * nh.saturating_sub(1) / 2 {
-                    data.dca.phi[bo + k] = Mat6::ZERO;
+                    data.dca.joins.phi[bo + k] = Mat6::ZERO;
                 }
                 for h in 0..nh {
-                    data.dca.dg[top + h] = SymT::ZERO;
-                    data.dca.b[top + h] = SpatialMotion::ZERO;
+                    data.dca.slots.dg[top + h] = SymT::ZERO;
+                    data.dca.slots.b[top + h] = SpatialMotion::ZERO;
                 }
             }
             DKind::Body(i) => {
@@ -362,7 +364,7 @@ fn leaf<A: Arith>(
     bias: bool,
     data: &mut Data,
 ) -> Result<(), DynamicsError> {
-    let lc = &data.dca.leaf[i];
+    let lc = &data.dca.bodies.leaf[i];
     let im = lc.im;
     // NaN marks an inertia that is not positive definite.
     if im.is_nan() {
@@ -381,7 +383,7 @@ fn leaf<A: Arith>(
         let d = lc.ic;
         rotate_diagonal_pair::<A>(&e, d, [1.0 / d[0], 1.0 / d[1], 1.0 / d[2]])
     } else {
-        let [u, u_inv] = &data.dca.leaf_full[lc.full as usize];
+        let [u, u_inv] = &data.dca.bodies.leaf_full[lc.full as usize];
         (
             rotate_sym::<A>(&e, &sym3(u)),
             rotate_sym::<A>(&e, &sym3(u_inv)),
@@ -429,7 +431,7 @@ fn leaf<A: Arith>(
         DVec3::new(xz, yz, zz),
     );
     let d = &mut data.dca;
-    d.leafk[i] = LeafK {
+    d.bodies.leafk[i] = LeafK {
         j: [jc[0][0], jc[0][1], jc[0][2], jc[1][1], jc[1][2], jc[2][2]],
         c: c_rel,
         im,
@@ -484,9 +486,12 @@ fn leaf_handles<A: Arith, const N: usize>(
     }
     let (c, jc, im) = (lh.c, lh.jc, lh.im);
     // The leaf's slots and handles, bounds checked once.
-    let (hj, arms) = (&d.hj[ho..ho + nh], &d.arm);
-    let (bs, dgs) = (&mut d.b[top..top + nh], &mut d.dg[top..top + nh]);
-    let phi = &mut d.phi;
+    let (hj, arms) = (&d.hj[ho..ho + nh], &d.bodies.arm);
+    let (bs, dgs) = (
+        &mut d.slots.b[top..top + nh],
+        &mut d.slots.dg[top..top + nh],
+    );
+    let phi = &mut d.joins.phi;
     // Handle h's a_h and A_h's columns a_h × (column r of J).
     let arm = |h: usize| {
         let hh = hj[h] as usize;
@@ -668,14 +673,13 @@ fn join<A: Arith>(
         bc,
     };
     // K = Φ^A_jj + Φ^B_jj, tiled.
-    let ks = SymT::sum(&d.dg[hoa + ja], &d.dg[hob + jb]);
+    let ks = SymT::sum(&d.slots.dg[hoa + ja], &d.slots.dg[hob + jb]);
     let kf = |r: usize, c: usize| ks.at(r, c);
     // S and c at the joint's point P_j.
-    let pj = d.point[joint];
+    let pj = d.bodies.point[joint];
     let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj));
-    let body = &model.bodies[joint]; // for error messages only
-                                     // β = b_j^A − b_j^B + c
-    let beta = d.b[hoa + ja] - d.b[hob + jb] + shift(data.c[joint]);
+    // β = b_j^A − b_j^B + c
+    let beta = d.slots.b[hoa + ja] - d.slots.b[hob + jb] + shift(data.c[joint]);
     let rows;
     let gamma;
     if nc.one_dof {
@@ -711,13 +715,13 @@ fn join<A: Arith>(
         // Its L D Lᵀ factors (L packed by rows, 1/d on the diagonal).
         let Some((l, clamped)) = crate::small::ldl5::<A>(tkt) else {
             return Err(DynamicsError::Singular {
-                joint: body.joint_name(),
+                joint: model.bodies[joint].joint_name(),
                 detail: "Φ_jj^A + Φ_jj^B is not a number on the constraint forces",
             });
         };
         // A pivot lost to rounding: this solve is refined (`refine::refine_dca`).
         d.clamped += u32::from(clamped);
-        let rj = &mut d.rev[nc.jix as usize];
+        let rj = &mut d.joins.rev[nc.jix as usize];
         rj.p = p;
         rj.q = q;
         rj.l = l;
@@ -733,7 +737,7 @@ fn join<A: Arith>(
         gamma = std::array::from_fn(|i| A::neg_mul_add(rj.g[i], t, wb[i]));
         rj.gamma = gamma;
         rj.qdd = A::mul_add(qt, t, dot6::<A>(&rj.g, &ba));
-        let rj = &d.rev[nc.jix as usize];
+        let rj = &d.joins.rev[nc.jix as usize];
         let pq = (rj.p, rj.q);
         // Two handles (a chain's joins) unrolled.
         if nhc == 2 {
@@ -751,7 +755,7 @@ fn join<A: Arith>(
                 sum[c][r] = x;
             }
         }
-        d.beta[n] = beta;
+        d.joins.beta[n] = beta;
         // Armature A (docs/loading.md#armature-and-damping): D = SᵀVS + A.
         let arm = data
             .armature
@@ -763,7 +767,7 @@ fn join<A: Arith>(
             crate::mass_ratio::IDENTITY
         } else {
             crate::small::cholesky6_inv_diag(&sum).ok_or_else(|| DynamicsError::Singular {
-                joint: body.joint_name(),
+                joint: model.bodies[joint].joint_name(),
                 detail: "Φ_jj^A + Φ_jj^B is not positive definite",
             })?
         };
@@ -773,10 +777,10 @@ fn join<A: Arith>(
             a: [[0.0; 6]; 6],
         };
         for p in 0..k {
-            let z = solve_l(&l, &shift(data.s[vo + p]).to_array());
-            d.z[vo + p] = z;
+            let z = solve_lower_inv_diag(&l, &shift(data.s[vo + p]).to_array());
+            d.bodies.z[vo + p] = z;
             for q in 0..=p {
-                let x = dot6::<A>(&d.z[vo + q], &z);
+                let x = dot6::<A>(&d.bodies.z[vo + q], &z);
                 dm.a[p][q] = x;
                 dm.a[q][p] = x;
             }
@@ -788,18 +792,18 @@ fn join<A: Arith>(
         }
         if !dm.invert() {
             return Err(DynamicsError::Singular {
-                joint: body.joint_name(),
+                joint: model.bodies[joint].joint_name(),
                 detail: crate::error::JOINT_BLOCK_SINGULAR,
             });
         }
-        d.dinv[joint] = dm;
-        d.l[n] = l;
+        d.bodies.dinv[joint] = dm;
+        d.joins.l[n] = l;
         // Z D⁻¹ (columns), for the projector Q = 1 − (Z D⁻¹) Zᵀ.
         let mut zd = [[0.0; 6]; 6];
         for p in 0..k {
             for q in 0..k {
                 let x = dm.a[p][q];
-                let zq = &d.z[vo + q];
+                let zq = &d.bodies.z[vo + q];
                 for i in 0..6 {
                     zd[p][i] += x * zq[i];
                 }
@@ -807,32 +811,33 @@ fn join<A: Arith>(
         }
         if identity {
             // The back-substitution's q̈ with L = 1 (`mass_ratio.rs`).
-            d.beta[n] = crate::mass_ratio::free_beta(&sum, &zd, &tau[vo..vo + 6], beta);
+            d.joins.beta[n] = crate::mass_ratio::free_beta(&sum, &zd, &tau[vo..vo + 6], beta);
         }
         // γ = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − Q)),  w = L⁻¹ β
-        let mut w = solve_l(&l, &beta.to_array());
+        let mut w = solve_lower_inv_diag(&l, &beta.to_array());
         if arm.is_none() {
             // Zᵀ Z D⁻¹ = 1: each update leaves the other columns' Zᵀw as they were.
             for p in 0..k {
-                let t = dot6::<A>(&d.z[vo + p], &w) - tau[vo + p];
+                let t = dot6::<A>(&d.bodies.z[vo + p], &w) - tau[vo + p];
                 for i in 0..6 {
                     w[i] -= zd[p][i] * t;
                 }
             }
         } else {
-            armature_w_update::<A>(&mut w, &d.z[vo..vo + k], &zd, &tau[vo..vo + k]);
+            armature_w_update::<A>(&mut w, &d.bodies.z[vo..vo + k], &zd, &tau[vo..vo + k]);
         }
-        gamma = solve_lt(&l, &w);
+        gamma = solve_lower_t_inv_diag(&l, &w);
         // Ỹ_h = Q L⁻¹ Φ_jh: forward substitution on whole rows of Φ_jh (vectorises), then the
         // projection Ỹ −= (Z D⁻¹)(Zᵀ Ỹ) (k rank-1 row updates).
         // With armature Q = 1 − Z D⁻¹ Zᵀ is no projector: Ỹ_h = R L⁻¹ Φ_jh, RᵀR = Q.
-        let root = arm.map(|_| armature_projector_root(&d.z[vo..vo + k], &zd));
+        let zs = &d.bodies.z[vo..vo + k];
+        let root = arm.map(|_| armature_projector_root(zs, &zd));
         for h in 0..nhc {
             let (bo, nh, j, i) = at.from(d, h);
-            let g = cross_rows(&d.phi, bo, nh, j, i);
+            let g = cross_rows(&d.joins.phi, bo, nh, j, i);
             match &root {
-                None => y_tilde(&mut d.y[at.ys + h], &g, &l, &d.z[vo..vo + k], &zd),
-                Some(root) => y_tilde_rooted(&mut d.y[at.ys + h], &g, &l, &zd, root),
+                None => y_tilde(&mut d.joins.y[at.ys + h], &g, &l, zs, &zd),
+                Some(root) => y_tilde_rooted(&mut d.joins.y[at.ys + h], &g, &l, &zd, root),
             }
         }
         rows = 6;
@@ -890,28 +895,28 @@ fn c_blocks<A: Arith, const R: usize>(
     gamma: &[f64; 6],
 ) {
     let (hoa, hob, top) = (at.hoa, at.hob, at.top);
-    let (src, dst) = d.phi.split_at_mut(at.bc);
+    let (src, dst) = d.joins.phi.split_at_mut(at.bc);
     // C's slot lies below its children's (one level up the tree).
     let mid = hoa.min(hob);
-    let (ddst, dsrc) = d.dg.split_at_mut(mid);
+    let (ddst, dsrc) = d.slots.dg.split_at_mut(mid);
     for h in 0..nhc {
         let (sh, ih) = d.from[at.hc + h];
         let ih = ih as usize;
         // The Gram products' left factor: U_h (one axis) or Ỹ_h.
         let xh = if R == 5 {
-            &d.u[at.ys + h]
+            &d.joins.u[at.ys + h]
         } else {
-            &d.y[at.ys + h]
+            &d.joins.y[at.ys + h]
         };
         let old = match sh {
             Side::A => &dsrc[hoa - mid + ih],
             Side::B => &dsrc[hob - mid + ih],
         };
-        gram_sym_into::<A, R>(&mut ddst[top + h], xh, &d.y[at.ys + h], old);
+        gram_sym_into::<A, R>(&mut ddst[top + h], xh, &d.joins.y[at.ys + h], old);
         for kk in h + 1..nhc {
             let (sk, ik) = d.from[at.hc + kk];
             let ik = ik as usize;
-            let yk = &d.y[at.ys + kk];
+            let yk = &d.joins.y[at.ys + kk];
             let old = match (sh, sk) {
                 (Side::A, Side::A) => Some(&src[at.boa + ub(at.nha, ih, ik)].0),
                 (Side::B, Side::B) => Some(&src[at.bob + ub(at.nhb, ih, ik)].0),
@@ -928,9 +933,9 @@ fn c_blocks<A: Arith, const R: usize>(
         } else {
             mat_vec::<A>(&src[bo + ub(nh, i, j)].0, gamma)
         });
-        d.b[top + h] = match sh {
-            Side::A => d.b[hoa + ih] - phj_gamma,
-            Side::B => d.b[hob + ih] + phj_gamma,
+        d.slots.b[top + h] = match sh {
+            Side::A => d.slots.b[hoa + ih] - phj_gamma,
+            Side::B => d.slots.b[hob + ih] + phj_gamma,
         };
     }
 }
@@ -1281,13 +1286,13 @@ fn y_all<A: Arith>(
         let (bo, nh, j, i) = at.from(d, h);
         // Φ_jh by rows: the stored block's, or the stored Φ_hj's columns (a transpose).
         if j < i {
-            let g = &d.phi[bo + ub(nh, j, i)].0;
+            let g = &d.joins.phi[bo + ub(nh, j, i)].0;
             let s = at.ys + h;
-            y_reduced::<A>(&mut d.y[s], &mut d.u[s], g, pq, l);
+            y_reduced::<A>(&mut d.joins.y[s], &mut d.joins.u[s], g, pq, l);
         } else {
-            let g = d.phi[bo + ub(nh, i, j)].transpose().0;
+            let g = d.joins.phi[bo + ub(nh, i, j)].transpose().0;
             let s = at.ys + h;
-            y_reduced::<A>(&mut d.y[s], &mut d.u[s], &g, pq, l);
+            y_reduced::<A>(&mut d.joins.y[s], &mut d.joins.u[s], &g, pq, l);
         }
     }
 }
@@ -1464,18 +1469,18 @@ fn back_substitution<A: Arith>(tau: &[f64], data: &mut Data, nodes: std::ops::Ra
                 prefetch_ptr(d.hj.as_ptr().wrapping_add(nm.hoff as usize).cast());
                 prefetch_ptr(d.from.as_ptr().wrapping_add(nm.hoff as usize).cast());
                 if let DKind::Join { joint, a, b } = nm.kind {
-                    prefetch_span(&d.rev[nm.jix as usize]);
+                    prefetch_span(&d.joins.rev[nm.jix as usize]);
                     for c in [a, b] {
                         let nd = &d.node[c as usize];
                         match nd.kind {
-                            DKind::Join { .. } => prefetch_span(&d.phi[nd.boff as usize..]),
+                            DKind::Join { .. } => prefetch_span(&d.joins.phi[nd.boff as usize..]),
                             // A leaf's closed-form Φ (`leaf_mul`): its `LeafK` (80 bytes: two
                             // lines at most) and its own point.
                             DKind::Body(i) => {
-                                let lk = (&d.leafk[i as usize] as *const LeafK).cast::<u8>();
+                                let lk = (&d.bodies.leafk[i as usize] as *const LeafK).cast::<u8>();
                                 prefetch_ptr(lk);
                                 prefetch_ptr(lk.wrapping_add(std::mem::size_of::<LeafK>() - 1));
-                                prefetch_ptr((&d.point[i as usize] as *const DVec3).cast());
+                                prefetch_ptr((&d.bodies.point[i as usize] as *const DVec3).cast());
                             }
                             DKind::Ground | DKind::Gather { .. } | DKind::Cluster { .. } => {}
                         }
@@ -1520,10 +1525,10 @@ fn back_node<A: Arith, const N: usize>(
     let mut y = if nc.one_dof {
         SpatialMotion::ZERO
     } else {
-        d.beta[n]
+        d.joins.beta[n]
     };
     for h in 0..nhc {
-        let f = d.f[sc + h];
+        let f = d.slots.f[sc + h];
         match d.from[hc + h] {
             (Side::A, i) => y += phi_jh_mul::<A>(d, a, nha, ja, i as usize, f),
             (Side::B, i) => y -= phi_jh_mul::<A>(d, b, nhb, jb, i as usize, f),
@@ -1533,37 +1538,37 @@ fn back_node<A: Arith, const N: usize>(
     let f = if nc.one_dof {
         // f = W (β + y) + f_τ τ = γ + W y (so K f = β + y + s q̈);
         // q̈ = gᵀ (β + y) + q̈_τ τ (`joint_terms`).
-        let rj = &d.rev[nc.jix as usize];
+        let rj = &d.joins.rev[nc.jix as usize];
         let ya = y.to_array();
         let fy = w_apply::<A, f64>(rj, &ya);
         data.qdd[vo] = rj.qdd + dot6::<A>(&rj.g, &ya);
         SpatialForce::from_array(std::array::from_fn(|i| rj.gamma[i] + fy[i]))
     } else {
-        let l = &d.l[n];
-        let mut w = solve_l(l, &y.to_array());
+        let l = &d.joins.l[n];
+        let mut w = solve_lower_inv_diag(l, &y.to_array());
         let mut r = [0.0; 6];
         for p in 0..k {
-            r[p] = tau[vo + p] - dot6::<A>(&d.z[vo + p], &w);
+            r[p] = tau[vo + p] - dot6::<A>(&d.bodies.z[vo + p], &w);
         }
-        d.dinv[joint].mul(&r[..k], &mut data.qdd[vo..vo + k]);
+        d.bodies.dinv[joint].mul(&r[..k], &mut data.qdd[vo..vo + k]);
         for p in 0..k {
-            let (z, qdd) = (d.z[vo + p], data.qdd[vo + p]);
+            let (z, qdd) = (d.bodies.z[vo + p], data.qdd[vo + p]);
             for i in 0..6 {
                 w[i] += z[i] * qdd;
             }
         }
-        SpatialForce::from_array(solve_lt(l, &w))
+        SpatialForce::from_array(solve_lower_t_inv_diag(l, &w))
     };
     let (hoa, hob) = (d.node[a].slot as usize, d.node[b].slot as usize);
     for h in 0..nhc {
-        let fh = d.f[sc + h];
+        let fh = d.slots.f[sc + h];
         match d.from[hc + h] {
-            (Side::A, i) => d.f[hoa + i as usize] = fh,
-            (Side::B, i) => d.f[hob + i as usize] = fh,
+            (Side::A, i) => d.slots.f[hoa + i as usize] = fh,
+            (Side::B, i) => d.slots.f[hob + i as usize] = fh,
         }
     }
-    d.f[hoa + ja] = -f;
-    d.f[hob + jb] = f;
+    d.slots.f[hoa + ja] = -f;
+    d.slots.f[hob + jb] = f;
 }
 
 #[cfg(test)]

@@ -19,13 +19,14 @@
 //! The ground as a hub does not move (`a = 0`). The back-substitution takes `a = Φ f + b` and
 //! gives each child's `q̈` and `f_c` by the first line.
 
-use crate::small::{cholesky6_inv_diag, solve_l, solve_lt, SmallSpd, SymT, TILE};
+use crate::small::{cholesky6_inv_diag, SmallSpd, SymT, TILE};
 use crate::{Data, DynamicsError};
 use articula_model::Model;
+use articula_spatial::internals::{solve_lower_inv_diag, solve_lower_t_inv_diag};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::{DMat3, DVec3};
 
-type M6 = [[f64; 6]; 6];
+use articula_spatial::internals::M6;
 
 /// What a gather node is made of: the hub's body (`None`: the ground) and where its children
 /// are in `DcaData::gathered`.
@@ -60,26 +61,26 @@ pub(crate) fn main(
     g: Gather,
 ) -> Result<(), DynamicsError> {
     let a_g = SpatialMotion::new(DVec3::ZERO, data.gravity);
-    let p_hub = g.hub.map_or(DVec3::ZERO, |h| data.dca.point[h]);
+    let p_hub = g.hub.map_or(DVec3::ZERO, |h| data.dca.bodies.point[h]);
     let (mut ia, mut pa) = match g.hub {
         Some(h) => hub_inertia(model, h, f_ext, a_g, bias, data)?,
         None => ([[0.0; 6]; 6], [0.0; 6]),
     };
     for k in g.first..g.first + g.count {
         let d = &mut data.dca;
-        let nd = d.node[d.gathered[k] as usize];
+        let nd = d.node[d.gather.gathered[k] as usize];
         let joint = d.hj[nd.hoff as usize] as usize;
         let slot = nd.slot as usize;
         let singular = |detail| DynamicsError::Singular {
             joint: model.bodies[joint].joint_name(),
             detail,
         };
-        let l = cholesky6_inv_diag(&dense(&d.dg[slot])).ok_or_else(|| {
+        let l = cholesky6_inv_diag(&dense(&d.slots.dg[slot])).ok_or_else(|| {
             singular("Φ_jj of the subassembly on a gathered hub is not positive definite")
         })?;
         let km = inverse(&l);
-        d.gk[k] = Mat6(km);
-        let pj = d.point[joint];
+        d.gather.gk[k] = Mat6(km);
+        let pj = d.bodies.point[joint];
         let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj));
         let (vo, nv) = (data.topo[joint].vo, data.topo[joint].nv);
         // S's columns at P_c, K S, and D = Sᵀ K S.
@@ -107,9 +108,9 @@ pub(crate) fn main(
                 "Sᵀ K S is not positive definite at a gathered hub",
             ));
         }
-        d.dinv[joint] = dm;
+        d.bodies.dinv[joint] = dm;
         // f_c at a = 0: K u₀ + K S D⁻¹ (τ − (K S)ᵀ u₀), u₀ = c_j − b_c.
-        let u0 = (shift(data.c[joint]) - d.b[slot]).to_array();
+        let u0 = (shift(data.c[joint]) - d.slots.b[slot]).to_array();
         let mut r = [0.0; 6];
         for p in 0..nv {
             r[p] = tau[vo + p] - dot(&ks[p], &u0);
@@ -158,10 +159,10 @@ pub(crate) fn main(
     let b = mul(&phi, &pa).map(|x| -x);
     let d = &mut data.dca;
     let slot = d.node[n].slot as usize;
-    d.l[n] = l;
-    d.beta[n] = SpatialMotion::from_array(b);
-    d.dg[slot] = sym_tiles(&phi);
-    d.b[slot] = SpatialMotion::from_array(b);
+    d.joins.l[n] = l;
+    d.joins.beta[n] = SpatialMotion::from_array(b);
+    d.slots.dg[slot] = sym_tiles(&phi);
+    d.slots.b[slot] = SpatialMotion::from_array(b);
     Ok(())
 }
 
@@ -172,25 +173,25 @@ pub(crate) fn back(tau: &[f64], data: &mut Data, n: usize, g: Gather) {
     let d = &mut data.dca;
     let (a, p_hub) = match g.hub {
         Some(h) => {
-            let f = d.f[d.node[n].slot as usize].to_array();
-            let l = &d.l[n];
-            let a = solve_lt(l, &solve_l(l, &f));
-            let b = d.beta[n].to_array();
-            (std::array::from_fn(|i| a[i] + b[i]), d.point[h])
+            let f = d.slots.f[d.node[n].slot as usize].to_array();
+            let l = &d.joins.l[n];
+            let a = solve_lower_t_inv_diag(l, &solve_lower_inv_diag(l, &f));
+            let b = d.joins.beta[n].to_array();
+            (std::array::from_fn(|i| a[i] + b[i]), d.bodies.point[h])
         }
         None => ([0.0; 6], DVec3::ZERO),
     };
     let (aw, av) = (DVec3::new(a[0], a[1], a[2]), DVec3::new(a[3], a[4], a[5]));
     for k in g.first..g.first + g.count {
-        let nd = d.node[d.gathered[k] as usize];
+        let nd = d.node[d.gather.gathered[k] as usize];
         let joint = d.hj[nd.hoff as usize] as usize;
         let slot = nd.slot as usize;
-        let pj = d.point[joint];
+        let pj = d.bodies.point[joint];
         let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj));
         // u = X_c a + c_j − b_c
         let at = SpatialMotion::new(aw, av + aw.cross(pj - p_hub));
-        let u = (at + shift(data.c[joint]) - d.b[slot]).to_array();
-        let km = &d.gk[k].0;
+        let u = (at + shift(data.c[joint]) - d.slots.b[slot]).to_array();
+        let km = &d.gather.gk[k].0;
         let (vo, nv) = (data.topo[joint].vo, data.topo[joint].nv);
         let mut r = [0.0; 6];
         let mut ks = [[0.0; 6]; 6];
@@ -198,7 +199,7 @@ pub(crate) fn back(tau: &[f64], data: &mut Data, n: usize, g: Gather) {
             ks[p] = mul(km, &shift(data.s[vo + p]).to_array());
             r[p] = tau[vo + p] - dot(&ks[p], &u);
         }
-        d.dinv[joint].mul(&r[..nv], &mut data.qdd[vo..vo + nv]);
+        d.bodies.dinv[joint].mul(&r[..nv], &mut data.qdd[vo..vo + nv]);
         let mut f = mul(km, &u);
         for p in 0..nv {
             let qdd = data.qdd[vo + p];
@@ -206,7 +207,7 @@ pub(crate) fn back(tau: &[f64], data: &mut Data, n: usize, g: Gather) {
                 f[i] += ks[p][i] * qdd;
             }
         }
-        d.f[slot] = SpatialForce::from_array(f);
+        d.slots.f[slot] = SpatialForce::from_array(f);
     }
 }
 
@@ -221,7 +222,7 @@ fn hub_inertia(
     bias: bool,
     data: &mut Data,
 ) -> Result<(M6, [f64; 6]), DynamicsError> {
-    let lc = data.dca.leaf[h];
+    let lc = data.dca.bodies.leaf[h];
     if lc.im.is_nan() {
         return Err(DynamicsError::Singular {
             joint: model.bodies[h].joint_name(),
@@ -232,7 +233,7 @@ fn hub_inertia(
     let icb = if lc.full == u32::MAX {
         DMat3::from_diagonal(DVec3::from_array(lc.ic))
     } else {
-        let u = &data.dca.leaf_full[lc.full as usize][0];
+        let u = &data.dca.bodies.leaf_full[lc.full as usize][0];
         DMat3::from_cols_array(&[u[0], u[1], u[2], u[1], u[3], u[4], u[2], u[4], u[5]])
     };
     let ic = x.e * icb * x.e.transpose();
@@ -243,7 +244,7 @@ fn hub_inertia(
     wi.h = cv * m;
     wi.ibar = ic + (DMat3::from_diagonal(DVec3::splat(cv.dot(cv))) - outer(cv, cv)) * m;
     // About P: I = [I_c + m (c'·c' 1 − c' c'ᵀ), m c'×; −m c'×, m 1], c' = c − P.
-    let p = data.dca.point[h];
+    let p = data.dca.bodies.point[h];
     let cp = cv - p;
     let top = ic + (DMat3::from_diagonal(DVec3::splat(cp.dot(cp))) - outer(cp, cp)) * m;
     let cx = skew(cp) * m;
@@ -353,7 +354,7 @@ pub(crate) fn inverse(l: &M6) -> M6 {
     for c in 0..6 {
         let mut e = [0.0; 6];
         e[c] = 1.0;
-        let col = solve_lt(l, &solve_l(l, &e));
+        let col = solve_lower_t_inv_diag(l, &solve_lower_inv_diag(l, &e));
         for r in 0..6 {
             inv[r][c] = col[r];
         }

@@ -72,6 +72,7 @@ fn rnea<'d>(
     sized(&mut quant.tau, nv, 0.0);
     let input = RneaInput {
         x: &data.x,
+        fk_plan: &data.fk_plan,
         v: &data.v,
         c: &data.c,
         s: &data.s,

@@ -49,6 +49,8 @@ mod batch;
 mod cluster;
 mod com;
 mod contact;
+mod contact_dense;
+mod contact_newton;
 mod contact_solver;
 mod crba;
 mod data;
@@ -82,7 +84,7 @@ pub use contact::{
     Ground, MAX_ITERATIONS as CONTACT_MAX_ITERATIONS,
 };
 pub use data::Data;
-pub use error::{DynamicsError, MAX_DENSE_MATRIX_BYTES};
+pub use error::{human_bytes, DynamicsError, MAX_DENSE_MATRIX_BYTES};
 pub use forward::{forward_dynamics, forward_dynamics_slices, Method};
 pub use inputs::check_inputs;
 pub use integrate::{integrate_floating, integrate_q, step, Integrator};
@@ -91,7 +93,7 @@ pub use jacobian::ReferenceFrame;
 pub use kinematics::forward_kinematics;
 pub use mass_matrix::mass_matrix;
 pub use parallel_dca::{forward_dynamics_threads, PARALLEL_DCA_MIN_BODIES};
-pub use state::State;
+pub use state::{SplitMix64, State};
 pub use threads::{Threads, ThreadsError};
 
 /// Building blocks that the workspace's higher layers (articula-adaptive, articula-view,

@@ -164,7 +164,7 @@ fn kinematics(
     use rayon::prelude::*;
     use std::sync::atomic::{AtomicUsize, Ordering};
     let n = model.bodies.len();
-    let (plans, trig) = (&data.fk_plan, &mut data.dca.trig);
+    let (plans, trig) = (&data.fk_plan, &mut data.dca.bodies.trig);
     threads.install(|| {
         trig.par_chunks_mut(grain)
             .zip(plans.par_chunks(grain))
@@ -234,7 +234,7 @@ articula_spatial::fma_dispatch! {
     |A| {
         let x_cw = articula_spatial::SpatialTransform::xlt(data.origin);
         for i in bodies {
-            let trig = data.dca.trig[i];
+            let trig = data.dca.bodies.trig[i];
             crate::kinematics::kinematics_pose(model, i, q, qd, data, x_cw, trig);
         }
     }
@@ -250,7 +250,7 @@ fn kinematics(
     _threads: &Threads,
     _grain: usize,
 ) {
-    for (t, &p) in data.dca.trig.iter_mut().zip(&data.fk_plan) {
+    for (t, &p) in data.dca.bodies.trig.iter_mut().zip(&data.fk_plan) {
         *t = crate::kinematics::joint_trig(p, q);
     }
     pose_range(model, q, qd, data, 0..model.bodies.len());
@@ -540,8 +540,8 @@ mod tests {
                 assert_eq!(format!("{:?}", split.v), format!("{:?}", one.v), "{m}");
                 assert_eq!(format!("{:?}", split.c), format!("{:?}", one.c), "{m}");
                 assert_eq!(format!("{:?}", split.s), format!("{:?}", one.s), "{m}");
-                assert_eq!(split.dca.point, one.dca.point, "{m}");
-                assert_eq!(split.dca.arm, one.dca.arm, "{m}");
+                assert_eq!(split.dca.bodies.point, one.dca.bodies.point, "{m}");
+                assert_eq!(split.dca.bodies.arm, one.dca.bodies.arm, "{m}");
             }
             let scale = leaves.iter().fold(1.0f64, |m, x| m.max(x.abs()));
             let diff = leaves

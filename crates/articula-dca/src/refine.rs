@@ -81,15 +81,12 @@ const FLOOR: f64 = 1e-7;
 /// inertia: `q̈ += H'⁻¹ (τ − ID(q̈))` until [`CONVERGED`] or [`FLOOR`], at most [`MAX_STEPS`] steps;
 /// `Ok(false)` when it does not converge, never a silently wrong `q̈`.
 ///
-/// Non-convergence has two causes. (1) The dynamics is too close to singular for the
-/// regularisation. (2) The residual's own rounding: `rnea_residual` sums moments about the
-/// computation origin (each body's own force is formed about its origin), so on a body
-/// kilometres long (a 20,000-link chain of 0.1 m links) a
-/// joint torque is the small difference of moments ~10⁴ times larger, and `H⁻¹` amplifies that
-/// rounding to corrections of ~5e-7 of `q̈` that do not shrink (ρ ≈ 1) while the first solve
-/// was already exact to 5e-11: a join's pivot lost in the directions such a planar chain never
-/// loads (out of its plane, where its compliance is rounding) is what asked for refinement.
-/// The caller then answers with ABA, which needs neither.
+/// Non-convergence: the dynamics is too close to singular for the regularisation, or a join
+/// pivot was lost in directions a planar chain never loads (out of its plane, where its
+/// compliance is rounding: a 100,000-link chain hanging tilted), so that DCA's solve of the
+/// correction is wrong by more than the correction and the steps grow. (The residual itself
+/// is formed about each body's own origin, [`rnea_residual`], and carries no rounding of the
+/// chain's 10 km of lever arms.) The caller then answers with ABA, which needs neither.
 fn refine_regularised(
     model: &Model,
     tau: &[f64],
@@ -127,6 +124,7 @@ fn refine_regularised(
 fn residual(model: &Model, tau: &[f64], f_ext: &[SpatialForce], data: &mut Data) -> (f64, f64) {
     let input = RneaInput {
         x: &data.x,
+        fk_plan: &data.fk_plan,
         v: &data.v,
         c: &data.c,
         s: &data.s,

@@ -1,6 +1,8 @@
 //! The Newton–Euler residual `τ − ID(q, q̇, q̈)` of a candidate `q̈`, shared by DCA's and
 //! CRBA's refinement, ABA's floating-base refinement and inverse dynamics.
 
+use crate::aba::{force_back, motion_at};
+use crate::kinematics::FkPlan;
 use crate::Data;
 use articula_model::Model;
 use articula_spatial::{SpatialForce, SpatialMotion, SpatialTransform};
@@ -11,6 +13,8 @@ use glam::DVec3;
 pub(crate) struct RneaInput<'a> {
     /// Per body, `X_{C←body}` (its pose in the computation frame).
     pub x: &'a [SpatialTransform],
+    /// Per body, its kinematic fast path (for the arms and the local `S`).
+    pub fk_plan: &'a [FkPlan],
     pub v: &'a [SpatialMotion],
     pub c: &'a [SpatialMotion],
     pub s: &'a [SpatialMotion],
@@ -33,6 +37,7 @@ impl<'a> RneaInput<'a> {
     ) -> RneaInput<'a> {
         RneaInput {
             x: &data.x,
+            fk_plan: &data.fk_plan,
             v: &data.v,
             c: &data.c,
             s: &data.s,
@@ -45,19 +50,20 @@ impl<'a> RneaInput<'a> {
     }
 }
 
-/// `r = τ − ID(q, q̇, q̈)` by the recursive Newton–Euler algorithm in the computation frame,
-/// with `a` and `f` per-body scratch: aᵢ = a_parent + cᵢ + Sᵢ q̈ᵢ (a_0 = −a_g),
-/// fᵢ = Iᵢ aᵢ + vᵢ ×* Iᵢ vᵢ − f_ext,i accumulated from the leaves to the root, rⱼ = τⱼ − Sⱼᵀ fᵢ.
-/// It never forms the joint-space inertia H, so it is accurate to rounding in the joint forces
-/// (the residual of CRBA's, ABA's and DCA's refinements). Returns the largest `|τⱼ|` or
-/// `|Sⱼᵀ fᵢ|` met (the scale of the joint forces) and the largest `|rⱼ|`.
+/// `r = τ − ID(q, q̇, q̈)` by the recursive Newton–Euler algorithm, with `a` and `f` per-body
+/// scratch: aᵢ = a_parent + cᵢ + Sᵢ q̈ᵢ (a_0 = −a_g), fᵢ = Iᵢ aᵢ + vᵢ ×* Iᵢ vᵢ − f_ext,i
+/// accumulated from the leaves to the root, rⱼ = τⱼ − Sⱼᵀ fᵢ. It never forms the joint-space
+/// inertia H, so it is accurate to rounding in the joint forces (the residual of CRBA's, ABA's
+/// and DCA's refinements). Returns the largest `|τⱼ|` or `|Sⱼᵀ fᵢ|` met (the scale of the joint
+/// forces) and the largest `|rⱼ|`.
 ///
-/// Each body's `Iᵢ aᵢ + vᵢ ×* Iᵢ vᵢ` is formed about the body's own origin ([`body_force`]),
-/// not about the computation origin: there the rotational inertia is `m |p|²` large for a body
-/// at distance `|p|`, and the force of a light body spinning fast about a nearby axis is the
-/// difference of such terms (icub's 1.3 kg head, 0.4 mm from its neck axis and 0.5 m from the
-/// base, lost ~1e-9 of q̈ to it). About the body origin only the lever arms carry `|p|`, and
-/// their rounding is `|p|` times smaller.
+/// Every quantity is taken as ABA takes it (`aba.rs`): world axes about each body's own origin
+/// `pᵢ`, `a` moved forward and `f` moved back by the short arm `pᵢ − p_parent`
+/// ([`crate::kinematics::arm`]). About the computation origin instead, a body at distance `|p|`
+/// has a rotational inertia `m |p|²` and a joint torque is the difference of moments `|p|`
+/// times larger than itself: icub's 1.3 kg head (0.4 mm from its neck axis, 0.5 m from the
+/// base) lost ~1e-9 of q̈ to it, and on a tilted chain 2 km long (20,000 links hanging at
+/// rest) the residual's rounding stalled DCA's refinement at 5e-7 of q̈.
 pub(crate) fn rnea_residual(
     model: &Model,
     k: &RneaInput,
@@ -67,20 +73,28 @@ pub(crate) fn rnea_residual(
 ) -> (f64, f64) {
     let a0 = SpatialMotion::new(DVec3::ZERO, -k.gravity);
     for (i, body) in model.bodies.iter().enumerate() {
-        let mut ai = body.parent.map_or(a0, |p| a[p]) + k.c[i];
+        let x = &k.x[i];
+        let p = -(x.e * x.r);
+        let arm = crate::kinematics::arm(k.fk_plan[i], k.x, body.parent.unwrap_or(usize::MAX), p);
+        let mut ai = motion_at(body.parent.map_or(a0, |q| a[q]), arm) + motion_at(k.c[i], p);
         if let Some(qdd) = k.qdd {
             for j in body.v_offset..body.v_offset + body.nv {
-                ai += k.s[j] * qdd[j];
+                ai += local_s(k, i, j, p) * qdd[j];
             }
         }
         a[i] = ai;
-        f[i] = body_force(&k.x[i], &body.inertia, ai, k.v[i]) - crate::inputs::f_ext_of(k.f_ext, i);
+        let (rotated, _) = crate::kinematics::rotated_and_world_inertia(x, &body.inertia);
+        let v = motion_at(k.v[i], p);
+        f[i] = rotated.mul_motion(ai) + v.cross_force(rotated.mul_motion(v))
+            - force_back(crate::inputs::f_ext_of(k.f_ext, i), -p);
     }
     let (mut scale, mut rmax) = (0.0f64, 0.0f64);
     for (i, body) in model.bodies.iter().enumerate().rev() {
         let fi = f[i];
+        let x = &k.x[i];
+        let p = -(x.e * x.r);
         for j in body.v_offset..body.v_offset + body.nv {
-            let mut sf = k.s[j].dot(fi);
+            let mut sf = local_s(k, i, j, p).dot(fi);
             // The armature's force A q̈ (docs/loading.md#armature-and-damping).
             if let (Some(qdd), Some(a)) = (k.qdd, k.armature.get(j)) {
                 sf += a * qdd[j];
@@ -89,28 +103,20 @@ pub(crate) fn rnea_residual(
             scale = scale.max(sf.abs()).max(k.tau[j].abs());
             rmax = rmax.max(r[j].abs());
         }
-        if let Some(p) = body.parent {
-            f[p] += fi;
+        if let Some(q) = body.parent {
+            let arm = crate::kinematics::arm(k.fk_plan[i], k.x, q, p);
+            f[q] += force_back(fi, arm);
         }
     }
     (scale, rmax)
 }
 
-/// `I a + v ×* I v` about the computation origin for a body of inertia `inertia` (body frame,
-/// about its origin) at `x = X_{C←body}`, with `a` and `v` about the computation origin: formed
-/// about the body origin `p` (`I_P = rot(E) I`, `m_P = m_O + [0; w × p]`) and moved back
-/// (`n_O = n_P + p × f`).
+/// Column `j` of body `i`'s `S` about its origin `p`: `[ω; 0]` exactly for a revolute axis
+/// through it (as in `aba.rs`), else moved from the computation origin.
 #[inline]
-fn body_force(
-    x: &SpatialTransform,
-    inertia: &articula_spatial::SpatialInertia,
-    a: SpatialMotion,
-    v: SpatialMotion,
-) -> SpatialForce {
-    let (rotated, _) = crate::kinematics::rotated_and_world_inertia(x, inertia);
-    let p = -(x.e * x.r);
-    let at = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(p));
-    let (ap, vp) = (at(a), at(v));
-    let fp = rotated.mul_motion(ap) + vp.cross_force(rotated.mul_motion(vp));
-    SpatialForce::new(fp.n + p.cross(fp.f), fp.f)
+fn local_s(k: &RneaInput, i: usize, j: usize, p: DVec3) -> SpatialMotion {
+    match k.fk_plan[i] {
+        FkPlan::AxisRevolute { .. } => SpatialMotion::new(k.s[j].w, DVec3::ZERO),
+        FkPlan::General => motion_at(k.s[j], p),
+    }
 }

@@ -65,34 +65,6 @@ pub(crate) fn cholesky6_inv_diag(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
     ok.then_some(l)
 }
 
-/// `L⁻¹ b` (forward substitution; `l` from [`cholesky6_inv_diag`], inverse diagonal).
-#[inline]
-pub(crate) fn solve_l(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
-    let mut x = [0.0; 6];
-    for i in 0..6 {
-        let mut v = b[i];
-        for p in 0..i {
-            v -= l[i][p] * x[p];
-        }
-        x[i] = v * l[i][i];
-    }
-    x
-}
-
-/// `L⁻ᵀ b` (back substitution; inverse diagonal).
-#[inline]
-pub(crate) fn solve_lt(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
-    let mut x = [0.0; 6];
-    for i in (0..6).rev() {
-        let mut v = b[i];
-        for p in (i + 1)..6 {
-            v -= l[p][i] * x[p];
-        }
-        x[i] = v * l[i][i];
-    }
-    x
-}
-
 /// Column `J` of [`cholesky6_inv_diag`] (rows J..6), from the columns before it.
 #[inline(always)]
 fn col<const J: usize>(a: &[[f64; 6]; 6], l: &mut [[f64; 6]; 6], ok: &mut bool) {

@@ -67,7 +67,8 @@ impl State {
     }
 }
 
-/// A tiny deterministic generator (SplitMix64) for reproducible states without a dependency.
+/// A tiny deterministic generator (SplitMix64) for reproducible states without a dependency:
+/// the one [`State::random`] draws from, for callers that want the same stream.
 #[derive(Clone, Debug)]
 pub struct SplitMix64(pub u64);
 

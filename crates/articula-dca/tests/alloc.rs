@@ -349,7 +349,7 @@ fn a_star_allocates_linearly_in_its_children() {
 
 /// The contact step allocates nothing once its buffers have met the largest contact problem:
 /// the floating humanoid standing on the floor 0.9 m below its base, 600 steps to settle,
-/// then 50 more steps counted, with DCA and ABA, and with both solvers.
+/// then 50 more steps counted, with DCA and ABA, and with every solver.
 #[test]
 fn contact_step_allocates_nothing_after_warm_up() {
     use articula_dca::{step_with_contact, ContactData, ContactSettings, ContactSolver, Ground};
@@ -358,6 +358,8 @@ fn contact_step_allocates_nothing_after_warm_up() {
         (Method::Dca, ContactSolver::GaussSeidel),
         (Method::Aba, ContactSolver::GaussSeidel),
         (Method::Dca, ContactSolver::Subspace),
+        (Method::Dca, ContactSolver::Newton),
+        (Method::Aba, ContactSolver::Newton),
     ] {
         let settings = ContactSettings {
             ground: Some(Ground::horizontal(-0.9)),

@@ -121,6 +121,69 @@ pub fn cholesky_into<const N: usize, const M: usize>(
     true
 }
 
+/// A 6×6 block as a plain row-major array: the storage of the hot kernels that stream rows
+/// of blocks ([`crate::Mat6`] wraps the same array).
+pub type M6 = [[f64; 6]; 6];
+
+/// `L⁻¹ b` by forward substitution, for the lower-triangular factor `L` of [`cholesky`] (its
+/// diagonal as is: each row divides by `L_ii`).
+#[inline]
+pub fn solve_lower(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
+    let mut x = [0.0; 6];
+    for i in 0..6 {
+        let mut v = b[i];
+        for p in 0..i {
+            v -= l[i][p] * x[p];
+        }
+        x[i] = v / l[i][i];
+    }
+    x
+}
+
+/// `L⁻ᵀ b` by back substitution, `L` as in [`solve_lower`].
+#[inline]
+pub fn solve_lower_t(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
+    let mut x = [0.0; 6];
+    for i in (0..6).rev() {
+        let mut v = b[i];
+        for p in (i + 1)..6 {
+            v -= l[p][i] * x[p];
+        }
+        x[i] = v / l[i][i];
+    }
+    x
+}
+
+/// `L⁻¹ b` by forward substitution, for a lower-triangular `L` whose diagonal is stored
+/// inverted (`1 / L_ii`: each row multiplies by it), as DCA's joins keep their factor
+/// (`cholesky6_inv_diag` in articula-dca).
+#[inline]
+pub fn solve_lower_inv_diag(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
+    let mut x = [0.0; 6];
+    for i in 0..6 {
+        let mut v = b[i];
+        for p in 0..i {
+            v -= l[i][p] * x[p];
+        }
+        x[i] = v * l[i][i];
+    }
+    x
+}
+
+/// `L⁻ᵀ b` by back substitution, `L` as in [`solve_lower_inv_diag`].
+#[inline]
+pub fn solve_lower_t_inv_diag(l: &[[f64; 6]; 6], b: &[f64; 6]) -> [f64; 6] {
+    let mut x = [0.0; 6];
+    for i in (0..6).rev() {
+        let mut v = b[i];
+        for p in (i + 1)..6 {
+            v -= l[p][i] * x[p];
+        }
+        x[i] = v * l[i][i];
+    }
+    x
+}
+
 /// [`cholesky_into`]'s factor `L` of the leading `k × k` block of `a`, `None` when a pivot is
 /// not positive.
 #[inline]
@@ -175,6 +238,43 @@ pub fn invert_spd_into<const N: usize, const M: usize>(
 mod tests {
     use super::*;
     use crate::arith::Portable;
+
+    /// Both triangular-solve pairs solve `A x = b` through `A = L Lᵀ`: checked against the
+    /// residual `A x − b` and against `x = A⁻¹ b` with the inverse of [`invert_spd_into`]
+    /// (an independent route: the inverse's columns, then a matrix-vector product).
+    #[test]
+    fn triangular_solves_invert_the_factor() {
+        // A = M Mᵀ + I for a fixed M: symmetric positive definite, condition ~1e2.
+        let m: [[f64; 6]; 6] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| ((i * 7 + j * 3) % 11) as f64 / 5.0 - 1.0)
+        });
+        let a: [[f64; 6]; 6] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| {
+                (0..6).map(|p| m[i][p] * m[j][p]).sum::<f64>() + if i == j { 1.0 } else { 0.0 }
+            })
+        });
+        let b = [1.0, -2.0, 0.5, 3.0, -1.5, 2.5];
+        let l = cholesky(&a, 6).expect("positive definite");
+        let x = solve_lower_t(&l, &solve_lower(&l, &b));
+        let mut l_inv_diag = l;
+        for (i, row) in l_inv_diag.iter_mut().enumerate() {
+            row[i] = 1.0 / l[i][i];
+        }
+        let y = solve_lower_t_inv_diag(&l_inv_diag, &solve_lower_inv_diag(&l_inv_diag, &b));
+        let mut inv = [[0.0; 6]; 6];
+        assert!(invert_spd_into(&a, 6, &mut inv));
+        for i in 0..6 {
+            let residual = (0..6).map(|j| a[i][j] * x[j]).sum::<f64>() - b[i];
+            assert!(residual.abs() < 1e-12, "row {i}: residual {residual:e}");
+            let by_inverse = (0..6).map(|j| inv[i][j] * b[j]).sum::<f64>();
+            assert!(
+                (x[i] - by_inverse).abs() < 1e-11,
+                "{} vs {by_inverse}",
+                x[i]
+            );
+            assert!((y[i] - x[i]).abs() < 1e-12, "{} vs {}", y[i], x[i]);
+        }
+    }
 
     /// The three summation orders agree with the exact sum of small integers, and `dot6`
     /// with [`Portable`] is the plain left-to-right expression to the bit.

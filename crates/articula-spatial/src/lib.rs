@@ -59,6 +59,7 @@ pub mod internals {
     pub use crate::arith::{fused_available, Arith, Portable};
     pub use crate::kernels::{
         cholesky, cholesky_into, dot6, dot6_even_odd, dot6_pairs, invert_spd_into,
-        joint_block_regular, JOINT_PIVOT_REL,
+        joint_block_regular, solve_lower, solve_lower_inv_diag, solve_lower_t,
+        solve_lower_t_inv_diag, JOINT_PIVOT_REL, M6,
     };
 }

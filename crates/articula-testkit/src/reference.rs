@@ -152,20 +152,34 @@ impl ReferenceModel {
         tau: &[f64],
         f_ext: &[SpatialForce],
     ) -> Vec<T> {
+        let mut w = AbaWork::<T>::new(self.bodies.len());
+        self.aba_outward(&mut w, q, qd, f_ext);
+        self.aba_inward(&mut w, tau);
+        self.aba_accelerations(&w)
+    }
+
+    /// The first pass of [`Self::aba`].
+    fn aba_outward<T: Real>(
+        &self,
+        w: &mut AbaWork<T>,
+        q: &[f64],
+        qd: &[f64],
+        f_ext: &[SpatialForce],
+    ) {
         let n = self.bodies.len();
         let z = T::zero();
         let f = T::from_f64;
-        let mut x: Vec<M6<T>> = vec![[[z; 6]; 6]; n];
-        let mut v: Vec<V6<T>> = vec![[z; 6]; n];
-        let mut c: Vec<V6<T>> = vec![[z; 6]; n];
-        // The velocity before each body's joint (for a ball's second and third axes: before
-        // the ball), in its frame.
-        let mut vbase: Vec<V6<T>> = vec![[z; 6]; n];
-        let mut s: Vec<Vec<V6<T>>> = vec![Vec::new(); n];
-        let mut ia: Vec<M6<T>> = vec![[[z; 6]; 6]; n];
-        let mut pa: Vec<V6<T>> = vec![[z; 6]; n];
-        // World pose of each moving frame (for the external forces).
-        let mut world: Vec<([[T; 3]; 3], [T; 3])> = vec![([[z; 3]; 3], [z; 3]); n];
+        let AbaWork {
+            x,
+            v,
+            c,
+            vbase,
+            s,
+            ia,
+            pa,
+            world,
+            ..
+        } = w;
         let eye = identity3::<T>();
         // Pass 1, root to leaves: X_i (parent → child), v_i, c_i, Iᴬ_i = I_i,
         // pᴬ_i = v_i ×* I_i v_i − f_ext,i.
@@ -221,11 +235,26 @@ impl ReferenceModel {
                 }
             }
         }
+    }
+
+    /// The second pass of [`Self::aba`].
+    fn aba_inward<T: Real>(&self, w: &mut AbaWork<T>, tau: &[f64]) {
+        let n = self.bodies.len();
+        let z = T::zero();
+        let f = T::from_f64;
+        let AbaWork {
+            x,
+            c,
+            s,
+            ia,
+            pa,
+            uvec,
+            dinv,
+            uu,
+            ..
+        } = w;
         // Pass 2, leaves to root: U = Iᴬ S, D = SᵀU, u = τ − Sᵀpᴬ, Iᵃ = Iᴬ − U D⁻¹ Uᵀ,
         // pᵃ = pᴬ + Iᵃ c + U D⁻¹ u; Iᴬ_parent += Xᵀ Iᵃ X, pᴬ_parent += Xᵀ pᵃ.
-        let mut uvec: Vec<Vec<V6<T>>> = vec![Vec::new(); n];
-        let mut dinv: Vec<Vec<Vec<T>>> = vec![Vec::new(); n];
-        let mut uu: Vec<Vec<T>> = vec![Vec::new(); n];
         for i in (0..n).rev() {
             let b = &self.bodies[i];
             let u: Vec<V6<T>> = s[i].iter().map(|col| mat6_vec(&ia[i], col)).collect();
@@ -276,6 +305,22 @@ impl ReferenceModel {
             dinv[i] = d_inv;
             uu[i] = small_u;
         }
+    }
+
+    /// The third pass of [`Self::aba`]: the joint accelerations.
+    fn aba_accelerations<T: Real>(&self, w: &AbaWork<T>) -> Vec<T> {
+        let n = self.bodies.len();
+        let z = T::zero();
+        let f = T::from_f64;
+        let AbaWork {
+            x,
+            c,
+            s,
+            uvec,
+            dinv,
+            uu,
+            ..
+        } = w;
         // Pass 3, root to leaves: a' = X a_parent + c, q̈ = D⁻¹(u − Uᵀa'), a = a' + S q̈,
         // with a_0 = −a_g.
         let a0 = [
@@ -308,6 +353,52 @@ impl ReferenceModel {
             }
         }
         qdd
+    }
+}
+
+/// The per-body quantities of [`ReferenceModel::aba`]'s three passes, in each body's frame.
+struct AbaWork<T> {
+    /// Parent → child transform.
+    x: Vec<M6<T>>,
+    /// Velocity.
+    v: Vec<V6<T>>,
+    /// Velocity-product acceleration.
+    c: Vec<V6<T>>,
+    /// The velocity before each body's joint (for a ball's second and third axes: before
+    /// the ball).
+    vbase: Vec<V6<T>>,
+    /// Motion subspace columns.
+    s: Vec<Vec<V6<T>>>,
+    /// Articulated inertia.
+    ia: Vec<M6<T>>,
+    /// Articulated bias force.
+    pa: Vec<V6<T>>,
+    /// World pose of each moving frame (for the external forces).
+    world: Vec<([[T; 3]; 3], [T; 3])>,
+    /// U = Iᴬ S.
+    uvec: Vec<Vec<V6<T>>>,
+    /// D⁻¹.
+    dinv: Vec<Vec<Vec<T>>>,
+    /// u = τ − Sᵀpᴬ.
+    uu: Vec<Vec<T>>,
+}
+
+impl<T: Real> AbaWork<T> {
+    fn new(n: usize) -> AbaWork<T> {
+        let z = T::zero();
+        AbaWork {
+            x: vec![[[z; 6]; 6]; n],
+            v: vec![[z; 6]; n],
+            c: vec![[z; 6]; n],
+            vbase: vec![[z; 6]; n],
+            s: vec![Vec::new(); n],
+            ia: vec![[[z; 6]; 6]; n],
+            pa: vec![[z; 6]; n],
+            world: vec![([[z; 3]; 3], [z; 3]); n],
+            uvec: vec![Vec::new(); n],
+            dinv: vec![Vec::new(); n],
+            uu: vec![Vec::new(); n],
+        }
     }
 }
 

@@ -74,8 +74,8 @@ pub enum ViewError {
     #[error(
         "scene file {path}: {bodies} bodies would take about {} ({estimate} bytes), more than \
          the memory limit of {} ({limit} bytes)",
-        articula_dca::internals::human_bytes(*estimate),
-        articula_dca::internals::human_bytes(*limit)
+        articula_dca::human_bytes(*estimate),
+        articula_dca::human_bytes(*limit)
     )]
     TooLarge {
         /// The scene file.

@@ -21,7 +21,7 @@ use crate::camera::{Camera, CameraPath, Keyframe};
 use crate::error::ViewError;
 use crate::visibility::VisibilitySettings;
 use crate::volumes::{body_volumes, BodyVolumes};
-use articula_dca::internals::SplitMix64;
+use articula_dca::SplitMix64;
 use articula_dca::{ContactSettings, Ground};
 use articula_model::{InertiaPolicy, LoadOptions, Model};
 use glam::{DMat3, DQuat, DVec3};
@@ -1036,6 +1036,21 @@ fn within(v: &[f64], limit: f64) -> bool {
     v.iter().all(|x| x.is_finite() && x.abs() <= limit)
 }
 
+/// Names the scene in its errors: every check of [`resolve_in`] reports through it.
+struct Fields {
+    file: String,
+}
+
+impl Fields {
+    fn invalid(&self, field: impl Into<String>, message: impl Into<String>) -> ViewError {
+        ViewError::Invalid {
+            path: self.file.clone(),
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+}
+
 /// Checks `spec`, loads its model files (relative to `base`) and adds `code_models`; `path`
 /// names the scene in errors (empty: built in code).
 fn resolve_in(
@@ -1046,61 +1061,87 @@ fn resolve_in(
     options: LoadOptions,
     memory_limit: u64,
 ) -> Result<LoadedScene, ViewError> {
-    let file = scene_label(path);
-    let invalid = |field: String, message: String| ViewError::Invalid {
-        path: file.clone(),
-        field,
-        message,
+    let fields = Fields {
+        file: scene_label(path),
     };
-    // Scalars.
+    check_scalars(&spec, &fields)?;
+    let camera = camera_rig(&spec, &fields)?;
+    let (models, model_index) = load_models(&spec, base, code_models, options, &fields)?;
+    let find_model = |field: String, name: &str| {
+        model_index.get(name).copied().ok_or_else(|| {
+            fields.invalid(
+                field,
+                format!(
+                    "no model named '{name}' (models: {})",
+                    model_index.keys().cloned().collect::<Vec<_>>().join(", ")
+                ),
+            )
+        })
+    };
+    check_memory(&spec, &models, &find_model, &fields, memory_limit)?;
+    let (placements, groups) = place_bodies(&spec, &models, &find_model, &fields)?;
+    let pushes = resolve_pushes(&spec, &models, &placements, &groups, &fields)?;
+    let v = spec.visibility;
+    let scene = LoadedScene {
+        path: path.to_path_buf(),
+        models,
+        placements,
+        camera,
+        pushes,
+        budget: spec.budget,
+        tolerance: spec.tolerance,
+        dt: spec.dt,
+        reselect_every: spec.reselect_every,
+        gravity: DVec3::from_array(spec.gravity),
+        visibility: VisibilitySettings {
+            occluded_factor: v.occluded_factor,
+            full_detail_size: v.full_detail_size,
+            depth_width: v.depth_buffer[0],
+            depth_height: v.depth_buffer[1],
+        },
+        image: spec.image,
+        joint_springs: spec.joint_springs,
+        ground: spec.ground,
+    };
+    // What the spec's checks cannot see: placements that came out non-finite (a jitter or an
+    // origin so large that a position overflows).
+    scene.validate()?;
+    Ok(scene)
+}
+
+/// The scene's scalar settings: step, re-selection, tolerance, gravity, visibility, image,
+/// springs, ground.
+fn check_scalars(spec: &SceneSpec, fields: &Fields) -> Result<(), ViewError> {
     if !(spec.dt.is_finite() && spec.dt > 0.0) {
-        return Err(invalid("dt".into(), "must be a positive number".into()));
+        return Err(fields.invalid("dt", "must be a positive number"));
     }
     if spec.reselect_every == 0 {
-        return Err(invalid(
-            "reselect_every".into(),
-            "must be at least 1".into(),
-        ));
+        return Err(fields.invalid("reselect_every", "must be at least 1"));
     }
     if let Some(t) = spec.tolerance {
         if !(t.is_finite() && t >= 0.0) {
-            return Err(invalid(
-                "tolerance".into(),
-                "must be a non-negative number".into(),
-            ));
+            return Err(fields.invalid("tolerance", "must be a non-negative number"));
         }
     }
     if !within(&spec.gravity, MAX_RATE) {
-        return Err(invalid(
-            "gravity".into(),
-            "must be finite, each component at most 1e4 m/s²".into(),
-        ));
+        return Err(fields.invalid("gravity", "must be finite, each component at most 1e4 m/s²"));
     }
     let v = spec.visibility;
     if !(v.occluded_factor.is_finite() && (0.0..=1.0).contains(&v.occluded_factor)) {
-        return Err(invalid(
-            "visibility.occluded_factor".into(),
-            "must lie in [0, 1]".into(),
-        ));
+        return Err(fields.invalid("visibility.occluded_factor", "must lie in [0, 1]"));
     }
     if !(v.full_detail_size.is_finite() && v.full_detail_size > 0.0) {
-        return Err(invalid(
-            "visibility.full_detail_size".into(),
-            "must be a positive number".into(),
-        ));
+        return Err(fields.invalid("visibility.full_detail_size", "must be a positive number"));
     }
     if !depth_cells_ok(v.depth_buffer[0], v.depth_buffer[1]) {
-        return Err(invalid(
-            "visibility.depth_buffer".into(),
-            "needs 1 to 4,194,304 cells, both sides at least 1".into(),
+        return Err(fields.invalid(
+            "visibility.depth_buffer",
+            "needs 1 to 4,194,304 cells, both sides at least 1",
         ));
     }
     let img = spec.image;
     if img.width == 0 || img.height == 0 || img.width > 8192 || img.height > 8192 {
-        return Err(invalid(
-            "image".into(),
-            "width and height must lie in 1..=8192".into(),
-        ));
+        return Err(fields.invalid("image", "width and height must lie in 1..=8192"));
     }
     if let Some(j) = spec.joint_springs {
         for (f, x) in [
@@ -1108,21 +1149,24 @@ fn resolve_in(
             ("damping_ratio", j.damping_ratio),
         ] {
             if !(x.is_finite() && (0.0..=MAX_SPRING).contains(&x)) {
-                return Err(invalid(
-                    format!("joint_springs.{f}"),
-                    "must be a number in [0, 1e4]".into(),
-                ));
+                return Err(
+                    fields.invalid(format!("joint_springs.{f}"), "must be a number in [0, 1e4]")
+                );
             }
         }
     }
     if let Some((f, why)) = spec.ground.as_ref().and_then(GroundSpec::problem) {
-        return Err(invalid(format!("ground.{f}"), why.into()));
+        return Err(fields.invalid(format!("ground.{f}"), why));
     }
-    // Camera.
+    Ok(())
+}
+
+/// The camera: fixed (`eye` and `target`) or a keyframed path.
+fn camera_rig(spec: &SceneSpec, fields: &Fields) -> Result<CameraRig, ViewError> {
     let c = &spec.camera;
-    let aspect = img.width as f64 / img.height as f64;
-    let cam_err = |e: ViewError| invalid("camera".into(), e.to_string());
-    let camera = match (c.eye, c.target, &c.path) {
+    let aspect = spec.image.width as f64 / spec.image.height as f64;
+    let cam_err = |e: ViewError| fields.invalid("camera", e.to_string());
+    Ok(match (c.eye, c.target, &c.path) {
         (Some(eye), Some(target), None) => CameraRig::Fixed(
             Camera::look_at(
                 DVec3::from_array(eye),
@@ -1150,18 +1194,28 @@ fn resolve_in(
                 c.near,
                 c.far,
             )
-            .map_err(|e| invalid("camera.path".into(), e.to_string()))?,
+            .map_err(|e| fields.invalid("camera.path", e.to_string()))?,
         ),
         _ => {
-            return Err(invalid(
-                "camera".into(),
-                "give either both 'eye' and 'target' (a fixed camera) or 'path' (keyframes)".into(),
+            return Err(fields.invalid(
+                "camera",
+                "give either both 'eye' and 'target' (a fixed camera) or 'path' (keyframes)",
             ))
         }
-    };
-    // Models.
+    })
+}
+
+/// The scene's models: its files (relative to `base`) then those built in code, with the
+/// index of each name.
+fn load_models(
+    spec: &SceneSpec,
+    base: &Path,
+    code_models: Vec<(String, Model)>,
+    options: LoadOptions,
+    fields: &Fields,
+) -> Result<(Vec<SceneModel>, BTreeMap<String, usize>), ViewError> {
     if spec.models.is_empty() && code_models.is_empty() {
-        return Err(invalid("models".into(), "names no model".into()));
+        return Err(fields.invalid("models", "names no model"));
     }
     let mut models = Vec::new();
     let mut model_index = BTreeMap::new();
@@ -1169,7 +1223,7 @@ fn resolve_in(
         let p = base.join(rel);
         let model = Model::from_file(&p, &options.with_floating_base(true)).map_err(|error| {
             ViewError::Model {
-                path: file.clone(),
+                path: fields.file.clone(),
                 name: name.clone(),
                 model_path: p.display().to_string(),
                 error: Box::new(error),
@@ -1186,14 +1240,13 @@ fn resolve_in(
     for (name, model) in code_models {
         let field = format!("models.{name}");
         if model_index.contains_key(&name) {
-            return Err(invalid(field, format!("duplicate model name '{name}'")));
+            return Err(fields.invalid(field, format!("duplicate model name '{name}'")));
         }
         if !model.floating_base {
-            return Err(invalid(
+            return Err(fields.invalid(
                 field,
                 "a scene's models need a floating base (load them with \
-                 LoadOptions::default().with_floating_base(true))"
-                    .into(),
+                 LoadOptions::default().with_floating_base(true))",
             ));
         }
         model_index.insert(name.clone(), models.len());
@@ -1204,18 +1257,17 @@ fn resolve_in(
             model,
         });
     }
-    let find_model = |field: String, name: &str| {
-        model_index.get(name).copied().ok_or_else(|| {
-            invalid(
-                field,
-                format!(
-                    "no model named '{name}' (models: {})",
-                    model_index.keys().cloned().collect::<Vec<_>>().join(", ")
-                ),
-            )
-        })
-    };
-    // The memory of the running scene, before any body is placed.
+    Ok((models, model_index))
+}
+
+/// The memory of the running scene, before any body is placed: refused over `memory_limit`.
+fn check_memory(
+    spec: &SceneSpec,
+    models: &[SceneModel],
+    find_model: &impl Fn(String, &str) -> Result<usize, ViewError>,
+    fields: &Fields,
+    memory_limit: u64,
+) -> Result<(), ViewError> {
     let mut bodies = spec.bodies.len() as u64;
     let mut estimate = 0u64;
     for (i, b) in spec.bodies.iter().enumerate() {
@@ -1226,7 +1278,7 @@ fn resolve_in(
         let m = find_model(format!("crowds[{i}].model"), &c.model)?;
         let n = (c.rows as u64).saturating_mul(c.columns as u64);
         if n == 0 || n > 1_000_000 {
-            // Refused below, naming its field.
+            // Refused when placed, naming its field.
             continue;
         }
         bodies = bodies.saturating_add(n);
@@ -1235,48 +1287,63 @@ fn resolve_in(
     }
     if estimate > memory_limit {
         return Err(ViewError::TooLarge {
-            path: file.clone(),
+            path: fields.file.clone(),
             bodies,
             estimate,
             limit: memory_limit,
         });
     }
-    // Placements.
+    Ok(())
+}
+
+/// A floating body's configuration and velocity at `pos`, turned by `rot`, moving with `vel`
+/// (world frame; the floating base's velocity is stored in root coordinates).
+fn place(model: &Model, pos: DVec3, rot: DMat3, vel: &VelocitySpec) -> (Vec<f64>, Vec<f64>) {
+    let mut q = model.rest_q();
+    let mut qd = vec![0.0; model.nv];
+    let r = DQuat::from_mat3(&rot).normalize();
+    q[..7].copy_from_slice(&[pos.x, pos.y, pos.z, r.w, r.x, r.y, r.z]);
+    let w = rot.transpose() * DVec3::from_array(vel.angular);
+    let v = rot.transpose() * DVec3::from_array(vel.linear);
+    qd[..6].copy_from_slice(&[w.x, w.y, w.z, v.x, v.y, v.z]);
+    (q, qd)
+}
+
+fn check_velocity(fields: &Fields, field: String, v: &VelocitySpec) -> Result<(), ViewError> {
+    if within(&v.linear, MAX_RATE) && within(&v.angular, MAX_RATE) {
+        Ok(())
+    } else {
+        Err(fields.invalid(
+            field,
+            "must be finite, each component at most 1e4 (m/s, rad/s)",
+        ))
+    }
+}
+
+/// Named groups of placements: a body's one, a crowd's members.
+type Groups = BTreeMap<String, Vec<usize>>;
+
+/// Every body and crowd member placed, with the groups pushes may name.
+fn place_bodies(
+    spec: &SceneSpec,
+    models: &[SceneModel],
+    find_model: &impl Fn(String, &str) -> Result<usize, ViewError>,
+    fields: &Fields,
+) -> Result<(Vec<Placement>, Groups), ViewError> {
     let mut placements = Vec::new();
-    let mut groups: BTreeMap<String, Vec<usize>> = BTreeMap::new();
-    let place = |model: &Model, pos: DVec3, rot: DMat3, vel: &VelocitySpec| {
-        let mut q = model.rest_q();
-        let mut qd = vec![0.0; model.nv];
-        let r = DQuat::from_mat3(&rot).normalize();
-        q[..7].copy_from_slice(&[pos.x, pos.y, pos.z, r.w, r.x, r.y, r.z]);
-        // The floating base's velocity is in root coordinates.
-        let w = rot.transpose() * DVec3::from_array(vel.angular);
-        let v = rot.transpose() * DVec3::from_array(vel.linear);
-        qd[..6].copy_from_slice(&[w.x, w.y, w.z, v.x, v.y, v.z]);
-        (q, qd)
-    };
-    let check_vel = |field: String, v: &VelocitySpec| {
-        if within(&v.linear, MAX_RATE) && within(&v.angular, MAX_RATE) {
-            Ok(())
-        } else {
-            Err(invalid(
-                field,
-                "must be finite, each component at most 1e4 (m/s, rad/s)".into(),
-            ))
-        }
-    };
+    let mut groups = Groups::new();
     for (i, b) in spec.bodies.iter().enumerate() {
         let m = find_model(format!("bodies[{i}].model"), &b.model)?;
         if !within(&b.position, MAX_DISTANCE) {
-            return Err(invalid(
+            return Err(fields.invalid(
                 format!("bodies[{i}].position"),
-                "must be finite, each component at most 1e6 m".into(),
+                "must be finite, each component at most 1e6 m",
             ));
         }
         if !finite(&b.rpy) {
-            return Err(invalid(format!("bodies[{i}].rpy"), "must be finite".into()));
+            return Err(fields.invalid(format!("bodies[{i}].rpy"), "must be finite"));
         }
-        check_vel(format!("bodies[{i}].velocity"), &b.velocity)?;
+        check_velocity(fields, format!("bodies[{i}].velocity"), &b.velocity)?;
         let rot = articula_model::rpy_to_matrix(DVec3::from_array(b.rpy));
         let (q, qd) = place(
             &models[m].model,
@@ -1286,7 +1353,7 @@ fn resolve_in(
         );
         let name = b.name.clone().unwrap_or_else(|| format!("body{i}"));
         if groups.contains_key(&name) {
-            return Err(invalid(
+            return Err(fields.invalid(
                 format!("bodies[{i}].name"),
                 format!("duplicate name '{name}'"),
             ));
@@ -1300,123 +1367,120 @@ fn resolve_in(
         });
     }
     for (i, c) in spec.crowds.iter().enumerate() {
-        let field = |f: &str| format!("crowds[{i}].{f}");
-        let m = find_model(field("model"), &c.model)?;
-        if c.rows == 0 || c.columns == 0 || c.rows.saturating_mul(c.columns) > 1_000_000 {
-            return Err(invalid(
-                field("rows"),
-                "rows and columns must be at least 1, with at most 1,000,000 bodies".into(),
-            ));
-        }
-        for (f, v) in [("origin", &c.origin[..]), ("spacing", &c.spacing[..])] {
-            if !within(v, MAX_DISTANCE) {
-                return Err(invalid(
-                    field(f),
-                    "must be finite, each component at most 1e6 m".into(),
-                ));
-            }
-        }
-        // The grid's far corner too: rows × spacing stays within the distance limit.
-        let extent = [
-            c.origin[0] + c.rows as f64 * c.spacing[0],
-            c.origin[1] + c.columns as f64 * c.spacing[1],
-        ];
-        if !within(&extent, MAX_DISTANCE) {
-            return Err(invalid(
-                field("spacing"),
-                "places the crowd's far corner more than 1e6 m from the origin".into(),
-            ));
-        }
-        for (f, x) in [("jitter", c.jitter), ("yaw_jitter", c.yaw_jitter)] {
-            if !(x.is_finite() && (0.0..=MAX_DISTANCE).contains(&x)) {
-                return Err(invalid(field(f), "must be a number in [0, 1e6]".into()));
-            }
-        }
-        if !c.yaw.is_finite() {
-            return Err(invalid(field("yaw"), "must be finite".into()));
-        }
-        check_vel(field("velocity"), &c.velocity)?;
+        let m = find_model(format!("crowds[{i}].model"), &c.model)?;
+        check_crowd(i, c, fields)?;
         let name = c.name.clone().unwrap_or_else(|| format!("crowd{i}"));
         if groups.contains_key(&name) {
-            return Err(invalid(field("name"), format!("duplicate name '{name}'")));
+            return Err(fields.invalid(
+                format!("crowds[{i}].name"),
+                format!("duplicate name '{name}'"),
+            ));
         }
-        let mut rng = SplitMix64(c.seed);
-        let mut members = Vec::new();
-        for r in 0..c.rows {
-            for col in 0..c.columns {
-                let jx = rng.uniform(-c.jitter, c.jitter);
-                let jy = rng.uniform(-c.jitter, c.jitter);
-                let yaw = c.yaw + rng.uniform(-c.yaw_jitter, c.yaw_jitter);
-                let pos = DVec3::from_array(c.origin)
-                    + DVec3::new(
-                        r as f64 * c.spacing[0] + jx,
-                        col as f64 * c.spacing[1] + jy,
-                        0.0,
-                    );
-                let (q, qd) = place(
-                    &models[m].model,
-                    pos,
-                    DMat3::from_rotation_z(yaw),
-                    &c.velocity,
-                );
-                members.push(placements.len());
-                placements.push(Placement {
-                    name: format!("{name}[{r},{col}]"),
-                    model: m,
-                    q,
-                    qd,
-                });
-            }
-        }
+        let members = place_crowd(c, &name, m, &models[m].model, &mut placements);
         groups.insert(name, members);
     }
     if placements.is_empty() {
-        return Err(invalid(
-            "bodies".into(),
-            "the scene has no body (give 'bodies' or 'crowds')".into(),
+        return Err(fields.invalid(
+            "bodies",
+            "the scene has no body (give 'bodies' or 'crowds')",
         ));
     }
-    // Pushes.
+    Ok((placements, groups))
+}
+
+/// The numbers of crowd `i`: its grid size, origin, spacing, far corner, jitters, yaw and
+/// velocity.
+fn check_crowd(i: usize, c: &CrowdSpec, fields: &Fields) -> Result<(), ViewError> {
+    let field = |f: &str| format!("crowds[{i}].{f}");
+    if c.rows == 0 || c.columns == 0 || c.rows.saturating_mul(c.columns) > 1_000_000 {
+        return Err(fields.invalid(
+            field("rows"),
+            "rows and columns must be at least 1, with at most 1,000,000 bodies",
+        ));
+    }
+    for (f, v) in [("origin", &c.origin[..]), ("spacing", &c.spacing[..])] {
+        if !within(v, MAX_DISTANCE) {
+            return Err(fields.invalid(field(f), "must be finite, each component at most 1e6 m"));
+        }
+    }
+    // The grid's far corner too: rows × spacing stays within the distance limit.
+    let extent = [
+        c.origin[0] + c.rows as f64 * c.spacing[0],
+        c.origin[1] + c.columns as f64 * c.spacing[1],
+    ];
+    if !within(&extent, MAX_DISTANCE) {
+        return Err(fields.invalid(
+            field("spacing"),
+            "places the crowd's far corner more than 1e6 m from the origin",
+        ));
+    }
+    for (f, x) in [("jitter", c.jitter), ("yaw_jitter", c.yaw_jitter)] {
+        if !(x.is_finite() && (0.0..=MAX_DISTANCE).contains(&x)) {
+            return Err(fields.invalid(field(f), "must be a number in [0, 1e6]"));
+        }
+    }
+    if !c.yaw.is_finite() {
+        return Err(fields.invalid(field("yaw"), "must be finite"));
+    }
+    check_velocity(fields, field("velocity"), &c.velocity)
+}
+
+/// Places the members of crowd `c` (named `name`, model index `m`) row by row, with the
+/// crowd's seeded jitter; returns their placement indices.
+fn place_crowd(
+    c: &CrowdSpec,
+    name: &str,
+    m: usize,
+    model: &Model,
+    placements: &mut Vec<Placement>,
+) -> Vec<usize> {
+    let mut rng = SplitMix64(c.seed);
+    let mut members = Vec::new();
+    for r in 0..c.rows {
+        for col in 0..c.columns {
+            let jx = rng.uniform(-c.jitter, c.jitter);
+            let jy = rng.uniform(-c.jitter, c.jitter);
+            let yaw = c.yaw + rng.uniform(-c.yaw_jitter, c.yaw_jitter);
+            let pos = DVec3::from_array(c.origin)
+                + DVec3::new(
+                    r as f64 * c.spacing[0] + jx,
+                    col as f64 * c.spacing[1] + jy,
+                    0.0,
+                );
+            let (q, qd) = place(model, pos, DMat3::from_rotation_z(yaw), &c.velocity);
+            members.push(placements.len());
+            placements.push(Placement {
+                name: format!("{name}[{r},{col}]"),
+                model: m,
+                q,
+                qd,
+            });
+        }
+    }
+    members
+}
+
+/// The pushes, each expanded to one per body it names (a body, a crowd or `"all"`).
+fn resolve_pushes(
+    spec: &SceneSpec,
+    models: &[SceneModel],
+    placements: &[Placement],
+    groups: &Groups,
+    fields: &Fields,
+) -> Result<Vec<Push>, ViewError> {
     let mut pushes = Vec::new();
     for (i, p) in spec.pushes.iter().enumerate() {
         let field = |f: &str| format!("pushes[{i}].{f}");
         if !within(&p.point, MAX_DISTANCE) || !within(&p.force, MAX_FORCE) {
-            return Err(invalid(
+            return Err(fields.invalid(
                 field("force"),
-                "point (at most 1e6 m) and force (at most 1e12 N) must be finite".into(),
+                "point (at most 1e6 m) and force (at most 1e12 N) must be finite",
             ));
         }
         if !(p.t0.is_finite() && p.t1.is_finite() && p.t0 <= p.t1) {
-            return Err(invalid(field("t0"), "needs finite t0 ≤ t1".into()));
+            return Err(fields.invalid(field("t0"), "needs finite t0 ≤ t1"));
         }
-        let targets: Vec<usize> = match &p.bodies {
-            Targets::All(s) if s == "all" => (0..placements.len()).collect(),
-            Targets::All(s) => {
-                return Err(invalid(
-                    field("bodies"),
-                    format!("expected \"all\" or a list of names, found \"{s}\""),
-                ))
-            }
-            Targets::Names(names) => {
-                let mut out = Vec::new();
-                for (k, n) in names.iter().enumerate() {
-                    match groups.get(n) {
-                        Some(g) => out.extend_from_slice(g),
-                        None => match placements.iter().position(|pl| &pl.name == n) {
-                            Some(b) => out.push(b),
-                            None => {
-                                return Err(invalid(
-                                    format!("pushes[{i}].bodies[{k}]"),
-                                    format!("no body or crowd named '{n}'"),
-                                ))
-                            }
-                        },
-                    }
-                }
-                out
-            }
-        };
-        for b in targets {
+        for b in push_targets(i, &p.bodies, placements, groups, fields)? {
             let model = &models[placements[b].model].model;
             let found = model.bodies.iter().enumerate().find_map(|(bi, body)| {
                 body.links
@@ -1425,7 +1489,7 @@ fn resolve_in(
                     .map(|(_, x)| (bi, *x))
             });
             let Some((link_body, x)) = found else {
-                return Err(invalid(
+                return Err(fields.invalid(
                     field("link"),
                     format!(
                         "model '{}' has no link '{}' that moves with a body (massless links inside composed joints cannot be pushed)",
@@ -1444,31 +1508,43 @@ fn resolve_in(
             });
         }
     }
-    let scene = LoadedScene {
-        path: path.to_path_buf(),
-        models,
-        placements,
-        camera,
-        pushes,
-        budget: spec.budget,
-        tolerance: spec.tolerance,
-        dt: spec.dt,
-        reselect_every: spec.reselect_every,
-        gravity: DVec3::from_array(spec.gravity),
-        visibility: VisibilitySettings {
-            occluded_factor: v.occluded_factor,
-            full_detail_size: v.full_detail_size,
-            depth_width: v.depth_buffer[0],
-            depth_height: v.depth_buffer[1],
-        },
-        image: img,
-        joint_springs: spec.joint_springs,
-        ground: spec.ground,
-    };
-    // What the spec's checks cannot see: placements that came out non-finite (a jitter or an
-    // origin so large that a position overflows).
-    scene.validate()?;
-    Ok(scene)
+    Ok(pushes)
+}
+
+/// The placements push `i` acts on: every one for `"all"`, else those of each named group or
+/// body.
+fn push_targets(
+    i: usize,
+    targets: &Targets,
+    placements: &[Placement],
+    groups: &Groups,
+    fields: &Fields,
+) -> Result<Vec<usize>, ViewError> {
+    match targets {
+        Targets::All(s) if s == "all" => Ok((0..placements.len()).collect()),
+        Targets::All(s) => Err(fields.invalid(
+            format!("pushes[{i}].bodies"),
+            format!("expected \"all\" or a list of names, found \"{s}\""),
+        )),
+        Targets::Names(names) => {
+            let mut out = Vec::new();
+            for (k, n) in names.iter().enumerate() {
+                match groups.get(n) {
+                    Some(g) => out.extend_from_slice(g),
+                    None => match placements.iter().position(|pl| &pl.name == n) {
+                        Some(b) => out.push(b),
+                        None => {
+                            return Err(fields.invalid(
+                                format!("pushes[{i}].bodies[{k}]"),
+                                format!("no body or crowd named '{n}'"),
+                            ))
+                        }
+                    },
+                }
+            }
+            Ok(out)
+        }
+    }
 }
 
 /// Whether a depth buffer of `w × h` cells is usable: both sides at least 1, at most 2²²
@@ -1589,6 +1665,18 @@ impl LoadedScene {
                 }
             }
         }
+        self.validate_bodies()
+    }
+
+    /// The models, placements and pushes of [`LoadedScene::validate`].
+    fn validate_bodies(&self) -> Result<(), ViewError> {
+        let invalid = |field: String, message: String| {
+            Err(ViewError::Invalid {
+                path: scene_label(&self.path),
+                field,
+                message,
+            })
+        };
         if self.models.is_empty() {
             return invalid("models".into(), "names no model".into());
         }

@@ -76,13 +76,15 @@ impl PartialOrd for Entry {
     }
 }
 impl Ord for Entry {
-    // Largest metric first; ties to the smaller body, then the smaller node (as a body's own
-    // queue breaks them).
+    // Largest metric first; ties to the smaller body, then the smaller node: a body's own
+    // queue's order (`articula_adaptive::selection_order`) keyed by `(body, node)`.
     fn cmp(&self, o: &Self) -> std::cmp::Ordering {
-        self.metric
-            .total_cmp(&o.metric)
-            .then_with(|| o.body.cmp(&self.body))
-            .then_with(|| o.node.cmp(&self.node))
+        articula_adaptive::selection_order(
+            self.metric,
+            (self.body, self.node),
+            o.metric,
+            (o.body, o.node),
+        )
     }
 }
 

@@ -202,10 +202,10 @@ fn specs_serialize_to_scene_files() {
     }
 }
 
-#[test]
-fn builder_inputs_are_checked() {
+/// Builders with a wrong model, body or crowd, and the field each error must name.
+fn wrong_body_cases() -> Vec<(SceneBuilder, &'static str)> {
     let fixed = Model::from_urdf_str(BOT, &LoadOptions::default()).unwrap();
-    let cases: Vec<(SceneBuilder, &str)> = vec![
+    vec![
         (builder().model("bot", bot()), "models.bot"),
         (
             SceneBuilder::new()
@@ -270,6 +270,12 @@ fn builder_inputs_are_checked() {
             }),
             "bodies[1].name",
         ),
+    ]
+}
+
+/// Builders with a wrong setting, camera or push, and the field each error must name.
+fn wrong_setting_cases() -> Vec<(SceneBuilder, &'static str)> {
+    vec![
         (builder().dt(0.0), "dt"),
         (builder().dt(f64::NAN), "dt"),
         (builder().reselect_every(0), "reselect_every"),
@@ -337,7 +343,13 @@ fn builder_inputs_are_checked() {
             builder().model_file("other", "/nonexistent/articula/bot.urdf"),
             "models.other",
         ),
-    ];
+    ]
+}
+
+#[test]
+fn builder_inputs_are_checked() {
+    let mut cases = wrong_body_cases();
+    cases.extend(wrong_setting_cases());
     let duplicate = builder().body(BodySpec {
         name: Some("crowd".into()),
         ..BodySpec::new("bot", [3.0, 0.0, 1.0])

@@ -15,7 +15,7 @@ pub(crate) const NW: usize = 22;
 pub(crate) const CONST: usize = 21;
 
 /// A 6 × 6 matrix, row-major `[row][col]`.
-pub(crate) type M6 = [[f64; 6]; 6];
+pub(crate) use articula_spatial::internals::M6;
 
 /// Per-node caches (layouts of the workspace's slots, cache-frame axes) and the scratch of the
 /// cached re-selection, in named parts.
@@ -75,15 +75,15 @@ pub(crate) struct CacheTensors {
     /// The symbol `K` of `q̈ = K F + k` (per join node, nv × 6nh), laid out as
     /// `JoinMaps::qdd_gain`.
     pub k: Vec<f64>,
-    /// Per degree of freedom: a row of the tensor `K_w` (NW).
+    /// Per degree of freedom: a row of the symbol `K_w` (NW).
     pub k_w: Vec<f64>,
     /// The symbol `N` of `f = N F + n` (per join node, 6 × 6nh), laid out as `JoinMaps`'s.
     pub n: Vec<f64>,
-    /// Per node: the tensor `N_w` (6 × NW).
+    /// Per node: the symbol `N_w` (6 × NW).
     pub n_w: Vec<f64>,
     /// The symbol `Ψ` of the acceleration metric, laid out as `MetricCoefficients`'s.
     pub psi: Vec<f64>,
-    /// Per handle: 6 rows of the tensor `P_w` (NW each).
+    /// Per handle: 6 rows of the symbol `P_w` (NW each).
     pub p_w: Vec<f64>,
     /// Per node: the symbol `E` (NW × NW, symmetric).
     pub e: Vec<f64>,
@@ -162,17 +162,17 @@ pub(crate) struct LinearMaps {
     pub built: Vec<bool>,
     /// Per node: the leaf's frame in the node's.
     pub leaf_pose: Vec<SpatialTransform>,
-    /// Per node: the map `G_n`.
+    /// Per node: the symbol `G_n` of docs/adaptive.md#caches.
     pub g_n: Vec<M6>,
-    /// Per node: the map `H`.
+    /// Per node: the symbol `H` of docs/adaptive.md#caches.
     pub h: Vec<M6>,
-    /// Per node: the map `J` (6 rows over the NW monomials).
+    /// Per node: the symbol `J` of docs/adaptive.md#caches (6 rows over the NW monomials).
     pub j_w: Vec<[[f64; NW]; 6]>,
-    /// Per handle: the map `G_b`.
+    /// Per handle: the symbol `G_b` of docs/adaptive.md#caches.
     pub g_b: Vec<M6>,
-    /// Per handle: the map `G_p`.
+    /// Per handle: the symbol `G_p` of docs/adaptive.md#caches.
     pub g_p: Vec<M6>,
-    /// Per degree of freedom: a row of the map `G_k`.
+    /// Per degree of freedom: a row of the symbol `G_k` of docs/adaptive.md#caches.
     pub g_k: Vec<[f64; 6]>,
     /// Maps built (for tests: the maps are used).
     pub builds: u64,
@@ -279,9 +279,9 @@ impl Caches {
             if let NodeKind::Body(i) = node.kind {
                 let bi = &model.bodies[i].inertia;
                 c.tensors.composite[n] = Rigid {
-                    m: bi.mass,
-                    c: bi.com(),
-                    ic: bi.inertia_about_com(),
+                    mass: bi.mass,
+                    com: bi.com(),
+                    inertia: bi.inertia_about_com(),
                 };
             }
         }

@@ -18,7 +18,7 @@ pub(crate) struct HybridCoefficients {
     /// Per body: the origin of its frame in the computation frame, the point each handle's
     /// vectors are taken about (long bodies keep their digits).
     pub point: Vec<DVec3>,
-    /// `Φ_hk` (handle-pair blocks, `nh × nh` per node at `boff`; see [`Self::phi_at`]).
+    /// The symbol `Φ_hk` of docs/design.md#dca (handle-pair blocks, `nh × nh` per node at `boff`; see [`Self::phi_at`]).
     pub phi: Vec<Mat6>,
     /// `b_h`, the bias acceleration of each handle.
     pub bias: Vec<SpatialMotion>,

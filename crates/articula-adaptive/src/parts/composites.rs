@@ -8,28 +8,31 @@ use glam::{DMat3, DVec3};
 /// (computation frame).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(crate) struct Rigid {
-    pub m: f64,
-    pub c: DVec3,
-    pub ic: DMat3,
+    /// The mass.
+    pub mass: f64,
+    /// The centre of mass.
+    pub com: DVec3,
+    /// The rotational inertia about the centre of mass.
+    pub inertia: DMat3,
 }
 
 impl Rigid {
     /// The composite of two rigid bodies welded together (parallel-axis theorem about the
     /// common centre of mass).
     pub fn combine(&self, o: &Rigid) -> Rigid {
-        let m = self.m + o.m;
+        let m = self.mass + o.mass;
         if m <= 0.0 {
             return Rigid::default();
         }
-        let c = (self.c * self.m + o.c * o.m) / m;
+        let c = (self.com * self.mass + o.com * o.mass) / m;
         let shift = |r: &Rigid| {
-            let d = r.c - c;
-            (DMat3::from_diagonal(DVec3::splat(d.length_squared())) - outer(d, d)) * r.m
+            let d = r.com - c;
+            (DMat3::from_diagonal(DVec3::splat(d.length_squared())) - outer(d, d)) * r.mass
         };
         Rigid {
-            m,
-            c,
-            ic: self.ic + o.ic + shift(self) + shift(o),
+            mass: m,
+            com: c,
+            inertia: self.inertia + o.inertia + shift(self) + shift(o),
         }
     }
 }
@@ -42,12 +45,12 @@ fn outer(a: DVec3, b: DVec3) -> DMat3 {
 /// `Adaptive::composites` at each whole-body load).
 #[derive(Clone, Debug)]
 pub(crate) struct Composites {
-    /// The composite mass properties (computation frame; `comp`).
+    /// The composite mass properties (computation frame).
     pub rigid: Vec<Rigid>,
     /// Whether the subassembly holds the ground (a fixed base): it then never moves.
     pub grounded: Vec<bool>,
     /// Its top body (nearest the root; `usize::MAX` for a node holding the ground).
-    pub top: Vec<usize>,
+    pub top_body: Vec<usize>,
 }
 
 impl Composites {
@@ -57,7 +60,7 @@ impl Composites {
         Composites {
             rigid: vec![Rigid::default(); nn],
             grounded: vec![false; nn],
-            top: vec![usize::MAX; nn],
+            top_body: vec![usize::MAX; nn],
         }
     }
 }

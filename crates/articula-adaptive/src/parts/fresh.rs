@@ -9,7 +9,9 @@ use articula_model::Model;
 pub(crate) struct FreshKinematics {
     /// `data`'s kinematics are those of `(q, qd)`.
     pub valid: bool,
+    /// The symbol `q` (joint positions) of the state they were computed for.
     pub q: Vec<f64>,
+    /// The symbol `q̇` (joint velocities) of that state.
     pub qd: Vec<f64>,
 }
 

@@ -14,19 +14,19 @@ use glam::DVec3;
 pub(crate) struct Hierarchy {
     /// The reduced tree, one record per active joint in the order of `ajoints` (parents
     /// first): what its kinematics and articulated-body passes read, contiguous.
-    pub rec: Vec<ActiveJoint>,
-    /// Articulated-body workspace of the reduced tree, indexed like `rec`.
-    pub aba: ReducedAba,
+    pub records: Vec<ActiveJoint>,
+    /// Articulated-body workspace of the reduced tree, indexed like `records`.
+    pub reduced_aba: ReducedAba,
     /// Per angle of the reduced tree — a closed-form revolute joint's, then each part of a
     /// joint of [`RevoluteParts`], in record order (the kinematics take them in turn) —
-    /// its coordinate and sign (`ang`, built with the records) and the `sin`, `cos` of its
-    /// signed value (`sc`), computed in a first sweep of `Adaptive::active_kinematics`, four
+    /// its coordinate and sign (`angles`, built with the records) and the `sin`, `cos` of its
+    /// signed value (`sin_cos`), computed in a first sweep of `Adaptive::active_kinematics`, four
     /// at a time, so that its main loop makes no call (every vector register is
-    /// caller-saved). (`ang` in 8 bytes an angle, the sign `±1` exact in `f32`: a crowd's
+    /// caller-saved). (`angles` in 8 bytes an angle, the sign `±1` exact in `f32`: a crowd's
     /// bodies run through more data than the 1 MB L2 holds, every byte read per step counts;
-    /// `sc` is written and read within one call: a `_with` call takes the scratch's.)
-    pub ang: Vec<(u32, f32)>,
-    pub sc: Vec<(f64, f64)>,
+    /// `sin_cos` is written and read within one call: a `_with` call takes the scratch's.)
+    pub angles: Vec<(u32, f32)>,
+    pub sin_cos: Vec<(f64, f64)>,
     /// Active join nodes, then frontier nodes, each ascending (post-order).
     pub hnodes: Vec<usize>,
     pub fnodes: Vec<usize>,
@@ -36,7 +36,7 @@ pub(crate) struct Hierarchy {
     /// them), and per body the rigid cluster (frontier node) an external force on it goes to,
     /// with the build it was found in (`(gen, node)`, found on the first force after a build).
     pub gen: u64,
-    pub fcl: Vec<(u64, usize)>,
+    pub force_cluster: Vec<(u64, usize)>,
     /// The records' degrees of freedom, `Σ k` (what `Adaptive::active_dofs` reports while
     /// `valid`, read once per step by a scene).
     pub dofs: usize,
@@ -49,7 +49,7 @@ pub(crate) struct Hierarchy {
     /// (set by a cached re-selection that kept the hybrid body, taken by the step).
     pub kin_fresh: bool,
     /// Per frontier node (rigid cluster): mass properties in its top body's frame.
-    pub rig: Vec<Rigid>,
+    pub cluster_mass: Vec<Rigid>,
     /// Bodies whose joints are active, ascending (parents first).
     pub ajoints: Vec<usize>,
     /// Per body: its joint is active.
@@ -57,13 +57,13 @@ pub(crate) struct Hierarchy {
     /// Per active body: the rigid cluster (frontier node) holding its parent body, or
     /// `usize::MAX` when the parent is an active body or the world; and the parent's pose in the
     /// cluster's top-body frame.
-    pub pcl: Vec<usize>,
+    pub parent_cluster: Vec<usize>,
     pub prel: Vec<SpatialTransform>,
     /// Per active body: its rigid cluster (the frontier node whose top body it is), and the
     /// active body topping the cluster that holds its parent (`usize::MAX`: the world or a
     /// cluster welded to the ground).
-    pub cl: Vec<usize>,
-    pub par: Vec<usize>,
+    pub own_cluster: Vec<usize>,
+    pub parent_top: Vec<usize>,
     /// Per body: `(i, ±1)` for a joint of one revolute part about the coordinate axis `±e_i`
     /// (the usual URDF case, kinematics in closed form), else `None`. Built once per model.
     pub axis: Vec<Option<(usize, f64)>>,
@@ -75,7 +75,7 @@ pub(crate) struct Hierarchy {
 }
 
 /// Articulated-body workspace of the reduced tree (one rigid cluster per active joint),
-/// indexed like `Hierarchy::rec`; per degree of freedom at `rec.dof()`. The short names are the
+/// indexed like `Hierarchy::records`; per degree of freedom at `records.first_dof()`. The short names are the
 /// symbols of the articulated-body algorithm (docs/design.md#adaptive).
 #[derive(Clone, Debug, Default)]
 pub(crate) struct ReducedAba {
@@ -104,20 +104,23 @@ impl Hierarchy {
     #[inline]
     pub(crate) fn fit_reduced(&mut self, full: [usize; 2]) {
         let h = &*self;
-        let na = h.rec.len();
-        let dof = h.rec.last().map_or(0, |r| r.dof() + r.k());
+        let na = h.records.len();
+        let dof = h
+            .records
+            .last()
+            .map_or(0, |r| r.first_dof() + r.dof_count());
         let fits = [
-            h.aba.ia.len(),
-            h.aba.pa.len(),
-            h.aba.acceleration.len(),
-            h.aba.dinv.len(),
-            h.aba.cholesky.len(),
+            h.reduced_aba.ia.len(),
+            h.reduced_aba.pa.len(),
+            h.reduced_aba.acceleration.len(),
+            h.reduced_aba.dinv.len(),
+            h.reduced_aba.cholesky.len(),
         ]
         .iter()
         .all(|&l| l >= na)
-            && h.aba.u.len() >= dof
-            && h.aba.uu.len() >= dof
-            && h.sc.len() >= h.ang.len();
+            && h.reduced_aba.u.len() >= dof
+            && h.reduced_aba.uu.len() >= dof
+            && h.sin_cos.len() >= h.angles.len();
         if !fits {
             self.grow_reduced(na, dof, full);
         }
@@ -127,14 +130,14 @@ impl Hierarchy {
     #[inline(never)]
     fn grow_reduced(&mut self, na: usize, dof: usize, [nb, nv]: [usize; 2]) {
         let h = self;
-        grow(&mut h.aba.ia, na, nb, Mat6::ZERO);
-        grow(&mut h.aba.pa, na, nb, [0.0; 6]);
-        grow(&mut h.aba.acceleration, na, nb, [0.0; 6]);
-        grow(&mut h.aba.dinv, na, nb, 0.0);
-        grow(&mut h.aba.cholesky, na, nb, [[0.0; 6]; 6]);
-        grow(&mut h.aba.u, dof, nv, [0.0; 6]);
-        grow(&mut h.aba.uu, dof, nv, 0.0);
-        grow(&mut h.sc, h.ang.len(), nv, (0.0, 1.0));
+        grow(&mut h.reduced_aba.ia, na, nb, Mat6::ZERO);
+        grow(&mut h.reduced_aba.pa, na, nb, [0.0; 6]);
+        grow(&mut h.reduced_aba.acceleration, na, nb, [0.0; 6]);
+        grow(&mut h.reduced_aba.dinv, na, nb, 0.0);
+        grow(&mut h.reduced_aba.cholesky, na, nb, [[0.0; 6]; 6]);
+        grow(&mut h.reduced_aba.u, dof, nv, [0.0; 6]);
+        grow(&mut h.reduced_aba.uu, dof, nv, 0.0);
+        grow(&mut h.sin_cos, h.angles.len(), nv, (0.0, 1.0));
     }
 }
 
@@ -168,26 +171,26 @@ pub(crate) const NO_PARENT: usize = u32::MAX as usize;
 /// One active joint of the reduced tree. Narrow and line-aligned: indices as `u32`, the
 /// axis index as `u8`, so that a record is four 64-byte lines (was 304 bytes, five or six
 /// lines) — the indices, parent, flags and axis (all passes 2 and 3 read) in its first line,
-/// `x0` (the kinematics) in the first three, `rig` (pass 1) in the last two.
+/// `fixed_pose` (the kinematics) in the first three, `cluster_mass` (pass 1) in the last two.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub(crate) struct ActiveJoint {
     /// Body, offsets of its coordinates, degrees of freedom, first slot in `u`/`uu` (written by
     /// `Adaptive::build_records`, read through the methods of the same names).
-    pub(crate) j: u32,
-    pub(crate) qo: u32,
-    pub(crate) vo: u32,
-    pub(crate) k: u32,
-    pub(crate) dof: u32,
-    /// Index (in `rec`) of the active joint topping the cluster that holds the parent body
+    pub(crate) body: u32,
+    pub(crate) q_offset: u32,
+    pub(crate) v_offset: u32,
+    pub(crate) dof_count: u32,
+    pub(crate) first_dof: u32,
+    /// Index (in `records`) of the active joint topping the cluster that holds the parent body
     /// ([`NO_PARENT`]: none).
     pub(crate) pidx: u32,
     /// The cluster this joint tops (frontier node).
-    pub(crate) f: u32,
+    pub(crate) cluster: u32,
     pub parent: Parent,
-    /// `x0` is not the identity.
+    /// `fixed_pose` is not the identity.
     pub mulx: bool,
-    /// `x0`'s rotation is the identity (a joint origin that only translates, the usual URDF
+    /// `fixed_pose`'s rotation is the identity (a joint origin that only translates, the usual URDF
     /// link): the composition `X x0 = (E, r₀ + r)` costs three additions. (The full product's
     /// `E · 1` and `1ᵀ r` are the same numbers; only the sign of an exact zero may differ.)
     pub shift: bool,
@@ -196,62 +199,62 @@ pub(crate) struct ActiveJoint {
     /// the integration updates them as one-axis coordinates. 0 for any other joint.
     pub revs: u8,
     /// `(i, ±1)` of a closed-form revolute joint ([`ActiveJoint::axis`]; an `Option` of the
-    /// pair would take 24 bytes). `ax` is [`AX_PARTS`] for a joint of [`RevoluteParts`]
-    /// (then in `rp`), `u8::MAX` for any other joint.
-    pub(crate) ax: u8,
+    /// pair would take 24 bytes). `axis_code` is [`AX_PARTS`] for a joint of [`RevoluteParts`]
+    /// (then in `rev_parts`), `u8::MAX` for any other joint.
+    pub(crate) axis_code: u8,
     pub(crate) sign: f64,
-    pub rp: RevoluteParts,
+    pub rev_parts: RevoluteParts,
     /// Constant pose that follows the parent frame: for a closed-form revolute joint its
     /// origin, composed with the parent body's pose in its cluster; for other joints that pose
     /// alone (their origins are applied by the general kinematics).
-    pub x0: SpatialTransform,
+    pub fixed_pose: SpatialTransform,
     /// The cluster's mass properties in this body's frame.
-    pub rig: Rigid,
+    pub cluster_mass: Rigid,
 }
 
 const _: () = assert!(std::mem::size_of::<ActiveJoint>() == 256);
 
-/// [`ActiveJoint::ax`] of a joint of [`RevoluteParts`].
+/// [`ActiveJoint::axis_code`] of a joint of [`RevoluteParts`].
 pub(crate) const AX_PARTS: u8 = 0xfe;
 
 impl ActiveJoint {
     #[inline(always)]
-    pub fn j(&self) -> usize {
-        self.j as usize
+    pub fn body(&self) -> usize {
+        self.body as usize
     }
     #[inline(always)]
-    pub fn qo(&self) -> usize {
-        self.qo as usize
+    pub fn q_offset(&self) -> usize {
+        self.q_offset as usize
     }
     #[inline(always)]
-    pub fn vo(&self) -> usize {
-        self.vo as usize
+    pub fn v_offset(&self) -> usize {
+        self.v_offset as usize
     }
     #[inline(always)]
-    pub fn k(&self) -> usize {
-        self.k as usize
+    pub fn dof_count(&self) -> usize {
+        self.dof_count as usize
     }
     #[inline(always)]
-    pub fn dof(&self) -> usize {
-        self.dof as usize
+    pub fn first_dof(&self) -> usize {
+        self.first_dof as usize
     }
     #[inline(always)]
     pub fn pidx(&self) -> usize {
         self.pidx as usize
     }
     #[inline(always)]
-    pub fn f(&self) -> usize {
-        self.f as usize
+    pub fn cluster(&self) -> usize {
+        self.cluster as usize
     }
     /// `(i, ±1)` of a closed-form revolute joint about `±e_i`.
     #[inline(always)]
     pub fn axis(&self) -> Option<(usize, f64)> {
-        (self.ax < 3).then_some((self.ax as usize, self.sign))
+        (self.axis_code < 3).then_some((self.axis_code as usize, self.sign))
     }
     /// The joint's [`RevoluteParts`], if it is made of them.
     #[inline(always)]
     pub fn parts(&self) -> Option<&RevoluteParts> {
-        (self.ax == AX_PARTS).then_some(&self.rp)
+        (self.axis_code == AX_PARTS).then_some(&self.rev_parts)
     }
 }
 

@@ -9,7 +9,7 @@ use articula_model::{Model, NodeKind};
 pub(crate) struct HybridBody {
     /// Per node: in the hybrid body's active region (its principal joint moves).
     pub active: Vec<bool>,
-    /// The joint accelerations `q̈` of the last call (zero outside the active region).
+    /// The symbol `q̈` (eq. of docs/design.md#adaptive): the joint accelerations of the last call (zero outside the active region).
     pub qdd: Vec<f64>,
 }
 

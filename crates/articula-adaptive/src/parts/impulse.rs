@@ -7,9 +7,9 @@ use articula_spatial::SpatialForce;
 /// What a locking impulse writes and then reads within one call.
 #[derive(Clone, Debug)]
 pub(crate) struct LockingImpulse {
-    /// Per degree of freedom: the generalized momentum `sᵢᵀ h_sub(i)` (`gmom`).
+    /// Per degree of freedom: the generalized momentum `sᵢᵀ h_sub(i)`.
     pub momenta: Vec<f64>,
-    /// Per body: the spatial momentum of its subtree `h_sub(i) = Σ I_j v_j` (`hsub`).
+    /// Per body: the spatial momentum of its subtree `h_sub(i) = Σ I_j v_j`.
     pub subtree: Vec<SpatialForce>,
 }
 

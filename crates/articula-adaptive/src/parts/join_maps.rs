@@ -5,14 +5,18 @@
 use articula_model::{HandleLayout, Model, NodeKind};
 
 /// The bias maps of one join (docs/design.md#dca), recorded by `Adaptive::join` when
-/// [`JoinMaps::record`] is set (cache builds): `k = κ_β β + κ_Q Q` (`kb`: nv × 6, `kq`:
-/// nv × nv) and `n = γ = ν_β β + ν_Q Q` (`nb`: 6 × 6, `nq`: 6 × nv), computation-frame axes.
+/// [`JoinMaps::record`] is set (cache builds): `k = κ_β β + κ_Q Q` and
+/// `n = γ = ν_β β + ν_Q Q`, computation-frame axes (docs/adaptive.md#caches).
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct BiasMaps {
-    pub kb: [[f64; 6]; 6],
-    pub kq: [[f64; 6]; 6],
-    pub nb: [[f64; 6]; 6],
-    pub nq: [[f64; 6]; 6],
+    /// The symbol `κ_β` of `k = κ_β β + κ_Q Q` (nv × 6).
+    pub kappa_beta: [[f64; 6]; 6],
+    /// The symbol `κ_Q` of `k = κ_β β + κ_Q Q` (nv × nv).
+    pub kappa_q: [[f64; 6]; 6],
+    /// The symbol `ν_β` of `n = γ = ν_β β + ν_Q Q` (6 × 6).
+    pub nu_beta: [[f64; 6]; 6],
+    /// The symbol `ν_Q` of `n = γ = ν_β β + ν_Q Q` (6 × nv).
+    pub nu_q: [[f64; 6]; 6],
 }
 
 /// Per join node, what the back-substitution reads: `q̈ = K F + k` and the joint force on B

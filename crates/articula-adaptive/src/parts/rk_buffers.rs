@@ -9,21 +9,26 @@ use articula_model::Model;
 #[derive(Clone, Debug, Default)]
 pub(crate) struct RkBuffers {
     /// `q`, `q̇` at the start of the step (after the re-selection's impulse).
-    pub(crate) q0: Vec<f64>,
-    pub(crate) qd0: Vec<f64>,
+    pub(crate) q_start: Vec<f64>,
+    pub(crate) qd_start: Vec<f64>,
     /// `Σ wᵢ` of the stages' position slopes and accelerations (`w = 1, 2, 2, 1`).
-    pub(crate) kv: Vec<f64>,
-    pub(crate) ka: Vec<f64>,
-    /// The Lie-algebra increment that made the current stage's floating pose from `q0`.
+    pub(crate) slope_sum: Vec<f64>,
+    pub(crate) accel_sum: Vec<f64>,
+    /// The Lie-algebra increment that made the current stage's floating pose from `q_start`.
     pub(crate) theta: Vec<f64>,
 }
 
 impl RkBuffers {
     /// Sized for `model` (allocates at the first call only).
     pub(crate) fn fit(&mut self, model: &Model) {
-        if self.q0.len() != model.nq || self.qd0.len() != model.nv {
-            self.q0 = vec![0.0; model.nq];
-            for v in [&mut self.qd0, &mut self.kv, &mut self.ka, &mut self.theta] {
+        if self.q_start.len() != model.nq || self.qd_start.len() != model.nv {
+            self.q_start = vec![0.0; model.nq];
+            for v in [
+                &mut self.qd_start,
+                &mut self.slope_sum,
+                &mut self.accel_sum,
+                &mut self.theta,
+            ] {
                 *v = vec![0.0; model.nv];
             }
         }

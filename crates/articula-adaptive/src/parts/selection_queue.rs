@@ -2,9 +2,21 @@
 //! metric, the nodes it chose and the velocity metric that keeps fast joints active.
 
 use articula_model::Model;
+use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
-/// A node waiting in the selection queue, ordered by its acceleration metric.
+/// The selection order of every priority queue over nodes: the larger metric first
+/// ([`f64::total_cmp`]), ties to the smaller key. A body's own queue keys its nodes by index, a
+/// scene's global queue by `(body, node)`, so both pop a body's nodes in the same order.
+#[inline]
+pub fn selection_order<K: Ord>(metric: f64, key: K, other_metric: f64, other_key: K) -> Ordering {
+    metric
+        .total_cmp(&other_metric)
+        .then_with(|| other_key.cmp(&key))
+}
+
+/// A node waiting in the selection queue, ordered by its acceleration metric
+/// ([`selection_order`]).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Entry {
     pub metric: f64,
@@ -13,7 +25,7 @@ pub(crate) struct Entry {
 
 impl PartialEq for Entry {
     fn eq(&self, o: &Self) -> bool {
-        self.metric.total_cmp(&o.metric).is_eq() && self.node == o.node
+        self.cmp(o).is_eq()
     }
 }
 impl Eq for Entry {}
@@ -23,10 +35,8 @@ impl PartialOrd for Entry {
     }
 }
 impl Ord for Entry {
-    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
-        self.metric
-            .total_cmp(&o.metric)
-            .then_with(|| o.node.cmp(&self.node))
+    fn cmp(&self, o: &Self) -> Ordering {
+        selection_order(self.metric, self.node, o.metric, o.node)
     }
 }
 

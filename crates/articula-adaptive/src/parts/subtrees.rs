@@ -20,17 +20,17 @@ pub const PARALLEL_HYBRID_MIN_JOINTS: usize = 10_000;
 /// whole workspace).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(crate) struct Base {
-    pub(crate) rec: usize,
-    pub(crate) dof: usize,
-    pub(crate) vo: usize,
+    pub(crate) record: usize,
+    pub(crate) first_dof: usize,
+    pub(crate) v_offset: usize,
     pub(crate) body: usize,
 }
 
 impl Base {
     pub(crate) const ZERO: Base = Base {
-        rec: 0,
-        dof: 0,
-        vo: 0,
+        record: 0,
+        first_dof: 0,
+        v_offset: 0,
         body: 0,
     };
 }
@@ -41,17 +41,20 @@ impl Base {
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Chain {
     pub(crate) pidx: usize,
-    pub(crate) ap: [f64; 6],
-    pub(crate) s: [f64; 6],
-    pub(crate) x: f64,
+    /// The record's acceleration `a'` (relative to gravity).
+    pub(crate) accel: [f64; 6],
+    /// The record's motion-subspace column `S`.
+    pub(crate) subspace: [f64; 6],
+    /// The record's joint acceleration `q̈`.
+    pub(crate) qdd: f64,
 }
 
 impl Chain {
     pub(crate) const NONE: Chain = Chain {
         pidx: usize::MAX,
-        ap: [0.0; 6],
-        s: [0.0; 6],
-        x: 0.0,
+        accel: [0.0; 6],
+        subspace: [0.0; 6],
+        qdd: 0.0,
     };
 }
 
@@ -92,19 +95,19 @@ pub(crate) struct Subtrees {
 #[cfg_attr(not(feature = "parallel"), allow(dead_code))]
 pub(crate) struct Subtree {
     pub(crate) start: usize,
-    pub(crate) end: usize,
-    pub(crate) at: Base,
+    pub(crate) stop: usize,
+    pub(crate) base: Base,
     /// Pass 3's [`Chain`] after the record before `start`.
     pub(crate) entry: Chain,
     /// The acceleration of the root's parent (−a_g for none).
     pub(crate) root: [f64; 6],
-    /// The angles (`Hierarchy::ang`) before `start` and before `end`.
-    pub(crate) ang: usize,
-    pub(crate) ang_end: usize,
+    /// The angles (`Hierarchy::angles`) before `start` and before `end`.
+    pub(crate) angle_start: usize,
+    pub(crate) angle_stop: usize,
     /// No record of the subtree takes the general kinematics path
     /// (`articula_dca::internals::body_kinematics`, which writes the subspace columns in
     /// place): its kinematics may run on a task.
-    pub(crate) kin: bool,
+    pub(crate) kin_on_task: bool,
     /// The pose and velocity of the root's parent body (written by the serial part of the
     /// kinematics of each step).
     pub(crate) kin_root: (SpatialTransform, SpatialMotion),

@@ -69,8 +69,9 @@ pub struct SimulationOptions {
     pub integrator: Integrator,
     /// The time step (s, positive and finite; default 1e-3).
     pub dt: f64,
-    /// Gravity in world coordinates (m/s², default `(0, 0, −9.81)`).
-    pub gravity: DVec3,
+    /// Gravity in world coordinates (m/s²); `None` (the default) takes the model's
+    /// ([`Model::gravity`]: an MJCF file's `<option gravity>`, `(0, 0, −9.81)` for a URDF).
+    pub gravity: Option<DVec3>,
     /// Ground contact and joint limits (default none).
     pub ground: Option<GroundOptions>,
     /// Stop once the energy has grown, beyond the work of the joint forces, by more than this
@@ -91,7 +92,7 @@ impl Default for SimulationOptions {
             dynamics: Dynamics::Exact(Method::Dca),
             integrator: Integrator::SemiImplicitEuler,
             dt: 1e-3,
-            gravity: DVec3::new(0.0, 0.0, -9.81),
+            gravity: None,
             ground: None,
             max_energy_growth: DEFAULT_MAX_ENERGY_GROWTH,
             exact_reference: false,
@@ -231,7 +232,8 @@ impl Simulation {
     ) -> Result<Simulation, SimulationError> {
         check_options(&model, &state, &options)?;
         let mut data = Data::new(&model);
-        data.gravity = options.gravity;
+        let gravity = options.gravity.unwrap_or(model.gravity);
+        data.gravity = gravity;
         let contact = match &options.ground {
             Some(g) => {
                 let run = ContactRun::new(&model, g.contact);
@@ -253,7 +255,7 @@ impl Simulation {
                 reselection,
             } => {
                 let mut adaptive = Adaptive::new(&model, settings.clone());
-                adaptive.data.gravity = options.gravity;
+                adaptive.data.gravity = gravity;
                 adaptive.set_reselection(*reselection);
                 if let Some(threads) = &options.threads {
                     adaptive.set_threads(threads.clone());
@@ -606,11 +608,8 @@ fn check_options(
             format!("must be a positive finite time step, got {}", options.dt),
         );
     }
-    if !options.gravity.is_finite() {
-        return invalid(
-            "gravity",
-            format!("must be finite, got {}", options.gravity),
-        );
+    if let Some(g) = options.gravity.filter(|g| !g.is_finite()) {
+        return invalid("gravity", format!("must be finite, got {g}"));
     }
     if options.max_energy_growth.is_nan() || options.max_energy_growth <= 0.0 {
         return invalid(
