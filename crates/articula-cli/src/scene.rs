@@ -8,7 +8,7 @@ use crate::watch::{energy_stop_message, parse_growth, warn_gimbal, DEFAULT_MAX_E
 use crate::{print_out, CliError};
 use articula_adaptive::simulation::{EnergyWatch, GimbalWatch};
 use articula_view::render::{render_map, render_view, save_png};
-use articula_view::{load_scene_options, SceneMethod, SceneSim};
+use articula_view::{SceneMethod, SceneOptions, SceneSim};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -169,7 +169,10 @@ fn load(
                 .to_string(),
         ));
     }
-    let mut scene = load_scene_options(&args.scene, &args.inertia.options()?, args.memory_limit)?;
+    let mut scene = SceneOptions::default()
+        .with_model_options(args.inertia.options()?)
+        .with_memory_limit(args.memory_limit)
+        .load(&args.scene)?;
     if let Some(height) = args.ground {
         scene.ground = Some(articula_view::GroundSpec::at(height));
     }

@@ -5,8 +5,7 @@
 use crate::errors::{error, scene_error, Kind};
 use crate::model::load_options;
 use articula::view::render::{render_map, render_view, save_png};
-use articula::view::DEFAULT_SCENE_MEMORY_LIMIT;
-use articula::view::{load_scene_options, parse_scene_with, LoadedScene, SceneSim, SceneStep};
+use articula::view::{LoadedScene, SceneOptions, SceneSim, SceneStep};
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -52,10 +51,9 @@ impl PyScene {
         inertia: &str,
         threads: Option<usize>,
     ) -> PyResult<PyScene> {
-        let options = load_options(false, inertia, "lock", None, None)?;
-        let scene = py
-            .detach(|| load_scene_options(&path, &options, DEFAULT_SCENE_MEMORY_LIMIT))
-            .map_err(scene_error)?;
+        let options = SceneOptions::default()
+            .with_model_options(load_options(false, inertia, "lock", None, None)?);
+        let scene = py.detach(|| options.load(&path)).map_err(scene_error)?;
         let mut s = PyScene::start(scene)?;
         s.set_threads(threads)?;
         Ok(s)
@@ -73,7 +71,9 @@ impl PyScene {
     ) -> PyResult<PyScene> {
         let policy = load_options(false, inertia, "lock", None, None)?.inertia;
         let base = base.unwrap_or_else(|| PathBuf::from("."));
-        let scene = parse_scene_with(text, Path::new("<scene spec>"), &base, policy)
+        let scene = SceneOptions::default()
+            .with_inertia(policy)
+            .parse(text, Path::new("<scene spec>"), &base)
             .map_err(scene_error)?;
         let mut s = PyScene::start(scene)?;
         s.set_threads(threads)?;

@@ -5,8 +5,8 @@
 use crate::errors::{error, scene_error, Kind};
 use crate::model::load_options;
 use articula::view::{
-    body_memory_estimate, combine_state_hashes, combine_steps, load_scene_options,
-    merge_candidates, merge_depths, Candidates, DepthMessage, LoadedScene, SceneShard, ShardStep,
+    body_memory_estimate, combine_state_hashes, combine_steps, merge_candidates, merge_depths,
+    Candidates, DepthMessage, LoadedScene, SceneOptions, SceneShard, ShardStep,
     DEFAULT_SCENE_MEMORY_LIMIT,
 };
 use numpy::PyArray1;
@@ -66,11 +66,11 @@ impl PyShard {
         inertia: &str,
         threads: Option<usize>,
     ) -> PyResult<PyShard> {
-        let options = load_options(false, inertia, "lock", None, None)?;
         // The limit applies to each shard's part (below), not to the whole scene.
-        let scene = py
-            .detach(|| load_scene_options(&path, &options, u64::MAX))
-            .map_err(scene_error)?;
+        let options = SceneOptions::default()
+            .with_model_options(load_options(false, inertia, "lock", None, None)?)
+            .with_memory_limit(u64::MAX);
+        let scene = py.detach(|| options.load(&path)).map_err(scene_error)?;
         let mut s = part(&scene, index, count)?;
         let t = match threads {
             None => articula::dca::Threads::all(),

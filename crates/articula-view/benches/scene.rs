@@ -11,7 +11,7 @@
 #![allow(missing_docs)]
 
 use articula_dca::{Method, Threads};
-use articula_view::{load_scene, parse_scene, SceneMethod, SceneSim};
+use articula_view::{load_scene, SceneMethod, SceneOptions, SceneSim};
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -70,7 +70,9 @@ pub fn crowd2000_text() -> String {
 }
 
 fn crowd2000(c: &mut Criterion) {
-    let scene = parse_scene(&crowd2000_text(), Path::new("crowd2000.json"), &models()).unwrap();
+    let scene = SceneOptions::default()
+        .parse(&crowd2000_text(), Path::new("crowd2000.json"), &models())
+        .unwrap();
     assert_eq!(scene.placements.len(), 2000);
     let mut g = c.benchmark_group("crowd2000");
     g.sample_size(10).measurement_time(Duration::from_secs(10));

@@ -3,8 +3,8 @@
 //! View-dependent adaptive dynamics (docs/design.md#view): a [`Camera`] and its frustum, per-body
 //! bounding [`BodyVolumes`], [`Visibility`] classes (visible, occluded, invisible) turned into joint
 //! weights, and scenes of many articulated bodies under one joint budget — read from JSON
-//! files ([`load_scene`], feature `serde`) or built in code ([`SceneBuilder`]), then stepped
-//! by [`SceneSim`] and rendered to PNG frames ([`render`], feature `render`). Every invalid
+//! files ([`load_scene`], [`SceneOptions`], feature `serde`) or built in code
+//! ([`SceneBuilder`]), then stepped by [`SceneSim`] and rendered to PNG frames ([`render`], feature `render`). Every invalid
 //! scene is a [`ViewError`] naming its field, never a panic.
 //!
 //! ```
@@ -32,15 +32,12 @@ mod volumes;
 
 pub use camera::{Camera, CameraPath, Frustum, Keyframe, Plane};
 pub use error::ViewError;
+#[cfg(feature = "serde")]
+pub use scene_file::load_scene;
 pub use scene_file::{
     body_memory_estimate, BodySpec, CameraRig, CameraSpec, CrowdSpec, GroundSpec, ImageSpec,
-    KeySpec, LoadedScene, Placement, Push, PushSpec, SceneBuilder, SceneModel, SceneSpec,
-    SpringSpec, Targets, VelocitySpec, VisibilitySpec, DEFAULT_SCENE_MEMORY_LIMIT,
-};
-#[cfg(feature = "serde")]
-pub use scene_file::{
-    load_scene, load_scene_limited, load_scene_options, load_scene_with, parse_scene,
-    parse_scene_with,
+    KeySpec, LoadedScene, Placement, Push, PushSpec, SceneBuilder, SceneModel, SceneOptions,
+    SceneSpec, SpringSpec, Targets, VelocitySpec, VisibilitySpec, DEFAULT_SCENE_MEMORY_LIMIT,
 };
 pub use sim::pose_springs;
 pub use sim::{

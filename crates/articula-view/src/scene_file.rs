@@ -784,7 +784,7 @@ pub struct LoadedScene {
 pub const MAX_SCENE_BYTES: u64 = 16 << 20;
 
 /// The largest estimated memory of a running scene accepted by default: 4 GiB
-/// ([`body_memory_estimate`] summed over the bodies; [`load_scene_limited`],
+/// ([`body_memory_estimate`] summed over the bodies; [`SceneOptions::memory_limit`] and
 /// [`SceneBuilder::memory_limit`] set another).
 pub const DEFAULT_SCENE_MEMORY_LIMIT: u64 = 4 << 30;
 
@@ -814,82 +814,82 @@ const MEM_BASE: u64 = 16 << 10;
 const MEM_BODY: u64 = 4 << 10;
 const MEM_BLOCK: u64 = 2100;
 
-/// Reads and checks a scene file.
+/// How scene files are read: the load options of their models and the largest running scene
+/// accepted. The one entry to scene files, in the manner of [`std::fs::OpenOptions`]:
+/// `SceneOptions::default().with_memory_limit(1 << 30).load(path)`; [`load_scene`] is
+/// `SceneOptions::default().load(path)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SceneOptions {
+    /// How each body's model file is loaded (inertia policy and its repair bounds); the
+    /// floating base is always on, whatever `floating_base` says.
+    pub model: LoadOptions,
+    /// The largest estimated memory of the running scene accepted (bytes;
+    /// [`body_memory_estimate`] summed over the bodies, checked before any body is placed): a
+    /// larger scene is [`ViewError::TooLarge`].
+    pub memory_limit: u64,
+}
+
+impl Default for SceneOptions {
+    fn default() -> Self {
+        SceneOptions {
+            model: LoadOptions::default(),
+            memory_limit: DEFAULT_SCENE_MEMORY_LIMIT,
+        }
+    }
+}
+
+impl SceneOptions {
+    /// With every load option of the models.
+    pub fn with_model_options(self, model: LoadOptions) -> Self {
+        SceneOptions { model, ..self }
+    }
+
+    /// With the inertia policy the models are loaded with.
+    pub fn with_inertia(self, inertia: InertiaPolicy) -> Self {
+        SceneOptions {
+            model: self.model.with_inertia(inertia),
+            ..self
+        }
+    }
+
+    /// With the largest estimated memory of the running scene accepted (bytes).
+    pub fn with_memory_limit(self, memory_limit: u64) -> Self {
+        SceneOptions {
+            memory_limit,
+            ..self
+        }
+    }
+
+    /// Reads and checks a scene file (at most [`MAX_SCENE_BYTES`]); model paths are relative
+    /// to the file's folder.
+    #[cfg(feature = "serde")]
+    pub fn load(&self, path: impl AsRef<Path>) -> Result<LoadedScene, ViewError> {
+        let path = path.as_ref();
+        let io = |message: String| ViewError::Io {
+            path: path.display().to_string(),
+            message,
+        };
+        let bytes =
+            articula_model::read_limited(path, MAX_SCENE_BYTES).map_err(|e| io(e.to_string()))?;
+        let text = String::from_utf8(bytes).map_err(|e| io(e.to_string()))?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        self.parse(&text, path, base)
+    }
+
+    /// Parses and checks scene text; `path` names the file in errors and `base` is the folder
+    /// model paths are relative to.
+    #[cfg(feature = "serde")]
+    pub fn parse(&self, text: &str, path: &Path, base: &Path) -> Result<LoadedScene, ViewError> {
+        let spec = parse_spec(text, path)?;
+        resolve_in(spec, path, base, Vec::new(), self.model, self.memory_limit)
+    }
+}
+
+/// Reads and checks a scene file with the default options: `SceneOptions::default().load(path)`
+/// ([`SceneOptions`] sets others).
 #[cfg(feature = "serde")]
 pub fn load_scene(path: impl AsRef<Path>) -> Result<LoadedScene, ViewError> {
-    load_scene_with(path, InertiaPolicy::default())
-}
-
-/// [`load_scene`] with the inertia policy its models are loaded with.
-#[cfg(feature = "serde")]
-pub fn load_scene_with(
-    path: impl AsRef<Path>,
-    inertia: InertiaPolicy,
-) -> Result<LoadedScene, ViewError> {
-    load_scene_limited(path, inertia, DEFAULT_SCENE_MEMORY_LIMIT)
-}
-
-/// [`load_scene_with`] with the largest estimated memory of the running scene it accepts
-/// (bytes; [`body_memory_estimate`] summed over the bodies, checked before any body is
-/// placed): a larger scene is [`ViewError::TooLarge`].
-#[cfg(feature = "serde")]
-pub fn load_scene_limited(
-    path: impl AsRef<Path>,
-    inertia: InertiaPolicy,
-    memory_limit: u64,
-) -> Result<LoadedScene, ViewError> {
-    load_scene_options(
-        path,
-        &LoadOptions::default().with_inertia(inertia),
-        memory_limit,
-    )
-}
-
-/// [`load_scene_limited`] with every load option of the models (the inertia policy and its
-/// repair bounds; the floating base is always on).
-#[cfg(feature = "serde")]
-pub fn load_scene_options(
-    path: impl AsRef<Path>,
-    options: &LoadOptions,
-    memory_limit: u64,
-) -> Result<LoadedScene, ViewError> {
-    let path = path.as_ref();
-    let io = |message: String| ViewError::Io {
-        path: path.display().to_string(),
-        message,
-    };
-    let bytes =
-        articula_model::read_limited(path, MAX_SCENE_BYTES).map_err(|e| io(e.to_string()))?;
-    let text = String::from_utf8(bytes).map_err(|e| io(e.to_string()))?;
-    let base = path.parent().unwrap_or(Path::new("."));
-    let spec = parse_spec(&text, path)?;
-    resolve_in(spec, path, base, Vec::new(), *options, memory_limit)
-}
-
-/// Parses and checks scene text; `path` names the file in errors and `base` is the folder model
-/// paths are relative to.
-#[cfg(feature = "serde")]
-pub fn parse_scene(text: &str, path: &Path, base: &Path) -> Result<LoadedScene, ViewError> {
-    parse_scene_with(text, path, base, InertiaPolicy::default())
-}
-
-/// [`parse_scene`] with the inertia policy its models are loaded with.
-#[cfg(feature = "serde")]
-pub fn parse_scene_with(
-    text: &str,
-    path: &Path,
-    base: &Path,
-    inertia: InertiaPolicy,
-) -> Result<LoadedScene, ViewError> {
-    let spec = parse_spec(text, path)?;
-    resolve_in(
-        spec,
-        path,
-        base,
-        Vec::new(),
-        LoadOptions::default().with_inertia(inertia),
-        DEFAULT_SCENE_MEMORY_LIMIT,
-    )
+    SceneOptions::default().load(path)
 }
 
 /// The blocks of a scene file that must be JSON objects, as JSON paths (`[]`: every element

@@ -103,7 +103,9 @@ fn built_scene_equals_its_scene_file() {
       "pushes": [{"bodies": "all", "link": "l_fore", "point": [0, 0, -0.1], "force": [0, 30, 0],
                   "t0": 0, "t1": 0.05}],
       "joint_springs": {"frequency_hz": 2, "damping_ratio": 0.3}}"#;
-    let file = articula_view::parse_scene(json, &dir.join("s.json"), &dir).unwrap();
+    let file = articula_view::SceneOptions::default()
+        .parse(json, &dir.join("s.json"), &dir)
+        .unwrap();
     let code = builder().build().unwrap();
     // The model file, read through the builder, is the same scene again.
     let by_path = SceneBuilder::from_spec(spec())
@@ -191,7 +193,9 @@ fn specs_serialize_to_scene_files() {
         },
     ]);
     let json = serde_json::to_string_pretty(&spec).unwrap();
-    let parsed = articula_view::parse_scene(&json, &dir.join("s.json"), &dir).unwrap();
+    let parsed = articula_view::SceneOptions::default()
+        .parse(&json, &dir.join("s.json"), &dir)
+        .unwrap();
     let direct = spec.resolve(&dir).unwrap();
     std::fs::remove_dir_all(&dir).unwrap();
     assert!(matches!(direct.camera, CameraRig::Path(_)));

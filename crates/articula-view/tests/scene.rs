@@ -2,7 +2,7 @@
 //! joints, and a snapshot of the bundled crowd (the scene's internals are tested in
 //! `src/sim/tests.rs`).
 
-use articula_view::{parse_scene, LoadedScene, SceneSim, Visibility};
+use articula_view::{LoadedScene, SceneOptions, SceneSim, Visibility};
 use glam::DVec3;
 use std::path::{Path, PathBuf};
 
@@ -11,7 +11,9 @@ fn models() -> PathBuf {
 }
 
 fn scene(text: &str) -> LoadedScene {
-    parse_scene(text, Path::new("test.json"), &models()).unwrap()
+    SceneOptions::default()
+        .parse(text, Path::new("test.json"), &models())
+        .unwrap()
 }
 
 /// A folder with a floating "wall" model (one box).

@@ -1,7 +1,7 @@
 //! Scene files: placements, crowds, pushes, and clear errors naming the field.
 
 use articula_dca::{forward_kinematics, Data};
-use articula_view::{parse_scene, CameraRig, ViewError};
+use articula_view::{CameraRig, SceneOptions, ViewError};
 use glam::DVec3;
 use std::path::{Path, PathBuf};
 
@@ -10,7 +10,7 @@ fn models() -> PathBuf {
 }
 
 fn parse(text: &str) -> Result<articula_view::LoadedScene, ViewError> {
-    parse_scene(text, Path::new("test.json"), &models())
+    SceneOptions::default().parse(text, Path::new("test.json"), &models())
 }
 
 fn err(text: &str) -> String {
@@ -278,5 +278,33 @@ fn absurd_values_are_refused_at_load() {
     ] {
         let e = err(&with(&extra));
         assert!(e.contains(&format!("{field}:")), "{extra}: {e}");
+    }
+}
+
+/// The options struct is the one entry to scene files: its memory limit refuses a scene whose
+/// estimate (the sum of `body_memory_estimate` over its bodies) is above it, and accepts it at
+/// exactly that estimate.
+#[test]
+fn scene_options_carry_the_memory_limit() {
+    let path = models().join("scenes/crowd200.json");
+    let scene = SceneOptions::default().load(&path).unwrap();
+    let estimate: u64 = scene
+        .placements
+        .iter()
+        .map(|p| articula_view::body_memory_estimate(&scene.models[p.model].model))
+        .sum();
+    assert_eq!(scene.placements.len(), 200);
+    let at = SceneOptions::default().with_memory_limit(estimate);
+    assert_eq!(at.load(&path).unwrap().placements.len(), 200);
+    match at.with_memory_limit(estimate - 1).load(&path) {
+        Err(ViewError::TooLarge {
+            bodies,
+            estimate: e,
+            ..
+        }) => assert_eq!((bodies, e), (200, estimate)),
+        other => panic!(
+            "expected TooLarge, got {:?}",
+            other.map(|s| s.placements.len())
+        ),
     }
 }

@@ -85,8 +85,8 @@ pub mod prelude {
     //! ground contact ([`Ground`], [`ContactSettings`], [`ContactData`], [`step_with_contact`]),
     //! the simulation driver ([`Simulation`] with its [`SimulationOptions`], [`GroundOptions`],
     //! [`Recorder`]s such as [`CsvRecorder`], and the [`StopReason`] of a run),
-    //! scenes ([`SceneBuilder`] and its specs, [`SceneSim`]), the spatial types, glam's
-    //! `DVec3`, `DMat3`, `DQuat`, and every layer's error type.
+    //! scenes ([`SceneBuilder`] and its specs, files through [`SceneOptions`], [`SceneSim`]),
+    //! the spatial types, glam's `DVec3`, `DMat3`, `DQuat`, and every layer's error type.
 
     pub use crate::adaptive::simulation::{
         CsvRecorder, Dynamics, GimbalWarning, GroundOptions, Recorder, RunControl, Simulation,
@@ -102,7 +102,7 @@ pub mod prelude {
     pub use crate::spatial::{SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
     pub use crate::view::{
         BodySpec, Camera, CameraSpec, CrowdSpec, KeySpec, LoadedScene, PushSpec, SceneBuilder,
-        SceneSim, SceneStep, ViewError,
+        SceneOptions, SceneSim, SceneStep, ViewError,
     };
     pub use glam::{DMat3, DQuat, DVec3};
 }

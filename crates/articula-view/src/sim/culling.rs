@@ -114,7 +114,7 @@ fn cull(
 
 #[cfg(all(test, feature = "serde"))]
 mod tests {
-    use crate::{parse_scene, SceneMethod, SceneSim};
+    use crate::{SceneMethod, SceneOptions, SceneSim};
     use std::path::{Path, PathBuf};
 
     /// Two pushed humanoids in view and one behind the camera, on their pose springs on the
@@ -132,7 +132,9 @@ mod tests {
             "pushes": [{"bodies": "all", "link": "chest", "point": [0.05, 0.1, 0.2],
                         "force": [-80, 40, 10], "t0": 0.0, "t1": 0.05}],
             "ground": {"height": 0, "friction": 1}}"#;
-        parse_scene(text, Path::new("test.json"), &models).unwrap()
+        SceneOptions::default()
+            .parse(text, Path::new("test.json"), &models)
+            .unwrap()
     }
 
     fn largest_difference(a: &SceneSim, b: &SceneSim, body: usize) -> f64 {

@@ -6,7 +6,7 @@
 
 use super::global_selection;
 use crate::visibility::{body_poses, Classifier, Placed};
-use crate::{parse_scene, LoadedScene, SceneSim, Visibility};
+use crate::{LoadedScene, SceneOptions, SceneSim, Visibility};
 use articula_adaptive::{Adaptive, Settings};
 use articula_dca::State;
 use articula_model::Model;
@@ -19,7 +19,9 @@ fn models() -> PathBuf {
 }
 
 fn scene(text: &str) -> LoadedScene {
-    parse_scene(text, Path::new("test.json"), &models()).unwrap()
+    SceneOptions::default()
+        .parse(text, Path::new("test.json"), &models())
+        .unwrap()
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -532,7 +534,9 @@ fn a_bad_ground_names_its_field() {
             r#"{{"models": {{"h": "humanoid.urdf"}}, "camera": {{"eye": [0, 0, 1.5], "target": [10, 0, 1]}},
                 "ground": {ground}}}"#
         );
-        let e = parse_scene(&text, Path::new("test.json"), &models()).unwrap_err();
+        let e = SceneOptions::default()
+            .parse(&text, Path::new("test.json"), &models())
+            .unwrap_err();
         assert!(e.to_string().contains(field), "{e}");
     }
 }

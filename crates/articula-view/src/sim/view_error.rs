@@ -155,7 +155,7 @@ fn pixel(cam: &Camera, size: DVec2, p: DVec3) -> DVec2 {
 #[cfg(all(test, feature = "serde"))]
 mod tests {
     use super::*;
-    use crate::{parse_scene, SceneMethod};
+    use crate::{SceneMethod, SceneOptions};
     use std::path::{Path, PathBuf};
 
     fn scene(bodies: &str) -> crate::LoadedScene {
@@ -166,7 +166,9 @@ mod tests {
                 "image": {{"width": 640, "height": 360}},
                 "dt": 0.0016666666666666668, "gravity": [0, 0, 0]}}"#
         );
-        parse_scene(&text, Path::new("test.json"), &models).unwrap()
+        SceneOptions::default()
+            .parse(&text, Path::new("test.json"), &models)
+            .unwrap()
     }
 
     #[test]
