@@ -48,40 +48,23 @@ pub const ADAPTIVE_PENDING: &str = "Adaptive dynamics (`articula-adaptive`, issu
 exist yet: its rows, points and cells are **pending** — nothing is shown for them until the \
 crate lands and is added as a `Solver` variant in `xtask/src/solver.rs`.";
 
-struct Options {
-    quick: bool,
-    peers: bool,
-    /// Also copy the charts into `docs/img/` and the report to `docs/bench-report.md` (for
+/// The arguments of `cargo xtask bench`.
+#[derive(clap::Args, Debug)]
+pub struct Options {
+    /// Sample in-process (minutes) instead of running criterion.
+    #[arg(long)]
+    pub quick: bool,
+    /// Also time Pinocchio and MuJoCo (peers/peers.py, through the peers' Python).
+    #[arg(long)]
+    pub peers: bool,
+    /// Also copy the charts into docs/img/ and the report to docs/bench-report.md (for
     /// docs/performance.md and the README).
-    publish: bool,
+    #[arg(long)]
+    pub publish: bool,
     /// Also write the exact methods' one-step errors into docs/performance.md between its
     /// markers (they do not depend on the machine).
-    write_docs: bool,
-}
-
-fn parse(args: &[String]) -> Result<Options> {
-    let mut o = Options {
-        quick: false,
-        peers: false,
-        publish: false,
-        write_docs: false,
-    };
-    for a in args {
-        match a.as_str() {
-            "--quick" => o.quick = true,
-            "--peers" => o.peers = true,
-            "--publish" => o.publish = true,
-            "--write-docs" => o.write_docs = true,
-            _ => {
-                return Err(format!(
-                    "unexpected argument {a:?}; usage: cargo xtask bench [--quick] [--peers] \
-                     [--publish] [--write-docs]"
-                )
-                .into())
-            }
-        }
-    }
-    Ok(o)
+    #[arg(long)]
+    pub write_docs: bool,
 }
 
 /// One row of the speed table: a model and the time per call of each method (µs).
@@ -107,8 +90,7 @@ struct Peers {
     errors: Vec<String>,
 }
 
-pub fn run(root: &Path, args: &[String]) -> Result<()> {
-    let opts = parse(args)?;
+pub fn run(root: &Path, opts: &Options) -> Result<()> {
     let started = Instant::now();
     let out = root.join("target/articula-bench");
     std::fs::create_dir_all(out.join("urdf"))?;
@@ -129,9 +111,9 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     let humanoid = Model::from_urdf_file(&hpath, &LoadOptions::default())?;
     models.push(("humanoid".into(), hpath, humanoid));
 
-    let mut rows = speed_rows(root, &opts, &models, budget)?;
+    let mut rows = speed_rows(root, opts, &models, budget)?;
 
-    let growths = growth_pairs(&opts);
+    let growths = growth_pairs(opts);
 
     // 2. Accuracy on the 300-link chain.
     let chain300 = articula_testkit::chain(300);
@@ -231,7 +213,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     files.extend(chart_traj(&out, &traj, &pin_traj)?);
     files.extend(chart_seeds(&out, &seeds)?);
     let report = report(
-        &opts,
+        opts,
         &rows,
         &growths,
         &accel,
@@ -1575,12 +1557,6 @@ mod tests {
     #[test]
     fn metric_error_is_the_sum_of_squares() {
         assert_eq!(metric_error(&[1.0, 2.0], &[0.0, 4.0]), 5.0);
-    }
-
-    #[test]
-    fn arguments_are_checked() {
-        assert!(parse(&["--quick".into(), "--peers".into(), "--publish".into()]).is_ok());
-        assert!(parse(&["--fast".into()]).is_err());
     }
 
     #[test]

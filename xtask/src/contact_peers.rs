@@ -11,52 +11,22 @@ use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
-pub const USAGE: &str = "\
-usage: cargo xtask contact-peers [--rounds N] [--only CASE,...] [--venv DIR]
-
-Runs the humanoid drop, anymal standing and dropped, and crowd200 in articula and MuJoCo,
-alternated, one thread (peers/contact_peers.py); prints the table of docs/contact.md and
-writes target/contact-peers/report.json.
-
-    --rounds N      rounds of every case (default 3)
-    --only CASES    only the cases whose name contains one of these (humanoid, anymal, crowd)
-    --venv DIR      the Python venv with mujoco and example-robot-data
-                    (default target/peers-venv)
-";
-
 /// The scene the crowd case runs.
 const CROWD: &str = "models/scenes/crowd200.json";
 
-struct Options {
-    rounds: usize,
-    only: String,
-    venv: PathBuf,
-}
-
-fn parse(root: &Path, args: &[String]) -> Result<Options, String> {
-    let mut o = Options {
-        rounds: 3,
-        only: String::new(),
-        venv: root.join("target/peers-venv"),
-    };
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        let mut value = || it.next().ok_or(format!("{a} needs a value"));
-        match a.as_str() {
-            "--rounds" => {
-                let v = value()?;
-                o.rounds = v
-                    .parse()
-                    .ok()
-                    .filter(|&n| n > 0)
-                    .ok_or(format!("--rounds: `{v}` is not a positive count"))?;
-            }
-            "--only" => o.only = value()?.clone(),
-            "--venv" => o.venv = PathBuf::from(value()?),
-            other => return Err(format!("unknown argument `{other}`")),
-        }
-    }
-    Ok(o)
+/// The arguments of `cargo xtask contact-peers`.
+#[derive(clap::Args, Debug)]
+pub struct Options {
+    /// Rounds of every case.
+    #[arg(long, value_name = "N", default_value_t = 3, value_parser = crate::args::count,
+          allow_negative_numbers = true)]
+    pub rounds: usize,
+    /// Only the cases whose name contains one of these (humanoid, anymal, crowd).
+    #[arg(long, value_name = "CASES", default_value = "")]
+    pub only: String,
+    /// The Python venv with mujoco and example-robot-data [default: target/peers-venv].
+    #[arg(long, value_name = "DIR")]
+    pub venv: Option<PathBuf>,
 }
 
 /// The crowd's start states (root position and quaternion), springs per joint (name,
@@ -105,22 +75,16 @@ fn crowd_spec(root: &Path) -> Result<Value, String> {
     Ok(json!({"dt": scene.dt, "bodies": bodies, "springs": springs, "pushes": pushes}))
 }
 
-/// 0 when every case ran, 1 when one failed, 2 on bad arguments or a missing venv.
-pub fn main(root: &Path, args: &[String]) -> ExitCode {
-    let opts = match parse(root, args) {
-        Ok(o) => o,
-        Err(e) => {
-            eprintln!("error: {e}\n");
-            eprint!("{USAGE}");
-            return ExitCode::from(2);
-        }
-    };
+/// 0 when every case ran, 1 when one failed, 2 on a missing venv (clap exits 2 on bad
+/// arguments).
+pub fn main(root: &Path, opts: &Options) -> ExitCode {
+    let venv = crate::args::peers_venv(root, opts.venv.as_deref());
     let needs = "the harness needs mujoco and example-robot-data";
-    let python = match crate::corpus::venv_python(&opts.venv, needs, crate::corpus::INSTALL) {
+    let python = match crate::corpus::venv_python(&venv, needs, crate::corpus::INSTALL) {
         Ok(p) => p,
         Err(code) => return code,
     };
-    match run(root, &opts, &python) {
+    match run(root, opts, &python) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");

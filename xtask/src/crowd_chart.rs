@@ -43,51 +43,38 @@ pub const COARSE: [u32; 2] = [2, 4];
 const MAX_ENERGY_GROWTH: f64 = 0.5;
 
 const CHART: &str = "crowd_cost_vs_view_error";
-const USAGE: &str = "cargo xtask crowd-chart [SCENE.json] [--horizon S] [--budgets B,B,...] \
-                     [--mujoco MS_PER_SIM_S] [--publish]";
+/// The default scene, relative to the workspace root.
+const CROWD: &str = "models/scenes/crowd200.json";
 
-struct Options {
-    scene: PathBuf,
-    horizon: f64,
-    budgets: Vec<usize>,
-    mujoco: Option<f64>,
-    publish: bool,
+/// The arguments of `cargo xtask crowd-chart`.
+#[derive(clap::Args, Debug)]
+pub struct Options {
+    /// The crowd scene [default: models/scenes/crowd200.json].
+    #[arg(value_name = "SCENE.json")]
+    pub scene: Option<PathBuf>,
+    /// Simulated seconds of every run.
+    #[arg(long, value_name = "S", default_value_t = 2.0, value_parser = crate::args::seconds,
+          allow_negative_numbers = true)]
+    pub horizon: f64,
+    /// The adaptive runs' budgets (internal joints over the whole crowd).
+    #[arg(long, value_name = "B,B,...", value_delimiter = ',', default_values_t = BUDGETS,
+          value_parser = crate::args::whole)]
+    pub budgets: Vec<usize>,
+    /// MuJoCo's cost for a comparable crowd (ms per simulated second), instead of measuring it
+    /// with peers/mujoco_crowd.py.
+    #[arg(long, value_name = "MS_PER_SIM_S", value_parser = crate::args::cost,
+          allow_negative_numbers = true)]
+    pub mujoco: Option<f64>,
+    /// Also copy the chart into docs/img/.
+    #[arg(long)]
+    pub publish: bool,
 }
 
-fn parse(root: &Path, args: &[String]) -> Result<Options> {
-    let mut o = Options {
-        scene: root.join("models/scenes/crowd200.json"),
-        horizon: 2.0,
-        budgets: BUDGETS.to_vec(),
-        mujoco: None,
-        publish: false,
-    };
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        let mut value = |name: &str| {
-            it.next()
-                .ok_or_else(|| format!("{name} needs a value; usage: {USAGE}"))
-        };
-        match a.as_str() {
-            "--horizon" => o.horizon = value("--horizon")?.parse()?,
-            "--mujoco" => o.mujoco = Some(value("--mujoco")?.parse()?),
-            "--budgets" => {
-                o.budgets = value("--budgets")?
-                    .split(',')
-                    .map(|b| b.trim().parse::<usize>())
-                    .collect::<std::result::Result<_, _>>()?
-            }
-            "--publish" => o.publish = true,
-            s if !s.starts_with('-') => o.scene = PathBuf::from(s),
-            _ => return Err(format!("unexpected argument {a:?}; usage: {USAGE}").into()),
-        }
+impl Options {
+    /// The scene file: the one given, else the workspace's crowd200.
+    fn scene(&self, root: &Path) -> PathBuf {
+        self.scene.clone().unwrap_or_else(|| root.join(CROWD))
     }
-    if !(o.horizon > 0.0 && o.horizon.is_finite()) {
-        return Err(
-            format!("--horizon must be a positive number of seconds; usage: {USAGE}").into(),
-        );
-    }
-    Ok(o)
 }
 
 /// One run of the chart.
@@ -248,15 +235,12 @@ fn measured(
     Ok(run)
 }
 
-pub fn run(root: &Path, args: &[String]) -> Result<()> {
-    let o = parse(root, args)?;
+pub fn run(root: &Path, o: &Options) -> Result<()> {
     let started = Instant::now();
-    let base = articula_view::load_scene(&o.scene)?;
+    let scene = o.scene(root);
+    let base = articula_view::load_scene(&scene)?;
     let horizon = o.horizon;
-    println!(
-        "crowd chart: {} ({horizon} s, one thread)",
-        o.scene.display()
-    );
+    println!("crowd chart: {} ({horizon} s, one thread)", scene.display());
     let (reference, snaps) = reference(&base, horizon)?;
     println!(
         "  {}: {:.0} ms per simulated s",
@@ -293,12 +277,12 @@ pub fn run(root: &Path, args: &[String]) -> Result<()> {
     }
     let mujoco = match o.mujoco {
         Some(ms) => Some((ms, "given with --mujoco".to_string())),
-        None => mujoco_figure(root, &o.scene, horizon),
+        None => mujoco_figure(root, &scene, horizon),
     };
     let out = root.join("target/articula-crowd");
     let files = write_chart(&out, &base, &reference, &runs, mujoco.as_ref().map(|m| m.0))?;
     let text = report(
-        &o,
+        o,
         root,
         &base,
         &reference,
@@ -434,6 +418,7 @@ fn report(
     mujoco: Option<&(f64, String)>,
     took: Duration,
 ) -> String {
+    let file = o.scene(root);
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -441,7 +426,7 @@ fn report(
          `cargo xtask crowd-chart {}` ({} s simulated per run, one thread, took {:.0} s; \
          machine load average {} when written). Scene: {} characters, {} internal joints, \
          dt = {:.3} ms, image {}×{}.\n",
-        o.scene.strip_prefix(root).unwrap_or(&o.scene).display(),
+        file.strip_prefix(root).unwrap_or(&file).display(),
         o.horizon,
         took.as_secs_f64(),
         std::fs::read_to_string("/proc/loadavg")

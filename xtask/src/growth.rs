@@ -18,23 +18,34 @@
 //! rounds of DCA 1000/10000 take about 12 s): the host's slow phases last seconds, and a short
 //! run's minima cannot escape them.
 
-use crate::args::Args;
 use articula_dca::{forward_dynamics_slices, Data, Method, State};
 use std::time::Instant;
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
+/// The arguments of `cargo xtask growth`.
+#[derive(clap::Args, Debug)]
+pub struct Options {
+    /// The forward-dynamics method.
+    #[arg(value_name = "METHOD", default_value = "dca", value_parser = crate::args::method())]
+    pub method: Method,
+    /// The short chain's length (links).
+    #[arg(value_name = "SHORT", default_value_t = 1000, value_parser = crate::args::count,
+          allow_negative_numbers = true)]
+    pub short: usize,
+    /// The long chain's length (links).
+    #[arg(value_name = "LONG", default_value_t = 10_000, value_parser = crate::args::count,
+          allow_negative_numbers = true)]
+    pub long: usize,
+    /// Interleaved rounds.
+    #[arg(value_name = "ROUNDS", default_value_t = 1000, value_parser = crate::args::count,
+          allow_negative_numbers = true)]
+    pub rounds: usize,
+}
+
 /// `cargo xtask growth [METHOD] [SHORT] [LONG] [ROUNDS]`.
-pub fn run(args: &[String]) -> Result<()> {
-    let mut a = Args::new(args, "cargo xtask growth [METHOD] [SHORT] [LONG] [ROUNDS]");
-    let method: Method = a.next_or("method", Method::Dca)?;
-    let short: usize = a.next_or("short chain length", 1000)?;
-    let long: usize = a.next_or("long chain length", 10_000)?;
-    let rounds: usize = a.next_or("rounds", 1000)?;
-    a.finish()?;
-    if short == 0 || long == 0 || rounds == 0 {
-        return Err("chain lengths and rounds must be at least 1".into());
-    }
+pub fn run(o: &Options) -> Result<()> {
+    let (method, short, long, rounds) = (o.method, o.short, o.long, o.rounds);
     let g = measure(method, short, long, rounds, |_| {});
     println!(
         "{} chain{} {:.2} us, chain{} {:.2} us (minima over {rounds} interleaved rounds): growth {:.2}x",

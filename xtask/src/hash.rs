@@ -29,10 +29,7 @@ fn fnv(h: &mut u64, x: f64) {
     }
 }
 
-pub fn run(root: &Path, args: &[String]) -> Result<()> {
-    if !args.is_empty() {
-        return Err(format!("unexpected arguments {args:?}; usage: cargo xtask hash").into());
-    }
+pub fn run(root: &Path) -> Result<()> {
     println!("qdd_hash: {:016x}", qdd_hash(true)?);
     let scene = root.join("models/scenes/crowd200.json");
     let (steps, h) = (500, scene_hash(&scene, 500)?);

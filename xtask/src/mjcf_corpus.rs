@@ -12,17 +12,17 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 use std::time::{Duration, Instant};
 
-pub const USAGE: &str = "\
-usage: cargo xtask mjcf-corpus [--quick] [--venv DIR]
-
-Loads every kinematic-tree MJCF model of the PyPI packages dm-control and gymnasium with
-articula and with MuJoCo (peers/mjcf_corpus.py), compares M and qacc_smooth on seeded random
-states (1e-9 relative; 1e-10 for models with ball joints), times DCA, ABA and MuJoCo's mj_forward, and writes
-target/articula-mjcf-corpus/report.md and report.json.
-
-    --quick     two states per model, short timings
-    --venv DIR  the Python environment (default target/peers-venv), with
-                pip install mujoco dm-control gymnasium";
+/// The arguments of `cargo xtask mjcf-corpus`.
+#[derive(clap::Args, Debug)]
+pub struct Options {
+    /// Two states per model, short timings.
+    #[arg(long)]
+    pub quick: bool,
+    /// The Python environment, with `pip install mujoco dm-control gymnasium`
+    /// [default: target/peers-venv].
+    #[arg(long, value_name = "DIR")]
+    pub venv: Option<PathBuf>,
+}
 
 /// The agreement asked of every loaded model (relative to the largest entry).
 const TOLERANCE: f64 = 1e-9;
@@ -58,20 +58,10 @@ struct Mapped {
     aba: Vec<f64>,
 }
 
-pub fn main(root: &Path, args: &[String]) -> ExitCode {
-    let mut quick = false;
-    let mut venv = root.join("target/peers-venv");
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--quick" => quick = true,
-            "--venv" => match it.next() {
-                Some(d) => venv = PathBuf::from(d),
-                None => return usage_error("--venv needs a directory"),
-            },
-            other => return usage_error(&format!("unknown argument '{other}'")),
-        }
-    }
+/// 0 when every model agrees, 1 when one does not (or something failed), 2 on a missing venv
+/// (clap exits 2 on bad arguments).
+pub fn main(root: &Path, opts: &Options) -> ExitCode {
+    let venv = crate::args::peers_venv(root, opts.venv.as_deref());
     let install = "python3 -m venv target/peers-venv && \
                    target/peers-venv/bin/pip install mujoco dm-control gymnasium";
     let needs = "the corpus needs mujoco, dm-control and gymnasium";
@@ -79,7 +69,7 @@ pub fn main(root: &Path, args: &[String]) -> ExitCode {
         Ok(p) => p,
         Err(code) => return code,
     };
-    match run(root, &python, quick) {
+    match run(root, &python, opts.quick) {
         Ok(true) => ExitCode::SUCCESS,
         Ok(false) => ExitCode::FAILURE,
         Err(e) => {
@@ -87,11 +77,6 @@ pub fn main(root: &Path, args: &[String]) -> ExitCode {
             ExitCode::FAILURE
         }
     }
-}
-
-fn usage_error(msg: &str) -> ExitCode {
-    eprintln!("{msg}\n{USAGE}");
-    ExitCode::from(2)
 }
 
 fn python_json(python: &Path, script: &Path, arg: &str) -> Result<Value, String> {

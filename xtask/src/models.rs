@@ -31,6 +31,38 @@ const Y: [f64; 3] = [0.0, 1.0, 0.0];
 const Z: [f64; 3] = [0.0, 0.0, 1.0];
 const ZERO: [f64; 3] = [0.0, 0.0, 0.0];
 
+/// The arguments of `cargo xtask models`.
+#[derive(clap::Args, Debug)]
+pub struct Options {
+    /// Print the URDF of an N-link chain (the bodies of chainN.urdf) instead of regenerating
+    /// models/.
+    #[arg(long, value_name = "N", value_parser = crate::args::count, conflicts_with = "tree",
+          allow_negative_numbers = true)]
+    pub chain: Option<usize>,
+    /// Print the URDF of a head with BRANCHES chains of LINKS links
+    /// (articula_testkit::branches_urdf) instead of regenerating models/.
+    #[arg(long, num_args = 2, value_names = ["BRANCHES", "LINKS"],
+          value_parser = crate::args::count, allow_negative_numbers = true)]
+    pub tree: Option<Vec<usize>>,
+}
+
+/// `cargo xtask models`: regenerates `models/` under the workspace `root`, or prints one
+/// model's URDF on stdout (`--chain N` for the peers' scripts, e.g. `peers/pin300.py`;
+/// `--tree BRANCHES LINKS`, a large hybrid body whose passes split over subtrees,
+/// docs/scaling.md).
+pub fn main(root: &Path, o: &Options) -> Result<()> {
+    match (o.chain, o.tree.as_deref()) {
+        (Some(n), _) => print!("{}", articula_testkit::chain_urdf(n)),
+        (None, Some(&[branches, links])) => print!(
+            "{}",
+            articula_testkit::branches_urdf(&vec![links; branches])
+        ),
+        (None, Some(other)) => return Err(format!("--tree takes 2 values, got {other:?}").into()),
+        (None, None) => run(&root.join("models"))?,
+    }
+    Ok(())
+}
+
 /// Writes every model into `dir` (created if missing).
 pub fn run(dir: &Path) -> Result<()> {
     fs::create_dir_all(dir)?;

@@ -9,7 +9,6 @@
 //! come out, with the per-round ratio serial / split on `THREADS` threads (its median and
 //! range): the crossover is the shortest chain whose ratio stays above 1.
 
-use crate::args::Args;
 use crate::timing::median;
 use articula_dca::internals::forward_dynamics_split;
 use articula_dca::{forward_dynamics_slices, Data, Method, State, Threads};
@@ -17,25 +16,36 @@ use std::time::Instant;
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
+/// The chain lengths measured when none are given.
+pub const LENGTHS: [usize; 7] = [250, 500, 1000, 2000, 5000, 20_000, 100_000];
+
+/// The arguments of `cargo xtask parallel`.
+#[derive(clap::Args, Debug)]
+pub struct Options {
+    /// Threads of the split solve.
+    #[arg(value_name = "THREADS", default_value_t = 2, value_parser = crate::args::count,
+          allow_negative_numbers = true)]
+    pub threads: usize,
+    /// Rounds per chain length.
+    #[arg(value_name = "ROUNDS", default_value_t = 15, value_parser = crate::args::count,
+          allow_negative_numbers = true)]
+    pub rounds: usize,
+    /// Chain lengths (links).
+    #[arg(value_name = "LENGTH", default_values_t = LENGTHS, value_parser = crate::args::count,
+          allow_negative_numbers = true)]
+    pub lengths: Vec<usize>,
+}
+
 /// `cargo xtask parallel [THREADS] [ROUNDS] [LENGTH...]`.
-pub fn run(args: &[String]) -> Result<()> {
-    let mut a = Args::new(args, "cargo xtask parallel [THREADS] [ROUNDS] [LENGTH...]");
-    let threads: usize = a.next_or("thread count", 2)?;
-    let rounds: usize = a.next_or("rounds", 15)?;
-    let mut lengths: Vec<usize> = a.rest("chain length")?;
-    if lengths.is_empty() {
-        lengths = vec![250, 500, 1000, 2000, 5000, 20_000, 100_000];
-    }
-    if rounds == 0 || lengths.contains(&0) {
-        return Err("rounds and chain lengths must be at least 1".into());
-    }
-    let pool = Threads::new(threads)?;
+pub fn run(o: &Options) -> Result<()> {
+    let rounds = o.rounds;
+    let pool = Threads::new(o.threads)?;
     let serial = Threads::serial();
     println!(
         "threads={} rounds={rounds} (medians over rounds, us per call)",
         pool.count()
     );
-    for n in lengths {
+    for &n in &o.lengths {
         let model = articula_testkit::chain(n);
         let s = State::random(&model, 42, 1.0);
         let mut data = [Data::new(&model), Data::new(&model), Data::new(&model)];

@@ -18,73 +18,131 @@
 //!   the time per step, the mean number of active joints and the scene's state hash
 //!   (`cargo xtask hash`).
 
-use crate::args::{self, Args};
+use crate::args;
 use articula_adaptive::{Adaptive, Reselection, Settings};
 use articula_dca::{forward_dynamics_slices, step, Data, Integrator, Method, State};
 use articula_model::Model;
 use articula_spatial::SpatialForce;
 use std::hint::black_box;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
-
-const USAGE: &str = "cargo xtask profile dynamics METHOD MODEL CALLS
-       cargo xtask profile adaptive LINKS BUDGET PERIOD STEPS [FORCES] [--at-origin]
-       cargo xtask profile exact LINKS STEPS [FORCES]
-       cargo xtask profile scene SCENE.json WARMUP STEPS";
 
 const DT: f64 = 1e-4;
 
 /// External forces as `(body, world wrench)` pairs.
 type Forces = Vec<(usize, SpatialForce)>;
 
-pub fn run(args: &[String]) -> Result<()> {
-    let at_origin = args.iter().any(|a| a == "--at-origin");
-    let args: Vec<String> = args
-        .iter()
-        .filter(|a| *a != "--at-origin")
-        .cloned()
-        .collect();
-    let mut a = Args::new(&args, USAGE);
-    match a.next_str() {
-        Some("dynamics") => {
-            let method: Method = a.next("method")?;
-            let name: String = a.next("model")?;
-            let calls: usize = a.next("calls")?;
-            a.finish()?;
-            dynamics(method, &name, calls.max(1))
-        }
-        Some("adaptive") => {
-            let n: usize = a.next("chain length")?;
-            let budget: usize = a.next("budget")?;
-            let period: u64 = a.next("re-selection period")?;
-            let steps: usize = a.next("steps")?;
-            let forces: usize = a.next_or("forces", 0)?;
-            a.finish()?;
-            let (model, s, list) = crumpled_chain(n, forces, !at_origin)?;
+/// The workloads of `cargo xtask profile`.
+#[derive(clap::Subcommand, Debug)]
+pub enum Workload {
+    /// CALLS forward-dynamics calls at `State::random(model, 42, 1.0)`; prints the wall-clock
+    /// and CPU time per call.
+    Dynamics {
+        /// The forward-dynamics method.
+        #[arg(value_parser = args::method())]
+        method: Method,
+        /// A chain length (`300`), a bundled model (`humanoid`) or its floating-base version
+        /// (`humanoid-floating`).
+        #[arg(value_parser = args::model_name)]
+        model: String,
+        /// Forward-dynamics calls (0 runs one).
+        #[arg(allow_negative_numbers = true)]
+        calls: usize,
+    },
+    /// Adaptive steps re-selecting every PERIOD steps on a crumpled chain with FORCES forces.
+    ///
+    /// Semi-implicit Euler, dt 1e-4, on a chain crumpled at rest (random angles ±1.2 rad, seed
+    /// 42), with FORCES constant external forces on evenly spread bodies, each at its body's
+    /// origin as in the seeds table (--at-origin: at the computation frame's origin instead).
+    /// The first step (a whole-body re-selection building every cache) runs before. Prints the
+    /// median over batches of 100 steps and the nodes the last step visited.
+    Adaptive {
+        /// The chain's length (links).
+        #[arg(allow_negative_numbers = true)]
+        links: usize,
+        /// The adaptive budget (joints).
+        #[arg(allow_negative_numbers = true)]
+        budget: usize,
+        /// Steps between re-selections.
+        #[arg(allow_negative_numbers = true)]
+        period: u64,
+        /// Measured steps (0 runs one).
+        #[arg(allow_negative_numbers = true)]
+        steps: usize,
+        /// Constant external forces.
+        #[arg(default_value_t = 0, allow_negative_numbers = true)]
+        forces: usize,
+        /// Apply the forces at the computation frame's origin instead of their bodies'.
+        #[arg(long)]
+        at_origin: bool,
+    },
+    /// The adaptive workload's run with exact DCA steps, for the ratio.
+    Exact {
+        /// The chain's length (links).
+        #[arg(allow_negative_numbers = true)]
+        links: usize,
+        /// Measured steps (0 runs one).
+        #[arg(allow_negative_numbers = true)]
+        steps: usize,
+        /// Constant external forces.
+        #[arg(default_value_t = 0, allow_negative_numbers = true)]
+        forces: usize,
+        /// Apply the forces at the computation frame's origin instead of their bodies'.
+        #[arg(long)]
+        at_origin: bool,
+    },
+    /// WARMUP scene steps, then STEPS measured ones; prints the time per step, the mean number
+    /// of active joints and the scene's state hash.
+    Scene {
+        /// The scene file.
+        #[arg(value_name = "SCENE.json")]
+        scene: PathBuf,
+        /// Unmeasured steps first.
+        #[arg(allow_negative_numbers = true)]
+        warmup: u64,
+        /// Measured steps (0 runs one).
+        #[arg(allow_negative_numbers = true)]
+        steps: u64,
+    },
+}
+
+pub fn run(workload: &Workload) -> Result<()> {
+    match *workload {
+        Workload::Dynamics {
+            method,
+            ref model,
+            calls,
+        } => dynamics(method, model, calls.max(1)),
+        Workload::Adaptive {
+            links,
+            budget,
+            period,
+            steps,
+            forces,
+            at_origin,
+        } => {
+            let (model, s, list) = crumpled_chain(links, forces, !at_origin)?;
             adaptive(&model, s, &list, budget, period, steps.max(1))
         }
-        Some("exact") => {
-            let n: usize = a.next("chain length")?;
-            let steps: usize = a.next("steps")?;
-            let forces: usize = a.next_or("forces", 0)?;
-            a.finish()?;
-            let (model, mut s, list) = crumpled_chain(n, forces, !at_origin)?;
+        Workload::Exact {
+            links,
+            steps,
+            forces,
+            at_origin,
+        } => {
+            let (model, mut s, list) = crumpled_chain(links, forces, !at_origin)?;
             for (b, f) in list {
                 s.f_ext[b] = f;
             }
-            exact(&model, s, n, steps.max(1))
+            exact(&model, s, links, steps.max(1))
         }
-        Some("scene") => {
-            let path: String = a.next("scene file")?;
-            let warmup: u64 = a.next("warm-up steps")?;
-            let steps: u64 = a.next("steps")?;
-            a.finish()?;
-            scene(Path::new(&path), warmup, steps.max(1))
-        }
-        Some(other) => Err(format!("unknown workload `{other}`; usage: {USAGE}").into()),
-        None => Err(format!("usage: {USAGE}").into()),
+        Workload::Scene {
+            ref scene,
+            warmup,
+            steps,
+        } => self::scene(scene, warmup, steps.max(1)),
     }
 }
 

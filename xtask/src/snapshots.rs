@@ -16,18 +16,17 @@ type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 /// Where the snapshot files live, relative to the workspace root.
 pub const SNAPSHOT_DIR: &str = "crates/articula-cli/tests/snapshots";
 
-/// Runs the task with its arguments (those after `snapshots`).
-pub fn run(root: &Path, args: &[String]) -> Result<()> {
-    let accept = match args {
-        [] => false,
-        [a] if a == "--accept" => true,
-        _ => {
-            return Err(format!(
-                "unexpected arguments {args:?}; usage: cargo xtask snapshots [--accept]"
-            )
-            .into())
-        }
-    };
+/// The arguments of `cargo xtask snapshots`.
+#[derive(clap::Args, Debug)]
+pub struct Options {
+    /// Rewrite the changed .snap files (INSTA_UPDATE=always) and list them with git status.
+    #[arg(long)]
+    pub accept: bool,
+}
+
+/// Runs the task.
+pub fn run(root: &Path, o: &Options) -> Result<()> {
+    let accept = o.accept;
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| OsString::from("cargo"));
     let update = if accept { "always" } else { "no" };
     let mut cmd = Command::new(&cargo);

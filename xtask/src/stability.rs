@@ -279,17 +279,27 @@ fn sci(x: Option<f64>) -> String {
     }
 }
 
-pub fn run(root: &Path, args: &[String]) -> Result<()> {
-    match args {
-        [] => {}
-        [c] if c == "cases" => return crate::stress::print(false),
-        [c, f] if c == "cases" && f == "--full" => return crate::stress::print(true),
-        _ => {
-            return Err(format!(
-                "unexpected arguments {args:?}; usage: cargo xtask stability [cases [--full]]"
-            )
-            .into())
-        }
+/// The arguments of `cargo xtask stability`.
+#[derive(clap::Args, Debug)]
+pub struct Options {
+    #[command(subcommand)]
+    pub only: Option<Only>,
+}
+
+/// A part of the study run alone.
+#[derive(clap::Subcommand, Debug)]
+pub enum Only {
+    /// Print the table of the hard cases (section 5) only; writes nothing.
+    Cases {
+        /// Also the 100,000-link chains.
+        #[arg(long)]
+        full: bool,
+    },
+}
+
+pub fn run(root: &Path, o: &Options) -> Result<()> {
+    if let Some(Only::Cases { full }) = o.only {
+        return crate::stress::print(full);
     }
     let started = Instant::now();
     let img = root.join("docs/img");

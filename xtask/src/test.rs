@@ -20,43 +20,21 @@ const PACKAGES: &[&str] = &[
     "matplotlib",
 ];
 
-const USAGE: &str = "cargo xtask test [--python-only | --rust-only] [--venv DIR] [PYTEST_ARGS...]";
-
-/// The options of `cargo xtask test`.
-struct Options {
-    rust: bool,
-    python: bool,
-    venv: PathBuf,
-    pytest: Vec<String>,
-}
-
-fn parse(root: &Path, args: &[String]) -> Result<Options, String> {
-    let mut o = Options {
-        rust: true,
-        python: true,
-        venv: root.join("target/py-venv"),
-        pytest: Vec::new(),
-    };
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--python-only" => o.rust = false,
-            "--rust-only" => o.python = false,
-            "--venv" => {
-                o.venv = PathBuf::from(
-                    it.next()
-                        .ok_or(format!("--venv needs a directory\nusage: {USAGE}"))?,
-                )
-            }
-            _ => o.pytest.push(a.clone()),
-        }
-    }
-    if !o.rust && !o.python {
-        return Err(format!(
-            "--python-only and --rust-only exclude each other\nusage: {USAGE}"
-        ));
-    }
-    Ok(o)
+/// The arguments of `cargo xtask test`.
+#[derive(clap::Args, Debug)]
+pub struct Options {
+    /// Only the Python package's tests.
+    #[arg(long, conflicts_with = "rust_only")]
+    pub python_only: bool,
+    /// Only `cargo test --workspace`.
+    #[arg(long)]
+    pub rust_only: bool,
+    /// The venv of the Python tests [default: target/py-venv].
+    #[arg(long, value_name = "DIR")]
+    pub venv: Option<PathBuf>,
+    /// Passed to pytest (`-k EXPR`, `-x`, ...), after this command's own flags.
+    #[arg(value_name = "PYTEST_ARGS", allow_hyphen_values = true)]
+    pub pytest: Vec<String>,
 }
 
 /// Runs `cmd`, echoing it; an error names it and its exit status.
@@ -134,16 +112,19 @@ fn venv(root: &Path, dir: &Path) -> Result<PathBuf, Box<dyn std::error::Error>> 
 }
 
 /// Runs `cargo xtask test`.
-pub fn main(root: &Path, args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
-    let o = parse(root, args)?;
-    if o.rust {
+pub fn main(root: &Path, o: &Options) -> Result<(), Box<dyn std::error::Error>> {
+    let dir = o
+        .venv
+        .clone()
+        .unwrap_or_else(|| root.join("target/py-venv"));
+    if !o.python_only {
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
         run(Command::new(cargo)
             .args(["test", "--workspace"])
             .current_dir(root))?;
     }
-    if o.python {
-        let python = venv(root, &o.venv)?;
+    if !o.rust_only {
+        let python = venv(root, &dir)?;
         let bin = python.parent().expect("bin directory").to_path_buf();
         let path = std::env::join_paths(std::iter::once(bin.clone()).chain(
             std::env::split_paths(&std::env::var_os("PATH").unwrap_or_default()),
@@ -151,7 +132,7 @@ pub fn main(root: &Path, args: &[String]) -> Result<(), Box<dyn std::error::Erro
         run(Command::new(bin.join("maturin"))
             .args(["develop", "--release", "--quiet"])
             .current_dir(root.join("crates/articula-py"))
-            .env("VIRTUAL_ENV", &o.venv)
+            .env("VIRTUAL_ENV", &dir)
             .env("PATH", &path))?;
         run(Command::new(&python)
             .args(["-m", "pytest", "crates/articula-py/tests", "-q", "-rs"])
@@ -160,26 +141,4 @@ pub fn main(root: &Path, args: &[String]) -> Result<(), Box<dyn std::error::Erro
     }
     eprintln!("==> cargo xtask test: all passed");
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn options_pass_the_rest_to_pytest() {
-        let args: Vec<String> = ["--python-only", "-k", "batch"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect();
-        let o = parse(Path::new("/w"), &args).unwrap();
-        assert!(!o.rust && o.python);
-        assert_eq!(o.venv, Path::new("/w/target/py-venv"));
-        assert_eq!(o.pytest, ["-k", "batch"]);
-        let both: Vec<String> = ["--python-only", "--rust-only"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect();
-        assert!(parse(Path::new("/w"), &both).is_err());
-    }
 }

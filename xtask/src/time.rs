@@ -6,30 +6,36 @@
 //! `State::random(model, 42, 1.0)`, the benchmarks' state. `--portable` runs DCA's portable
 //! compilation instead of the fused (AVX2 + FMA) one.
 
-use crate::args::{self, Args};
+use crate::args;
 use articula_dca::{forward_dynamics_slices, Data, Method, State};
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
-const USAGE: &str = "cargo xtask time METHOD MODEL [BATCHES] [CALLS] [--portable]";
+/// The arguments of `cargo xtask time`.
+#[derive(clap::Args, Debug)]
+pub struct Options {
+    /// The forward-dynamics method.
+    #[arg(value_parser = args::method())]
+    pub method: Method,
+    /// A chain length (`300`), a bundled model (`humanoid`) or its floating-base version
+    /// (`humanoid-floating`).
+    #[arg(value_parser = args::model_name)]
+    pub model: String,
+    /// Timed batches.
+    #[arg(default_value_t = 30, value_parser = args::count, allow_negative_numbers = true)]
+    pub batches: usize,
+    /// Calls per batch.
+    #[arg(default_value_t = 100, value_parser = args::count, allow_negative_numbers = true)]
+    pub calls: usize,
+    /// Run DCA's portable compilation instead of the fused (AVX2 + FMA) one.
+    #[arg(long)]
+    pub portable: bool,
+}
 
-pub fn run(args: &[String]) -> Result<()> {
-    let portable = args.iter().any(|a| a == "--portable");
-    let args: Vec<String> = args
-        .iter()
-        .filter(|a| *a != "--portable")
-        .cloned()
-        .collect();
-    let mut a = Args::new(&args, USAGE);
-    let method: Method = a.next("method")?;
-    let name: String = a.next("model")?;
-    let batches: usize = a.next_or("batches", 30)?;
-    let calls: usize = a.next_or("calls per batch", 100)?;
-    a.finish()?;
-    if batches == 0 || calls == 0 {
-        return Err("batches and calls must be at least 1".into());
-    }
-    let model = args::model(&name)?;
+pub fn run(o: &Options) -> Result<()> {
+    let (method, name, batches, calls, portable) =
+        (o.method, &o.model, o.batches, o.calls, o.portable);
+    let model = args::model(name)?;
     let s = State::random(&model, 42, 1.0);
     let mut data = Data::new(&model);
     if portable {

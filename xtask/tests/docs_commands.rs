@@ -1,8 +1,9 @@
 //! The `cargo xtask` subcommands that README.md and docs/ name exist, and the README's list of
-//! them is complete: read from the dispatcher in `xtask/src/main.rs` and checked by running
-//! the built xtask binary with `SUBCOMMAND --help` (exit 0 for a known one, 2 otherwise).
+//! them is complete: read from the help of the built xtask binary (clap's list of its
+//! subcommands) and checked by running it with `SUBCOMMAND --help` (exit 0 for a known one, 2
+//! otherwise).
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -10,18 +11,31 @@ fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-/// The subcommands of `main`'s dispatcher: its `Some("name")` arms (help aside).
+/// The subcommands a help text lists (its `Commands:` section, clap's `help` aside), each with
+/// its one-line description.
+fn listed(help: &str) -> BTreeMap<String, String> {
+    let section = &help[help.find("Commands:\n").expect("a list of subcommands") + 10..];
+    section
+        .lines()
+        .take_while(|l| l.starts_with("  "))
+        .filter_map(|l| {
+            let (name, about) = l.trim().split_once(' ')?;
+            Some((name.to_owned(), about.trim().to_owned()))
+        })
+        .filter(|(name, _)| name != "help")
+        .collect()
+}
+
+/// The subcommands the xtask binary takes: those `cargo xtask --help` lists.
 fn dispatched() -> BTreeSet<String> {
-    let main = std::fs::read_to_string(root().join("xtask/src/main.rs")).unwrap();
-    let body = &main[main.find("match args.first()").expect("the dispatcher")..];
-    let mut subs = BTreeSet::new();
-    for piece in body.split("Some(\"").skip(1) {
-        let name = &piece[..piece.find('"').unwrap()];
-        if !name.starts_with('-') && name != "help" {
-            subs.insert(name.to_owned());
-        }
-    }
-    subs
+    let out = Command::new(env!("CARGO_BIN_EXE_xtask"))
+        .arg("--help")
+        .output()
+        .expect("run xtask");
+    assert!(out.status.success(), "`cargo xtask --help` failed");
+    listed(&String::from_utf8(out.stdout).unwrap())
+        .into_keys()
+        .collect()
 }
 
 /// `cargo xtask WORD` occurrences in README.md and docs/*.md (line breaks and backticks
@@ -72,7 +86,7 @@ fn every_subcommand_the_docs_name_exists() {
     for (sub, file) in &named {
         assert!(
             subs.contains(sub),
-            "{file} names `cargo xtask {sub}`, which xtask/src/main.rs does not dispatch"
+            "{file} names `cargo xtask {sub}`, which `cargo xtask --help` does not list"
         );
         assert_eq!(
             help_status(sub),
@@ -103,23 +117,23 @@ fn the_readme_lists_every_subcommand() {
     assert_eq!(
         listed,
         dispatched(),
-        "README.md's xtask list (left) against xtask/src/main.rs's dispatcher (right)"
+        "README.md's xtask list (left) against `cargo xtask --help` (right)"
     );
 }
 
+/// `cargo xtask` alone prints the same list as `--help` (on stderr, exit 2), each subcommand
+/// with a description, and each subcommand has its own help.
 #[test]
-fn the_help_list_matches_the_dispatcher() {
-    let main = std::fs::read_to_string(root().join("xtask/src/main.rs")).unwrap();
-    let list = &main[main.find("const SUBCOMMANDS").unwrap()..];
-    let list = &list[..list.find("];").unwrap()];
-    let consts: BTreeSet<String> = list
-        .split('"')
-        .skip(1)
-        .step_by(2)
-        .map(str::to_owned)
-        .collect();
-    assert_eq!(consts, dispatched());
-    for sub in &consts {
+fn the_help_lists_every_subcommand_with_a_description() {
+    let out = Command::new(env!("CARGO_BIN_EXE_xtask"))
+        .output()
+        .expect("run xtask");
+    assert_eq!(out.status.code(), Some(2));
+    let list = listed(&String::from_utf8(out.stderr).unwrap());
+    assert_eq!(list.keys().cloned().collect::<BTreeSet<_>>(), dispatched());
+    assert!(list.len() >= 17, "{list:?}");
+    for (sub, about) in &list {
+        assert!(about.len() > 20, "`{sub}` has no description: {about:?}");
         assert_eq!(help_status(sub), Some(0), "`cargo xtask {sub} --help`");
     }
 }
