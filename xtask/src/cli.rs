@@ -254,8 +254,12 @@ mod tests {
             ),
             (
                 "drops --inertia repair --bound-inertia 1e-5",
-                "Drops(Options { quick: false, inertia: Repair, bound_mass: None, \
+                "Drops(Options { quick: false, seconds: None, inertia: Repair, bound_mass: None, \
                  bound_inertia: Some(1e-5), venv: None, write_docs: false, names: [] })",
+            ),
+            (
+                "drops --seconds 10 hyq",
+                r#"Drops(Options { quick: false, seconds: Some(10.0), inertia: Accept, bound_mass: None, bound_inertia: None, venv: None, write_docs: false, names: ["hyq"] })"#,
             ),
             (
                 "contact-peers --only crowd --rounds 1",

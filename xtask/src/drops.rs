@@ -49,6 +49,9 @@ pub struct Options {
     /// 1 s instead of 3 s.
     #[arg(long)]
     pub quick: bool,
+    /// Simulate S seconds instead of 3 (lightly damped robots settle over several seconds).
+    #[arg(long, value_name = "S", value_parser = crate::args::seconds, conflicts_with = "quick")]
+    pub seconds: Option<f64>,
     /// The loader's inertia policy.
     #[arg(long, value_name = "P", value_parser = crate::args::inertia(), default_value = "accept")]
     pub inertia: InertiaPolicy,
@@ -101,6 +104,9 @@ impl Options {
         if self.quick {
             c += " --quick";
         }
+        if let Some(s) = self.seconds {
+            let _ = write!(c, " --seconds {s}");
+        }
         if self.inertia != InertiaPolicy::Accept {
             let _ = write!(c, " --inertia {}", self.inertia.name());
         }
@@ -117,10 +123,10 @@ impl Options {
     }
 
     fn seconds(&self) -> f64 {
-        if self.quick {
-            QUICK_SECONDS
-        } else {
-            SECONDS
+        match (self.quick, self.seconds) {
+            (_, Some(s)) => s,
+            (true, None) => QUICK_SECONDS,
+            (false, None) => SECONDS,
         }
     }
 }
@@ -178,6 +184,7 @@ pub fn main(root: &Path, opts: &Options) -> ExitCode {
         return ExitCode::FAILURE;
     }
     println!("{}", summary.line());
+    println!("{}", Summary::damped(&drops));
     if let Some((worst, name)) = Summary::statics(&drops) {
         println!("at rest the floor carries M g to within {worst:.1e} (largest: {name})");
     }
@@ -202,7 +209,12 @@ pub fn main(root: &Path, opts: &Options) -> ExitCode {
 /// The run's figures for docs/contact.md: one list item with the command, its summary line,
 /// the statics check, the deepest penetration and the spread of the step times.
 fn docs_item(opts: &Options, drops: &[Fall], summary: &Summary) -> String {
-    let mut s = format!("- `{}`: {}.", opts.command(), summary.line());
+    let mut s = format!(
+        "- `{}`: {}; {}.",
+        opts.command(),
+        summary.line(),
+        Summary::damped(drops)
+    );
     if let Some((worst, name)) = Summary::statics(drops) {
         let _ = write!(
             s,
@@ -247,6 +259,8 @@ enum Outcome {
 /// A loaded robot's run.
 struct Run {
     bodies: usize,
+    /// Whether some joint has viscous damping.
+    damped: bool,
     nv: usize,
     mass: f64,
     /// Load warnings (odd or changed inertias, locked joints...).
@@ -429,6 +443,7 @@ fn simulate(model: &Model, seconds: f64) -> Run {
         in_steps.as_secs_f64() * 1e6 / (steps + u64::from(stop.is_some())).max(1) as f64;
     Run {
         bodies: model.bodies.len(),
+        damped: model.dynamics.damping.iter().any(|&b| b > 0.0),
         nv: model.nv,
         mass,
         warnings: model.warnings.len(),
@@ -476,6 +491,29 @@ impl Summary {
             .max_by(|a, b| a.0.total_cmp(&b.0))
     }
 
+    /// The robots with joint damping (`<dynamics damping>` above zero): how many came to
+    /// rest, and the names of the others.
+    fn damped(drops: &[Fall]) -> String {
+        let damped: Vec<&Fall> = drops
+            .iter()
+            .filter(|d| matches!(&d.outcome, Outcome::Loaded(r) if r.damped))
+            .collect();
+        let others: Vec<&str> = damped
+            .iter()
+            .filter(|d| d.verdict() != Verdict::Rest)
+            .map(|d| d.name.as_str())
+            .collect();
+        let mut s = format!(
+            "of the {} with joint damping, {} came to rest",
+            damped.len(),
+            damped.len() - others.len()
+        );
+        if !others.is_empty() {
+            let _ = write!(s, " (not: {})", others.join(", "));
+        }
+        s
+    }
+
     fn line(&self) -> String {
         format!(
             "{} landed and came to rest (KE < {REST:e} J/kg), {} finite but moving, \
@@ -514,7 +552,7 @@ fn report_md(
     if !versions.is_empty() {
         let _ = writeln!(s, "Robots from {}.\n", versions.join(", "));
     }
-    let _ = writeln!(s, "**{}**\n", summary.line());
+    let _ = writeln!(s, "**{}**; {}.\n", summary.line(), Summary::damped(drops));
     if let Some((worst, name)) = Summary::statics(drops) {
         let _ = writeln!(
             s,

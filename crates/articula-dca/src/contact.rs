@@ -616,6 +616,14 @@ pub trait ContactDynamics {
         crate::kinematics::world_inertia(&self.kinematics().x[body], &model.bodies[body].inertia)
     }
 
+    /// What the free motion added to the joint-space inertia's diagonal at degree of freedom
+    /// `dof`: the armature, and `dt · damping` where damping is implicit over the step. The
+    /// contact impulses' response sees the same inertia, so that an impulse `Jᵀλ` changes the
+    /// velocity by `(M + diag(added))⁻¹ Jᵀλ`, as the free motion's forces do (default: none).
+    fn added_inertia(&self, _model: &Model, _dof: usize) -> f64 {
+        0.0
+    }
+
     /// Whether body `body`'s joint moves in this step (its columns of `J` are used; default
     /// every joint).
     fn moves(&self, _model: &Model, _body: usize) -> bool {
@@ -644,8 +652,8 @@ impl ContactDynamics for ExactDynamics<'_> {
         state: &mut State,
         qdd: &mut [f64],
     ) -> Result<(), DynamicsError> {
-        // Passive forces applied, damping implicit over the step (the contact impulses'
-        // response is the rigid-body one).
+        // Passive forces applied, damping implicit over the step: the free motion's inertia
+        // is M + dt·D ([`ContactDynamics::added_inertia`], which the impulses' response uses).
         let s = &*state;
         crate::integrate::with_passive_forces(
             model,
@@ -660,6 +668,12 @@ impl ContactDynamics for ExactDynamics<'_> {
 
     fn kinematics(&self) -> &Data {
         self.data
+    }
+
+    fn added_inertia(&self, model: &Model, dof: usize) -> f64 {
+        let d = &model.dynamics;
+        let armature = d.armature.get(dof).copied().unwrap_or(0.0);
+        armature + self.dt * d.damping.get(dof).copied().unwrap_or(0.0)
     }
 }
 
@@ -1553,9 +1567,11 @@ mod tests {
     }
 
     /// The floating humanoid lying on its side, falling onto the floor (horizontal, and
-    /// tilted) with every joint moving and one joint hitting its bound: the tree's Delassus operator `W` equals the dense
-    /// `J M⁻¹ Jᵀ` (CRBA's `M`, a Cholesky solve) and the step's velocity change is
-    /// `M⁻¹ Jᵀ λ`, both to rounding.
+    /// tilted) with every joint moving and one joint hitting its bound: the tree's Delassus
+    /// operator `W` equals the dense `J M⁻¹ Jᵀ` (CRBA's `M`, a Cholesky solve) and the step's
+    /// velocity change is `M⁻¹ Jᵀ λ`, both to rounding. With armature `a` and damping `b` on
+    /// the joints, `M` is the free motion's `M + diag(a + dt·b)` (damping implicit over the
+    /// step) in both.
     #[test]
     fn tree_delassus_matches_the_dense_operator() {
         // On the floor and on a plane tilted about both horizontal axes (a contact frame
@@ -1566,13 +1582,27 @@ mod tests {
         };
         // (A small margin: few rows per body, columns by row.)
         let (mut by_phi, mut by_row) = (false, false);
-        for (ground, margin) in [
-            (Ground::horizontal(0.0), 0.3),
-            (tilted, 0.3),
-            (Ground::horizontal(0.0), 0.01),
+        let dt = 1e-3;
+        for (ground, margin, passive) in [
+            (Ground::horizontal(0.0), 0.3, false),
+            (tilted, 0.3, false),
+            (Ground::horizontal(0.0), 0.01, false),
+            (Ground::horizontal(0.0), 0.3, true),
         ] {
-            let model = articula_testkit::bundled_with("humanoid", true);
+            let mut model = articula_testkit::bundled_with("humanoid", true);
             let nv = model.nv;
+            // The joints' (not the floating base's): armature 0.01–0.03 kg·m², damping 2–6
+            // N·m·s/rad, as large on the light distal joints as M's own diagonal there.
+            let (armature, damping): (Vec<f64>, Vec<f64>) = (0..nv)
+                .map(|i| match (passive, i >= 6) {
+                    (true, true) => (0.01 * (1 + i % 3) as f64, 2.0 * (1 + i % 3) as f64),
+                    _ => (0.0, 0.0),
+                })
+                .unzip();
+            if passive {
+                model.dynamics.armature = armature;
+                model.dynamics.damping = damping.clone();
+            }
             let mut data = Data::new(&model);
             let mut cd = ContactData::new(&model);
             let mut state = State::neutral(&model);
@@ -1610,7 +1640,7 @@ mod tests {
                 &mut cd,
                 &mut state,
                 Method::Aba,
-                1e-3,
+                dt,
                 &settings,
             )
             .unwrap();
@@ -1648,7 +1678,10 @@ mod tests {
                 }
             }
             let mut md = Data::new(&model);
-            let m = mass_matrix(&model, &mut md, &q0).unwrap().to_vec();
+            let mut m = mass_matrix(&model, &mut md, &q0).unwrap().to_vec();
+            for (i, b) in damping.iter().enumerate() {
+                m[i * nv + i] += dt * b;
+            }
             let mut worst = 0.0f64;
             let scale = cd.s.w.iter().fold(0.0f64, |a, x| a.max(x.abs()));
             for j in 0..k {

@@ -163,7 +163,7 @@ impl Tree {
         for node in &mut self.nodes[..len] {
             inertia_rows(&node.rigid, &mut node.ia);
         }
-        // Leaves to root: U = Iᴬ S, D = Sᵀ U, D⁻¹, and the parent's Iᴬ += Iᴬ − U D⁻¹ Uᵀ.
+        // Leaves to root: U = Iᴬ S, D = Sᵀ U (plus the added inertia), D⁻¹, and the parent's Iᴬ += Iᴬ − U D⁻¹ Uᵀ.
         for i in (0..len).rev() {
             let (before, rest) = self.nodes.split_at_mut(i);
             let node = &mut rest[0];
@@ -176,6 +176,7 @@ impl Tree {
                 for b in 0..k {
                     dm[a][b] = dot6::<Portable>(&node.s[a], &node.u[b]);
                 }
+                dm[a][a] += dynamics.added_inertia(model, node.vo + a);
             }
             let spd = if k == 1 {
                 // One dof: D⁻¹ = 1/d.
