@@ -253,12 +253,11 @@ impl Adaptive {
         if model.assembly.has_gather() {
             return Err(unsupported_tree(model));
         }
-        if model.dynamics.has_armature() {
-            return Err(AdaptiveError::Unsupported(
-                "the model has joint armature (MJCF armature), which adaptive dynamics does \
-                 not model; use the exact methods (dca, aba, crba)"
-                    .into(),
-            ));
+        if let Some(what) = unmodelled_dof_dynamics(model) {
+            return Err(AdaptiveError::Unsupported(format!(
+                "the model has joint {what}, which adaptive dynamics does not model; use the \
+                 exact methods (dca, aba, crba)"
+            )));
         }
         check_inputs(model, q, qd, tau, f_ext)?;
         // Kinematics left by node_metrics for this very state are reused (the same bits:
@@ -1107,4 +1106,21 @@ pub(crate) fn unsupported_tree(model: &Model) -> AdaptiveError {
         "{name} has {count} children (more than {}); use the exact methods (dca, aba, crba)",
         articula_model::GATHER_ABOVE
     ))
+}
+
+/// What of the per-degree-of-freedom dynamics adaptive dynamics would leave out, if any:
+/// armature (in the joint-space inertia), damping and springs (passive forces). Zero values
+/// (a URDF's `<dynamics damping="0">`) are nothing to leave out.
+fn unmodelled_dof_dynamics(model: &Model) -> Option<&'static str> {
+    let d = &model.dynamics;
+    let any = |v: &[f64]| v.iter().any(|&x| x != 0.0);
+    if any(&d.armature) {
+        Some("armature (MJCF armature)")
+    } else if any(&d.damping) {
+        Some("damping (URDF <dynamics damping>, MJCF damping)")
+    } else if any(&d.stiffness) {
+        Some("springs (MJCF stiffness)")
+    } else {
+        None
+    }
 }
