@@ -424,7 +424,7 @@ fn time_seeds_cell(model: &Model, solver: Solver, k: usize, budget: Duration) ->
     let n = model.bodies.len();
     let mut rng = SplitMix64(7);
     let mut data = articula_dca::Data::new(model);
-    articula_dca::forward_kinematics(model, &state.q, &state.qd, &mut data);
+    articula_dca::forward_kinematics(model, &state.q, &state.qd, &mut data).unwrap();
     for j in 0..k {
         let body = ((j * n) / k + n / (2 * k)).min(n - 1);
         let d = glam::DVec3::new(

@@ -342,7 +342,7 @@ impl Fall {
 
 /// Kinetic and potential energy of `state` (sets the kinematics of `data`).
 fn energy(model: &Model, data: &mut Data, state: &State) -> (f64, f64) {
-    forward_kinematics(model, &state.q, &state.qd, data);
+    forward_kinematics(model, &state.q, &state.qd, data).unwrap();
     (data.kinetic_energy(), data.potential_energy())
 }
 
@@ -380,7 +380,7 @@ fn simulate(model: &Model, seconds: f64) -> Run {
     let mut data = Data::new(model);
     let mut state = State::neutral(model);
     state.q.copy_from_slice(&model.rest_q());
-    forward_kinematics(model, &state.q, &state.qd, &mut data);
+    forward_kinematics(model, &state.q, &state.qd, &mut data).unwrap();
     let lowest = contact.lowest_point(&data);
     if lowest.is_finite() {
         state.q[2] += DROP - lowest;

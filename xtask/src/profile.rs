@@ -205,7 +205,7 @@ fn crumpled_chain(n: usize, forces: usize, at_body: bool) -> Result<(Model, Stat
     s.qd.fill(0.0);
     s.f_ext.clear();
     let mut kin = Data::new(&model);
-    articula_dca::forward_kinematics(&model, &s.q, &s.qd, &mut kin);
+    articula_dca::forward_kinematics(&model, &s.q, &s.qd, &mut kin).unwrap();
     let list = (0..forces.min(n))
         .map(|k| {
             let body = k * n / forces.min(n);

@@ -88,7 +88,7 @@ fn ad_run(
     let t0 = Instant::now();
     for k in 0..AD_STEPS {
         let forces = if push != 0.0 && k < AD_PUSH_STEPS {
-            forward_kinematics(model, &s.q, &s.qd, &mut data);
+            forward_kinematics(model, &s.q, &s.qd, &mut data).unwrap();
             vec![(
                 79usize,
                 data.point_force(79, glam::DVec3::ZERO, glam::DVec3::new(push, 0.0, 0.0)),
@@ -113,7 +113,7 @@ fn ad_exact(model: &Model, push: f64) -> Result<Vec<f64>> {
     for k in 0..AD_STEPS {
         s.f_ext.iter_mut().for_each(|f| *f = Default::default());
         if push != 0.0 && k < AD_PUSH_STEPS {
-            forward_kinematics(model, &s.q, &s.qd, &mut data);
+            forward_kinematics(model, &s.q, &s.qd, &mut data).unwrap();
             s.f_ext[79] = data.point_force(79, glam::DVec3::ZERO, glam::DVec3::new(push, 0.0, 0.0));
         }
         step(
@@ -234,7 +234,7 @@ fn chain10_start(model: &Model) -> State {
 }
 
 fn energy(model: &Model, data: &mut Data, s: &State) -> f64 {
-    forward_kinematics(model, &s.q, &s.qd, data);
+    forward_kinematics(model, &s.q, &s.qd, data).unwrap();
     data.kinetic_energy() + data.potential_energy()
 }
 

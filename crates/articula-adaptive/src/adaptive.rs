@@ -267,7 +267,7 @@ impl Adaptive {
             && update::same_bits(&self.fresh.q, q)
             && update::same_bits(&self.fresh.qd, qd))
         {
-            forward_kinematics(model, q, qd, &mut self.data);
+            forward_kinematics(model, q, qd, &mut self.data)?;
         }
         self.fresh.valid = false;
         Ok(())

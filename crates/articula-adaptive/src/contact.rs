@@ -120,10 +120,16 @@ impl HybridContact {
     /// each locked body's pose composed from its cluster's (`x_b = x_a X_{a←b}`) with its
     /// velocity — O(n) compositions, no sines or cosines. Then the clusters' inertias in the
     /// computation frame.
-    fn whole_kinematics(&mut self, model: &Model, ad: &Adaptive, q: &[f64], qd: &[f64]) {
+    fn whole_kinematics(
+        &mut self,
+        model: &Model,
+        ad: &Adaptive,
+        q: &[f64],
+        qd: &[f64],
+    ) -> Result<(), DynamicsError> {
         let (kin, cl) = (&mut self.kin, &mut self.clusters);
         if cl.gen != Some(ad.hier.gen) || !ad.hier.valid {
-            forward_kinematics(model, q, qd, kin);
+            forward_kinematics(model, q, qd, kin)?;
             for (b, body) in model.bodies.iter().enumerate() {
                 let active = body.nv > 0 && ad.is_active(model, b);
                 let anchor = match body.parent {
@@ -172,6 +178,7 @@ impl HybridContact {
                 SpatialInertia::ZERO
             };
         }
+        Ok(())
     }
 }
 
@@ -250,7 +257,7 @@ impl Adaptive {
             let r = b.v_offset..b.v_offset + b.nv;
             contact.qdd[r.clone()].copy_from_slice(&self.body.qdd[r]);
         }
-        contact.whole_kinematics(model, self, &state.q, &state.qd);
+        contact.whole_kinematics(model, self, &state.q, &state.qd)?;
         let mut hybrid = Hybrid {
             ad: self,
             kin: &contact.kin,
@@ -334,7 +341,7 @@ mod tests {
                     let (q, qd) = (state.q.clone(), state.qd.clone());
                     ad.step_with_contact(&model, &mut state, 1e-3, &[], &mut hc, &settings)
                         .unwrap();
-                    forward_kinematics(&model, &q, &qd, &mut full);
+                    forward_kinematics(&model, &q, &qd, &mut full).unwrap();
                     let kin = &hc.kin;
                     assert_eq!(kin.origin, full.origin);
                     for b in 0..model.bodies.len() {

@@ -104,7 +104,7 @@ impl Adaptive {
         state.qd.copy_from_slice(&self.body.qdd);
         self.fresh.valid = false;
         if refresh {
-            forward_kinematics(model, &state.q, &state.qd, &mut self.data);
+            forward_kinematics(model, &state.q, &state.qd, &mut self.data)?;
         }
         Ok(())
     }

@@ -238,13 +238,13 @@ fn tolerance_stops_when_the_metric_mass_left_is_small_enough() {
 
 fn momentum(model: &Model, s: &State) -> SpatialForce {
     let mut data = Data::new(model);
-    forward_kinematics(model, &s.q, &s.qd, &mut data);
+    forward_kinematics(model, &s.q, &s.qd, &mut data).unwrap();
     data.momentum()
 }
 
 fn kinetic(model: &Model, s: &State) -> f64 {
     let mut data = Data::new(model);
-    forward_kinematics(model, &s.q, &s.qd, &mut data);
+    forward_kinematics(model, &s.q, &s.qd, &mut data).unwrap();
     data.kinetic_energy()
 }
 
@@ -759,4 +759,23 @@ fn gather_trees_are_refused_cleanly() {
         .zip(&aba)
         .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
     assert!(diff <= 1e-10 * scale, "{:e}", diff / scale);
+}
+
+/// An adaptive workspace used with another model is an error naming both, never a panic: its
+/// exact workspace checks the model's fingerprint before anything is read.
+#[test]
+fn a_workspace_of_another_model_is_refused() {
+    let fixed = load("humanoid", false);
+    let floating = load("humanoid", true);
+    for (built_for, used_with) in [(&fixed, &floating), (&floating, &fixed)] {
+        let mut ad = Adaptive::new(built_for, Settings::default());
+        let mut s = State::neutral(used_with);
+        let e = ad.step(used_with, &mut s, 1e-3).unwrap_err().to_string();
+        assert!(e.contains("another model"), "{e}");
+        let e = ad
+            .forward_dynamics(used_with, &s.q, &s.qd, &s.tau, &s.f_ext)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("another model"), "{e}");
+    }
 }

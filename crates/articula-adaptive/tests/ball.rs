@@ -71,7 +71,7 @@ fn full_budget_is_exact_dca() {
 
 fn momentum_and_energy(model: &Model, s: &State) -> (SpatialForce, f64) {
     let mut data = Data::new(model);
-    forward_kinematics(model, &s.q, &s.qd, &mut data);
+    forward_kinematics(model, &s.q, &s.qd, &mut data).unwrap();
     (data.momentum(), data.kinetic_energy())
 }
 

@@ -21,7 +21,7 @@ const DT: f64 = 1e-3;
 /// The height of the lowest point of `model`'s contact spheres at `q`.
 fn lowest_point(model: &Model, contact: &ContactData, q: &[f64]) -> f64 {
     let mut data = Data::new(model);
-    forward_kinematics(model, q, &vec![0.0; model.nv], &mut data);
+    forward_kinematics(model, q, &vec![0.0; model.nv], &mut data).unwrap();
     contact.lowest_point(&data)
 }
 

@@ -164,7 +164,7 @@ fn rk4_of_a_hybrid_body_equals_rk4_of_the_welded_model() {
 /// Total energy `T + V` of a state.
 fn energy(model: &Model, s: &State) -> f64 {
     let mut data = Data::new(model);
-    forward_kinematics(model, &s.q, &s.qd, &mut data);
+    forward_kinematics(model, &s.q, &s.qd, &mut data).unwrap();
     data.kinetic_energy() + data.potential_energy()
 }
 

@@ -266,7 +266,7 @@ fn the_floor_drop_and_a_start_inside_the_floor() {
     let mut contact = ContactData::new(&model);
     let mut data = Data::new(&model);
     let mut state = sim.state().clone();
-    forward_kinematics(&model, &state.q, &state.qd, &mut data);
+    forward_kinematics(&model, &state.q, &state.qd, &mut data).unwrap();
     assert!((contact.lowest_point(&data) - 0.25).abs() < 1e-12);
     let stop = sim.run(150, &mut [], &mut RunControl::default());
     assert!(stop.reason.is_complete(), "{stop:?}");

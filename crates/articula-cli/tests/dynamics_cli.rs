@@ -684,7 +684,7 @@ fn simulate_json_reports_energy_and_time() {
     let mut data = articula_dca::Data::new(&model);
     let mut q = model.neutral_q();
     q[0] = 0.5;
-    articula_dca::forward_kinematics(&model, &q, &vec![0.0; model.nv], &mut data);
+    articula_dca::forward_kinematics(&model, &q, &vec![0.0; model.nv], &mut data).unwrap();
     let e0 = data.potential_energy();
     assert!((j["energy_start"].as_f64().unwrap() - e0).abs() <= 1e-12 * e0.abs());
     // RK4 at 1 ms conserves it to well below a microjoule on this chain; the largest drift

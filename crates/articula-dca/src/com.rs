@@ -1,7 +1,7 @@
 //! Centre of mass and its Jacobian, from the current kinematics.
 
 use crate::data::sized;
-use crate::Data;
+use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::SpatialInertia;
 use glam::DVec3;
@@ -30,8 +30,10 @@ impl Data {
     /// `(m_b s_j.v + s_j.ω × h_b) / M`: the velocity the joint gives the centre of mass of
     /// `b`'s subtree (mass `m_b`, first moment `h_b`), weighted by its share of the moving
     /// mass `M`. From the current kinematics; sizes its buffer on the first call, then
-    /// allocates nothing. (With zero moving mass the Jacobian is zero.)
-    pub fn com_jacobian(&mut self, model: &Model) -> &[f64] {
+    /// allocates nothing. (With zero moving mass the Jacobian is zero.) An error when `self`
+    /// was built for another model ([`DynamicsError::WrongModel`]).
+    pub fn com_jacobian(&mut self, model: &Model) -> Result<&[f64], DynamicsError> {
+        crate::inputs::check_data(model, self)?;
         let nv = model.nv;
         let ic = sized(&mut self.quant.ic, model.bodies.len(), SpatialInertia::ZERO);
         ic.copy_from_slice(&self.inertia);
@@ -54,6 +56,6 @@ impl Data {
                 }
             }
         }
-        jc
+        Ok(jc)
     }
 }

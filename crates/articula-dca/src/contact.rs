@@ -1520,10 +1520,10 @@ mod tests {
             for v in state.qd.iter_mut() {
                 *v = rng.uniform(-20.0, 20.0);
             }
-            forward_kinematics(&model, &state.q, &state.qd, &mut data);
+            forward_kinematics(&model, &state.q, &state.qd, &mut data).unwrap();
             let lowest = cd.lowest_point(&data);
             state.q[2] += rng.uniform(-0.05, 0.6) - lowest;
-            forward_kinematics(&model, &state.q, &state.qd, &mut data);
+            forward_kinematics(&model, &state.q, &state.qd, &mut data).unwrap();
             let expected: Vec<usize> = (cd.collision().spheres.iter().enumerate())
                 .filter(|(_, s)| {
                     let c = sphere_center(&data, s, DVec3::Z);
@@ -1617,7 +1617,7 @@ mod tests {
             // correction, so `lambda` holds the velocity impulses on return).
             state.q[b.qi] = b.bound + 1e-3 * b.sign;
             state.qd[b.vi] = -2.0 * b.sign;
-            forward_kinematics(&model, &state.q, &state.qd, &mut data);
+            forward_kinematics(&model, &state.q, &state.qd, &mut data).unwrap();
             // The lowest sphere 0.5 mm above the plane.
             let nh = ground.normal.normalize();
             let gap = (cd.collision().spheres.iter())

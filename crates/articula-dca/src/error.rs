@@ -45,6 +45,17 @@ pub enum DynamicsError {
         /// The fingerprint of the model given.
         model: String,
     },
+    /// A link frame names a body the model does not have (a frame found in another model).
+    #[error(
+        "this link frame is on body {body}, and the model has {bodies} bodies: find the link \
+         with Model::find_link on the model it is used with"
+    )]
+    WrongLink {
+        /// The frame's body.
+        body: usize,
+        /// The model's bodies.
+        bodies: usize,
+    },
     /// A dense matrix the call would allocate is larger than its limit
     /// ([`crate::MAX_DENSE_MATRIX_BYTES`]); checked before anything is allocated.
     #[error(

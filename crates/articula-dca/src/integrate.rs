@@ -1,7 +1,7 @@
 //! Time stepping: semi-implicit Euler (default) and RK4, on the configuration manifold
 //! (quaternions of floating joints are advanced by the exponential map and renormalised).
 
-use crate::{forward_dynamics_slices, forward_kinematics, Data, DynamicsError, Method, State};
+use crate::{forward_dynamics_slices, Data, DynamicsError, Method, State};
 use articula_model::{JointKind, Model};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
 use glam::DVec3;
@@ -234,7 +234,7 @@ fn project_momentum(
                 + f_total.f.cross(g) * (dt * dt * dt / 6.0),
             g * (m * dt),
         );
-    forward_kinematics(model, &state.q, &state.qd, data);
+    crate::kinematics::forward_kinematics_unchecked(model, &state.q, &state.qd, data);
     // Both sides about the computation origin: X* = xlt(origin)*.
     let x_cw = SpatialTransform::xlt(data.origin);
     let (h1, ic) = data.v.iter().zip(&data.inertia).fold(

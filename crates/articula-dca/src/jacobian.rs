@@ -2,7 +2,7 @@
 //! (3 × nv), from the current kinematics.
 
 use crate::data::sized;
-use crate::Data;
+use crate::{Data, DynamicsError};
 use articula_model::{LinkFrame, Model};
 use articula_spatial::{SpatialMotion, SpatialTransform};
 use glam::DVec3;
@@ -29,13 +29,15 @@ impl Data {
     /// link, expressed in `frame`; the other columns are zero (all of them for a link welded to
     /// the world). From the current kinematics (any dynamics call, or
     /// [`crate::forward_kinematics`]); sizes its buffer on the first call, then allocates
-    /// nothing.
+    /// nothing. An error when `self` was built for another model or `link` is not one of its
+    /// links ([`DynamicsError::WrongModel`], [`DynamicsError::WrongLink`]).
     pub fn link_jacobian(
         &mut self,
         model: &Model,
         link: &LinkFrame,
         frame: ReferenceFrame,
-    ) -> &[f64] {
+    ) -> Result<&[f64], DynamicsError> {
+        self.check_link(model, link)?;
         // X_{F←C}: the computation frame to the frame the columns are wanted in.
         let x_fc = match frame {
             ReferenceFrame::World => SpatialTransform::xlt(-self.origin),
@@ -44,7 +46,7 @@ impl Data {
                 SpatialTransform::xlt(self.link_transform(link).apply_point(DVec3::ZERO))
             }
         };
-        self.columns(model, link, 6, |s| x_fc.apply_motion(s).to_array())
+        Ok(self.columns(model, link, 6, |s| x_fc.apply_motion(s).to_array()))
     }
 
     /// The point Jacobian `J_p` of a point on a URDF link (3 × nv, row-major: entry `(r, j)`
@@ -52,13 +54,33 @@ impl Data {
     /// given in the link's coordinates. Column `j` is `s_j.v + s_j.ω × p` for the joints
     /// between the root and the link, zero for the others. These are the last three rows of
     /// [`ReferenceFrame::LocalWorldAligned`]'s Jacobian of a frame at the point. From the
-    /// current kinematics; sizes its buffer on the first call, then allocates nothing.
-    pub fn point_jacobian(&mut self, model: &Model, link: &LinkFrame, point: DVec3) -> &[f64] {
+    /// current kinematics; sizes its buffer on the first call, then allocates nothing. Errors
+    /// as [`Data::link_jacobian`]'s.
+    pub fn point_jacobian(
+        &mut self,
+        model: &Model,
+        link: &LinkFrame,
+        point: DVec3,
+    ) -> Result<&[f64], DynamicsError> {
+        self.check_link(model, link)?;
         let p = self.link_transform(link).apply_point(point);
-        self.columns(model, link, 3, |s| {
+        Ok(self.columns(model, link, 3, |s| {
             let v = s.v + s.w.cross(p);
             [v.x, v.y, v.z, 0.0, 0.0, 0.0]
-        })
+        }))
+    }
+
+    /// `Ok` when `self` was built for `model` and `link` names one of its bodies (or the
+    /// world): a link of another model would index out of the kinematics.
+    fn check_link(&self, model: &Model, link: &LinkFrame) -> Result<(), DynamicsError> {
+        crate::inputs::check_data(model, self)?;
+        match link.body {
+            Some(body) if body >= model.bodies.len() => Err(DynamicsError::WrongLink {
+                body,
+                bodies: model.bodies.len(),
+            }),
+            _ => Ok(()),
+        }
     }
 
     /// Writes a `rows × nv` Jacobian into the buffer: `column(s_j)` (its first `rows` entries)

@@ -1,7 +1,7 @@
 //! Forward kinematics in world coordinates: poses, velocities, motion subspaces and the
 //! velocity-product terms every algorithm shares.
 
-use crate::Data;
+use crate::{Data, DynamicsError};
 use articula_model::{Body, JointKind, Model};
 use articula_spatial::{SpatialMotion, SpatialTransform};
 use glam::{DMat3, DVec3};
@@ -65,7 +65,25 @@ impl FkPlan {
 /// for a fixed base, the floating base's current position otherwise. Keeping the numbers about
 /// a nearby point keeps DCA accurate to ~1e-12 however far the body wanders (about a point 1 m
 /// away it loses two digits).
-pub fn forward_kinematics(model: &Model, q: &[f64], qd: &[f64], data: &mut Data) {
+///
+/// Errors, before anything is computed: `data` built for another model
+/// ([`DynamicsError::WrongModel`]), `q` or `qd` of the wrong length
+/// ([`DynamicsError::Dimension`]) or not finite ([`DynamicsError::NonFinite`], naming the
+/// joint).
+pub fn forward_kinematics(
+    model: &Model,
+    q: &[f64],
+    qd: &[f64],
+    data: &mut Data,
+) -> Result<(), DynamicsError> {
+    crate::inputs::check_data(model, data)?;
+    crate::inputs::check_values(model, q, qd, ("qd", qd), &[])?;
+    forward_kinematics_unchecked(model, q, qd, data);
+    Ok(())
+}
+
+/// [`forward_kinematics`] on inputs already checked (a state the crate's own step produced).
+pub(crate) fn forward_kinematics_unchecked(model: &Model, q: &[f64], qd: &[f64], data: &mut Data) {
     data.origin = computation_origin(model, q);
     kinematics(model, q, qd, data, |_, _| {});
 }
@@ -469,7 +487,7 @@ mod tests {
             let mut data = Data::new(&model);
             for seed in 0..3 {
                 let s = State::random(&model, seed, 1.0);
-                crate::forward_kinematics(&model, &s.q, &s.qd, &mut data);
+                crate::forward_kinematics(&model, &s.q, &s.qd, &mut data).unwrap();
                 for (i, body) in model.bodies.iter().enumerate() {
                     let x = &data.x[i];
                     let (rotated, world) = rotated_and_world_inertia(x, &body.inertia);

@@ -395,7 +395,7 @@ fn free_body_under_a_wrench() {
             // A force through the centre of mass only translates the body.
             let mut s2 = s.clone();
             let force = f.f;
-            forward_kinematics(&model, &s2.q, &s2.qd, &mut data);
+            forward_kinematics(&model, &s2.q, &s2.qd, &mut data).unwrap();
             s2.f_ext[0] = data.point_force(0, com, force);
             let got = qdd(&model, &mut data, &s2, Method::Dca);
             let fb = r.transpose() * force;

@@ -180,11 +180,12 @@ fn jacobians_and_integration_match_velocities() {
     let mut data = Data::new(&model);
     for seed in 0..3 {
         let s = State::random(&model, seed, 0.0);
-        forward_kinematics(&model, &s.q, &s.qd, &mut data);
+        forward_kinematics(&model, &s.q, &s.qd, &mut data).unwrap();
         for body in &model.bodies {
             let link = model.find_link(&body.name).unwrap();
             let j = data
                 .link_jacobian(&model, &link, ReferenceFrame::LocalWorldAligned)
+                .unwrap()
                 .to_vec();
             let nv = model.nv;
             let jv: Vec<f64> = (0..6)
@@ -195,12 +196,12 @@ fn jacobians_and_integration_match_velocities() {
             let pose = |sign: f64, data: &mut Data| {
                 let mut q = s.q.clone();
                 articula_dca::integrate_q(&model, &mut q, &s.qd, sign * h);
-                forward_kinematics(&model, &q, &s.qd, data);
+                forward_kinematics(&model, &q, &s.qd, data).unwrap();
                 data.link_pose(&link)
             };
             let ((rp, pp), (rm, pm)) = (pose(1.0, &mut data), pose(-1.0, &mut data));
             let (r0, _) = {
-                forward_kinematics(&model, &s.q, &s.qd, &mut data);
+                forward_kinematics(&model, &s.q, &s.qd, &mut data).unwrap();
                 data.link_pose(&link)
             };
             let dr = (rp - rm) * r0.transpose() * (0.5 / h);
@@ -237,7 +238,7 @@ fn stepping_conserves_energy() {
                 *x *= 0.3;
             }
             let energy = |data: &mut Data, s: &State| {
-                forward_kinematics(&model, &s.q, &s.qd, data);
+                forward_kinematics(&model, &s.q, &s.qd, data).unwrap();
                 data.kinetic_energy() + data.potential_energy()
             };
             let e0 = energy(&mut data, &s);

@@ -14,7 +14,7 @@ fn load(name: &str, floating_base: bool) -> Model {
 }
 
 fn energy(model: &Model, data: &mut Data, s: &State) -> f64 {
-    forward_kinematics(model, &s.q, &s.qd, data);
+    forward_kinematics(model, &s.q, &s.qd, data).unwrap();
     data.kinetic_energy() + data.potential_energy()
 }
 
@@ -224,7 +224,7 @@ fn momentum_rate_balances_external_wrenches() {
 
 /// Total spatial momentum (world frame, about the world origin) of the current state.
 fn momentum(model: &Model, data: &mut Data, s: &State) -> SpatialForce {
-    forward_kinematics(model, &s.q, &s.qd, data);
+    forward_kinematics(model, &s.q, &s.qd, data).unwrap();
     data.momentum()
 }
 

@@ -54,7 +54,7 @@ fn set_pose(state: &mut State, p: DVec3, r: DQuat) {
 
 /// `T + V` of `state`.
 fn energy(model: &Model, data: &mut Data, state: &State) -> f64 {
-    forward_kinematics(model, &state.q, &state.qd, data);
+    forward_kinematics(model, &state.q, &state.qd, data).unwrap();
     data.kinetic_energy() + data.potential_energy()
 }
 
@@ -365,7 +365,7 @@ fn dropped_humanoid_comes_to_rest() {
         let mut sim = Sim::new(model, Ground::horizontal(0.0));
         sim.settings.solver = solver;
         // Lowest contact sphere at the neutral pose.
-        forward_kinematics(&sim.model, &sim.state.q, &sim.state.qd, &mut sim.data);
+        forward_kinematics(&sim.model, &sim.state.q, &sim.state.qd, &mut sim.data).unwrap();
         let lowest = sim.contact.lowest_point(&sim.data);
         sim.state.q[2] += 1.0 - lowest;
         let mut worst = 0.0f64;
@@ -379,7 +379,7 @@ fn dropped_humanoid_comes_to_rest() {
             iterations += sim.contact.stats.iterations;
             capped += !sim.contact.stats.converged as usize;
         }
-        forward_kinematics(&sim.model, &sim.state.q, &sim.state.qd, &mut sim.data);
+        forward_kinematics(&sim.model, &sim.state.q, &sim.state.qd, &mut sim.data).unwrap();
         let mut kinetic = sim.data.kinetic_energy();
         let mut settle = 0;
         if solver == ContactSolver::Subspace {
@@ -388,7 +388,7 @@ fn dropped_humanoid_comes_to_rest() {
                 sim.step(Method::Dca);
                 worst = worst.max(sim.contact.stats.max_penetration);
             }
-            forward_kinematics(&sim.model, &sim.state.q, &sim.state.qd, &mut sim.data);
+            forward_kinematics(&sim.model, &sim.state.q, &sim.state.qd, &mut sim.data).unwrap();
             (settle, kinetic) = (3, sim.data.kinetic_energy());
         }
         eprintln!(

@@ -77,7 +77,7 @@ fn neck_turns_through_ninety_degrees_and_energy_is_conserved() {
     s.qd[nv] = 6.0;
     s.qd[nv + 2] = 1.0;
     let energy = |data: &mut Data, s: &State| {
-        forward_kinematics(&m, &s.q, &s.qd, data);
+        forward_kinematics(&m, &s.q, &s.qd, data).unwrap();
         data.kinetic_energy() + data.potential_energy()
     };
     let e0 = energy(&mut data, &s);

@@ -24,7 +24,7 @@ fn floating(name: &str) -> Model {
 /// Momentum (world frame, about the world origin) and kinetic energy of `s`, from a fresh
 /// forward kinematics.
 fn momentum_energy(model: &Model, data: &mut Data, s: &State) -> (SpatialForce, f64) {
-    forward_kinematics(model, &s.q, &s.qd, data);
+    forward_kinematics(model, &s.q, &s.qd, data).unwrap();
     (data.momentum(), data.kinetic_energy())
 }
 

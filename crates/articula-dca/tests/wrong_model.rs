@@ -2,9 +2,9 @@
 //! `DynamicsError::WrongModel` naming both models' sizes — never an index out of bounds.
 
 use articula_dca::{
-    bias_forces, forward_dynamics, forward_dynamics_threads, inverse_dynamics, mass_matrix, step,
-    step_with_contact, Batch, ContactData, ContactError, ContactSettings, Data, DynamicsError,
-    Ground, Integrator, Method, State, Threads,
+    bias_forces, forward_dynamics, forward_dynamics_threads, forward_kinematics, inverse_dynamics,
+    mass_matrix, step, step_with_contact, Batch, ContactData, ContactError, ContactSettings, Data,
+    DynamicsError, Ground, Integrator, Method, ReferenceFrame, State, Threads,
 };
 use articula_model::Model;
 
@@ -63,6 +63,19 @@ fn every_entry_point_refuses_another_models_data() {
         );
         assert_wrong(bias_forces(model, &mut data, &s.q, &s.qd), "bias_forces");
         assert_wrong(mass_matrix(model, &mut data, &s.q), "mass_matrix");
+        assert_wrong(
+            forward_kinematics(model, &s.q, &s.qd, &mut data),
+            "forward_kinematics",
+        );
+        let link = model.find_link("l_foot").unwrap();
+        for frame in [ReferenceFrame::World, ReferenceFrame::Local] {
+            assert_wrong(data.link_jacobian(model, &link, frame), "link_jacobian");
+        }
+        assert_wrong(
+            data.point_jacobian(model, &link, glam::DVec3::X),
+            "point_jacobian",
+        );
+        assert_wrong(data.com_jacobian(model), "com_jacobian");
         for integrator in [Integrator::SemiImplicitEuler, Integrator::Rk4] {
             let mut st = s.clone();
             assert_wrong(
@@ -74,6 +87,37 @@ fn every_entry_point_refuses_another_models_data() {
     // Same model, another workspace of it: fine.
     let mut data = Data::new(&fixed);
     assert!(forward_dynamics(&fixed, &mut data, &s, Method::Dca).is_ok());
+}
+
+/// Kinematics checks its inputs as the dynamics does, and a link frame of a model with more
+/// bodies than this one is refused by the Jacobians: errors, never an index out of bounds.
+#[test]
+fn kinematics_and_jacobians_refuse_bad_inputs_and_foreign_links() {
+    let (fixed, _) = models();
+    let chain = articula_testkit::bundled_with("chain10", false);
+    let mut data = Data::new(&chain);
+    let s = State::neutral(&chain);
+    match forward_kinematics(&chain, &s.q[1..], &s.qd, &mut data) {
+        Err(DynamicsError::Dimension { what: "q", .. }) => {}
+        other => panic!("expected a q dimension error, got {other:?}"),
+    }
+    let mut nan = s.q.clone();
+    nan[3] = f64::NAN;
+    match forward_kinematics(&chain, &nan, &s.qd, &mut data) {
+        Err(DynamicsError::NonFinite { what: "q", .. }) => {}
+        other => panic!("expected a non-finite q error, got {other:?}"),
+    }
+    forward_kinematics(&chain, &s.q, &s.qd, &mut data).unwrap();
+    // The humanoid's foot is on a body index the 10-link chain does not have.
+    let foot = fixed.find_link("l_foot").unwrap();
+    assert!(foot.body.unwrap() >= chain.bodies.len());
+    match data.link_jacobian(&chain, &foot, ReferenceFrame::World) {
+        Err(DynamicsError::WrongLink { body, bodies }) => {
+            assert_eq!((body, bodies), (foot.body.unwrap(), chain.bodies.len()))
+        }
+        other => panic!("expected WrongLink, got {other:?}"),
+    }
+    assert!(data.point_jacobian(&chain, &foot, glam::DVec3::X).is_err());
 }
 
 #[test]

@@ -180,7 +180,7 @@ pub fn forward_kinematics(
     };
     let vs = v.as_ref().map_or(&zero[..], |v| v.slice());
     articula::dca::check_inputs(m, q.slice(), vs, &zero, &[]).map_err(from_dynamics)?;
-    articula::dca::forward_kinematics(m, q.slice(), vs, &mut data.data);
+    articula::dca::forward_kinematics(m, q.slice(), vs, &mut data.data).map_err(from_dynamics)?;
     data.kinematics = true;
     Ok(())
 }
@@ -244,7 +244,10 @@ pub fn jacobian<'py>(
     };
     let lf = find_link(&model.model, link)?;
     let nv = model.model.nv;
-    let j = data.data.link_jacobian(&model.model, &lf, f);
+    let j = data
+        .data
+        .link_jacobian(&model.model, &lf, f)
+        .map_err(from_dynamics)?;
     matrix(py, j, 6, nv)
 }
 
@@ -273,7 +276,10 @@ pub fn com_jacobian<'py>(
     data.check(model)?;
     data.check_kinematics()?;
     let nv = model.model.nv;
-    let j = data.data.com_jacobian(&model.model);
+    let j = data
+        .data
+        .com_jacobian(&model.model)
+        .map_err(from_dynamics)?;
     matrix(py, j, 3, nv)
 }
 

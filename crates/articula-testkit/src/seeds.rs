@@ -14,7 +14,7 @@ pub fn seeded_state(model: &Model, forces: usize) -> State {
     let mut s = State::random(model, 42, 0.0);
     s.qd.fill(0.0);
     let mut data = Data::new(model);
-    forward_kinematics(model, &s.q, &s.qd, &mut data);
+    forward_kinematics(model, &s.q, &s.qd, &mut data).expect("a random state is finite and sized");
     let n = model.bodies.len();
     for k in 0..forces.min(n) {
         let body = (k * n) / forces.min(n);

@@ -1210,7 +1210,11 @@ impl<'s> SceneSim<'s> {
                 continue;
             }
             let data = &mut self.energy_data[b.model];
-            articula_dca::forward_kinematics(model, &s.q, &s.qd, data);
+            if articula_dca::forward_kinematics(model, &s.q, &s.qd, data).is_err() {
+                // A state that is not finite has no energy: the sum says so.
+                e.kinetic = f64::NAN;
+                continue;
+            }
             e.kinetic += data.kinetic_energy();
             e.gravity += data.potential_energy();
             let springs = &self.springs[b.model];

@@ -46,7 +46,7 @@ fn bodies_and_crowds_are_placed() {
     let mut data = Data::new(model);
     // The hero: pose and world velocity as written.
     let hero = &s.placements[0];
-    forward_kinematics(model, &hero.q, &hero.qd, &mut data);
+    forward_kinematics(model, &hero.q, &hero.qd, &mut data).unwrap();
     let (rot, pos) = data.body_pose(0);
     assert!((pos - DVec3::new(3.0, 1.0, 1.2)).length() < 1e-12);
     assert!((rot * DVec3::X - DVec3::Y).length() < 1e-12);

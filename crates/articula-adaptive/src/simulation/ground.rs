@@ -131,7 +131,7 @@ impl ContactRun {
         let Some(ground) = self.settings.ground else {
             return Ok(());
         };
-        forward_kinematics(model, &state.q, &state.qd, data);
+        forward_kinematics(model, &state.q, &state.qd, data)?;
         let lowest = self.exact.lowest_point(data);
         if lowest.is_finite() {
             state.q[2] += ground.point.z + h - lowest;
@@ -154,7 +154,7 @@ impl ContactRun {
         if ground.normal.x != 0.0 || ground.normal.y != 0.0 {
             return Ok(());
         }
-        forward_kinematics(model, &state.q, &state.qd, data);
+        forward_kinematics(model, &state.q, &state.qd, data)?;
         let lowest = self
             .exact
             .collision()

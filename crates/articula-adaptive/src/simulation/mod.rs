@@ -268,7 +268,7 @@ impl Simulation {
                 }))
             }
         };
-        forward_kinematics(&model, &state.q, &state.qd, &mut data);
+        forward_kinematics(&model, &state.q, &state.qd, &mut data)?;
         let energy_start = Energy {
             kinetic: data.kinetic_energy(),
             potential: data.potential_energy(),
@@ -493,10 +493,15 @@ impl Simulation {
     }
 
     /// Kinetic and potential energy of the current state (runs the kinematics into
-    /// [`Simulation::data`]).
+    /// [`Simulation::data`]); NaN for a state that is not finite.
     pub fn energy(&mut self) -> Energy {
         let (q, qd) = (&self.state.q, &self.state.qd);
-        forward_kinematics(&self.model, q, qd, &mut self.data);
+        if forward_kinematics(&self.model, q, qd, &mut self.data).is_err() {
+            return Energy {
+                kinetic: f64::NAN,
+                potential: f64::NAN,
+            };
+        }
         Energy {
             kinetic: self.data.kinetic_energy(),
             potential: self.data.potential_energy(),

@@ -711,7 +711,7 @@ fn a_model_whose_neutral_pose_breaks_its_limits_starts_and_stands_in_its_rest_po
     let rest = model.rest_q();
     // The rest pose's standing height: the feet (balls of 2 cm) at the floor.
     let mut data = articula_dca::Data::new(&model);
-    articula_dca::forward_kinematics(&model, &rest, &vec![0.0; model.nv], &mut data);
+    articula_dca::forward_kinematics(&model, &rest, &vec![0.0; model.nv], &mut data).unwrap();
     let contact = articula_dca::ContactData::new(&model);
     let stand = -contact.lowest_point(&data);
     let s = scene(&format!(

@@ -122,7 +122,7 @@ fn stance_inertia(model: &Model, q: &[f64]) -> Option<Vec<f64>> {
     }
     let collision = CollisionModel::new(model);
     let mut data = Data::new(model);
-    forward_kinematics(model, q, &vec![0.0; model.nv], &mut data);
+    forward_kinematics(model, q, &vec![0.0; model.nv], &mut data).ok()?;
     let low = |s: &articula_model::ContactSphere| {
         let (r, p) = data.body_pose(s.body);
         (r * s.center_facing(r.transpose() * glam::DVec3::Z) + p).z - s.radius
@@ -197,7 +197,7 @@ mod tests {
         let q = model.neutral_q();
         let got = stance_inertia(&model, &q).unwrap();
         let mut data = Data::new(&model);
-        forward_kinematics(&model, &q, &vec![0.0; model.nv], &mut data);
+        forward_kinematics(&model, &q, &vec![0.0; model.nv], &mut data).unwrap();
         let in_subtree = |b: usize, root: usize| {
             let mut x = Some(b);
             while let Some(y) = x {

@@ -309,7 +309,7 @@ fn body_poses_about_signed_coordinate_axes_match_forward_kinematics() {
     let mut poses = Vec::new();
     for seed in 0..5 {
         let s = State::random(&model, seed, 1.0);
-        forward_kinematics(&model, &s.q, &s.qd, &mut data);
+        forward_kinematics(&model, &s.q, &s.qd, &mut data).unwrap();
         body_poses(&model, &s.q, &mut poses);
         for (i, &(r, p)) in poses.iter().enumerate() {
             let (r2, p2) = data.body_pose(i);
@@ -332,7 +332,7 @@ fn body_poses_match_forward_kinematics() {
         let mut poses = Vec::new();
         for seed in 0..5 {
             let s = State::random(&model, seed, 1.0);
-            forward_kinematics(&model, &s.q, &s.qd, &mut data);
+            forward_kinematics(&model, &s.q, &s.qd, &mut data).unwrap();
             body_poses(&model, &s.q, &mut poses);
             for (i, &(r, p)) in poses.iter().enumerate() {
                 let (r2, p2) = data.body_pose(i);
@@ -358,7 +358,7 @@ fn a_point_carried_up_its_root_path_is_where_forward_kinematics_puts_it() {
         let mut farthest = 0.0f64;
         for seed in 0..10 {
             let s = State::random(&model, seed, 2.0);
-            forward_kinematics(&model, &s.q, &s.qd, &mut data);
+            forward_kinematics(&model, &s.q, &s.qd, &mut data).unwrap();
             for i in 0..model.bodies.len() {
                 let local = DVec3::new(0.1, -0.2, 0.3) * (1.0 + seed as f64);
                 let (r, p) = data.body_pose(i);
