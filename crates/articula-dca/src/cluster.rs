@@ -35,13 +35,14 @@
 //! `a'_i = a'_parent + c_i`, `q̈_i = D⁻¹ (u − Uᵀ a'_i)`, `a'_i += S q̈_i`.
 
 use crate::aba::{force_back, motion_at};
-use crate::gather::{inverse, sym_tiles, transform};
+use crate::gather::{sym_tiles, transform};
 use crate::kinematics::FkPlan;
-use crate::small::cholesky6_inv_diag;
 use crate::{Data, DynamicsError};
 use articula_model::Model;
+use articula_spatial::internals::{
+    cholesky6_inv_diag, invert_factor_inv_diag, solve_lower_inv_diag, solve_lower_t_inv_diag,
+};
 use articula_spatial::internals::{dot6, Arith};
-use articula_spatial::internals::{solve_lower_inv_diag, solve_lower_t_inv_diag};
 use articula_spatial::{Mat6, PackedSymMat6, SpatialForce, SpatialMotion};
 use glam::DVec3;
 
@@ -114,7 +115,7 @@ pub(crate) fn main<A: Arith>(
         joint: model.bodies[v].joint_name(),
         detail: "the articulated inertia of a leaf cluster is not positive definite",
     })?;
-    let phi0 = inverse(&l);
+    let phi0 = invert_factor_inv_diag(&l);
     let pa_arr = [
         pa_p[0].x, pa_p[0].y, pa_p[0].z, pa_p[1].x, pa_p[1].y, pa_p[1].z,
     ];

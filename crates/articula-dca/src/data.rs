@@ -167,7 +167,7 @@ pub(crate) struct DcaData {
     /// there.
     pub from: Vec<(Side, u32)>,
     /// Joins of the last pass whose constraint factorisation met a pivot that rounding had
-    /// made non-positive ([`crate::small::ldl5`]); reset by each pass.
+    /// made non-positive ([`ldl5`](articula_spatial::internals::ldl5)); reset by each pass.
     pub clamped: u32,
     /// Whether a six-axis (floating) joint's join factors the identity instead of
     /// `K = Φ^A_jj + Φ^B_jj` (`mass_ratio.rs`): set for models with a neighbour mass ratio above
@@ -232,7 +232,7 @@ pub(crate) struct JoinBuffers {
     /// Φ's cross blocks.
     pub phi: Vec<Mat6>,
     /// Per join node off the one-axis path: the Cholesky factor L of `Φ^A_jj + Φ^B_jj = V⁻¹`
-    /// (its diagonal stored inverted, see [`crate::small::cholesky6_inv_diag`]), and β.
+    /// (its diagonal stored inverted, see [`cholesky6_inv_diag`](articula_spatial::internals::cholesky6_inv_diag)), and β.
     pub l: Vec<[[f64; 6]; 6]>,
     pub beta: Vec<SpatialMotion>,
     /// Per join (`DNode::jix`): what a one-axis join keeps for the back-substitution, dense in

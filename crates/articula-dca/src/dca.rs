@@ -11,7 +11,9 @@ use crate::data::{DKind, LeafK, RevJoin, Side};
 use crate::small::{SymT, TILE};
 use crate::{Data, DynamicsError};
 use articula_model::Model;
-use articula_spatial::internals::{dot6_even_odd as dot6, Arith};
+use articula_spatial::internals::{
+    cholesky6_inv_diag, dot3, dot6_even_odd as dot6, ldl5, psd_root, Arith,
+};
 use articula_spatial::internals::{solve_lower_inv_diag, solve_lower_t_inv_diag};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::DVec3;
@@ -629,7 +631,7 @@ fn sym3(u: &[f64; 6]) -> [[f64; 3]; 3] {
 /// appear explicitly. With `K = Φ^A_jj + Φ^B_jj = V⁻¹`, W is the same for every basis `T` of
 /// the forces that do no work along S: `W = V − V S (SᵀVS)⁻¹ SᵀV = T (TᵀKT)⁻¹ Tᵀ`.
 /// - One revolute axis (the common case): the basis of [`RevJoin`] (fixed positions), the
-///   `L D Lᵀ` factors of the 5×5 `TᵀKT` ([`crate::small::ldl5`]),
+///   `L D Lᵀ` factors of the 5×5 `TᵀKT` ([`ldl5`]),
 ///   `Z_h = L⁻¹ Tᵀ Φ_jh` and `U_h = D⁻¹ Z_h` (5 rows each), and the joint terms of
 ///   [`joint_terms`]: `Φ_hj W Φ_jk = U_hᵀ Z_k` (no square root on the way).
 /// - Otherwise: the Cholesky factor of `K = L Lᵀ`, `Z = L⁻¹ S`, `D = ZᵀZ` and the orthogonal
@@ -695,7 +697,7 @@ fn join<A: Arith>(
 }
 
 /// [`join`]'s one revolute axis: the 5×5 constraint system of [`RevJoin`], its `L D Lᵀ`
-/// factors ([`crate::small::ldl5`]), the joint terms, `q̈` and `Y`; returns `γ`.
+/// factors ([`ldl5`]), the joint terms, `q̈` and `Y`; returns `γ`.
 #[inline(always)]
 fn join_one_axis<A: Arith>(
     model: &Model,
@@ -741,7 +743,7 @@ fn join_one_axis<A: Arith>(
         _ => kf(r + 1, c + 1),
     };
     // Its L D Lᵀ factors (L packed by rows, 1/d on the diagonal).
-    let Some((l, clamped)) = crate::small::ldl5::<A>(tkt) else {
+    let Some((l, clamped)) = ldl5::<A>(tkt) else {
         return Err(DynamicsError::Singular {
             joint: model.bodies[joint].joint_name(),
             detail: "Φ_jj^A + Φ_jj^B is not a number on the constraint forces",
@@ -812,7 +814,7 @@ fn join_general<A: Arith>(
     let l = if identity {
         crate::mass_ratio::IDENTITY
     } else {
-        crate::small::cholesky6_inv_diag(&sum).ok_or_else(|| DynamicsError::Singular {
+        cholesky6_inv_diag(&sum).ok_or_else(|| DynamicsError::Singular {
             joint: model.bodies[joint].joint_name(),
             detail: "Φ_jj^A + Φ_jj^B is not positive definite",
         })?
@@ -1046,7 +1048,7 @@ fn armature_w_update<A: Arith>(w: &mut [f64; 6], z: &[[f64; 6]], zd: &[[f64; 6];
 }
 
 /// With armature `Q = 1 − Z D⁻¹ Zᵀ` is no projector; its square root `R` (`RᵀR = Q`,
-/// [`crate::small::psd_root`]) carries `Ỹ_h = R L⁻¹ Φ_jh`.
+/// [`psd_root`]) carries `Ỹ_h = R L⁻¹ Φ_jh`.
 fn armature_projector_root(z: &[[f64; 6]], zd: &[[f64; 6]; 6]) -> [[f64; 6]; 6] {
     let mut q = [[0.0; 6]; 6];
     for r in 0..6 {
@@ -1055,7 +1057,7 @@ fn armature_projector_root(z: &[[f64; 6]], zd: &[[f64; 6]; 6]) -> [[f64; 6]; 6] 
             q[r][c] = f64::from(u8::from(r == c)) - zz;
         }
     }
-    crate::small::psd_root(q)
+    psd_root(q)
 }
 
 /// `Ỹ_h = R L⁻¹ Φ_jh` (the armature form of [`y_tilde`]'s projection).
@@ -1109,11 +1111,6 @@ fn mat_tr_vec<A: Arith>(g: &[[f64; 6]; 6], x: &[f64; 6]) -> [f64; 6] {
         }
     }
     y
-}
-
-#[inline(always)]
-fn dot3<A: Arith>(a: &[f64; 3], x: &[f64]) -> f64 {
-    A::mul_add(a[2], x[2], A::mul_add(a[1], x[1], a[0] * x[0]))
 }
 
 /// `Tᵀ x = [p·x_ω, q·x_ω, x_v]`.

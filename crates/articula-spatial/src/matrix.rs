@@ -11,7 +11,8 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::arith::Portable;
-use crate::kernels::{dot6, invert_spd_into};
+use crate::cholesky::invert_spd_into;
+use crate::kernels::dot6;
 use crate::{SpatialForce, SpatialInertia, SpatialMotion};
 use glam::DMat3;
 use std::ops::{Add, AddAssign, Mul, Neg, Sub, SubAssign};
