@@ -40,7 +40,7 @@ use crate::kinematics::FkPlan;
 use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::internals::{
-    cholesky6_inv_diag, invert_factor_inv_diag, solve_lower_inv_diag, solve_lower_t_inv_diag,
+    cholesky_inv_diag, invert_factor_inv_diag, solve_lower_inv_diag, solve_lower_t_inv_diag,
 };
 use articula_spatial::internals::{dot6, Arith};
 use articula_spatial::{Mat6, PackedSymMat6, SpatialForce, SpatialMotion};
@@ -111,7 +111,7 @@ pub(crate) fn main<A: Arith>(
     let ia_p = ia_v.shifted((pv - p).to_array()).to_mat6().0;
     let pa_p = force_back(pa_v, pv - p);
     let pa_p = [pa_p.n, pa_p.f];
-    let l = cholesky6_inv_diag(&ia_p).ok_or_else(|| DynamicsError::Singular {
+    let l = cholesky_inv_diag(&ia_p, 6).ok_or_else(|| DynamicsError::Singular {
         joint: model.bodies[v].joint_name(),
         detail: "the articulated inertia of a leaf cluster is not positive definite",
     })?;

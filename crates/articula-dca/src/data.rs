@@ -232,7 +232,7 @@ pub(crate) struct JoinBuffers {
     /// Φ's cross blocks.
     pub phi: Vec<Mat6>,
     /// Per join node off the one-axis path: the Cholesky factor L of `Φ^A_jj + Φ^B_jj = V⁻¹`
-    /// (its diagonal stored inverted, see [`cholesky6_inv_diag`](articula_spatial::internals::cholesky6_inv_diag)), and β.
+    /// (its diagonal stored inverted, see [`cholesky_inv_diag`](articula_spatial::internals::cholesky_inv_diag)), and β.
     pub l: Vec<[[f64; 6]; 6]>,
     pub beta: Vec<SpatialMotion>,
     /// Per join (`DNode::jix`): what a one-axis join keeps for the back-substitution, dense in

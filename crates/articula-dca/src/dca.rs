@@ -12,7 +12,7 @@ use crate::small::{SymT, TILE};
 use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::internals::{
-    cholesky6_inv_diag, dot3, dot6_even_odd as dot6, ldl5, psd_root, Arith,
+    cholesky_inv_diag, dot3, dot6_even_odd as dot6, ldl5, psd_root, Arith,
 };
 use articula_spatial::internals::{solve_lower_inv_diag, solve_lower_t_inv_diag};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
@@ -814,7 +814,7 @@ fn join_general<A: Arith>(
     let l = if identity {
         crate::mass_ratio::IDENTITY
     } else {
-        cholesky6_inv_diag(&sum).ok_or_else(|| DynamicsError::Singular {
+        cholesky_inv_diag(&sum, 6).ok_or_else(|| DynamicsError::Singular {
             joint: model.bodies[joint].joint_name(),
             detail: "Φ_jj^A + Φ_jj^B is not positive definite",
         })?

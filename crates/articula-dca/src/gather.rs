@@ -23,7 +23,7 @@ use crate::small::{SmallSpd, SymT, TILE};
 use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::internals::{
-    cholesky6_inv_diag, dot6, invert_factor_inv_diag, solve_lower_inv_diag, solve_lower_t_inv_diag,
+    cholesky_inv_diag, dot6, invert_factor_inv_diag, solve_lower_inv_diag, solve_lower_t_inv_diag,
     Portable,
 };
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
@@ -78,7 +78,7 @@ pub(crate) fn main(
             joint: model.bodies[joint].joint_name(),
             detail,
         };
-        let l = cholesky6_inv_diag(&dense(&d.slots.dg[slot])).ok_or_else(|| {
+        let l = cholesky_inv_diag(&dense(&d.slots.dg[slot]), 6).ok_or_else(|| {
             singular("Φ_jj of the subassembly on a gathered hub is not positive definite")
         })?;
         let km = invert_factor_inv_diag(&l);
@@ -154,7 +154,7 @@ pub(crate) fn main(
     let Some(h) = g.hub else {
         return Ok(());
     };
-    let l = cholesky6_inv_diag(&ia).ok_or_else(|| DynamicsError::Singular {
+    let l = cholesky_inv_diag(&ia, 6).ok_or_else(|| DynamicsError::Singular {
         joint: model.bodies[h].joint_name(),
         detail: "the articulated inertia of a gathered hub is not positive definite",
     })?;

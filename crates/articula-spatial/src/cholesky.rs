@@ -13,10 +13,11 @@
 //! [`ldl5`], which clamps it (and says so).
 //!
 //! **Members** by size:
-//! - fixed 6×6: [`cholesky6_inv_diag`] (unrolled; DCA's joins and leaf clusters), with
-//!   [`solve_lower_inv_diag`], [`solve_lower_t_inv_diag`] and [`invert_factor_inv_diag`];
-//! - leading `k × k` of a 6×6 (or of any `N × N` array): [`cholesky_into`] and [`cholesky`],
-//!   with [`solve_lower`], [`solve_lower_t`] (`k = 6`) and [`solve_llt_k`]; the SPD inverse
+//! - leading `k × k` of a 6×6 (or of any `N × N` array): [`cholesky_into`] (the one
+//!   recursion), [`cholesky`] and [`cholesky_inv_diag`] (its factor with either diagonal), the
+//!   solves [`solve_lower`], [`solve_lower_t`] (`k = 6`), [`solve_llt_k`], and for the inverted
+//!   diagonal [`solve_lower_inv_diag`], [`solve_lower_t_inv_diag`] and
+//!   [`invert_factor_inv_diag`] (DCA's joins, gathers and leaf clusters); the SPD inverse
 //!   [`invert_spd_into`], and [`invert_joint_block`] (a joint's `D⁻¹`, refusing a gimbal lock
 //!   through [`joint_block_regular`]);
 //! - run-time `n × n`, row-major: [`cholesky_rows`], [`cholesky_rows_skip`] (dropping dependent
@@ -75,43 +76,25 @@ pub fn cholesky(a: &M6, k: usize) -> Option<M6> {
     cholesky_into(a, k, &mut l, &mut inv).then_some(l)
 }
 
-/// [`cholesky_into`] on a whole 6×6, **the diagonal holding `1 / L_jj`** (the same operations,
-/// so the same bits: `1 / L_jj` is the `inv[j]` of [`cholesky_into`]), `None` when a pivot is
-/// not positive. Unrolled column by column and without early exits: DCA's joins factor with it.
-/// Kept beside [`cholesky_into`] for speed: with `cholesky_into(a, 6, ..)` in its place DCA on
-/// the floating humanoid ran 9.42–9.48 µs against 8.94–8.99 (`cargo xtask time dca
-/// humanoid-floating 1000 100`, minima; commit 6558330), 5%.
+/// [`cholesky_into`]'s factor `L` of the leading `k × k` block of `a`, **the diagonal holding
+/// `1 / L_jj`** (its `inv[j]`: the same operations, so the same bits), for the triangular
+/// solves that multiply instead of dividing ([`solve_lower_inv_diag`]: a division's latency is
+/// on the critical path of DCA's joins); `None` when a pivot is not positive. (An unrolled 6×6
+/// copy, `cholesky6_inv_diag`, was 5% of DCA on the floating humanoid in November 2026. Against
+/// this one, December 2026, `cargo xtask time dca humanoid-floating 1000 100` alternated four
+/// times on a loaded machine: medians 3.66–3.73 µs with the copy, 3.73–3.81 without (minima
+/// 3.50–3.68, 3.62–3.74): about 2%, under the 5% a hand-written kernel has to show, so it went.)
 #[inline(always)]
-pub fn cholesky6_inv_diag(a: &M6) -> Option<M6> {
+pub fn cholesky_inv_diag(a: &M6, k: usize) -> Option<M6> {
     let mut l = [[0.0f64; 6]; 6];
-    let mut ok = true;
-    col::<0>(a, &mut l, &mut ok);
-    col::<1>(a, &mut l, &mut ok);
-    col::<2>(a, &mut l, &mut ok);
-    col::<3>(a, &mut l, &mut ok);
-    col::<4>(a, &mut l, &mut ok);
-    col::<5>(a, &mut l, &mut ok);
-    ok.then_some(l)
-}
-
-/// Column `J` of [`cholesky6_inv_diag`] (rows J..6), from the columns before it.
-#[inline(always)]
-fn col<const J: usize>(a: &M6, l: &mut M6, ok: &mut bool) {
-    let mut d = a[J][J];
-    for p in 0..J {
-        d -= l[J][p] * l[J][p];
+    let mut inv = [0.0f64; 6];
+    if !cholesky_into(a, k, &mut l, &mut inv) {
+        return None;
     }
-    // `!(d > 0)` also catches NaN.
-    *ok &= d > 0.0;
-    let inv = 1.0 / d.sqrt();
-    l[J][J] = inv;
-    for i in (J + 1)..6 {
-        let mut x = a[i][J];
-        for p in 0..J {
-            x -= l[i][p] * l[J][p];
-        }
-        l[i][J] = x * inv;
+    for j in 0..k {
+        l[j][j] = inv[j];
     }
+    Some(l)
 }
 
 /// `L⁻¹ b` by forward substitution, for the 6×6 factor `L` of [`cholesky`] (each row divides
@@ -165,7 +148,7 @@ pub fn solve_llt_k(l: &M6, k: usize, x: &mut [f64]) {
     }
 }
 
-/// `L⁻¹ b` by forward substitution, for the factor of [`cholesky6_inv_diag`] (its diagonal
+/// `L⁻¹ b` by forward substitution, for the factor of [`cholesky_inv_diag`] (its diagonal
 /// `1 / L_ii`: each row multiplies by it).
 #[inline]
 pub fn solve_lower_inv_diag(l: &M6, b: &[f64; 6]) -> [f64; 6] {
@@ -194,7 +177,7 @@ pub fn solve_lower_t_inv_diag(l: &M6, b: &[f64; 6]) -> [f64; 6] {
     x
 }
 
-/// `A⁻¹ = L⁻ᵀ L⁻¹` from the factor of [`cholesky6_inv_diag`]: column `c` by
+/// `A⁻¹ = L⁻ᵀ L⁻¹` from the factor of [`cholesky_inv_diag`]: column `c` by
 /// [`solve_lower_inv_diag`] then [`solve_lower_t_inv_diag`] of `e_c`, then made exactly
 /// symmetric (each pair `(r, c)`, `(c, r)` replaced by its mean).
 #[inline]

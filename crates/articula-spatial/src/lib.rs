@@ -61,7 +61,7 @@ pub mod internals {
     pub use crate::arith::Fused;
     pub use crate::arith::{fused_available, Arith, Portable};
     pub use crate::cholesky::{
-        cholesky, cholesky6_inv_diag, cholesky_into, cholesky_rows, cholesky_rows_skip,
+        cholesky, cholesky_into, cholesky_inv_diag, cholesky_rows, cholesky_rows_skip,
         cholesky_rows_solve, invert_factor_inv_diag, invert_joint_block, invert_spd_into,
         joint_block_regular, ldl5, psd_root, solve_llt_k, solve_lower, solve_lower_inv_diag,
         solve_lower_t, solve_lower_t_inv_diag, JOINT_PIVOT_REL,

@@ -120,30 +120,28 @@ fn cholesky_and_inverse_of_a_small_block() {
     assert!(cholesky(&[[0.0; 6]; 6], 1).is_none());
 }
 
-/// `cholesky6_inv_diag` is `cholesky_into` to the bit, its diagonal the latter's `1 / L_jj`;
-/// with its diagonal inverted back it reconstructs `A`; `invert_factor_inv_diag` gives
-/// `A A⁻¹ = 1`, exactly symmetric; an indefinite matrix fails.
+/// `cholesky_inv_diag`'s factor with its diagonal inverted back reconstructs `A` (whole and
+/// leading blocks); `invert_factor_inv_diag` gives `A A⁻¹ = 1`, exactly symmetric; an
+/// indefinite matrix and a NaN fail.
 #[test]
-fn unrolled_factor_and_its_inverse() {
-    for a in [spd6(), hilbert6()] {
-        let f = cholesky6_inv_diag(&a).expect("SPD");
-        let mut l = [[0.0; 6]; 6];
-        let mut inv = [0.0; 6];
-        assert!(cholesky_into(&a, 6, &mut l, &mut inv));
-        for i in 0..6 {
-            assert_eq!(f[i][i].to_bits(), inv[i].to_bits());
-            for j in 0..i {
-                assert_eq!(f[i][j].to_bits(), l[i][j].to_bits());
-            }
+fn factor_with_inverted_diagonal_and_its_inverse() {
+    for k in 1..=6 {
+        let a = spd6();
+        let mut l = cholesky_inv_diag(&a, k).expect("SPD");
+        for j in 0..k {
+            l[j][j] = 1.0 / l[j][j];
         }
-        for i in 0..6 {
-            for j in 0..6 {
+        for i in 0..k {
+            for j in 0..k {
                 assert!(
-                    (a_bt(&l, &l, i, j, 6) - a[i][j]).abs() < 1e-13,
-                    "({i}, {j})"
+                    (a_bt(&l, &l, i, j, k) - a[i][j]).abs() < 1e-13,
+                    "k = {k} ({i}, {j})"
                 );
             }
         }
+    }
+    for a in [spd6(), hilbert6()] {
+        let f = cholesky_inv_diag(&a, 6).expect("SPD");
         let ai = invert_factor_inv_diag(&f);
         for i in 0..6 {
             for j in 0..6 {
@@ -158,10 +156,10 @@ fn unrolled_factor_and_its_inverse() {
     }
     let mut bad = hilbert6();
     bad[3][3] = -1.0;
-    assert!(cholesky6_inv_diag(&bad).is_none());
+    assert!(cholesky_inv_diag(&bad, 6).is_none());
     let mut nan = hilbert6();
     nan[5][5] = f64::NAN;
-    assert!(cholesky6_inv_diag(&nan).is_none());
+    assert!(cholesky_inv_diag(&nan, 6).is_none());
 }
 
 /// `invert_joint_block` gives `A A⁻¹ = 1` for every size, refuses an indefinite block, and
