@@ -8,7 +8,7 @@
 
 use crate::data::ub;
 use crate::data::{DKind, LeafK, RevJoin, Side};
-use crate::small::{SymT, TILE};
+use crate::small::SymT;
 use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::internals::{
@@ -525,7 +525,7 @@ fn leaf_handles<A: Arith, const N: usize>(
         let b22 = A::neg_mul_add(ah[1], row[2][0], ah[0] * row[2][1]);
         // By tiles (`SymT`): rows 0-1, 2-3, 4-5 against columns 0-1, 2-3, 4-5; the upper
         // right block is A_hᵀ (row r = column r of A_h).
-        dgs[h] = SymT([
+        dgs[h] = SymT::from_tiles([
             [jc[0][0], jc[0][1], jc[0][1], jc[1][1]],
             [jc[0][2], col[0][0], jc[1][2], col[1][0]],
             [col[0][1], col[0][2], col[1][1], col[1][2]],
@@ -1450,13 +1450,17 @@ fn gram_tiles<A: Arith, const I: usize, const R: usize>(
         }
     }
     for j in I..3 {
-        let (o, c) = (&old.0[TILE[I][j]], 2 * j);
-        out.0[TILE[I][j]] = [
-            o[0] - acc[0][c],
-            o[1] - acc[0][c + 1],
-            o[2] - acc[1][c],
-            o[3] - acc[1][c + 1],
-        ];
+        let (o, c) = (old.tile(I, j), 2 * j);
+        out.set_tile(
+            I,
+            j,
+            [
+                o[0] - acc[0][c],
+                o[1] - acc[0][c + 1],
+                o[2] - acc[1][c],
+                o[3] - acc[1][c + 1],
+            ],
+        );
     }
 }
 

@@ -19,7 +19,7 @@
 //! The ground as a hub does not move (`a = 0`). The back-substitution takes `a = Φ f + b` and
 //! gives each child's `q̈` and `f_c` by the first line.
 
-use crate::small::{SmallSpd, SymT, TILE};
+use crate::small::{SmallSpd, SymT};
 use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::internals::{
@@ -338,10 +338,10 @@ fn dense(t: &SymT) -> M6 {
 /// A symmetric dense matrix as a [`SymT`] (its upper tiles).
 pub(crate) fn sym_tiles(m: &M6) -> SymT {
     let mut t = SymT::ZERO;
-    for (i, row) in TILE.iter().enumerate() {
+    for i in 0..3 {
         for j in i..3 {
             let (r, c) = (2 * i, 2 * j);
-            t.0[row[j]] = [m[r][c], m[r][c + 1], m[r + 1][c], m[r + 1][c + 1]];
+            t.set_tile(i, j, [m[r][c], m[r][c + 1], m[r + 1][c], m[r + 1][c + 1]]);
         }
     }
     t

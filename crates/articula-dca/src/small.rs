@@ -43,7 +43,18 @@ pub(crate) const TILE: [[usize; 3]; 3] = [[0, 1, 2], [1, 3, 4], [2, 4, 5]];
 /// DCA's Gram updates: its six upper 2×2 tiles `(I, J)`, `I ≤ J` (in the order
 /// of [`TILE`]), each by rows `[a_{2I,2J}, a_{2I,2J+1}, a_{2I+1,2J}, a_{2I+1,2J+1}]` (a diagonal
 /// tile holds its mirrored entry too): DCA's diagonal blocks Φ_hh, whose Gram updates then
-/// run on whole pairs of columns.
+/// run on whole pairs of columns. Read and written only through [`SymT::at`], [`SymT::tile`],
+/// [`SymT::set_tile`] and [`SymT::from_tiles`]; `gather.rs` converts to and from a whole
+/// row-major 6×6 (`dense`, `sym_tiles`).
+///
+/// Measured against the whole row-major layout (the same accessors over `[[f64; 6]; 6]`, the
+/// off-diagonal tiles mirrored; the same bits), `cargo xtask time dca 300 200 100` and
+/// `… humanoid-floating 1000 100`, three alternated rounds on a loaded machine, December 2026:
+/// chain300 medians 66.27 66.46 66.71 µs tiled against 68.21 69.46 67.93 whole (2–4%), the
+/// floating humanoid 3.83 3.84 3.85 against 3.90 3.91 3.86 (1–2%). Below the 5% that a second
+/// layout is to show; kept because DCA on chain300 is the figure held against Pinocchio, and
+/// moving Φ_hh onto `SymMat6` itself would also change its bits (a diagonal tile's two
+/// off-diagonal entries are separate Gram sums, equal only to rounding).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct SymT(pub [[f64; 4]; 6]);
 
@@ -55,6 +66,25 @@ impl SymT {
     pub fn at(&self, r: usize, c: usize) -> f64 {
         let (r, c) = if r / 2 > c / 2 { (c, r) } else { (r, c) };
         self.0[TILE[r / 2][c / 2]][2 * (r % 2) + c % 2]
+    }
+
+    /// Tile `(i, j)`, `i ≤ j`: `[a_{2i,2j}, a_{2i,2j+1}, a_{2i+1,2j}, a_{2i+1,2j+1}]`.
+    #[inline(always)]
+    pub fn tile(&self, i: usize, j: usize) -> [f64; 4] {
+        self.0[TILE[i][j]]
+    }
+
+    /// Sets tile `(i, j)`, `i ≤ j` (entries as [`SymT::tile`] returns them).
+    #[inline(always)]
+    pub fn set_tile(&mut self, i: usize, j: usize, t: [f64; 4]) {
+        self.0[TILE[i][j]] = t;
+    }
+
+    /// The matrix from its six upper tiles in the order of [`TILE`] (`(0,0), (0,1), (0,2),
+    /// (1,1), (1,2), (2,2)`).
+    #[inline(always)]
+    pub fn from_tiles(t: [[f64; 4]; 6]) -> SymT {
+        SymT(t)
     }
 
     /// `a + b`.
@@ -83,9 +113,11 @@ mod tests {
             .0;
         let mut t = SymT::ZERO;
         for (i, j) in [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)] {
-            for k in 0..4 {
-                t.0[TILE[i][j]][k] = dense[2 * i + k / 2][2 * j + k % 2];
-            }
+            t.set_tile(
+                i,
+                j,
+                std::array::from_fn(|k| dense[2 * i + k / 2][2 * j + k % 2]),
+            );
         }
         for i in 0..6 {
             for j in 0..6 {
