@@ -43,7 +43,7 @@ use articula_spatial::internals::{
     cholesky_inv_diag, invert_factor_inv_diag, solve_lower_inv_diag, solve_lower_t_inv_diag,
 };
 use articula_spatial::internals::{dot6, Arith};
-use articula_spatial::{Mat6, PackedSymMat6, SpatialForce, SpatialMotion};
+use articula_spatial::{Mat6, SpatialForce, SpatialMotion, SymMat6};
 use glam::DVec3;
 
 use articula_spatial::internals::M6;
@@ -145,7 +145,7 @@ pub(crate) fn main<A: Arith>(
     Ok(())
 }
 
-/// A body's spatial inertia `I` packed and its bias `v ×* I v − f_ext` (zero without `bias`),
+/// A body's spatial inertia `I` and its bias `v ×* I v − f_ext` (zero without `bias`),
 /// with the computation frame's axes about the body's own origin `pᵢ` (returned third), as
 /// ABA takes them (`aba.rs`): no entry carries a lever arm to the computation origin. Sets the
 /// world inertia `data.inertia[i]`, as leaves do.
@@ -156,7 +156,7 @@ fn own_terms(
     bias: bool,
     data: &mut Data,
     i: usize,
-) -> (PackedSymMat6, SpatialForce, DVec3) {
+) -> (SymMat6, SpatialForce, DVec3) {
     let x = &data.x[i];
     let p = -(x.e * x.r);
     let (inertia, world) =
@@ -168,7 +168,7 @@ fn own_terms(
     } else {
         SpatialForce::ZERO
     };
-    (PackedSymMat6::from_inertia(&inertia), pa, p)
+    (SymMat6::from_inertia(&inertia), pa, p)
 }
 
 /// ABA's pass 2 at absorbed body `i`, about its own origin (see the module's equations and

@@ -103,14 +103,18 @@ impl SymT {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use articula_spatial::PackedSymMat6;
 
     /// `SymT::at` reads the entry of the matrix it was tiled from.
     #[test]
     fn tiled_layout_matches_the_whole_matrix() {
-        let dense = PackedSymMat6(std::array::from_fn(|k| 1.0 + k as f64 * 0.37))
-            .to_mat6()
-            .0;
+        let mut dense = [[0.0; 6]; 6];
+        for i in 0..6 {
+            for j in i..6 {
+                let x = 1.0 + (i * 7 + j * 3) as f64 * 0.37;
+                dense[i][j] = x;
+                dense[j][i] = x;
+            }
+        }
         let mut t = SymT::ZERO;
         for (i, j) in [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)] {
             t.set_tile(

@@ -8,8 +8,8 @@
 //! - [`SpatialTransform`] is a Plücker transform `rot(E) xlt(r)`; it maps motions, forces and
 //!   inertias between frames.
 //! - [`SpatialInertia`] is a rigid body's inertia (mass, first moment, rotational inertia).
-//! - [`Mat6`] and [`SymMat6`] are the dense 6×6 blocks of the divide-and-conquer algorithm;
-//!   [`PackedSymMat6`] is a symmetric 6×6 stored as its upper triangle.
+//! - [`Mat6`] and [`SymMat6`] are the dense 6×6 blocks of the divide-and-conquer algorithm
+//!   and of the articulated-body algorithm.
 //!
 //! ```
 //! use articula_spatial::*;
@@ -44,7 +44,7 @@ mod vector;
 
 pub use glam::{DMat3, DQuat, DVec3};
 pub use inertia::{skew, SpatialInertia};
-pub use matrix::{Mat6, PackedSymMat6, SymMat6};
+pub use matrix::{Mat6, SymMat6};
 pub use transform::SpatialTransform;
 pub use vector::{SpatialForce, SpatialMotion};
 
