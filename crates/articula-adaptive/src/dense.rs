@@ -71,89 +71,9 @@ pub(crate) fn quad(a: &[f64], x: &[f64], n: usize) -> f64 {
     s
 }
 
-/// Inverse of the leading k×k block of a symmetric positive definite matrix (k ≤ 6), through
-/// its Cholesky factor: `A⁻¹ = L⁻ᵀ L⁻¹` (articula-spatial's `invert_spd_into`). `None` when not
-/// positive definite.
-pub(crate) fn spd_inverse(a: &[[f64; 6]; 6], k: usize) -> Option<[[f64; 6]; 6]> {
-    let mut inv = [[0.0f64; 6]; 6];
-    invert_spd_into(a, k, &mut inv).then_some(inv)
-}
-
-/// Cholesky factor `L` of a 6×6 symmetric positive definite matrix (see [`cholesky_k`]).
-pub(crate) fn spd_cholesky(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
-    cholesky_k(a, 6)
-}
-
-/// Cholesky factor (lower) of the leading k×k block of a symmetric positive definite matrix
-/// (k ≤ 6); `None` when a pivot is not positive — articula-dca's. (A Jacobi-scaled variant
-/// turned the join of a 40,000-link chain's halves indefinite where this one does not.)
-pub(crate) use articula_spatial::internals::cholesky as cholesky_k;
-use articula_spatial::internals::invert_spd_into;
-
-/// `(L Lᵀ)⁻¹ u` for the leading k×k factor `L`.
-#[inline(always)]
-pub(crate) fn solve_llt_k(l: &[[f64; 6]; 6], u: &[f64; 5], k: usize) -> [f64; 5] {
-    solve_lt_k(l, &solve_l_k(l, u, k), k)
-}
-
-/// `L⁻¹ u` for the leading k×k factor `L`.
-#[inline(always)]
-pub(crate) fn solve_l_k(l: &[[f64; 6]; 6], u: &[f64; 5], k: usize) -> [f64; 5] {
-    let mut x = [0.0; 5];
-    for i in 0..k {
-        let mut v = u[i];
-        for p in 0..i {
-            v -= l[i][p] * x[p];
-        }
-        x[i] = v / l[i][i];
-    }
-    x
-}
-
-/// `L⁻ᵀ u` for the leading k×k factor `L`.
-#[inline(always)]
-pub(crate) fn solve_lt_k(l: &[[f64; 6]; 6], u: &[f64; 5], k: usize) -> [f64; 5] {
-    let mut x = *u;
-    for i in (0..k).rev() {
-        let mut v = x[i];
-        for p in (i + 1)..k {
-            v -= l[p][i] * x[p];
-        }
-        x[i] = v / l[i][i];
-    }
-    x
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn spd_inverse_times_matrix_is_identity() {
-        // A badly scaled SPD matrix: B Bᵀ + diag, rows scaled by 1e-4 … 1e4.
-        let mut a = [[0.0; 6]; 6];
-        let s = [1e-4, 1e-2, 1.0, 1e2, 1e3, 1e4];
-        for i in 0..6 {
-            for j in 0..6 {
-                let b = |r: usize, c: usize| ((r * 7 + c * 3) % 5) as f64 - 2.0;
-                let mut x: f64 = (0..6).map(|p| b(i, p) * b(j, p)).sum();
-                if i == j {
-                    x += 1.0;
-                }
-                a[i][j] = x * s[i] * s[j];
-            }
-        }
-        let inv = spd_inverse(&a, 6).unwrap();
-        for i in 0..6 {
-            for j in 0..6 {
-                let x: f64 = (0..6).map(|p| a[i][p] * inv[p][j]).sum();
-                let expect = if i == j { 1.0 } else { 0.0 };
-                // Entry (i, j) carries the scale s_i / s_j.
-                assert!((x - expect).abs() * s[j] / s[i] < 1e-12, "{i} {j} {x}");
-            }
-        }
-        assert!(spd_inverse(&[[0.0; 6]; 6], 3).is_none());
-    }
 
     #[test]
     fn products_match_index_formulas() {

@@ -7,12 +7,13 @@
 //! digits. A force array is `[n; f]`, a motion array `[ω; v]`.
 
 use crate::adaptive::Adaptive;
-use crate::dense;
 use crate::parts::composites::Rigid;
 use crate::parts::join_maps::BiasMaps;
 use articula_dca::DynamicsError;
 use articula_model::{Body, JointKind, Model, NodeKind};
-use articula_spatial::internals::{cholesky_into, dot6, Portable};
+use articula_spatial::internals::{
+    cholesky, cholesky_into, dot6, invert_spd_into, solve_llt_k, Portable,
+};
 use articula_spatial::internals::{solve_lower, solve_lower_t};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::{DMat3, DVec3};
@@ -66,7 +67,7 @@ fn row_sub_scaled(v: &mut [f64; 6], s: f64, x: &[f64; 6]) {
 }
 
 /// `W yₖ = T (L Lᵀ)⁻¹ Tᵀ yₖ` for three right-hand sides side by side (lanes of four, the last
-/// unused): per lane the operations of `dense::solve_llt_k`, in its order, except that each
+/// unused): per lane the operations of `solve_llt_k`, in its order, except that each
 /// step multiplies by `linv[i] = 1 / L_ii` instead of dividing by `L_ii` (ten divisions in a
 /// row were the join's longest dependency chain).
 #[inline(always)]
@@ -423,7 +424,7 @@ impl Adaptive {
             }
         }
         // L Lᵀ = Φ^A_jj + Φ^B_jj = V⁻¹
-        let l = dense::spd_cholesky(&g).ok_or_else(|| DynamicsError::Singular {
+        let l = cholesky(&g, 6).ok_or_else(|| DynamicsError::Singular {
             joint: body.joint_name(),
             detail: "Φ_jj^A + Φ_jj^B is not positive definite",
         })?;
@@ -438,10 +439,13 @@ impl Adaptive {
                 d[p][q] = dot6::<Portable>(&z[p], &z[q]);
             }
         }
-        let dinv = dense::spd_inverse(&d, k).ok_or_else(|| DynamicsError::Singular {
-            joint: body.joint_name(),
-            detail: "Sᵀ V S is not positive definite",
-        })?;
+        let mut dinv = [[0.0f64; 6]; 6];
+        if !invert_spd_into(&d, k, &mut dinv) {
+            return Err(DynamicsError::Singular {
+                joint: body.joint_name(),
+                detail: "Sᵀ V S is not positive definite",
+            });
+        }
         if self.maps.record {
             self.maps.recorded = bias_maps(&l, &z, &dinv, k);
         }
@@ -642,7 +646,8 @@ impl Adaptive {
         }
         let w_apply = |y: &[f64; 6]| -> [f64; 6] {
             let u = t.tr(y);
-            let lam = dense::solve_llt_k(&l5, &u, 5);
+            let mut lam = u;
+            solve_llt_k(&l5, 5, &mut lam);
             t.apply(&lam)
         };
         let ss: f64 = sv.iter().map(|x| x * x).sum();

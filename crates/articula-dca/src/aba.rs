@@ -2,14 +2,14 @@
 //! world's axes about each body's own origin, so that the only transform between bodies is a
 //! translation by the (short) arm from the parent's origin, and no quantity carries a lever arm
 //! to a far point (docs/algorithms.md, ABA). Articulated inertias
-//! are kept packed (21 entries, [`PackedSymMat6`]) and 1-DOF joints take a rank-1 fast path.
+//! are kept as [`SymMat6`] and 1-DOF joints take a rank-1 fast path.
 
 use crate::data::AbaData;
 use crate::kinematics::FkPlan;
 use crate::{Data, DynamicsError};
 use articula_model::Model;
 use articula_spatial::internals::{dot6, invert_spd_into, joint_block_regular, Arith, Portable};
-use articula_spatial::{PackedSymMat6, SpatialForce, SpatialMotion};
+use articula_spatial::{SpatialForce, SpatialMotion, SymMat6};
 use glam::DVec3;
 
 articula_spatial::fma_dispatch! {
@@ -50,7 +50,7 @@ pub(crate) fn force_back(f: SpatialForce, r: DVec3) -> SpatialForce {
 /// Every body's quantities are taken about its own origin `pᵢ` (the computation frame's axes):
 /// `Iᵢ` is the body inertia rotated, `S`, `vᵢ`, `cᵢ` are moved there from the computation
 /// origin (`[ω; v + ω × pᵢ]`), and a child's `Iᵃ`, `pᵃ` are moved to its parent's origin by
-/// the arm `rᵢ = pᵢ − p_parent` ([`PackedSymMat6::shifted`]), as pass 3 moves `a_parent`
+/// the arm `rᵢ = pᵢ − p_parent` ([`SymMat6::shifted`]), as pass 3 moves `a_parent`
 /// forward. About the world origin instead, `Iᴬ` of a body 1 km away holds entries ~`M·(1 km)²`
 /// of which `D = Sᵀ Iᴬ S` is a tiny difference: a tilted 100,000-link chain lost 11 digits.
 #[inline(always)]
@@ -84,7 +84,7 @@ fn aba_with<A: Arith>(
         data.inertia[i] = world;
         let v = motion_at(data.v[i], p);
         let fe = crate::inputs::f_ext_of(f_ext, i);
-        let mut ia = PackedSymMat6::from_inertia(&inertia);
+        let mut ia = SymMat6::from_inertia(&inertia);
         let mut pa_i = v.cross_force(inertia.mul_motion(v)) - force_back(fe, -p);
         let slot = aba.acc[i] as usize;
         if slot != u32::MAX as usize {
@@ -190,7 +190,7 @@ fn accelerations<A: Arith>(
 #[derive(Clone, Copy)]
 pub(crate) struct BodyJoint {
     /// The body's articulated inertia `Iᴬ` and bias force `pᴬ` (its children's sums added).
-    pub ia: PackedSymMat6,
+    pub ia: SymMat6,
     pub pa: SpatialForce,
     /// Its velocity product `c`.
     pub c: SpatialMotion,
@@ -218,7 +218,7 @@ pub(crate) fn articulate_joint<A: Arith>(
     armature: &[f64],
     b: BodyJoint,
     to_parent: bool,
-) -> Option<(PackedSymMat6, SpatialForce)> {
+) -> Option<(SymMat6, SpatialForce)> {
     let (vo, k, doff, ia) = (b.vo, b.k, b.doff, b.ia);
     if k == 1 {
         // One DOF (the common case): U = Iᴬ s, D = sᵀU scalar.
@@ -251,7 +251,7 @@ pub(crate) fn articulate_joint<A: Arith>(
         aba.uu[vo] = uu;
         aba.dinv[doff] = dinv;
         if !to_parent {
-            return Some((PackedSymMat6::ZERO, SpatialForce::ZERO));
+            return Some((SymMat6::ZERO, SpatialForce::ZERO));
         }
         // pᵃ = pᴬ + Iᵃ c + U D⁻¹ u with Iᵃ c = Iᴬ c − U (Uᵀc) / D
         let c = b.c.to_array();
@@ -264,7 +264,7 @@ pub(crate) fn articulate_joint<A: Arith>(
     for p_ in 0..k {
         aba.sl[vo + p_] = motion_at(s[vo + p_], b.origin);
     }
-    let (mut ia_a, mut pa_a) = (PackedSymMat6::ZERO, SpatialForce::ZERO);
+    let (mut ia_a, mut pa_a) = (SymMat6::ZERO, SpatialForce::ZERO);
     let args = MultiArgs {
         s: &aba.sl[vo..vo + k],
         tau: &tau[vo..vo + k],
@@ -298,7 +298,7 @@ pub struct MultiArgs<'a> {
     /// The velocity product `c` of its body.
     pub c: SpatialMotion,
     /// The articulated inertia `Iᴬ` of its body.
-    pub ia: PackedSymMat6,
+    pub ia: SymMat6,
     /// The articulated bias force `pᴬ` of its body.
     pub pa_i: SpatialForce,
     /// Written: `U = Iᴬ S` (`k` columns).
@@ -323,7 +323,7 @@ pub struct MultiArgs<'a> {
 #[inline(always)]
 pub fn articulate_multi<A: Arith, const K: usize>(
     m: MultiArgs,
-    to_parent: Option<(&mut PackedSymMat6, &mut SpatialForce, bool)>,
+    to_parent: Option<(&mut SymMat6, &mut SpatialForce, bool)>,
 ) -> bool {
     let s: &[SpatialMotion; K] = m.s.try_into().expect("K columns");
     let tau: &[f64; K] = m.tau.try_into().expect("K torques");
@@ -376,16 +376,14 @@ pub fn articulate_multi<A: Arith, const K: usize>(
         }
     }
     // Iᵃ = Iᴬ − Σ_p U_p w_pᵀ on the upper triangle, entry by entry (p in order).
-    let mut ia_a = PackedSymMat6::ZERO;
-    let mut k = 0;
+    let mut ia_a = SymMat6::ZERO;
     for i in 0..6 {
         for j in i..6 {
-            let mut x = ia.0[k];
+            let mut x = ia.get(i, j);
             for p in 0..K {
                 x -= u_out[p][i] * w[p][j];
             }
-            ia_a.0[k] = x;
-            k += 1;
+            ia_a.set(i, j, x);
         }
     }
     let mut pa = pa_i;

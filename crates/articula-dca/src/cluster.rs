@@ -35,14 +35,15 @@
 //! `a'_i = a'_parent + c_i`, `q̈_i = D⁻¹ (u − Uᵀ a'_i)`, `a'_i += S q̈_i`.
 
 use crate::aba::{force_back, motion_at};
-use crate::gather::{inverse, sym_tiles, transform};
+use crate::gather::{sym_tiles, transform};
 use crate::kinematics::FkPlan;
-use crate::small::cholesky6_inv_diag;
 use crate::{Data, DynamicsError};
 use articula_model::Model;
+use articula_spatial::internals::{
+    cholesky_inv_diag, invert_factor_inv_diag, solve_lower_inv_diag, solve_lower_t_inv_diag,
+};
 use articula_spatial::internals::{dot6, Arith};
-use articula_spatial::internals::{solve_lower_inv_diag, solve_lower_t_inv_diag};
-use articula_spatial::{Mat6, PackedSymMat6, SpatialForce, SpatialMotion};
+use articula_spatial::{Mat6, SpatialForce, SpatialMotion, SymMat6};
 use glam::DVec3;
 
 use articula_spatial::internals::M6;
@@ -110,11 +111,11 @@ pub(crate) fn main<A: Arith>(
     let ia_p = ia_v.shifted((pv - p).to_array()).to_mat6().0;
     let pa_p = force_back(pa_v, pv - p);
     let pa_p = [pa_p.n, pa_p.f];
-    let l = cholesky6_inv_diag(&ia_p).ok_or_else(|| DynamicsError::Singular {
+    let l = cholesky_inv_diag(&ia_p, 6).ok_or_else(|| DynamicsError::Singular {
         joint: model.bodies[v].joint_name(),
         detail: "the articulated inertia of a leaf cluster is not positive definite",
     })?;
-    let phi0 = inverse(&l);
+    let phi0 = invert_factor_inv_diag(&l);
     let pa_arr = [
         pa_p[0].x, pa_p[0].y, pa_p[0].z, pa_p[1].x, pa_p[1].y, pa_p[1].z,
     ];
@@ -144,7 +145,7 @@ pub(crate) fn main<A: Arith>(
     Ok(())
 }
 
-/// A body's spatial inertia `I` packed and its bias `v ×* I v − f_ext` (zero without `bias`),
+/// A body's spatial inertia `I` and its bias `v ×* I v − f_ext` (zero without `bias`),
 /// with the computation frame's axes about the body's own origin `pᵢ` (returned third), as
 /// ABA takes them (`aba.rs`): no entry carries a lever arm to the computation origin. Sets the
 /// world inertia `data.inertia[i]`, as leaves do.
@@ -155,7 +156,7 @@ fn own_terms(
     bias: bool,
     data: &mut Data,
     i: usize,
-) -> (PackedSymMat6, SpatialForce, DVec3) {
+) -> (SymMat6, SpatialForce, DVec3) {
     let x = &data.x[i];
     let p = -(x.e * x.r);
     let (inertia, world) =
@@ -167,7 +168,7 @@ fn own_terms(
     } else {
         SpatialForce::ZERO
     };
-    (PackedSymMat6::from_inertia(&inertia), pa, p)
+    (SymMat6::from_inertia(&inertia), pa, p)
 }
 
 /// ABA's pass 2 at absorbed body `i`, about its own origin (see the module's equations and

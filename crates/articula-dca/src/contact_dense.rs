@@ -1,64 +1,9 @@
 //! Dense factorisations of the contact solver's Newton systems ([`crate::contact_newton`]),
-//! row-major `n × n` with `n` known only at run time: Cholesky for the symmetric systems (every
-//! pushing contact sticking) and LU with partial pivoting for the others (a sliding contact's
-//! rows make the system non-symmetric).
+//! row-major `n × n` with `n` known only at run time: LU with partial pivoting for the
+//! non-symmetric ones (a sliding contact's rows make the system non-symmetric). The symmetric
+//! ones (every pushing contact sticking) use the Cholesky family's `cholesky_rows`.
 
-/// `a · b` in four interleaved partial sums: independent chains the compiler can run in
-/// vector lanes.
-#[inline(always)]
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let n = a.len().min(b.len());
-    let (a, b) = (&a[..n], &b[..n]);
-    let mut s = [0.0f64; 4];
-    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
-    for (x, y) in ca.clone().zip(cb.clone()) {
-        for r in 0..4 {
-            s[r] += x[r] * y[r];
-        }
-    }
-    for (r, (x, y)) in ca.remainder().iter().zip(cb.remainder()).enumerate() {
-        s[r] += x * y;
-    }
-    (s[0] + s[1]) + (s[2] + s[3])
-}
-
-/// In place, the Cholesky factor `L` (`L Lᵀ = A`) of the row-major symmetric positive
-/// definite `n × n` `a`, in its lower triangle (the upper one is left alone). `false` when a
-/// pivot is not positive or not finite. O(n³/6).
-pub(crate) fn cholesky(a: &mut [f64], n: usize) -> bool {
-    for j in 0..n {
-        // Row j left of the diagonal already holds L_jp (p < j), from the steps before.
-        let row_j = &mut a[j * n..(j + 1) * n];
-        let d = row_j[j] - dot(&row_j[..j], &row_j[..j]);
-        if !(d > 0.0 && d.is_finite()) {
-            return false;
-        }
-        let ljj = d.sqrt();
-        row_j[j] = ljj;
-        let r = 1.0 / ljj;
-        for i in (j + 1)..n {
-            let (upper, lower) = a.split_at_mut(i * n);
-            let lj = &upper[j * n..j * n + j];
-            let li = &mut lower[..n];
-            li[j] = (li[j] - dot(&li[..j], lj)) * r;
-        }
-    }
-    true
-}
-
-/// `b ← x` with `L Lᵀ x = b`, `L` from [`cholesky`]: forward then back substitution, O(n²).
-pub(crate) fn cholesky_solve(l: &[f64], n: usize, b: &mut [f64]) {
-    for i in 0..n {
-        b[i] = (b[i] - dot(&l[i * n..i * n + i], &b[..i])) / l[i * n + i];
-    }
-    for i in (0..n).rev() {
-        let x = b[i] / l[i * n + i];
-        b[i] = x;
-        for (bp, lp) in b[..i].iter_mut().zip(&l[i * n..i * n + i]) {
-            *bp -= lp * x;
-        }
-    }
-}
+use articula_spatial::internals::dot_lanes as dot;
 
 /// In place, the LU factorisation with partial pivoting `P A = L U` of the row-major `n × n`
 /// `a` (unit lower `L` below the diagonal, `U` on and above it; `piv[j]` the row swapped with
@@ -116,6 +61,7 @@ pub(crate) fn lu_solve(lu: &[f64], n: usize, piv: &[usize], b: &mut [f64]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use articula_spatial::internals::{cholesky_rows, cholesky_rows_solve};
 
     /// `A x` for the row-major `n × n` `a`.
     fn product(a: &[f64], x: &[f64]) -> Vec<f64> {
@@ -155,7 +101,7 @@ mod tests {
         assert!(!lu(&mut z, 2, &mut piv));
     }
 
-    /// `cholesky` / `cholesky_solve` on `Bᵀ B + I` (symmetric positive definite), checked
+    /// `cholesky_rows` / `cholesky_rows_solve` on `Bᵀ B + I` (symmetric positive definite), checked
     /// against its product and against `lu`'s solution; an indefinite matrix is refused.
     #[test]
     fn cholesky_solves_a_positive_definite_system() {
@@ -173,8 +119,8 @@ mod tests {
         let x: Vec<f64> = (0..n).map(|i| (i as f64 - 3.0) * 0.5).collect();
         let rhs = product(&a, &x);
         let (mut l, mut y) = (a.clone(), rhs.clone());
-        assert!(cholesky(&mut l, n));
-        cholesky_solve(&l, n, &mut y);
+        assert!(cholesky_rows(&mut l, n));
+        cholesky_rows_solve(&l, n, &mut y);
         let (mut f, mut piv, mut z) = (a.clone(), Vec::new(), rhs.clone());
         assert!(lu(&mut f, n, &mut piv));
         lu_solve(&f, n, &piv, &mut z);
@@ -183,6 +129,6 @@ mod tests {
             assert!((y[i] - z[i]).abs() < 1e-11, "{y:?} vs {z:?}");
         }
         let mut indefinite = vec![1.0, 2.0, 2.0, 1.0];
-        assert!(!cholesky(&mut indefinite, 2));
+        assert!(!cholesky_rows(&mut indefinite, 2));
     }
 }

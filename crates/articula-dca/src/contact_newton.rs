@@ -32,10 +32,11 @@
 //! line search finds no decrease [`STALLS`] times, projected Gauss–Seidel ([`pgs`]) continues
 //! from the best projection for what is left of the iteration cap.
 
-use crate::contact_dense::{cholesky, cholesky_solve, lu, lu_solve};
+use crate::contact_dense::{lu, lu_solve};
 use crate::contact_solver::{
     contact_velocities, is_tangent, pgs, residual, sweep, Block, Solve, Stop,
 };
+use articula_spatial::internals::{cholesky_rows, cholesky_rows_solve};
 
 /// Newton iterations at most before the Gauss–Seidel fallback.
 const NEWTON_STEPS: usize = 25;
@@ -457,7 +458,7 @@ fn solve_system(nw: &mut Newton) -> bool {
     }
     nw.factored_valid = false;
     if reuse {
-        cholesky_solve(&nw.lu, f, &mut nw.delta);
+        cholesky_rows_solve(&nw.lu, f, &mut nw.delta);
         nw.factored_valid = true;
     } else if nw.sliding {
         if !lu(&mut nw.lu, f, &mut nw.piv) {
@@ -465,10 +466,10 @@ fn solve_system(nw: &mut Newton) -> bool {
         }
         lu_solve(&nw.lu, f, &nw.piv, &mut nw.delta);
     } else {
-        if !cholesky(&mut nw.lu, f) {
+        if !cholesky_rows(&mut nw.lu, f) {
             return false;
         }
-        cholesky_solve(&nw.lu, f, &mut nw.delta);
+        cholesky_rows_solve(&nw.lu, f, &mut nw.delta);
         nw.factored.clear();
         nw.factored.extend_from_slice(&nw.free);
         nw.factored_valid = true;
@@ -483,7 +484,7 @@ fn solve_system(nw: &mut Newton) -> bool {
         if nw.sliding {
             lu_solve(&nw.lu, f, &nw.piv, &mut nw.corr);
         } else {
-            cholesky_solve(&nw.lu, f, &mut nw.corr);
+            cholesky_rows_solve(&nw.lu, f, &mut nw.corr);
         }
         for (d, c) in nw.delta.iter_mut().zip(&nw.corr) {
             *d += c;

@@ -26,7 +26,7 @@
 //! sweeps' index sets give, and stops on the residual alone.
 
 use crate::contact_newton::{newton, Newton};
-use crate::small::{cholesky_rows, cholesky_rows_solve};
+use articula_spatial::internals::{cholesky_rows_skip, cholesky_rows_solve};
 
 /// One block of rows of the contact problem.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -282,7 +282,7 @@ fn subspace_step(
         }
         sub.m[x * f + x] += shift;
     }
-    cholesky_rows(&mut sub.m, f, 0.0)?;
+    cholesky_rows_skip(&mut sub.m, f, 0.0)?;
     // δ = (W_FF + ε)⁻¹ e, then with a sliding contact δ += (W_FF + ε)⁻¹ (e − a δ).
     sub.delta.clear();
     sub.delta.extend_from_slice(&sub.err);
@@ -1051,7 +1051,7 @@ mod tests {
         /// `M⁻¹ x`.
         fn m_inv(&self, x: &mut [f64]) {
             let mut l = self.m.clone();
-            assert_eq!(cholesky_rows(&mut l, self.n, 0.0), Some(0));
+            assert_eq!(cholesky_rows_skip(&mut l, self.n, 0.0), Some(0));
             cholesky_rows_solve(&l, self.n, x);
         }
 

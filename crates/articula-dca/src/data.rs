@@ -5,7 +5,7 @@ use crate::small::{SmallSpd, SymT};
 use crate::DynamicsError;
 use articula_model::{Model, NodeKind};
 use articula_spatial::internals::fused_available;
-use articula_spatial::PackedSymMat6;
+use articula_spatial::SymMat6;
 use articula_spatial::{Mat6, SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
 use glam::DVec3;
 
@@ -167,7 +167,7 @@ pub(crate) struct DcaData {
     /// there.
     pub from: Vec<(Side, u32)>,
     /// Joins of the last pass whose constraint factorisation met a pivot that rounding had
-    /// made non-positive ([`crate::small::ldl5`]); reset by each pass.
+    /// made non-positive ([`ldl5`](articula_spatial::internals::ldl5)); reset by each pass.
     pub clamped: u32,
     /// Whether a six-axis (floating) joint's join factors the identity instead of
     /// `K = Φ^A_jj + Φ^B_jj` (`mass_ratio.rs`): set for models with a neighbour mass ratio above
@@ -205,7 +205,7 @@ pub(crate) struct ClusterBuffers {
     /// its acceleration relative to gravity (the back-substitution's `a'`).
     pub cfirst: Vec<bool>,
     pub csums: Vec<bool>,
-    pub cia: Vec<PackedSymMat6>,
+    pub cia: Vec<SymMat6>,
     pub cpa: Vec<SpatialForce>,
     pub ca: Vec<SpatialMotion>,
 }
@@ -232,7 +232,7 @@ pub(crate) struct JoinBuffers {
     /// Φ's cross blocks.
     pub phi: Vec<Mat6>,
     /// Per join node off the one-axis path: the Cholesky factor L of `Φ^A_jj + Φ^B_jj = V⁻¹`
-    /// (its diagonal stored inverted, see [`crate::small::cholesky6_inv_diag`]), and β.
+    /// (its diagonal stored inverted, see [`cholesky_inv_diag`](articula_spatial::internals::cholesky_inv_diag)), and β.
     pub l: Vec<[[f64; 6]; 6]>,
     pub beta: Vec<SpatialMotion>,
     /// Per join (`DNode::jix`): what a one-axis join keeps for the back-substitution, dense in
@@ -421,10 +421,10 @@ pub(crate) struct RevJoin {
 /// ABA buffers.
 #[derive(Clone, Debug)]
 pub(crate) struct AbaData {
-    /// The children's articulated inertias `Σ Iᵃ` (packed) and bias forces `Σ pᵃ` of the bodies
+    /// The children's articulated inertias `Σ Iᵃ` and bias forces `Σ pᵃ` of the bodies
     /// pass 2 has reached a child of but not the body itself, by slot (`acc`); `pa` is also
     /// per-body scratch for the floating-base refinement.
-    pub ia: Vec<PackedSymMat6>,
+    pub ia: Vec<SymMat6>,
     pub pa: Vec<SpatialForce>,
     /// Per body: the slot of its children's sums (`u32::MAX` without children), and whether it
     /// is the first of its parent's children that pass 2 reaches (the highest index: it sets
@@ -775,7 +775,7 @@ impl Data {
                 .collect(),
             refine: RefineData::new(model, regularised),
             aba: AbaData {
-                ia: vec![PackedSymMat6::ZERO; acc_slots],
+                ia: vec![SymMat6::ZERO; acc_slots],
                 acc,
                 first,
                 pa: vec![SpatialForce::ZERO; n],
@@ -1065,7 +1065,7 @@ impl DcaData {
                 clustered: tree.clustered.iter().map(|&c| u(c)).collect(),
                 cfirst,
                 csums,
-                cia: vec![PackedSymMat6::ZERO; per_body],
+                cia: vec![SymMat6::ZERO; per_body],
                 cpa: vec![SpatialForce::ZERO; per_body],
                 ca: vec![SpatialMotion::ZERO; per_body],
             },

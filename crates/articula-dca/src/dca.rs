@@ -8,10 +8,12 @@
 
 use crate::data::ub;
 use crate::data::{DKind, LeafK, RevJoin, Side};
-use crate::small::{SymT, TILE};
+use crate::small::SymT;
 use crate::{Data, DynamicsError};
 use articula_model::Model;
-use articula_spatial::internals::{dot6_even_odd as dot6, Arith};
+use articula_spatial::internals::{
+    cholesky_inv_diag, dot3, dot6_even_odd as dot6, ldl5, psd_root, Arith,
+};
 use articula_spatial::internals::{solve_lower_inv_diag, solve_lower_t_inv_diag};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::DVec3;
@@ -523,7 +525,7 @@ fn leaf_handles<A: Arith, const N: usize>(
         let b22 = A::neg_mul_add(ah[1], row[2][0], ah[0] * row[2][1]);
         // By tiles (`SymT`): rows 0-1, 2-3, 4-5 against columns 0-1, 2-3, 4-5; the upper
         // right block is A_hᵀ (row r = column r of A_h).
-        dgs[h] = SymT([
+        dgs[h] = SymT::from_tiles([
             [jc[0][0], jc[0][1], jc[0][1], jc[1][1]],
             [jc[0][2], col[0][0], jc[1][2], col[1][0]],
             [col[0][1], col[0][2], col[1][1], col[1][2]],
@@ -629,7 +631,7 @@ fn sym3(u: &[f64; 6]) -> [[f64; 3]; 3] {
 /// appear explicitly. With `K = Φ^A_jj + Φ^B_jj = V⁻¹`, W is the same for every basis `T` of
 /// the forces that do no work along S: `W = V − V S (SᵀVS)⁻¹ SᵀV = T (TᵀKT)⁻¹ Tᵀ`.
 /// - One revolute axis (the common case): the basis of [`RevJoin`] (fixed positions), the
-///   `L D Lᵀ` factors of the 5×5 `TᵀKT` ([`crate::small::ldl5`]),
+///   `L D Lᵀ` factors of the 5×5 `TᵀKT` ([`ldl5`]),
 ///   `Z_h = L⁻¹ Tᵀ Φ_jh` and `U_h = D⁻¹ Z_h` (5 rows each), and the joint terms of
 ///   [`joint_terms`]: `Φ_hj W Φ_jk = U_hᵀ Z_k` (no square root on the way).
 /// - Otherwise: the Cholesky factor of `K = L Lᵀ`, `Z = L⁻¹ S`, `D = ZᵀZ` and the orthogonal
@@ -650,8 +652,7 @@ fn join<A: Arith>(
     a: usize,
     b: usize,
 ) -> Result<(), DynamicsError> {
-    let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
-    let d = &mut data.dca;
+    let d = &data.dca;
     let (na, nb, nc) = (d.node[a], d.node[b], d.node[n]);
     let hc = nc.hoff as usize;
     let (nha, nhb, nhc) = (na.nh as usize, nb.nh as usize, nc.nh as usize);
@@ -674,174 +675,18 @@ fn join<A: Arith>(
     };
     // K = Φ^A_jj + Φ^B_jj, tiled.
     let ks = SymT::sum(&d.slots.dg[hoa + ja], &d.slots.dg[hob + jb]);
-    let kf = |r: usize, c: usize| ks.at(r, c);
     // S and c at the joint's point P_j.
     let pj = d.bodies.point[joint];
-    let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj));
     // β = b_j^A − b_j^B + c
-    let beta = d.slots.b[hoa + ja] - d.slots.b[hob + jb] + shift(data.c[joint]);
-    let rows;
-    let gamma;
-    if nc.one_dof {
-        // One revolute axis: the 5×5 constraint system (see `RevJoin`).
-        let w = data.s[vo].w.to_array(); // s = [ω; 0] at P_j
-        let (p, q) = perpendicular_pair(w);
-        // K's blocks: the symmetric angular one K_ω (rows and columns 0..3) and the coupling
-        // K_c (rows 0..3, columns 3..6): K_ω x and K_cᵀ x for x = p, q, ω.
-        let kw = |x: &[f64; 3]| -> [f64; 3] {
-            let row = |r: usize| dot3::<A>(&[kf(r, 0), kf(r, 1), kf(r, 2)], x);
-            [row(0), row(1), row(2)]
-        };
-        let kc = |x: &[f64; 3]| -> [f64; 3] {
-            let col = |c: usize| dot3::<A>(x, &[kf(0, c), kf(1, c), kf(2, c)]);
-            [col(3), col(4), col(5)]
-        };
-        let (kwp, kwq, kww) = (kw(&p), kw(&q), kw(&w));
-        let (kcp, kcq, kcw) = (kc(&p), kc(&q), kc(&w));
-        // Tᵀ K T (lower triangle): [pᵀK_ω p, ·; qᵀK_ω p, qᵀK_ω q; K_cᵀp, K_cᵀq, K_v].
-        let (t00, t10, t11) = (
-            dot3::<A>(&p, &kwp),
-            dot3::<A>(&q, &kwp),
-            dot3::<A>(&q, &kwq),
-        );
-        let tkt = |r: usize, c: usize| match (r, c) {
-            (0, 0) => t00,
-            (1, 0) => t10,
-            (1, 1) => t11,
-            (_, 0) => kcp[r - 2],
-            (_, 1) => kcq[r - 2],
-            _ => kf(r + 1, c + 1),
-        };
-        // Its L D Lᵀ factors (L packed by rows, 1/d on the diagonal).
-        let Some((l, clamped)) = crate::small::ldl5::<A>(tkt) else {
-            return Err(DynamicsError::Singular {
-                joint: model.bodies[joint].joint_name(),
-                detail: "Φ_jj^A + Φ_jj^B is not a number on the constraint forces",
-            });
-        };
-        // A pivot lost to rounding: this solve is refined (`refine::refine_dca`).
-        d.clamped += u32::from(clamped);
-        let rj = &mut d.joins.rev[nc.jix as usize];
-        rj.p = p;
-        rj.q = q;
-        rj.l = l;
-        // K s = [K_ω ω; K_cᵀ ω]
-        let ks = [kww[0], kww[1], kww[2], kcw[0], kcw[1], kcw[2]];
-        let ba = beta.to_array();
-        // W K s and W β side by side (two lanes).
-        let wkb = w_apply::<A, P2>(rj, &std::array::from_fn(|i| P2([ks[i], ba[i]])));
-        let qt = joint_terms::<A>(&w, &ks, &wkb.map(|x| x.0[0]), rj);
-        // γ = W β + f_τ τ, f_τ = −g: the joint force without handle forces; and q̈ then.
-        let wb = wkb.map(|x| x.0[1]);
-        let t = tau[vo];
-        gamma = std::array::from_fn(|i| A::neg_mul_add(rj.g[i], t, wb[i]));
-        rj.gamma = gamma;
-        rj.qdd = A::mul_add(qt, t, dot6::<A>(&rj.g, &ba));
-        let rj = &d.joins.rev[nc.jix as usize];
-        let pq = (rj.p, rj.q);
-        // Two handles (a chain's joins) unrolled.
-        if nhc == 2 {
-            y_all::<A>(d, &at, 2, pq, &l)
-        } else {
-            y_all::<A>(d, &at, nhc, pq, &l)
-        }
-        rows = 5;
+    let beta = d.slots.b[hoa + ja] - d.slots.b[hob + jb] + shift(pj, data.c[joint]);
+    let (gamma, rows) = if nc.one_dof {
+        let gamma = join_one_axis::<A>(model, tau, data, &at, (n, joint), &ks, beta)?;
+        (gamma, 5)
     } else {
-        let mut sum = [[0.0; 6]; 6];
-        for r in 0..6 {
-            for c in r..6 {
-                let x = kf(r, c);
-                sum[r][c] = x;
-                sum[c][r] = x;
-            }
-        }
-        d.joins.beta[n] = beta;
-        // Armature A (docs/loading.md#armature-and-damping): D = SᵀVS + A.
-        let arm = data
-            .armature
-            .get(vo..vo + k)
-            .filter(|a| a.iter().any(|&x| x != 0.0));
-        let identity = k == 6 && d.free_identity && arm.is_none();
-        // L Lᵀ = Φ^A_jj + Φ^B_jj; a free joint's W is zero for any K (`mass_ratio.rs`).
-        let l = if identity {
-            crate::mass_ratio::IDENTITY
-        } else {
-            crate::small::cholesky6_inv_diag(&sum).ok_or_else(|| DynamicsError::Singular {
-                joint: model.bodies[joint].joint_name(),
-                detail: "Φ_jj^A + Φ_jj^B is not positive definite",
-            })?
-        };
-        // Z = L⁻¹ S, D = Zᵀ Z.
-        let mut dm = crate::small::SmallSpd {
-            k,
-            a: [[0.0; 6]; 6],
-        };
-        for p in 0..k {
-            let z = solve_lower_inv_diag(&l, &shift(data.s[vo + p]).to_array());
-            d.bodies.z[vo + p] = z;
-            for q in 0..=p {
-                let x = dot6::<A>(&d.bodies.z[vo + q], &z);
-                dm.a[p][q] = x;
-                dm.a[q][p] = x;
-            }
-        }
-        if let Some(arm) = arm {
-            for p in 0..k {
-                dm.a[p][p] += arm[p];
-            }
-        }
-        if !dm.invert() {
-            return Err(DynamicsError::Singular {
-                joint: model.bodies[joint].joint_name(),
-                detail: crate::error::JOINT_BLOCK_SINGULAR,
-            });
-        }
-        d.bodies.dinv[joint] = dm;
-        d.joins.l[n] = l;
-        // Z D⁻¹ (columns), for the projector Q = 1 − (Z D⁻¹) Zᵀ.
-        let mut zd = [[0.0; 6]; 6];
-        for p in 0..k {
-            for q in 0..k {
-                let x = dm.a[p][q];
-                let zq = &d.bodies.z[vo + q];
-                for i in 0..6 {
-                    zd[p][i] += x * zq[i];
-                }
-            }
-        }
-        if identity {
-            // The back-substitution's q̈ with L = 1 (`mass_ratio.rs`).
-            d.joins.beta[n] = crate::mass_ratio::free_beta(&sum, &zd, &tau[vo..vo + 6], beta);
-        }
-        // γ = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − Q)),  w = L⁻¹ β
-        let mut w = solve_lower_inv_diag(&l, &beta.to_array());
-        if arm.is_none() {
-            // Zᵀ Z D⁻¹ = 1: each update leaves the other columns' Zᵀw as they were.
-            for p in 0..k {
-                let t = dot6::<A>(&d.bodies.z[vo + p], &w) - tau[vo + p];
-                for i in 0..6 {
-                    w[i] -= zd[p][i] * t;
-                }
-            }
-        } else {
-            armature_w_update::<A>(&mut w, &d.bodies.z[vo..vo + k], &zd, &tau[vo..vo + k]);
-        }
-        gamma = solve_lower_t_inv_diag(&l, &w);
-        // Ỹ_h = Q L⁻¹ Φ_jh: forward substitution on whole rows of Φ_jh (vectorises), then the
-        // projection Ỹ −= (Z D⁻¹)(Zᵀ Ỹ) (k rank-1 row updates).
-        // With armature Q = 1 − Z D⁻¹ Zᵀ is no projector: Ỹ_h = R L⁻¹ Φ_jh, RᵀR = Q.
-        let zs = &d.bodies.z[vo..vo + k];
-        let root = arm.map(|_| armature_projector_root(zs, &zd));
-        for h in 0..nhc {
-            let (bo, nh, j, i) = at.from(d, h);
-            let g = cross_rows(&d.joins.phi, bo, nh, j, i);
-            match &root {
-                None => y_tilde(&mut d.joins.y[at.ys + h], &g, &l, zs, &zd),
-                Some(root) => y_tilde_rooted(&mut d.joins.y[at.ys + h], &g, &l, &zd, root),
-            }
-        }
-        rows = 6;
-    }
+        let gamma = join_general::<A>(model, tau, data, &at, (n, joint), &ks, beta)?;
+        (gamma, 6)
+    };
+    let d = &mut data.dca;
     // Two handles (a chain's joins) unrolled.
     match (nhc, rows) {
         (2, 5) => c_blocks::<A, 5>(d, &at, 2, &gamma),
@@ -849,6 +694,207 @@ fn join<A: Arith>(
         _ => c_blocks::<A, 6>(d, &at, nhc, &gamma),
     }
     Ok(())
+}
+
+/// [`join`]'s one revolute axis: the 5×5 constraint system of [`RevJoin`], its `L D Lᵀ`
+/// factors ([`ldl5`]), the joint terms, `q̈` and `Y`; returns `γ`.
+#[inline(always)]
+fn join_one_axis<A: Arith>(
+    model: &Model,
+    tau: &[f64],
+    data: &mut Data,
+    at: &JoinAt,
+    (n, joint): (usize, usize),
+    ks: &SymT,
+    beta: SpatialMotion,
+) -> Result<[f64; 6], DynamicsError> {
+    let vo = data.topo[joint].vo;
+    let d = &mut data.dca;
+    let nc = d.node[n];
+    let nhc = nc.nh as usize;
+    let kf = |r: usize, c: usize| ks.at(r, c);
+    // One revolute axis: the 5×5 constraint system (see `RevJoin`).
+    let w = data.s[vo].w.to_array(); // s = [ω; 0] at P_j
+    let (p, q) = perpendicular_pair(w);
+    // K's blocks: the symmetric angular one K_ω (rows and columns 0..3) and the coupling
+    // K_c (rows 0..3, columns 3..6): K_ω x and K_cᵀ x for x = p, q, ω.
+    let kw = |x: &[f64; 3]| -> [f64; 3] {
+        let row = |r: usize| dot3::<A>(&[kf(r, 0), kf(r, 1), kf(r, 2)], x);
+        [row(0), row(1), row(2)]
+    };
+    let kc = |x: &[f64; 3]| -> [f64; 3] {
+        let col = |c: usize| dot3::<A>(x, &[kf(0, c), kf(1, c), kf(2, c)]);
+        [col(3), col(4), col(5)]
+    };
+    let (kwp, kwq, kww) = (kw(&p), kw(&q), kw(&w));
+    let (kcp, kcq, kcw) = (kc(&p), kc(&q), kc(&w));
+    // Tᵀ K T (lower triangle): [pᵀK_ω p, ·; qᵀK_ω p, qᵀK_ω q; K_cᵀp, K_cᵀq, K_v].
+    let (t00, t10, t11) = (
+        dot3::<A>(&p, &kwp),
+        dot3::<A>(&q, &kwp),
+        dot3::<A>(&q, &kwq),
+    );
+    let tkt = |r: usize, c: usize| match (r, c) {
+        (0, 0) => t00,
+        (1, 0) => t10,
+        (1, 1) => t11,
+        (_, 0) => kcp[r - 2],
+        (_, 1) => kcq[r - 2],
+        _ => kf(r + 1, c + 1),
+    };
+    // Its L D Lᵀ factors (L packed by rows, 1/d on the diagonal).
+    let Some((l, clamped)) = ldl5::<A>(tkt) else {
+        return Err(DynamicsError::Singular {
+            joint: model.bodies[joint].joint_name(),
+            detail: "Φ_jj^A + Φ_jj^B is not a number on the constraint forces",
+        });
+    };
+    // A pivot lost to rounding: this solve is refined (`refine::refine_dca`).
+    d.clamped += u32::from(clamped);
+    let rj = &mut d.joins.rev[nc.jix as usize];
+    rj.p = p;
+    rj.q = q;
+    rj.l = l;
+    // K s = [K_ω ω; K_cᵀ ω]
+    let ks = [kww[0], kww[1], kww[2], kcw[0], kcw[1], kcw[2]];
+    let ba = beta.to_array();
+    // W K s and W β side by side (two lanes).
+    let wkb = w_apply::<A, P2>(rj, &std::array::from_fn(|i| P2([ks[i], ba[i]])));
+    let qt = joint_terms::<A>(&w, &ks, &wkb.map(|x| x.0[0]), rj);
+    // γ = W β + f_τ τ, f_τ = −g: the joint force without handle forces; and q̈ then.
+    let wb = wkb.map(|x| x.0[1]);
+    let t = tau[vo];
+    let gamma: [f64; 6] = std::array::from_fn(|i| A::neg_mul_add(rj.g[i], t, wb[i]));
+    rj.gamma = gamma;
+    rj.qdd = A::mul_add(qt, t, dot6::<A>(&rj.g, &ba));
+    let rj = &d.joins.rev[nc.jix as usize];
+    let pq = (rj.p, rj.q);
+    // Two handles (a chain's joins) unrolled.
+    if nhc == 2 {
+        y_all::<A>(d, at, 2, pq, &l)
+    } else {
+        y_all::<A>(d, at, nhc, pq, &l)
+    }
+    Ok(gamma)
+}
+
+/// [`join`]'s other joints: `K = L Lᵀ`, `Z = L⁻¹ S`, `D = ZᵀZ` (plus armature) inverted, `γ`
+/// and `Ỹ_h = Q L⁻¹ Φ_jh`; returns `γ`.
+#[inline(always)]
+fn join_general<A: Arith>(
+    model: &Model,
+    tau: &[f64],
+    data: &mut Data,
+    at: &JoinAt,
+    (n, joint): (usize, usize),
+    ks: &SymT,
+    beta: SpatialMotion,
+) -> Result<[f64; 6], DynamicsError> {
+    let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
+    let d = &mut data.dca;
+    let nhc = d.node[n].nh as usize;
+    let kf = |r: usize, c: usize| ks.at(r, c);
+    let pj = d.bodies.point[joint];
+    let mut sum = [[0.0; 6]; 6];
+    for r in 0..6 {
+        for c in r..6 {
+            let x = kf(r, c);
+            sum[r][c] = x;
+            sum[c][r] = x;
+        }
+    }
+    d.joins.beta[n] = beta;
+    // Armature A (docs/loading.md#armature-and-damping): D = SᵀVS + A.
+    let arm = data
+        .armature
+        .get(vo..vo + k)
+        .filter(|a| a.iter().any(|&x| x != 0.0));
+    let identity = k == 6 && d.free_identity && arm.is_none();
+    // L Lᵀ = Φ^A_jj + Φ^B_jj; a free joint's W is zero for any K (`mass_ratio.rs`).
+    let l = if identity {
+        crate::mass_ratio::IDENTITY
+    } else {
+        cholesky_inv_diag(&sum, 6).ok_or_else(|| DynamicsError::Singular {
+            joint: model.bodies[joint].joint_name(),
+            detail: "Φ_jj^A + Φ_jj^B is not positive definite",
+        })?
+    };
+    // Z = L⁻¹ S, D = Zᵀ Z.
+    let mut dm = crate::small::SmallSpd {
+        k,
+        a: [[0.0; 6]; 6],
+    };
+    for p in 0..k {
+        let z = solve_lower_inv_diag(&l, &shift(pj, data.s[vo + p]).to_array());
+        d.bodies.z[vo + p] = z;
+        for q in 0..=p {
+            let x = dot6::<A>(&d.bodies.z[vo + q], &z);
+            dm.a[p][q] = x;
+            dm.a[q][p] = x;
+        }
+    }
+    if let Some(arm) = arm {
+        for p in 0..k {
+            dm.a[p][p] += arm[p];
+        }
+    }
+    if !dm.invert() {
+        return Err(DynamicsError::Singular {
+            joint: model.bodies[joint].joint_name(),
+            detail: crate::error::JOINT_BLOCK_SINGULAR,
+        });
+    }
+    d.bodies.dinv[joint] = dm;
+    d.joins.l[n] = l;
+    // Z D⁻¹ (columns), for the projector Q = 1 − (Z D⁻¹) Zᵀ.
+    let mut zd = [[0.0; 6]; 6];
+    for p in 0..k {
+        for q in 0..k {
+            let x = dm.a[p][q];
+            let zq = &d.bodies.z[vo + q];
+            for i in 0..6 {
+                zd[p][i] += x * zq[i];
+            }
+        }
+    }
+    if identity {
+        // The back-substitution's q̈ with L = 1 (`mass_ratio.rs`).
+        d.joins.beta[n] = crate::mass_ratio::free_beta(&sum, &zd, &tau[vo..vo + 6], beta);
+    }
+    // γ = L⁻ᵀ (w − Z D⁻¹ (Zᵀw − Q)),  w = L⁻¹ β
+    let mut w = solve_lower_inv_diag(&l, &beta.to_array());
+    if arm.is_none() {
+        // Zᵀ Z D⁻¹ = 1: each update leaves the other columns' Zᵀw as they were.
+        for p in 0..k {
+            let t = dot6::<A>(&d.bodies.z[vo + p], &w) - tau[vo + p];
+            for i in 0..6 {
+                w[i] -= zd[p][i] * t;
+            }
+        }
+    } else {
+        armature_w_update::<A>(&mut w, &d.bodies.z[vo..vo + k], &zd, &tau[vo..vo + k]);
+    }
+    let gamma = solve_lower_t_inv_diag(&l, &w);
+    // Ỹ_h = Q L⁻¹ Φ_jh: forward substitution on whole rows of Φ_jh (vectorises), then the
+    // projection Ỹ −= (Z D⁻¹)(Zᵀ Ỹ) (k rank-1 row updates).
+    // With armature Q = 1 − Z D⁻¹ Zᵀ is no projector: Ỹ_h = R L⁻¹ Φ_jh, RᵀR = Q.
+    let zs = &d.bodies.z[vo..vo + k];
+    let root = arm.map(|_| armature_projector_root(zs, &zd));
+    for h in 0..nhc {
+        let (bo, nh, j, i) = at.from(d, h);
+        let g = cross_rows(&d.joins.phi, bo, nh, j, i);
+        match &root {
+            None => y_tilde(&mut d.joins.y[at.ys + h], &g, &l, zs, &zd),
+            Some(root) => y_tilde_rooted(&mut d.joins.y[at.ys + h], &g, &l, &zd, root),
+        }
+    }
+    Ok(gamma)
+}
+
+/// `m` (a joint's `S` or `c` at the body's origin) at the joint's point `pj`.
+#[inline(always)]
+fn shift(pj: DVec3, m: SpatialMotion) -> SpatialMotion {
+    SpatialMotion::new(m.w, m.v + m.w.cross(pj))
 }
 
 /// Where a join's nodes keep their handles and blocks (see [`DNode`](crate::data::DNode)): C's
@@ -1002,7 +1048,7 @@ fn armature_w_update<A: Arith>(w: &mut [f64; 6], z: &[[f64; 6]], zd: &[[f64; 6];
 }
 
 /// With armature `Q = 1 − Z D⁻¹ Zᵀ` is no projector; its square root `R` (`RᵀR = Q`,
-/// [`crate::small::psd_root`]) carries `Ỹ_h = R L⁻¹ Φ_jh`.
+/// [`psd_root`]) carries `Ỹ_h = R L⁻¹ Φ_jh`.
 fn armature_projector_root(z: &[[f64; 6]], zd: &[[f64; 6]; 6]) -> [[f64; 6]; 6] {
     let mut q = [[0.0; 6]; 6];
     for r in 0..6 {
@@ -1011,7 +1057,7 @@ fn armature_projector_root(z: &[[f64; 6]], zd: &[[f64; 6]; 6]) -> [[f64; 6]; 6] 
             q[r][c] = f64::from(u8::from(r == c)) - zz;
         }
     }
-    crate::small::psd_root(q)
+    psd_root(q)
 }
 
 /// `Ỹ_h = R L⁻¹ Φ_jh` (the armature form of [`y_tilde`]'s projection).
@@ -1065,11 +1111,6 @@ fn mat_tr_vec<A: Arith>(g: &[[f64; 6]; 6], x: &[f64; 6]) -> [f64; 6] {
         }
     }
     y
-}
-
-#[inline(always)]
-fn dot3<A: Arith>(a: &[f64; 3], x: &[f64]) -> f64 {
-    A::mul_add(a[2], x[2], A::mul_add(a[1], x[1], a[0] * x[0]))
 }
 
 /// `Tᵀ x = [p·x_ω, q·x_ω, x_v]`.
@@ -1409,13 +1450,17 @@ fn gram_tiles<A: Arith, const I: usize, const R: usize>(
         }
     }
     for j in I..3 {
-        let (o, c) = (&old.0[TILE[I][j]], 2 * j);
-        out.0[TILE[I][j]] = [
-            o[0] - acc[0][c],
-            o[1] - acc[0][c + 1],
-            o[2] - acc[1][c],
-            o[3] - acc[1][c + 1],
-        ];
+        let (o, c) = (old.tile(I, j), 2 * j);
+        out.set_tile(
+            I,
+            j,
+            [
+                o[0] - acc[0][c],
+                o[1] - acc[0][c + 1],
+                o[2] - acc[1][c],
+                o[3] - acc[1][c + 1],
+            ],
+        );
     }
 }
 

@@ -19,7 +19,7 @@
 
 use crate::{ContactDynamics, Data, DynamicsError};
 use articula_model::Model;
-use articula_spatial::internals::{dot6, Portable};
+use articula_spatial::internals::{dot6, invert_spd_into, Portable};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion};
 
 /// "No node": a body welded to the world, or the parent of a root node.
@@ -171,7 +171,7 @@ impl Tree {
             for d in 0..k {
                 node.u[d] = std::array::from_fn(|r| dot6::<Portable>(&node.ia[r], &node.s[d]));
             }
-            let mut dm = [[0.0; 6]; 6];
+            let mut dm = [[0.0f64; 6]; 6];
             for a in 0..k {
                 for b in 0..k {
                     dm[a][b] = dot6::<Portable>(&node.s[a], &node.u[b]);
@@ -183,7 +183,7 @@ impl Tree {
                 node.dinv[0][0] = 1.0 / dm[0][0];
                 dm[0][0] > 0.0
             } else {
-                spd_inverse(&mut dm, k, &mut node.dinv)
+                invert_spd_into(&dm, k, &mut node.dinv)
             };
             if !spd {
                 let vo = node.vo;
@@ -477,49 +477,4 @@ fn inertia_rows(i: &SpatialInertia, out: &mut [V6; 6]) {
             };
         }
     }
-}
-
-/// `inv = A⁻¹` for the symmetric positive definite leading `k × k` block of `a` (Cholesky;
-/// `a` is overwritten by its factor). False when `A` is not positive definite.
-fn spd_inverse(a: &mut [[f64; 6]; 6], k: usize, inv: &mut [[f64; 6]; 6]) -> bool {
-    for j in 0..k {
-        let mut d = a[j][j];
-        for m in 0..j {
-            d -= a[j][m] * a[j][m];
-        }
-        if d.is_nan() || d <= 0.0 {
-            return false;
-        }
-        let d = d.sqrt();
-        a[j][j] = d;
-        for i in j + 1..k {
-            let mut x = a[i][j];
-            for m in 0..j {
-                x -= a[i][m] * a[j][m];
-            }
-            a[i][j] = x / d;
-        }
-    }
-    // Columns of the inverse: L y = e_c, Lᵀ x = y.
-    for c in 0..k {
-        let mut y = [0.0; 6];
-        for i in 0..k {
-            let mut x = if i == c { 1.0 } else { 0.0 };
-            for m in 0..i {
-                x -= a[i][m] * y[m];
-            }
-            y[i] = x / a[i][i];
-        }
-        for i in (0..k).rev() {
-            let mut x = y[i];
-            for m in i + 1..k {
-                x -= a[m][i] * y[m];
-            }
-            y[i] = x / a[i][i];
-        }
-        for i in 0..k {
-            inv[i][c] = y[i];
-        }
-    }
-    true
 }

@@ -19,10 +19,13 @@
 //! The ground as a hub does not move (`a = 0`). The back-substitution takes `a = Φ f + b` and
 //! gives each child's `q̈` and `f_c` by the first line.
 
-use crate::small::{cholesky6_inv_diag, SmallSpd, SymT, TILE};
+use crate::small::{SmallSpd, SymT};
 use crate::{Data, DynamicsError};
 use articula_model::Model;
-use articula_spatial::internals::{solve_lower_inv_diag, solve_lower_t_inv_diag};
+use articula_spatial::internals::{
+    cholesky_inv_diag, dot6, invert_factor_inv_diag, solve_lower_inv_diag, solve_lower_t_inv_diag,
+    Portable,
+};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::{DMat3, DVec3};
 
@@ -75,10 +78,10 @@ pub(crate) fn main(
             joint: model.bodies[joint].joint_name(),
             detail,
         };
-        let l = cholesky6_inv_diag(&dense(&d.slots.dg[slot])).ok_or_else(|| {
+        let l = cholesky_inv_diag(&dense(&d.slots.dg[slot]), 6).ok_or_else(|| {
             singular("Φ_jj of the subassembly on a gathered hub is not positive definite")
         })?;
-        let km = inverse(&l);
+        let km = invert_factor_inv_diag(&l);
         d.gather.gk[k] = Mat6(km);
         let pj = d.bodies.point[joint];
         let shift = |m: SpatialMotion| SpatialMotion::new(m.w, m.v + m.w.cross(pj));
@@ -96,7 +99,7 @@ pub(crate) fn main(
         };
         for p in 0..nv {
             for q in 0..nv {
-                dm.a[p][q] = dot(&s[p], &ks[q]);
+                dm.a[p][q] = dot6::<Portable>(&s[p], &ks[q]);
             }
             // Armature: D = Sᵀ K S + A (in inertia form, as ABA).
             if let Some(a) = data.armature.get(vo + p) {
@@ -113,7 +116,7 @@ pub(crate) fn main(
         let u0 = (shift(data.c[joint]) - d.slots.b[slot]).to_array();
         let mut r = [0.0; 6];
         for p in 0..nv {
-            r[p] = tau[vo + p] - dot(&ks[p], &u0);
+            r[p] = tau[vo + p] - dot6::<Portable>(&ks[p], &u0);
         }
         let mut x = [0.0; 6];
         dm.mul(&r[..nv], &mut x[..nv]);
@@ -151,11 +154,11 @@ pub(crate) fn main(
     let Some(h) = g.hub else {
         return Ok(());
     };
-    let l = cholesky6_inv_diag(&ia).ok_or_else(|| DynamicsError::Singular {
+    let l = cholesky_inv_diag(&ia, 6).ok_or_else(|| DynamicsError::Singular {
         joint: model.bodies[h].joint_name(),
         detail: "the articulated inertia of a gathered hub is not positive definite",
     })?;
-    let phi = inverse(&l);
+    let phi = invert_factor_inv_diag(&l);
     let b = mul(&phi, &pa).map(|x| -x);
     let d = &mut data.dca;
     let slot = d.node[n].slot as usize;
@@ -197,7 +200,7 @@ pub(crate) fn back(tau: &[f64], data: &mut Data, n: usize, g: Gather) {
         let mut ks = [[0.0; 6]; 6];
         for p in 0..nv {
             ks[p] = mul(km, &shift(data.s[vo + p]).to_array());
-            r[p] = tau[vo + p] - dot(&ks[p], &u);
+            r[p] = tau[vo + p] - dot6::<Portable>(&ks[p], &u);
         }
         d.bodies.dinv[joint].mul(&r[..nv], &mut data.qdd[vo..vo + nv]);
         let mut f = mul(km, &u);
@@ -323,12 +326,8 @@ fn outer(a: DVec3, b: DVec3) -> DMat3 {
     DMat3::from_cols(a * b.x, a * b.y, a * b.z)
 }
 
-fn dot(a: &[f64; 6], b: &[f64; 6]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
 fn mul(m: &M6, x: &[f64; 6]) -> [f64; 6] {
-    std::array::from_fn(|r| dot(&m[r], x))
+    std::array::from_fn(|r| dot6::<Portable>(&m[r], x))
 }
 
 /// A [`SymT`] as a dense matrix.
@@ -339,32 +338,11 @@ fn dense(t: &SymT) -> M6 {
 /// A symmetric dense matrix as a [`SymT`] (its upper tiles).
 pub(crate) fn sym_tiles(m: &M6) -> SymT {
     let mut t = SymT::ZERO;
-    for (i, row) in TILE.iter().enumerate() {
+    for i in 0..3 {
         for j in i..3 {
             let (r, c) = (2 * i, 2 * j);
-            t.0[row[j]] = [m[r][c], m[r][c + 1], m[r + 1][c], m[r + 1][c + 1]];
+            t.set_tile(i, j, [m[r][c], m[r][c + 1], m[r + 1][c], m[r + 1][c + 1]]);
         }
     }
     t
-}
-
-/// `A⁻¹ = L⁻ᵀ L⁻¹` from the Cholesky factor of [`cholesky6_inv_diag`] (inverse diagonal), symmetrised.
-pub(crate) fn inverse(l: &M6) -> M6 {
-    let mut inv = [[0.0; 6]; 6];
-    for c in 0..6 {
-        let mut e = [0.0; 6];
-        e[c] = 1.0;
-        let col = solve_lower_t_inv_diag(l, &solve_lower_inv_diag(l, &e));
-        for r in 0..6 {
-            inv[r][c] = col[r];
-        }
-    }
-    for r in 0..6 {
-        for c in r + 1..6 {
-            let x = 0.5 * (inv[r][c] + inv[c][r]);
-            inv[r][c] = x;
-            inv[c][r] = x;
-        }
-    }
-    inv
 }

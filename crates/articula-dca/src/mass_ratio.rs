@@ -55,7 +55,7 @@
 use articula_model::{JointKind, Model};
 use articula_spatial::SpatialMotion;
 
-/// The factor `L = 1` (in `small::cholesky6_inv_diag`'s storage: `1 / L_jj` on the diagonal)
+/// The factor `L = 1` (in `cholesky_inv_diag`'s storage: `1 / L_jj` on the diagonal)
 /// a free joint's join uses in place of `K`'s (see the module's equations).
 pub(crate) const IDENTITY: [[f64; 6]; 6] = {
     let mut l = [[0.0; 6]; 6];

@@ -19,7 +19,7 @@
 //! is positive semidefinite in exact arithmetic, but where a light body is joined to a heavy
 //! one its compliance in the directions the joint holds rigid is the small difference of the
 //! light body's large ones (1e9 mass ratio: ~1e-9 out of ~1e5), and its rounding can leave
-//! negative eigenvalues. The factorisation takes the pivot's magnitude (`small::ldl5`), which
+//! negative eigenvalues. The factorisation takes the pivot's magnitude (`ldl5` in articula-spatial), which
 //! is a nearby positive definite system, and the iteration corrects it. (2) Models whose
 //! neighbouring bodies differ in mass by more than [`MASS_RATIO`](crate::mass_ratio::MASS_RATIO)
 //! (the same cancellation, short of a lost pivot: 4e-8 on a 1,000-link chain of ratio 1e6).

@@ -8,8 +8,8 @@
 //! - [`SpatialTransform`] is a Plücker transform `rot(E) xlt(r)`; it maps motions, forces and
 //!   inertias between frames.
 //! - [`SpatialInertia`] is a rigid body's inertia (mass, first moment, rotational inertia).
-//! - [`Mat6`] and [`SymMat6`] are the dense 6×6 blocks of the divide-and-conquer algorithm;
-//!   [`PackedSymMat6`] is a symmetric 6×6 stored as its upper triangle.
+//! - [`Mat6`] and [`SymMat6`] are the dense 6×6 blocks of the divide-and-conquer algorithm
+//!   and of the articulated-body algorithm.
 //!
 //! ```
 //! use articula_spatial::*;
@@ -33,6 +33,8 @@
 // crate uses itself is compiled in.
 #[cfg_attr(not(feature = "internals"), allow(dead_code))]
 mod arith;
+#[cfg_attr(not(feature = "internals"), allow(dead_code))]
+mod cholesky;
 mod inertia;
 #[cfg_attr(not(feature = "internals"), allow(dead_code))]
 mod kernels;
@@ -42,24 +44,27 @@ mod vector;
 
 pub use glam::{DMat3, DQuat, DVec3};
 pub use inertia::{skew, SpatialInertia};
-pub use matrix::{Mat6, PackedSymMat6, SymMat6};
+pub use matrix::{Mat6, SymMat6};
 pub use transform::SpatialTransform;
 pub use vector::{SpatialForce, SpatialMotion};
 
 /// Building blocks that the workspace's higher layers (articula-dca, articula-adaptive) share,
 /// behind the `internals` cargo feature (docs/design.md#numerics): the arithmetic strategy
 /// [`Arith`](internals::Arith) a pass is written over, the [`fma_dispatch!`] macro that
-/// compiles such a pass for any CPU and for AVX2 + FMA, and the raw-array kernels (scalar
-/// products of 6-vectors, the small Cholesky factorisation and SPD inverse). Not a stable
-/// API: users need none of it.
+/// compiles such a pass for any CPU and for AVX2 + FMA, and the raw-array kernels: the dot
+/// family (scalar products in named summation orders) and the small dense Cholesky / `L D Lᵀ`
+/// family (fixed 6×6, leading `k × k`, run-time `n × n`, their solves and SPD inverses; one
+/// contract, see its members' docs). Not a stable API: users need none of it.
 #[cfg(feature = "internals")]
 pub mod internals {
     #[cfg(target_arch = "x86_64")]
     pub use crate::arith::Fused;
     pub use crate::arith::{fused_available, Arith, Portable};
-    pub use crate::kernels::{
-        cholesky, cholesky_into, dot6, dot6_even_odd, dot6_pairs, invert_spd_into,
-        joint_block_regular, solve_lower, solve_lower_inv_diag, solve_lower_t,
-        solve_lower_t_inv_diag, JOINT_PIVOT_REL, M6,
+    pub use crate::cholesky::{
+        cholesky, cholesky_into, cholesky_inv_diag, cholesky_rows, cholesky_rows_skip,
+        cholesky_rows_solve, invert_factor_inv_diag, invert_joint_block, invert_spd_into,
+        joint_block_regular, ldl5, psd_root, solve_llt_k, solve_lower, solve_lower_inv_diag,
+        solve_lower_t, solve_lower_t_inv_diag, JOINT_PIVOT_REL,
     };
+    pub use crate::kernels::{dot3, dot6, dot6_even_odd, dot6_pairs, dot_lanes, M6};
 }

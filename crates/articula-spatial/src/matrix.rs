@@ -1,7 +1,6 @@
 //! Dense 6×6 matrices: [`Mat6`] (general, e.g. cross-inertia blocks Φ12) and [`SymMat6`]
-//! (symmetric, e.g. inverse-inertia blocks Φ11, Φ22 and the DCA matrices V and W), with
-//! [`PackedSymMat6`], a symmetric 6×6 stored as its upper triangle (the articulated inertias
-//! of ABA): the same matrix in 168 bytes instead of 288.
+//! (symmetric, e.g. inverse-inertia blocks Φ11, Φ22, the DCA matrices V and W and ABA's
+//! articulated inertias, with the operations of the articulated-body recursion).
 //!
 //! A matrix that maps forces to motions (an inverse inertia) is applied with
 //! [`Mat6::force_to_motion`]; one that maps motions to forces (an inertia) with
@@ -11,7 +10,8 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::arith::Portable;
-use crate::kernels::{dot6, invert_spd_into};
+use crate::cholesky::invert_spd_into;
+use crate::kernels::dot6;
 use crate::{SpatialForce, SpatialInertia, SpatialMotion};
 use glam::DMat3;
 use std::ops::{Add, AddAssign, Mul, Neg, Sub, SubAssign};
@@ -125,7 +125,7 @@ impl Mat6 {
     /// `self · x` for a symmetric `self` stored whole, as `Σ_j x_j (row j)` (its rows are its
     /// columns): whole rows, which vectorise, the sums started with their first term. Each
     /// entry is the same sum in the same order as [`Mat6::mul_vec`]'s and
-    /// [`PackedSymMat6::mul_vec`]'s, so the same bits (but for the sign of a zero).
+    /// [`SymMat6::mul_vec`]'s, so the same bits (but for the sign of a zero).
     #[inline(always)]
     pub fn sym_mul_vec(&self, x: &[f64; 6]) -> [f64; 6] {
         let d = &self.0;
@@ -384,139 +384,80 @@ impl From<SymMat6> for Mat6 {
     }
 }
 
-/// The packed index of every `(i, j)` (both triangles) in [`PackedSymMat6`].
-const PIDX: [[usize; 6]; 6] = {
-    let mut t = [[0; 6]; 6];
-    let mut k = 0;
-    let mut i = 0;
-    while i < 6 {
-        let mut j = i;
-        while j < 6 {
-            t[i][j] = k;
-            t[j][i] = k;
-            k += 1;
-            j += 1;
-        }
-        i += 1;
-    }
-    t
-};
-
-/// A [`SymMat6`] stored as its 21 upper-triangle entries, row by row (`(i, j)`, `i ≤ j`, at
-/// `6i − i(i−1)/2 + (j − i)`): the articulated inertias of ABA, arrays of which take 168
-/// bytes an entry instead of 288, with the operations the articulated-body recursion applies
-/// to them (`Iᴬ x`, `Iᴬ + Iᵃ − α u uᵀ`). Converts to and from [`SymMat6`] without rounding.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct PackedSymMat6(pub [f64; 21]);
-
-impl PackedSymMat6 {
-    /// The zero matrix.
-    pub const ZERO: PackedSymMat6 = PackedSymMat6([0.0; 21]);
-
-    /// Entry `(i, j)`.
-    #[inline]
-    pub fn get(&self, i: usize, j: usize) -> f64 {
-        self.0[PIDX[i][j]]
+/// The articulated-body recursion's operations on a symmetric 6×6 (ABA's articulated
+/// inertias `Iᴬ`, DCA's leaf clusters). Each writes an entry of the upper triangle and its
+/// mirror, so the matrix stays exactly symmetric; the sums are those of the 21-entry packed
+/// layout ABA kept before (December 2026: the same bits). That layout went: with it ABA ran
+/// 3–4% faster on chain300 (`cargo xtask time aba 300 200 100`, medians 28.48–28.68 µs against
+/// 29.59–29.77, three alternated rounds on a loaded machine), 1–2% on the floating humanoid and
+/// on a 10,000-link chain — under the 5% a second layout has to show.
+impl SymMat6 {
+    /// Sets entry `(i, j)` and its mirror `(j, i)` to `x`.
+    #[inline(always)]
+    pub fn set(&mut self, i: usize, j: usize, x: f64) {
+        self.0 .0[i][j] = x;
+        self.0 .0[j][i] = x;
     }
 
-    /// The spatial inertia `[Ī, h×; h×ᵀ, m 1]` (`Ī`'s upper triangle).
+    /// The spatial inertia `[Ī, h×; h×ᵀ, m 1]` (`Ī`'s upper triangle, mirrored).
     #[inline]
-    pub fn from_inertia(i: &SpatialInertia) -> PackedSymMat6 {
+    pub fn from_inertia(i: &SpatialInertia) -> SymMat6 {
         let (b, h, m) = (&i.ibar, i.h, i.mass);
         // Column-major glam: b.col(j)[i] = Ī_ij.
-        PackedSymMat6([
+        let upper = [
             b.x_axis.x, b.y_axis.x, b.z_axis.x, 0.0, -h.z, h.y, // row 0
             b.y_axis.y, b.z_axis.y, h.z, 0.0, -h.x, // row 1
             b.z_axis.z, -h.y, h.x, 0.0, // row 2
             m, 0.0, 0.0, // row 3
             m, 0.0, // row 4
             m,   // row 5
-        ])
+        ];
+        let mut s = SymMat6::ZERO;
+        let mut k = 0;
+        for i in 0..6 {
+            for j in i..6 {
+                s.set(i, j, upper[k]);
+                k += 1;
+            }
+        }
+        s
     }
 
-    /// `self · x`, each row's sum left to right.
-    #[inline(always)]
-    pub fn mul_vec(&self, x: &[f64; 6]) -> [f64; 6] {
-        let a = &self.0;
-        [
-            a[0] * x[0] + a[1] * x[1] + a[2] * x[2] + a[3] * x[3] + a[4] * x[4] + a[5] * x[5],
-            a[1] * x[0] + a[6] * x[1] + a[7] * x[2] + a[8] * x[3] + a[9] * x[4] + a[10] * x[5],
-            a[2] * x[0] + a[7] * x[1] + a[11] * x[2] + a[12] * x[3] + a[13] * x[4] + a[14] * x[5],
-            a[3] * x[0] + a[8] * x[1] + a[12] * x[2] + a[15] * x[3] + a[16] * x[4] + a[17] * x[5],
-            a[4] * x[0] + a[9] * x[1] + a[13] * x[2] + a[16] * x[3] + a[18] * x[4] + a[19] * x[5],
-            a[5] * x[0] + a[10] * x[1] + a[14] * x[2] + a[17] * x[3] + a[19] * x[4] + a[20] * x[5],
-        ]
-    }
-
-    /// `self · [w; 0]`: [`PackedSymMat6::mul_vec`] of a vector whose last three entries are
-    /// zero, without them (the same sums to their last nonzero term, so the same values).
+    /// `self · [w; 0]`: [`SymMat6::mul_vec`] of a vector whose last three entries are zero,
+    /// without them (the same sums to their last nonzero term, so the same values).
     #[inline(always)]
     pub fn mul_angular(&self, w: &[f64; 3]) -> [f64; 6] {
-        let a = &self.0;
-        [
-            a[0] * w[0] + a[1] * w[1] + a[2] * w[2],
-            a[1] * w[0] + a[6] * w[1] + a[7] * w[2],
-            a[2] * w[0] + a[7] * w[1] + a[11] * w[2],
-            a[3] * w[0] + a[8] * w[1] + a[12] * w[2],
-            a[4] * w[0] + a[9] * w[1] + a[13] * w[2],
-            a[5] * w[0] + a[10] * w[1] + a[14] * w[2],
-        ]
+        let a = &self.0 .0;
+        std::array::from_fn(|r| a[r][0] * w[0] + a[r][1] * w[1] + a[r][2] * w[2])
     }
 
-    /// The whole matrix (for [`Mat6::sym_mul_vec`] on several vectors).
+    /// A copy of the whole matrix (for [`Mat6::sym_mul_vec`] on several vectors).
     #[inline(always)]
     pub fn to_mat6(&self) -> Mat6 {
-        let a = &self.0;
-        Mat6([
-            [a[0], a[1], a[2], a[3], a[4], a[5]],
-            [a[1], a[6], a[7], a[8], a[9], a[10]],
-            [a[2], a[7], a[11], a[12], a[13], a[14]],
-            [a[3], a[8], a[12], a[15], a[16], a[17]],
-            [a[4], a[9], a[13], a[16], a[18], a[19]],
-            [a[5], a[10], a[14], a[17], a[19], a[20]],
-        ])
+        self.0
     }
 
     /// `self += a − alpha · u uᵀ` (the articulated-inertia update of a 1-DOF joint): entry
     /// `(i, j)` is `s_ij + (a_ij − (α u_i) u_j)`.
     #[inline(always)]
-    pub fn add_sub_outer(&mut self, a: &PackedSymMat6, u: &[f64; 6], alpha: f64) {
-        let (s, a) = (&mut self.0, &a.0);
+    pub fn add_sub_outer(&mut self, a: &SymMat6, u: &[f64; 6], alpha: f64) {
         let au = u.map(|x| alpha * x);
-        // Written out: the hot loop of ABA's pass 2.
-        s[0] += a[0] - au[0] * u[0];
-        s[1] += a[1] - au[0] * u[1];
-        s[2] += a[2] - au[0] * u[2];
-        s[3] += a[3] - au[0] * u[3];
-        s[4] += a[4] - au[0] * u[4];
-        s[5] += a[5] - au[0] * u[5];
-        s[6] += a[6] - au[1] * u[1];
-        s[7] += a[7] - au[1] * u[2];
-        s[8] += a[8] - au[1] * u[3];
-        s[9] += a[9] - au[1] * u[4];
-        s[10] += a[10] - au[1] * u[5];
-        s[11] += a[11] - au[2] * u[2];
-        s[12] += a[12] - au[2] * u[3];
-        s[13] += a[13] - au[2] * u[4];
-        s[14] += a[14] - au[2] * u[5];
-        s[15] += a[15] - au[3] * u[3];
-        s[16] += a[16] - au[3] * u[4];
-        s[17] += a[17] - au[3] * u[5];
-        s[18] += a[18] - au[4] * u[4];
-        s[19] += a[19] - au[4] * u[5];
-        s[20] += a[20] - au[5] * u[5];
+        for i in 0..6 {
+            for j in i..6 {
+                let x = self.0 .0[i][j] + (a.0 .0[i][j] - au[i] * u[j]);
+                self.set(i, j, x);
+            }
+        }
     }
 
     /// `self − alpha · u uᵀ`: entry `(i, j)` is `s_ij − (α u_i) u_j`.
     #[inline(always)]
-    pub fn sub_outer(&self, u: &[f64; 6], alpha: f64) -> PackedSymMat6 {
+    pub fn sub_outer(&self, u: &[f64; 6], alpha: f64) -> SymMat6 {
         let au = u.map(|x| alpha * x);
-        let mut s = PackedSymMat6::ZERO;
-        let mut k = 0;
+        let mut s = SymMat6::ZERO;
         for i in 0..6 {
             for j in i..6 {
-                s.0[k] = self.0[k] - au[i] * u[j];
-                k += 1;
+                s.set(i, j, self.0 .0[i][j] - au[i] * u[j]);
             }
         }
         s
@@ -529,7 +470,7 @@ impl PackedSymMat6 {
     /// axis theorem of a general symmetric 6×6). ABA moves a child's articulated inertia from
     /// its joint to its parent's with it (`r` = child origin − parent origin).
     #[inline(always)]
-    pub fn shifted(&self, r: [f64; 3]) -> PackedSymMat6 {
+    pub fn shifted(&self, r: [f64; 3]) -> SymMat6 {
         let cross = |a: [f64; 3], b: [f64; 3]| {
             [
                 a[1] * b[2] - a[2] * b[1],
@@ -553,10 +494,10 @@ impl PackedSymMat6 {
         for i in 0..3 {
             for j in i..3 {
                 // A'_ij = A_ij + T_ji + (r× B'ᵀ)_ij
-                out.0[PIDX[i][j]] = g(i, j) + t[i][j] + rb[j][i];
+                out.set(i, j, g(i, j) + t[i][j] + rb[j][i]);
             }
             for j in 0..3 {
-                out.0[PIDX[i][3 + j]] = b2[i][j];
+                out.set(i, 3 + j, b2[i][j]);
             }
         }
         out
@@ -564,28 +505,8 @@ impl PackedSymMat6 {
 
     /// `self += a`.
     #[inline(always)]
-    pub fn add_assign(&mut self, a: &PackedSymMat6) {
-        for k in 0..21 {
-            self.0[k] += a.0[k];
-        }
-    }
-}
-
-impl From<SymMat6> for PackedSymMat6 {
-    fn from(m: SymMat6) -> PackedSymMat6 {
-        let mut p = PackedSymMat6::ZERO;
-        for i in 0..6 {
-            for j in i..6 {
-                p.0[PIDX[i][j]] = m.get(i, j);
-            }
-        }
-        p
-    }
-}
-
-impl From<PackedSymMat6> for SymMat6 {
-    fn from(p: PackedSymMat6) -> SymMat6 {
-        SymMat6(p.to_mat6())
+    pub fn add_assign(&mut self, a: &SymMat6) {
+        self.0 += a.0;
     }
 }
 
@@ -606,8 +527,8 @@ mod tests {
             DVec3::new(-0.02, 0.03, 0.4),
         );
         let (m, c, r) = (2.5, DVec3::new(0.1, -0.2, 0.3), DVec3::new(-0.7, 0.4, 1.1));
-        let here = PackedSymMat6::from_inertia(&SpatialInertia::new(m, c, ic));
-        let there = PackedSymMat6::from_inertia(&SpatialInertia::new(m, c + r, ic));
+        let here = SymMat6::from_inertia(&SpatialInertia::new(m, c, ic));
+        let there = SymMat6::from_inertia(&SpatialInertia::new(m, c + r, ic));
         let u = [0.3, -1.2, 0.5, 2.0, -0.4, 0.9];
         let f = DVec3::new(u[3], u[4], u[5]);
         let n = DVec3::new(u[0], u[1], u[2]) + r.cross(f);
@@ -618,13 +539,12 @@ mod tests {
         ];
         let want = [there, there.sub_outer(&xu, 0.7)];
         for (g, w) in got.iter().zip(&want) {
-            for k in 0..21 {
-                assert!(
-                    (g.0[k] - w.0[k]).abs() < 1e-13,
-                    "entry {k}: {} vs {}",
-                    g.0[k],
-                    w.0[k]
-                );
+            for i in 0..6 {
+                for j in 0..6 {
+                    let (a, b) = (g.get(i, j), w.get(i, j));
+                    assert!((a - b).abs() < 1e-13, "({i}, {j}): {a} vs {b}");
+                    assert_eq!(a.to_bits(), g.get(j, i).to_bits());
+                }
             }
         }
     }
@@ -632,9 +552,11 @@ mod tests {
     /// `mul_angular(w)` is `mul_vec([w; 0])` to the bit.
     #[test]
     fn mul_angular_is_mul_vec_with_zero_linear_part() {
-        let mut p = PackedSymMat6::ZERO;
-        for k in 0..21 {
-            p.0[k] = (k as f64 * 0.731).sin() * 3.0 + 0.1;
+        let mut p = SymMat6::ZERO;
+        for i in 0..6 {
+            for j in i..6 {
+                p.set(i, j, ((i * 6 + j) as f64 * 0.731).sin() * 3.0 + 0.1);
+            }
         }
         for w in [[0.3, -1.2, 0.5], [1e-9, 2.0, -7.5], [0.0, 0.0, 1.0]] {
             let full = p.mul_vec(&[w[0], w[1], w[2], 0.0, 0.0, 0.0]);
@@ -642,35 +564,19 @@ mod tests {
         }
     }
 
-    /// The packed layout: `get` reads the entry of the matrix it was packed from, and the
-    /// spatial inertia packs to `SpatialInertia::to_mat6` entry for entry.
+    /// `from_inertia` is `SpatialInertia::to_mat6` entry for entry; `set` keeps the matrix
+    /// symmetric.
     #[test]
-    fn packed_layout_matches_the_whole_matrix() {
-        let mut dense = [[0.0; 6]; 6];
-        for i in 0..6 {
-            for j in i..6 {
-                let x = 1.0 + (i * 7 + j * 3) as f64 * 0.37;
-                dense[i][j] = x;
-                dense[j][i] = x;
-            }
-        }
-        let p = PackedSymMat6::from(SymMat6::from_mat6(&Mat6(dense)));
-        let mut k = 0;
-        for i in 0..6 {
-            for j in 0..6 {
-                assert_eq!(p.get(i, j), dense[i][j]);
-                if j >= i {
-                    assert_eq!(p.0[k], dense[i][j], "({i}, {j}) at {k}");
-                    k += 1;
-                }
-            }
-        }
+    fn from_inertia_matches_the_whole_matrix() {
+        let mut m = SymMat6::ZERO;
+        m.set(1, 4, 2.5);
+        assert_eq!((m.get(1, 4), m.get(4, 1)), (2.5, 2.5));
         let inertia = SpatialInertia::new(
             2.0,
             DVec3::new(0.1, -0.2, 0.3),
             DMat3::from_diagonal(DVec3::new(1.0, 2.0, 3.0)),
         );
-        let p = PackedSymMat6::from_inertia(&inertia);
+        let p = SymMat6::from_inertia(&inertia);
         let full = inertia.to_mat6();
         for i in 0..6 {
             for j in 0..6 {

@@ -6,6 +6,7 @@
 //! `k = m / (τ² ζ²)` and `b = 2 m / τ` for time constant `τ` and damping ratio `ζ`.
 
 use crate::{Model, ModelError};
+use articula_spatial::internals::{cholesky_rows, cholesky_rows_solve};
 use articula_spatial::{SpatialInertia, SpatialMotion, SpatialTransform};
 use std::collections::HashMap;
 
@@ -31,7 +32,7 @@ pub(crate) fn apply(
     }
     let nv = model.nv;
     let mut m = mass_matrix(model, &q);
-    if !cholesky(&mut m, nv) {
+    if !cholesky_rows(&mut m, nv) {
         return Err(ModelError::Mjcf {
             file: model.name.clone(),
             element: "<joint springdamper>".into(),
@@ -59,7 +60,7 @@ pub(crate) fn apply(
         };
         let mut e = vec![0.0; nv];
         e[dof] = 1.0;
-        solve(&m, nv, &mut e);
+        cholesky_rows_solve(&m, nv, &mut e);
         let inertia = 1.0 / e[dof].max(MIN_VAL);
         let d = &mut model.dynamics;
         d.stiffness[dof] = inertia / (timeconst * timeconst * dampratio * dampratio).max(MIN_VAL);
@@ -115,45 +116,4 @@ fn mass_matrix(model: &Model, q: &[f64]) -> Vec<f64> {
         m[k * nv + k] += a;
     }
     m
-}
-
-/// In-place Cholesky `M = L Lᵀ` (lower triangle); false when not positive definite.
-fn cholesky(m: &mut [f64], n: usize) -> bool {
-    for j in 0..n {
-        let mut d = m[j * n + j];
-        for k in 0..j {
-            d -= m[j * n + k] * m[j * n + k];
-        }
-        if d <= 0.0 || !d.is_finite() {
-            return false;
-        }
-        let d = d.sqrt();
-        m[j * n + j] = d;
-        for i in j + 1..n {
-            let mut x = m[i * n + j];
-            for k in 0..j {
-                x -= m[i * n + k] * m[j * n + k];
-            }
-            m[i * n + j] = x / d;
-        }
-    }
-    true
-}
-
-/// `x ← M⁻¹ x` from the Cholesky factor.
-fn solve(l: &[f64], n: usize, x: &mut [f64]) {
-    for i in 0..n {
-        let mut y = x[i];
-        for k in 0..i {
-            y -= l[i * n + k] * x[k];
-        }
-        x[i] = y / l[i * n + i];
-    }
-    for i in (0..n).rev() {
-        let mut y = x[i];
-        for k in i + 1..n {
-            y -= l[k * n + i] * x[k];
-        }
-        x[i] = y / l[i * n + i];
-    }
 }
