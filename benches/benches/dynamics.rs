@@ -75,7 +75,7 @@ fn spd(n: usize) -> Vec<f64> {
 /// to a contact system; and on 6×6 blocks `cholesky_inv_diag` with its two triangular solves
 /// (DCA's joins) and `invert_spd_into` (joint-space inverses).
 fn cholesky(c: &mut Criterion) {
-    use articula_spatial::internals::{
+    use articula_spatial::numerics::{
         cholesky_inv_diag, cholesky_rows, cholesky_rows_solve, invert_spd_into,
         solve_lower_inv_diag, solve_lower_t_inv_diag,
     };

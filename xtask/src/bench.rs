@@ -20,7 +20,7 @@ use crate::chart::{self, HeatMap, LogLogPlot, Series};
 use crate::solver::{Runner, Solver, ADAPTIVE_BUDGETS};
 use crate::timing;
 use crate::trajectory::{self, metric_error, Study};
-use articula_dca::internals::SplitMix64;
+use articula_dca::SplitMix64;
 use articula_dca::{Integrator, State};
 use articula_model::{LoadOptions, Model};
 use articula_testkit::Dd;

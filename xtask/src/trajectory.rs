@@ -14,7 +14,7 @@
 
 use crate::solver::{Runner, Solver};
 use articula_adaptive::Settings;
-use articula_dca::internals::SplitMix64;
+use articula_dca::SplitMix64;
 use articula_dca::{forward_dynamics_slices, Data, Integrator, Method, State};
 use articula_model::Model;
 use std::time::Instant;

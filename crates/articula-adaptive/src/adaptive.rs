@@ -22,9 +22,9 @@ use crate::parts::switches::Switches;
 use crate::settings::{Reselection, Settings};
 use crate::{metric, update};
 use crate::{AdaptiveError, StepReport};
-use articula_dca::internals::all_finite;
 use articula_dca::{check_inputs, forward_kinematics, Data, DynamicsError, State, Threads};
 use articula_model::{Model, NodeKind};
+use articula_spatial::numerics::all_finite;
 use articula_spatial::{SpatialForce, SpatialTransform};
 
 /// The adaptive-dynamics workspace of one articulated body: the hybrid-body state (which
@@ -907,7 +907,7 @@ impl Adaptive {
     /// it on a CPU without them keeps it off. For the tests that compare the two.
     #[cfg(test)]
     pub(crate) fn set_fused(&mut self, on: bool) {
-        self.switches.fused = on && articula_dca::internals::fused_available();
+        self.switches.fused = on && articula_spatial::numerics::fused_available();
     }
 
     /// Take a forced path's deltas from its linear maps of the leaf's wrench (default) or

@@ -37,7 +37,7 @@ use crate::parts::caches::{Caches, CONST, M6, NW};
 use crate::parts::composites::Rigid;
 use articula_dca::DynamicsError;
 use articula_model::{Model, NodeKind};
-use articula_spatial::internals::{dot6, Portable};
+use articula_spatial::numerics::{dot6, Portable};
 use articula_spatial::{SpatialForce, SpatialMotion, SpatialTransform};
 use glam::{DMat3, DVec3};
 
@@ -103,7 +103,7 @@ fn comb_rows(m: &[f64], k: &[f64], skip_zero: bool, wide: bool) -> [f64; NW] {
     assert_eq!(m.len(), k.len() * NW, "one row of NW per coefficient");
     #[cfg(target_arch = "x86_64")]
     if wide {
-        // SAFETY: `wide` is `Adaptive::fused`, set only where `articula_dca::internals::fused_available()`
+        // SAFETY: `wide` is `Adaptive::fused`, set only where `articula_spatial::numerics::fused_available()`
         // (the CPU has AVX2 and FMA); `m` holds `k.len()` rows of NW (asserted).
         return unsafe { comb_rows_avx(m, k, skip_zero) };
     }
@@ -462,7 +462,7 @@ impl Adaptive {
             }
             _ => SpatialTransform::IDENTITY,
         };
-        let (xj, _, _) = articula_dca::internals::body_kinematics(
+        let (xj, _, _) = articula_dca::body_kinematics(
             &model.bodies[joint],
             SpatialTransform::IDENTITY,
             SpatialMotion::ZERO,

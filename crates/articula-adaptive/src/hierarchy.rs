@@ -21,9 +21,7 @@ use crate::parts::subtrees::{Subtree, Subtrees};
 use articula_dca::Threads;
 use articula_dca::{Data, DynamicsError};
 use articula_model::{Model, NodeKind};
-use articula_spatial::internals::{
-    cholesky_into, dot6_pairs, joint_block_regular, Arith, Portable,
-};
+use articula_spatial::numerics::{cholesky_into, dot6_pairs, joint_block_regular, Arith, Portable};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion, SpatialTransform};
 use glam::DVec3;
 
@@ -351,7 +349,7 @@ impl Adaptive {
     ) -> Result<(), DynamicsError> {
         let tree = &model.assembly;
         if !kinematics_fresh {
-            self.data.origin = articula_dca::internals::computation_origin(model, q);
+            self.data.origin = articula_dca::computation_origin(model, q);
             self.active_kinematics(model, q, qd);
         }
         // (Through disjoint borrows, so that the vectors' pointers stay in registers.)
@@ -699,8 +697,7 @@ fn kinematics_run(
                             at.v_offset, 0,
                             "the general path at the start of the columns"
                         );
-                        let (x, v, c) =
-                            articula_dca::internals::body_kinematics(body, x, v, q, qd, d.s);
+                        let (x, v, c) = articula_dca::body_kinematics(body, x, v, q, qd, d.s);
                         d.x[b] = x;
                         d.v[b] = v;
                         d.c[b] = c;
@@ -1734,7 +1731,7 @@ articula_spatial::fma_dispatch! {
     |A| revolute_kinematics_with(body, parts, x0, v0, sc, qd, s, out)
 }
 
-/// [`articula_dca::internals::body_kinematics`] for a joint of [`RevoluteParts`]: the rotation by `q`
+/// [`articula_dca::body_kinematics`] for a joint of [`RevoluteParts`]: the rotation by `q`
 /// touches two columns of the pose and an identity part origin costs nothing. (Called out of
 /// line, beside the closed-form one-axis path of `active_kinematics`.)
 #[allow(clippy::too_many_arguments)]
@@ -1792,7 +1789,7 @@ articula_spatial::fma_dispatch! {
     |A| floating_kinematics_with(part, x0, v0, q, qd, s, out)
 }
 
-/// [`articula_dca::internals::body_kinematics`] for a joint of one floating part (a floating base):
+/// [`articula_dca::body_kinematics`] for a joint of one floating part (a floating base):
 /// the pose by the same products; the subspace columns `X [e_k; 0]`, `X [0; e_k]` written
 /// out — `[E e_k; E (−r × e_k)]` and `[0; E e_k]`, the columns of `E` and two-term sums of
 /// them (`apply_motion`'s products by the unit vector's zeros and ones add only zeros, and

@@ -11,10 +11,10 @@ use crate::parts::composites::Rigid;
 use crate::parts::join_maps::BiasMaps;
 use articula_dca::DynamicsError;
 use articula_model::{Body, JointKind, Model, NodeKind};
-use articula_spatial::internals::{
+use articula_spatial::numerics::{
     cholesky, cholesky_into, dot6, invert_spd_into, solve_llt_k, Portable,
 };
-use articula_spatial::internals::{solve_lower, solve_lower_t};
+use articula_spatial::numerics::{solve_lower, solve_lower_t};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::{DMat3, DVec3};
 

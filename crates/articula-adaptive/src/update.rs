@@ -79,7 +79,7 @@ impl Adaptive {
         self.check_active_inputs(model, state)?;
         self.cache.reselection.epoch += 1;
         let ep = self.cache.reselection.epoch;
-        self.data.origin = articula_dca::internals::computation_origin(model, &state.q);
+        self.data.origin = articula_dca::computation_origin(model, &state.q);
         self.active_kinematics(model, &state.q, &state.qd);
         for idx in 0..self.hier.ajoints.len() {
             let j = self.hier.ajoints[idx];

@@ -3,7 +3,7 @@
 //! inertias, triangle violations, indefinite bodies, massless leaves (locked joints against the
 //! same model without them, by DCA, ABA and CRBA), deep nesting and oversize inputs.
 
-use articula_dca::internals::SplitMix64;
+use articula_dca::SplitMix64;
 use articula_dca::{forward_dynamics_slices, Data, Method};
 use articula_model::{
     InertiaDefectKind, InertiaPolicy, LoadOptions, LoadWarning, MasslessLeafPolicy, Model,

@@ -8,7 +8,7 @@ use crate::data::AbaData;
 use crate::kinematics::FkPlan;
 use crate::{Data, DynamicsError};
 use articula_model::Model;
-use articula_spatial::internals::{dot6, invert_spd_into, joint_block_regular, Arith, Portable};
+use articula_spatial::numerics::{dot6, invert_spd_into, joint_block_regular, Arith, Portable};
 use articula_spatial::{SpatialForce, SpatialMotion, SymMat6};
 use glam::DVec3;
 

@@ -39,14 +39,14 @@ use crate::gather::{sym_tiles, transform};
 use crate::kinematics::FkPlan;
 use crate::{Data, DynamicsError};
 use articula_model::Model;
-use articula_spatial::internals::{
+use articula_spatial::numerics::{
     cholesky_inv_diag, invert_factor_inv_diag, solve_lower_inv_diag, solve_lower_t_inv_diag,
 };
-use articula_spatial::internals::{dot6, Arith};
+use articula_spatial::numerics::{dot6, Arith};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion, SymMat6};
 use glam::DVec3;
 
-use articula_spatial::internals::M6;
+use articula_spatial::numerics::M6;
 
 /// What a cluster node is made of: its body (`None`: the ground) and where its absorbed bodies
 /// are in `DcaData::clustered`.

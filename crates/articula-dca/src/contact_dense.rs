@@ -3,7 +3,7 @@
 //! non-symmetric ones (a sliding contact's rows make the system non-symmetric). The symmetric
 //! ones (every pushing contact sticking) use the Cholesky family's `cholesky_rows`.
 
-use articula_spatial::internals::dot_lanes as dot;
+use articula_spatial::numerics::dot_lanes as dot;
 
 /// In place, the LU factorisation with partial pivoting `P A = L U` of the row-major `n × n`
 /// `a` (unit lower `L` below the diagonal, `U` on and above it; `piv[j]` the row swapped with
@@ -61,7 +61,7 @@ pub(crate) fn lu_solve(lu: &[f64], n: usize, piv: &[usize], b: &mut [f64]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use articula_spatial::internals::{cholesky_rows, cholesky_rows_solve};
+    use articula_spatial::numerics::{cholesky_rows, cholesky_rows_solve};
 
     /// `A x` for the row-major `n × n` `a`.
     fn product(a: &[f64], x: &[f64]) -> Vec<f64> {

@@ -36,7 +36,7 @@ use crate::contact_dense::{lu, lu_solve};
 use crate::contact_solver::{
     contact_velocities, is_tangent, pgs, residual, sweep, Block, Solve, Stop,
 };
-use articula_spatial::internals::{cholesky_rows, cholesky_rows_solve};
+use articula_spatial::numerics::{cholesky_rows, cholesky_rows_solve};
 
 /// Newton iterations at most before the Gauss–Seidel fallback.
 const NEWTON_STEPS: usize = 25;

@@ -26,7 +26,7 @@
 //! sweeps' index sets give, and stops on the residual alone.
 
 use crate::contact_newton::{newton, Newton};
-use articula_spatial::internals::{cholesky_rows_skip, cholesky_rows_solve};
+use articula_spatial::numerics::{cholesky_rows_skip, cholesky_rows_solve};
 
 /// One block of rows of the contact problem.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -70,7 +70,7 @@ pub(crate) fn crba(
                 }
             })
         });
-        if !articula_spatial::internals::joint_block_regular(&block, body.nv) {
+        if !articula_spatial::numerics::joint_block_regular(&block, body.nv) {
             return Err(DynamicsError::Singular {
                 joint: body.joint_name(),
                 detail: crate::error::JOINT_BLOCK_SINGULAR,

@@ -4,7 +4,7 @@ use crate::kinematics::FkPlan;
 use crate::small::{SmallSpd, SymT};
 use crate::DynamicsError;
 use articula_model::{Model, NodeKind};
-use articula_spatial::internals::fused_available;
+use articula_spatial::numerics::fused_available;
 use articula_spatial::SymMat6;
 use articula_spatial::{Mat6, SpatialForce, SpatialInertia, SpatialMotion, SpatialTransform};
 use glam::DVec3;
@@ -167,7 +167,7 @@ pub(crate) struct DcaData {
     /// there.
     pub from: Vec<(Side, u32)>,
     /// Joins of the last pass whose constraint factorisation met a pivot that rounding had
-    /// made non-positive ([`ldl5`](articula_spatial::internals::ldl5)); reset by each pass.
+    /// made non-positive ([`ldl5`](articula_spatial::numerics::ldl5)); reset by each pass.
     pub clamped: u32,
     /// Whether a six-axis (floating) joint's join factors the identity instead of
     /// `K = Φ^A_jj + Φ^B_jj` (`mass_ratio.rs`): set for models with a neighbour mass ratio above
@@ -232,7 +232,7 @@ pub(crate) struct JoinBuffers {
     /// Φ's cross blocks.
     pub phi: Vec<Mat6>,
     /// Per join node off the one-axis path: the Cholesky factor L of `Φ^A_jj + Φ^B_jj = V⁻¹`
-    /// (its diagonal stored inverted, see [`cholesky_inv_diag`](articula_spatial::internals::cholesky_inv_diag)), and β.
+    /// (its diagonal stored inverted, see [`cholesky_inv_diag`](articula_spatial::numerics::cholesky_inv_diag)), and β.
     pub l: Vec<[[f64; 6]; 6]>,
     pub beta: Vec<SpatialMotion>,
     /// Per join (`DNode::jix`): what a one-axis join keeps for the back-substitution, dense in

@@ -11,10 +11,10 @@ use crate::data::{DKind, LeafK, RevJoin, Side};
 use crate::small::SymT;
 use crate::{Data, DynamicsError};
 use articula_model::Model;
-use articula_spatial::internals::{
+use articula_spatial::numerics::{
     cholesky_inv_diag, dot3, dot6_even_odd as dot6, ldl5, psd_root, Arith,
 };
-use articula_spatial::internals::{solve_lower_inv_diag, solve_lower_t_inv_diag};
+use articula_spatial::numerics::{solve_lower_inv_diag, solve_lower_t_inv_diag};
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::DVec3;
 
@@ -1639,7 +1639,7 @@ mod tests {
             let mut data = Data::new(&model);
             assert_eq!(
                 data.dca.fused,
-                articula_spatial::internals::fused_available()
+                articula_spatial::numerics::fused_available()
             );
             for seed in 0..6 {
                 let (portable, fused) =
@@ -1657,7 +1657,7 @@ mod tests {
                 differ |= portable != fused;
             }
         }
-        assert_eq!(differ, articula_spatial::internals::fused_available());
+        assert_eq!(differ, articula_spatial::numerics::fused_available());
     }
 
     /// The kinematics at the leaves (`DcaData::leaf_kinematics`, set on every bundled model's

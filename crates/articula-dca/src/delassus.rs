@@ -19,7 +19,7 @@
 
 use crate::{ContactDynamics, Data, DynamicsError};
 use articula_model::Model;
-use articula_spatial::internals::{dot6, invert_spd_into, Portable};
+use articula_spatial::numerics::{dot6, invert_spd_into, Portable};
 use articula_spatial::{SpatialForce, SpatialInertia, SpatialMotion};
 
 /// "No node": a body welded to the world, or the parent of a root node.

@@ -1,11 +1,11 @@
 //! Forward dynamics: the [`Method`] that solves it, and the entry points that check the
 //! inputs, run it and check its result.
 
-use crate::finite::all_finite;
 use crate::inputs::check_inputs;
 use crate::{aba, crba, dca, kinematics, refine};
 use crate::{Data, DynamicsError, State};
 use articula_model::Model;
+use articula_spatial::numerics::all_finite;
 use articula_spatial::SpatialForce;
 
 /// A forward-dynamics algorithm.

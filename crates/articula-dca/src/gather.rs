@@ -22,14 +22,14 @@
 use crate::small::{SmallSpd, SymT};
 use crate::{Data, DynamicsError};
 use articula_model::Model;
-use articula_spatial::internals::{
+use articula_spatial::numerics::{
     cholesky_inv_diag, dot6, invert_factor_inv_diag, solve_lower_inv_diag, solve_lower_t_inv_diag,
     Portable,
 };
 use articula_spatial::{Mat6, SpatialForce, SpatialMotion};
 use glam::{DMat3, DVec3};
 
-use articula_spatial::internals::M6;
+use articula_spatial::numerics::M6;
 
 /// What a gather node is made of: the hub's body (`None`: the ground) and where its children
 /// are in `DcaData::gathered`.

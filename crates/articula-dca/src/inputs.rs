@@ -1,9 +1,9 @@
 //! The inputs of a dynamics call: their checks (lengths, finiteness; an error names the joint
 //! or body) and the external wrench of a body.
 
-use crate::finite::all_finite;
 use crate::DynamicsError;
 use articula_model::Model;
+use articula_spatial::numerics::all_finite;
 use articula_spatial::SpatialForce;
 
 /// External wrench on body `i`: an empty slice means none.

@@ -1,11 +1,11 @@
 //! Inverse dynamics by the recursive Newton–Euler algorithm (RBDA ch. 5), and the bias forces.
 
 use crate::data::sized;
-use crate::finite::all_finite;
 use crate::inputs::check_values;
 use crate::residual::{rnea_residual, RneaInput};
 use crate::{kinematics, Data, DynamicsError};
 use articula_model::Model;
+use articula_spatial::numerics::all_finite;
 use articula_spatial::{SpatialForce, SpatialMotion};
 
 /// Inverse dynamics `τ = ID(q, q̇, q̈, f_ext)`: the joint forces that give the accelerations

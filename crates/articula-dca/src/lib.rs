@@ -17,8 +17,8 @@
 //! The DCA pass is compiled twice: portably, and with fused multiply–adds for x86-64 CPUs with
 //! AVX2 and FMA (detected at run time), which `Data::new` picks when it can. The two agree to
 //! rounding (~1e-12 relative), so results may differ in their last bits between machines.
-//! articula-adaptive writes its passes over the same arithmetic strategy to do likewise (the
-//! `internals` feature). ABA (with its kinematics) is compiled for AVX2 too, with the portable
+//! articula-adaptive writes its passes over the same arithmetic strategy to do likewise
+//! (`articula_spatial::numerics`). ABA (with its kinematics) is compiled for AVX2 too, with the portable
 //! arithmetic: the same bits.
 //!
 //! ```
@@ -58,7 +58,6 @@ mod dca;
 mod delassus;
 mod energy;
 mod error;
-mod finite;
 mod forward;
 mod gather;
 mod inputs;
@@ -90,21 +89,19 @@ pub use inputs::check_inputs;
 pub use integrate::{integrate_floating, integrate_q, step, Integrator};
 pub use inverse::{bias_forces, inverse_dynamics};
 pub use jacobian::ReferenceFrame;
-pub use kinematics::forward_kinematics;
+pub use kinematics::{body_kinematics, computation_origin, forward_kinematics};
 pub use mass_matrix::mass_matrix;
 pub use parallel_dca::{forward_dynamics_threads, PARALLEL_DCA_MIN_BODIES};
 pub use state::{SplitMix64, State};
 pub use threads::{Threads, ThreadsError};
 
-/// Building blocks that the workspace's higher layers (articula-adaptive, articula-view,
-/// `cargo xtask`) share with this crate, behind the `internals` cargo feature: ABA's pass 2 at
-/// a multi-DOF joint ([`articulate_multi`](internals::articulate_multi)), per-body kinematics,
-/// the random-number generator of [`State::random`](crate::State::random), and, re-exported
-/// from `articula_spatial::internals` where they live, the [`Arith`] strategy the two
-/// compilations of the DCA pass are written over (portable, and AVX2 + FMA where
-/// [`fused_available`]; the workspace's switch between them is
-/// [`Data::set_fused_dca`](crate::Data::set_fused_dca)) and the small Cholesky kernels. Not a
-/// stable API: users need none of it.
+/// What `cargo xtask` and this crate's own tests measure or drive that no program needs, behind
+/// the `internals` cargo feature (nothing in the library turns it on): ABA's pass 2 at a
+/// multi-DOF joint ([`articulate_multi`](internals::articulate_multi)), the split DCA solve at
+/// any size, byte counts in words, and, re-exported from `articula_spatial::numerics` where
+/// they live, the [`Arith`] strategy the two compilations of the DCA pass are written over
+/// (portable, and AVX2 + FMA where [`fused_available`]; the workspace's switch between them is
+/// [`Data::set_fused_dca`](crate::Data::set_fused_dca)) and the small Cholesky kernels.
 ///
 /// [`fused_available`]: internals::fused_available
 /// [`Arith`]: internals::Arith
@@ -112,15 +109,12 @@ pub use threads::{Threads, ThreadsError};
 pub mod internals {
     pub use crate::aba::{articulate_multi, MultiArgs};
     pub use crate::error::human_bytes;
-    pub use crate::finite::all_finite;
-    pub use crate::kinematics::{body_kinematics, computation_origin};
     /// [`crate::forward_dynamics_threads`]' split DCA solve whatever the model's size (for
     /// measuring the crossover: `cargo xtask parallel`).
     pub use crate::parallel_dca::forward_split as forward_dynamics_split;
-    pub use crate::state::SplitMix64;
     #[cfg(target_arch = "x86_64")]
-    pub use articula_spatial::internals::Fused;
-    pub use articula_spatial::internals::{
+    pub use articula_spatial::numerics::Fused;
+    pub use articula_spatial::numerics::{
         cholesky, cholesky_into, fused_available, Arith, Portable,
     };
 }
@@ -161,6 +155,6 @@ pub(crate) fn solve_portable_and_fused(
     };
     (
         solve(false),
-        solve(articula_spatial::internals::fused_available()),
+        solve(articula_spatial::numerics::fused_available()),
     )
 }

@@ -3,7 +3,7 @@
 //! built with (the small dense Cholesky / `L D Lᵀ` family), the dot family and the symmetric
 //! 6×6 value type live in articula-spatial (docs/design.md#numerics).
 
-use articula_spatial::internals::invert_joint_block;
+use articula_spatial::numerics::invert_joint_block;
 
 /// A joint's `k × k` symmetric positive definite block (`D` or `D⁻¹`, k ≤ 6), row-major in a
 /// fixed array with its size: storage only, inverted by the Cholesky family's

@@ -1,7 +1,7 @@
 //! Closed-form checks: every method's q̈ against equations of motion written by hand in this
 //! file (single and double pendulum, a tilted slider, a free rigid body).
 
-use articula_dca::internals::SplitMix64;
+use articula_dca::SplitMix64;
 use articula_dca::{forward_dynamics_slices, forward_kinematics, Data, Method, State};
 use articula_model::{LoadOptions, Model};
 use glam::{DMat3, DQuat, DVec3};

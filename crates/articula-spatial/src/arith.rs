@@ -80,7 +80,6 @@ impl Arith for Fused {
 /// must be true only where [`fused_available`] is (callers cache that answer in their
 /// workspace, and set the flag false to run the portable compilation anywhere). Const generic
 /// parameters (`<const K: usize, …>`) are passed on to the inner function.
-#[cfg(feature = "internals")]
 #[macro_export]
 macro_rules! fma_dispatch {
     (
@@ -99,7 +98,7 @@ macro_rules! fma_dispatch {
                 #[allow(clippy::too_many_arguments)]
                 fn avx2_fma $(<$(const $k: $kt),+>)? ($($arg: $ty),*) $(-> $ret)? {
                     #[allow(unused)]
-                    type $a = $crate::internals::$strategy;
+                    type $a = $crate::numerics::$strategy;
                     $body
                 }
                 if $flag {
@@ -109,7 +108,7 @@ macro_rules! fma_dispatch {
                 }
             }
             #[allow(unused)]
-            type $a = $crate::internals::Portable;
+            type $a = $crate::numerics::Portable;
             $body
         }
     };

@@ -29,14 +29,10 @@
 //! assert!((p0 - p1).abs() < 1e-12);
 //! ```
 
-// Shared with the higher layers through `internals`; without that feature only what this
-// crate uses itself is compiled in.
-#[cfg_attr(not(feature = "internals"), allow(dead_code))]
 mod arith;
-#[cfg_attr(not(feature = "internals"), allow(dead_code))]
 mod cholesky;
+mod finite;
 mod inertia;
-#[cfg_attr(not(feature = "internals"), allow(dead_code))]
 mod kernels;
 mod matrix;
 mod transform;
@@ -48,15 +44,14 @@ pub use matrix::{Mat6, SymMat6};
 pub use transform::SpatialTransform;
 pub use vector::{SpatialForce, SpatialMotion};
 
-/// Building blocks that the workspace's higher layers (articula-dca, articula-adaptive) share,
-/// behind the `internals` cargo feature (docs/design.md#numerics): the arithmetic strategy
-/// [`Arith`](internals::Arith) a pass is written over, the [`fma_dispatch!`] macro that
-/// compiles such a pass for any CPU and for AVX2 + FMA, and the raw-array kernels: the dot
-/// family (scalar products in named summation orders) and the small dense Cholesky / `L D Lᵀ`
-/// family (fixed 6×6, leading `k × k`, run-time `n × n`, their solves and SPD inverses; one
-/// contract, see its members' docs). Not a stable API: users need none of it.
-#[cfg(feature = "internals")]
-pub mod internals {
+/// The numeric kernels every layer above shares, each written once here
+/// (docs/design.md#numerics): the arithmetic strategy [`Arith`](numerics::Arith) a pass is
+/// written over, the [`fma_dispatch!`] macro that compiles such a pass for any CPU and for
+/// AVX2 + FMA, and the raw-array kernels: the dot family (scalar products in named summation
+/// orders), the finiteness check, and the small dense Cholesky / `L D Lᵀ` family (fixed 6×6,
+/// leading `k × k`, run-time `n × n`, their solves and SPD inverses; one contract, see its
+/// members' docs). Low-level: a program that only computes dynamics needs none of it.
+pub mod numerics {
     #[cfg(target_arch = "x86_64")]
     pub use crate::arith::Fused;
     pub use crate::arith::{fused_available, Arith, Portable};
@@ -66,5 +61,6 @@ pub mod internals {
         joint_block_regular, ldl5, psd_root, solve_llt_k, solve_lower, solve_lower_inv_diag,
         solve_lower_t, solve_lower_t_inv_diag, JOINT_PIVOT_REL,
     };
+    pub use crate::finite::all_finite;
     pub use crate::kernels::{dot3, dot6, dot6_even_odd, dot6_pairs, dot_lanes, M6};
 }

@@ -15,7 +15,7 @@ pub(crate) const NW: usize = 22;
 pub(crate) const CONST: usize = 21;
 
 /// A 6 × 6 matrix, row-major `[row][col]`.
-pub(crate) use articula_spatial::internals::M6;
+pub(crate) use articula_spatial::numerics::M6;
 
 /// Per-node caches (layouts of the workspace's slots, cache-frame axes) and the scratch of the
 /// cached re-selection, in named parts.

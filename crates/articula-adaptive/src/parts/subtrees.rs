@@ -105,7 +105,7 @@ pub(crate) struct Subtree {
     pub(crate) angle_start: usize,
     pub(crate) angle_stop: usize,
     /// No record of the subtree takes the general kinematics path
-    /// (`articula_dca::internals::body_kinematics`, which writes the subspace columns in
+    /// (`articula_dca::body_kinematics`, which writes the subspace columns in
     /// place): its kinematics may run on a task.
     pub(crate) kin_on_task: bool,
     /// The pose and velocity of the root's parent body (written by the serial part of the

@@ -8,7 +8,7 @@ pub(crate) struct Switches {
     /// Run the reduced ABA compiled with fused multiply–adds, and the other hot passes (join,
     /// kinematics, rigid coefficients, back-substitution, cache evaluations) compiled for
     /// AVX2 + FMA with the same arithmetic as their portable versions (set where the CPU has
-    /// AVX2 and FMA: `articula_dca::internals::fused_available`).
+    /// AVX2 and FMA: `articula_spatial::numerics::fused_available`).
     pub fused: bool,
     /// Re-select through the caches (O(active region)); off: whole-body passes (reference).
     pub use_cache: bool,
@@ -21,7 +21,7 @@ impl Default for Switches {
     fn default() -> Switches {
         Switches {
             full_passes: false,
-            fused: articula_dca::internals::fused_available(),
+            fused: articula_spatial::numerics::fused_available(),
             use_cache: true,
             reselection: crate::Reselection::ExactSolve,
         }

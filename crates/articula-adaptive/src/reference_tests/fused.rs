@@ -89,5 +89,5 @@ fn fused_and_portable_reduced_aba_agree() {
             }
         }
     }
-    assert_eq!(differ, articula_dca::internals::fused_available());
+    assert_eq!(differ, articula_spatial::numerics::fused_available());
 }

@@ -6,7 +6,7 @@
 //! `k = m / (τ² ζ²)` and `b = 2 m / τ` for time constant `τ` and damping ratio `ζ`.
 
 use crate::{Model, ModelError};
-use articula_spatial::internals::{cholesky_rows, cholesky_rows_solve};
+use articula_spatial::numerics::{cholesky_rows, cholesky_rows_solve};
 use articula_spatial::{SpatialInertia, SpatialMotion, SpatialTransform};
 use std::collections::HashMap;
 

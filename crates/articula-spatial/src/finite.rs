@@ -2,7 +2,7 @@
 
 /// Whether every entry of `xs` is finite, without an early exit so that it vectorises: `x·0`
 /// is ±0 for a finite `x` and NaN for an infinite or NaN one, summed in four lanes (a sum of
-/// zeros is zero; one NaN makes it NaN). The input checks of the solvers here and of
+/// zeros is zero; one NaN makes it NaN). The input checks of articula-dca's solvers and of
 /// articula-adaptive's steps use it.
 #[inline]
 pub fn all_finite(xs: &[f64]) -> bool {
