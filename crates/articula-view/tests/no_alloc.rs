@@ -23,7 +23,7 @@ const WARM_UP: usize = 150;
 
 /// Per step after the warm-up, 60 steps: the allocations, and whether some body met
 /// more candidates or contact rows than ever before.
-fn count(scene: &LoadedScene) -> (Vec<usize>, Vec<bool>, usize) {
+fn count(scene: &LoadedScene, steps: usize) -> (Vec<usize>, Vec<bool>, usize) {
     let mut sim = SceneSim::new(scene).unwrap();
     // One thread: with several, each thread's buffers grow to the largest body it has met,
     // and which bodies a thread meets depends on the scheduling.
@@ -52,7 +52,7 @@ fn count(scene: &LoadedScene) -> (Vec<usize>, Vec<bool>, usize) {
     rows(&sim, &mut most);
     let (mut per_step, mut grew) = (Vec::new(), Vec::new());
     let mut reselections = 0;
-    for _ in 0..60 {
+    for _ in 0..steps {
         let mut reselected = false;
         per_step.push(count_allocations(|| {
             reselected = sim.step().unwrap().reselected;
@@ -68,7 +68,7 @@ fn scene_steps_allocate_nothing_after_warm_up() {
     let mut scene = crowd200();
     scene.gravity = glam::DVec3::ZERO;
     scene.ground = None;
-    let (per_step, _, reselections) = count(&scene);
+    let (per_step, _, reselections) = count(&scene, 60);
     assert!(reselections >= 5, "the window must hold re-selections");
     assert!(
         per_step.iter().all(|&n| n == 0),
@@ -78,7 +78,9 @@ fn scene_steps_allocate_nothing_after_warm_up() {
 
 #[test]
 fn floor_steps_allocate_only_when_contact_rows_grow() {
-    let (per_step, grew, reselections) = count(&crowd200());
+    // 120 steps: how many of them meet a body's new largest row count depends on the crowd's
+    // last bits (23 of the first 60 were quiet, 73 of 120, in one build).
+    let (per_step, grew, reselections) = count(&crowd200(), 120);
     assert!(reselections >= 5, "the window must hold re-selections");
     let quiet = per_step.iter().zip(&grew).filter(|(_, g)| !**g).count();
     assert!(quiet >= 30, "{quiet} steps without new rows");
