@@ -810,7 +810,9 @@ impl<'s> SceneSim<'s> {
                     rigid: None,
                     changed: false,
                     solved: false,
-                    metrics: Vec::new(),
+                    // Sized now: a body first seen after many steps (the camera turning to
+                    // it) must not allocate at that re-selection.
+                    metrics: Vec::with_capacity(model.assembly.nodes.len()),
                     pushes: Vec::new(),
                     own: OwnQueue {
                         pops: Vec::with_capacity(model.assembly.nodes.len()),

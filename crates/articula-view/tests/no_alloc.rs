@@ -21,7 +21,7 @@ fn crowd200() -> LoadedScene {
 /// crowd landing on its floor and settling (most contact workspaces reach their size).
 const WARM_UP: usize = 150;
 
-/// Per step after the warm-up, 60 steps: the allocations, and whether some body met
+/// Per step after the warm-up, `steps` steps: the allocations, and whether some body met
 /// more candidates or contact rows than ever before.
 fn count(scene: &LoadedScene, steps: usize) -> (Vec<usize>, Vec<bool>, usize) {
     let mut sim = SceneSim::new(scene).unwrap();
@@ -68,7 +68,7 @@ fn scene_steps_allocate_nothing_after_warm_up() {
     let mut scene = crowd200();
     scene.gravity = glam::DVec3::ZERO;
     scene.ground = None;
-    let (per_step, _, reselections) = count(&scene, 60);
+    let (per_step, _, reselections) = count(&scene, 120);
     assert!(reselections >= 5, "the window must hold re-selections");
     assert!(
         per_step.iter().all(|&n| n == 0),
@@ -78,8 +78,8 @@ fn scene_steps_allocate_nothing_after_warm_up() {
 
 #[test]
 fn floor_steps_allocate_only_when_contact_rows_grow() {
-    // 120 steps: how many of them meet a body's new largest row count depends on the crowd's
-    // last bits (23 of the first 60 were quiet, 73 of 120, in one build).
+    // How many of the steps meet a body's new largest row count depends on the crowd's last
+    // bits (23 of the first 60 were quiet, 73 of 120, in one build).
     let (per_step, grew, reselections) = count(&crowd200(), 120);
     assert!(reselections >= 5, "the window must hold re-selections");
     let quiet = per_step.iter().zip(&grew).filter(|(_, g)| !**g).count();
