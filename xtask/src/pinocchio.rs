@@ -140,7 +140,7 @@ pub fn run(root: &Path) -> Result<(), Box<dyn std::error::Error>> {
                 .zip(theirs["links"].as_array().unwrap())
             {
                 let link = model.find_link(name).unwrap();
-                let (r, p) = data.link_pose(&link);
+                let (r, p) = data.link_pose(&link)?;
                 let r: Vec<f64> = (0..3)
                     .flat_map(|i| (0..3).map(move |j| r.col(j)[i]))
                     .collect();

@@ -50,7 +50,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     forward_kinematics(&model, &state.q, &state.qd, &mut data)?;
     println!("centre of mass (world): {:.4}", data.center_of_mass());
     let link = model.find_link(&hand).ok_or(format!("no link {hand}"))?;
-    let (rotation, position) = data.link_pose(&link);
+    let (rotation, position) = data.link_pose(&link)?;
     println!("{hand} at {position:.4}, x axis {:.4}", rotation.x_axis);
     let j = data.link_jacobian(&model, &link, ReferenceFrame::LocalWorldAligned)?;
     let v: Vec<f64> = (0..6)

@@ -1,7 +1,7 @@
 //! World poses of bodies and of URDF links ([`articula_model::Model::find_link`]), from the
 //! current kinematics.
 
-use crate::Data;
+use crate::{Data, DynamicsError};
 use articula_model::LinkFrame;
 use articula_spatial::SpatialTransform;
 use glam::{DMat3, DVec3};
@@ -18,10 +18,18 @@ impl Data {
     /// World-frame pose `(R, p)` of a URDF link (found with
     /// [`articula_model::Model::find_link`]) from the current kinematics: `R` its axes
     /// (columns, world coordinates), `p` the position of its origin; a point `x` in the link's
-    /// coordinates is at `R x + p`. A link welded to the world has its fixed pose.
-    pub fn link_pose(&self, link: &LinkFrame) -> (DMat3, DVec3) {
+    /// coordinates is at `R x + p`. A link welded to the world has its fixed pose. An error
+    /// ([`DynamicsError::WrongLink`]) for a frame on a body this workspace does not have (a
+    /// link found in another model), never an index out of bounds.
+    pub fn link_pose(&self, link: &LinkFrame) -> Result<(DMat3, DVec3), DynamicsError> {
+        if let Some(body) = link.body.filter(|&b| b >= self.x.len()) {
+            return Err(DynamicsError::WrongLink {
+                body,
+                bodies: self.x.len(),
+            });
+        }
         let (r, p) = self.link_transform(link).to_pose();
-        (r, p + self.origin)
+        Ok((r, p + self.origin))
     }
 
     /// `X_{C←link}`: the map from the link's coordinates to the computation frame's.

@@ -195,7 +195,7 @@ fn quantities_allocate_nothing_after_the_first_call() {
                 mass_matrix(&model, data, &s.q).unwrap();
                 std::hint::black_box(data.center_of_mass());
                 data.com_jacobian(&model).unwrap();
-                std::hint::black_box(data.link_pose(&link));
+                std::hint::black_box(data.link_pose(&link).unwrap());
                 for frame in [
                     ReferenceFrame::World,
                     ReferenceFrame::Local,

@@ -197,12 +197,12 @@ fn jacobians_and_integration_match_velocities() {
                 let mut q = s.q.clone();
                 articula_dca::integrate_q(&model, &mut q, &s.qd, sign * h);
                 forward_kinematics(&model, &q, &s.qd, data).unwrap();
-                data.link_pose(&link)
+                data.link_pose(&link).unwrap()
             };
             let ((rp, pp), (rm, pm)) = (pose(1.0, &mut data), pose(-1.0, &mut data));
             let (r0, _) = {
                 forward_kinematics(&model, &s.q, &s.qd, &mut data).unwrap();
-                data.link_pose(&link)
+                data.link_pose(&link).unwrap()
             };
             let dr = (rp - rm) * r0.transpose() * (0.5 / h);
             let w = [

@@ -190,7 +190,7 @@ fn link_jacobians_are_the_derivatives_of_the_link_pose() {
                 let link = model.find_link(name).unwrap();
                 let point = DVec3::new(0.03, -0.05, 0.08);
                 forward_kinematics(&model, &s.q, &s.qd, &mut data).unwrap();
-                let (r0, p0) = data.link_pose(&link);
+                let (r0, p0) = data.link_pose(&link).unwrap();
                 let jw = data
                     .link_jacobian(&model, &link, ReferenceFrame::World)
                     .unwrap()
@@ -209,7 +209,7 @@ fn link_jacobians_are_the_derivatives_of_the_link_pose() {
                     let pose = |data: &mut Data, e: f64| {
                         let q = displaced(&model, &s.q, j, e);
                         forward_kinematics(&model, &q, &s.qd, data).unwrap();
-                        data.link_pose(&link)
+                        data.link_pose(&link).unwrap()
                     };
                     let (rp, pp) = pose(&mut data, eps);
                     let (rm, pm) = pose(&mut data, -eps);
@@ -451,7 +451,7 @@ fn a_link_welded_to_the_world_does_not_move() {
     let s = state(&model, 2);
     forward_kinematics(&model, &s.q, &s.qd, &mut data).unwrap();
     let root: LinkFrame = model.find_link("pelvis").unwrap();
-    let (r, p) = data.link_pose(&root);
+    let (r, p) = data.link_pose(&root).unwrap();
     assert_eq!((r, p), (DMat3::IDENTITY, DVec3::ZERO));
     let jac = data
         .link_jacobian(&model, &root, ReferenceFrame::World)

@@ -90,7 +90,8 @@ fn every_entry_point_refuses_another_models_data() {
 }
 
 /// Kinematics checks its inputs as the dynamics does, and a link frame of a model with more
-/// bodies than this one is refused by the Jacobians: errors, never an index out of bounds.
+/// bodies than this one is refused by the Jacobians and the link pose: errors, never an index
+/// out of bounds.
 #[test]
 fn kinematics_and_jacobians_refuse_bad_inputs_and_foreign_links() {
     let (fixed, _) = models();
@@ -118,6 +119,20 @@ fn kinematics_and_jacobians_refuse_bad_inputs_and_foreign_links() {
         other => panic!("expected WrongLink, got {other:?}"),
     }
     assert!(data.point_jacobian(&chain, &foot, glam::DVec3::X).is_err());
+    assert_eq!(
+        data.link_pose(&foot),
+        Err(DynamicsError::WrongLink {
+            body: foot.body.unwrap(),
+            bodies: chain.bodies.len()
+        })
+    );
+    // The chain's own last link: its pose, the chain hanging straight down the z axis.
+    let tip = chain.find_link(&chain.bodies.last().unwrap().name).unwrap();
+    let (_, p) = data.link_pose(&tip).unwrap();
+    assert!(
+        p.is_finite() && p.x.abs() < 1e-12 && p.y.abs() < 1e-12,
+        "{p}"
+    );
 }
 
 #[test]

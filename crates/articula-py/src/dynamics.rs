@@ -212,7 +212,7 @@ pub fn link_pose<'py>(
     data.check(model)?;
     data.check_kinematics()?;
     let frame = find_link(&model.model, link)?;
-    let (r, p) = data.data.link_pose(&frame);
+    let (r, p) = data.data.link_pose(&frame).map_err(from_dynamics)?;
     Ok((rotation(py, r)?, PyArray1::from_slice(py, &p.to_array())))
 }
 
