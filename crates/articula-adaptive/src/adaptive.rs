@@ -624,7 +624,7 @@ impl Adaptive {
     }
 
     /// The threads a hybrid step splits its work over when the active region has at least
-    /// [`PARALLEL_HYBRID_MIN_JOINTS`] joints: the active angles' sines and cosines and each
+    /// 10,000 joints (`PARALLEL_HYBRID_MIN_JOINTS`): the active angles' sines and cosines and each
     /// cluster's spatial inertia and bias force (pass 1 of the articulated-body algorithm) in
     /// runs of joints; the pose sweep and the two recursions (articulated inertias,
     /// accelerations) over the independent subtrees of a branched reduced tree (a chain has

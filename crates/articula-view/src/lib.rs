@@ -38,6 +38,7 @@ pub use scene_file::{
     body_memory_estimate, BodySpec, CameraRig, CameraSpec, CrowdSpec, GroundSpec, ImageSpec,
     KeySpec, LoadedScene, Placement, Push, PushSpec, SceneBuilder, SceneModel, SceneOptions,
     SceneSpec, SpringSpec, Targets, VelocitySpec, VisibilitySpec, DEFAULT_SCENE_MEMORY_LIMIT,
+    MAX_SCENE_BYTES,
 };
 pub use sim::pose_springs;
 pub use sim::{
