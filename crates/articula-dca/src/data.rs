@@ -538,6 +538,8 @@ pub(crate) struct RefineData {
     pub(crate) regularised: bool,
     /// Some body's mass differs from its parent's by more than [`MASS_RATIO`](crate::mass_ratio::MASS_RATIO): the same.
     pub(crate) mass_ratio: bool,
+    /// GMRES's vectors, where the fixed-point refinement diverges (`krylov.rs`).
+    pub(crate) krylov: crate::krylov::KrylovData,
 }
 
 impl RefineData {
@@ -554,6 +556,7 @@ impl RefineData {
             fallbacks: 0,
             regularised,
             mass_ratio: crate::mass_ratio::large_mass_ratio(model),
+            krylov: Default::default(),
         }
     }
 }

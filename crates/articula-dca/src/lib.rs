@@ -65,6 +65,7 @@ mod integrate;
 mod inverse;
 mod jacobian;
 mod kinematics;
+mod krylov;
 mod link;
 mod mass_matrix;
 mod mass_ratio;

@@ -69,24 +69,26 @@ const MAX_STEPS: usize = 8;
 /// `ρ |Δ_k| ≤ CONVERGED |q̈|` with the contraction `ρ = |Δ_k| / |Δ_{k−1}| ≤ ½` measured.
 /// (The error after step k is `E e_k` with `Δ_k = (1 − E) e_k`, `E = 1 − H'⁻¹ H` for the
 /// regularised `H'`, so it is at most `ρ/(1 − ρ) |Δ_k|`.)
-const CONVERGED: f64 = 1e-10;
+pub(crate) const CONVERGED: f64 = 1e-10;
 
 /// ... or when the corrections stop shrinking (`ρ > ½`) below this fraction of `max |q̈|`:
 /// the rounding floor of the residual, amplified by `H⁻¹` (on icub, whose 1.3 kg head is 0.4 mm
 /// from its neck axis, `|q̈|` reaches 5e8 on random states and the floor ~1e-8 of it: ABA and
 /// CRBA differ by as much). The error is then about `|Δ_k|`.
-const FLOOR: f64 = 1e-7;
+pub(crate) const FLOOR: f64 = 1e-7;
 
 /// Iterative refinement to convergence, for a model whose DCA leaves invert a regularised
 /// inertia: `q̈ += H'⁻¹ (τ − ID(q̈))` until [`CONVERGED`] or [`FLOOR`], at most [`MAX_STEPS`] steps;
 /// `Ok(false)` when it does not converge, never a silently wrong `q̈`.
 ///
-/// Non-convergence: the dynamics is too close to singular for the regularisation, or a join
-/// pivot was lost in directions a planar chain never loads (out of its plane, where its
-/// compliance is rounding: a 100,000-link chain hanging tilted), so that DCA's solve of the
-/// correction is wrong by more than the correction and the steps grow. (The residual itself
-/// is formed about each body's own origin, [`rnea_residual`], and carries no rounding of the
-/// chain's 10 km of lever arms.) The caller then answers with ABA, which needs neither.
+/// When a step grows the correction (`ρ > 1`), or the steps run out, DCA's solve is wrong by
+/// more than the error in some directions: a join pivot lost where a subassembly's compliance
+/// mixes a huge and a tiny principal value (a 100,000-link chain hanging tilted, see
+/// `krylov.rs`). The iterate before that step is then refined by GMRES preconditioned by the
+/// same DCA solve ([`crate::krylov::refine_gmres`]), which does not need the fixed-point
+/// iteration to contract. (The residual itself is formed about each body's own origin,
+/// [`rnea_residual`], and carries no rounding of the chain's 10 km of lever arms.) Only when
+/// GMRES does not converge either does the caller answer with ABA.
 fn refine_regularised(
     model: &Model,
     tau: &[f64],
@@ -108,6 +110,12 @@ fn refine_regularised(
         } else {
             f64::NAN
         };
+        if rho > 1.0 {
+            // Diverging: DCA's solve is wrong by more than the error in some directions.
+            // Back to the iterate before this step, and GMRES from there (`krylov.rs`).
+            data.qdd.copy_from_slice(&data.refine.qdd);
+            return crate::krylov::refine_gmres(model, tau, f_ext, data);
+        }
         let converged = dn <= CONVERGED * xn
             || (rho <= 0.5 && rho * dn <= CONVERGED * xn)
             || (rho > 0.5 && dn <= FLOOR * xn);
@@ -116,12 +124,17 @@ fn refine_regularised(
         }
         last = dn;
     }
-    Ok(false)
+    crate::krylov::refine_gmres(model, tau, f_ext, data)
 }
 
 /// The residual `r = τ − ID(q, q̇, q̈)` of `data.qdd` into `data.refine.r`; returns the scale of
 /// the joint forces and `max |r|` (see [`rnea_residual`]).
-fn residual(model: &Model, tau: &[f64], f_ext: &[SpatialForce], data: &mut Data) -> (f64, f64) {
+pub(crate) fn residual(
+    model: &Model,
+    tau: &[f64],
+    f_ext: &[SpatialForce],
+    data: &mut Data,
+) -> (f64, f64) {
     let input = RneaInput {
         x: &data.x,
         fk_plan: &data.fk_plan,
