@@ -98,16 +98,16 @@ fn aba_with<A: Arith>(
             ia,
             pa: pa_i,
             c,
-            origin: p,
+            origin: Some(p),
             vo,
             k,
             doff,
             axis_through_origin: matches!(data.fk_plan[i], FkPlan::AxisRevolute { .. }),
         };
         let to_parent = parent != usize::MAX;
-        let Some((ia_a, pa_a)) =
-            articulate_joint::<A>(aba, &data.s, tau, &data.armature, body, to_parent)
-        else {
+        let (mut ia_a, mut pa_a) = (SymMat6::ZERO, SpatialForce::ZERO);
+        let sums = to_parent.then_some((&mut ia_a, &mut pa_a, true));
+        if !articulate_joint::<A>(aba, &data.s, tau, &data.armature, body, sums) {
             return Err(DynamicsError::Singular {
                 joint: model.bodies[i].joint_name(),
                 detail: if k == 1 {
@@ -194,8 +194,10 @@ pub(crate) struct BodyJoint {
     pub pa: SpatialForce,
     /// Its velocity product `c`.
     pub c: SpatialMotion,
-    /// Its origin `pᵢ` in the computation frame, where its `S` is taken.
-    pub origin: DVec3,
+    /// The point its `S` (and `Iᴬ`, `pᴬ`, `c`) is taken about: its origin `pᵢ` in the
+    /// computation frame, or `None` for the computation origin itself (`S` as the kinematics
+    /// gives it; DCA's leaf clusters).
+    pub origin: Option<DVec3>,
     /// Its joint's offset in `v`, degrees of freedom, and offset in `AbaData::dinv`.
     pub vo: usize,
     pub k: usize,
@@ -206,10 +208,11 @@ pub(crate) struct BodyJoint {
 
 /// ABA's pass 2 at one joint (RBDA Table 7.1), shared by ABA and DCA's leaf clusters: the
 /// local `S` into `aba.sl`, `U = Iᴬ S`, `D = Sᵀ U` plus the armature, `u = τ − Sᵀ pᴬ` and
-/// `D⁻¹` into `aba`; with `to_parent`, returns `Iᵃ = Iᴬ − U D⁻¹ Uᵀ` and
-/// `pᵃ = pᴬ + Iᵃ c + U D⁻¹ u`, still about the body's origin (zero without). `None`: `D` is
-/// not positive definite. `s`, `tau` and `armature` are the model-wide arrays (`data.s`,
-/// `τ`, `data.armature`, empty for none).
+/// `D⁻¹` into `aba`; with `to_parent` (sums and whether to set them, as
+/// [`articulate_multi`] takes it), `Iᵃ = Iᴬ − U D⁻¹ Uᵀ` and `pᵃ = pᴬ + Iᵃ c + U D⁻¹ u`, about
+/// the point `S` and `Iᴬ` are taken about, set into or added to the sums. `false`: `D` is not
+/// positive definite. `s`, `tau` and `armature` are the model-wide arrays (`data.s`, `τ`,
+/// `data.armature`, empty for none).
 #[inline(always)]
 pub(crate) fn articulate_joint<A: Arith>(
     aba: &mut AbaData,
@@ -217,8 +220,8 @@ pub(crate) fn articulate_joint<A: Arith>(
     tau: &[f64],
     armature: &[f64],
     b: BodyJoint,
-    to_parent: bool,
-) -> Option<(SymMat6, SpatialForce)> {
+    to_parent: Option<(&mut SymMat6, &mut SpatialForce, bool)>,
+) -> bool {
     let (vo, k, doff, ia) = (b.vo, b.k, b.doff, b.ia);
     if k == 1 {
         // One DOF (the common case): U = Iᴬ s, D = sᵀU scalar.
@@ -231,7 +234,7 @@ pub(crate) fn articulate_joint<A: Arith>(
             let d = A::mul_add(w.z, u[2], A::mul_add(w.y, u[1], w.x * u[0]));
             (u, d, SpatialMotion::new(w, DVec3::ZERO))
         } else {
-            let sm = motion_at(s[vo], b.origin);
+            let sm = b.origin.map_or(s[vo], |p| motion_at(s[vo], p));
             let s = sm.to_array();
             let u = ia.mul_vec(&s);
             (u, dot6::<A>(&s, &u), sm)
@@ -243,28 +246,34 @@ pub(crate) fn articulate_joint<A: Arith>(
             None => d,
         };
         if d.is_nan() || d <= 0.0 {
-            return None;
+            return false;
         }
         let dinv = 1.0 / d;
         let uu = tau[vo] - sm.dot(b.pa);
         aba.u[vo] = u;
         aba.uu[vo] = uu;
         aba.dinv[doff] = dinv;
-        if !to_parent {
-            return Some((SymMat6::ZERO, SpatialForce::ZERO));
-        }
+        let Some((ia_t, pa_t, first)) = to_parent else {
+            return true;
+        };
         // pᵃ = pᴬ + Iᵃ c + U D⁻¹ u with Iᵃ c = Iᴬ c − U (Uᵀc) / D
         let c = b.c.to_array();
         let ic = ia.mul_vec(&c);
         let g = dinv * (uu - dot6::<A>(&c, &u));
-        let add = SpatialForce::from_array(std::array::from_fn(|r| ic[r] + u[r] * g));
-        return Some((ia.sub_outer(&u, dinv), b.pa + add));
+        let pa = b.pa + SpatialForce::from_array(std::array::from_fn(|r| ic[r] + u[r] * g));
+        if first {
+            *ia_t = ia.sub_outer(&u, dinv);
+            *pa_t = pa;
+        } else {
+            ia_t.add_sub_outer(&ia, &u, dinv);
+            *pa_t += pa;
+        }
+        return true;
     }
     // Several DOF: the same equations with k×k `D`, its loops of fixed length.
     for p_ in 0..k {
-        aba.sl[vo + p_] = motion_at(s[vo + p_], b.origin);
+        aba.sl[vo + p_] = b.origin.map_or(s[vo + p_], |p| motion_at(s[vo + p_], p));
     }
-    let (mut ia_a, mut pa_a) = (SymMat6::ZERO, SpatialForce::ZERO);
     let args = MultiArgs {
         s: &aba.sl[vo..vo + k],
         tau: &tau[vo..vo + k],
@@ -276,16 +285,14 @@ pub(crate) fn articulate_joint<A: Arith>(
         dinv: &mut aba.dinv[doff..doff + k * k],
         armature: armature.get(vo..vo + k).unwrap_or(&[]),
     };
-    let to_parent = to_parent.then_some((&mut ia_a, &mut pa_a, true));
-    let ok = match k {
+    match k {
         0 => articulate_multi::<A, 0>(args, to_parent),
         2 => articulate_multi::<A, 2>(args, to_parent),
         3 => articulate_multi::<A, 3>(args, to_parent),
         4 => articulate_multi::<A, 4>(args, to_parent),
         5 => articulate_multi::<A, 5>(args, to_parent),
         _ => articulate_multi::<A, 6>(args, to_parent),
-    };
-    ok.then_some((ia_a, pa_a))
+    }
 }
 
 /// What ABA's pass 2 reads and writes at a joint of `k` > 1 degrees of freedom (see
