@@ -249,6 +249,8 @@ impl Adaptive {
         settings: &ContactSettings,
     ) -> Result<StepReport, AdaptiveError> {
         self.set_forces(model, state, forces)?;
+        // Damping implicit over the step, as in the contact step's inertia (`M + A + h B`).
+        self.set_damping_step(model, dt);
         let mut report = self.step_dynamics(model, state)?;
         // The free motion: the active joints' q̈ (0 elsewhere).
         contact.qdd.fill(0.0);

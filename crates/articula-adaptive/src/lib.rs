@@ -64,6 +64,7 @@ mod hierarchy;
 mod hybrid;
 mod metric;
 mod parts;
+mod passive;
 mod report;
 mod rigidify;
 mod rk4;

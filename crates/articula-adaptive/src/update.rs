@@ -195,6 +195,7 @@ impl Adaptive {
             self.active_kinematics(model, &state.q, &state.qd);
             let mut gm = std::mem::take(&mut self.impulse.momenta);
             self.reduced_momenta(&mut gm);
+            crate::rigidify::add_armature_momenta(model, &self.hier.ajoints, &state.qd, &mut gm);
             let r = self.reduced_aba(model, &gm, Level::Impulse);
             self.impulse.momenta = gm;
             r?;
