@@ -415,3 +415,102 @@ fn springs_on_locked_joints_move_nothing() {
     forward_kinematics(&model, &s.q, &s.qd, &mut data).unwrap();
     assert!(data.kinetic_energy().is_finite());
 }
+
+/// With armature and a budget, the predicted error (the metric left in the queue, from the
+/// joins' Ψ, p, η) is the actual `Σ (q̈ − q̈_exact)²` against articula-dca's DCA with armature,
+/// and it never grows with the budget.
+#[test]
+fn the_predicted_error_with_armature_is_the_actual_error() {
+    for (name, model) in models(false, false) {
+        let internal = model.nv - if model.floating_base { 6 } else { 0 };
+        for seed in 0..3 {
+            let mut s = State::random(&model, 50 + seed, 2.0);
+            s.randomize_forces(seed, 2.0);
+            let mut data = Data::new(&model);
+            let exact = forward_dynamics_slices(
+                &model,
+                &mut data,
+                &s.q,
+                &s.qd,
+                &s.tau,
+                &s.f_ext,
+                Method::Dca,
+            )
+            .unwrap()
+            .to_vec();
+            let mut last = f64::INFINITY;
+            let mut budgets = vec![0, 1, 2, 4, internal / 2, internal];
+            budgets.sort_unstable();
+            budgets.dedup();
+            for budget in budgets {
+                let mut ad = Adaptive::new(
+                    &model,
+                    Settings {
+                        budget: Some(budget),
+                        ..Settings::default()
+                    },
+                );
+                let qdd = ad
+                    .forward_dynamics(&model, &s.q, &s.qd, &s.tau, &s.f_ext)
+                    .unwrap()
+                    .to_vec();
+                let sel = ad.selection().clone();
+                let actual: f64 = qdd.iter().zip(&exact).map(|(a, e)| (a - e).powi(2)).sum();
+                assert!(
+                    (sel.predicted_error - actual).abs() <= 1e-8 * sel.total_metric,
+                    "{name} seed {seed} budget {budget}: predicted {:e}, actual {actual:e}",
+                    sel.predicted_error
+                );
+                assert!(
+                    actual <= last * (1.0 + 1e-9) + 1e-12 * sel.total_metric,
+                    "{name} seed {seed} budget {budget}: {actual:e} > {last:e}"
+                );
+                last = actual;
+            }
+            assert!(last <= 1e-18 * (1.0 + exact.iter().map(|x| x * x).sum::<f64>()));
+        }
+    }
+}
+
+/// The two re-selection routes (an exact whole-body solve; the caches of the rigid
+/// subassemblies) choose the same hybrid bodies with armature, damping and springs, side by
+/// side for 60 steps re-selecting every 1 and 3 steps: the same active DOFs and predicted
+/// errors (1e-9 of the total metric) and the same trajectory (1e-9).
+#[test]
+fn both_reselection_routes_agree_with_passive_dynamics() {
+    for (name, model) in models(true, true) {
+        for every in [1, 3] {
+            let mut start = State::random(&model, 31, 1.0);
+            start.f_ext.clear();
+            let settings = Settings {
+                budget: Some(4),
+                reselect_every: every,
+                ..Settings::default()
+            };
+            let mut cached = Adaptive::new(&model, settings.clone());
+            cached.set_reselection(Reselection::Caches);
+            let mut exact = Adaptive::new(&model, settings);
+            exact.set_reselection(Reselection::ExactSolve);
+            let (mut a, mut b) = (start.clone(), start.clone());
+            for k in 0..60 {
+                let ra = cached.step(&model, &mut a, 1e-3).unwrap();
+                let rb = exact.step(&model, &mut b, 1e-3).unwrap();
+                assert_eq!(
+                    ra.active_dofs, rb.active_dofs,
+                    "{name} every {every} step {k}"
+                );
+                let scale = cached.selection().total_metric.max(1e-300);
+                let (pa, pb) = (ra.predicted_error, rb.predicted_error);
+                assert!(
+                    (pa - pb).abs() <= 1e-9 * scale,
+                    "{name} every {every} step {k}: predicted {pa:e} vs {pb:e}"
+                );
+            }
+            let (dq, dv) = (max_rel(&a.q, &b.q), max_rel(&a.qd, &b.qd));
+            assert!(
+                dq < 1e-9 && dv < 1e-9,
+                "{name} every {every}: q {dq:e}, qd {dv:e}"
+            );
+        }
+    }
+}
