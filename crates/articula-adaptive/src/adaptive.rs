@@ -140,7 +140,9 @@ impl Adaptive {
 ///   hybrid body chosen at the step's start.
 ///
 /// Both re-select the hybrid body at the step's start every
-/// [`Settings::reselect_every`] steps. With every joint active they are articula-dca's steps
+/// [`Settings::reselect_every`] steps, and apply the model's damping and springs as
+/// articula-dca's steps do (passive forces added to `τ`, damping implicit over the Euler
+/// step; armature in the inertia). With every joint active they are articula-dca's steps
 /// of the same integrator to rounding (articula-dca's momentum projection of free-floating
 /// models, `Data::momentum_projection`, has no adaptive counterpart).
 pub fn step(
@@ -433,8 +435,19 @@ impl Adaptive {
         self.last = self.select(model);
         let build = build && self.settings.velocity_tolerance.is_none();
         if build {
-            // Positions and torques only: the impulse below does not change them.
-            self.build_all_caches(model, &state.q, &state.tau)?;
+            // Positions and torques only: the impulse below does not change them (the
+            // locked joints' damping forces, zero once locked: `take_locked_torques`).
+            let locked = self.take_locked_torques();
+            let tau = if locked.is_empty() {
+                &state.tau
+            } else {
+                &locked
+            };
+            let built = self.build_all_caches(model, &state.q, tau);
+            if !locked.is_empty() {
+                self.passive.locked = locked;
+            }
+            built?;
             touched += model.assembly.nodes.len();
         } else {
             self.cache.all_valid = false;

@@ -61,11 +61,31 @@ impl Adaptive {
         for (t, x) in total.iter_mut().zip(&state.tau) {
             *t += x;
         }
+        if !model.dynamics.damping.is_empty() {
+            let mut locked = std::mem::take(&mut self.passive.locked);
+            spring_torques(model, &state.q, &state.tau, &mut locked);
+            self.passive.locked = locked;
+            self.passive.locked_set = true;
+        }
         std::mem::swap(&mut state.tau, &mut total);
         let r = call(self, state);
         std::mem::swap(&mut state.tau, &mut total);
         self.passive.tau = total;
+        self.passive.locked_set = false;
         r
+    }
+
+    /// The torques `τ + passive(q, 0)` of [`Adaptive::with_passive_tau`] (taken: give them
+    /// back to `passive.locked`), when set: those the caches of the rigid subassemblies are
+    /// built with — the locked joints' torques once locked (`q̇ = 0`: no damping force), which
+    /// the next re-selection compares with the caches'. Empty when not set (a model without
+    /// damping: build with the re-selection's `τ` itself, nothing copied).
+    pub(crate) fn take_locked_torques(&mut self) -> Vec<f64> {
+        if self.passive.locked_set {
+            std::mem::take(&mut self.passive.locked)
+        } else {
+            Vec::new()
+        }
     }
 
     /// `τ + passive(q, q̇)` of the active joints into `out` (length `nv`; the other entries
@@ -94,5 +114,25 @@ impl Adaptive {
                 }
             }
         }
+    }
+}
+
+/// `τ + passive(q, 0)` into `out` (resized to `nv`): the springs' forces plus `τ`, the same
+/// numbers to the bit as [`Model::passive_forces`] at `q̇ = 0` plus `τ` (its damping term is
+/// `+0.0` there).
+fn spring_torques(model: &Model, q: &[f64], tau: &[f64], out: &mut Vec<f64>) {
+    let d = &model.dynamics;
+    out.clear();
+    out.resize(model.nv, 0.0);
+    if !d.stiffness.is_empty() {
+        for p in model.coordinate_parts() {
+            if p.nv() == 1 && p.nq() == 1 {
+                let i = p.v_offset;
+                out[i] -= d.stiffness[i] * (q[p.q_offset] - d.spring_ref[i]);
+            }
+        }
+    }
+    for (t, x) in out.iter_mut().zip(tau) {
+        *t += x;
     }
 }

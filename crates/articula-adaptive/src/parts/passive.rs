@@ -13,4 +13,10 @@ pub(crate) struct PassiveForces {
     /// `τ + passive(q, q̇)`: every joint's for a whole-body solve, the active joints' for a
     /// hybrid step (empty until a step of a model with damping or springs).
     pub(crate) tau: Vec<f64>,
+    /// `τ + passive(q, 0)` of every joint (the springs alone), while `locked_set`: the torques
+    /// of the joints a re-selection locks, once locked (`q̇ = 0`), which the caches of the
+    /// rigid subassemblies it builds hold (a locked joint's damping force is zero).
+    pub(crate) locked: Vec<f64>,
+    /// Whether `locked` holds the torques of the state of the current re-selection.
+    pub(crate) locked_set: bool,
 }
