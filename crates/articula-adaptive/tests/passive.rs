@@ -149,6 +149,7 @@ fn max_rel(a: &[f64], b: &[f64]) -> f64 {
 /// reduced tree's articulated-body algorithm) gives the same `q̈`.
 #[test]
 fn all_active_forward_dynamics_with_armature_is_exact() {
+    let mut worst = 0.0f64;
     for (name, model) in models(false, false) {
         assert!(model.dynamics.has_armature());
         // The same model without armature: the armature must change the answer.
@@ -171,6 +172,7 @@ fn all_active_forward_dynamics_with_armature_is_exact() {
                 .unwrap()
                 .to_vec();
                 let e = max_rel(&got, &exact);
+                worst = worst.max(e);
                 assert!(e < 1e-10, "{name} seed {seed} {method:?}: {e:e}");
             }
             let mut rd = Data::new(&rigid);
@@ -194,9 +196,11 @@ fn all_active_forward_dynamics_with_armature_is_exact() {
             let mut ad = Adaptive::new(&model, Settings::default());
             ad.step(&model, &mut s2, 1e-3).unwrap();
             let e = max_rel(ad.qdd(), &got);
+            worst = worst.max(e);
             assert!(e < 1e-10, "{name} seed {seed} hybrid step: {e:e}");
         }
     }
+    eprintln!("all active, armature: worst relative q̈ difference to DCA/ABA {worst:.2e}");
 }
 
 /// Every joint active, armature + damping + springs: 300 adaptive steps are articula-dca's
@@ -204,6 +208,7 @@ fn all_active_forward_dynamics_with_armature_is_exact() {
 /// explicit in RK4) to 1e-10; the same steps without the passive forces drift away.
 #[test]
 fn all_active_stepping_with_damping_and_springs_is_the_exact_step() {
+    let mut worst = 0.0f64;
     for (name, model) in models(true, true) {
         assert!(model.dynamics.has_passive());
         for integrator in [Integrator::SemiImplicitEuler, Integrator::Rk4] {
@@ -226,6 +231,7 @@ fn all_active_stepping_with_damping_and_springs_is_the_exact_step() {
                 step(&model, &mut data, &mut e, Method::Dca, integrator, dt).unwrap();
                 let dq = max_rel(&a.q, &e.q);
                 let dv = max_rel(&a.qd, &e.qd);
+                worst = worst.max(dq).max(dv);
                 assert!(
                     dq < 1e-10 && dv < 1e-10,
                     "{name} {integrator:?} step {k}: q {dq:e}, qd {dv:e}"
@@ -248,6 +254,9 @@ fn all_active_stepping_with_damping_and_springs_is_the_exact_step() {
             );
         }
     }
+    eprintln!(
+        "all active, 300 steps with passive forces: worst relative q, q̇ difference {worst:.2e}"
+    );
 }
 
 /// `(M + A)` of articula-dca's dense mass matrix (armature on its diagonal).
