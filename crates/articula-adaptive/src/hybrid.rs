@@ -417,7 +417,8 @@ impl Adaptive {
         }
         let (vo, k) = (body.v_offset, body.nv);
         // A joint with armature takes the general join (as in articula-dca): the one-axis
-        // join's constraint forces do no work along the axis, which armature's do.
+        // join takes the joint force along the axis to be `Q`, where armature leaves
+        // `Q − a q̈`.
         let armature = self.data.armature.get(vo..vo + k);
         if let [part] = body.joint.as_slice() {
             if part.kind.is_scalar() && armature.is_none_or(|a| a[0] == 0.0) {
