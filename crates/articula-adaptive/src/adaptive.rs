@@ -16,6 +16,7 @@ use crate::parts::impulse::LockingImpulse;
 use crate::parts::join_maps::JoinMaps;
 use crate::parts::metric_coefficients::MetricCoefficients;
 use crate::parts::pass_scratch::PassScratch;
+use crate::parts::passive::PassiveForces;
 use crate::parts::rk_buffers::RkBuffers;
 use crate::parts::selection_queue::{Selection, SelectionQueue};
 use crate::parts::switches::Switches;
@@ -77,6 +78,9 @@ pub struct Adaptive {
     /// The threads a hybrid step of a large active region splits its per-joint sweeps over
     /// ([`Adaptive::set_threads`]; serial by default).
     pub(crate) threads: Threads,
+    /// The step's implicit damping in the armature and its joint forces with the passive
+    /// ones (`parts/passive.rs`).
+    pub(crate) passive: PassiveForces,
 }
 
 impl Adaptive {
@@ -114,6 +118,7 @@ impl Adaptive {
             rk4: RkBuffers::default(),
             internal: model.nv - if model.floating_base { 6 } else { 0 },
             threads: Threads::default(),
+            passive: PassiveForces::default(),
         }
     }
 }
@@ -135,7 +140,9 @@ impl Adaptive {
 ///   hybrid body chosen at the step's start.
 ///
 /// Both re-select the hybrid body at the step's start every
-/// [`Settings::reselect_every`] steps. With every joint active they are articula-dca's steps
+/// [`Settings::reselect_every`] steps, and apply the model's damping and springs as
+/// articula-dca's steps do (passive forces added to `τ`, damping implicit over the Euler
+/// step; armature in the inertia). With every joint active they are articula-dca's steps
 /// of the same integrator to rounding (articula-dca's momentum projection of free-floating
 /// models, `Data::momentum_projection`, has no adaptive counterpart).
 pub fn step(
@@ -253,12 +260,6 @@ impl Adaptive {
         if model.assembly.has_gather() {
             return Err(unsupported_tree(model));
         }
-        if let Some(what) = unmodelled_dof_dynamics(model) {
-            return Err(AdaptiveError::Unsupported(format!(
-                "the model has joint {what}, which adaptive dynamics does not model; use the \
-                 exact methods (dca, aba, crba)"
-            )));
-        }
         check_inputs(model, q, qd, tau, f_ext)?;
         // Kinematics left by node_metrics for this very state are reused (the same bits:
         // compared by `memcmp`, much cheaper than `f64` equality; a `-0.0` for a
@@ -286,6 +287,8 @@ impl Adaptive {
         f_ext: &[SpatialForce],
     ) -> Result<&[f64], AdaptiveError> {
         self.settings.validate()?;
+        // The rigid-body map plus armature: no passive force, no implicit damping.
+        self.set_damping_step(model, 0.0);
         self.cache.all_valid = false;
         self.load(model, q, qd, tau, f_ext)?;
         self.main_pass(model, tau, Level::Acceleration, true)?;
@@ -334,6 +337,20 @@ impl Adaptive {
         tau: &[f64],
         f_ext: &[SpatialForce],
     ) -> Result<(), AdaptiveError> {
+        self.set_damping_step(model, 0.0);
+        self.exact_solve_inner(model, q, qd, tau, f_ext)
+    }
+
+    /// [`Adaptive::exact_solve`] with the armature the workspace holds (a step's re-selection:
+    /// its implicit damping's `h b` included).
+    pub(crate) fn exact_solve_inner(
+        &mut self,
+        model: &Model,
+        q: &[f64],
+        qd: &[f64],
+        tau: &[f64],
+        f_ext: &[SpatialForce],
+    ) -> Result<(), AdaptiveError> {
         metric::solve_exact(model, &mut self.data, &mut self.body.qdd, q, qd, tau, f_ext)?;
         self.mark_fresh(q, qd);
         Ok(())
@@ -371,6 +388,7 @@ impl Adaptive {
         f_ext: &[SpatialForce],
         out: &mut [f64],
     ) -> Result<(), AdaptiveError> {
+        self.set_damping_step(model, 0.0);
         self.load(model, q, qd, tau, f_ext)?;
         self.main_pass(model, tau, Level::Acceleration, true)?;
         self.metric_pass(model);
@@ -397,6 +415,7 @@ impl Adaptive {
     /// Returns whether joints were locked.
     pub fn reselect(&mut self, model: &Model, state: &mut State) -> Result<bool, AdaptiveError> {
         self.settings.validate()?;
+        self.set_damping_step(model, 0.0);
         self.load(model, &state.q, &state.qd, &state.tau, &state.f_ext)?;
         self.reselect_loaded(model, state, false)
     }
@@ -416,8 +435,19 @@ impl Adaptive {
         self.last = self.select(model);
         let build = build && self.settings.velocity_tolerance.is_none();
         if build {
-            // Positions and torques only: the impulse below does not change them.
-            self.build_all_caches(model, &state.q, &state.tau)?;
+            // Positions and torques only: the impulse below does not change them (the
+            // locked joints' damping forces, zero once locked: `take_locked_torques`).
+            let locked = self.take_locked_torques();
+            let tau = if locked.is_empty() {
+                &state.tau
+            } else {
+                &locked
+            };
+            let built = self.build_all_caches(model, &state.q, tau);
+            if !locked.is_empty() {
+                self.passive.locked = locked;
+            }
+            built?;
             touched += model.assembly.nodes.len();
         } else {
             self.cache.all_valid = false;
@@ -554,7 +584,10 @@ impl Adaptive {
             && !self.switches.full_passes
             && self.settings.velocity_tolerance.is_none()
         {
-            report.rigidified = self.exact_reselect(model, state)?;
+            // The selection's exact solve with the passive forces of the state before the
+            // impulse; the hybrid step adds those after it (`passive.rs`).
+            report.rigidified =
+                self.with_passive_tau(model, state, |ad, state| ad.exact_reselect(model, state))?;
             self.check_active_inputs(model, state)?;
             self.hybrid_step(model, &state.q, &state.qd, &state.tau, false)?;
             // The exact solve and the metric sums visited every node.
@@ -660,7 +693,7 @@ impl Adaptive {
         }
         // (Its whole-body kinematics stay in `data` for `load_state` below.)
         let solved = self
-            .exact_solve(model, &state.q, &state.qd, &state.tau, &fdense)
+            .exact_solve_inner(model, &state.q, &state.qd, &state.tau, &fdense)
             .and_then(|()| Ok(check_qdd(model, &self.body.qdd)?));
         if let Err(e) = solved {
             self.forces.dense = fdense;
@@ -693,6 +726,8 @@ impl Adaptive {
         state: &mut State,
         dt: f64,
     ) -> Result<StepReport, AdaptiveError> {
+        // Damping implicit over the step, as articula-dca's semi-implicit Euler step.
+        self.set_damping_step(model, dt);
         let mut report = self.step_dynamics(model, state)?;
         let mut dofs = 0;
         for rec in &self.hier.records {
@@ -774,7 +809,11 @@ impl Adaptive {
         state: &mut State,
         report: &mut StepReport,
     ) -> Result<(), AdaptiveError> {
-        let cached = report.reselected && self.can_reselect_cached(model, state);
+        // (The locked joints' torques the caches hold are with their passive forces.)
+        let cached = report.reselected
+            && self.with_passive_tau(model, state, |ad, state| {
+                ad.can_reselect_cached(model, state)
+            });
         let full = (report.reselected && !cached) || self.switches.full_passes;
         if full {
             // Whole-body passes read the forces as one wrench per body.
@@ -790,7 +829,8 @@ impl Adaptive {
         if cached {
             // O(active region): the caches of the rigid subassemblies (update.rs), then the
             // step on the new hybrid body's reduced tree.
-            let r = self.cached_reselect(model, state);
+            let r =
+                self.with_passive_tau(model, state, |ad, state| ad.cached_reselect(model, state));
             let fresh = std::mem::take(&mut self.hier.kin_fresh);
             report.rigidified = r?;
             let touched = self.touched;
@@ -804,15 +844,22 @@ impl Adaptive {
         } else if report.reselected {
             self.hier.valid = false;
             let build = self.switches.use_cache && !self.switches.full_passes;
-            report.rigidified = self.reselect_loaded(model, state, build)?;
+            report.rigidified = self.with_passive_tau(model, state, |ad, state| {
+                ad.reselect_loaded(model, state, build)
+            })?;
             let mut touched = self.touched;
-            self.main_pass(model, &state.tau, Level::Acceleration, false)?;
+            // The dynamics at the velocities after the impulse, their passive forces.
+            self.with_passive_tau(model, state, |ad, state| {
+                ad.main_pass(model, &state.tau, Level::Acceleration, false)
+            })?;
             touched += self.touched;
             self.back_substitution(model, false);
             self.touched = touched;
         } else if self.switches.full_passes {
             // Reference path: whole-body kinematics and composites, same hybrid body.
-            self.main_pass(model, &state.tau, Level::Acceleration, false)?;
+            self.with_passive_tau(model, state, |ad, state| {
+                ad.main_pass(model, &state.tau, Level::Acceleration, false)
+            })?;
             self.back_substitution(model, false);
         }
         Ok(())
@@ -1106,21 +1153,4 @@ pub(crate) fn unsupported_tree(model: &Model) -> AdaptiveError {
         "{name} has {count} children (more than {}); use the exact methods (dca, aba, crba)",
         articula_model::GATHER_ABOVE
     ))
-}
-
-/// What of the per-degree-of-freedom dynamics adaptive dynamics would leave out, if any:
-/// armature (in the joint-space inertia), damping and springs (passive forces). Zero values
-/// (a URDF's `<dynamics damping="0">`) are nothing to leave out.
-fn unmodelled_dof_dynamics(model: &Model) -> Option<&'static str> {
-    let d = &model.dynamics;
-    let any = |v: &[f64]| v.iter().any(|&x| x != 0.0);
-    if any(&d.armature) {
-        Some("armature (MJCF armature)")
-    } else if any(&d.damping) {
-        Some("damping (URDF <dynamics damping>, MJCF damping)")
-    } else if any(&d.stiffness) {
-        Some("springs (MJCF stiffness)")
-    } else {
-        None
-    }
 }

@@ -212,6 +212,12 @@ impl ContactDynamics for Hybrid<'_> {
         self.inertia[body]
     }
 
+    fn added_inertia(&self, _model: &Model, dof: usize) -> f64 {
+        // The free motion's armature: the model's plus `h b` of the implicit damping
+        // (`passive.rs`), for the impulses' response to see the same inertia.
+        self.ad.data.armature.get(dof).copied().unwrap_or(0.0)
+    }
+
     fn moves(&self, model: &Model, body: usize) -> bool {
         self.ad.is_active(model, body)
     }
@@ -249,6 +255,8 @@ impl Adaptive {
         settings: &ContactSettings,
     ) -> Result<StepReport, AdaptiveError> {
         self.set_forces(model, state, forces)?;
+        // Damping implicit over the step, as in the contact step's inertia (`M + A + h B`).
+        self.set_damping_step(model, dt);
         let mut report = self.step_dynamics(model, state)?;
         // The free motion: the active joints' q̈ (0 elsewhere).
         contact.qdd.fill(0.0);

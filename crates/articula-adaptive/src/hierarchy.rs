@@ -379,6 +379,14 @@ impl Adaptive {
             }
         }
         self.fresh.valid = false;
+        if model.dynamics.has_passive() {
+            // The active joints' τ + passive(q, q̇) (`passive.rs`).
+            let mut total = std::mem::take(&mut self.passive.tau);
+            self.active_passive_tau(model, (q, qd, tau), &mut total);
+            let r = self.reduced_aba(model, &total, Level::Acceleration);
+            self.passive.tau = total;
+            return r;
+        }
         self.reduced_aba(model, tau, Level::Acceleration)
     }
 
@@ -456,7 +464,16 @@ impl Adaptive {
         };
         let s = d.s[r.v_offset()];
         let u = body.inertia(s);
-        let dd = s.dot(u);
+        let mut dd = s.dot(u);
+        // The step's armature, or the model's at impulse level (as `reduced_aba_with`).
+        let armature = if accel {
+            &d.armature
+        } else {
+            &model.dynamics.armature
+        };
+        if let Some(a) = armature.get(r.v_offset()) {
+            dd += a;
+        }
         if dd.is_nan() || dd <= 0.0 {
             return Err(singular(model, r.body()));
         }
@@ -551,12 +568,20 @@ impl Adaptive {
             chol: &mut chol[..n],
         };
         let dinvs = &mut dinv[..n];
+        // The armature of the solve: at impulse level the model's own (momentum is
+        // `(M + A) q̇`), at acceleration level the step's (`a + h b`, `passive.rs`).
+        let armature = if accel {
+            &d.armature[..]
+        } else {
+            &model.dynamics.armature[..]
+        };
         let run = Run {
             wide,
             accel,
             rec,
             d,
             tau,
+            armature,
         };
         // Pass 3's acceleration of the world: −a_g (gravity enters as the world's acceleration).
         let a0 = if accel {
@@ -841,6 +866,8 @@ struct Run<'a> {
     rec: &'a [ActiveJoint],
     d: &'a Data,
     tau: &'a [f64],
+    /// Per degree of freedom, the armature added to `D` (empty: none; `passive.rs`).
+    armature: &'a [f64],
 }
 
 /// Pass 2 of the reduced ABA at record `idx` (leaves to root: every child of `idx` done
@@ -887,7 +914,10 @@ fn articulate_record<A: Arith>(
         for rr in 0..6 {
             u[rr] = ua[rr] + ub[rr];
         }
-        let dd = dot6_pairs::<A>(&s, &u);
+        let mut dd = dot6_pairs::<A>(&s, &u);
+        if let Some(a) = run.armature.get(r.v_offset()) {
+            dd += a;
+        }
         let dinv = 1.0 / dd;
         let uu = tau[r.v_offset()] - dot6_pairs::<A>(&s, &pa);
         w.u[dof] = u;
@@ -922,9 +952,10 @@ fn articulate_record<A: Arith>(
     // in instruction-cache misses and wall time than they save in instructions
     // (docs/performance.md#crowd), so only the humanoid's common count has one.
     let at = [i, parent, dof, r.v_offset()];
+    let arm = run.armature;
     match k {
-        3 => articulate::<3>(wide, &at, w, &d.s, tau, k, &c),
-        _ => articulate::<0>(wide, &at, w, &d.s, tau, k, &c),
+        3 => articulate::<3>(wide, &at, w, (&d.s, tau, arm), k, &c),
+        _ => articulate::<0>(wide, &at, w, (&d.s, tau, arm), k, &c),
     }
 }
 
@@ -1563,15 +1594,16 @@ articula_spatial::fma_dispatch! {
     /// its registers), compiled for AVX2 + FMA when `wide` (the same arithmetic: no fused
     /// multiply–adds, the same results to the bit).
     #[inline(never)]
-    fn articulate<const K: usize>(wide: bool, at: &[usize; 4], w: &mut Art, s: &[SpatialMotion], tau: &[f64], k: usize, c: &[f64; 6]) -> bool;
+    fn articulate<const K: usize>(wide: bool, at: &[usize; 4], w: &mut Art, inputs: (&[SpatialMotion], &[f64], &[f64]), k: usize, c: &[f64; 6]) -> bool;
     avx2_fma: wide, Portable;
-    |A| articulate_through_factor::<K>(at, w, s, tau, k, c)
+    |A| articulate_through_factor::<K>(at, w, inputs, k, c)
 }
 
 /// Pass 2 of the reduced ABA for a joint of several degrees of freedom, at
 /// `[record, parent record, first slot in U/u]` of the workspace `h` (the parent
 /// [`NO_PARENT`] for none) and its first velocity coordinate: `U = Iᴬ S`, `D = Sᵀ U = L Lᵀ`,
-/// `u = τ − Sᵀ pᴬ`, and the parent's `Iᵃ`, `pᵃ`. `K`: the degrees of freedom when known at
+/// `u = τ − Sᵀ pᴬ`, and the parent's `Iᵃ`, `pᵃ`; `inputs`: the subspace columns, `τ` and the
+/// armature added to `D`'s diagonal (empty: none). `K`: the degrees of freedom when known at
 /// compile time (loops unrolled; the same sums), 0: `k`. False when `D` is not positive
 /// definite.
 ///
@@ -1582,8 +1614,7 @@ articula_spatial::fma_dispatch! {
 fn articulate_through_factor<const K: usize>(
     &[idx, parent, dof, vo]: &[usize; 4],
     h: &mut Art,
-    s: &[SpatialMotion],
-    tau: &[f64],
+    (s, tau, armature): (&[SpatialMotion], &[f64], &[f64]),
     k: usize,
     c: &[f64; 6],
 ) -> bool {
@@ -1601,6 +1632,11 @@ fn articulate_through_factor<const K: usize>(
             dm[qq][p] = x;
         }
         h.uu[dof + p] = tau[vo + p] - dot6_pairs::<Portable>(&s[vo + p].to_array(), &pa);
+    }
+    if let Some(a) = armature.get(vo..vo + k) {
+        for p in 0..k {
+            dm[p][p] += a[p];
+        }
     }
     // D = L Lᵀ. With Y = U L⁻ᵀ (columns y_p) and z = L⁻¹ u: U D⁻¹ Uᵀ = Y Yᵀ and
     // U D⁻¹ u = Y z.

@@ -416,8 +416,12 @@ impl Adaptive {
             };
         }
         let (vo, k) = (body.v_offset, body.nv);
+        // A joint with armature takes the general join (as in articula-dca): the one-axis
+        // join takes the joint force along the axis to be `Q`, where armature leaves
+        // `Q − a q̈`.
+        let armature = self.data.armature.get(vo..vo + k);
         if let [part] = body.joint.as_slice() {
-            if part.kind.is_scalar() {
+            if part.kind.is_scalar() && armature.is_none_or(|a| a[0] == 0.0) {
                 let s = shift(self.data.s[vo]);
                 let prismatic = part.kind == JointKind::Prismatic;
                 return self.join_one_axis(model, n, tau, &g, s, prismatic, &beta);
@@ -437,6 +441,14 @@ impl Adaptive {
         for p in 0..k {
             for q in 0..k {
                 d[p][q] = dot6::<Portable>(&z[p], &z[q]);
+            }
+        }
+        // Armature A (docs/loading.md#armature-and-damping): D = SᵀVS + A. From `G f = y + S q̈`
+        // and `Sᵀ f = Q − A q̈`, `(D + A) q̈ = Q − SᵀV y`: the maps below with `D + A`
+        // (and `Φ^C = Φ^X − Y_hᵀ U_k` still, `U` from the K of `D + A`).
+        if let Some(a) = armature {
+            for p in 0..k {
+                d[p][p] += a[p];
             }
         }
         let mut dinv = [[0.0f64; 6]; 6];

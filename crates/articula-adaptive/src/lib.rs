@@ -19,6 +19,9 @@
 //!   articulated coefficients from caches kept in its own frame, with the velocity-dependent
 //!   terms as tensors in its rigid velocity, so it too costs O(active region)
 //!   (`docs/adaptive.md`).
+//! - **Armature, damping and springs** as in the exact methods: armature in the active
+//!   joints' inertia and the locking impulses' momenta, the passive forces in the steps with
+//!   damping implicit over the step (`docs/adaptive.md#armature-and-damping`).
 //! - **Many bodies of one model**: a [`Scratch`] holds the buffers a call writes and reads
 //!   only within itself; [`Adaptive::step_with`] and its siblings share it between all the
 //!   workspaces of that model (the same results to the bit, one cache-resident copy).
@@ -64,6 +67,7 @@ mod hierarchy;
 mod hybrid;
 mod metric;
 mod parts;
+mod passive;
 mod report;
 mod rigidify;
 mod rk4;

@@ -2,6 +2,12 @@
 //! quadratic function of C's handle forces, `A(C) = Fᵀ Ψ F + Fᵀ p + η` (the theorem: known
 //! before C's joint accelerations), the max-priority joint selection it drives, and the
 //! velocity metric `V(C) = Σ_{i∈C} q̇ᵢᵀ Vᵢ q̇ᵢ`, and the exact solve of a metric query.
+//!
+//! Neither metric stands for `q̈ᵀ H q̈` or `q̇ᵀ H q̇`: `Aᵢ` and `Vᵢ` are the caller's weights
+//! (identity by default), not the joint-space inertia, so armature does not enter them as a
+//! weight. It enters through the accelerations: `K`, `k` of the joins (and the exact solve)
+//! are those of `(M + A) q̈ = τ − b`, so Ψ, p, η and the exact node metrics are the metric of
+//! the dynamics with armature (and, in a step, with its passive forces and `A + h B`).
 
 use crate::adaptive::Adaptive;
 use crate::dense;

@@ -7,6 +7,9 @@
 //! terms and the generalized momenta `pⱼ = Sⱼᵀ Σ_{i ⪰ j} Iᵢ vᵢ` as joint forces. It runs
 //! through the same main pass and back-substitution as the accelerations ([`Level::Impulse`]).
 //! This is the `M⁻¹` projection `q̇' = q̇ − M⁻¹Jᵀ(J M⁻¹ Jᵀ)⁻¹ J q̇` of the locked rows `J`.
+//! With armature `A` the inertia is the dynamics' `M + A` throughout: the momenta gain
+//! `aⱼ q̇ⱼ` and the solve's `D` the model's armature (not a step's `h b` of implicit damping,
+//! which is no inertia), so `Nᵀ (M + A) q̇` is kept exactly.
 
 use crate::adaptive::Adaptive;
 use crate::hybrid::Level;
@@ -96,6 +99,12 @@ impl Adaptive {
                     self.data.s[body.v_offset + p].dot(self.impulse.subtree[i]);
             }
         }
+        add_armature_momenta(
+            model,
+            &self.hier.ajoints,
+            &state.qd,
+            &mut self.impulse.momenta,
+        );
         self.body.qdd.fill(0.0);
         let gmom = std::mem::take(&mut self.impulse.momenta);
         let r = self.reduced_aba(model, &gmom, Level::Impulse);
@@ -107,5 +116,20 @@ impl Adaptive {
             forward_kinematics(model, &state.q, &state.qd, &mut self.data)?;
         }
         Ok(())
+    }
+}
+
+/// `pⱼ += aⱼ q̇ⱼ` for the degrees of freedom of the joints `joints` (the model's armature `a`;
+/// nothing for a model without): generalized momentum is `(M + A) q̇`.
+pub(crate) fn add_armature_momenta(model: &Model, joints: &[usize], qd: &[f64], p: &mut [f64]) {
+    let a = &model.dynamics.armature;
+    if a.is_empty() {
+        return;
+    }
+    for &i in joints {
+        let body = &model.bodies[i];
+        for v in body.v_offset..body.v_offset + body.nv {
+            p[v] += a[v] * qd[v];
+        }
     }
 }

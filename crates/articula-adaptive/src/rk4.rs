@@ -59,6 +59,9 @@ impl Adaptive {
                 self.forces.sparse.push((i, *f));
             }
         }
+        // Passive forces explicit at every stage (no `h b` in the armature), as articula-dca's
+        // RK4 step.
+        self.set_damping_step(model, 0.0);
         // Stage 1 is the Euler step's dynamics: re-selection, impulse, q̈ of the active joints.
         let mut report = self.step_dynamics(model, state)?;
         let mut rk = std::mem::take(&mut self.rk4);

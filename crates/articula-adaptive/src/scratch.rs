@@ -324,9 +324,13 @@ impl Adaptive {
         f_ext: &[SpatialForce],
     ) -> Result<(), AdaptiveError> {
         scratch.check(self)?;
+        self.set_damping_step(model, 0.0);
         // The workspace's settings on the scratch's buffers, solved in place (the
         // workspace's `data`, 1.2 kB, is not exchanged).
         let (d, sd) = (&self.data, &mut scratch.data);
+        if sd.armature != d.armature {
+            sd.armature.clone_from(&d.armature);
+        }
         sd.gravity = d.gravity;
         sd.refine_floating = d.refine_floating;
         sd.momentum_projection = d.momentum_projection;

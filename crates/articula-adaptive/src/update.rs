@@ -152,13 +152,7 @@ impl Adaptive {
         // 4. Selection.
         self.last = self.select_cached(model, ep, &mut touched);
         // 5. Caches of the nodes leaving the active region, bottom-up.
-        for idx in 0..self.hier.hnodes.len() {
-            let n = self.hier.hnodes[idx];
-            if !self.queue.selected[n] {
-                self.build_cache(model, n, &state.q, &state.tau)?;
-                touched += 1;
-            }
-        }
+        touched += self.build_leaving_caches(model, state)?;
         for idx in 0..self.cache.reselection.selected.len() {
             let n = self.cache.reselection.selected[idx];
             self.cache.tensors.node_valid[n] = false;
@@ -195,6 +189,7 @@ impl Adaptive {
             self.active_kinematics(model, &state.q, &state.qd);
             let mut gm = std::mem::take(&mut self.impulse.momenta);
             self.reduced_momenta(&mut gm);
+            crate::rigidify::add_armature_momenta(model, &self.hier.ajoints, &state.qd, &mut gm);
             let r = self.reduced_aba(model, &gm, Level::Impulse);
             self.impulse.momenta = gm;
             r?;
@@ -213,6 +208,46 @@ impl Adaptive {
         self.fresh.valid = false;
         self.touched = touched;
         Ok(moving)
+    }
+
+    /// Step 5 of [`Adaptive::cached_reselect`]: the caches of the old active region's nodes
+    /// that leave it, bottom-up, with the torques their joints will have once locked
+    /// ([`Adaptive::take_locked_torques`]: no damping force at `q̇ = 0`), which go into
+    /// `cache.torques` for the next re-selection's comparison. Returns the nodes built.
+    fn build_leaving_caches(
+        &mut self,
+        model: &Model,
+        state: &State,
+    ) -> Result<usize, DynamicsError> {
+        let locked = self.take_locked_torques();
+        let tau = if locked.is_empty() {
+            &state.tau
+        } else {
+            &locked
+        };
+        let (mut built, mut count) = (Ok(()), 0);
+        for idx in 0..self.hier.hnodes.len() {
+            let n = self.hier.hnodes[idx];
+            if self.queue.selected[n] {
+                continue;
+            }
+            built = self.build_cache(model, n, &state.q, tau);
+            if built.is_err() {
+                break;
+            }
+            count += 1;
+            if let (false, NodeKind::Join { joint, .. }) =
+                (locked.is_empty(), model.assembly.nodes[n].kind)
+            {
+                let b = &model.bodies[joint];
+                let r = b.v_offset..b.v_offset + b.nv;
+                self.cache.torques[r.clone()].copy_from_slice(&locked[r]);
+            }
+        }
+        if !locked.is_empty() {
+            self.passive.locked = locked;
+        }
+        built.map(|()| count)
     }
 
     /// External forces on rigid parts (O(depth) per force): every node on the path from a

@@ -372,39 +372,6 @@ fn invalid_settings_are_errors() {
     }
 }
 
-/// Adaptive dynamics leaves out armature, damping and springs: a model with any of them is
-/// refused with the term named (never stepped as if they were not there), while zero damping
-/// (a URDF's `<dynamics damping="0">`) is nothing left out.
-#[test]
-fn armature_damping_and_springs_are_refused_by_name() {
-    let base = load("chain10", false);
-    type SetTerm = fn(&mut Model);
-    let cases: [(&str, SetTerm); 4] = [
-        ("armature", |m| m.dynamics.armature = vec![0.01; m.nv]),
-        ("damping", |m| m.dynamics.damping = vec![0.5; m.nv]),
-        ("springs", |m| m.dynamics.stiffness = vec![2.0; m.nv]),
-        ("", |m| m.dynamics.damping = vec![0.0; m.nv]),
-    ];
-    for (named, set) in cases {
-        let mut model = base.clone();
-        set(&mut model);
-        if model.dynamics.stiffness.len() == model.nv {
-            model.dynamics.spring_ref = vec![0.0; model.nv];
-        }
-        let mut s = State::neutral(&model);
-        s.q[0] = 0.3;
-        let mut ad = Adaptive::new(&model, Settings::default());
-        let r = ad.step(&model, &mut s, 1e-3);
-        match named {
-            "" => assert!(r.is_ok(), "{r:?}"),
-            _ => {
-                let e = r.unwrap_err().to_string();
-                assert!(e.contains(named) && e.contains("exact methods"), "{e}");
-            }
-        }
-    }
-}
-
 #[test]
 fn a_hybrid_step_visits_the_active_region_and_its_frontier_only() {
     // Between re-selections the main pass visits the active joins and the rigid frontier:

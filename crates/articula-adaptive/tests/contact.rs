@@ -81,6 +81,40 @@ fn rigid_humanoid_lands_on_its_lowest_point() {
 #[test]
 fn full_budget_matches_exact_contact_step() {
     let model = articula_testkit::bundled_with("humanoid", true);
+    full_budget_matches(&model);
+}
+
+/// The same with armature, damping and springs on the joints (not the floating base): the
+/// free motion with the passive forces and damping implicit over the step, the impulses'
+/// response with `M + A + h B`, as articula-dca's contact step.
+#[test]
+fn full_budget_matches_exact_contact_step_with_armature_damping_and_springs() {
+    let mut model = articula_testkit::bundled_with("humanoid", true);
+    let per_joint = |lo: f64, step: f64| -> Vec<f64> {
+        (0..model.nv)
+            .map(|i| {
+                if i < 6 {
+                    0.0
+                } else {
+                    lo + step * (i % 5) as f64
+                }
+            })
+            .collect()
+    };
+    let (a, b, k) = (
+        per_joint(0.01, 0.01),
+        per_joint(2.0, 1.0),
+        per_joint(5.0, 2.0),
+    );
+    model.dynamics.armature = a;
+    model.dynamics.damping = b;
+    model.dynamics.spring_ref = vec![0.0; model.nv];
+    model.dynamics.stiffness = k;
+    full_budget_matches(&model);
+}
+
+fn full_budget_matches(model: &Model) {
+    let model = model.clone();
     let mut exact = State::random(&model, 11, 0.0);
     exact.f_ext.clear();
     exact.tau.iter_mut().for_each(|t| *t = 0.0);

@@ -143,3 +143,53 @@ fn exact_solve_and_full_budget_steps_allocate_nothing() {
         assert_eq!(steps, 0, "budget {budget}: allocations in 100 steps");
     }
 }
+
+/// With armature, damping and springs (the passive forces' buffers, the step's armature), both
+/// integrators and both re-selection routes allocate nothing once warm, and the caches of the
+/// rigid subassemblies stay in use: the locked joints' passive forces do not change.
+#[test]
+fn steps_with_passive_forces_allocate_nothing() {
+    use articula_adaptive::Reselection;
+    use articula_dca::Integrator;
+    let mut model = articula_testkit::chain(300);
+    let per_dof = |x: f64| vec![x; model.nv];
+    let (a, b, k) = (per_dof(0.02), per_dof(0.4), per_dof(3.0));
+    model.dynamics.armature = a;
+    model.dynamics.damping = b;
+    model.dynamics.stiffness = k;
+    model.dynamics.spring_ref = per_dof(0.1);
+    for how in [Reselection::Caches, Reselection::ExactSolve] {
+        for integrator in [Integrator::SemiImplicitEuler, Integrator::Rk4] {
+            let mut s = State::random(&model, 44, 0.0);
+            s.f_ext.clear();
+            let mut ad = Adaptive::new(
+                &model,
+                Settings {
+                    budget: Some(20),
+                    reselect_every: 2,
+                    ..Settings::default()
+                },
+            );
+            ad.set_reselection(how);
+            for _ in 0..20 {
+                articula_adaptive::step(&model, &mut ad, &mut s, integrator, 1e-4).unwrap();
+            }
+            let mut cached = 0;
+            let steps = count_allocations(|| {
+                for _ in 0..200 {
+                    let r =
+                        articula_adaptive::step(&model, &mut ad, &mut s, integrator, 1e-4).unwrap();
+                    cached +=
+                        usize::from(r.reselected && r.nodes_touched < model.assembly.nodes.len());
+                }
+            });
+            assert_eq!(steps, 0, "{how:?} {integrator:?}: allocations in 200 steps");
+            if how == Reselection::Caches {
+                assert_eq!(
+                    cached, 100,
+                    "{integrator:?}: every re-selection through the caches"
+                );
+            }
+        }
+    }
+}

@@ -36,8 +36,10 @@ pub struct Data {
     /// Per degree of freedom, the armature every solve adds to the joint-space inertia's
     /// diagonal: the model's (`Model::dynamics`), plus `h b` while a step integrates damping
     /// `b` implicitly. Empty for a model with neither armature nor damping (every algorithm
-    /// then runs as without them).
-    pub(crate) armature: Vec<f64>,
+    /// then runs as without them). Public for a stepper of its own that integrates damping
+    /// implicitly (articula-adaptive's step sets the model's armature plus `h b` here for its
+    /// exact solves); keep it empty or of length [`Model::nv`].
+    pub armature: Vec<f64>,
     /// A step's joint forces `τ` plus the passive forces (`integrate::with_passive_forces`).
     pub(crate) passive: Vec<f64>,
     /// Whether DCA's `q̈` goes through that check (when `refine_floating` is set): with a

@@ -14,6 +14,7 @@ pub(crate) mod impulse;
 pub(crate) mod join_maps;
 pub(crate) mod metric_coefficients;
 pub(crate) mod pass_scratch;
+pub(crate) mod passive;
 pub(crate) mod rk_buffers;
 pub(crate) mod selection_queue;
 pub(crate) mod subtrees;

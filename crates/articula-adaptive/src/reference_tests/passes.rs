@@ -34,7 +34,41 @@ fn hierarchical_steps_match_whole_body_passes() {
         ("plant", false, 1),
         ("rope", true, 15),
     ] {
-        let model = load(name, floating);
+        for passive in [false, true] {
+            let model = with_passive(load(name, floating), passive);
+            passes_match(&model, name, budget);
+        }
+    }
+}
+
+/// Armature, damping and springs on every joint but a floating base's (when `on`): the
+/// whole-body passes' joins and the hierarchical step's reduced tree both see them.
+fn with_passive(mut model: articula_model::Model, on: bool) -> articula_model::Model {
+    if on {
+        let base = if model.floating_base { 6 } else { 0 };
+        let per_dof = |x: f64| -> Vec<f64> {
+            (0..model.nv)
+                .map(|i| {
+                    if i < base {
+                        0.0
+                    } else {
+                        x * (1.0 + (i % 3) as f64)
+                    }
+                })
+                .collect()
+        };
+        let (a, b, k) = (per_dof(0.01), per_dof(0.05), per_dof(0.5));
+        model.dynamics.armature = a;
+        model.dynamics.damping = b;
+        model.dynamics.stiffness = k;
+        model.dynamics.spring_ref = vec![0.1; model.nv];
+    }
+    model
+}
+
+fn passes_match(model: &articula_model::Model, name: &str, budget: usize) {
+    let model = model.clone();
+    {
         let mut s0 = State::random(&model, 77, 0.0);
         // Light forces: the rope's 3-gram links reach 1e9 rad/s² under the usual ones.
         s0.randomize_forces(78, 0.01);
