@@ -215,7 +215,7 @@ impl ContactDynamics for Hybrid<'_> {
     fn added_inertia(&self, _model: &Model, dof: usize) -> f64 {
         // The free motion's armature: the model's plus `h b` of the implicit damping
         // (`passive.rs`), for the impulses' response to see the same inertia.
-        self.ad.data.armature.get(dof).copied().unwrap_or(0.0)
+        self.ad.data.armature().get(dof).copied().unwrap_or(0.0)
     }
 
     fn moves(&self, model: &Model, body: usize) -> bool {

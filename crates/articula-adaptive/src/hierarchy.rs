@@ -467,7 +467,7 @@ impl Adaptive {
         let mut dd = s.dot(u);
         // The step's armature, or the model's at impulse level (as `reduced_aba_with`).
         let armature = if accel {
-            &d.armature
+            d.armature()
         } else {
             &model.dynamics.armature
         };
@@ -571,7 +571,7 @@ impl Adaptive {
         // The armature of the solve: at impulse level the model's own (momentum is
         // `(M + A) q̇`), at acceleration level the step's (`a + h b`, `passive.rs`).
         let armature = if accel {
-            &d.armature[..]
+            d.armature()
         } else {
             &model.dynamics.armature[..]
         };

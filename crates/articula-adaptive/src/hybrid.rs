@@ -419,7 +419,7 @@ impl Adaptive {
         // A joint with armature takes the general join (as in articula-dca): the one-axis
         // join takes the joint force along the axis to be `Q`, where armature leaves
         // `Q − a q̈`.
-        let armature = self.data.armature.get(vo..vo + k);
+        let armature = self.data.armature().get(vo..vo + k);
         if let [part] = body.joint.as_slice() {
             if part.kind.is_scalar() && armature.is_none_or(|a| a[0] == 0.0) {
                 let s = shift(self.data.s[vo]);

@@ -29,13 +29,7 @@ impl Adaptive {
             return;
         }
         self.passive.dt = dt;
-        let armature = &mut self.data.armature;
-        armature.resize(model.nv, 0.0);
-        for (i, (a, b)) in armature.iter_mut().zip(&d.damping).enumerate() {
-            // articula-dca's arithmetic: the model's armature, then `+= dt b`.
-            *a = d.armature.get(i).copied().unwrap_or(0.0);
-            *a += dt * b;
-        }
+        self.data.set_damping_step(model, dt);
         self.cache.all_valid = false;
     }
 

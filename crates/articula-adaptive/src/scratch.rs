@@ -328,9 +328,7 @@ impl Adaptive {
         // The workspace's settings on the scratch's buffers, solved in place (the
         // workspace's `data`, 1.2 kB, is not exchanged).
         let (d, sd) = (&self.data, &mut scratch.data);
-        if sd.armature != d.armature {
-            sd.armature.clone_from(&d.armature);
-        }
+        sd.set_damping_step(model, 0.0);
         sd.gravity = d.gravity;
         sd.refine_floating = d.refine_floating;
         sd.momentum_projection = d.momentum_projection;

@@ -36,10 +36,8 @@ pub struct Data {
     /// Per degree of freedom, the armature every solve adds to the joint-space inertia's
     /// diagonal: the model's (`Model::dynamics`), plus `h b` while a step integrates damping
     /// `b` implicitly. Empty for a model with neither armature nor damping (every algorithm
-    /// then runs as without them). Public for a stepper of its own that integrates damping
-    /// implicitly (articula-adaptive's step sets the model's armature plus `h b` here for its
-    /// exact solves); keep it empty or of length [`Model::nv`].
-    pub armature: Vec<f64>,
+    /// then runs as without them). Set through [`Data::set_damping_step`].
+    pub(crate) armature: Vec<f64>,
     /// A step's joint forces `τ` plus the passive forces (`integrate::with_passive_forces`).
     pub(crate) passive: Vec<f64>,
     /// Whether DCA's `q̈` goes through that check (when `refine_floating` is set): with a
@@ -879,6 +877,31 @@ impl Data {
     /// residual is above rounding level (see `docs/algorithms.md`).
     pub fn refinement_count(&self) -> u64 {
         self.refine.corrections
+    }
+
+    /// Per degree of freedom, the armature every solve on this workspace adds to the
+    /// joint-space inertia's diagonal: the model's, plus `dt b` after
+    /// [`Data::set_damping_step`]. Empty for a model with neither armature nor damping.
+    pub fn armature(&self) -> &[f64] {
+        &self.armature
+    }
+
+    /// Integrates the model's damping `b` implicitly over a step of `dt` in every following
+    /// solve: the armature they add to the joint-space inertia becomes the model's plus
+    /// `dt b` (MuJoCo's implicit damping: `(M + A + dt B) q̈ = τ + passive(q, q̇)`); `dt = 0`
+    /// restores the model's own, to the bit. Nothing changes for a model without damping.
+    /// articula's own steps do this around each solve; a stepper of its own (articula-
+    /// adaptive's) calls it.
+    pub fn set_damping_step(&mut self, model: &Model, dt: f64) {
+        let d = &model.dynamics;
+        if d.damping.is_empty() {
+            return;
+        }
+        self.armature.resize(model.nv, 0.0);
+        for (i, (a, b)) in self.armature.iter_mut().zip(&d.damping).enumerate() {
+            *a = d.armature.get(i).copied().unwrap_or(0.0);
+            *a += dt * b;
+        }
     }
 
     /// How many `Method::Dca` solves on this workspace were answered by ABA instead, because

@@ -275,15 +275,10 @@ pub(crate) fn with_passive_forces(
     for (t, x) in total.iter_mut().zip(tau) {
         *t += x;
     }
-    let damping = &model.dynamics.damping;
-    for (a, b) in data.armature.iter_mut().zip(damping) {
-        *a += dt * b;
-    }
+    data.set_damping_step(model, dt);
     let result = forward_dynamics_slices(model, data, q, qd, &total, f_ext, method).map(|_| ());
     // The model's own armature back, exactly.
-    for (i, a) in data.armature.iter_mut().enumerate() {
-        *a = model.dynamics.armature.get(i).copied().unwrap_or(0.0);
-    }
+    data.set_damping_step(model, 0.0);
     data.passive = total;
     result
 }
