@@ -272,7 +272,7 @@ pub(crate) struct BodyBuffers {
     pub dinv: Vec<SmallSpd>,
 }
 
-/// A node of the assembly tree as DCA's passes read it: 40 bytes (the tree's own node and the
+/// A node of the assembly tree as DCA's passes read it: 44 bytes (the tree's own node and the
 /// flat offsets would be ~90), one stream.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct DNode {
@@ -293,6 +293,9 @@ pub(crate) struct DNode {
     pub ja: u16,
     pub jb: u16,
     pub one_dof: bool,
+    /// A one-axis join whose joint is damped: in a step (damping implicit) its armature is
+    /// `dt b` and it takes the general join (`dca::one_axis`).
+    pub damped: bool,
     /// A join: its scratch bank, at `ys · max_h` in `y` and `u` (0 unless
     /// [`DcaData::banked`]).
     pub ys: u16,
@@ -1143,7 +1146,7 @@ fn node_records(
         let nh = nd.handles.len();
         let slot = slot_of(i);
         let u16_of = |x: usize| u16::try_from(x).expect("more than 65535 handles on a node");
-        let (kind, boff, jix, one_dof) = match nd.kind {
+        let (kind, boff, jix, one_dof, damped) = match nd.kind {
             NodeKind::Join {
                 joint,
                 parent_side,
@@ -1153,15 +1156,17 @@ fn node_records(
                 blk += nh * nh.saturating_sub(1) / 2;
                 joins += 1;
                 let one_dof = one_dof_join(model, joint);
+                let vo = model.bodies[joint].v_offset;
+                let damped = model.dynamics.damping.get(vo).is_some_and(|&b| b != 0.0);
                 let kind = DKind::Join {
                     joint: u(joint),
                     a: u(parent_side),
                     b: u(child_side),
                 };
-                (kind, at.0, at.1, one_dof)
+                (kind, at.0, at.1, one_dof, damped)
             }
-            NodeKind::Body(b) => (DKind::Body(u(b)), si[i] * mb, 0, false),
-            NodeKind::Ground => (DKind::Ground, si[i] * mb, 0, false),
+            NodeKind::Body(b) => (DKind::Body(u(b)), si[i] * mb, 0, false, false),
+            NodeKind::Ground => (DKind::Ground, si[i] * mb, 0, false, false),
             // One handle: no cross blocks.
             NodeKind::Gather { body, first, count } => {
                 let kind = DKind::Gather {
@@ -1169,7 +1174,7 @@ fn node_records(
                     first: u(first),
                     count: u(count),
                 };
-                (kind, 0, 0, false)
+                (kind, 0, 0, false, false)
             }
             NodeKind::Cluster { body, first, count } => {
                 let kind = DKind::Cluster {
@@ -1177,7 +1182,7 @@ fn node_records(
                     first: u(first),
                     count: u(count),
                 };
-                (kind, si[i] * mb, 0, false)
+                (kind, si[i] * mb, 0, false, false)
             }
         };
         node.push(DNode {
@@ -1190,6 +1195,7 @@ fn node_records(
             ja: u16_of(layout.ja[i]),
             jb: u16_of(layout.jb[i]),
             one_dof,
+            damped,
             ys: u16_of(ys[i]),
         });
     }
@@ -1209,20 +1215,15 @@ fn fits_u32(sizes: &[usize]) -> Result<(), DynamicsError> {
     Ok(())
 }
 
-/// Whether joint `joint` takes the one-axis join: a single hinge without armature or
-/// damping (a joint with either takes the general join).
+/// Whether joint `joint` can take the one-axis join: a single hinge without armature (a
+/// joint with armature takes the general join; so does a damped one in a step, where its
+/// damping joins the armature: `dca::one_axis`).
 fn one_dof_join(model: &Model, joint: usize) -> bool {
+    let vo = model.bodies[joint].v_offset;
     matches!(
         model.bodies[joint].joint.as_slice(),
         [p] if p.kind.is_hinge()
-    ) && armature_of(model)
-        .get(model.bodies[joint].v_offset)
-        .is_none_or(|_| {
-            let d = &model.dynamics;
-            let vo = model.bodies[joint].v_offset;
-            d.armature.get(vo).is_none_or(|&a| a == 0.0)
-                && d.damping.get(vo).is_none_or(|&b| b == 0.0)
-        })
+    ) && model.dynamics.armature.get(vo).is_none_or(|&a| a == 0.0)
 }
 
 /// Whether the main pass can run each body's kinematics at its parent's leaf (the roots' at

@@ -679,7 +679,7 @@ fn join<A: Arith>(
     let pj = d.bodies.point[joint];
     // β = b_j^A − b_j^B + c
     let beta = d.slots.b[hoa + ja] - d.slots.b[hob + jb] + shift(pj, data.c[joint]);
-    let (gamma, rows) = if nc.one_dof {
+    let (gamma, rows) = if one_axis(data, &nc, joint) {
         let gamma = join_one_axis::<A>(model, tau, data, &at, (n, joint), &ks, beta)?;
         (gamma, 5)
     } else {
@@ -694,6 +694,19 @@ fn join<A: Arith>(
         _ => c_blocks::<A, 6>(d, &at, nhc, &gamma),
     }
     Ok(())
+}
+
+/// Whether join `nc` (principal joint `joint`) takes the one-axis join: a hinge without
+/// armature of its own (`DNode::one_dof`) whose armature in this solve is zero too (a step
+/// integrating its damping implicitly adds `dt b`, which the general join takes).
+#[inline(always)]
+fn one_axis(data: &Data, nc: &crate::data::DNode, joint: usize) -> bool {
+    nc.one_dof
+        && (!nc.damped
+            || data
+                .armature
+                .get(data.topo[joint].vo)
+                .is_none_or(|&a| a == 0.0))
 }
 
 /// [`join`]'s one revolute axis: the 5×5 constraint system of [`RevJoin`], its `L D Lᵀ`
@@ -1561,13 +1574,14 @@ fn back_node<A: Arith, const N: usize>(
     nc: &crate::data::DNode,
     (joint, a, b): (usize, usize, usize),
 ) {
-    let d = &mut data.dca;
     let nhc = if N > 0 { N } else { nc.nh as usize };
-    let (nha, nhb) = (d.node[a].nh as usize, d.node[b].nh as usize);
+    let (nha, nhb) = (data.dca.node[a].nh as usize, data.dca.node[b].nh as usize);
     let (ja, jb) = (nc.ja as usize, nc.jb as usize);
     let (hc, sc) = (nc.hoff as usize, nc.slot as usize);
     // y without β (one axis: the join's γ and q̈ hold it) or with it.
-    let mut y = if nc.one_dof {
+    let one = one_axis(data, nc, joint);
+    let d = &mut data.dca;
+    let mut y = if one {
         SpatialMotion::ZERO
     } else {
         d.joins.beta[n]
@@ -1580,7 +1594,7 @@ fn back_node<A: Arith, const N: usize>(
         }
     }
     let (vo, k) = (data.topo[joint].vo, data.topo[joint].nv);
-    let f = if nc.one_dof {
+    let f = if one {
         // f = W (β + y) + f_τ τ = γ + W y (so K f = β + y + s q̈);
         // q̈ = gᵀ (β + y) + q̈_τ τ (`joint_terms`).
         let rj = &d.joins.rev[nc.jix as usize];

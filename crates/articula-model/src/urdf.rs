@@ -689,10 +689,7 @@ fn read_dynamics(
         }
     };
     if get("friction")? != 0.0 {
-        warnings.push(LoadWarning::NotModelled {
-            what: "joint friction (URDF <dynamics friction>)".into(),
-            items: vec![joint.to_string()],
-        });
+        LoadWarning::not_modelled(warnings, "joint friction (URDF <dynamics friction>)", joint);
     }
     get("damping")
 }

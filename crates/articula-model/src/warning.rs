@@ -46,6 +46,29 @@ pub enum LoadWarning {
     },
 }
 
+impl LoadWarning {
+    /// Adds `item` to the [`LoadWarning::NotModelled`] of `what` in `warnings` (one warning
+    /// per kind of thing, listing every element), or starts it.
+    pub(crate) fn not_modelled(warnings: &mut Vec<LoadWarning>, what: &str, item: &str) {
+        for w in warnings.iter_mut() {
+            if let LoadWarning::NotModelled {
+                what: w_what,
+                items,
+            } = w
+            {
+                if w_what == what {
+                    items.push(item.to_string());
+                    return;
+                }
+            }
+        }
+        warnings.push(LoadWarning::NotModelled {
+            what: what.to_string(),
+            items: vec![item.to_string()],
+        });
+    }
+}
+
 impl fmt::Display for LoadWarning {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {

@@ -1853,3 +1853,32 @@ fn repair_bounds_are_checked() {
     assert_eq!(m.warnings.len(), 1, "{:?}", m.warnings);
     assert!(m.warnings[0].to_string().contains("bound_inertia"));
 }
+
+/// URDF joint friction is not modelled: one warning lists every joint that has it, in file
+/// order, instead of one warning per joint.
+#[test]
+fn joint_friction_is_one_warning_listing_every_joint() {
+    let joint = |name: &str, parent: &str, child: &str| {
+        format!(
+            r#"<link name="{child}"><inertial><mass value="1"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+<joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{child}"/><axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/><dynamics damping="0.1" friction="0.5"/></joint>"#
+        )
+    };
+    let text = format!(
+        r#"<robot name="r"><link name="base"/>{}{}{}</robot>"#,
+        joint("j1", "base", "a"),
+        joint("j2", "a", "b"),
+        joint("j3", "b", "c")
+    );
+    let m = load(&text).unwrap();
+    let lines: Vec<String> = m
+        .warnings
+        .iter()
+        .map(|w| w.to_string())
+        .filter(|w| w.contains("friction"))
+        .collect();
+    assert_eq!(
+        lines,
+        ["joint friction (URDF <dynamics friction>) not modelled, ignored (3): j1, j2, j3"]
+    );
+}
