@@ -221,7 +221,7 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
             format!(
                 "step {} of {steps} (t = {:?} s): {e}",
                 k + 1,
-                (k + 1) as f64 * scene.dt
+                crate::watch::seconds((k + 1) as f64 * scene.dt)
             )
         };
         if interrupt.flag.load(Ordering::Relaxed) {
@@ -520,7 +520,12 @@ fn check_scene(
         let model = &sim.scene.models[b.model].model;
         let who = format!("body '{}': ", placement.name);
         gimbal[b.model].check(model, &b.state.q, |w| {
-            warn_gimbal(model, &w, &who, &format!("step {k} (t = {t:?} s)"))
+            warn_gimbal(
+                model,
+                &w,
+                &who,
+                &format!("step {k} (t = {:?} s)", crate::watch::seconds(t)),
+            )
         });
     }
     (watch.check(k, e.kinetic, e.gravity + e.springs, e.push_work))
