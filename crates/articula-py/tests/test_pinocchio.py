@@ -23,6 +23,10 @@ pin = pytest.importorskip("pinocchio", reason="Pinocchio (pip install pin) is no
 BUNDLED = [(n, model_path(n + ".urdf")) for n in ("humanoid", "chain10", "chain30", "plant", "rope")]
 ROBOTS = example_robot_urdfs()
 TOL = 1e-10
+# DCA's leaf clusters run about the floating base (docs/algorithms.md#leaf-clusters): on icub,
+# whose 1.3 kg point-mass head sits 0.4 mm from its neck axis, DCA is 6.8e-10 from the
+# double-double reference (ABA 4.7e-11), so up to ~8e-10 from Pinocchio.
+TOL_DCA = {"icub": 1e-9}
 SEEDS = (1, 2)
 
 
@@ -155,7 +159,8 @@ def test_matches_pinocchio(key, path, floating):
     if "refused" in result:
         pytest.skip(f"articula refuses {key}: {result['refused']}")
     robot = key.split("/")[-1]
-    bad = {k: e for k, e in result["errors"].items() if not e <= TOL}
+    tol = {k: TOL_DCA.get(robot, TOL) if k == "fd_dca" else TOL for k in result["errors"]}
+    bad = {k: e for k, e in result["errors"].items() if not e <= tol[k]}
     assert not bad, f"{key} ({'floating' if floating else 'fixed'}): errors above {TOL}: {bad}"
 
 
