@@ -409,6 +409,65 @@ pub fn urdfs_under(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
     out
 }
 
+/// An MJCF model with armature, damping and springs: a free torso with a 3-hinge hip composed
+/// in one body (anchored off the body origin, with `ref`), a slide, a 2-hinge shoulder,
+/// armature and damping on every joint (some different per class) and springs on three joints
+/// (the knee slide, a shoulder hinge with `springref`, the wrist).
+pub const ARMATURE_MJCF: &str = r#"<mujoco model="armature">
+  <compiler angle="degree"/>
+  <default>
+    <joint armature="0.02" damping="0.5"/>
+    <default class="big"><joint armature="1.5" damping="3"/></default>
+  </default>
+  <worldbody>
+    <body name="torso" pos="0 0 1">
+      <freejoint name="root"/>
+      <geom type="capsule" fromto="0 -.07 0 0 .07 0" size=".07"/>
+      <body name="thigh" pos="0 -.1 -.04" euler="10 0 -20">
+        <joint name="hip_x" axis="1 0 0" pos="0 0 .05" range="-25 5"/>
+        <joint name="hip_z" axis="0 0 1" pos="0 0 .05" ref="12"/>
+        <joint name="hip_y" axis="0 1 0" pos="0 .01 .05" class="big"/>
+        <geom type="capsule" fromto="0 0 0 0 .01 -.34" size=".06"/>
+        <body name="shin" pos="0 .01 -.403">
+          <joint name="knee" type="slide" axis="0 0 1" class="big" stiffness="40"/>
+          <geom type="box" size=".05 .04 .1" pos="0 0 -.1"/>
+        </body>
+      </body>
+      <body name="arm" pos=".1 .2 0" quat="0.9 0.1 0.3 0.2">
+        <joint name="sh1" axis="2 1 1" stiffness="3" springref="20"/>
+        <joint name="sh2" axis="0 -1 1" pos=".02 0 0"/>
+        <geom type="ellipsoid" size=".05 .08 .12"/>
+        <body name="hand" pos="0 0 -.2">
+          <joint name="wrist" axis="1 0 0" stiffness="0.5"/>
+          <geom type="sphere" size=".04"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>"#;
+
+/// A planar swimmer on a fixed base: a composed slide–slide–hinge root whose middle part alone
+/// has armature (a DCA join whose `Zᵀ Z D⁻¹` is no identity), and two hinged links.
+pub const SWIMMER_MJCF: &str = r#"<mujoco>
+  <default><joint armature="0.1"/></default>
+  <worldbody>
+    <body name="torso">
+      <geom fromto="0 0 0 0.5 0 0" size="0.1" type="capsule"/>
+      <joint axis="1 0 0" name="slider1" type="slide" armature="0"/>
+      <joint axis="0 1 0" name="slider2" type="slide"/>
+      <joint axis="0 0 1" name="rot" armature="0"/>
+      <body name="mid" pos="0.5 0 0">
+        <geom fromto="0 0 0 -1 0 0" size="0.1" type="capsule"/>
+        <joint axis="0 0 1" name="motor1" armature="0.3"/>
+        <body name="back" pos="-1 0 0">
+          <geom fromto="0 0 0 -1 0 0" size="0.1" type="capsule"/>
+          <joint axis="0 0 1" name="motor2" armature="0"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>"#;
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -29,6 +29,6 @@ pub use dd::{Dd, Real};
 pub use fixtures::{
     branches_urdf, bundled, bundled_urdf, bundled_with, chain, chain_urdf, example_robots_dir,
     hair_urdf, point_mass_humanoid_urdf, random_tree_urdf, ratio_chain_urdf, star_urdf,
-    urdfs_under, BUNDLED,
+    urdfs_under, ARMATURE_MJCF, BUNDLED, SWIMMER_MJCF,
 };
 pub use reference::{rel_error, ReferenceModel};
