@@ -35,7 +35,8 @@ fn articula(args: &[&str]) -> Output {
 }
 
 fn scratch(name: &str, contents: &[u8]) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("articula-hostile-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("articula-hostile-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join(name);
     std::fs::write(&path, contents).unwrap();
@@ -146,7 +147,8 @@ fn negative_numbers_reach_the_validators() {
 #[cfg(unix)]
 #[test]
 fn fifos_are_refused_without_blocking() {
-    let dir = std::env::temp_dir().join(format!("articula-hostile-fifo-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("articula-hostile-fifo-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let fifo = dir.join("pipe");
     let _ = std::fs::remove_file(&fifo);

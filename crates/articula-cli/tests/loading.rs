@@ -21,7 +21,8 @@ fn articula(args: &[&str]) -> Output {
 
 /// A file in a scratch directory of this test process.
 fn scratch_file(name: &str, contents: &[u8]) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("articula-loading-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("articula-loading-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("cannot create a temp dir");
     let path = dir.join(name);
     std::fs::write(&path, contents).expect("cannot write a temp file");

@@ -6,7 +6,8 @@ use articula_model::{read_limited, LoadOptions, Model, ModelError, MAX_XML_ATTRI
 use std::time::Instant;
 
 fn scratch(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("articula-hostile-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("articula-hostile-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     dir.join(name)
 }

@@ -156,7 +156,8 @@ fn refusals_and_warnings() {
 /// `from_file` picks the format by content.
 #[test]
 fn from_file_chooses_by_content() {
-    let dir = std::env::temp_dir().join(format!("articula-mjcf-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("articula-mjcf-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let mj = dir.join("m.model");
     std::fs::write(

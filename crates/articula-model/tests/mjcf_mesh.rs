@@ -9,7 +9,8 @@ use std::path::PathBuf;
 
 /// A fresh directory for one test's files.
 fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("articula-mesh-{}-{name}", std::process::id()));
+    let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("articula-mesh-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
     d
 }

@@ -362,7 +362,7 @@ pub fn simulate<'py>(
             kind,
             format!(
                 "step {step} of {steps} (t = {} s): {message}",
-                step as f64 * dt
+                seconds(step as f64 * dt)
             ),
         ));
     }
@@ -526,7 +526,7 @@ pub fn rollout<'py>(
         return Err(dynamics_error(format!(
             "trajectory {i}, step {} (t = {} s): {}",
             s.step,
-            s.step as f64 * dt,
+            seconds(s.step as f64 * dt),
             s.message
         )));
     }
@@ -534,4 +534,10 @@ pub fn rollout<'py>(
         array(py, q, &[n, steps, nq])?,
         array(py, v, &[n, steps, nv])?,
     ))
+}
+
+/// A time for messages: rounded to the nanosecond, so that 68 steps of 0.05 s read `3.4`, not
+/// `3.4000000000000004`.
+fn seconds(t: f64) -> f64 {
+    (t * 1e9).round() / 1e9
 }

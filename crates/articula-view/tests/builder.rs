@@ -90,7 +90,8 @@ fn assert_err(e: String, field: &str) {
 #[cfg(feature = "serde")]
 #[test]
 fn built_scene_equals_its_scene_file() {
-    let dir = std::env::temp_dir().join(format!("articula-builder-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("articula-builder-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(dir.join("bot.urdf"), BOT).unwrap();
     let json = r#"{"models": {"bot": "bot.urdf"},
@@ -175,7 +176,8 @@ fn spec() -> SceneSpec {
 #[cfg(feature = "serde")]
 #[test]
 fn specs_serialize_to_scene_files() {
-    let dir = std::env::temp_dir().join(format!("articula-spec-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("articula-spec-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(dir.join("bot.urdf"), BOT).unwrap();
     let mut spec = spec();

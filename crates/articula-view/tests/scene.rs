@@ -18,7 +18,8 @@ fn scene(text: &str) -> LoadedScene {
 
 /// A folder with a floating "wall" model (one box).
 fn wall_urdf() -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("articula-view-test-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("articula-view-test-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("wall.urdf");
     std::fs::write(
