@@ -209,7 +209,12 @@ fn articulate<A: Arith>(
         let (cia, cpa) = (&mut cl.cia[parent], &mut cl.cpa[parent]);
         (cia, cpa, cl.cfirst[i])
     });
-    if !crate::aba::articulate_joint::<A>(aba, &data.s, tau, &data.armature, body, sums) {
+    let ok = if k == 1 {
+        crate::aba::articulate_hinge::<A>(aba, &data.s, tau, &data.armature, body, sums)
+    } else {
+        crate::aba::articulate_joint::<A>(aba, &data.s, tau, &data.armature, body, sums)
+    };
+    if !ok {
         return Err(DynamicsError::Singular {
             joint: model.bodies[i].joint_name(),
             detail: "Sᵀ Iᴬ S is not positive definite in a leaf cluster",
