@@ -947,7 +947,8 @@ fn hard_cases(s: &mut String, hard: &[crate::stress::Outcome]) {
         "Chains of `articula_testkit::chain(n)` (and `ratio_chain_urdf(n, r)` for a neighbour \
          mass ratio r) hanging straight down from rest with τ₁ = 1 N·m (at rest with τ = 0 \
          q̈ = 0 exactly), near-straight (every joint at ±0.01 rad, seeded), tilted (the first \
-         joint at 0.5 rad, the rest straight: a straight chain at 0.5 rad from the vertical), or \
+         joint at 0.5, 0.3 or 0.2 rad, the rest straight: a straight chain at that angle from \
+         the vertical), or \
          at a random state (seed 1); and a fixed hub with 2,000 children \
          (`articula_testkit::star_urdf`). Same reference and error as above; \"refused\" is an \
          error returned instead of q̈. Reproduce the table alone with \
@@ -997,6 +998,9 @@ fn hard_cases(s: &mut String, hard: &[crate::stress::Outcome]) {
          residual with the exact inertias: two steps, each shrinking the error ~5,000-fold \
          (`docs/algorithms.md#mass-ratio`). A join pivot that rounding made non-positive is \
          taken by magnitude and the solve refined.\n\
+         - At 0.2 and 0.3 rad the 100,000-link chain loses join pivots out of its plane and \
+         DCA's fixed-point refinement diverges; it refines by GMRES instead, with no fallback \
+         to ABA (`docs/algorithms.md`, \"When the refinement diverges\").\n\
          - DCA still returns an error on: {}.\n",
         if refused.is_empty() {
             "none of these".to_string()

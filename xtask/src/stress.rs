@@ -18,9 +18,12 @@ pub enum Pose {
     NearStraight,
     /// The first joint at 0.5 rad, the others at 0: a straight chain tilted in the world.
     Tilted,
-    /// The first joint at 0.3 rad: where DCA's refinement stalls on its residual's rounding
-    /// and DCA answers with ABA (issue 39; docs/algorithms.md).
+    /// The first joint at 0.3 rad.
     TiltedLess,
+    /// The first joint at 0.2 rad: on 100,000 links joins lose pivots out of the chain's
+    /// plane and DCA's fixed-point refinement diverges; GMRES refines it
+    /// (docs/algorithms.md, "When the refinement diverges").
+    TiltedLeast,
     /// `State::random` angles (±1.2 rad), rates (±2 rad/s) and torques (±1 N·m).
     Random,
 }
@@ -32,6 +35,7 @@ impl Pose {
             Pose::NearStraight => "near-straight (±0.01 rad)",
             Pose::Tilted => "tilted (q₁ = 0.5 rad)",
             Pose::TiltedLess => "tilted (q₁ = 0.3 rad)",
+            Pose::TiltedLeast => "tilted (q₁ = 0.2 rad)",
             Pose::Random => "random",
         }
     }
@@ -90,6 +94,7 @@ impl Case {
             }
             Pose::Tilted => s.q[0] = 0.5,
             Pose::TiltedLess => s.q[0] = 0.3,
+            Pose::TiltedLeast => s.q[0] = 0.2,
             _ => {}
         }
         if self.tau1 {
@@ -110,8 +115,8 @@ const fn chain(links: usize, ratio: f64, pose: Pose) -> Case {
     }
 }
 
-/// The cases of issue 24 (items 1, 2, 7) and issue 39 (the chains tilted 0.3 rad): `full` adds
-/// the 100,000-link ones.
+/// The cases of issue 24 (items 1, 2, 7) and issue 39 (the chains tilted 0.2 and 0.3 rad):
+/// `full` adds the 100,000-link ones.
 pub fn cases(full: bool) -> Vec<Case> {
     let mut v = vec![
         chain(300, 1.0, Pose::Tilted),
@@ -121,6 +126,7 @@ pub fn cases(full: bool) -> Vec<Case> {
         chain(9_000, 1.0, Pose::Tilted),
         chain(20_000, 1.0, Pose::Tilted),
         chain(20_000, 1.0, Pose::TiltedLess),
+        chain(20_000, 1.0, Pose::TiltedLeast),
         chain(20_000, 1.0, Pose::Straight),
         Case {
             shape: Shape::Chain {
@@ -146,6 +152,7 @@ pub fn cases(full: bool) -> Vec<Case> {
             chain(100_000, 1.0, Pose::NearStraight),
             chain(100_000, 1.0, Pose::Tilted),
             chain(100_000, 1.0, Pose::TiltedLess),
+            chain(100_000, 1.0, Pose::TiltedLeast),
         ]);
     }
     v
