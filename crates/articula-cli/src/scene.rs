@@ -6,7 +6,7 @@ use crate::signals::Interrupt;
 use crate::simulate::parse_count;
 use crate::watch::{energy_stop_message, parse_growth, warn_gimbal, DEFAULT_MAX_ENERGY_GROWTH};
 use crate::{print_out, CliError};
-use articula_adaptive::simulation::{EnergyWatch, GimbalWatch};
+use articula_adaptive::simulation::{message_time, EnergyWatch, GimbalWatch};
 use articula_view::render::{render_map, render_view, save_png};
 use articula_view::{SceneMethod, SceneOptions, SceneSim};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -221,7 +221,7 @@ pub fn run(args: &SceneArgs) -> Result<(), CliError> {
             format!(
                 "step {} of {steps} (t = {:?} s): {e}",
                 k + 1,
-                crate::watch::seconds((k + 1) as f64 * scene.dt)
+                message_time((k + 1) as f64 * scene.dt)
             )
         };
         if interrupt.flag.load(Ordering::Relaxed) {
@@ -524,7 +524,7 @@ fn check_scene(
                 model,
                 &w,
                 &who,
-                &format!("step {k} (t = {:?} s)", crate::watch::seconds(t)),
+                &format!("step {k} (t = {:?} s)", message_time(t)),
             )
         });
     }

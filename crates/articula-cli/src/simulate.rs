@@ -2,11 +2,11 @@
 //! energy drift, and optionally write the trajectory as CSV (`docs/state-format.md`).
 
 use crate::signals::Interrupt;
-use crate::watch::{parse_growth, seconds, stop_message, warn_gimbal, DEFAULT_MAX_ENERGY_GROWTH};
+use crate::watch::{parse_growth, stop_message, warn_gimbal, DEFAULT_MAX_ENERGY_GROWTH};
 use crate::{load_state, print_out, CliError, DynamicsArgs};
 use articula_adaptive::simulation::{
-    AdaptiveTally, CsvRecorder, Dynamics, Energy, GimbalWarning, Recorder, RunControl, Simulation,
-    SimulationError, SimulationOptions, StepTiming, StopReason,
+    message_time, AdaptiveTally, CsvRecorder, Dynamics, Energy, GimbalWarning, Recorder,
+    RunControl, Simulation, SimulationError, SimulationOptions, StepTiming, StopReason,
 };
 use articula_dca::Integrator;
 use articula_model::Model;
@@ -204,7 +204,12 @@ fn run_here(args: &SimulateArgs, threads: &articula_dca::Threads) -> Result<(), 
         let model = sim.model().clone();
         let mut gimbal = |k: u64, w: &GimbalWarning| {
             let t = k as f64 * args.dt;
-            warn_gimbal(&model, w, "", &format!("step {k} (t = {:?} s)", seconds(t)));
+            warn_gimbal(
+                &model,
+                w,
+                "",
+                &format!("step {k} (t = {:?} s)", message_time(t)),
+            );
         };
         let mut progress = |k: u64, _: u64| bar.tick(k, start);
         let mut control = RunControl {
@@ -335,7 +340,7 @@ impl Summary {
         let stopped = stopped_at.as_ref().map(|(k, e)| {
             format!(
                 "step {k} of {steps} (from t = {:?} s): {e}",
-                seconds((k - 1) as f64 * dt)
+                message_time((k - 1) as f64 * dt)
             )
         });
         Summary {

@@ -50,12 +50,6 @@ pub fn stop_message(reason: &StopReason) -> String {
     }
 }
 
-/// A time for messages: rounded to the nanosecond, so that 68 steps of 0.05 s read `3.4`,
-/// not `3.4000000000000004` (printed with `{:?}`).
-pub fn seconds(t: f64) -> f64 {
-    (t * 1e9).round() / 1e9
-}
-
 /// Prints the warning for a composed joint near gimbal lock on stderr; `who` names the
 /// character (empty for `simulate`) and `when` the step.
 pub fn warn_gimbal(model: &Model, w: &GimbalWarning, who: &str, when: &str) {

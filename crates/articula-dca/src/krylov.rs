@@ -18,7 +18,7 @@
 //! exact system. Flexible GMRES keeps each `P⁻¹ v` (Saad, *Iterative Methods for Sparse Linear
 //! Systems*, §9.4.1): DCA's solve is linear only up to rounding.
 
-use crate::refine::{residual, CONVERGED, FLOOR};
+use crate::refine::{residual, solve_unbiased, CONVERGED, FLOOR};
 use crate::residual::{rnea_residual, RneaInput};
 use crate::{Data, DynamicsError};
 use articula_model::Model;
@@ -227,8 +227,7 @@ fn norm(x: &[f64]) -> f64 {
     scale * x.iter().map(|v| (v / scale).powi(2)).sum::<f64>().sqrt()
 }
 
-/// `z = P⁻¹ v`: DCA with `τ = v` and no velocity products, gravity or external force (the
-/// current `q̈` kept).
+/// `z = P⁻¹ v` ([`solve_unbiased`]), the current `q̈` kept.
 fn precondition(
     model: &Model,
     data: &mut Data,
@@ -236,13 +235,7 @@ fn precondition(
     z: &mut [f64],
 ) -> Result<(), DynamicsError> {
     data.refine.qdd.copy_from_slice(&data.qdd);
-    std::mem::swap(&mut data.v, &mut data.refine.zv);
-    std::mem::swap(&mut data.c, &mut data.refine.zc);
-    let g = std::mem::replace(&mut data.gravity, DVec3::ZERO);
-    let result = crate::dca::dca(model, v, &[], data, false);
-    data.gravity = g;
-    std::mem::swap(&mut data.v, &mut data.refine.zv);
-    std::mem::swap(&mut data.c, &mut data.refine.zc);
+    let result = solve_unbiased(model, data, v);
     z.copy_from_slice(&data.qdd);
     data.qdd.copy_from_slice(&data.refine.qdd);
     result

@@ -151,18 +151,12 @@ pub(crate) fn residual(
     rnea_residual(model, &input, &mut rd.a, &mut rd.f, &mut rd.r)
 }
 
-/// `q̈ += Δ` with `Δ = H⁻¹ r` for the residual in `data.refine.r`: DCA with `τ = r`, no velocity
-/// products, gravity or external force. Returns `max |Δ|`.
+/// `q̈ += Δ` with `Δ = H⁻¹ r` for the residual in `data.refine.r` ([`solve_unbiased`]).
+/// Returns `max |Δ|`.
 fn correct(model: &Model, data: &mut Data) -> Result<f64, DynamicsError> {
     data.refine.qdd.copy_from_slice(&data.qdd);
     let r = std::mem::take(&mut data.refine.r);
-    std::mem::swap(&mut data.v, &mut data.refine.zv);
-    std::mem::swap(&mut data.c, &mut data.refine.zc);
-    let g = std::mem::replace(&mut data.gravity, DVec3::ZERO);
-    let result = crate::dca::dca(model, &r, &[], data, false);
-    data.gravity = g;
-    std::mem::swap(&mut data.v, &mut data.refine.zv);
-    std::mem::swap(&mut data.c, &mut data.refine.zc);
+    let result = solve_unbiased(model, data, &r);
     data.refine.r = r;
     result?;
     let mut dn = 0.0f64;
@@ -171,4 +165,22 @@ fn correct(model: &Model, data: &mut Data) -> Result<f64, DynamicsError> {
         *q += q0;
     }
     Ok(dn)
+}
+
+/// `data.qdd = H⁻¹ rhs` by DCA with `τ = rhs` and no velocity products, gravity or external
+/// force (the kinematics of `data` kept): the correction solve of the fixed-point refinement
+/// and GMRES's preconditioner (`krylov.rs`).
+pub(crate) fn solve_unbiased(
+    model: &Model,
+    data: &mut Data,
+    rhs: &[f64],
+) -> Result<(), DynamicsError> {
+    std::mem::swap(&mut data.v, &mut data.refine.zv);
+    std::mem::swap(&mut data.c, &mut data.refine.zc);
+    let g = std::mem::replace(&mut data.gravity, DVec3::ZERO);
+    let result = crate::dca::dca(model, rhs, &[], data, false);
+    data.gravity = g;
+    std::mem::swap(&mut data.v, &mut data.refine.zv);
+    std::mem::swap(&mut data.c, &mut data.refine.zc);
+    result
 }

@@ -7,7 +7,7 @@ use crate::errors::{dynamics_error, error, Kind};
 use crate::input::{check_quaternions, expect_shape, read, vector, wrenches, Input};
 use crate::model::{PyData, PyModel};
 use articula::adaptive::simulation::{
-    Dynamics, GroundOptions, Simulation, SimulationOptions, StopReason,
+    message_time, Dynamics, GroundOptions, Simulation, SimulationOptions, StopReason,
 };
 use articula::dca::Threads;
 use articula::dca::{step_with_contact, ContactData, ContactSettings, Ground};
@@ -362,7 +362,7 @@ pub fn simulate<'py>(
             kind,
             format!(
                 "step {step} of {steps} (t = {} s): {message}",
-                seconds(step as f64 * dt)
+                message_time(step as f64 * dt)
             ),
         ));
     }
@@ -526,7 +526,7 @@ pub fn rollout<'py>(
         return Err(dynamics_error(format!(
             "trajectory {i}, step {} (t = {} s): {}",
             s.step,
-            seconds(s.step as f64 * dt),
+            message_time(s.step as f64 * dt),
             s.message
         )));
     }
@@ -534,10 +534,4 @@ pub fn rollout<'py>(
         array(py, q, &[n, steps, nq])?,
         array(py, v, &[n, steps, nv])?,
     ))
-}
-
-/// A time for messages: rounded to the nanosecond, so that 68 steps of 0.05 s read `3.4`, not
-/// `3.4000000000000004`.
-fn seconds(t: f64) -> f64 {
-    (t * 1e9).round() / 1e9
 }

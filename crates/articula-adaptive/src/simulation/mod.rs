@@ -35,7 +35,7 @@ pub use guard::{
     EnergyStop, EnergyWatch, GimbalWarning, GimbalWatch, DEFAULT_MAX_ENERGY_GROWTH, GIMBAL_WARNING,
 };
 pub use record::{csv_header, CsvRecorder, Recorder};
-pub use stop::{SimulationError, StepError, Stop, StopReason};
+pub use stop::{message_time, SimulationError, StepError, Stop, StopReason};
 
 use crate::{Adaptive, Reselection, Settings, StepReport, Threads};
 use articula_dca::{forward_kinematics, step, ContactForces, Data, Integrator, Method, State};

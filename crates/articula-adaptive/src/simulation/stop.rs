@@ -5,6 +5,12 @@ use super::guard::EnergyStop;
 use crate::AdaptiveError;
 use articula_dca::{ContactError, DynamicsError};
 
+/// A time for a message, rounded to the nanosecond: 68 steps of 0.05 s read `3.4`, not
+/// `3.4000000000000004` (the CLI's and the Python bindings' stop and gimbal messages).
+pub fn message_time(t: f64) -> f64 {
+    (t * 1e9).round() / 1e9
+}
+
 /// Where and why a run ended.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Stop {
